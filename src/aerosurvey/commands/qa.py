@@ -1,0 +1,10 @@
+"""`aerosurvey qa`: accuracy and reproducibility QA of finished products."""
+
+from __future__ import annotations
+
+import click
+
+
+@click.group()
+def qa() -> None:
+    """Quality assessment of finished products (accuracy, reproducibility, time series)."""

@@ -1,0 +1,1 @@
+"""Mission items per autopilot and their file formats."""
