@@ -31,8 +31,9 @@ def main() -> None:
 
 
 def _register() -> None:
-    from aerosurvey.commands import cameras, qa
+    from aerosurvey.commands import cameras, plan, qa
 
+    main.add_command(plan.plan)
     main.add_command(cameras.cameras)
     main.add_command(qa.qa)
 

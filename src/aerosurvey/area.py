@@ -1,0 +1,184 @@
+"""Read survey areas and exclusion zones, validate them, choose and apply the planning CRS.
+
+Readers (files) sit here at the edge; the returned geometries are plain shapely objects.
+Areas are polygons or multipolygons; their holes are parts that need no photos (flying
+and photographing across them is fine). Exclusion zones are separate files: the route
+must never enter them.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from aerosurvey.errors import InputError
+
+_VECTOR_SUFFIXES = {".geojson", ".json", ".kml", ".kmz", ".shp", ".gpkg", ".fgb", ".gml"}
+_WGS84 = pyproj.CRS.from_epsg(4326)
+
+
+@dataclass(frozen=True)
+class Planar:
+    """The planning CRS and the transforms into it and back to WGS84 longitude/latitude."""
+
+    crs: pyproj.CRS
+    to_plan: pyproj.Transformer
+    to_wgs84: pyproj.Transformer
+
+    @property
+    def name(self) -> str:
+        auth = self.crs.to_authority()
+        return f"{auth[0]}:{auth[1]}" if auth else self.crs.to_string()
+
+    def forward(self, geom: BaseGeometry) -> BaseGeometry:
+        return shapely.transform(geom, lambda xy: np.column_stack(self.to_plan.transform(xy[:, 0], xy[:, 1])))
+
+    def inverse(self, geom: BaseGeometry) -> BaseGeometry:
+        return shapely.transform(geom, lambda xy: np.column_stack(self.to_wgs84.transform(xy[:, 0], xy[:, 1])))
+
+    def lonlat(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lon, lat = self.to_wgs84.transform(np.asarray(x, float), np.asarray(y, float))
+        return np.asarray(lon), np.asarray(lat)
+
+    def xy(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x, y = self.to_plan.transform(np.asarray(lon, float), np.asarray(lat, float))
+        return np.asarray(x), np.asarray(y)
+
+
+def _location(reason: str, geographic: bool) -> str:
+    m = re.search(r"\[([-\d.eE+]+) ([-\d.eE+]+)\]", reason)
+    if not m:
+        return ""
+    x, y = float(m.group(1)), float(m.group(2))
+    return f" at longitude {x:.7f}, latitude {y:.7f}" if geographic else f" at x {x:.3f}, y {y:.3f}"
+
+
+def validate_polygons(geom: BaseGeometry, name: str, geographic: bool) -> BaseGeometry:
+    """Check polygon type, coordinate ranges and validity; the message says where it is wrong."""
+    if geom.is_empty:
+        raise InputError(f"{name}: no polygon in it (empty geometry)")
+    if geom.geom_type not in ("Polygon", "MultiPolygon"):
+        raise InputError(f"{name}: a {geom.geom_type} is not an area; give a Polygon or MultiPolygon")
+    if geographic:
+        xy = shapely.get_coordinates(geom)
+        lon, lat = xy[:, 0], xy[:, 1]
+        if np.any(np.abs(lat) > 90) or np.any(np.abs(lon) > 180):
+            looks_swapped = np.all(np.abs(lon) <= 90) and np.any(np.abs(lat) > 90) and np.all(np.abs(lat) <= 180)
+            worst = int(np.argmax(np.maximum(np.abs(lat) - 90, np.abs(lon) - 180)))
+            hint = (" — longitude and latitude look swapped (GeoJSON and KML put longitude first)"
+                    if looks_swapped else "")
+            raise InputError(
+                f"{name}: coordinate ({lon[worst]!r}, {lat[worst]!r}) is outside longitude [-180, 180] / "
+                f"latitude [-90, 90]{hint}"
+            )
+    if not shapely.is_valid(geom):
+        reason = shapely.is_valid_reason(geom)
+        kind = reason.split("[")[0]
+        raise InputError(f"{name}: invalid polygon, {kind.lower()}{_location(reason, geographic)} (fix the outline; it must not cross itself)")
+    if geom.area <= 0:
+        raise InputError(f"{name}: the polygon has zero area")
+    return geom
+
+
+def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
+    import pyogrio
+
+    if not path.exists():
+        raise InputError(f"{name}: file {str(path)!r} does not exist")
+    if path.suffix.lower() not in _VECTOR_SUFFIXES | {".wkt"}:
+        raise InputError(f"{name}: {str(path)!r} has an unknown extension; allowed: {', '.join(sorted(_VECTOR_SUFFIXES | {'.wkt'}))}")
+    if path.suffix.lower() == ".wkt":
+        return _from_wkt(path.read_text(encoding="utf-8"), name), _WGS84
+    try:
+        layers = [row[0] for row in pyogrio.list_layers(path)]
+    except Exception as exc:  # GDAL's own error types vary between versions
+        raise InputError(f"{name}: {str(path)!r} cannot be read as a vector file: {exc}") from None
+    parts: list[BaseGeometry] = []
+    crs: pyproj.CRS | None = None
+    for layer in layers:
+        try:
+            meta, _, wkb, _ = pyogrio.raw.read(path, layer=layer, force_2d=True)
+        except Exception as exc:
+            raise InputError(f"{name}: layer {layer!r} of {str(path)!r} cannot be read: {exc}") from None
+        if wkb is None or len(wkb) == 0:
+            continue
+        layer_crs = pyproj.CRS.from_user_input(meta["crs"]) if meta.get("crs") else _WGS84
+        if crs is not None and not layer_crs.equals(crs):
+            raise InputError(f"{name}: layers of {str(path)!r} are in different CRSs ({crs.name}, {layer_crs.name})")
+        crs = layer_crs
+        geoms = shapely.from_wkb(wkb)
+        for i, g in enumerate(geoms):
+            if g is None or g.is_empty:
+                continue
+            for part in shapely.get_parts(g):
+                if part.geom_type in ("Polygon", "MultiPolygon"):
+                    parts.append(part)
+                elif part.geom_type not in ("Point", "LineString", "MultiPoint", "MultiLineString"):
+                    raise InputError(f"{name}: feature {i} of layer {layer!r} is a {part.geom_type}; only polygons are areas")
+    if not parts:
+        raise InputError(f"{name}: {str(path)!r} holds no polygon")
+    for i, p in enumerate(parts):
+        validate_polygons(p, f"{name} ({path.name}, polygon {i + 1})", (crs or _WGS84).is_geographic)
+    geom = shapely.union_all(parts) if len(parts) > 1 else parts[0]
+    return geom, crs or _WGS84
+
+
+def _from_wkt(text: str, name: str) -> BaseGeometry:
+    try:
+        return shapely.from_wkt(text.strip())
+    except shapely.errors.GEOSException as exc:
+        raise InputError(f"{name}: not valid WKT: {exc}") from None
+
+
+def read_area(path: Path | None, wkt: str | None, wkt_crs: str, name: str) -> BaseGeometry:
+    """The area (or an exclusion zone) as a valid polygon geometry in WGS84 longitude/latitude."""
+    if path is not None:
+        geom, crs = _read_vector(path, name)
+    else:
+        assert wkt is not None
+        geom = _from_wkt(wkt, name)
+        crs = _crs(wkt_crs, f"{name} wkt_crs")
+    geom = validate_polygons(geom, name, crs.is_geographic)
+    if not crs.equals(_WGS84):
+        t = pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True)
+        geom = shapely.transform(geom, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
+        geom = validate_polygons(geom, f"{name} (in WGS84)", True)
+    return geom
+
+
+def _crs(text: str, name: str) -> pyproj.CRS:
+    try:
+        return pyproj.CRS.from_user_input(text)
+    except pyproj.exceptions.CRSError:
+        raise InputError(f"{name} = {text!r} is not a CRS pyproj knows; give e.g. EPSG:5514") from None
+
+
+def utm_epsg(lon: float, lat: float) -> int:
+    """EPSG code of the WGS84 UTM zone holding (lon, lat)."""
+    zone = int(np.floor((lon + 180.0) / 6.0)) % 60 + 1
+    return (32600 if lat >= 0 else 32700) + zone
+
+
+def planning_crs(spec_crs: str, area_wgs84: BaseGeometry) -> Planar:
+    """The projected CRS to plan in: the area's UTM zone for 'auto', else the one named."""
+    if spec_crs == "auto":
+        c = area_wgs84.centroid
+        crs = pyproj.CRS.from_epsg(utm_epsg(c.x, c.y))
+    else:
+        crs = _crs(spec_crs, "mission.crs")
+        if not crs.is_projected:
+            raise InputError(f"mission.crs = {spec_crs!r} is not a projected CRS; plan in metres, e.g. a UTM zone or EPSG:5514")
+        units = {ax.unit_name for ax in crs.axis_info}
+        if not units <= {"metre", "meter"}:
+            raise InputError(f"mission.crs = {spec_crs!r} has units {sorted(units)}; aerosurvey plans in metres")
+    return Planar(
+        crs=crs,
+        to_plan=pyproj.Transformer.from_crs(_WGS84, crs, always_xy=True),
+        to_wgs84=pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True),
+    )

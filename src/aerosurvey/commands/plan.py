@@ -1,0 +1,52 @@
+"""`aerosurvey plan`: from a mission spec to mission files, manifest and preview."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from aerosurvey.plan.planner import PlanResult, plan_mission
+from aerosurvey.spec import load_spec
+
+
+def summary(plan: PlanResult) -> list[str]:
+    e = plan.estimates
+    h = plan.heights
+    sp = plan.speed
+    lines = [
+        f"mission {plan.spec.name}: {plan.area.area / 1e4:.2f} ha in {plan.planar.name}, camera {plan.spec.camera.camera.name}",
+        f"  height AGL      {h.nominal_agl_m:.1f} m ({h.mode} terrain mode; {h.spacing_agl_m:.1f}..{h.max_agl_m:.1f} m above the ground)",
+        f"  GSD             {plan.gsd_min_m * 100:.2f}..{plan.gsd_max_m * 100:.2f} cm (target {plan.gsd_target_m * 100:.2f} cm)",
+        f"  footprint       {plan.across_m:.1f} m across x {plan.along_m:.1f} m along",
+        f"  line spacing    {plan.spacing_m:.1f} m, trigger distance {plan.base_m:.1f} m"
+        + (f", interval {plan.trigger_interval_s:.2f} s" if plan.trigger_interval_s else ""),
+        f"  max speed       {sp.speed_ms:.1f} m/s, limited by {sp.reason} (cruise {sp.cruise_ms:.1f}, "
+        f"camera cycle {sp.cycle_limit_ms:.1f}, motion blur {sp.blur_limit_ms:.1f} m/s)",
+        f"  heading         {plan.heading_deg:.1f} deg ({plan.heading_chosen})"
+        + (", cross-hatch at +90 deg" if plan.spec.flight.cross_hatch else ""),
+        f"  lines           {len({(r.pass_index, r.line) for r in plan.route.runs})} lines in {len(plan.route.runs)} runs, "
+        f"{len(plan.stations.ids)} photos",
+        f"  flight          {e['total_distance_m'] / 1000:.2f} km, {e['total_time_s'] / 60:.1f} min estimated",
+    ]
+    if plan.sun is not None:
+        lines.append(f"  sun elevation   {plan.sun['min_elevation_deg']}..{plan.sun['max_elevation_deg']} deg over the planned window")
+    for w in plan.warnings:
+        lines.append(f"  warning: {w}")
+    return lines
+
+
+@click.command()
+@click.argument("spec", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder for the mission files, manifest and preview (created if missing).")
+def plan(spec: Path, outdir: Path) -> None:
+    """Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."""
+    mission_spec = load_spec(spec)
+    result = plan_mission(mission_spec)
+    from aerosurvey.outputs import write_outputs  # the format writers load only when there is a plan to write
+
+    files = write_outputs(result, outdir)
+    for line in summary(result):
+        click.echo(line)
+    click.echo(f"wrote {', '.join(sorted(files))} to {outdir}")

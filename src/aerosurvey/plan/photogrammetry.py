@@ -1,0 +1,113 @@
+"""Nadir frame-camera geometry: the one source of truth for GSD, footprint, spacing and speeds.
+
+Formulas are those of docs/domain.md section 1. Heights are above ground, lengths in
+metres, times in seconds. Every function is pure and works on floats or numpy arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from aerosurvey.camera import Camera
+
+#: Numerical slack when turning an overlap into a whole number of images.
+_EPS = 1e-9
+
+
+def gsd_from_height(height_m: float, camera: Camera) -> float:
+    """GSD = H · p / f (metres per pixel)."""
+    return height_m * camera.pixel_pitch_mm / camera.focal_mm
+
+
+def height_from_gsd(gsd_m: float, camera: Camera) -> float:
+    """H = GSD · f / p."""
+    return gsd_m * camera.focal_mm / camera.pixel_pitch_mm
+
+
+def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tuple[float, float]:
+    """Ground footprint (across track, along track) in metres.
+
+    Landscape puts the sensor's long side across the flight line (wider strips, shorter
+    photo base); portrait puts it along the line.
+    """
+    gsd = gsd_from_height(height_m, camera)
+    long_side = camera.image_width_px * gsd
+    short_side = camera.image_height_px * gsd
+    if mount == "landscape":
+        return long_side, short_side
+    if mount == "portrait":
+        return short_side, long_side
+    raise ValueError(f"mount must be 'landscape' or 'portrait', not {mount!r}")
+
+
+def line_spacing(across_m: float, side_overlap: float) -> float:
+    """Distance between neighbouring flight lines: Wg · (1 − side overlap)."""
+    return across_m * (1.0 - side_overlap)
+
+
+def trigger_distance(along_m: float, forward_overlap: float) -> float:
+    """Photo base along the line: Lg · (1 − forward overlap)."""
+    return along_m * (1.0 - forward_overlap)
+
+
+def max_speed_for_cycle(trigger_distance_m: float, min_cycle_s: float) -> float:
+    """The camera must be ready again before the next photo: v ≤ B / t_min."""
+    return trigger_distance_m / min_cycle_s
+
+
+def max_speed_for_blur(gsd_m: float, exposure_s: float, max_blur_px: float) -> float:
+    """Motion blur during the exposure stays under k pixels: v ≤ k · GSD / t_exp."""
+    return max_blur_px * gsd_m / exposure_s
+
+
+def trigger_interval(trigger_distance_m: float, ground_speed_ms: float) -> float:
+    """Time between photos for a time-triggered camera flying at `ground_speed_ms`."""
+    return trigger_distance_m / ground_speed_ms
+
+
+def images_per_point(overlap: float) -> int:
+    """Fewest images that see an interior point for this overlap: ⌊1 / (1 − overlap)⌋.
+
+    With 60 % side overlap every point lies in at least 2 strips, with 75 % forward
+    overlap in at least 4 photos of a strip. Coverage checks and edge extensions use it.
+    """
+    return max(1, math.floor(1.0 / (1.0 - overlap) + _EPS))
+
+
+@dataclass(frozen=True)
+class SpeedLimit:
+    """The ground speed to fly and the reason it is what it is."""
+
+    speed_ms: float
+    reason: str
+    cruise_ms: float
+    cycle_limit_ms: float
+    blur_limit_ms: float
+
+
+def survey_speed(
+    cruise_ms: float,
+    trigger_distance_m: float,
+    gsd_m: float,
+    camera: Camera,
+    max_blur_px: float,
+    min_cycle_s: float | None = None,
+    exposure_s: float | None = None,
+) -> SpeedLimit:
+    """The fastest ground speed allowed by the vehicle, the camera cycle and motion blur."""
+    cycle = max_speed_for_cycle(trigger_distance_m, min_cycle_s or camera.min_cycle_s)
+    blur = max_speed_for_blur(gsd_m, exposure_s or camera.exposure_s, max_blur_px)
+    limits = [(cruise_ms, "vehicle cruise speed"), (cycle, "camera cycle time"), (blur, "motion blur")]
+    speed, reason = min(limits, key=lambda item: item[0])
+    return SpeedLimit(speed, reason, cruise_ms, cycle, blur)
+
+
+def turn_radius(speed_ms: float, bank_deg: float, g: float = 9.80665) -> float:
+    """Coordinated-turn radius of a plane: R = v² / (g · tan φ)."""
+    return speed_ms**2 / (g * math.tan(math.radians(bank_deg)))
+
+
+def stop_distance(speed_ms: float, accel_ms2: float) -> float:
+    """Distance a copter needs to reach (or leave) `speed_ms`: v² / (2a)."""
+    return speed_ms**2 / (2.0 * accel_ms2)

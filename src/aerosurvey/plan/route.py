@@ -1,0 +1,288 @@
+"""Route: the order lines are flown in, turnarounds, lead-ins, detours around exclusion
+zones, and the flight-time model.
+
+Input is a list of passes (a heading and its photo runs); output is the ordered list of
+waypoints in the planning CRS with the photo runs attached, as plain data.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.lines import LineSegment
+
+
+@dataclass(frozen=True)
+class Pass:
+    index: int  # 1 for the main pass, 2 for the cross-hatch
+    frame: LineFrame
+    segments: tuple[LineSegment, ...]
+
+
+@dataclass(frozen=True)
+class Run:
+    """One photo run as flown: stations in flight order, in the planning CRS."""
+
+    pass_index: int
+    line: int
+    part: int
+    direction: int  # +1 along the frame's +x, −1 against it
+    heading_deg: float  # direction of flight (compass bearing)
+    station_xy: np.ndarray  # (n, 2), flight order
+    station_index: np.ndarray  # index of each station along its line (by +x), for ids
+    lead_in_xy: tuple[float, float]
+    end_xy: tuple[float, float]  # past the last station by half a photo base
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    x: float
+    y: float
+    kind: str  # lead_in, line_start, line_end, detour
+    run: int  # index into Route.runs, −1 for detours
+
+
+@dataclass(frozen=True)
+class Route:
+    runs: tuple[Run, ...]
+    waypoints: tuple[Waypoint, ...]
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """What the time model needs of the vehicle."""
+
+    vehicle: str
+    speed_ms: float
+    accel_ms2: float
+    turn_radius_m: float
+
+
+def _runs_of_pass(p: Pass, lead_in: float, order: list[int], first_dir: int, pattern_dirs: list[int] | None) -> list[Run]:
+    by_line: dict[int, list[LineSegment]] = {}
+    for s in p.segments:
+        by_line.setdefault(s.line, []).append(s)
+    line_index_offsets: dict[int, int] = {}
+    for line, segs in by_line.items():
+        segs.sort(key=lambda s: s.x0)
+        line_index_offsets[line] = 0
+    runs = []
+    fr = p.frame
+    for k, line in enumerate(order):
+        segs = by_line[line]
+        direction = pattern_dirs[k] if pattern_dirs is not None else (first_dir if k % 2 == 0 else -first_dir)
+        offsets = np.cumsum([0] + [s.n for s in segs[:-1]])
+        seq = list(zip(segs, offsets))
+        if direction < 0:
+            seq.reverse()
+        for seg, off in seq:
+            xs = seg.xs()
+            idx = off + np.arange(seg.n)
+            if direction < 0:
+                xs, idx = xs[::-1], idx[::-1]
+            u_lead = xs[0] - direction * lead_in
+            u_end = xs[-1] + direction * seg.base / 2.0
+            us = np.concatenate([[u_lead], xs, [u_end]])
+            X, Y = fr.from_frame(us, np.full(len(us), seg.v))
+            heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
+            runs.append(Run(p.index, seg.line, seg.part, direction, heading,
+                            np.column_stack([X[1:-1], Y[1:-1]]), idx.astype(int),
+                            (float(X[0]), float(Y[0])), (float(X[-1]), float(Y[-1]))))
+    return runs
+
+
+def line_orders(n_lines: int, spacing: float, turn_radius: float, vehicle: str) -> list[list[int]]:
+    """Candidate line orders: plain boustrophedon, and for planes whose turn diameter is
+    larger than the spacing, interleaved skip-line orders (0, k, 1, k+1, …) so that most
+    turns are at least 2R wide."""
+    orders = [list(range(n_lines))]
+    if vehicle == "plane" and spacing < 2.0 * turn_radius and n_lines > 2:
+        kmax = min(n_lines - 1, math.ceil(2.0 * turn_radius / spacing) + 1)
+        for k in range(2, kmax + 1):
+            order: list[int] = []
+            for block in range(0, n_lines, 2 * k):
+                lo = list(range(block, min(block + k, n_lines)))
+                hi = list(range(block + k, min(block + 2 * k, n_lines)))
+                for i in range(max(len(lo), len(hi))):
+                    if i < len(lo):
+                        order.append(lo[i])
+                    if i < len(hi):
+                        order.append(hi[i])
+            orders.append(order)
+    return orders
+
+
+def plane_turn_length(lateral: float, radius: float) -> float:
+    """Path length of a 180° turn between parallel lines `lateral` apart.
+
+    At least 2R apart: two quarter circles and a straight. Closer: an omega (bulb) turn
+    of total angle π + 4α with cos α = (2R + d) / 4R.
+    """
+    d = abs(lateral)
+    if d >= 2 * radius:
+        return math.pi * radius + (d - 2 * radius)
+    alpha = math.acos(min(1.0, (2 * radius + d) / (4 * radius)))
+    return radius * (math.pi + 4 * alpha)
+
+
+def _straight_time(d: float, k: Kinematics) -> float:
+    """Copter from rest to rest over d metres with acceleration a and top speed v."""
+    v, a = k.speed_ms, k.accel_ms2
+    if d <= 0:
+        return 0.0
+    if d >= v * v / a:
+        return d / v + v / a
+    return 2.0 * math.sqrt(d / a)
+
+
+def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> float:
+    """Flight time along a polyline.
+
+    Copter: it stops at every corner sharper than `corner_deg` and flies straight runs
+    with the acceleration model. Plane: constant speed; a reversal between two lines is
+    flown as the turn of :func:`plane_turn_length` instead of the straight connection.
+    """
+    if len(points) < 2:
+        return 0.0
+    seg = np.diff(points, axis=0)
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    keep = lengths > 1e-9
+    seg, lengths = seg[keep], lengths[keep]
+    if len(lengths) == 0:
+        return 0.0
+    ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
+    turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
+    if k.vehicle == "copter":
+        total, run = 0.0, lengths[0]
+        for t, length in zip(turn, lengths[1:]):
+            if t > corner_deg:
+                total += _straight_time(run, k)
+                run = length
+            else:
+                run += length
+        return total + _straight_time(run, k)
+    total_len = float(lengths.sum())
+    i = 0
+    while i < len(turn) - 1:
+        if turn[i] + turn[i + 1] > 150.0:  # a reversal: corner, short leg, corner
+            u = seg[i] / lengths[i]
+            lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
+            total_len += plane_turn_length(lateral, k.turn_radius_m) - lengths[i + 1]
+            i += 2
+        else:
+            i += 1
+    return total_len / k.speed_ms
+
+
+def _route_points(runs: list[Run]) -> np.ndarray:
+    pts = []
+    for r in runs:
+        pts.append(r.lead_in_xy)
+        pts.extend(map(tuple, r.station_xy[:1]))
+        pts.append(r.end_xy)
+    return np.asarray(pts, float)
+
+
+def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
+               start_near: tuple[float, float] | None) -> list[Run]:
+    """The fastest order of a pass's lines, starting at the corner nearest `start_near`."""
+    n_lines = 1 + max(s.line for s in p.segments)
+    best: tuple[float, list[Run]] | None = None
+    for order in line_orders(n_lines, spacing, k.turn_radius_m, k.vehicle):
+        for reverse in (False, True):
+            o = order[::-1] if reverse else order
+            for first_dir in (1, -1):
+                runs = _runs_of_pass(p, lead_in, o, first_dir, None)
+                cost = path_time(_route_points(runs), k)
+                if start_near is not None:
+                    cost += math.dist(start_near, runs[0].lead_in_xy) / k.speed_ms
+                if best is None or cost < best[0] - 1e-9:
+                    best = (cost, runs)
+    assert best is not None
+    return best[1]
+
+
+class Detours:
+    """Shortest detours around exclusion zones on a visibility graph of their corners."""
+
+    def __init__(self, zones: BaseGeometry | None, margin: float):
+        self.blocked = None
+        self.nodes: list[tuple[float, float]] = []
+        if zones is None or zones.is_empty:
+            return
+        # fly around a slightly larger outline than the one that must not be crossed
+        self.blocked = shapely.buffer(zones, margin, quad_segs=2)
+        around = shapely.buffer(zones, margin + max(1.0, 0.02 * margin) + 1.0, quad_segs=2, join_style="mitre")
+        shapely.prepare(self.blocked)
+        for poly in shapely.get_parts(around):
+            for ring in [poly.exterior, *poly.interiors]:
+                self.nodes.extend(map(tuple, np.asarray(ring.coords)[:-1]))
+
+    def clear(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
+        if self.blocked is None:
+            return True
+        return not shapely.intersects(self.blocked, shapely.LineString([a, b]))
+
+    def path(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
+        """Intermediate points of the shortest way from a to b that stays out of the zones."""
+        if self.clear(a, b):
+            return []
+        nodes = [a, b, *self.nodes]
+        dist = {0: 0.0}
+        prev: dict[int, int] = {}
+        heap = [(0.0, 0)]
+        done = set()
+        while heap:
+            d, i = heapq.heappop(heap)
+            if i in done:
+                continue
+            done.add(i)
+            if i == 1:
+                break
+            for j in range(1, len(nodes)):
+                if j in done:
+                    continue
+                nd = d + math.dist(nodes[i], nodes[j])
+                if nd < dist.get(j, math.inf) and self.clear(nodes[i], nodes[j]):
+                    dist[j] = nd
+                    prev[j] = i
+                    heapq.heappush(heap, (nd, j))
+        if 1 not in prev:
+            raise ValueError("no way around the exclusion zones between two waypoints")
+        out = []
+        j = prev[1]
+        while j != 0:
+            out.append(nodes[j])
+            j = prev[j]
+        return out[::-1]
+
+
+def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],
+                start_near: tuple[float, float] | None, detours: Detours) -> Route:
+    """Order every pass, join them, and insert detours wherever a leg would enter a zone."""
+    runs: list[Run] = []
+    here = start_near
+    for p, spacing in zip(passes, spacing_by_pass):
+        if not p.segments:
+            continue
+        pr = order_pass(p, lead_in, k, spacing, here)
+        runs.extend(pr)
+        here = pr[-1].end_xy
+    wps: list[Waypoint] = []
+    last: tuple[float, float] | None = None
+    for i, r in enumerate(runs):
+        first = (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))
+        for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", first), ("line_end", r.end_xy)):
+            if last is not None:
+                for d in detours.path(last, pt):
+                    wps.append(Waypoint(d[0], d[1], "detour", -1))
+            wps.append(Waypoint(pt[0], pt[1], kind, i))
+            last = pt
+    return Route(tuple(runs), tuple(wps))

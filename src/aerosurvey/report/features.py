@@ -1,0 +1,87 @@
+"""The plan as GeoJSON features in WGS84: area, exclusion zones, lines, stations, footprints.
+
+Every feature has a `role` and an `id` that matches the manifest, so a GIS user can join
+the layers with the manifest and later with flight logs.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import shapely
+
+from aerosurvey.plan import photogrammetry as pg
+from aerosurvey.plan.planner import PlanResult
+
+
+def _r(v: float, nd: int = 8) -> float:
+    return round(float(v), nd)
+
+
+def _coords(geom: shapely.Geometry) -> Any:
+    m = shapely.geometry.mapping(geom)
+    return _round_nested(m["coordinates"])
+
+
+def _round_nested(c: Any) -> Any:
+    if isinstance(c, (list, tuple)) and c and isinstance(c[0], (int, float)):
+        return [_r(v) for v in c]
+    return [_round_nested(x) for x in c]
+
+
+def footprint_corners(x: np.ndarray, y: np.ndarray, heading_deg: np.ndarray, across: np.ndarray, along: np.ndarray) -> np.ndarray:
+    """(n, 4, 2) corners of nadir footprints centred at x, y, long axis `along` the heading."""
+    h = np.radians(heading_deg)
+    ux, uy = np.sin(h), np.cos(h)  # along track
+    vx, vy = uy, -ux  # across track (to the right)
+    a2, c2 = along[:, None] / 2.0, across[:, None] / 2.0
+    su = np.array([1, 1, -1, -1])[None, :]
+    sv = np.array([1, -1, -1, 1])[None, :]
+    cx = x[:, None] + su * a2 * ux[:, None] + sv * c2 * vx[:, None]
+    cy = y[:, None] + su * a2 * uy[:, None] + sv * c2 * vy[:, None]
+    return np.stack([cx, cy], axis=-1)
+
+
+def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, Any]:
+    feats: list[dict[str, Any]] = []
+    feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": round(plan.area.area / 1e4, 4)},
+                  "geometry": {"type": plan.area_wgs84.geom_type, "coordinates": _coords(plan.area_wgs84)}})
+    for i, z in enumerate(plan.exclusions_wgs84, start=1):
+        feats.append({"type": "Feature", "id": f"exclusion-{i}", "properties": {"role": "exclusion", "id": f"exclusion-{i}"},
+                      "geometry": {"type": z.geom_type, "coordinates": _coords(z)}})
+    st = plan.stations
+    from aerosurvey.mission.builder import run_id
+
+    for i, r in enumerate(plan.route.runs):
+        sel = np.flatnonzero(st.run == i)
+        coords = [[_r(st.lon[j]), _r(st.lat[j])] for j in (sel[0], sel[-1])]
+        rid = run_id(plan, i)
+        feats.append({"type": "Feature", "id": rid, "properties": {
+            "role": "line", "id": rid, "line": f"P{r.pass_index}-L{r.line + 1:03d}", "pass": r.pass_index,
+            "heading_deg": round(r.heading_deg, 3), "photos": int(len(sel)), "first_station": st.ids[sel[0]],
+            "last_station": st.ids[sel[-1]]}, "geometry": {"type": "LineString", "coordinates": coords}})
+    for j, sid in enumerate(st.ids):
+        feats.append({"type": "Feature", "id": sid, "properties": {
+            "role": "station", "id": sid, "seq": j + 1, "line": sid.rsplit("-", 1)[0],
+            "alt_rel_m": round(float(st.alt_rel_m[j]), 2), "agl_m": round(float(st.agl_m[j]), 2),
+            "heading_deg": round(float(st.heading_deg[j]), 3)},
+            "geometry": {"type": "Point", "coordinates": [_r(st.lon[j]), _r(st.lat[j])]}})
+    if with_footprints and len(st.ids):
+        cam = plan.spec.camera.camera
+        across, along = pg.footprint(st.agl_m, cam, plan.spec.camera.mount)
+        corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float), np.asarray(along, float))
+        lon, lat = plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
+        lon, lat = lon.reshape(-1, 4), lat.reshape(-1, 4)
+        for j, sid in enumerate(st.ids):
+            ring = [[_r(lon[j, k]), _r(lat[j, k])] for k in range(4)]
+            ring.append(ring[0])
+            feats.append({"type": "Feature", "id": f"{sid}-fp", "properties": {"role": "footprint", "id": f"{sid}-fp", "station": sid},
+                          "geometry": {"type": "Polygon", "coordinates": [ring]}})
+    lon, lat, _ = plan.home
+    feats.append({"type": "Feature", "id": "home", "properties": {"role": "home", "id": "home"},
+                  "geometry": {"type": "Point", "coordinates": [_r(lon), _r(lat)]}})
+    if not all(math.isfinite(v) for v in (lon, lat)):
+        raise ValueError("home position is not finite")
+    return {"type": "FeatureCollection", "name": plan.spec.name, "features": feats}

@@ -1,0 +1,101 @@
+"""A self-contained SVG picture of the plan for the pilot: area, exclusion zones, lines in
+flight order, stations, take-off point and start, with a scale bar and a north arrow.
+
+Drawn in the planning CRS (metres, grid north up), so distances on the picture are true.
+"""
+
+from __future__ import annotations
+
+import math
+from html import escape
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from aerosurvey.plan.planner import PlanResult
+
+_W, _H, _PAD, _HEAD = 1000, 800, 40, 70
+
+
+class _View:
+    def __init__(self, bounds: tuple[float, float, float, float]):
+        x0, y0, x1, y1 = bounds
+        self.s = min((_W - 2 * _PAD) / max(x1 - x0, 1e-9), (_H - _HEAD - 2 * _PAD) / max(y1 - y0, 1e-9))
+        self.x0, self.y1 = x0, y1
+        self.ox = _PAD + ((_W - 2 * _PAD) - (x1 - x0) * self.s) / 2
+        self.oy = _HEAD + _PAD + ((_H - _HEAD - 2 * _PAD) - (y1 - y0) * self.s) / 2
+
+    def pt(self, x: float, y: float) -> tuple[float, float]:
+        return self.ox + (x - self.x0) * self.s, self.oy + (self.y1 - y) * self.s
+
+    def path(self, geom: BaseGeometry) -> str:
+        out = []
+        for poly in shapely.get_parts(geom):
+            for ring in [poly.exterior, *poly.interiors]:
+                pts = [self.pt(x, y) for x, y in ring.coords]
+                out.append("M" + " L".join(f"{a:.1f},{b:.1f}" for a, b in pts) + " Z")
+        return " ".join(out)
+
+
+def _scale_bar(view: _View) -> str:
+    target = 150 / view.s
+    nice = 10 ** math.floor(math.log10(target))
+    for m in (1, 2, 5, 10):
+        if nice * m >= target:
+            nice *= m
+            break
+    px = nice * view.s
+    x, y = _PAD, _H - 18
+    label = f"{nice / 1000:g} km" if nice >= 1000 else f"{nice:g} m"
+    return (f'<g><rect x="{x}" y="{y - 6}" width="{px:.1f}" height="6" fill="#222"/>'
+            f'<text x="{x + px + 6:.1f}" y="{y}" font-size="13">{label}</text></g>')
+
+
+def render_svg(plan: PlanResult) -> str:
+    """The preview as SVG text (deterministic)."""
+    st = plan.stations
+    wp = np.asarray([(w.x, w.y) for w in plan.waypoints])
+    geoms = [plan.area, shapely.MultiPoint(wp)]
+    if plan.exclusions is not None:
+        geoms.append(plan.exclusions)
+    x0, y0, x1, y1 = shapely.total_bounds(geoms)
+    view = _View((x0, y0, x1, y1))
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{_W}" height="{_H}" viewBox="0 0 {_W} {_H}" font-family="sans-serif">',
+             f'<rect width="{_W}" height="{_H}" fill="#fafaf7"/>']
+    e = plan.estimates
+    title = escape(f"{plan.spec.name}: {plan.heights.nominal_agl_m:.0f} m AGL, GSD {plan.gsd_max_m * 100:.2f} cm, "
+                   f"{len(plan.route.runs)} runs, {len(st.ids)} photos, {e['total_distance_m'] / 1000:.2f} km, "
+                   f"{e['total_time_s'] / 60:.1f} min")
+    parts.append(f'<text x="{_PAD}" y="30" font-size="18" font-weight="bold">{title}</text>')
+    parts.append(f'<text x="{_PAD}" y="52" font-size="13">heading {plan.heading_deg:.1f}° ({escape(plan.heading_chosen)}), '
+                 f'spacing {plan.spacing_m:.1f} m, photo base {plan.base_m:.1f} m, CRS {escape(plan.planar.name)}</text>')
+    parts.append(f'<path d="{view.path(plan.area)}" fill="#cfe8c4" fill-rule="evenodd" stroke="#3a7d2c" stroke-width="2"><title>area</title></path>')
+    if plan.exclusions is not None:
+        parts.append(f'<path d="{view.path(plan.exclusions)}" fill="#f4b4b4" fill-opacity="0.8" stroke="#b00" stroke-width="2"><title>exclusion zone</title></path>')
+    path_pts = [view.pt(x, y) for x, y in wp]
+    parts.append('<polyline fill="none" stroke="#888" stroke-width="1" stroke-dasharray="4 3" points="'
+                 + " ".join(f"{a:.1f},{b:.1f}" for a, b in path_pts) + '"><title>route</title></polyline>')
+    colours = {1: "#1f5fbf", 2: "#c0601a"}
+    for i, r in enumerate(plan.route.runs):
+        a = view.pt(*r.station_xy[0])
+        b = view.pt(*r.station_xy[-1])
+        parts.append(f'<line x1="{a[0]:.1f}" y1="{a[1]:.1f}" x2="{b[0]:.1f}" y2="{b[1]:.1f}" stroke="{colours.get(r.pass_index, "#555")}" '
+                     f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></line>')
+    if len(st.ids) <= 20000:
+        dots = "".join(f"M{p[0]:.1f},{p[1]:.1f}h0.01" for p in (view.pt(x, y) for x, y in zip(st.x, st.y)))
+        parts.append(f'<path d="{dots}" stroke="#111" stroke-width="2.5" stroke-linecap="round"><title>photo stations</title></path>')
+    hx, hy = view.pt(*plan.home_xy)
+    parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2"><title>take-off (home)</title></circle>')
+    sx, sy = path_pts[0]
+    parts.append(f'<polygon points="{sx:.1f},{sy - 9:.1f} {sx + 8:.1f},{sy + 6:.1f} {sx - 8:.1f},{sy + 6:.1f}" fill="#0a0"><title>start of the survey</title></polygon>')
+    parts.append(_scale_bar(view))
+    nx, ny = _W - 50, _HEAD + 30
+    parts.append(f'<g><polygon points="{nx},{ny - 20} {nx + 8},{ny + 6} {nx},{ny} {nx - 8},{ny + 6}" fill="#222"/>'
+                 f'<text x="{nx - 5}" y="{ny + 24}" font-size="14">N</text></g>')
+    legend = [("#cfe8c4", "area"), ("#f4b4b4", "exclusion zone"), (colours[1], "lines"), (colours[2], "cross-hatch lines")]
+    for k, (c, label) in enumerate(legend):
+        y = _H - 18 - 20 * (len(legend) - k)
+        parts.append(f'<rect x="{_W - 190}" y="{y - 10}" width="14" height="10" fill="{c}"/><text x="{_W - 170}" y="{y}" font-size="12">{label}</text>')
+    parts.append("</svg>")
+    return "\n".join(parts) + "\n"

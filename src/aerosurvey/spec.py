@@ -1,0 +1,366 @@
+"""The mission spec (TOML): load, validate, fill defaults.
+
+Every error names the key (as `table.key`), the value found and what is allowed. The
+format is documented in docs/mission-spec.md.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from aerosurvey.camera import Camera, camera_from_mapping, get_camera
+from aerosurvey.errors import InputError, bad_value
+
+MOUNTS = ("landscape", "portrait")
+TRIGGERS = ("distance", "time", "camera")
+VEHICLES = ("copter", "plane")
+FIRMWARES = ("ardupilot", "px4")
+TERRAIN_MODES = ("none", "fixed", "follow", "terrain-frame")
+MISSION_ENDS = ("rtl", "land")
+
+
+@dataclass(frozen=True)
+class AreaSpec:
+    file: Path | None
+    wkt: str | None
+    wkt_crs: str
+    exclusions: tuple[Path, ...]
+    launch: tuple[float, float] | None  # (longitude, latitude)
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    camera: Camera
+    mount: str
+    trigger: str  # distance: autopilot by distance; time: autopilot by interval; camera: own intervalometer
+    interval_s: float | None
+    max_blur_px: float
+    min_cycle_s: float
+    exposure_s: float
+
+
+@dataclass(frozen=True)
+class Targets:
+    gsd_m: float | None
+    height_m: float | None
+    forward_overlap: float
+    side_overlap: float
+    images_beyond_boundary: int
+    plan_at_cap: bool
+
+
+@dataclass(frozen=True)
+class VehicleSpec:
+    type: str
+    firmware: str
+    cruise_speed_ms: float
+    acceleration_ms2: float
+    bank_angle_deg: float
+    max_height_agl_m: float
+    climb_rate_ms: float
+    descent_rate_ms: float
+
+
+@dataclass(frozen=True)
+class FlightSpec:
+    heading_deg: float | None  # None: choose the fastest
+    cross_hatch: bool
+    exclusion_margin_m: float
+    end: str
+    lead_in_m: float | None
+
+
+@dataclass(frozen=True)
+class TerrainSpec:
+    dem: Path | None
+    mode: str
+    tolerance_m: float
+    min_clearance_m: float
+
+
+@dataclass(frozen=True)
+class ConditionsSpec:
+    start: dt.datetime | None
+    end: dt.datetime | None
+    min_sun_elevation_deg: float
+
+
+@dataclass(frozen=True)
+class MissionSpec:
+    name: str
+    crs: str  # "auto" or an authority string such as "EPSG:5514"
+    area: AreaSpec
+    camera: CameraSpec
+    targets: Targets
+    vehicle: VehicleSpec
+    flight: FlightSpec
+    terrain: TerrainSpec
+    conditions: ConditionsSpec
+    profiles: tuple[str, ...]
+    path: Path | None
+
+
+class _Table:
+    """A TOML table read key by key; leftover keys are reported as unknown."""
+
+    def __init__(self, data: Any, name: str):
+        if not isinstance(data, Mapping):
+            raise bad_value(name, data, "a table")
+        self.data = dict(data)
+        self.name = name
+        self.used: set[str] = set()
+
+    def key(self, key: str) -> str:
+        return f"{self.name}.{key}" if self.name else key
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def raw(self, key: str, default: Any = None) -> Any:
+        self.used.add(key)
+        return self.data.get(key, default)
+
+    def number(self, key: str, default: float | None = None, *, lo: float | None = None,
+               hi: float | None = None, lo_open: bool = False, hi_open: bool = False,
+               required: bool = False) -> float | None:
+        self.used.add(key)
+        if key not in self.data:
+            if required:
+                raise InputError(f"{self.key(key)} is missing: it is required")
+            return default
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise bad_value(self.key(key), v, "a finite number")
+        v = float(v)
+        bad_lo = lo is not None and (v <= lo if lo_open else v < lo)
+        bad_hi = hi is not None and (v >= hi if hi_open else v > hi)
+        if bad_lo or bad_hi:
+            left = "(" if lo_open else "["
+            right = ")" if hi_open else "]"
+            raise bad_value(self.key(key), v, f"a number in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}")
+        return v
+
+    def integer(self, key: str, default: int, *, lo: int = 0, hi: int = 1000) -> int:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise bad_value(self.key(key), v, f"a whole number from {lo} to {hi}")
+        return v
+
+    def boolean(self, key: str, default: bool) -> bool:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if not isinstance(v, bool):
+            raise bad_value(self.key(key), v, "true or false")
+        return v
+
+    def choice(self, key: str, default: str, choices: tuple[str, ...]) -> str:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if v not in choices:
+            raise bad_value(self.key(key), v, "one of " + ", ".join(choices))
+        return v
+
+    def string(self, key: str, default: str | None = None) -> str | None:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if v is not None and not isinstance(v, str):
+            raise bad_value(self.key(key), v, "a string")
+        return v
+
+    def table(self, key: str) -> "_Table":
+        self.used.add(key)
+        return _Table(self.data.get(key, {}), self.key(key))
+
+    def done(self) -> None:
+        unknown = sorted(set(self.data) - self.used)
+        if unknown:
+            where = f"[{self.name}]" if self.name else "the top level"
+            raise InputError(f"unknown key(s) in {where}: {', '.join(unknown)}; allowed: {', '.join(sorted(self.used))}")
+
+
+def _path(base: Path, value: str, key: str) -> Path:
+    if not isinstance(value, str) or not value:
+        raise bad_value(key, value, "a file path (relative to the spec file)")
+    p = Path(value)
+    return p if p.is_absolute() else (base / p)
+
+
+def _datetime(t: _Table, key: str) -> dt.datetime | None:
+    v = t.raw(key)
+    if v is None:
+        return None
+    if isinstance(v, str):
+        try:
+            v = dt.datetime.fromisoformat(v)
+        except ValueError:
+            raise bad_value(t.key(key), v, "an ISO 8601 date and time with a UTC offset, e.g. 2026-05-14T09:30:00+02:00") from None
+    if not isinstance(v, dt.datetime) or v.tzinfo is None:
+        raise bad_value(t.key(key), v, "a date and time with a UTC offset, e.g. 2026-05-14T09:30:00+02:00")
+    return v
+
+
+def load_spec(path: str | Path) -> MissionSpec:
+    """Read and validate a mission spec file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"mission spec {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"mission spec {str(path)!r} cannot be read: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"mission spec {str(path)!r} is not valid TOML: {exc}") from None
+    return parse_spec(data, base=path.parent, path=path)
+
+
+def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) -> MissionSpec:
+    """Validate a spec already parsed from TOML; relative paths are resolved against `base`."""
+    top = _Table(data, "")
+    mission = top.table("mission")
+    name = mission.string("name", path.stem if path else "mission") or "mission"
+    crs = mission.string("crs", "auto") or "auto"
+    mission.done()
+
+    a = top.table("area")
+    area_file = a.raw("file")
+    wkt = a.string("wkt")
+    if (area_file is None) == (wkt is None):
+        raise InputError("[area] needs exactly one of 'file' (an area file) or 'wkt' (a WKT polygon in longitude/latitude)")
+    exclusions_raw = a.raw("exclusions", [])
+    if not isinstance(exclusions_raw, list):
+        raise bad_value("area.exclusions", exclusions_raw, "a list of file paths")
+    launch_raw = a.raw("launch")
+    launch = None
+    if launch_raw is not None:
+        if (not isinstance(launch_raw, list) or len(launch_raw) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in launch_raw)):
+            raise bad_value("area.launch", launch_raw, "[longitude, latitude] in degrees")
+        lon, lat = float(launch_raw[0]), float(launch_raw[1])
+        if not (-180 <= lon <= 180 and -90 <= lat <= 90):
+            raise bad_value("area.launch", launch_raw, "[longitude, latitude] with longitude in [-180, 180] and latitude in [-90, 90]")
+        launch = (lon, lat)
+    area = AreaSpec(
+        file=_path(base, area_file, "area.file") if area_file is not None else None,
+        wkt=wkt,
+        wkt_crs=a.string("wkt_crs", "EPSG:4326") or "EPSG:4326",
+        exclusions=tuple(_path(base, e, "area.exclusions") for e in exclusions_raw),
+        launch=launch,
+    )
+    a.done()
+
+    c = top.table("camera")
+    model = c.raw("model")
+    if isinstance(model, str):
+        cam = get_camera(model)
+    elif isinstance(model, Mapping):
+        cam = camera_from_mapping("inline", model, "camera.model")
+    else:
+        raise bad_value("camera.model", model, "a camera id from `aerosurvey cameras` or an inline table with the sensor")
+    trigger = c.choice("trigger", "distance", TRIGGERS)
+    interval = c.number("interval_s", None, lo=0.0, lo_open=True)
+    camera = CameraSpec(
+        camera=cam,
+        mount=c.choice("mount", "landscape", MOUNTS),
+        trigger=trigger,
+        interval_s=interval,
+        max_blur_px=c.number("max_blur_px", 0.5, lo=0.05, hi=5.0) or 0.5,
+        min_cycle_s=c.number("min_cycle_s", cam.min_cycle_s, lo=0.0, lo_open=True) or cam.min_cycle_s,
+        exposure_s=c.number("exposure_s", cam.exposure_s, lo=0.0, lo_open=True) or cam.exposure_s,
+    )
+    c.done()
+
+    t = top.table("targets")
+    gsd_cm = t.number("gsd_cm", None, lo=0.0, lo_open=True, hi=100.0)
+    height = t.number("height_m", None, lo=0.0, lo_open=True)
+    if (gsd_cm is None) == (height is None):
+        raise InputError("[targets] needs exactly one of 'gsd_cm' or 'height_m'")
+    targets = Targets(
+        gsd_m=gsd_cm / 100.0 if gsd_cm is not None else None,
+        height_m=height,
+        forward_overlap=t.number("forward_overlap", 0.75, lo=0.0, hi=0.95, hi_open=True) or 0.0,
+        side_overlap=t.number("side_overlap", 0.60, lo=0.0, hi=0.95, hi_open=True) or 0.0,
+        images_beyond_boundary=t.integer("images_beyond_boundary", 0, lo=0, hi=50),
+        plan_at_cap=t.boolean("plan_at_cap", False),
+    )
+    t.done()
+
+    v = top.table("vehicle")
+    vtype = v.choice("type", "copter", VEHICLES)
+    vehicle = VehicleSpec(
+        type=vtype,
+        firmware=v.choice("firmware", "ardupilot", FIRMWARES),
+        cruise_speed_ms=v.number("cruise_speed_ms", 10.0 if vtype == "copter" else 18.0, lo=0.5, hi=60.0) or 0.0,
+        acceleration_ms2=v.number("acceleration_ms2", 2.5, lo=0.1, hi=20.0) or 0.0,
+        bank_angle_deg=v.number("bank_angle_deg", 30.0, lo=5.0, hi=60.0) or 0.0,
+        max_height_agl_m=v.number("max_height_agl_m", 120.0, lo=1.0, hi=10000.0) or 0.0,
+        climb_rate_ms=v.number("climb_rate_ms", 2.5 if vtype == "copter" else 3.0, lo=0.1, hi=30.0) or 0.0,
+        descent_rate_ms=v.number("descent_rate_ms", 1.5 if vtype == "copter" else 2.0, lo=0.1, hi=30.0) or 0.0,
+    )
+    v.done()
+
+    f = top.table("flight")
+    heading_raw = f.raw("heading", "auto")
+    if heading_raw == "auto":
+        heading = None
+    elif isinstance(heading_raw, (int, float)) and not isinstance(heading_raw, bool) and math.isfinite(heading_raw):
+        heading = float(heading_raw) % 180.0
+    else:
+        raise bad_value("flight.heading", heading_raw, "\"auto\" or a bearing in degrees (0 = north, 90 = east)")
+    flight = FlightSpec(
+        heading_deg=heading,
+        cross_hatch=f.boolean("cross_hatch", False),
+        exclusion_margin_m=f.number("exclusion_margin_m", 10.0, lo=0.0, hi=1000.0) or 0.0,
+        end=f.choice("end", "rtl", MISSION_ENDS),
+        lead_in_m=f.number("lead_in_m", None, lo=0.0, hi=2000.0),
+    )
+    f.done()
+
+    tr = top.table("terrain")
+    dem_raw = tr.raw("dem")
+    dem = _path(base, dem_raw, "terrain.dem") if dem_raw is not None else None
+    mode = tr.choice("mode", "fixed" if dem is not None else "none", TERRAIN_MODES)
+    if mode != "none" and dem is None and mode != "terrain-frame":
+        raise InputError(f"terrain.mode = {mode!r} needs terrain.dem (a DEM GeoTIFF)")
+    if mode == "none" and dem is not None:
+        raise InputError("terrain.dem is given but terrain.mode = 'none'; choose fixed, follow or terrain-frame")
+    terrain = TerrainSpec(
+        dem=dem,
+        mode=mode,
+        tolerance_m=tr.number("tolerance_m", 5.0, lo=0.1, hi=100.0) or 5.0,
+        min_clearance_m=tr.number("min_clearance_m", 20.0, lo=0.0, hi=1000.0) or 0.0,
+    )
+    tr.done()
+
+    co = top.table("conditions")
+    start = _datetime(co, "start")
+    end = _datetime(co, "end")
+    if (start is None) != (end is None):
+        raise InputError("[conditions] needs both 'start' and 'end' (or neither)")
+    if start is not None and end is not None and end <= start:
+        raise bad_value("conditions.end", end.isoformat(), f"a time after conditions.start ({start.isoformat()})")
+    conditions = ConditionsSpec(
+        start=start,
+        end=end,
+        min_sun_elevation_deg=co.number("min_sun_elevation_deg", 20.0, lo=-10.0, hi=90.0) or 0.0,
+    )
+    co.done()
+
+    r = top.table("rules")
+    profiles = r.raw("profiles", [])
+    if not isinstance(profiles, list) or not all(isinstance(p, str) for p in profiles):
+        raise bad_value("rules.profiles", profiles, "a list of rule profile ids")
+    r.done()
+    top.done()
+
+    return MissionSpec(
+        name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
+        flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles), path=path,
+    )
