@@ -20,10 +20,12 @@ def write_geojson(path: Path, coords: list, geom_type: str = "Polygon") -> Path:
     return path
 
 
-def make_spec(tmp: Path, overrides: dict[str, Any] | None = None, area: list | None = None) -> Path:
-    """A spec over a ~20 ha square near 49.4 N 15.0 E unless `area` (lon/lat ring) is given."""
+def make_spec(tmp: Path, overrides: dict[str, Any] | None = None, area: list | None = None,
+              rings: list | None = None) -> Path:
+    """A spec over a ~17 ha rectangle near 49.4 N 15.0 E, unless `area` (one lon/lat ring)
+    or `rings` (outer ring and holes) is given."""
     ring = area or [[15.000, 49.400], [15.006, 49.400], [15.006, 49.4035], [15.000, 49.4035], [15.000, 49.400]]
-    write_geojson(tmp / "area.geojson", [ring])
+    write_geojson(tmp / "area.geojson", rings or [ring])
     spec: dict[str, Any] = {
         "mission": {"name": "test"},
         "area": {"file": "area.geojson"},

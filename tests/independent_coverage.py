@@ -19,7 +19,7 @@ import numpy as np
 import pyproj
 import shapely
 
-NAV_WAYPOINT, DO_SET_CAM_TRIGG_DIST = 16, 206
+NAV_WAYPOINT, DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL = 16, 178, 206, 214
 FRAME_RELATIVE, FRAME_TERRAIN = 3, 10
 
 
@@ -47,8 +47,14 @@ def local_projection(lon: float, lat: float) -> pyproj.Transformer:
 
 def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                     ground: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
-                    home_amsl: float) -> Photos:
-    """Photo positions as ArduPilot's distance trigger takes them along the mission."""
+                    home_amsl: float, camera_interval_s: float | None = None) -> Photos:
+    """Photo positions as ArduPilot's distance trigger takes them along the mission.
+
+    Time triggering (DO_SET_CAM_TRIGG_INTERVAL, or a camera on its own intervalometer
+    when `camera_interval_s` is given) is replayed as a photo every speed × interval
+    metres at the DO_CHANGE_SPEED ground speed; a camera on its own intervalometer runs
+    from the first waypoint to the last, and its runs split where the heading changes.
+    """
     xs, ys, hs, zs, runs = [], [], [], [], []
     pos = None
     alt_prev = None
@@ -56,11 +62,33 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
     dist = 0.0
     last = None
     run = -1
+    speed = 0.0
+    prev_dir = None
     for r in rows:
         cmd, frame = int(r[3]), int(r[2])
+        if cmd == DO_CHANGE_SPEED:
+            speed = r[5]
+        elif cmd == DO_SET_CAM_TRIGG_INTERVAL:
+            dist = speed * r[4] / 1000.0 if r[4] > 0 else 0.0
+            if dist > 0:
+                run += 1
+                last = pos.copy()
+                xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+            else:
+                last = None
         if cmd == NAV_WAYPOINT:
             x, y = to_xy.transform(r[9], r[8])
             new = np.array([x, y])
+            if camera_interval_s is not None and pos is not None:
+                d = math.atan2(new[1] - pos[1], new[0] - pos[0])
+                if last is None:
+                    dist = speed * camera_interval_s
+                    run += 1
+                    last = pos.copy()
+                    xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+                elif prev_dir is not None and (abs(math.sin(d - prev_dir)) > 1e-3 or math.cos(d - prev_dir) < 0):
+                    run += 1
+                prev_dir = d
             if pos is not None and dist > 0 and last is not None:
                 leg = new - pos
                 length = float(np.hypot(*leg))

@@ -27,10 +27,13 @@ def test_footprint_spacing_and_base_for_80_60():
     h = 159.0
     across, along = pg.footprint(h, RICOH, "landscape")
     gsd = pg.gsd_from_height(h, RICOH)
-    assert across == pytest.approx(4928 * gsd)
-    assert along == pytest.approx(3264 * gsd)
-    assert pg.line_spacing(across, 0.6) == pytest.approx(0.4 * 4928 * gsd)
-    assert pg.trigger_distance(along, 0.8) == pytest.approx(0.2 * 3264 * gsd)
+    # the smaller of N * GSD and sensor size * H / f (Ricoh: 15.60 mm < 3264 * 4.7808 um)
+    assert across == pytest.approx(min(4928 * gsd, 23.56 * h / 18.3))
+    assert along == pytest.approx(15.60 * h / 18.3)
+    assert along < 3264 * gsd
+    safety = 1 - pg.SAFETY
+    assert pg.line_spacing(across, 0.6) == pytest.approx(0.4 * across * safety)
+    assert pg.trigger_distance(along, 0.8) == pytest.approx(0.2 * along * safety)
     pa, pl = pg.footprint(h, RICOH, "portrait")
     assert (pa, pl) == pytest.approx((along, across))
 

@@ -118,20 +118,19 @@ def cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearanc
     if zones_f is None or zones_f.is_empty or not segs:
         return segs
     out: list[LineSegment] = []
-    for seg in segs:
-        xs = seg.xs()
-        line = shapely.LineString([(seg.x0 - clearance - 1.0, seg.v), (seg.x1 + clearance + 1.0, seg.v)])
-        hit = shapely.intersection(line, zones_f)
+    ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
+    hits = shapely.intersection(shapely.linestrings(ends.reshape(-1, 2, 2)), zones_f)
+    for seg, hit in zip(segs, hits):
         if hit.is_empty:
             out.append(seg)
             continue
+        xs = seg.xs()
         blocked = np.zeros(len(xs), bool)
         for piece in shapely.get_parts(hit):
             px0, _, px1, _ = piece.bounds
             blocked |= (xs >= px0 - clearance) & (xs <= px1 + clearance)
-        runs = _runs(~blocked)
         part = len(out)
-        for i0, i1 in runs:
+        for i0, i1 in _runs(~blocked):
             out.append(LineSegment(seg.line, part, seg.v, float(xs[i0]), i1 - i0, seg.base))
             part += 1
     renum: list[LineSegment] = []

@@ -9,10 +9,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from aerosurvey.camera import Camera
 
 #: Numerical slack when turning an overlap into a whole number of images.
 _EPS = 1e-9
+
+#: Spacing and photo base are shortened by this fraction so that rounding in the mission
+#: files (1 cm heights, 1e-8° positions) can never take the overlap below the target.
+SAFETY = 1e-3
 
 
 def gsd_from_height(height_m: float, camera: Camera) -> float:
@@ -29,11 +35,15 @@ def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tupl
     """Ground footprint (across track, along track) in metres.
 
     Landscape puts the sensor's long side across the flight line (wider strips, shorter
-    photo base); portrait puts it along the line.
+    photo base); portrait puts it along the line. Each side is the smaller of N · GSD and
+    the published sensor size · H / f: the two differ when a maker rounds the sensor size
+    (Sony a6000: 4000 px × 3.917 µm = 15.67 mm, sensor 15.6 mm), and the smaller one
+    keeps the overlap at or above the target.
     """
     gsd = gsd_from_height(height_m, camera)
-    long_side = camera.image_width_px * gsd
-    short_side = camera.image_height_px * gsd
+    scale = height_m / camera.focal_mm
+    long_side = np.minimum(camera.image_width_px * gsd, camera.sensor_width_mm * scale)
+    short_side = np.minimum(camera.image_height_px * gsd, camera.sensor_height_mm * scale)
     if mount == "landscape":
         return long_side, short_side
     if mount == "portrait":
@@ -42,13 +52,13 @@ def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tupl
 
 
 def line_spacing(across_m: float, side_overlap: float) -> float:
-    """Distance between neighbouring flight lines: Wg · (1 − side overlap)."""
-    return across_m * (1.0 - side_overlap)
+    """Distance between neighbouring flight lines: Wg · (1 − side overlap), less SAFETY."""
+    return across_m * (1.0 - side_overlap) * (1.0 - SAFETY)
 
 
 def trigger_distance(along_m: float, forward_overlap: float) -> float:
-    """Photo base along the line: Lg · (1 − forward overlap)."""
-    return along_m * (1.0 - forward_overlap)
+    """Photo base along the line: Lg · (1 − forward overlap), less SAFETY."""
+    return along_m * (1.0 - forward_overlap) * (1.0 - SAFETY)
 
 
 def max_speed_for_cycle(trigger_distance_m: float, min_cycle_s: float) -> float:

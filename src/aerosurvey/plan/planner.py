@@ -19,7 +19,7 @@ from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading
 from aerosurvey.plan.lines import build_lines
-from aerosurvey.plan.route import Detours, Kinematics, Pass, Route, build_route, path_time
+from aerosurvey.plan.route import Detours, Kinematics, Pass, Route, build_route, path_time, quick_cost
 from aerosurvey.plan.sun import elevation_over_window
 from aerosurvey.plan.terrain import Dem, thin_profile
 from aerosurvey.spec import MissionSpec
@@ -228,12 +228,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
 
     def cost(fr: LineFrame) -> float:
         _, segs = lines_for(fr.heading_deg)
-        if not segs:
-            return math.inf
-        from aerosurvey.plan.route import _route_points, _runs_of_pass
-
-        runs = _runs_of_pass(Pass(1, fr, tuple(segs)), lead_in, sorted({s.line for s in segs}), 1, None)
-        return path_time(_route_points(runs), kin)
+        return quick_cost(segs, lead_in, kin) if segs else math.inf
 
     if spec.flight.heading_deg is None:
         heading, _ = best_heading(area, cost)

@@ -190,6 +190,26 @@ def _route_points(runs: list[Run]) -> np.ndarray:
     return np.asarray(pts, float)
 
 
+def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> float:
+    """Estimated time of a boustrophedon over the segments, in their own line frame.
+
+    Used to compare headings: it needs only the run ends (time is the same in any frame).
+    """
+    by_line: dict[int, list[LineSegment]] = {}
+    for s in segments:
+        by_line.setdefault(s.line, []).append(s)
+    pts: list[tuple[float, float]] = []
+    for i, line in enumerate(sorted(by_line)):
+        segs = sorted(by_line[line], key=lambda s: s.x0)
+        d = 1 if i % 2 == 0 else -1
+        if d < 0:
+            segs.reverse()
+        for s in segs:
+            first, last = (s.x0, s.x1) if d > 0 else (s.x1, s.x0)
+            pts.extend([(first - d * lead_in, s.v), (first, s.v), (last + d * s.base / 2.0, s.v)])
+    return path_time(np.asarray(pts), k)
+
+
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
                start_near: tuple[float, float] | None) -> list[Run]:
     """The fastest order of a pass's lines, starting at the corner nearest `start_near`."""

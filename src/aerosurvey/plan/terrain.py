@@ -60,8 +60,9 @@ class Dem:
         y = np.atleast_1d(np.asarray(y, float))
         dx, dy = self.to_dem.transform(x, y)
         inv = ~self.ds.transform
-        cols, rows = inv * (np.asarray(dx), np.asarray(dy))
-        cols, rows = np.asarray(cols) - 0.5, np.asarray(rows) - 0.5
+        dx, dy = np.asarray(dx), np.asarray(dy)
+        cols = inv.a * dx + inv.b * dy + inv.c - 0.5
+        rows = inv.d * dx + inv.e * dy + inv.f - 0.5
         outside = (cols < -0.5) | (rows < -0.5) | (cols > self.ds.width - 0.5) | (rows > self.ds.height - 0.5)
         if outside.any():
             i = int(np.flatnonzero(outside)[0])

@@ -1,0 +1,179 @@
+"""Planning speed, memory and plan quality on synthetic areas (issue: planner core).
+
+    python benchmarks/plan_bench.py            # all cases, one subprocess each
+    python benchmarks/plan_bench.py --case 1000ha-holes
+
+Each case runs in its own process so that its peak memory (max RSS) is its own. Times are
+wall-clock seconds on this machine in this run; the 72 ha block is planned in the same
+run as a baseline, and every case reports its time as a ratio to it. Quality: the length
+flown with the camera on against the lower bound area / spacing + the required
+extensions at both ends of every run, and the photo count against area / (spacing · base)
+plus the extension photos.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import shapely
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "missions" / "tools"))
+
+LAT0, LON0, EPSG = 49.40, 15.00, 32633
+
+
+def _lonlat_rings(geom: shapely.Geometry) -> list:
+    t = pyproj.Transformer.from_crs(EPSG, 4326, always_xy=True)
+    out = []
+    for poly in shapely.get_parts(geom):
+        rings = []
+        for r in [poly.exterior, *poly.interiors]:
+            x, y = t.transform(*np.asarray(r.coords).T)
+            rings.append([[round(a, 8), round(b, 8)] for a, b in zip(x, y)])
+        out.append(rings)
+    return out
+
+
+def _write_area(path: Path, geom: shapely.Geometry) -> None:
+    polys = _lonlat_rings(geom)
+    gj = {"type": "MultiPolygon", "coordinates": polys} if len(polys) > 1 else {"type": "Polygon", "coordinates": polys[0]}
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, "geometry": gj}]}))
+
+
+def _origin() -> tuple[float, float]:
+    t = pyproj.Transformer.from_crs(4326, EPSG, always_xy=True)
+    return t.transform(LON0, LAT0)
+
+
+def make_case(name: str, tmp: Path) -> Path:
+    """Write the case's area, zones, DEM and spec into `tmp`; return the spec path."""
+    import tomli_w
+
+    if name == "72ha":
+        return REPO / "missions" / "obratan-72ha.toml"
+    x0, y0 = _origin()
+    spec = {
+        "mission": {"name": name, "crs": f"EPSG:{EPSG}"},
+        "area": {"file": "area.geojson"},
+        "camera": {"model": "sony-a6000-16mm"},
+        "targets": {"gsd_cm": 2.5, "forward_overlap": 0.75, "side_overlap": 0.6, "images_beyond_boundary": 2},
+        "vehicle": {"type": "copter", "cruise_speed_ms": 12.0},
+    }
+    if name.startswith("1000ha"):
+        side = math.sqrt(1000e4)
+        outer = shapely.Polygon([(0, 0), (side * 1.1, -80), (side * 1.05, side * 0.95), (side * 0.4, side * 1.02), (-60, side * 0.9)])
+        holes = [shapely.Point(side * f, side * g).buffer(side * 0.05, quad_segs=4) for f, g in ((0.3, 0.3), (0.7, 0.6), (0.5, 0.8))]
+        area = shapely.difference(outer, shapely.union_all(holes))
+        scale = math.sqrt(1000e4 / area.area)
+        area = shapely.affinity.scale(area, scale, scale, origin=(0, 0))
+        area = shapely.affinity.translate(area, x0, y0)
+        zones = [shapely.affinity.translate(shapely.box(0, 0, 150, 220), x0 + side * 0.2, y0 + side * 0.6),
+                 shapely.affinity.translate(shapely.Point(0, 0).buffer(90, quad_segs=4), x0 + side * 0.8, y0 + side * 0.25)]
+        _write_area(tmp / "area.geojson", area)
+        names = []
+        for i, z in enumerate(zones):
+            _write_area(tmp / f"zone{i}.geojson", z)
+            names.append(f"zone{i}.geojson")
+        spec["area"]["exclusions"] = names
+        if name.endswith("dem"):
+            from synthetic_dem import write_dem
+
+            b = area.bounds
+            w, h = int(b[2] - b[0]) + 200, int(b[3] - b[1]) + 200
+            write_dem(str(tmp / "dem.tif"), EPSG, b[0] - 100, b[3] + 100, w, h, 1.0, 400.0, 40.0)
+            spec["terrain"] = {"dem": "dem.tif", "mode": name.split("-")[-2]}
+    elif name == "10000ha":
+        side = math.sqrt(10000e4)
+        area = shapely.affinity.translate(shapely.Polygon([(0, 0), (side, 0), (side * 1.1, side), (-side * 0.1, side * 0.95)]), x0, y0)
+        scale = math.sqrt(10000e4 / area.area)
+        area = shapely.affinity.scale(area, scale, scale)
+        _write_area(tmp / "area.geojson", area)
+        spec["targets"]["gsd_cm"] = 2.9
+    elif name == "convex-square":
+        _write_area(tmp / "area.geojson", shapely.affinity.translate(shapely.box(0, 0, 1000, 1000), x0, y0))
+        spec["flight"] = {"heading": 0.0}
+    else:
+        raise SystemExit(f"unknown case {name!r}")
+    p = tmp / "spec.toml"
+    p.write_text(tomli_w.dumps(spec))
+    return p
+
+
+def quality(plan) -> dict[str, float]:
+    s, b, L = plan.spacing_m, plan.base_m, plan.along_m
+    k = plan.forward_images_per_point
+    beyond = plan.spec.targets.images_beyond_boundary
+    ext = max(beyond * b, (k - 1) * b - L / 2, 0.0)
+    runs = len(plan.route.runs)
+    passes = len(plan.passes)
+    area = plan.area.area
+    if plan.exclusions is not None:
+        area -= shapely.intersection(plan.area, shapely.buffer(plan.exclusions, plan.spec.flight.exclusion_margin_m)).area
+    bound_len = passes * area / s + runs * 2 * ext
+    flown = sum((len(r.station_xy) - 1) * b for r in plan.route.runs)
+    bound_photos = passes * area / (s * b) + runs * 2 * ext / b
+    return {"line_length_m": round(flown, 1), "line_length_bound_m": round(bound_len, 1),
+            "line_length_ratio": round(flown / bound_len, 4), "photos": len(plan.stations.ids),
+            "photos_bound": round(bound_photos, 1), "photos_ratio": round(len(plan.stations.ids) / bound_photos, 4)}
+
+
+def run_case(name: str) -> dict:
+    from aerosurvey.outputs import render_outputs, write_outputs
+    from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.spec import load_spec
+
+    with tempfile.TemporaryDirectory() as td:
+        tmp = Path(td)
+        spec_path = make_case(name, tmp)
+        render_outputs  # imported before timing: module import is not planning work
+        t0 = time.perf_counter()
+        plan = plan_mission(load_spec(spec_path))
+        t1 = time.perf_counter()
+        files = write_outputs(plan, tmp / "out")
+        t2 = time.perf_counter()
+        size = sum(len(v.encode()) for v in files.values())
+    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {"case": name, "area_ha": round(plan.area.area / 1e4, 1), "plan_s": round(t1 - t0, 3),
+            "write_s": round(t2 - t1, 3), "total_s": round(t2 - t0, 3), "peak_rss_mb": round(rss_mb, 1),
+            "output_mb": round(size / 1e6, 2), **quality(plan)}
+
+
+CASES = ["72ha", "convex-square", "1000ha-holes", "1000ha-holes-fixed-dem", "1000ha-holes-follow-dem", "10000ha"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", choices=CASES)
+    a = ap.parse_args()
+    if a.case:
+        print(json.dumps(run_case(a.case)))
+        return
+    rows = []
+    for case in CASES:
+        out = subprocess.run([sys.executable, __file__, "--case", case], capture_output=True, text=True)
+        if out.returncode != 0:
+            print(f"{case}: failed\n{out.stderr}", file=sys.stderr)
+            continue
+        rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    base = next((r["total_s"] for r in rows if r["case"] == "72ha"), None)
+    cols = ["case", "area_ha", "plan_s", "write_s", "total_s", "x72ha", "peak_rss_mb", "output_mb",
+            "line_length_ratio", "photos", "photos_ratio"]
+    print("  ".join(f"{c:>14}" for c in cols))
+    for r in rows:
+        r["x72ha"] = round(r["total_s"] / base, 1) if base else float("nan")
+        print("  ".join(f"{str(r[c]):>14}" for c in cols))
+
+
+if __name__ == "__main__":
+    main()
