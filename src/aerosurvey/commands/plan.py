@@ -26,7 +26,7 @@ def summary(plan: PlanResult) -> list[str]:
         f"  heading         {plan.heading_deg:.1f} deg ({plan.heading_chosen})"
         + (", cross-hatch at +90 deg" if plan.spec.flight.cross_hatch else ""),
         f"  lines           {len({(r.pass_index, r.line) for r in plan.route.runs})} lines in {len(plan.route.runs)} runs, "
-        f"{len(plan.stations.ids)} photos",
+        f"{len(plan.stations.ids)} photos; route: {'; '.join(plan.route.strategy)}",
         f"  flight          {e['total_distance_m'] / 1000:.2f} km, {e['total_time_s'] / 60:.1f} min estimated",
     ]
     if plan.sun is not None:

@@ -53,6 +53,7 @@ class Waypoint:
 class Route:
     runs: tuple[Run, ...]
     waypoints: tuple[Waypoint, ...]
+    strategy: tuple[str, ...]  # per pass: lines across the area, or cells
 
 
 @dataclass(frozen=True)
@@ -65,36 +66,102 @@ class Kinematics:
     turn_radius_m: float
 
 
-def _runs_of_pass(p: Pass, lead_in: float, order: list[int], first_dir: int, pattern_dirs: list[int] | None) -> list[Run]:
+def _offsets(p: Pass) -> dict[tuple[int, int], int]:
+    """Index of each segment's first station along its line (by +x), for stable station ids."""
     by_line: dict[int, list[LineSegment]] = {}
     for s in p.segments:
         by_line.setdefault(s.line, []).append(s)
-    line_index_offsets: dict[int, int] = {}
+    out = {}
     for line, segs in by_line.items():
-        segs.sort(key=lambda s: s.x0)
-        line_index_offsets[line] = 0
-    runs = []
+        n = 0
+        for s in sorted(segs, key=lambda s: s.x0):
+            out[(line, s.part)] = n
+            n += s.n
+    return out
+
+
+def _run(p: Pass, seg: LineSegment, direction: int, lead_in: float, offset: int) -> Run:
     fr = p.frame
+    xs = seg.xs()
+    idx = offset + np.arange(seg.n)
+    if direction < 0:
+        xs, idx = xs[::-1], idx[::-1]
+    u_lead = xs[0] - direction * lead_in
+    u_end = xs[-1] + direction * seg.base / 2.0
+    us = np.concatenate([[u_lead], xs, [u_end]])
+    X, Y = fr.from_frame(us, np.full(len(us), seg.v))
+    heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
+    return Run(p.index, seg.line, seg.part, direction, heading, np.column_stack([X[1:-1], Y[1:-1]]),
+               idx.astype(int), (float(X[0]), float(Y[0])), (float(X[-1]), float(Y[-1])))
+
+
+def _runs_of_pass(p: Pass, lead_in: float, order: list[int], first_dir: int) -> list[Run]:
+    """Every line in `order`, alternating direction, all runs of a line in one pass."""
+    by_line: dict[int, list[LineSegment]] = {}
+    for s in p.segments:
+        by_line.setdefault(s.line, []).append(s)
+    offsets = _offsets(p)
+    runs = []
     for k, line in enumerate(order):
-        segs = by_line[line]
-        direction = pattern_dirs[k] if pattern_dirs is not None else (first_dir if k % 2 == 0 else -first_dir)
-        offsets = np.cumsum([0] + [s.n for s in segs[:-1]])
-        seq = list(zip(segs, offsets))
-        if direction < 0:
-            seq.reverse()
-        for seg, off in seq:
-            xs = seg.xs()
-            idx = off + np.arange(seg.n)
-            if direction < 0:
-                xs, idx = xs[::-1], idx[::-1]
-            u_lead = xs[0] - direction * lead_in
-            u_end = xs[-1] + direction * seg.base / 2.0
-            us = np.concatenate([[u_lead], xs, [u_end]])
-            X, Y = fr.from_frame(us, np.full(len(us), seg.v))
-            heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
-            runs.append(Run(p.index, seg.line, seg.part, direction, heading,
-                            np.column_stack([X[1:-1], Y[1:-1]]), idx.astype(int),
-                            (float(X[0]), float(Y[0])), (float(X[-1]), float(Y[-1]))))
+        direction = first_dir if k % 2 == 0 else -first_dir
+        segs = sorted(by_line[line], key=lambda s: s.x0, reverse=direction < 0)
+        runs.extend(_run(p, s, direction, lead_in, offsets[(s.line, s.part)]) for s in segs)
+    return runs
+
+
+def cells(segments: tuple[LineSegment, ...]) -> list[list[LineSegment]]:
+    """Boustrophedon cells: chains of segments on consecutive lines that overlap along x
+    one-to-one. Where a line splits (a notch, a hole, a zone) a new cell starts."""
+    by_line: dict[int, list[LineSegment]] = {}
+    for s in segments:
+        by_line.setdefault(s.line, []).append(s)
+    lines = sorted(by_line)
+
+    def touching(a: LineSegment, bs: list[LineSegment]) -> list[LineSegment]:
+        return [b for b in bs if b.x0 <= a.x1 + a.base and a.x0 <= b.x1 + b.base]
+
+    cell_of: dict[tuple[int, int], int] = {}
+    out: list[list[LineSegment]] = []
+    for i, line in enumerate(lines):
+        prev = by_line.get(line - 1, []) if i > 0 and lines[i - 1] == line - 1 else []
+        for s in sorted(by_line[line], key=lambda s: s.x0):
+            up = touching(s, prev)
+            if len(up) == 1 and len(touching(up[0], by_line[line])) == 1:
+                c = cell_of[(up[0].line, up[0].part)]
+                out[c].append(s)
+            else:
+                c = len(out)
+                out.append([s])
+            cell_of[(s.line, s.part)] = c
+    return out
+
+
+def _cell_runs(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, first_dir: int,
+               offsets: dict[tuple[int, int], int]) -> list[Run]:
+    segs = cell[::-1] if reverse else cell
+    return [_run(p, s, first_dir if k % 2 == 0 else -first_dir, lead_in, offsets[(s.line, s.part)])
+            for k, s in enumerate(segs)]
+
+
+def _cells_route(p: Pass, lead_in: float, k: Kinematics, start_near: tuple[float, float] | None) -> list[Run]:
+    """Fly cell after cell, each as its own boustrophedon, always to the nearest next cell corner."""
+    offsets = _offsets(p)
+    todo = cells(p.segments)
+    here = start_near
+    runs: list[Run] = []
+    while todo:
+        best = None
+        for ci, cell in enumerate(todo):
+            for reverse in (False, True):
+                for first_dir in (1, -1):
+                    cr = _cell_runs(p, cell, lead_in, reverse, first_dir, offsets)
+                    d = 0.0 if here is None else math.dist(here, cr[0].lead_in_xy)
+                    if best is None or d < best[0] - 1e-9:
+                        best = (d, ci, cr)
+        assert best is not None
+        runs.extend(best[2])
+        here = best[2][-1].end_xy
+        todo.pop(best[1])
     return runs
 
 
@@ -211,22 +278,32 @@ def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> fl
 
 
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
-               start_near: tuple[float, float] | None) -> list[Run]:
-    """The fastest order of a pass's lines, starting at the corner nearest `start_near`."""
+               start_near: tuple[float, float] | None) -> tuple[list[Run], str]:
+    """The fastest way through a pass: every line across the whole area (camera off over
+    notches and holes) or cell by cell where the lines split, each from its best corner.
+
+    Returns the runs and which of the two was chosen.
+    """
     n_lines = 1 + max(s.line for s in p.segments)
-    best: tuple[float, list[Run]] | None = None
+    best: tuple[float, list[Run], str] | None = None
+
+    def consider(runs: list[Run], how: str) -> None:
+        nonlocal best
+        cost = path_time(_route_points(runs), k)
+        if start_near is not None:
+            cost += math.dist(start_near, runs[0].lead_in_xy) / k.speed_ms
+        if best is None or cost < best[0] - 1e-9:
+            best = (cost, runs, how)
+
     for order in line_orders(n_lines, spacing, k.turn_radius_m, k.vehicle):
         for reverse in (False, True):
             o = order[::-1] if reverse else order
             for first_dir in (1, -1):
-                runs = _runs_of_pass(p, lead_in, o, first_dir, None)
-                cost = path_time(_route_points(runs), k)
-                if start_near is not None:
-                    cost += math.dist(start_near, runs[0].lead_in_xy) / k.speed_ms
-                if best is None or cost < best[0] - 1e-9:
-                    best = (cost, runs)
+                consider(_runs_of_pass(p, lead_in, o, first_dir), "lines across the whole area")
+    if len(cells(p.segments)) > 1:
+        consider(_cells_route(p, lead_in, k, start_near), f"{len(cells(p.segments))} cells flown one after another")
     assert best is not None
-    return best[1]
+    return best[1], best[2]
 
 
 class Detours:
@@ -288,12 +365,14 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
                 start_near: tuple[float, float] | None, detours: Detours) -> Route:
     """Order every pass, join them, and insert detours wherever a leg would enter a zone."""
     runs: list[Run] = []
+    how: list[str] = []
     here = start_near
     for p, spacing in zip(passes, spacing_by_pass):
         if not p.segments:
             continue
-        pr = order_pass(p, lead_in, k, spacing, here)
+        pr, chosen = order_pass(p, lead_in, k, spacing, here)
         runs.extend(pr)
+        how.append(chosen)
         here = pr[-1].end_xy
     wps: list[Waypoint] = []
     last: tuple[float, float] | None = None
@@ -305,4 +384,4 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
                     wps.append(Waypoint(d[0], d[1], "detour", -1))
             wps.append(Waypoint(pt[0], pt[1], kind, i))
             last = pt
-    return Route(tuple(runs), tuple(wps))
+    return Route(tuple(runs), tuple(wps), tuple(how))

@@ -1,0 +1,89 @@
+"""The MAVLink items of a plan: takeoff, speed, camera on/off per run, lead-ins, end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyproj
+import pytest
+
+from aerosurvey.mission import mavlink_ids as mav
+from aerosurvey.mission.builder import build_mission
+from aerosurvey.plan.planner import plan_mission
+from aerosurvey.spec import load_spec
+from conftest import make_spec
+
+
+def _plan(tmp_path, overrides=None):
+    plan = plan_mission(load_spec(make_spec(tmp_path, overrides)))
+    return plan, build_mission(plan)
+
+
+def test_copter_item_pattern(tmp_path):
+    plan, m = _plan(tmp_path)
+    items = m.items
+    assert items[0].command == mav.NAV_TAKEOFF and items[0].z == pytest.approx(plan.heights.nominal_agl_m, abs=0.01)
+    assert items[1].command == mav.DO_CHANGE_SPEED and items[1].param2 == pytest.approx(plan.speed.speed_ms, abs=0.01)
+    assert items[-1].command == mav.NAV_RETURN_TO_LAUNCH
+    body = [it.command for it in items[2:-1]]
+    run = [mav.NAV_WAYPOINT, mav.NAV_WAYPOINT, mav.DO_SET_CAM_TRIGG_DIST, mav.NAV_WAYPOINT, mav.DO_SET_CAM_TRIGG_DIST]
+    assert body == run * len(plan.route.runs)
+    on = [it for it in items if it.command == mav.DO_SET_CAM_TRIGG_DIST and it.param1 > 0]
+    off = [it for it in items if it.command == mav.DO_SET_CAM_TRIGG_DIST and it.param1 == 0]
+    assert len(on) == len(off) == len(plan.route.runs)
+    assert all(it.param1 == pytest.approx(plan.base_m, abs=0.01) and it.param3 == 1 for it in on)
+    assert {it.frame for it in items if it.command == mav.NAV_WAYPOINT} == {mav.FRAME_GLOBAL_RELATIVE_ALT}
+
+
+def test_line_end_is_half_a_base_past_the_last_station(tmp_path):
+    plan, m = _plan(tmp_path)
+    t = pyproj.Geod(ellps="WGS84")
+    wps = [it for it in m.items if it.command == mav.NAV_WAYPOINT]
+    st = plan.stations
+    for i, r in enumerate(plan.route.runs):
+        lead, first, end = wps[3 * i: 3 * i + 3]
+        last = np.flatnonzero(st.run == i)[-1]
+        firsti = np.flatnonzero(st.run == i)[0]
+        _, _, d_end = t.inv(st.lon[last], st.lat[last], end.y, end.x)
+        _, _, d_first = t.inv(st.lon[firsti], st.lat[firsti], first.y, first.x)
+        _, _, d_lead = t.inv(lead.y, lead.x, first.y, first.x)
+        assert d_first < 0.01
+        assert d_end == pytest.approx(plan.base_m / 2, rel=2e-3)
+        assert d_lead == pytest.approx(plan.lead_in_m, rel=2e-3)
+
+
+def test_copter_lead_in_is_the_stopping_distance(tmp_path):
+    plan, _ = _plan(tmp_path, {"vehicle": {"acceleration_ms2": 2.0}})
+    assert plan.lead_in_m == pytest.approx(max(5.0, plan.speed.speed_ms ** 2 / 4.0))
+
+
+def test_plane_takeoff_and_land_option(tmp_path):
+    plan, m = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}, "flight": {"end": "land"}})
+    assert m.items[0].command == mav.NAV_TAKEOFF and m.items[0].param1 == 15.0
+    assert m.items[-1].command == mav.NAV_LAND
+    assert m.vehicle == "plane" and m.vehicle_type_id == mav.TYPE_FIXED_WING
+    v = plan.speed.speed_ms  # the survey speed (here the motion-blur limit), not the cruise speed
+    assert plan.turn_radius_m == pytest.approx(v ** 2 / (9.80665 * math.tan(math.radians(30))), rel=1e-6)
+
+
+def test_time_trigger_items(tmp_path):
+    plan, m = _plan(tmp_path, {"camera": {"trigger": "time", "interval_s": 3.0}})
+    on = [it for it in m.items if it.command == mav.DO_SET_CAM_TRIGG_INTERVAL and it.param1 > 0]
+    assert len(on) == len(plan.route.runs) and on[0].param1 == 3000.0
+    # ground speed gives the photo base at that interval (or less when the vehicle is slower)
+    assert plan.speed.speed_ms == pytest.approx(min(plan.base_m / 3.0, plan.speed.cruise_ms, plan.speed.blur_limit_ms))
+
+
+def test_camera_intervalometer_has_no_trigger_items(tmp_path):
+    plan, m = _plan(tmp_path, {"camera": {"trigger": "camera", "interval_s": 2.0}})
+    cmds = {it.command for it in m.items}
+    assert mav.DO_SET_CAM_TRIGG_DIST not in cmds and mav.DO_SET_CAM_TRIGG_INTERVAL not in cmds
+    assert plan.trigger_interval_s == 2.0
+
+
+def test_interval_shorter_than_the_camera_cycle_is_refused(tmp_path):
+    from aerosurvey.errors import InputError
+
+    with pytest.raises(InputError, match="shorter than the camera's cycle time"):
+        _plan(tmp_path, {"camera": {"trigger": "camera", "interval_s": 0.2}})
