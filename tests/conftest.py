@@ -6,7 +6,11 @@ import json
 from pathlib import Path
 from typing import Any
 
+import math
+
+import numpy as np
 import pytest
+import shapely
 import tomli_w
 
 REPO = Path(__file__).resolve().parents[1]
@@ -49,3 +53,23 @@ def spec_factory(tmp_path: Path):
         return make_spec(tmp_path, overrides, area)
 
     return factory
+
+
+def random_polygon(kind: str, seed: int, size_m: float) -> list[list[float]]:
+    """Lon/lat rings of a random convex, concave (star) or holed polygon near 49.4 N 15 E."""
+    rng = np.random.default_rng(seed)
+    if kind == "convex":
+        p = rng.uniform(-size_m, size_m, (12, 2))
+        g = shapely.convex_hull(shapely.MultiPoint(p))
+    elif kind == "concave":
+        ang = np.sort(rng.uniform(0, 2 * np.pi, 9))
+        rad = rng.uniform(0.35, 1.0, 9) * size_m
+        g = shapely.Polygon(np.column_stack([rad * np.cos(ang), rad * np.sin(ang)]))
+        g = g if g.is_valid else shapely.convex_hull(g)
+    else:
+        outer = shapely.Point(0, 0).buffer(size_m, quad_segs=4)
+        g = outer.difference(shapely.box(-size_m / 4, -size_m / 5, size_m / 5, size_m / 4))
+    lat0, lon0 = 49.4, 15.0
+    k_lat, k_lon = 1 / 111_320.0, 1 / (111_320.0 * math.cos(math.radians(lat0)))
+    rings = [[[lon0 + x * k_lon, lat0 + y * k_lat] for x, y in r.coords] for r in [g.exterior, *g.interiors]]
+    return rings

@@ -24,7 +24,7 @@ import independent_coverage as ic
 from aerosurvey.camera import get_camera
 from aerosurvey.cli import main
 from aerosurvey.spec import load_spec
-from conftest import REPO, make_spec, write_geojson
+from conftest import REPO, make_spec, random_polygon, write_geojson
 
 
 def run_plan(spec: Path, out: Path) -> dict:
@@ -128,25 +128,6 @@ def test_exclusion_zone_is_routed_around(tmp_path):
     assert any("exclusion" in w for w in res["manifest"]["warnings"])
 
 
-def _polygon(kind: str, seed: int, size_m: float) -> list[list[float]]:
-    rng = np.random.default_rng(seed)
-    if kind == "convex":
-        p = rng.uniform(-size_m, size_m, (12, 2))
-        g = shapely.convex_hull(shapely.MultiPoint(p))
-    elif kind == "concave":
-        ang = np.sort(rng.uniform(0, 2 * np.pi, 9))
-        rad = rng.uniform(0.35, 1.0, 9) * size_m
-        g = shapely.Polygon(np.column_stack([rad * np.cos(ang), rad * np.sin(ang)]))
-        g = g if g.is_valid else shapely.convex_hull(g)
-    else:
-        outer = shapely.Point(0, 0).buffer(size_m, quad_segs=4)
-        g = outer.difference(shapely.box(-size_m / 4, -size_m / 5, size_m / 5, size_m / 4))
-    lat0, lon0 = 49.4, 15.0
-    k_lat, k_lon = 1 / 111_320.0, 1 / (111_320.0 * math.cos(math.radians(lat0)))
-    rings = [[[lon0 + x * k_lon, lat0 + y * k_lat] for x, y in r.coords] for r in [g.exterior, *g.interiors]]
-    return rings
-
-
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000),
        heading=st.one_of(st.just("auto"), st.floats(0, 179.9)), size=st.floats(150, 400),
@@ -154,5 +135,5 @@ def _polygon(kind: str, seed: int, size_m: float) -> list[list[float]]:
 def test_random_areas_are_covered(tmp_path_factory, kind, seed, heading, size, beyond, cross):
     tmp = tmp_path_factory.mktemp("rand")
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": beyond},
-                           "flight": {"heading": heading, "cross_hatch": cross}}, rings=_polygon(kind, seed, size))
+                           "flight": {"heading": heading, "cross_hatch": cross}}, rings=random_polygon(kind, seed, size))
     check_mission(spec, tmp / "out", samples=40)

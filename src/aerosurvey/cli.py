@@ -31,9 +31,11 @@ def main() -> None:
 
 
 def _register() -> None:
-    from aerosurvey.commands import cameras, plan, qa
+    from aerosurvey.commands import cameras, check, gcp, plan, qa
 
     main.add_command(plan.plan)
+    main.add_command(check.check)
+    main.add_command(gcp.gcp)
     main.add_command(cameras.cameras)
     main.add_command(qa.qa)
 

@@ -102,6 +102,7 @@ class MissionSpec:
     terrain: TerrainSpec
     conditions: ConditionsSpec
     profiles: tuple[str, ...]
+    rule_overrides: dict[str, Any]
     path: Path | None
 
 
@@ -357,10 +358,14 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     profiles = r.raw("profiles", [])
     if not isinstance(profiles, list) or not all(isinstance(p, str) for p in profiles):
         raise bad_value("rules.profiles", profiles, "a list of rule profile ids")
+    overrides = r.raw("overrides", {})
+    if not isinstance(overrides, Mapping) or not all("." in k for k in overrides):
+        raise bad_value("rules.overrides", overrides, 'a table of "rule-id.parameter" = value')
     r.done()
     top.done()
 
     return MissionSpec(
         name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
-        flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles), path=path,
+        flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles),
+        rule_overrides=dict(overrides), path=path,
     )

@@ -1,0 +1,64 @@
+"""`aerosurvey check`: evaluate rule profiles on a plan, the strict gate before flight."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from aerosurvey.errors import InputError
+from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, failed_errors, layout_settings
+from aerosurvey.rules.load import open_target
+from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+_MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "info": "INFO", "not-checkable": "N/A "}
+
+
+def run_rules(target, profile_ids: list[str], profile_dirs: list[Path]):
+    """Results of the chosen profiles on a target, with the control point layout used."""
+    ids = profile_ids or target.profiles
+    if not ids:
+        raise InputError("no rule profile chosen: give --profile ID (see `aerosurvey check --list`) or name them in the spec's [rules] profiles")
+    profiles = apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
+    layout = None
+    if target.outdir is not None and (target.outdir / "control_points.geojson").exists():
+        from aerosurvey.rules.cp_files import read_layout
+
+        f = target.outdir / "control_points.geojson"
+        layout = read_layout(f.read_text(), target.view, str(f))
+    ev = Evidence(target.view, layout_settings(target.view, profiles), layout)
+    return evaluate(profiles, ev), ev
+
+
+def format_results(results: list[RuleResult]) -> list[str]:
+    lines = []
+    for r in results:
+        lines.append(f"{_MARK[r.status]} {r.rule}: {r.statement}")
+        lines.append(f"     measured {r.outcome.measured}; required {r.outcome.required}")
+        lines.extend(f"     - {e}" for e in r.outcome.evidence)
+    return lines
+
+
+@click.command()
+@click.argument("target", type=click.Path(path_type=Path))
+@click.option("--profile", "profiles", multiple=True, help="Rule profile id (repeatable); default: the spec's [rules] profiles.")
+@click.option("--profile-dir", "profile_dirs", multiple=True, type=click.Path(file_okay=False, path_type=Path),
+              help="A folder of your own rule profiles (*.toml); also AEROSURVEY_PROFILES.")
+@click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+def check(target: Path, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], as_json: bool) -> None:
+    """Check a mission spec or a plan folder against rule profiles.
+
+    Exit code 0 when every error-level rule passes, 1 when one fails, 2 for bad input.
+    """
+    results, _ = run_rules(open_target(target), list(profiles), list(profile_dirs))
+    if as_json:
+        click.echo(json.dumps({"results": [r.as_dict() for r in results],
+                               "failed": [r.rule for r in failed_errors(results)]}, indent=1))
+    else:
+        for line in format_results(results):
+            click.echo(line)
+        bad = failed_errors(results)
+        click.echo(f"{len(results)} rules: {sum(r.status == 'pass' for r in results)} passed, {len(bad)} failed")
+    if failed_errors(results):
+        raise SystemExit(1)

@@ -1,0 +1,58 @@
+"""`aerosurvey gcp`: propose ground control and check points for the field crew."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import shapely
+
+from aerosurvey.area import read_area
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.rules.cp_files import control_point_files
+from aerosurvey.rules.engine import Evidence, layout_settings
+from aerosurvey.rules.load import open_target
+from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+
+@click.command()
+@click.argument("target", type=click.Path(path_type=Path))
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for the control point files (default: the plan folder given as TARGET).")
+@click.option("--profile", "profiles", multiple=True, help="Rule profile ids whose counts and visibility apply.")
+@click.option("--profile-dir", "profile_dirs", multiple=True, type=click.Path(file_okay=False, path_type=Path))
+@click.option("--nogo", "nogo", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Polygons where no point may go (water, buildings, private land); repeatable.")
+@click.option("--offset", type=float, default=None, help="GCP distance outside the outline in metres (default 10).")
+def gcp(target: Path, outdir: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...],
+        nogo: tuple[Path, ...], offset: float | None) -> None:
+    """Propose GCPs (an envelope outside the perimeter) and check points (inside)."""
+    t = open_target(target)
+    out = outdir or t.outdir
+    if out is None:
+        raise InputError("give -o OUTDIR: TARGET is a spec, not a plan folder")
+    if offset is not None and not 0 < offset <= 500:
+        raise InputError(f"--offset = {offset} is not allowed: a distance in metres in (0, 500]")
+    ids = list(profiles) or t.profiles
+    chosen = apply_overrides(select_profiles(ids, list(profile_dirs)), t.overrides) if ids else []
+    zones = None
+    if nogo:
+        parts = [t.view.to_plan and shapely.transform(read_area(p, None, "EPSG:4326", f"no-go zone {p.name}"),
+                                                      lambda xy: __import__("numpy").column_stack(t.view.to_plan.transform(xy[:, 0], xy[:, 1])))
+                 for p in nogo]
+        zones = shapely.union_all(parts)
+    ev = Evidence(t.view, layout_settings(t.view, chosen, nogo=zones, gcp_offset_m=offset))
+    pts = ev.points
+    files = control_point_files(t.view, pts, ev.footprints)
+    with staged_directory(out) as stage:
+        for name, text in files.items():
+            atomic_write_text(stage / name, text)
+    gcps = [p for p in pts if p.role == "gcp"]
+    cps = [p for p in pts if p.role == "check"]
+    click.echo(f"{len(gcps)} GCPs outside the perimeter (fewest photos on one: {min((p.images for p in gcps), default=0)}), "
+               f"{len(cps)} check points inside ({t.view.area_ha:.1f} ha)")
+    for p in pts:
+        if p.note:
+            click.echo(f"  {p.id}: {p.note}")
+    click.echo(f"wrote {', '.join(sorted(files))} to {out}")

@@ -1,0 +1,122 @@
+"""Ground control and check point layout for the field crew (pure geometry).
+
+GCPs: evenly spaced on a ring `offset` metres outside the area's outline (an envelope
+around the boundary); a GCP seen by too few planned photos is moved towards the outline,
+still outside it, until enough photos see it; if none does, it stays and is reported.
+Check points: a hexagonal grid inside the area at the wanted density, kept away from the
+edge and from the GCPs, densified until the count is reached.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from aerosurvey.rules.footprints import Footprints
+
+
+@dataclass(frozen=True)
+class ControlPoint:
+    id: str
+    role: str  # gcp or check
+    x: float
+    y: float
+    images: int
+    note: str = ""
+
+
+def _outline(area: BaseGeometry) -> BaseGeometry:
+    return shapely.union_all([shapely.Polygon(p.exterior) for p in shapely.get_parts(area)])
+
+
+def propose_gcps(area: BaseGeometry, fp: Footprints, count: int, min_images: int, offset: float,
+                 max_spacing: float, nogo: BaseGeometry | None) -> list[ControlPoint]:
+    """GCPs as an envelope outside the outline, each checked against the planned photos."""
+    outline = _outline(area)
+    ring_geom = shapely.buffer(outline, offset, join_style="mitre")
+    points: list[ControlPoint] = []
+    k = 0
+    for part in shapely.get_parts(ring_geom):
+        ring = part.exterior
+        n = max(count if k == 0 else 3, math.ceil(ring.length / max_spacing), 3)
+        start = ring.project(shapely.Point(ring.bounds[0], ring.bounds[3]))
+        for j in range(n):
+            pos = (start + ring.length * j / n) % ring.length
+            p = ring.interpolate(pos)
+            near = shapely.get_point(shapely.shortest_line(outline.boundary, p), 0)
+            k += 1
+            points.append(_settle(f"GCP{k:02d}", p, near, outline, fp, min_images, nogo))
+    return points
+
+
+def _settle(pid: str, p: shapely.Point, near: shapely.Point, outline: BaseGeometry, fp: Footprints,
+            min_images: int, nogo: BaseGeometry | None) -> ControlPoint:
+    """Move a GCP along its normal towards the outline until enough photos see it."""
+    dx, dy = p.x - near.x, p.y - near.y
+    dist = math.hypot(dx, dy)
+    best = None
+    for frac in np.linspace(1.0, 0.0, 21)[:-1]:
+        x, y = near.x + dx * frac, near.y + dy * frac
+        if shapely.contains_xy(outline, x, y) or (nogo is not None and shapely.contains_xy(nogo, x, y)):
+            continue
+        n = int(fp.count_at(np.array([x]), np.array([y]))[0])
+        if best is None or n > best[2]:
+            best = (x, y, n, frac)
+        if n >= min_images:
+            note = "" if frac == 1.0 else f"moved to {dist * frac:.1f} m outside the outline to be seen by {n} photos"
+            return ControlPoint(pid, "gcp", float(x), float(y), n, note)
+    if best is None:
+        return ControlPoint(pid, "gcp", float(p.x), float(p.y), 0, "no place outside the outline and the no-go zones")
+    return ControlPoint(pid, "gcp", float(best[0]), float(best[1]), best[2],
+                        f"seen by only {best[2]} photos even at {dist * best[3]:.1f} m from the outline: extend the plan here")
+
+
+def ring_order(points: list[ControlPoint], area: BaseGeometry) -> list[ControlPoint]:
+    """GCPs in order around the outline (for the envelope polygon)."""
+    ring = _outline(area).convex_hull.exterior
+    return sorted(points, key=lambda g: ring.project(shapely.Point(g.x, g.y)))
+
+
+def hex_grid(geom: BaseGeometry, spacing: float) -> np.ndarray:
+    x0, y0, x1, y1 = geom.bounds
+    dy = spacing * math.sqrt(3) / 2
+    rows = np.arange(y0 + dy / 2, y1, dy)
+    pts = []
+    for i, y in enumerate(rows):
+        off = spacing / 2 if i % 2 else 0.0
+        xs = np.arange(x0 + spacing / 4 + off, x1, spacing)
+        pts.extend((x, y) for x in xs)
+    if not pts:
+        return np.empty((0, 2))
+    a = np.asarray(pts)
+    return a[shapely.contains_xy(geom, a[:, 0], a[:, 1])]
+
+
+def propose_check_points(area: BaseGeometry, fp: Footprints, ha_per_point: float, minimum: int,
+                         edge_margin: float, gcps: list[ControlPoint], gcp_clearance: float,
+                         nogo: BaseGeometry | None) -> list[ControlPoint]:
+    """Check points on a hexagonal grid: at least area / ha_per_point and `minimum`."""
+    need = max(minimum, math.ceil(area.area / (ha_per_point * 1e4) - 1e-9), 1)
+    usable = shapely.buffer(area, -edge_margin)
+    if usable.is_empty or usable.area < 0.2 * area.area:
+        usable = area
+    if gcps:
+        usable = shapely.difference(usable, shapely.buffer(shapely.MultiPoint([(g.x, g.y) for g in gcps]), gcp_clearance))
+    if nogo is not None:
+        usable = shapely.difference(usable, nogo)
+    # hexagon cell area = sqrt(3)/2 * s^2 per point
+    spacing = math.sqrt(area.area / need / (math.sqrt(3) / 2))
+    pts = hex_grid(usable, spacing)
+    for _ in range(200):
+        if len(pts) >= need:
+            break
+        spacing *= 0.97
+        pts = hex_grid(usable, spacing)
+    if len(pts) == 0:
+        return []
+    counts = fp.count_at(pts[:, 0], pts[:, 1])
+    return [ControlPoint(f"CP{i + 1:03d}", "check", float(x), float(y), int(c)) for i, ((x, y), c) in enumerate(zip(pts, counts))]

@@ -1,0 +1,126 @@
+"""Control point files for the field crew: GeoJSON, CSV, GPX, and an OpenDroneMap
+gcp_list.txt template."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from html import escape
+
+import numpy as np
+
+from aerosurvey.rules.control_points import ControlPoint
+from aerosurvey.rules.footprints import Footprints
+from aerosurvey.rules.planview import PlanView
+
+
+def _lonlat(view: PlanView, pts: list[ControlPoint]) -> tuple[np.ndarray, np.ndarray]:
+    lon, lat = view.to_wgs84.transform(np.array([p.x for p in pts], float), np.array([p.y for p in pts], float))
+    return np.atleast_1d(lon), np.atleast_1d(lat)
+
+
+def target_size_cm(view: PlanView, factor: float = 3.5) -> float:
+    cam = view.camera
+    gsd_cm = float(view.agl.max()) * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"] * 100
+    return round(factor * gsd_cm, 1)
+
+
+def to_geojson(view: PlanView, pts: list[ControlPoint]) -> str:
+    lon, lat = _lonlat(view, pts)
+    size = target_size_cm(view)
+    feats = [{"type": "Feature", "id": p.id, "properties": {
+        "id": p.id, "role": p.role, "images": p.images, "target_size_cm": size, "easting": round(p.x, 3),
+        "northing": round(p.y, 3), "crs": view.crs, "note": p.note},
+        "geometry": {"type": "Point", "coordinates": [round(float(lo), 8), round(float(la), 8)]}}
+        for p, lo, la in zip(pts, lon, lat)]
+    return json.dumps({"type": "FeatureCollection", "name": "control_points", "features": feats}, indent=1) + "\n"
+
+
+def to_csv(view: PlanView, pts: list[ControlPoint]) -> str:
+    lon, lat = _lonlat(view, pts)
+    size = target_size_cm(view)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["id", "role", "easting", "northing", "lat", "lon", "crs", "target_size_cm", "images", "note"])
+    for p, lo, la in zip(pts, lon, lat):
+        w.writerow([p.id, "GCP" if p.role == "gcp" else "CP", f"{p.x:.3f}", f"{p.y:.3f}", f"{la:.8f}", f"{lo:.8f}",
+                    view.crs, size, p.images, p.note])
+    return buf.getvalue()
+
+
+def to_gpx(view: PlanView, pts: list[ControlPoint]) -> str:
+    lon, lat = _lonlat(view, pts)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             '<gpx version="1.1" creator="aerosurvey" xmlns="http://www.topografix.com/GPX/1/1">']
+    for p, lo, la in zip(pts, lon, lat):
+        kind = "ground control point" if p.role == "gcp" else "check point"
+        lines.append(f'  <wpt lat="{la:.8f}" lon="{lo:.8f}"><name>{escape(p.id)}</name>'
+                     f'<desc>{escape(kind)}, target {target_size_cm(view)} cm, seen by {p.images} planned photos</desc>'
+                     f'<sym>{"Flag, Red" if p.role == "gcp" else "Flag, Blue"}</sym></wpt>')
+    lines.append("</gpx>")
+    return "\n".join(lines) + "\n"
+
+
+def to_odm_gcp_list(view: PlanView, pts: list[ControlPoint], fp: Footprints, per_point: int = 6) -> str:
+    """OpenDroneMap gcp_list.txt template: the CRS line, then per GCP the planned photos
+    that should see it, with the pixel where it should appear (nadir model).
+
+    The image column holds the station id: replace it with the image file name once the
+    photos are linked to stations; heights are 0 until the GCPs are surveyed.
+    """
+    cam = view.camera
+    nw, nh = cam["image_px"]
+    lines = [view.crs]
+    s, c = np.sin(fp.heading_rad), np.cos(fp.heading_rad)
+    for p in pts:
+        if p.role != "gcp":
+            continue
+        dx, dy = p.x - fp.x, p.y - fp.y
+        u = dx * s + dy * c  # along track, forward
+        v = dx * c - dy * s  # across track, to the right
+        inside = (np.abs(u) <= fp.along / 2) & (np.abs(v) <= fp.across / 2)
+        order = np.argsort(np.hypot(u, v))
+        for i in [j for j in order if inside[j]][:per_point]:
+            if cam["mount"] == "landscape":
+                col = nw / 2 + v[i] / fp.across[i] * nw
+                row = nh / 2 - u[i] / fp.along[i] * nh
+            else:
+                col = nh / 2 + v[i] / fp.across[i] * nh
+                row = nw / 2 - u[i] / fp.along[i] * nw
+            lines.append(f"{p.x:.3f} {p.y:.3f} 0.000 {math.floor(col)} {math.floor(row)} {view.station_ids[i]} {p.id}")
+    return "\n".join(lines) + "\n"
+
+
+def control_point_files(view: PlanView, pts: list[ControlPoint], fp: Footprints) -> dict[str, str]:
+    return {
+        "control_points.geojson": to_geojson(view, pts),
+        "control_points.csv": to_csv(view, pts),
+        "control_points.gpx": to_gpx(view, pts),
+        "gcp_list.txt": to_odm_gcp_list(view, pts, fp),
+    }
+
+
+def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
+    """Control points from a control_points.geojson; images per point are measured again."""
+    from aerosurvey.errors import InputError
+    from aerosurvey.rules.footprints import footprints
+
+    try:
+        fc = json.loads(text)
+        feats = fc["features"]
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise InputError(f"{where}: not a control point GeoJSON ({exc})") from None
+    pts = []
+    for i, f in enumerate(feats):
+        props = f.get("properties", {})
+        role = props.get("role")
+        if role not in ("gcp", "check"):
+            raise InputError(f"{where}: feature {i + 1} has role {role!r}; allowed: gcp, check")
+        lon, lat = f["geometry"]["coordinates"][:2]
+        x, y = view.to_plan.transform(lon, lat)
+        pts.append(ControlPoint(str(props.get("id", f"P{i + 1}")), role, float(x), float(y), 0, str(props.get("note", ""))))
+    fp = footprints(view)
+    counts = fp.count_at(np.array([p.x for p in pts]), np.array([p.y for p in pts])) if pts else []
+    return [ControlPoint(p.id, p.role, p.x, p.y, int(n), p.note) for p, n in zip(pts, counts)]

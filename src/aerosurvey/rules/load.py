@@ -1,0 +1,48 @@
+"""Open what `check` and `gcp` are pointed at: a mission spec (planned in memory) or an
+output folder of `aerosurvey plan`."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from aerosurvey.errors import InputError
+from aerosurvey.rules.planview import PlanView
+
+
+@dataclass(frozen=True)
+class Target:
+    view: PlanView
+    profiles: list[str]
+    overrides: dict[str, Any]
+    outdir: Path | None
+
+
+def plan_documents(plan) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The manifest and GeoJSON of a plan, in memory (no files written)."""
+    from aerosurvey.manifest import build_manifest
+    from aerosurvey.mission.builder import build_mission
+    from aerosurvey.report.features import plan_features
+
+    mission = build_mission(plan)
+    return build_manifest(plan, len(mission.items), {}), plan_features(plan, with_footprints=False)
+
+
+def open_target(path: Path) -> Target:
+    if path.is_dir():
+        view = PlanView.from_outdir(path)
+        m = view.manifest
+        return Target(view, list(m["mission"].get("profiles", [])), dict(m.get("rule_overrides", {})), path)
+    if path.suffix.lower() == ".toml":
+        from aerosurvey.plan.planner import plan_mission
+        from aerosurvey.spec import load_spec
+
+        spec = load_spec(path)
+        manifest, features = plan_documents(plan_mission(spec))
+        view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, str(path))
+        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
+    if not path.exists():
+        raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")
+    raise InputError(f"{str(path)!r} is neither a mission spec (.toml) nor a folder written by `aerosurvey plan`")

@@ -1,0 +1,56 @@
+"""Control point layout over random areas: counts, places, spread, visibility."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import shapely
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from aerosurvey.plan.planner import plan_mission
+from aerosurvey.rules.engine import Evidence, layout_settings
+from aerosurvey.rules.load import plan_documents
+from aerosurvey.rules.planview import PlanView
+from aerosurvey.rules.profile import select_profiles
+from aerosurvey.spec import load_spec
+from conftest import make_spec, random_polygon
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 450))
+def test_layout_on_random_areas(tmp_path_factory, kind, seed, size):
+    tmp = tmp_path_factory.mktemp("cp")
+    spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 8}}, rings=random_polygon(kind, seed, size))
+    manifest, features = plan_documents(plan_mission(load_spec(spec)))
+    view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
+    profiles = select_profiles(["cz-land-consolidation"])
+    ev = Evidence(view, layout_settings(view, profiles))
+    cps = ev.control_points("check")
+    gcps = ev.control_points("gcp")
+
+    # check points: at least one per 3 ha, all inside the area
+    assert len(cps) >= math.ceil(view.area_ha / 3.0 - 1e-9)
+    xy = np.array([(p.x, p.y) for p in cps])
+    assert shapely.contains_xy(view.area, xy[:, 0], xy[:, 1]).all()
+
+    # spread: every cell of a coarse grid that is mostly inside the area holds a check point
+    cell = 3.0 * math.sqrt(3e4 / (math.sqrt(3) / 2))
+    x0, y0, x1, y1 = view.area.bounds
+    for cx in np.arange(x0, x1, cell):
+        for cy in np.arange(y0, y1, cell):
+            box = shapely.box(cx, cy, cx + cell, cy + cell)
+            if shapely.intersection(view.area, box).area >= 0.75 * box.area:
+                inside = (xy[:, 0] >= cx) & (xy[:, 0] < cx + cell) & (xy[:, 1] >= cy) & (xy[:, 1] < cy + cell)
+                assert inside.any(), f"empty grid cell at {cx:.0f},{cy:.0f}"
+
+    # GCPs: outside the area, seen by at least 6 planned photos, as many as the rule asks
+    assert len(gcps) >= math.ceil(len(view.station_ids) / 100) + 1
+    for g in gcps:
+        assert not shapely.contains_xy(view.area, g.x, g.y)
+        assert g.images >= 6, g
+    # the images count is the footprints' own count, measured again
+    recount = ev.footprints.count_at(np.array([g.x for g in gcps]), np.array([g.y for g in gcps]))
+    assert list(recount) == [g.images for g in gcps]

@@ -1,0 +1,173 @@
+"""Rule profiles before flight: the examples from issue 4, user profiles, malformed profiles."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from aerosurvey.cli import main
+from aerosurvey.errors import InputError
+from aerosurvey.rules.checks import evaluate_formula
+from aerosurvey.rules.profile import available_profiles, parse_profile
+
+REPO = Path(__file__).resolve().parents[2]
+OBRATAN = REPO / "missions" / "obratan-72ha.toml"
+
+
+def _variant(tmp_path: Path, replace: dict[str, str]) -> Path:
+    text = OBRATAN.read_text()
+    for old, new in replace.items():
+        assert old in text, old
+        text = text.replace(old, new)
+    (tmp_path / "areas").mkdir(exist_ok=True)
+    (tmp_path / "areas" / "obratan-72ha.geojson").write_text((REPO / "missions/areas/obratan-72ha.geojson").read_text())
+    p = tmp_path / "variant.toml"
+    p.write_text(text)
+    return p
+
+
+def _check(target: Path, *args: str) -> tuple[int, dict]:
+    res = CliRunner().invoke(main, ["check", str(target), "--json", *args])
+    assert res.exit_code in (0, 1), res.output
+    return res.exit_code, {r["rule"]: r for r in json.loads(res.output)["results"]}
+
+
+def test_obratan_passes_cz_land_consolidation():
+    code, res = _check(OBRATAN)
+    assert code == 0
+    failed = [k for k, r in res.items() if r["status"] == "fail"]
+    assert failed == []
+    assert res["cz-processing"]["status"] == "not-checkable"
+
+
+def test_seventy_percent_forward_overlap_fails_with_the_measured_value(tmp_path):
+    code, res = _check(_variant(tmp_path, {"forward_overlap = 0.75": "forward_overlap = 0.70"}))
+    assert code == 1
+    r = res["cz-forward-overlap"]
+    assert r["status"] == "fail" and r["measured"].startswith("70.0 %")
+
+
+def test_ricoh_gr_fails_the_pixel_rule(tmp_path):
+    code, res = _check(_variant(tmp_path, {'model = "sony-a6000-16mm"': 'model = "ricoh-gr"'}))
+    assert code == 1
+    assert res["cz-pixel-pitch"]["status"] == "fail" and "4.78 um" in res["cz-pixel-pitch"]["measured"]
+
+
+def test_lines_stopping_at_the_boundary_fail_the_8_image_rule(tmp_path):
+    code, res = _check(_variant(tmp_path, {"images_beyond_boundary = 8": "images_beyond_boundary = 0"}))
+    assert code == 1
+    r = res["cz-images-beyond-boundary"]
+    assert r["status"] == "fail"
+    assert any(e.startswith("P1-L") and "photos outside" in e for e in r["evidence"])
+
+
+def test_gcp_moved_inside_fails_the_envelope_rule(tmp_path):
+    out = tmp_path / "out"
+    assert CliRunner().invoke(main, ["plan", str(OBRATAN), "-o", str(out)]).exit_code == 0
+    assert CliRunner().invoke(main, ["gcp", str(out)]).exit_code == 0
+    code, res = _check(out)
+    assert code == 0 and res["cz-gcp-envelope"]["status"] == "pass"
+    fc = json.loads((out / "control_points.geojson").read_text())
+    gcp = next(f for f in fc["features"] if f["properties"]["role"] == "gcp")
+    area = json.loads((out / "plan.geojson").read_text())["features"][0]["geometry"]
+    import shapely
+
+    c = shapely.geometry.shape(area).centroid
+    gcp["geometry"]["coordinates"] = [c.x, c.y]
+    (out / "control_points.geojson").write_text(json.dumps(fc))
+    code, res = _check(out)
+    assert code == 1
+    r = res["cz-gcp-envelope"]
+    assert r["status"] == "fail" and any(gcp["properties"]["id"] in e and "inside" in e for e in r["evidence"])
+
+
+def test_height_profiles(tmp_path):
+    code, res = _check(OBRATAN, "--profile", "eu-open", "--profile", "us-part107")
+    assert code == 0 and res["eu-open-height"]["status"] == "pass"
+    code, res = _check(_variant(tmp_path, {"gsd_cm = 2.5": "height_m = 125", "max_height_agl_m = 120": "max_height_agl_m = 150"}),
+                       "--profile", "eu-open", "--profile", "us-part107")
+    assert code == 1
+    assert res["eu-open-height"]["status"] == "fail" and res["part107-height"]["status"] == "fail"
+
+
+def test_asprs_profiles_count_check_points():
+    code, res = _check(OBRATAN, "--profile", "asprs-2014", "--profile", "asprs-2023")
+    assert res["asprs2014-check-point-count"]["required"].startswith(">= 20 horizontal and 25 vertical")
+    assert res["asprs2023-check-point-count"]["required"].startswith(">= 30")
+    # the layout honours the stricter minimum of the chosen profiles
+    assert res["asprs2023-check-point-count"]["status"] == "pass"
+
+
+USER_PROFILE = """
+[profile]
+id = "acme-spec"
+name = "ACME company spec"
+
+[[rules]]
+id = "acme-gsd"
+statement = "GSD at most 2 cm"
+check = "gsd_max"
+severity = "error"
+source = "ACME survey handbook 4.2"
+params = { max_cm = 2.0 }
+"""
+
+
+def test_user_profile_is_picked_up(tmp_path):
+    d = tmp_path / "profiles"
+    d.mkdir()
+    (d / "acme.toml").write_text(USER_PROFILE)
+    code, res = _check(OBRATAN, "--profile", "acme-spec", "--profile-dir", str(d))
+    assert code == 1 and res["acme-gsd"]["status"] == "fail" and res["acme-gsd"]["measured"].startswith("2.50 cm")
+
+
+def test_user_profile_from_environment(tmp_path, monkeypatch):
+    (tmp_path / "acme.toml").write_text(USER_PROFILE.replace("max_cm = 2.0", "max_cm = 3.0"))
+    monkeypatch.setenv("AEROSURVEY_PROFILES", str(tmp_path))
+    assert "acme-spec" in available_profiles()
+    code, res = _check(OBRATAN, "--profile", "acme-spec")
+    assert code == 0 and res["acme-gsd"]["status"] == "pass"
+
+
+@pytest.mark.parametrize("change,needle", [
+    ('check = "gsd_max"', "field 'check' = 'gsd_maximum' is not a known check"),
+    ('severity = "error"', "field 'severity' = 'fatal'"),
+    ("params = { max_cm = 2.0 }", "parameter 'max_cm' = 'two' must be"),
+    ('statement = "GSD at most 2 cm"', "field 'statement' is missing"),
+])
+def test_malformed_profile_names_file_rule_and_field(tmp_path, change, needle):
+    bad = {
+        'check = "gsd_max"': 'check = "gsd_maximum"',
+        'severity = "error"': 'severity = "fatal"',
+        "params = { max_cm = 2.0 }": 'params = { max_cm = "two" }',
+        'statement = "GSD at most 2 cm"': "",
+    }[change]
+    f = tmp_path / "bad.toml"
+    f.write_text(USER_PROFILE.replace(change, bad))
+    with pytest.raises(InputError) as exc:
+        parse_profile(f.read_text(), str(f))
+    msg = str(exc.value)
+    assert str(f) in msg and "acme-gsd" in msg and needle in msg
+
+
+def test_override_from_the_spec(tmp_path):
+    p = _variant(tmp_path, {'profiles = ["cz-land-consolidation"]':
+                            'profiles = ["cz-land-consolidation"]\noverrides = { "cz-gsd.max_cm" = 2.0 }'})
+    code, res = _check(p)
+    assert code == 1 and res["cz-gsd"]["status"] == "fail" and "overridden" in res["cz-gsd"]["source"]
+
+
+def test_no_profile_is_bad_input(tmp_path):
+    p = _variant(tmp_path, {'profiles = ["cz-land-consolidation"]': "profiles = []"})
+    res = CliRunner().invoke(main, ["check", str(p)])
+    assert res.exit_code == 2 and "no rule profile chosen" in res.output
+
+
+def test_formula_is_restricted():
+    assert evaluate_formula("ceil(n_images / 100) + 1", n_images=903) == 11
+    with pytest.raises(InputError, match="may use only"):
+        evaluate_formula("__import__('os').system('true')", n_images=1)
