@@ -1,10 +1,12 @@
-"""Write every output of `aerosurvey plan` into a folder, all or nothing."""
+"""Render and write every output of `aerosurvey plan`, all or nothing."""
 
 from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from aerosurvey import manifest as mf
 from aerosurvey.fileio import atomic_write_text, staged_directory
@@ -17,8 +19,29 @@ from aerosurvey.report.features import plan_features
 from aerosurvey.report.preview import render_svg
 
 
-def render_outputs(plan: PlanResult) -> dict[str, str]:
-    """File name → text of every output (the manifest last, since it lists the others' hashes)."""
+@dataclass(frozen=True)
+class Rendered:
+    files: dict[str, str]
+    rules: list[dict[str, Any]]
+    warnings: list[str]
+
+
+def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any]):
+    """Evaluate the spec's rule profiles on the plan as later readers will see it."""
+    from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
+    from aerosurvey.rules.planview import PlanView
+    from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+    if not plan.spec.profiles:
+        return [], []
+    view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "the plan")
+    profiles = apply_overrides(select_profiles(list(plan.spec.profiles)), plan.spec.rule_overrides)
+    ev = Evidence(view, layout_settings(view, profiles))
+    return evaluate(profiles, ev), ev.points
+
+
+def render_outputs(plan: PlanResult) -> Rendered:
+    """File name → text of every output (the manifest last: it lists the others' hashes)."""
     mission = build_mission(plan, name=plan.spec.name)
     fc = plan_features(plan)
     files = {
@@ -26,17 +49,25 @@ def render_outputs(plan: PlanResult) -> dict[str, str]:
         "mission.waypoints": dumps_wpl(mission),
         "plan.geojson": json.dumps(fc, separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n",
         "plan.kml": feature_collection_to_kml(fc, plan.spec.name),
-        "preview.svg": render_svg(plan),
     }
-    hashes = {name: hashlib.sha256(text.encode("utf-8")).hexdigest() for name, text in files.items()}
-    files["manifest.json"] = mf.dumps(mf.build_manifest(plan, len(mission.items), hashes))
-    return files
+    manifest = mf.build_manifest(plan, len(mission.items), {})
+    results, points = _rules(plan, manifest, fc)
+    warnings = list(plan.warnings)
+    for r in results:
+        if r.status in ("fail", "warning"):
+            warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
+    files["preview.svg"] = render_svg(plan, results, points)
+    manifest["outputs"] = {name: hashlib.sha256(text.encode("utf-8")).hexdigest() for name, text in sorted(files.items())}
+    manifest["rules"] = [r.as_dict() for r in results]
+    manifest["warnings"] = warnings
+    files["manifest.json"] = mf.dumps(manifest)
+    return Rendered(files, manifest["rules"], warnings)
 
 
-def write_outputs(plan: PlanResult, outdir: Path) -> dict[str, str]:
+def write_outputs(plan: PlanResult, outdir: Path) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
-    files = render_outputs(plan)
+    rendered = render_outputs(plan)
     with staged_directory(outdir) as stage:
-        for name, text in files.items():
+        for name, text in rendered.files.items():
             atomic_write_text(stage / name, text)
-    return files
+    return rendered

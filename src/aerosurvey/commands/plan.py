@@ -10,13 +10,15 @@ from aerosurvey.plan.planner import PlanResult, plan_mission
 from aerosurvey.spec import load_spec
 
 
-def summary(plan: PlanResult) -> list[str]:
+def summary(plan: PlanResult, warnings: list[str], rules: list[dict]) -> list[str]:
     e = plan.estimates
     h = plan.heights
     sp = plan.speed
     lines = [
         f"mission {plan.spec.name}: {plan.area.area / 1e4:.2f} ha in {plan.planar.name}, camera {plan.spec.camera.camera.name}",
-        f"  height AGL      {h.nominal_agl_m:.1f} m ({h.mode} terrain mode; {h.spacing_agl_m:.1f}..{h.max_agl_m:.1f} m above the ground)",
+        f"  height AGL      {h.nominal_agl_m:.1f} m ("
+        + ("flat ground, no DEM" if h.mode == "none" else f"terrain mode {h.mode}; {h.spacing_agl_m:.1f}..{h.max_agl_m:.1f} m above the ground")
+        + ")",
         f"  GSD             {plan.gsd_min_m * 100:.2f}..{plan.gsd_max_m * 100:.2f} cm (target {plan.gsd_target_m * 100:.2f} cm)",
         f"  footprint       {plan.across_m:.1f} m across x {plan.along_m:.1f} m along",
         f"  line spacing    {plan.spacing_m:.1f} m, trigger distance {plan.base_m:.1f} m"
@@ -31,7 +33,10 @@ def summary(plan: PlanResult) -> list[str]:
     ]
     if plan.sun is not None:
         lines.append(f"  sun elevation   {plan.sun['min_elevation_deg']}..{plan.sun['max_elevation_deg']} deg over the planned window")
-    for w in plan.warnings:
+    if rules:
+        failed = [r for r in rules if r["status"] in ("fail", "warning")]
+        lines.append(f"  rules           {len(rules)} evaluated, {len(failed)} failing (`aerosurvey check` for the evidence)")
+    for w in warnings:
         lines.append(f"  warning: {w}")
     return lines
 
@@ -46,7 +51,7 @@ def plan(spec: Path, outdir: Path) -> None:
     result = plan_mission(mission_spec)
     from aerosurvey.outputs import write_outputs  # the format writers load only when there is a plan to write
 
-    files = write_outputs(result, outdir)
-    for line in summary(result):
+    rendered = write_outputs(result, outdir)
+    for line in summary(result, rendered.warnings, rendered.rules):
         click.echo(line)
-    click.echo(f"wrote {', '.join(sorted(files))} to {outdir}")
+    click.echo(f"wrote {', '.join(sorted(rendered.files))} to {outdir}")

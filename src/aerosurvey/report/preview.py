@@ -15,16 +15,16 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.planner import PlanResult
 
-_W, _H, _PAD, _HEAD = 1000, 800, 40, 70
+_W, _H, _PAD, _HEAD, _FOOT = 1000, 800, 40, 70, 30
 
 
 class _View:
     def __init__(self, bounds: tuple[float, float, float, float]):
         x0, y0, x1, y1 = bounds
-        self.s = min((_W - 2 * _PAD) / max(x1 - x0, 1e-9), (_H - _HEAD - 2 * _PAD) / max(y1 - y0, 1e-9))
+        self.s = min((_W - 2 * _PAD) / max(x1 - x0, 1e-9), (_H - _HEAD - _FOOT - 2 * _PAD) / max(y1 - y0, 1e-9))
         self.x0, self.y1 = x0, y1
         self.ox = _PAD + ((_W - 2 * _PAD) - (x1 - x0) * self.s) / 2
-        self.oy = _HEAD + _PAD + ((_H - _HEAD - 2 * _PAD) - (y1 - y0) * self.s) / 2
+        self.oy = _HEAD + _PAD + ((_H - _HEAD - _FOOT - 2 * _PAD) - (y1 - y0) * self.s) / 2
 
     def pt(self, x: float, y: float) -> tuple[float, float]:
         return self.ox + (x - self.x0) * self.s, self.oy + (self.y1 - y) * self.s
@@ -52,8 +52,8 @@ def _scale_bar(view: _View) -> str:
             f'<text x="{x + px + 6:.1f}" y="{y}" font-size="13">{label}</text></g>')
 
 
-def render_svg(plan: PlanResult) -> str:
-    """The preview as SVG text (deterministic)."""
+def render_svg(plan: PlanResult, rules: list | None = None, points: list | None = None) -> str:
+    """The preview as SVG text (deterministic), with rule results and control points when given."""
     st = plan.stations
     wp = np.asarray([(w.x, w.y) for w in plan.waypoints])
     geoms = [plan.area, shapely.MultiPoint(wp)]
@@ -89,13 +89,29 @@ def render_svg(plan: PlanResult) -> str:
     parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2"><title>take-off (home)</title></circle>')
     sx, sy = path_pts[0]
     parts.append(f'<polygon points="{sx:.1f},{sy - 9:.1f} {sx + 8:.1f},{sy + 6:.1f} {sx - 8:.1f},{sy + 6:.1f}" fill="#0a0"><title>start of the survey</title></polygon>')
+    for p in points or []:
+        px, py = view.pt(p.x, p.y)
+        if p.role == "gcp":
+            parts.append(f'<rect x="{px - 5:.1f}" y="{py - 5:.1f}" width="10" height="10" fill="#e00" stroke="#000">'
+                         f'<title>{escape(p.id)}: GCP, {p.images} photos</title></rect>')
+        else:
+            parts.append(f'<circle cx="{px:.1f}" cy="{py:.1f}" r="5" fill="#08f" stroke="#000">'
+                         f'<title>{escape(p.id)}: check point, {p.images} photos</title></circle>')
+    if rules:
+        bad = [r for r in rules if r.status in ("fail", "warning")]
+        colour = "#b00" if bad else "#070"
+        text = f"rules: {len(rules)} evaluated, {len(bad)} failing" + (": " + ", ".join(r.rule for r in bad[:4]) if bad else "")
+        parts.append(f'<text x="{_PAD}" y="{_HEAD - 2}" font-size="13" fill="{colour}">{escape(text)}</text>')
     parts.append(_scale_bar(view))
     nx, ny = _W - 50, _HEAD + 30
     parts.append(f'<g><polygon points="{nx},{ny - 20} {nx + 8},{ny + 6} {nx},{ny} {nx - 8},{ny + 6}" fill="#222"/>'
                  f'<text x="{nx - 5}" y="{ny + 24}" font-size="14">N</text></g>')
-    legend = [("#cfe8c4", "area"), ("#f4b4b4", "exclusion zone"), (colours[1], "lines"), (colours[2], "cross-hatch lines")]
-    for k, (c, label) in enumerate(legend):
-        y = _H - 18 - 20 * (len(legend) - k)
-        parts.append(f'<rect x="{_W - 190}" y="{y - 10}" width="14" height="10" fill="{c}"/><text x="{_W - 170}" y="{y}" font-size="12">{label}</text>')
+    legend = [("#cfe8c4", "area"), ("#f4b4b4", "exclusion zone"), (colours[1], "lines"), (colours[2], "cross-hatch lines"),
+              ("#e00", "GCP"), ("#08f", "check point")]
+    x, y = 330, _H - 12
+    for c, label in legend:
+        parts.append(f'<rect x="{x}" y="{y - 10}" width="14" height="10" fill="{c}" stroke="#444" stroke-width="0.5"/>'
+                     f'<text x="{x + 18}" y="{y}" font-size="12">{label}</text>')
+        x += 30 + 7 * len(label)
     parts.append("</svg>")
     return "\n".join(parts) + "\n"
