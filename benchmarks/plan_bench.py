@@ -123,7 +123,17 @@ def quality(plan) -> dict[str, float]:
     bound_len = passes * area / s + runs * 2 * ext
     flown = sum((len(r.station_xy) - 1) * b for r in plan.route.runs)
     bound_photos = passes * area / (s * b) + runs * 2 * ext / b
-    return {"line_length_m": round(flown, 1), "line_length_bound_m": round(bound_len, 1),
+    # the fewest whole lines that put every point of the area's width in k_side strips
+    # (the outer-edge rule), at each pass's heading: the structural minimum
+    from aerosurvey.plan.frame import LineFrame
+
+    k_side = plan.side_images_per_point
+    min_lines = 0
+    for p in plan.passes:
+        _, v0, _, v1 = LineFrame(p.frame.heading_deg).geom_to_frame(plan.area).bounds
+        min_lines += max(k_side, math.ceil((v1 - v0 - plan.across_m + 2 * (k_side - 1) * s) / s - 1e-9) + 1)
+    lines = len({(r.pass_index, r.line) for r in plan.route.runs})
+    return {"lines": lines, "min_lines": min_lines,"line_length_m": round(flown, 1), "line_length_bound_m": round(bound_len, 1),
             "line_length_ratio": round(flown / bound_len, 4), "photos": len(plan.stations.ids),
             "photos_bound": round(bound_photos, 1), "photos_ratio": round(len(plan.stations.ids) / bound_photos, 4)}
 
@@ -140,7 +150,7 @@ def run_case(name: str) -> dict:
         t0 = time.perf_counter()
         plan = plan_mission(load_spec(spec_path))
         t1 = time.perf_counter()
-        files = write_outputs(plan, tmp / "out")
+        files = write_outputs(plan, tmp / "out").files
         t2 = time.perf_counter()
         size = sum(len(v.encode()) for v in files.values())
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -168,11 +178,11 @@ def main() -> None:
         rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
     base = next((r["total_s"] for r in rows if r["case"] == "72ha"), None)
     cols = ["case", "area_ha", "plan_s", "write_s", "total_s", "x72ha", "peak_rss_mb", "output_mb",
-            "line_length_ratio", "photos", "photos_ratio"]
-    print("  ".join(f"{c:>14}" for c in cols))
+            "line_length_ratio", "lines", "min_lines", "photos", "photos_ratio"]
+    print("  ".join(f"{c:>11}" for c in cols))
     for r in rows:
         r["x72ha"] = round(r["total_s"] / base, 1) if base else float("nan")
-        print("  ".join(f"{str(r[c]):>14}" for c in cols))
+        print("  ".join(f"{str(r[c]):>11}" for c in cols))
 
 
 if __name__ == "__main__":

@@ -68,13 +68,19 @@ def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]
             "lead_in": _lonlat(plan, r.lead_in_xy),
             "end": _lonlat(plan, r.end_xy),
         })
+    gsd_cm = st.agl_m * cam.pixel_pitch_mm / cam.focal_mm * 100
+
+    def col(a: np.ndarray, nd: int) -> list[float | None]:
+        r = np.round(np.asarray(a, float), nd)
+        return [None if not math.isfinite(v) else v for v in r.tolist()]
+
+    columns = zip(st.ids, [run_id(plan, int(r)) for r in st.run], col(st.x, 3), col(st.y, 3), col(st.lon, 8),
+                  col(st.lat, 8), col(st.ground_m, 2), col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3),
+                  col(st.heading_deg, 3))
     stations = [
-        {"id": sid, "seq": j + 1, "line": run_id(plan, int(st.run[j])), "x": _f(st.x[j]), "y": _f(st.y[j]),
-         "lon": _f(st.lon[j], 8), "lat": _f(st.lat[j], 8), "ground_m": _f(st.ground_m[j], 2),
-         "alt_rel_m": _f(st.alt_rel_m[j], 2), "agl_m": _f(st.agl_m[j], 2),
-         "gsd_cm": _f(st.agl_m[j] * cam.pixel_pitch_mm / cam.focal_mm * 100, 3),
-         "heading_deg": _f(st.heading_deg[j])}
-        for j, sid in enumerate(st.ids)
+        {"id": sid, "seq": j + 1, "line": line, "x": x, "y": y, "lon": lon, "lat": lat, "ground_m": g,
+         "alt_rel_m": a, "agl_m": agl, "gsd_cm": gsd, "heading_deg": hd}
+        for j, (sid, line, x, y, lon, lat, g, a, agl, gsd, hd) in enumerate(columns)
     ]
     inputs = {
         "spec": _input(spec.path, base) if spec.path else None,
@@ -99,6 +105,7 @@ def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]
         "targets": {"gsd_cm": _f(plan.gsd_target_m * 100, 4), "forward_overlap": spec.targets.forward_overlap,
                     "side_overlap": spec.targets.side_overlap,
                     "images_beyond_boundary": spec.targets.images_beyond_boundary,
+                    "coverage_margin_m": spec.targets.coverage_margin_m,
                     "max_height_agl_m": spec.vehicle.max_height_agl_m},
         "derived": {
             "height_agl_m": _f(h.nominal_agl_m), "height_for_gsd_m": _f(h.target_agl_m),
@@ -135,4 +142,18 @@ def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]
 
 
 def dumps(manifest: dict[str, Any]) -> str:
-    return json.dumps(manifest, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+    """JSON with one top-level key per line and one line or station per line: readable,
+    diff-friendly, and written by json's C encoder (an `indent` would fall back to Python)."""
+    enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
+    out = ["{"]
+    keys = list(manifest)
+    for i, key in enumerate(keys):
+        value = manifest[key]
+        comma = "," if i < len(keys) - 1 else ""
+        if isinstance(value, list) and value and isinstance(value[0], dict):
+            rows = ",\n  ".join(enc.encode(v) for v in value)
+            out.append(f"{enc.encode(key)}: [\n  {rows}\n]{comma}")
+        else:
+            out.append(f"{enc.encode(key)}: {enc.encode(value)}{comma}")
+    out.append("}")
+    return "\n".join(out) + "\n"

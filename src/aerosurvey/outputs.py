@@ -26,6 +26,10 @@ class Rendered:
     warnings: list[str]
 
 
+def _without(fc: dict[str, Any], role: str) -> dict[str, Any]:
+    return {**fc, "features": [f for f in fc["features"] if f["properties"].get("role") != role]}
+
+
 def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any]):
     """Evaluate the spec's rule profiles on the plan as later readers will see it."""
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
@@ -48,7 +52,8 @@ def render_outputs(plan: PlanResult) -> Rendered:
         "mission.plan": dumps_plan(mission),
         "mission.waypoints": dumps_wpl(mission),
         "plan.geojson": json.dumps(fc, separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n",
-        "plan.kml": feature_collection_to_kml(fc, plan.spec.name),
+        # footprints stay in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
+        "plan.kml": feature_collection_to_kml(_without(fc, "footprint"), plan.spec.name),
     }
     manifest = mf.build_manifest(plan, len(mission.items), {})
     results, points = _rules(plan, manifest, fc)

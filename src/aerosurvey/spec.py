@@ -51,6 +51,7 @@ class Targets:
     forward_overlap: float
     side_overlap: float
     images_beyond_boundary: int
+    coverage_margin_m: float  # plan coverage for the area grown by this much (GCPs outside the outline)
     plan_at_cap: bool
 
 
@@ -289,6 +290,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         forward_overlap=t.number("forward_overlap", 0.75, lo=0.0, hi=0.95, hi_open=True) or 0.0,
         side_overlap=t.number("side_overlap", 0.60, lo=0.0, hi=0.95, hi_open=True) or 0.0,
         images_beyond_boundary=t.integer("images_beyond_boundary", 0, lo=0, hi=50),
+        coverage_margin_m=t.number("coverage_margin_m", 0.0, lo=0.0, hi=1000.0) or 0.0,
         plan_at_cap=t.boolean("plan_at_cap", False),
     )
     t.done()

@@ -23,7 +23,9 @@ from conftest import make_spec, random_polygon
 @given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 450))
 def test_layout_on_random_areas(tmp_path_factory, kind, seed, size):
     tmp = tmp_path_factory.mktemp("cp")
-    spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 8}}, rings=random_polygon(kind, seed, size))
+    # coverage extends past the GCP ring (10 m out): every GCP can then be seen by the plan
+    spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 8, "coverage_margin_m": 12.0}},
+                     rings=random_polygon(kind, seed, size))
     manifest, features = plan_documents(plan_mission(load_spec(spec)))
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     profiles = select_profiles(["cz-land-consolidation"])
@@ -54,3 +56,27 @@ def test_layout_on_random_areas(tmp_path_factory, kind, seed, size):
     # the images count is the footprints' own count, measured again
     recount = ev.footprints.count_at(np.array([g.x for g in gcps]), np.array([g.y for g in gcps]))
     assert list(recount) == [g.images for g in gcps]
+
+
+def test_gcp_that_no_photo_reaches_says_how_to_extend_the_plan():
+    from aerosurvey.rules.control_points import propose_gcps
+    from aerosurvey.rules.footprints import Footprints
+
+    area = shapely.box(0, 0, 100, 100)
+    # six photos over the middle only: nothing sees the outline
+    fp = Footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 60.0), np.full(6, 60.0))
+    gcps = propose_gcps(area, fp, count=4, min_images=6, offset=10.0, max_spacing=400.0, nogo=None)
+    assert len(gcps) >= 4
+    assert all(g.images == 0 and "targets.coverage_margin_m to at least 12 m" in g.note for g in gcps)
+    assert all(not shapely.contains_xy(area, g.x, g.y) for g in gcps)
+
+
+def test_gcp_moved_towards_the_outline_says_so():
+    from aerosurvey.rules.control_points import propose_gcps
+    from aerosurvey.rules.footprints import Footprints
+
+    area = shapely.box(0, 0, 100, 100)
+    # photos reach 5 m past the outline, the ring is 10 m out
+    fp = Footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 110.0), np.full(6, 110.0))
+    gcps = propose_gcps(area, fp, count=4, min_images=6, offset=10.0, max_spacing=400.0, nogo=None)
+    assert all(g.images == 6 and g.note.startswith("moved to") for g in gcps)

@@ -221,17 +221,20 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
     beyond = spec.targets.images_beyond_boundary
     clearance = max(lead_in, base / 2.0) + 1.0
 
+    margin = spec.targets.coverage_margin_m
+    covered = shapely.buffer(area, margin, quad_segs=4) if margin > 0 else area
+
     def lines_for(h: float):
         fr = LineFrame(h)
         zf = fr.geom_to_frame(zones_buf) if zones_buf is not None else None
-        return fr, build_lines(fr.geom_to_frame(area), zf, across, along, spacing, base, k_side, k_fwd, beyond, clearance)
+        return fr, build_lines(fr.geom_to_frame(covered), zf, across, along, spacing, base, k_side, k_fwd, beyond, clearance)
 
     def cost(fr: LineFrame) -> float:
         _, segs = lines_for(fr.heading_deg)
         return quick_cost(segs, lead_in, kin) if segs else math.inf
 
     if spec.flight.heading_deg is None:
-        heading, _ = best_heading(area, cost)
+        heading, _ = best_heading(covered, cost)
         chosen = "auto: the shortest estimated flight time"
     else:
         heading = spec.flight.heading_deg

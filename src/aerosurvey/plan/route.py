@@ -143,25 +143,37 @@ def _cell_runs(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, 
             for k, s in enumerate(segs)]
 
 
+def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, first_dir: int):
+    """Where a cell flown this way starts (its first lead-in) and ends, without building it."""
+    segs = cell[::-1] if reverse else cell
+    a, b = segs[0], segs[-1]
+    last_dir = first_dir if (len(segs) - 1) % 2 == 0 else -first_dir
+    u0 = (a.x0 if first_dir > 0 else a.x1) - first_dir * lead_in
+    u1 = (b.x1 if last_dir > 0 else b.x0) + last_dir * b.base / 2.0
+    X, Y = p.frame.from_frame(np.array([u0, u1]), np.array([a.v, b.v]))
+    return (float(X[0]), float(Y[0])), (float(X[1]), float(Y[1]))
+
+
 def _cells_route(p: Pass, lead_in: float, k: Kinematics, start_near: tuple[float, float] | None) -> list[Run]:
     """Fly cell after cell, each as its own boustrophedon, always to the nearest next cell corner."""
     offsets = _offsets(p)
     todo = cells(p.segments)
+    ends = [{(rv, fd): _cell_ends(p, c, lead_in, rv, fd) for rv in (False, True) for fd in (1, -1)} for c in todo]
     here = start_near
     runs: list[Run] = []
     while todo:
         best = None
-        for ci, cell in enumerate(todo):
-            for reverse in (False, True):
-                for first_dir in (1, -1):
-                    cr = _cell_runs(p, cell, lead_in, reverse, first_dir, offsets)
-                    d = 0.0 if here is None else math.dist(here, cr[0].lead_in_xy)
-                    if best is None or d < best[0] - 1e-9:
-                        best = (d, ci, cr)
+        for ci in range(len(todo)):
+            for (rv, fd), (start, _) in ends[ci].items():
+                d = 0.0 if here is None else math.dist(here, start)
+                if best is None or d < best[0] - 1e-9:
+                    best = (d, ci, rv, fd)
         assert best is not None
-        runs.extend(best[2])
-        here = best[2][-1].end_xy
-        todo.pop(best[1])
+        _, ci, rv, fd = best
+        runs.extend(_cell_runs(p, todo[ci], lead_in, rv, fd, offsets))
+        here = ends[ci][(rv, fd)][1]
+        todo.pop(ci)
+        ends.pop(ci)
     return runs
 
 

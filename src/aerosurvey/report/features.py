@@ -62,23 +62,25 @@ def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, A
             "role": "line", "id": rid, "line": f"P{r.pass_index}-L{r.line + 1:03d}", "pass": r.pass_index,
             "heading_deg": round(r.heading_deg, 3), "photos": int(len(sel)), "first_station": st.ids[sel[0]],
             "last_station": st.ids[sel[-1]]}, "geometry": {"type": "LineString", "coordinates": coords}})
+    lonlat = np.round(np.column_stack([st.lon, st.lat]), 8).tolist()
+    alt = np.round(st.alt_rel_m, 2).tolist()
+    agl = np.round(st.agl_m, 2).tolist()
+    hdg = np.round(st.heading_deg, 3).tolist()
     for j, sid in enumerate(st.ids):
         feats.append({"type": "Feature", "id": sid, "properties": {
             "role": "station", "id": sid, "seq": j + 1, "line": sid.rsplit("-", 1)[0],
-            "alt_rel_m": round(float(st.alt_rel_m[j]), 2), "agl_m": round(float(st.agl_m[j]), 2),
-            "heading_deg": round(float(st.heading_deg[j]), 3)},
-            "geometry": {"type": "Point", "coordinates": [_r(st.lon[j]), _r(st.lat[j])]}})
+            "alt_rel_m": alt[j], "agl_m": agl[j], "heading_deg": hdg[j]},
+            "geometry": {"type": "Point", "coordinates": lonlat[j]}})
     if with_footprints and len(st.ids):
         cam = plan.spec.camera.camera
         across, along = pg.footprint(st.agl_m, cam, plan.spec.camera.mount)
         corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float), np.asarray(along, float))
         lon, lat = plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
-        lon, lat = lon.reshape(-1, 4), lat.reshape(-1, 4)
+        ring = np.round(np.stack([lon.reshape(-1, 4), lat.reshape(-1, 4)], axis=-1), 8)
+        rings = np.concatenate([ring, ring[:, :1]], axis=1).tolist()
         for j, sid in enumerate(st.ids):
-            ring = [[_r(lon[j, k]), _r(lat[j, k])] for k in range(4)]
-            ring.append(ring[0])
             feats.append({"type": "Feature", "id": f"{sid}-fp", "properties": {"role": "footprint", "id": f"{sid}-fp", "station": sid},
-                          "geometry": {"type": "Polygon", "coordinates": [ring]}})
+                          "geometry": {"type": "Polygon", "coordinates": [rings[j]]}})
     lon, lat, _ = plan.home
     feats.append({"type": "Feature", "id": "home", "properties": {"role": "home", "id": "home"},
                   "geometry": {"type": "Point", "coordinates": [_r(lon), _r(lat)]}})

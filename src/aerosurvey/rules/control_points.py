@@ -37,7 +37,7 @@ def propose_gcps(area: BaseGeometry, fp: Footprints, count: int, min_images: int
                  max_spacing: float, nogo: BaseGeometry | None) -> list[ControlPoint]:
     """GCPs as an envelope outside the outline, each checked against the planned photos."""
     outline = _outline(area)
-    ring_geom = shapely.buffer(outline, offset, join_style="mitre")
+    ring_geom = shapely.buffer(outline, offset, quad_segs=8)
     points: list[ControlPoint] = []
     k = 0
     for part in shapely.get_parts(ring_geom):
@@ -72,7 +72,8 @@ def _settle(pid: str, p: shapely.Point, near: shapely.Point, outline: BaseGeomet
     if best is None:
         return ControlPoint(pid, "gcp", float(p.x), float(p.y), 0, "no place outside the outline and the no-go zones")
     return ControlPoint(pid, "gcp", float(best[0]), float(best[1]), best[2],
-                        f"seen by only {best[2]} photos even at {dist * best[3]:.1f} m from the outline: extend the plan here")
+                        f"seen by only {best[2]} photos even at {dist * best[3]:.1f} m from the outline: extend the plan "
+                        f"(set targets.coverage_margin_m to at least {dist + 2:.0f} m) or place this GCP by hand")
 
 
 def ring_order(points: list[ControlPoint], area: BaseGeometry) -> list[ControlPoint]:

@@ -6,8 +6,19 @@ clamped to the ground. Feature ids and properties go into ExtendedData.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
-from xml.sax.saxutils import escape, quoteattr
+
+_ESC = str.maketrans({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;"})
+
+
+def escape(text: str) -> str:
+    return text.translate(_ESC)
+
+
+@lru_cache(maxsize=256)
+def _data_open(key: str) -> str:
+    return f'<Data name="{escape(key)}"><value>'
 
 ROLE_ORDER = ("area", "exclusion", "line", "station", "footprint", "home", "gcp", "check", "sortie", "other")
 # KML colours are aabbggrr
@@ -26,7 +37,7 @@ _STYLE = {
 
 
 def _coords(seq: Any) -> str:
-    return " ".join(",".join(repr(float(v)) for v in c) for c in seq)
+    return " ".join(",".join(map(repr, map(float, c))) for c in seq)
 
 
 def _geometry(g: dict[str, Any]) -> str:
@@ -49,7 +60,7 @@ def _geometry(g: dict[str, Any]) -> str:
 def _placemark(f: dict[str, Any], role: str) -> str:
     props = f.get("properties") or {}
     name = str(props.get("id", f.get("id", role)))
-    data = "".join(f"<Data name={quoteattr(str(k))}><value>{escape(str(v))}</value></Data>" for k, v in props.items())
+    data = "".join(f"{_data_open(str(k))}{escape(str(v))}</value></Data>" for k, v in props.items())
     return (f"<Placemark><name>{escape(name)}</name><styleUrl>#{role}</styleUrl>"
             f"<ExtendedData>{data}</ExtendedData>{_geometry(f['geometry'])}</Placemark>")
 
