@@ -59,9 +59,17 @@ def test_copter_lead_in_is_the_stopping_distance(tmp_path):
 
 
 def test_plane_takeoff_and_land_option(tmp_path):
-    plan, m = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}, "flight": {"end": "land"}})
+    plan, m = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0},
+                               "flight": {"end": "land", "wind_from_deg": 270.0, "approach_m": 400.0}})
     assert m.items[0].command == mav.NAV_TAKEOFF and m.items[0].param1 == 15.0
-    assert m.items[-1].command == mav.NAV_LAND
+    assert [it.command for it in m.items[-3:]] == [mav.DO_LAND_START, mav.NAV_WAYPOINT, mav.NAV_LAND]
+    # wind from the west: the approach starts 400 m east of the touchdown, so the plane lands heading west
+    approach, land = m.items[-2], m.items[-1]
+    geod = pyproj.Geod(ellps="WGS84")
+    az, _, dist = geod.inv(approach.y, approach.x, land.y, land.x)
+    assert dist == pytest.approx(400.0, rel=0.01) and (az % 360) == pytest.approx(270.0, abs=1.0)
+    with pytest.raises(Exception, match="wind_from_deg"):
+        _plan(tmp_path, {"vehicle": {"type": "plane"}, "flight": {"end": "land"}})
     assert m.vehicle == "plane" and m.vehicle_type_id == mav.TYPE_FIXED_WING
     v = plan.speed.speed_ms  # the survey speed (here the motion-blur limit), not the cruise speed
     assert plan.turn_radius_m == pytest.approx(v ** 2 / (9.80665 * math.tan(math.radians(30))), rel=1e-6)
@@ -87,3 +95,32 @@ def test_interval_shorter_than_the_camera_cycle_is_refused(tmp_path):
 
     with pytest.raises(InputError, match="shorter than the camera's cycle time"):
         _plan(tmp_path, {"camera": {"trigger": "camera", "interval_s": 0.2}})
+
+
+def test_copter_fixed_yaw(tmp_path):
+    _, m = _plan(tmp_path, {"flight": {"fixed_yaw_deg": 45.0}})
+    yaw = [it for it in m.items if it.command == mav.CONDITION_YAW]
+    assert len(yaw) == 1 and yaw[0].param1 == 45.0 and yaw[0].param4 == 0.0
+    _, px4 = _plan(tmp_path, {"flight": {"fixed_yaw_deg": 45.0}, "vehicle": {"firmware": "px4"}})
+    assert not [it for it in px4.items if it.command == mav.CONDITION_YAW]
+    assert {it.param4 for it in px4.items if it.command == mav.NAV_WAYPOINT} == {45.0}
+    assert px4.autopilot_id == mav.AUTOPILOT_PX4
+
+
+def test_geofence_in_the_plan_file(tmp_path):
+    from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan
+    import json
+    import shapely
+    from conftest import write_geojson
+
+    zone = [[15.0025, 49.4012], [15.0035, 49.4012], [15.0035, 49.4022], [15.0025, 49.4022], [15.0025, 49.4012]]
+    write_geojson(tmp_path / "zone.geojson", [zone])
+    plan, m = _plan(tmp_path, {"area": {"exclusions": ["zone.geojson"]}})
+    doc = json.loads(dumps_plan(m))
+    polys = doc["geoFence"]["polygons"]
+    assert [p["inclusion"] for p in polys] == [True, False]
+    fence = shapely.Polygon([(lon, lat) for lat, lon in polys[0]["polygon"]])
+    for it in m.items:
+        if it.command == mav.NAV_WAYPOINT:
+            assert fence.contains(shapely.Point(it.y, it.x))
+    assert loads_plan(dumps_plan(m)).fence_exclusion == m.fence_exclusion

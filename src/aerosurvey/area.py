@@ -46,6 +46,16 @@ class Planar:
         lon, lat = self.to_wgs84.transform(np.asarray(x, float), np.asarray(y, float))
         return np.asarray(lon), np.asarray(lat)
 
+    def scale_factor(self, lon: float, lat: float) -> float:
+        """Grid metres per ground metre at a place (conformal CRSs: the same in every direction).
+
+        Ground lengths (footprints, photo base, spacing) are multiplied by it before they are
+        laid out in the grid, so that the stations lie as far apart on the ground as the
+        autopilot's distance trigger measures.
+        """
+        f = pyproj.Proj(self.crs).get_factors(lon, lat)
+        return float(np.sqrt(f.meridional_scale * f.parallel_scale))
+
     def xy(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, y = self.to_plan.transform(np.asarray(lon, float), np.asarray(lat, float))
         return np.asarray(x), np.asarray(y)

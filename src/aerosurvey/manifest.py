@@ -41,6 +41,22 @@ def _lonlat(plan: PlanResult, xy: tuple[float, float]) -> list[float | None]:
     return [_f(lon[0], 8), _f(lat[0], 8)]
 
 
+def _sorties(plan: PlanResult) -> list[dict[str, Any]]:
+    st = plan.stations
+    out = []
+    for k, (s, wps) in enumerate(plan.sorties, start=1):
+        site = plan.launch_sites[s.launch]
+        out.append({
+            "id": f"S{k:02d}", "files": [f"sortie-{k:02d}.plan", f"sortie-{k:02d}.waypoints"],
+            "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
+            "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
+            "time_s": _f(s.horizontal_s + s.vertical_s, 1), "distance_m": _f(s.distance_m, 1),
+            "battery_used_pct": _f(100 * s.battery_used * (1 - plan.spec.battery.reserve), 1),
+            "usable_used_pct": _f(100 * s.battery_used, 1), "mission_items": s.items + 1,
+        })
+    return out
+
+
 def _input(path: Path | None, base: Path) -> dict[str, Any] | None:
     if path is None:
         return None
@@ -129,14 +145,21 @@ def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]
                         "fixed_alt_amsl_m": _f(h.fixed_alt_amsl_m) if h.fixed_alt_amsl_m is not None else None,
                         "tolerance_m": spec.terrain.tolerance_m},
             "area_ha": _f(plan.area.area / 1e4, 4),
+            "grid_scale": round(plan.grid_scale, 9),
         },
         "home": {"lon": _f(plan.home[0], 8), "lat": _f(plan.home[1], 8), "ground_amsl_m": _f(plan.home[2], 2)},
         "estimates": {k: (_f(v, 1) if k != "photos" else int(v)) for k, v in plan.estimates.items()},
         "conditions": plan.sun,
+        "sorties": _sorties(plan),
         "lines": lines,
         "stations": stations,
         "mission_items": mission_items,
         "outputs": dict(sorted(outputs.items())),
+        "battery": None if plan.spec.battery is None else {
+            "usable_min": plan.spec.battery.usable_min, "capacity_wh": plan.spec.battery.capacity_wh,
+            "cruise_power_w": plan.spec.battery.cruise_power_w, "climb_power_w": plan.spec.battery.climb_power_w,
+            "reserve": plan.spec.battery.reserve, "wind_ms": plan.spec.battery.wind_ms,
+            "max_mission_items": plan.spec.battery.max_mission_items},
         "warnings": list(plan.warnings),
     }
 

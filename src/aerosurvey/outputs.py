@@ -26,6 +26,26 @@ class Rendered:
     warnings: list[str]
 
 
+def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
+    """A mission longer than the autopilot holds is refused with what to do about it."""
+    from aerosurvey.errors import InputError
+
+    limit = plan.spec.battery.max_mission_items if plan.spec.battery is not None else None
+    if limit is None:
+        from aerosurvey.spec import MAX_ITEMS
+
+        limit = MAX_ITEMS[plan.spec.vehicle.firmware]
+    n = len(mission.items) + 1
+    if n > limit:
+        msg = (f"the whole mission has {n} items, more than the {limit} a {plan.spec.vehicle.firmware} autopilot holds "
+               f"by default (battery.max_mission_items)")
+        if plan.sorties:
+            plan.warnings.append(msg + "; fly the sortie files, each within the limit")
+        else:
+            plan.warnings.append(msg + "; add a [battery] table so the plan is split into sorties that fit, "
+                                 "or raise battery.max_mission_items if your board holds more")
+
+
 def _without(fc: dict[str, Any], role: str) -> dict[str, Any]:
     return {**fc, "features": [f for f in fc["features"] if f["properties"].get("role") != role]}
 
@@ -55,6 +75,12 @@ def render_outputs(plan: PlanResult) -> Rendered:
         # footprints stay in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
         "plan.kml": feature_collection_to_kml(_without(fc, "footprint"), plan.spec.name),
     }
+    for k, (sortie, wps) in enumerate(plan.sorties, start=1):
+        site = plan.launch_sites[sortie.launch]
+        sm = build_mission(plan, wps, name=f"{plan.spec.name}-sortie-{k:02d}", home=(site.lon, site.lat, site.ground_m))
+        files[f"sortie-{k:02d}.plan"] = dumps_plan(sm)
+        files[f"sortie-{k:02d}.waypoints"] = dumps_wpl(sm)
+    check_item_limit(plan, mission, files)
     manifest = mf.build_manifest(plan, len(mission.items), {})
     results, points = _rules(plan, manifest, fc)
     warnings = list(plan.warnings)

@@ -74,6 +74,10 @@ class FlightSpec:
     exclusion_margin_m: float
     end: str
     lead_in_m: float | None
+    fixed_yaw_deg: float | None  # copters: one heading for every photo
+    wind_from_deg: float | None  # planes landing: the approach is flown into this wind
+    approach_m: float
+    approach_alt_m: float
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,21 @@ class TerrainSpec:
     mode: str
     tolerance_m: float
     min_clearance_m: float
+
+
+@dataclass(frozen=True)
+class BatterySpec:
+    """Endurance per flight: minutes of flight or energy with power draws, less a reserve."""
+
+    usable_min: float | None
+    capacity_wh: float | None
+    cruise_power_w: float | None
+    climb_power_w: float | None
+    reserve: float
+    wind_ms: float
+    launch_points: tuple[tuple[float, float], ...]  # (lon, lat)
+    launch: str  # "nearest" or the 1-based index of a launch point, as text
+    max_mission_items: int
 
 
 @dataclass(frozen=True)
@@ -104,6 +123,7 @@ class MissionSpec:
     conditions: ConditionsSpec
     profiles: tuple[str, ...]
     rule_overrides: dict[str, Any]
+    battery: BatterySpec | None
     path: Path | None
 
 
@@ -205,6 +225,55 @@ def _datetime(t: _Table, key: str) -> dt.datetime | None:
     if not isinstance(v, dt.datetime) or v.tzinfo is None:
         raise bad_value(t.key(key), v, "a date and time with a UTC offset, e.g. 2026-05-14T09:30:00+02:00")
     return v
+
+
+#: Mission items an autopilot holds, by board class (conservative; `battery.max_mission_items`
+#: overrides). ArduPilot keeps missions in its parameter storage: 724 items on 16 kB boards,
+#: far more on boards with an SD card or 64 kB+ storage; PX4's dataman holds 2000.
+MAX_ITEMS = {"ardupilot": 700, "px4": 2000}
+
+
+def _lonlat_list(t: _Table, key: str) -> tuple[tuple[float, float], ...]:
+    raw = t.raw(key, [])
+    allowed = "a list of [longitude, latitude] pairs in degrees"
+    if not isinstance(raw, list):
+        raise bad_value(t.key(key), raw, allowed)
+    out = []
+    for p in raw:
+        if (not isinstance(p, list) or len(p) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p)
+                or not (-180 <= p[0] <= 180 and -90 <= p[1] <= 90)):
+            raise bad_value(t.key(key), p, allowed)
+        out.append((float(p[0]), float(p[1])))
+    return tuple(out)
+
+
+def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
+    b = top.table("battery")
+    minutes = b.number("usable_min", None, lo=0.0, lo_open=True, hi=1440.0)
+    wh = b.number("capacity_wh", None, lo=0.0, lo_open=True)
+    cruise_w = b.number("cruise_power_w", None, lo=0.0, lo_open=True)
+    climb_w = b.number("climb_power_w", None, lo=0.0, lo_open=True)
+    if (minutes is None) == (wh is None):
+        raise InputError("[battery] needs exactly one of 'usable_min' (flight minutes) or 'capacity_wh' (with cruise_power_w)")
+    if wh is not None and cruise_w is None:
+        raise InputError("battery.capacity_wh needs battery.cruise_power_w (the power drawn in level flight)")
+    launch = b.raw("launch", "nearest")
+    points = _lonlat_list(b, "launch_points")
+    if not (launch == "nearest" or (isinstance(launch, int) and not isinstance(launch, bool) and 1 <= launch <= max(1, len(points)))):
+        raise bad_value("battery.launch", launch, f'"nearest" or the number (1..{max(1, len(points))}) of one of battery.launch_points')
+    spec = BatterySpec(
+        usable_min=minutes, capacity_wh=wh, cruise_power_w=cruise_w,
+        climb_power_w=climb_w if climb_w is not None else (1.3 * cruise_w if cruise_w else None),
+        reserve=b.number("reserve", 0.25, lo=0.0, hi=0.9) or 0.0,
+        wind_ms=b.number("wind_ms", 0.0, lo=0.0, hi=40.0) or 0.0,
+        launch_points=points, launch=str(launch),
+        max_mission_items=b.integer("max_mission_items", MAX_ITEMS[vehicle.firmware], lo=20, hi=100000),
+    )
+    b.done()
+    if spec.wind_ms >= vehicle.cruise_speed_ms:
+        raise bad_value("battery.wind_ms", spec.wind_ms, f"less than the cruise speed {vehicle.cruise_speed_ms:g} m/s")
+    return spec
 
 
 def load_spec(path: str | Path) -> MissionSpec:
@@ -323,8 +392,16 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         exclusion_margin_m=f.number("exclusion_margin_m", 10.0, lo=0.0, hi=1000.0) or 0.0,
         end=f.choice("end", "rtl", MISSION_ENDS),
         lead_in_m=f.number("lead_in_m", None, lo=0.0, hi=2000.0),
+        fixed_yaw_deg=f.number("fixed_yaw_deg", None, lo=0.0, hi=360.0, hi_open=True),
+        wind_from_deg=f.number("wind_from_deg", None, lo=0.0, hi=360.0, hi_open=True),
+        approach_m=f.number("approach_m", 300.0, lo=20.0, hi=5000.0) or 300.0,
+        approach_alt_m=f.number("approach_alt_m", 30.0, lo=5.0, hi=500.0) or 30.0,
     )
     f.done()
+    if flight.fixed_yaw_deg is not None and vtype == "plane":
+        raise InputError("flight.fixed_yaw_deg is for copters: a plane always points along its track")
+    if vtype == "plane" and flight.end == "land" and flight.wind_from_deg is None:
+        raise InputError("flight.end = 'land' for a plane needs flight.wind_from_deg: the landing approach is flown into the wind")
 
     tr = top.table("terrain")
     dem_raw = tr.raw("dem")
@@ -356,6 +433,8 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     )
     co.done()
 
+    battery = _battery(top, vehicle) if top.has("battery") else None
+
     r = top.table("rules")
     profiles = r.raw("profiles", [])
     if not isinstance(profiles, list) or not all(isinstance(p, str) for p in profiles):
@@ -369,5 +448,5 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     return MissionSpec(
         name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
         flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles),
-        rule_overrides=dict(overrides), path=path,
+        rule_overrides=dict(overrides), battery=battery, path=path,
     )

@@ -28,9 +28,17 @@ def summary(plan: PlanResult, warnings: list[str], rules: list[dict]) -> list[st
         f"  heading         {plan.heading_deg:.1f} deg ({plan.heading_chosen})"
         + (", cross-hatch at +90 deg" if plan.spec.flight.cross_hatch else ""),
         f"  lines           {len({(r.pass_index, r.line) for r in plan.route.runs})} lines in {len(plan.route.runs)} runs, "
-        f"{len(plan.stations.ids)} photos; route: {'; '.join(plan.route.strategy)}",
+        f"{len(plan.stations.ids)} photos",
+        "  route           " + "; ".join(f"pass {i}: {how}" for i, how in enumerate(plan.route.strategy, start=1)),
         f"  flight          {e['total_distance_m'] / 1000:.2f} km, {e['total_time_s'] / 60:.1f} min estimated",
     ]
+    if plan.sorties:
+        lines.append("  sorties         id   photos  time min  dist km  battery %  first station -> last station")
+        st = plan.stations
+        for k, (s, _) in enumerate(plan.sorties, start=1):
+            pct = 100 * s.battery_used * (1 - plan.spec.battery.reserve)
+            lines.append(f"                  S{k:02d} {s.last - s.first + 1:7d} {(s.horizontal_s + s.vertical_s) / 60:9.1f} "
+                         f"{s.distance_m / 1000:8.2f} {pct:10.1f}  {st.ids[s.first]} -> {st.ids[s.last]}")
     if plan.sun is not None:
         lines.append(f"  sun elevation   {plan.sun['min_elevation_deg']}..{plan.sun['max_elevation_deg']} deg over the planned window")
     if rules:

@@ -1,13 +1,21 @@
-"""Turn a plan into the MAVLink items of one flight.
+"""Turn a plan (or one sortie of it) into the MAVLink items of one flight, per autopilot.
 
 Per photo run: a lead-in waypoint (straight approach), the first station with the camera
 switched on (DO_SET_CAM_TRIGG_DIST with 'trigger once now'), terrain waypoints where the
 `follow` mode needs them, a line-end waypoint half a photo base past the last station
-(ArduPilot does not take the picture that falls exactly on the waypoint, docs/ardupilot
-notes), and the camera switched off again so no photos are taken in turns.
+(ArduPilot does not take the picture that falls exactly on the waypoint,
+shared/docs/ardupilot.md), and the camera switched off again so no photos are taken in
+turns.
+
+Dialects: ArduCopter (takeoff, optional CONDITION_YAW for one fixed heading, RTL or LAND
+at the launch point), ArduPlane (takeoff with 15° pitch, then RTL, or DO_LAND_START, an
+approach waypoint and NAV_LAND flown into the wind), PX4 (the same items except
+CONDITION_YAW: a fixed heading goes into each waypoint's param4, as PX4 reads it).
 """
 
 from __future__ import annotations
+
+import math
 
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
@@ -18,9 +26,15 @@ def _frame(plan: PlanResult) -> int:
     return mav.FRAME_GLOBAL_TERRAIN_ALT if plan.altitude_frame == "terrain" else mav.FRAME_GLOBAL_RELATIVE_ALT
 
 
-def _wp(plan: PlanResult, w: RouteWaypoint, tag: str) -> MissionItem:
-    return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, 0.0, 0.0, 0.0,
-                       round(w.lat, 8), round(w.lon, 8), round(w.alt_m, 2), True, tag)
+def _yaw_param4(plan: PlanResult) -> float:
+    yaw = plan.spec.flight.fixed_yaw_deg
+    return float(yaw) if yaw is not None and plan.spec.vehicle.firmware == "px4" else 0.0
+
+
+def _wp(plan: PlanResult, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
+    alt = w.alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
+    return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, 0.0, 0.0, _yaw_param4(plan),
+                       round(w.lat, 8), round(w.lon, 8), round(alt, 2), True, tag)
 
 
 def _camera_on(plan: PlanResult, tag: str) -> list[MissionItem]:
@@ -47,35 +61,59 @@ def run_id(plan: PlanResult, run: int) -> str:
     return f"P{r.pass_index}-L{r.line + 1:03d}-R{r.part + 1}"
 
 
-def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None, name: str = "mission") -> Mission:
-    """The full mission for one flight: takeoff, survey runs in order, then RTL or land."""
+def _landing(plan: PlanResult, lat: float, lon: float) -> list[MissionItem]:
+    """DO_LAND_START, an approach waypoint downwind of the launch point, NAV_LAND into the wind."""
+    f = plan.spec.flight
+    assert f.wind_from_deg is not None
+    # the plane lands heading into the wind: the approach starts downwind of the touchdown point
+    back = math.radians((f.wind_from_deg + 180.0) % 360.0)
+    d_north, d_east = f.approach_m * math.cos(back), f.approach_m * math.sin(back)
+    alat = lat + d_north / 111_320.0
+    alon = lon + d_east / (111_320.0 * math.cos(math.radians(lat)))
+    return [
+        MissionItem(mav.DO_LAND_START, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(alat, 8), round(alon, 8), 0.0, tag="land-start"),
+        MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(alat, 8), round(alon, 8),
+                    round(f.approach_alt_m, 2), tag="approach"),
+        MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"),
+    ]
+
+
+def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None, name: str = "mission",
+                  home: tuple[float, float, float] | None = None) -> Mission:
+    """The mission for one flight: takeoff, survey runs in order, then RTL or land.
+
+    `home` (lon, lat, ground AMSL) is the launch point of a sortie; relative altitudes are
+    shifted by the difference between its ground and the plan's home ground.
+    """
     spec = plan.spec
     wps = plan.waypoints if waypoints is None else waypoints
-    lon, lat, ground = plan.home
-    first_alt = wps[0].alt_m
+    lon, lat, ground = plan.home if home is None else home
+    alt_shift = plan.home[2] - ground
     items: list[MissionItem] = []
+    first_alt = wps[0].alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
-    if spec.vehicle.type == "plane":
-        items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, 15.0, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
-    else:
-        items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
+    pitch = 15.0 if spec.vehicle.type == "plane" else 0.0
+    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
     items.append(MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION, 1.0, round(plan.speed.speed_ms, 2), -1.0, tag="speed"))
+    if spec.flight.fixed_yaw_deg is not None and spec.vehicle.firmware == "ardupilot":
+        items.append(MissionItem(mav.CONDITION_YAW, mav.FRAME_MISSION, float(spec.flight.fixed_yaw_deg), 0.0, 1.0, 0.0, tag="fixed-yaw"))
     for w in wps:
         if w.kind == "lead_in":
-            items.append(_wp(plan, w, f"{run_id(plan, w.run)}:lead-in"))
+            items.append(_wp(plan, w, f"{run_id(plan, w.run)}:lead-in", alt_shift))
         elif w.kind == "line_start":
-            rid = run_id(plan, w.run)
-            items.append(_wp(plan, w, w.station))
-            items.extend(_camera_on(plan, f"{rid}:camera-on"))
+            items.append(_wp(plan, w, w.station, alt_shift))
+            items.extend(_camera_on(plan, f"{run_id(plan, w.run)}:camera-on"))
         elif w.kind == "terrain":
-            items.append(_wp(plan, w, w.station))
+            items.append(_wp(plan, w, w.station, alt_shift))
         elif w.kind == "line_end":
             rid = run_id(plan, w.run)
-            items.append(_wp(plan, w, f"{rid}:end"))
+            items.append(_wp(plan, w, f"{rid}:end", alt_shift))
             items.extend(_camera_off(plan, f"{rid}:camera-off"))
         else:
-            items.append(_wp(plan, w, "detour"))
-    if spec.flight.end == "land":
+            items.append(_wp(plan, w, "detour", alt_shift))
+    if spec.flight.end == "land" and spec.vehicle.type == "plane":
+        items.extend(_landing(plan, lat, lon))
+    elif spec.flight.end == "land":
         items.append(MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"))
     else:
         items.append(MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl"))
@@ -87,4 +125,6 @@ def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None
         cruise_speed=round(spec.vehicle.cruise_speed_ms, 2),
         hover_speed=round(plan.speed.speed_ms, 2),
         name=name,
+        fence_inclusion=plan.fence_inclusion,
+        fence_exclusion=plan.fence_exclusion,
     )

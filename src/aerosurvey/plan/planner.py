@@ -98,9 +98,15 @@ class PlanResult:
     home: tuple[float, float, float]  # lon, lat, ground AMSL (0 without a DEM)
     home_xy: tuple[float, float]
     altitude_frame: str  # "relative" or "terrain"
+    grid_scale: float  # planning-CRS metres per ground metre at the area
     estimates: dict[str, float]
     sun: dict[str, object] | None
     warnings: list[str] = field(default_factory=list)
+    fence_inclusion: tuple = ()
+    fence_exclusion: tuple = ()
+    launch_sites: list = field(default_factory=list)
+    sorties: list = field(default_factory=list)
+    battery: object = None  # the sortie Budget when a battery is given
 
 
 def _read_geometry(spec: MissionSpec) -> tuple[BaseGeometry, list[BaseGeometry]]:
@@ -195,7 +201,9 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
         raise InputError(f"the plan would fly {heights.max_agl_m:.1f} m above ground, above vehicle.max_height_agl_m = {spec.vehicle.max_height_agl_m:g} m")
     across, along = pg.footprint(heights.spacing_agl_m, cam, spec.camera.mount)
     spacing = pg.line_spacing(across, spec.targets.side_overlap)
-    base = pg.trigger_distance(along, spec.targets.forward_overlap)
+    # whole centimetres, rounded down: the mission carries the trigger distance to 1 cm, and
+    # the stations must lie exactly where the autopilot's distance trigger will fire
+    base = math.floor(pg.trigger_distance(along, spec.targets.forward_overlap) * 100.0) / 100.0
     gsd_min = pg.gsd_from_height(heights.spacing_agl_m, cam)
     gsd_max = pg.gsd_from_height(heights.max_agl_m, cam)
     speed = pg.survey_speed(spec.vehicle.cruise_speed_ms, base, gsd_min, cam, spec.camera.max_blur_px,
@@ -221,17 +229,21 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
     beyond = spec.targets.images_beyond_boundary
     clearance = max(lead_in, base / 2.0) + 1.0
 
-    margin = spec.targets.coverage_margin_m
+    c = area_wgs.centroid
+    k = planar.scale_factor(c.x, c.y)
+    margin = spec.targets.coverage_margin_m * k
     covered = shapely.buffer(area, margin, quad_segs=4) if margin > 0 else area
+    g_across, g_along, g_spacing, g_base = across * k, along * k, spacing * k, base * k
+    g_lead, g_clear = lead_in * k, clearance * k
 
     def lines_for(h: float):
         fr = LineFrame(h)
         zf = fr.geom_to_frame(zones_buf) if zones_buf is not None else None
-        return fr, build_lines(fr.geom_to_frame(covered), zf, across, along, spacing, base, k_side, k_fwd, beyond, clearance)
+        return fr, build_lines(fr.geom_to_frame(covered), zf, g_across, g_along, g_spacing, g_base, k_side, k_fwd, beyond, g_clear)
 
     def cost(fr: LineFrame) -> float:
         _, segs = lines_for(fr.heading_deg)
-        return quick_cost(segs, lead_in, kin) if segs else math.inf
+        return quick_cost(segs, g_lead, kin) if segs else math.inf
 
     if spec.flight.heading_deg is None:
         heading, _ = best_heading(covered, cost)
@@ -255,7 +267,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
             raise InputError(f"area.launch = {list(spec.area.launch)} lies inside an exclusion zone (or its {spec.flight.exclusion_margin_m:g} m margin)")
     detours = Detours(zones, spec.flight.exclusion_margin_m)
     try:
-        route = build_route(passes, lead_in, kin, [spacing] * len(passes), launch_xy, detours)
+        route = build_route(passes, g_lead, kin, [g_spacing] * len(passes), launch_xy, detours)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc}") from None
     if launch_xy is None:
@@ -275,7 +287,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
             f"fixed height over terrain from {heights.ground_min_m:.1f} to {heights.ground_max_m:.1f} m: GSD "
             f"{gsd_min * 100:.2f} cm over the highest ground and {gsd_max * 100:.2f} cm over the lowest"
         )
-    est = _estimates(spec, route, wps, stations, kin, home_xy, heights, base)
+    est = _estimates(spec, route, wps, stations, kin, home_xy, heights, base, k)
     sun = None
     if spec.conditions.start is not None:
         samples = elevation_over_window(float(hlon[0]), float(hlat[0]), spec.conditions.start, spec.conditions.end)
@@ -301,15 +313,80 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
                 f"{lost / 1e4:.2f} ha of the area lie in exclusion zones or their {spec.flight.exclusion_margin_m:g} m margin "
                 "and are not photographed from above; coverage next to them is reduced"
             )
-    return PlanResult(
+    result = PlanResult(
         spec=spec, planar=planar, area_wgs84=area_wgs, area=area, exclusions_wgs84=excl_wgs, exclusions=zones,
         heights=heights, gsd_target_m=gsd_target, gsd_min_m=gsd_min, gsd_max_m=gsd_max, across_m=across,
         along_m=along, spacing_m=spacing, base_m=base, side_images_per_point=k_side,
         forward_images_per_point=k_fwd, speed=speed, trigger_interval_s=interval, lead_in_m=lead_in,
         turn_radius_m=radius, heading_deg=heading, heading_chosen=chosen, passes=passes, route=route,
         stations=stations, waypoints=wps, home=(float(hlon[0]), float(hlat[0]), home_ground), home_xy=home_xy,
+        grid_scale=k,
         altitude_frame=frame_name, estimates=est, sun=sun, warnings=warnings,
     )
+    sites = _launch_sites(spec, planar, dem, zones_buf, home_xy, (float(hlon[0]), float(hlat[0]), home_ground))
+    result.launch_sites = sites
+    result.fence_inclusion, result.fence_exclusion = _fence(result, sites, excl_wgs)
+    if spec.battery is not None:
+        result.battery, result.sorties = _sorties(result, sites, kin, detours)
+    return result
+
+
+def _launch_sites(spec: MissionSpec, planar: Planar, dem, zones_buf, home_xy, home) -> list:
+    """The launch points sorties may start from: the battery's list, else the plan's home."""
+    from aerosurvey.plan.sorties import LaunchSite
+
+    pts = spec.battery.launch_points if spec.battery is not None and spec.battery.launch_points else ()
+    if not pts:
+        return [LaunchSite(home_xy[0], home_xy[1], home[0], home[1], home[2])]
+    lon = np.array([p[0] for p in pts])
+    lat = np.array([p[1] for p in pts])
+    x, y = planar.xy(lon, lat)
+    ground = dem.sample(x, y, "launch points") if dem is not None else np.zeros(len(pts))
+    for i, (px, py) in enumerate(zip(x, y)):
+        if zones_buf is not None and shapely.intersects(zones_buf, shapely.Point(px, py)):
+            raise InputError(f"battery.launch_points[{i + 1}] = {list(pts[i])} lies inside an exclusion zone "
+                             f"(or its {spec.flight.exclusion_margin_m:g} m margin)")
+    return [LaunchSite(float(px), float(py), float(lo), float(la), float(g)) for px, py, lo, la, g in zip(x, y, lon, lat, ground)]
+
+
+def _fence(plan: PlanResult, sites: list, excl_wgs: list) -> tuple[tuple, tuple]:
+    """Geofence: the hull of everything flown (and the launch points) grown by 50 m;
+    the exclusion zones as exclusion polygons. (lat, lon) rings, not closed."""
+    pts = [(w.x, w.y) for w in plan.waypoints] + [(s.x, s.y) for s in sites]
+    hull = shapely.buffer(shapely.convex_hull(shapely.MultiPoint(pts)), 50.0, quad_segs=2)
+    ring = np.asarray(hull.exterior.coords)[:-1]
+    lon, lat = plan.planar.lonlat(ring[:, 0], ring[:, 1])
+    inclusion = (tuple((round(float(a), 8), round(float(b), 8)) for a, b in zip(lat, lon)),)
+    exclusion = []
+    for z in excl_wgs:
+        for poly in shapely.get_parts(z):
+            c = np.asarray(poly.exterior.coords)[:-1]
+            exclusion.append(tuple((round(float(b), 8), round(float(a), 8)) for a, b in c))
+    return inclusion, tuple(exclusion)
+
+
+def _sorties(plan: PlanResult, sites: list, kin: Kinematics, detours: Detours):
+    from aerosurvey.plan.sorties import Budget, split, wind_factor
+
+    b = plan.spec.battery
+    keep = 1.0 - b.reserve
+    budget = Budget(
+        usable_s=b.usable_min * 60.0 * keep if b.usable_min is not None else None,
+        usable_j=b.capacity_wh * 3600.0 * keep if b.capacity_wh is not None else None,
+        cruise_w=b.cruise_power_w, climb_w=b.climb_power_w,
+        wind_factor=wind_factor(b.wind_ms, kin.speed_ms), max_items=b.max_mission_items,
+    )
+    fixed = None if b.launch == "nearest" else int(b.launch) - 1
+    raw = split(plan, sites, budget, kin, detours, fixed)
+    out = []
+    for s in raw:
+        x = np.array([w.x for w in s.waypoints])
+        y = np.array([w.y for w in s.waypoints])
+        lon, lat = plan.planar.lonlat(x, y)
+        wps = [RouteWaypoint(float(w.x), float(w.y), float(lo), float(la), float(w.alt_m), w.kind, w.run, w.station)
+               for w, lo, la in zip(s.waypoints, lon, lat)]
+        out.append((s, wps))
+    return budget, out
 
 
 def _heights_along_route(spec, route: Route, heights: Heights, dem: Dem | None, home_ground: float, planar: Planar):
@@ -389,8 +466,10 @@ def _heights_along_route(spec, route: Route, heights: Heights, dem: Dem | None, 
 
 
 def _estimates(spec, route: Route, wps: list[RouteWaypoint], stations: Stations, kin: Kinematics,
-               home_xy: tuple[float, float], heights: Heights, base: float) -> dict[str, float]:
-    pts = np.asarray([(w.x, w.y) for w in wps])
+               home_xy: tuple[float, float], heights: Heights, base: float, k: float) -> dict[str, float]:
+    """Distances and times on the ground (grid lengths divided by the scale factor k)."""
+    pts = np.asarray([(w.x, w.y) for w in wps]) / k
+    home_xy = (home_xy[0] / k, home_xy[1] / k)
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
     transit_out = math.dist(home_xy, (wps[0].x, wps[0].y))

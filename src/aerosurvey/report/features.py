@@ -74,7 +74,8 @@ def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, A
     if with_footprints and len(st.ids):
         cam = plan.spec.camera.camera
         across, along = pg.footprint(st.agl_m, cam, plan.spec.camera.mount)
-        corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float), np.asarray(along, float))
+        k = plan.grid_scale
+        corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float) * k, np.asarray(along, float) * k)
         lon, lat = plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
         ring = np.round(np.stack([lon.reshape(-1, 4), lat.reshape(-1, 4)], axis=-1), 8)
         rings = np.concatenate([ring, ring[:, :1]], axis=1).tolist()

@@ -44,7 +44,8 @@ def footprints(view: PlanView) -> Footprints:
     cam = view.camera
     sw, sh = cam["sensor_mm"]
     f = cam["focal_mm"]
-    long_, short = sw / f * view.agl, sh / f * view.agl
+    k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))  # ground metres to grid metres
+    long_, short = sw / f * view.agl * k, sh / f * view.agl * k
     across, along = (long_, short) if cam["mount"] == "landscape" else (short, long_)
     return Footprints(view.x, view.y, np.radians(view.heading_deg), across, along)
 

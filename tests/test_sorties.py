@@ -1,0 +1,125 @@
+"""Battery split: sorties fit their battery, cover every station once, in order; bad batteries."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import independent_coverage as ic
+from aerosurvey.cli import main
+from aerosurvey.errors import InputError
+from aerosurvey.plan.planner import plan_mission
+from aerosurvey.spec import load_spec
+from conftest import make_spec, random_polygon, write_geojson
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 400),
+       minutes=st.floats(6, 30), reserve=st.floats(0.1, 0.4), wind=st.floats(0, 5), vehicle=st.sampled_from(["copter", "plane"]))
+def test_sorties_fit_and_cover_every_station_once(tmp_path_factory, kind, seed, size, minutes, reserve, wind, vehicle):
+    tmp = tmp_path_factory.mktemp("sorties")
+    spec = make_spec(tmp, {"battery": {"usable_min": minutes, "reserve": reserve, "wind_ms": wind},
+                           "vehicle": {"type": vehicle, "cruise_speed_ms": 12.0 if vehicle == "copter" else 16.0}},
+                     rings=random_polygon(kind, seed, size))
+    try:
+        plan = plan_mission(load_spec(spec))
+    except InputError as exc:
+        assert "battery too small" in str(exc)
+        return
+    usable_s = minutes * 60 * (1 - reserve)
+    covered = []
+    for s, wps in plan.sorties:
+        # the model's own cost of the sortie fits the usable battery
+        assert s.battery_used <= 1.0 + 1e-9
+        assert s.horizontal_s + s.vertical_s <= usable_s * (1 + 1e-9)
+        covered.extend(range(s.first, s.last + 1))
+    assert covered == list(range(len(plan.stations.ids)))
+
+
+def _replay(path: Path, c) -> ic.Photos:
+    home, rows = ic.read_wpl(path)
+    return ic.replay_triggers(rows, ic.local_projection(c[0], c[1]), None, home[2])
+
+
+def test_exported_sorties_photograph_each_station_once(tmp_path):
+    spec = make_spec(tmp_path, {"battery": {"usable_min": 8.0}, "flight": {"heading": 0.0}})
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert len(manifest["sorties"]) >= 2
+    c = (15.003, 49.4017)
+    whole = _replay(out / "mission.waypoints", c)
+    parts = [_replay(out / f"sortie-{k:02d}.waypoints", c) for k in range(1, len(manifest["sorties"]) + 1)]
+    xs = np.concatenate([p.x for p in parts])
+    ys = np.concatenate([p.y for p in parts])
+    # the sorties take exactly the photos of the whole mission: none missing, none twice
+    assert len(xs) == len(whole.x) == len(manifest["stations"])
+    a = np.column_stack([xs, ys])
+    b = np.column_stack([whole.x, whole.y])
+    d = np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
+    # every sortie photo is a photo of the whole mission (within 5 cm of file rounding), one to one
+    nearest = d.argmin(axis=1)
+    assert d.min(axis=1).max() < 0.05
+    assert len(set(nearest.tolist())) == len(a)
+    for k, s in enumerate(manifest["sorties"], start=1):
+        assert s["photos"] == len(parts[k - 1].x)
+        assert s["battery_used_pct"] <= 75.0 + 1e-6
+
+
+def test_battery_too_short_for_takeoff_and_return(tmp_path):
+    spec = make_spec(tmp_path, {"battery": {"usable_min": 1.0}})
+    with pytest.raises(InputError, match="battery too small.*takes"):
+        plan_mission(load_spec(spec))
+
+
+def test_launch_point_too_far(tmp_path):
+    spec = make_spec(tmp_path, {"battery": {"usable_min": 10.0, "launch_points": [[15.2, 49.4]], "launch": 1}})
+    with pytest.raises(InputError, match="battery too small"):
+        plan_mission(load_spec(spec))
+
+
+def test_launch_point_inside_an_exclusion_zone(tmp_path):
+    zone = [[15.0080, 49.4000], [15.0100, 49.4000], [15.0100, 49.4020], [15.0080, 49.4020], [15.0080, 49.4000]]
+    write_geojson(tmp_path / "zone.geojson", [zone])
+    spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]},
+                                "battery": {"usable_min": 10.0, "launch_points": [[15.009, 49.401]]}})
+    with pytest.raises(InputError, match=r"battery.launch_points\[1\].*inside an exclusion zone"):
+        plan_mission(load_spec(spec))
+
+
+def test_nearest_of_several_launch_points(tmp_path):
+    west, east = [14.9985, 49.4017], [15.0075, 49.4017]
+    spec = make_spec(tmp_path, {"battery": {"usable_min": 7.0, "launch_points": [west, east]}, "flight": {"heading": 0.0}})
+    plan = plan_mission(load_spec(spec))
+    launches = {s.launch for s, _ in plan.sorties}
+    assert len(plan.sorties) >= 2 and launches == {0, 1}
+
+
+def test_energy_budget(tmp_path):
+    spec = make_spec(tmp_path, {"battery": {"capacity_wh": 60.0, "cruise_power_w": 400.0, "reserve": 0.2}})
+    plan = plan_mission(load_spec(spec))
+    usable_j = 60 * 3600 * 0.8
+    for s, _ in plan.sorties:
+        used = s.horizontal_s * 400.0 + s.vertical_s * 520.0
+        assert used <= usable_j * (1 + 1e-9)
+        assert s.battery_used == pytest.approx(used / usable_j, rel=1e-6)
+
+
+@pytest.mark.parametrize("table,needle", [
+    ({"usable_min": 10.0, "capacity_wh": 50.0}, "exactly one of"),
+    ({"capacity_wh": 50.0}, "needs battery.cruise_power_w"),
+    ({"usable_min": 10.0, "reserve": 0.95}, "battery.reserve = 0.95"),
+    ({"usable_min": 10.0, "launch": 3}, "battery.launch = 3"),
+    ({"usable_min": 10.0, "wind_ms": 12.0}, "battery.wind_ms = 12.0"),
+])
+def test_bad_battery_tables(tmp_path, table, needle):
+    with pytest.raises(InputError, match=needle.replace(".", r"\.").replace("(", r"\(")):
+        load_spec(make_spec(tmp_path, {"battery": table}))
