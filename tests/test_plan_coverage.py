@@ -70,7 +70,8 @@ def check_mission(spec_path: Path, out: Path, samples: int = 50) -> dict:
         assert len(photos.x) >= len(manifest["stations"])
     else:
         assert len(photos.x) == len(manifest["stations"])
-    pts = np.round(np.column_stack([photos.x, photos.y]), 2)
+    # no photo twice: same place and same heading (a cross-hatch photo over a first-pass one is another photo)
+    pts = np.round(np.column_stack([photos.x, photos.y, np.degrees(photos.heading) % 180.0]), 2)
     assert len(np.unique(pts, axis=0)) == len(pts), "duplicate photo stations"
     assert len({s["id"] for s in manifest["stations"]}) == len(manifest["stations"])
 

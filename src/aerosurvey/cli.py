@@ -38,6 +38,11 @@ def _register() -> None:
     main.add_command(gcp.gcp)
     main.add_command(cameras.cameras)
     main.add_command(qa.qa)
+    from aerosurvey.commands import sitl
+
+    main.add_command(sitl.sitl)
+    from aerosurvey.commands import upload
+    main.add_command(upload.upload)
 
 
 _register()

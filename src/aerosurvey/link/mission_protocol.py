@@ -1,0 +1,433 @@
+"""The MAVLink mission protocol as pure state machines: no sockets, no clock of their own.
+
+A machine is told what arrived (`handle`) and what time it is (`poll`); it answers with
+the messages to send next. Keeping time and I/O outside makes every retry, restart and
+stale-packet decision testable with a simulated clock and a lossy simulated link.
+
+Upload (ground station side): MISSION_COUNT → the vehicle asks for each item with
+MISSION_REQUEST_INT (or legacy MISSION_REQUEST) → we answer MISSION_ITEM_INT → the vehicle
+ends with MISSION_ACK. Download: MISSION_REQUEST_LIST → MISSION_COUNT → MISSION_REQUEST_INT
+per item → MISSION_ITEM_INT → we end with MISSION_ACK.
+
+Numbers follow MAVLink common.xml (MAV_MISSION_RESULT, MAV_MISSION_TYPE); they are plain
+integers here so this module stays free of pymavlink.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence, Union
+
+# MAV_MISSION_TYPE
+MISSION = 0
+FENCE = 1
+RALLY = 2
+
+# MAV_MISSION_RESULT
+ACCEPTED = 0
+ERROR = 1
+UNSUPPORTED_FRAME = 2
+UNSUPPORTED = 3
+NO_SPACE = 4
+INVALID = 5
+INVALID_PARAM1 = 6
+INVALID_PARAM7 = 12
+INVALID_SEQUENCE = 13
+DENIED = 14
+OPERATION_CANCELLED = 15
+
+RESULT_NAMES = {
+    0: "MAV_MISSION_ACCEPTED", 1: "MAV_MISSION_ERROR", 2: "MAV_MISSION_UNSUPPORTED_FRAME",
+    3: "MAV_MISSION_UNSUPPORTED", 4: "MAV_MISSION_NO_SPACE", 5: "MAV_MISSION_INVALID",
+    6: "MAV_MISSION_INVALID_PARAM1", 7: "MAV_MISSION_INVALID_PARAM2", 8: "MAV_MISSION_INVALID_PARAM3",
+    9: "MAV_MISSION_INVALID_PARAM4", 10: "MAV_MISSION_INVALID_PARAM5_X", 11: "MAV_MISSION_INVALID_PARAM6_Y",
+    12: "MAV_MISSION_INVALID_PARAM7", 13: "MAV_MISSION_INVALID_SEQUENCE", 14: "MAV_MISSION_DENIED",
+    15: "MAV_MISSION_OPERATION_CANCELLED",
+}
+TYPE_NAMES = {MISSION: "mission", FENCE: "fence", RALLY: "rally"}
+
+# Answers that mean "the vehicle may have lost or already finished this transaction". ArduPilot
+# (MissionItemProtocol.cpp) sends ERROR for an item that arrives when it is not receiving (e.g. a
+# duplicate of the last item after its ACK) and OPERATION_CANCELLED when its own upload timer
+# expired. Neither alone proves the transfer failed (it may be a late copy), so the machine waits
+# one step timeout for a request and restarts the transaction when none comes.
+# INVALID_SEQUENCE is different: ArduPilot sends it for a duplicated or late item while it keeps
+# receiving and re-requesting the item it wants (also when our resend crosses its lost request),
+# so it is counted but needs no action; a vehicle that answers it and never asks again is caught
+# by the stall rule, which restarts the transaction.
+_SUSPECT = frozenset({ERROR, OPERATION_CANCELLED})
+
+
+def result_name(code: int) -> str:
+    return RESULT_NAMES.get(code, f"MAV_MISSION_RESULT {code}")
+
+
+@dataclass(frozen=True)
+class WireItem:
+    """The content of one MISSION_ITEM_INT: x/y are int32 degrees·1e7, z and params float32."""
+
+    seq: int
+    command: int
+    frame: int
+    param1: float = 0.0
+    param2: float = 0.0
+    param3: float = 0.0
+    param4: float = 0.0
+    x: int = 0
+    y: int = 0
+    z: float = 0.0
+    autocontinue: int = 1
+    current: int = 0
+    mission_type: int = MISSION
+
+
+@dataclass(frozen=True)
+class Count:
+    """MISSION_COUNT."""
+
+    count: int
+    mission_type: int = MISSION
+
+
+@dataclass(frozen=True)
+class RequestList:
+    """MISSION_REQUEST_LIST."""
+
+    mission_type: int = MISSION
+
+
+@dataclass(frozen=True)
+class Request:
+    """MISSION_REQUEST_INT, or the legacy MISSION_REQUEST when `legacy` (same meaning)."""
+
+    seq: int
+    mission_type: int = MISSION
+    legacy: bool = False
+
+
+@dataclass(frozen=True)
+class Item:
+    """MISSION_ITEM_INT (a legacy MISSION_ITEM is converted to this form by the codec)."""
+
+    item: WireItem
+
+
+@dataclass(frozen=True)
+class Ack:
+    """MISSION_ACK with a MAV_MISSION_RESULT."""
+
+    result: int
+    mission_type: int = MISSION
+
+
+Message = Union[Count, RequestList, Request, Item, Ack]
+
+
+@dataclass(frozen=True)
+class Policy:
+    """How long to wait and how often to try again; all bounded so a transfer always ends.
+
+    `timeout`: seconds without an answer before a step is resent. `retries`: resends of one
+    step before the transaction is restarted (or, for the first step, given up).
+    `restarts`: whole-transaction restarts allowed (NO_SPACE, a vehicle that lost the
+    transaction). `busy_wait`: pause before restarting after MAV_MISSION_NO_SPACE (ArduPilot
+    sends it right after boot) or MAV_MISSION_DENIED (the vehicle is still busy with another
+    transfer; ArduPilot gives a stalled upload up after 8 s), so 3 restarts span 9 s.
+    """
+
+    timeout: float = 2.0
+    retries: int = 5
+    restarts: int = 3
+    busy_wait: float = 3.0
+
+    def __post_init__(self) -> None:
+        if not (self.timeout > 0 and math.isfinite(self.timeout)):
+            raise ValueError(f"timeout must be a positive number of seconds, got {self.timeout!r}")
+        if self.retries < 0 or self.restarts < 0 or self.busy_wait < 0:
+            raise ValueError("retries, restarts and busy_wait must not be negative")
+
+
+@dataclass
+class Stats:
+    """What happened on the way; reported so a flaky link is visible even when it succeeds."""
+
+    sent: int = 0
+    resends: int = 0
+    restarts: int = 0
+    duplicate_requests: int = 0
+    ignored: int = 0
+    error_acks: list[int] = field(default_factory=list)
+
+
+class TransferFailed(Exception):
+    """The transfer ended without success; the message says which step and why."""
+
+
+class _Machine:
+    """Shared bookkeeping: state, deadline and outcome of one transfer."""
+
+    def __init__(self, mission_type: int, policy: Policy) -> None:
+        self.mission_type = mission_type
+        self.policy = policy
+        self.stats = Stats()
+        self.done = False
+        self.error: str | None = None
+        self.deadline = math.inf
+
+    @property
+    def finished(self) -> bool:
+        return self.done or self.error is not None
+
+    def _fail(self, message: str) -> list[Message]:
+        self.error = message
+        self.deadline = math.inf
+        return []
+
+    def _out(self, msgs: list[Message]) -> list[Message]:
+        self.stats.sent += len(msgs)
+        return msgs
+
+    def _ours(self, msg: Message) -> bool:
+        if self.finished or isinstance(msg, RequestList) or msg_type(msg) != self.mission_type:
+            self.stats.ignored += 1
+            return False
+        return True
+
+
+def msg_type(msg: Message) -> int:
+    return msg.item.mission_type if isinstance(msg, Item) else msg.mission_type
+
+
+class Uploader(_Machine):
+    """Ground-station side of an upload of `items` (seq 0…n-1, in order) of one mission type.
+
+    Success needs a MISSION_ACK(ACCEPTED) after the vehicle has asked for every item of the
+    current attempt; an ACCEPTED before that is stale (from an earlier transaction) and is
+    ignored, so a partial upload is never reported as done.
+    """
+
+    def __init__(self, items: Sequence[WireItem], mission_type: int, policy: Policy) -> None:
+        super().__init__(mission_type, policy)
+        for i, it in enumerate(items):
+            if it.seq != i or it.mission_type != mission_type:
+                raise ValueError(f"item {i} has seq {it.seq} and mission type {it.mission_type}; "
+                                 f"expected seq {i} and mission type {mission_type}")
+        self.items = tuple(items)
+        self._phase = "idle"
+        self._requested: set[int] = set()
+        self._last_seq = -1
+        self._step_tries = 0
+        self._last_progress = 0.0
+        self._suspect: int | None = None
+
+    @property
+    def what(self) -> str:
+        return f"{TYPE_NAMES.get(self.mission_type, self.mission_type)} upload"
+
+    def start(self, now: float) -> list[Message]:
+        self.stats.restarts = -1
+        return self._restart(now)
+
+    def _restart(self, now: float) -> list[Message]:
+        self.stats.restarts += 1
+        self._phase = "count"
+        self._requested.clear()
+        self._last_seq = -1
+        self._step_tries = 0
+        self._suspect = None
+        self._last_progress = now
+        self.deadline = now + self.policy.timeout
+        return self._out([Count(len(self.items), self.mission_type)])
+
+    def _restart_or_fail(self, now: float, why: str) -> list[Message]:
+        if self.stats.restarts >= self.policy.restarts:
+            return self._fail(f"{self.what} failed: {why}; gave up after {self.stats.restarts} restart(s) of the transaction")
+        return self._restart(now)
+
+    def handle(self, msg: Message, now: float) -> list[Message]:
+        if not self._ours(msg):
+            return []
+        if isinstance(msg, Request):
+            return self._on_request(msg.seq, now)
+        if isinstance(msg, Ack):
+            return self._on_ack(msg.result, now)
+        self.stats.ignored += 1
+        return []
+
+    def _on_request(self, seq: int, now: float) -> list[Message]:
+        if self._phase not in ("count", "items") or not 0 <= seq < len(self.items):
+            self.stats.ignored += 1
+            return []
+        self._phase = "items"
+        self._suspect = None
+        if seq in self._requested:
+            # answered again, but the step timer keeps running: a vehicle that keeps asking for
+            # items we already sent (ours get lost) must still end in a restart, not a loop
+            self.stats.duplicate_requests += 1
+        else:
+            self._requested.add(seq)
+            self._step_tries = 0
+            self._last_progress = now
+            self.deadline = now + self.policy.timeout
+        self._last_seq = seq
+        return self._out([Item(self.items[seq])])
+
+    def _on_ack(self, result: int, now: float) -> list[Message]:
+        if result == ACCEPTED:
+            complete = len(self._requested) == len(self.items)
+            if (self._phase == "items" and complete) or (self._phase == "count" and not self.items):
+                self.done = True
+                self.deadline = math.inf
+            else:
+                self.stats.ignored += 1
+            return []
+        self.stats.error_acks.append(result)
+        if result in (NO_SPACE, DENIED) and self._phase != "items":
+            if self._phase != "count":
+                self.stats.ignored += 1
+                return []
+            if self.stats.restarts >= self.policy.restarts:
+                why = ("it has no room for them or it has not finished booting" if result == NO_SPACE else
+                       "another ground station may be uploading, or the vehicle refuses changes")
+                return self._fail(f"{self.what} failed: the vehicle answered {result_name(result)} for "
+                                  f"{len(self.items)} items {self.stats.restarts + 1} time(s); {why}")
+            self._phase = "wait"
+            self.deadline = now + self.policy.busy_wait
+            return []
+        if result == NO_SPACE:
+            # the vehicle has already accepted this attempt's count: a stale answer
+            self.stats.ignored += 1
+            return []
+        if result in _SUSPECT:
+            # before the first request a resent MISSION_COUNT is already a restart
+            if self._phase == "items":
+                self._suspect = result
+            return []
+        if result == INVALID_SEQUENCE:
+            return []
+        where = f" at item {self._last_seq}" if self._last_seq >= 0 else ""
+        return self._fail(f"{self.what} rejected by the vehicle{where}: {result_name(result)}")
+
+    def poll(self, now: float) -> list[Message]:
+        if self.finished or now < self.deadline:
+            return []
+        if self._phase == "wait":
+            return self._restart(now)
+        if self._suspect is not None:
+            return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect)} and stopped asking for items")
+        stalled = now - self._last_progress >= self.policy.timeout * (self.policy.retries + 1)
+        self._step_tries += 1
+        if self._phase == "count":
+            if self._step_tries > self.policy.retries:
+                return self._fail(f"{self.what} failed: no answer to MISSION_COUNT after {self.policy.retries} "
+                                  f"resend(s), {self.policy.timeout:g} s each")
+            self.stats.resends += 1
+            self.deadline = now + self.policy.timeout
+            return self._out([Count(len(self.items), self.mission_type)])
+        if self._step_tries > self.policy.retries or stalled:
+            return self._restart_or_fail(now, f"no progress after item {self._last_seq} of {len(self.items)} "
+                                              f"for {now - self._last_progress:.1f} s")
+        self.stats.resends += 1
+        self.deadline = now + self.policy.timeout
+        return self._out([Item(self.items[self._last_seq])])
+
+
+class Downloader(_Machine):
+    """Ground-station side of a download: collects every item, then acknowledges."""
+
+    def __init__(self, mission_type: int, policy: Policy) -> None:
+        super().__init__(mission_type, policy)
+        self.items: list[WireItem | None] = []
+        self._phase = "idle"
+        self._next = 0
+        self._step_tries = 0
+        self._suspect: int | None = None
+
+    @property
+    def what(self) -> str:
+        return f"{TYPE_NAMES.get(self.mission_type, self.mission_type)} download"
+
+    def result(self) -> list[WireItem]:
+        if not self.done:
+            raise TransferFailed(self.error or f"{self.what} has not finished")
+        return [it for it in self.items if it is not None]
+
+    def start(self, now: float) -> list[Message]:
+        self.stats.restarts = -1
+        return self._restart(now)
+
+    def _restart(self, now: float) -> list[Message]:
+        self.stats.restarts += 1
+        self._phase = "count"
+        self.items = []
+        self._next = 0
+        self._step_tries = 0
+        self._suspect = None
+        self.deadline = now + self.policy.timeout
+        return self._out([RequestList(self.mission_type)])
+
+    def _request_next(self, now: float) -> list[Message]:
+        self._step_tries = 0
+        self._suspect = None
+        self.deadline = now + self.policy.timeout
+        return self._out([Request(self._next, self.mission_type)])
+
+    def handle(self, msg: Message, now: float) -> list[Message]:
+        if not self._ours(msg):
+            return []
+        if isinstance(msg, Count) and self._phase == "count":
+            self.items = [None] * msg.count
+            self._phase = "items"
+            if msg.count == 0:
+                return self._finish()
+            return self._request_next(now)
+        if isinstance(msg, Item) and self._phase == "items" and msg.item.seq == self._next:
+            self.items[self._next] = msg.item
+            self._next += 1
+            if self._next == len(self.items):
+                return self._finish()
+            return self._request_next(now)
+        if isinstance(msg, Ack) and msg.result == DENIED and self._phase in ("count", "items"):
+            # the vehicle is still receiving an upload (a late copy of our MISSION_COUNT can
+            # start one): wait for it to give that up, then start again
+            self.stats.error_acks.append(msg.result)
+            if self.stats.restarts >= self.policy.restarts:
+                return self._fail(f"{self.what} failed: the vehicle answered MAV_MISSION_DENIED {self.stats.restarts + 1} "
+                                  "time(s); it is busy with another transfer")
+            self._phase = "wait"
+            self.deadline = now + self.policy.busy_wait
+            return []
+        if isinstance(msg, Ack) and msg.result != ACCEPTED and self._phase in ("count", "items"):
+            # may be a late answer to an earlier transfer: act on it only if nothing follows
+            self.stats.error_acks.append(msg.result)
+            self._suspect = msg.result
+            return []
+        self.stats.ignored += 1
+        return []
+
+    def _finish(self) -> list[Message]:
+        self.done = True
+        self.deadline = math.inf
+        return self._out([Ack(ACCEPTED, self.mission_type)])
+
+    def poll(self, now: float) -> list[Message]:
+        if self.finished or now < self.deadline:
+            return []
+        if self._phase == "wait":
+            return self._restart(now)
+        if self._suspect is not None:
+            why = f"the vehicle answered {result_name(self._suspect)}"
+            if self.stats.restarts >= self.policy.restarts:
+                return self._fail(f"{self.what} failed: {why}; gave up after {self.stats.restarts} restart(s)")
+            return self._restart(now)
+        self._step_tries += 1
+        if self._step_tries > self.policy.retries:
+            step = "MISSION_REQUEST_LIST" if self._phase == "count" else f"MISSION_REQUEST_INT for item {self._next}"
+            return self._fail(f"{self.what} failed: no answer to {step} after {self.policy.retries} resend(s), "
+                              f"{self.policy.timeout:g} s each")
+        self.stats.resends += 1
+        self.deadline = now + self.policy.timeout
+        if self._phase == "count":
+            return self._out([RequestList(self.mission_type)])
+        return self._out([Request(self._next, self.mission_type)])

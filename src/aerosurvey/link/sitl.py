@@ -1,0 +1,291 @@
+"""Fly planned sorties in ArduPilot SITL and compare what was flown with what was planned.
+
+The harness only launches a SITL binary the user already has (`--sitl-bin`,
+AEROSURVEY_SITL_BIN, or `arducopter`/`arduplane` on PATH). It starts it in an empty
+working folder on loopback, sets the parameters a survey needs (a servo camera so that
+pictures are logged, AUTO_OPTIONS so a copter arms in AUTO, simulation-friendly
+failsafes), reboots it as ArduPilot's own autotest does for the camera backend, uploads
+and verifies each sortie with aerosurvey's link layer (SERIAL1, tcp 5762), flies it on
+SERIAL0 (tcp 5760), records camera feedback and the track, waits for the landing, copies
+the DataFlash log, and stops every process it started.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from aerosurvey.errors import CheckFailed, InputError
+
+PARAMS_FILE = Path(__file__).resolve().parents[3] / "sitl" / "aerosurvey-sitl.parm"
+COPTER_MODES = {"AUTO": 3, "RTL": 6, "LAND": 9}
+PLANE_MODES = {"AUTO": 10, "RTL": 11}
+
+
+class SitlError(CheckFailed):
+    """SITL could not be started or the flight did not complete."""
+
+
+def find_binary(vehicle: str, explicit: str | None) -> Path:
+    """The SITL binary: the option, then AEROSURVEY_SITL_BIN (a file or a folder), then PATH."""
+    name = "arduplane" if vehicle == "plane" else "arducopter"
+    for source, value in (("--sitl-bin", explicit), ("AEROSURVEY_SITL_BIN", os.environ.get("AEROSURVEY_SITL_BIN"))):
+        if not value:
+            continue
+        p = Path(value)
+        if p.is_dir():
+            p = p / name
+        if not (p.is_file() and os.access(p, os.X_OK)):
+            raise InputError(f"{source} = {value!r}: no executable {name} there")
+        return p
+    found = shutil.which(name)
+    if found is None:
+        raise InputError(f"no ArduPilot SITL binary: give --sitl-bin, set AEROSURVEY_SITL_BIN, or put {name} on PATH "
+                         "(see sitl/README.md)")
+    return Path(found)
+
+
+@dataclass
+class Flight:
+    """What one sortie did in SITL."""
+
+    name: str
+    triggers: list[tuple[float, float, float]] = field(default_factory=list)  # lat, lon, alt rel
+    track: list[tuple[int, float, float, float]] = field(default_factory=list)  # time_boot_ms, lat, lon, alt rel
+    armed_ms: int | None = None
+    disarmed_ms: int | None = None
+    completed: bool = False
+    battery_mah: float | None = None
+    log: str | None = None
+    upload_note: str = ""
+    messages: list[str] = field(default_factory=list)
+
+
+class SitlVehicle:
+    """One SITL process and a control connection to it."""
+
+    def __init__(self, binary: Path, vehicle: str, home: tuple[float, float, float], speedup: float,
+                 defaults: list[Path], workdir: Path, boot_timeout: float = 60.0):
+        self.binary, self.vehicle, self.home, self.speedup = binary, vehicle, home, speedup
+        self.defaults = defaults
+        self.workdir = workdir
+        self.boot_timeout = boot_timeout
+        self.proc: subprocess.Popen | None = None
+        self.conn: Any = None
+
+    def start(self) -> None:
+        from pymavlink import mavutil
+
+        lat, lon, alt = self.home
+        model = "plane" if self.vehicle == "plane" else "quad"
+        cmd = [str(self.binary), "--model", model, "--speedup", f"{self.speedup:g}", "-I0",
+               "--home", f"{lat:.8f},{lon:.8f},{alt:.2f},0"]
+        if self.defaults:
+            cmd += ["--defaults", ",".join(str(p) for p in self.defaults)]
+        self.log = open(self.workdir / "sitl.out", "wb")
+        self.proc = subprocess.Popen(cmd, cwd=self.workdir, stdout=self.log, stderr=subprocess.STDOUT)
+        deadline = time.monotonic() + self.boot_timeout
+        last_exc: Exception | None = None
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise SitlError(f"SITL exited with code {self.proc.returncode} at start; see {self.workdir / 'sitl.out'}")
+            try:
+                self.conn = mavutil.mavlink_connection("tcp:127.0.0.1:5760", source_system=255, retries=0,
+                                                       autoreconnect=True)
+                break
+            except OSError as exc:
+                last_exc = exc
+                time.sleep(0.5)
+        else:
+            raise SitlError(f"SITL did not listen on tcp:127.0.0.1:5760 within {self.boot_timeout:g} s ({last_exc})")
+        if self.conn.wait_heartbeat(timeout=self.boot_timeout) is None:
+            raise SitlError("no heartbeat from SITL")
+
+    def stop(self) -> None:
+        if self.conn is not None:
+            try:
+                self.conn.close()
+            except OSError:
+                pass
+            self.conn = None
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=10)
+        self.proc = None
+        if getattr(self, "log", None):
+            self.log.close()
+
+    # --- parameters and commands -------------------------------------------------------
+    def set_param(self, name: str, value: float, timeout: float = 10.0) -> None:
+        from pymavlink import mavutil
+
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            self.conn.mav.param_set_send(self.conn.target_system, self.conn.target_component, name.encode(),
+                                         float(value), mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+            m = self.conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=1.0)
+            while m is not None:
+                if m.param_id == name and abs(m.param_value - value) < 1e-4:
+                    return
+                m = self.conn.recv_match(type="PARAM_VALUE", blocking=False)
+        raise SitlError(f"SITL did not accept parameter {name} = {value}")
+
+    def command(self, cmd: int, *params: float, timeout: float = 5.0) -> int:
+        p = list(params) + [0.0] * (7 - len(params))
+        self.conn.mav.command_long_send(self.conn.target_system, self.conn.target_component, cmd, 0, *p)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            m = self.conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5)
+            if m is not None and m.command == cmd:
+                return int(m.result)
+        return -1
+
+    def reboot(self) -> None:
+        from pymavlink import mavutil
+
+        self.command(mavutil.mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1)
+        time.sleep(2.0)
+        if self.conn.wait_heartbeat(timeout=self.boot_timeout) is None:
+            raise SitlError("no heartbeat after the reboot")
+
+    def set_mode(self, mode: int) -> None:
+        from pymavlink import mavutil
+
+        self.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode)
+
+    def arm(self, timeout: float) -> None:
+        """Arm as soon as the pre-arm checks pass (EKF and GPS ready)."""
+        from pymavlink import mavutil
+
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == 0:
+                return
+            time.sleep(1.0)
+        raise SitlError(f"SITL did not arm within {timeout:g} s (pre-arm checks: see the STATUSTEXT messages)")
+
+
+def prepare(sv: SitlVehicle) -> None:
+    """Parameters for a survey in simulation, then a reboot so the camera backend exists."""
+    for line in PARAMS_FILE.read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        name, value = line.split()[:2]
+        if name.startswith("COPTER:") or name.startswith("PLANE:"):
+            kind, name = name.split(":", 1)
+            if (kind == "PLANE") != (sv.vehicle == "plane"):
+                continue
+        sv.set_param(name, float(value))
+    sv.reboot()
+
+
+def fly(sv: SitlVehicle, mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
+        upload) -> Flight:
+    """Upload (with verification), arm, fly AUTO to the end, and record what happened."""
+    from pymavlink import mavutil
+
+    flight = Flight(name)
+    flight.upload_note = upload(mission)
+    modes = PLANE_MODES if sv.vehicle == "plane" else COPTER_MODES
+    sv.set_mode(modes["AUTO"])
+    sv.arm(timeout=120.0)
+    sv.command(mavutil.mavlink.MAV_CMD_MISSION_START, 0, 0)
+    wall_limit = time.monotonic() + 120.0 + timeout_factor * est_time_s / max(sv.speedup, 1.0)
+    armed = True
+    reached_last = False
+    while time.monotonic() < wall_limit:
+        m = sv.conn.recv_match(blocking=True, timeout=1.0)
+        if m is None:
+            continue
+        t = m.get_type()
+        if t == "CAMERA_FEEDBACK":
+            flight.triggers.append((m.lat * 1e-7, m.lng * 1e-7, float(m.alt_rel)))
+        elif t == "GLOBAL_POSITION_INT":
+            if flight.armed_ms is None:
+                flight.armed_ms = m.time_boot_ms
+            flight.track.append((m.time_boot_ms, m.lat * 1e-7, m.lon * 1e-7, m.relative_alt / 1000.0))
+        elif t == "BATTERY_STATUS" and m.current_consumed >= 0:
+            flight.battery_mah = float(m.current_consumed)
+        elif t == "MISSION_CURRENT" and m.seq >= last_item:
+            reached_last = True
+        elif t == "STATUSTEXT":
+            flight.messages.append(m.text)
+        elif t == "HEARTBEAT" and m.type != mavutil.mavlink.MAV_TYPE_GCS:
+            armed = bool(m.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            if not armed and flight.armed_ms is not None and len(flight.track) > 10:
+                flight.disarmed_ms = flight.track[-1][0]
+                flight.completed = reached_last
+                break
+        if sv.vehicle == "plane" and reached_last and flight.track:
+            # a plane's RTL loiters: the sortie is over when it is back over home
+            _, lat, lon, _ = flight.track[-1]
+            if _dist(lat, lon, sv.home[0], sv.home[1]) < 150.0:
+                flight.disarmed_ms = flight.track[-1][0]
+                flight.completed = True
+                break
+    if not flight.completed:
+        flight.messages.append(f"not completed within the time limit (armed={armed}, reached the last item={reached_last})")
+    return flight
+
+
+def _dist(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    k = math.pi / 180.0
+    x = (lon2 - lon1) * k * math.cos((lat1 + lat2) * k / 2)
+    return 6_371_000.0 * math.hypot(x, (lat2 - lat1) * k)
+
+
+def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tuple[tuple[float, float], tuple[float, float]]],
+            est_time_s: float) -> dict[str, Any]:
+    """Triggers against planned stations (in order), cross-track error on the lines, time."""
+    n = min(len(flight.triggers), len(stations))
+    d = [_dist(flight.triggers[i][0], flight.triggers[i][1], stations[i][0], stations[i][1]) for i in range(n)]
+    xte = []
+    for (a, b) in runs:
+        for _, lat, lon, _ in flight.track:
+            xte_m = _cross_track(lat, lon, a, b)
+            if xte_m is not None:
+                xte.append(xte_m)
+    flown = (flight.disarmed_ms - flight.armed_ms) / 1000.0 if flight.disarmed_ms and flight.armed_ms else None
+    return {
+        "sortie": flight.name, "completed": flight.completed, "photos_planned": len(stations),
+        "triggers_flown": len(flight.triggers), "triggers_match": len(flight.triggers) == len(stations),
+        "max_trigger_offset_m": round(max(d), 2) if d else None,
+        "max_cross_track_m": round(max(xte), 2) if xte else None,
+        "flown_time_s": round(flown, 1) if flown else None, "estimated_time_s": round(est_time_s, 1),
+        "time_ratio": round(flown / est_time_s, 3) if flown else None,
+        "battery_mah": flight.battery_mah, "log": flight.log, "upload": flight.upload_note,
+    }
+
+
+def _cross_track(lat: float, lon: float, a: tuple[float, float], b: tuple[float, float]) -> float | None:
+    """Distance of a track point from the segment a–b (lat, lon), when it lies alongside it."""
+    k = math.pi / 180.0
+    cos0 = math.cos(a[0] * k)
+    ax, ay = 0.0, 0.0
+    bx, by = (b[1] - a[1]) * k * cos0 * 6_371_000.0, (b[0] - a[0]) * k * 6_371_000.0
+    px, py = (lon - a[1]) * k * cos0 * 6_371_000.0, (lat - a[0]) * k * 6_371_000.0
+    length2 = bx * bx + by * by
+    if length2 <= 0:
+        return None
+    t = (px * bx + py * by) / length2
+    if not 0.05 <= t <= 0.95:  # the middle of the line: turns and lead-ins are not cross-track
+        return None
+    cx, cy = ax + t * bx, ay + t * by
+    dist = math.hypot(px - cx, py - cy)
+    return dist if dist < 50.0 else None
+
+
+def workdir() -> Path:
+    return Path(tempfile.mkdtemp(prefix="aerosurvey-sitl-"))

@@ -1,0 +1,371 @@
+"""Upload a Mission to a vehicle, read it back and compare item by item; the fence too.
+
+The protocol decisions live in `mission_protocol`; this module turns the mission model into
+wire items, pumps a protocol machine over a link, and compares what the vehicle stores with
+what was planned. A transfer that did not end with the vehicle's MISSION_ACK(ACCEPTED) for
+every item is an error, never a partial success.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from dataclasses import dataclass, field
+from typing import Protocol, Sequence
+
+from aerosurvey.errors import CheckFailed, InputError
+from aerosurvey.link import mission_protocol as mp
+from aerosurvey.link.connection import LinkError, Vehicle
+from aerosurvey.mission import mavlink_ids as mav
+from aerosurvey.mission.items import Mission, MissionItem
+
+AUTOPILOT_ARDUPILOT = 3
+AUTOPILOT_PX4 = 12
+_PLANE_TYPES = frozenset({1, *range(19, 26)})  # MAV_TYPE fixed wing and VTOLs: ArduPlane builds
+
+_COMMAND_NAMES = {v: k for k, v in vars(mav).items() if k.isupper() and not k.startswith(("FRAME_", "AUTOPILOT_", "TYPE_"))}
+
+
+class Link(Protocol):
+    """What a transfer needs from a link; MavLink implements it, tests add a simulated one."""
+
+    vehicle: Vehicle | None
+
+    def now(self) -> float: ...
+
+    def send(self, msg: mp.Message) -> None: ...
+
+    def recv(self, until: float) -> mp.Message | None: ...
+
+
+class VerificationFailed(CheckFailed):
+    """The vehicle accepted the upload but stores something else (exit code 1)."""
+
+    def __init__(self, message: str, mismatches: Sequence["Mismatch"]) -> None:
+        super().__init__(message)
+        self.mismatches = list(mismatches)
+
+
+# --- the mission model on the wire -------------------------------------------------------
+
+def f32(v: float) -> float:
+    """`v` as the float32 MAVLink carries."""
+    return struct.unpack("<f", struct.pack("<f", v))[0] if math.isfinite(v) else v
+
+
+def deg_e7(v: float, what: str) -> int:
+    """Degrees as int32 1e-7 degrees; NaN (QGroundControl's "unset") becomes 0 as MAVLink has no NaN integer."""
+    if math.isnan(v):
+        return 0
+    e7 = round(v * 1e7)
+    if not -(2**31) <= e7 < 2**31:
+        raise InputError(f"{what} = {v!r} degrees does not fit a MAVLink int32 coordinate")
+    return e7
+
+
+def item_to_wire(it: MissionItem, seq: int, what: str) -> mp.WireItem:
+    return mp.WireItem(seq, it.command, it.frame, it.param1, it.param2, it.param3, it.param4,
+                       deg_e7(it.x, f"{what} latitude"), deg_e7(it.y, f"{what} longitude"), it.z,
+                       1 if it.autocontinue else 0, 0, mp.MISSION)
+
+
+def home_on_wire(m: Mission) -> bool:
+    """ArduPilot keeps home as mission item 0; PX4 does not."""
+    return m.firmware == "ardupilot"
+
+
+def mission_wire_items(m: Mission) -> list[mp.WireItem]:
+    """The items to upload: home as seq 0 (frame 0, altitude AMSL) for ArduPilot, then the plan's items."""
+    out: list[mp.WireItem] = []
+    if home_on_wire(m):
+        lat, lon, alt = m.home
+        out.append(mp.WireItem(0, mav.NAV_WAYPOINT, mav.FRAME_GLOBAL, x=deg_e7(lat, "home latitude"),
+                               y=deg_e7(lon, "home longitude"), z=alt))
+    for it in m.items:
+        out.append(item_to_wire(it, len(out), f"mission item {len(out)}"))
+    return out
+
+
+def fence_wire_items(m: Mission) -> list[mp.WireItem]:
+    """Fence polygons as MAV_MISSION_TYPE_FENCE items: one item per vertex, param1 = vertex count."""
+    out: list[mp.WireItem] = []
+    for command, polys, kind in ((mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION, m.fence_inclusion, "inclusion"),
+                                 (mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION, m.fence_exclusion, "exclusion")):
+        for k, poly in enumerate(polys, start=1):
+            pts = list(poly)
+            if len(pts) > 1 and pts[0] == pts[-1]:
+                pts.pop()  # a closed ring repeats its first vertex; MAVLink fences do not
+            if len(pts) < 3:
+                raise InputError(f"fence {kind} polygon {k} has {len(pts)} distinct vertices; a polygon needs at least 3")
+            for lat, lon in pts:
+                out.append(mp.WireItem(len(out), command, mav.FRAME_GLOBAL, float(len(pts)),
+                                       x=deg_e7(lat, f"fence {kind} polygon {k} latitude"),
+                                       y=deg_e7(lon, f"fence {kind} polygon {k} longitude"),
+                                       mission_type=mp.FENCE))
+    return out
+
+
+# --- what ArduPilot keeps of an item ------------------------------------------------------
+# ArduPilot packs each item into 15 bytes (AP_Mission::mavlink_int_to_mission_cmd) and rebuilds
+# the MAVLink item on download (AP_Mission::mission_cmd_to_mavlink_int): parameters it has no
+# room for come back as 0, integer fields are truncated, altitudes are whole centimetres,
+# commands without a location come back with frame 0 and x = y = z = 0, and fence vertices
+# (MissionItemProtocol_Fence) with frame 0 and z = 0. Comparing the download with the plan
+# through this model checks every field ArduPilot keeps and says which ones it does not.
+
+_LOCATION_COMMANDS = frozenset({mav.NAV_WAYPOINT, mav.NAV_LAND, mav.NAV_TAKEOFF, mav.DO_LAND_START,
+                                mav.NAV_VTOL_TAKEOFF, mav.NAV_VTOL_LAND})
+_FRAME_STORED = {0: 0, 2: 0, 5: 0, 3: 3, 6: 3, 10: 10, 11: 10}
+
+
+def _trunc(v: float) -> float:
+    return float(math.trunc(v)) if math.isfinite(v) else 0.0
+
+
+def _ardupilot_params(it: mp.WireItem, plane: bool) -> tuple[float, float, float, float] | None:
+    p1, p2, p3, p4 = it.param1, it.param2, it.param3, it.param4
+    c = it.command
+    if c == mav.NAV_WAYPOINT:
+        if plane:  # acceptance and pass-by radius, one byte each
+            return (0.0, min(255.0, _trunc(p2)), min(255.0, _trunc(p3)), 0.0)
+        return (_trunc(p1), 0.0, 0.0, 0.0)  # delay, whole seconds
+    if c in (mav.NAV_TAKEOFF, mav.NAV_VTOL_LAND):
+        return (_trunc(p1), 0.0, 0.0, 0.0)
+    if c == mav.NAV_LAND:
+        return (_trunc(p1), 0.0, 0.0, -1.0 if p4 < 0 else 1.0)
+    if c in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_VTOL_TAKEOFF, mav.DO_LAND_START):
+        return (0.0, 0.0, 0.0, 0.0)
+    if c == mav.CONDITION_YAW:
+        return (f32(p1), f32(p2), _trunc(p3), _trunc(p4))
+    if c == mav.DO_CHANGE_SPEED:
+        return (_trunc(p1), f32(p2), f32(p3), 0.0)
+    if c == mav.DO_SET_CAM_TRIGG_DIST:
+        return (f32(p1), 0.0, _trunc(p3), 0.0)
+    if c in (mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION, mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION):
+        return (_trunc(p1), 0.0, 0.0, 0.0)
+    return None
+
+
+def ardupilot_stored(it: mp.WireItem, plane: bool) -> mp.WireItem:
+    """The item as ArduPilot returns it after storing it; unknown commands are left as they are."""
+    params = _ardupilot_params(it, plane)
+    if params is None:
+        return it
+    if it.mission_type == mp.FENCE:
+        return mp.WireItem(it.seq, it.command, 0, *params, it.x, it.y, 0.0, 1, 0, it.mission_type)
+    if it.command in _LOCATION_COMMANDS:
+        z = f32(math.trunc(f32(f32(it.z) * 100.0)) * f32(0.01)) if math.isfinite(it.z) else it.z
+        frame = _FRAME_STORED.get(it.frame, it.frame)
+        return mp.WireItem(it.seq, it.command, frame, *params, it.x, it.y, z, 1, 0, it.mission_type)
+    return mp.WireItem(it.seq, it.command, 0, *params, 0, 0, 0.0, 1, 0, it.mission_type)
+
+
+# --- comparison --------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Mismatch:
+    """One field of one item that differs between the plan and the vehicle."""
+
+    seq: int | None
+    field: str
+    expected: object
+    actual: object
+    command: int | None = None
+    mission_type: int = mp.MISSION
+
+    def __str__(self) -> str:
+        kind = mp.TYPE_NAMES.get(self.mission_type, str(self.mission_type))
+        if self.seq is None:
+            return f"{kind}: the vehicle has {self.actual} items, the plan {self.expected}"
+        name = _COMMAND_NAMES.get(self.command, str(self.command)) if self.command is not None else "?"
+        return f"{kind} item {self.seq} ({name}) {self.field}: planned {self.expected!r}, vehicle has {self.actual!r}"
+
+
+def _same_f32(a: float, b: float) -> bool:
+    a, b = f32(a), f32(b)
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return math.isclose(a, b, rel_tol=2.0**-22, abs_tol=1e-6)
+
+
+def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem], skip: frozenset[int] = frozenset(),
+                  mission_type: int = mp.MISSION) -> list[Mismatch]:
+    """Every differing field: command and frame exactly, params and z as float32, x/y as int32 1e-7 degrees."""
+    out: list[Mismatch] = []
+    if len(expected) != len(actual):
+        out.append(Mismatch(None, "count", len(expected), len(actual), mission_type=mission_type))
+    for e, a in zip(expected, actual):
+        if e.seq in skip:
+            continue
+
+        def miss(name: str, ev: object, av: object) -> None:
+            out.append(Mismatch(e.seq, name, ev, av, e.command, mission_type))
+
+        if e.command != a.command:
+            miss("command", e.command, a.command)
+            continue
+        if e.frame != a.frame:
+            miss("frame", e.frame, a.frame)
+        for k, (ev, av) in enumerate(zip((e.param1, e.param2, e.param3, e.param4), (a.param1, a.param2, a.param3, a.param4)), 1):
+            if not _same_f32(ev, av):
+                miss(f"param{k}", f32(ev), f32(av))
+        if e.x != a.x:
+            miss("x (latitude·1e7)", e.x, a.x)
+        if e.y != a.y:
+            miss("y (longitude·1e7)", e.y, a.y)
+        if not _same_f32(e.z, a.z):
+            miss("z", f32(e.z), f32(a.z))
+    return out
+
+
+# --- transfers ---------------------------------------------------------------------------
+
+def _hard_limit(policy: mp.Policy, n: int) -> float:
+    """A wall-clock bound no transfer can pass, whatever the vehicle sends."""
+    per_attempt = policy.timeout * (policy.retries + 2) * (n + 2)
+    return (policy.restarts + 1) * (per_attempt + policy.busy_wait) + 1.0
+
+
+def run_transfer(link: Link, machine: mp.Uploader | mp.Downloader, n_hint: int) -> None:
+    """Drive one protocol machine over `link` until it succeeds (return) or fails (LinkError)."""
+    for m in machine.start(link.now()):
+        link.send(m)
+    give_up = link.now() + _hard_limit(machine.policy, n_hint)
+    while not machine.finished:
+        now = link.now()
+        if now > give_up:
+            raise LinkError(f"{machine.what} did not finish within {_hard_limit(machine.policy, n_hint):.0f} s")
+        msg = link.recv(min(machine.deadline, give_up))
+        now = link.now()
+        out = machine.handle(msg, now) if msg is not None else []
+        out += machine.poll(now)
+        for m in out:
+            link.send(m)
+    if machine.error is not None:
+        raise LinkError(machine.error)
+
+
+def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, policy: mp.Policy) -> mp.Stats:
+    machine = mp.Uploader(items, mission_type, policy)
+    run_transfer(link, machine, len(items))
+    return machine.stats
+
+
+def download_items(link: Link, mission_type: int, policy: mp.Policy, n_hint: int = 1000) -> tuple[list[mp.WireItem], mp.Stats]:
+    machine = mp.Downloader(mission_type, policy)
+    run_transfer(link, machine, n_hint)
+    return machine.result(), machine.stats
+
+
+# --- the whole job -----------------------------------------------------------------------
+
+@dataclass
+class TransferReport:
+    """One mission type's upload and its check."""
+
+    mission_type: int
+    items: int
+    seconds: float
+    stats: mp.Stats
+    verified: bool = False
+    verify_seconds: float = 0.0
+    download_stats: mp.Stats | None = None
+
+
+@dataclass
+class UploadReport:
+    """What was uploaded and checked; only built when everything asked for succeeded."""
+
+    vehicle: Vehicle
+    mission: TransferReport
+    fence: TransferReport | None
+    compared_as: str
+    home_note: str = ""
+    notes: list[str] = field(default_factory=list)
+
+
+def _distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    k = math.pi / 180.0
+    x = (lon2 - lon1) * k * math.cos((lat1 + lat2) * k / 2)
+    return 6_371_000.0 * math.hypot(x, (lat2 - lat1) * k)
+
+
+def check_firmware(m: Mission, vehicle: Vehicle) -> None:
+    """Refuse a plan made for the other autopilot: item numbering and commands differ."""
+    said = {AUTOPILOT_ARDUPILOT: "ardupilot", AUTOPILOT_PX4: "px4"}.get(vehicle.autopilot)
+    if said is not None and said != m.firmware:
+        raise InputError(f"the plan is for {m.firmware} but the vehicle reports {vehicle.autopilot_name}: "
+                         f"plan the mission for {said} and upload that")
+
+
+def _verify(link: Link, kind: int, expected: list[mp.WireItem], policy: mp.Policy, storage: str, plane: bool,
+            skip: frozenset[int]) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
+    actual, stats = download_items(link, kind, policy, len(expected))
+    wanted = [ardupilot_stored(it, plane) for it in expected] if storage == "ardupilot" else expected
+    return actual, stats, compare_items(wanted, actual, skip, kind)
+
+
+def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = True) -> UploadReport:
+    """Upload the mission (and its fence when it has one), then read both back and compare.
+
+    Raises LinkError when a transfer fails, VerificationFailed when the vehicle stores
+    something else; returns a report only when everything asked for succeeded.
+    """
+    vehicle = link.vehicle
+    if vehicle is None:
+        raise RuntimeError("the link has no vehicle yet: wait for its heartbeat first")
+    check_firmware(m, vehicle)
+    items = mission_wire_items(m)
+    fence = fence_wire_items(m)
+    storage = "ardupilot" if vehicle.autopilot == AUTOPILOT_ARDUPILOT else "verbatim"
+    plane = vehicle.mav_type in _PLANE_TYPES
+
+    t0 = time.monotonic()
+    try:
+        stats = upload_items(link, items, mp.MISSION, policy)
+    except LinkError as exc:
+        raise LinkError(f"{exc}; the vehicle's mission is incomplete or unchanged: do not fly it") from None
+    mission_rep = TransferReport(mp.MISSION, len(items), time.monotonic() - t0, stats)
+    fence_rep = None
+    if fence:
+        t0 = time.monotonic()
+        try:
+            fstats = upload_items(link, fence, mp.FENCE, policy)
+        except LinkError as exc:
+            raise LinkError(f"the mission was uploaded but the {exc}; the vehicle's fence is not the plan's") from None
+        fence_rep = TransferReport(mp.FENCE, len(fence), time.monotonic() - t0, fstats)
+
+    compared_as = ("as ArduPilot stores items (fields it does not keep are not compared)" if storage == "ardupilot"
+                   else "field by field as uploaded")
+    report = UploadReport(vehicle, mission_rep, fence_rep, compared_as)
+    if not verify:
+        return report
+
+    skip = frozenset({0}) if home_on_wire(m) else frozenset()
+    mismatches: list[Mismatch] = []
+    for rep, expected in ((mission_rep, items), (fence_rep, fence)):
+        if rep is None:
+            continue
+        t0 = time.monotonic()
+        try:
+            actual, dstats, found = _verify(link, rep.mission_type, expected, policy, storage, plane,
+                                            skip if rep.mission_type == mp.MISSION else frozenset())
+        except LinkError as exc:
+            raise LinkError(f"upload done but not verified: {exc}") from None
+        rep.verify_seconds = time.monotonic() - t0
+        rep.download_stats = dstats
+        mismatches += found
+        if rep.mission_type == mp.MISSION and skip and actual:
+            h = actual[0]
+            d = _distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7)
+            report.home_note = (f"item 0 (home) not compared: ArduPilot replaces it with its own home; the vehicle's "
+                                f"home is {h.x * 1e-7:.7f}, {h.y * 1e-7:.7f}, {d:.0f} m from the planned home")
+    if mismatches:
+        more = f" (and {len(mismatches) - 1} more difference(s))" if len(mismatches) > 1 else ""
+        raise VerificationFailed(f"verification failed: {mismatches[0]}{more}; the vehicle accepted the upload "
+                                 "but stores something else: do not fly it", mismatches)
+    mission_rep.verified = True
+    if fence_rep is not None:
+        fence_rep.verified = True
+    return report

@@ -1,0 +1,527 @@
+"""An in-process MAVLink vehicle for the link tests and the upload benchmark.
+
+`VehicleModel` answers the mission protocol the way ArduPilot's MissionItemProtocol does
+(libraries/GCS_MAVLink/MissionItemProtocol.cpp): it requests items one by one, re-requests
+after its own timeout, cancels a stalled upload with OPERATION_CANCELLED, answers a late or
+duplicated item with INVALID_SEQUENCE and an item outside an upload with ERROR, and writes
+mission items in place as they arrive. It reads and writes pymavlink messages with its own
+field handling, independent of aerosurvey's codec.
+
+`FakeVehicle` runs a model on a loopback UDP or TCP socket in a thread and can drop,
+duplicate and reorder packets both ways (seeded). `SimLink` runs a model on a simulated clock
+with the same faults, for fast property tests. `LossyRelay` is a UDP relay on loopback that
+drops a share of datagrams (seeded), for the benchmark's lossy case.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import os
+import random
+import select
+import socket
+import struct
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+os.environ["MAVLINK20"] = "1"
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # noqa: E402
+
+from aerosurvey.link import connection  # noqa: E402
+from aerosurvey.link import mission_protocol as mp  # noqa: E402
+from aerosurvey.mission import mavlink_ids as mav  # noqa: E402
+from aerosurvey.mission.items import Mission, MissionItem  # noqa: E402
+
+LOOPBACK = "127.0.0.1"
+
+
+def _f32(v: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", v))[0] if math.isfinite(v) else v
+
+
+@dataclass
+class Stored:
+    """One item as the vehicle keeps it."""
+
+    command: int
+    frame: int
+    params: tuple[float, float, float, float]
+    x: int
+    y: int
+    z: float
+
+
+class Unsupported(Exception):
+    """The vehicle refuses an item with this MAV_MISSION_RESULT."""
+
+    def __init__(self, result: int) -> None:
+        super().__init__(result)
+        self.result = result
+
+
+def ardupilot_pack(command: int, frame: int, p: tuple[float, float, float, float], x: int, y: int, z: float,
+                   plane: bool) -> Stored:
+    """Store an item the way AP_Mission does (p1 uint16, one-byte fields, altitude in whole cm)."""
+    u16 = lambda v: struct.unpack("<H", struct.pack("<H", int(v) & 0xFFFF))[0]  # noqa: E731
+    u8 = lambda v: int(v) & 0xFF  # noqa: E731
+    i8 = lambda v: struct.unpack("<b", struct.pack("<B", int(v) & 0xFF))[0]  # noqa: E731
+    location = command in (16, 21, 22, 84, 85, 189)
+    if command == 16:
+        params = (0.0, float(min(255, u16(p[1]))), float(min(255, u16(p[2]))), 0.0) if plane else (float(u16(p[0])), 0.0, 0.0, 0.0)
+    elif command in (22, 85):
+        params = (float(u16(p[0])), 0.0, 0.0, 0.0)
+    elif command == 21:
+        params = (float(u16(p[0])), 0.0, 0.0, -1.0 if (not math.isnan(p[3]) and p[3] < 0) else 1.0)
+    elif command in (20, 84, 189):
+        params = (0.0, 0.0, 0.0, 0.0)
+    elif command == 178:
+        params = (float(u8(p[0])), _f32(p[1]), _f32(p[2]), 0.0)
+    elif command == 206:
+        params = (_f32(p[0]), 0.0, float(u8(p[2])), 0.0)
+    elif command == 115:
+        params = (_f32(p[0]), _f32(p[1]), float(i8(p[2])), float(u8(p[3])))
+    else:
+        raise Unsupported(mp.UNSUPPORTED)
+    if not location:
+        return Stored(command, 0, params, 0, 0, 0.0)
+    if frame in (0, 2, 5):
+        frame_back = 0
+    elif frame in (3, 6):
+        frame_back = 3
+    elif frame in (10, 11):
+        frame_back = 10
+    else:
+        raise Unsupported(mp.UNSUPPORTED_FRAME)
+    alt_cm = int(_f32(_f32(z) * 100.0))
+    return Stored(command, frame_back, params, x, y, _f32(alt_cm * _f32(0.01)))
+
+
+class VehicleModel:
+    """The vehicle side of the mission protocol, driven by messages and a clock it is given."""
+
+    def __init__(self, *, system: int = 1, component: int = 1, storage: str = "verbatim", plane: bool = False,
+                 home: tuple[float, float, float] = (49.4, 15.0, 400.0), no_space_first: int = 0,
+                 capacity: int = 2000, answer_missions: bool = True, alter: dict[int, dict[str, float]] | None = None,
+                 legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
+                 early_accept_after: int | None = None) -> None:
+        self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
+        self.system, self.component = system, component
+        self.storage = storage
+        self.plane = plane
+        self.autopilot = 3 if storage == "ardupilot" else 0
+        self.mav_type = 1 if plane else 2
+        self.home = home
+        self.no_space_left = no_space_first
+        self.capacity = capacity
+        self.answer_missions = answer_missions
+        self.alter = alter or {}
+        self.legacy_requests = legacy_requests
+        self.request_resend = request_resend
+        self.upload_timeout = upload_timeout
+        self.early_accept_after = early_accept_after  # a faulty vehicle: ACCEPTED before the last item
+        self.stored: dict[int, list[Stored]] = {0: [], 1: []}
+        self.receiving: int | None = None  # mission type being uploaded
+        self._staging: list[Stored] = []
+        self._count = 0
+        self._next = 0
+        self._gcs = (255, 190)
+        self._last_receive = 0.0
+        self._last_request = 0.0
+        self.log: dict[str, int] = {}
+        self.completed_uploads = 0
+
+    def _note(self, what: str) -> None:
+        self.log[what] = self.log.get(what, 0) + 1
+
+    def heartbeat(self) -> Any:
+        return self.mav.heartbeat_encode(self.mav_type, self.autopilot, 0, 0, 4)
+
+    def _ack(self, result: int, mtype: int) -> Any:
+        self._note(f"ack {mp.result_name(result)}")
+        return self.mav.mission_ack_encode(*self._gcs, result, mission_type=mtype)
+
+    def _request(self, seq: int, mtype: int) -> Any:
+        if self.legacy_requests:
+            return self.mav.mission_request_encode(*self._gcs, seq, mission_type=mtype)
+        return self.mav.mission_request_int_encode(*self._gcs, seq, mission_type=mtype)
+
+    def _store(self, m: Any, mtype: int) -> Stored:
+        params = (float(m.param1), float(m.param2), float(m.param3), float(m.param4))
+        x, y = int(m.x), int(m.y)
+        if m.get_type() == "MISSION_ITEM":
+            x, y = int(m.x * 1e7), int(m.y * 1e7)
+        if mtype == 1:
+            if m.command not in (5001, 5002):
+                raise Unsupported(mp.UNSUPPORTED)
+            return Stored(int(m.command), 0, (float(int(m.param1) & 0xFF), 0.0, 0.0, 0.0), x, y, 0.0)
+        if self.storage == "ardupilot":
+            s = ardupilot_pack(int(m.command), int(m.frame), params, x, y, float(m.z), self.plane)
+        else:
+            s = Stored(int(m.command), int(m.frame), tuple(_f32(p) for p in params), x, y, _f32(float(m.z)))  # type: ignore[arg-type]
+        for name, value in self.alter.get(int(m.seq), {}).items():
+            if name.startswith("param"):
+                ps = list(s.params)
+                ps[int(name[-1]) - 1] = value
+                s.params = tuple(ps)  # type: ignore[assignment]
+            else:
+                setattr(s, name, type(getattr(s, name))(value))
+        return s
+
+    def _item_out(self, seq: int, mtype: int, legacy: bool) -> Any:
+        if mtype == 0 and seq == 0 and self.storage == "ardupilot":
+            lat, lon, alt = self.home
+            s = Stored(16, 0, (0.0, 0.0, 0.0, 0.0), round(lat * 1e7), round(lon * 1e7), alt)
+        else:
+            s = self.stored[mtype][seq]
+        if legacy:
+            return self.mav.mission_item_encode(*self._gcs, seq, s.frame, s.command, 0, 1, *s.params,
+                                                s.x * 1e-7, s.y * 1e-7, s.z, mission_type=mtype)
+        return self.mav.mission_item_int_encode(*self._gcs, seq, s.frame, s.command, 0, 1, *s.params,
+                                                s.x, s.y, s.z, mission_type=mtype)
+
+    def handle(self, m: Any, now: float) -> list[Any]:
+        kind = m.get_type()
+        if kind == "HEARTBEAT" or not kind.startswith("MISSION_"):
+            return []
+        self._note(f"got {kind}")
+        if not self.answer_missions:
+            return []
+        if getattr(m, "target_system", self.system) not in (0, self.system):
+            return []
+        mtype = int(getattr(m, "mission_type", 0))
+        if mtype not in self.stored:
+            return [self._ack(mp.UNSUPPORTED, mtype)]
+        if kind == "MISSION_COUNT":
+            if self.no_space_left > 0:
+                self.no_space_left -= 1
+                return [self._ack(mp.NO_SPACE, mtype)]
+            if m.count > self.capacity:
+                return [self._ack(mp.NO_SPACE, mtype)]
+            self.receiving = mtype
+            self._count, self._next = int(m.count), 0
+            self._staging = []
+            if mtype == 0:
+                del self.stored[0][self._count:]  # ArduPilot truncates, then writes items in place
+            self._last_receive = self._last_request = now
+            if self._count == 0:
+                return self._complete(mtype)
+            return [self._request(0, mtype)]
+        if kind in ("MISSION_ITEM_INT", "MISSION_ITEM"):
+            if self.receiving is None or self.receiving != mtype:
+                return [self._ack(mp.ERROR, mtype)]
+            if m.seq != self._next:
+                return [self._ack(mp.INVALID_SEQUENCE, mtype)]
+            try:
+                s = self._store(m, mtype)
+            except Unsupported as exc:
+                self.receiving = None
+                return [self._ack(exc.result, mtype)]
+            if mtype == 0:
+                if m.seq < len(self.stored[0]):
+                    self.stored[0][m.seq] = s
+                else:
+                    self.stored[0].append(s)
+            else:
+                self._staging.append(s)
+            self._next += 1
+            self._last_receive = self._last_request = now
+            if self._next == self._count or self._next == self.early_accept_after:
+                return self._complete(mtype)
+            return [self._request(self._next, mtype)]
+        if kind == "MISSION_REQUEST_LIST":
+            if self.receiving is not None:
+                return [self._ack(mp.DENIED, mtype)]
+            return [self.mav.mission_count_encode(*self._gcs, len(self.stored[mtype]), mission_type=mtype)]
+        if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+            if self.receiving is not None:
+                return [self._ack(mp.DENIED, mtype)]
+            if m.seq >= len(self.stored[mtype]):
+                return [self._ack(mp.INVALID_SEQUENCE, mtype)]
+            return [self._item_out(int(m.seq), mtype, kind == "MISSION_REQUEST")]
+        return []
+
+    def _complete(self, mtype: int) -> list[Any]:
+        if mtype != 0:
+            self.stored[mtype] = list(self._staging)
+        self.receiving = None
+        self.completed_uploads += 1
+        return [self._ack(mp.ACCEPTED, mtype)]
+
+    def poll(self, now: float) -> list[Any]:
+        if self.receiving is None:
+            return []
+        if now - self._last_receive > self.upload_timeout:
+            mtype, self.receiving = self.receiving, None
+            return [self._ack(mp.OPERATION_CANCELLED, mtype)]
+        if now - self._last_request > self.request_resend:
+            self._last_request = now
+            self._note("request resend")
+            return [self._request(self._next, self.receiving)]
+        return []
+
+
+@dataclass
+class Faults:
+    """Per-packet fault probabilities, the same both ways; `seed` makes a run repeatable."""
+
+    drop: float = 0.0
+    dup: float = 0.0
+    reorder: float = 0.0
+    seed: int = 0
+    max_hold: float = 0.03  # seconds a reordered packet is held back
+
+    def plan(self, rng: random.Random) -> list[float]:
+        """Delays (s) of the copies of one packet to deliver: [] drops it, two entries duplicate it."""
+        if rng.random() < self.drop:
+            return []
+        copies = 2 if rng.random() < self.dup else 1
+        return [rng.uniform(0.001, self.max_hold) if rng.random() < self.reorder else 0.0 for _ in range(copies)]
+
+
+class FakeVehicle:
+    """A VehicleModel on a loopback socket (UDP or TCP) in a thread, with packet faults."""
+
+    def __init__(self, model: VehicleModel, transport: str = "udp", faults: Faults | None = None,
+                 heartbeat_interval: float = 0.25, heartbeats: bool = True) -> None:
+        self.model = model
+        self.transport = transport
+        self.faults = faults or Faults()
+        self.rng = random.Random(self.faults.seed)
+        self.heartbeat_interval = heartbeat_interval
+        self.heartbeats = heartbeats
+        self.parser = mavlink2.MAVLink(None, srcSystem=model.system, srcComponent=model.component)
+        self.parser.robust_parsing = True
+        self._stop = threading.Event()
+        self._held: list[tuple[float, int, str, Any]] = []
+        self._n = 0
+        self._peer: Any = None
+        self._client: socket.socket | None = None
+        if transport == "udp":
+            self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        else:
+            self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self.sock.bind((LOOPBACK, 0))
+        if transport == "tcp":
+            self.sock.listen(1)
+        self.port = self.sock.getsockname()[1]
+        self._thread = threading.Thread(target=self._run, name="fake-vehicle", daemon=True)
+
+    @property
+    def url(self) -> str:
+        return f"udpout:{LOOPBACK}:{self.port}" if self.transport == "udp" else f"tcp:{LOOPBACK}:{self.port}"
+
+    def __enter__(self) -> "FakeVehicle":
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        for s in (self._client, self.sock):
+            if s is not None:
+                s.close()
+
+    def _schedule(self, now: float, direction: str, payload: Any) -> None:
+        for delay in self.faults.plan(self.rng):
+            self._n += 1
+            heapq.heappush(self._held, (now + delay, self._n, direction, payload))
+
+    def _emit(self, msg: Any, now: float) -> None:
+        self._schedule(now, "out", msg.pack(self.parser))
+
+    def _write(self, data: bytes) -> None:
+        try:
+            if self.transport == "udp" and self._peer is not None:
+                self.sock.sendto(data, self._peer)
+            elif self._client is not None:
+                self._client.sendall(data)
+        except OSError:
+            pass
+
+    def _run(self) -> None:
+        next_hb = 0.0
+        while not self._stop.is_set():
+            now = time.monotonic()
+            if self.heartbeats and now >= next_hb and (self._peer is not None or self._client is not None):
+                self._write(self.model.heartbeat().pack(self.parser))
+                next_hb = now + self.heartbeat_interval
+            while self._held and self._held[0][0] <= now:
+                _, _, direction, payload = heapq.heappop(self._held)
+                if direction == "out":
+                    self._write(payload)
+                else:
+                    for out in self.model.handle(payload, now):
+                        self._emit(out, now)
+            for out in self.model.poll(now):
+                self._emit(out, now)
+            socks = [self.sock] + ([self._client] if self._client is not None else [])
+            wait = 0.005 if self._held else 0.02
+            readable, _, _ = select.select(socks, [], [], wait)
+            for s in readable:
+                self._read(s, time.monotonic())
+
+    def _read(self, s: socket.socket, now: float) -> None:
+        if self.transport == "tcp" and s is self.sock:
+            client, _ = s.accept()
+            if self._client is not None:
+                self._client.close()
+            self._client = client
+            return
+        try:
+            if self.transport == "udp":
+                data, self._peer = s.recvfrom(65535)
+            else:
+                data = s.recv(65535)
+        except OSError:
+            return
+        if not data and self._client is not None:
+            self._client.close()
+            self._client = None
+            return
+        for m in self.parser.parse_buffer(data) or []:
+            self._schedule(now, "in", m)
+
+
+class SimLink:
+    """aerosurvey's Link on a simulated clock, to a VehicleModel through a faulty simulated channel.
+
+    Uses aerosurvey's own codec (connection.encode/decode) and real MAVLink bytes both ways,
+    so only the sockets and the clock are simulated.
+    """
+
+    latency = 0.002
+
+    def __init__(self, model: VehicleModel, faults: Faults | None = None, drop_packets: frozenset[int] = frozenset()) -> None:
+        self.model = model
+        self.faults = faults or Faults()
+        self.drop_packets = drop_packets  # numbers (1, 2, …, both ways) of packets to lose on purpose
+        self.rng = random.Random(self.faults.seed)
+        self.t = 0.0
+        self.gcs = mavlink2.MAVLink(None, srcSystem=connection.GCS_SYSTEM, srcComponent=connection.GCS_COMPONENT)
+        self.gcs_parser = mavlink2.MAVLink(None, srcSystem=connection.GCS_SYSTEM, srcComponent=connection.GCS_COMPONENT)
+        self.veh_parser = mavlink2.MAVLink(None, srcSystem=model.system, srcComponent=model.component)
+        self.vehicle = connection.Vehicle(model.system, model.component, model.autopilot, model.mav_type)
+        self._q: list[tuple[float, int, str, bytes]] = []
+        self._n = 0
+        self._next_poll = 0.0
+        self.packets = 0
+
+    def now(self) -> float:
+        return self.t
+
+    def _put(self, direction: str, data: bytes) -> None:
+        self.packets += 1
+        if self.packets in self.drop_packets:
+            return
+        for delay in self.faults.plan(self.rng):
+            self._n += 1
+            heapq.heappush(self._q, (self.t + self.latency + delay, self._n, direction, data))
+
+    def send(self, msg: mp.Message) -> None:
+        m = connection.encode(self.gcs, msg, (self.vehicle.system, self.vehicle.component))
+        self._put("up", m.pack(self.gcs))
+
+    def recv(self, until: float) -> mp.Message | None:
+        for _ in range(10_000_000):
+            next_t = min(self._q[0][0] if self._q else math.inf, self._next_poll, until)
+            if next_t > self.t:
+                self.t = next_t
+            if self.t >= self._next_poll:
+                for out in self.model.poll(self.t):
+                    self._put("down", out.pack(self.veh_parser))
+                self._next_poll = self.t + 0.01
+            while self._q and self._q[0][0] <= self.t:
+                _, _, direction, data = heapq.heappop(self._q)
+                if direction == "up":
+                    for m in self.veh_parser.parse_buffer(data) or []:
+                        for out in self.model.handle(m, self.t):
+                            self._put("down", out.pack(self.veh_parser))
+                else:
+                    for m in self.gcs_parser.parse_buffer(data) or []:
+                        msg = connection.decode(m)
+                        if msg is not None:
+                            return msg
+            if self.t >= until:
+                return None
+        raise RuntimeError("simulation did not advance")
+
+
+class LossyRelay:
+    """A UDP relay on loopback between one client and `target_port` that drops a share of datagrams."""
+
+    def __init__(self, target_port: int, drop: float, seed: int) -> None:
+        self.target = (LOOPBACK, target_port)
+        self.drop = drop
+        self.rng = random.Random(seed)
+        self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.front.bind((LOOPBACK, 0))
+        self.back = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.back.bind((LOOPBACK, 0))
+        self.port = self.front.getsockname()[1]
+        self.client: Any = None
+        self.counts = {"forwarded": 0, "dropped": 0}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="lossy-relay", daemon=True)
+
+    @property
+    def url(self) -> str:
+        return f"udpout:{LOOPBACK}:{self.port}"
+
+    def __enter__(self) -> "LossyRelay":
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        self.front.close()
+        self.back.close()
+
+    def _pass(self, data: bytes, sock: socket.socket, to: Any) -> None:
+        if to is None or self.rng.random() < self.drop:
+            self.counts["dropped"] += 1
+            return
+        self.counts["forwarded"] += 1
+        sock.sendto(data, to)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            readable, _, _ = select.select([self.front, self.back], [], [], 0.02)
+            for s in readable:
+                try:
+                    data, addr = s.recvfrom(65535)
+                except OSError:
+                    continue
+                if s is self.front:
+                    self.client = addr
+                    self._pass(data, self.back, self.target)
+                else:
+                    self._pass(data, self.front, self.client)
+
+
+
+def survey_mission(n_waypoints: int, *, fence: bool = False, firmware: str = "ardupilot", vehicle: str = "copter",
+                   seed: int = 0) -> Mission:
+    """A survey-shaped mission near 49.4 N 15.0 E: takeoff, speed, camera on, waypoints, camera off, RTL."""
+    rng = random.Random(seed)
+    lat0, lon0 = 49.4, 15.0
+    items = [MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, math.nan, lat0, lon0, 80.0),
+             MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION, 1, 12.5, -1, 0),
+             MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 21.37, 0, 1, 0)]
+    for k in range(n_waypoints):
+        items.append(MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, math.nan,
+                                 round(lat0 + 0.0004 * (k // 2) + rng.uniform(-1e-6, 1e-6), 8),
+                                 round(lon0 + 0.006 * ((k // 2 + k) % 2) + rng.uniform(-1e-6, 1e-6), 8),
+                                 round(80.0 + rng.uniform(-5, 5), 2)))
+    items += [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0, 0, 0, 0),
+              MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION)]
+    inc = (((lat0 - 0.001, lon0 - 0.001), (lat0 + 0.02, lon0 - 0.001), (lat0 + 0.02, lon0 + 0.008),
+            (lat0 - 0.001, lon0 + 0.008)),) if fence else ()
+    exc = (((lat0 + 0.005, lon0 + 0.002), (lat0 + 0.006, lon0 + 0.002), (lat0 + 0.006, lon0 + 0.003),
+            (lat0 + 0.005, lon0 + 0.002)),) if fence else ()
+    return Mission(vehicle=vehicle, firmware=firmware, home=(lat0 - 0.0005, lon0 - 0.0005, 402.5), items=tuple(items),
+                   cruise_speed=12.5, hover_speed=5.0, fence_inclusion=inc, fence_exclusion=exc)

@@ -1,0 +1,102 @@
+"""`aerosurvey upload` end to end: exit codes, what it prints, and that a failure never says "uploaded"."""
+
+from __future__ import annotations
+
+import socket
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from aerosurvey.cli import main
+from aerosurvey.mission.formats.qgc_plan import dumps_plan
+from aerosurvey.mission.formats.wpl import dumps_wpl
+
+from fake_vehicle import FakeVehicle, VehicleModel, survey_mission
+
+
+def run(*args: str):
+    return CliRunner().invoke(main, ["upload", *args])
+
+
+def write_plan(tmp_path: Path, fence: bool = False, n: int = 12) -> Path:
+    p = tmp_path / "sortie-01.plan"
+    p.write_text(dumps_plan(survey_mission(n, fence=fence)))
+    return p
+
+
+def test_upload_plan_with_fence_prints_what_was_uploaded_and_verified(tmp_path: Path) -> None:
+    plan = write_plan(tmp_path, fence=True)
+    model = VehicleModel()
+    with FakeVehicle(model, "tcp") as fv:
+        res = run(str(plan), "--connect", fv.url, "--timeout", "0.5")
+    assert res.exit_code == 0, res.output
+    assert "mission: 18 items uploaded" in res.output
+    assert "fence: 7 vertices uploaded" in res.output
+    assert "verified: 18 mission items and 7 fence vertices read back" in res.output
+    assert len(model.stored[0]) == 18 and len(model.stored[1]) == 7
+
+
+def test_upload_waypoints_file_without_verify(tmp_path: Path) -> None:
+    wp = tmp_path / "mission.waypoints"
+    wp.write_text(dumps_wpl(survey_mission(6)))
+    model = VehicleModel()
+    with FakeVehicle(model, "udp") as fv:
+        res = run(str(wp), "--connect", fv.url, "--timeout", "0.5", "--no-verify")
+    assert res.exit_code == 0, res.output
+    assert "not verified (--no-verify)" in res.output
+    assert "fence: none in the plan" in res.output
+    assert "got MISSION_REQUEST_LIST" not in model.log
+    assert len(model.stored[0]) == 12
+
+
+def test_mismatch_exits_1_naming_item_field_and_values(tmp_path: Path) -> None:
+    plan = write_plan(tmp_path)
+    with FakeVehicle(VehicleModel(alter={4: {"param2": 3.0}}), "udp") as fv:
+        res = run(str(plan), "--connect", fv.url, "--timeout", "0.5")
+    assert res.exit_code == 1
+    assert "Error: verification failed: mission item 4 (NAV_WAYPOINT) param2: planned 0.0, vehicle has 3.0" in res.output
+    assert "verified:" not in res.output and "items uploaded" not in res.output
+
+
+def test_connection_refused_exits_1_with_one_line(tmp_path: Path) -> None:
+    plan = write_plan(tmp_path)
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    res = run(str(plan), "--connect", f"tcp:127.0.0.1:{port}", "--timeout", "0.5")
+    assert res.exit_code == 1
+    assert res.output.strip().splitlines() == [
+        f"Error: tcp:127.0.0.1:{port}: connection refused (nothing listens there: is the vehicle or SITL running?)"]
+
+
+def test_silent_vehicle_exits_1_and_reports_nothing_uploaded(tmp_path: Path) -> None:
+    plan = write_plan(tmp_path)
+    with FakeVehicle(VehicleModel(answer_missions=False), "udp") as fv:
+        res = run(str(plan), "--connect", fv.url, "--timeout", "0.1", "--retries", "1")
+    assert res.exit_code == 1
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: mission upload failed: no answer to MISSION_COUNT")
+    assert "do not fly it" in lines[0]
+
+
+def test_unreadable_or_bad_plan_exits_2(tmp_path: Path) -> None:
+    res = run(str(tmp_path / "missing.plan"), "--connect", "tcp:127.0.0.1:1")
+    assert res.exit_code == 2 and "cannot read the plan" in res.output
+    bad = tmp_path / "bad.plan"
+    bad.write_text("{not json")
+    res = run(str(bad), "--connect", "tcp:127.0.0.1:1")
+    assert res.exit_code == 2 and "not a QGroundControl plan" in res.output
+    res = run(str(write_plan(tmp_path)), "--connect", "tcp:127.0.0.1", "--timeout", "0.2")
+    assert res.exit_code == 2 and "--connect 'tcp:127.0.0.1'" in res.output
+    res = run(str(write_plan(tmp_path)), "--connect", "tcp:127.0.0.1:1", "--timeout", "0")
+    assert res.exit_code == 2
+
+
+def test_no_heartbeat_exits_1_after_timeout_times_retries_plus_one(tmp_path: Path) -> None:
+    plan = write_plan(tmp_path)
+    with FakeVehicle(VehicleModel(), "udp", heartbeats=False) as fv:
+        res = run(str(plan), "--connect", fv.url, "--timeout", "0.1", "--retries", "2")
+    assert res.exit_code == 1
+    assert res.output.strip().splitlines() == [
+        f"Error: {fv.url}: no heartbeat from a vehicle within 0.3 s (is it powered and is this the right connection string?)"]

@@ -1,0 +1,128 @@
+"""Upload and verify over a simulated lossy link (simulated clock, real MAVLink bytes, fake vehicle).
+
+The property: whatever the link drops, duplicates or reorders, `upload_mission` either
+returns and the vehicle then holds exactly the plan (checked from the vehicle's own store,
+not from our download), or it raises LinkError. It never reports a partial upload.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from aerosurvey.link import mission_protocol as mp
+from aerosurvey.link.connection import LinkError
+from aerosurvey.link.upload import VerificationFailed, upload_mission
+from aerosurvey.mission.items import Mission
+
+from fake_vehicle import Faults, SimLink, VehicleModel, survey_mission
+
+POLICY = mp.Policy(timeout=0.1, retries=6, restarts=6, busy_wait=0.5)
+
+
+def f32(v: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", v))[0]
+
+
+def plan_rows(m: Mission) -> list[tuple]:
+    """The plan as the vehicle should store it verbatim, computed here without aerosurvey's codec."""
+    lat, lon, alt = m.home
+    rows = [(16, 0, (0.0, 0.0, 0.0, 0.0), round(lat * 1e7), round(lon * 1e7), f32(alt))]
+    for it in m.items:
+        params = tuple(math.nan if math.isnan(p) else f32(p) for p in it.params)
+        rows.append((it.command, it.frame, params, round(it.x * 1e7), round(it.y * 1e7), f32(it.z)))
+    return rows
+
+
+def stored_rows(model: VehicleModel) -> list[tuple]:
+    return [(s.command, s.frame, s.params, s.x, s.y, s.z) for s in model.stored[0]]
+
+
+def same_rows(a: list[tuple], b: list[tuple]) -> bool:
+    def norm(r: tuple) -> tuple:
+        return (r[0], r[1], tuple("nan" if math.isnan(p) else p for p in r[2]), r[3], r[4], r[5])
+
+    return [norm(r) for r in a] == [norm(r) for r in b]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lossy_duplicating_reordering_link_still_uploads_and_verifies(seed: int) -> None:
+    m = survey_mission(60, fence=True, seed=seed)
+    model = VehicleModel(request_resend=0.3, upload_timeout=3.0)
+    link = SimLink(model, Faults(drop=0.15, dup=0.1, reorder=0.1, seed=seed))
+    report = upload_mission(link, m, POLICY)
+    assert report.mission.verified and report.fence is not None and report.fence.verified
+    assert same_rows(stored_rows(model), plan_rows(m))
+    assert len(model.stored[1]) == 4 + 3  # the exclusion ring's closing vertex is not sent
+    assert report.mission.stats.resends > 0  # the faults did bite
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**31), n=st.integers(0, 40), drop=st.floats(0.0, 0.4), dup=st.floats(0.0, 0.3),
+       reorder=st.floats(0.0, 0.3), legacy=st.booleans())
+def test_success_always_means_the_vehicle_holds_the_plan(seed: int, n: int, drop: float, dup: float, reorder: float,
+                                                         legacy: bool) -> None:
+    m = survey_mission(n, seed=seed)
+    model = VehicleModel(legacy_requests=legacy, request_resend=0.2, upload_timeout=1.5)
+    link = SimLink(model, Faults(drop=drop, dup=dup, reorder=reorder, seed=seed))
+    try:
+        upload_mission(link, m, mp.Policy(timeout=0.1, retries=3, restarts=2, busy_wait=0.2))
+    except LinkError:
+        return
+    assert same_rows(stored_rows(model), plan_rows(m))
+
+
+def test_vehicle_that_accepts_early_is_never_reported_as_uploaded() -> None:
+    m = survey_mission(20)
+    model = VehicleModel(early_accept_after=10)
+    with pytest.raises(LinkError, match="incomplete or unchanged: do not fly it"):
+        upload_mission(SimLink(model), m, POLICY)
+    assert len(model.stored[0]) < len(m.items) + 1
+
+
+def test_no_space_right_after_boot_then_success() -> None:
+    m = survey_mission(10)
+    model = VehicleModel(no_space_first=2)
+    link = SimLink(model)
+    report = upload_mission(link, m, POLICY)
+    assert report.mission.stats.error_acks == [mp.NO_SPACE, mp.NO_SPACE]
+    assert report.mission.stats.restarts == 2
+    assert link.t >= 2 * POLICY.busy_wait
+    assert same_rows(stored_rows(model), plan_rows(m))
+
+
+def test_no_space_that_stays_fails_with_the_reason() -> None:
+    model = VehicleModel(capacity=5)
+    with pytest.raises(LinkError, match="MAV_MISSION_NO_SPACE for 16 items 7 time"):
+        upload_mission(SimLink(model), survey_mission(10), POLICY)
+    assert model.stored[0] == []
+
+
+def test_vehicle_cancelling_mid_upload_leads_to_a_restart() -> None:
+    m = survey_mission(30)
+    model = VehicleModel(request_resend=10.0, upload_timeout=0.15)
+    # packet 10 is the vehicle's request for item 4: it waits for an item, gives up before our
+    # resend is due and cancels; we restart the transaction and get through
+    link = SimLink(model, drop_packets=frozenset({10}))
+    report = upload_mission(link, m, mp.Policy(timeout=0.2, retries=3, restarts=2))
+    assert report.mission.stats.error_acks == [mp.OPERATION_CANCELLED]
+    assert report.mission.stats.restarts == 1 and model.log["got MISSION_COUNT"] == 2
+    assert same_rows(stored_rows(model), plan_rows(m))
+
+
+def test_px4_plan_has_no_home_item() -> None:
+    m = survey_mission(5, firmware="px4")
+    model = VehicleModel()
+    upload_mission(SimLink(model), m, POLICY)
+    assert same_rows(stored_rows(model), plan_rows(m)[1:])
+
+
+def test_changed_item_is_caught_through_the_lossy_link() -> None:
+    m = survey_mission(40)
+    model = VehicleModel(alter={17: {"y": 150061234}})
+    with pytest.raises(VerificationFailed) as exc:
+        upload_mission(SimLink(model, Faults(drop=0.1, dup=0.05, seed=2)), m, POLICY)
+    assert [(x.seq, x.field, x.actual) for x in exc.value.mismatches] == [(17, "y (longitude·1e7)", 150061234)]
