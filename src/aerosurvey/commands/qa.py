@@ -8,3 +8,9 @@ import click
 @click.group()
 def qa() -> None:
     """Quality assessment of finished products (accuracy, reproducibility, time series)."""
+
+
+from aerosurvey.commands.qa_accuracy import accuracy, bayes  # noqa: E402
+
+qa.add_command(accuracy)
+qa.add_command(bayes)
