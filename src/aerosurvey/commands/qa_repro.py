@@ -1,0 +1,91 @@
+"""`aerosurvey qa reproducibility`, `qa timeseries`, `qa shift`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text, staged_directory
+
+
+def _crop_geoms(path: Path, grid_crs) -> tuple:
+    import numpy as np
+    import pyproj
+    import shapely
+
+    from aerosurvey.area import read_area
+
+    geom = read_area(path, None, "EPSG:4326", f"--crop {path.name}")
+    if grid_crs is None:
+        raise InputError("--crop FILE needs georeferenced inputs")
+    t = pyproj.Transformer.from_crs("EPSG:4326", grid_crs.to_wkt(), always_xy=True)
+    g = shapely.transform(geom, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
+    return tuple(shapely.get_parts(g))
+
+
+@click.command()
+@click.argument("orthos", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--window", type=int, default=5, show_default=True, help="Moving window size in pixels (odd, >= 3).")
+@click.option("--threshold", type=float, default=0.95, show_default=True, help="Correlation from which a pixel is reproducible.")
+@click.option("--crop", default="none", show_default=True, help="none, auto (data footprint shrunk by --crop-margin) or a polygon file.")
+@click.option("--crop-margin", type=click.IntRange(0, 5000), default=50, show_default=True, help="Pixels removed at the data edge (auto).")
+@click.option("--block", type=click.IntRange(64, 8192), default=1024, show_default=True, help="Block size in pixels.")
+@click.option("--scheduler", default="threads", show_default=True,
+              help="threads, local (a Dask LocalCluster) or the address of a Dask scheduler (tcp://host:8786).")
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
+def reproducibility(orthos: tuple[Path, ...], window: int, threshold: float, crop: str, crop_margin: int, block: int,
+                    scheduler: str, outdir: Path) -> None:
+    """Reproducibility layer of orthomosaics processed several times with the same settings."""
+    from aerosurvey.qa import reproducibility as rp
+
+    rp.validate_settings(window, threshold)
+    paths = list(orthos)
+    grid = rp.inspect(paths)
+    geoms: tuple = ()
+    if crop not in ("none", "auto"):
+        geoms = _crop_geoms(Path(crop), grid.crs)
+    s = rp.Settings(window=window, threshold=threshold, crop=crop if crop in ("none", "auto") else "file",
+                    crop_margin_px=crop_margin, block=block, crop_geoms=geoms)
+    with staged_directory(outdir) as stage:
+        summary = rp.run(paths, stage, s, scheduler)
+        rp.write_summary(stage, summary)
+    click.echo(f"{summary['pairs']} pairs: {100 * summary['reproducible_share']:.2f} % of {summary['judged_pixels']} judged "
+               f"pixels reproducible in every pair; wrote reproducibility.tif, summary.json, summary.txt to {outdir}")
+
+
+@click.command()
+@click.option("--masks", "dirs", multiple=True, required=True, type=click.Path(file_okay=False, exists=True, path_type=Path),
+              help="A folder written by `qa reproducibility` for one date (repeat for each date).")
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
+def timeseries(dirs: tuple[Path, ...], outdir: Path) -> None:
+    """Quality mask of pixels reproducible at every date."""
+    from aerosurvey.qa.timeseries import quality_mask
+
+    if len(dirs) < 2:
+        raise InputError("give --masks for at least two dates")
+    with staged_directory(outdir) as stage:
+        summary = quality_mask(list(dirs), stage)
+        atomic_write_text(stage / "timeseries.json", json.dumps(summary, indent=1) + "\n")
+    click.echo(f"{100 * summary['reproducible_in_every_date_share']:.2f} % of {summary['judged_pixels']} judged pixels "
+               f"reproducible at every date; wrote quality_mask.tif to {outdir}")
+
+
+@click.command()
+@click.argument("objects", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--id-field", default="id", show_default=True, help="The field that names the same object at every date.")
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), default=None)
+def shift(objects: tuple[Path, ...], id_field: str, outdir: Path | None) -> None:
+    """Shift of the same objects digitised at several dates (bounding boxes and centroids)."""
+    from aerosurvey.qa.timeseries import object_shift
+
+    res = object_shift(list(objects), id_field)
+    for d in res["per_date"]:
+        click.echo(f"{d['date']}: {d['objects']} objects, centroid shift mean {d['centroid_shift_mean']:.3f}, "
+                   f"median {d['centroid_shift_median']:.3f}, max {d['centroid_shift_max']:.3f} (CRS units)"
+                   + (f"; missing {', '.join(d['missing'])}" if d["missing"] else ""))
+    if outdir is not None:
+        with staged_directory(outdir) as stage:
+            atomic_write_text(stage / "shift.json", json.dumps(res, indent=1) + "\n")

@@ -1,0 +1,231 @@
+"""Reproducibility of orthomosaics processed several times: streamed by blocks.
+
+Every pair of inputs is compared with repro_core's moving-window correlation; the binary
+layers are summed into the reproducibility layer (0 … x(x−1)/2, 255 = not judged), written
+as a Cloud-Optimised GeoTIFF. Inputs are read window by window (a halo of w//2 pixels, or
+the crop margin, around each block), so memory follows the block size, not the raster.
+Inputs on another grid are warped onto the first input's grid (bilinear) with rasterio's
+WarpedVRT. Blocks run on threads, or on a Dask cluster when asked; either way the result
+is identical.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rasterio
+import rasterio.features
+import rasterio.shutil
+from rasterio.enums import Resampling
+from rasterio.vrt import WarpedVRT
+from rasterio.windows import Window
+from scipy import ndimage
+
+from aerosurvey.errors import InputError
+from aerosurvey.qa.repro_core import NODATA, pairs, reproducible
+
+
+@dataclass(frozen=True)
+class Grid:
+    crs: Any
+    transform: Any
+    width: int
+    height: int
+    bands: int
+
+
+@dataclass(frozen=True)
+class Settings:
+    window: int = 5
+    threshold: float = 0.95
+    crop: str = "none"  # none, auto, or a polygon file
+    crop_margin_px: int = 50
+    block: int = 1024
+    crop_geoms: tuple = field(default=())  # polygons in the grid's CRS (for a crop file)
+
+    @property
+    def halo(self) -> int:
+        return max(self.window // 2, self.crop_margin_px if self.crop == "auto" else 0)
+
+
+def validate_settings(window: int, threshold: float) -> None:
+    if window < 3 or window % 2 == 0:
+        raise InputError(f"--window = {window} is not allowed: an odd number of pixels, 3 or more")
+    if not 0 < threshold <= 1:
+        raise InputError(f"--threshold = {threshold} is not allowed: a correlation in (0, 1]")
+
+
+def inspect(paths: list[Path]) -> Grid:
+    """Check the inputs and return the first input's grid (the one results are on)."""
+    if len(paths) < 2:
+        raise InputError(f"give at least two orthomosaics of the same area, got {len(paths)}")
+    infos = []
+    for p in paths:
+        if not p.exists():
+            raise InputError(f"{p}: does not exist")
+        try:
+            with rasterio.open(p) as ds:
+                infos.append((p, ds.crs, ds.transform, ds.width, ds.height, ds.count))
+        except rasterio.errors.RasterioIOError:
+            raise InputError(f"{p}: not a raster GDAL can read") from None
+    counts = {i[5] for i in infos}
+    if len(counts) > 1:
+        raise InputError("mismatched band counts: " + ", ".join(f"{i[0].name} has {i[5]}" for i in infos))
+    if min(counts) < 3:
+        raise InputError(f"{infos[0][0].name}: {min(counts)} band(s); an RGB orthomosaic has 3 (or 4 with alpha)")
+    with_crs = [i for i in infos if i[1] is not None]
+    if with_crs and len(with_crs) != len(infos):
+        missing = [i[0].name for i in infos if i[1] is None]
+        raise InputError(f"{', '.join(missing)}: no CRS, while {with_crs[0][0].name} has one; georeference every input")
+    if not with_crs and len({(i[3], i[4]) for i in infos}) > 1:
+        raise InputError("inputs without a CRS must have the same size in pixels")
+    p, crs, tr, w, h, n = infos[0]
+    return Grid(crs, tr, w, h, n)
+
+
+def _open(path: Path, grid: Grid):
+    ds = rasterio.open(path)
+    if ds.crs is None or (ds.crs == grid.crs and ds.transform == grid.transform and ds.width == grid.width
+                          and ds.height == grid.height):
+        return ds, ds
+    vrt = WarpedVRT(ds, crs=grid.crs, transform=grid.transform, width=grid.width, height=grid.height,
+                    resampling=Resampling.bilinear)
+    return vrt, ds
+
+
+def block_windows(grid: Grid, block: int) -> list[tuple[int, int, int, int]]:
+    return [(r, c, min(block, grid.height - r), min(block, grid.width - c))
+            for r in range(0, grid.height, block) for c in range(0, grid.width, block)]
+
+
+def compute_block(paths: list[str], grid: Grid, win: tuple[int, int, int, int], s: Settings) -> dict[str, Any]:
+    """The reproducibility sum and per-pair counts of one block (runs in a worker)."""
+    r0, c0, h, w = win
+    halo = s.halo
+    rr0, cc0 = max(r0 - halo, 0), max(c0 - halo, 0)
+    rr1, cc1 = min(r0 + h + halo, grid.height), min(c0 + w + halo, grid.width)
+    big = Window(cc0, rr0, cc1 - cc0, rr1 - rr0)
+    data, valid = [], []
+    for p in paths:
+        src, base = _open(Path(p), grid)
+        try:
+            data.append(src.read([1, 2, 3], window=big).astype(np.float64))
+            valid.append(src.dataset_mask(window=big) > 0)
+        finally:
+            if src is not base:
+                src.close()
+            base.close()
+    inner = (slice(r0 - rr0, r0 - rr0 + h), slice(c0 - cc0, c0 - cc0 + w))
+    keep = np.ones((h, w), bool)
+    if s.crop == "auto":
+        all_valid = np.logical_and.reduce(valid)
+        # the halo holds at least the margin, so only the data footprint's edge (and the raster's) erodes
+        eroded = ndimage.binary_erosion(all_valid, iterations=s.crop_margin_px, border_value=0) \
+            if s.crop_margin_px > 0 else all_valid
+        keep = eroded[inner]
+    elif s.crop_geoms:
+        tr = rasterio.windows.transform(Window(c0, r0, w, h), grid.transform)
+        keep = rasterio.features.geometry_mask(list(s.crop_geoms), out_shape=(h, w), transform=tr, invert=True)
+    pl = pairs(len(paths))
+    total = np.zeros((h, w), np.uint16)
+    judged_all = np.ones((h, w), bool)
+    counts = []
+    for i, j in pl:
+        layer = reproducible(data[i], data[j], valid[i] & valid[j], s.window, s.threshold)[inner]
+        judged = (layer != NODATA) & keep
+        judged_all &= judged
+        counts.append([int(((layer == 1) & judged).sum()), int(((layer == 0) & judged).sum())])
+        total += np.where(layer == 1, 1, 0).astype(np.uint16)
+    out = np.where(judged_all, total, NODATA).astype(np.uint8)
+    hist = np.bincount(out[judged_all].ravel(), minlength=len(pl) + 1)[: len(pl) + 1]
+    return {"win": win, "sum": out, "pairs": counts, "hist": hist.tolist()}
+
+
+def _executor(scheduler: str):
+    """(map function, closer) for 'threads', 'local' (a Dask LocalCluster) or a Dask address."""
+    if scheduler == "threads":
+        pool = ThreadPoolExecutor(max_workers=2)
+        return (lambda fn, items: pool.map(fn, items)), pool.shutdown
+    from distributed import Client, LocalCluster, as_completed
+
+    if scheduler == "local":
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None)
+        client = Client(cluster)
+        closers = [client.close, cluster.close]
+    else:
+        client = Client(scheduler, timeout="20s")
+        closers = [client.close]
+
+    def run(fn, items):
+        futures = client.map(fn, list(items), pure=False)
+        for fut in as_completed(futures):
+            yield fut.result()
+
+    return run, lambda: [c() for c in closers]
+
+
+def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads") -> dict[str, Any]:
+    """Compute the layer into `stage`/reproducibility.tif (COG) and return the summary."""
+    grid = inspect(paths)
+    pl = pairs(len(paths))
+    tmp = stage / ".layer.tif"
+    profile = dict(driver="GTiff", width=grid.width, height=grid.height, count=1, dtype="uint8", crs=grid.crs,
+                   transform=grid.transform, nodata=NODATA, tiled=True, blockxsize=512, blockysize=512, compress="deflate")
+    pair_counts = np.zeros((len(pl), 2), np.int64)
+    hist = np.zeros(len(pl) + 1, np.int64)
+    str_paths = [str(p) for p in paths]
+    mapper, close = _executor(scheduler)
+    try:
+        with rasterio.open(tmp, "w", **profile) as dst:
+            for res in mapper(lambda win: compute_block(str_paths, grid, win, s), block_windows(grid, s.block)) \
+                    if scheduler == "threads" else mapper(_Task(str_paths, grid, s), block_windows(grid, s.block)):
+                r0, c0, h, w = res["win"]
+                dst.write(res["sum"], 1, window=Window(c0, r0, w, h))
+                pair_counts += np.asarray(res["pairs"], np.int64)
+                hist += np.asarray(res["hist"], np.int64)
+    finally:
+        close()
+    rasterio.shutil.copy(tmp, stage / "reproducibility.tif", driver="COG", compress="DEFLATE", blocksize=512,
+                         overview_resampling="nearest")
+    tmp.unlink()
+    judged = int(hist.sum())
+    summary = {
+        "inputs": [p.name for p in paths], "pairs": len(pl), "window": s.window, "threshold": s.threshold,
+        "crop": s.crop, "grid": {"width": grid.width, "height": grid.height, "crs": str(grid.crs)},
+        "judged_pixels": judged,
+        "reproducible_share": float(hist[-1] / judged) if judged else math.nan,
+        "share_by_sum": {str(k): float(v / judged) if judged else math.nan for k, v in enumerate(hist)},
+        "per_pair": [{"pair": [paths[i].name, paths[j].name], "reproducible_share": float(a / (a + b)) if a + b else math.nan}
+                     for (i, j), (a, b) in zip(pl, pair_counts)],
+    }
+    return summary
+
+
+@dataclass(frozen=True)
+class _Task:
+    """A picklable block task for Dask workers."""
+
+    paths: list[str]
+    grid: Grid
+    s: Settings
+
+    def __call__(self, win):
+        return compute_block(self.paths, self.grid, win, self.s)
+
+
+def write_summary(stage: Path, summary: dict[str, Any]) -> None:
+    from aerosurvey.fileio import atomic_write_text
+
+    atomic_write_text(stage / "summary.json", json.dumps(summary, indent=1) + "\n")
+    lines = [f"{summary['pairs']} pairs of {len(summary['inputs'])} inputs, window {summary['window']}, threshold "
+             f"{summary['threshold']}", f"reproducible in every pair: {100 * summary['reproducible_share']:.2f} % of "
+             f"{summary['judged_pixels']} judged pixels"]
+    lines += [f"  sum {k}: {100 * v:.2f} %" for k, v in summary["share_by_sum"].items()]
+    lines += [f"  {p['pair'][0]} / {p['pair'][1]}: {100 * p['reproducible_share']:.2f} %" for p in summary["per_pair"]]
+    atomic_write_text(stage / "summary.txt", "\n".join(lines) + "\n")

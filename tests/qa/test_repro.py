@@ -1,0 +1,194 @@
+"""Reproducibility QA: planted truth, the window correlation against numpy, pairs, Dask, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rasterio.transform import from_origin
+from scipy import ndimage
+
+from aerosurvey.cli import main
+from aerosurvey.qa.repro_core import NODATA, correlation
+
+W, H = 200, 160
+
+
+def _write(path: Path, data: np.ndarray, crs: str | None = "EPSG:32633", nodata=None) -> Path:
+    prof = dict(driver="GTiff", width=data.shape[2], height=data.shape[1], count=data.shape[0], dtype="uint8",
+                transform=from_origin(500000, 5470000, 0.05, 0.05), nodata=nodata)
+    if crs:
+        prof["crs"] = crs
+    with rasterio.open(path, "w", **prof) as ds:
+        ds.write(data)
+    return path
+
+
+def _base(seed: int = 0) -> np.ndarray:
+    return np.random.default_rng(seed).integers(0, 256, (3, H, W), dtype=np.uint8)
+
+
+NOISE = (slice(40, 70), slice(30, 80))
+SHIFT = (slice(100, 140), slice(110, 170))
+
+
+def _planted(tmp: Path) -> tuple[Path, Path]:
+    a = _base()
+    b = a.copy()
+    b[:, NOISE[0], NOISE[1]] = np.random.default_rng(9).integers(0, 256, (3, 30, 50), dtype=np.uint8)
+    shifted = np.roll(a, 2, axis=2)
+    b[:, SHIFT[0], SHIFT[1]] = shifted[:, SHIFT[0], SHIFT[1]]
+    return _write(tmp / "a.tif", a), _write(tmp / "b.tif", b)
+
+
+def _run(args: list[str]) -> CliRunner:
+    return CliRunner().invoke(main, ["qa", "reproducibility", *args])
+
+
+def test_planted_noise_and_shift_are_found(tmp_path):
+    a, b = _planted(tmp_path)
+    res = _run([str(a), str(b), "-o", str(tmp_path / "out"), "--block", "64"])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "out" / "reproducibility.tif") as ds:
+        layer = ds.read(1)
+        assert ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+        assert ds.crs.to_epsg() == 32633
+    planted = np.zeros((H, W), bool)
+    planted[NOISE] = True
+    planted[SHIFT] = True
+    reach = 2  # window 5
+    square = np.ones((3, 3), bool)  # a window reaches diagonally too
+    near = ndimage.binary_dilation(planted, structure=square, iterations=reach)
+    core = ndimage.binary_erosion(planted, structure=square, iterations=reach)
+    judged = layer != NODATA
+    assert np.all(layer[core & judged] == 0), "planted regions must be non-reproducible"
+    assert np.all(layer[~near & judged] == 1), "everything else must be reproducible"
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    lo = 1 - near[judged].mean()
+    hi = 1 - core[judged].mean()
+    assert lo <= summary["reproducible_share"] <= hi
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 19), st.integers(0, 24), st.sampled_from([3, 5, 7]), st.booleans())
+def test_window_correlation_equals_numpy_corrcoef(seed, i, j, w, holes):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(100, 20, (3, 20, 25))
+    b = 0.7 * a + rng.normal(0, 10, (3, 20, 25))
+    valid = np.ones((20, 25), bool)
+    if holes:
+        valid[rng.random((20, 25)) < 0.15] = False
+    r, judged, _ = correlation(a, b, valid, w)
+    h = w // 2
+    rows = slice(max(i - h, 0), i + h + 1)
+    cols = slice(max(j - h, 0), j + h + 1)
+    m = valid[rows, cols]
+    xa = a[:, rows, cols][:, m].ravel()
+    xb = b[:, rows, cols][:, m].ravel()
+    if not judged[i, j]:
+        assert not valid[i, j] or len(xa) < 0.5 * 3 * w * w
+        return
+    assert r[i, j] == pytest.approx(np.corrcoef(xa, xb)[0, 1], abs=1e-9)
+
+
+def test_flat_windows_are_explicit():
+    a = np.full((3, 9, 9), 50.0)
+    valid = np.ones((9, 9), bool)
+    r, judged, flat_equal = correlation(a, a.copy(), valid, 3)
+    assert np.isnan(r).all() and flat_equal.all()
+    r2, _, flat2 = correlation(a, a + 1, valid, 3)
+    assert not flat2.any()
+
+
+def test_three_inputs_give_three_pairs_and_bounded_sum(tmp_path):
+    a, b = _planted(tmp_path)
+    c = _write(tmp_path / "c.tif", _base())
+    res = _run([str(a), str(b), str(c), "-o", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["pairs"] == 3 and len(summary["per_pair"]) == 3
+    with rasterio.open(tmp_path / "out" / "reproducibility.tif") as ds:
+        layer = ds.read(1)
+    assert layer[layer != NODATA].max() <= 3
+    # a and c are identical: that pair is fully reproducible
+    ac = next(p for p in summary["per_pair"] if p["pair"] == ["a.tif", "c.tif"])
+    assert ac["reproducible_share"] == 1.0
+
+
+def test_dask_cluster_gives_the_same_layer(tmp_path):
+    a, b = _planted(tmp_path)
+    assert _run([str(a), str(b), "-o", str(tmp_path / "t"), "--block", "64"]).exit_code == 0
+    res = _run([str(a), str(b), "-o", str(tmp_path / "d"), "--block", "64", "--scheduler", "local"])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "t" / "reproducibility.tif") as x, rasterio.open(tmp_path / "d" / "reproducibility.tif") as y:
+        assert np.array_equal(x.read(1), y.read(1))
+
+
+def test_nodata_and_auto_crop(tmp_path):
+    a = _base()
+    a[:, :, :20] = 0
+    pa = _write(tmp_path / "a.tif", a, nodata=0)
+    pb = _write(tmp_path / "b.tif", a.copy(), nodata=0)
+    res = _run([str(pa), str(pb), "-o", str(tmp_path / "out"), "--crop", "auto", "--crop-margin", "10"])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "out" / "reproducibility.tif") as ds:
+        layer = ds.read(1)
+    assert (layer[:, :30] == NODATA).all() and (layer[:10, :] == NODATA).all()
+    assert (layer[20:-20, 40:-20] == 1).all()
+
+
+@pytest.mark.parametrize("case,needle", [
+    ("text", "not a raster"), ("bands", "mismatched band counts"), ("crs", "no CRS"),
+    ("window", "--window = 4"), ("small", "--window = 1"), ("threshold", "--threshold = 1.5"),
+])
+def test_bad_input(tmp_path, case, needle):
+    a = _write(tmp_path / "a.tif", _base())
+    b = _write(tmp_path / "b.tif", _base(1))
+    args = [str(a), str(b)]
+    if case == "text":
+        (tmp_path / "x.tif").write_text("not a raster")
+        args = [str(a), str(tmp_path / "x.tif")]
+    elif case == "bands":
+        args = [str(a), str(_write(tmp_path / "four.tif", np.zeros((4, H, W), np.uint8)))]
+    elif case == "crs":
+        args = [str(a), str(_write(tmp_path / "nocrs.tif", _base(), crs=None))]
+    elif case == "window":
+        args += ["--window", "4"]
+    elif case == "small":
+        args += ["--window", "1"]
+    elif case == "threshold":
+        args += ["--threshold", "1.5"]
+    out = tmp_path / "out"
+    res = _run([*args, "-o", str(out)])
+    assert res.exit_code == 2, res.output
+    assert needle in res.output
+    assert not out.exists() or not any(out.iterdir())
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]
+
+
+def test_timeseries_and_shift(tmp_path):
+    a, b = _planted(tmp_path)
+    c = _write(tmp_path / "c.tif", _base())
+    assert _run([str(a), str(b), "-o", str(tmp_path / "d1")]).exit_code == 0
+    assert _run([str(a), str(c), "-o", str(tmp_path / "d2")]).exit_code == 0
+    res = CliRunner().invoke(main, ["qa", "timeseries", "--masks", str(tmp_path / "d1"), "--masks", str(tmp_path / "d2"),
+                                    "-o", str(tmp_path / "ts")])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "ts" / "quality_mask.tif") as ds, rasterio.open(tmp_path / "d1" / "reproducibility.tif") as d1:
+        assert np.array_equal(ds.read(1) == 1, d1.read(1) == 1)
+    feats = lambda dx: {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": f"T{k}"},
+         "geometry": {"type": "Polygon", "coordinates": [[[k * 10 + dx, 0], [k * 10 + 1 + dx, 0], [k * 10 + 1 + dx, 1], [k * 10 + dx, 0]]]}}
+        for k in range(3)]}
+    (tmp_path / "t1.geojson").write_text(json.dumps(feats(0.0)))
+    (tmp_path / "t2.geojson").write_text(json.dumps(feats(0.07)))
+    res = CliRunner().invoke(main, ["qa", "shift", str(tmp_path / "t1.geojson"), str(tmp_path / "t2.geojson"), "-o", str(tmp_path / "sh")])
+    assert res.exit_code == 0, res.output
+    out = json.loads((tmp_path / "sh" / "shift.json").read_text())
+    assert out["per_date"][0]["centroid_shift_mean"] == pytest.approx(0.07)
