@@ -52,7 +52,8 @@ def run_case(name: str, n_items: int, policy: mp.Policy, vehicle_resend: float, 
         "case": name, "items": n_items, "seconds": total, "upload_s": report.mission.seconds,
         "verify_s": report.mission.verify_seconds, "items_per_s": n_items / total,
         "up_resends": up.resends, "up_restarts": up.restarts, "up_repeated_requests": up.duplicate_requests,
-        "up_error_acks": len(up.error_acks), "vehicle_rerequests": model.log.get("request resend", 0),
+        "up_error_acks": len(up.error_acks), "up_ack_lost": up.ack_lost,
+        "vehicle_rerequests": model.log.get("request resend", 0),
         "down_resends": down.resends, "down_restarts": down.restarts,
         "relay": dict(relay.counts) if relay is not None else None,
     }
@@ -79,7 +80,7 @@ def main() -> None:
         print(f"{r['case']:>10}: {r['items']} items uploaded and verified in {r['seconds']:.2f} s "
               f"(upload {r['upload_s']:.2f} s, read back {r['verify_s']:.2f} s) = {r['items_per_s']:.0f} items/s; "
               f"upload resends {r['up_resends']}, restarts {r['up_restarts']}, repeated requests "
-              f"{r['up_repeated_requests']}, error acks {r['up_error_acks']}, vehicle re-requests "
+              f"{r['up_repeated_requests']}, error acks {r['up_error_acks']}, final ack lost {r['up_ack_lost']}, vehicle re-requests "
               f"{r['vehicle_rerequests']}; download resends {r['down_resends']}, restarts {r['down_restarts']}{relay}")
     print(f"ratio lossy/clean items/s: {rows[1]['items_per_s'] / rows[0]['items_per_s']:.3f}")
 

@@ -106,7 +106,7 @@ class VehicleModel:
                  home: tuple[float, float, float] = (49.4, 15.0, 400.0), no_space_first: int = 0,
                  capacity: int = 2000, answer_missions: bool = True, alter: dict[int, dict[str, float]] | None = None,
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
-                 early_accept_after: int | None = None) -> None:
+                 early_accept_after: int | None = None, fail_item: int | None = None) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
@@ -122,6 +122,7 @@ class VehicleModel:
         self.request_resend = request_resend
         self.upload_timeout = upload_timeout
         self.early_accept_after = early_accept_after  # a faulty vehicle: ACCEPTED before the last item
+        self.fail_item = fail_item  # a mission item whose storage fails (ERROR, upload ends)
         self.stored: dict[int, list[Stored]] = {0: [], 1: []}
         self.receiving: int | None = None  # mission type being uploaded
         self._staging: list[Stored] = []
@@ -149,6 +150,8 @@ class VehicleModel:
         return self.mav.mission_request_int_encode(*self._gcs, seq, mission_type=mtype)
 
     def _store(self, m: Any, mtype: int) -> Stored:
+        if mtype == 0 and m.seq == self.fail_item:
+            raise Unsupported(mp.ERROR)
         params = (float(m.param1), float(m.param2), float(m.param3), float(m.param4))
         x, y = int(m.x), int(m.y)
         if m.get_type() == "MISSION_ITEM":

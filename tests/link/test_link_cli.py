@@ -54,7 +54,7 @@ def test_mismatch_exits_1_naming_item_field_and_values(tmp_path: Path) -> None:
     with FakeVehicle(VehicleModel(alter={4: {"param2": 3.0}}), "udp") as fv:
         res = run(str(plan), "--connect", fv.url, "--timeout", "0.5")
     assert res.exit_code == 1
-    assert "Error: verification failed: mission item 4 (NAV_WAYPOINT) param2: planned 0.0, vehicle has 3.0" in res.output
+    assert "Error: verification failed: mission item 4 (NAV_WAYPOINT) param2: planned 0, vehicle has 3" in res.output
     assert "verified:" not in res.output and "items uploaded" not in res.output
 
 

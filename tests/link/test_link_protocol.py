@@ -9,7 +9,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from aerosurvey.link import mission_protocol as mp
 
-POLICY = mp.Policy(timeout=1.0, retries=2, restarts=2, busy_wait=5.0)
+POLICY = mp.Policy(timeout=1.0, retries=2, restarts=2, busy_wait=5.0, stall=4.0)
 
 
 def items(n: int, mtype: int = mp.MISSION) -> list[mp.WireItem]:
@@ -128,6 +128,23 @@ def test_cancelled_or_error_without_further_requests_restarts(code: int) -> None
     assert up.stats.restarts == 1 and up.stats.error_acks == [code]
 
 
+def test_invalid_sequence_answers_keep_the_upload_alive_until_the_stall_limit() -> None:
+    up = mp.Uploader(items(3), mp.MISSION, POLICY)
+    up.start(0.0)
+    up.handle(mp.Request(0), 0.0)
+    t, resent = 0.0, 0
+    while not up.finished and t < 60:  # our resends of item 0 are each answered INVALID_SEQUENCE
+        t += 0.05
+        out = up.poll(t)
+        resent += len(sent_items(out))
+        if sent_items(out):
+            up.handle(mp.Ack(mp.INVALID_SEQUENCE), t + 0.01)
+        if not up.finished and out == [mp.Count(3, mp.MISSION)]:
+            break
+    assert resent == 3  # at 1, 2 and 3 s: more than `retries` (2), as the vehicle answers each
+    assert up.stats.restarts == 1 and POLICY.stall <= t <= POLICY.stall + POLICY.timeout
+
+
 def test_late_error_followed_by_requests_is_only_noise() -> None:
     up = mp.Uploader(items(3), mp.MISSION, POLICY)
     up.start(0.0)
@@ -150,7 +167,8 @@ def test_a_vehicle_that_only_repeats_requests_cannot_loop_forever() -> None:
         t += 0.1
         up.handle(mp.Request(0), t)
         up.poll(t)
-    assert up.error is not None and t < 15
+    assert up.error is not None and "asked for nothing new after item 0 of 3 for 4." in up.error
+    assert 3 * POLICY.stall <= t < 3 * (POLICY.stall + POLICY.timeout)  # checked at resend times
 
 
 def test_rejected_item_fails_naming_it() -> None:
@@ -244,3 +262,28 @@ def test_empty_download() -> None:
     dl.start(0.0)
     assert dl.handle(mp.Count(0), 0.0) == [mp.Ack(mp.ACCEPTED, mp.MISSION)]
     assert dl.result() == []
+
+
+def test_all_items_asked_then_silence_ends_as_ack_lost_only_when_a_read_back_follows() -> None:
+    for confirm in (True, False):
+        up = mp.Uploader(items(2), mp.MISSION, POLICY, confirm_by_download=confirm)
+        up.start(0.0)
+        up.handle(mp.Request(0), 0.0)
+        up.handle(mp.Request(1), 0.0)
+        assert sent_items(up.poll(1.0)) == [1]
+        up.handle(mp.Ack(mp.ERROR), 1.01)  # the vehicle is no longer receiving
+        out = up.poll(2.0)
+        if confirm:
+            assert up.done and up.stats.ack_lost and out == []
+        else:
+            assert not up.done and out == [mp.Count(2, mp.MISSION)] and up.stats.restarts == 1
+
+
+def test_ack_lost_needs_every_item_asked_for() -> None:
+    up = mp.Uploader(items(3), mp.MISSION, POLICY, confirm_by_download=True)
+    up.start(0.0)
+    up.handle(mp.Request(0), 0.0)
+    up.handle(mp.Request(1), 0.0)
+    up.handle(mp.Ack(mp.ERROR), 0.1)
+    assert up.poll(1.0) == [mp.Count(3, mp.MISSION)]
+    assert not up.done and not up.stats.ack_lost

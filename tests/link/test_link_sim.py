@@ -126,3 +126,32 @@ def test_changed_item_is_caught_through_the_lossy_link() -> None:
     with pytest.raises(VerificationFailed) as exc:
         upload_mission(SimLink(model, Faults(drop=0.1, dup=0.05, seed=2)), m, POLICY)
     assert [(x.seq, x.field, x.actual) for x in exc.value.mismatches] == [(17, "y (longitude·1e7)", 150061234)]
+
+
+def test_lost_final_ack_is_settled_by_the_read_back_not_by_sending_everything_again() -> None:
+    m = survey_mission(5)
+    n = len(m.items) + 1
+    final_ack = 2 * n + 2  # packets: COUNT, then a request and an item per seq, then the ACK
+    model = VehicleModel()
+    report = upload_mission(SimLink(model, drop_packets=frozenset({final_ack})), m, POLICY)
+    assert report.mission.stats.ack_lost and report.mission.stats.restarts == 0
+    assert report.mission.verified and model.log["got MISSION_COUNT"] == 1
+    assert mp.ERROR in report.mission.stats.error_acks  # our resent last item, after the vehicle had finished
+
+
+def test_lost_final_ack_without_verification_sends_everything_again() -> None:
+    m = survey_mission(5)
+    final_ack = 2 * (len(m.items) + 1) + 2
+    model = VehicleModel()
+    report = upload_mission(SimLink(model, drop_packets=frozenset({final_ack})), m, POLICY, verify=False)
+    assert not report.mission.stats.ack_lost and report.mission.stats.restarts == 1
+    assert model.log["got MISSION_COUNT"] == 2 and model.completed_uploads == 2
+
+
+def test_failed_last_item_whose_error_ack_is_lost_is_caught_by_the_read_back() -> None:
+    m = survey_mission(5)
+    n = len(m.items) + 1
+    model = VehicleModel(fail_item=n - 1)
+    with pytest.raises(VerificationFailed) as exc:
+        upload_mission(SimLink(model, drop_packets=frozenset({2 * n + 2})), m, POLICY)
+    assert str(exc.value.mismatches[0]) == f"mission: the vehicle has {n - 1} items, the plan {n}"

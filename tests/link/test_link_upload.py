@@ -75,7 +75,7 @@ def test_vehicle_storing_a_different_item_fails_naming_seq_field_and_values() ->
     mm = exc.value.mismatches[0]
     assert (mm.seq, mm.field, mm.actual) == (7, "z", 99.5)
     assert mm.expected == pytest.approx(planned_z, abs=1e-4)
-    assert "mission item 7 (NAV_WAYPOINT) z: planned" in str(exc.value) and "vehicle has 99.5" in str(exc.value)
+    assert f"mission item 7 (NAV_WAYPOINT) z: planned {planned_z:.7g}, vehicle has 99.5;" in str(exc.value)
     assert exc.value.exit_code == 1
 
 

@@ -20,16 +20,16 @@ def _sorties(outdir: Path) -> tuple[dict, list[tuple[str, Path, list, list, floa
     manifest = json.loads(mpath.read_text())
     stations = manifest["stations"]
     index = {s["id"]: i for i, s in enumerate(stations)}
-    runs_by_id = {ln["id"]: ln for ln in manifest["lines"]}
 
     def part(first: str, last: str) -> tuple[list, list]:
         a, b = index[first], index[last]
         pts = [(s["lat"], s["lon"]) for s in stations[a:b + 1]]
-        runs = []
-        for rid in dict.fromkeys(s["line"] for s in stations[a:b + 1]):
-            sel = [s for s in stations[a:b + 1] if s["line"] == rid]
-            if len(sel) > 1 and rid in runs_by_id:
-                runs.append(((sel[0]["lat"], sel[0]["lon"]), (sel[-1]["lat"], sel[-1]["lon"])))
+        runs: list[tuple[int, int]] = []  # (first, last) index within this sortie's stations, per run
+        for k, s in enumerate(stations[a:b + 1]):
+            if runs and stations[a + runs[-1][0]]["line"] == s["line"]:
+                runs[-1] = (runs[-1][0], k)
+            else:
+                runs.append((k, k))
         return pts, runs
 
     out = []

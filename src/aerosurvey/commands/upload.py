@@ -34,7 +34,8 @@ def read_mission(path: Path) -> Mission:
 
 
 def _stats(s: mp.Stats) -> str:
-    return f"{s.resends} resend(s), {s.restarts} restart(s), {s.duplicate_requests} repeated request(s)"
+    lost = "; the vehicle's final MISSION_ACK was lost, the read-back below proves the upload" if s.ack_lost else ""
+    return f"{s.resends} resend(s), {s.restarts} restart(s), {s.duplicate_requests} repeated request(s){lost}"
 
 
 def format_report(r: UploadReport, verified: bool) -> list[str]:

@@ -128,24 +128,27 @@ Message = Union[Count, RequestList, Request, Item, Ack]
 class Policy:
     """How long to wait and how often to try again; all bounded so a transfer always ends.
 
-    `timeout`: seconds without an answer before a step is resent. `retries`: resends of one
-    step before the transaction is restarted (or, for the first step, given up).
-    `restarts`: whole-transaction restarts allowed (NO_SPACE, a vehicle that lost the
-    transaction). `busy_wait`: pause before restarting after MAV_MISSION_NO_SPACE (ArduPilot
+    `timeout`: seconds without an answer before a step is resent. `retries`: resends in a row
+    that the vehicle does not answer at all before the transaction is restarted (or, for the
+    first step, given up). `stall`: seconds an upload may go without the vehicle asking for a
+    new item while it still answers (it may be re-requesting at its own pace: ArduPilot asks
+    again after 1 s and cancels after 8 s) before it is restarted. `restarts`: whole-transaction
+    restarts allowed. `busy_wait`: pause before restarting after MAV_MISSION_NO_SPACE (ArduPilot
     sends it right after boot) or MAV_MISSION_DENIED (the vehicle is still busy with another
-    transfer; ArduPilot gives a stalled upload up after 8 s), so 3 restarts span 9 s.
+    transfer), so that 3 restarts span ArduPilot's 8 s upload timeout.
     """
 
-    timeout: float = 2.0
+    timeout: float = 1.0
     retries: int = 5
     restarts: int = 3
     busy_wait: float = 3.0
+    stall: float = 10.0
 
     def __post_init__(self) -> None:
         if not (self.timeout > 0 and math.isfinite(self.timeout)):
             raise ValueError(f"timeout must be a positive number of seconds, got {self.timeout!r}")
-        if self.retries < 0 or self.restarts < 0 or self.busy_wait < 0:
-            raise ValueError("retries, restarts and busy_wait must not be negative")
+        if self.retries < 0 or self.restarts < 0 or self.busy_wait < 0 or not self.stall > 0:
+            raise ValueError("retries, restarts and busy_wait must not be negative, stall must be positive")
 
 
 @dataclass
@@ -158,6 +161,7 @@ class Stats:
     duplicate_requests: int = 0
     ignored: int = 0
     error_acks: list[int] = field(default_factory=list)
+    ack_lost: bool = False  # an upload ended without the vehicle's ACCEPTED (see Uploader)
 
 
 class TransferFailed(Exception):
@@ -166,6 +170,13 @@ class TransferFailed(Exception):
 
 class _Machine:
     """Shared bookkeeping: state, deadline and outcome of one transfer."""
+
+    kind = "transfer"
+
+    @property
+    def what(self) -> str:
+        """E.g. "fence upload": the start of every error message."""
+        return f"{TYPE_NAMES.get(self.mission_type, self.mission_type)} {self.kind}"
 
     def __init__(self, mission_type: int, policy: Policy) -> None:
         self.mission_type = mission_type
@@ -205,10 +216,20 @@ class Uploader(_Machine):
     Success needs a MISSION_ACK(ACCEPTED) after the vehicle has asked for every item of the
     current attempt; an ACCEPTED before that is stale (from an earlier transaction) and is
     ignored, so a partial upload is never reported as done.
+
+    One exception, only with `confirm_by_download`: the vehicle asked for every item, then
+    stopped answering or answered our resent last item with ERROR or OPERATION_CANCELLED (it
+    is no longer receiving: its ACCEPTED was lost, or it failed on the last item). The machine
+    then ends with `stats.ack_lost` set instead of sending all items again, and the caller
+    must read the mission back and compare it before calling it uploaded.
     """
 
-    def __init__(self, items: Sequence[WireItem], mission_type: int, policy: Policy) -> None:
+    kind = "upload"
+
+    def __init__(self, items: Sequence[WireItem], mission_type: int, policy: Policy,
+                 confirm_by_download: bool = False) -> None:
         super().__init__(mission_type, policy)
+        self.confirm_by_download = confirm_by_download
         for i, it in enumerate(items):
             if it.seq != i or it.mission_type != mission_type:
                 raise ValueError(f"item {i} has seq {it.seq} and mission type {it.mission_type}; "
@@ -220,10 +241,6 @@ class Uploader(_Machine):
         self._step_tries = 0
         self._last_progress = 0.0
         self._suspect: int | None = None
-
-    @property
-    def what(self) -> str:
-        return f"{TYPE_NAMES.get(self.mission_type, self.mission_type)} upload"
 
     def start(self, now: float) -> list[Message]:
         self.stats.restarts = -1
@@ -261,6 +278,7 @@ class Uploader(_Machine):
             return []
         self._phase = "items"
         self._suspect = None
+        self._step_tries = 0
         if seq in self._requested:
             # answered again, but the step timer keeps running: a vehicle that keeps asking for
             # items we already sent (ours get lost) must still end in a restart, not a loop
@@ -305,6 +323,7 @@ class Uploader(_Machine):
                 self._suspect = result
             return []
         if result == INVALID_SEQUENCE:
+            self._step_tries = 0  # the vehicle is still in the transfer and will ask again
             return []
         where = f" at item {self._last_seq}" if self._last_seq >= 0 else ""
         return self._fail(f"{self.what} rejected by the vehicle{where}: {result_name(result)}")
@@ -314,10 +333,17 @@ class Uploader(_Machine):
             return []
         if self._phase == "wait":
             return self._restart(now)
+        stalled = now - self._last_progress >= self.policy.stall
+        self._step_tries += 1
+        all_asked = self._phase == "items" and len(self._requested) == len(self.items)
+        if all_asked and self.confirm_by_download and (
+                self._suspect is not None or stalled or self._step_tries > self.policy.retries):
+            self.stats.ack_lost = True
+            self.done = True
+            self.deadline = math.inf
+            return []
         if self._suspect is not None:
             return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect)} and stopped asking for items")
-        stalled = now - self._last_progress >= self.policy.timeout * (self.policy.retries + 1)
-        self._step_tries += 1
         if self._phase == "count":
             if self._step_tries > self.policy.retries:
                 return self._fail(f"{self.what} failed: no answer to MISSION_COUNT after {self.policy.retries} "
@@ -325,9 +351,12 @@ class Uploader(_Machine):
             self.stats.resends += 1
             self.deadline = now + self.policy.timeout
             return self._out([Count(len(self.items), self.mission_type)])
-        if self._step_tries > self.policy.retries or stalled:
-            return self._restart_or_fail(now, f"no progress after item {self._last_seq} of {len(self.items)} "
-                                              f"for {now - self._last_progress:.1f} s")
+        if stalled:
+            return self._restart_or_fail(now, f"the vehicle asked for nothing new after item {self._last_seq} of "
+                                              f"{len(self.items)} for {now - self._last_progress:.1f} s")
+        if self._step_tries > self.policy.retries:
+            return self._restart_or_fail(now, f"no answer after item {self._last_seq} of {len(self.items)} "
+                                              f"to {self.policy.retries} resend(s), {self.policy.timeout:g} s each")
         self.stats.resends += 1
         self.deadline = now + self.policy.timeout
         return self._out([Item(self.items[self._last_seq])])
@@ -336,6 +365,8 @@ class Uploader(_Machine):
 class Downloader(_Machine):
     """Ground-station side of a download: collects every item, then acknowledges."""
 
+    kind = "download"
+
     def __init__(self, mission_type: int, policy: Policy) -> None:
         super().__init__(mission_type, policy)
         self.items: list[WireItem | None] = []
@@ -343,10 +374,6 @@ class Downloader(_Machine):
         self._next = 0
         self._step_tries = 0
         self._suspect: int | None = None
-
-    @property
-    def what(self) -> str:
-        return f"{TYPE_NAMES.get(self.mission_type, self.mission_type)} download"
 
     def result(self) -> list[WireItem]:
         if not self.done:

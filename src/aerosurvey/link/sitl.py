@@ -58,6 +58,7 @@ class Flight:
 
     name: str
     triggers: list[tuple[float, float, float]] = field(default_factory=list)  # lat, lon, alt rel
+    trigger_track_index: list[int] = field(default_factory=list)  # len(track) when each trigger arrived
     track: list[tuple[int, float, float, float]] = field(default_factory=list)  # time_boot_ms, lat, lon, alt rel
     armed_ms: int | None = None
     disarmed_ms: int | None = None
@@ -159,6 +160,14 @@ class SitlVehicle:
         if self.conn.wait_heartbeat(timeout=self.boot_timeout) is None:
             raise SitlError("no heartbeat after the reboot")
 
+    def request_messages(self) -> None:
+        """Ask for the track, mission progress and camera feedback at fixed rates (stream
+        parameters are named differently across ArduPilot versions; this command is not)."""
+        from pymavlink import mavutil
+
+        for msg_id, hz in ((33, 5.0), (42, 2.0), (147, 1.0)):  # GLOBAL_POSITION_INT, MISSION_CURRENT, BATTERY_STATUS
+            self.command(mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz)
+
     def set_mode(self, mode: int) -> None:
         from pymavlink import mavutil
 
@@ -189,6 +198,7 @@ def prepare(sv: SitlVehicle) -> None:
                 continue
         sv.set_param(name, float(value))
     sv.reboot()
+    sv.request_messages()
 
 
 def fly(sv: SitlVehicle, mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
@@ -202,19 +212,25 @@ def fly(sv: SitlVehicle, mission, name: str, est_time_s: float, last_item: int, 
     sv.set_mode(modes["AUTO"])
     sv.arm(timeout=120.0)
     sv.command(mavutil.mavlink.MAV_CMD_MISSION_START, 0, 0)
-    wall_limit = time.monotonic() + 120.0 + timeout_factor * est_time_s / max(sv.speedup, 1.0)
+    # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
+    wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
+    sim_start: int | None = None
     armed = True
     reached_last = False
     while time.monotonic() < wall_limit:
+        if flight.track and sim_start is not None and flight.track[-1][0] - sim_start > timeout_factor * est_time_s * 1000:
+            break
         m = sv.conn.recv_match(blocking=True, timeout=1.0)
         if m is None:
             continue
         t = m.get_type()
         if t == "CAMERA_FEEDBACK":
             flight.triggers.append((m.lat * 1e-7, m.lng * 1e-7, float(m.alt_rel)))
+            flight.trigger_track_index.append(len(flight.track))
         elif t == "GLOBAL_POSITION_INT":
             if flight.armed_ms is None:
                 flight.armed_ms = m.time_boot_ms
+                sim_start = m.time_boot_ms
             flight.track.append((m.time_boot_ms, m.lat * 1e-7, m.lon * 1e-7, m.relative_alt / 1000.0))
         elif t == "BATTERY_STATUS" and m.current_consumed >= 0:
             flight.battery_mah = float(m.current_consumed)
@@ -246,17 +262,25 @@ def _dist(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     return 6_371_000.0 * math.hypot(x, (lat2 - lat1) * k)
 
 
-def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tuple[tuple[float, float], tuple[float, float]]],
+def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tuple[int, int]],
             est_time_s: float) -> dict[str, Any]:
-    """Triggers against planned stations (in order), cross-track error on the lines, time."""
+    """Triggers against planned stations (in order), cross-track error on the lines, time.
+
+    `runs` are (first, last) station indices of each photo run; the track flown between
+    the triggers of a run's first and last photo is measured against that run's line.
+    """
     n = min(len(flight.triggers), len(stations))
     d = [_dist(flight.triggers[i][0], flight.triggers[i][1], stations[i][0], stations[i][1]) for i in range(n)]
     xte = []
-    for (a, b) in runs:
-        for _, lat, lon, _ in flight.track:
-            xte_m = _cross_track(lat, lon, a, b)
-            if xte_m is not None:
-                xte.append(xte_m)
+    if len(flight.triggers) == len(stations):
+        for a, b in runs:
+            if b <= a:
+                continue
+            t0, t1 = flight.trigger_track_index[a], flight.trigger_track_index[b]
+            for _, lat, lon, _ in flight.track[t0:t1]:
+                xte_m = _cross_track(lat, lon, stations[a], stations[b])
+                if xte_m is not None:
+                    xte.append(xte_m)
     flown = (flight.disarmed_ms - flight.armed_ms) / 1000.0 if flight.disarmed_ms and flight.armed_ms else None
     return {
         "sortie": flight.name, "completed": flight.completed, "photos_planned": len(stations),
@@ -280,11 +304,10 @@ def _cross_track(lat: float, lon: float, a: tuple[float, float], b: tuple[float,
     if length2 <= 0:
         return None
     t = (px * bx + py * by) / length2
-    if not 0.05 <= t <= 0.95:  # the middle of the line: turns and lead-ins are not cross-track
+    if not 0.0 <= t <= 1.0:
         return None
     cx, cy = ax + t * bx, ay + t * by
-    dist = math.hypot(px - cx, py - cy)
-    return dist if dist < 50.0 else None
+    return math.hypot(px - cx, py - cy)
 
 
 def workdir() -> Path:

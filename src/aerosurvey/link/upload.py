@@ -179,7 +179,12 @@ class Mismatch:
         if self.seq is None:
             return f"{kind}: the vehicle has {self.actual} items, the plan {self.expected}"
         name = _COMMAND_NAMES.get(self.command, str(self.command)) if self.command is not None else "?"
-        return f"{kind} item {self.seq} ({name}) {self.field}: planned {self.expected!r}, vehicle has {self.actual!r}"
+        return f"{kind} item {self.seq} ({name}) {self.field}: planned {_show(self.expected)}, vehicle has {_show(self.actual)}"
+
+
+def _show(v: object) -> str:
+    """A float32 value with the 7 digits it holds (102.13, not 102.12999725341797)."""
+    return f"{v:.7g}" if isinstance(v, float) else str(v)
 
 
 def _same_f32(a: float, b: float) -> bool:
@@ -223,7 +228,7 @@ def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem]
 
 def _hard_limit(policy: mp.Policy, n: int) -> float:
     """A wall-clock bound no transfer can pass, whatever the vehicle sends."""
-    per_attempt = policy.timeout * (policy.retries + 2) * (n + 2)
+    per_attempt = (policy.timeout * (policy.retries + 2) + policy.stall) * (n + 2)
     return (policy.restarts + 1) * (per_attempt + policy.busy_wait) + 1.0
 
 
@@ -246,13 +251,20 @@ def run_transfer(link: Link, machine: mp.Uploader | mp.Downloader, n_hint: int) 
         raise LinkError(machine.error)
 
 
-def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, policy: mp.Policy) -> mp.Stats:
-    machine = mp.Uploader(items, mission_type, policy)
+def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, policy: mp.Policy,
+                 confirm_by_download: bool = False) -> mp.Stats:
+    """Upload one mission type's items; returns what the link cost (resends, restarts).
+
+    With `confirm_by_download` the upload may end without the vehicle's final ACCEPTED
+    (`stats.ack_lost`); the caller must then read the items back and compare them.
+    """
+    machine = mp.Uploader(items, mission_type, policy, confirm_by_download)
     run_transfer(link, machine, len(items))
     return machine.stats
 
 
 def download_items(link: Link, mission_type: int, policy: mp.Policy, n_hint: int = 1000) -> tuple[list[mp.WireItem], mp.Stats]:
+    """Every item of one mission type as the vehicle stores it; `n_hint` sizes the hard time bound."""
     machine = mp.Downloader(mission_type, policy)
     run_transfer(link, machine, n_hint)
     return machine.result(), machine.stats
@@ -310,7 +322,9 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     """Upload the mission (and its fence when it has one), then read both back and compare.
 
     Raises LinkError when a transfer fails, VerificationFailed when the vehicle stores
-    something else; returns a report only when everything asked for succeeded.
+    something else; returns a report only when everything asked for succeeded. With
+    `verify`, an upload whose final ACCEPTED was lost (`stats.ack_lost`) is settled by the
+    read-back instead of being sent again; without it, such an upload is restarted.
     """
     vehicle = link.vehicle
     if vehicle is None:
@@ -323,7 +337,7 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
 
     t0 = time.monotonic()
     try:
-        stats = upload_items(link, items, mp.MISSION, policy)
+        stats = upload_items(link, items, mp.MISSION, policy, confirm_by_download=verify)
     except LinkError as exc:
         raise LinkError(f"{exc}; the vehicle's mission is incomplete or unchanged: do not fly it") from None
     mission_rep = TransferReport(mp.MISSION, len(items), time.monotonic() - t0, stats)
@@ -331,7 +345,7 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     if fence:
         t0 = time.monotonic()
         try:
-            fstats = upload_items(link, fence, mp.FENCE, policy)
+            fstats = upload_items(link, fence, mp.FENCE, policy, confirm_by_download=verify)
         except LinkError as exc:
             raise LinkError(f"the mission was uploaded but the {exc}; the vehicle's fence is not the plan's") from None
         fence_rep = TransferReport(mp.FENCE, len(fence), time.monotonic() - t0, fstats)

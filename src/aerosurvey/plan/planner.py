@@ -19,7 +19,7 @@ from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading
 from aerosurvey.plan.lines import build_lines
-from aerosurvey.plan.route import Detours, Kinematics, Pass, Route, build_route, path_time, quick_cost
+from aerosurvey.plan.route import Detours, Kinematics, Pass, Route, build_route, descent_time, path_time, quick_cost
 from aerosurvey.plan.sun import elevation_over_window
 from aerosurvey.plan.terrain import Dem, thin_profile
 from aerosurvey.spec import MissionSpec
@@ -472,14 +472,14 @@ def _estimates(spec, route: Route, wps: list[RouteWaypoint], stations: Stations,
     home_xy = (home_xy[0] / k, home_xy[1] / k)
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
-    transit_out = math.dist(home_xy, (wps[0].x, wps[0].y))
-    transit_back = math.dist((wps[-1].x, wps[-1].y), home_xy)
-    transit_speed = kin.speed_ms if kin.vehicle == "copter" else spec.vehicle.cruise_speed_ms
+    transit_out = math.dist(home_xy, tuple(pts[0]))
+    transit_back = math.dist(tuple(pts[-1]), home_xy)
+    transit_kin = Kinematics(kin.vehicle, spec.vehicle.cruise_speed_ms, kin.accel_ms2, kin.turn_radius_m)
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
     t_climb = climb / spec.vehicle.climb_rate_ms
-    t_descent = climb / spec.vehicle.descent_rate_ms
-    t_out = transit_out / transit_speed
-    t_back = transit_back / transit_speed
+    t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)
+    t_out = path_time(np.array([home_xy, pts[0]]), transit_kin)
+    t_back = path_time(np.array([pts[-1], home_xy]), transit_kin)
     photo_len = float(sum((r.station_xy.shape[0] - 1) * base for r in route.runs))
     return {
         "survey_distance_m": round(survey_len, 1),

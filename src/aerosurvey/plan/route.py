@@ -260,6 +260,18 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
     return total_len / k.speed_ms
 
 
+#: A copter lands its last metres slowly (ArduCopter: below LAND_ALT_LOW = 10 m at LAND_SPEED = 0.5 m/s).
+LAND_SLOW_ALT_M, LAND_SLOW_SPEED_MS = 10.0, 0.5
+
+
+def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
+    """Time from the survey height to the ground: descent rate, then a copter's slow final metres."""
+    if vehicle != "copter":
+        return alt_m / rate_ms
+    slow = min(alt_m, LAND_SLOW_ALT_M)
+    return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
+
+
 def _route_points(runs: list[Run]) -> np.ndarray:
     pts = []
     for r in runs:

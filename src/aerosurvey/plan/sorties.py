@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.route import Detours, Kinematics, path_time
+from aerosurvey.plan.route import Detours, Kinematics, descent_time, path_time
 
 
 @dataclass(frozen=True)
@@ -166,7 +166,9 @@ class Splitter:
             back_leg = [*self.detours.path((wps[-1].x, wps[-1].y), home), home]
             poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
             horiz = path_time(poly, self.kin)
-            vert = max(climb + alt_shift, 1.0) * (1 / self.plan.spec.vehicle.climb_rate_ms + 1 / self.plan.spec.vehicle.descent_rate_ms)
+            v = self.plan.spec.vehicle
+            h = max(climb + alt_shift, 1.0)
+            vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             dist = float(np.hypot(*np.diff(poly, axis=0).T).sum())
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
