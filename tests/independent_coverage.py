@@ -2,8 +2,9 @@
 
 It does not use the planner's spacing, stations or CRS. It parses `mission.waypoints`
 itself, replays ArduPilot's distance trigger along the waypoints (a picture at once when
-DO_SET_CAM_TRIGG_DIST has param3 = 1, then one each time the vehicle has moved the
-trigger distance from the last picture, none after the distance is set to 0), builds each
+DO_SET_CAM_TRIGG_DIST has param3 = 1, then one at the first 50 Hz check, at the
+DO_CHANGE_SPEED ground speed, where the vehicle has moved the trigger distance from the
+last picture, as AP_Camera does; none after the distance is set to 0), builds each
 photo's footprint from the camera's sensor and the height above ground, in a local
 azimuthal equidistant projection centred on the area, and measures coverage on a grid.
 """
@@ -64,11 +65,14 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
     run = -1
     speed = 0.0
     prev_dir = None
+    phase = 0.0
+    time_trigger = camera_interval_s is not None
     for r in rows:
         cmd, frame = int(r[3]), int(r[2])
         if cmd == DO_CHANGE_SPEED:
             speed = r[5]
         elif cmd == DO_SET_CAM_TRIGG_INTERVAL:
+            time_trigger = True
             dist = speed * r[4] / 1000.0 if r[4] > 0 else 0.0
             if dist > 0:
                 run += 1
@@ -94,18 +98,23 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                 length = float(np.hypot(*leg))
                 if length > 0:
                     u = leg / length
-                    # next pictures where |p - last| reaches dist along this straight leg
-                    t = 0.0
-                    while True:
-                        w = pos + u * t - last
-                        # solve |w + u s| = dist for s >= 0
-                        b = float(np.dot(w, u))
-                        c = float(np.dot(w, w)) - dist * dist
-                        disc = b * b - c
-                        s = -b + math.sqrt(max(disc, 0.0))
-                        if t + s > length - 1e-9:
-                            break
-                        t += s
+                    if time_trigger:
+                        ts = _crossings(pos, u, length, last, dist)
+                    else:
+                        # ArduPilot checks the distance at 50 Hz: samples every v/50 m along the path
+                        step = speed / 50.0 if speed > 0 else 0.1
+                        first = (step - phase) % step
+                        samples = first + step * np.arange(int(max(length - first, 0) // step) + 1)
+                        samples = samples[samples <= length + 1e-9]
+                        phase = (length - (samples[-1] if len(samples) else -phase)) % step if len(samples) else (phase + length) % step
+                        ts = []
+                        lx, ly = last
+                        for t in samples:
+                            p = pos + u * t
+                            if math.hypot(p[0] - lx, p[1] - ly) >= dist:
+                                ts.append(float(t))
+                                lx, ly = p
+                    for t in ts:
                         p = pos + u * t
                         alt = alt_prev + (r[10] - alt_prev) * (t / length)
                         xs.append(p[0]); ys.append(p[1]); hs.append(math.atan2(u[1], u[0])); zs.append((alt, frame)); runs.append(run)
@@ -138,6 +147,23 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
     else:
         agl = alt
     return Photos(x, y, heading, agl, run_arr)
+
+
+def _crossings(pos: np.ndarray, u: np.ndarray, length: float, last: np.ndarray, dist: float) -> list[float]:
+    """Positions along a leg where the distance from the last photo reaches `dist` (continuous)."""
+    out = []
+    t = 0.0
+    last = np.asarray(last, float)
+    while True:
+        w = pos + u * t - last
+        b = float(np.dot(w, u))
+        c = float(np.dot(w, w)) - dist * dist
+        s = -b + math.sqrt(max(b * b - c, 0.0))
+        if t + s > length - 1e-9:
+            return out
+        t += s
+        out.append(t)
+        last = pos + u * t
 
 
 def footprint_counts(ph: Photos, px: np.ndarray, py: np.ndarray, sensor: tuple[float, float, int, int, float], mount: str) -> np.ndarray:

@@ -32,7 +32,11 @@ def test_copter_item_pattern(tmp_path):
     on = [it for it in items if it.command == mav.DO_SET_CAM_TRIGG_DIST and it.param1 > 0]
     off = [it for it in items if it.command == mav.DO_SET_CAM_TRIGG_DIST and it.param1 == 0]
     assert len(on) == len(off) == len(plan.route.runs)
-    assert all(it.param1 == pytest.approx(plan.base_m, abs=0.01) and it.param3 == 1 for it in on)
+    # ArduPilot checks the distance at 50 Hz: photos land a whole number of check steps apart
+    step = plan.speed.speed_ms / 50.0
+    assert all(it.param1 == plan.trigger_distance_m and it.param3 == 1 for it in on)
+    assert math.ceil(plan.trigger_distance_m / step) * step == pytest.approx(plan.base_m)
+    assert plan.base_m / step == pytest.approx(round(plan.base_m / step))
     assert {it.frame for it in items if it.command == mav.NAV_WAYPOINT} == {mav.FRAME_GLOBAL_RELATIVE_ALT}
 
 

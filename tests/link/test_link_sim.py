@@ -155,3 +155,10 @@ def test_failed_last_item_whose_error_ack_is_lost_is_caught_by_the_read_back() -
     with pytest.raises(VerificationFailed) as exc:
         upload_mission(SimLink(model, drop_packets=frozenset({2 * n + 2})), m, POLICY)
     assert str(exc.value.mismatches[0]) == f"mission: the vehicle has {n - 1} items, the plan {n}"
+
+
+def test_home_item_is_compared_when_the_vehicle_is_not_ardupilot() -> None:
+    model = VehicleModel(alter={0: {"z": 10.0}})
+    with pytest.raises(VerificationFailed) as exc:
+        upload_mission(SimLink(model), survey_mission(3), POLICY)
+    assert [(x.seq, x.field, x.actual) for x in exc.value.mismatches] == [(0, "z", 10.0)]

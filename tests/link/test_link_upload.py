@@ -178,8 +178,7 @@ def test_wire_items_home_fence_and_float32_rules() -> None:
     assert [f.command for f in fence] == [mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION] * 4 + [mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION] * 3
     assert [f.param1 for f in fence] == [4.0] * 4 + [3.0] * 3
     assert all(f.mission_type == mp.FENCE for f in fence)
-    same = [w for w in wire]
-    assert compare_items(wire, same) == []
+    assert compare_items(wire, list(wire)) == []
     nudged = [mp.WireItem(**{**w.__dict__, "z": w.z + 1e-6}) for w in wire]  # below float32 resolution at 80 m
     assert compare_items(wire, nudged) == []
     moved = [mp.WireItem(**{**w.__dict__, "x": w.x + (1 if w.seq == 4 else 0)}) for w in wire]

@@ -21,7 +21,8 @@ def summary(plan: PlanResult, warnings: list[str], rules: list[dict]) -> list[st
         + ")",
         f"  GSD             {plan.gsd_min_m * 100:.2f}..{plan.gsd_max_m * 100:.2f} cm (target {plan.gsd_target_m * 100:.2f} cm)",
         f"  footprint       {plan.across_m:.1f} m across x {plan.along_m:.1f} m along",
-        f"  line spacing    {plan.spacing_m:.1f} m, trigger distance {plan.base_m:.1f} m"
+        f"  line spacing    {plan.spacing_m:.1f} m, photo base {plan.base_m:.2f} m"
+        + (f", trigger distance {plan.trigger_distance_m:.2f} m" if plan.trigger_distance_m is not None else "")
         + (f", interval {plan.trigger_interval_s:.2f} s" if plan.trigger_interval_s else ""),
         f"  max speed       {sp.speed_ms:.1f} m/s, limited by {sp.reason} (cruise {sp.cruise_ms:.1f}, "
         f"camera cycle {sp.cycle_limit_ms:.1f}, motion blur {sp.blur_limit_ms:.1f} m/s)",

@@ -54,7 +54,8 @@ def sitl() -> None:
 @click.option("--speedup", type=click.FloatRange(1, 100), default=10.0, show_default=True, help="SITL speed-up factor.")
 @click.option("--sitl-bin", default=None, help="The arducopter/arduplane binary (or its folder); also AEROSURVEY_SITL_BIN.")
 @click.option("--defaults", "defaults", multiple=True, type=click.Path(dir_okay=False, exists=True, path_type=Path),
-              help="ArduPilot default parameter files to start SITL with (e.g. Tools/autotest/default_params/copter.parm).")
+              help="ArduPilot default parameter files to start SITL with (e.g. Tools/autotest/default_params/copter.parm); "
+                   "default: copter.parm / plane.parm in AEROSURVEY_SITL_DEFAULTS when that folder is set.")
 @click.option("--timeout-factor", type=click.FloatRange(1.5, 20), default=3.0, show_default=True,
               help="Give up on a sortie after this many times its estimated time (in simulated time).")
 @click.option("-o", "--output", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
@@ -71,6 +72,7 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None,
     manifest, sorties = _sorties(outdir)
     vehicle = vehicle or manifest["mission"]["vehicle"]
     binary = harness.find_binary(vehicle, sitl_bin)
+    defaults = tuple(defaults) or harness.default_params(vehicle)
     report_dir = report_dir or outdir / "sitl"
     results = []
     for name, path, stations, runs, est in sorties:

@@ -52,6 +52,17 @@ def find_binary(vehicle: str, explicit: str | None) -> Path:
     return Path(found)
 
 
+def default_params(vehicle: str) -> tuple[Path, ...]:
+    """copter.parm or plane.parm from the folder AEROSURVEY_SITL_DEFAULTS, when it is set."""
+    folder = os.environ.get("AEROSURVEY_SITL_DEFAULTS")
+    if not folder:
+        return ()
+    p = Path(folder) / ("plane.parm" if vehicle == "plane" else "copter.parm")
+    if not p.is_file():
+        raise InputError(f"AEROSURVEY_SITL_DEFAULTS = {folder!r}: no {p.name} there")
+    return (p,)
+
+
 @dataclass
 class Flight:
     """What one sortie did in SITL."""
@@ -282,6 +293,15 @@ def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tupl
                 if xte_m is not None:
                     xte.append(xte_m)
     flown = (flight.disarmed_ms - flight.armed_ms) / 1000.0 if flight.disarmed_ms and flight.armed_ms else None
+    speeds = []
+    if len(flight.triggers) == len(stations):
+        for a, b in runs:
+            if b > a:
+                t0 = flight.track[flight.trigger_track_index[a]][0] if flight.trigger_track_index[a] < len(flight.track) else None
+                t1 = flight.track[flight.trigger_track_index[b]][0] if flight.trigger_track_index[b] < len(flight.track) else None
+                if t0 is not None and t1 is not None and t1 > t0:
+                    length = sum(_dist(*stations[i], *stations[i + 1]) for i in range(a, b))
+                    speeds.append(length / ((t1 - t0) / 1000.0))
     return {
         "sortie": flight.name, "completed": flight.completed, "photos_planned": len(stations),
         "triggers_flown": len(flight.triggers), "triggers_match": len(flight.triggers) == len(stations),
@@ -289,6 +309,7 @@ def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tupl
         "max_cross_track_m": round(max(xte), 2) if xte else None,
         "flown_time_s": round(flown, 1) if flown else None, "estimated_time_s": round(est_time_s, 1),
         "time_ratio": round(flown / est_time_s, 3) if flown else None,
+        "line_speed_ms": round(float(sorted(speeds)[len(speeds) // 2]), 2) if speeds else None,
         "battery_mah": flight.battery_mah, "log": flight.log, "upload": flight.upload_note,
     }
 

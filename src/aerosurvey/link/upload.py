@@ -356,7 +356,8 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     if not verify:
         return report
 
-    skip = frozenset({0}) if home_on_wire(m) else frozenset()
+    # ArduPilot overwrites item 0 with its own home; another autopilot given home as item 0 keeps it
+    skip = frozenset({0}) if home_on_wire(m) and storage == "ardupilot" else frozenset()
     mismatches: list[Mismatch] = []
     for rep, expected in ((mission_rep, items), (fence_rep, fence)):
         if rep is None:

@@ -40,7 +40,7 @@ def _wp(plan: PlanResult, w: RouteWaypoint, tag: str, alt_shift: float) -> Missi
 def _camera_on(plan: PlanResult, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
-        return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, round(plan.base_m, 2), 0.0, 1.0, tag=tag)]
+        return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, plan.trigger_distance_m, 0.0, 1.0, tag=tag)]
     if trig == "time":
         assert plan.trigger_interval_s is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, round(plan.trigger_interval_s * 1000.0, 1), -1.0, tag=tag)]

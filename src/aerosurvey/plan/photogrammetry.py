@@ -113,6 +113,29 @@ def survey_speed(
     return SpeedLimit(speed, reason, cruise_ms, cycle, blur)
 
 
+#: ArduPilot checks its distance trigger at 50 Hz (AP_Camera::update in Copter.cpp and
+#: Plane.cpp) and takes the picture at the first check past the distance.
+TRIGGER_CHECK_HZ = 50.0
+
+
+def distance_trigger(base_m: float, speed_ms: float) -> tuple[float, float]:
+    """(distance to command, spacing the autopilot then flies).
+
+    At a steady speed v the checks fall every v/f metres and each picture is taken on the
+    first check past the distance, so pictures land a whole number of check steps apart:
+    spacing = ceil(command / step) · step. We fly the largest whole number of steps within
+    the photo base B (the overlap never drops below target) and command half a step less
+    than that, so small speed changes do not change the count of steps; stations are laid
+    at that spacing and the photos do not drift from them along a line.
+    """
+    step = speed_ms / TRIGGER_CHECK_HZ
+    steps = math.floor(base_m / step + 1e-9)
+    if steps < 2:
+        raise ValueError(f"photo base {base_m:.2f} m is under two trigger checks ({step:.2f} m each) at {speed_ms:.1f} m/s")
+    spacing = steps * step
+    return round(spacing - step / 2.0, 2), spacing
+
+
 def turn_radius(speed_ms: float, bank_deg: float, g: float = 9.80665) -> float:
     """Coordinated-turn radius of a plane: R = v² / (g · tan φ)."""
     return speed_ms**2 / (g * math.tan(math.radians(bank_deg)))

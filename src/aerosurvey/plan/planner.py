@@ -99,6 +99,7 @@ class PlanResult:
     home_xy: tuple[float, float]
     altitude_frame: str  # "relative" or "terrain"
     grid_scale: float  # planning-CRS metres per ground metre at the area
+    trigger_distance_m: float | None  # DO_SET_CAM_TRIGG_DIST (distance triggering); base_m is the mean spacing flown
     estimates: dict[str, float]
     sun: dict[str, object] | None
     warnings: list[str] = field(default_factory=list)
@@ -216,6 +217,12 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
         v = min(speed.speed_ms, base / interval)
         speed = pg.SpeedLimit(v, speed.reason if v == speed.speed_ms else f"trigger interval {interval:g} s",
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
+    trigger_cmd = None
+    if spec.camera.trigger == "distance":
+        try:
+            trigger_cmd, base = pg.distance_trigger(base, speed.speed_ms)
+        except ValueError as exc:
+            raise InputError(f"{exc}: fly slower or ask for a larger photo base") from None
     radius = pg.turn_radius(speed.speed_ms, spec.vehicle.bank_angle_deg) if spec.vehicle.type == "plane" else 0.0
     if spec.flight.lead_in_m is not None:
         lead_in = spec.flight.lead_in_m
@@ -320,7 +327,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
         forward_images_per_point=k_fwd, speed=speed, trigger_interval_s=interval, lead_in_m=lead_in,
         turn_radius_m=radius, heading_deg=heading, heading_chosen=chosen, passes=passes, route=route,
         stations=stations, waypoints=wps, home=(float(hlon[0]), float(hlat[0]), home_ground), home_xy=home_xy,
-        grid_scale=k,
+        grid_scale=k, trigger_distance_m=trigger_cmd,
         altitude_frame=frame_name, estimates=est, sun=sun, warnings=warnings,
     )
     sites = _launch_sites(spec, planar, dem, zones_buf, home_xy, (float(hlon[0]), float(hlat[0]), home_ground))

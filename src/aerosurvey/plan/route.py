@@ -64,6 +64,7 @@ class Kinematics:
     speed_ms: float
     accel_ms2: float
     turn_radius_m: float
+    jerk_ms3: float = 1.0  # copters: ArduCopter's WPNAV_JERK default
 
 
 def _offsets(p: Pass) -> dict[tuple[int, int], int]:
@@ -212,13 +213,18 @@ def plane_turn_length(lateral: float, radius: float) -> float:
 
 
 def _straight_time(d: float, k: Kinematics) -> float:
-    """Copter from rest to rest over d metres with acceleration a and top speed v."""
-    v, a = k.speed_ms, k.accel_ms2
+    """Copter from rest to rest over d metres: top speed v, acceleration a, jerk J.
+
+    With jerk-limited (S-curve) acceleration each of the two speed changes costs
+    (v/a + a/J)/2 more than cruising the same distance, so t = d/v + v/a + a/J.
+    """
+    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
     if d <= 0:
         return 0.0
-    if d >= v * v / a:
-        return d / v + v / a
-    return 2.0 * math.sqrt(d / a)
+    ramp = a / j if j > 0 else 0.0
+    if d >= v * (v / a + ramp):
+        return d / v + v / a + ramp
+    return 2.0 * math.sqrt(d / a) + ramp
 
 
 def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> float:

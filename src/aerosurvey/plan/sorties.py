@@ -70,7 +70,7 @@ class Sortie:
     last: int
     launch: int  # index into the launch sites
     waypoints: tuple[SortieWaypoint, ...]
-    horizontal_s: float
+    horizontal_s: float  # still air; the battery use includes the wind allowance
     vertical_s: float
     distance_m: float
     battery_used: float  # fraction of the usable battery (reserve excluded)
@@ -233,5 +233,5 @@ def split(plan, sites: list[LaunchSite], budget: Budget, kin: Kinematics, detour
     sorties = []
     for k, (a, b) in enumerate(best, start=1):
         used, li, horiz, vert, dist, wps, items = sp.evaluate(a, b)
-        sorties.append(Sortie(k, a, b, li, tuple(wps), horiz * budget.wind_factor, vert, dist, used / budget.usable, items))
+        sorties.append(Sortie(k, a, b, li, tuple(wps), horiz, vert, dist, used / budget.usable, items))
     return sorties
