@@ -38,9 +38,10 @@ def _register() -> None:
     main.add_command(gcp.gcp)
     main.add_command(cameras.cameras)
     main.add_command(qa.qa)
-    from aerosurvey.commands import sitl
+    from aerosurvey.commands import log, sitl
 
     main.add_command(sitl.sitl)
+    main.add_command(log.log)
     from aerosurvey.commands import upload
     main.add_command(upload.upload)
 

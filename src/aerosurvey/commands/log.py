@@ -1,0 +1,65 @@
+"""`aerosurvey log ingest`: camera events of a flight log, matched to the planned stations."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import click
+
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text, staged_directory
+
+
+@click.group()
+def log() -> None:
+    """Flight logs: camera events, their match to the plan."""
+
+
+@log.command("ingest")
+@click.argument("flight_log", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="The plan folder (manifest.json) the flight flew.")
+@click.option("--sortie", default=None, help="Sortie id (S01 …) the log is of; default: the whole mission.")
+@click.option("--tolerance", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Metres a trigger may lie from its station (default: a quarter of the photo base).")
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
+def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, outdir: Path) -> None:
+    """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json)."""
+    from aerosurvey.flight.events import match_to_stations, read_events
+
+    ev, info = read_events(flight_log)
+    report: dict = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
+    stations, match = None, None
+    if plan_dir is not None:
+        manifest = json.loads((plan_dir / "manifest.json").read_text())
+        stations = manifest["stations"]
+        if sortie is not None:
+            s = next((x for x in manifest.get("sorties", []) if x["id"] == sortie), None)
+            if s is None:
+                raise InputError(f"--sortie {sortie!r}: the plan has sorties {[x['id'] for x in manifest.get('sorties', [])]}")
+            ids = [x["id"] for x in stations]
+            stations = stations[ids.index(s["first_station"]): ids.index(s["last_station"]) + 1]
+        tol = tolerance if tolerance is not None else manifest["derived"]["photo_base_m"] / 4
+        match = match_to_stations(ev, stations, tol)
+        report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
+                       "extra_triggers": match.extra, "far_triggers": match.far, "tolerance_m": tol,
+                       "max_distance_m": float(max((d for d in match.distance_m if d == d), default=0.0))})
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["event", "time_s", "lat", "lon", "alt_m", "rel_alt_m", "roll", "pitch", "yaw", "station", "distance_m"])
+    for i in range(len(ev)):
+        st = match.station[i] if match else ""
+        d = f"{match.distance_m[i]:.3f}" if match and st else ""
+        w.writerow([i + 1, f"{ev.time_s[i]:.3f}", f"{ev.lat[i]:.8f}", f"{ev.lon[i]:.8f}", f"{ev.alt_m[i]:.2f}",
+                    f"{ev.rel_alt_m[i]:.2f}", f"{ev.roll[i]:.2f}", f"{ev.pitch[i]:.2f}", f"{ev.yaw[i]:.2f}", st or "", d])
+    with staged_directory(outdir) as stage:
+        atomic_write_text(stage / "events.csv", buf.getvalue())
+        atomic_write_text(stage / "log_report.json", json.dumps(report, indent=1) + "\n")
+    click.echo(f"{len(ev)} camera events ({ev.source}); {info['skipped_bytes']} bytes skipped in {len(info['skipped'])} place(s)")
+    if match is not None:
+        click.echo(f"{report['matched']} matched to {report['planned']} planned stations, {len(match.missed)} missed, "
+                   f"{len(match.extra)} extra, {len(match.far)} farther than {report['tolerance_m']:.2f} m "
+                   f"(max {report['max_distance_m']:.2f} m)")

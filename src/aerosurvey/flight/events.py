@@ -1,0 +1,106 @@
+"""Camera events from flight logs, and their match to the planned photo stations."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aerosurvey.errors import InputError
+
+
+@dataclass(frozen=True)
+class Events:
+    """One row per picture the autopilot logged, in time order."""
+
+    time_s: np.ndarray  # seconds since boot
+    lat: np.ndarray
+    lon: np.ndarray
+    alt_m: np.ndarray  # AMSL
+    rel_alt_m: np.ndarray  # above home
+    roll: np.ndarray
+    pitch: np.ndarray
+    yaw: np.ndarray
+    source: str
+
+    def __len__(self) -> int:
+        return len(self.time_s)
+
+
+def from_dataflash(path: Path) -> tuple[Events, dict]:
+    """CAM messages (or TRIG when no CAM was logged) of an ArduPilot DataFlash log."""
+    from aerosurvey.flight.dataflash import DataFlashLog
+
+    with DataFlashLog(path) as log:
+        cam = log.messages("CAM")
+        source = "CAM"
+        if not cam:
+            cam, source = log.messages("TRIG"), "TRIG"
+        info = {"bytes": log.size, "skipped_bytes": log.skipped_bytes,
+                "skipped": [{"offset": s.offset, "length": s.length, "reason": s.reason} for s in log.skipped[:50]],
+                "messages": sum(log.counts().values())}
+    if not cam:
+        raise InputError(f"{path.name}: no CAM or TRIG camera events in the log "
+                         f"({info['messages']} messages read, {info['skipped_bytes']} bytes skipped)")
+    n = len(cam["TimeUS"])
+    get = lambda k: np.asarray(cam[k], float) if k in cam else np.full(n, np.nan)
+    order = np.argsort(cam["TimeUS"], kind="stable")
+    ev = Events(get("TimeUS")[order] / 1e6, get("Lat")[order], get("Lng")[order], get("Alt")[order],
+                get("RelAlt")[order], get("R")[order], get("P")[order], get("Y")[order], source)
+    return ev, info
+
+
+def read_events(path: Path) -> tuple[Events, dict]:
+    if not path.exists():
+        raise InputError(f"flight log {str(path)!r} does not exist")
+    suffix = path.suffix.lower()
+    if suffix in (".bin", ".log"):
+        return from_dataflash(path)
+    raise InputError(f"{path.name}: unknown log type {suffix!r}; aerosurvey reads ArduPilot DataFlash .bin logs here")
+
+
+@dataclass(frozen=True)
+class Match:
+    station: list[str | None]  # the planned station of each event (None: an extra trigger)
+    distance_m: np.ndarray
+    missed: list[str]  # planned stations no event was matched to
+    extra: list[int]  # event indices matched to no station
+    far: list[int]  # matched events farther than the tolerance
+
+
+def match_to_stations(ev: Events, stations: list[dict], tolerance_m: float, window: int = 60) -> Match:
+    """Match events to planned stations, both in flight order.
+
+    Each event takes the nearest station among the next `window` not yet matched ones,
+    within 3 × tolerance; stations passed over are missed, events with none near are
+    extra triggers. Order is kept, so a photo over a cross-hatch crossing cannot take a
+    station of the other pass.
+    """
+    k = math.pi / 180.0
+    lat0 = float(np.nanmean(ev.lat)) if len(ev) else 0.0
+    ex = ev.lon * k * math.cos(lat0 * k) * 6_371_000.0
+    ey = ev.lat * k * 6_371_000.0
+    sx = np.array([s["lon"] for s in stations]) * k * math.cos(lat0 * k) * 6_371_000.0
+    sy = np.array([s["lat"] for s in stations]) * k * 6_371_000.0
+    gap = 3.0 * tolerance_m
+    station: list[str | None] = [None] * len(ex)
+    dist = np.full(len(ex), np.nan)
+    matched = np.zeros(len(sx), bool)
+    j = 0
+    for i in range(len(ex)):
+        hi = min(j + window, len(sx))
+        if j >= hi:
+            continue
+        d = np.hypot(sx[j:hi] - ex[i], sy[j:hi] - ey[i])
+        q = int(np.argmin(d))
+        if d[q] <= gap:
+            station[i] = stations[j + q]["id"]
+            dist[i] = float(d[q])
+            matched[j + q] = True
+            j = j + q + 1
+    missed = [s["id"] for q, s in enumerate(stations) if not matched[q]]
+    extra = [q for q in range(len(ex)) if station[q] is None]
+    far = [q for q in range(len(ex)) if station[q] is not None and dist[q] > tolerance_m]
+    return Match(station, dist, missed, extra, far)

@@ -1,0 +1,54 @@
+"""`aerosurvey log ingest`: the real SITL log against the plan it flew."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from aerosurvey.cli import main
+from conftest import make_spec
+
+LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_copter_survey.bin"
+
+
+def _plan(tmp: Path) -> Path:
+    # the plan the committed log flew (tests/data/README.md)
+    spec = make_spec(tmp, {"flight": {"heading": 0.0}})
+    out = tmp / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    return out
+
+
+def test_every_event_matches_its_station(tmp_path):
+    plan = _plan(tmp_path)
+    res = CliRunner().invoke(main, ["log", "ingest", str(LOG), "--plan", str(plan), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 0, res.output
+    rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
+    assert rep["events"] == rep["planned"] == rep["matched"] == 152
+    assert rep["missed_stations"] == [] and rep["extra_triggers"] == [] and rep["max_distance_m"] < 1.5
+    rows = list(csv.DictReader(open(tmp_path / "log" / "events.csv")))
+    manifest = json.loads((plan / "manifest.json").read_text())
+    assert [r["station"] for r in rows] == [s["id"] for s in manifest["stations"]]
+
+
+def test_truncated_log_reports_the_missed_stations(tmp_path):
+    plan = _plan(tmp_path)
+    data = LOG.read_bytes()
+    cut = tmp_path / "cut.bin"
+    cut.write_bytes(data[: len(data) // 2])
+    res = CliRunner().invoke(main, ["log", "ingest", str(cut), "--plan", str(plan), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 0, res.output
+    rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
+    assert 0 < rep["events"] < 152
+    assert len(rep["missed_stations"]) == 152 - rep["matched"]
+    assert rep["read"]["skipped_bytes"] < 200
+
+
+def test_log_without_camera_events_is_bad_input(tmp_path):
+    (tmp_path / "x.bin").write_bytes(b"\x00" * 1000)
+    res = CliRunner().invoke(main, ["log", "ingest", str(tmp_path / "x.bin"), "-o", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "no CAM or TRIG camera events" in res.output
+    assert not (tmp_path / "o").exists()
