@@ -29,6 +29,9 @@ def test_every_event_matches_its_station(tmp_path):
     rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
     assert rep["events"] == rep["planned"] == rep["matched"] == 152
     assert rep["missed_stations"] == [] and rep["extra_triggers"] == [] and rep["max_distance_m"] < 1.5
+    # the flown photos cover the area as planned: 4 forward x 2 side on every cell
+    assert rep["coverage"]["min_images_in_area"] >= 8 and rep["coverage"]["uncovered_share"] == 0.0
+    assert (tmp_path / "log" / "coverage.tif").exists()
     rows = list(csv.DictReader(open(tmp_path / "log" / "events.csv")))
     manifest = json.loads((plan / "manifest.json").read_text())
     assert [r["station"] for r in rows] == [s["id"] for s in manifest["stations"]]
@@ -52,3 +55,15 @@ def test_log_without_camera_events_is_bad_input(tmp_path):
     res = CliRunner().invoke(main, ["log", "ingest", str(tmp_path / "x.bin"), "-o", str(tmp_path / "o")])
     assert res.exit_code == 2 and "no CAM or TRIG camera events" in res.output
     assert not (tmp_path / "o").exists()
+
+
+def test_rules_rerun_on_flown_data(tmp_path):
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}, "rules": {"profiles": ["eu-open"]},
+                                "targets": {"forward_overlap": 0.75, "side_overlap": 0.6}})
+    plan = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
+    res = CliRunner().invoke(main, ["log", "ingest", str(LOG), "--plan", str(plan), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 0, res.output
+    rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
+    (rule,) = rep["rules_on_flown_data"]
+    assert rule["rule"] == "eu-open-height" and rule["status"] == "pass" and rule["measured"].startswith("102.1 m")

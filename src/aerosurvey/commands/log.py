@@ -25,8 +25,10 @@ def log() -> None:
 @click.option("--sortie", default=None, help="Sortie id (S01 …) the log is of; default: the whole mission.")
 @click.option("--tolerance", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Metres a trigger may lie from its station (default: a quarter of the photo base).")
+@click.option("--fixed-camera", is_flag=True, help="The camera is fixed to the body (no gimbal): apply roll and pitch to the footprints.")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
-def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, outdir: Path) -> None:
+def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, fixed_camera: bool,
+           outdir: Path) -> None:
     """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json)."""
     from aerosurvey.flight.events import match_to_stations, read_events
 
@@ -47,6 +49,23 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
         report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
                        "extra_triggers": match.extra, "far_triggers": match.far, "tolerance_m": tol,
                        "max_distance_m": float(max((d for d in match.distance_m if d == d), default=0.0))})
+    flown_rules = None
+    coverage = None
+    if match is not None:
+        from aerosurvey.flight.coverage import count_raster, flown_manifest
+        from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
+        from aerosurvey.rules.planview import PlanView
+        from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+        features = json.loads((plan_dir / "plan.geojson").read_text())
+        flown = flown_manifest(manifest, ev, match, fixed_camera)
+        view = PlanView.from_documents(flown, features, str(plan_dir))
+        profile_ids = list(manifest["mission"].get("profiles", []))
+        if profile_ids:
+            profiles = apply_overrides(select_profiles(profile_ids), manifest.get("rule_overrides", {}))
+            results = evaluate(profiles, Evidence(view, layout_settings(view, profiles)))
+            flown_rules = [r.as_dict() for r in results]
+            report["rules_on_flown_data"] = flown_rules
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["event", "time_s", "lat", "lon", "alt_m", "rel_alt_m", "roll", "pitch", "yaw", "station", "distance_m"])
@@ -56,6 +75,10 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
         w.writerow([i + 1, f"{ev.time_s[i]:.3f}", f"{ev.lat[i]:.8f}", f"{ev.lon[i]:.8f}", f"{ev.alt_m[i]:.2f}",
                     f"{ev.rel_alt_m[i]:.2f}", f"{ev.roll[i]:.2f}", f"{ev.pitch[i]:.2f}", f"{ev.yaw[i]:.2f}", st or "", d])
     with staged_directory(outdir) as stage:
+        if match is not None:
+            cell = max(manifest["derived"]["photo_base_m"] / 5, 0.5)
+            coverage = count_raster(stage / "coverage.tif", view, cell)
+            report["coverage"] = coverage
         atomic_write_text(stage / "events.csv", buf.getvalue())
         atomic_write_text(stage / "log_report.json", json.dumps(report, indent=1) + "\n")
     click.echo(f"{len(ev)} camera events ({ev.source}); {info['skipped_bytes']} bytes skipped in {len(info['skipped'])} place(s)")
@@ -63,3 +86,8 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
         click.echo(f"{report['matched']} matched to {report['planned']} planned stations, {len(match.missed)} missed, "
                    f"{len(match.extra)} extra, {len(match.far)} farther than {report['tolerance_m']:.2f} m "
                    f"(max {report['max_distance_m']:.2f} m)")
+        cov = report["coverage"]
+        click.echo(f"flown coverage: at least {cov['min_images_in_area']} photos on every {cov['cell_m']:.1f} m cell of the "
+                   f"area, {100 * cov['uncovered_share']:.2f} % uncovered (coverage.tif)")
+    for r in flown_rules or []:
+        click.echo(f"  {r['status'].upper():>5} {r['rule']}: measured {r['measured']}; required {r['required']}")
