@@ -42,6 +42,9 @@ def _register() -> None:
 
     main.add_command(sitl.sitl)
     main.add_command(log.log)
+    from aerosurvey.commands import refly
+
+    main.add_command(refly.refly)
     from aerosurvey.commands import upload
     main.add_command(upload.upload)
 

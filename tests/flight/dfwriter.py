@@ -1,0 +1,22 @@
+"""A minimal DataFlash writer for tests: FMT messages and camera events (CAM)."""
+
+from __future__ import annotations
+
+import struct
+
+HEAD = b"\xa3\x95"
+
+
+def _fmt(typ: int, name: str, fmt: str, cols: str) -> bytes:
+    length = 3 + struct.calcsize("<" + "".join({"Q": "Q", "L": "i", "f": "f", "B": "B", "n": "4s", "N": "16s", "Z": "64s"}[c] for c in fmt))
+    return HEAD + bytes([128]) + struct.pack("<BB4s16s64s", typ, length, name.encode(), fmt.encode(), cols.encode())
+
+
+def camera_log(events: list[tuple[float, float, float, float, float]]) -> bytes:
+    """(time_s, lat, lon, alt_amsl, rel_alt) per event, nadir (zero attitude)."""
+    out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
+    out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
+    for t, lat, lon, alt, rel in events:
+        out += HEAD + bytes([200]) + struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7),
+                                                 alt, rel, 0.0, 0.0, 0.0)
+    return bytes(out)
