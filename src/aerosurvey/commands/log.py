@@ -25,10 +25,14 @@ def log() -> None:
 @click.option("--sortie", default=None, help="Sortie id (S01 …) the log is of; default: the whole mission.")
 @click.option("--tolerance", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Metres a trigger may lie from its station (default: a quarter of the photo base).")
+@click.option("--images", "images_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Folder of the flight's images: matched to events by EXIF time; writes geo.txt and image_reference.csv.")
+@click.option("--accuracy-xy", type=float, default=2.0, show_default=True, help="Position accuracy for image_reference.csv (m).")
+@click.option("--accuracy-z", type=float, default=4.0, show_default=True, help="Height accuracy for image_reference.csv (m).")
 @click.option("--fixed-camera", is_flag=True, help="The camera is fixed to the body (no gimbal): apply roll and pitch to the footprints.")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
-def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, fixed_camera: bool,
-           outdir: Path) -> None:
+def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, images_dir: Path | None,
+           accuracy_xy: float, accuracy_z: float, fixed_camera: bool, outdir: Path) -> None:
     """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json)."""
     from aerosurvey.flight.events import match_to_stations, read_events
 
@@ -49,6 +53,13 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
         report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
                        "extra_triggers": match.extra, "far_triggers": match.far, "tolerance_m": tol,
                        "max_distance_m": float(max((d for d in match.distance_m if d == d), default=0.0))})
+    img = None
+    if images_dir is not None:
+        from aerosurvey.flight.images import list_images, match_images
+
+        img = match_images(list_images(images_dir), ev)
+        report["images"] = {"files": len(img.files), "method": img.method, "clock_offset_s": img.offset_s,
+                            "unmatched_files": img.unmatched_files, "unmatched_events": img.unmatched_events}
     flown_rules = None
     coverage = None
     if match is not None:
@@ -80,8 +91,17 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
             coverage = count_raster(stage / "coverage.tif", view, cell)
             report["coverage"] = coverage
         atomic_write_text(stage / "events.csv", buf.getvalue())
+        if img is not None:
+            from aerosurvey.flight.images import geo_txt, reference_csv
+
+            atomic_write_text(stage / "geo.txt", geo_txt(img, ev))
+            atomic_write_text(stage / "image_reference.csv", reference_csv(img, ev, accuracy_xy, accuracy_z))
         atomic_write_text(stage / "log_report.json", json.dumps(report, indent=1) + "\n")
     click.echo(f"{len(ev)} camera events ({ev.source}); {info['skipped_bytes']} bytes skipped in {len(info['skipped'])} place(s)")
+    if img is not None:
+        click.echo(f"images: {len(img.files)} files matched by {img.method}"
+                   + (f" (camera clock {img.offset_s:+.2f} s from GPS time)" if img.offset_s is not None else "")
+                   + f"; {len(img.unmatched_files)} files and {len(img.unmatched_events)} events unmatched")
     if match is not None:
         click.echo(f"{report['matched']} matched to {report['planned']} planned stations, {len(match.missed)} missed, "
                    f"{len(match.extra)} extra, {len(match.far)} farther than {report['tolerance_m']:.2f} m "

@@ -24,6 +24,7 @@ class Events:
     pitch: np.ndarray
     yaw: np.ndarray
     source: str
+    utc_s: np.ndarray | None = None  # seconds since 1970 (UTC) from the GPS time, when logged
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -48,8 +49,17 @@ def from_dataflash(path: Path) -> tuple[Events, dict]:
     get = lambda k: np.asarray(cam[k], float) if k in cam else np.full(n, np.nan)
     order = np.argsort(cam["TimeUS"], kind="stable")
     ev = Events(get("TimeUS")[order] / 1e6, get("Lat")[order], get("Lng")[order], get("Alt")[order],
-                get("RelAlt")[order], get("R")[order], get("P")[order], get("Y")[order], source)
+                get("RelAlt")[order], get("R")[order], get("P")[order], get("Y")[order], source,
+                gps_to_utc(get("GPSWeek")[order], get("GPSTime")[order]) if "GPSWeek" in cam else None)
     return ev, info
+
+
+#: GPS time runs ahead of UTC by the leap seconds since 1980 (18 s since 2017)
+GPS_EPOCH_UNIX, LEAP_SECONDS = 315_964_800, 18
+
+
+def gps_to_utc(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
+    return GPS_EPOCH_UNIX + week * 604_800.0 + ms_of_week / 1000.0 - LEAP_SECONDS
 
 
 def read_events(path: Path) -> tuple[Events, dict]:
