@@ -62,13 +62,84 @@ def gps_to_utc(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
     return GPS_EPOCH_UNIX + week * 604_800.0 + ms_of_week / 1000.0 - LEAP_SECONDS
 
 
+def _tlog_packets(data: bytes, mav) -> tuple[list, int]:
+    """Walk [8-byte time stamp][MAVLink packet] records; on a packet that does not decode
+    (bad CRC, cut off), move one byte on and look for the next one that does."""
+    out, skipped, o, n = [], 0, 0, len(data)
+    while o + 8 + 8 <= n:
+        p = o + 8
+        start = data[p]
+        size = None
+        if start == 0xFD and p + 10 <= n:
+            size = 10 + data[p + 1] + 2 + (13 if data[p + 2] & 1 else 0)
+        elif start == 0xFE and p + 6 <= n:
+            size = 6 + data[p + 1] + 2
+        if size is not None and p + size <= n:
+            try:
+                m = mav.decode(bytearray(data[p:p + size]))
+            except Exception:  # pymavlink raises MAVError (and others) for a packet that does not check out
+                m = None
+            # an unknown message id is decoded without a CRC check: not evidence of a packet
+            if m is not None and not m.get_type().startswith("UNKNOWN"):
+                out.append(m)
+                o = p + size
+                continue
+        o += 1
+        skipped += 1
+    return out, skipped + max(0, n - o)
+
+
+def from_tlog(path: Path) -> tuple[Events, dict]:
+    """CAMERA_FEEDBACK messages of a MAVLink telemetry log; damage costs only what it touches."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    data = path.read_bytes()
+    msgs, skipped = _tlog_packets(data, mavlink.MAVLink(None))
+    rows = [(m.time_usec, m.lat * 1e-7, m.lng * 1e-7, m.alt_msl, m.alt_rel, m.roll, m.pitch, m.yaw)
+            for m in msgs if m.get_type() == "CAMERA_FEEDBACK"]
+    info = {"bytes": len(data), "skipped_bytes": skipped, "skipped": [], "messages": len(msgs)}
+    if not rows:
+        raise InputError(f"{path.name}: no CAMERA_FEEDBACK messages in the telemetry log ({len(msgs)} messages read)")
+    a = np.asarray(rows, float)
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    return Events(a[:, 0] / 1e6, a[:, 1], a[:, 2], a[:, 3], a[:, 4], a[:, 5], a[:, 6], a[:, 7], "CAMERA_FEEDBACK"), info
+
+
+def from_ulog(path: Path) -> tuple[Events, dict]:
+    """camera_capture topics of a PX4 ULog (pyulog)."""
+    from pyulog import ULog
+
+    try:
+        u = ULog(str(path), ["camera_capture"])
+    except Exception as exc:  # pyulog raises plain exceptions for files it cannot parse
+        raise InputError(f"{path.name}: not a readable ULog ({exc})") from None
+    data = [d for d in u.data_list if d.name == "camera_capture"]
+    info = {"bytes": path.stat().st_size, "skipped_bytes": 0, "skipped": [], "messages": sum(len(d.data["timestamp"]) for d in data)}
+    if not data:
+        raise InputError(f"{path.name}: no camera_capture topic in the ULog")
+    d = data[0].data
+    q = np.column_stack([d[f"q[{i}]"] for i in range(4)]) if "q[0]" in d else np.full((len(d["timestamp"]), 4), np.nan)
+    w, x, y, z = q.T
+    roll = np.degrees(np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)))
+    pitch = np.degrees(np.arcsin(np.clip(2 * (w * y - z * x), -1, 1)))
+    yaw = np.degrees(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+    rel = np.asarray(d.get("ground_distance", np.full(len(d["timestamp"]), np.nan)), float)
+    ev = Events(np.asarray(d["timestamp"], float) / 1e6, np.asarray(d["lat"], float), np.asarray(d["lon"], float),
+                np.asarray(d["alt"], float), rel, roll, pitch, yaw, "camera_capture")
+    return ev, info
+
+
 def read_events(path: Path) -> tuple[Events, dict]:
     if not path.exists():
         raise InputError(f"flight log {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     if suffix in (".bin", ".log"):
         return from_dataflash(path)
-    raise InputError(f"{path.name}: unknown log type {suffix!r}; aerosurvey reads ArduPilot DataFlash .bin logs here")
+    if suffix == ".tlog":
+        return from_tlog(path)
+    if suffix == ".ulg":
+        return from_ulog(path)
+    raise InputError(f"{path.name}: unknown log type {suffix!r}; allowed: .bin (DataFlash), .tlog (MAVLink), .ulg (PX4 ULog)")
 
 
 @dataclass(frozen=True)
