@@ -32,6 +32,9 @@ def test_every_event_matches_its_station(tmp_path):
     # the flown photos cover the area as planned: 4 forward x 2 side on every cell
     assert rep["coverage"]["min_images_in_area"] >= 8 and rep["coverage"]["uncovered_share"] == 0.0
     assert (tmp_path / "log" / "coverage.tif").exists()
+    rz = rep["realized"]
+    assert rz["forward_overlap_min"] >= 0.74 and rz["side_overlap_min"] >= 0.59
+    assert 2.4 < rz["gsd_cm_min"] <= rz["gsd_cm_max"] < 2.6
     rows = list(csv.DictReader(open(tmp_path / "log" / "events.csv")))
     manifest = json.loads((plan / "manifest.json").read_text())
     assert [r["station"] for r in rows] == [s["id"] for s in manifest["stations"]]

@@ -201,8 +201,9 @@ class VehicleModel:
             if self.no_space_left > 0:
                 self.no_space_left -= 1
                 return [self._ack(mp.NO_SPACE, mtype)]
-            if m.count > self.capacity:
-                return [self._ack(mp.NO_SPACE, mtype)]
+            if m.count > self.capacity:  # ArduPilot says why in a STATUSTEXT
+                text = f"Only {self.capacity} items are supported".encode()
+                return [self._ack(mp.NO_SPACE, mtype), self.mav.statustext_encode(4, text)]
             self.receiving = mtype
             self._count, self._next = int(m.count), 0
             self._staging = []
@@ -454,10 +455,14 @@ class SimLink:
 
 
 class LossyRelay:
-    """A UDP relay on loopback between one client and `target_port` that drops a share of datagrams."""
+    """A UDP relay on loopback between one client and a vehicle that drops a share of datagrams.
 
-    def __init__(self, target_port: int, drop: float, seed: int) -> None:
-        self.target = (LOOPBACK, target_port)
+    The vehicle is at `target_port`, or (None) it sends first to `back_port` and is learnt from
+    that (ArduPilot SITL with `--serial0 udpclient:127.0.0.1:PORT`).
+    """
+
+    def __init__(self, target_port: int | None, drop: float, seed: int) -> None:
+        self.target: Any = (LOOPBACK, target_port) if target_port is not None else None
         self.drop = drop
         self.rng = random.Random(seed)
         self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -465,6 +470,7 @@ class LossyRelay:
         self.back = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.back.bind((LOOPBACK, 0))
         self.port = self.front.getsockname()[1]
+        self.back_port = self.back.getsockname()[1]
         self.client: Any = None
         self.counts = {"forwarded": 0, "dropped": 0}
         self._stop = threading.Event()
@@ -485,7 +491,10 @@ class LossyRelay:
         self.back.close()
 
     def _pass(self, data: bytes, sock: socket.socket, to: Any) -> None:
-        if to is None or self.rng.random() < self.drop:
+        if to is None:  # the other side has not shown up yet
+            self.counts["unrouted"] = self.counts.get("unrouted", 0) + 1
+            return
+        if self.rng.random() < self.drop:
             self.counts["dropped"] += 1
             return
         self.counts["forwarded"] += 1
@@ -503,6 +512,8 @@ class LossyRelay:
                     self.client = addr
                     self._pass(data, self.back, self.target)
                 else:
+                    if self.target is None:
+                        self.target = addr
                     self._pass(data, self.front, self.client)
 
 

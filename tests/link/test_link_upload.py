@@ -107,6 +107,15 @@ def test_no_space_then_success_after_retry() -> None:
     assert report.mission.verified and model.log["got MISSION_COUNT"] == 2
 
 
+def test_too_many_items_fails_with_what_the_vehicle_said() -> None:
+    model = VehicleModel(capacity=8)
+    with FakeVehicle(model, "udp") as fv, open_link(fv.url, 2.0) as link:
+        with pytest.raises(LinkError) as exc:
+            upload_mission(link, survey_mission(10), mp.Policy(timeout=0.1, restarts=1, busy_wait=0.1))
+    assert ("MAV_MISSION_NO_SPACE for 16 items 2 time(s); it has no room for them or it has not finished booting "
+            "(the vehicle said: Only 8 items are supported); the vehicle's mission is incomplete") in str(exc.value)
+
+
 def test_connection_refused_on_a_closed_port() -> None:
     port = closed_port()
     with pytest.raises(LinkError, match=rf"tcp:127.0.0.1:{port}: connection refused"):

@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import click
+import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
@@ -71,6 +72,19 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
         features = json.loads((plan_dir / "plan.geojson").read_text())
         flown = flown_manifest(manifest, ev, match, fixed_camera)
         view = PlanView.from_documents(flown, features, str(plan_dir))
+        from aerosurvey.rules import footprints as fpm
+
+        fp = fpm.footprints(view)
+        fwd = fpm.forward_overlaps(view, fp)
+        side = fpm.side_overlaps(view, fp)
+        cam = manifest["camera"]
+        gsd = view.agl * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"] * 100
+        report["realized"] = {
+            "forward_overlap_min": min((v for _, v in fwd), default=None),
+            "side_overlap_min": min((v for _, _, v in side), default=None),
+            "gsd_cm_min": float(np.nanmin(gsd)) if len(gsd) else None,
+            "gsd_cm_max": float(np.nanmax(gsd)) if len(gsd) else None,
+        }
         profile_ids = list(manifest["mission"].get("profiles", []))
         if profile_ids:
             profiles = apply_overrides(select_profiles(profile_ids), manifest.get("rule_overrides", {}))
@@ -106,6 +120,10 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
         click.echo(f"{report['matched']} matched to {report['planned']} planned stations, {len(match.missed)} missed, "
                    f"{len(match.extra)} extra, {len(match.far)} farther than {report['tolerance_m']:.2f} m "
                    f"(max {report['max_distance_m']:.2f} m)")
+        rz = report["realized"]
+        if rz["forward_overlap_min"] is not None:
+            click.echo(f"realized: forward overlap >= {100 * rz['forward_overlap_min']:.1f} %, side overlap >= "
+                       f"{100 * (rz['side_overlap_min'] or 0):.1f} %, GSD {rz['gsd_cm_min']:.2f}..{rz['gsd_cm_max']:.2f} cm")
         cov = report["coverage"]
         click.echo(f"flown coverage: at least {cov['min_images_in_area']} photos on every {cov['cell_m']:.1f} m cell of the "
                    f"area, {100 * cov['uncovered_share']:.2f} % uncovered (coverage.tif)")

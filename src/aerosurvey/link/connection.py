@@ -104,6 +104,7 @@ class MavLink:
         self.url = url
         self.conn = conn
         self.vehicle: Vehicle | None = None
+        self.status_texts: list[tuple[float, int, str]] = []  # (time, severity, text) from the vehicle
         self._peer_closed = False
         self._last_gcs_heartbeat = -1.0
         if hasattr(conn, "handle_eof"):
@@ -196,6 +197,9 @@ class MavLink:
             if m is None:
                 return None
             if m.get_srcSystem() != self.vehicle.system:
+                continue
+            if m.get_type() == "STATUSTEXT":
+                self.status_texts = [*self.status_texts[-19:], (self.now(), int(m.severity), str(m.text))]
                 continue
             if getattr(m, "target_system", GCS_SYSTEM) not in (0, GCS_SYSTEM):
                 continue

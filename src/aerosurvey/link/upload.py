@@ -303,6 +303,12 @@ def _distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     return 6_371_000.0 * math.hypot(x, (lat2 - lat1) * k)
 
 
+def _vehicle_said(link: Link, since: float) -> str:
+    """The vehicle's warnings during a failed transfer (ArduPilot explains NO_SPACE there)."""
+    texts = [t for when, sev, t in getattr(link, "status_texts", []) if when >= since and sev <= 4]
+    return f" (the vehicle said: {'; '.join(dict.fromkeys(texts))})" if texts else ""
+
+
 def check_firmware(m: Mission, vehicle: Vehicle) -> None:
     """Refuse a plan made for the other autopilot: item numbering and commands differ."""
     said = {AUTOPILOT_ARDUPILOT: "ardupilot", AUTOPILOT_PX4: "px4"}.get(vehicle.autopilot)
@@ -336,18 +342,22 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     plane = vehicle.mav_type in _PLANE_TYPES
 
     t0 = time.monotonic()
+    started = link.now()
     try:
         stats = upload_items(link, items, mp.MISSION, policy, confirm_by_download=verify)
     except LinkError as exc:
-        raise LinkError(f"{exc}; the vehicle's mission is incomplete or unchanged: do not fly it") from None
+        raise LinkError(f"{exc}{_vehicle_said(link, started)}; the vehicle's mission is incomplete or unchanged: "
+                        "do not fly it") from None
     mission_rep = TransferReport(mp.MISSION, len(items), time.monotonic() - t0, stats)
     fence_rep = None
     if fence:
         t0 = time.monotonic()
+        started = link.now()
         try:
             fstats = upload_items(link, fence, mp.FENCE, policy, confirm_by_download=verify)
         except LinkError as exc:
-            raise LinkError(f"the mission was uploaded but the {exc}; the vehicle's fence is not the plan's") from None
+            raise LinkError(f"the mission was uploaded but the {exc}{_vehicle_said(link, started)}; the vehicle's "
+                            "fence is not the plan's") from None
         fence_rep = TransferReport(mp.FENCE, len(fence), time.monotonic() - t0, fstats)
 
     compared_as = ("as ArduPilot stores items (fields it does not keep are not compared)" if storage == "ardupilot"
@@ -373,9 +383,10 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
         mismatches += found
         if rep.mission_type == mp.MISSION and skip and actual:
             h = actual[0]
-            d = _distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7)
-            report.home_note = (f"item 0 (home) not compared: ArduPilot replaces it with its own home; the vehicle's "
-                                f"home is {h.x * 1e-7:.7f}, {h.y * 1e-7:.7f}, {d:.0f} m from the planned home")
+            where = "has no home yet (0, 0)" if h.x == 0 and h.y == 0 else (
+                f"home is {h.x * 1e-7:.7f}, {h.y * 1e-7:.7f}, "
+                f"{_distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7):.0f} m from the planned home")
+            report.home_note = f"item 0 (home) not compared: ArduPilot replaces it with its own home; the vehicle {where}"
     if mismatches:
         more = f" (and {len(mismatches) - 1} more difference(s))" if len(mismatches) > 1 else ""
         raise VerificationFailed(f"verification failed: {mismatches[0]}{more}; the vehicle accepted the upload "

@@ -95,7 +95,7 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
         s, c = math.sin(h), math.cos(h)
         best = None
         for q, (hq, _, _, _, wq) in info.items():
-            if q == rid or abs(math.sin(hq - h)) > 1e-3:
+            if q == rid or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
                 continue
             idx = rs[q]
             uq = fp.x[idx] * s + fp.y[idx] * c
