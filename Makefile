@@ -24,6 +24,9 @@ test: install-test
 
 bench: install
 	$(BIN)/python benchmarks/plan_bench.py
+	$(BIN)/python benchmarks/repro_bench.py
+	$(BIN)/python benchmarks/log_bench.py
+	$(BIN)/python benchmarks/upload_bench.py
 
 clean:
 	rm -rf out build dist src/*.egg-info .pytest_cache .hypothesis

@@ -2,88 +2,187 @@
 
     python benchmarks/upload_bench.py                  # 700 items, 10 % loss, seed 1
     python benchmarks/upload_bench.py --items 300 --drop 0.2 --seed 4
+    python benchmarks/upload_bench.py --sitl           # ArduPilot SITL instead of the fake vehicle
+    python benchmarks/upload_bench.py --sitl /path/to/arducopter --sitl-defaults copter.parm
 
-Both cases talk to the in-process fake vehicle of the link tests (tests/link/fake_vehicle.py)
-on loopback UDP, through aerosurvey's own pymavlink connection and protocol code:
-(a) directly, (b) through our UDP relay that drops `--drop` of the datagrams each way (seeded).
-The vehicle re-requests a missing item after `--vehicle-resend` s (ArduPilot: 1 s), so a lost
-request costs that long. Each case must upload, read back and match; the run fails otherwise.
-Times are wall-clock seconds on this machine in this run; compare the ratio, not the numbers.
+Without --sitl both cases talk to the in-process fake vehicle of the link tests
+(tests/link/fake_vehicle.py) on loopback UDP, through aerosurvey's own pymavlink connection
+and protocol code: (a) directly, (b) through our UDP relay that drops `--drop` of the
+datagrams each way (seeded). The vehicle re-requests a missing item after
+`--vehicle-resend` s (ArduPilot: 1 s), so a lost request costs that long.
+
+With --sitl the vehicle is ArduPilot's SITL binary (default /root/sitl/bin/arducopter),
+started in a temporary folder at the mission's home: (a) on its TCP port 5760 + 10·I for the
+first instance I ≥ 5 whose ports are free (so that a SITL on the usual 5760, e.g. the
+`aerosurvey sitl` harness, is not disturbed), (b) with SERIAL0 sent as UDP to our lossy relay. A small warm-up upload first absorbs the NO_SPACE that ArduPilot answers right
+after boot; the timed run follows. ArduCopter SITL stores at most 650 mission items, home
+included (it says "Only 650 items are supported"), so --sitl uses 649 unless --items says
+otherwise.
+
+Each case must upload, read back and match; the run fails otherwise. Times are wall-clock
+seconds on this machine in this run; compare the ratio, not the numbers.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import socket
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
+from typing import Iterator
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests" / "link"))
 
 from aerosurvey.link import mission_protocol as mp  # noqa: E402
-from aerosurvey.link.connection import open_link  # noqa: E402
+from aerosurvey.link.connection import LinkError, open_link  # noqa: E402
 from aerosurvey.link.upload import upload_mission  # noqa: E402
+from aerosurvey.mission.items import Mission  # noqa: E402
 from fake_vehicle import FakeVehicle, LossyRelay, VehicleModel, survey_mission  # noqa: E402
 
+SITL_BIN = "/root/sitl/bin/arducopter"
+SITL_DEFAULTS = "/root/sitl/params/copter.parm"
 
-def run_case(name: str, n_items: int, policy: mp.Policy, vehicle_resend: float, drop: float | None, seed: int) -> dict:
-    mission = survey_mission(n_items - 5, seed=seed)  # 5 fixed items around the waypoints
-    assert len(mission.items) == n_items
-    model = VehicleModel(request_resend=vehicle_resend, upload_timeout=8.0)
-    with FakeVehicle(model, "udp") as fv:
-        relay = LossyRelay(fv.port, drop, seed) if drop is not None else None
-        url = relay.url if relay is not None else fv.url
-        if relay is not None:
-            relay.__enter__()
-        try:
-            with open_link(url, 10.0) as link:
-                t0 = time.perf_counter()
-                report = upload_mission(link, mission, policy)
-                total = time.perf_counter() - t0
-        finally:
-            if relay is not None:
-                relay.__exit__(None, None, None)
-    if not report.mission.verified or len(model.stored[0]) != n_items + 1:
-        raise SystemExit(f"{name}: not verified")
+
+def _timed(url: str, mission: Mission, policy: mp.Policy, warm_up: bool) -> tuple[float, object]:
+    with open_link(url, 60.0) as link:
+        if warm_up:
+            upload_mission(link, survey_mission(2), mp.Policy(timeout=0.5, retries=10, restarts=10, busy_wait=2.0))
+        t0 = time.perf_counter()
+        report = upload_mission(link, mission, policy)
+        return time.perf_counter() - t0, report
+
+
+def _summary(name: str, n_items: int, total: float, report, extra: dict) -> dict:
     up, down = report.mission.stats, report.mission.download_stats
-    assert down is not None
+    if not report.mission.verified or down is None:
+        raise SystemExit(f"{name}: not verified")
     return {
         "case": name, "items": n_items, "seconds": total, "upload_s": report.mission.seconds,
         "verify_s": report.mission.verify_seconds, "items_per_s": n_items / total,
         "up_resends": up.resends, "up_restarts": up.restarts, "up_repeated_requests": up.duplicate_requests,
         "up_error_acks": len(up.error_acks), "up_ack_lost": up.ack_lost,
-        "vehicle_rerequests": model.log.get("request resend", 0),
-        "down_resends": down.resends, "down_restarts": down.restarts,
-        "relay": dict(relay.counts) if relay is not None else None,
+        "down_resends": down.resends, "down_restarts": down.restarts, **extra,
     }
+
+
+def run_fake(name: str, n_items: int, policy: mp.Policy, vehicle_resend: float, drop: float | None, seed: int) -> dict:
+    mission = survey_mission(n_items - 5, seed=seed)  # 5 fixed items around the waypoints
+    model = VehicleModel(request_resend=vehicle_resend, upload_timeout=8.0)
+    with FakeVehicle(model, "udp") as fv, contextlib.ExitStack() as stack:
+        relay = stack.enter_context(LossyRelay(fv.port, drop, seed)) if drop is not None else None
+        total, report = _timed(relay.url if relay is not None else fv.url, mission, policy, warm_up=False)
+    if len(model.stored[0]) != n_items + 1:
+        raise SystemExit(f"{name}: the vehicle holds {len(model.stored[0])} items")
+    return _summary(name, n_items, total, report, {
+        "vehicle_rerequests": model.log.get("request resend", 0),
+        "relay": dict(relay.counts) if relay is not None else None})
+
+
+def _free_instance() -> int:
+    """The first SITL instance from 5 on whose TCP ports (5760 + 10·I … +3) nobody listens on."""
+    for inst in range(5, 25):
+        busy = False
+        for port in range(5760 + 10 * inst, 5764 + 10 * inst):
+            with socket.socket() as s:
+                s.settimeout(0.2)
+                busy = busy or s.connect_ex(("127.0.0.1", port)) == 0
+        if not busy:
+            return inst
+    raise SystemExit("no free SITL instance (TCP 5810-6003 all busy)")
+
+
+@contextlib.contextmanager
+def sitl(binary: str, defaults: str | None, home: tuple[float, float, float], serial0: str | None) -> Iterator[int]:
+    """Run ArduPilot SITL in a temporary folder; yields its TCP port (unused when serial0 is given)."""
+    inst = _free_instance()
+    with tempfile.TemporaryDirectory(prefix="aerosurvey-sitl-") as tmp:
+        cmd = [binary, "--model", "quad", "--speedup", "1", f"-I{inst}",
+               "--home", f"{home[0]:.8f},{home[1]:.8f},{home[2]:.2f},0"]
+        if defaults:
+            cmd += ["--defaults", defaults]
+        if serial0:
+            cmd += ["--serial0", serial0]
+        with open(Path(tmp) / "sitl.out", "wb") as out:
+            proc = subprocess.Popen(cmd, cwd=tmp, stdout=out, stderr=subprocess.STDOUT)
+            try:
+                port = 5760 + 10 * inst
+                if serial0 is None:
+                    for _ in range(300):
+                        with socket.socket() as s:
+                            if s.connect_ex(("127.0.0.1", port)) == 0:
+                                break
+                        if proc.poll() is not None:
+                            raise SystemExit(f"SITL exited at start: {(Path(tmp) / 'sitl.out').read_text()[-500:]}")
+                        time.sleep(0.1)
+                yield port
+            finally:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait(timeout=10)
+
+
+def run_sitl(name: str, n_items: int, policy: mp.Policy, drop: float | None, seed: int, binary: str,
+             defaults: str | None) -> dict:
+    mission = survey_mission(n_items - 5, seed=seed)
+    if drop is None:
+        with sitl(binary, defaults, mission.home, None) as port:
+            total, report = _timed(f"tcp:127.0.0.1:{port}", mission, policy, warm_up=True)
+        return _summary(name, n_items, total, report, {"relay": None, "vehicle_rerequests": None})
+    with LossyRelay(None, drop, seed) as relay:
+        with sitl(binary, defaults, mission.home, f"udpclient:127.0.0.1:{relay.back_port}"):
+            total, report = _timed(relay.url, mission, policy, warm_up=True)
+        return _summary(name, n_items, total, report, {"relay": dict(relay.counts), "vehicle_rerequests": None})
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--items", type=int, default=700, help="mission items (home is sent as one more)")
+    ap.add_argument("--items", type=int, default=None, help="mission items, home not counted (default 700; 649 with --sitl)")
     ap.add_argument("--drop", type=float, default=0.10, help="share of datagrams the relay drops, each way")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--timeout", type=float, default=0.2, help="our resend interval (s)")
     ap.add_argument("--retries", type=int, default=10,
                     help="unanswered resends in a row before giving up; at 10 %% loss each way an exchange fails "
                          "19 %% of the time, so 700 x 0.19^(retries+1) is the chance a transfer gives up")
-    ap.add_argument("--vehicle-resend", type=float, default=1.0, help="the vehicle's re-request interval (s)")
+    ap.add_argument("--vehicle-resend", type=float, default=1.0, help="the fake vehicle's re-request interval (s)")
+    ap.add_argument("--sitl", nargs="?", const=SITL_BIN, default=None, metavar="ARDUCOPTER",
+                    help=f"use ArduPilot SITL (default binary {SITL_BIN})")
+    ap.add_argument("--sitl-defaults", default=SITL_DEFAULTS if Path(SITL_DEFAULTS).is_file() else None,
+                    help="ArduPilot default parameter file for SITL")
     args = ap.parse_args()
-    if args.items < 6:
+    n_items = args.items if args.items is not None else (649 if args.sitl else 700)
+    if n_items < 6:
         ap.error("--items must be at least 6")
+    if args.sitl and not Path(args.sitl).is_file():
+        ap.error(f"--sitl {args.sitl}: no such binary")
     policy = mp.Policy(timeout=args.timeout, retries=args.retries, restarts=5, busy_wait=1.0)
-    print(f"policy: resend after {policy.timeout} s, {policy.retries} retries, {policy.restarts} restarts; "
-          f"vehicle re-requests after {args.vehicle_resend} s")
-    rows = [run_case("clean", args.items, policy, args.vehicle_resend, None, args.seed),
-            run_case(f"lossy {args.drop:.0%}", args.items, policy, args.vehicle_resend, args.drop, args.seed)]
+    who = (f"ArduPilot SITL {args.sitl} (defaults {args.sitl_defaults})" if args.sitl else
+           f"the fake vehicle, re-requesting after {args.vehicle_resend} s")
+    print(f"policy: resend after {policy.timeout} s, {policy.retries} retries, {policy.restarts} restarts; vehicle: {who}")
+    try:
+        if args.sitl:
+            rows = [run_sitl("clean", n_items, policy, None, args.seed, args.sitl, args.sitl_defaults),
+                    run_sitl(f"lossy {args.drop:.0%}", n_items, policy, args.drop, args.seed, args.sitl, args.sitl_defaults)]
+        else:
+            rows = [run_fake("clean", n_items, policy, args.vehicle_resend, None, args.seed),
+                    run_fake(f"lossy {args.drop:.0%}", n_items, policy, args.vehicle_resend, args.drop, args.seed)]
+    except LinkError as exc:
+        raise SystemExit(f"upload failed: {exc}") from None
     for r in rows:
         relay = f", relay forwarded {r['relay']['forwarded']} dropped {r['relay']['dropped']}" if r["relay"] else ""
+        rereq = f", vehicle re-requests {r['vehicle_rerequests']}" if r["vehicle_rerequests"] is not None else ""
         print(f"{r['case']:>10}: {r['items']} items uploaded and verified in {r['seconds']:.2f} s "
-              f"(upload {r['upload_s']:.2f} s, read back {r['verify_s']:.2f} s) = {r['items_per_s']:.0f} items/s; "
+              f"(upload {r['upload_s']:.2f} s, read back {r['verify_s']:.2f} s) = {r['items_per_s']:.1f} items/s; "
               f"upload resends {r['up_resends']}, restarts {r['up_restarts']}, repeated requests "
-              f"{r['up_repeated_requests']}, error acks {r['up_error_acks']}, final ack lost {r['up_ack_lost']}, vehicle re-requests "
-              f"{r['vehicle_rerequests']}; download resends {r['down_resends']}, restarts {r['down_restarts']}{relay}")
+              f"{r['up_repeated_requests']}, error acks {r['up_error_acks']}, final ack lost {r['up_ack_lost']}{rereq}; "
+              f"download resends {r['down_resends']}, restarts {r['down_restarts']}{relay}")
     print(f"ratio lossy/clean items/s: {rows[1]['items_per_s'] / rows[0]['items_per_s']:.3f}")
 
 

@@ -227,10 +227,11 @@ def _datetime(t: _Table, key: str) -> dt.datetime | None:
     return v
 
 
-#: Mission items an autopilot holds, by board class (conservative; `battery.max_mission_items`
-#: overrides). ArduPilot keeps missions in its parameter storage: 724 items on 16 kB boards,
-#: far more on boards with an SD card or 64 kB+ storage; PX4's dataman holds 2000.
-MAX_ITEMS = {"ardupilot": 700, "px4": 2000}
+#: Mission items an autopilot holds (`battery.max_mission_items` overrides). ArduPilot keeps
+#: missions in its storage area: ArduCopter 4.7 SITL refuses more than 650 items, home
+#: included ("Only 650 items are supported", seen here); boards with more storage hold more.
+#: PX4's dataman holds 2000.
+MAX_ITEMS = {"ardupilot": 650, "px4": 2000}
 
 
 def _lonlat_list(t: _Table, key: str) -> tuple[tuple[float, float], ...]:
