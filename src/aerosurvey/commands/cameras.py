@@ -2,9 +2,38 @@
 
 from __future__ import annotations
 
+from typing import Callable
+
 import click
 
-from aerosurvey.camera import database, get_camera
+from aerosurvey.camera import Camera, database, get_camera
+
+#: Listing columns: header, cell text, right-aligned? Numbers align right so digits line up.
+_COLUMNS: tuple[tuple[str, Callable[[Camera], str], bool], ...] = (
+    ("id", lambda c: c.id, False),
+    ("sensor mm", lambda c: f"{c.sensor_width_mm:.2f} x {c.sensor_height_mm:5.2f}", True),
+    ("image px", lambda c: f"{c.image_width_px} x {c.image_height_px:5d}", True),
+    ("f mm", lambda c: f"{c.focal_mm:g}", True),
+    ("pitch um", lambda c: f"{c.pixel_pitch_um:.2f}", True),
+    ("cycle s", lambda c: f"{c.min_cycle_s:g}", True),
+    ("shutter", lambda c: c.shutter, False),
+    ("name", lambda c: c.name, False),
+)
+
+
+def format_table(cams: list[Camera]) -> list[str]:
+    """The listing as lines, every column as wide as its widest cell so columns align."""
+    cells = [[fn(cam) for _, fn, _ in _COLUMNS] for cam in cams]
+    headers = [h for h, _, _ in _COLUMNS]
+    widths = [max([len(h)] + [len(row[i]) for row in cells]) for i, h in enumerate(headers)]
+    lines = []
+    for row in [headers, *cells]:
+        parts = [
+            text.rjust(w) if right else text.ljust(w)
+            for text, w, (_, _, right) in zip(row, widths, _COLUMNS)
+        ]
+        lines.append("  ".join(parts).rstrip())
+    return lines
 
 
 @click.group(invoke_without_command=True)
@@ -13,14 +42,8 @@ def cameras(ctx: click.Context) -> None:
     """List the camera database (or `cameras show ID` for one camera)."""
     if ctx.invoked_subcommand is not None:
         return
-    db = database()
-    width = max(len(c) for c in db)
-    click.echo(f"{'id':<{width}}  {'sensor mm':>13}  {'image px':>11}  {'f mm':>5}  {'pitch um':>8}  name")
-    for cam in db.values():
-        click.echo(
-            f"{cam.id:<{width}}  {cam.sensor_width_mm:6.2f}x{cam.sensor_height_mm:<6.2f}  "
-            f"{cam.image_width_px:5d}x{cam.image_height_px:<5d}  {cam.focal_mm:5.1f}  {cam.pixel_pitch_um:8.2f}  {cam.name}"
-        )
+    for line in format_table(list(database().values())):
+        click.echo(line)
 
 
 @cameras.command("show")
@@ -31,11 +54,15 @@ def show(camera_id: str) -> None:
     rows = [
         ("id", cam.id),
         ("name", cam.name),
-        ("sensor", f"{cam.sensor_width_mm} x {cam.sensor_height_mm} mm"),
+        ("sensor", f"{cam.sensor_width_mm:g} x {cam.sensor_height_mm:g} mm"),
         ("image", f"{cam.image_width_px} x {cam.image_height_px} px"),
-        ("focal length", f"{cam.focal_mm} mm"),
-        ("pixel pitch", f"{cam.pixel_pitch_um:.3f} um (from width; {cam.pitch_mismatch:.1%} from height)"),
-        ("min cycle time", f"{cam.min_cycle_s} s"),
+        ("focal length", f"{cam.focal_mm:g} mm"),
+        (
+            "pixel pitch",
+            f"{cam.pixel_pitch_um:.3f} um from the width ({cam.pixel_pitch_height_um:.3f} um from the height, "
+            f"{cam.pitch_mismatch:.1%} apart)",
+        ),
+        ("min cycle time", f"{cam.min_cycle_s:g} s"),
         ("exposure", f"{cam.exposure_s:.6g} s"),
         ("shutter", cam.shutter),
         ("source", cam.source),

@@ -1,8 +1,30 @@
 """QGroundControl .plan files (JSON): write and read SimpleItem missions with a geofence.
 
-Field names and enums follow QGroundControl's plan format (version 1 file, mission
-version 2, SimpleItem with a 7-value params array; AltitudeMode 1 relative, 2 absolute,
-4 terrain frame). The manifest tag of an item is not stored: MAVLink has no place for it.
+The layout follows QGroundControl's own writer and reader (PlanMasterController,
+MissionController, SimpleMissionItem, MissionItem, GeoFenceController, QGCFencePolygon):
+file version 1, mission version 2, each item a "SimpleItem" with a 7-value `params`
+array in which NaN is written as null, `doJumpId` the item's 1-based sequence number,
+and fence polygons as [latitude, longitude] pairs. Keys are sorted, as QGroundControl's
+Qt JSON writer sorts them, and the text is indented by 4 spaces.
+
+Altitude keys: items with a position in frame 3, 0 or 10 also carry `Altitude`,
+`AltitudeMode` (QGroundControl's AltMode: 1 relative, 2 absolute, 4 terrain frame; 0 is
+"mixed", 3 "calculated above terrain" in frame 0) and `AMSLAltAboveTerrain` (null).
+QGroundControl requires the three together or none; without them it derives the mode
+from `frame`. `globalPlanAltitudeMode` is written only when every positioned item uses
+one of those frames (1 when there are none); for mixed frames it is left out, and
+QGroundControl then treats the plan as mixed, which is the value it sets before reading
+the key.
+
+Two keys are aerosurvey's own: `aerosurveyName` (top level) and `aerosurveyTag` (on an
+item with a non-empty tag). QGroundControl validates only the keys it knows, so it loads
+such files, but it drops both keys when it saves the plan again.
+
+Reading: our own files and QGroundControl-written plans of SimpleItems. ComplexItems
+(survey, corridor and structure scans, landing patterns), circular fences and rally
+points have no place in aerosurvey's mission model and are refused with what to do.
+`mission.cruiseSpeed`/`hoverSpeed` are optional in QGroundControl and read as 0.0 when
+absent; a missing `vehicleType` reads as a copter (QGroundControl's multirotor default).
 """
 
 from __future__ import annotations
@@ -15,114 +37,319 @@ from aerosurvey.errors import InputError
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 
+PLAN_FILE_VERSION = 1
+MISSION_VERSION = 2
+GEOFENCE_VERSION = 2
+FENCE_POLYGON_VERSION = 1
+RALLY_VERSION = 2
+NAME_KEY = "aerosurveyName"
+TAG_KEY = "aerosurveyTag"
+
+# MAV_CMD_DO_JUMP: its param1 names a doJumpId in a plan file, a sequence number on the vehicle
+_DO_JUMP = 177
+# MAV_FRAME -> QGroundControl AltMode (1 relative, 2 absolute, 4 terrain frame)
 _ALT_MODE = {mav.FRAME_GLOBAL_RELATIVE_ALT: 1, mav.FRAME_GLOBAL: 2, mav.FRAME_GLOBAL_TERRAIN_ALT: 4}
 _FIRMWARE = {"ardupilot": mav.AUTOPILOT_ARDUPILOTMEGA, "px4": mav.AUTOPILOT_PX4}
 _VEHICLE = {"copter": mav.TYPE_QUADROTOR, "plane": mav.TYPE_FIXED_WING}
+# MAV_TYPE read from a plan: multirotors and helicopters fly copter firmware; fixed wings and
+# VTOLs (19-25) fly plane firmware (ArduPlane for ArduPilot quadplanes)
+_COPTER_TYPES = frozenset({2, 3, 4, 13, 14, 15})
+_PLANE_TYPES = frozenset({1, *range(19, 26)})
+_PARAM_NAMES = ("param1", "param2", "param3", "param4", "x (latitude)", "y (longitude)", "z (altitude)")
+_HOME_NAMES = ("latitude", "longitude", "altitude")
+Polygon = tuple[tuple[float, float], ...]
 
 
-def _num(v: float) -> float | int | None:
-    if isinstance(v, float) and math.isnan(v):
+def _finite_or_nan(value: float, where: str) -> float | int | None:
+    """A JSON value for a number: NaN becomes null as QGroundControl writes it, infinity is refused."""
+    v = float(value)
+    if math.isnan(v):
         return None
-    if float(v).is_integer() and abs(v) < 2**53:
+    if math.isinf(v):
+        raise InputError(f"{where} = {v!r} is not allowed: a finite number (or NaN for 'unset')")
+    if v.is_integer() and abs(v) < 2**53:
         return int(v)
     return v
 
 
-def _item_dict(it: MissionItem, jump_id: int) -> dict[str, Any]:
+def _finite(value: float, where: str) -> float | int:
+    """A JSON value for a number that must be finite (home, speeds, fence vertices)."""
+    v = _finite_or_nan(value, where)
+    if v is None:
+        raise InputError(f"{where} = nan is not allowed: a finite number")
+    return v
+
+
+def _check_item(it: MissionItem, where: str) -> None:
+    """Refuse what QGroundControl or the vehicle could not take: numbers out of range, a position item without a position."""
+    if isinstance(it.command, bool) or not isinstance(it.command, int) or not 0 <= it.command <= 65535:
+        raise InputError(f"{where} command = {it.command!r} is not allowed: a MAV_CMD number 0-65535")
+    if isinstance(it.frame, bool) or not isinstance(it.frame, int) or not 0 <= it.frame <= 255:
+        raise InputError(f"{where} frame = {it.frame!r} is not allowed: a MAV_FRAME number 0-255")
+    if it.has_position:
+        for name, v in (("x (latitude)", it.x), ("y (longitude)", it.y), ("z (altitude)", it.z)):
+            if not math.isfinite(v):
+                raise InputError(f"{where} {name} = {v!r} is not allowed: a position item needs a finite position")
+
+
+def _item_dict(it: MissionItem, seq: int) -> dict[str, Any]:
+    """A SimpleItem as QGroundControl saves it; `seq` (1-based) is also its doJumpId, as in QGC's own files."""
+    where = f"mission item {seq}"
+    _check_item(it, where)
+    values = (*it.params, it.x, it.y, it.z)
     d: dict[str, Any] = {
         "autoContinue": bool(it.autocontinue),
         "command": it.command,
-        "doJumpId": jump_id,
+        "doJumpId": seq,
         "frame": it.frame,
-        "params": [_num(v) for v in (*it.params, it.x, it.y, it.z)],
+        "params": [_finite_or_nan(v, f"{where} {name}") for name, v in zip(_PARAM_NAMES, values)],
         "type": "SimpleItem",
     }
-    if it.has_position:
+    if it.has_position and it.frame in _ALT_MODE:
         d["AMSLAltAboveTerrain"] = None
-        d["Altitude"] = _num(it.z)
-        d["AltitudeMode"] = _ALT_MODE.get(it.frame, 1)
+        d["Altitude"] = d["params"][6]
+        d["AltitudeMode"] = _ALT_MODE[it.frame]
+    if it.tag:
+        d[TAG_KEY] = it.tag
     return d
 
 
+def _fence_polygons(m: Mission) -> list[dict[str, Any]]:
+    """geoFence polygons, inclusions first; QGroundControl keeps vertices as [latitude, longitude]."""
+    out = []
+    for inclusion, polys in ((True, m.fence_inclusion), (False, m.fence_exclusion)):
+        kind = "inclusion" if inclusion else "exclusion"
+        for k, poly in enumerate(polys, start=1):
+            where = f"{kind} fence polygon {k}"
+            if len(poly) < 3:
+                raise InputError(f"{where} has {len(poly)} vertices; a fence polygon needs at least 3")
+            pts = [[_finite(lat, f"{where} vertex {j} latitude"), _finite(lon, f"{where} vertex {j} longitude")]
+                   for j, (lat, lon) in enumerate(poly, start=1)]
+            out.append({"inclusion": inclusion, "polygon": pts, "version": FENCE_POLYGON_VERSION})
+    return out
+
+
 def mission_to_plan_dict(m: Mission) -> dict[str, Any]:
-    polygons = [{"inclusion": True, "polygon": [[lat, lon] for lat, lon in poly], "version": 1} for poly in m.fence_inclusion]
-    polygons += [{"inclusion": False, "polygon": [[lat, lon] for lat, lon in poly], "version": 1} for poly in m.fence_exclusion]
+    """The plan as the JSON object QGroundControl reads (see the module docstring for the keys)."""
+    if m.firmware not in _FIRMWARE:
+        raise InputError(f"mission firmware = {m.firmware!r} is not allowed: one of {', '.join(_FIRMWARE)}")
+    if m.vehicle not in _VEHICLE:
+        raise InputError(f"mission vehicle = {m.vehicle!r} is not allowed: one of {', '.join(_VEHICLE)}")
+    if len(m.home) != 3:
+        raise InputError(f"mission home = {m.home!r} is not allowed: (latitude, longitude, altitude AMSL)")
+    items = [_item_dict(it, seq) for seq, it in enumerate(m.items, start=1)]
+    for seq, it in enumerate(m.items, start=1):
+        if it.command == _DO_JUMP and not (float(it.param1).is_integer() and 1 <= it.param1 <= len(m.items)):
+            raise InputError(f"mission item {seq} DO_JUMP param1 = {it.param1!r} is not allowed: "
+                             f"the sequence number of an item of this mission (1-{len(m.items)})")
+    mission: dict[str, Any] = {
+        "cruiseSpeed": _finite(m.cruise_speed, "mission cruise_speed"),
+        "firmwareType": _FIRMWARE[m.firmware],
+        "hoverSpeed": _finite(m.hover_speed, "mission hover_speed"),
+        "items": items,
+        "plannedHomePosition": [_finite(v, f"mission home {name}") for name, v in zip(_HOME_NAMES, m.home)],
+        "vehicleType": _VEHICLE[m.vehicle],
+        "version": MISSION_VERSION,
+    }
     frames = {it.frame for it in m.items if it.has_position}
+    if not frames:
+        mission["globalPlanAltitudeMode"] = _ALT_MODE[mav.FRAME_GLOBAL_RELATIVE_ALT]
+    elif len(frames) == 1 and next(iter(frames)) in _ALT_MODE:
+        mission["globalPlanAltitudeMode"] = _ALT_MODE[next(iter(frames))]
     return {
         "fileType": "Plan",
-        "geoFence": {"circles": [], "polygons": polygons, "version": 2},
+        "geoFence": {"circles": [], "polygons": _fence_polygons(m), "version": GEOFENCE_VERSION},
         "groundStation": "QGroundControl",
-        "mission": {
-            "cruiseSpeed": _num(m.cruise_speed),
-            "firmwareType": _FIRMWARE[m.firmware],
-            "globalPlanAltitudeMode": _ALT_MODE.get(frames.pop(), 1) if len(frames) == 1 else 0,
-            "hoverSpeed": _num(m.hover_speed),
-            "items": [_item_dict(it, i + 1) for i, it in enumerate(m.items)],
-            "plannedHomePosition": [_num(v) for v in m.home],
-            "vehicleType": _VEHICLE[m.vehicle],
-            "version": 2,
-        },
-        "rallyPoints": {"points": [], "version": 2},
-        "version": 1,
+        "mission": mission,
+        NAME_KEY: m.name,
+        "rallyPoints": {"points": [], "version": RALLY_VERSION},
+        "version": PLAN_FILE_VERSION,
     }
 
 
 def dumps_plan(m: Mission) -> str:
-    """The plan as JSON text: fixed key order, indent 4, newline at the end (deterministic)."""
-    return json.dumps(mission_to_plan_dict(m), indent=4, allow_nan=False) + "\n"
+    """The plan as JSON text: sorted keys, indent 4, newline at the end, so equal missions give equal bytes."""
+    return json.dumps(mission_to_plan_dict(m), indent=4, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n"
 
 
-def _f(v: Any, where: str) -> float:
-    if v is None:
+def _number(v: Any, where: str, *, nullable: bool = False) -> float:
+    """A JSON number as a float; null is NaN where QGroundControl allows it (params, home)."""
+    if v is None and nullable:
         return math.nan
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise InputError(f"{where} = {v!r} is not a number")
+        allowed = "a number or null" if nullable else "a number"
+        raise InputError(f"{where} = {v!r} is not allowed: {allowed}")
     return float(v)
 
 
+def _is(v: Any, number: int) -> bool:
+    """True for the JSON number `number` (JSON true is not 1 here)."""
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and v == number
+
+
+def _whole(v: Any, where: str, lo: int, hi: int, what: str) -> int:
+    """A JSON whole number in lo..hi (QGC's Qt JSON may write 16 or 16.0; both are the same command)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not float(v).is_integer() or not lo <= v <= hi:
+        raise InputError(f"{where} = {v!r} is not allowed: {what} (a whole number {lo}-{hi})")
+    return int(v)
+
+
+def _get(d: dict[str, Any], key: str, where: str) -> Any:
+    """A required key, or an error naming it."""
+    if key not in d:
+        raise InputError(f"{where}: field '{key}' is missing")
+    return d[key]
+
+
+def _object(v: Any, where: str) -> dict[str, Any]:
+    """`v` if it is a JSON object, else an error naming where it was expected."""
+    if not isinstance(v, dict):
+        raise InputError(f"{where} = {type(v).__name__} is not allowed: a JSON object")
+    return v
+
+
+def _list(v: Any, where: str) -> list[Any]:
+    """`v` if it is a JSON array, else an error naming where it was expected."""
+    if not isinstance(v, list):
+        raise InputError(f"{where} = {type(v).__name__} is not allowed: a JSON array")
+    return v
+
+
+def _read_item(d: Any, i: int, source: str) -> tuple[MissionItem, int | None]:
+    """One SimpleItem and its doJumpId (None when the file has none)."""
+    where = f"{source}: mission item {i}"
+    d = _object(d, where)
+    kind = _get(d, "type", where)
+    if kind == "ComplexItem":
+        raise InputError(
+            f"{where} is a ComplexItem ({d.get('complexItemType', 'unknown kind')!r}); aerosurvey reads SimpleItems only. "
+            "Convert it to simple items in QGroundControl first: upload the plan to the vehicle (or SITL), "
+            "download it again and save; QGroundControl then writes every waypoint as a SimpleItem")
+    if kind != "SimpleItem":
+        raise InputError(f"{where} field 'type' = {kind!r} is not allowed: 'SimpleItem'")
+    command = _whole(_get(d, "command", where), f"{where} field 'command'", 0, 65535, "a MAV_CMD number")
+    frame = _whole(_get(d, "frame", where), f"{where} field 'frame'", 0, 255, "a MAV_FRAME number")
+    params = _list(_get(d, "params", where), f"{where} field 'params'")
+    if len(params) != 7:
+        raise InputError(f"{where} field 'params' has {len(params)} values; QGroundControl items have 7 (param1-4, x, y, z)")
+    vals = [_number(v, f"{where} field 'params' {name}", nullable=True) for name, v in zip(_PARAM_NAMES, params)]
+    auto = _get(d, "autoContinue", where)
+    if not isinstance(auto, bool):
+        raise InputError(f"{where} field 'autoContinue' = {auto!r} is not allowed: true or false")
+    jump_id = None
+    if "doJumpId" in d:
+        jump_id = _whole(d["doJumpId"], f"{where} field 'doJumpId'", 0, 2**31 - 1, "the item's jump id")
+    tag = d.get(TAG_KEY, "")
+    if not isinstance(tag, str):
+        raise InputError(f"{where} field '{TAG_KEY}' = {tag!r} is not allowed: a string")
+    it = MissionItem(command, frame, *vals, autocontinue=auto, tag=tag)
+    if it.has_position:
+        for name, v in zip(_PARAM_NAMES[4:], vals[4:]):
+            if math.isnan(v):
+                raise InputError(
+                    f"{where} field 'params' {name} is null: a position item needs a position (QGroundControl leaves "
+                    "the altitude empty for AltitudeMode 3 until terrain heights are downloaded; open the plan with "
+                    "terrain data available and save it again)")
+    return it, jump_id
+
+
+def _resolve_jumps(items: list[MissionItem], jump_ids: list[int | None], source: str) -> list[MissionItem]:
+    """DO_JUMP targets as sequence numbers: a plan names them by doJumpId, as QGroundControl resolves them on load."""
+    seq_of = {jid: seq for seq, jid in enumerate(jump_ids, start=1) if jid is not None}
+    out = []
+    for seq, it in enumerate(items, start=1):
+        if it.command == _DO_JUMP:
+            target = it.param1
+            if not math.isfinite(target) or target not in seq_of:
+                raise InputError(f"{source}: mission item {seq} is a DO_JUMP to doJumpId {target!r}, which no item has")
+            it = MissionItem(it.command, it.frame, float(seq_of[target]), it.param2, it.param3, it.param4,
+                             it.x, it.y, it.z, it.autocontinue, it.tag)
+        out.append(it)
+    return out
+
+
+def _read_fence(doc: dict[str, Any], source: str) -> tuple[list[Polygon], list[Polygon]]:
+    """Inclusion and exclusion polygons; circles are refused rather than dropped, so no fence is lost unnoticed."""
+    inc: list[Polygon] = []
+    exc: list[Polygon] = []
+    if "geoFence" not in doc:
+        return inc, exc
+    fence = _object(doc["geoFence"], f"{source}: geoFence")
+    circles = _list(fence.get("circles", []), f"{source}: geoFence field 'circles'")
+    if circles:
+        raise InputError(f"{source}: geoFence has {len(circles)} circular fence(s); aerosurvey uploads polygon fences "
+                         "only: draw the circle as a polygon in QGroundControl or remove it")
+    for k, poly in enumerate(_list(fence.get("polygons", []), f"{source}: geoFence field 'polygons'"), start=1):
+        where = f"{source}: geoFence polygon {k}"
+        poly = _object(poly, where)
+        if "version" in poly and not _is(poly["version"], FENCE_POLYGON_VERSION):
+            raise InputError(f"{where} field 'version' = {poly['version']!r} is not allowed: {FENCE_POLYGON_VERSION}")
+        inclusion = _get(poly, "inclusion", where)
+        if not isinstance(inclusion, bool):
+            raise InputError(f"{where} field 'inclusion' = {inclusion!r} is not allowed: true or false")
+        pts = []
+        for j, p in enumerate(_list(_get(poly, "polygon", where), f"{where} field 'polygon'"), start=1):
+            if not isinstance(p, list) or len(p) != 2:
+                raise InputError(f"{where} vertex {j} = {p!r} is not allowed: [latitude, longitude]")
+            pts.append((_number(p[0], f"{where} vertex {j} latitude"), _number(p[1], f"{where} vertex {j} longitude")))
+        if len(pts) < 3:
+            raise InputError(f"{where} has {len(pts)} vertices; a fence polygon needs at least 3")
+        (inc if inclusion else exc).append(tuple(pts))
+    return inc, exc
+
+
 def loads_plan(text: str, source: str = "<string>") -> Mission:
-    """A Mission from QGroundControl plan text; ComplexItems are refused with a reason."""
+    """A Mission from QGroundControl plan text; errors name `source`, the item and the field."""
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(f"{source}: not a QGroundControl plan (invalid JSON: {exc})") from None
-    if not isinstance(doc, dict) or doc.get("fileType") != "Plan":
-        raise InputError(f"{source}: fileType is {doc.get('fileType') if isinstance(doc, dict) else None!r}, not 'Plan'")
-    mis = doc.get("mission")
-    if not isinstance(mis, dict) or not isinstance(mis.get("items"), list):
-        raise InputError(f"{source}: the 'mission' section with its 'items' list is missing")
-    firmware = {v: k for k, v in _FIRMWARE.items()}.get(mis.get("firmwareType"), "ardupilot")
-    vehicle = {v: k for k, v in _VEHICLE.items()}.get(mis.get("vehicleType"), "copter")
-    home = mis.get("plannedHomePosition")
-    if not isinstance(home, list) or len(home) != 3:
-        raise InputError(f"{source}: mission.plannedHomePosition must be [lat, lon, alt], got {home!r}")
-    items = []
-    for i, d in enumerate(mis["items"], start=1):
-        where = f"{source}: mission item {i}"
-        if not isinstance(d, dict):
-            raise InputError(f"{where} is not an object")
-        if d.get("type") != "SimpleItem":
-            raise InputError(f"{where} is a {d.get('type')!r} ({d.get('complexItemType', '')}); aerosurvey reads SimpleItems "
-                             "only: in QGroundControl, convert survey/corridor items to simple waypoints first")
-        for key in ("command", "frame", "params"):
-            if key not in d:
-                raise InputError(f"{where}: field '{key}' is missing")
-        params = d["params"]
-        if not isinstance(params, list) or len(params) != 7:
-            raise InputError(f"{where}: field 'params' must hold 7 values, got {params!r}")
-        vals = [_f(v, f"{where} params[{k}]") for k, v in enumerate(params)]
-        if not isinstance(d["command"], int) or not isinstance(d["frame"], int):
-            raise InputError(f"{where}: 'command' and 'frame' must be whole numbers")
-        items.append(MissionItem(d["command"], d["frame"], *vals, autocontinue=bool(d.get("autoContinue", True))))
-    fence = doc.get("geoFence", {}) or {}
-    inc, exc = [], []
-    for k, poly in enumerate(fence.get("polygons", []) or []):
-        pts = tuple((float(a), float(b)) for a, b in poly.get("polygon", []))
-        if len(pts) < 3:
-            raise InputError(f"{source}: geoFence polygon {k + 1} has fewer than 3 points")
-        (inc if poly.get("inclusion", True) else exc).append(pts)
+    if not isinstance(doc, dict):
+        raise InputError(f"{source}: not a QGroundControl plan (the JSON is a {type(doc).__name__}, not an object)")
+    if doc.get("fileType") != "Plan":
+        raise InputError(f"{source}: not a QGroundControl plan (fileType = {doc.get('fileType')!r}, expected 'Plan')")
+    version = _get(doc, "version", source)
+    if not _is(version, PLAN_FILE_VERSION):
+        raise InputError(f"{source}: field 'version' = {version!r} is not allowed: {PLAN_FILE_VERSION} "
+                         "(the QGroundControl plan file version)")
+    mis = _object(_get(doc, "mission", source), f"{source}: mission")
+    where = f"{source}: mission"
+    if "version" in mis and not _is(mis["version"], MISSION_VERSION):
+        raise InputError(f"{where} field 'version' = {mis['version']!r} is not allowed: {MISSION_VERSION}")
+    firmware_type = _get(mis, "firmwareType", where)
+    firmware = None
+    if isinstance(firmware_type, (int, float)) and not isinstance(firmware_type, bool):
+        firmware = {v: k for k, v in _FIRMWARE.items()}.get(firmware_type)
+    if firmware is None:
+        raise InputError(f"{where} field 'firmwareType' = {firmware_type!r} is not allowed: "
+                         f"{mav.AUTOPILOT_ARDUPILOTMEGA} (ArduPilot) or {mav.AUTOPILOT_PX4} (PX4)")
+    vehicle = "copter"
+    if "vehicleType" in mis:
+        vt = _whole(mis["vehicleType"], f"{where} field 'vehicleType'", 0, 255, "a MAV_TYPE number")
+        if vt in _COPTER_TYPES:
+            vehicle = "copter"
+        elif vt in _PLANE_TYPES:
+            vehicle = "plane"
+        else:
+            raise InputError(f"{where} field 'vehicleType' = {vt} is not allowed: a multirotor or helicopter "
+                             "(2, 3, 4, 13, 14, 15), a fixed wing (1) or a VTOL (19-25)")
+    home = _list(_get(mis, "plannedHomePosition", where), f"{where} field 'plannedHomePosition'")
+    if len(home) != 3:
+        raise InputError(f"{where} field 'plannedHomePosition' = {home!r} is not allowed: [latitude, longitude, altitude AMSL]")
+    h_lat, h_lon, h_alt = (_number(v, f"{where} field 'plannedHomePosition' {name}") for name, v in zip(_HOME_NAMES, home))
+    speeds = {key: _number(mis[key], f"{where} field '{key}'") if key in mis else 0.0 for key in ("cruiseSpeed", "hoverSpeed")}
+    read = [_read_item(d, i, source) for i, d in enumerate(_list(_get(mis, "items", where), f"{where} field 'items'"), start=1)]
+    items = _resolve_jumps([it for it, _ in read], [jid for _, jid in read], source)
+    rally = doc.get("rallyPoints")
+    if isinstance(rally, dict) and rally.get("points"):
+        raise InputError(f"{source}: rallyPoints has {len(rally['points'])} point(s); aerosurvey does not upload rally "
+                         "points: remove them, or upload this plan with QGroundControl")
+    inc, exc = _read_fence(doc, source)
+    name = doc.get(NAME_KEY, "mission")
+    if not isinstance(name, str):
+        raise InputError(f"{source}: field '{NAME_KEY}' = {name!r} is not allowed: a string")
     return Mission(
-        vehicle=vehicle, firmware=firmware, home=(_f(home[0], "home lat"), _f(home[1], "home lon"), _f(home[2], "home alt")),
-        items=tuple(items), cruise_speed=_f(mis.get("cruiseSpeed", 0.0), "cruiseSpeed"),
-        hover_speed=_f(mis.get("hoverSpeed", 0.0), "hoverSpeed"), fence_inclusion=tuple(inc), fence_exclusion=tuple(exc),
+        vehicle=vehicle, firmware=firmware, home=(h_lat, h_lon, h_alt), items=tuple(items),
+        cruise_speed=speeds["cruiseSpeed"], hover_speed=speeds["hoverSpeed"], name=name,
+        fence_inclusion=tuple(inc), fence_exclusion=tuple(exc),
     )
