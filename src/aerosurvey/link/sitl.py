@@ -26,7 +26,7 @@ from aerosurvey.errors import CheckFailed, InputError
 
 PARAMS_FILE = Path(__file__).resolve().parents[3] / "sitl" / "aerosurvey-sitl.parm"
 COPTER_MODES = {"AUTO": 3, "RTL": 6, "LAND": 9}
-PLANE_MODES = {"AUTO": 10, "RTL": 11}
+PLANE_MODES = {"MANUAL": 0, "AUTO": 10, "RTL": 11}
 
 
 class SitlError(CheckFailed):
@@ -219,9 +219,14 @@ def fly(sv: SitlVehicle, mission, name: str, est_time_s: float, last_item: int, 
 
     flight = Flight(name)
     flight.upload_note = upload(mission)
-    modes = PLANE_MODES if sv.vehicle == "plane" else COPTER_MODES
-    sv.set_mode(modes["AUTO"])
-    sv.arm(timeout=120.0)
+    if sv.vehicle == "plane":
+        # ArduPlane does not arm in AUTO: arm in MANUAL (throttle low), then hand over to the mission
+        sv.set_mode(PLANE_MODES["MANUAL"])
+        sv.arm(timeout=120.0)
+        sv.set_mode(PLANE_MODES["AUTO"])
+    else:
+        sv.set_mode(COPTER_MODES["AUTO"])  # AUTO_OPTIONS = 3: arms in AUTO and takes off without throttle
+        sv.arm(timeout=120.0)
     sv.command(mavutil.mavlink.MAV_CMD_MISSION_START, 0, 0)
     # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
     wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
