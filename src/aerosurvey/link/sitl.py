@@ -189,11 +189,16 @@ class SitlVehicle:
         from pymavlink import mavutil
 
         deadline = time.monotonic() + timeout
+        said: list[str] = []
         while time.monotonic() < deadline:
             if self.command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == 0:
                 return
-            time.sleep(1.0)
-        raise SitlError(f"SITL did not arm within {timeout:g} s (pre-arm checks: see the STATUSTEXT messages)")
+            end = time.monotonic() + 1.0
+            while time.monotonic() < end:
+                m = self.conn.recv_match(type="STATUSTEXT", blocking=True, timeout=0.2)
+                if m is not None and m.text not in said:
+                    said.append(m.text)
+        raise SitlError(f"SITL did not arm within {timeout:g} s; it said: {' | '.join(said[-4:]) or 'nothing'}")
 
 
 def prepare(sv: SitlVehicle) -> None:
