@@ -94,7 +94,10 @@ def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None
     takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
     pitch = 15.0 if spec.vehicle.type == "plane" else 0.0
     items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
-    items.append(MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION, 1.0, round(plan.speed.speed_ms, 2), -1.0, tag="speed"))
+    # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies
+    # its cruise airspeed, so planes get the speed as airspeed (type 0; equal to ground speed in still air)
+    speed_type = 0.0 if spec.vehicle.type == "plane" else 1.0
+    items.append(MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION, speed_type, round(plan.speed.speed_ms, 2), -1.0, tag="speed"))
     if spec.flight.fixed_yaw_deg is not None and spec.vehicle.firmware == "ardupilot":
         items.append(MissionItem(mav.CONDITION_YAW, mav.FRAME_MISSION, float(spec.flight.fixed_yaw_deg), 0.0, 1.0, 0.0, tag="fixed-yaw"))
     for w in wps:
