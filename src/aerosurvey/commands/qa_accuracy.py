@@ -1,131 +1,130 @@
-"""`aerosurvey qa accuracy` and `aerosurvey qa bayes`: accuracy of finished products."""
+"""`aerosurvey qa accuracy` and `aerosurvey qa bayes`: accuracy of finished products from check points."""
 
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
-from typing import Any
 
 import click
-import numpy as np
 
 from aerosurvey.errors import CheckFailed, InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.qa import bayes as bz
-from aerosurvey.qa import standards
-from aerosurvey.qa.points import read_points
-from aerosurvey.qa.report_html import render
-from aerosurvey.qa.snooping import snoop
+from aerosurvey.qa.accuracy_input import UNITS, read_points
+from aerosurvey.qa.assessment import STANDARDS, Settings, assess
+from aerosurvey.qa.campaign import read_campaign
+from aerosurvey.qa.report_html import posterior_page, render
+from aerosurvey.qa.report_text import summary
 
-STANDARDS = ("asprs2014", "asprs2023", "nssda", "snooping", "bayes")
-
-
-def _campaign_area_km2(campaign: Path) -> float:
-    m = campaign / "manifest.json"
-    if not m.exists():
-        raise InputError(f"--campaign {campaign}: manifest.json is missing; give a folder written by `aerosurvey plan`")
-    return float(json.loads(m.read_text())["derived"]["area_ha"]) / 100.0
+_POS = click.FloatRange(min=0, min_open=True)
+_NONNEG = click.FloatRange(min=0)
 
 
-def _bayes_result(pts, tau_h: float | None, tau_v: float | None) -> tuple[dict[str, Any], tuple | None]:
-    if tau_h is None and tau_v is None:
-        raise InputError("--standard bayes needs the reference survey's standard deviation: --tau-h and/or --tau-v (in metres)")
-    out: dict[str, Any] = {"standard": "Bayesian estimate with uncertain check points (Jeffreys prior)", "n": pts.n,
-                           "sentences": [], "warnings": standards.reviewer_warnings(pts, 0, None), "passed": None}
-    plot = None
-    if tau_h is not None:
-        s = math.sqrt(float(np.sum(pts.dx**2 + pts.dy**2)) / (2 * pts.n))
-        p = bz.posterior(2 * pts.n, s, tau_h)
-        out["horizontal"] = {"m": p.m, "s_m": s, "tau_m": tau_h, "mode_m": p.mode, "ci95_m": [p.lower, p.upper]}
-        out["sentences"].append(f"Horizontal sigma (posterior mode) {p.mode * 100:.2f} cm, 95 % credible interval "
-                                f"{p.lower * 100:.2f} .. {p.upper * 100:.2f} cm (s = {s * 100:.2f} cm, tau = {tau_h * 100:.2f} cm, m = {p.m})")
-        plot = (*bz.density_curve(p), p.lower, p.upper, p.mode)
-    dz = pts.dz[np.isfinite(pts.dz)]
-    if tau_v is not None and len(dz):
-        s = math.sqrt(float(np.sum(dz**2)) / len(dz))
-        p = bz.posterior(len(dz), s, tau_v)
-        out["vertical"] = {"m": p.m, "s_m": s, "tau_m": tau_v, "mode_m": p.mode, "ci95_m": [p.lower, p.upper]}
-        out["sentences"].append(f"Vertical sigma (posterior mode) {p.mode * 100:.2f} cm, 95 % credible interval "
-                                f"{p.lower * 100:.2f} .. {p.upper * 100:.2f} cm (s = {s * 100:.2f} cm, tau = {tau_v * 100:.2f} cm, m = {p.m})")
-        plot = plot or (*bz.density_curve(p), p.lower, p.upper, p.mode)
-    return out, plot
+def _dumps(data: object) -> str:
+    return json.dumps(data, indent=1, allow_nan=False, default=str) + "\n"
 
 
 @click.command()
 @click.argument("points", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--standard", type=click.Choice(STANDARDS), default="asprs2014", show_default=True)
-@click.option("--units", type=click.Choice(["m", "cm", "mm"]), default=None, help="Unit of columns without a unit suffix (default m).")
+@click.option("--standard", type=click.Choice(list(STANDARDS)), default="asprs2014", show_default=True)
+@click.option("--units", type=click.Choice(list(UNITS)), default=None,
+              help="Unit of length columns without a unit suffix (default m).")
+@click.option("--crs", default=None, help="CRS of the coordinates, e.g. EPSG:5514 (or a crs column / GeoJSON crs).")
 @click.option("--role", "default_role", type=click.Choice(["check", "control"]), default="check", show_default=True,
-              help="Role of points when the file has no role column.")
-@click.option("--class-h", type=click.FloatRange(min=0, min_open=True), default=None, help="Horizontal class to test, cm.")
-@click.option("--class-v", type=click.FloatRange(min=0, min_open=True), default=None, help="Vertical class to test, cm.")
-@click.option("--area-km2", type=click.FloatRange(min=0, min_open=True), default=None, help="Project area for the required check point count.")
-@click.option("--campaign", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
-              help="A plan folder: the project area comes from its manifest.")
-@click.option("--survey-rmse-h", type=float, default=None, help="ASPRS 2023: RMSE of the check point survey, horizontal (m).")
-@click.option("--survey-rmse-v", type=float, default=None, help="ASPRS 2023: RMSE of the check point survey, vertical (m).")
-@click.option("--sigma0-h", type=float, default=None, help="Snooping: the specification's sigma0, horizontal (m).")
-@click.option("--sigma0-v", type=float, default=None, help="Snooping: the specification's sigma0, vertical (m).")
-@click.option("--k-h", type=float, default=1.96, show_default=True, help="Snooping: horizontal blunder factor.")
-@click.option("--k-v", type=float, default=2.16, show_default=True, help="Snooping: vertical blunder factor.")
-@click.option("--tau-h", type=float, default=None, help="Bayes: reference survey sigma, horizontal (m).")
-@click.option("--tau-v", type=float, default=None, help="Bayes: reference survey sigma, vertical (m).")
-@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+              help="Role of points when the file has no role column (control: GCPs used in the adjustment).")
+@click.option("--class-h", type=_POS, default=None,
+              help="Horizontal class to test, cm (ASPRS: X; NSSDA: accuracy at 95 %; bayes: sigma of one coordinate).")
+@click.option("--class-v", type=_POS, default=None, help="Vertical class to test, cm (as --class-h).")
+@click.option("--area-km2", type=_POS, default=None, help="Project area, for the required number of check points.")
+@click.option("--area-ha", type=_POS, default=None, help="Project area in hectares (instead of --area-km2).")
+@click.option("--campaign", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="A plan folder (aerosurvey plan/gcp output): project area, proposed GCPs and check points, GSD.")
+@click.option("--ref-sigma-xy", type=_NONNEG, default=None,
+              help="Reference survey: standard deviation of one horizontal coordinate, m (ASPRS 2023, bayes).")
+@click.option("--ref-sigma-z", type=_NONNEG, default=None, help="Reference survey: height standard deviation, m.")
+@click.option("--sigma0-h", type=_POS, default=None, help="Snooping: the specification's sigma0, horizontal, m.")
+@click.option("--sigma0-v", type=_POS, default=None, help="Snooping: the specification's sigma0, vertical, m.")
+@click.option("--k-h", type=_POS, default=1.96, show_default=True, help="Snooping: horizontal blunder factor.")
+@click.option("--k-v", type=_POS, default=2.16, show_default=True, help="Snooping: vertical blunder factor.")
+@click.option("--max-rejected", type=click.FloatRange(0, 1), default=0.05, show_default=True,
+              help="Snooping: largest share of rejected points before the set fails.")
+@click.option("--alpha", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
+              help="Snooping: significance level of the global chi-square test.")
+@click.option("--json", "as_json", is_flag=True, help="Print the JSON result instead of the text summary.")
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write accuracy.json, accuracy.txt and accuracy.html there.")
-def accuracy(points: Path, standard: str, units: str | None, default_role: str, class_h: float | None,
-             class_v: float | None, area_km2: float | None, campaign: Path | None, survey_rmse_h: float | None,
-             survey_rmse_v: float | None, sigma0_h: float | None, sigma0_v: float | None, k_h: float, k_v: float,
-             tau_h: float | None, tau_v: float | None, as_json: bool, outdir: Path | None) -> None:
-    """Accuracy of a product from check points. Exit 0 when the class/spec is met, 1 when not, 2 for bad input."""
-    pts = read_points(points, units, default_role)
-    if campaign is not None:
-        area_km2 = _campaign_area_km2(campaign)
-    plot = None
-    if standard == "asprs2014":
-        result = standards.asprs2014(pts, area_km2, class_h, class_v)
-    elif standard == "asprs2023":
-        result = standards.asprs2023(pts, area_km2, class_h, class_v, survey_rmse_h, survey_rmse_v)
-    elif standard == "nssda":
-        result = standards.nssda(pts)
-    elif standard == "snooping":
-        s = snoop(pts.ids, pts.dx, pts.dy, pts.dz if np.all(np.isfinite(pts.dz)) else None, k_h, k_v,
-                  sigma0_h=sigma0_h, sigma0_v=sigma0_v)
-        result = {"standard": "cadastral data snooping", "n": pts.n, "sigma_h_m": s.sigma_h, "sigma_v_m": s.sigma_v,
-                  "threshold_h_m": s.threshold_h, "threshold_v_m": s.threshold_v, "rejected": s.rejected,
-                  "rejected_share": s.rejected_share, "max_share": s.max_share, "sigma_h_kept_m": s.sigma_h_kept,
-                  "sigma_v_kept_m": s.sigma_v_kept, "global_test_h": s.global_h, "global_test_v": s.global_v,
-                  "passed": s.passed, "warnings": standards.reviewer_warnings(pts, 0, None),
-                  "sentences": [f"{len(s.rejected)} of {pts.n} points rejected ({100 * s.rejected_share:.1f} %, limit "
-                                f"{100 * s.max_share:.0f} %): thresholds {s.threshold_h:.2f} m horizontal"
-                                + (f", {s.threshold_v:.2f} m vertical" if s.threshold_v is not None else "")]}
-    else:
-        result, plot = _bayes_result(pts, tau_h, tau_v)
-    text = "\n".join(result.get("sentences", []) + [f"warning: {w}" for w in result.get("warnings", [])])
+def accuracy(points: Path, standard: str, units: str | None, crs: str | None, default_role: str,
+             class_h: float | None, class_v: float | None, area_km2: float | None, area_ha: float | None,
+             campaign: Path | None, ref_sigma_xy: float | None, ref_sigma_z: float | None, sigma0_h: float | None,
+             sigma0_v: float | None, k_h: float, k_v: float, max_rejected: float, alpha: float, as_json: bool,
+             outdir: Path | None) -> None:
+    """Accuracy of a product from its check points, by a standard.
+
+    Exit code 0 when the tested class or specification is met (or none was tested),
+    1 when it is not, 2 for bad input.
+    """
+    if area_km2 is not None and area_ha is not None:
+        raise InputError(f"--area-km2 = {area_km2} and --area-ha = {area_ha}: give the project area once")
+    pts = read_points(points, units, default_role, crs)
+    camp = read_campaign(campaign) if campaign is not None else None
+    settings = Settings(standard=standard, class_h_cm=class_h, class_v_cm=class_v,
+                        area_km2=area_km2 if area_ha is None else area_ha / 100.0, ref_sigma_xy_m=ref_sigma_xy,
+                        ref_sigma_z_m=ref_sigma_z, k_h=k_h, k_v=k_v, max_rejected=max_rejected, sigma0_h_m=sigma0_h,
+                        sigma0_v_m=sigma0_v, alpha=alpha)
+    try:
+        result = assess(pts, settings, camp)
+    except ValueError as exc:
+        raise InputError(f"--standard {standard}: {exc}") from None
+    text = summary(result)
     if outdir is not None:
         with staged_directory(outdir) as stage:
-            atomic_write_text(stage / "accuracy.json", json.dumps(result, indent=1, default=str) + "\n")
-            atomic_write_text(stage / "accuracy.txt", text + "\n")
-            atomic_write_text(stage / "accuracy.html", render(f"Accuracy report: {points.name}", result, pts, plot))
-    click.echo(json.dumps(result, indent=1, default=str) if as_json else text)
-    if result.get("passed") is False:
-        raise CheckFailed(f"{result['standard']}: the data set does not meet the tested class or specification")
+            atomic_write_text(stage / "accuracy.json", _dumps(result))
+            atomic_write_text(stage / "accuracy.txt", text)
+            atomic_write_text(stage / "accuracy.html", render(result, pts))
+    click.echo(_dumps(result) if as_json else text, nl=False)
+    if result["passed"] is False:
+        raise CheckFailed(f"{result['standard_name']}: the data set does not meet the tested class or specification")
 
 
 @click.command()
 @click.option("--points", type=click.IntRange(min=1), required=True, help="Number of check points.")
-@click.option("--s", "s", type=click.FloatRange(min=0, min_open=True), required=True, help="Sample standard deviation (any unit).")
-@click.option("--tau", type=click.FloatRange(min=0), required=True, help="Reference survey sigma (same unit).")
-@click.option("--axis", type=click.Choice(["xy", "z"]), default="xy", show_default=True, help="xy: m = 2 x points; z: m = points.")
+@click.option("--s", "s", type=_POS, required=True, help="Sample standard deviation of the differences (any unit).")
+@click.option("--tau", type=_NONNEG, required=True, help="Reference survey standard deviation (same unit).")
+@click.option("--axis", type=click.Choice(["xy", "z"]), default="xy", show_default=True,
+              help="xy: positions, m = 2 x points, s and tau per coordinate; z: heights, m = points.")
+@click.option("--level", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.95, show_default=True,
+              help="Probability of the credible interval.")
+@click.option("--class", "cls", type=_POS, default=None, help="Largest acceptable sigma (same unit): exit 1 above it.")
+@click.option("--unit", default="", help="Name of the unit, for the printout and the plot (e.g. mm).")
 @click.option("--json", "as_json", is_flag=True)
-def bayes(points: int, s: float, tau: float, axis: str, as_json: bool) -> None:
-    """Bayesian sigma from summary statistics alone (as published tables give them)."""
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Write bayes.json, bayes.txt and bayes.html (with the posterior density) there.")
+def bayes(points: int, s: float, tau: float, axis: str, level: float, cls: float | None, unit: str, as_json: bool,
+          outdir: Path | None) -> None:
+    """Bayesian sigma from summary statistics alone, as published tables give them."""
     m = 2 * points if axis == "xy" else points
-    p = bz.posterior(m, s, tau)
-    res = {"m": m, "s": s, "tau": tau, "mode": p.mode, "ci95": [p.lower, p.upper], "half_width": p.half_width}
-    if as_json:
-        click.echo(json.dumps(res, indent=1))
-    else:
-        click.echo(f"posterior mode {p.mode:.2f}, 95 % credible interval {p.lower:.2f} .. {p.upper:.2f} "
-                   f"(half-width {p.half_width:.2f}); m = {m}, s = {s:g}, tau = {tau:g}")
+    p = bz.posterior(m, s, tau, level)
+    res: dict[str, object] = {"axis": axis, "points": points, "m": m, "s": s, "tau": tau, "unit": unit or None,
+                              "mode": p.mode, "level": level, "ci_lower": p.lower, "ci_upper": p.upper,
+                              "half_width": p.half_width}
+    u = f" {unit}" if unit else ""
+    text = (f"posterior mode {p.mode:.2f}{u}, {level * 100:g} % credible interval {p.lower:.2f} .. {p.upper:.2f}{u} "
+            f"(half-width {p.half_width:.2f}); m = {m}, s = {s:g}{u}, tau = {tau:g}{u}")
+    if cls is not None:
+        res["class"] = cls
+        res["probability_within_class"] = bz.cdf(cls, m, s, tau)
+        res["met"] = p.mode <= cls
+        text += f"; P(sigma <= {cls:g}{u}) = {res['probability_within_class']:.3f}: {'met' if res['met'] else 'NOT met'}"
+    if outdir is not None:
+        xs, ys = bz.density_curve(p)
+        post = {"axis": axis, "sigma_m": xs.tolist(), "density": ys.tolist(), "mode_m": p.mode, "lower_m": p.lower,
+                "upper_m": p.upper}
+        with staged_directory(outdir) as stage:
+            atomic_write_text(stage / "bayes.json", _dumps(res))
+            atomic_write_text(stage / "bayes.txt", text + "\n")
+            atomic_write_text(stage / "bayes.html", posterior_page(
+                f"Bayesian sigma from summary statistics ({'positions' if axis == 'xy' else 'heights'})", [text],
+                post, unit, res))
+    click.echo(_dumps(res) if as_json else text, nl=not as_json)
+    if cls is not None and not res["met"]:
+        raise CheckFailed(f"posterior mode {p.mode:.4g} is above the class {cls:g}")

@@ -23,6 +23,7 @@ import io
 import json
 import math
 import re
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -59,7 +60,8 @@ class CheckPoints:
     sigma_xy: np.ndarray  # reference survey σ of one coordinate, NaN when not given
     sigma_z: np.ndarray
     source: str = ""
-    units: str = "m"  # the unit the file's lengths were stated in
+    units: str = "m"  # the unit of the file's lengths
+    units_stated: bool = True  # False when metres were assumed for columns without a unit
     crs: str | None = None  # as stated, or None
     geographic: bool = False
 
@@ -73,15 +75,19 @@ class CheckPoints:
 
     def select(self, mask: np.ndarray) -> "CheckPoints":
         idx = np.flatnonzero(np.asarray(mask, bool))
-        pick = lambda a: a[idx]  # noqa: E731
+
+        def pick(a: np.ndarray) -> np.ndarray:
+            return a[idx]
+
         return CheckPoints(tuple(self.ids[i] for i in idx), tuple(self.role[i] for i in idx), pick(self.dx),
                            pick(self.dy), pick(self.dz), pick(self.vegetated), pick(self.x), pick(self.y),
-                           pick(self.sigma_xy), pick(self.sigma_z), self.source, self.units, self.crs,
-                           self.geographic)
+                           pick(self.sigma_xy), pick(self.sigma_z), self.source, self.units, self.units_stated,
+                           self.crs, self.geographic)
 
     def with_roles(self, roles: tuple[str, ...]) -> "CheckPoints":
         return CheckPoints(self.ids, roles, self.dx, self.dy, self.dz, self.vegetated, self.x, self.y,
-                           self.sigma_xy, self.sigma_z, self.source, self.units, self.crs, self.geographic)
+                           self.sigma_xy, self.sigma_z, self.source, self.units, self.units_stated, self.crs,
+                           self.geographic)
 
     def local_xy(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions in metres east/north of the points' centre (geographic CRSs unrolled on the ellipsoid)."""
@@ -132,14 +138,14 @@ def _crs_from_geojson(fc: dict[str, Any], where: str) -> str | None:
         raise InputError(f"{where}: the GeoJSON 'crs' member {member!r} has no properties.name") from None
 
 
-def _geojson_rows(text: str, where: str) -> tuple[list[dict[str, Any]], str]:
+def _geojson_rows(text: str, where: str) -> tuple[list[dict[str, Any]], str | None]:
     """Rows from the features' properties; a Point geometry gives the reference x, y (z)."""
     try:
         fc = json.loads(text)
         feats = fc["features"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise InputError(f"{where}: not a GeoJSON FeatureCollection ({exc})") from None
-    crs = _crs_from_geojson(fc, where) or "OGC:CRS84"
+    crs = _crs_from_geojson(fc, where)
     rows = []
     for i, f in enumerate(feats):
         row = dict(f.get("properties") or {})
@@ -159,7 +165,8 @@ def _resolve_crs(stated: list[str], option: str | None, where: str) -> pyproj.CR
     names = sorted({s.strip() for s in stated if s and s.strip()})
     if len(names) > 1:
         raise InputError(f"{where}: mixed CRSs {', '.join(names)}; one file, one CRS")
-    if option and names and pyproj.CRS.from_user_input(names[0]) != _parse_crs(option, "--crs"):
+    if option and names and not _parse_crs(names[0], f"{where}: CRS").equals(_parse_crs(option, "--crs"),
+                                                                           ignore_axis_order=True):
         raise InputError(f"--crs = {option!r} contradicts the file's CRS {names[0]!r}")
     text = option or (names[0] if names else None)
     return _parse_crs(text, f"{where}: CRS") if text else None
@@ -181,9 +188,10 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     where = path.name
     text = path.read_text(encoding="utf-8-sig")
     stated: list[str] = []
-    if path.suffix.lower() in (".geojson", ".json"):
+    is_geojson = path.suffix.lower() in (".geojson", ".json")
+    if is_geojson:
         rows, gj_crs = _geojson_rows(text, where)
-        stated.append(gj_crs)
+        stated += [gj_crs] if gj_crs else []
     else:
         rows = _csv_rows(text, where)
     if not rows:
@@ -198,6 +206,8 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     if "crs" in cols:
         stated += [str(r.get(cols["crs"][0]) or "") for r in rows]
     crs_obj = _resolve_crs(stated, crs, where)
+    if crs_obj is None and is_geojson:
+        crs_obj = pyproj.CRS.from_user_input("OGC:CRS84")  # RFC 7946: GeoJSON is longitude/latitude
     geographic = bool(crs_obj is not None and crs_obj.is_geographic)
 
     id_col = next((cols[c][0] for c in ("id", "label", "name", "point") if c in cols), None)
@@ -218,20 +228,18 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
                              f"{crs_obj.name} is geographic (degrees)")
     checked = [c for c in _LENGTH_COLUMNS if c in cols and not (geographic and c in planar)]
     found = {c: cols[c][1] or units or "m" for c in checked}
+    if crs_obj is not None and not geographic:
+        # coordinates without a suffix are in the CRS's own unit (metre, foot, US survey foot)
+        axis = crs_obj.axis_info[0]
+        for c in planar:
+            if not cols[c][1] and not math.isclose(axis.unit_conversion_factor, UNITS[found[c]], rel_tol=1e-4):
+                raise InputError(f"{where}: column {cols[c][0]!r} is in {axis.unit_name} (the unit of "
+                                 f"{crs_obj.name}) but other lengths are in {found[c]}; give unit suffixes or --units")
     if len(set(found.values())) > 1:
         detail = ", ".join(f"{cols[c][0]} in {u}" for c, u in found.items())
         raise InputError(f"{where}: mixed units ({detail}); state every length in one unit")
     unit = next(iter(found.values()), units or "m")
-    planar_factor = 1.0
-    if crs_obj is not None and not geographic:
-        planar_factor = float(crs_obj.axis_info[0].unit_conversion_factor)
-        if planar and any(cols[c][1] for c in planar):
-            planar_factor = UNITS[unit]
-        elif planar and units is None and not math.isclose(planar_factor, 1.0):
-            unit_name = crs_obj.axis_info[0].unit_name
-            if found.get("dz", found.get("z", unit)) == "m" and ("z" in cols or "dz" in cols):
-                raise InputError(f"{where}: the CRS {crs_obj.name} is in {unit_name} but heights have no unit; "
-                                 f"give --units or unit suffixes")
+    units_stated = units is not None or all(cols[c][1] for c in checked)
 
     def num(row: dict[str, Any], c: str, i: int, factor: float | None = None) -> float:
         raw, u = cols[c]
@@ -250,7 +258,7 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     roles: list[str] = []
     veg: list[bool] = []
     arr: dict[str, list[float]] = {k: [] for k in ("dx", "dy", "dz", "x", "y", "sxy", "sz")}
-    pf = 1.0 if geographic else planar_factor
+    pf = 1.0 if geographic else None
     for i, row in enumerate(rows):
         pid = str(row.get(id_col) or "").strip()
         if not pid:
@@ -289,9 +297,7 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
         arr["y"].append(yr)
         arr["sxy"].append(num(row, "sigma_xy", i) if "sigma_xy" in cols else math.nan)
         arr["sz"].append(num(row, "sigma_z", i) if "sigma_z" in cols else math.nan)
-    seen: dict[str, int] = {}
-    dup = sorted({p for p in ids if seen.setdefault(p, 0) or seen.__setitem__(p, 1)} |
-                 {p for p in ids if ids.count(p) > 1})
+    dup = sorted(p for p, k in Counter(ids).items() if k > 1)
     if dup:
         raise InputError(f"{where}: duplicate id(s) {', '.join(dup)}; every point needs its own id")
     for key, name in (("sxy", "sigma_xy"), ("sz", "sigma_z")):
@@ -299,5 +305,5 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
             raise InputError(f"{where}: {name} has a negative value; standard deviations are >= 0")
     a = {k: np.asarray(v, float) for k, v in arr.items()}
     return CheckPoints(tuple(ids), tuple(roles), a["dx"], a["dy"], a["dz"], np.asarray(veg, bool), a["x"], a["y"],
-                       a["sxy"], a["sz"], where, unit, crs_obj.to_string() if crs_obj is not None else None,
-                       geographic)
+                       a["sxy"], a["sz"], where, unit, units_stated,
+                       crs_obj.to_string() if crs_obj is not None else None, geographic)
