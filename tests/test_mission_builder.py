@@ -75,6 +75,9 @@ def test_plane_takeoff_and_land_option(tmp_path):
     with pytest.raises(Exception, match="wind_from_deg"):
         _plan(tmp_path, {"vehicle": {"type": "plane"}, "flight": {"end": "land"}})
     assert m.vehicle == "plane" and m.vehicle_type_id == mav.TYPE_FIXED_WING
+    # line waypoints carry a small acceptance radius, or ArduPlane would reach them a turn distance early
+    on = [i for i, it in enumerate(m.items) if it.command == mav.DO_SET_CAM_TRIGG_DIST]
+    assert all(m.items[i - 1].param2 == 2.0 for i in on)
     speed = next(it for it in m.items if it.command == mav.DO_CHANGE_SPEED)
     assert speed.param1 == 0.0 and speed.param2 == pytest.approx(plan.speed.speed_ms, abs=0.01)  # airspeed for ArduPlane
     v = plan.speed.speed_ms  # the survey speed (here the motion-blur limit), not the cruise speed

@@ -31,9 +31,16 @@ def _yaw_param4(plan: PlanResult) -> float:
     return float(yaw) if yaw is not None and plan.spec.vehicle.firmware == "px4" else 0.0
 
 
+#: ArduPlane counts a waypoint as reached up to its turn distance early (WP_RADIUS, 90 m by
+#: default): the camera would switch on and off that far from the line's ends. A waypoint's
+#: own acceptance radius (param2) overrides it, so line waypoints of planes carry a small one.
+PLANE_LINE_ACCEPTANCE_M = 2.0
+
+
 def _wp(plan: PlanResult, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
     alt = w.alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
-    return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, 0.0, 0.0, _yaw_param4(plan),
+    accept = PLANE_LINE_ACCEPTANCE_M if plan.spec.vehicle.type == "plane" and w.kind in ("line_start", "terrain", "line_end") else 0.0
+    return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, accept, 0.0, _yaw_param4(plan),
                        round(w.lat, 8), round(w.lon, 8), round(alt, 2), True, tag)
 
 

@@ -487,6 +487,8 @@ def _estimates(spec, route: Route, wps: list[RouteWaypoint], stations: Stations,
     t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)
     t_out = path_time(np.array([home_xy, pts[0]]), transit_kin)
     t_back = path_time(np.array([pts[-1], home_xy]), transit_kin)
+    if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
+        t_climb, t_descent = max(0.0, t_climb - t_out), max(0.0, t_descent - t_back)
     photo_len = float(sum((r.station_xy.shape[0] - 1) * base for r in route.runs))
     return {
         "survey_distance_m": round(survey_len, 1),

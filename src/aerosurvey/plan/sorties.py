@@ -169,6 +169,10 @@ class Splitter:
             v = self.plan.spec.vehicle
             h = max(climb + alt_shift, 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
+            if v.type == "plane":  # climb and descent overlap the transits out and back
+                t_out = path_time(np.asarray(out_leg + [(wps[0].x, wps[0].y)]) / self.plan.grid_scale, self.kin)
+                t_back = path_time(np.asarray([(wps[-1].x, wps[-1].y)] + back_leg) / self.plan.grid_scale, self.kin)
+                vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
             dist = float(np.hypot(*np.diff(poly, axis=0).T).sum())
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
