@@ -188,10 +188,13 @@ def asprs_required(edition: str, area_km2: float) -> tuple[int, int]:
 
     2014: Table C.1 of the standard (shared/reference/asprs2014_checkpoint_counts.csv);
     beyond 2,500 km² vertical +5 per 500 km², horizontal by agreement (kept at 60).
-    2023 (Edition 2): at least 30 check points for small projects.
+    2023 (Edition 2): the accuracy module's table (qa/asprs.py, with its sources).
     """
     if edition == "2023":
-        return 30, 30
+        from aerosurvey.qa.asprs import required_2023
+
+        r = required_2023(area_km2)
+        return r.horizontal, r.total
     for limit, h, v in ASPRS_2014:
         if area_km2 <= limit:
             return h, v
