@@ -190,4 +190,4 @@ def get_camera(cam_id: str) -> Camera:
     close = [c for c in db if key and (key in c or c in key)]
     close += [c for c in difflib.get_close_matches(key, list(db), n=5, cutoff=0.6) if c not in close]
     hint = f"; did you mean {', '.join(close[:5])}?" if close else "; `aerosurvey cameras` lists them"
-    raise InputError(f"camera = {cam_id!r} is not in the camera database{hint}")
+    raise InputError(f"camera = {cam_id!r} is not in the camera database{hint}", key="camera.model")

@@ -47,6 +47,8 @@ def _register() -> None:
     main.add_command(refly.refly)
     from aerosurvey.commands import upload
     main.add_command(upload.upload)
+    from aerosurvey.commands import serve
+    main.add_command(serve.serve)
 
 
 _register()

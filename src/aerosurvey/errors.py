@@ -12,9 +12,17 @@ class AerosurveyError(Exception):
 
 
 class InputError(AerosurveyError):
-    """Bad input: a file, a spec key or an option value that cannot be used (exit code 2)."""
+    """Bad input: a file, a spec key or an option value that cannot be used (exit code 2).
+
+    `key` names the spec key or option at fault when there is one (e.g. `targets.side_overlap`),
+    so that a form can show the message next to the field that caused it.
+    """
 
     exit_code = 2
+
+    def __init__(self, message: str, key: str | None = None):
+        super().__init__(message)
+        self.key = key
 
 
 class CheckFailed(AerosurveyError):
@@ -25,4 +33,4 @@ class CheckFailed(AerosurveyError):
 
 def bad_value(name: str, value: Any, allowed: str) -> InputError:
     """An error that names the input, the value given and what is allowed."""
-    return InputError(f"{name} = {value!r} is not allowed: {allowed}")
+    return InputError(f"{name} = {value!r} is not allowed: {allowed}", key=name)

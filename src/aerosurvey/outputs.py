@@ -24,6 +24,7 @@ class Rendered:
     files: dict[str, str]
     rules: list[dict[str, Any]]
     warnings: list[str]
+    evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
 
 
 def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
@@ -57,11 +58,11 @@ def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any])
     from aerosurvey.rules.profile import apply_overrides, select_profiles
 
     if not plan.spec.profiles:
-        return [], []
+        return [], [], None
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "the plan")
     profiles = apply_overrides(select_profiles(list(plan.spec.profiles)), plan.spec.rule_overrides)
     ev = Evidence(view, layout_settings(view, profiles))
-    return evaluate(profiles, ev), ev.points
+    return evaluate(profiles, ev), ev.points, ev
 
 
 def render_outputs(plan: PlanResult) -> Rendered:
@@ -82,7 +83,7 @@ def render_outputs(plan: PlanResult) -> Rendered:
         files[f"sortie-{k:02d}.waypoints"] = dumps_wpl(sm)
     check_item_limit(plan, mission, files)
     manifest = mf.build_manifest(plan, len(mission.items), {})
-    results, points = _rules(plan, manifest, fc)
+    results, points, evidence = _rules(plan, manifest, fc)
     warnings = list(plan.warnings)
     for r in results:
         if r.status in ("fail", "warning"):
@@ -92,7 +93,7 @@ def render_outputs(plan: PlanResult) -> Rendered:
     manifest["rules"] = [r.as_dict() for r in results]
     manifest["warnings"] = warnings
     files["manifest.json"] = mf.dumps(manifest)
-    return Rendered(files, manifest["rules"], warnings)
+    return Rendered(files, manifest["rules"], warnings, evidence)
 
 
 def write_outputs(plan: PlanResult, outdir: Path) -> Rendered:

@@ -153,7 +153,7 @@ class _Table:
         self.used.add(key)
         if key not in self.data:
             if required:
-                raise InputError(f"{self.key(key)} is missing: it is required")
+                raise InputError(f"{self.key(key)} is missing: it is required", key=self.key(key))
             return default
         v = self.data[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 import shapely
@@ -17,12 +18,20 @@ from aerosurvey.area import Planar, planning_crs, read_area
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.frame import LineFrame
-from aerosurvey.plan.heading import best_heading
+from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.lines import build_lines
 from aerosurvey.plan.route import Detours, Kinematics, Pass, Route, build_route, descent_time, path_time, quick_cost
 from aerosurvey.plan.sun import elevation_over_window
 from aerosurvey.plan.terrain import Dem, thin_profile
 from aerosurvey.spec import MissionSpec
+
+#: Called with a stage name and the share of the work done (0..1). It may raise to stop the
+#: planning (a web page cancelling a long plan does); the exception passes through unchanged.
+Progress = Callable[[str, float], None]
+
+
+def _no_progress(stage: str, done: float) -> None:
+    return None
 
 
 @dataclass(frozen=True)
@@ -169,9 +178,14 @@ def _target_height(spec: MissionSpec, warnings: list[str]) -> tuple[float, float
     return h, gsd
 
 
-def plan_mission(spec: MissionSpec) -> PlanResult:
-    """Plan a survey from a validated spec. Raises InputError with numbers on any input that cannot be flown."""
+def plan_mission(spec: MissionSpec, progress: Progress | None = None) -> PlanResult:
+    """Plan a survey from a validated spec. Raises InputError with numbers on any input that cannot be flown.
+
+    `progress` hears of each stage; the heading search, most of the time, reports per candidate.
+    """
+    report = progress or _no_progress
     warnings: list[str] = []
+    report("reading the area", 0.0)
     area_wgs, excl_wgs = _read_geometry(spec)
     planar = planning_crs(spec.crs, area_wgs)
     area = shapely.normalize(planar.forward(area_wgs))
@@ -189,14 +203,16 @@ def plan_mission(spec: MissionSpec) -> PlanResult:
     h_target, gsd_target = _target_height(spec, warnings)
     dem = Dem(spec.terrain.dem, planar) if spec.terrain.dem is not None else None
     try:
-        return _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gsd_target, dem, warnings)
+        return _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gsd_target, dem, warnings, report)
     finally:
         if dem is not None:
             dem.close()
 
 
-def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gsd_target, dem, warnings) -> PlanResult:
+def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gsd_target, dem, warnings,
+          report: Progress) -> PlanResult:
     cam = spec.camera.camera
+    report("heights over the ground", 0.03)
     heights = _heights(spec, h_target, dem, area)
     if heights.max_agl_m > spec.vehicle.max_height_agl_m + 1e-9:
         raise InputError(f"the plan would fly {heights.max_agl_m:.1f} m above ground, above vehicle.max_height_agl_m = {spec.vehicle.max_height_agl_m:g} m")
@@ -253,12 +269,21 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
         return quick_cost(segs, g_lead, kin) if segs else math.inf
 
     if spec.flight.heading_deg is None:
-        heading, _ = best_heading(covered, cost)
+        n_cand = len(candidate_headings(covered)) + 10
+        tried = [0]
+
+        def counted(fr: LineFrame) -> float:
+            tried[0] += 1
+            report("choosing the heading", 0.05 + 0.6 * min(1.0, tried[0] / n_cand))
+            return cost(fr)
+
+        heading, _ = best_heading(covered, counted)
         chosen = "auto: the shortest estimated flight time"
     else:
         heading = spec.flight.heading_deg
         chosen = "fixed by the spec"
     headings = [heading] + ([(heading + 90.0) % 180.0] if spec.flight.cross_hatch else [])
+    report("flight lines and photo stations", 0.66)
     passes = []
     for i, h in enumerate(headings, start=1):
         fr, segs = lines_for(h)
@@ -273,6 +298,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
         if zones_buf is not None and shapely.intersects(zones_buf, shapely.Point(launch_xy)):
             raise InputError(f"area.launch = {list(spec.area.launch)} lies inside an exclusion zone (or its {spec.flight.exclusion_margin_m:g} m margin)")
     detours = Detours(zones, spec.flight.exclusion_margin_m)
+    report("route", 0.72)
     try:
         route = build_route(passes, g_lead, kin, [g_spacing] * len(passes), launch_xy, detours)
     except ValueError as exc:
@@ -288,6 +314,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
     home_ground = float(dem.sample(np.array([home_xy[0]]), np.array([home_xy[1]]), "launch point")[0]) if dem is not None else 0.0
     hlon, hlat = planar.lonlat(np.array([home_xy[0]]), np.array([home_xy[1]]))
 
+    report("heights along the route", 0.8)
     stations, wps, frame_name = _heights_along_route(spec, route, heights, dem, home_ground, planar)
     if heights.mode == "fixed":
         warnings.append(
@@ -334,7 +361,9 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
     result.launch_sites = sites
     result.fence_inclusion, result.fence_exclusion = _fence(result, sites, excl_wgs)
     if spec.battery is not None:
+        report("battery sorties", 0.88)
         result.battery, result.sorties = _sorties(result, sites, kin, detours)
+    report("planned", 1.0)
     return result
 
 

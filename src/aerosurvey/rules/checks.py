@@ -19,6 +19,9 @@ class Outcome:
     measured: str
     required: str
     evidence: list[str] = field(default_factory=list)
+    # where on the map the failure lies, for a viewer to highlight: {"run": id}, {"runs": [a, b]},
+    # {"station": id}, {"point": control point id} or {"xy": [x, y]} in the planning CRS
+    where: list[dict[str, Any]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -53,6 +56,12 @@ def check(name: str, defaults: dict[str, Any] | None = None, **params: type | tu
     return deco
 
 
+def _flatnonzero(mask: Any) -> list[int]:
+    import numpy as np
+
+    return [int(i) for i in np.flatnonzero(np.asarray(mask))]
+
+
 def _pct(v: float) -> str:
     return f"{100 * v:.1f} %"
 
@@ -77,9 +86,11 @@ def _fwd(view, p, ev) -> Outcome:
     if not per_run:
         return Outcome("fail", "no run with two photos", f">= {_pct(p['min'])}")
     worst = min(per_run, key=lambda t: t[1])
-    bad = [f"{rid}: {_pct(v)}" for rid, v in per_run if v < p["min"] - 1e-9]
+    low = [(rid, v) for rid, v in per_run if v < p["min"] - 1e-9]
+    bad = [f"{rid}: {_pct(v)}" for rid, v in low]
     return Outcome("pass" if not bad else "fail", f"{_pct(worst[1])} (lowest, run {worst[0]})", f">= {_pct(p['min'])}",
-                   bad[:20] + ([f"... and {len(bad) - 20} more runs"] if len(bad) > 20 else []))
+                   bad[:20] + ([f"... and {len(bad) - 20} more runs"] if len(bad) > 20 else []),
+                   [{"run": rid} for rid, _ in low])
 
 
 @check("side_overlap_min", min=NUM)
@@ -88,16 +99,20 @@ def _side(view, p, ev) -> Outcome:
     if not pairs:
         return Outcome("not-checkable", "a single strip", f">= {_pct(p['min'])}", ["one strip has no side neighbour"])
     worst = min(pairs, key=lambda t: t[2])
-    bad = [f"{a} / {b}: {_pct(v)}" for a, b, v in pairs if v < p["min"] - 1e-9]
+    low = [(a, b, v) for a, b, v in pairs if v < p["min"] - 1e-9]
+    bad = [f"{a} / {b}: {_pct(v)}" for a, b, v in low]
     return Outcome("pass" if not bad else "fail", f"{_pct(worst[2])} (lowest, runs {worst[0]} / {worst[1]})",
-                   f">= {_pct(p['min'])}", bad[:20])
+                   f">= {_pct(p['min'])}", bad[:20], [{"runs": [a, b]} for a, b, _ in low])
 
 
 @check("gsd_max", max_cm=NUM)
 def _gsd(view, p, ev) -> Outcome:
     cam = view.camera
-    gsd = float(view.agl.max()) * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"] * 100
-    return Outcome("pass" if gsd <= p["max_cm"] + 1e-9 else "fail", f"{gsd:.2f} cm (coarsest photo)", f"<= {p['max_cm']:g} cm")
+    gsd_all = view.agl * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"] * 100
+    gsd = float(gsd_all.max())
+    where = [{"station": view.station_ids[i]} for i in _flatnonzero(gsd_all > p["max_cm"] + 1e-9)]
+    return Outcome("pass" if gsd <= p["max_cm"] + 1e-9 else "fail", f"{gsd:.2f} cm (coarsest photo)", f"<= {p['max_cm']:g} cm",
+                   where=where)
 
 
 @check("images_beyond_boundary", min=int)
@@ -108,7 +123,8 @@ def _beyond(view, p, ev) -> Outcome:
     bad = [f"{c['run']} {c['where']}: {c['outside_photos']} photos outside" for c in found if not c["ok"]]
     counted = [c["outside_photos"] for c in found if c["where"] in ("entry", "exit")]
     return Outcome("pass" if not bad else "fail", f"{min(counted)} photos (fewest, over {len(counted)} crossings)",
-                   f">= {p['min']} at every crossing", bad[:30] + ([f"... and {len(bad) - 30} more"] if len(bad) > 30 else []))
+                   f">= {p['min']} at every crossing", bad[:30] + ([f"... and {len(bad) - 30} more"] if len(bad) > 30 else []),
+                   [{"run": c["run"]} for c in found if not c["ok"]])
 
 
 @check("coverage_min_images", min=int)
@@ -117,14 +133,17 @@ def _coverage(view, p, ev) -> Outcome:
     worst = int(counts.argmin())
     short = int((counts < p["min"]).sum())
     evidence = [f"{short} of {len(counts)} sample points seen by fewer photos; the worst at x {gx[worst]:.1f}, y {gy[worst]:.1f}"] if short else []
+    where = [{"xy": [round(float(gx[i]), 2), round(float(gy[i]), 2)]} for i in _flatnonzero(counts < p["min"])[:500]]
     return Outcome("pass" if short == 0 else "fail", f"{int(counts.min())} photos (fewest, {len(counts)} sample points)",
-                   f">= {p['min']} photos on every point of the area", evidence)
+                   f">= {p['min']} photos on every point of the area", evidence, where)
 
 
 @check("max_height_agl", max_m=NUM)
 def _height(view, p, ev) -> Outcome:
     h = float(view.agl.max())
-    return Outcome("pass" if h <= p["max_m"] + 1e-6 else "fail", f"{h:.1f} m (highest photo above ground)", f"<= {p['max_m']:g} m")
+    where = [{"station": view.station_ids[i]} for i in _flatnonzero(view.agl > p["max_m"] + 1e-6)]
+    return Outcome("pass" if h <= p["max_m"] + 1e-6 else "fail", f"{h:.1f} m (highest photo above ground)", f"<= {p['max_m']:g} m",
+                   where=where)
 
 
 @check("gcp_outside_envelope", defaults={"min_enclosed": 0.98}, min_enclosed=NUM)
@@ -143,7 +162,7 @@ def _envelope(view, p, ev) -> Outcome:
     if enclosed < p["min_enclosed"]:
         evidence.append(f"the GCP polygon encloses only {_pct(enclosed)} of the area")
     return Outcome("pass" if ok else "fail", f"{len(gcps) - len(inside)} of {len(gcps)} outside, polygon encloses {_pct(enclosed)}",
-                   f"all outside, enclosing >= {_pct(p['min_enclosed'])} of the area", evidence)
+                   f"all outside, enclosing >= {_pct(p['min_enclosed'])} of the area", evidence, [{"point": i} for i in inside])
 
 
 @check("gcp_visibility", min_images=int)
@@ -153,7 +172,8 @@ def _visible(view, p, ev) -> Outcome:
         return Outcome("fail", "no GCP", f"each GCP on >= {p['min_images']} photos")
     bad = [f"GCP {g.id}: {g.images} photos" for g in gcps if g.images < p["min_images"]]
     fewest = min(g.images for g in gcps)
-    return Outcome("pass" if not bad else "fail", f"{fewest} photos (fewest)", f">= {p['min_images']} photos on each GCP", bad)
+    return Outcome("pass" if not bad else "fail", f"{fewest} photos (fewest)", f">= {p['min_images']} photos on each GCP", bad,
+                   [{"point": g.id} for g in gcps if g.images < p["min_images"]])
 
 
 @check("gcp_count", formula=str)

@@ -127,7 +127,7 @@ class RuleResult:
     def as_dict(self) -> dict[str, Any]:
         return {"profile": self.profile, "rule": self.rule, "status": self.status, "severity": self.severity,
                 "statement": self.statement, "measured": self.outcome.measured, "required": self.outcome.required,
-                "evidence": list(self.outcome.evidence), "source": self.source}
+                "evidence": list(self.outcome.evidence), "where": list(self.outcome.where), "source": self.source}
 
 
 def evaluate(profiles: list[Profile], evidence: Evidence) -> list[RuleResult]:

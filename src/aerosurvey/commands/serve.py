@@ -1,0 +1,56 @@
+"""`aerosurvey serve`: the planner's web page on this machine."""
+
+from __future__ import annotations
+
+import ipaddress
+from pathlib import Path
+
+import click
+
+from aerosurvey.errors import InputError
+
+
+def _loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+@click.command()
+@click.argument("spec", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to listen on. Anything but a loopback address exposes the page (and your files) to the network.")
+@click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True, help="TCP port (0: any free port).")
+@click.option("--tiles", "tile_url", default="",
+              help="XYZ basemap URL template, e.g. https://tile.example.org/{z}/{x}/{y}.png; none by default (no tile "
+                   "server is contacted unless set here or on the page).")
+@click.option("--max-upload-mb", type=click.IntRange(1, 2048), default=50, show_default=True, help="Largest upload accepted.")
+def serve(spec: Path | None, host: str, port: int, tile_url: str, max_upload_mb: int) -> None:
+    """Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."""
+    import socket
+
+    import uvicorn
+
+    from aerosurvey.web.app import create_app
+
+    if spec is not None and not spec.is_file():
+        raise InputError(f"mission spec {str(spec)!r} does not exist")
+    if tile_url and not all(k in tile_url for k in ("{z}", "{x}", "{y}")):
+        raise InputError(f"--tiles = {tile_url!r} is not allowed: an XYZ URL template with {{z}}, {{x}} and {{y}}")
+    if port == 0:
+        with socket.socket() as s:
+            s.bind((host, 0))
+            port = s.getsockname()[1]
+    if _loopback(host):
+        allowed = [f"127.0.0.1:{port}", f"localhost:{port}", f"[::1]:{port}"]
+    else:
+        click.echo(f"warning: listening on {host}: anyone who can reach this address can plan with the files in the "
+                   "mission's folder and upload files to this machine", err=True)
+        allowed = None
+    app = create_app(spec, tile_url=tile_url, allowed_hosts=allowed, upload_limit=max_upload_mb * 1024 * 1024)
+    shown = "127.0.0.1" if _loopback(host) else host
+    click.echo(f"aerosurvey: open http://{shown}:{port}/ (Ctrl+C to stop)")
+    uvicorn.run(app, host=host, port=port, log_level="warning")

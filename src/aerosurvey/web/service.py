@@ -1,0 +1,332 @@
+"""What the web page asks of the library, without HTTP: specs as JSON, a plan with its
+files and map layers, area uploads, flown results.
+
+The page never plans by itself: every number it shows comes from the same functions the
+CLI calls (`parse_spec`, `plan_mission`, `render_outputs`, the rule engine), so a mission
+downloaded from the page is byte for byte the one `aerosurvey plan` writes.
+"""
+
+from __future__ import annotations
+
+import copy
+import datetime as dt
+import json
+import tomllib
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from aerosurvey.errors import InputError
+from aerosurvey.web.mapproj import MapFrame
+
+#: Spec keys that name files; the page may only point them inside the allowed folders.
+PATH_KEYS = (("area", "file"), ("terrain", "dem"))
+AREA_SUFFIXES = (".geojson", ".json", ".kml", ".kmz", ".gpkg", ".zip", ".shp", ".fgb", ".gml", ".wkt")
+
+
+def spec_to_json(data: dict[str, Any]) -> dict[str, Any]:
+    """A TOML spec as JSON: dates and times become ISO 8601 text (the spec accepts both)."""
+
+    def conv(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: conv(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [conv(x) for x in v]
+        if isinstance(v, (dt.datetime, dt.date, dt.time)):
+            return v.isoformat()
+        return v
+
+    return conv(data)
+
+
+def read_spec_file(path: Path) -> dict[str, Any]:
+    try:
+        return spec_to_json(tomllib.loads(path.read_text(encoding="utf-8")))
+    except FileNotFoundError:
+        raise InputError(f"mission spec {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"mission spec {str(path)!r} cannot be read: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"mission spec {str(path)!r} is not valid TOML: {exc}") from None
+
+
+def spec_to_toml(data: dict[str, Any]) -> str:
+    """The spec as TOML text, tables in the documented order."""
+    import tomli_w
+
+    order = ["mission", "area", "camera", "targets", "vehicle", "flight", "terrain", "battery", "conditions", "rules"]
+    ordered = {k: data[k] for k in order if k in data}
+    ordered.update({k: v for k, v in data.items() if k not in ordered})
+    return tomli_w.dumps(_drop_none(ordered))
+
+
+def _drop_none(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {k: _drop_none(x) for k, x in v.items() if x is not None}
+    if isinstance(v, list):
+        return [_drop_none(x) for x in v]
+    return v
+
+
+@dataclass
+class Workspace:
+    """Where spec paths resolve (the spec's folder) and the only folders they may point into."""
+
+    base: Path
+    uploads: Path
+    roots: list[Path] = field(default_factory=list)
+
+    def allowed(self, p: Path) -> bool:
+        r = p.resolve()
+        return any(r == root or root in r.parents for root in [self.uploads.resolve(), *(x.resolve() for x in self.roots)])
+
+    def check_paths(self, spec: dict[str, Any]) -> None:
+        """Refuse file paths outside the workspace: the page must not read arbitrary files."""
+        for table, key in PATH_KEYS:
+            v = (spec.get(table) or {}).get(key)
+            if isinstance(v, str) and not self.allowed(self.resolve(v)):
+                raise InputError(f"{table}.{key} = {v!r} is not allowed: a file in the mission's folder or one uploaded "
+                                 "to this page", key=f"{table}.{key}")
+        ex = (spec.get("area") or {}).get("exclusions") or []
+        if isinstance(ex, list):
+            for v in ex:
+                if isinstance(v, str) and not self.allowed(self.resolve(v)):
+                    raise InputError(f"area.exclusions: {v!r} is not allowed: a file in the mission's folder or one "
+                                     "uploaded to this page", key="area.exclusions")
+
+    def resolve(self, value: str) -> Path:
+        p = Path(value)
+        return p if p.is_absolute() else self.base / p
+
+
+def default_spec(area_file: str, name: str) -> dict[str, Any]:
+    """A new plan's spec: the defaults a pilot most often starts from."""
+    return {
+        "mission": {"name": name, "crs": "auto"},
+        "area": {"file": area_file},
+        "camera": {"model": "dji-phantom4-rtk", "trigger": "distance"},
+        "targets": {"gsd_cm": 2.5, "forward_overlap": 0.75, "side_overlap": 0.65},
+        "vehicle": {"type": "copter", "cruise_speed_ms": 10.0},
+        "flight": {"heading": "auto"},
+        "rules": {"profiles": []},
+    }
+
+
+def with_new_area(spec: dict[str, Any], area_file: str, name: str) -> dict[str, Any]:
+    """The current settings over a new area: what belonged to the old place is dropped
+    (exclusion zones, launch points, DEM, a national CRS)."""
+    out = copy.deepcopy(spec) if spec else default_spec(area_file, name)
+    out.setdefault("mission", {})["name"] = name
+    out["mission"]["crs"] = "auto"
+    out["area"] = {"file": area_file}
+    out.pop("terrain", None)
+    if "battery" in out:
+        out["battery"].pop("launch_points", None)
+        out["battery"].pop("launch", None)
+    return out
+
+
+def store_upload(ws: Workspace, filename: str, data_path: Path, serial: int) -> Path:
+    """Keep an uploaded area file in the workspace; a zipped Shapefile is unpacked.
+
+    Returns the path of the file the spec should name. Archive members may not escape their
+    folder (no absolute paths or '..').
+    """
+    name = Path(filename).name
+    suffix = Path(name).suffix.lower()
+    if suffix not in AREA_SUFFIXES:
+        raise InputError(f"area upload {name!r} is not allowed: a GeoJSON, KML/KMZ, GeoPackage, FlatGeobuf, GML, WKT "
+                         "or a Shapefile as .zip", key="area.file")
+    folder = ws.uploads / f"{serial:04d}"
+    folder.mkdir(parents=True, exist_ok=True)
+    if suffix != ".zip":
+        target = folder / name
+        data_path.replace(target)
+        return target
+    try:
+        with zipfile.ZipFile(data_path) as zf:
+            members = [m for m in zf.infolist() if not m.is_dir()]
+            for m in members:
+                p = Path(m.filename)
+                if p.is_absolute() or ".." in p.parts:
+                    raise InputError(f"area upload {name!r}: member {m.filename!r} points outside the archive", key="area.file")
+            if sum(m.file_size for m in members) > 500 * 1024 * 1024:
+                raise InputError(f"area upload {name!r}: unpacks to more than 500 MB", key="area.file")
+            shp = [m for m in members if m.filename.lower().endswith(".shp")]
+            if len(shp) != 1:
+                raise InputError(f"area upload {name!r}: a zipped Shapefile must hold exactly one .shp file, found {len(shp)}",
+                                 key="area.file")
+            zf.extractall(folder, members)
+    except zipfile.BadZipFile:
+        raise InputError(f"area upload {name!r} is not a valid zip archive", key="area.file") from None
+    finally:
+        data_path.unlink(missing_ok=True)
+    return folder / shp[0].filename
+
+
+def validate_area(path: Path) -> dict[str, Any]:
+    """Read an uploaded area as the planner will; its outline in WGS84 for a first look."""
+    from aerosurvey.area import read_area
+
+    geom = read_area(path, None, "EPSG:4326", f"area file {path.name}")
+    x0, y0, x1, y1 = geom.bounds
+    return {"bounds": [x0, y0, x1, y1]}
+
+
+# ---- plans ---------------------------------------------------------------------------------
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass
+class PlanBundle:
+    """A plan as the page shows it, and the files it offers for download."""
+
+    view: dict[str, Any]
+    files: dict[str, str]
+    frame: MapFrame
+
+
+def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) -> PlanBundle:
+    from aerosurvey.outputs import render_outputs
+    from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.spec import parse_spec
+
+    if not isinstance(spec_data, dict):
+        raise InputError("spec: expected a JSON object with the mission spec's tables")
+    ws.check_paths(spec_data)
+    spec = parse_spec(spec_data, base=ws.base, path=None)
+    plan = plan_mission(spec, progress)
+    progress("mission files and rules", 0.92)
+    rendered = render_outputs(plan)
+    progress("control points", 0.97)
+    files = dict(rendered.files)
+    manifest = json.loads(files["manifest.json"])
+    features = json.loads(files["plan.geojson"])
+    points, cp_files = _control_points(rendered, manifest, features)
+    files.update(cp_files)
+    frame = MapFrame.around(plan.area_wgs84, plan.planar)
+    view = _view(plan, frame, manifest, features, points, rendered)
+    progress("done", 1.0)
+    return PlanBundle(view, files, frame)
+
+
+def _control_points(rendered, manifest: dict[str, Any], features: dict[str, Any]):
+    from aerosurvey.rules.cp_files import control_point_files
+    from aerosurvey.rules.engine import Evidence, layout_settings
+    from aerosurvey.rules.planview import PlanView
+
+    ev = rendered.evidence
+    if ev is None:
+        view = PlanView.from_documents(manifest, features, "the plan")
+        ev = Evidence(view, layout_settings(view, []))
+    return ev.points, control_point_files(ev.view, ev.points, ev.footprints)
+
+
+def _sortie_of_stations(manifest: dict[str, Any]) -> list[int]:
+    ids = [s["id"] for s in manifest["stations"]]
+    out = [0] * len(ids)
+    index = {sid: i for i, sid in enumerate(ids)}
+    for k, s in enumerate(manifest.get("sorties", []), start=1):
+        for i in range(index[s["first_station"]], index[s["last_station"]] + 1):
+            out[i] = k
+    return out
+
+
+def _view(plan, frame: MapFrame, manifest: dict[str, Any], features: dict[str, Any], points, rendered) -> dict[str, Any]:
+    feats = features["features"]
+    by_role: dict[str, list[dict[str, Any]]] = {}
+    for f in feats:
+        by_role.setdefault(f["properties"]["role"], []).append(f)
+    sortie = _sortie_of_stations(manifest)
+    st = plan.stations
+    sx, sy = frame.from_lonlat(st.lon, st.lat)
+    station_index = {sid: i for i, sid in enumerate(st.ids)}
+    lines = []
+    for f in by_role.get("line", []):
+        (lo0, la0), (lo1, la1) = f["geometry"]["coordinates"]
+        x, y = frame.from_lonlat(np.array([lo0, lo1]), np.array([la0, la1]))
+        p = f["properties"]
+        lines.append({"id": p["id"], "pass": p["pass"], "photos": p["photos"],
+                      "sortie": sortie[station_index[p["first_station"]]],
+                      "xy": [[_m(x[0]), _m(y[0])], [_m(x[1]), _m(y[1])]]})
+    launch = []
+    for i, site in enumerate(plan.launch_sites, start=1):
+        x, y = frame.from_lonlat(np.array([site.lon]), np.array([site.lat]))
+        launch.append({"id": f"launch-{i}", "x": _m(x[0]), "y": _m(y[0])})
+    hx, hy = frame.from_lonlat(np.array([plan.home[0]]), np.array([plan.home[1]]))
+    cps = []
+    for p in points:
+        lon, lat = plan.planar.lonlat(np.array([p.x / 1.0]), np.array([p.y / 1.0]))
+        x, y = frame.from_lonlat(lon, lat)
+        cps.append({"id": p.id, "role": p.role, "x": _m(x[0]), "y": _m(y[0]), "images": p.images, "note": p.note})
+    rules = []
+    for r in rendered.rules:
+        where = []
+        for w in r.get("where", []):
+            if "xy" in w:
+                lon, lat = plan.planar.lonlat(np.array([w["xy"][0]]), np.array([w["xy"][1]]))
+                x, y = frame.from_lonlat(lon, lat)
+                where.append({"xy": [_m(x[0]), _m(y[0])]})
+            else:
+                where.append(w)
+        rules.append({**r, "where": where})
+    return {
+        "name": plan.spec.name,
+        "frame": frame.as_dict(),
+        "layers": {
+            "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],
+            "exclusions": [frame.rings(g) for g in _polygons(by_role.get("exclusion", []))],
+            "lines": lines,
+            "stations": {"ids": st.ids, "x": [_m(v) for v in sx], "y": [_m(v) for v in sy], "sortie": sortie},
+            "launch": launch,
+            "home": {"x": _m(hx[0]), "y": _m(hy[0])},
+            "control_points": cps,
+        },
+        "summary": _summary(plan, manifest),
+        "sorties": manifest.get("sorties", []),
+        "rules": rules,
+        "warnings": rendered.warnings,
+    }
+
+
+def _polygons(feats: list[dict[str, Any]]) -> list[Any]:
+    import shapely.geometry
+
+    out = []
+    for f in feats:
+        g = shapely.geometry.shape(f["geometry"])
+        out.extend(g.geoms if g.geom_type == "MultiPolygon" else [g])
+    return out
+
+
+def _m(v: float) -> float:
+    return round(float(v), 2)
+
+
+def _summary(plan, manifest: dict[str, Any]) -> dict[str, Any]:
+    e = plan.estimates
+    h = plan.heights
+    return {
+        "area_ha": round(plan.area.area / 1e4, 2),
+        "crs": plan.planar.name,
+        "camera": plan.spec.camera.camera.name,
+        "height_agl_m": round(h.nominal_agl_m, 1),
+        "height_range_m": [round(h.spacing_agl_m, 1), round(h.max_agl_m, 1)],
+        "gsd_cm": [round(plan.gsd_min_m * 100, 2), round(plan.gsd_max_m * 100, 2)],
+        "heading_deg": round(plan.heading_deg, 1),
+        "lines": len({(r.pass_index, r.line) for r in plan.route.runs}),
+        "runs": len(plan.route.runs),
+        "photos": len(plan.stations.ids),
+        "spacing_m": round(plan.spacing_m, 1),
+        "photo_base_m": round(plan.base_m, 2),
+        "speed_ms": round(plan.speed.speed_ms, 1),
+        "speed_limited_by": plan.speed.reason,
+        "distance_km": round(e["total_distance_m"] / 1000, 2),
+        "time_min": round(e["total_time_s"] / 60, 1),
+        "sorties": len(plan.sorties),
+        "mission_items": manifest.get("mission_items"),
+    }

@@ -1,0 +1,422 @@
+"""The web page's JSON API through Starlette's test client: every endpoint, bad input, concurrency."""
+
+from __future__ import annotations
+
+import io
+import json
+import threading
+import time
+import tomllib
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import pytest
+import shapely
+from click.testing import CliRunner
+
+from aerosurvey.cli import main
+from conftest import random_polygon, write_geojson
+from webutil import client, copy_mission, run_plan
+
+MB = 1024 * 1024
+
+
+@pytest.fixture
+def obratan(tmp_path: Path) -> Path:
+    return copy_mission(tmp_path)
+
+
+@pytest.fixture(scope="module")
+def obratan_cli(tmp_path_factory) -> tuple[Path, Path]:
+    """The example spec (copied) and what `aerosurvey plan` writes for it."""
+    tmp = tmp_path_factory.mktemp("obratan")
+    spec = copy_mission(tmp)
+    out = tmp / "cli"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    return spec, out
+
+
+@pytest.fixture(scope="module")
+def planned(obratan_cli):
+    spec, out = obratan_cli
+    with client(spec) as c:
+        state = c.get("/api/state").json()
+        st = run_plan(c, state["spec"])
+        assert st["state"] == "done", st
+        files = {name: c.get(f"/api/plans/{st['result']['plan_id']}/files/{name}") for name in st["result"]["files"]}
+        archive = c.get(f"/api/plans/{st['result']['plan_id']}/archive.zip")
+    return state, st["result"], files, archive, out
+
+
+def test_state_has_the_spec_cameras_and_profiles(planned):
+    state, *_ = planned
+    assert state["spec"]["camera"]["model"] == "sony-a6000-16mm"
+    assert state["spec"]["conditions"]["start"] == "2026-05-14T09:00:00+02:00"
+    assert len(state["cameras"]) >= 25 and {"cz-land-consolidation", "asprs-2023"} <= {p["id"] for p in state["profiles"]}
+    assert state["upload_limit"] == 50 * MB and state["spec_path"].endswith("obratan-72ha.toml")
+
+
+def test_plan_equals_the_cli_byte_for_byte(planned):
+    _, result, files, archive, out = planned
+    cli_names = {p.name for p in out.iterdir()}
+    assert cli_names <= set(result["files"])
+    for name in cli_names - {"manifest.json", "preview.svg"}:  # the manifest names the spec path; both carry it
+        assert files[name].status_code == 200
+        assert files[name].content == (out / name).read_bytes(), name
+    assert files["mission.waypoints"].headers["content-disposition"] == 'attachment; filename="mission.waypoints"'
+    cli_manifest = json.loads((out / "manifest.json").read_text())
+    web_manifest = json.loads(files["manifest.json"].content)
+    for key in ("derived", "estimates", "stations", "sorties", "rules", "mission_items"):
+        assert web_manifest[key] == cli_manifest[key], key
+    with zipfile.ZipFile(io.BytesIO(archive.content)) as zf:
+        assert sorted(zf.namelist()) == sorted(result["files"])
+        assert zf.read("mission.waypoints") == (out / "mission.waypoints").read_bytes()
+    # the control point files the field crew needs come with the plan
+    assert {"control_points.geojson", "control_points.csv", "control_points.gpx", "gcp_list.txt"} <= set(result["files"])
+
+
+def test_layers_match_the_manifest(planned):
+    _, result, files, _, out = planned
+    manifest = json.loads((out / "manifest.json").read_text())
+    layers = result["layers"]
+    assert layers["stations"]["ids"] == [s["id"] for s in manifest["stations"]]
+    features = json.loads((out / "plan.geojson").read_text())["features"]
+    assert [f["id"] for f in features if f["properties"]["role"] == "line"] == [ln["id"] for ln in layers["lines"]]
+    assert result["summary"]["photos"] == len(manifest["stations"]) == 1756
+    assert result["summary"]["lines"] == 34 and result["summary"]["sorties"] == len(manifest["sorties"]) == 6
+    # every station carries the sortie that photographs it, in the manifest's ranges
+    ids = layers["stations"]["ids"]
+    for k, s in enumerate(manifest["sorties"], start=1):
+        a, b = ids.index(s["first_station"]), ids.index(s["last_station"])
+        assert set(layers["stations"]["sortie"][a:b + 1]) == {k}
+    gcps = [p for p in layers["control_points"] if p["role"] == "gcp"]
+    cp_file = json.loads(files["control_points.geojson"].content)
+    assert len(layers["control_points"]) == len(cp_file["features"]) and len(gcps) >= 4
+
+
+def test_map_frame_positions_and_cursor_fit(planned):
+    """Frame coordinates go back to the stations' lon/lat, and the page's cubic gives the plan CRS."""
+    from aerosurvey.web.mapproj import inverse_mercator
+
+    _, result, _, _, out = planned
+    manifest = json.loads((out / "manifest.json").read_text())
+    f = result["frame"]
+    st = result["layers"]["stations"]
+    lon, lat = inverse_mercator(np.array(st["x"]) + f["origin"][0], np.array(st["y"]) + f["origin"][1])
+    assert np.allclose(lon, [s["lon"] for s in manifest["stations"]], atol=1e-7)
+    assert np.allclose(lat, [s["lat"] for s in manifest["stations"]], atol=1e-7)
+    u, v = np.array(st["x"]) / f["half"], np.array(st["y"]) / f["half"]
+    terms = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v, u ** 3, u * u * v, u * v * v, v ** 3], axis=-1)
+    t = pyproj.Transformer.from_crs("EPSG:4326", f["crs"], always_xy=True)
+    px, py = t.transform(lon, lat)
+    err = np.hypot(terms @ np.array(f["cx"]) - px, terms @ np.array(f["cy"]) - py)
+    assert f["crs"] == "EPSG:5514" and err.max() < 0.01 and f["fit_error_m"] < 0.01
+
+
+def _plan_changed(spec_file: Path, table: str, key: str, value) -> dict:
+    """The example spec with one value changed, planned through the API to the job's end."""
+    with client(spec_file) as c:
+        spec = c.get("/api/state").json()["spec"]
+        spec[table][key] = value
+        return run_plan(c, spec)
+
+
+def test_bad_overlap_names_the_key(obratan):
+    st = _plan_changed(obratan, "targets", "side_overlap", 1.2)
+    assert st["state"] == "error"
+    assert st["error"]["key"] == "targets.side_overlap"
+    assert "1.2" in st["error"]["message"] and "[0.0, 0.95)" in st["error"]["message"]
+
+
+def test_unknown_camera_names_the_key_and_suggests(obratan):
+    st = _plan_changed(obratan, "camera", "model", "sony-a6000")
+    assert st["state"] == "error" and st["error"]["key"] == "camera.model"
+    assert "sony-a6000-16mm" in st["error"]["message"]
+
+
+def test_invalid_polygon_upload_is_refused_with_where(obratan, tmp_path):
+    bowtie = write_geojson(tmp_path / "bowtie.geojson", [[[15.0, 49.4], [15.01, 49.41], [15.01, 49.4], [15.0, 49.41], [15.0, 49.4]]])
+    with client(obratan) as c:
+        r = c.post("/api/area", files={"file": ("bowtie.geojson", bowtie.read_bytes(), "application/geo+json")})
+    assert r.status_code == 400
+    assert r.json()["key"] == "area.file" or "bowtie.geojson" in r.json()["error"]
+    assert "self-intersection" in r.json()["error"].lower() or "invalid" in r.json()["error"].lower()
+
+
+def test_area_uploads_start_a_new_plan(obratan, tmp_path):
+    ring = random_polygon("concave", 3, 400)
+    gj = write_geojson(tmp_path / "field.geojson", ring)
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        r = c.post("/api/area", files={"file": ("field.geojson", gj.read_bytes())}, data={"spec": json.dumps(spec)})
+        assert r.status_code == 200, r.text
+        new = r.json()["spec"]
+        # the settings stay, what belonged to the old place goes
+        assert new["camera"] == spec["camera"] and new["targets"] == spec["targets"]
+        assert new["mission"]["crs"] == "auto" and new["mission"]["name"] == "field"
+        assert "launch_points" not in new.get("battery", {})
+        st = run_plan(c, new)
+        assert st["state"] == "done", st
+        assert st["result"]["summary"]["crs"] == "EPSG:32633"
+
+
+def test_kml_upload(obratan, tmp_path):
+    ring = random_polygon("convex", 7, 300)[0]
+    coords = " ".join(f"{x},{y},0" for x, y in ring)
+    kml = ('<?xml version="1.0" encoding="UTF-8"?><kml xmlns="http://www.opengis.net/kml/2.2"><Document><Placemark>'
+           f"<name>field</name><Polygon><outerBoundaryIs><LinearRing><coordinates>{coords}</coordinates></LinearRing>"
+           "</outerBoundaryIs></Polygon></Placemark></Document></kml>")
+    with client(obratan) as c:
+        r = c.post("/api/area", files={"file": ("field.kml", kml.encode())})
+        assert r.status_code == 200, r.text
+        st = run_plan(c, r.json()["spec"])
+    assert st["state"] == "done", st
+    geodesic_ha = abs(pyproj.Geod(ellps="WGS84").geometry_area_perimeter(shapely.Polygon(ring))[0]) / 1e4
+    assert abs(st["result"]["summary"]["area_ha"] - geodesic_ha) < 0.01 * geodesic_ha
+
+
+def _shapefile_zip(tmp: Path) -> bytes:
+    import pyogrio
+
+    poly = shapely.Polygon(random_polygon("convex", 5, 300)[0])
+    pyogrio.raw.write(str(tmp / "field.shp"), geometry=np.array([shapely.to_wkb(poly)], dtype=object),
+                      field_data=[], fields=[], crs="EPSG:4326", geometry_type="Polygon", driver="ESRI Shapefile")
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for p in tmp.glob("field.*"):
+            zf.write(p, f"field/{p.name}")
+    return buf.getvalue()
+
+
+def test_zipped_shapefile_upload(obratan, tmp_path):
+    shp = tmp_path / "shp"
+    shp.mkdir()
+    data = _shapefile_zip(shp)
+    with client(obratan) as c:
+        r = c.post("/api/area", files={"file": ("field.zip", data, "application/zip")})
+        assert r.status_code == 200, r.text
+        assert r.json()["spec"]["area"]["file"].endswith("field/field.shp")
+        st = run_plan(c, r.json()["spec"])
+    assert st["state"] == "done", st
+
+
+def test_zip_slip_and_unknown_types_are_refused(obratan):
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        zf.writestr("../evil.shp", b"x")
+    with client(obratan) as c:
+        r = c.post("/api/area", files={"file": ("evil.zip", buf.getvalue())})
+        assert r.status_code == 400 and "outside the archive" in r.json()["error"]
+        r = c.post("/api/area", files={"file": ("notes.docx", b"hello")})
+        assert r.status_code == 400 and "notes.docx" in r.json()["error"] and r.json()["key"] == "area.file"
+        r = c.post("/api/area", data={"x": "1"})
+        assert r.status_code == 400 and "'file'" in r.json()["error"]
+
+
+def test_upload_limit(obratan):
+    with client(obratan) as c:
+        # announced too large: refused before reading (the default 50 MB limit)
+        r = c.post("/api/area", content=b"x" * 10, headers={"content-length": str(50 * MB + 1), "content-type": "text/plain"})
+        assert r.status_code == 413 and "50 MB" in r.json()["error"]
+        # a real 51 MB upload: stopped by counting, whatever the client announced
+        big = b"0" * (51 * MB)
+        r = c.post("/api/area", files={"file": ("huge.geojson", big)})
+        assert r.status_code == 413
+    with client(obratan, upload_limit=1 * MB) as c:
+
+        def chunks():
+            for _ in range(4):
+                yield b"0" * (512 * 1024)
+
+        r = c.post("/api/area", content=chunks(), headers={"content-type": "multipart/form-data; boundary=x"})
+        assert r.status_code == 413 and "1 MB" in r.json()["error"]
+
+
+def test_spec_paths_stay_in_the_workspace(obratan):
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        spec["area"]["file"] = "/etc/passwd"
+        st = run_plan(c, spec)
+        assert st["state"] == "error" and st["error"]["key"] == "area.file"
+        spec["area"]["file"] = "../../outside.geojson"
+        st = run_plan(c, spec)
+        assert st["state"] == "error" and st["error"]["key"] == "area.file"
+
+
+def test_plan_request_must_be_json(obratan):
+    with client(obratan) as c:
+        r = c.post("/api/plan", content=b"spec=1", headers={"content-type": "application/x-www-form-urlencoded"})
+        assert r.status_code == 400 and "application/json" in r.json()["error"]
+        r = c.post("/api/plan", content=b"{not json", headers={"content-type": "application/json"})
+        assert r.status_code == 400 and "not valid JSON" in r.json()["error"]
+        r = c.post("/api/plan", json={"spek": {}})
+        assert r.status_code == 400 and r.json()["key"] == "spec"
+        assert c.get("/api/jobs/j999").status_code == 404
+        assert c.delete("/api/jobs/j999").status_code == 404
+        assert c.get("/api/jobs/j1?wait=soon").status_code in (400, 404)
+        assert c.get("/api/plans/p999/files/mission.plan").status_code == 404
+
+
+def test_unknown_file_of_a_plan(planned, obratan_cli):
+    spec, _ = obratan_cli
+    with client(spec) as c:
+        st = run_plan(c, c.get("/api/state").json()["spec"])
+        r = c.get(f"/api/plans/{st['result']['plan_id']}/files/secret.txt")
+        assert r.status_code == 404 and "mission.plan" in r.json()["error"]
+
+
+def _big_spec(tmp: Path) -> dict:
+    ring = random_polygon("holed", 11, 4000)
+    write_geojson(tmp / "big.geojson", ring)
+    return {"mission": {"name": "big"}, "area": {"file": "big.geojson"}, "camera": {"model": "sony-a6000-16mm"},
+            "targets": {"gsd_cm": 1.2, "forward_overlap": 0.8, "side_overlap": 0.7}, "vehicle": {"type": "copter"}}
+
+
+def test_progress_and_cancel(tmp_path):
+    spec = _big_spec(tmp_path)
+    (tmp_path / "s.toml").write_text("")
+    with client(tmp_path / "s.toml") as c:
+        job = c.post("/api/plan", json={"spec": spec}).json()["job"]
+        seen = []
+        end = time.monotonic() + 60
+        while time.monotonic() < end:
+            st = c.get(f"/api/jobs/{job}").json()
+            seen.append(st["progress"])
+            if st["progress"] > 0.06:
+                break
+            time.sleep(0.02)
+        t0 = time.monotonic()
+        assert c.delete(f"/api/jobs/{job}").status_code == 200
+        st = c.get(f"/api/jobs/{job}?wait=10").json()
+        stopped = time.monotonic() - t0
+    assert st["state"] == "cancelled", st
+    assert st["stage"] == "cancelled" and "result" not in st
+    assert seen[-1] > 0.06 and seen == sorted(seen), seen
+    assert stopped < 5.0  # the next heading candidate notices; a whole plan of this area takes far longer
+
+
+def test_two_plans_at_once_equal_one_at_a_time(obratan, tmp_path):
+    with client(obratan, workers=2) as c:
+        a = c.get("/api/state").json()["spec"]
+        b = json.loads(json.dumps(a))
+        b["targets"]["side_overlap"] = 0.7
+        b["flight"]["cross_hatch"] = False
+        alone = {}
+        for name, spec in (("a", a), ("b", b)):
+            st = run_plan(c, spec)
+            alone[name] = c.get(f"/api/plans/{st['result']['plan_id']}/files/mission.waypoints").content
+        jobs = {name: c.post("/api/plan", json={"spec": spec}).json()["job"] for name, spec in (("a", a), ("b", b))}
+        together = {}
+        for name, job in jobs.items():
+            st = c.get(f"/api/jobs/{job}?wait=10").json()
+            while st["state"] in ("queued", "running"):
+                st = c.get(f"/api/jobs/{job}?wait=10").json()
+            assert st["state"] == "done", st
+            together[name] = c.get(f"/api/plans/{st['result']['plan_id']}/files/mission.waypoints").content
+    assert together == alone and alone["a"] != alone["b"]
+
+
+def test_spec_as_toml_round_trips(obratan):
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        spec["targets"]["side_overlap"] = 0.65
+        r = c.post("/api/spec/toml", json={"spec": spec})
+        assert r.status_code == 200 and r.headers["content-disposition"] == 'attachment; filename="obratan-72ha.toml"'
+        back = tomllib.loads(r.text)
+        assert back["targets"]["side_overlap"] == 0.65 and back["area"]["file"] == "areas/obratan-72ha.geojson"
+        assert back["rules"]["profiles"] == ["cz-land-consolidation"]
+        spec["targets"]["forward_overlap"] = 2
+        r = c.post("/api/spec/toml", json={"spec": spec})
+        assert r.status_code == 400 and r.json()["key"] == "targets.forward_overlap"
+
+
+def test_save_spec_writes_the_file_atomically(obratan):
+    before = obratan.read_text()
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        spec["targets"]["side_overlap"] = 1.5
+        r = c.post("/api/spec/save", json={"spec": spec})
+        assert r.status_code == 400 and obratan.read_text() == before  # nothing written on bad input
+        spec["targets"]["side_overlap"] = 0.7
+        r = c.post("/api/spec/save", json={"spec": spec})
+        assert r.status_code == 200, r.text
+    saved = tomllib.loads(obratan.read_text())
+    assert saved["targets"]["side_overlap"] == 0.7
+    res = CliRunner().invoke(main, ["plan", str(obratan), "-o", str(obratan.parent / "again")])
+    assert res.exit_code == 0, res.output
+    assert not [p for p in obratan.parent.iterdir() if p.name.startswith(".") and p.name.endswith(".tmp")]
+
+
+def test_save_without_a_spec_file_is_a_conflict():
+    with client(None) as c:
+        assert c.get("/api/state").json()["spec"] == {}
+        r = c.post("/api/spec/save", json={"spec": {}})
+        assert r.status_code == 409
+
+
+def test_host_and_origin_checks(obratan):
+    with client(obratan, allowed_hosts=["127.0.0.1:8765"]) as c:
+        assert c.get("/api/state").status_code == 421  # the test client's Host is 'testserver'
+        ok = c.get("/api/state", headers={"host": "127.0.0.1:8765"})
+        assert ok.status_code == 200
+        r = c.post("/api/plan", json={"spec": ok.json()["spec"]},
+                   headers={"host": "127.0.0.1:8765", "origin": "https://evil.example"})
+        assert r.status_code == 403
+        r = c.post("/api/plan", json={"spec": ok.json()["spec"]},
+                   headers={"host": "127.0.0.1:8765", "origin": "http://127.0.0.1:8765"})
+        assert r.status_code == 202
+
+
+def test_rule_failure_says_where(obratan):
+    st = _plan_changed(obratan, "targets", "forward_overlap", 0.70)
+    assert st["state"] == "done"
+    res = st["result"]
+    fwd = next(r for r in res["rules"] if r["rule"] == "cz-forward-overlap")
+    assert fwd["status"] == "fail" and fwd["where"]
+    line_ids = {ln["id"] for ln in res["layers"]["lines"]}
+    assert all(w["run"] in line_ids for w in fwd["where"])
+
+
+def test_flight_results_drawn_against_the_plan(tmp_path):
+    from conftest import make_spec
+
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
+    plan = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
+    log = Path(__file__).resolve().parents[1] / "data" / "sitl_copter_survey.bin"
+    res = CliRunner().invoke(main, ["log", "ingest", str(log), "--plan", str(plan), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 0, res.output
+    with client(spec) as c:
+        st = run_plan(c, c.get("/api/state").json()["spec"])
+        pid = st["result"]["plan_id"]
+        files = [("files", (n, (tmp_path / "log" / n).read_bytes())) for n in ("events.csv", "coverage.tif", "log_report.json")]
+        r = c.post(f"/api/plans/{pid}/flight", files=files)
+        assert r.status_code == 200, r.text
+        flown = r.json()
+        r2 = c.post(f"/api/plans/{pid}/flight", files=[("files", ("log_report.json", b"{}"))])
+        assert r2.status_code == 400 and "events.csv" in r2.json()["error"]
+    assert len(flown["events"]["x"]) == 152 and flown["report"]["matched"] == 152
+    assert flown["coverage"]["png"].startswith("data:image/png;base64,") and flown["coverage"]["max_count"] >= 8
+    # the flown photos sit on their planned stations in the page's frame (within the log's 1.5 m)
+    st_xy = dict(zip(st["result"]["layers"]["stations"]["ids"], zip(st["result"]["layers"]["stations"]["x"],
+                                                                   st["result"]["layers"]["stations"]["y"])))
+    d = [np.hypot(x - st_xy[s][0], y - st_xy[s][1]) for x, y, s in zip(flown["events"]["x"], flown["events"]["y"],
+                                                                     flown["events"]["station"])]
+    assert max(d) < 1.5 * 1.6  # Web Mercator metres are ground metres / cos(latitude)
+
+
+def test_static_page_is_served(obratan):
+    with client(obratan) as c:
+        r = c.get("/")
+        assert r.status_code == 200 and '<svg id="map"' in r.text
+        assert c.get("/static/app.js").status_code == 200 and c.get("/static/style.css").status_code == 200
+
+
+def test_serve_refuses_bad_options(tmp_path):
+    res = CliRunner().invoke(main, ["serve", str(tmp_path / "missing.toml")])
+    assert res.exit_code == 2 and "does not exist" in res.output
+    res = CliRunner().invoke(main, ["serve", "--tiles", "https://tile.example/{z}/{x}.png"])
+    assert res.exit_code == 2 and "{y}" in res.output
