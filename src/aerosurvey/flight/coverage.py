@@ -6,40 +6,83 @@ from __future__ import annotations
 import copy
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import pyproj
 import rasterio
+import rasterio.errors
 import rasterio.features
 import shapely
 from rasterio.enums import MergeAlg
 from rasterio.transform import from_origin
 
+from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.report.features import footprint_corners
 
 
-def flown_manifest(manifest: dict[str, Any], ev: Events, match: Match | None, fixed_camera: bool = False) -> dict[str, Any]:
+#: Ground heights (metres, the DEM's vertical datum) at planning-CRS points; NaN where unknown.
+GroundFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, ev: Events, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Footprint centres: the camera position, moved by h·tan(angle) when the camera tilts with the body."""
+    yaw = np.radians(np.nan_to_num(ev.yaw))
+    hh = np.nan_to_num(h)
+    along = tilt * hh * np.tan(np.radians(np.nan_to_num(ev.pitch)))
+    across = tilt * hh * np.tan(np.radians(np.nan_to_num(ev.roll)))
+    # nose-down pitch looks backwards, right roll looks left: the footprint centre moves against them
+    return x - along * np.sin(yaw) + across * np.cos(yaw), y - along * np.cos(yaw) - across * np.sin(yaw)
+
+
+def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground: GroundFn | None,
+                  iterations: int = 6) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(height above ground, ground height or NaN, centre x, centre y) of each photo.
+
+    Without `ground`: the height above home (flat ground). With it: AMSL altitude minus
+    the ground under the footprint centre. A tilted camera's centre moves with the height,
+    so height and centre are iterated to agreement (a fixed point; each step shrinks the
+    error by slope·tan(tilt), so a few steps reach millimetres). Photos whose centre is off
+    the DEM or on nodata, or that the DEM puts at or below its surface, keep their height
+    above home and have NaN ground.
+    """
+    home = np.where(np.isfinite(ev.rel_alt_m), ev.rel_alt_m, np.nan)
+    if ground is None:
+        cx, cy = _centres(x, y, home, ev, tilt)
+        return home, np.full(len(x), np.nan), cx, cy
+    alt = np.asarray(ev.alt_m, float)
+    h = home.copy()
+    cx, cy = x, y
+    for _ in range(iterations if tilt else 1):
+        g = np.asarray(ground(cx, cy), float)
+        new = np.where(np.isfinite(g) & np.isfinite(alt) & (alt - g > 0), alt - g, home)
+        done = np.all((np.abs(new - h) < 1e-4) | ~np.isfinite(new))
+        h = new
+        cx, cy = _centres(x, y, h, ev, tilt)
+        if done:
+            break
+    g = np.asarray(ground(cx, cy), float)
+    ok = np.isfinite(g) & np.isfinite(alt) & (alt - g > 0)
+    return np.where(ok, alt - g, home), np.where(ok, g, np.nan), cx, cy
+
+
+def flown_manifest(manifest: dict[str, Any], ev: Events, match: Match | None, fixed_camera: bool = False,
+                   ground: GroundFn | None = None) -> dict[str, Any]:
     """The plan's manifest with the logged photos in place of the planned stations.
 
     Each photo keeps the run of the station it matched (unmatched photos form runs of
-    their own by order), its height above home as its height above ground (flat ground;
-    DEM heights are not applied here), and its logged yaw as heading. A camera on a nadir
-    gimbal (the default) looks straight down; with `fixed_camera` the body's roll and
-    pitch move the footprint's centre by h·tan(angle).
+    their own by order) and its logged yaw as heading. Its height above ground is the
+    height above home (flat ground) unless `ground` gives the terrain, see
+    :func:`photo_heights`; `ground_m` is None where the height above home was used.
+    A camera on a nadir gimbal (the default) looks straight down; with `fixed_camera` the
+    body's roll and pitch move the footprint's centre by h·tan(angle).
     """
     crs = manifest["crs"]["planning"]
     t = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
-    x, y = t.transform(ev.lon, ev.lat)
-    h = np.where(np.isfinite(ev.rel_alt_m), ev.rel_alt_m, np.nan)
-    yaw = np.radians(np.nan_to_num(ev.yaw))
-    tilt = 1.0 if fixed_camera else 0.0
-    along = tilt * h * np.tan(np.radians(np.nan_to_num(ev.pitch)))
-    across = tilt * h * np.tan(np.radians(np.nan_to_num(ev.roll)))
-    # nose-down pitch looks backwards, right roll looks left: the footprint centre moves against them
-    cx = np.asarray(x) - along * np.sin(yaw) + across * np.cos(yaw)
-    cy = np.asarray(y) - along * np.cos(yaw) - across * np.sin(yaw)
+    x, y = (np.asarray(a, float) for a in t.transform(ev.lon, ev.lat))
+    h, g, cx, cy = photo_heights(x, y, ev, 1.0 if fixed_camera else 0.0, ground)
+    heading = np.nan_to_num(ev.yaw) % 360.0
     run_of = {s["id"]: s["line"] for s in manifest["stations"]}
     stations = []
     for i in range(len(ev)):
@@ -47,10 +90,132 @@ def flown_manifest(manifest: dict[str, Any], ev: Events, match: Match | None, fi
         run = run_of.get(st, f"unmatched-{i}") if st else f"unmatched-{i}"
         stations.append({"id": f"E{i + 1:05d}", "seq": i + 1, "line": run, "x": float(cx[i]), "y": float(cy[i]),
                          "lon": float(ev.lon[i]), "lat": float(ev.lat[i]), "agl_m": float(h[i]),
-                         "heading_deg": float(np.degrees(yaw[i]) % 360.0)})
+                         "ground_m": float(g[i]) if np.isfinite(g[i]) else None,
+                         "heading_deg": float(heading[i])})
     flown = copy.deepcopy(manifest)
     flown["stations"] = stations
     return flown
+
+
+class DemGround:
+    """Ground heights under flown photos from a DEM GeoTIFF in any CRS, NaN off it or on nodata.
+
+    Vertical sense: the log's altitudes are above mean sea level (GPS receivers report
+    heights over their built-in geoid; the barometer is referenced to them at arming),
+    and the DEM's heights are taken as orthometric (above the geoid, as national DEMs,
+    SRTM and Copernicus DEM are). Geoid models differ by a metre or two; a DEM of
+    ellipsoidal heights would be off by the geoid undulation (about 45 m in central
+    Europe), which :meth:`vertical_note` and the home check of `log ingest` point out.
+    """
+
+    def __init__(self, path: Path, planning_crs: str, option: str = "--dem"):
+        from aerosurvey.area import Planar
+        from aerosurvey.plan.terrain import Dem
+
+        if not path.is_file():
+            raise InputError(f"{option} {str(path)!r}: no such file; give a DEM GeoTIFF")
+        try:
+            with rasterio.open(path) as ds:
+                has_crs = ds.crs is not None
+        except rasterio.errors.RasterioIOError as exc:
+            raise InputError(f"{option} {str(path)!r} cannot be opened as a raster: {exc}") from None
+        if not has_crs:
+            raise InputError(f"{option} {str(path)!r} has no CRS; give the DEM a georeference (e.g. gdal_edit.py -a_srs)")
+        crs = pyproj.CRS.from_user_input(planning_crs)
+        planar = Planar(crs, pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True),
+                        pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True))
+        self.path = path
+        self.dem = Dem(path, planar)
+
+    def close(self) -> None:
+        self.dem.close()
+
+    def __enter__(self) -> "DemGround":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        x, y = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(y, float))
+        out = np.full(len(x), np.nan)
+        idx = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+        if not len(idx):
+            return out
+        ds = self.dem.ds
+        dx, dy = (np.asarray(a) for a in self.dem.to_dem.transform(x[idx], y[idx]))
+        inv = ~ds.transform
+        cols, rows = inv.a * dx + inv.b * dy + inv.c, inv.d * dx + inv.e * dy + inv.f
+        idx = idx[(cols >= 0) & (rows >= 0) & (cols <= ds.width) & (rows <= ds.height)]
+        if not len(idx):
+            return out
+        try:
+            out[idx] = self.dem.sample(x[idx], y[idx], "flown photos")
+        except InputError:  # nodata under some of them: find which, one by one
+            for i in idx:
+                try:
+                    out[i] = self.dem.sample(x[i:i + 1], y[i:i + 1], "flown photo")[0]
+                except InputError:
+                    pass
+        return out
+
+    def vertical_note(self) -> str:
+        """What the DEM's CRS says of its heights."""
+        crs = self.dem.crs
+        if crs.is_compound:
+            vert = next((c for c in crs.sub_crs_list if c.is_vertical), None)
+            if vert is not None:
+                return f"orthometric heights, vertical CRS {vert.name}"
+        if not crs.is_compound and len(crs.axis_info) == 3:
+            return (f"ellipsoidal heights ({crs.name}): the log's AMSL altitudes are above the geoid, so heights "
+                    "above ground are off by the geoid undulation")
+        return "vertical datum not stated in the DEM's CRS; assumed orthometric (above mean sea level)"
+
+
+#: Metres between the log's home altitude and the DEM's ground there beyond which the report warns.
+HOME_CHECK_M = 10.0
+
+
+def heights_summary(flown: dict[str, Any], ev: Events, dem: DemGround | None) -> dict[str, Any]:
+    """The report's `heights`: where the heights above ground came from and which photos fell back.
+
+    With a DEM it also checks the vertical sense: the log's home altitude (AMSL altitude
+    minus height above home) should lie near the DEM's ground at the plan's home; a large
+    difference means the altitudes and the DEM are not on the same vertical datum, or the
+    GPS height was off at arming, and every DEM height above ground is off by about as much.
+    """
+    agl = np.array([s["agl_m"] for s in flown["stations"]], float)
+    fin = agl[np.isfinite(agl)]
+    out: dict[str, Any] = {
+        "source": "dem" if dem is not None else "above_home", "dem": dem.path.name if dem is not None else None,
+        "agl_min_m": round(float(fin.min()), 3) if fin.size else None,
+        "agl_max_m": round(float(fin.max()), 3) if fin.size else None,
+    }
+    if dem is None:
+        out.update({"outside_dem": 0, "note": "heights above home; flat ground assumed (give --dem for the terrain)"})
+        return out
+    fallback = [s["seq"] for s in flown["stations"] if s["ground_m"] is None]
+    out.update({"outside_dem": len(fallback), "outside_dem_events": fallback,
+                "note": "height above ground = AMSL altitude - DEM ground under the footprint centre; photos off "
+                        "the DEM, on nodata or not above its surface use their height above home",
+                "dem_vertical": dem.vertical_note()})
+    log_home = ev.alt_m - ev.rel_alt_m
+    log_home = log_home[np.isfinite(log_home)]
+    home = flown.get("home") or {}
+    home_ground_m = float("nan")
+    if "lon" in home and "lat" in home:
+        t = pyproj.Transformer.from_crs("EPSG:4326", flown["crs"]["planning"], always_xy=True)
+        hx, hy = t.transform(home["lon"], home["lat"])
+        home_ground_m = float(dem(np.array([hx]), np.array([hy]))[0])
+    if np.isfinite(home_ground_m) and log_home.size:
+        d = float(np.median(log_home)) - home_ground_m
+        out["home_check"] = {"log_home_amsl_m": round(float(np.median(log_home)), 2),
+                             "dem_at_plan_home_m": round(home_ground_m, 2), "difference_m": round(d, 2)}
+        if abs(d) > HOME_CHECK_M:
+            out["warning"] = (f"the log's home altitude is {d:+.1f} m from the DEM's ground at the plan's home: the log "
+                              "and the DEM may not share a vertical datum (ellipsoidal vs. orthometric), or home was "
+                              "elsewhere; heights above ground may be off by as much")
+    return out
 
 
 def count_raster(path: Path, view, cell_m: float) -> dict[str, Any]:

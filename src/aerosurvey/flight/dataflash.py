@@ -99,11 +99,16 @@ class DataFlashLog:
             return False
         name_s = name.rstrip(b"\0").decode("ascii", "replace")
         fmt_s = fmt.rstrip(b"\0").decode("ascii", "replace")
-        columns = cols.rstrip(b"\0").decode("ascii", "replace").split(",")
-        if length < 3 or len(columns) != len(fmt_s):
+        cols_s = cols.rstrip(b"\0").decode("ascii", "replace")
+        columns = cols_s.split(",") if cols_s else []
+        if length < 3 or not name_s.isprintable() or not name_s.strip() or (typ == FMT_TYPE and length != FMT_LEN):
             return False
+        # Real logs hold FMT records whose column list does not match the format (old firmware's
+        # FMT-for-FMT names four columns for "BBnNZ"; some EKF5 records list 10 names for 13
+        # fields) and records with no fields at all (STRT). Their length still frames the
+        # messages, so the type is kept; it just cannot be decoded into named columns.
         f = Format(typ, length, name_s, fmt_s, columns)
-        dt = _dtype(fmt_s, columns)
+        dt = _dtype(fmt_s, columns) if fmt_s and len(columns) == len(fmt_s) else None
         if dt is not None and dt[0].itemsize == length - 3:
             f.dtype, f.scale = dt
         self.formats[typ] = f

@@ -15,7 +15,7 @@ from aerosurvey.errors import InputError
 class Events:
     """One row per picture the autopilot logged, in time order."""
 
-    time_s: np.ndarray  # seconds since boot
+    time_s: np.ndarray  # seconds since boot (NaN where the log layout has no boot time)
     lat: np.ndarray
     lon: np.ndarray
     alt_m: np.ndarray  # AMSL
@@ -45,12 +45,22 @@ def from_dataflash(path: Path) -> tuple[Events, dict]:
     if not cam:
         raise InputError(f"{path.name}: no CAM or TRIG camera events in the log "
                          f"({info['messages']} messages read, {info['skipped_bytes']} bytes skipped)")
-    n = len(cam["TimeUS"])
-    get = lambda k: np.asarray(cam[k], float) if k in cam else np.full(n, np.nan)
-    order = np.argsort(cam["TimeUS"], kind="stable")
-    ev = Events(get("TimeUS")[order] / 1e6, get("Lat")[order], get("Lng")[order], get("Alt")[order],
-                get("RelAlt")[order], get("R")[order], get("P")[order], get("Y")[order], source,
-                gps_to_utc(get("GPSWeek")[order], get("GPSTime")[order]) if "GPSWeek" in cam else None)
+    n = len(next(iter(cam.values())))
+
+    def get(*names: str) -> np.ndarray:  # the first of the column names the layout has
+        k = next((k for k in names if k in cam), None)
+        return np.asarray(cam[k], float) if k is not None else np.full(n, np.nan)
+
+    # CAM/TRIG layouts differ between firmware versions (as seen in real logs): ArduCopter 3.1
+    # logs GPSTime,GPSWeek,Lat,Lng,Alt,Roll,Pitch,Yaw (no boot time, no RelAlt), 3.2 adds RelAlt,
+    # later versions add TimeUS (and GPSAlt), and ArduCopter 4.6 names the attitude R,P,Y.
+    time_s = get("TimeUS") / 1e6 if "TimeUS" in cam else get("TimeMS") / 1e3
+    utc = gps_to_utc(get("GPSWeek"), get("GPSTime")) if "GPSWeek" in cam and "GPSTime" in cam else None
+    key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else np.arange(n)
+    order = np.argsort(key, kind="stable")
+    ev = Events(time_s[order], get("Lat")[order], get("Lng")[order], get("Alt")[order], get("RelAlt")[order],
+                get("R", "Roll")[order], get("P", "Pitch")[order], get("Y", "Yaw")[order], source,
+                utc[order] if utc is not None else None)
     return ev, info
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events
 
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".tif", ".tiff", ".dng"}
+JPEG_SUFFIXES = {".jpg", ".jpeg"}
 
 
 def capture_time(path: Path) -> float | None:
@@ -117,3 +119,36 @@ def reference_csv(m: ImageMatch, ev: Events, accuracy_xy: float, accuracy_z: flo
             rows.append(f"{f.name},{ev.lon[j]:.8f},{ev.lat[j]:.8f},{ev.alt_m[j]:.3f},{ev.yaw[j]:.2f},{ev.pitch[j]:.2f},"
                         f"{ev.roll[j]:.2f},{accuracy_xy:g},{accuracy_z:g}")
     return "\n".join(rows) + "\n"
+
+
+def geotag_images(m: ImageMatch, ev: Events, dest: Path) -> dict[str, Any]:
+    """Write each matched JPEG into `dest` with EXIF GPS tags from its camera event.
+
+    Each file is written atomically (a temporary file and a rename), so `dest` may be the
+    images' own folder (in place). Only the EXIF segment changes (see geotag_exif). Files
+    that cannot be tagged (TIFF/DNG, damaged JPEGs) are skipped with the reason; unmatched
+    images are not copied. Returns the report's `geotag` section.
+    """
+    from aerosurvey.fileio import atomic_write_bytes
+    from aerosurvey.flight.geotag_exif import GeotagError, GpsFix, ends_with_eoi, geotag_jpeg
+
+    written, skipped, notes = [], [], []
+    for f, j in zip(m.files, m.event_of):
+        if j is None:
+            continue
+        if f.suffix.lower() not in JPEG_SUFFIXES:
+            skipped.append({"file": f.name, "reason": f"not a JPEG ({f.suffix}): EXIF GPS tags are written into JPEGs only"})
+            continue
+        data = f.read_bytes()
+        fix = GpsFix(float(ev.lat[j]), float(ev.lon[j]), float(ev.alt_m[j]), float(ev.yaw[j]))
+        try:
+            out = geotag_jpeg(data, fix)
+        except GeotagError as exc:
+            skipped.append({"file": f.name, "reason": str(exc)})
+            continue
+        if not ends_with_eoi(data):
+            notes.append({"file": f.name, "note": "no end-of-image marker: the image data may be cut off (tagged as it is)"})
+        atomic_write_bytes(dest / f.name, out)
+        written.append(f.name)
+    return {"folder": str(dest), "written": len(written), "files": written, "skipped": skipped, "notes": notes,
+            "unmatched_not_copied": list(m.unmatched_files)}
