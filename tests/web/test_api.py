@@ -420,3 +420,22 @@ def test_serve_refuses_bad_options(tmp_path):
     assert res.exit_code == 2 and "does not exist" in res.output
     res = CliRunner().invoke(main, ["serve", "--tiles", "https://tile.example/{z}/{x}.png"])
     assert res.exit_code == 2 and "{y}" in res.output
+
+
+def test_serve_binds_loopback_and_warns_when_exposed(monkeypatch, obratan):
+    import uvicorn
+
+    calls = []
+    monkeypatch.setattr(uvicorn, "run", lambda app, host, port, log_level: calls.append((app, host, port)))
+    res = CliRunner().invoke(main, ["serve", str(obratan), "--port", "8765"])
+    assert res.exit_code == 0, res.output
+    app, host, port = calls[-1]
+    assert (host, port) == ("127.0.0.1", 8765) and "http://127.0.0.1:8765/" in res.output and "warning" not in res.output
+    from starlette.testclient import TestClient
+
+    with TestClient(app) as c:  # only its own address answers (no DNS rebinding)
+        assert c.get("/api/state").status_code == 421
+        assert c.get("/api/state", headers={"host": "127.0.0.1:8765"}).status_code == 200
+    res = CliRunner().invoke(main, ["serve", str(obratan), "--host", "0.0.0.0", "--port", "8766"])
+    assert res.exit_code == 0 and "warning: listening on 0.0.0.0" in res.output
+    assert calls[-1][1] == "0.0.0.0"

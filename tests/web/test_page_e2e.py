@@ -285,10 +285,14 @@ def test_long_plan_shows_progress_and_cancels(site):
         pg.goto(server.url)
         pg.locator("#progress").wait_for(state="visible", timeout=30000)
         pg.wait_for_function("document.querySelector('#progress-bar').value > 0.05", timeout=30000)
+        box = pg.locator("#progress").bounding_box()  # in sight, over the map
+        assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 900 and box["x"] > 360
+        assert pg.locator("#cancel").is_visible()
         pg.screenshot(path=str(SHOTS / "08-progress.png"))
         pg.click("#cancel")
         pg.wait_for_function("document.querySelector('#status').textContent.startsWith('cancelled')", timeout=15000)
         assert pg.evaluate("window.aerosurvey.view") is None
+        assert pg.locator("#progress").is_hidden()
         assert pg.input_value("[data-key='targets.side_overlap']") == "0.7"
     finally:
         ctx.close()

@@ -436,6 +436,7 @@ function zoomAt(factor, sx, sy) {
 
 function updateScale() {
   if (!S.view) return;
+  $("#scale-bar").hidden = false;
   const lat = latOf(S.cam.cy);
   const groundPerPx = S.cam.u * Math.cos(lat * Math.PI / 180);
   const target = groundPerPx * 120;
