@@ -8,6 +8,8 @@ must never enter them.
 
 from __future__ import annotations
 
+import functools
+
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -169,6 +171,17 @@ def _crs(text: str, name: str) -> pyproj.CRS:
         raise InputError(f"{name} = {text!r} is not a CRS pyproj knows; give e.g. EPSG:5514") from None
 
 
+@functools.lru_cache(maxsize=64)
+def transformer(src: str, dst: str) -> pyproj.Transformer:
+    """A lon/lat-ordered transformer, made once per CRS pair.
+
+    PROJ takes 40-70 ms to set up some transformations (S-JTSK/Krovak), as long as planning a
+    small area; a page re-planning as the user types pays it once. pyproj (>= 3.1) makes a
+    Transformer safe to share between threads.
+    """
+    return pyproj.Transformer.from_crs(src, dst, always_xy=True)
+
+
 def utm_epsg(lon: float, lat: float) -> int:
     """EPSG code of the WGS84 UTM zone holding (lon, lat)."""
     zone = int(np.floor((lon + 180.0) / 6.0)) % 60 + 1
@@ -189,6 +202,6 @@ def planning_crs(spec_crs: str, area_wgs84: BaseGeometry) -> Planar:
             raise InputError(f"mission.crs = {spec_crs!r} has units {sorted(units)}; aerosurvey plans in metres")
     return Planar(
         crs=crs,
-        to_plan=pyproj.Transformer.from_crs(_WGS84, crs, always_xy=True),
-        to_wgs84=pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True),
+        to_plan=transformer("EPSG:4326", crs.srs),
+        to_wgs84=transformer(crs.srs, "EPSG:4326"),
     )

@@ -16,6 +16,7 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.area import transformer
 from aerosurvey.errors import InputError
 
 
@@ -53,8 +54,10 @@ class PlanView:
             stations = manifest["stations"]
         except (KeyError, TypeError) as exc:
             raise InputError(f"{where}: manifest lacks {exc}") from None
-        to_plan = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
-        to_wgs84 = pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
+        try:
+            to_plan, to_wgs84 = transformer("EPSG:4326", crs), transformer(crs, "EPSG:4326")
+        except pyproj.exceptions.CRSError:
+            raise InputError(f"{where}: manifest CRS {crs!r} is not a CRS pyproj knows") from None
 
         def proj(g: BaseGeometry) -> BaseGeometry:
             return shapely.transform(g, lambda xy: np.column_stack(to_plan.transform(xy[:, 0], xy[:, 1])))
