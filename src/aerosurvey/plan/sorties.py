@@ -110,6 +110,7 @@ class Splitter:
                 pending = []
             self.by_run.setdefault(w.run, []).append(w)
         self.station_index = {sid: i for i, sid in enumerate(st.ids)}
+        self._evaluated: dict[tuple[int, int], tuple] = {}
 
     def _run_waypoints(self, r: int, a: int, b: int) -> list[SortieWaypoint]:
         """Waypoints flying stations a..b (global indices) of run r."""
@@ -152,7 +153,16 @@ class Splitter:
         return 3 + len(wps) + per_trigger * runs
 
     def evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
-        """(battery used, launch index, horizontal s, vertical s, distance m, waypoints, items)."""
+        """(battery used, launch index, horizontal s, vertical s, distance m, waypoints, items).
+
+        Memoised: the budget bisection asks for the same (first, last) stations again (550
+        distinct of 890 calls for the Obrataň example)."""
+        key = (a, b)
+        if key not in self._evaluated:
+            self._evaluated[key] = self._evaluate(a, b)
+        return self._evaluated[key]
+
+    def _evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
         wps = self.waypoints(a, b)
         pts = np.asarray([(w.x, w.y) for w in wps])
         climb = max(w.alt_m for w in wps) if self.plan.altitude_frame == "relative" else self.plan.heights.nominal_agl_m
