@@ -151,3 +151,33 @@ def test_truncated_old_layout_keeps_events_before_the_cut(tmp_path_factory, cut)
     with DataFlashLog(p) as log:
         assert len(log.messages("CAM").get("Lat", [])) == expected
         assert log.skipped_bytes < 89
+
+
+REAL_LOG = Path(__file__).resolve().parents[1] / "data" / "dronekit_la_log171.bin"
+
+
+def test_real_pixhawk_log_reads_as_pymavlink_reads_it(tmp_path):
+    """A real flight (Pixhawk, ArduCopter V3.3-dev, u-blox GPS; CC BY-SA 3.0, tests/data/README.md):
+    every message type counted as pymavlink's DFReader counts it, no byte skipped, the GPS
+    track identical; it has no camera events, and ingest says so."""
+    from collections import Counter
+
+    from click.testing import CliRunner
+
+    from aerosurvey.cli import main
+
+    ref, ref_gps = Counter(), []
+    r = DFReader.DFReader_binary(str(REAL_LOG), zero_time_base=True)
+    while (m := r.recv_msg()) is not None:
+        ref[m.get_type()] += 1
+        if m.get_type() == "GPS":
+            ref_gps.append((m.Lat, m.Lng, m.Alt))
+    with DataFlashLog(REAL_LOG) as log:
+        assert log.skipped_bytes == 0
+        assert log.counts() == dict(ref) and sum(ref.values()) == 91530
+        gps = log.messages("GPS")
+    assert len(gps["Lat"]) == len(ref_gps) == 1199
+    np.testing.assert_allclose(np.c_[gps["Lat"], gps["Lng"], gps["Alt"]], np.asarray(ref_gps), atol=1e-7)
+    res = CliRunner().invoke(main, ["log", "ingest", str(REAL_LOG), "-o", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "no CAM or TRIG camera events" in res.output and "91530 messages" in res.output
+    assert not (tmp_path / "o").exists()
