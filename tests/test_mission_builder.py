@@ -62,6 +62,18 @@ def test_copter_lead_in_is_the_stopping_distance(tmp_path):
     assert plan.lead_in_m == pytest.approx(max(5.0, plan.speed.speed_ms ** 2 / 4.0))
 
 
+def test_plane_lead_in_is_three_l1_distances(tmp_path):
+    # SITL: a plane settles onto the line only ~3 L1 distances after a turn (docs/planning.md)
+    plan, m = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}})
+    v = plan.speed.speed_ms
+    assert plan.lead_in_m == pytest.approx(max(plan.turn_radius_m, 3 * 0.75 * 17.0 * v / math.pi), rel=1e-9)
+    tuned, _ = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0, "nav_period_s": 12.0}})
+    assert tuned.lead_in_m == pytest.approx(max(tuned.turn_radius_m, 3 * 0.75 * 12.0 * v / math.pi), rel=1e-9)
+    assert tuned.lead_in_m < plan.lead_in_m
+    with pytest.raises(Exception, match=r"vehicle\.nav_period_s.*2"):
+        _plan(tmp_path, {"vehicle": {"type": "plane", "nav_period_s": 2}})
+
+
 def test_plane_takeoff_and_land_option(tmp_path):
     plan, m = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0},
                                "flight": {"end": "land", "wind_from_deg": 270.0, "approach_m": 400.0}})

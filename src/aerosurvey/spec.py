@@ -62,6 +62,7 @@ class VehicleSpec:
     cruise_speed_ms: float
     acceleration_ms2: float
     bank_angle_deg: float
+    nav_period_s: float  # planes: ArduPlane's NAVL1_PERIOD, how fast the autopilot settles onto a line
     max_height_agl_m: float
     climb_rate_ms: float
     descent_rate_ms: float
@@ -373,6 +374,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         cruise_speed_ms=v.number("cruise_speed_ms", 10.0 if vtype == "copter" else 18.0, lo=0.5, hi=60.0) or 0.0,
         acceleration_ms2=v.number("acceleration_ms2", 2.5, lo=0.1, hi=20.0) or 0.0,
         bank_angle_deg=v.number("bank_angle_deg", 30.0, lo=5.0, hi=60.0) or 0.0,
+        nav_period_s=v.number("nav_period_s", 17.0, lo=5.0, hi=60.0) or 0.0,
         max_height_agl_m=v.number("max_height_agl_m", 120.0, lo=1.0, hi=10000.0) or 0.0,
         climb_rate_ms=v.number("climb_rate_ms", 2.5 if vtype == "copter" else 3.0, lo=0.1, hi=30.0) or 0.0,
         descent_rate_ms=v.number("descent_rate_ms", 1.5 if vtype == "copter" else 2.0, lo=0.1, hi=30.0) or 0.0,

@@ -70,3 +70,30 @@ def test_rules_rerun_on_flown_data(tmp_path):
     rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
     (rule,) = rep["rules_on_flown_data"]
     assert rule["rule"] == "eu-open-height" and rule["status"] == "pass" and rule["measured"].startswith("102.1 m")
+
+
+PLANE_LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_plane_kubad.bin"
+
+
+def test_plane_example_flown_in_sitl(tmp_path):
+    """The Kubad Abad example mission as ArduPlane SITL flew it (tests/data/README.md)."""
+    from conftest import REPO
+
+    plan = tmp_path / "plan"
+    res = CliRunner().invoke(main, ["plan", str(REPO / "missions" / "kubad-abad-fixed-wing.toml"), "-o", str(plan)])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["log", "ingest", str(PLANE_LOG), "--plan", str(plan), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 0, res.output
+    rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
+    assert rep["events"] == rep["planned"] == rep["matched"] == 683
+    assert rep["missed_stations"] == [] and rep["extra_triggers"] == [] and rep["read"]["skipped_bytes"] == 0
+    # every trigger within the default tolerance (a quarter base) of its station: the lead-in works
+    assert rep["max_distance_m"] < 5.5 and rep["far_triggers"] == []
+    rows = list(csv.DictReader(open(tmp_path / "log" / "events.csv")))
+    first, last = rows[0], rows[-1]
+    assert (first["station"], last["station"]) == ("P1-L001-S0001", "P1-L013-S0052")
+    assert (float(first["lat"]), float(first["lon"]), float(first["alt_m"])) == (37.77154, 31.548007, 158.62)
+    assert (float(last["lat"]), float(last["lon"]), float(last["alt_m"])) == (37.7804783, 31.5631346, 158.82)
+    manifest = json.loads((plan / "manifest.json").read_text())
+    assert [r["station"] for r in rows] == [s["id"] for s in manifest["stations"]]
+    assert rep["coverage"]["uncovered_share"] == 0.0 and rep["realized"]["forward_overlap_min"] >= 0.79

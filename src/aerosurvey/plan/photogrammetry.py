@@ -141,6 +141,17 @@ def turn_radius(speed_ms: float, bank_deg: float, g: float = 9.80665) -> float:
     return speed_ms**2 / (g * math.tan(math.radians(bank_deg)))
 
 
+def plane_lead_in(speed_ms: float, nav_period_s: float, damping: float = 0.75) -> float:
+    """Straight approach a plane needs to settle on a line after a turn: three L1 distances.
+
+    ArduPlane's L1 controller looks ζ·P·v/π ahead (NAVL1_DAMPING ζ = 0.75, NAVL1_PERIOD P);
+    in SITL a 16 m/s plane's first photos lay 17-20 m off the line with a 45-90 m lead-in
+    and 5-6 m off (then within a quarter base) with 150-220 m, i.e. from about three L1
+    distances on.
+    """
+    return 3.0 * damping * nav_period_s * speed_ms / math.pi
+
+
 def stop_distance(speed_ms: float, accel_ms2: float) -> float:
     """Distance a copter needs to reach (or leave) `speed_ms`: v² / (2a)."""
     return speed_ms**2 / (2.0 * accel_ms2)

@@ -245,7 +245,7 @@ def _plan(spec, planar, area_wgs, excl_wgs, area, zones, zones_buf, h_target, gs
     elif spec.vehicle.type == "copter":
         lead_in = max(5.0, pg.stop_distance(speed.speed_ms, spec.vehicle.acceleration_ms2))
     else:
-        lead_in = max(radius, 30.0)
+        lead_in = max(radius, pg.plane_lead_in(speed.speed_ms, spec.vehicle.nav_period_s))
     kin = Kinematics(spec.vehicle.type, speed.speed_ms, spec.vehicle.acceleration_ms2, radius)
     k_side = pg.images_per_point(spec.targets.side_overlap)
     k_fwd = pg.images_per_point(spec.targets.forward_overlap)
