@@ -64,7 +64,7 @@ def test_copter_lead_in_is_the_stopping_distance(tmp_path):
 
 def test_plane_lead_in_is_three_l1_distances(tmp_path):
     # SITL: a plane settles onto the line only ~3 L1 distances after a turn (docs/planning.md)
-    plan, m = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}})
+    plan, _ = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}})
     v = plan.speed.speed_ms
     assert plan.lead_in_m == pytest.approx(max(plan.turn_radius_m, 3 * 0.75 * 17.0 * v / math.pi), rel=1e-9)
     tuned, _ = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0, "nav_period_s": 12.0}})

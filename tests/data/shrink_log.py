@@ -2,8 +2,8 @@
 
     python tests/data/shrink_log.py IN.BIN OUT.bin [--every ATT=5 --every GPS=2]
 
-Keeps every FMT/FMTU/MULT/UNIT/PARM/CAM/TRIG/MODE/CMD/BAT/MSG/ARM/EV/POS message and GPS,
-and every n-th message of the types given with --every, in their original order. Everything
+Keeps every message of the types in KEEP, and every n-th message of the types given with
+--every (any type, kept or not), in their original order. Everything
 the simulator adds (SIM, SIM2, ESC, IMU, ...) is left out. This is how the logs in this
 folder were made from the logs `aerosurvey sitl fly` copied.
 """
@@ -19,21 +19,17 @@ KEEP = ("FMT", "FMTU", "MULT", "UNIT", "PARM", "GPS", "CAM", "TRIG", "MODE", "CM
 
 
 def shrink(src: Path, dst: Path, every: dict[str, int]) -> dict[str, int]:
-    kept: list[tuple[int, int]] = []
+    kept: list[int] = []
     counts: dict[str, int] = {}
     with DataFlashLog(src) as log:
         for t, offs in log.offsets.items():
-            f = log.formats.get(t)
-            name = f.name if f else "FMT"
+            name = log.formats[t].name if t in log.formats else "FMT"
             step = every.get(name, 1 if name in KEEP else 0)
-            if step == 0:
-                continue
-            chosen = list(offs)[::step]
-            counts[name] = len(chosen)
-            kept.extend((o, f.length if f else 89) for o in chosen)
-        kept.sort()
-        buf = log._buf
-        dst.write_bytes(b"".join(bytes(buf[o:o + n]) for o, n in kept))
+            if step:
+                chosen = offs[::step]
+                counts[name] = len(chosen)
+                kept.extend(chosen)
+        dst.write_bytes(b"".join(log.record(o) for o in sorted(kept)))
     return counts
 
 

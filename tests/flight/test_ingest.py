@@ -9,7 +9,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from aerosurvey.cli import main
-from conftest import make_spec
+from conftest import REPO, make_spec
 
 LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_copter_survey.bin"
 
@@ -77,8 +77,6 @@ PLANE_LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_plane_kubad.bin
 
 def test_plane_example_flown_in_sitl(tmp_path):
     """The Kubad Abad example mission as ArduPlane SITL flew it (tests/data/README.md)."""
-    from conftest import REPO
-
     plan = tmp_path / "plan"
     res = CliRunner().invoke(main, ["plan", str(REPO / "missions" / "kubad-abad-fixed-wing.toml"), "-o", str(plan)])
     assert res.exit_code == 0, res.output

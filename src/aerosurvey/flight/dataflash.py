@@ -164,6 +164,11 @@ class DataFlashLog:
     def counts(self) -> dict[str, int]:
         return {self.formats[t].name if t in self.formats else str(t): len(a) for t, a in self.offsets.items()}
 
+    def record(self, offset: int) -> bytes:
+        """The message found at `offset` (one of `offsets`), header included, byte for byte."""
+        t = self._buf[offset + 2]
+        return bytes(self._buf[offset:offset + (FMT_LEN if t == FMT_TYPE else self.formats[t].length)])
+
     def type_of(self, name: str) -> Format | None:
         return next((f for f in self.formats.values() if f.name == name), None)
 
