@@ -12,9 +12,9 @@ azimuthal equidistant projection centred on the area, and measures coverage on a
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pyproj

@@ -129,9 +129,11 @@ def test_copter_fixed_yaw(tmp_path):
 
 
 def test_geofence_in_the_plan_file(tmp_path):
-    from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan
     import json
+
     import shapely
+
+    from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan
     from conftest import write_geojson
 
     zone = [[15.0025, 49.4012], [15.0035, 49.4012], [15.0035, 49.4022], [15.0025, 49.4022], [15.0025, 49.4012]]

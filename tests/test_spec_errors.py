@@ -11,7 +11,6 @@ from aerosurvey.cli import main
 from aerosurvey.errors import InputError
 from aerosurvey.plan.planner import plan_mission
 from aerosurvey.spec import load_spec
-
 from conftest import write_geojson
 
 

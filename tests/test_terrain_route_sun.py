@@ -127,12 +127,12 @@ def test_plane_turn_length():
 
 def test_sun_elevation_known_values():
     # Greenwich at the June solstice, 12:00 UTC: 90 - 51.48 + 23.44 = 61.96 deg (solar noon ~12:02)
-    e = sun_elevation_deg(0.0, 51.48, dt.datetime(2026, 6, 21, 12, 0, tzinfo=dt.timezone.utc))
+    e = sun_elevation_deg(0.0, 51.48, dt.datetime(2026, 6, 21, 12, 0, tzinfo=dt.UTC))
     assert e == pytest.approx(61.9, abs=0.2)
     # midnight is below the horizon
-    assert sun_elevation_deg(0.0, 51.48, dt.datetime(2026, 6, 21, 0, 0, tzinfo=dt.timezone.utc)) < 0
+    assert sun_elevation_deg(0.0, 51.48, dt.datetime(2026, 6, 21, 0, 0, tzinfo=dt.UTC)) < 0
     # equator at the March equinox near local noon: close to the zenith
-    assert sun_elevation_deg(0.0, 0.0, dt.datetime(2026, 3, 20, 12, 7, tzinfo=dt.timezone.utc)) > 89.0
+    assert sun_elevation_deg(0.0, 0.0, dt.datetime(2026, 3, 20, 12, 7, tzinfo=dt.UTC)) > 89.0
 
 
 def test_low_sun_warning(tmp_path):

@@ -9,7 +9,6 @@ must never enter them.
 from __future__ import annotations
 
 import functools
-
 import re
 from dataclasses import dataclass
 from pathlib import Path

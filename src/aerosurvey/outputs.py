@@ -29,7 +29,6 @@ class Rendered:
 
 def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
     """A mission longer than the autopilot holds is refused with what to do about it."""
-    from aerosurvey.errors import InputError
 
     limit = plan.spec.battery.max_mission_items if plan.spec.battery is not None else None
     if limit is None:

@@ -9,9 +9,10 @@ from __future__ import annotations
 import datetime as dt
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from aerosurvey.camera import Camera, camera_from_mapping, get_camera
 from aerosurvey.errors import InputError, bad_value
@@ -196,7 +197,7 @@ class _Table:
             raise bad_value(self.key(key), v, "a string")
         return v
 
-    def table(self, key: str) -> "_Table":
+    def table(self, key: str) -> _Table:
         self.used.add(key)
         return _Table(self.data.get(key, {}), self.key(key))
 

@@ -17,6 +17,7 @@ import pytest
 import rasterio
 import shapely
 from click.testing import CliRunner
+from dfwriter import camera_log
 from rasterio.transform import from_origin
 
 import independent_coverage as ic
@@ -24,7 +25,6 @@ from aerosurvey.cli import main
 from aerosurvey.flight.coverage import flown_manifest
 from aerosurvey.flight.events import Events
 from conftest import make_spec
-from dfwriter import camera_log
 
 RING = [[15.000, 49.400], [15.006, 49.400], [15.006, 49.4035], [15.000, 49.4035], [15.000, 49.400]]
 HOME_AMSL = 400.0  # the log's home altitude; the ramps put the DEM's ground there at the plan's home too

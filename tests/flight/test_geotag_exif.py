@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from dfwriter import camera_log
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import ExifTags, Image
@@ -18,9 +19,8 @@ from PIL import ExifTags, Image
 from aerosurvey.cli import main
 from aerosurvey.flight.events import read_events
 from aerosurvey.flight.geotag_exif import GeotagError, GpsFix, dms_rationals, geotag_jpeg
-from dfwriter import camera_log
 
-T0 = dt.datetime(2026, 5, 4, 9, 30, tzinfo=dt.timezone.utc).timestamp()
+T0 = dt.datetime(2026, 5, 4, 9, 30, tzinfo=dt.UTC).timestamp()
 GPS = 0x8825
 
 
@@ -29,7 +29,7 @@ def _exif(t: float | None = None, endian: str = "<") -> Image.Exif:
     exif.endian = endian
     exif[271], exif[272] = "Sony", "ILCE-6000"  # Make, Model
     if t is not None:
-        stamp = dt.datetime.fromtimestamp(t, dt.timezone.utc)
+        stamp = dt.datetime.fromtimestamp(t, dt.UTC)
         sub = exif.get_ifd(0x8769)
         sub[36867] = stamp.strftime("%Y:%m:%d %H:%M:%S")  # DateTimeOriginal
         sub[37521] = f"{stamp.microsecond // 10000:02d}"

@@ -19,7 +19,7 @@ def _images(folder: Path, times: list[float]) -> list[Path]:
     folder.mkdir()
     out = []
     for k, t in enumerate(times):
-        stamp = dt.datetime.fromtimestamp(t, dt.timezone.utc)
+        stamp = dt.datetime.fromtimestamp(t, dt.UTC)
         exif = Image.Exif()
         sub = exif.get_ifd(0x8769)
         sub[36867] = stamp.strftime("%Y:%m:%d %H:%M:%S")

@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import shapely
 from click.testing import CliRunner
+from dfwriter import camera_log
 
 import independent_coverage as ic
 from aerosurvey.cli import main
 from conftest import make_spec
-from dfwriter import camera_log
 
 
 def test_gaps_found_and_reflown(tmp_path):

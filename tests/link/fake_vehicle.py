@@ -318,7 +318,7 @@ class FakeVehicle:
     def url(self) -> str:
         return f"udpout:{LOOPBACK}:{self.port}" if self.transport == "udp" else f"tcp:{LOOPBACK}:{self.port}"
 
-    def __enter__(self) -> "FakeVehicle":
+    def __enter__(self) -> FakeVehicle:
         self._thread.start()
         return self
 
@@ -480,7 +480,7 @@ class LossyRelay:
     def url(self) -> str:
         return f"udpout:{LOOPBACK}:{self.port}"
 
-    def __enter__(self) -> "LossyRelay":
+    def __enter__(self) -> LossyRelay:
         self._thread.start()
         return self
 

@@ -6,12 +6,11 @@ import socket
 from pathlib import Path
 
 from click.testing import CliRunner
+from fake_vehicle import FakeVehicle, VehicleModel, survey_mission
 
 from aerosurvey.cli import main
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
-
-from fake_vehicle import FakeVehicle, VehicleModel, survey_mission
 
 
 def run(*args: str):

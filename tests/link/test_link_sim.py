@@ -11,14 +11,14 @@ import math
 import struct
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from fake_vehicle import Faults, SimLink, VehicleModel, survey_mission
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.connection import LinkError
 from aerosurvey.link.upload import VerificationFailed, upload_mission
 from aerosurvey.mission.items import Mission
-
-from fake_vehicle import Faults, SimLink, VehicleModel, survey_mission
 
 POLICY = mp.Policy(timeout=0.1, retries=6, restarts=6, busy_wait=0.5)
 

@@ -9,12 +9,12 @@ import math
 
 import pytest
 from hypothesis import given, settings
+from mission_strategies import DO_JUMP, canon, missions
 
 from aerosurvey.errors import InputError
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan, mission_to_plan_dict
 from aerosurvey.mission.items import Mission, MissionItem
-from mission_strategies import DO_JUMP, canon, missions
 
 HOME = (49.3995, 14.9995, 402.5)
 

@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
+from mission_strategies import canon, missions, same_float
 from pymavlink import mavwp
 
 from aerosurvey.errors import InputError
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.formats.wpl import dumps_wpl, format_number, loads_wpl
 from aerosurvey.mission.items import Mission, MissionItem
-from mission_strategies import canon, missions, same_float
 
 HOME = (49.3995, 14.9995, 402.5)
 

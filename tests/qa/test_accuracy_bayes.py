@@ -11,12 +11,12 @@ import re
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from qa_accuracy_helpers import OBRATAN, make_points, scaled_to
 from scipy import integrate, optimize
 
 from aerosurvey.cli import main
 from aerosurvey.qa import bayes as bz
 from aerosurvey.qa.assessment import Settings, assess
-from qa_accuracy_helpers import OBRATAN, make_points, scaled_to
 
 
 def _rows() -> list[dict[str, str]]:

@@ -8,11 +8,11 @@ import numpy as np
 import pyproj
 import pytest
 from click.testing import CliRunner
+from qa_accuracy_helpers import KUBAD
 
 from aerosurvey.cli import main
 from aerosurvey.errors import InputError
 from aerosurvey.qa.accuracy_input import read_points
-from qa_accuracy_helpers import KUBAD
 
 
 @pytest.mark.parametrize("content,needle", [

@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from qa_accuracy_helpers import KUBAD
 
 from aerosurvey.cli import main
 from aerosurvey.qa.accuracy_input import read_points
 from aerosurvey.qa.assessment import Settings, assess
-from qa_accuracy_helpers import KUBAD
 
 
 def _kubad(**kw):

@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as hs
+from qa_accuracy_helpers import make_points
 
 from aerosurvey.qa import statistics as st
 from aerosurvey.qa.assessment import Settings, assess
-from qa_accuracy_helpers import make_points
 
 floats = hs.floats(-5, 5, allow_nan=False, allow_infinity=False)
 

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from qa_accuracy_helpers import make_points
 
 from aerosurvey.cli import main
 from aerosurvey.qa.assessment import Settings, assess
 from aerosurvey.qa.campaign import read_campaign
-from qa_accuracy_helpers import make_points
 
 
 def _grid(n_side: int = 6, size: float = 600.0) -> tuple[np.ndarray, np.ndarray]:

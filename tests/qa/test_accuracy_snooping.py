@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from qa_accuracy_helpers import make_points
 from scipy import stats
 
 from aerosurvey.cli import main
 from aerosurvey.qa.assessment import Settings, assess
 from aerosurvey.qa.snooping import snoop
-from qa_accuracy_helpers import make_points
 
 # nine points of similar size (the source's test had nine), scaled below to its sigmas
 DX = np.array([0.9, -1.1, 1.3, -0.8, 1.0, -1.2, 1.4, -1.5, 0.7])

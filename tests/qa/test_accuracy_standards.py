@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 import pytest
+from qa_accuracy_helpers import COUNTS_2014, make_points, scaled_to
 
 from aerosurvey.qa import asprs, nssda
 from aerosurvey.qa import statistics as st
 from aerosurvey.qa.assessment import Settings, assess
-from qa_accuracy_helpers import COUNTS_2014, make_points, scaled_to
 
 
 def test_required_counts_2014_match_the_reference_table():

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import io
 import json
-import threading
 import time
 import tomllib
 import zipfile
@@ -15,10 +14,10 @@ import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
+from webutil import client, copy_mission, run_plan
 
 from aerosurvey.cli import main
 from conftest import random_polygon, write_geojson
-from webutil import client, copy_mission, run_plan
 
 MB = 1024 * 1024
 

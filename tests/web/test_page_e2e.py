@@ -18,10 +18,10 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from webutil import REPO, copy_mission
 
 from aerosurvey.cli import main
 from conftest import random_polygon, write_geojson
-from webutil import REPO, copy_mission
 
 pytestmark = pytest.mark.browser
 
@@ -219,8 +219,9 @@ def test_dropped_area_starts_a_new_plan(page, site):
 
 
 def test_basemap_only_when_configured(page, site):
-    from PIL import Image
     import io
+
+    from PIL import Image
 
     buf = io.BytesIO()
     Image.new("RGB", (256, 256), (200, 200, 200)).save(buf, format="PNG")

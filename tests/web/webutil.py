@@ -8,7 +8,6 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-
 REPO = Path(__file__).resolve().parents[2]
 
 with warnings.catch_warnings():

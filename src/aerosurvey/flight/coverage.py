@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pyproj
@@ -20,7 +21,6 @@ from rasterio.transform import from_origin
 from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.report.features import footprint_corners
-
 
 #: Ground heights (metres, the DEM's vertical datum) at planning-CRS points; NaN where unknown.
 GroundFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -130,7 +130,7 @@ class DemGround:
     def close(self) -> None:
         self.dem.close()
 
-    def __enter__(self) -> "DemGround":
+    def __enter__(self) -> DemGround:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -86,7 +86,7 @@ class DataFlashLog:
             self._buf.close()
         self._fh.close()
 
-    def __enter__(self) -> "DataFlashLog":
+    def __enter__(self) -> DataFlashLog:
         return self
 
     def __exit__(self, *exc: object) -> None:

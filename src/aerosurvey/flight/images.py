@@ -36,7 +36,7 @@ def capture_time(path: Path) -> float | None:
     if not text:
         return None
     try:
-        t = dt.datetime.strptime(str(text).strip(), "%Y:%m:%d %H:%M:%S").replace(tzinfo=dt.timezone.utc).timestamp()
+        t = dt.datetime.strptime(str(text).strip(), "%Y:%m:%d %H:%M:%S").replace(tzinfo=dt.UTC).timestamp()
     except ValueError:
         return None
     frac = str(sub.get(37521, "") or "").strip()  # SubSecTimeOriginal

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -12,8 +11,6 @@ import pyproj
 import rasterio
 import rasterio.features
 import shapely
-
-from aerosurvey.errors import InputError
 
 
 def gap_area(coverage_tif: Path, need: int, area_plan: shapely.Geometry, min_area_m2: float) -> shapely.Geometry:

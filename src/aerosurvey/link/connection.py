@@ -124,7 +124,7 @@ class MavLink:
         except OSError:
             pass
 
-    def __enter__(self) -> "MavLink":
+    def __enter__(self) -> MavLink:
         return self
 
     def __exit__(self, *exc: object) -> None:

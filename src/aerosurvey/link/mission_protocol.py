@@ -16,8 +16,9 @@ integers here so this module stays free of pymavlink.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence, Union
+from typing import Union
 
 # MAV_MISSION_TYPE
 MISSION = 0

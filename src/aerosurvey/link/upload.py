@@ -11,8 +11,9 @@ from __future__ import annotations
 import math
 import struct
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from typing import Protocol
 
 from aerosurvey.errors import CheckFailed, InputError
 from aerosurvey.link import mission_protocol as mp
@@ -42,7 +43,7 @@ class Link(Protocol):
 class VerificationFailed(CheckFailed):
     """The vehicle accepted the upload but stores something else (exit code 1)."""
 
-    def __init__(self, message: str, mismatches: Sequence["Mismatch"]) -> None:
+    def __init__(self, message: str, mismatches: Sequence[Mismatch]) -> None:
         super().__init__(message)
         self.mismatches = list(mismatches)
 

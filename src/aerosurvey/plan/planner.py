@@ -7,8 +7,8 @@ only wires them together and records what was decided and why (warnings, estimat
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import shapely

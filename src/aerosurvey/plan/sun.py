@@ -12,8 +12,8 @@ import math
 
 def sun_elevation_deg(lon: float, lat: float, when: dt.datetime) -> float:
     """Solar elevation above the horizon in degrees (no refraction), `when` timezone-aware."""
-    t = when.astimezone(dt.timezone.utc)
-    jd = (t - dt.datetime(2000, 1, 1, 12, tzinfo=dt.timezone.utc)).total_seconds() / 86400.0 + 2451545.0
+    t = when.astimezone(dt.UTC)
+    jd = (t - dt.datetime(2000, 1, 1, 12, tzinfo=dt.UTC)).total_seconds() / 86400.0 + 2451545.0
     jc = (jd - 2451545.0) / 36525.0
     l0 = (280.46646 + jc * (36000.76983 + jc * 0.0003032)) % 360.0
     m = 357.52911 + jc * (35999.05029 - 0.0001537 * jc)

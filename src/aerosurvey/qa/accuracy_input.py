@@ -73,7 +73,7 @@ class CheckPoints:
     def has_positions(self) -> bool:
         return self.n > 0 and bool(np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.y)))
 
-    def select(self, mask: np.ndarray) -> "CheckPoints":
+    def select(self, mask: np.ndarray) -> CheckPoints:
         idx = np.flatnonzero(np.asarray(mask, bool))
 
         def pick(a: np.ndarray) -> np.ndarray:
@@ -84,7 +84,7 @@ class CheckPoints:
                            pick(self.sigma_xy), pick(self.sigma_z), self.source, self.units, self.units_stated,
                            self.crs, self.geographic)
 
-    def with_roles(self, roles: tuple[str, ...]) -> "CheckPoints":
+    def with_roles(self, roles: tuple[str, ...]) -> CheckPoints:
         return CheckPoints(self.ids, roles, self.dx, self.dy, self.dz, self.vegetated, self.x, self.y,
                            self.sigma_xy, self.sigma_z, self.source, self.units, self.units_stated, self.crs,
                            self.geographic)

@@ -44,7 +44,7 @@ class PlanView:
         return float(self.area.area / 1e4)
 
     @classmethod
-    def from_documents(cls, manifest: dict[str, Any], features: dict[str, Any], where: str) -> "PlanView":
+    def from_documents(cls, manifest: dict[str, Any], features: dict[str, Any], where: str) -> PlanView:
         try:
             if manifest.get("schema") != "aerosurvey-manifest":
                 raise InputError(f"{where}: not an aerosurvey manifest (schema = {manifest.get('schema')!r})")
@@ -81,7 +81,7 @@ class PlanView:
         )
 
     @classmethod
-    def from_outdir(cls, outdir: Path) -> "PlanView":
+    def from_outdir(cls, outdir: Path) -> PlanView:
         m, g = outdir / "manifest.json", outdir / "plan.geojson"
         for p in (m, g):
             if not p.exists():

@@ -45,7 +45,7 @@ class MapFrame:
     fit_error_m: float
 
     @classmethod
-    def around(cls, area_wgs84: BaseGeometry, planar) -> "MapFrame":
+    def around(cls, area_wgs84: BaseGeometry, planar) -> MapFrame:
         c = area_wgs84.centroid
         ox, oy = mercator(np.array([c.x]), np.array([c.y]))
         x0, y0, x1, y1 = area_wgs84.bounds
