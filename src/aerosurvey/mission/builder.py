@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+from aerosurvey import ids
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 from aerosurvey.plan.planner import Plan, RouteWaypoint
@@ -65,7 +66,7 @@ def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
 
 def run_id(plan: Plan, run: int) -> str:
     r = plan.route.runs[run]
-    return f"P{r.pass_index}-L{r.line + 1:03d}-R{r.part + 1}"
+    return ids.run_id(r.pass_index, r.line, r.part)
 
 
 def _landing(plan: Plan, lat: float, lon: float) -> list[MissionItem]:
@@ -119,11 +120,16 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
             rid = run_id(plan, w.run)
             items.append(_wp(plan, w, f"{rid}:end", alt_shift))
             items.extend(_camera_off(plan, f"{rid}:camera-off"))
+        elif w.kind == "transit":
+            items.append(_wp(plan, w, "transit", alt_shift))
         else:
             items.append(_wp(plan, w, "detour", alt_shift))
+    # the straight way home crosses a zone: the transit waypoints fly round it and a copter
+    # lands at the launch point (NAV_LAND) rather than leaving the way home to RTL
+    home_detour = bool(wps) and wps[-1].kind == "transit"
     if spec.flight.end == "land" and spec.vehicle.type == "plane":
         items.extend(_landing(plan, lat, lon))
-    elif spec.flight.end == "land":
+    elif spec.flight.end == "land" or (home_detour and spec.vehicle.type == "copter"):
         items.append(MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"))
     else:
         items.append(MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl"))
