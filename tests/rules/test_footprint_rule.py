@@ -12,7 +12,7 @@ import pytest
 from aerosurvey.camera import database
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.rules.footprints import ViewCamera, footprints
 from aerosurvey.rules.load import plan_documents
 from aerosurvey.rules.planview import PlanView
@@ -25,7 +25,7 @@ MOUNTS = ("landscape", "portrait")
 
 @pytest.fixture(scope="module")
 def plan(tmp_path_factory):
-    return plan_mission(load_spec(make_spec(tmp_path_factory.mktemp("fp"))))
+    return plan_from_files(load_spec(make_spec(tmp_path_factory.mktemp("fp"))))
 
 
 def _view(plan, cam_id: str, mount: str) -> PlanView:

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.rules.cp_files import control_point_files, read_layout
 from aerosurvey.rules.engine import Evidence, layout_settings
 from aerosurvey.rules.load import plan_documents
@@ -19,7 +19,7 @@ from conftest import make_spec
 @pytest.fixture(scope="module")
 def view(tmp_path_factory) -> PlanView:
     spec = make_spec(tmp_path_factory.mktemp("layout"), {"targets": {"images_beyond_boundary": 8, "coverage_margin_m": 12.0}})
-    manifest, features = plan_documents(plan_mission(load_spec(spec)))
+    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
     return PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
 
 

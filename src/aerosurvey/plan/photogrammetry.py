@@ -22,10 +22,13 @@ _EPS = 1e-9
 #: files (1 cm heights, 1e-8° positions) can never take the overlap below the target.
 SAFETY = 1e-3
 
+#: A float, or an array of them (one value per station).
+FloatOrArray = TypeVar("FloatOrArray", float, npt.NDArray[np.float64])
 
-def gsd_from_height(height_m: float, camera: Camera) -> float:
+
+def gsd_from_height(height_m: FloatOrArray, camera: Camera) -> FloatOrArray:
     """GSD = H · p / f (metres per pixel)."""
-    return height_m * camera.pixel_pitch_mm / camera.focal_mm
+    return gsd_m(height_m, camera.pixel_pitch_mm, camera.focal_mm)
 
 
 def height_from_gsd(gsd_m: float, camera: Camera) -> float:
@@ -33,7 +36,7 @@ def height_from_gsd(gsd_m: float, camera: Camera) -> float:
     return gsd_m * camera.focal_mm / camera.pixel_pitch_mm
 
 
-def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tuple[float, float]:
+def footprint(height_m: FloatOrArray, camera: Camera, mount: str = "landscape") -> tuple[FloatOrArray, FloatOrArray]:
     """Ground footprint (across track, along track) in metres.
 
     Landscape puts the sensor's long side across the flight line (wider strips, shorter
@@ -42,15 +45,8 @@ def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tupl
     (Sony a6000: 4000 px × 3.917 µm = 15.67 mm, sensor 15.6 mm), and the smaller one
     keeps the overlap at or above the target.
     """
-    gsd = gsd_from_height(height_m, camera)
-    scale = height_m / camera.focal_mm
-    long_side = np.minimum(camera.image_width_px * gsd, camera.sensor_width_mm * scale)
-    short_side = np.minimum(camera.image_height_px * gsd, camera.sensor_height_mm * scale)
-    if mount == "landscape":
-        return long_side, short_side
-    if mount == "portrait":
-        return short_side, long_side
-    raise ValueError(f"mount must be 'landscape' or 'portrait', not {mount!r}")
+    return footprint_m(height_m, camera.sensor_width_mm, camera.sensor_height_mm, camera.image_width_px,
+                       camera.image_height_px, camera.focal_mm, mount)
 
 
 def line_spacing(across_m: float, side_overlap: float) -> float:
@@ -164,8 +160,6 @@ def stop_distance(speed_ms: float, accel_ms2: float) -> float:
 # manifest (camera.sensor_mm, image_px, focal_mm). The Camera-taking functions above give
 # bit-identical results (tests/rules/test_footprint_rule.py); they may delegate here.
 
-#: A float, or an array of them (one value per station).
-FloatOrArray = TypeVar("FloatOrArray", float, npt.NDArray[np.float64])
 
 
 def pixel_pitch_mm(sensor_width_mm: float, image_width_px: int) -> float:
