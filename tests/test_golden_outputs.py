@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from golden import normalized_kml, normalized_manifest
 
 from aerosurvey.cli import main
+from golden import normalized_kml, normalized_manifest
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORDED = json.loads((ROOT / "tests" / "data" / "golden_outputs.json").read_text())

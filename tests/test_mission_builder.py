@@ -8,9 +8,9 @@ import numpy as np
 import pyproj
 import pytest
 
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.builder import build_mission
-from aerosurvey.inputs import plan_from_files
 from aerosurvey.spec import load_spec
 from conftest import make_spec
 

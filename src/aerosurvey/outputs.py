@@ -6,8 +6,7 @@ import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
+from typing import TYPE_CHECKING, Any
 
 from aerosurvey import ids
 from aerosurvey import manifest as mf
@@ -21,6 +20,10 @@ from aerosurvey.mission.gate import check_legs, mission_legs
 from aerosurvey.mission.items import Mission
 from aerosurvey.plan.coverage import MIN_IMAGES
 from aerosurvey.plan.planner import Plan
+
+if TYPE_CHECKING:
+    from aerosurvey.rules.control_points import ControlPoint
+    from aerosurvey.rules.engine import Evidence, RuleResult
 from aerosurvey.report.features import plan_features
 from aerosurvey.report.preview import render_svg
 
@@ -88,7 +91,8 @@ def _without(fc: dict[str, Any], role: str) -> dict[str, Any]:
     return {**fc, "features": [f for f in fc["features"] if f["properties"].get("role") != role]}
 
 
-def _rules(plan: Plan, manifest: dict[str, Any], features: dict[str, Any]):
+def _rules(plan: Plan, manifest: dict[str, Any],
+           features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
     """Evaluate the spec's rule profiles on the plan as later readers will see it."""
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
     from aerosurvey.rules.planview import PlanView

@@ -3,10 +3,10 @@
 import pytest
 
 from aerosurvey.errors import InputError
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.link.px4 import compare, px4_items
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.builder import build_mission
-from aerosurvey.inputs import plan_from_files
 from aerosurvey.spec import load_spec
 from conftest import make_spec
 

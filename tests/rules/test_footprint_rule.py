@@ -11,8 +11,8 @@ import pytest
 
 from aerosurvey.camera import database
 from aerosurvey.errors import InputError
-from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.inputs import plan_from_files
+from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.rules.footprints import ViewCamera, footprints
 from aerosurvey.rules.load import plan_documents
 from aerosurvey.rules.planview import PlanView

@@ -48,6 +48,7 @@ def _wp(plan: Plan, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem
 def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
+        assert plan.trigger_distance_m is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, plan.trigger_distance_m, 0.0, 1.0, tag=tag)]
     if trig == "time":
         assert plan.trigger_interval_s is not None
@@ -58,6 +59,7 @@ def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
 def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
+        assert plan.trigger_distance_m is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0, tag=tag)]
     if trig == "time":
         return [MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, 0.0, -1.0, tag=tag)]

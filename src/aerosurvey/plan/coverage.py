@@ -81,7 +81,7 @@ def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, st
         return Coverage(required.area / k2, 0.0, shapely.Polygon(), 0.0)
     if not len(stations.ids):
         return Coverage(required.area / k2, near.area / k2, near, near.area / k2)
-    across, along = pg.footprint(np.asarray(stations.agl_m, float), spec.camera.camera, spec.camera.mount)  # type: ignore[arg-type]
+    across, along = pg.footprint(np.asarray(stations.agl_m, float), spec.camera.camera, spec.camera.mount)
     across, along = np.asarray(across, float) * k, np.asarray(along, float) * k
     # what two photos of one run surely see needs no pairwise intersection
     rest = shapely.difference(near, _run_strips(stations, across, along, sensor.base_m * k))

@@ -59,7 +59,8 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
     home = (float(hlon[0]), float(hlat[0]), home_ground)
     sites = launch_sites(spec, site, routed.home_xy, home)
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
-    budget, sorties = None, ()
+    budget: Budget | None = None
+    sorties: tuple[SortiePlan, ...] = ()
     if spec.battery is not None:
         report("battery sorties", 0.88)
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,

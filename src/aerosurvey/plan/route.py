@@ -102,7 +102,7 @@ def _runs_of_pass(p: Pass, lead_in: float, order: list[int], first_dir: int) -> 
     for s in p.segments:
         by_line.setdefault(s.line, []).append(s)
     offsets = _offsets(p)
-    runs = []
+    runs: list[Run] = []
     for k, line in enumerate(order):
         direction = first_dir if k % 2 == 0 else -first_dir
         segs = sorted(by_line[line], key=lambda s: s.x0, reverse=direction < 0)
@@ -144,7 +144,8 @@ def _cell_runs(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, 
             for k, s in enumerate(segs)]
 
 
-def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, first_dir: int):
+def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool,
+               first_dir: int) -> tuple[tuple[float, float], tuple[float, float]]:
     """Where a cell flown this way starts (its first lead-in) and ends, without building it."""
     segs = cell[::-1] if reverse else cell
     a, b = segs[0], segs[-1]

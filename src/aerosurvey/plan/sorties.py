@@ -133,7 +133,7 @@ class Splitter:
                 pending = []
             self.by_run.setdefault(w.run, []).append(w)
         self.station_index = {sid: i for i, sid in enumerate(st.ids)}
-        self._evaluated: dict[tuple[int, int], tuple] = {}
+        self._evaluated: dict[tuple[int, int], tuple[float, int, float, float, float, list[SortieWaypoint], int]] = {}
 
     def _run_waypoints(self, r: int, a: int, b: int) -> list[SortieWaypoint]:
         """Waypoints flying stations a..b (global indices) of run r."""
