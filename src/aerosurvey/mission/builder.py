@@ -103,7 +103,8 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
     first_alt = wps[0].alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
     pitch = 15.0 if spec.vehicle.type == "plane" else 0.0
-    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
+    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8),
+                             takeoff_alt, tag="takeoff"))
     # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies
     # its cruise airspeed, so planes get the speed as airspeed (type 0; equal to ground speed in still air)
     speed_type = 0.0 if spec.vehicle.type == "plane" else 1.0
