@@ -76,6 +76,8 @@ def run_one(seed: int, index: int, keep: Path | None = None) -> dict[str, Any]:
     res["reported_m2"] = c.reported_m2
     res["overstated"] = c.grossly_overstated
     res["problems"] = o.problems()
+    if o.overstated():
+        res["problems"].append(o.overstated())
     return res
 
 
@@ -124,9 +126,10 @@ def report(results: list[dict[str, Any]], seconds: float, workers: int) -> list[
         f"   max {max(r['measured_gap_m2'] for r in unrep):.0f} m², median {np.median([r['measured_gap_m2'] for r in unrep]):.0f} m²"
         if unrep else ""))
     out.append(f"reported > 2x measured + 100 m² (plans)  {len(over)}")
-    for title, rows in (("crash", crashes), ("violation", viol), ("home in zone", home), ("unreported gap", unrep), ("overstated", over)):
+    for title, rows, word in (("crash", crashes, ""), ("violation", viol, "inside zone"), ("home in zone", home, "launch point"),
+                              ("unreported gap", unrep, "not reported"), ("overstated", over, "reported as")):
         for r in rows[:3]:
-            detail = r.get("crash") or (r.get("problems") or [""])[0]
+            detail = r.get("crash") or next((p for p in r.get("problems", []) if word in p), "")
             out.append(f"  e.g. {title}: --case {r['id']}  {r['describe']}\n        {detail[:220]}")
     out.append(f"verdict: crashes {len(crashes)}, zone violations {len(viol) + len(home)}, unreported gaps {len(unrep)}"
                f" -> {'PASS' if not (crashes or viol or home or unrep) else 'FAIL'}")

@@ -18,8 +18,9 @@ rebuilt; ArduPilot's rules as modelled here:
   loiter with a radius adds its circle; NAV_LAND ends the flight;
 - DO_LAND_START is a marker (no movement in a mission flown in sequence); DO_JUMP repeats;
 - NAV_RETURN_TO_LAUNCH flies straight to the nearest of home and the .plan's rally points
-  (a copter climbs to RTL_ALT first: vertical) and ends the flight; a copter lands there, a
-  plane loiters over it at `plane_loiter_radius_m` (ArduPlane WP_LOITER_RAD, default 60 m);
+  (ArduCopter, RALLY_INCL_HOME = 1; ArduPlane, 0: the nearest rally point when there is one)
+  and ends the flight; a copter climbs to RTL_ALT first (vertical) and lands there, a plane
+  loiters over it at `plane_loiter_radius_m` (ArduPlane WP_LOITER_RAD, default 60 m);
 - a mission that runs out of items without RTL or LAND: a copter holds where it is, a plane
   returns to launch (as above).
 
@@ -136,7 +137,9 @@ def rebuild_legs(home: Item, items: list[Item], local: Local, vehicle: str,
     """(item seq, kind, horizontal path in metres) of every leg flown, in order."""
     hx, hy = local.xy(home.lon, home.lat)
     pos = (hx, hy)
-    targets = [(hx, hy)] + [local.xy(lon, lat) for lon, lat in rally]
+    rally_xy = [local.xy(lon, lat) for lon, lat in rally]
+    # ArduCopter counts home among the rally points (RALLY_INCL_HOME = 1), ArduPlane does not (0)
+    targets = rally_xy if rally_xy and vehicle == "plane" else [(hx, hy), *rally_xy]
     legs: list[tuple[int, str, shapely.LineString]] = []
     takeoff: Item | None = None
     jumps: dict[int, int] = {}

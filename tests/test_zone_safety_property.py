@@ -215,3 +215,13 @@ def test_coverage_finds_and_matches_unreported_ground(tmp_path: Path) -> None:
     # a zone in the middle: its margin is not required ground, the rest of the strip is covered
     cov = il.coverage_gaps(tmp_path / "b", area, [_square(0, 0, 20)], 10.0, LOCAL)
     assert cov.required_m2 == pytest.approx(560 * 200 - 40 * 40 - 4 * 40 * 10 - np.pi * 100, rel=0.01)
+
+
+def test_a_plane_returns_to_its_rally_point_even_when_home_is_nearer(tmp_path: Path) -> None:
+    text = _wpl((0, 0), [(22, None, 15, 100), (16, (0, 600), 0, 100), (16, (0, 100), 0, 100), (20, None, 0, 0)])
+    rally = _ll(0, 400)
+    plan = {"geoFence": {"circles": [], "polygons": []}, "rallyPoints": {"points": [[rally[1], rally[0], 50.0]]}}
+    plane = _legs(tmp_path, text, [_square(0, 250, 20)], vehicle="plane", plan=plan)
+    assert [(leg.kind, round(leg.worst_m)) for leg in plane.legs][-2:] == [("rtl", 40), ("rtl-loiter", 0)]
+    copter = _legs(tmp_path, text, [_square(0, 250, 20)], vehicle="copter", plan=plan)
+    assert copter.legs[-1].kind == "rtl" and copter.legs[-1].path.coords[-1] == pytest.approx((0, 0), abs=0.01)

@@ -311,9 +311,15 @@ class Outcome:
             out.append(f"{c.unreported_count} of {c.samples} samples of the required ground are seen by fewer than 2 photos "
                        f"and not reported (about {c.measured_gap_m2:.0f} m² uncovered; first at {x:.1f}, {y:.1f} m; "
                        f"manifest coverage.uncovered_m2 = {c.reported_m2}, rule uncovered-ground = {c.rule_status})")
-        if c is not None and c.grossly_overstated:
-            out.append(f"uncovered area reported as {c.reported_m2} m², the checker measures {c.measured_gap_m2:.0f} m²")
         return out
+
+    def overstated(self) -> str | None:
+        """The reported uncovered area when it is more than twice the measured one + 100 m² (counted by the
+        benchmark, not asserted: the planner may count ground seen by fewer photos than its target as uncovered)."""
+        c = self.coverage
+        if c is not None and c.grossly_overstated:
+            return f"uncovered area reported as {c.reported_m2} m², the checker measures {c.measured_gap_m2:.0f} m²"
+        return None
 
 
 def plan_case(case: Case, folder: Path) -> Outcome:
