@@ -69,6 +69,7 @@ def run_one(seed: int, index: int, keep: Path | None = None) -> dict[str, Any]:
     res["files"] = len(o.files)
     res["fence_missing"] = o.fence_missing
     c = o.coverage
+    assert c is not None  # a planned case is always measured
     res["gap_samples"] = len(c.gap_samples)
     res["gap_near_zone"] = c.near_zone
     res["unreported"] = c.unreported_count

@@ -85,7 +85,7 @@ class FileReport:
     home_zones: list[int]  # zones (0-based) the launch point lies in
     legs: list[Leg]
     fence_missing: list[int] = field(default_factory=list)  # zones the .plan's exclusion fence does not cover
-    notes: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # rally points; how the .plan differs from the .waypoints
 
     @property
     def violations(self) -> list[Leg]:
@@ -228,6 +228,22 @@ def plan_fence_and_rally(doc: dict[str, Any]) -> tuple[list[shapely.Polygon], li
     return excl, rally
 
 
+def plan_items_differ(doc: dict[str, Any], home: Item, items: list[Item]) -> str | None:
+    """Why the .plan would fly elsewhere than the .waypoints (home, commands, positions), or None."""
+    m = doc.get("mission", {})
+    ph = m.get("plannedHomePosition") or [0.0, 0.0, 0.0]
+    if abs(ph[0] - home.lat) > 1e-7 or abs(ph[1] - home.lon) > 1e-7:
+        return f"home {ph[:2]} in the .plan, {[home.lat, home.lon]} in the .waypoints"
+    simple = [it for it in m.get("items", []) if it.get("type") == "SimpleItem"]
+    if len(simple) != len(m.get("items", [])) or len(simple) != len(items):
+        return f"{len(m.get('items', []))} items in the .plan, {len(items)} in the .waypoints"
+    for k, (a, b) in enumerate(zip(simple, items), start=1):
+        lat, lon = (a["params"][4] or 0.0), (a["params"][5] or 0.0)
+        if a["command"] != b.command or abs(lat - b.lat) > 1e-7 or abs(lon - b.lon) > 1e-7:
+            return f"item {k}: command {a['command']} at {lat}, {lon} in the .plan, {b.command} at {b.lat}, {b.lon} in the .waypoints"
+    return None
+
+
 def legs_inside_zones(wpl: Path, zones_ll: list[shapely.Geometry], local: Local, vehicle: str,
                       plan: Path | None = None, tol_m: float = 0.02, plane_loiter_radius_m: float = 60.0) -> FileReport:
     """Every leg of one exported mission file with its metres inside each zone (input geometry)."""
@@ -247,6 +263,9 @@ def legs_inside_zones(wpl: Path, zones_ll: list[shapely.Geometry], local: Local,
                 fence_missing.append(i)
         if rally:
             notes.append(f"{len(rally)} rally points")
+        differ = plan_items_differ(doc, home, items)
+        if differ:
+            notes.append(f"{plan.name} differs from {wpl.name}: {differ}")
     out = []
     for seq, kind, path in rebuild_legs(home, items, local, vehicle, rally, plane_loiter_radius_m):
         inside = tuple(float(shapely.length(shapely.intersection(path, z))) if not z.is_empty else 0.0 for z in shrunk)

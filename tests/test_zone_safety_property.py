@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 import shapely
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, Phase, event, given, settings
 
 import independent_legs as il
 import zone_cases as zc
@@ -35,7 +35,9 @@ def test_zones_are_never_entered_and_gaps_are_reported(tmp_path_factory: pytest.
     case = zc.make_case(params)
     folder = tmp_path_factory.mktemp("zone-case")
     outcome = zc.plan_case(case, folder)
+    event(f"{params.vehicle}, {'sorties' if params.battery_min else 'one flight'}, {len(case.zones)} zone(s)")
     if outcome.refused is not None:
+        event("refused")
         return  # a clean refusal (InputError naming the input) is allowed: nothing is flown
     problems = outcome.problems()
     assert not problems, f"{case.describe()} (files in {folder}):\n" + "\n".join(problems[:20])
@@ -169,6 +171,19 @@ def test_home_in_zone_and_fence(tmp_path: Path) -> None:
     rep = _legs(tmp_path, _wpl((10, 10), [(22, None, 0, 50), (16, (300, 0), 0, 50), (21, None, 0, 0)]), [zone], plan=plan)
     assert rep.home_zones == [0] and rep.fence_missing == []
     assert rep.legs[0].worst_m == pytest.approx(40.0, abs=0.1)
+
+
+def test_plan_and_waypoints_must_fly_the_same_items(tmp_path: Path) -> None:
+    text = _wpl((0, 0), [(22, None, 0, 50), (16, (0, 300), 0, 50), (20, None, 0, 0)])
+    home, items = il.parse_wpl(text)
+    plan_items: list[dict[str, Any]] = [{"type": "SimpleItem", "command": it.command, "params": [0, 0, 0, 0, it.lat, it.lon, it.alt]}
+                                        for it in items]
+    doc: dict[str, Any] = {"mission": {"plannedHomePosition": [home.lat, home.lon, 0], "items": plan_items}}
+    assert il.plan_items_differ(doc, home, items) is None
+    plan_items[1]["params"][4] += 1e-5
+    assert "item 2" in (il.plan_items_differ(doc, home, items) or "")
+    doc["mission"]["items"] = plan_items[:2]
+    assert "2 items in the .plan" in (il.plan_items_differ(doc, home, items) or "")
 
 
 def test_wpl_parser_refuses_what_it_cannot_read(tmp_path: Path) -> None:

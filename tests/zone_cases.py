@@ -30,6 +30,14 @@ import shapely.affinity
 import tomli_w
 from hypothesis import strategies as st
 
+import independent_legs as il
+
+# the planner's public entry points only (spec loader, planner, output writer): the checker never sees them
+from aerosurvey.errors import InputError
+from aerosurvey.outputs import write_outputs
+from aerosurvey.plan.planner import plan_mission
+from aerosurvey.spec import load_spec
+
 KINDS = ("convex", "concave", "holed", "corridor")
 LATITUDES = (0.0, 35.0, 50.0, 65.0)
 PLACEMENTS = ("crossing", "inside", "outside")
@@ -280,11 +288,11 @@ def case_params(max_ha: float = 300.0) -> st.SearchStrategy[CaseParams]:
 class Outcome:
     case: Case
     refused: str | None  # the planner's InputError message when it refused the case
-    files: list[Any]  # independent_legs.FileReport per exported mission file
-    coverage: Any  # independent_legs.Coverage, or None when refused
+    files: list[il.FileReport]  # per exported mission file
+    coverage: il.Coverage | None  # None when refused
 
     @property
-    def violating_legs(self) -> list[Any]:
+    def violating_legs(self) -> list[il.Leg]:
         return [leg for f in self.files for leg in f.violations]
 
     @property
@@ -305,6 +313,7 @@ class Outcome:
             out.append(f"{f}: the launch point (home) lies in an exclusion zone")
         for f in self.fence_missing:
             out.append(f"{f}: the .plan's exclusion fence does not carry every zone")
+        out.extend(f"{f.file}: {n}" for f in self.files for n in f.notes if "differs" in n)
         c = self.coverage
         if c is not None and c.unreported_count:
             x, y = c.unreported[0] if len(c.unreported) else c.gap_samples[0]
@@ -327,13 +336,6 @@ def plan_case(case: Case, folder: Path) -> Outcome:
 
     A clean refusal (InputError) is an outcome, not a failure; any other exception propagates.
     """
-    # the planner's public entry points: spec loader, planner, output writer
-    import independent_legs as il
-    from aerosurvey.errors import InputError
-    from aerosurvey.outputs import write_outputs
-    from aerosurvey.plan.planner import plan_mission
-    from aerosurvey.spec import load_spec
-
     spec = write_case(case, folder)
     out = folder / "out"
     try:
