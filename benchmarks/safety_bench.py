@@ -65,6 +65,8 @@ def run_one(seed: int, index: int, keep: Path | None = None) -> dict[str, Any]:
         return res
     legs = o.violating_legs
     res["legs"] = [(leg.file, leg.kind, leg.worst_m) for leg in legs]
+    res["margin_legs"] = [(leg.file, leg.kind, leg.in_margin_m) for f in o.files for leg in f.legs
+                          if leg.in_margin_m > 0.0 and leg.worst_m == 0.0]
     res["homes_in_zone"] = o.homes_in_zone
     res["files"] = len(o.files)
     res["fence_missing"] = o.fence_missing
@@ -117,6 +119,10 @@ def report(results: list[dict[str, Any]], seconds: float, workers: int) -> list[
             out.append(f"    {kind:12s} {n:5d} legs in {plans} plans, max {max(m for _, k, m in legs if k == kind):.0f} m")
         sortie = {(r["id"], f) for r in viol for f, _, _ in r["legs"] if f.startswith("sortie")}
         out.append(f"    sortie files with a violation: {len(sortie)} in {len({i for i, _ in sortie})} plans")
+    margin = [r for r in planned if r.get("margin_legs")]
+    kinds = Counter(k for r in margin for _, k, _ in r["margin_legs"]).most_common()
+    out.append(f"plans with a leg inside a zone's margin only (information) {len(margin)}   "
+               + ", ".join(f"{k} {n} legs" for k, n in kinds))
     out.append(f"HOME IN A ZONE (plans)        {len(home)}   (files {sum(len(r['homes_in_zone']) for r in home)})")
     out.append(f"fence lacks a zone (plans)    {len(fence)}")
     out.append(f"plans with ground seen by < 2 photos   {len(gaps)}   (copter {sum(r['vehicle'] == 'copter' for r in gaps)}, "
@@ -132,7 +138,8 @@ def report(results: list[dict[str, Any]], seconds: float, workers: int) -> list[
         for r in rows[:3]:
             detail = r.get("crash") or next((p for p in r.get("problems", []) if word in p), "")
             out.append(f"  e.g. {title}: --case {r['id']}  {r['describe']}\n        {detail[:220]}")
-    out.append(f"verdict: crashes {len(crashes)}, zone violations {len(viol) + len(home)}, unreported gaps {len(unrep)}"
+    out.append(f"verdict: crashes {len(crashes)}, zone violations {len({r['id'] for r in viol + home})} plans, "
+               f"unreported gaps {len(unrep)} plans"
                f" -> {'PASS' if not (crashes or viol or home or unrep) else 'FAIL'}")
     return out
 

@@ -72,6 +72,7 @@ class Leg:
     kind: str  # climb-out, to-first (take-off to the first point), waypoint, loiter, land, rtl, rtl-loiter, end-rtl
     path: shapely.LineString  # local metres
     inside_m: tuple[float, ...]  # metres inside each zone
+    in_margin_m: float = 0.0  # metres inside the zones grown by the margin less 0.5 m (information: the docs promise it too)
 
     @property
     def worst_m(self) -> float:
@@ -245,11 +246,13 @@ def plan_items_differ(doc: dict[str, Any], home: Item, items: list[Item]) -> str
 
 
 def legs_inside_zones(wpl: Path, zones_ll: list[shapely.Geometry], local: Local, vehicle: str,
-                      plan: Path | None = None, tol_m: float = 0.02, plane_loiter_radius_m: float = 60.0) -> FileReport:
+                      plan: Path | None = None, tol_m: float = 0.02, plane_loiter_radius_m: float = 60.0,
+                      margin_m: float = 0.0) -> FileReport:
     """Every leg of one exported mission file with its metres inside each zone (input geometry)."""
     home, items = parse_wpl(wpl.read_text(), wpl.name)
     zones = [local.geom(z) for z in zones_ll]
     shrunk = [shapely.buffer(z, -tol_m) for z in zones]
+    grown = shapely.buffer(shapely.union_all(zones), margin_m - 0.5) if zones and margin_m > 0.5 else None
     rally: list[tuple[float, float]] = []
     fence_missing: list[int] = []
     notes: list[str] = []
@@ -269,7 +272,8 @@ def legs_inside_zones(wpl: Path, zones_ll: list[shapely.Geometry], local: Local,
     out = []
     for seq, kind, path in rebuild_legs(home, items, local, vehicle, rally, plane_loiter_radius_m):
         inside = tuple(float(shapely.length(shapely.intersection(path, z))) if not z.is_empty else 0.0 for z in shrunk)
-        out.append(Leg(wpl.name, seq, kind, path, inside))
+        in_margin = float(shapely.length(shapely.intersection(path, grown))) if grown is not None else 0.0
+        out.append(Leg(wpl.name, seq, kind, path, inside, in_margin))
     hx, hy = local.xy(home.lon, home.lat)
     home_zones = [i for i, z in enumerate(shrunk) if shapely.contains_xy(z, hx, hy)]
     return FileReport(wpl.name, (home.lon, home.lat), home_zones, out, fence_missing, notes)

@@ -240,3 +240,12 @@ def test_a_plane_returns_to_its_rally_point_even_when_home_is_nearer(tmp_path: P
     assert [(leg.kind, round(leg.worst_m)) for leg in plane.legs][-2:] == [("rtl", 40), ("rtl-loiter", 0)]
     copter = _legs(tmp_path, text, [_square(0, 250, 20)], vehicle="copter", plan=plan)
     assert copter.legs[-1].kind == "rtl" and copter.legs[-1].path.coords[-1] == pytest.approx((0, 0), abs=0.01)
+
+
+def test_a_leg_in_the_margin_is_measured_apart(tmp_path: Path) -> None:
+    text = _wpl((-300, 60), [(22, None, 0, 50), (16, (-200, 60), 0, 50), (16, (200, 60), 0, 50), (21, None, 0, 0)])
+    (tmp_path / "mission.waypoints").write_text(text)
+    rep = il.legs_inside_zones(tmp_path / "mission.waypoints", [_square(0, 0, 50)], LOCAL, "copter", margin_m=20.0)
+    assert rep.violations == []
+    # the line at 10 m from the zone crosses its 20 m margin (less 0.5 m) over 100 + 2·sqrt(19.5² - 10²) m
+    assert rep.legs[1].in_margin_m == pytest.approx(100 + 2 * np.sqrt(19.5**2 - 10**2), abs=0.3)

@@ -344,6 +344,6 @@ def plan_case(case: Case, folder: Path) -> Outcome:
         return Outcome(case, str(exc), [], None)
     c = shapely.centroid(case.area)
     local = il.Local(c.x, c.y)
-    files = il.check_legs(out, list(case.zones), local, case.params.vehicle)
+    files = il.check_legs(out, list(case.zones), local, case.params.vehicle, margin_m=case.params.margin_m)
     cov = il.coverage_gaps(out, case.area, list(case.zones), case.params.margin_m, local)
     return Outcome(case, None, files, cov)
