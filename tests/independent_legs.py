@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -133,7 +134,7 @@ def _circle(cx: float, cy: float, r: float) -> shapely.LineString:
 
 
 def rebuild_legs(home: Item, items: list[Item], local: Local, vehicle: str,
-                 rally: list[tuple[float, float]] = (), plane_loiter_radius_m: float = 60.0,  # type: ignore[assignment]
+                 rally: Sequence[tuple[float, float]] = (), plane_loiter_radius_m: float = 60.0,
                  max_steps: int = 100_000) -> list[tuple[int, str, shapely.LineString]]:
     """(item seq, kind, horizontal path in metres) of every leg flown, in order."""
     hx, hy = local.xy(home.lon, home.lat)
