@@ -147,3 +147,4 @@ def test_geofence_in_the_plan_file(tmp_path):
         if it.command == mav.NAV_WAYPOINT:
             assert fence.contains(shapely.Point(it.y, it.x))
     assert loads_plan(dumps_plan(m)).fence_exclusion == m.fence_exclusion
+

@@ -35,7 +35,7 @@ import independent_legs as il
 # the planner's public entry points only (spec loader, planner, output writer): the checker never sees them
 from aerosurvey.errors import InputError
 from aerosurvey.outputs import write_outputs
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.spec import load_spec
 
 KINDS = ("convex", "concave", "holed", "corridor")
@@ -339,7 +339,7 @@ def plan_case(case: Case, folder: Path) -> Outcome:
     spec = write_case(case, folder)
     out = folder / "out"
     try:
-        write_outputs(plan_mission(load_spec(spec)), out)
+        write_outputs(plan_from_files(load_spec(spec)), out)
     except InputError as exc:
         return Outcome(case, str(exc), [], None)
     c = shapely.centroid(case.area)
