@@ -33,6 +33,9 @@ import pyproj
 
 from aerosurvey.errors import InputError
 
+#: Largest residual accepted (m): anything larger is a wrong point or unit, and squaring
+#: values near 1e300 would overflow the statistics.
+MAX_RESIDUAL_M = 1.0e5
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048}
 _LENGTH_COLUMNS = ("dx", "dy", "dz", "x", "y", "z", "x_ref", "y_ref", "z_ref", "sigma_xy", "sigma_z")
 _ROLES = {"check": "check", "cp": "check", "checkpoint": "check", "check point": "check", "icp": "check",
@@ -186,7 +189,16 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     if units is not None and units not in UNITS:
         raise InputError(f"--units = {units!r} is not allowed: one of {', '.join(UNITS)}")
     where = path.name
-    text = path.read_text(encoding="utf-8-sig")
+    if path.is_dir():
+        raise InputError(f"check points: {str(path)!r} is a folder; give a CSV or GeoJSON file")
+    raw = path.read_bytes()
+    if b"\x00" in raw[:65536]:
+        raise InputError(f"{where}: a binary file (NUL bytes), not a CSV or GeoJSON text file")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where}: not UTF-8 text (byte {exc.start}); save the check points as UTF-8 CSV or "
+                         "GeoJSON") from None
     stated: list[str] = []
     is_geojson = path.suffix.lower() in (".geojson", ".json")
     if is_geojson:
@@ -290,6 +302,10 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
             dz = num(row, "z", i) - num(row, "z_ref", i) if "z" in cols else math.nan
         if math.isnan(dx) or math.isnan(dy):
             raise InputError(f"{where}: row {i + 1} ({pid}) has no horizontal residual (empty dx/dy or coordinates)")
+        for name, val in (("dx", dx), ("dy", dy), ("dz", dz)):
+            if abs(val) > MAX_RESIDUAL_M:  # NaN compares False
+                raise InputError(f"{where}: row {i + 1} ({pid}): residual {name} = {val:.6g} m is not allowed: at most "
+                                 f"{MAX_RESIDUAL_M:g} m (a larger difference is not the same point measured twice)")
         arr["dx"].append(dx)
         arr["dy"].append(dy)
         arr["dz"].append(dz)

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.qa.accuracy_input import CheckPoints
-from aerosurvey.qa.report_text import verdict_line
+from aerosurvey.qa.report_text import uncertainty_lines, verdict_line
 
 _CSS = ("body{font-family:sans-serif;margin:2em;max-width:1100px;color:#222} table{border-collapse:collapse;"
         "margin:.5em 0} td,th{border:1px solid #ccc;padding:2px 8px;text-align:right} th{background:#f0f0f0}"
@@ -189,6 +189,9 @@ def render(r: dict[str, Any], pts: CheckPoints | None) -> str:
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{escape(title)}</title><style>{_CSS}</style>"
              f"</head><body><h1>{escape(title)}</h1>", f"<p class='{cls}'><b>{escape(verdict)}</b></p>"]
     parts += [f"<p><b>{escape(s)}</b></p>" for s in r["sentences"]]
+    unc = uncertainty_lines(r)
+    if unc:
+        parts.append("<h2>Uncertainty</h2><ul>" + "".join(f"<li>{escape(u.strip())}</li>" for u in unc) + "</ul>")
     if r["warnings"]:
         parts.append("<h2>Warnings</h2><ul>" + "".join(f"<li class='warn'>{escape(w)}</li>" for w in r["warnings"])
                      + "</ul>")
