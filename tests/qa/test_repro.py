@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +56,7 @@ def _run(args: list[str]) -> CliRunner:
 
 def test_planted_noise_and_shift_are_found(tmp_path):
     a, b = _planted(tmp_path)
-    res = _run([str(a), str(b), "-o", str(tmp_path / "out"), "--block", "64"])
+    res = _run([str(a), str(b), "-o", str(tmp_path / "out"), "--block", "64", "--statistic", "window"])
     assert res.exit_code == 0, res.output
     with rasterio.open(tmp_path / "out" / "reproducibility.tif") as ds:
         layer = ds.read(1)
@@ -191,4 +194,9 @@ def test_timeseries_and_shift(tmp_path):
     res = CliRunner().invoke(main, ["qa", "shift", str(tmp_path / "t1.geojson"), str(tmp_path / "t2.geojson"), "-o", str(tmp_path / "sh")])
     assert res.exit_code == 0, res.output
     out = json.loads((tmp_path / "sh" / "shift.json").read_text())
-    assert out["per_date"][0]["centroid_shift_mean"] == pytest.approx(0.07)
+    # GeoJSON is longitude/latitude: 0.07 degrees of longitude near the equator, in metres on WGS84
+    # (a = 6378137 m; the centroids lie at latitude 1/3 degree)
+    expected = math.radians(0.07) * 6378137.0 * math.cos(math.radians(1 / 3))
+    assert out["unit"] == "m"
+    assert out["per_date"][0]["centroid_shift_mean_m"] == pytest.approx(expected, rel=1e-4)
+    assert "(m)" in res.output and "0.000" not in res.output

@@ -1,15 +1,30 @@
-"""Pixel-wise local correlation of two RGB(A) orthomosaics in a moving window (pure numpy).
+"""Correlation of two RGB(A) orthomosaics, pixel by pixel (pure numpy).
 
-For each pixel, the Pearson correlation r of the band values of the two images over a
-w × w window (all bands pooled: 3 w² pairs of values), computed from box sums of a, b,
-a², b² and ab in float64. Masked pixels (nodata, alpha = 0) are left out of the sums.
+Two statistics, documented in docs/qa-reproducibility.md:
 
-Rules, documented in docs/qa-reproducibility.md:
-- a pixel is only judged when it is valid in both images and at least half of its
-  window's pairs are valid; otherwise the pair's result there is NODATA;
-- a flat window (zero variance in either image) has no correlation: it counts as
-  reproducible when both windows are flat with equal means (the same constant patch),
-  and as not reproducible otherwise. No NaN reaches the layers.
+- **pixel** (the default, the source study's): for each pixel, the Pearson correlation r
+  between the vector of band values in image A and the vector in image B (n = number of
+  bands, 3 for RGB). This is what the study's public scripts compute: envima/
+  UASreproducibility, src/004_reproducibility_canopy_sample.R, calls
+  `raster::corLocal(ortho_i, ortho_j)` on RGB bricks, and raster's documentation says that
+  for two RasterStack/Brick objects the correlation is computed for each cell across the
+  layers (no neighbourhood). Its published figures (99 % grassland, 75 % forest) are
+  shares of this statistic above the threshold.
+- **window** (an option): r over a w × w window with the bands pooled (3 w² pairs of
+  values), from box sums of a, b, a², b² and ab in float64. Masked pixels (nodata,
+  alpha = 0) are left out of the sums.
+
+Rules:
+- reproducible when r > threshold, strictly, as the study's `cors > 0.95`
+  (src/005_plot_reproducibility_canopy_sample.R);
+- pixel statistic: a pixel is judged when it is valid in both images; when the band values
+  of either image have zero variance (a grey pixel) R's `cor` gives NA, the study's sum
+  of the binary layers is NA there, and so the pixel is not judged here (NODATA), and
+  counted apart as "flat";
+- window statistic: judged when the pixel is valid in both images and at least half of its
+  window's pairs are valid; a flat window counts as reproducible when both windows are flat
+  with equal means (the same constant patch), as not reproducible otherwise.
+No NaN reaches the layers.
 """
 
 from __future__ import annotations
@@ -19,6 +34,44 @@ from scipy import ndimage
 
 NODATA = 255
 _FLAT = 1e-9  # relative variance below which a window is flat
+STATISTICS = ("pixel", "window")
+
+
+def pixel_sums(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(n·Σab − ΣaΣb, n·Σa² − (Σa)², n·Σb² − (Σb)², n·Σa²) over the bands of each pixel, float64.
+
+    Accumulated band by band, so memory is a few (rows, cols) arrays whatever the band
+    count; exact for integer imagery (no rounding below 2^53)."""
+    n = a.shape[0]
+    sa = np.zeros(a.shape[1:], np.float64)
+    sb = np.zeros_like(sa)
+    saa = np.zeros_like(sa)
+    sbb = np.zeros_like(sa)
+    sab = np.zeros_like(sa)
+    for k in range(n):
+        x = a[k].astype(np.float64)
+        y = b[k].astype(np.float64)
+        sa += x
+        sb += y
+        saa += x * x
+        sbb += y * y
+        x *= y
+        sab += x
+    cov = n * sab - sa * sb
+    va = n * saa - sa * sa
+    vb = n * sbb - sb * sb
+    return cov, va, vb, n * saa + n * sbb
+
+
+def pixel_correlation(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(r, flat): r across the bands of each pixel (NaN where flat), and where either
+    image's band values have zero variance (relative 1e-12, exact 0 for integer data)."""
+    cov, va, vb, scale = pixel_sums(a, b)
+    flat = (va <= 1e-12 * scale) | (vb <= 1e-12 * scale)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = cov / np.sqrt(np.maximum(va, 0) * np.maximum(vb, 0))
+    r = np.where(flat, np.nan, np.clip(r, -1.0, 1.0))
+    return r, flat
 
 
 def window_sums(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> dict[str, np.ndarray]:
@@ -36,8 +89,8 @@ def window_sums(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> dict
 
 
 def correlation(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(r, judged, flat_equal): r where defined (NaN elsewhere), which pixels are judged,
-    and where both windows are flat with equal means."""
+    """Window statistic: (r, judged, flat_equal): r where defined (NaN elsewhere), which
+    pixels are judged, and where both windows are flat with equal means."""
     s = window_sums(a, b, valid, w)
     n = s["n"]
     full = a.shape[0] * w * w
@@ -59,13 +112,21 @@ def correlation(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> tupl
     return r, judged, flat_equal
 
 
-def reproducible(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int, threshold: float) -> np.ndarray:
-    """uint8 layer: 1 reproducible (r ≥ threshold), 0 not, NODATA not judged."""
+def reproducible(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int, threshold: float,
+                 statistic: str = "pixel") -> tuple[np.ndarray, int]:
+    """(uint8 layer: 1 reproducible (r > threshold), 0 not, NODATA not judged; number of
+    valid pixels left unjudged because they are flat — pixel statistic only)."""
+    if statistic == "pixel":
+        r, flat = pixel_correlation(a, b)
+        out = (r > threshold).astype(np.uint8)  # NaN > t is False; flat pixels are set below
+        judged = valid & ~flat
+        out[~judged] = NODATA
+        return out, int((valid & flat).sum())
     r, judged, flat_equal = correlation(a, b, valid, w)
-    ok = np.where(np.isnan(r), flat_equal, r >= threshold)
+    ok = np.where(np.isnan(r), flat_equal, r > threshold)
     out = ok.astype(np.uint8)
     out[~judged] = NODATA
-    return out
+    return out, 0
 
 
 def pairs(x: int) -> list[tuple[int, int]]:
