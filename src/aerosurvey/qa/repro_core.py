@@ -37,41 +37,78 @@ _FLAT = 1e-9  # relative variance below which a window is flat
 STATISTICS = ("pixel", "window")
 
 
-def pixel_sums(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(n·Σab − ΣaΣb, n·Σa² − (Σa)², n·Σb² − (Σb)², n·Σa²) over the bands of each pixel, float64.
+def _accumulator(a: np.ndarray, b: np.ndarray) -> type:
+    """int32 for 8-bit imagery, int64 for 16-bit (exact sums for up to 4 bands), float64 otherwise."""
+    if a.dtype == np.uint8 and b.dtype == np.uint8:
+        return np.int32
+    if all(x.dtype.kind in "ui" and x.dtype.itemsize <= 2 for x in (a, b)):
+        return np.int64
+    return np.float64
 
-    Accumulated band by band, so memory is a few (rows, cols) arrays whatever the band
-    count; exact for integer imagery (no rounding below 2^53)."""
+
+def pixel_sums(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(n·Σab − ΣaΣb, n·Σa² − (Σa)², n·Σb² − (Σb)², n·Σa² + n·Σb²) over the bands of each pixel.
+
+    Accumulated band by band in integers for integer imagery (exact, and about twice as
+    fast as float64 here), so memory is a few (rows, cols) arrays whatever the band count."""
     n = a.shape[0]
-    sa = np.zeros(a.shape[1:], np.float64)
+    acc = _accumulator(a, b)
+    sa = np.zeros(a.shape[1:], acc)
     sb = np.zeros_like(sa)
     saa = np.zeros_like(sa)
     sbb = np.zeros_like(sa)
     sab = np.zeros_like(sa)
     for k in range(n):
-        x = a[k].astype(np.float64)
-        y = b[k].astype(np.float64)
+        x = a[k].astype(acc)
+        y = b[k].astype(acc)
         sa += x
         sb += y
-        saa += x * x
-        sbb += y * y
-        x *= y
-        sab += x
-    cov = n * sab - sa * sb
-    va = n * saa - sa * sa
-    vb = n * sbb - sb * sb
-    return cov, va, vb, n * saa + n * sbb
+        sab += x * y
+        x *= x
+        y *= y
+        saa += x
+        sbb += y
+    sab *= n
+    sab -= sa * sb  # the covariance term
+    saa *= n
+    sbb *= n
+    scale = saa + sbb
+    saa -= sa * sa
+    sbb -= sb * sb
+    return sab, saa, sbb, scale
+
+
+def _flat(va: np.ndarray, vb: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    if va.dtype.kind == "i":
+        return (va <= 0) | (vb <= 0)
+    return (va <= 1e-12 * scale) | (vb <= 1e-12 * scale)
 
 
 def pixel_correlation(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(r, flat): r across the bands of each pixel (NaN where flat), and where either
     image's band values have zero variance (relative 1e-12, exact 0 for integer data)."""
     cov, va, vb, scale = pixel_sums(a, b)
-    flat = (va <= 1e-12 * scale) | (vb <= 1e-12 * scale)
+    flat = _flat(va, vb, scale)
     with np.errstate(invalid="ignore", divide="ignore"):
-        r = cov / np.sqrt(np.maximum(va, 0) * np.maximum(vb, 0))
+        r = cov / np.sqrt(np.maximum(va, 0).astype(np.float64) * np.maximum(vb, 0))
     r = np.where(flat, np.nan, np.clip(r, -1.0, 1.0))
     return r, flat
+
+
+def pixel_reproducible(a: np.ndarray, b: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """(r > threshold, flat) without forming r: r > t ⇔ cov > 0 and cov² > t² va vb
+    (float64 holds these products exactly for 8- and 16-bit imagery)."""
+    cov, va, vb, scale = pixel_sums(a, b)
+    flat = _flat(va, vb, scale)
+    c = cov.astype(np.float64)
+    ok = c > 0
+    c *= c
+    v = va.astype(np.float64)
+    v *= vb
+    v *= threshold * threshold
+    ok &= c > v
+    ok &= ~flat
+    return ok, flat
 
 
 def window_sums(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> dict[str, np.ndarray]:
@@ -117,8 +154,8 @@ def reproducible(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int, thresh
     """(uint8 layer: 1 reproducible (r > threshold), 0 not, NODATA not judged; number of
     valid pixels left unjudged because they are flat — pixel statistic only)."""
     if statistic == "pixel":
-        r, flat = pixel_correlation(a, b)
-        out = (r > threshold).astype(np.uint8)  # NaN > t is False; flat pixels are set below
+        ok, flat = pixel_reproducible(a, b, threshold)
+        out = ok.astype(np.uint8)
         judged = valid & ~flat
         out[~judged] = NODATA
         return out, int((valid & flat).sum())
