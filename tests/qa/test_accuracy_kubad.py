@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -14,11 +16,12 @@ from aerosurvey.qa.accuracy_input import read_points
 from aerosurvey.qa.assessment import Settings, assess
 
 
-def _kubad(**kw):
-    return assess(read_points(KUBAD, default_role="control"), Settings(standard="asprs2014", **kw))
+def _kubad(**kw: Any) -> dict[str, Any]:
+    r: dict[str, Any] = assess(read_points(KUBAD, default_role="control"), Settings(standard="asprs2014", **kw))
+    return r
 
 
-def test_kubad_abad_figures():
+def test_kubad_abad_figures() -> None:
     r = _kubad(area_km2=1.22)
     res = r["result"]
     assert res["rmse_x_m"] * 100 == pytest.approx(4.063, abs=5e-4)
@@ -42,7 +45,7 @@ def test_kubad_abad_figures():
     assert "RMSE_z = 3.29 cm, equating to +/- 6.45 cm" in r["sentences"][1]
 
 
-def test_kubad_abad_warnings_control_points_and_count():
+def test_kubad_abad_warnings_control_points_and_count() -> None:
     r = _kubad(area_km2=1.22)
     w = "\n".join(r["warnings"])
     assert "14 of 14 points are ground control used in the adjustment" in w
@@ -52,7 +55,7 @@ def test_kubad_abad_warnings_control_points_and_count():
     assert any("no independent check point" in x for x in r["verdict"]["reasons"])
 
 
-def test_kubad_abad_unequal_rmse_note():
+def test_kubad_abad_unequal_rmse_note() -> None:
     # RMSE_x != RMSE_y: the figure is NSSDA's approximation, with the exact CE95 and 1.7308 RMSE_r beside it
     r = _kubad()
     res = r["result"]
@@ -64,7 +67,7 @@ def test_kubad_abad_unequal_rmse_note():
     assert any("RMSE_x and RMSE_y differ" in n for n in r["notes"])
 
 
-def test_kubad_class_tests():
+def test_kubad_class_tests() -> None:
     # the arithmetic of the class test stays; the verdict is withheld (GCPs only)
     ok = _kubad(class_h_cm=5, class_v_cm=5)
     assert ok["result"]["passed"] is True and ok["passed"] is None and ok["verdict"]["result"] == "not tested"
@@ -74,7 +77,7 @@ def test_kubad_class_tests():
     assert _kubad(class_v_cm=3.2)["result"]["passed"] is False  # RMSE_z = 3.288 cm
 
 
-def test_kubad_cli_report_files_and_exit_codes(tmp_path):
+def test_kubad_cli_report_files_and_exit_codes(tmp_path: Path) -> None:
     out = tmp_path / "qa"
     res = CliRunner().invoke(main, ["qa", "accuracy", str(KUBAD), "--role", "control", "--area-km2", "1.22",
                                     "--standard", "asprs2014", "-o", str(out)])

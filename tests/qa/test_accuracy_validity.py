@@ -9,10 +9,11 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 from qa_accuracy_helpers import KUBAD, make_points, scaled_to
 from scipy import stats
 
@@ -30,7 +31,7 @@ def _normal(n: int, rms: float, seed: int) -> np.ndarray:
     return scaled_to(e - e.mean(), rms)  # mean exactly 0, RMS exactly `rms`
 
 
-def _csv(path: Path, dx, dy, dz=None, roles=None) -> Path:
+def _csv(path: Path, dx: Any, dy: Any, dz: Any = None, roles: Any = None) -> Path:
     rows = []
     for i in range(len(dx)):
         z = "" if dz is None else f",{float(dz[i])!r}"
@@ -41,14 +42,14 @@ def _csv(path: Path, dx, dy, dz=None, roles=None) -> Path:
     return path
 
 
-def _cli(*args: str):
+def _cli(*args: str) -> Result:
     return CliRunner().invoke(main, ["qa", "accuracy", *args])
 
 
 # --- the 95 % figure ----------------------------------------------------------------------------------
 
 
-def test_anisotropic_errors_switch_the_95_percent_formula():
+def test_anisotropic_errors_switch_the_95_percent_formula() -> None:
     n = 40
     base = _normal(n, 1.0, 1)
     other = _normal(n, 1.0, 2)
@@ -77,7 +78,7 @@ def test_anisotropic_errors_switch_the_95_percent_formula():
 
 
 @pytest.mark.parametrize("standard", ["asprs2014", "asprs2023", "nssda"])
-def test_gcp_only_input_is_not_tested_with_exit_3(tmp_path, standard):
+def test_gcp_only_input_is_not_tested_with_exit_3(tmp_path: Path, standard: Any) -> None:
     n = 30
     path = _csv(tmp_path / "gcp.csv", _normal(n, 0.01, 1), _normal(n, 0.01, 2), roles=["GCP"] * n)
     out = tmp_path / "out"
@@ -90,7 +91,7 @@ def test_gcp_only_input_is_not_tested_with_exit_3(tmp_path, standard):
 
 
 @pytest.mark.parametrize("n", [1, 2, 8])
-def test_too_few_check_points_are_indicative_only(tmp_path, n):
+def test_too_few_check_points_are_indicative_only(tmp_path: Path, n: Any) -> None:
     dx = np.full(n, 0.01) * np.where(np.arange(n) % 2, 1, -1)
     path = _csv(tmp_path / "cp.csv", dx, -dx)
     for standard in ("asprs2014", "asprs2023", "nssda"):
@@ -100,7 +101,7 @@ def test_too_few_check_points_are_indicative_only(tmp_path, n):
         assert "tested to meet" not in res.stdout
 
 
-def test_a_valid_test_still_passes_and_fails():
+def test_a_valid_test_still_passes_and_fails() -> None:
     n = 40
     pts = make_points(_normal(n, 0.02, 1), _normal(n, 0.02, 2), _normal(n, 0.03, 3))
     ok = assess(pts, Settings(standard="asprs2014", class_h_cm=5, class_v_cm=5, area_km2=1))
@@ -110,7 +111,7 @@ def test_a_valid_test_still_passes_and_fails():
     assert bad["verdict"]["status"] == "valid" and bad["passed"] is False
 
 
-def test_biased_set_is_not_a_pass():
+def test_biased_set_is_not_a_pass() -> None:
     n = 30
     dx = 0.03 + _normal(n, 0.01, 4)  # 3 cm bias, RMSE_x = 3.16 cm < 5 cm
     pts = make_points(dx, _normal(n, 0.01, 5), _normal(n, 0.01, 6))
@@ -120,7 +121,7 @@ def test_biased_set_is_not_a_pass():
     assert any("mean error in x +3.00 cm > 25 % of the class's 5.00 cm" in x for x in r["verdict"]["reasons"])
 
 
-def test_edition_2_and_2014_differ_by_the_check_points_own_accuracy():
+def test_edition_2_and_2014_differ_by_the_check_points_own_accuracy() -> None:
     n = 35
     pts = make_points(_normal(n, 0.015, 1), _normal(n, 0.015, 2), _normal(n, 0.015, 3))
     # survey sigma 1.0 cm per coordinate: 2014 asks 3x better than X = 2.5 cm (0.83 cm): indicative only
@@ -137,7 +138,7 @@ def test_edition_2_and_2014_differ_by_the_check_points_own_accuracy():
 # --- uncertainty -----------------------------------------------------------------------------------------
 
 
-def test_confidence_interval_and_probability_within_class():
+def test_confidence_interval_and_probability_within_class() -> None:
     r = assess(read_points(KUBAD), Settings(standard="asprs2014", class_h_cm=5))
     u = r["uncertainty"]["x"]
     assert u["n"] == 14 and round(u["ci_lower_m"] * 100, 2) == 2.97 and round(u["ci_upper_m"] * 100, 2) == 6.41
@@ -154,14 +155,14 @@ def test_confidence_interval_and_probability_within_class():
 
 
 @pytest.mark.parametrize("n", [5, 10, 30])
-def test_one_vertical_blunder_is_found(n):
+def test_one_vertical_blunder_is_found(n: Any) -> None:
     dz = np.full(n, 0.01) * np.where(np.arange(n) % 2, 1, -1)
     dz[2] = 1.0  # 1 m among 1 cm residuals
     s = snoop(np.full(n, 0.01), np.full(n, -0.01), dz)
     assert list(np.flatnonzero(s.rejected_v)) == [2] and s.detectable_v
 
 
-def test_blunder_undetectable_for_four_points_is_a_warning():
+def test_blunder_undetectable_for_four_points_is_a_warning() -> None:
     dz = np.array([0.01, -0.01, 1.0, 0.01])
     s = snoop(np.full(4, 0.01), np.full(4, -0.01), dz)
     assert not s.rejected_v.any() and not s.detectable_v and s.mdb_v == math.inf
@@ -169,7 +170,7 @@ def test_blunder_undetectable_for_four_points_is_a_warning():
     assert any("no vertical blunder can be detected" in w and "sqrt(4) = 2.00 < k = 2.16" in w for w in r["warnings"])
 
 
-def test_iteration_finds_a_masked_second_blunder():
+def test_iteration_finds_a_masked_second_blunder() -> None:
     dz = np.full(10, 0.01) * np.where(np.arange(10) % 2, 1, -1)
     dz[1], dz[6] = 1.0, 0.9
     # one pass: sigma_v = sqrt((1 + 0.81 + 8e-4) / 10) = 0.4255, threshold 0.919: 0.9 would pass
@@ -185,7 +186,7 @@ def test_iteration_finds_a_masked_second_blunder():
 # --- Edition 2 counts and the plan's rule --------------------------------------------------------------------
 
 
-def test_edition_2_counts_beyond_2500_km2_are_capped_at_120():
+def test_edition_2_counts_beyond_2500_km2_are_capped_at_120() -> None:
     assert asprs.required_2023(400).total == 30
     assert asprs.required_2023(2500).total == 70
     assert asprs.required_2023(3000).total == 80
@@ -193,7 +194,7 @@ def test_edition_2_counts_beyond_2500_km2_are_capped_at_120():
     assert "not the standard's text" in asprs.required_2023(3000).note
 
 
-def test_campaign_rule_one_check_point_per_3_ha(tmp_path):
+def test_campaign_rule_one_check_point_per_3_ha(tmp_path: Path) -> None:
     folder = tmp_path / "plan"
     folder.mkdir()
     (folder / "manifest.json").write_text(json.dumps({
@@ -210,13 +211,13 @@ def test_campaign_rule_one_check_point_per_3_ha(tmp_path):
 # --- bad input: one line, exit 2, nothing written ---------------------------------------------------------------
 
 
-def _run_cli(args: list[str]) -> subprocess.CompletedProcess:
+def _run_cli(args: list[str]) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     return subprocess.run([sys.executable, "-m", "aerosurvey.cli", *args], capture_output=True, text=True, env=env,
                           timeout=120)
 
 
-def test_binary_file_is_a_one_line_error(tmp_path):
+def test_binary_file_is_a_one_line_error(tmp_path: Path) -> None:
     path = tmp_path / "points.csv"
     path.write_bytes(bytes(range(256)) * 4)
     out = tmp_path / "out"
@@ -226,7 +227,7 @@ def test_binary_file_is_a_one_line_error(tmp_path):
     assert not out.exists()
 
 
-def test_huge_residual_is_a_one_line_error_without_warnings(tmp_path):
+def test_huge_residual_is_a_one_line_error_without_warnings(tmp_path: Path) -> None:
     n = 25
     dx = _normal(n, 0.01, 1)
     dx[3] = 1e300

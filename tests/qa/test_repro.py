@@ -7,11 +7,12 @@ import math
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import rasterio
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.transform import from_origin
@@ -23,7 +24,7 @@ from aerosurvey.qa.repro_core import NODATA, correlation
 W, H = 200, 160
 
 
-def _write(path: Path, data: np.ndarray, crs: str | None = "EPSG:32633", nodata=None) -> Path:
+def _write(path: Path, data: np.ndarray, crs: str | None = "EPSG:32633", nodata: float | None = None) -> Path:
     prof = dict(driver="GTiff", width=data.shape[2], height=data.shape[1], count=data.shape[0], dtype="uint8",
                 transform=from_origin(500000, 5470000, 0.05, 0.05), nodata=nodata)
     if crs:
@@ -50,11 +51,11 @@ def _planted(tmp: Path) -> tuple[Path, Path]:
     return _write(tmp / "a.tif", a), _write(tmp / "b.tif", b)
 
 
-def _run(args: list[str]) -> CliRunner:
+def _run(args: list[str]) -> Result:
     return CliRunner().invoke(main, ["qa", "reproducibility", *args])
 
 
-def test_planted_noise_and_shift_are_found(tmp_path):
+def test_planted_noise_and_shift_are_found(tmp_path: Path) -> None:
     a, b = _planted(tmp_path)
     res = _run([str(a), str(b), "-o", str(tmp_path / "out"), "--block", "64", "--statistic", "window"])
     assert res.exit_code == 0, res.output
@@ -80,7 +81,7 @@ def test_planted_noise_and_shift_are_found(tmp_path):
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 10_000), st.integers(0, 19), st.integers(0, 24), st.sampled_from([3, 5, 7]), st.booleans())
-def test_window_correlation_equals_numpy_corrcoef(seed, i, j, w, holes):
+def test_window_correlation_equals_numpy_corrcoef(seed: Any, i: Any, j: Any, w: Any, holes: Any) -> None:
     rng = np.random.default_rng(seed)
     a = rng.normal(100, 20, (3, 20, 25))
     b = 0.7 * a + rng.normal(0, 10, (3, 20, 25))
@@ -100,7 +101,7 @@ def test_window_correlation_equals_numpy_corrcoef(seed, i, j, w, holes):
     assert r[i, j] == pytest.approx(np.corrcoef(xa, xb)[0, 1], abs=1e-9)
 
 
-def test_flat_windows_are_explicit():
+def test_flat_windows_are_explicit() -> None:
     a = np.full((3, 9, 9), 50.0)
     valid = np.ones((9, 9), bool)
     r, judged, flat_equal = correlation(a, a.copy(), valid, 3)
@@ -109,7 +110,7 @@ def test_flat_windows_are_explicit():
     assert not flat2.any()
 
 
-def test_three_inputs_give_three_pairs_and_bounded_sum(tmp_path):
+def test_three_inputs_give_three_pairs_and_bounded_sum(tmp_path: Path) -> None:
     a, b = _planted(tmp_path)
     c = _write(tmp_path / "c.tif", _base())
     res = _run([str(a), str(b), str(c), "-o", str(tmp_path / "out")])
@@ -124,7 +125,7 @@ def test_three_inputs_give_three_pairs_and_bounded_sum(tmp_path):
     assert ac["reproducible_share"] == 1.0
 
 
-def test_dask_cluster_gives_the_same_layer(tmp_path):
+def test_dask_cluster_gives_the_same_layer(tmp_path: Path) -> None:
     a, b = _planted(tmp_path)
     assert _run([str(a), str(b), "-o", str(tmp_path / "t"), "--block", "64"]).exit_code == 0
     res = _run([str(a), str(b), "-o", str(tmp_path / "d"), "--block", "64", "--scheduler", "local"])
@@ -133,7 +134,7 @@ def test_dask_cluster_gives_the_same_layer(tmp_path):
         assert np.array_equal(x.read(1), y.read(1))
 
 
-def test_nodata_and_auto_crop(tmp_path):
+def test_nodata_and_auto_crop(tmp_path: Path) -> None:
     a = _base()
     a[:, :, :20] = 0
     pa = _write(tmp_path / "a.tif", a, nodata=0)
@@ -150,7 +151,7 @@ def test_nodata_and_auto_crop(tmp_path):
     ("text", "not a raster"), ("bands", "mismatched band counts"), ("crs", "no CRS"),
     ("window", "--window = 4"), ("small", "--window = 1"), ("threshold", "--threshold = 1.5"),
 ])
-def test_bad_input(tmp_path, case, needle):
+def test_bad_input(tmp_path: Path, case: Any, needle: Any) -> None:
     a = _write(tmp_path / "a.tif", _base())
     b = _write(tmp_path / "b.tif", _base(1))
     args = [str(a), str(b)]
@@ -175,7 +176,7 @@ def test_bad_input(tmp_path, case, needle):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]
 
 
-def test_timeseries_and_shift(tmp_path):
+def test_timeseries_and_shift(tmp_path: Path) -> None:
     a, b = _planted(tmp_path)
     c = _write(tmp_path / "c.tif", _base())
     assert _run([str(a), str(b), "-o", str(tmp_path / "d1")]).exit_code == 0
@@ -185,10 +186,12 @@ def test_timeseries_and_shift(tmp_path):
     assert res.exit_code == 0, res.output
     with rasterio.open(tmp_path / "ts" / "quality_mask.tif") as ds, rasterio.open(tmp_path / "d1" / "reproducibility.tif") as d1:
         assert np.array_equal(ds.read(1) == 1, d1.read(1) == 1)
-    feats = lambda dx: {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"id": f"T{k}"},
-         "geometry": {"type": "Polygon", "coordinates": [[[k * 10 + dx, 0], [k * 10 + 1 + dx, 0], [k * 10 + 1 + dx, 1], [k * 10 + dx, 0]]]}}
-        for k in range(3)]}
+    def feats(dx: float) -> dict[str, Any]:
+        return {"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {"id": f"T{k}"},
+             "geometry": {"type": "Polygon", "coordinates": [[[k * 10 + dx, 0], [k * 10 + 1 + dx, 0],
+                                                              [k * 10 + 1 + dx, 1], [k * 10 + dx, 0]]]}}
+            for k in range(3)]}
     (tmp_path / "t1.geojson").write_text(json.dumps(feats(0.0)))
     (tmp_path / "t2.geojson").write_text(json.dumps(feats(0.07)))
     res = CliRunner().invoke(main, ["qa", "shift", str(tmp_path / "t1.geojson"), str(tmp_path / "t2.geojson"), "-o", str(tmp_path / "sh")])
@@ -215,7 +218,7 @@ def _pattern() -> tuple[np.ndarray, np.ndarray]:
     return a, a + c
 
 
-def test_pixel_and_window_statistics_differ_as_computed_by_hand():
+def test_pixel_and_window_statistics_differ_as_computed_by_hand() -> None:
     from aerosurvey.qa.repro_core import correlation, pixel_correlation, reproducible
 
     a, b = _pattern()
@@ -232,7 +235,7 @@ def test_pixel_and_window_statistics_differ_as_computed_by_hand():
     assert reproducible(a, b, valid, 3, 0.95, "window")[0][1, 1] == 0
 
 
-def test_pixel_statistic_end_to_end_and_flat_pixels(tmp_path):
+def test_pixel_statistic_end_to_end_and_flat_pixels(tmp_path: Path) -> None:
     a = _base()
     b = a.copy()
     b[:, 10:20, 10:30] = a[:, 10:20, 10:30][::-1]  # bands reversed: r = -1 unless the pixel is grey
@@ -262,7 +265,7 @@ def _shifted_grid(path: Path, data: np.ndarray, x0: float) -> Path:
     return path
 
 
-def test_other_grid_is_refused_unless_resample_and_only_the_overlap_is_judged(tmp_path):
+def test_other_grid_is_refused_unless_resample_and_only_the_overlap_is_judged(tmp_path: Path) -> None:
     a = _base()
     pa = _write(tmp_path / "a.tif", a)
     pb = _shifted_grid(tmp_path / "b.tif", a[:, :, :100].copy(), 500000)  # the western half only, no nodata
@@ -279,7 +282,7 @@ def test_other_grid_is_refused_unless_resample_and_only_the_overlap_is_judged(tm
     assert (inner[inner != NODATA] == 1).all() and (inner != NODATA).mean() > 0.99
 
 
-def test_unreachable_dask_scheduler_fails_fast_with_one_line(tmp_path):
+def test_unreachable_dask_scheduler_fails_fast_with_one_line(tmp_path: Path) -> None:
     a, b = _planted(tmp_path)
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["qa", "reproducibility", str(a), str(b), "-o", str(out), "--scheduler",
@@ -290,7 +293,7 @@ def test_unreachable_dask_scheduler_fails_fast_with_one_line(tmp_path):
     assert bad.exit_code == 2 and "tcp://host:8786" in bad.stderr
 
 
-def test_timeseries_runs_in_a_fresh_process(tmp_path):
+def test_timeseries_runs_in_a_fresh_process(tmp_path: Path) -> None:
     a, b = _planted(tmp_path)
     assert _run([str(a), str(b), "-o", str(tmp_path / "d1")]).exit_code == 0
     assert _run([str(a), str(a), "-o", str(tmp_path / "d2")]).exit_code == 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -11,7 +12,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 
 
-def _crop_geoms(path: Path, grid_crs) -> tuple:
+def _crop_geoms(path: Path, grid_crs: Any) -> tuple[Any, ...]:
     import numpy as np
     import pyproj
     import shapely
@@ -57,7 +58,7 @@ def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int, thres
     rp.validate_settings(window, threshold, statistic)
     paths = list(orthos)
     grid = rp.inspect(paths, resample)
-    geoms: tuple = ()
+    geoms: tuple[Any, ...] = ()
     if crop not in ("none", "auto"):
         geoms = _crop_geoms(Path(crop), grid.crs)
     s = rp.Settings(window=window, threshold=threshold, crop=crop if crop in ("none", "auto") else "file",
@@ -65,8 +66,9 @@ def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int, thres
     with staged_directory(outdir) as stage:
         summary = rp.run(paths, stage, s, scheduler)
         rp.write_summary(stage, summary)
-    click.echo(f"{summary['pairs']} pairs ({statistic} statistic): {100 * summary['reproducible_share']:.2f} % of {summary['judged_pixels']} judged "
-               f"pixels reproducible in every pair; wrote reproducibility.tif, summary.json, summary.txt to {outdir}")
+    click.echo(f"{summary['pairs']} pairs ({statistic} statistic): {100 * summary['reproducible_share']:.2f} % of "
+               f"{summary['judged_pixels']} judged pixels reproducible in every pair; wrote reproducibility.tif, "
+               f"summary.json, summary.txt to {outdir}")
 
 
 @click.command()

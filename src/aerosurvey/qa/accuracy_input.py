@@ -108,6 +108,8 @@ def geographic_offsets(lon: np.ndarray, lat: np.ndarray, lon_ref: np.ndarray, la
     the error is far below a millimetre, which is what check point residuals need.
     """
     ell = pyproj.CRS.from_user_input(crs or "OGC:CRS84").ellipsoid
+    if ell is None:
+        raise InputError(f"CRS {crs!r} has no ellipsoid: geographic coordinates cannot be turned into metres")
     a, inv_f = ell.semi_major_metre, ell.inverse_flattening
     e2 = 0.0 if not inv_f else (2 - 1 / inv_f) / inv_f
     phi = np.radians(lat_ref)
@@ -191,11 +193,11 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     where = path.name
     if path.is_dir():
         raise InputError(f"check points: {str(path)!r} is a folder; give a CSV or GeoJSON file")
-    raw = path.read_bytes()
-    if b"\x00" in raw[:65536]:
+    content = path.read_bytes()
+    if b"\x00" in content[:65536]:
         raise InputError(f"{where}: a binary file (NUL bytes), not a CSV or GeoJSON text file")
     try:
-        text = raw.decode("utf-8-sig")
+        text = content.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise InputError(f"{where}: not UTF-8 text (byte {exc.start}); save the check points as UTF-8 CSV or "
                          "GeoJSON") from None
@@ -221,6 +223,8 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     if crs_obj is None and is_geojson:
         crs_obj = pyproj.CRS.from_user_input("OGC:CRS84")  # RFC 7946: GeoJSON is longitude/latitude
     geographic = bool(crs_obj is not None and crs_obj.is_geographic)
+    crs_text = crs_obj.to_string() if crs_obj is not None else None
+    crs_name = crs_obj.name if crs_obj is not None else "none"
 
     id_col = next((cols[c][0] for c in ("id", "label", "name", "point") if c in cols), None)
     if id_col is None:
@@ -237,7 +241,7 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
         suffixed = [cols[c][0] for c in planar if cols[c][1]]
         if suffixed:
             raise InputError(f"{where}: {', '.join(suffixed)} carry a length unit, but the CRS "
-                             f"{crs_obj.name} is geographic (degrees)")
+                             f"{crs_name} is geographic (degrees)")
     checked = [c for c in _LENGTH_COLUMNS if c in cols and not (geographic and c in planar)]
     found = {c: cols[c][1] or units or "m" for c in checked}
     if crs_obj is not None and not geographic:
@@ -295,7 +299,7 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
             xp, yp = num(row, "x", i, pf), num(row, "y", i, pf)
             if geographic:
                 ex, ny = geographic_offsets(np.array([xp]), np.array([yp]), np.array([xr]), np.array([yr]),
-                                            crs_obj.to_string())
+                                            crs_text)
                 dx, dy = float(ex[0]), float(ny[0])
             else:
                 dx, dy = xp - xr, yp - yr

@@ -185,7 +185,7 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     if class_v_cm is not None and (rz is not None or vva is not None):
         x = class_v_cm / 100
         checks = {}
-        if rz is not None:
+        if rz is not None and nva is not None:
             checks["NVA RMSE_z"] = rz <= x + 1e-12
             checks["NVA 95 %"] = nva <= NVA95_FACTOR * x + 1e-12
         if vva is not None:

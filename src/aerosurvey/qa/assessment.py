@@ -137,8 +137,9 @@ def _run_asprs2014(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     result = asprs.evaluate_2014(t.dx, t.dy, t.dz, t.vegetated, s.class_h_cm, s.class_v_cm)
 
     def verdict(m: np.ndarray) -> bool | None:
-        return asprs.evaluate_2014(t.dx[m], t.dy[m], t.dz[m], t.vegetated[m], s.class_h_cm, s.class_v_cm,
-                                   exact=False)["passed"]
+        res: bool | None = asprs.evaluate_2014(t.dx[m], t.dy[m], t.dz[m], t.vegetated[m], s.class_h_cm,
+                                               s.class_v_cm, exact=False)["passed"]
+        return res
 
     run = _Run(result, asprs.required_2014(area_km2), verdict)
     if result["n_vva"] == 0 and np.isfinite(t.dz).any():
@@ -196,8 +197,9 @@ def _run_asprs2023(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     result = asprs.evaluate_2023(t.dx, t.dy, t.dz, t.vegetated, sx, sz, s.class_h_cm, s.class_v_cm)
 
     def verdict(m: np.ndarray) -> bool | None:
-        return asprs.evaluate_2023(t.dx[m], t.dy[m], t.dz[m], t.vegetated[m], sx, sz, s.class_h_cm,
-                                   s.class_v_cm)["passed"]
+        res: bool | None = asprs.evaluate_2023(t.dx[m], t.dy[m], t.dz[m], t.vegetated[m], sx, sz, s.class_h_cm,
+                                               s.class_v_cm)["passed"]
+        return res
 
     run = _Run(result, asprs.required_2023(area_km2), verdict, notes=[EDITION2_UNCONFIRMED])
     if sx is None or (sz is None and result["rmse_v_fit_m"] is not None):
@@ -245,7 +247,8 @@ def _run_asprs2023(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
 
 def _run_nssda(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     def verdict(m: np.ndarray) -> bool | None:
-        return nssda.evaluate(t.dx[m], t.dy[m], t.dz[m], s.class_h_cm, s.class_v_cm)["passed"]
+        res: bool | None = nssda.evaluate(t.dx[m], t.dy[m], t.dz[m], s.class_h_cm, s.class_v_cm)["passed"]
+        return res
 
     result = nssda.evaluate(t.dx, t.dy, t.dz, s.class_h_cm, s.class_v_cm)
     run = _Run(result, asprs.Required(nssda.MIN_CHECK_POINTS, 0, 0, "NSSDA: at least 20"), verdict)
@@ -275,7 +278,7 @@ def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
 
     sn = run_on(np.ones(t.n, bool))
     rejected = sorted((i for i, f in zip(t.ids, sn.rejected) if f), key=review.natural_key)
-    result = {"sigma_h_m": sn.sigma_h, "sigma_v_m": sn.sigma_v, "k_h": s.k_h, "k_v": s.k_v,
+    result: dict[str, Any] = {"sigma_h_m": sn.sigma_h, "sigma_v_m": sn.sigma_v, "k_h": s.k_h, "k_v": s.k_v,
               "threshold_h_m": sn.threshold_h, "threshold_v_m": sn.threshold_v, "rejected": rejected,
               "rejected_share": sn.rejected_share, "max_share": sn.max_share, "share_ok": sn.share_ok,
               "sigma_h_kept_m": sn.sigma_h_kept, "sigma_v_kept_m": sn.sigma_v_kept,

@@ -12,9 +12,9 @@ proposed), to tell which tested points were planned as control.
 from __future__ import annotations
 
 import csv
-import math
 import io
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,7 +46,8 @@ class Campaign:
 
     def summary(self) -> dict[str, Any]:
         return {"folder": self.folder, "mission": self.mission, "area_km2": self.area_km2,
-                "planning_crs": self.planning_crs, "photos": self.photos, "profiles": list(self.profiles), "gsd_target_cm": self.gsd_target_cm,
+                "planning_crs": self.planning_crs, "photos": self.photos, "profiles": list(self.profiles),
+                "gsd_target_cm": self.gsd_target_cm,
                 "gsd_min_cm": self.gsd_range_cm[0], "gsd_max_cm": self.gsd_range_cm[1],
                 "proposed_control": sorted(k for k, v in self.proposed.items() if v == "control"),
                 "proposed_check": sorted(k for k, v in self.proposed.items() if v == "check")}

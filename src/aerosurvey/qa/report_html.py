@@ -24,7 +24,7 @@ def _nice(x: float) -> float:
     if not x > 0:
         return 1.0
     k = math.floor(math.log10(x))
-    return min((m * 10**k for m in (1, 2, 5, 10)), key=lambda v: abs(v - x))
+    return float(min((m * 10.0**k for m in (1, 2, 5, 10)), key=lambda v: abs(v - x)))
 
 
 def vector_map(pts: CheckPoints, flagged: set[str], w: int = 520, h: int = 520) -> str:
@@ -121,7 +121,7 @@ def posterior_plot(post: dict[str, Any], unit: str = "cm", factor: float = 100.0
     sy = (h - pt - pb) / ys.max()
 
     def vx(v: float) -> float:
-        return pl + (v - xs[0]) * sx
+        return float(pl + (v - xs[0]) * sx)
 
     lo, hi, md = post["lower_m"] * factor, post["upper_m"] * factor, post["mode_m"] * factor
     poly = " ".join(f"{vx(a):.1f},{h - pb - b * sy:.1f}" for a, b in zip(xs, ys))

@@ -37,7 +37,7 @@ _FLAT = 1e-9  # relative variance below which a window is flat
 STATISTICS = ("pixel", "window")
 
 
-def _accumulator(a: np.ndarray, b: np.ndarray) -> type:
+def _accumulator(a: np.ndarray, b: np.ndarray) -> type[np.generic]:
     """int32 for 8-bit imagery, int64 for 16-bit (exact sums for up to 4 bands), float64 otherwise."""
     if a.dtype == np.uint8 and b.dtype == np.uint8:
         return np.int32
@@ -53,7 +53,7 @@ def pixel_sums(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     fast as float64 here), so memory is a few (rows, cols) arrays whatever the band count."""
     n = a.shape[0]
     acc = _accumulator(a, b)
-    sa = np.zeros(a.shape[1:], acc)
+    sa: np.ndarray = np.zeros(a.shape[1:], acc)
     sb = np.zeros_like(sa)
     saa = np.zeros_like(sa)
     sbb = np.zeros_like(sa)

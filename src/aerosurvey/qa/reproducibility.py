@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import socket
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,7 +54,7 @@ class Settings:
     crop: str = "none"  # none, auto, or a polygon file
     crop_margin_px: int = 50
     block: int = 1024
-    crop_geoms: tuple = field(default=())  # polygons in the grid's CRS (for a crop file)
+    crop_geoms: tuple[Any, ...] = field(default=())  # polygons in the grid's CRS (for a crop file)
     statistic: str = "pixel"  # pixel (the source study's) or window
     resample: bool = False  # warp inputs on other grids onto the first input's
 
@@ -182,29 +183,36 @@ def compute_block(paths: list[str], grid: Grid, win: tuple[int, int, int, int], 
     return {"win": win, "sum": out, "pairs": counts, "hist": hist.tolist()}
 
 
-def _executor(scheduler: str):
+Mapper = Callable[[Callable[[tuple[int, int, int, int]], dict[str, Any]], Iterable[tuple[int, int, int, int]]],
+                  Iterator[dict[str, Any]]]
+
+
+def _executor(scheduler: str) -> tuple[Mapper, Callable[[], object]]:
     """(map function, closer) for 'threads', 'local' (a Dask LocalCluster) or a Dask address."""
     if scheduler == "threads":
         pool = ThreadPoolExecutor(max_workers=2)
         return (lambda fn, items: pool.map(fn, items)), pool.shutdown
+    # distributed is heavy and only needed here
     from distributed import Client, LocalCluster, as_completed
 
     if scheduler == "local":
-        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None)
-        client = Client(cluster)
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False,  # type: ignore[no-untyped-call]
+                               dashboard_address=None)
+        client = Client(cluster)  # type: ignore[no-untyped-call]
         closers = [client.close, cluster.close]
     else:
         probe_scheduler(scheduler)
         try:
-            client = Client(scheduler, timeout=f"{2 * DASK_CONNECT_TIMEOUT_S:g}s")
+            client = Client(scheduler, timeout=f"{2 * DASK_CONNECT_TIMEOUT_S:g}s")  # type: ignore[no-untyped-call]
         except (OSError, TimeoutError) as exc:
             raise InputError(f"--scheduler {scheduler}: no Dask scheduler answered ({type(exc).__name__}: {exc})") \
                 from None
         closers = [client.close]
 
-    def run(fn, items):
+    def run(fn: Callable[[tuple[int, int, int, int]], dict[str, Any]],
+            items: Iterable[tuple[int, int, int, int]]) -> Iterator[dict[str, Any]]:
         futures = client.map(fn, list(items), pure=False)
-        for fut in as_completed(futures):
+        for fut in as_completed(futures):  # type: ignore[no-untyped-call]
             yield fut.result()
 
     return run, lambda: [c() for c in closers]
@@ -288,7 +296,7 @@ class _Task:
     grid: Grid
     s: Settings
 
-    def __call__(self, win):
+    def __call__(self, win: tuple[int, int, int, int]) -> dict[str, Any]:
         return compute_block(self.paths, self.grid, win, self.s)
 
 

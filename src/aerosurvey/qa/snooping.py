@@ -71,7 +71,8 @@ class Snooping:
 
     @property
     def rejected(self) -> np.ndarray:
-        return self.rejected_h | self.rejected_v
+        res: np.ndarray = self.rejected_h | self.rejected_v
+        return res
 
     @property
     def rejected_share(self) -> float:
@@ -138,7 +139,7 @@ def snoop(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray | None = None, k_h: flo
             i, axis, value, thr, sig = ih, "horizontal", float(ah[ih]), k_h * sh, sh
             bad_h[i] = True
         else:
-            i, axis, value, thr, sig = iv, "vertical", float(az[iv]), k_v * (sv or 0.0), sv
+            i, axis, value, thr, sig = iv, "vertical", float(az[iv]), k_v * (sv or 0.0), sv or 0.0
             bad_v[i] = True
         keep[i] = False
         steps.append({"index": i, "axis": axis, "abs_residual_m": value, "threshold_m": thr, "sigma_m": sig,

@@ -124,7 +124,7 @@ def circular_error(sx: float, sy: float, p: float) -> float:
             return c * math.exp(-x * x / (2 * big * big)) * inner
 
         knee = [r - 8 * small] if r > 8 * small else None
-        return 2 * integrate.quad(f, 0, r, limit=200, points=knee, epsabs=1e-13, epsrel=1e-11)[0]
+        return 2 * float(integrate.quad(f, 0, r, limit=200, points=knee, epsabs=1e-13, epsrel=1e-11)[0])
 
     return float(optimize.brentq(lambda r: cdf(r) - p, 0.0, 7 * big, xtol=1e-12 * big))
 
@@ -171,4 +171,5 @@ def influence(values: list[np.ndarray]) -> np.ndarray:
     left_sum = sq.sum(axis=1)[:, None] - sq
     with np.errstate(invalid="ignore", divide="ignore"):
         per_axis = np.where(left_cnt > 0, left_sum / np.maximum(left_cnt, 1), 0.0)
-    return np.sqrt(per_axis.sum(axis=0)) / full - 1.0
+    res: np.ndarray = np.sqrt(per_axis.sum(axis=0)) / full - 1.0
+    return res

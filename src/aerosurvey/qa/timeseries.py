@@ -58,16 +58,16 @@ def quality_mask(dirs: list[Path], stage: Path, block: int = 1024) -> dict[str, 
                         judged &= a != NODATA
                         ok &= a == n
                     out = np.where(judged, ok.astype(np.uint8), NODATA).astype(np.uint8)
-                    counts += [int((out == 1).sum()), int((out == 0).sum())]
+                    counts += np.array([int((out == 1).sum()), int((out == 0).sum())], np.int64)
                     dst.write(out, 1, window=win)
         finally:
             for s in srcs:
                 s.close()
     rasterio.shutil.copy(tmp, stage / "quality_mask.tif", driver="COG", compress="DEFLATE")
     tmp.unlink()
-    judged = int(counts.sum())
-    return {"dates": [str(d) for d in dirs], "judged_pixels": judged,
-            "reproducible_in_every_date_share": float(counts[0] / judged) if judged else float("nan")}
+    n_judged = int(counts.sum())
+    return {"dates": [str(d) for d in dirs], "judged_pixels": n_judged,
+            "reproducible_in_every_date_share": float(counts[0] / n_judged) if n_judged else float("nan")}
 
 
 def _objects(path: Path, id_field: str) -> tuple[dict[str, shapely.Geometry], Any]:
