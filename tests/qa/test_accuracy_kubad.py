@@ -37,12 +37,14 @@ def test_kubad_abad_figures() -> None:
     assert res["vva_95_m"] is None  # no vegetated points: no VVA (the paper's 9.87 is 3 x RMSE_z, a class limit)
     assert res["horizontal_class_cm"] == 5.0 and res["vertical_class_cm"] == 5.0  # the paper's "5 (cm)" classes
     # the sentence carries our numbers, not the paper's
-    assert "RMSE_x = 4.06 cm and RMSE_y = 3.32 cm" in r["sentences"][0]
-    assert "+/- 9.04 cm at 95 % confidence level" in r["sentences"][0]
+    assert r["sentences"][0].startswith("These are the residuals of 14 ground control point(s)")
+    assert "fit of the adjustment, not the accuracy" in r["sentences"][0]
+    assert "RMSE_x = 4.06 cm and RMSE_y = 3.32 cm" in r["sentences"][1]
+    assert "+/- 9.04 cm at 95 % confidence level" in r["sentences"][1]
     # GCP residuals only: never "tested to meet"
     assert r["verdict"]["status"] == "not tested" and r["passed"] is None
-    assert all("tested to meet" not in x for x in r["sentences"]) and "NOT a test by" in r["sentences"][0]
-    assert "RMSE_z = 3.29 cm, equating to +/- 6.45 cm" in r["sentences"][1]
+    assert all("tested to meet" not in x for x in r["sentences"]) and "NOT a test by" in r["sentences"][1]
+    assert "RMSE_z = 3.29 cm, equating to +/- 6.45 cm" in r["sentences"][2]
 
 
 def test_kubad_abad_warnings_control_points_and_count() -> None:

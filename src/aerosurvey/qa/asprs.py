@@ -135,7 +135,7 @@ def record_verdicts(out: dict[str, Any], horizontal: bool | None, vertical: bool
 
 def _lead(std: str, cls: float, what: str, met: bool, valid: bool = True) -> str:
     if not valid:
-        return (f"NOT a test by {std} (see the verdict's reasons): the figures below correspond to a {cls:g} (cm) "
+        return (f"NOT a test by {std} (see the verdict's reasons): the figures correspond to a {cls:g} (cm) "
                 f"{what} class, but the set of points does not make a valid test.")
     if met:
         return f"This data set was tested to meet {std} for a {cls:g} (cm) {what} class."

@@ -399,6 +399,9 @@ def assess(points: CheckPoints, s: Settings, campaign: Campaign | None = None) -
     sentences = result.pop("sentences", [])
     if valid.status != validity.VALID and run.invalid_sentences is not None:
         sentences = run.invalid_sentences()
+    if not is_check.any():
+        sentences = [f"These are the residuals of {points.n} ground control point(s) used in the adjustment: they "
+                     "measure the fit of the adjustment, not the accuracy of the product."] + sentences
     arithmetic = result.get("passed")
     status = valid.status
     verdict = {**valid.as_dict(), "passed_arithmetic": arithmetic,

@@ -114,15 +114,28 @@ def pixel_reproducible(a: np.ndarray, b: np.ndarray, threshold: float) -> tuple[
 def window_sums(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> dict[str, np.ndarray]:
     """Box sums over bands and window: a and b are (bands, rows, cols); valid (rows, cols).
 
-    The box filter is linear, so the bands are summed first and each quantity needs one
-    filter (all six in one call on a stacked array).
+    The box filter is linear, so the bands are summed first (band by band, in integers for
+    integer imagery) and each of the six quantities is filtered once, plane by plane, which
+    keeps the memory to a few (rows, cols) arrays.
     """
-    v = valid.astype(np.float64)
-    x = a.astype(np.float64) * v
-    y = b.astype(np.float64) * v
-    stack = np.stack([x.sum(0), y.sum(0), (x * x).sum(0), (y * y).sum(0), (x * y).sum(0), v * a.shape[0]])
-    sums = ndimage.uniform_filter(stack, size=(1, w, w), mode="constant", cval=0.0) * (w * w)
-    return dict(zip(("sa", "sb", "saa", "sbb", "sab", "n"), sums))
+    acc = _accumulator(a, b)
+    planes = [np.zeros(a.shape[1:], acc) for _ in range(5)]
+    sa, sb, saa, sbb, sab = planes
+    zero = np.zeros((), acc)
+    for k in range(a.shape[0]):
+        x = np.where(valid, a[k], zero).astype(acc, copy=False)
+        y = np.where(valid, b[k], zero).astype(acc, copy=False)
+        sa += x
+        sb += y
+        sab += x * y
+        saa += x * x
+        sbb += y * y
+    out: dict[str, np.ndarray] = {}
+    for name, plane in zip(("sa", "sb", "saa", "sbb", "sab"), planes):
+        out[name] = ndimage.uniform_filter(plane.astype(np.float64), size=w, mode="constant", cval=0.0) * (w * w)
+    out["n"] = ndimage.uniform_filter(valid.astype(np.float64) * a.shape[0], size=w, mode="constant",
+                                      cval=0.0) * (w * w)
+    return out
 
 
 def correlation(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
