@@ -140,25 +140,36 @@ def window_sums(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> dict
 
 def correlation(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Window statistic: (r, judged, flat_equal): r where defined (NaN elsewhere), which
-    pixels are judged, and where both windows are flat with equal means."""
+    pixels are judged, and where both windows are flat with equal means.
+
+    Computed in place on the six box sums (memory: about eight (rows, cols) arrays)."""
     s = window_sums(a, b, valid, w)
-    n = s["n"]
-    full = a.shape[0] * w * w
+    n, sa, sb, saa, sbb, sab = s["n"], s["sa"], s["sb"], s["saa"], s["sbb"], s["sab"]
+    judged = valid & (n >= 0.5 * a.shape[0] * w * w)
     with np.errstate(invalid="ignore", divide="ignore"):
-        va = n * s["saa"] - s["sa"] ** 2
-        vb = n * s["sbb"] - s["sb"] ** 2
-        cov = n * s["sab"] - s["sa"] * s["sb"]
-        scale_a = np.maximum(s["saa"] * n, 1e-300)
-        scale_b = np.maximum(s["sbb"] * n, 1e-300)
-        flat_a = va <= _FLAT * scale_a
-        flat_b = vb <= _FLAT * scale_b
-        r = cov / np.sqrt(np.maximum(va, 0) * np.maximum(vb, 0))
-        mean_a = s["sa"] / np.maximum(n, 1)
-        mean_b = s["sb"] / np.maximum(n, 1)
-    judged = valid & (n >= 0.5 * full)
+        saa *= n  # n Σa², the scale of the variance
+        sbb *= n
+        sab *= n
+        va = sa * sa
+        np.subtract(saa, va, out=va)  # n Σa² − (Σa)²
+        flat_a = va <= _FLAT * np.maximum(saa, 1e-300)
+        vb = sb * sb
+        np.subtract(sbb, vb, out=vb)
+        flat_b = vb <= _FLAT * np.maximum(sbb, 1e-300)
+        del saa, sbb, s
+        sab -= sa * sb  # n Σab − ΣaΣb
+        np.maximum(va, 0, out=va)
+        np.maximum(vb, 0, out=vb)
+        va *= vb
+        np.sqrt(va, out=va)
+        r = np.divide(sab, va, out=sab)
+        nn = np.maximum(n, 1)
+        sa /= nn  # the means
+        sb /= nn
     flat = flat_a | flat_b
-    flat_equal = flat_a & flat_b & np.isclose(mean_a, mean_b, rtol=1e-9, atol=1e-9)
-    r = np.where(flat, np.nan, np.clip(r, -1.0, 1.0))
+    flat_equal = flat_a & flat_b & np.isclose(sa, sb, rtol=1e-9, atol=1e-9)
+    np.clip(r, -1.0, 1.0, out=r)
+    r[flat] = np.nan
     return r, judged, flat_equal
 
 
