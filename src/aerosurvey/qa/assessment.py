@@ -28,7 +28,8 @@ STANDARDS = {
 EDITION2_UNCONFIRMED = ("Edition 2 figures not confirmed against the standard's own text (a secondary source only): "
                         "RMSE_H = sqrt(RMSE_H1^2 + RMSE_H2^2) with RMSE_H2 = sqrt(2) x the per-coordinate survey "
                         "RMSE, horizontal classes on RMSE_H, check points 2x more accurate than the product, the "
-                        "check point counts by area. Confirmed (GPS World, 6 Dec 2023): RMSE only, survey accuracy "
+                        "check point counts by area (and, beyond 2,500 km2, our continuation of them up to the cap), "
+                        "the 25 % mean-error limit. Confirmed (GPS World, 6 Dec 2023): RMSE only, survey accuracy "
                         "included, no VVA pass/fail for lidar, minimum 30, at most 120, RMSE_3D.")
 
 
