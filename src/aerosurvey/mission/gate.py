@@ -21,9 +21,9 @@ from aerosurvey.mission.items import Mission
 
 #: commands whose latitude/longitude the vehicle flies to
 _NAV = {mav.NAV_WAYPOINT, mav.NAV_TAKEOFF, mav.NAV_LAND}
-#: the margin is checked a little inside its outline: the detours fly round polygons of it
-#: (a buffer with two segments a quarter circle lies up to 7.6 % of the margin inside the round one)
-MARGIN_TOLERANCE = 0.9
+#: the margin is checked a little inside its outline: the route keeps out of a polygon of it
+#: (eight segments a quarter circle, whose chords lie up to 2 % of the margin inside the circle)
+MARGIN_TOLERANCE = 0.95
 
 
 @dataclass(frozen=True)

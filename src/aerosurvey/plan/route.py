@@ -346,7 +346,9 @@ class Detours:
         if zones is None or zones.is_empty:
             return
         # fly around a slightly larger outline than the one that must not be crossed
-        self.blocked = shapely.buffer(zones, margin, quad_segs=2)
+        # eight segments a quarter circle: GEOS rounds the segment count of a corner down, so two
+        # (one chord across up to 90°) let legs cut up to 29 % of the margin at a zone's corners
+        self.blocked = shapely.buffer(zones, margin, quad_segs=8)
         around = shapely.buffer(zones, margin + max(1.0, 0.02 * margin) + 1.0, quad_segs=2, join_style="mitre")
         shapely.prepare(self.blocked)
         for poly in shapely.get_parts(around):
