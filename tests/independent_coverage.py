@@ -78,7 +78,11 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
             if dist > 0:
                 run += 1
                 last = pos.copy()
-                xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+                xs.append(pos[0])
+                ys.append(pos[1])
+                hs.append(None)
+                zs.append((alt_prev, frame_prev))
+                runs.append(run)
             else:
                 last = None
         if cmd == NAV_WAYPOINT:
@@ -90,7 +94,11 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                     dist = speed * camera_interval_s
                     run += 1
                     last = pos.copy()
-                    xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+                    xs.append(pos[0])
+                    ys.append(pos[1])
+                    hs.append(None)
+                    zs.append((alt_prev, frame_prev))
+                    runs.append(run)
                 elif prev_dir is not None and (abs(math.sin(d - prev_dir)) > 1e-3 or math.cos(d - prev_dir) < 0):
                     run += 1
                 prev_dir = d
@@ -122,7 +130,11 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                     for t in ts:
                         p = pos + u * t
                         alt = alt_prev + (r[10] - alt_prev) * (t / length)
-                        xs.append(p[0]); ys.append(p[1]); hs.append(math.atan2(u[1], u[0])); zs.append((alt, frame)); runs.append(run)
+                        xs.append(p[0])
+                        ys.append(p[1])
+                        hs.append(math.atan2(u[1], u[0]))
+                        zs.append((alt, frame))
+                        runs.append(run)
                         last = p
             alt_prev = r[10]
             frame_prev = frame
