@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test install install-test clean bench
+.PHONY: demo test lint install install-test clean bench
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -19,8 +19,13 @@ demo: install
 	$(BIN)/aerosurvey plan missions/obratan-72ha.toml -o out/obratan
 	@echo "outputs written to out/obratan (open out/obratan/preview.svg)"
 
-test: install-test
+test: install-test lint
 	$(BIN)/python -m pytest
+
+# ruff (with bugbear) and mypy (strict in plan/, mission/ and rules/): zero errors, or make test fails
+lint: install-test
+	$(BIN)/ruff check src tests benchmarks missions/tools
+	$(BIN)/mypy
 
 bench: install
 	$(BIN)/python benchmarks/plan_bench.py

@@ -24,8 +24,8 @@ MISSIONS = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem"]
 
 
 def _direct(spec_path: Path) -> float:
-    from aerosurvey.outputs import render_outputs
     from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import render_outputs
     from aerosurvey.spec import load_spec
 
     t = time.perf_counter()

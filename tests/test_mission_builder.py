@@ -45,7 +45,7 @@ def test_line_end_is_half_a_base_past_the_last_station(tmp_path):
     t = pyproj.Geod(ellps="WGS84")
     wps = [it for it in m.items if it.command == mav.NAV_WAYPOINT]
     st = plan.stations
-    for i, r in enumerate(plan.route.runs):
+    for i in range(len(plan.route.runs)):
         lead, first, end = wps[3 * i: 3 * i + 3]
         last = np.flatnonzero(st.run == i)[-1]
         firsti = np.flatnonzero(st.run == i)[0]

@@ -59,7 +59,10 @@ def check_mission(spec_path: Path, out: Path, samples: int = 50) -> dict:
     c = area_ll.centroid
     to_xy = ic.local_projection(c.x, c.y)
     to_ll = pyproj.Transformer.from_crs(to_xy.target_crs, "EPSG:4326", always_xy=True)
-    proj = lambda g: shapely.transform(g, lambda a: np.column_stack(to_xy.transform(a[:, 0], a[:, 1])))
+
+    def proj(g):
+        return shapely.transform(g, lambda a: np.column_stack(to_xy.transform(a[:, 0], a[:, 1])))
+
     area = proj(area_ll)
     ground = dem_sampler(spec.terrain.dem, to_ll) if spec.terrain.dem is not None else None
     own_interval = manifest["derived"]["trigger_interval_s"] if spec.camera.trigger == "camera" else None

@@ -67,7 +67,7 @@ def test_outputs_load_and_join(tmp_path):
     station_ids = {f["properties"]["id"] for f in fc["features"] if f["properties"]["role"] == "station"}
     assert station_ids == {s["id"] for s in manifest["stations"]}
     line_ids = {f["properties"]["id"] for f in fc["features"] if f["properties"]["role"] == "line"}
-    assert line_ids == {l["id"] for l in manifest["lines"]}
+    assert line_ids == {line["id"] for line in manifest["lines"]}
     # KML and the SVG preview are well-formed XML
     kml = ET.parse(out / "plan.kml").getroot()
     folders = [f.find("{http://www.opengis.net/kml/2.2}name").text for f in kml.iter("{http://www.opengis.net/kml/2.2}Folder")]

@@ -34,7 +34,7 @@ def test_sorties_fit_and_cover_every_station_once(tmp_path_factory, kind, seed, 
         return
     usable_s = minutes * 60 * (1 - reserve)
     covered = []
-    for s, wps in plan.sorties:
+    for s, _wps in plan.sorties:
         # the model's own cost of the sortie fits the usable battery
         assert s.battery_used <= 1.0 + 1e-9
         f = 1 / (1 - (wind / plan.speed.speed_ms) ** 2)

@@ -34,8 +34,8 @@ import independent_legs as il
 
 # the planner's public entry points only (spec loader, planner, output writer): the checker never sees them
 from aerosurvey.errors import InputError
-from aerosurvey.outputs import write_outputs
 from aerosurvey.inputs import plan_from_files
+from aerosurvey.outputs import write_outputs
 from aerosurvey.spec import load_spec
 
 KINDS = ("convex", "concave", "holed", "corridor")
