@@ -11,9 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pyproj
-import rasterio
-import rasterio.features
-import rasterio.windows
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar
@@ -24,6 +21,10 @@ class Dem:
     """A DEM opened for sampling in the planning CRS."""
 
     def __init__(self, path: Path, planar: Planar):
+        # rasterio (with GDAL, attrs, affine) loads only when a DEM is given: most plans have none
+        import rasterio
+        import rasterio.errors
+
         self.path = path
         try:
             self.ds = rasterio.open(path)
@@ -49,6 +50,8 @@ class Dem:
             (k0, k1, k2, k3), arr = self._cache
             if k0 <= c0 and k1 <= r0 and k2 >= c1 and k3 >= r1:
                 return arr, k0, k1
+        import rasterio.windows
+
         arr = self.ds.read(1, window=rasterio.windows.Window(c0, r0, c1 - c0, r1 - r0), masked=True)
         arr = arr.astype(np.float64).filled(np.nan)
         self._cache = (key, arr)
@@ -92,6 +95,8 @@ class Dem:
 
     def range_over(self, geom_plan: BaseGeometry, what: str) -> tuple[float, float]:
         """Lowest and highest DEM cell under a polygon (planning CRS); nodata there is an error."""
+        import rasterio.features
+        import rasterio.windows
         import shapely
 
         t = self.to_dem
