@@ -19,6 +19,9 @@ from typing import Any
 
 from aerosurvey.errors import AerosurveyError, InputError
 
+#: A job's progress report: stage name, share done (0..1); the planner's `Progress`.
+Progress = Callable[[str, float], None]
+
 
 class Cancelled(Exception):
     """The job was cancelled; raised from inside its progress report."""
@@ -58,7 +61,7 @@ class JobRunner:
         self._ids = itertools.count(1)
         self._keep = keep
 
-    def submit(self, fn: Callable[[Callable[[str, float], None]], Any]) -> Job:
+    def submit(self, fn: Callable[[Progress], Any]) -> Job:
         with self._lock:
             job = Job(id=f"j{next(self._ids)}")
             self._jobs[job.id] = job
@@ -70,7 +73,7 @@ class JobRunner:
         self._pool.submit(self._run, job, fn)
         return job
 
-    def _run(self, job: Job, fn: Callable[[Callable[[str, float], None]], Any]) -> None:
+    def _run(self, job: Job, fn: Callable[[Progress], Any]) -> None:
         try:
             if job.cancel.is_set():
                 raise Cancelled()
