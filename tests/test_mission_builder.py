@@ -10,13 +10,13 @@ import pytest
 
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.builder import build_mission
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.spec import load_spec
 from conftest import make_spec
 
 
 def _plan(tmp_path, overrides=None):
-    plan = plan_mission(load_spec(make_spec(tmp_path, overrides)))
+    plan = plan_from_files(load_spec(make_spec(tmp_path, overrides)))
     return plan, build_mission(plan)
 
 

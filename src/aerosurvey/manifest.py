@@ -17,7 +17,7 @@ import numpy as np
 
 from aerosurvey import __version__
 from aerosurvey.mission.builder import run_id
-from aerosurvey.plan.planner import PlanResult
+from aerosurvey.plan.planner import Plan
 
 SCHEMA = "aerosurvey-manifest"
 SCHEMA_VERSION = 1
@@ -36,12 +36,12 @@ def _f(v: float, nd: int = 3) -> float | None:
     return None if not math.isfinite(v) else round(v, nd)
 
 
-def _lonlat(plan: PlanResult, xy: tuple[float, float]) -> list[float | None]:
+def _lonlat(plan: Plan, xy: tuple[float, float]) -> list[float | None]:
     lon, lat = plan.planar.lonlat(np.array([xy[0]]), np.array([xy[1]]))
     return [_f(lon[0], 8), _f(lat[0], 8)]
 
 
-def _sorties(plan: PlanResult) -> list[dict[str, Any]]:
+def _sorties(plan: Plan) -> list[dict[str, Any]]:
     st = plan.stations
     out = []
     for k, (s, wps) in enumerate(plan.sorties, start=1):
@@ -69,7 +69,7 @@ def _input(path: Path | None, base: Path) -> dict[str, Any] | None:
     return {"path": rel, "sha256": sha256_file(path)}
 
 
-def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
+def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
     """The manifest as plain JSON data. `outputs` maps each written file name to its sha256."""
     spec = plan.spec
     base = spec.path.parent if spec.path else Path(".")

@@ -14,7 +14,8 @@ from aerosurvey.mission.builder import build_mission
 from aerosurvey.mission.formats.kml import feature_collection_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
-from aerosurvey.plan.planner import PlanResult
+from aerosurvey.mission.items import Mission
+from aerosurvey.plan.planner import Plan
 from aerosurvey.report.features import plan_features
 from aerosurvey.report.preview import render_svg
 
@@ -27,8 +28,8 @@ class Rendered:
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
 
 
-def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
-    """A mission longer than the autopilot holds is refused with what to do about it."""
+def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
+    """A mission longer than the autopilot holds is flagged with what to do about it."""
 
     limit = plan.spec.battery.max_mission_items if plan.spec.battery is not None else None
     if limit is None:
@@ -40,17 +41,17 @@ def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
         msg = (f"the whole mission has {n} items, more than the {limit} a {plan.spec.vehicle.firmware} autopilot holds "
                f"by default (battery.max_mission_items)")
         if plan.sorties:
-            plan.warnings.append(msg + "; fly the sortie files, each within the limit")
-        else:
-            plan.warnings.append(msg + "; add a [battery] table so the plan is split into sorties that fit, "
-                                 "or raise battery.max_mission_items if your board holds more")
+            return [msg + "; fly the sortie files, each within the limit"]
+        return [msg + "; add a [battery] table so the plan is split into sorties that fit, "
+                "or raise battery.max_mission_items if your board holds more"]
+    return []
 
 
 def _without(fc: dict[str, Any], role: str) -> dict[str, Any]:
     return {**fc, "features": [f for f in fc["features"] if f["properties"].get("role") != role]}
 
 
-def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any]):
+def _rules(plan: Plan, manifest: dict[str, Any], features: dict[str, Any]):
     """Evaluate the spec's rule profiles on the plan as later readers will see it."""
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
     from aerosurvey.rules.planview import PlanView
@@ -64,7 +65,7 @@ def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any])
     return evaluate(profiles, ev), ev.points, ev
 
 
-def render_outputs(plan: PlanResult) -> Rendered:
+def render_outputs(plan: Plan) -> Rendered:
     """File name → text of every output (the manifest last: it lists the others' hashes)."""
     mission = build_mission(plan, name=plan.spec.name)
     fc = plan_features(plan)
@@ -80,10 +81,10 @@ def render_outputs(plan: PlanResult) -> Rendered:
         sm = build_mission(plan, wps, name=f"{plan.spec.name}-sortie-{k:02d}", home=(site.lon, site.lat, site.ground_m))
         files[f"sortie-{k:02d}.plan"] = dumps_plan(sm)
         files[f"sortie-{k:02d}.waypoints"] = dumps_wpl(sm)
-    check_item_limit(plan, mission, files)
+    warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, len(mission.items), {})
+    manifest["warnings"] = list(warnings)
     results, points, evidence = _rules(plan, manifest, fc)
-    warnings = list(plan.warnings)
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
@@ -95,7 +96,7 @@ def render_outputs(plan: PlanResult) -> Rendered:
     return Rendered(files, manifest["rules"], warnings, evidence)
 
 
-def write_outputs(plan: PlanResult, outdir: Path) -> Rendered:
+def write_outputs(plan: Plan, outdir: Path) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
     rendered = render_outputs(plan)
     with staged_directory(outdir) as stage:

@@ -6,13 +6,13 @@ from aerosurvey.errors import InputError
 from aerosurvey.link.px4 import compare, px4_items
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.builder import build_mission
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.spec import load_spec
 from conftest import make_spec
 
 
 def test_px4_items_from_a_plan(tmp_path):
-    plan = plan_mission(load_spec(make_spec(tmp_path, {"vehicle": {"firmware": "px4"}, "flight": {"fixed_yaw_deg": 90.0}})))
+    plan = plan_from_files(load_spec(make_spec(tmp_path, {"vehicle": {"firmware": "px4"}, "flight": {"fixed_yaw_deg": 90.0}})))
     m = build_mission(plan)
     items = px4_items(m)
     assert [i.seq for i in items] == list(range(len(m.items)))  # no home item on PX4
@@ -29,6 +29,6 @@ def test_px4_items_from_a_plan(tmp_path):
 
 
 def test_ardupilot_plan_is_refused_for_px4(tmp_path):
-    m = build_mission(plan_mission(load_spec(make_spec(tmp_path))))
+    m = build_mission(plan_from_files(load_spec(make_spec(tmp_path))))
     with pytest.raises(InputError, match="vehicle.firmware = 'px4'"):
         px4_items(m)

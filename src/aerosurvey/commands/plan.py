@@ -12,12 +12,12 @@ import click
 from aerosurvey import console
 
 if TYPE_CHECKING:
-    from aerosurvey.plan.planner import PlanResult
+    from aerosurvey.plan.planner import Plan
 
 log = logging.getLogger(__name__)
 
 
-def summary(plan: PlanResult, warnings: list[str], rules: list[dict[str, Any]]) -> list[str]:
+def summary(plan: Plan, warnings: list[str], rules: list[dict[str, Any]]) -> list[str]:
     e = plan.estimates
     h = plan.heights
     sp = plan.speed
@@ -66,14 +66,14 @@ def summary(plan: PlanResult, warnings: list[str], rules: list[dict[str, Any]]) 
 def plan(spec: Path, outdir: Path) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."""
     # imported here, not at the top: listing this command in `aerosurvey --help` must not load the planner
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import write_outputs
-    from aerosurvey.plan.planner import plan_mission
     from aerosurvey.spec import load_spec
 
     t0 = time.perf_counter()
     mission_spec = load_spec(spec)
     with console.progress(f"planning {mission_spec.name}") as report:
-        result = plan_mission(mission_spec, console.part(report, 0.0, 0.85))
+        result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()
         report("mission files, rules and preview", 0.85)
         rendered = write_outputs(result, outdir)

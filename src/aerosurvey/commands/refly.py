@@ -27,7 +27,7 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, out
 
     from aerosurvey.flight.refly import gap_area, needed_images, refly_spec
     from aerosurvey.outputs import write_outputs
-    from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.rules.planview import PlanView
     from aerosurvey.spec import parse_spec
 
@@ -42,7 +42,7 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, out
         return
     data = refly_spec(spec_path, gaps, view.crs)
     spec = parse_spec(data, base=spec_path.parent, path=None)
-    plan = plan_mission(spec)
+    plan = plan_from_files(spec)
     rendered = write_outputs(plan, outdir)
     click.echo(f"{shapely.area(gaps) / 1e4:.3f} ha in {len(shapely.get_parts(gaps))} gap(s) seen by fewer than {need} photos; "
                f"re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "

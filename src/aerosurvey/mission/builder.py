@@ -19,14 +19,14 @@ import math
 
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
-from aerosurvey.plan.planner import PlanResult, RouteWaypoint
+from aerosurvey.plan.planner import Plan, RouteWaypoint
 
 
-def _frame(plan: PlanResult) -> int:
+def _frame(plan: Plan) -> int:
     return mav.FRAME_GLOBAL_TERRAIN_ALT if plan.altitude_frame == "terrain" else mav.FRAME_GLOBAL_RELATIVE_ALT
 
 
-def _yaw_param4(plan: PlanResult) -> float:
+def _yaw_param4(plan: Plan) -> float:
     yaw = plan.spec.flight.fixed_yaw_deg
     return float(yaw) if yaw is not None and plan.spec.vehicle.firmware == "px4" else 0.0
 
@@ -37,14 +37,14 @@ def _yaw_param4(plan: PlanResult) -> float:
 PLANE_LINE_ACCEPTANCE_M = 2.0
 
 
-def _wp(plan: PlanResult, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
+def _wp(plan: Plan, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
     alt = w.alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     accept = PLANE_LINE_ACCEPTANCE_M if plan.spec.vehicle.type == "plane" and w.kind in ("line_start", "terrain", "line_end") else 0.0
     return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, accept, 0.0, _yaw_param4(plan),
                        round(w.lat, 8), round(w.lon, 8), round(alt, 2), True, tag)
 
 
-def _camera_on(plan: PlanResult, tag: str) -> list[MissionItem]:
+def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, plan.trigger_distance_m, 0.0, 1.0, tag=tag)]
@@ -54,7 +54,7 @@ def _camera_on(plan: PlanResult, tag: str) -> list[MissionItem]:
     return []
 
 
-def _camera_off(plan: PlanResult, tag: str) -> list[MissionItem]:
+def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0, tag=tag)]
@@ -63,12 +63,12 @@ def _camera_off(plan: PlanResult, tag: str) -> list[MissionItem]:
     return []
 
 
-def run_id(plan: PlanResult, run: int) -> str:
+def run_id(plan: Plan, run: int) -> str:
     r = plan.route.runs[run]
     return f"P{r.pass_index}-L{r.line + 1:03d}-R{r.part + 1}"
 
 
-def _landing(plan: PlanResult, lat: float, lon: float) -> list[MissionItem]:
+def _landing(plan: Plan, lat: float, lon: float) -> list[MissionItem]:
     """DO_LAND_START, an approach waypoint downwind of the launch point, NAV_LAND into the wind."""
     f = plan.spec.flight
     assert f.wind_from_deg is not None
@@ -85,7 +85,7 @@ def _landing(plan: PlanResult, lat: float, lon: float) -> list[MissionItem]:
     ]
 
 
-def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None, name: str = "mission",
+def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name: str = "mission",
                   home: tuple[float, float, float] | None = None) -> Mission:
     """The mission for one flight: takeoff, survey runs in order, then RTL or land.
 

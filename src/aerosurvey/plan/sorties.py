@@ -19,7 +19,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.route import Detours, Kinematics, descent_time, path_time
+from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
+from aerosurvey.plan.route import Detours, Kinematics, Run, descent_time, path_time
+from aerosurvey.spec import VehicleSpec
+
+
+@dataclass(frozen=True, eq=False)
+class FlightPath:
+    """What the battery split needs of a planned route: stations, runs and waypoints in
+    flight order, and how altitudes and triggers work along them."""
+
+    stations: Stations
+    runs: tuple[Run, ...]
+    waypoints: tuple[RouteWaypoint, ...]
+    lead_in_m: float
+    base_m: float
+    grid_scale: float
+    altitude_frame: str
+    heights: Heights
+    home_ground_m: float  # ground under the plan's home (relative altitudes are above it)
+    trigger: str
+    vehicle: VehicleSpec
 
 
 @dataclass(frozen=True)
@@ -84,7 +104,7 @@ def wind_factor(wind_ms: float, speed_ms: float) -> float:
 class Splitter:
     """Builds and costs candidate sorties over a planned route."""
 
-    def __init__(self, plan, sites: list[LaunchSite], budget: Budget, kin: Kinematics, detours: Detours,
+    def __init__(self, plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
                  fixed_launch: int | None):
         self.plan = plan
         self.sites = sites
@@ -95,12 +115,12 @@ class Splitter:
         st = plan.stations
         self.run_of = st.run
         self.n = len(st.ids)
-        self.run_start = np.searchsorted(st.run, np.arange(len(plan.route.runs)))
-        self.run_end = np.searchsorted(st.run, np.arange(len(plan.route.runs)), side="right") - 1
+        self.run_start = np.searchsorted(st.run, np.arange(len(plan.runs)))
+        self.run_end = np.searchsorted(st.run, np.arange(len(plan.runs)), side="right") - 1
         # the original waypoints of each run, and the detours leading into it
-        self.by_run: dict[int, list] = {}
-        self.detours_before: dict[int, list] = {}
-        pending: list = []
+        self.by_run: dict[int, list[RouteWaypoint]] = {}
+        self.detours_before: dict[int, list[RouteWaypoint]] = {}
+        pending: list[RouteWaypoint] = []
         for w in plan.waypoints:
             if w.kind == "detour":
                 pending.append(w)
@@ -133,7 +153,7 @@ class Splitter:
         return out
 
     def _direction(self, r: int) -> tuple[float, float]:
-        h = math.radians(self.plan.route.runs[r].heading_deg)
+        h = math.radians(self.plan.runs[r].heading_deg)
         return math.sin(h), math.cos(h)
 
     def waypoints(self, a: int, b: int) -> list[SortieWaypoint]:
@@ -148,7 +168,7 @@ class Splitter:
         return out
 
     def _items(self, wps: list[SortieWaypoint]) -> int:
-        per_trigger = 0 if self.plan.spec.camera.trigger == "camera" else 2
+        per_trigger = 0 if self.plan.trigger == "camera" else 2
         runs = sum(1 for w in wps if w.kind == "line_start")
         return 3 + len(wps) + per_trigger * runs
 
@@ -171,12 +191,12 @@ class Splitter:
         for li in candidates:
             s = self.sites[li]
             home = (s.x, s.y)
-            alt_shift = self.plan.home[2] - s.ground_m
+            alt_shift = self.plan.home_ground_m - s.ground_m
             out_leg = [home, *self.detours.path(home, (wps[0].x, wps[0].y))]
             back_leg = [*self.detours.path((wps[-1].x, wps[-1].y), home), home]
             poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
             horiz = path_time(poly, self.kin)
-            v = self.plan.spec.vehicle
+            v = self.plan.vehicle
             h = max(climb + alt_shift, 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             if v.type == "plane":  # climb and descent overlap the transits out and back
@@ -216,7 +236,7 @@ class Splitter:
         return out
 
 
-def split(plan, sites: list[LaunchSite], budget: Budget, kin: Kinematics, detours: Detours,
+def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
           fixed_launch: int | None) -> list[Sortie]:
     """Fewest sorties, then as balanced as they can be."""
     sp = Splitter(plan, sites, budget, kin, detours, fixed_launch)

@@ -13,7 +13,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.planner import PlanResult
+from aerosurvey.plan.planner import Plan
 
 
 def _r(v: float, nd: int = 8) -> float:
@@ -44,7 +44,7 @@ def footprint_corners(x: np.ndarray, y: np.ndarray, heading_deg: np.ndarray, acr
     return np.stack([cx, cy], axis=-1)
 
 
-def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, Any]:
+def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     feats: list[dict[str, Any]] = []
     feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": round(plan.area.area / 1e4, 4)},
                   "geometry": {"type": plan.area_wgs84.geom_type, "coordinates": _coords(plan.area_wgs84)}})

@@ -36,11 +36,11 @@ def open_target(path: Path) -> Target:
         m = view.manifest
         return Target(view, list(m["mission"].get("profiles", [])), dict(m.get("rule_overrides", {})), path)
     if path.suffix.lower() == ".toml":
-        from aerosurvey.plan.planner import plan_mission
+        from aerosurvey.inputs import plan_from_files
         from aerosurvey.spec import load_spec
 
         spec = load_spec(path)
-        manifest, features = plan_documents(plan_mission(spec))
+        manifest, features = plan_documents(plan_from_files(spec))
         view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, str(path))
         return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
     if not path.exists():

@@ -193,14 +193,14 @@ class PlanBundle:
 
 def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) -> PlanBundle:
     from aerosurvey.outputs import render_outputs
-    from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
     spec = parse_spec(spec_data, base=ws.base, path=None)
-    plan = plan_mission(spec, progress)
+    plan = plan_from_files(spec, progress)
     progress("mission files and rules", 0.92)
     rendered = render_outputs(plan)
     progress("control points", 0.97)

@@ -1,0 +1,52 @@
+"""Ids of lines, runs, stations and sorties: made and parsed here and nowhere else.
+
+- line    ``P1-L003``       pass 1, the third line of that pass (by ordinate)
+- run     ``P1-L003-R2``    the second photo run on that line (a line cut by a notch or a zone)
+- station ``P1-L003-S0042`` the 42nd station along that line (by +x of the line frame)
+- sortie  ``S01``           the first battery's flight
+"""
+
+from __future__ import annotations
+
+import re
+from typing import NamedTuple
+
+_STATION = re.compile(r"^P(\d+)-L(\d{3,})-S(\d{4,})$")
+
+
+class StationRef(NamedTuple):
+    pass_index: int  # 1-based
+    line: int  # 0-based, as the planner counts
+    station: int  # 0-based
+
+
+def line_id(pass_index: int, line: int) -> str:
+    """`line` counts from 0."""
+    return f"P{pass_index}-L{line + 1:03d}"
+
+
+def run_id(pass_index: int, line: int, part: int) -> str:
+    """`line` and `part` count from 0."""
+    return f"{line_id(pass_index, line)}-R{part + 1}"
+
+
+def station_id(pass_index: int, line: int, station: int) -> str:
+    """`line` and `station` count from 0."""
+    return f"{line_id(pass_index, line)}-S{station + 1:04d}"
+
+
+def parse_station_id(text: str) -> StationRef:
+    """The parts of a station id; ValueError for text that is not one."""
+    m = _STATION.match(text)
+    if m is None:
+        raise ValueError(f"{text!r} is not a station id (P<pass>-L<line>-S<station>, e.g. P1-L003-S0042)")
+    return StationRef(int(m.group(1)), int(m.group(2)) - 1, int(m.group(3)) - 1)
+
+
+def sortie_id(number: int) -> str:
+    """`number` counts from 1."""
+    return f"S{number:02d}"
+
+
+def sortie_file_stem(number: int) -> str:
+    return f"sortie-{number:02d}"
