@@ -63,9 +63,9 @@ def _restore_logging():
     root = logging.getLogger()
     level, handlers = root.level, list(root.handlers)
     yield
+    console.configure_logging(0)
     root.setLevel(level)
     root.handlers[:] = handlers
-    console.configure_logging.__globals__["_state"]["verbosity"] = 0
 
 
 @pytest.mark.parametrize("args", [["--help"], ["plan", "--help"]])

@@ -44,7 +44,7 @@ class _StderrHandler(logging.Handler):
 class _Formatter(logging.Formatter):
     def format(self, record: logging.LogRecord) -> str:
         text = record.getMessage()
-        if record.exc_info and record.levelno <= logging.DEBUG:
+        if record.exc_info:  # logged with a traceback: a defect, whose traceback is its report
             text += "\n" + self.formatException(record.exc_info)
         where = f"{record.name}: " if record.levelno <= logging.DEBUG else ""
         return f"{record.levelname.lower()}: {where}{text}"
@@ -129,9 +129,11 @@ def progress(label: str, *, enabled: bool | None = None, file: IO[str] | None = 
     from rich.console import Console  # heavy-ish: loads only when a bar is drawn
     from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
+    # log lines written to stderr while the bar is drawn go above it (redirect_stderr); stdout is
+    # the command's results and is never drawn through the bar's console
     bar = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
                    console=Console(file=stream, force_terminal=True if file is not None else None), transient=True,
-                   redirect_stdout=False, redirect_stderr=False)
+                   redirect_stdout=False, redirect_stderr=file is None)
     task = bar.add_task(label, total=1.0)
     shown = {"done": 0.0}
 
