@@ -11,7 +11,7 @@ flown with the camera on against the lower bound area / spacing + the required
 extensions at both ends of every run, and the photo count against area / (spacing · base)
 plus the extension photos.
 
-Start-up: wall time of fresh `aerosurvey` processes (`python -m aerosurvey.cli`, the sources
+Start-up: wall (and CPU) time of fresh `aerosurvey` processes (`python -m aerosurvey.cli`, the sources
 this interpreter imports), median of 5 rounds, each round running every command once, as
 ratios to baselines timed in the same rounds: `python -c "import click"` for help pages,
 `python -c "import numpy, shapely, pyproj"` for planning the 72 ha example. Byte code is
@@ -195,30 +195,38 @@ def startup() -> list[dict]:
         env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
         env["PYTHONPYCACHEPREFIX"] = str(Path(td) / "pycache")
         times: dict[str, list[float]] = {name: [] for name, *_ in STARTUP}
+        cpu: dict[str, list[float]] = {name: [] for name, *_ in STARTUP}
         for rnd in range(STARTUP_ROUNDS + 1):  # round 0 compiles the byte code and is not counted
             for name, argv, _ in STARTUP:
                 cmd = [sys.executable, *(a.replace("{tmp}", td) for a in argv)]
+                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 t0 = time.perf_counter()
                 out = subprocess.run(cmd, capture_output=True, text=True, env=env)
                 dt = time.perf_counter() - t0
+                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 if out.returncode != 0:
                     raise SystemExit(f"{name} failed:\n{out.stderr}")
                 if rnd:
                     times[name].append(dt)
+                    cpu[name].append(r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime)
     med = {name: statistics.median(v) for name, v in times.items()}
+    med_cpu = {name: statistics.median(v) for name, v in cpu.items()}
     rows = []
     for name, _, comparisons in STARTUP:
         for base, limit in comparisons or [(None, None)]:
             ratio = med[name] / med[base] if base else None
-            rows.append({"command": name, "median_s": round(med[name], 3), "baseline": base or "",
-                         "ratio": round(ratio, 2) if ratio is not None else "", "target": f"<= {limit}x" if limit else "",
+            rows.append({"command": name, "median_s": round(med[name], 3), "cpu_s": round(med_cpu[name], 3),
+                         "baseline": base or "", "ratio": round(ratio, 2) if ratio is not None else "",
+                         "cpu_ratio": round(med_cpu[name] / med_cpu[base], 2) if base else "",
+                         "target": f"<= {limit}x" if limit else "",
                          "met": ("yes" if ratio <= limit else "NO") if (limit and ratio is not None) else ""})
     return rows
 
 
 def print_startup(rows: list[dict]) -> None:
-    print(f"start-up: fresh processes, wall time, median of {STARTUP_ROUNDS} rounds")
-    cols = ["command", "median_s", "baseline", "ratio", "target", "met"]
+    print(f"start-up: fresh processes, median of {STARTUP_ROUNDS} rounds; ratio of wall times (the target), "
+          "cpu_ratio of user+system CPU times (steadier on a busy machine)")
+    cols = ["command", "median_s", "cpu_s", "baseline", "ratio", "cpu_ratio", "target", "met"]
     widths = {c: max(len(c), *(len(str(r[c])) for r in rows)) for c in cols}
     print("  ".join(c.ljust(widths[c]) for c in cols))
     for r in rows:
