@@ -31,7 +31,7 @@ from starlette.staticfiles import StaticFiles
 from aerosurvey.web import routes_flight, routes_plan, routes_spec, service
 from aerosurvey.web.jobs import JobRunner
 from aerosurvey.web.limits import BodyLimit, HostCheck
-from aerosurvey.web.state import ServerState
+from aerosurvey.web.state import ServerState, blocking
 
 UPLOAD_LIMIT = 50 * 1024 * 1024
 
@@ -66,9 +66,9 @@ def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts:
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
         try:
             yield
-        finally:
-            state.runner.shutdown()
-            shutil.rmtree(uploads, ignore_errors=True)
+        finally:  # waiting for running jobs and deleting the uploads block: worker threads
+            await blocking(state.runner.shutdown)
+            await blocking(shutil.rmtree, uploads, ignore_errors=True)
 
     static = StaticFiles(directory=str(resources.files("aerosurvey.web").joinpath("static")))
     app = Starlette(routes=[*ROUTES, Mount("/static", static)], lifespan=lifespan)
