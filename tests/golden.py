@@ -17,7 +17,17 @@ ADDED_KEYS = ("coverage", "checks")  # schema 2: required ground and its shortfa
 ADDED_RULES = ("uncovered-ground",)  # schema 2: a rule result the planner adds itself
 
 
+#: schema 2 adds a KML style for the role of ground the plan cannot photograph
+ADDED_KML = ('<Style id="uncovered">',)
+
+
+def normalized_kml(text: bytes) -> bytes:
+    return b"\n".join(line for line in text.split(b"\n") if not any(line.startswith(a.encode()) for a in ADDED_KML))
+
+
 def normalized_manifest(doc: dict[str, Any]) -> bytes:
     doc = {k: v for k, v in doc.items() if k not in VERSION_FIELDS and k not in ADDED_KEYS}
     doc["rules"] = [r for r in doc.get("rules", []) if r.get("rule") not in ADDED_RULES]
+    # plan.kml is compared on its own (normalized_kml); its hash in the manifest follows the style it gained
+    doc["outputs"] = {k: v for k, v in doc.get("outputs", {}).items() if k != "plan.kml"}
     return json.dumps(doc, sort_keys=True, ensure_ascii=False).encode("utf-8")

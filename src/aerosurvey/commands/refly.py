@@ -26,8 +26,8 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, out
     import shapely.geometry
 
     from aerosurvey.flight.refly import gap_area, needed_images, refly_spec
-    from aerosurvey.outputs import write_outputs
     from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import write_outputs
     from aerosurvey.rules.planview import PlanView
     from aerosurvey.spec import parse_spec
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+from aerosurvey import ids
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 from aerosurvey.plan.planner import Plan, RouteWaypoint
@@ -47,6 +48,7 @@ def _wp(plan: Plan, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem
 def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
+        assert plan.trigger_distance_m is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, plan.trigger_distance_m, 0.0, 1.0, tag=tag)]
     if trig == "time":
         assert plan.trigger_interval_s is not None
@@ -57,6 +59,7 @@ def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
 def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
+        assert plan.trigger_distance_m is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0, tag=tag)]
     if trig == "time":
         return [MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, 0.0, -1.0, tag=tag)]
@@ -65,7 +68,7 @@ def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
 
 def run_id(plan: Plan, run: int) -> str:
     r = plan.route.runs[run]
-    return f"P{r.pass_index}-L{r.line + 1:03d}-R{r.part + 1}"
+    return ids.run_id(r.pass_index, r.line, r.part)
 
 
 def _landing(plan: Plan, lat: float, lon: float) -> list[MissionItem]:
@@ -100,7 +103,8 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
     first_alt = wps[0].alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
     pitch = 15.0 if spec.vehicle.type == "plane" else 0.0
-    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
+    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8),
+                             takeoff_alt, tag="takeoff"))
     # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies
     # its cruise airspeed, so planes get the speed as airspeed (type 0; equal to ground speed in still air)
     speed_type = 0.0 if spec.vehicle.type == "plane" else 1.0
@@ -119,11 +123,16 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
             rid = run_id(plan, w.run)
             items.append(_wp(plan, w, f"{rid}:end", alt_shift))
             items.extend(_camera_off(plan, f"{rid}:camera-off"))
+        elif w.kind == "transit":
+            items.append(_wp(plan, w, "transit", alt_shift))
         else:
             items.append(_wp(plan, w, "detour", alt_shift))
+    # the straight way home crosses a zone: the transit waypoints fly round it and a copter
+    # lands at the launch point (NAV_LAND) rather than leaving the way home to RTL
+    home_detour = bool(wps) and wps[-1].kind == "transit"
     if spec.flight.end == "land" and spec.vehicle.type == "plane":
         items.extend(_landing(plan, lat, lon))
-    elif spec.flight.end == "land":
+    elif spec.flight.end == "land" or (home_detour and spec.vehicle.type == "copter"):
         items.append(MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"))
     else:
         items.append(MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl"))

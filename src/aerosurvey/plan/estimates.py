@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -16,18 +15,24 @@ from aerosurvey.spec import MissionSpec
 def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], stations: Stations, kin: Kinematics,
              home_xy: tuple[float, float], heights: Heights, base: float, k: float) -> dict[str, float]:
     """Distances and times on the ground (grid lengths divided by the scale factor k)."""
-    pts = np.asarray([(w.x, w.y) for w in wps]) / k
     home = (home_xy[0] / k, home_xy[1] / k)
+    # the detours from home and back home fly at transit speed, like the straight legs
+    n_out = next((i for i, w in enumerate(wps) if w.kind != "transit"), len(wps))
+    n_back = next((i for i, w in enumerate(reversed(wps)) if w.kind != "transit"), 0)
+    xy = np.asarray([(w.x, w.y) for w in wps]) / k
+    pts = xy[n_out: len(xy) - n_back]
+    leg_out = np.vstack([[home], xy[: n_out + 1]])
+    leg_back = np.vstack([xy[len(xy) - n_back - 1:], [home]])
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
-    transit_out = math.dist(home, tuple(pts[0]))
-    transit_back = math.dist(tuple(pts[-1]), home)
+    transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
+    transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
     transit_kin = Kinematics(kin.vehicle, spec.vehicle.cruise_speed_ms, kin.accel_ms2, kin.turn_radius_m)
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
     t_climb = climb / spec.vehicle.climb_rate_ms
     t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)
-    t_out = path_time(np.array([home, pts[0]]), transit_kin)
-    t_back = path_time(np.array([pts[-1], home]), transit_kin)
+    t_out = path_time(leg_out, transit_kin)
+    t_back = path_time(leg_back, transit_kin)
     if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
         t_climb, t_descent = max(0.0, t_climb - t_out), max(0.0, t_descent - t_back)
     photo_len = float(sum((r.station_xy.shape[0] - 1) * base for r in route.runs))

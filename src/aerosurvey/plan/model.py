@@ -13,6 +13,7 @@ from shapely.geometry.base import BaseGeometry
 
 if TYPE_CHECKING:
     from aerosurvey.area import Planar
+    from aerosurvey.plan.coverage import Coverage
     from aerosurvey.plan.photogrammetry import SpeedLimit
     from aerosurvey.plan.route import Pass, Route
     from aerosurvey.plan.sorties import Budget, LaunchSite, Sortie
@@ -121,3 +122,4 @@ class Plan:
     launch_sites: tuple[LaunchSite, ...]
     sorties: tuple[SortiePlan, ...]
     battery: Budget | None  # the sortie budget when a battery is given
+    coverage: Coverage  # the required ground fewer than two photos see (next to zones), exactly

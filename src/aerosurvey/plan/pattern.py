@@ -42,8 +42,12 @@ class Pattern(Protocol):
 
 
 def strip_geometry(sensor: SensorSolution, beyond: int, k: float) -> StripGeometry:
-    """The sensor solution in planning-grid metres (ground metres × the grid scale k)."""
-    clearance = max(sensor.lead_in_m, sensor.base_m / 2.0) + 1.0
+    """The sensor solution in planning-grid metres (ground metres × the grid scale k).
+
+    Stations stay as close to a zone's margin as the flight past them allows: the line ends
+    half a base after its last station (and a plane needs its turn radius there); the
+    lead-in before a run is shortened by the route where a zone is in its way."""
+    clearance = sensor.base_m / 2.0 + sensor.turn_radius_m + 1.0
     return StripGeometry(sensor.across_m * k, sensor.along_m * k, sensor.spacing_m * k, sensor.base_m * k,
                          sensor.side_images_per_point, sensor.forward_images_per_point, beyond, clearance * k)
 

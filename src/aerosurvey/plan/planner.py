@@ -18,14 +18,16 @@ import shapely
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.altitudes import assign_altitudes
+from aerosurvey.plan.coverage import coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
+from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Plan, RouteWaypoint, SortiePlan, Stations
 from aerosurvey.plan.pattern import pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours
-from aerosurvey.plan.routing import plan_route
+from aerosurvey.plan.routing import RoutePlan, plan_route
 from aerosurvey.plan.sensor import SensorSolution, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, split, wind_factor
@@ -43,23 +45,28 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
     h_target, gsd_target, cap_warnings = target_height(spec)
     report("heights over the ground", 0.03)
     sensor = solve_sensor(spec, h_target, gsd_target, solve_heights(spec, h_target, site.ground), cap_warnings)
+    limit_warnings = check_limits(spec, site, sensor)
     layout = pattern_for(spec).layout(site, sensor, report)
     report("route", 0.72)
     routed = plan_route(spec, site, sensor, layout)
     home_ground = _ground(site, routed.home_xy, "launch point")
     report("heights along the route", 0.8)
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
+    report("coverage next to the zones", 0.84)
+    coverage = coverage_shortfall(spec, site, sensor, alts.stations)
+    waypoints = _with_transits(alts.waypoints, routed, site)
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
     sites = launch_sites(spec, site, routed.home_xy, home)
-    fence = geofence(site.planar, [(w.x, w.y) for w in alts.waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
-    budget, sorties = None, ()
+    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
+    budget: Budget | None = None
+    sorties: tuple[SortiePlan, ...] = ()
     if spec.battery is not None:
         report("battery sorties", 0.88)
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle)
         budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours)
-    est = estimate(spec, routed.route, alts.waypoints, alts.stations, sensor.kinematics, routed.home_xy,
+    est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
@@ -71,12 +78,27 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
         forward_images_per_point=sensor.forward_images_per_point, speed=sensor.speed,
         trigger_interval_s=sensor.trigger_interval_s, lead_in_m=sensor.lead_in_m, turn_radius_m=sensor.turn_radius_m,
         heading_deg=layout.heading_deg, heading_chosen=layout.heading_chosen, passes=layout.passes, route=routed.route,
-        stations=alts.stations, waypoints=alts.waypoints, home=home, home_xy=routed.home_xy, altitude_frame=alts.frame,
+        stations=alts.stations, waypoints=waypoints, home=home, home_xy=routed.home_xy, altitude_frame=alts.frame,
         grid_scale=site.grid_scale, trigger_distance_m=sensor.trigger_distance_m, estimates=est, sun=sun,
-        warnings=sensor.warnings + _terrain_warnings(sensor) + sun_warnings + _zone_warnings(spec, site),
+        warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + sun_warnings + _zone_warnings(spec, site),
         fence_inclusion=fence.inclusion, fence_exclusion=fence.exclusion, launch_sites=sites, sorties=sorties,
-        battery=budget,
+        battery=budget, coverage=coverage,
     )
+
+
+def _with_transits(survey: tuple[RouteWaypoint, ...], routed: RoutePlan, site: Site) -> tuple[RouteWaypoint, ...]:
+    """The survey waypoints with the detours from home and back home, where the straight way crosses a zone.
+
+    Transit waypoints fly at the altitude of the survey waypoint they lead to or come from."""
+    def transit(points: tuple[tuple[float, float], ...], alt: float) -> tuple[RouteWaypoint, ...]:
+        if not points:
+            return ()
+        xy = np.asarray(points)
+        lon, lat = site.planar.lonlat(xy[:, 0], xy[:, 1])
+        return tuple(RouteWaypoint(float(x), float(y), float(lo), float(la), alt, "transit", -1, "")
+                     for (x, y), lo, la in zip(points, lon, lat))
+
+    return transit(routed.transit_out, survey[0].alt_m) + survey + transit(routed.transit_back, survey[-1].alt_m)
 
 
 def _ground(site: Site, xy: tuple[float, float], what: str) -> float:

@@ -23,6 +23,22 @@ class RoutePlan:
     home_xy: tuple[float, float]  # planning CRS
     launch_given: bool
     detours: Detours
+    transit_out: tuple[tuple[float, float], ...]  # detour corners from home to the first waypoint
+    transit_back: tuple[tuple[float, float], ...]  # from the last waypoint home
+
+
+def default_home(site: Site, first: tuple[float, float]) -> tuple[float, float]:
+    """No launch point given: the area's edge nearest the first waypoint, outside every zone
+    and its margin (the first waypoint itself when zones cover the whole edge)."""
+    area = site.area
+    edge = area.exterior if area.geom_type == "Polygon" else area.boundary
+    if site.zones_buffered is not None:
+        # a metre more than the margin, so that the launch point is not on its line
+        edge = shapely.difference(edge, shapely.buffer(site.zones_buffered, 1.0, quad_segs=2))
+        if edge.is_empty:
+            return first
+    near = shapely.get_point(shapely.shortest_line(edge, shapely.Point(first)), 0)
+    return (float(near.x), float(near.y))
 
 
 def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> RoutePlan:
@@ -40,11 +56,11 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
                             [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc}") from None
-    if launch_xy is not None:
-        return RoutePlan(route, launch_xy, True, detours)
-    first = route.waypoints[0]
-    area = site.area
-    # no launch point given: take off at the area's edge nearest the first waypoint
-    edge = area.exterior if area.geom_type == "Polygon" else area.boundary
-    near = shapely.get_point(shapely.shortest_line(edge, shapely.Point(first.x, first.y)), 0)
-    return RoutePlan(route, (float(near.x), float(near.y)), False, detours)
+    first = (route.waypoints[0].x, route.waypoints[0].y)
+    last = (route.waypoints[-1].x, route.waypoints[-1].y)
+    home = launch_xy if launch_xy is not None else default_home(site, first)
+    try:
+        out, back = detours.path(home, first), detours.path(last, home)
+    except ValueError as exc:
+        raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
+    return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))

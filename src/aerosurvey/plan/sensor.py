@@ -86,8 +86,9 @@ def solve_heights(spec: MissionSpec, h_target: float, ground: tuple[float, float
                 f"terrain.tolerance_m = {tol:g} is too large for a flying height of {h_target:.1f} m "
                 f"(the lowest allowed height {low:.1f} m is under terrain.min_clearance_m = {spec.terrain.min_clearance_m:g} m)"
             )
-        gmin, gmax = ground if ground is not None else (None, None)
-        return Heights(mode, h_target, nominal, low, h_target, None, gmin, gmax)
+        if ground is None:
+            return Heights(mode, h_target, nominal, low, h_target, None, None, None)
+        return Heights(mode, h_target, nominal, low, h_target, None, ground[0], ground[1])
     return Heights("none", h_target, h_target, h_target, h_target, None, None, None)
 
 

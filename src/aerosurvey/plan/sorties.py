@@ -98,6 +98,9 @@ class Sortie:
 
 
 def wind_factor(wind_ms: float, speed_ms: float) -> float:
+    """Time allowance of a round trip against and with a steady wind: 1 / (1 − (w/v)²); w < v."""
+    if not 0.0 <= wind_ms < speed_ms:
+        raise ValueError(f"wind {wind_ms:g} m/s must be below the speed {speed_ms:g} m/s")
     return 1.0 / (1.0 - (wind_ms / speed_ms) ** 2)
 
 
@@ -130,7 +133,7 @@ class Splitter:
                 pending = []
             self.by_run.setdefault(w.run, []).append(w)
         self.station_index = {sid: i for i, sid in enumerate(st.ids)}
-        self._evaluated: dict[tuple[int, int], tuple] = {}
+        self._evaluated: dict[tuple[int, int], tuple[float, int, float, float, float, list[SortieWaypoint], int]] = {}
 
     def _run_waypoints(self, r: int, a: int, b: int) -> list[SortieWaypoint]:
         """Waypoints flying stations a..b (global indices) of run r."""
@@ -183,32 +186,37 @@ class Splitter:
         return self._evaluated[key]
 
     def _evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
-        wps = self.waypoints(a, b)
-        pts = np.asarray([(w.x, w.y) for w in wps])
-        climb = max(w.alt_m for w in wps) if self.plan.altitude_frame == "relative" else self.plan.heights.nominal_agl_m
+        survey = self.waypoints(a, b)
+        pts = np.asarray([(w.x, w.y) for w in survey])
+        climb = max(w.alt_m for w in survey) if self.plan.altitude_frame == "relative" else self.plan.heights.nominal_agl_m
         candidates = [self.fixed_launch] if self.fixed_launch is not None else range(len(self.sites))
-        best = None
+        best: tuple[float, int, float, float, float, list[SortieWaypoint]] | None = None
+        first, last = (survey[0].x, survey[0].y), (survey[-1].x, survey[-1].y)
         for li in candidates:
             s = self.sites[li]
             home = (s.x, s.y)
             alt_shift = self.plan.home_ground_m - s.ground_m
-            out_leg = [home, *self.detours.path(home, (wps[0].x, wps[0].y))]
-            back_leg = [*self.detours.path((wps[-1].x, wps[-1].y), home), home]
+            out_via, back_via = self.detours.path(home, first), self.detours.path(last, home)
+            out_leg = [home, *out_via]
+            back_leg = [*back_via, home]
             poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
             horiz = path_time(poly, self.kin)
             v = self.plan.vehicle
             h = max(climb + alt_shift, 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             if v.type == "plane":  # climb and descent overlap the transits out and back
-                t_out = path_time(np.asarray(out_leg + [(wps[0].x, wps[0].y)]) / self.plan.grid_scale, self.kin)
-                t_back = path_time(np.asarray([(wps[-1].x, wps[-1].y)] + back_leg) / self.plan.grid_scale, self.kin)
+                t_out = path_time(np.asarray([*out_leg, first]) / self.plan.grid_scale, self.kin)
+                t_back = path_time(np.asarray([last, *back_leg]) / self.plan.grid_scale, self.kin)
                 vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
             dist = float(np.hypot(*np.diff(poly, axis=0).T).sum())
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
-                best = (used, li, horiz, vert, dist)
+                # the way from the launch point and back home goes round the zones as the costing did
+                wps = ([SortieWaypoint(x, y, survey[0].alt_m, "transit", -1, "") for x, y in out_via] + survey
+                       + [SortieWaypoint(x, y, survey[-1].alt_m, "transit", -1, "") for x, y in back_via])
+                best = (used, li, horiz, vert, dist, wps)
         assert best is not None
-        return (*best, wps, self._items(wps))
+        return (*best, self._items(best[5]))
 
     def fits(self, a: int, b: int, budget: float) -> bool:
         used, *_, items = self.evaluate(a, b)

@@ -192,8 +192,8 @@ class PlanBundle:
 
 
 def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) -> PlanBundle:
-    from aerosurvey.outputs import render_outputs
     from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import render_outputs
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
