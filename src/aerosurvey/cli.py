@@ -32,25 +32,35 @@ DIST = "aerosurvey"
 
 
 @functools.cache
-def registry() -> tuple[dict[str, str], dict[str, str]]:
-    """({name: "module:attribute"} of aerosurvey's own commands, the same of plug-ins' commands).
+def own_commands() -> dict[str, str]:
+    """{name: "module:attribute"} of aerosurvey's own commands, from its installed metadata.
 
-    Both come from installed metadata. An editable install made before a command was
-    registered does not list it until reinstalled (`pip install -e .`); when the installed
-    metadata lists none of aerosurvey's own, they are read from the checkout's pyproject.toml.
+    An editable install made before a command was registered does not list it until
+    reinstalled (`pip install -e .`); when the installed metadata lists none of aerosurvey's
+    commands, they are read from the checkout's pyproject.toml.
     """
-    from importlib.metadata import entry_points  # reads every installed package's metadata: only when a command is looked up
+    from importlib.metadata import PackageNotFoundError, distribution  # pyproj imports it too
 
-    own: dict[str, str] = {}
-    plugins: dict[str, str] = {}
-    for ep in entry_points(group=GROUP):
-        dist = ep.dist.name if ep.dist is not None else None
-        (own if dist == DIST else plugins)[ep.name] = f"{ep.module}:{ep.attr}"
-    if not own:
-        own = _checkout_commands()
-    for name in own:
-        plugins.pop(name, None)  # a plug-in cannot replace one of aerosurvey's commands
-    return own, plugins
+    try:
+        eps = distribution(DIST).entry_points.select(group=GROUP)  # one package's metadata: running a command reads no other
+    except PackageNotFoundError:
+        return _checkout_commands()
+    return {ep.name: f"{ep.module}:{ep.attr}" for ep in eps} or _checkout_commands()
+
+
+@functools.cache
+def plugin_commands() -> dict[str, str]:
+    """{name: "module:attribute"} of commands other packages add; a plug-in cannot replace one of aerosurvey's."""
+    from importlib.metadata import entry_points  # reads every installed package's metadata: only to list or for a plug-in
+
+    own = own_commands()
+    return {ep.name: f"{ep.module}:{ep.attr}" for ep in entry_points(group=GROUP)
+            if (ep.dist is None or ep.dist.name != DIST) and ep.name not in own}
+
+
+def registry() -> tuple[dict[str, str], dict[str, str]]:
+    """(aerosurvey's own commands, plug-ins' commands), each {name: "module:attribute"}."""
+    return own_commands(), plugin_commands()
 
 
 def _checkout_commands() -> dict[str, str]:
@@ -83,8 +93,11 @@ class _Main(LazyGroup):
         own, plugins = registry()
         return {**plugins, **own}
 
+    def target(self, name: str) -> str | None:
+        return own_commands().get(name) or plugin_commands().get(name)
+
     def load(self, name: str, target: str) -> click.Command:
-        if name in registry()[0]:
+        if name in own_commands():
             return load_command(target)  # aerosurvey's own: failing to load is a defect, shown as one
         try:
             return load_command(target)

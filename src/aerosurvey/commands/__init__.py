@@ -40,7 +40,12 @@ class LazyGroup(click.Group):
         self._lazy = dict(lazy_subcommands or {})
 
     def lazy_subcommands(self) -> Mapping[str, str]:
+        """Every lazily loaded subcommand: {name: "package.module:attribute"} (for listing)."""
         return self._lazy
+
+    def target(self, name: str) -> str | None:
+        """Where one subcommand is (subclasses may find it without listing them all)."""
+        return self.lazy_subcommands().get(name)
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted({*super().list_commands(ctx), *self.lazy_subcommands()})
@@ -49,7 +54,7 @@ class LazyGroup(click.Group):
         cmd = super().get_command(ctx, cmd_name)
         if cmd is not None:
             return cmd
-        target = self.lazy_subcommands().get(cmd_name)
+        target = self.target(cmd_name)
         if target is None:
             return None
         cmd = self.load(cmd_name, target)
