@@ -1,7 +1,8 @@
 """Planning speed, memory and plan quality on synthetic areas (issue: planner core).
 
-    python benchmarks/plan_bench.py            # all cases, one subprocess each
+    python benchmarks/plan_bench.py            # all cases, one subprocess each, then start-up
     python benchmarks/plan_bench.py --case 1000ha-holes
+    python benchmarks/plan_bench.py --startup  # only the command start-up section
 
 Each case runs in its own process so that its peak memory (max RSS) is its own. Times are
 wall-clock seconds on this machine in this run; the 72 ha block is planned in the same
@@ -9,6 +10,13 @@ run as a baseline, and every case reports its time as a ratio to it. Quality: th
 flown with the camera on against the lower bound area / spacing + the required
 extensions at both ends of every run, and the photo count against area / (spacing · base)
 plus the extension photos.
+
+Start-up: wall (and CPU) time of fresh `aerosurvey` processes (`python -m aerosurvey.cli`, the sources
+this interpreter imports), median of 5 rounds, each round running every command once, as
+ratios to baselines timed in the same rounds: `python -c "import click"` for help pages,
+`python -c "import numpy, shapely, pyproj"` for planning the 72 ha example. Byte code is
+compiled into a temporary PYTHONPYCACHEPREFIX by a warm-up run first, as an installed
+package has it (PYTHONDONTWRITEBYTECODE is dropped for these processes).
 """
 
 from __future__ import annotations
@@ -159,15 +167,85 @@ def run_case(name: str) -> dict:
             "output_mb": round(size / 1e6, 2), **quality(plan)}
 
 
+STARTUP_ROUNDS = 5
+_EXAMPLE = str(REPO / "missions" / "obratan-72ha.toml")
+#: (name, argv after the interpreter, [(baseline name, largest allowed ratio to it or None)])
+STARTUP = [
+    ("import click", ["-c", "import click"], []),
+    ("import numpy, shapely, pyproj", ["-c", "import numpy, shapely, pyproj"], []),
+    ("aerosurvey --help", ["-m", "aerosurvey.cli", "--help"], [("import click", 4.0)]),
+    ("aerosurvey plan --help", ["-m", "aerosurvey.cli", "plan", "--help"], [("import click", None)]),
+    ("aerosurvey qa --help", ["-m", "aerosurvey.cli", "qa", "--help"], [("import click", None)]),
+    # the plan's work through the library, no CLI: the ratio of the command to it is what start-up adds
+    ("library plan 72ha", ["-c", "from pathlib import Path; from aerosurvey.spec import load_spec; "
+                           "from aerosurvey.inputs import plan_from_files; from aerosurvey.outputs import write_outputs; "
+                           f"write_outputs(plan_from_files(load_spec(Path({_EXAMPLE!r}))), Path('{{tmp}}/lib'))"],
+     [("import numpy, shapely, pyproj", None)]),
+    ("aerosurvey plan 72ha", ["-m", "aerosurvey.cli", "plan", _EXAMPLE, "-o", "{tmp}/out"],
+     [("import numpy, shapely, pyproj", 2.5), ("library plan 72ha", None)]),
+]
+
+
+def startup() -> list[dict]:
+    """Fresh-process wall times of the STARTUP commands and their ratios to their baselines."""
+    import os
+    import statistics
+
+    with tempfile.TemporaryDirectory() as td:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        env["PYTHONPYCACHEPREFIX"] = str(Path(td) / "pycache")
+        times: dict[str, list[float]] = {name: [] for name, *_ in STARTUP}
+        cpu: dict[str, list[float]] = {name: [] for name, *_ in STARTUP}
+        for rnd in range(STARTUP_ROUNDS + 1):  # round 0 compiles the byte code and is not counted
+            for name, argv, _ in STARTUP:
+                cmd = [sys.executable, *(a.replace("{tmp}", td) for a in argv)]
+                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                t0 = time.perf_counter()
+                out = subprocess.run(cmd, capture_output=True, text=True, env=env)
+                dt = time.perf_counter() - t0
+                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                if out.returncode != 0:
+                    raise SystemExit(f"{name} failed:\n{out.stderr}")
+                if rnd:
+                    times[name].append(dt)
+                    cpu[name].append(r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime)
+    med = {name: statistics.median(v) for name, v in times.items()}
+    med_cpu = {name: statistics.median(v) for name, v in cpu.items()}
+    rows = []
+    for name, _, comparisons in STARTUP:
+        for base, limit in comparisons or [(None, None)]:
+            ratio = med[name] / med[base] if base else None
+            rows.append({"command": name, "median_s": round(med[name], 3), "cpu_s": round(med_cpu[name], 3),
+                         "baseline": base or "", "ratio": round(ratio, 2) if ratio is not None else "",
+                         "cpu_ratio": round(med_cpu[name] / med_cpu[base], 2) if base else "",
+                         "target": f"<= {limit}x" if limit else "",
+                         "met": ("yes" if ratio <= limit else "NO") if (limit and ratio is not None) else ""})
+    return rows
+
+
+def print_startup(rows: list[dict]) -> None:
+    print(f"start-up: fresh processes, median of {STARTUP_ROUNDS} rounds; ratio of wall times (the target), "
+          "cpu_ratio of user+system CPU times (steadier on a busy machine)")
+    cols = ["command", "median_s", "cpu_s", "baseline", "ratio", "cpu_ratio", "target", "met"]
+    widths = {c: max(len(c), *(len(str(r[c])) for r in rows)) for c in cols}
+    print("  ".join(c.ljust(widths[c]) for c in cols))
+    for r in rows:
+        print("  ".join(str(r[c]).ljust(widths[c]) for c in cols).rstrip())
+
+
 CASES = ["72ha", "convex-square", "1000ha-holes", "1000ha-holes-fixed-dem", "1000ha-holes-follow-dem", "10000ha"]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", choices=CASES)
+    ap.add_argument("--startup", action="store_true", help="Only the start-up section.")
     a = ap.parse_args()
     if a.case:
         print(json.dumps(run_case(a.case)))
+        return
+    if a.startup:
+        print_startup(startup())
         return
     rows = []
     for case in CASES:
@@ -183,6 +261,8 @@ def main() -> None:
     for r in rows:
         r["x72ha"] = round(r["total_s"] / base, 1) if base else float("nan")
         print("  ".join(f"{str(r[c]):>11}" for c in cols))
+    print()
+    print_startup(startup())
 
 
 if __name__ == "__main__":

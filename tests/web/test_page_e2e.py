@@ -278,7 +278,9 @@ def test_long_plan_shows_progress_and_cancels(site):
     tmp.mkdir()
     write_geojson(tmp / "big.geojson", random_polygon("holed", 11, 4000))
     (tmp / "big.toml").write_text('[mission]\nname = "big"\n[area]\nfile = "big.geojson"\n[camera]\nmodel = "sony-a6000-16mm"\n'
-                                  '[targets]\ngsd_cm = 1.2\nforward_overlap = 0.8\nside_overlap = 0.7\n')
+                                  '[targets]\ngsd_cm = 1.2\nforward_overlap = 0.8\nside_overlap = 0.7\n'
+                                  # a job this large on purpose (a long plan to cancel): above the default limits
+                                  '[limits]\nmax_photos = 10000000\nmax_flight_hours = 10000\n')
     server = _Server(tmp / "big.toml")
     ctx = site["browser"].new_context(viewport={"width": 1400, "height": 900})
     try:

@@ -4,22 +4,29 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from aerosurvey.errors import InputError
-from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, failed_errors, layout_settings
-from aerosurvey.rules.load import open_target
-from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+if TYPE_CHECKING:
+    from aerosurvey.rules.engine import Evidence, RuleResult
+    from aerosurvey.rules.load import Target
 
 _MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "info": "INFO", "not-checkable": "N/A "}
 
 
-def run_rules(target, profile_ids: list[str], profile_dirs: list[Path]):
+def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) -> tuple[list[RuleResult], Evidence]:
     """Results of the chosen profiles on a target, with the control point layout used."""
+    # the rule engine loads numpy, shapely and pyproj: imported when rules run, not when help lists this command
+    from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
+    from aerosurvey.rules.profile import apply_overrides, select_profiles
+
     ids = profile_ids or target.profiles
     if not ids:
-        raise InputError("no rule profile chosen: give --profile ID (see `aerosurvey check --list`) or name them in the spec's [rules] profiles")
+        raise InputError("no rule profile chosen: give --profile ID (see `aerosurvey check --list`) "
+                         "or name them in the spec's [rules] profiles")
     profiles = apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
     layout = None
     if target.outdir is not None and (target.outdir / "control_points.geojson").exists():
@@ -41,16 +48,29 @@ def format_results(results: list[RuleResult]) -> list[str]:
 
 
 @click.command()
-@click.argument("target", type=click.Path(path_type=Path))
+@click.argument("target", required=False, type=click.Path(path_type=Path))
 @click.option("--profile", "profiles", multiple=True, help="Rule profile id (repeatable); default: the spec's [rules] profiles.")
 @click.option("--profile-dir", "profile_dirs", multiple=True, type=click.Path(file_okay=False, path_type=Path),
               help="A folder of your own rule profiles (*.toml); also AEROSURVEY_PROFILES.")
+@click.option("--list", "list_profiles", is_flag=True, help="List the rule profiles there are (no TARGET needed).")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
-def check(target: Path, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], as_json: bool) -> None:
+def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], list_profiles: bool,
+          as_json: bool) -> None:
     """Check a mission spec or a plan folder against rule profiles.
 
     Exit code 0 when every error-level rule passes, 1 when one fails, 2 for bad input.
     """
+    from aerosurvey.rules.engine import failed_errors
+    from aerosurvey.rules.load import open_target
+
+    if list_profiles:
+        from aerosurvey.rules.profile import available_profiles
+
+        for p in available_profiles(list(profile_dirs)).values():
+            click.echo(f"{p.id:24} {len(p.rules):3d} rules  {p.name}")
+        return
+    if target is None:
+        raise InputError("give TARGET, a mission spec or a plan folder (or --list for the rule profiles)")
     results, _ = run_rules(open_target(target), list(profiles), list(profile_dirs))
     if as_json:
         click.echo(json.dumps({"results": [r.as_dict() for r in results],

@@ -3,17 +3,32 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
-import shapely
 
-from aerosurvey.area import read_area
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
-from aerosurvey.rules.cp_files import control_point_files
-from aerosurvey.rules.engine import Evidence, layout_settings
-from aerosurvey.rules.load import open_target
-from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+if TYPE_CHECKING:
+    from shapely.geometry.base import BaseGeometry
+
+    from aerosurvey.rules.planview import PlanView
+
+
+def _nogo_zones(view: PlanView, paths: tuple[Path, ...]) -> BaseGeometry | None:
+    """The no-go polygons (any CRS) united, in the plan's CRS."""
+    import numpy as np
+    import shapely
+
+    from aerosurvey.area import read_area
+
+    if not paths:
+        return None
+    parts = [shapely.transform(read_area(p, None, "EPSG:4326", f"no-go zone {p.name}"),
+                               lambda xy: np.column_stack(view.to_plan.transform(xy[:, 0], xy[:, 1])))
+             for p in paths]
+    return shapely.union_all(parts)
 
 
 @click.command()
@@ -28,6 +43,12 @@ from aerosurvey.rules.profile import apply_overrides, select_profiles
 def gcp(target: Path, outdir: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...],
         nogo: tuple[Path, ...], offset: float | None) -> None:
     """Propose GCPs (an envelope outside the perimeter) and check points (inside)."""
+    # the rule engine loads numpy, shapely and pyproj: imported when the command runs, not when help lists it
+    from aerosurvey.rules.cp_files import control_point_files
+    from aerosurvey.rules.engine import Evidence, layout_settings
+    from aerosurvey.rules.load import open_target
+    from aerosurvey.rules.profile import apply_overrides, select_profiles
+
     t = open_target(target)
     out = outdir or t.outdir
     if out is None:
@@ -36,12 +57,7 @@ def gcp(target: Path, outdir: Path | None, profiles: tuple[str, ...], profile_di
         raise InputError(f"--offset = {offset} is not allowed: a distance in metres in (0, 500]")
     ids = list(profiles) or t.profiles
     chosen = apply_overrides(select_profiles(ids, list(profile_dirs)), t.overrides) if ids else []
-    zones = None
-    if nogo:
-        parts = [t.view.to_plan and shapely.transform(read_area(p, None, "EPSG:4326", f"no-go zone {p.name}"),
-                                                      lambda xy: __import__("numpy").column_stack(t.view.to_plan.transform(xy[:, 0], xy[:, 1])))
-                 for p in nogo]
-        zones = shapely.union_all(parts)
+    zones = _nogo_zones(t.view, nogo)
     ev = Evidence(t.view, layout_settings(t.view, chosen, nogo=zones, gcp_offset_m=offset))
     pts = ev.points
     files = control_point_files(t.view, pts, ev.footprints)

@@ -8,7 +8,6 @@ import json
 from pathlib import Path
 
 import click
-import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
@@ -46,6 +45,8 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
            accuracy_xy: float, accuracy_z: float, fixed_camera: bool, dem_path: Path | None, geotag_dir: Path | None,
            geotag_in_place: bool, outdir: Path) -> None:
     """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json)."""
+    import numpy as np  # not at the top: `aerosurvey --help` imports this module to list the command
+
     from aerosurvey.flight.events import match_to_stations, read_events
 
     geotag_dir = _geotag_destination(images_dir, geotag_dir, geotag_in_place)

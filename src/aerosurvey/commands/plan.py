@@ -2,23 +2,30 @@
 
 from __future__ import annotations
 
+import logging
+import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from aerosurvey.inputs import plan_from_files
-from aerosurvey.plan.planner import Plan
-from aerosurvey.spec import load_spec
+from aerosurvey import console
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.planner import Plan
+
+log = logging.getLogger(__name__)
 
 
-def summary(plan: Plan, warnings: list[str], rules: list[dict]) -> list[str]:
+def summary(plan: Plan, warnings: list[str], rules: list[dict[str, Any]]) -> list[str]:
     e = plan.estimates
     h = plan.heights
     sp = plan.speed
     lines = [
         f"mission {plan.spec.name}: {plan.area.area / 1e4:.2f} ha in {plan.planar.name}, camera {plan.spec.camera.camera.name}",
         f"  height AGL      {h.nominal_agl_m:.1f} m ("
-        + ("flat ground, no DEM" if h.mode == "none" else f"terrain mode {h.mode}; {h.spacing_agl_m:.1f}..{h.max_agl_m:.1f} m above the ground")
+        + ("flat ground, no DEM" if h.mode == "none"
+           else f"terrain mode {h.mode}; {h.spacing_agl_m:.1f}..{h.max_agl_m:.1f} m above the ground")
         + ")",
         f"  GSD             {plan.gsd_min_m * 100:.2f}..{plan.gsd_max_m * 100:.2f} cm (target {plan.gsd_target_m * 100:.2f} cm)",
         f"  footprint       {plan.across_m:.1f} m across x {plan.along_m:.1f} m along",
@@ -34,11 +41,12 @@ def summary(plan: Plan, warnings: list[str], rules: list[dict]) -> list[str]:
         "  route           " + "; ".join(f"pass {i}: {how}" for i, how in enumerate(plan.route.strategy, start=1)),
         f"  flight          {e['total_distance_m'] / 1000:.2f} km, {e['total_time_s'] / 60:.1f} min estimated",
     ]
-    if plan.sorties:
+    battery = plan.spec.battery
+    if plan.sorties and battery is not None:  # sorties are split only when a battery is given
         lines.append("  sorties         id   photos  time min  dist km  battery %  first station -> last station")
         st = plan.stations
         for k, (s, _) in enumerate(plan.sorties, start=1):
-            pct = 100 * s.battery_used * (1 - plan.spec.battery.reserve)
+            pct = 100 * s.battery_used * (1 - battery.reserve)
             lines.append(f"                  S{k:02d} {s.last - s.first + 1:7d} {(s.horizontal_s + s.vertical_s) / 60:9.1f} "
                          f"{s.distance_m / 1000:8.2f} {pct:10.1f}  {st.ids[s.first]} -> {st.ids[s.last]}")
     if plan.sun is not None:
@@ -57,11 +65,19 @@ def summary(plan: Plan, warnings: list[str], rules: list[dict]) -> list[str]:
               help="Folder for the mission files, manifest and preview (created if missing).")
 def plan(spec: Path, outdir: Path) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."""
-    mission_spec = load_spec(spec)
-    result = plan_from_files(mission_spec)
-    from aerosurvey.outputs import write_outputs  # the format writers load only when there is a plan to write
+    # imported here, not at the top: listing this command in `aerosurvey --help` must not load the planner
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import write_outputs
+    from aerosurvey.spec import load_spec
 
-    rendered = write_outputs(result, outdir)
+    t0 = time.perf_counter()
+    mission_spec = load_spec(spec)
+    with console.progress(f"planning {mission_spec.name}") as report:
+        result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
+        t1 = time.perf_counter()
+        report("mission files, rules and preview", 0.85)
+        rendered = write_outputs(result, outdir)
+    log.info("planned in %.2f s, files written in %.2f s", t1 - t0, time.perf_counter() - t1)
     for line in summary(result, rendered.warnings, rendered.rules):
         click.echo(line)
     click.echo(f"wrote {', '.join(sorted(rendered.files))} to {outdir}")

@@ -4,19 +4,19 @@ from __future__ import annotations
 
 import click
 
+from aerosurvey.commands import LazyGroup
 
-@click.group()
+# Subcommands load on use: their modules import scipy, numpy and pyproj, which `aerosurvey --help`
+# (listing this group) and the other commands must not pay for.
+_SUBCOMMANDS = {
+    "accuracy": "aerosurvey.commands.qa_accuracy:accuracy",
+    "bayes": "aerosurvey.commands.qa_accuracy:bayes",
+    "reproducibility": "aerosurvey.commands.qa_repro:reproducibility",
+    "timeseries": "aerosurvey.commands.qa_repro:timeseries",
+    "shift": "aerosurvey.commands.qa_repro:shift",
+}
+
+
+@click.group(cls=LazyGroup, lazy_subcommands=_SUBCOMMANDS)
 def qa() -> None:
     """Quality assessment of finished products (accuracy, reproducibility, time series)."""
-
-
-from aerosurvey.commands.qa_accuracy import accuracy, bayes  # noqa: E402
-
-qa.add_command(accuracy)
-qa.add_command(bayes)
-
-from aerosurvey.commands.qa_repro import reproducibility, shift, timeseries  # noqa: E402
-
-qa.add_command(reproducibility)
-qa.add_command(timeseries)
-qa.add_command(shift)

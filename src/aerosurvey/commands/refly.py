@@ -6,8 +6,6 @@ import json
 from pathlib import Path
 
 import click
-import numpy as np
-import shapely
 
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text
@@ -23,6 +21,10 @@ from aerosurvey.fileio import atomic_write_text
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
 def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, outdir: Path) -> None:
     """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."""
+    import numpy as np  # not at the top: `aerosurvey --help` imports this module to list the command
+    import shapely
+    import shapely.geometry
+
     from aerosurvey.flight.refly import gap_area, needed_images, refly_spec
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import write_outputs

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import ipaddress
+import logging
 from pathlib import Path
 
 import click
 
 from aerosurvey.errors import InputError
+
+log = logging.getLogger(__name__)
 
 
 def _loopback(host: str) -> bool:
@@ -32,7 +35,7 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, max_upload_mb:
     """Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."""
     import socket
 
-    import uvicorn
+    import uvicorn  # the web stack loads only for this command
 
     from aerosurvey.web.app import create_app
 
@@ -47,8 +50,8 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, max_upload_mb:
     if _loopback(host):
         allowed = [f"127.0.0.1:{port}", f"localhost:{port}", f"[::1]:{port}"]
     else:
-        click.echo(f"warning: listening on {host}: anyone who can reach this address can plan with the files in the "
-                   "mission's folder and upload files to this machine", err=True)
+        log.warning("listening on %s: anyone who can reach this address can plan with the files in the mission's folder "
+                    "and upload files to this machine", host)
         allowed = None
     app = create_app(spec, tile_url=tile_url, allowed_hosts=allowed, upload_limit=max_upload_mb * 1024 * 1024)
     shown = "127.0.0.1" if _loopback(host) else host

@@ -9,10 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pyproj
-import rasterio.features
-import rasterio.windows
 import shapely
-from affine import Affine
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar, transformer
@@ -24,6 +21,8 @@ class Dem:
     """A DEM window for sampling in the planning CRS."""
 
     def __init__(self, grid: DemGrid, planar: Planar):
+        from affine import Affine  # with rasterio, only when there is a DEM: most plans have none
+
         self.grid = grid
         self.name = grid.name
         self.crs = pyproj.CRS.from_wkt(grid.crs_wkt)
@@ -79,6 +78,9 @@ class Dem:
 
     def range_over(self, geom_plan: BaseGeometry, what: str) -> tuple[float, float]:
         """Lowest and highest DEM cell under a polygon (planning CRS); nodata there is an error."""
+        import rasterio.features  # (~0.3 s with GDAL and attrs) only when there is a DEM
+        import rasterio.windows
+
         t = self.to_dem
         g = shapely.transform(geom_plan, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
         left, b, r, tp = g.bounds

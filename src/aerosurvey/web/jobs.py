@@ -8,9 +8,9 @@ cancelled plan stops at its next step and leaves nothing behind.
 from __future__ import annotations
 
 import itertools
+import logging
 import threading
 import time
-import traceback
 from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -18,6 +18,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from aerosurvey.errors import AerosurveyError, InputError
+
+log = logging.getLogger(__name__)
+
+#: A job's progress report: stage name, share done (0..1); the planner's `Progress`.
+Progress = Callable[[str, float], None]
 
 
 class Cancelled(Exception):
@@ -58,7 +63,7 @@ class JobRunner:
         self._ids = itertools.count(1)
         self._keep = keep
 
-    def submit(self, fn: Callable[[Callable[[str, float], None]], Any]) -> Job:
+    def submit(self, fn: Callable[[Progress], Any]) -> Job:
         with self._lock:
             job = Job(id=f"j{next(self._ids)}")
             self._jobs[job.id] = job
@@ -70,7 +75,7 @@ class JobRunner:
         self._pool.submit(self._run, job, fn)
         return job
 
-    def _run(self, job: Job, fn: Callable[[Callable[[str, float], None]], Any]) -> None:
+    def _run(self, job: Job, fn: Callable[[Progress], Any]) -> None:
         try:
             if job.cancel.is_set():
                 raise Cancelled()
@@ -86,7 +91,7 @@ class JobRunner:
             job.state = "error"
             job.error = {"message": str(exc), "key": getattr(exc, "key", None), "kind": "input" if isinstance(exc, InputError) else "check"}
         except Exception as exc:  # a defect: the page shows it, the server log keeps the traceback
-            traceback.print_exc()
+            log.exception("plan job %s failed", job.id)
             job.state = "error"
             job.error = {"message": f"internal error: {type(exc).__name__}: {exc}", "key": None, "kind": "internal"}
         finally:

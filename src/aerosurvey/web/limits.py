@@ -9,16 +9,21 @@ client announced its length.
 from __future__ import annotations
 
 import json
+from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
 
-Scope = dict[str, Any]
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 
 class _TooLarge(Exception):
     pass
 
 
-async def _send_json(send, status: int, body: dict[str, Any]) -> None:
+async def _send_json(send: Send, status: int, body: dict[str, Any]) -> None:
     data = json.dumps(body).encode("utf-8")
     await send({"type": "http.response.start", "status": status,
                 "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(data)).encode())]})
@@ -26,11 +31,11 @@ async def _send_json(send, status: int, body: dict[str, Any]) -> None:
 
 
 class BodyLimit:
-    def __init__(self, app, limit: int):
+    def __init__(self, app: ASGIApp, limit: int):
         self.app = app
         self.limit = limit
 
-    async def __call__(self, scope: Scope, receive, send) -> None:
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
@@ -43,7 +48,7 @@ class BodyLimit:
         seen = 0
         started = False
 
-        async def counted_receive():
+        async def counted_receive() -> Message:
             nonlocal seen
             msg = await receive()
             if msg["type"] == "http.request":
@@ -52,7 +57,7 @@ class BodyLimit:
                     raise _TooLarge()
             return msg
 
-        async def tracked_send(msg):
+        async def tracked_send(msg: Message) -> None:
             nonlocal started
             if msg["type"] == "http.response.start":
                 started = True
@@ -66,11 +71,11 @@ class BodyLimit:
 
 
 class HostCheck:
-    def __init__(self, app, allowed_hosts: list[str] | None):
+    def __init__(self, app: ASGIApp, allowed_hosts: list[str] | None):
         self.app = app
         self.allowed = None if allowed_hosts is None else {h.lower() for h in allowed_hosts}
 
-    async def __call__(self, scope: Scope, receive, send) -> None:
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http" or self.allowed is None:
             await self.app(scope, receive, send)
             return

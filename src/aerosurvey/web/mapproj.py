@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from shapely.geometry.base import BaseGeometry
+
+if TYPE_CHECKING:
+    from aerosurvey.area import Planar
 
 R = 6378137.0  # the sphere of EPSG:3857
 MAX_LAT = 85.05112878
@@ -45,7 +48,7 @@ class MapFrame:
     fit_error_m: float
 
     @classmethod
-    def around(cls, area_wgs84: BaseGeometry, planar) -> MapFrame:
+    def around(cls, area_wgs84: BaseGeometry, planar: Planar) -> MapFrame:
         c = area_wgs84.centroid
         ox, oy = mercator(np.array([c.x]), np.array([c.y]))
         x0, y0, x1, y1 = area_wgs84.bounds

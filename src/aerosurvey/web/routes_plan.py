@@ -1,0 +1,99 @@
+"""Plans as jobs and a plan's files:
+
+  POST   /api/plan                   {"spec": {...}} → 202 {"job": id}
+  GET    /api/jobs/{id}?wait=S       the job's state and progress; when done, the plan's view
+  DELETE /api/jobs/{id}              cancel a running plan
+  GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
+  GET    /api/plans/{pid}/archive.zip  all of them
+"""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import time
+import zipfile
+from typing import Any
+
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+
+from aerosurvey.errors import InputError
+from aerosurvey.web import service
+from aerosurvey.web.jobs import Progress
+from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body
+
+MAX_WAIT_S = 10.0
+_POLL_S = 0.02
+_MEDIA = {"json": "application/json", "geojson": "application/geo+json", "kml": "application/vnd.google-earth.kml+xml",
+          "svg": "image/svg+xml", "csv": "text/csv", "gpx": "application/gpx+xml"}
+
+
+async def submit_plan(request: Request) -> Response:
+    state = server(request)
+    try:
+        spec = await spec_body(request)
+    except InputError as exc:
+        return error(exc)
+
+    def work(progress: Progress) -> dict[str, Any]:
+        bundle = service.plan_bundle(spec, state.workspace, progress)
+        return {"plan_id": state.remember(bundle), "files": sorted(bundle.files), **bundle.view}
+
+    job = state.runner.submit(work)
+    return JSONResponse({"job": job.id}, status_code=202)
+
+
+async def job_status(request: Request) -> Response:
+    job_id = request.path_params["job_id"]
+    job = server(request).runner.get(job_id)
+    if job is None:
+        return not_found(f"job {job_id!r} is not known (finished long ago?)")
+    raw = request.query_params.get("wait", "0")
+    try:
+        wait = min(max(float(raw), 0.0), MAX_WAIT_S)
+    except ValueError:
+        return error(InputError(f"wait = {raw!r} is not allowed: seconds from 0 to {MAX_WAIT_S:g}"))
+    end = time.monotonic() + wait
+    while not job.done.is_set() and time.monotonic() < end:  # a long poll that holds no thread
+        await asyncio.sleep(_POLL_S)
+    out = job.status()
+    if job.state == "done":
+        out["result"] = job.result
+    return JSONResponse(out)
+
+
+async def cancel_job(request: Request) -> Response:
+    job_id = request.path_params["job_id"]
+    job = server(request).runner.cancel(job_id)
+    if job is None:
+        return not_found(f"job {job_id!r} is not known")
+    return JSONResponse(job.status())
+
+
+async def plan_file(request: Request) -> Response:
+    bundle = server(request).plan(request.path_params["plan_id"])
+    if bundle is None:
+        return plan_gone(request)
+    name = request.path_params["name"]
+    if name not in bundle.files:
+        return not_found(f"the plan has no file {name!r}; it has {', '.join(sorted(bundle.files))}")
+    return Response(bundle.files[name].encode("utf-8"), media_type=_MEDIA.get(name.rsplit(".", 1)[-1], "text/plain"),
+                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+
+
+async def plan_archive(request: Request) -> Response:
+    bundle = server(request).plan(request.path_params["plan_id"])
+    if bundle is None:
+        return plan_gone(request)
+    data = await blocking(_zip, bundle.files)
+    stem = bundle.view["name"] or "mission"
+    return Response(data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{stem}.zip"'})
+
+
+def _zip(files: dict[str, str]) -> bytes:
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name, text in sorted(files.items()):
+            zf.writestr(name, text)
+    return buf.getvalue()

@@ -1,0 +1,116 @@
+"""The page's start and the spec it edits:
+
+  GET    /                 the page
+  GET    /api/state        the starting spec, cameras, rule profiles, settings
+  POST   /api/area         multipart `file`: an area file → a spec over it
+  POST   /api/spec/toml    {"spec": {...}} → the spec as TOML (attachment)
+  POST   /api/spec/save    {"spec": {...}} → written over the spec file the server was started with
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from starlette.datastructures import UploadFile
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+
+from aerosurvey.errors import AerosurveyError, InputError
+from aerosurvey.fileio import atomic_write_text
+from aerosurvey.web import service
+from aerosurvey.web.specfile import validated_toml
+from aerosurvey.web.state import ServerState, blocking, error, save_upload, server, spec_body
+
+
+async def index(request: Request) -> Response:
+    return FileResponse(str(resources.files("aerosurvey.web").joinpath("static/index.html")),
+                        headers={"Cache-Control": "no-store"})
+
+
+async def api_state(request: Request) -> Response:
+    return JSONResponse(await blocking(_state, server(request)))
+
+
+def _state(state: ServerState) -> dict[str, Any]:
+    """The page's starting point (the camera database and profiles are read from files)."""
+    from aerosurvey.camera import database
+    from aerosurvey.rules.profile import available_profiles
+
+    cams = [{"id": c.id, "name": c.name, "focal_mm": c.focal_mm, "pixel_pitch_um": round(c.pixel_pitch_um, 2)}
+            for c in sorted(database().values(), key=lambda c: c.id)]
+    profiles = [{"id": p.id, "name": p.name, "rules": len(p.rules)} for p in available_profiles().values()]
+    return {"spec": state.spec, "spec_path": str(state.spec_path) if state.spec_path else None, "cameras": cams,
+            "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit}
+
+
+async def upload_area(request: Request) -> Response:
+    state = server(request)
+    try:
+        form = await request.form(max_files=1, max_fields=10)
+    except AerosurveyError as exc:
+        return error(exc)
+    upload = form.get("file")
+    if not isinstance(upload, UploadFile):
+        return error(InputError("area upload: send the area file as the multipart field 'file'", key="area.file"))
+    current = form.get("spec")
+    try:
+        info = await blocking(_take_area, state, upload)
+    except AerosurveyError as exc:
+        return error(exc)
+    try:
+        base_spec = json.loads(current) if isinstance(current, str) and current else state.spec
+    except ValueError:
+        base_spec = state.spec
+    path, area = info
+    name = Path(upload.filename or "area").stem
+    return JSONResponse({"spec": service.with_new_area(base_spec, str(path), name), "area": area,
+                         "file_name": Path(upload.filename or "area").name})
+
+
+def _take_area(state: ServerState, upload: UploadFile) -> tuple[Path, dict[str, Any]]:
+    """Keep the uploaded area in the workspace and read it as the planner will."""
+    serial = state.next_serial()
+    incoming = state.workspace.uploads / f"incoming-{serial}"
+    try:
+        tmp = save_upload(upload, incoming)
+        path = service.store_upload(state.workspace, upload.filename or "area", tmp, serial)
+        return path, service.validate_area(path)
+    finally:
+        shutil.rmtree(incoming, ignore_errors=True)
+
+
+async def spec_toml(request: Request) -> Response:
+    state = server(request)
+    try:
+        spec = await spec_body(request)
+        text = await blocking(validated_toml, state.workspace, spec)
+    except AerosurveyError as exc:
+        return error(exc)
+    name = str((spec.get("mission") or {}).get("name") or "mission")
+    return Response(text.encode("utf-8"), media_type="application/toml",
+                    headers={"Content-Disposition": f'attachment; filename="{name}.toml"'})
+
+
+async def spec_save(request: Request) -> Response:
+    state = server(request)
+    if state.spec_path is None:
+        return JSONResponse({"error": "the server was started without a spec file: download the TOML instead", "key": None},
+                            status_code=409)
+    try:
+        spec = await spec_body(request)
+        text = await blocking(_save, state, spec)
+    except AerosurveyError as exc:
+        return error(exc)
+    return JSONResponse({"saved": str(state.spec_path), "bytes": len(text.encode("utf-8"))})
+
+
+def _save(state: ServerState, spec: dict[str, Any]) -> str:
+    assert state.spec_path is not None
+    text = validated_toml(state.workspace, spec)
+    atomic_write_text(state.spec_path, text)
+    state.spec = service.spec_to_json(spec)
+    return text

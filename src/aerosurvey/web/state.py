@@ -1,0 +1,109 @@
+"""What the page's handlers share: the server's state and the JSON request and error helpers.
+
+Handlers are async and run on the event loop: anything that reads or writes files, or
+computes for long, goes through `blocking` (a worker thread).
+"""
+
+from __future__ import annotations
+
+import itertools
+import shutil
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ParamSpec, TypeVar
+
+from starlette.concurrency import run_in_threadpool
+from starlette.datastructures import UploadFile
+from starlette.requests import Request
+from starlette.responses import JSONResponse
+
+from aerosurvey.errors import InputError
+from aerosurvey.web import service
+from aerosurvey.web.jobs import JobRunner
+
+P = ParamSpec("P")
+T = TypeVar("T")
+
+
+@dataclass
+class ServerState:
+    spec_path: Path | None
+    spec: dict[str, Any]
+    workspace: service.Workspace
+    tile_url: str
+    runner: JobRunner
+    upload_limit: int
+    plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
+    serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
+    keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB
+    _lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def remember(self, bundle: service.PlanBundle) -> str:
+        """Keep a finished plan (called from a job's thread) and return its id."""
+        with self._lock:
+            pid = f"p{next(self.serial)}"
+            self.plans[pid] = bundle
+            while len(self.plans) > self.keep_plans:
+                self.plans.popitem(last=False)
+        return pid
+
+    def plan(self, plan_id: str) -> service.PlanBundle | None:
+        with self._lock:
+            return self.plans.get(plan_id)
+
+    def next_serial(self) -> int:
+        with self._lock:
+            return next(self.serial)
+
+
+def server(request: Request) -> ServerState:
+    state: ServerState = request.app.state.server
+    return state
+
+
+async def blocking(fn: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
+    """Run a blocking call (file I/O, planning, zipping) on a worker thread."""
+    return await run_in_threadpool(fn, *args, **kwargs)
+
+
+def error(exc: Exception, status: int = 400) -> JSONResponse:
+    """The API's error body: the message and the spec key at fault (or null)."""
+    return JSONResponse({"error": str(exc), "key": getattr(exc, "key", None)}, status_code=status)
+
+
+def not_found(message: str) -> JSONResponse:
+    return JSONResponse({"error": message, "key": None}, status_code=404)
+
+
+def plan_gone(request: Request) -> JSONResponse:
+    return not_found(f"plan {request.path_params['plan_id']!r} is not kept any more: plan again")
+
+
+async def spec_body(request: Request) -> dict[str, Any]:
+    """The request's {"spec": {...}} JSON body; InputError when it is not one."""
+    if request.headers.get("content-type", "").split(";")[0].strip() != "application/json":
+        raise InputError("request body: send the spec as JSON (Content-Type: application/json)")
+    try:
+        body = await request.json()
+    except ValueError as exc:
+        raise InputError(f"request body is not valid JSON: {exc}") from None
+    if not isinstance(body, dict) or not isinstance(body.get("spec"), dict):
+        raise InputError('request body: expected {"spec": {...}} with the mission spec\'s tables', key="spec")
+    spec: dict[str, Any] = body["spec"]
+    return spec
+
+
+def save_upload(upload: UploadFile, folder: Path) -> Path:
+    """Copy an uploaded file (spooled by the form parser) into `folder` under its own base name.
+
+    Blocking: call through `blocking`.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    target = folder / Path(upload.filename or "upload").name
+    upload.file.seek(0)
+    with open(target, "wb") as fh:
+        shutil.copyfileobj(upload.file, fh, 1 << 20)
+    return target
