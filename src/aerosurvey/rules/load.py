@@ -3,7 +3,6 @@ output folder of `aerosurvey plan`."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,15 +32,15 @@ def plan_documents(plan) -> tuple[dict[str, Any], dict[str, Any]]:
 def open_target(path: Path) -> Target:
     if path.is_dir():
         view = PlanView.from_outdir(path)
-        m = view.manifest
-        return Target(view, list(m["mission"].get("profiles", [])), dict(m.get("rule_overrides", {})), path)
+        doc = view.document
+        return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path)
     if path.suffix.lower() == ".toml":
         from aerosurvey.plan.planner import plan_mission
         from aerosurvey.spec import load_spec
 
         spec = load_spec(path)
         manifest, features = plan_documents(plan_mission(spec))
-        view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, str(path))
+        view = PlanView.from_documents(manifest, features, str(path))
         return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")
