@@ -18,7 +18,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -56,17 +56,22 @@ def _lonlat(plan: PlanResult, xy: tuple[float, float]) -> list[float | None]:
 
 def _sorties(plan: PlanResult) -> list[dict[str, Any]]:
     st = plan.stations
-    out = []
-    for k, (s, wps) in enumerate(plan.sorties, start=1):
+    out: list[dict[str, Any]] = []
+    if not plan.sorties:
+        return out
+    budget = cast(Any, plan.battery)  # the sortie Budget (typed `object` on the plan)
+    assert plan.spec.battery is not None, "sorties are split only with a [battery] table"
+    reserve = plan.spec.battery.reserve
+    for k, (s, _wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[s.launch]
         out.append({
             "id": ids.sortie_id(k), "files": [f"{ids.sortie_stem(k)}.plan", f"{ids.sortie_stem(k)}.waypoints"],
             "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
             "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
             "time_s": _f(s.horizontal_s + s.vertical_s, 1),
-            "time_with_wind_allowance_s": _f(s.horizontal_s * plan.battery.wind_factor + s.vertical_s, 1),
+            "time_with_wind_allowance_s": _f(s.horizontal_s * budget.wind_factor + s.vertical_s, 1),
             "distance_m": _f(s.distance_m, 1),
-            "battery_used_pct": _f(100 * s.battery_used * (1 - plan.spec.battery.reserve), 1),
+            "battery_used_pct": _f(100 * s.battery_used * (1 - reserve), 1),
             "usable_used_pct": _f(100 * s.battery_used, 1), "mission_items": s.items + 1,
         })
     return out
@@ -80,6 +85,11 @@ def _input(path: Path | None, base: Path) -> dict[str, Any] | None:
     except ValueError:
         rel = path.name
     return {"path": rel, "sha256": sha256_file(path)}
+
+
+def _gsd_cm(agl_m: np.ndarray, cam: Camera) -> np.ndarray:
+    """GSD in cm at heights above ground, by the photogrammetry module (annotated for floats, works on arrays)."""
+    return np.asarray(pg.gsd_from_height(cast(float, agl_m), cam), float) * 100.0
 
 
 def _run_id(plan: PlanResult, run: int) -> str:
@@ -104,7 +114,7 @@ def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]
             "lead_in": _lonlat(plan, r.lead_in_xy),
             "end": _lonlat(plan, r.end_xy),
         })
-    gsd_cm = pg.gsd_from_height(np.asarray(st.agl_m, float), cam) * 100
+    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), cam)
 
     def col(a: np.ndarray, nd: int) -> list[float | None]:
         r = np.round(np.asarray(a, float), nd)
@@ -235,7 +245,7 @@ class CameraInfo:
 
     def gsd_cm(self, agl_m: np.ndarray) -> np.ndarray:
         """GSD (cm) at heights above ground, by aerosurvey.plan.photogrammetry."""
-        return np.asarray(pg.gsd_from_height(np.asarray(agl_m, float), self.model()), float) * 100.0
+        return _gsd_cm(np.asarray(agl_m, float), self.model())
 
 
 @dataclass(frozen=True)

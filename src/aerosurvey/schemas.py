@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable, Iterable
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from typing import Any
 
@@ -36,11 +36,11 @@ def _is_array(checker: Any, instance: Any) -> bool:
     return isinstance(instance, list | tuple)
 
 
-_Validator = extend(Draft202012Validator,
+_Validator = extend(Draft202012Validator,  # type: ignore[no-untyped-call]
                     type_checker=Draft202012Validator.TYPE_CHECKER.redefine("array", _is_array))
 
 
-@lru_cache(maxsize=None)
+@cache
 def schema(name: str) -> dict[str, Any]:
     """The schema `data/<name>.schema.json` shipped with the package."""
     text = resources.files("aerosurvey").joinpath(f"data/{name}.schema.json").read_text(encoding="utf-8")
@@ -48,7 +48,7 @@ def schema(name: str) -> dict[str, Any]:
     return out
 
 
-@lru_cache(maxsize=None)
+@cache
 def validator(name: str) -> Any:
     return _Validator(schema(name))  # the schemas themselves are checked by the tests (check_schema)
 
@@ -88,7 +88,7 @@ def _column_check(sub: dict[str, Any]) -> ColumnCheck | None:
     return check
 
 
-@lru_cache(maxsize=None)
+@cache
 def _table_checks(name: str) -> dict[str, tuple[frozenset[str], frozenset[str], dict[str, ColumnCheck]]]:
     """Top-level arrays of objects whose rows can be checked by column: (required, allowed keys, checks)."""
     s = schema(name)

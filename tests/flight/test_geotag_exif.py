@@ -226,7 +226,8 @@ def test_camera_gps_replaced_thumbnail_ifd_kept():
     thumb = _jpeg_bytes(seed=3)[:300]
     make = b"TestCam\x00"
     ifd0_at, gps_at, ifd1_at = 8, 8 + 2 + 2 * 12 + 4, 0
-    gps = struct.pack("<H", 2) + struct.pack("<HHI4s", 1, 2, 2, b"N\x00\x00\x00") + struct.pack("<HHI4s", 8, 2, 3, b"07\x00\x00") + b"\x00" * 4
+    gps = (struct.pack("<H", 2) + struct.pack("<HHI4s", 1, 2, 2, b"N\x00\x00\x00")
+           + struct.pack("<HHI4s", 8, 2, 3, b"07\x00\x00") + b"\x00" * 4)
     make_at = gps_at + len(gps)
     ifd1_at = make_at + len(make)
     thumb_at = ifd1_at + 2 + 2 * 12 + 4

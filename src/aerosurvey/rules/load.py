@@ -5,10 +5,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aerosurvey.errors import InputError
 from aerosurvey.rules.planview import PlanView
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.planner import PlanResult
 
 
 @dataclass(frozen=True)
@@ -19,7 +22,7 @@ class Target:
     outdir: Path | None
 
 
-def plan_documents(plan) -> tuple[dict[str, Any], dict[str, Any]]:
+def plan_documents(plan: PlanResult) -> tuple[dict[str, Any], dict[str, Any]]:
     """The manifest and GeoJSON of a plan, in memory (no files written)."""
     from aerosurvey.manifest import build_manifest
     from aerosurvey.mission.builder import build_mission

@@ -39,7 +39,8 @@ class PlanView:
 
     @property
     def camera(self) -> dict[str, Any]:
-        return self.manifest["camera"]
+        camera: dict[str, Any] = self.manifest["camera"]
+        return camera
 
     @property
     def area_ha(self) -> float:
@@ -61,7 +62,8 @@ class PlanView:
         def proj(g: BaseGeometry) -> BaseGeometry:
             return shapely.transform(g, lambda xy: np.column_stack(to_plan.transform(xy[:, 0], xy[:, 1])))
 
-        areas, zones = [], []
+        areas: list[BaseGeometry] = []
+        zones: list[BaseGeometry] = []
         for f in features.get("features", []):
             role = f.get("properties", {}).get("role")
             if role in ("area", "exclusion"):
@@ -78,8 +80,9 @@ class PlanView:
         )
 
     @classmethod
-    def from_outdir(cls, outdir: Path) -> PlanView:
-        doc = mf.read_manifest(outdir, "plan folder")
+    def from_outdir(cls, outdir: Path, option: str = "plan folder") -> PlanView:
+        """From a folder written by `aerosurvey plan`; `option` names it in errors (e.g. --plan)."""
+        doc = mf.read_manifest(outdir, option)
         g = outdir / "plan.geojson"
         if not g.is_file():
             raise InputError(f"{outdir}: plan.geojson is missing; give a folder written by `aerosurvey plan`")
