@@ -31,7 +31,7 @@ from aerosurvey.flight.coverage import (
 )
 from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
 from aerosurvey.flight.images import ImageMatch, geo_txt, geotag_images, list_images, match_images, reference_csv
-from aerosurvey.manifest import Stations
+from aerosurvey.manifest import Manifest, Stations
 from aerosurvey.rules import footprints as fpm
 from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
 from aerosurvey.rules.planview import PlanView
@@ -58,39 +58,44 @@ def _local_xy(lon: np.ndarray, lat: np.ndarray, lat0: float) -> np.ndarray:
     return np.column_stack([np.asarray(lon, float) * k * math.cos(lat0 * k) * _EARTH_M, np.asarray(lat, float) * k * _EARTH_M])
 
 
-def nearest_station_m(ev: Events, stations: Stations) -> np.ndarray:
-    """Metres from each event to the nearest planned station (NaN for events without a position)."""
-    out = np.full(len(ev), np.nan)
-    ok = np.isfinite(ev.lon) & np.isfinite(ev.lat)
+def nearest_station_m(lon: np.ndarray, lat: np.ndarray, stations: Stations) -> np.ndarray:
+    """Metres from each position (WGS84) to the nearest planned station (NaN for positions that are not numbers)."""
+    lon, lat = np.asarray(lon, float), np.asarray(lat, float)
+    out = np.full(len(lon), np.nan)
+    ok = np.isfinite(lon) & np.isfinite(lat)
     sok = np.isfinite(stations.lon) & np.isfinite(stations.lat)
     if not ok.any() or not sok.any():
         return out
     lat0 = float(np.mean(stations.lat[sok]))
     tree = cKDTree(_local_xy(stations.lon[sok], stations.lat[sok], lat0))
-    d, _ = tree.query(_local_xy(ev.lon[ok], ev.lat[ok], lat0))
+    d, _ = tree.query(_local_xy(lon[ok], lat[ok], lat0))
     out[ok] = d
     return out
 
 
-def _distance(m: float) -> str:
+def distance_text(m: float) -> str:
     return f"{m / 1000:,.1f} km" if m >= 10_000 else f"{m:.0f} m"
+
+
+def far_from_plan(lon: np.ndarray, lat: np.ndarray, doc: Manifest, stations: Stations | None = None) -> tuple[float, float]:
+    """(median metres from the positions to the nearest planned station, the limit: one footprint's longer side)."""
+    d = nearest_station_m(lon, lat, doc.stations if stations is None else stations)
+    fin = d[np.isfinite(d)]
+    return (float(np.median(fin)) if fin.size else math.nan), (doc.derived.footprint_m or 100.0)
 
 
 def check_same_plan(ev: Events, view: PlanView, stations: Stations, log_name: str, sortie: str | None) -> float:
     """The median distance of the events to the nearest planned station; a log whose events lie
     farther than one footprint (the longer side) is of another mission: refused with both names."""
-    d = nearest_station_m(ev, stations)
-    fin = d[np.isfinite(d)]
     doc = view.document
-    limit = doc.derived.footprint_m or 100.0
+    med, limit = far_from_plan(ev.lon, ev.lat, doc, stations)
     what = f"mission {doc.mission.name!r}" + (f" (sortie {sortie})" if sortie else "")
-    if not fin.size:
+    if not math.isfinite(med):
         raise InputError(f"flight log {log_name!r}: none of its {len(ev)} camera events has a position, so it cannot be "
                          f"matched to {what} of {doc.where}")
-    med = float(np.median(fin))
     if med > limit:
         raise InputError(f"flight log {log_name!r} is not of {what} ({doc.where}): its camera events lie a median "
-                         f"{_distance(med)} from the nearest planned station, more than one footprint ({limit:.0f} m); "
+                         f"{distance_text(med)} from the nearest planned station, more than one footprint ({limit:.0f} m); "
                          "give the plan folder of the mission flown")
     return med
 
