@@ -7,9 +7,8 @@ Large tables (a manifest's `stations`, thousands of rows of a dozen numbers) are
 column by column when their row schema uses only simple keywords (type, pattern, minimum,
 required, additionalProperties: false); jsonschema itself then runs only on a table the
 column check does not pass, to name the first error. Measured on the Obratan example
-(1756 stations): jsonschema over the whole manifest 0.48-0.77 s, the column check of the
-stations plus jsonschema on the rest about 0.015 s (benchmarks/ has no timing of it;
-`python -m aerosurvey.schemas --time PLAN_DIR` repeats the measurement).
+(1756 stations) by benchmarks/manifest_bench.py: see the numbers there; jsonschema alone
+takes a large part of a second, which every plan, check and ingest would pay.
 """
 
 from __future__ import annotations
@@ -144,19 +143,8 @@ def markdown_table(name: str) -> str:
     return "\n".join(rows) + "\n"
 
 
-if __name__ == "__main__":  # pragma: no cover - a measurement helper, see the module docstring
+if __name__ == "__main__":  # pragma: no cover - prints the docs tables
     import sys
-    import time
-    from pathlib import Path
 
-    if len(sys.argv) == 3 and sys.argv[1] == "--time":
-        doc = json.loads((Path(sys.argv[2]) / "manifest.json").read_text(encoding="utf-8"))
-        doc["schema_version"] = schema("manifest")["properties"]["schema_version"]["const"]
-        validator("manifest")
-        t0 = time.perf_counter()
-        full = list(validator("manifest").iter_errors(doc))
-        t1 = time.perf_counter()
-        ours = first_error("manifest", doc)
-        t2 = time.perf_counter()
-        print(f"jsonschema, whole manifest: {t1 - t0:.3f} s ({len(full)} errors); column check + jsonschema: "
-              f"{t2 - t1:.3f} s ({ours or 'no error'})")
+    if len(sys.argv) == 3 and sys.argv[1] == "--table":  # docs/*.md tables: python -m aerosurvey.schemas --table manifest
+        print(markdown_table(sys.argv[2]), end="")
