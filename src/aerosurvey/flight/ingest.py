@@ -58,38 +58,54 @@ def _local_xy(lon: np.ndarray, lat: np.ndarray, lat0: float) -> np.ndarray:
     return np.column_stack([np.asarray(lon, float) * k * math.cos(lat0 * k) * _EARTH_M, np.asarray(lat, float) * k * _EARTH_M])
 
 
-def nearest_station_m(lon: np.ndarray, lat: np.ndarray, stations: Stations) -> np.ndarray:
-    """Metres from each position (WGS84) to the nearest planned station (NaN for positions that are not numbers)."""
+def nearest_station(lon: np.ndarray, lat: np.ndarray, stations: Stations) -> tuple[np.ndarray, np.ndarray]:
+    """(metres to, index of) the nearest planned station of each position (WGS84); NaN and -1 for
+    positions that are not numbers."""
     lon, lat = np.asarray(lon, float), np.asarray(lat, float)
-    out = np.full(len(lon), np.nan)
+    dist, index = np.full(len(lon), np.nan), np.full(len(lon), -1)
     ok = np.isfinite(lon) & np.isfinite(lat)
-    sok = np.isfinite(stations.lon) & np.isfinite(stations.lat)
-    if not ok.any() or not sok.any():
-        return out
+    sok = np.flatnonzero(np.isfinite(stations.lon) & np.isfinite(stations.lat))
+    if not ok.any() or not len(sok):
+        return dist, index
     lat0 = float(np.mean(stations.lat[sok]))
     tree = cKDTree(_local_xy(stations.lon[sok], stations.lat[sok], lat0))
-    d, _ = tree.query(_local_xy(lon[ok], lat[ok], lat0))
-    out[ok] = d
-    return out
+    d, k = tree.query(_local_xy(lon[ok], lat[ok], lat0))
+    dist[ok], index[ok] = d, sok[k]
+    return dist, index
 
 
 def distance_text(m: float) -> str:
     return f"{m / 1000:,.1f} km" if m >= 10_000 else f"{m:.0f} m"
 
 
-def far_from_plan(lon: np.ndarray, lat: np.ndarray, doc: Manifest, stations: Stations | None = None) -> tuple[float, float]:
+def far_from_plan(lon: np.ndarray, lat: np.ndarray, doc: Manifest) -> tuple[float, float]:
     """(median metres from the positions to the nearest planned station, the limit: one footprint's longer side)."""
-    d = nearest_station_m(lon, lat, doc.stations if stations is None else stations)
+    d, _ = nearest_station(lon, lat, doc.stations)
     fin = d[np.isfinite(d)]
     return (float(np.median(fin)) if fin.size else math.nan), (doc.derived.footprint_m or 100.0)
 
 
-def check_same_plan(ev: Events, view: PlanView, stations: Stations, log_name: str, sortie: str | None) -> float:
-    """The median distance of the events to the nearest planned station; a log whose events lie
-    farther than one footprint (the longer side) is of another mission: refused with both names."""
+def _sortie_flown(ev: Events, doc: Manifest) -> tuple[str | None, int]:
+    """The sortie whose stations most events lie nearest to, and how many do."""
+    _, index = nearest_station(ev.lon, ev.lat, doc.stations)
+    of = np.full(len(doc.stations), -1)
+    for k, s in enumerate(doc.sorties):
+        of[doc.stations.index(s.first_station): doc.stations.index(s.last_station) + 1] = k
+    votes = of[index[index >= 0]]
+    votes = votes[votes >= 0]
+    if not votes.size:
+        return None, 0
+    best = int(np.bincount(votes).argmax())
+    return doc.sorties[best].id, int(np.sum(votes == best))
+
+
+def check_same_plan(ev: Events, view: PlanView, log_name: str, sortie: str | None) -> float:
+    """The median distance of the events to the nearest planned station. A log whose events lie
+    farther than one footprint (the longer side) is of another mission, and one whose events lie
+    mostly nearest another sortie's stations than `sortie`'s is of that sortie: both refused."""
     doc = view.document
-    med, limit = far_from_plan(ev.lon, ev.lat, doc, stations)
-    what = f"mission {doc.mission.name!r}" + (f" (sortie {sortie})" if sortie else "")
+    med, limit = far_from_plan(ev.lon, ev.lat, doc)
+    what = f"mission {doc.mission.name!r}"
     if not math.isfinite(med):
         raise InputError(f"flight log {log_name!r}: none of its {len(ev)} camera events has a position, so it cannot be "
                          f"matched to {what} of {doc.where}")
@@ -97,6 +113,11 @@ def check_same_plan(ev: Events, view: PlanView, stations: Stations, log_name: st
         raise InputError(f"flight log {log_name!r} is not of {what} ({doc.where}): its camera events lie a median "
                          f"{distance_text(med)} from the nearest planned station, more than one footprint ({limit:.0f} m); "
                          "give the plan folder of the mission flown")
+    if sortie is not None:
+        flown, votes = _sortie_flown(ev, doc)
+        if flown is not None and flown != sortie and votes > len(ev) / 2:
+            raise InputError(f"flight log {log_name!r} is not of --sortie {sortie} of {what}: {votes} of its {len(ev)} "
+                             f"camera events lie nearest the stations of sortie {flown}; give --sortie {flown}", key="--sortie")
     return med
 
 
@@ -127,7 +148,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     if view is None or stations is None:
         return Ingested(ev, None, img, None, None, report, [])
     doc = view.document
-    median = check_same_plan(ev, view, stations, flight_log.name, sortie)
+    median = check_same_plan(ev, view, flight_log.name, sortie)
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
     rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
     match = match_to_stations(ev, rows, tol)
