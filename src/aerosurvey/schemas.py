@@ -143,8 +143,22 @@ def markdown_table(name: str) -> str:
     return "\n".join(rows) + "\n"
 
 
+def markdown_columns(name: str, table: str) -> str:
+    """The columns of the table `table` (a top-level array of objects) as a Markdown table, in order."""
+    items = schema(name)["properties"][table]["items"]
+    rows = ["| column | type | content |", "| --- | --- | --- |"]
+    for key, prop in items["properties"].items():
+        kind = prop.get("type", "")
+        kinds = [k for k in (kind if isinstance(kind, list) else [kind]) if k != "null"]
+        empty = ", may be empty" if "null" in (kind if isinstance(kind, list) else [kind]) else ""
+        rows.append(f"| `{key}` | {'/'.join(kinds)}{empty} | {' '.join(str(prop.get('description', '')).split())} |")
+    return "\n".join(rows) + "\n"
+
+
 if __name__ == "__main__":  # pragma: no cover - prints the docs tables
     import sys
 
     if len(sys.argv) == 3 and sys.argv[1] == "--table":  # docs/*.md tables: python -m aerosurvey.schemas --table manifest
         print(markdown_table(sys.argv[2]), end="")
+    elif len(sys.argv) == 4 and sys.argv[1] == "--columns":  # python -m aerosurvey.schemas --columns events rows
+        print(markdown_columns(sys.argv[2], sys.argv[3]), end="")

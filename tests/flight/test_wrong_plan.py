@@ -17,7 +17,7 @@ from aerosurvey.flight import records
 from conftest import make_spec
 
 LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_copter_survey.bin"
-#: the test area (near 49.4 N 15.0 E) moved about 1,850 km to the south-east
+#: the test area (near 49.4 N 15.0 E) moved about 1,900 km to the south-east
 FAR_RING = [[31.000, 37.700], [31.006, 37.700], [31.006, 37.7035], [31.000, 37.7035], [31.000, 37.700]]
 
 
@@ -209,3 +209,12 @@ def test_events_and_report_files_are_versioned(tmp_path, plans):
                           ({**rep, "events": "many"}, "events: 'many' is not of type 'integer'")]:
         with pytest.raises(InputError, match=expected):
             records.loads_report(json.dumps(doc))
+
+
+def test_flight_log_docs_are_generated_from_the_schemas():
+    from aerosurvey import schemas
+    from conftest import REPO
+
+    doc = (REPO / "docs" / "flight-logs.md").read_text(encoding="utf-8")
+    assert schemas.markdown_columns("events", "rows") in doc and schemas.markdown_table("log_report") in doc
+    assert list(records.COLUMNS) == [ln.split("`")[1] for ln in schemas.markdown_columns("events", "rows").splitlines()[2:]]
