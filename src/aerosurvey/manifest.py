@@ -386,31 +386,19 @@ class Manifest:
         return self.stations.select(self.stations.index(s.first_station), self.stations.index(s.last_station))
 
 
-def _older(version: Any, wrote: Any, where: str) -> InputError:
-    return InputError(f"{where} was written by aerosurvey {wrote} with manifest schema {version}; this aerosurvey "
-                      f"{__version__} reads schema {SCHEMA_VERSION}: re-plan it with `aerosurvey plan SPEC -o DIR`")
-
-
 def from_data(data: Any, where: str) -> Manifest:
     """Check parsed JSON data against the schema (name, version, then content) and type it."""
     if not isinstance(data, dict):
         raise InputError(f"{where} is not an aerosurvey manifest: a JSON {type(data).__name__}, not an object")
     if data.get("schema") != SCHEMA:
         raise InputError(f"{where} is not an aerosurvey manifest: schema = {data.get('schema')!r}, expected {SCHEMA!r}")
-    version, wrote = data.get("schema_version"), data.get("aerosurvey_version", "?")
-    if not isinstance(version, int) or isinstance(version, bool):
-        raise InputError(f"{where}: schema_version = {version!r} is not allowed: an integer ({SCHEMA_VERSION} here)")
-    if version < SCHEMA_VERSION:
-        raise _older(version, wrote, where)
-    if version > SCHEMA_VERSION:
-        raise InputError(f"{where} was written by aerosurvey {wrote} with manifest schema {version}, newer than the "
-                         f"schema {SCHEMA_VERSION} this aerosurvey {__version__} reads: upgrade aerosurvey")
-    err = schemas.first_error("manifest", data)
-    if err is not None:
-        raise InputError(f"{where} does not match the manifest schema {SCHEMA_VERSION}: {err}")
+    version = data.get("schema_version")
+    schemas.check_version(where, "manifest", version, SCHEMA_VERSION, "re-plan it with `aerosurvey plan SPEC -o DIR`",
+                          str(data.get("aerosurvey_version", "?")))
+    schemas.check("manifest", data, where, "manifest", SCHEMA_VERSION)
     m, cam, d, h = data["mission"], data["camera"], data["derived"], data["home"]
     return Manifest(
-        raw=data, where=where, schema_version=version, aerosurvey_version=data["aerosurvey_version"],
+        raw=data, where=where, schema_version=SCHEMA_VERSION, aerosurvey_version=data["aerosurvey_version"],
         mission=Mission(m["name"], m["vehicle"], m["firmware"], tuple(m["profiles"])),
         rule_overrides=data["rule_overrides"], crs=data["crs"]["planning"],
         camera=CameraInfo(cam["id"], cam["name"], (float(cam["sensor_mm"][0]), float(cam["sensor_mm"][1])),

@@ -131,6 +131,32 @@ def first_error(name: str, doc: Any) -> str | None:
     return f"{_path(err.absolute_path)}: {msg}"
 
 
+def check_version(where: str, label: str, version: Any, current: int, redo: str, wrote: str | None = None) -> None:
+    """Refuse a document of another version than `current` in one line that says what to do:
+    `redo` for an older one (e.g. "re-plan it with ..."), an upgrade for a newer one."""
+    from aerosurvey import __version__
+    from aerosurvey.errors import InputError
+
+    by = f" by aerosurvey {wrote}" if wrote else ""
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise InputError(f"{where}: {label} schema version {version!r} is not allowed: an integer ({current} here)")
+    if version < current:
+        raise InputError(f"{where} was written{by} with {label} schema {version}; this aerosurvey {__version__} reads "
+                         f"schema {current}: {redo}")
+    if version > current:
+        raise InputError(f"{where} was written{by} with {label} schema {version}, newer than the schema {current} this "
+                         f"aerosurvey {__version__} reads: upgrade aerosurvey")
+
+
+def check(name: str, doc: Any, where: str, label: str, current: int) -> None:
+    """Refuse a document that breaks schema `name`, naming the first error's path."""
+    from aerosurvey.errors import InputError
+
+    err = first_error(name, doc)
+    if err is not None:
+        raise InputError(f"{where} does not match the {label} schema {current}: {err}")
+
+
 def markdown_table(name: str) -> str:
     """The schema's top-level keys and their descriptions as a Markdown table (docs are generated from it)."""
     s = schema(name)

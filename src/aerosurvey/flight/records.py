@@ -33,6 +33,7 @@ COLUMNS: tuple[str, ...] = tuple(schemas.schema("events")["properties"]["rows"][
 _DECIMALS = {"time_s": 3, "lat": 8, "lon": 8, "alt_m": 2, "rel_alt_m": 2, "roll": 2, "pitch": 2, "yaw": 2,
              "distance_m": 3, "ground_m": 2, "agl_m": 2}
 _FIRST_LINE = f"# {EVENTS_SCHEMA} {EVENTS_VERSION}"
+_REDO = "run `aerosurvey log ingest` again"
 
 
 @dataclass(frozen=True)
@@ -89,16 +90,7 @@ def loads_events(text: str, where: str = "events.csv") -> EventRows:
     if not first.startswith("#") or len(parts) != 2 or parts[0] != EVENTS_SCHEMA:
         raise InputError(f"{where} does not start with {_FIRST_LINE!r}: not an events.csv of `aerosurvey log ingest` "
                          "(an older aerosurvey wrote none: run `aerosurvey log ingest` again)")
-    try:
-        version = int(parts[1])
-    except ValueError:
-        raise InputError(f"{where}: version {parts[1]!r} in its first line is not a number") from None
-    if version < EVENTS_VERSION:
-        raise InputError(f"{where} has events schema {version}; this aerosurvey {__version__} reads {EVENTS_VERSION}: "
-                         "run `aerosurvey log ingest` again")
-    if version > EVENTS_VERSION:
-        raise InputError(f"{where} has events schema {version}, newer than the {EVENTS_VERSION} this aerosurvey "
-                         f"{__version__} reads: upgrade aerosurvey")
+    schemas.check_version(where, "events", int(parts[1]) if parts[1].isdigit() else parts[1], EVENTS_VERSION, _REDO)
     reader = csv.reader(io.StringIO(rest))
     header = next(reader, None)
     if header is None or tuple(header) != COLUMNS:
@@ -122,7 +114,7 @@ def loads_events(text: str, where: str = "events.csv") -> EventRows:
                 except ValueError:
                     raise InputError(f"{where} line {k}: {c} = {v!r} is not a number") from None
         rows.append(row)
-    err = schemas.first_error("events", {"schema": EVENTS_SCHEMA, "schema_version": version, "rows": rows})
+    err = schemas.first_error("events", {"schema": EVENTS_SCHEMA, "schema_version": EVENTS_VERSION, "rows": rows})
     if err is not None:
         raise InputError(f"{where} does not match events schema {EVENTS_VERSION}: {err.replace('rows[', 'row [')}")
 
@@ -167,16 +159,9 @@ def loads_report(text: str | bytes, where: str = "log_report.json") -> dict[str,
     if not isinstance(doc, dict) or doc.get("schema") != REPORT_SCHEMA:
         got = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
         raise InputError(f"{where} is not a log report of `aerosurvey log ingest` (schema = {got!r}): run it again")
-    version = doc.get("schema_version")
-    if not isinstance(version, int) or version < REPORT_VERSION:
-        raise InputError(f"{where} has log report schema {version!r}; this aerosurvey {__version__} reads "
-                         f"{REPORT_VERSION}: run `aerosurvey log ingest` again")
-    if version > REPORT_VERSION:
-        raise InputError(f"{where} has log report schema {version}, newer than the {REPORT_VERSION} this aerosurvey "
-                         f"{__version__} reads: upgrade aerosurvey")
-    err = schemas.first_error("log_report", doc)
-    if err is not None:
-        raise InputError(f"{where} does not match log report schema {REPORT_VERSION}: {err}")
+    schemas.check_version(where, "log report", doc.get("schema_version"), REPORT_VERSION, _REDO,
+                          str(doc.get("aerosurvey_version", "?")))
+    schemas.check("log_report", doc, where, "log report", REPORT_VERSION)
     return doc
 
 
