@@ -140,7 +140,7 @@ def quality(plan) -> dict[str, float]:
 
 def run_case(name: str) -> dict:
     from aerosurvey.outputs import render_outputs, write_outputs
-    from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.spec import load_spec
 
     with tempfile.TemporaryDirectory() as td:
@@ -148,7 +148,7 @@ def run_case(name: str) -> dict:
         spec_path = make_case(name, tmp)
         render_outputs  # imported before timing: module import is not planning work
         t0 = time.perf_counter()
-        plan = plan_mission(load_spec(spec_path))
+        plan = plan_from_files(load_spec(spec_path))
         t1 = time.perf_counter()
         files = write_outputs(plan, tmp / "out").files
         t2 = time.perf_counter()

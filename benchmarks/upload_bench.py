@@ -4,6 +4,8 @@
     python benchmarks/upload_bench.py --items 300 --drop 0.2 --seed 4
     python benchmarks/upload_bench.py --sitl           # ArduPilot SITL instead of the fake vehicle
     python benchmarks/upload_bench.py --sitl /path/to/arducopter --sitl-defaults copter.parm
+    python benchmarks/upload_bench.py --share            # verified share: 200 simulated uploads at 10 % and 30 % loss
+    python benchmarks/upload_bench.py --share --runs 50 --losses 0.3 --jobs 2
 
 Without --sitl both cases talk to the in-process fake vehicle of the link tests
 (tests/link/fake_vehicle.py) on loopback UDP, through aerosurvey's own pymavlink connection
@@ -14,13 +16,22 @@ datagrams each way (seeded). The vehicle re-requests a missing item after
 With --sitl the vehicle is ArduPilot's SITL binary (default /root/sitl/bin/arducopter),
 started in a temporary folder at the mission's home: (a) on its TCP port 5760 + 10·I for the
 first instance I ≥ 5 whose ports are free (so that a SITL on the usual 5760, e.g. the
-`aerosurvey sitl` harness, is not disturbed), (b) with SERIAL0 sent as UDP to our lossy relay. A small warm-up upload first absorbs the NO_SPACE that ArduPilot answers right
-after boot; the timed run follows. ArduCopter SITL stores at most 650 mission items, home
-included (it says "Only 650 items are supported"), so --sitl uses 649 unless --items says
-otherwise.
+`aerosurvey sitl` harness, is not disturbed), (b) with SERIAL0 sent as UDP to our lossy relay.
+A small warm-up upload first absorbs the NO_SPACE that ArduPilot answers right after boot;
+the timed run follows. ArduCopter SITL stores at most 650 mission items, home included (it
+says "Only 650 items are supported"), so --sitl uses 649 unless --items says otherwise.
 
 Each case must upload, read back and match; the run fails otherwise. Times are wall-clock
 seconds on this machine in this run; compare the ratio, not the numbers.
+
+With --share: `--runs` uploads (default 200) of the 700-item mission at each loss rate of
+`--losses` (default 10 % and 30 %, each way), with the command's default settings
+(`mp.Policy()`: resend after 1 s, 5 retries) on a simulated clock (tests/link/fake_vehicle.py's
+SimLink, real MAVLink bytes through aerosurvey's codec) to the fake vehicle with ArduPilot's
+timers (re-request after 1 s, cancel after 8 s). Run k uses seed k for both the link and the
+mission. It prints the share that ended verified, how the others ended, and the simulated
+time an upload and read-back took; a run that returned "verified" while the vehicle's own
+store differs from the plan is counted separately and fails the benchmark.
 """
 
 from __future__ import annotations
@@ -32,17 +43,18 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests" / "link"))
 
+from fake_vehicle import FakeVehicle, Faults, LossyRelay, SimLink, VehicleModel, survey_mission  # noqa: E402, I001
+
 from aerosurvey.link import mission_protocol as mp  # noqa: E402
 from aerosurvey.link.connection import LinkError, open_link  # noqa: E402
-from aerosurvey.link.upload import upload_mission  # noqa: E402
+from aerosurvey.link.upload import VerificationFailed, mission_wire_items, upload_mission  # noqa: E402
 from aerosurvey.mission.items import Mission  # noqa: E402
-from fake_vehicle import FakeVehicle, LossyRelay, VehicleModel, survey_mission  # noqa: E402
 
 SITL_BIN = "/root/sitl/bin/arducopter"
 SITL_DEFAULTS = "/root/sitl/params/copter.parm"
@@ -142,6 +154,60 @@ def run_sitl(name: str, n_items: int, policy: mp.Policy, drop: float | None, see
         return _summary(name, n_items, total, report, {"relay": dict(relay.counts), "vehicle_rerequests": None})
 
 
+def _holds_plan(model: VehicleModel, mission: Mission) -> bool:
+    """The vehicle's own store against the plan's wire items (command, frame, x, y), home first."""
+    wire = mission_wire_items(mission)
+    stored = model.stored[0]
+    return len(stored) == len(wire) and all(
+        (s.command, s.frame, s.x, s.y) == (w.command, w.frame, w.x, w.y) for s, w in zip(stored, wire))
+
+
+def share_run(args: tuple[int, float, int]) -> tuple[str, float, bool]:
+    """One simulated upload and read-back; (how it ended, simulated seconds, vehicle holds the plan)."""
+    n_items, drop, seed = args
+    mission = survey_mission(n_items - 5, seed=seed)
+    model = VehicleModel(request_resend=1.0, upload_timeout=8.0)  # ArduPilot's MissionItemProtocol timers
+    link = SimLink(model, Faults(drop=drop, seed=seed))
+    try:
+        report = upload_mission(link, mission, mp.Policy())  # `aerosurvey upload`'s defaults
+        how = "verified" if report.mission.verified else "returned unverified"
+    except VerificationFailed:
+        how = "verification failed"
+    except LinkError as exc:
+        text = str(exc)
+        how = ("read-back failed" if "not verified" in text or "download" in text else "upload failed")
+    return how, link.t, _holds_plan(model, mission)
+
+
+def run_share(n_items: int, drops: list[float], runs: int, jobs: int) -> None:
+    import concurrent.futures
+
+    print(f"verified share: {runs} simulated uploads of a {n_items}-item mission (+ home) per loss rate, default "
+          f"policy {mp.Policy()}, fake vehicle re-requesting after 1 s and cancelling after 8 s")
+    bad = 0
+    for drop in drops:
+        t0 = time.perf_counter()
+        tasks = [(n_items, drop, seed) for seed in range(runs)]
+        if jobs > 1:
+            with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
+                results = list(pool.map(share_run, tasks, chunksize=4))
+        else:
+            results = [share_run(t) for t in tasks]
+        ends: dict[str, int] = {}
+        for how, _, holds in results:
+            ends[how] = ends.get(how, 0) + 1
+            if how == "verified" and not holds:
+                bad += 1
+        held = sum(1 for _, _, holds in results if holds)
+        verified = ends.get("verified", 0)
+        times = sorted(t for _, t, _ in results)
+        print(f"loss {drop:.0%} each way: verified {verified}/{runs} = {verified / runs:.1%}; "
+              f"vehicle held the plan after {held}/{runs}; ends: {dict(sorted(ends.items()))}; simulated time per "
+              f"run median {times[len(times) // 2]:.0f} s, max {times[-1]:.0f} s; wall {time.perf_counter() - t0:.0f} s")
+    if bad:
+        raise SystemExit(f"{bad} run(s) reported verified while the vehicle's store differs from the plan")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--items", type=int, default=None, help="mission items, home not counted (default 700; 649 with --sitl)")
@@ -156,7 +222,14 @@ def main() -> None:
                     help=f"use ArduPilot SITL (default binary {SITL_BIN})")
     ap.add_argument("--sitl-defaults", default=SITL_DEFAULTS if Path(SITL_DEFAULTS).is_file() else None,
                     help="ArduPilot default parameter file for SITL")
+    ap.add_argument("--share", action="store_true", help="the verified share of --runs simulated uploads per loss rate")
+    ap.add_argument("--runs", type=int, default=200, help="simulated uploads per loss rate for --share")
+    ap.add_argument("--losses", default="0.1,0.3", help="loss rates (each way) for --share, comma-separated")
+    ap.add_argument("--jobs", type=int, default=1, help="processes for --share")
     args = ap.parse_args()
+    if args.share:
+        run_share(args.items or 700, [float(x) for x in args.losses.split(",")], args.runs, args.jobs)
+        return
     n_items = args.items if args.items is not None else (649 if args.sitl else 700)
     if n_items < 6:
         ap.error("--items must be at least 6")

@@ -25,11 +25,11 @@ MISSIONS = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem"]
 
 def _direct(spec_path: Path) -> float:
     from aerosurvey.outputs import render_outputs
-    from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.spec import load_spec
 
     t = time.perf_counter()
-    render_outputs(plan_mission(load_spec(spec_path)))
+    render_outputs(plan_from_files(load_spec(spec_path)))
     return time.perf_counter() - t
 
 

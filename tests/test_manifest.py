@@ -71,11 +71,11 @@ def test_every_example_manifest_validates_and_reads(name, tmp_path):
 
 def test_writer_output_in_memory_passes_the_schema(small_plan):
     """build_manifest's own output (before `plan` adds rules) through the full jsonschema."""
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.mission.builder import build_mission
-    from aerosurvey.plan.planner import plan_mission
     from aerosurvey.spec import load_spec
 
-    plan = plan_mission(load_spec(small_plan.parent / "spec.toml"))
+    plan = plan_from_files(load_spec(small_plan.parent / "spec.toml"))
     m = mf.build_manifest(plan, len(build_mission(plan).items), {})
     text = mf.dumps(m)
     assert list(_full_validator().iter_errors(json.loads(text))) == []
@@ -182,22 +182,26 @@ def test_column_check_agrees_with_jsonschema(small_plan, data):
     assert (ours is None) == (not theirs), (ours, [e.message for e in theirs[:2]])
 
 
-@given(p=st.integers(1, 9), line=st.integers(1, 99999), n=st.integers(1, 999999), part=st.integers(1, 99))
+@given(p=st.integers(1, 9), line=st.integers(0, 99998), n=st.integers(0, 999998), part=st.integers(0, 98))
 def test_ids_round_trip_and_match_the_schema(p, line, n, part):
-    defs = json.loads(SCHEMA_FILE.read_text())["$defs"]
-    sid, rid = ids.station_id(p, line, n), ids.run_id(p, line, part)
-    assert ids.parse_station_id(sid) == (p, line, n) and ids.parse_run_id(rid) == (p, line, part)
+    """ids.py counts lines, stations and parts from 0 (as the planner does); the schema holds its patterns."""
+    schema = json.loads(SCHEMA_FILE.read_text())
+    defs = schema["$defs"]
+    sid, rid, lid = ids.station_id(p, line, n), ids.run_id(p, line, part), ids.line_id(p, line)
+    assert ids.parse_station_id(sid) == (p, line, n) and sid.rsplit("-", 1)[0] == lid == rid.rsplit("-", 1)[0]
     assert re.search(defs["station_id"]["pattern"], sid) and re.search(defs["run_id"]["pattern"], rid)
-    assert ids.line_of_station(sid) == ids.line_id(p, line) == sid.rsplit("-", 1)[0]
+    assert re.search(schema["properties"]["lines"]["items"]["properties"]["line"]["pattern"], lid)
+    assert (defs["station_id"]["pattern"], defs["run_id"]["pattern"]) == (ids.STATION_PATTERN.replace(r"\d", "[0-9]"),
+                                                                          ids.RUN_PATTERN)
+    assert schema["properties"]["sorties"]["items"]["properties"]["id"]["pattern"] == ids.SORTIE_PATTERN
+    assert re.search(ids.SORTIE_PATTERN, ids.sortie_id(part + 1))
 
 
 def test_id_formats_are_the_ones_in_the_files():
-    assert ids.station_id(1, 3, 12) == "P1-L003-S0012" and ids.run_id(2, 41, 1) == "P2-L041-R1"
-    assert ids.sortie_id(2) == "S02" and ids.sortie_stem(2) == "sortie-02" and ids.event_id(7) == "E00007"
-    with pytest.raises(InputError, match="station id 'P1-L3-S12' is not allowed"):
+    assert ids.station_id(1, 2, 11) == "P1-L003-S0012" and ids.run_id(2, 40, 0) == "P2-L041-R1"
+    assert ids.sortie_id(2) == "S02" and ids.sortie_file_stem(2) == "sortie-02" and ids.event_id(7) == "E00007"
+    with pytest.raises(ValueError, match="'P1-L3-S12' is not a station id"):
         ids.parse_station_id("P1-L3-S12")
-    with pytest.raises(ValueError):
-        ids.station_id(1, 0, 1)
 
 
 def _manifest_reads(path: Path) -> list[int]:

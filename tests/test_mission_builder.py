@@ -8,15 +8,15 @@ import numpy as np
 import pyproj
 import pytest
 
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.builder import build_mission
-from aerosurvey.plan.planner import plan_mission
 from aerosurvey.spec import load_spec
 from conftest import make_spec
 
 
 def _plan(tmp_path, overrides=None):
-    plan = plan_mission(load_spec(make_spec(tmp_path, overrides)))
+    plan = plan_from_files(load_spec(make_spec(tmp_path, overrides)))
     return plan, build_mission(plan)
 
 
@@ -147,3 +147,4 @@ def test_geofence_in_the_plan_file(tmp_path):
         if it.command == mav.NAV_WAYPOINT:
             assert fence.contains(shapely.Point(it.y, it.x))
     assert loads_plan(dumps_plan(m)).fence_exclusion == m.fence_exclusion
+

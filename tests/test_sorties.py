@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 import independent_coverage as ic
 from aerosurvey.cli import main
 from aerosurvey.errors import InputError
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.spec import load_spec
 from conftest import make_spec, random_polygon, write_geojson
 
@@ -28,7 +28,7 @@ def test_sorties_fit_and_cover_every_station_once(tmp_path_factory, kind, seed, 
                            "vehicle": {"type": vehicle, "cruise_speed_ms": 12.0 if vehicle == "copter" else 16.0}},
                      rings=random_polygon(kind, seed, size))
     try:
-        plan = plan_mission(load_spec(spec))
+        plan = plan_from_files(load_spec(spec))
     except InputError as exc:
         assert "battery too small" in str(exc)
         return
@@ -78,13 +78,13 @@ def test_exported_sorties_photograph_each_station_once(tmp_path):
 def test_battery_too_short_for_takeoff_and_return(tmp_path):
     spec = make_spec(tmp_path, {"battery": {"usable_min": 1.0}})
     with pytest.raises(InputError, match="battery too small.*takes"):
-        plan_mission(load_spec(spec))
+        plan_from_files(load_spec(spec))
 
 
 def test_launch_point_too_far(tmp_path):
     spec = make_spec(tmp_path, {"battery": {"usable_min": 10.0, "launch_points": [[15.2, 49.4]], "launch": 1}})
     with pytest.raises(InputError, match="battery too small"):
-        plan_mission(load_spec(spec))
+        plan_from_files(load_spec(spec))
 
 
 def test_launch_point_inside_an_exclusion_zone(tmp_path):
@@ -93,20 +93,20 @@ def test_launch_point_inside_an_exclusion_zone(tmp_path):
     spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]},
                                 "battery": {"usable_min": 10.0, "launch_points": [[15.009, 49.401]]}})
     with pytest.raises(InputError, match=r"battery.launch_points\[1\].*inside an exclusion zone"):
-        plan_mission(load_spec(spec))
+        plan_from_files(load_spec(spec))
 
 
 def test_nearest_of_several_launch_points(tmp_path):
     west, east = [14.9985, 49.4017], [15.0075, 49.4017]
     spec = make_spec(tmp_path, {"battery": {"usable_min": 7.0, "launch_points": [west, east]}, "flight": {"heading": 0.0}})
-    plan = plan_mission(load_spec(spec))
+    plan = plan_from_files(load_spec(spec))
     launches = {s.launch for s, _ in plan.sorties}
     assert len(plan.sorties) >= 2 and launches == {0, 1}
 
 
 def test_energy_budget(tmp_path):
     spec = make_spec(tmp_path, {"battery": {"capacity_wh": 60.0, "cruise_power_w": 400.0, "reserve": 0.2}})
-    plan = plan_mission(load_spec(spec))
+    plan = plan_from_files(load_spec(spec))
     usable_j = 60 * 3600 * 0.8
     for s, _ in plan.sorties:
         used = s.horizontal_s * 400.0 + s.vertical_s * 520.0

@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.plan.route import line_orders, plane_turn_length
 from aerosurvey.plan.sun import sun_elevation_deg
 from aerosurvey.plan.terrain import thin_profile
@@ -45,19 +45,19 @@ def test_dem_not_covering_the_area(tmp_path):
     name = _dem(tmp_path, west=WEST + 900)
     spec = make_spec(tmp_path, {"terrain": {"dem": name, "mode": "fixed"}})
     with pytest.raises(InputError, match="does not cover the area"):
-        plan_mission(load_spec(spec))
+        plan_from_files(load_spec(spec))
 
 
 def test_nodata_under_the_area(tmp_path):
     name = _dem(tmp_path, hole=True)
     spec = make_spec(tmp_path, {"terrain": {"dem": name, "mode": "fixed"}})
     with pytest.raises(InputError, match="nodata"):
-        plan_mission(load_spec(spec))
+        plan_from_files(load_spec(spec))
 
 
 def test_fixed_mode_reports_relief_and_keeps_overlap_at_the_highest_ground(tmp_path):
     name = _dem(tmp_path, relief=30.0)
-    plan = plan_mission(load_spec(make_spec(tmp_path, {"terrain": {"dem": name, "mode": "fixed"}})))
+    plan = plan_from_files(load_spec(make_spec(tmp_path, {"terrain": {"dem": name, "mode": "fixed"}})))
     h = plan.heights
     relief = h.ground_max_m - h.ground_min_m
     assert relief > 5
@@ -73,13 +73,13 @@ def test_fixed_mode_fails_when_relief_eats_the_clearance(tmp_path):
     name = _dem(tmp_path, relief=300.0)
     spec = make_spec(tmp_path, {"terrain": {"dem": name, "mode": "fixed"}})
     with pytest.raises(InputError, match="use terrain.mode = 'follow'"):
-        plan_mission(load_spec(spec))
+        plan_from_files(load_spec(spec))
 
 
 def test_follow_mode_keeps_agl_within_tolerance_with_few_waypoints(tmp_path):
     name = _dem(tmp_path, relief=40.0)
     spec = make_spec(tmp_path, {"terrain": {"dem": name, "mode": "follow", "tolerance_m": 2.0}})
-    plan = plan_mission(load_spec(spec))
+    plan = plan_from_files(load_spec(spec))
     terrain_wps = [w for w in plan.waypoints if w.kind == "terrain"]
     assert 0 < len(terrain_wps) < len(plan.stations.ids)
     assert np.allclose(plan.stations.agl_m, plan.heights.nominal_agl_m)
@@ -87,7 +87,7 @@ def test_follow_mode_keeps_agl_within_tolerance_with_few_waypoints(tmp_path):
 
 
 def test_terrain_frame_items(tmp_path):
-    plan = plan_mission(load_spec(make_spec(tmp_path, {"terrain": {"mode": "terrain-frame"}})))
+    plan = plan_from_files(load_spec(make_spec(tmp_path, {"terrain": {"mode": "terrain-frame"}})))
     from aerosurvey.mission.builder import build_mission
 
     m = build_mission(plan)
@@ -138,13 +138,13 @@ def test_sun_elevation_known_values():
 def test_low_sun_warning(tmp_path):
     spec = make_spec(tmp_path, {"conditions": {"start": "2026-12-21T07:30:00+01:00", "end": "2026-12-21T09:30:00+01:00",
                                                "min_sun_elevation_deg": 15}})
-    plan = plan_mission(load_spec(spec))
+    plan = plan_from_files(load_spec(spec))
     assert plan.sun is not None and plan.sun["min_elevation_deg"] < 15
     assert any("sun elevation drops" in w for w in plan.warnings)
 
 
 def test_cross_hatch_adds_a_perpendicular_pass(tmp_path):
-    plan = plan_mission(load_spec(make_spec(tmp_path, {"flight": {"heading": 30.0, "cross_hatch": True}})))
+    plan = plan_from_files(load_spec(make_spec(tmp_path, {"flight": {"heading": 30.0, "cross_hatch": True}})))
     heads = {round(r.heading_deg % 180, 3) for r in plan.route.runs}
     assert heads == {30.0, 120.0}
     assert {r.pass_index for r in plan.route.runs} == {1, 2}

@@ -91,7 +91,8 @@ def validate_polygons(geom: BaseGeometry, name: str, geographic: bool) -> BaseGe
     if not shapely.is_valid(geom):
         reason = shapely.is_valid_reason(geom)
         kind = reason.split("[")[0]
-        raise InputError(f"{name}: invalid polygon, {kind.lower()}{_location(reason, geographic)} (fix the outline; it must not cross itself)")
+        raise InputError(f"{name}: invalid polygon, {kind.lower()}{_location(reason, geographic)} "
+                         "(fix the outline; it must not cross itself)")
     if geom.area <= 0:
         raise InputError(f"{name}: the polygon has zero area")
     return geom

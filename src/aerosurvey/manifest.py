@@ -28,7 +28,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
-    from aerosurvey.plan.planner import PlanResult
+    from aerosurvey.plan.planner import Plan
 
 SCHEMA = "aerosurvey-manifest"
 SCHEMA_VERSION = 2
@@ -49,12 +49,12 @@ def _f(v: float, nd: int = 3) -> float | None:
     return None if not math.isfinite(v) else round(v, nd)
 
 
-def _lonlat(plan: PlanResult, xy: tuple[float, float]) -> list[float | None]:
+def _lonlat(plan: Plan, xy: tuple[float, float]) -> list[float | None]:
     lon, lat = plan.planar.lonlat(np.array([xy[0]]), np.array([xy[1]]))
     return [_f(lon[0], 8), _f(lat[0], 8)]
 
 
-def _sorties(plan: PlanResult) -> list[dict[str, Any]]:
+def _sorties(plan: Plan) -> list[dict[str, Any]]:
     st = plan.stations
     out: list[dict[str, Any]] = []
     if not plan.sorties:
@@ -65,7 +65,7 @@ def _sorties(plan: PlanResult) -> list[dict[str, Any]]:
     for k, (s, _wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[s.launch]
         out.append({
-            "id": ids.sortie_id(k), "files": [f"{ids.sortie_stem(k)}.plan", f"{ids.sortie_stem(k)}.waypoints"],
+            "id": ids.sortie_id(k), "files": [f"{ids.sortie_file_stem(k)}.plan", f"{ids.sortie_file_stem(k)}.waypoints"],
             "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
             "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
             "time_s": _f(s.horizontal_s + s.vertical_s, 1),
@@ -88,16 +88,16 @@ def _input(path: Path | None, base: Path) -> dict[str, Any] | None:
 
 
 def _gsd_cm(agl_m: np.ndarray, cam: Camera) -> np.ndarray:
-    """GSD in cm at heights above ground, by the photogrammetry module (annotated for floats, works on arrays)."""
-    return np.asarray(pg.gsd_from_height(cast(float, agl_m), cam), float) * 100.0
+    """GSD in cm at heights above ground, by the photogrammetry module."""
+    return np.asarray(pg.gsd_from_height(agl_m, cam), float) * 100.0
 
 
-def _run_id(plan: PlanResult, run: int) -> str:
+def _run_id(plan: Plan, run: int) -> str:
     r = plan.route.runs[run]
-    return ids.run_id(r.pass_index, r.line + 1, r.part + 1)
+    return ids.run_id(r.pass_index, r.line, r.part)
 
 
-def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
+def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
     """The manifest as plain JSON data. `outputs` maps each written file name to its sha256."""
     spec = plan.spec
     base = spec.path.parent if spec.path else Path(".")
@@ -108,7 +108,7 @@ def build_manifest(plan: PlanResult, mission_items: int, outputs: dict[str, str]
     for i, r in enumerate(plan.route.runs):
         sel = np.flatnonzero(st.run == i)
         lines.append({
-            "id": _run_id(plan, i), "line": ids.line_id(r.pass_index, r.line + 1), "pass": r.pass_index,
+            "id": _run_id(plan, i), "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
             "order": i + 1, "heading_deg": _f(r.heading_deg), "photos": int(len(sel)),
             "first_station": st.ids[sel[0]], "last_station": st.ids[sel[-1]],
             "lead_in": _lonlat(plan, r.lead_in_xy),

@@ -6,15 +6,24 @@ import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from aerosurvey import ids
 from aerosurvey import manifest as mf
+from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.mission.builder import build_mission
 from aerosurvey.mission.formats.kml import feature_collection_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
-from aerosurvey.plan.planner import PlanResult
+from aerosurvey.mission.gate import check_legs, mission_legs
+from aerosurvey.mission.items import Mission
+from aerosurvey.plan.coverage import MIN_IMAGES
+from aerosurvey.plan.planner import Plan
+
+if TYPE_CHECKING:
+    from aerosurvey.rules.control_points import ControlPoint
+    from aerosurvey.rules.engine import Evidence, RuleResult
 from aerosurvey.report.features import plan_features
 from aerosurvey.report.preview import render_svg
 
@@ -27,8 +36,8 @@ class Rendered:
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
 
 
-def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
-    """A mission longer than the autopilot holds is refused with what to do about it."""
+def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
+    """A mission longer than the autopilot holds is flagged with what to do about it."""
 
     limit = plan.spec.battery.max_mission_items if plan.spec.battery is not None else None
     if limit is None:
@@ -40,17 +49,50 @@ def check_item_limit(plan: PlanResult, mission, files: dict[str, str]) -> None:
         msg = (f"the whole mission has {n} items, more than the {limit} a {plan.spec.vehicle.firmware} autopilot holds "
                f"by default (battery.max_mission_items)")
         if plan.sorties:
-            plan.warnings.append(msg + "; fly the sortie files, each within the limit")
-        else:
-            plan.warnings.append(msg + "; add a [battery] table so the plan is split into sorties that fit, "
-                                 "or raise battery.max_mission_items if your board holds more")
+            return [msg + "; fly the sortie files, each within the limit"]
+        return [msg + "; add a [battery] table so the plan is split into sorties that fit, "
+                "or raise battery.max_mission_items if your board holds more"]
+    return []
+
+
+def final_gate(plan: Plan, missions: dict[str, Mission]) -> None:
+    """Every leg of every mission file outside the zones and their margins, or nothing is written."""
+    bad = []
+    for stem, m in missions.items():
+        legs = mission_legs(m, f"{stem}.waypoints", plan.planar)
+        bad += check_legs(legs, plan.exclusions, plan.spec.flight.exclusion_margin_m, plan.grid_scale, plan.planar)
+    if bad:
+        more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""
+        raise CheckFailed("the plan is not written: " + "; ".join(v.message() for v in bad[:3]) + more)
+
+
+def coverage_section(plan: Plan) -> dict[str, Any]:
+    c = plan.coverage
+    return {"min_images": MIN_IMAGES, "required_m2": round(c.required_m2, 1), "checked_m2": round(c.checked_m2, 1),
+            "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
+
+
+def uncovered_rule(plan: Plan) -> dict[str, Any]:
+    """The planner's own rule result: required ground fewer than two photos see (next to the zones)."""
+    c = plan.coverage
+    where = []
+    for part in c.polygons()[:50]:
+        p = part.representative_point()
+        where.append({"xy": [round(p.x, 2), round(p.y, 2)]})
+    return {"profile": "plan", "rule": "uncovered-ground", "status": "fail" if c.uncovered_m2 > 0 else "pass",
+            "severity": "error",
+            "statement": "every point of the area outside the exclusion zones and their margins is seen by at least two photos",
+            "measured": f"{c.uncovered_m2:.2f} m² in {c.parts} part(s) seen by fewer than {MIN_IMAGES} photos",
+            "required": "0 m²", "evidence": ["the layer 'uncovered' of plan.geojson"] if c.parts else [],
+            "where": where, "source": "aerosurvey planner (plan/coverage.py)"}
 
 
 def _without(fc: dict[str, Any], role: str) -> dict[str, Any]:
     return {**fc, "features": [f for f in fc["features"] if f["properties"].get("role") != role]}
 
 
-def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any]):
+def _rules(plan: Plan, manifest: dict[str, Any],
+           features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
     """Evaluate the spec's rule profiles on the plan as later readers will see it."""
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
     from aerosurvey.rules.planview import PlanView
@@ -64,10 +106,11 @@ def _rules(plan: PlanResult, manifest: dict[str, Any], features: dict[str, Any])
     return evaluate(profiles, ev), ev.points, ev
 
 
-def render_outputs(plan: PlanResult) -> Rendered:
+def render_outputs(plan: Plan) -> Rendered:
     """File name → text of every output (the manifest last: it lists the others' hashes)."""
     mission = build_mission(plan, name=plan.spec.name)
     fc = plan_features(plan)
+    missions = {"mission": mission}
     files = {
         "mission.plan": dumps_plan(mission),
         "mission.waypoints": dumps_wpl(mission),
@@ -77,25 +120,31 @@ def render_outputs(plan: PlanResult) -> Rendered:
     }
     for k, (sortie, wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[sortie.launch]
-        sm = build_mission(plan, wps, name=f"{plan.spec.name}-sortie-{k:02d}", home=(site.lon, site.lat, site.ground_m))
-        files[f"sortie-{k:02d}.plan"] = dumps_plan(sm)
-        files[f"sortie-{k:02d}.waypoints"] = dumps_wpl(sm)
-    check_item_limit(plan, mission, files)
+        stem = ids.sortie_file_stem(k)
+        sm = build_mission(plan, list(wps), name=f"{plan.spec.name}-{stem}", home=(site.lon, site.lat, site.ground_m))
+        missions[stem] = sm
+        files[f"{stem}.plan"] = dumps_plan(sm)
+        files[f"{stem}.waypoints"] = dumps_wpl(sm)
+    final_gate(plan, missions)
+    warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, len(mission.items), {})
+    manifest["warnings"] = list(warnings)
+    manifest["coverage"] = coverage_section(plan)
     results, points, evidence = _rules(plan, manifest, fc)
-    warnings = list(plan.warnings)
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
     files["preview.svg"] = render_svg(plan, results, points)
     manifest["outputs"] = {name: hashlib.sha256(text.encode("utf-8")).hexdigest() for name, text in sorted(files.items())}
-    manifest["rules"] = [r.as_dict() for r in results]
+    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan)]
+    if plan.coverage.uncovered_m2 > 0:
+        warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
     files["manifest.json"] = mf.dumps(manifest)
     return Rendered(files, manifest["rules"], warnings, evidence)
 
 
-def write_outputs(plan: PlanResult, outdir: Path) -> Rendered:
+def write_outputs(plan: Plan, outdir: Path) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
     rendered = render_outputs(plan)
     with staged_directory(outdir) as stage:

@@ -20,9 +20,6 @@ from functools import cache
 from importlib import resources
 from typing import Any
 
-from jsonschema import Draft202012Validator
-from jsonschema.validators import extend
-
 #: Python types a JSON type name stands for, for the column check (bool is no number here;
 #: a float like 1.0 that JSON Schema counts as an integer falls back to jsonschema).
 _PY_TYPES: dict[str, tuple[type, ...]] = {
@@ -35,10 +32,6 @@ def _is_array(checker: Any, instance: Any) -> bool:
     return isinstance(instance, list | tuple)
 
 
-_Validator = extend(Draft202012Validator,  # type: ignore[no-untyped-call]
-                    type_checker=Draft202012Validator.TYPE_CHECKER.redefine("array", _is_array))
-
-
 @cache
 def schema(name: str) -> dict[str, Any]:
     """The schema `data/<name>.schema.json` shipped with the package."""
@@ -49,7 +42,13 @@ def schema(name: str) -> dict[str, Any]:
 
 @cache
 def validator(name: str) -> Any:
-    return _Validator(schema(name))  # the schemas themselves are checked by the tests (check_schema)
+    # jsonschema takes 0.1-0.3 s to import and this module is on the CLI's start-up path (rules -> manifest)
+    from jsonschema import Draft202012Validator
+    from jsonschema.validators import extend
+
+    cls = extend(Draft202012Validator,  # type: ignore[no-untyped-call]
+                 type_checker=Draft202012Validator.TYPE_CHECKER.redefine("array", _is_array))
+    return cls(schema(name))  # the schemas themselves are checked by the tests (check_schema)
 
 
 def _resolve(sub: dict[str, Any], defs: dict[str, Any]) -> dict[str, Any]:

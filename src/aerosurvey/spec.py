@@ -113,6 +113,14 @@ class ConditionsSpec:
 
 
 @dataclass(frozen=True)
+class LimitsSpec:
+    """Sanity limits checked from the spec before any planning work (raise them for a real large job)."""
+
+    max_photos: int = 100_000
+    max_flight_hours: float = 100.0
+
+
+@dataclass(frozen=True)
 class MissionSpec:
     name: str
     crs: str  # "auto" or an authority string such as "EPSG:5514"
@@ -127,6 +135,7 @@ class MissionSpec:
     rule_overrides: dict[str, Any]
     battery: BatterySpec | None
     path: Path | None
+    limits: LimitsSpec = LimitsSpec()
 
 
 class _Table:
@@ -439,6 +448,14 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
 
     battery = _battery(top, vehicle) if top.has("battery") else None
 
+    lt = top.table("limits")
+    limits = LimitsSpec(
+        max_photos=lt.integer("max_photos", LimitsSpec.max_photos, lo=1, hi=100_000_000),
+        max_flight_hours=lt.number("max_flight_hours", LimitsSpec.max_flight_hours, lo=0.01, hi=100_000.0)
+        or LimitsSpec.max_flight_hours,
+    )
+    lt.done()
+
     r = top.table("rules")
     profiles = r.raw("profiles", [])
     if not isinstance(profiles, list) or not all(isinstance(p, str) for p in profiles):
@@ -452,5 +469,5 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     return MissionSpec(
         name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
         flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles),
-        rule_overrides=dict(overrides), battery=battery, path=path,
+        rule_overrides=dict(overrides), battery=battery, path=path, limits=limits,
     )

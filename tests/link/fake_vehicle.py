@@ -7,8 +7,9 @@ duplicated item with INVALID_SEQUENCE and an item outside an upload with ERROR, 
 mission items in place as they arrive. It reads and writes pymavlink messages with its own
 field handling, independent of aerosurvey's codec.
 
-`FakeVehicle` runs a model on a loopback UDP or TCP socket in a thread and can drop,
-duplicate and reorder packets both ways (seeded). `SimLink` runs a model on a simulated clock
+`FakeVehicle` runs a model on a loopback UDP or TCP socket, or on a pseudo-terminal that
+stands for a serial port (`url` is then its device, e.g. /dev/pts/3), in a thread and can
+drop, duplicate and reorder packets both ways (seeded). `SimLink` runs a model on a simulated clock
 with the same faults, for fast property tests. `LossyRelay` is a UDP relay on loopback that
 drops a share of datagrams (seeded), for the benchmark's lossy case.
 """
@@ -24,6 +25,7 @@ import socket
 import struct
 import threading
 import time
+import tty
 from dataclasses import dataclass
 from typing import Any
 
@@ -106,7 +108,8 @@ class VehicleModel:
                  home: tuple[float, float, float] = (49.4, 15.0, 400.0), no_space_first: int = 0,
                  capacity: int = 2000, answer_missions: bool = True, alter: dict[int, dict[str, float]] | None = None,
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
-                 early_accept_after: int | None = None, fail_item: int | None = None) -> None:
+                 early_accept_after: int | None = None, fail_item: int | None = None,
+                 silent_after_request: int | None = None) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
@@ -123,6 +126,7 @@ class VehicleModel:
         self.upload_timeout = upload_timeout
         self.early_accept_after = early_accept_after  # a faulty vehicle: ACCEPTED before the last item
         self.fail_item = fail_item  # a mission item whose storage fails (ERROR, upload ends)
+        self.silent_after_request = silent_after_request  # asks for this mission item, then never answers again
         self.stored: dict[int, list[Stored]] = {0: [], 1: []}
         self.receiving: int | None = None  # mission type being uploaded
         self._staging: list[Stored] = []
@@ -234,6 +238,8 @@ class VehicleModel:
             self._last_receive = self._last_request = now
             if self._next == self._count or self._next == self.early_accept_after:
                 return self._complete(mtype)
+            if mtype == 0 and self._next == self.silent_after_request:
+                self.answer_missions = False  # e.g. the telemetry radio lost power
             return [self._request(self._next, mtype)]
         if kind == "MISSION_REQUEST_LIST":
             if self.receiving is not None:
@@ -255,7 +261,7 @@ class VehicleModel:
         return [self._ack(mp.ACCEPTED, mtype)]
 
     def poll(self, now: float) -> list[Any]:
-        if self.receiving is None:
+        if self.receiving is None or not self.answer_missions:
             return []
         if now - self._last_receive > self.upload_timeout:
             mtype, self.receiving = self.receiving, None
@@ -286,7 +292,7 @@ class Faults:
 
 
 class FakeVehicle:
-    """A VehicleModel on a loopback socket (UDP or TCP) in a thread, with packet faults."""
+    """A VehicleModel on a loopback socket (UDP or TCP) or a pseudo-terminal ("pty") in a thread, with packet faults."""
 
     def __init__(self, model: VehicleModel, transport: str = "udp", faults: Faults | None = None,
                  heartbeat_interval: float = 0.25, heartbeats: bool = True) -> None:
@@ -303,6 +309,14 @@ class FakeVehicle:
         self._n = 0
         self._peer: Any = None
         self._client: socket.socket | None = None
+        self._pty: tuple[int, int] | None = None
+        if transport == "pty":
+            master, slave = os.openpty()
+            tty.setraw(slave)  # a serial line: no echo, no line editing (pyserial sets the same when it opens it)
+            self._pty = (master, slave)
+            self.device = os.ttyname(slave)
+            self._thread = threading.Thread(target=self._run, name="fake-vehicle", daemon=True)
+            return
         if transport == "udp":
             self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         else:
@@ -316,6 +330,8 @@ class FakeVehicle:
 
     @property
     def url(self) -> str:
+        if self._pty is not None:
+            return self.device
         return f"udpout:{LOOPBACK}:{self.port}" if self.transport == "udp" else f"tcp:{LOOPBACK}:{self.port}"
 
     def __enter__(self) -> FakeVehicle:
@@ -325,6 +341,11 @@ class FakeVehicle:
     def __exit__(self, *exc: object) -> None:
         self._stop.set()
         self._thread.join(timeout=5)
+        if self._pty is not None:
+            for fd in self._pty:
+                os.close(fd)
+            self._pty = None
+            return
         for s in (self._client, self.sock):
             if s is not None:
                 s.close()
@@ -339,7 +360,9 @@ class FakeVehicle:
 
     def _write(self, data: bytes) -> None:
         try:
-            if self.transport == "udp" and self._peer is not None:
+            if self._pty is not None:
+                os.write(self._pty[0], data)
+            elif self.transport == "udp" and self._peer is not None:
                 self.sock.sendto(data, self._peer)
             elif self._client is not None:
                 self._client.sendall(data)
@@ -350,7 +373,8 @@ class FakeVehicle:
         next_hb = 0.0
         while not self._stop.is_set():
             now = time.monotonic()
-            if self.heartbeats and now >= next_hb and (self._peer is not None or self._client is not None):
+            connected = self._peer is not None or self._client is not None or self._pty is not None
+            if self.heartbeats and now >= next_hb and connected:
                 self._write(self.model.heartbeat().pack(self.parser))
                 next_hb = now + self.heartbeat_interval
             while self._held and self._held[0][0] <= now:
@@ -362,8 +386,14 @@ class FakeVehicle:
                         self._emit(out, now)
             for out in self.model.poll(now):
                 self._emit(out, now)
-            socks = [self.sock] + ([self._client] if self._client is not None else [])
             wait = 0.005 if self._held else 0.02
+            if self._pty is not None:
+                readable, _, _ = select.select([self._pty[0]], [], [], wait)
+                if readable:
+                    for m in self.parser.parse_buffer(os.read(self._pty[0], 65535)) or []:
+                        self._schedule(time.monotonic(), "in", m)
+                continue
+            socks = [self.sock] + ([self._client] if self._client is not None else [])
             readable, _, _ = select.select(socks, [], [], wait)
             for s in readable:
                 self._read(s, time.monotonic())

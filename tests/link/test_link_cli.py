@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import io
 import socket
 from pathlib import Path
 
 from click.testing import CliRunner
-from fake_vehicle import FakeVehicle, VehicleModel, survey_mission
+from fake_vehicle import FakeVehicle, Faults, SimLink, VehicleModel, survey_mission
 
 from aerosurvey.cli import main
+from aerosurvey.commands.upload import TransferProgress
+from aerosurvey.link import mission_protocol as mp
+from aerosurvey.link.upload import upload_mission
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
 
@@ -99,3 +103,61 @@ def test_no_heartbeat_exits_1_after_timeout_times_retries_plus_one(tmp_path: Pat
     assert res.exit_code == 1
     assert res.output.strip().splitlines() == [
         f"Error: {fv.url}: no heartbeat from a vehicle within 0.3 s (is it powered and is this the right connection string?)"]
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def test_progress_shows_on_a_terminal_only_after_a_second() -> None:
+    term, clock = _Terminal(), _Clock()
+    with TransferProgress(term, clock=clock) as progress:
+        clock.t = 0.9
+        progress("mission upload", 10, 701)
+        assert term.getvalue() == ""
+        clock.t = 1.1
+        progress("mission upload", 20, 701)
+        progress("mission download", 0, 0)  # the count is not known yet
+        progress("mission download", 300, 701)
+    shown = term.getvalue()
+    assert "mission upload" in shown and "mission download" in shown and "300/701" in shown
+
+
+def test_progress_is_silent_when_stderr_is_not_a_terminal() -> None:
+    pipe, clock = io.StringIO(), _Clock()
+    with TransferProgress(pipe, clock=clock) as progress:
+        clock.t = 5.0
+        progress("mission upload", 20, 701)
+    assert pipe.getvalue() == ""
+
+
+def test_upload_reports_progress_of_each_transfer_to_the_callback() -> None:
+    calls: list[tuple[str, int, int]] = []
+    m = survey_mission(20, fence=True)
+    upload_mission(SimLink(VehicleModel(), Faults(drop=0.1, seed=3)), m, mp.Policy(timeout=0.1),
+                   progress=lambda what, done, total: calls.append((what, done, total)))
+    finals = {what: (done, total) for what, done, total in calls}
+    n = len(m.items) + 1
+    assert finals == {"mission upload": (n, n), "fence upload": (7, 7), "mission download": (n, n), "fence download": (7, 7)}
+    ups = [done for what, done, _ in calls if what == "mission upload"]
+    assert ups == sorted(ups) and len(set(ups)) > 2  # it moves forward while the transfer runs
+
+
+def test_a_long_failing_upload_in_a_pipe_prints_only_the_error(tmp_path: Path) -> None:
+    plan = write_plan(tmp_path)
+    with FakeVehicle(VehicleModel(answer_missions=False), "udp") as fv:
+        res = CliRunner().invoke(main, ["upload", str(plan), "--connect", fv.url, "--timeout", "0.3",
+                                                        "--retries", "4"])
+    assert res.exit_code == 1
+    assert res.stdout == ""
+    assert res.stderr.splitlines() == [res.stderr.strip()]  # 1.5 s of silence: still only the error line
+    assert res.stderr.startswith("Error: mission upload failed: no answer to MISSION_COUNT after 4 resend(s)")

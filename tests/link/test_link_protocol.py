@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from aerosurvey.link import mission_protocol as mp
@@ -210,16 +212,68 @@ def test_download_requests_each_item_ignores_duplicates_and_acks() -> None:
     assert dl.result() == src
 
 
-def test_download_resends_and_fails_naming_the_step() -> None:
+def test_download_resends_then_restarts_and_goes_on_from_the_first_missing_item() -> None:
     dl = mp.Downloader(mp.FENCE, POLICY)
+    src = items(3, mp.FENCE)
     dl.start(0.0)
-    dl.handle(mp.Count(2, mp.FENCE), 0.0)
-    assert dl.poll(1.0) == [mp.Request(0, mp.FENCE)]
-    assert dl.poll(2.0) == [mp.Request(0, mp.FENCE)]
-    dl.poll(3.0)
-    assert dl.error == "fence download failed: no answer to MISSION_REQUEST_INT for item 0 after 2 resend(s), 1 s each"
+    dl.handle(mp.Count(3, mp.FENCE), 0.0)
+    assert dl.handle(mp.Item(src[0]), 0.1) == [mp.Request(1, mp.FENCE)]
+    assert dl.poll(1.1) == [mp.Request(1, mp.FENCE)]
+    assert dl.poll(2.1) == [mp.Request(1, mp.FENCE)]
+    assert dl.poll(3.1) == [mp.RequestList(mp.FENCE)]  # retries (2) used up: restart, like an upload
+    assert dl.stats.restarts == 1 and dl.stats.resends == 2 and dl.error is None
+    assert dl.handle(mp.Count(3, mp.FENCE), 3.2) == [mp.Request(1, mp.FENCE)]  # same count: item 0 is kept
+    dl.handle(mp.Item(src[1]), 3.3)
+    assert dl.handle(mp.Item(src[2]), 3.4) == [mp.Ack(mp.ACCEPTED, mp.FENCE)]
+    assert dl.result() == src
+
+
+def test_download_gives_up_after_restarts_in_a_row_without_a_new_item_naming_the_step() -> None:
+    dl = mp.Downloader(mp.FENCE, POLICY)
+    out = dl.start(0.0)
+    out += dl.handle(mp.Count(2, mp.FENCE), 0.0)
+    t = 0.0
+    while not dl.finished and t < 100:
+        t += 0.5
+        out += dl.poll(t)
+    # Request(0) and 2 resends, then per restart (2 allowed) MISSION_REQUEST_LIST and 2 resends of it
+    assert out.count(mp.Request(0, mp.FENCE)) == 3 and out.count(mp.RequestList(mp.FENCE)) == 1 + 3 * 2
+    assert dl.error == ("fence download failed: no answer to MISSION_REQUEST_LIST after 2 resend(s), 1 s each; gave up after "
+                        "2 restart(s) in a row that brought no new item (0 of 2 items read)")
+    assert t == pytest.approx(3 * (POLICY.retries + 1) * POLICY.timeout)
     with pytest.raises(mp.TransferFailed):
         dl.result()
+
+
+def test_download_restarts_as_often_as_each_brings_a_new_item() -> None:
+    n = 3 * (POLICY.restarts + 1)
+    src = items(n)
+    dl = mp.Downloader(mp.MISSION, POLICY)
+    out = dl.start(0.0)
+    t = 0.0
+    while not dl.finished and t < 1000:  # the vehicle answers the count and one item per transaction, then is silent
+        t += 0.25
+        for m in out:
+            if isinstance(m, mp.RequestList):
+                out = dl.handle(mp.Count(n), t)
+                break
+        else:
+            asked = [m.seq for m in out if isinstance(m, mp.Request)]
+            out = dl.handle(mp.Item(src[asked[0]]), t) if asked and dl.progress[0] < dl.stats.restarts + 1 else []
+        out += dl.poll(t)
+    assert dl.done and dl.result() == src
+    assert dl.stats.restarts == n - 1 > POLICY.restarts
+
+
+def test_download_starts_again_from_item_0_when_the_count_changes() -> None:
+    dl = mp.Downloader(mp.MISSION, POLICY)
+    dl.start(0.0)
+    dl.handle(mp.Count(3), 0.0)
+    dl.handle(mp.Item(items(3)[0]), 0.0)
+    dl.handle(mp.Ack(mp.ERROR), 0.1)
+    assert dl.poll(1.0) == [mp.RequestList(mp.MISSION)]
+    assert dl.handle(mp.Count(2), 1.1) == [mp.Request(0, mp.MISSION)]
+    assert dl.progress == (0, 2) and dl.count == 2
 
 
 def test_download_waits_while_the_vehicle_is_busy_receiving() -> None:
@@ -243,6 +297,21 @@ def test_upload_denied_waits_then_gives_up() -> None:
     up.poll(10.4)
     up.handle(mp.Ack(mp.DENIED), 10.5)
     assert up.error is not None and "MAV_MISSION_DENIED for 2 items 3 time(s); another ground station" in up.error
+
+
+def test_download_busy_counts_only_restarts_without_a_new_item() -> None:
+    dl = mp.Downloader(mp.MISSION, POLICY)
+    src = items(4)
+    dl.start(0.0)
+    t = 0.0
+    for k in range(4):  # DENIED after each item: 4 restarts in all, none of them idle
+        dl.handle(mp.Count(4), t)
+        dl.handle(mp.Item(src[k]), t)
+        if k < 3:
+            dl.handle(mp.Ack(mp.DENIED), t)
+            t += POLICY.busy_wait
+            assert dl.poll(t) == [mp.RequestList(mp.MISSION)]
+    assert dl.done and dl.stats.restarts == 3 > POLICY.restarts
 
 
 def test_download_error_ack_restarts_only_when_nothing_follows() -> None:
@@ -287,3 +356,83 @@ def test_ack_lost_needs_every_item_asked_for() -> None:
     up.handle(mp.Ack(mp.ERROR), 0.1)
     assert up.poll(1.0) == [mp.Count(3, mp.MISSION)]
     assert not up.done and not up.stats.ack_lost
+
+
+def test_policy_limit_is_setup_plus_a_share_per_item() -> None:
+    p = mp.Policy()
+    assert p.setup == 4 * (3.0 + 6 * 1.0 + 10.0)
+    assert p.limit(701) == p.setup + 701 * 5.0
+    assert mp.Policy(timeout=2.0).per_item == 10.0 and mp.Policy(item_time=1.5).per_item == 1.5
+    with pytest.raises(ValueError):
+        mp.Policy(item_time=0.0)
+
+
+def test_upload_to_a_vehicle_that_answers_just_often_enough_ends_at_the_limit() -> None:
+    # a new request every 2.5 s trips neither the retries (3 s) nor the stall rule (4 s)
+    policy = mp.Policy(timeout=1.0, retries=2, restarts=0, busy_wait=0.0, stall=4.0, item_time=1.0)
+    up = mp.Uploader(items(20), mp.MISSION, policy)
+    up.start(0.0)
+    t, seq = 0.0, 0
+    while not up.finished:
+        t = min(up.deadline, 2.5 * (seq + 1))
+        if t == 2.5 * (seq + 1):
+            up.handle(mp.Request(seq), t)
+            seq += 1
+        up.poll(t)
+    assert t == policy.limit(20) == 27.0 and seq == 10
+    assert up.error == ("mission upload failed: not finished within 27 s, the limit for 20 item(s) (7 s + 1 s per item); "
+                        "the link is too poor or the vehicle too slow")
+
+
+def test_download_from_a_vehicle_that_answers_just_often_enough_ends_at_the_limit() -> None:
+    # each item comes 1.4 s after its request: within the 2 resends (0.5 s apart) that would restart
+    policy = mp.Policy(timeout=0.5, retries=2, restarts=0, busy_wait=0.0, stall=2.0, item_time=1.0)
+    src = items(20)
+    dl = mp.Downloader(mp.MISSION, policy, expected=20)
+    out = dl.start(0.0)
+    out += dl.handle(mp.Count(20), 0.0)
+    asked_at, t = 0.0, 0.0
+    while not dl.finished:
+        t = min(dl.deadline, asked_at + 1.4)
+        if t == asked_at + 1.4:
+            out = dl.handle(mp.Item(src[dl.progress[0]]), t)
+            asked_at = t
+        dl.poll(t)
+    assert t == policy.limit(20) == 23.5 and dl.progress == (16, 20)
+    assert dl.error is not None and dl.error.startswith("mission download failed: not finished within 23.5 s, the limit for 20 item(s)")
+
+
+_SEQ = st.integers(0, 8)
+_VEHICLE_SAYS = st.one_of(
+    st.builds(mp.Count, st.integers(0, 8)), st.builds(mp.Request, _SEQ),
+    st.builds(lambda seq: mp.Item(mp.WireItem(seq, 16, 3)), _SEQ), st.builds(mp.Ack, st.integers(0, 15)))
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(upload=st.booleans(), n=st.integers(0, 6), confirm=st.booleans(),
+       events=st.lists(st.tuples(st.floats(0.0, 2.0), _VEHICLE_SAYS), max_size=200))
+def test_whatever_the_vehicle_says_a_transfer_ends_within_its_limit(upload: bool, n: int, confirm: bool,
+                                                                     events: list[tuple[float, mp.Message]]) -> None:
+    policy = mp.Policy(timeout=0.5, retries=2, restarts=2, busy_wait=1.0, stall=2.0, item_time=1.0)
+    machine: mp.Uploader | mp.Downloader = (mp.Uploader(items(n), mp.MISSION, policy, confirm) if upload
+                                            else mp.Downloader(mp.MISSION, policy, expected=n))
+    machine.start(0.0)
+    t, last_count, finished_at = 0.0, None, math.inf
+    for gap, msg in [*events, (math.inf, None)]:
+        t += gap
+        for _ in range(10_000):  # bounded here too: a machine that never ends fails the test, not the run
+            if machine.finished or machine.deadline > t:
+                break
+            finished_at = machine.deadline  # the machine is polled at each of its deadlines
+            machine.poll(finished_at)
+        if machine.finished or msg is None:
+            break
+        last_count = msg.count if isinstance(msg, mp.Count) else last_count
+        machine.handle(msg, t)
+        machine.poll(t)
+        finished_at = t
+    assert machine.finished and finished_at <= policy.limit(n)
+    if isinstance(machine, mp.Downloader) and machine.done:
+        assert len(machine.result()) == last_count == machine.count
+    if isinstance(machine, mp.Uploader) and machine.done and not machine.stats.ack_lost:
+        assert machine.confirmed == n

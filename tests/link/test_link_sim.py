@@ -78,7 +78,7 @@ def test_success_always_means_the_vehicle_holds_the_plan(seed: int, n: int, drop
 def test_vehicle_that_accepts_early_is_never_reported_as_uploaded() -> None:
     m = survey_mission(20)
     model = VehicleModel(early_accept_after=10)
-    with pytest.raises(LinkError, match="incomplete or unchanged: do not fly it"):
+    with pytest.raises(LinkError, match=r"incomplete or unchanged \(it confirmed \d+ of 26 items\): do not fly it"):
         upload_mission(SimLink(model), m, POLICY)
     assert len(model.stored[0]) < len(m.items) + 1
 
@@ -155,6 +155,34 @@ def test_failed_last_item_whose_error_ack_is_lost_is_caught_by_the_read_back() -
     with pytest.raises(VerificationFailed) as exc:
         upload_mission(SimLink(model, drop_packets=frozenset({2 * n + 2})), m, POLICY)
     assert str(exc.value.mismatches[0]) == f"mission: the vehicle has {n - 1} items, the plan {n}"
+    assert str(exc.value) == (f"verification failed: the vehicle holds {n - 1} of {n} mission items: do not fly it "
+                              "(its final MISSION_ACK never came; the read-back shows it)")
+    assert exc.value.exit_code == 1
+
+
+def test_vehicle_silent_before_the_last_item_holds_698_of_699_and_is_not_to_be_flown() -> None:
+    m = survey_mission(693)
+    n = len(m.items) + 1
+    assert n == 699
+    model = VehicleModel(silent_after_request=n - 1)  # asks for item 698, then nothing more
+    with pytest.raises(LinkError) as exc:
+        upload_mission(SimLink(model), m, POLICY)
+    assert len(model.stored[0]) == 698
+    assert str(exc.value).startswith("the vehicle holds 698 of 699 mission items: do not fly it (it asked for every item "
+                                     "but never acknowledged the last one, and the read-back failed: mission download "
+                                     "failed: no answer to MISSION_REQUEST_LIST")
+    assert "not verified" not in str(exc.value) and exc.value.exit_code == 1
+
+
+def test_read_back_of_an_acknowledged_upload_that_fails_says_not_verified() -> None:
+    m = survey_mission(5)
+    model = VehicleModel()
+    link = SimLink(model)
+    n = len(m.items) + 1
+    link.drop_packets = frozenset(range(2 * n + 3, 10_000))  # everything after the vehicle's ACCEPTED
+    with pytest.raises(LinkError, match=r"^upload acknowledged by the vehicle but not verified: mission download failed"):
+        upload_mission(link, m, POLICY)
+    assert model.completed_uploads == 1
 
 
 def test_home_item_is_compared_when_the_vehicle_is_not_ardupilot() -> None:

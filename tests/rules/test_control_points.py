@@ -10,7 +10,7 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.rules.engine import Evidence, layout_settings
 from aerosurvey.rules.load import plan_documents
 from aerosurvey.rules.planview import PlanView
@@ -26,7 +26,7 @@ def test_layout_on_random_areas(tmp_path_factory, kind, seed, size):
     # coverage extends past the GCP ring (10 m out): every GCP can then be seen by the plan
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 8, "coverage_margin_m": 12.0}},
                      rings=random_polygon(kind, seed, size))
-    manifest, features = plan_documents(plan_mission(load_spec(spec)))
+    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     profiles = select_profiles(["cz-land-consolidation"])
     ev = Evidence(view, layout_settings(view, profiles))

@@ -171,3 +171,10 @@ def test_formula_is_restricted():
     assert evaluate_formula("ceil(n_images / 100) + 1", n_images=903) == 11
     with pytest.raises(InputError, match="may use only"):
         evaluate_formula("__import__('os').system('true')", n_images=1)
+
+
+@pytest.mark.parametrize("text", ["+n_images", "not n_images", "~n_images"])
+def test_formula_with_another_unary_operator_is_bad_input(text):
+    with pytest.raises(InputError, match="may use only"):
+        evaluate_formula(text, n_images=903)
+    assert evaluate_formula("-n_images + 1000", n_images=903) == 97

@@ -271,7 +271,9 @@ def _big_spec(tmp: Path) -> dict:
     ring = random_polygon("holed", 11, 4000)
     write_geojson(tmp / "big.geojson", ring)
     return {"mission": {"name": "big"}, "area": {"file": "big.geojson"}, "camera": {"model": "sony-a6000-16mm"},
-            "targets": {"gsd_cm": 1.2, "forward_overlap": 0.8, "side_overlap": 0.7}, "vehicle": {"type": "copter"}}
+            "targets": {"gsd_cm": 1.2, "forward_overlap": 0.8, "side_overlap": 0.7}, "vehicle": {"type": "copter"},
+            # a job this large on purpose (a long plan to cancel): above the default limits
+            "limits": {"max_photos": 10_000_000, "max_flight_hours": 10_000}}
 
 
 def test_progress_and_cancel(tmp_path):

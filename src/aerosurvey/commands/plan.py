@@ -6,11 +6,12 @@ from pathlib import Path
 
 import click
 
-from aerosurvey.plan.planner import PlanResult, plan_mission
+from aerosurvey.inputs import plan_from_files
+from aerosurvey.plan.planner import Plan
 from aerosurvey.spec import load_spec
 
 
-def summary(plan: PlanResult, warnings: list[str], rules: list[dict]) -> list[str]:
+def summary(plan: Plan, warnings: list[str], rules: list[dict]) -> list[str]:
     e = plan.estimates
     h = plan.heights
     sp = plan.speed
@@ -57,7 +58,7 @@ def summary(plan: PlanResult, warnings: list[str], rules: list[dict]) -> list[st
 def plan(spec: Path, outdir: Path) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."""
     mission_spec = load_spec(spec)
-    result = plan_mission(mission_spec)
+    result = plan_from_files(mission_spec)
     from aerosurvey.outputs import write_outputs  # the format writers load only when there is a plan to write
 
     rendered = write_outputs(result, outdir)

@@ -7,7 +7,11 @@ Nothing is reported as uploaded unless the vehicle acknowledged every item.
 
 from __future__ import annotations
 
+import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TextIO
 
 import click
 
@@ -31,6 +35,53 @@ def read_mission(path: Path) -> Mission:
     if not m.items:
         raise InputError(f"{path}: the plan has no mission items; there is nothing to upload")
     return m
+
+
+class TransferProgress:
+    """Progress bars for the transfers of one upload on `stream` (stderr), drawn with rich.
+
+    Shown only when `stream` is a terminal and only once `delay` seconds have passed since it
+    was made, so quick uploads and output into pipes or logs stay exactly as they were.
+    Call it as `progress(what, done, total)`; `close` (or leaving the `with`) removes the bars.
+    """
+
+    def __init__(self, stream: TextIO, delay: float = 1.0, clock: Callable[[], float] = time.monotonic) -> None:
+        self.stream = stream
+        self.enabled = stream.isatty()
+        self.delay = delay
+        self.clock = clock
+        self.t0 = clock()
+        self._bars: Any = None
+        self._tasks: dict[str, Any] = {}
+
+    def __enter__(self) -> TransferProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __call__(self, what: str, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        if self._bars is None:
+            if self.clock() - self.t0 < self.delay:
+                return
+            # imported only when bars are shown: this module is on the CLI's start-up path
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self._bars = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                                  console=Console(file=self.stream, force_terminal=True), transient=True)
+            self._bars.start()
+        task = self._tasks.get(what)
+        if task is None:
+            task = self._tasks[what] = self._bars.add_task(what, total=total or None)
+        self._bars.update(task, completed=done, total=total or None)
+
+    def close(self) -> None:
+        if self._bars is not None:
+            self._bars.stop()
+            self._bars = None
 
 
 def _stats(s: mp.Stats) -> str:
@@ -71,13 +122,16 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, no_verify: b
     """Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare.
 
     Exit code 0 when uploaded and verified, 1 when the link fails or the vehicle stores
-    something else (the differing item, field and values are named), 2 for bad input.
+    something else (the differing item, field and values are named; a partial mission is
+    "the vehicle holds N of M mission items: do not fly it"), 2 for bad input. Progress goes
+    to stderr when it is a terminal and the upload takes more than a second.
     """
     mission = read_mission(plan_file)
     policy = mp.Policy(timeout=timeout, retries=retries)
     with open_link(url, timeout * (retries + 1)) as link:
         try:
-            report = upload_mission(link, mission, policy, verify=not no_verify)
+            with TransferProgress(sys.stderr) as progress:
+                report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress)
         except VerificationFailed as exc:
             for mm in exc.mismatches[:20]:
                 click.echo(f"  differs: {mm}", err=True)

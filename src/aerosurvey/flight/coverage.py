@@ -8,7 +8,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyproj
@@ -25,10 +25,12 @@ from aerosurvey.area import Planar, transformer
 from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.manifest import Home
-from aerosurvey.plan.terrain import Dem
-from aerosurvey.report.features import footprint_corners
+from aerosurvey.plan.footprints import footprint_corners
 from aerosurvey.rules.footprints import footprints
 from aerosurvey.rules.planview import PlanView
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.terrain import Dem
 
 #: Ground heights (metres, the DEM's vertical datum) at planning-CRS points; NaN where unknown.
 GroundFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -135,17 +137,19 @@ class DemGround:
         try:
             with rasterio.open(path) as ds:
                 has_crs = ds.crs is not None
+                crs_wkt = ds.crs.to_wkt() if has_crs else ""
         except rasterio.errors.RasterioIOError as exc:
             raise InputError(f"{option} {str(path)!r} cannot be opened as a raster: {exc}") from None
         if not has_crs:
             raise InputError(f"{option} {str(path)!r} has no CRS; give the DEM a georeference (e.g. gdal_edit.py -a_srs)")
         crs = pyproj.CRS.from_user_input(planning_crs)
-        planar = Planar(crs, transformer("EPSG:4326", planning_crs), transformer(planning_crs, "EPSG:4326"))
+        self.planar = Planar(crs, transformer("EPSG:4326", planning_crs), transformer(planning_crs, "EPSG:4326"))
         self.path = path
-        self.dem = Dem(path, planar)
+        self.crs = pyproj.CRS.from_wkt(crs_wkt)
+        self._dem: Dem | None = None
 
     def close(self) -> None:
-        self.dem.close()
+        self._dem = None
 
     def __enter__(self) -> DemGround:
         return self
@@ -153,32 +157,58 @@ class DemGround:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _window(self, x: np.ndarray, y: np.ndarray) -> Dem:
+        """The DEM read around the points asked for (once, then reused when they lie inside)."""
+        import shapely
+
+        from aerosurvey.inputs import read_dem_window
+        from aerosurvey.plan.terrain import Dem
+
+        lon, lat = self.planar.lonlat(x, y)
+        box = shapely.box(float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
+        if self._dem is None or not self._covers(x, y):
+            self._dem = Dem(read_dem_window(self.path, box, 50.0), self.planar)
+        return self._dem
+
+    def _covers(self, x: np.ndarray, y: np.ndarray) -> bool:
+        assert self._dem is not None
+        cols, rows = self._cells(self._dem, x, y)
+        g = self._dem.grid
+        c0, r0 = g.offset
+        return bool(((cols - c0 >= 0) & (rows - r0 >= 0) & (cols - c0 <= g.heights.shape[1] - 1)
+                     & (rows - r0 <= g.heights.shape[0] - 1)).all())
+
+    @staticmethod
+    def _cells(dem: Dem, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        dx, dy = (np.asarray(a) for a in dem.to_dem.transform(x, y))
+        inv = ~dem.full
+        return inv.a * dx + inv.b * dy + inv.c, inv.d * dx + inv.e * dy + inv.f
+
     def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         x, y = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(y, float))
         out = np.full(len(x), np.nan)
         idx = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
         if not len(idx):
             return out
-        ds = self.dem.ds
-        dx, dy = (np.asarray(a) for a in self.dem.to_dem.transform(x[idx], y[idx]))
-        inv = ~ds.transform
-        cols, rows = inv.a * dx + inv.b * dy + inv.c, inv.d * dx + inv.e * dy + inv.f
-        idx = idx[(cols >= 0) & (rows >= 0) & (cols <= ds.width) & (rows <= ds.height)]
+        dem = self._window(x[idx], y[idx])
+        cols, rows = self._cells(dem, x[idx], y[idx])
+        n_rows, n_cols = dem.grid.full_shape
+        idx = idx[(cols >= 0) & (rows >= 0) & (cols <= n_cols) & (rows <= n_rows)]
         if not len(idx):
             return out
         try:
-            out[idx] = self.dem.sample(x[idx], y[idx], "flown photos")
+            out[idx] = dem.sample(x[idx], y[idx], "flown photos")
         except InputError:  # nodata under some of them: find which, one by one
             for i in idx:
                 try:
-                    out[i] = self.dem.sample(x[i:i + 1], y[i:i + 1], "flown photo")[0]
+                    out[i] = dem.sample(x[i:i + 1], y[i:i + 1], "flown photo")[0]
                 except InputError:
                     pass
         return out
 
     def vertical_note(self) -> str:
         """What the DEM's CRS says of its heights."""
-        crs = self.dem.crs
+        crs = self.crs
         if crs.is_compound:
             vert = next((c for c in crs.sub_crs_list if c.is_vertical), None)
             if vert is not None:

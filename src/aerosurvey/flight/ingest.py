@@ -177,7 +177,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     rules: list[dict[str, Any]] = []
     if doc.mission.profiles:
         profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides))
-        rules = [r.as_dict() for r in evaluate(profiles, Evidence(flown, layout_settings(flown, profiles)))]
+        rules = [dict(r.as_dict()) for r in evaluate(profiles, Evidence(flown, layout_settings(flown, profiles)))]
         report["rules_on_flown_data"] = rules
     coverage = count_raster(flown, max(doc.derived.photo_base_m / 5, 0.5))
     report["coverage"] = coverage.summary

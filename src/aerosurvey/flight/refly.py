@@ -18,9 +18,10 @@ import shapely.geometry
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.manifest import sha256_file
 from aerosurvey.outputs import render_outputs
-from aerosurvey.plan.planner import plan_mission
+from aerosurvey.plan.planner import Plan
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.spec import load_spec, parse_spec
 
@@ -65,7 +66,7 @@ class Refly:
 
     gaps: shapely.Geometry  # planning CRS of the flown plan
     need: int
-    plan: Any  # PlanResult of the re-fly (None when there are no gaps)
+    plan: Plan | None  # the re-fly (None when there are no gaps)
     files: dict[str, str]  # file name -> text: every output of `plan` and gaps.geojson
     notes: tuple[str, ...]
 
@@ -104,7 +105,7 @@ def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float
     if gaps.is_empty:
         return Refly(gaps, need, None, {}, tuple(notes))
     data = refly_spec(spec_path, gaps, view.crs)
-    plan = plan_mission(parse_spec(data, base=spec_path.parent, path=None))
+    plan = plan_from_files(parse_spec(data, base=spec_path.parent, path=None))
     files = dict(render_outputs(plan).files)
     gaps_ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
     files["gaps.geojson"] = json.dumps({"type": "FeatureCollection", "features": [

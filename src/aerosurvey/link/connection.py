@@ -1,9 +1,12 @@
 """A MAVLink link to one vehicle through pymavlink: open, wait for its heartbeat, send, receive, close.
 
 Any pymavlink connection string works (tcp:HOST:PORT, udpin:HOST:PORT, udpout:HOST:PORT,
-a serial device). Failures become LinkError with one line a pilot can act on; pymavlink's
-own console chatter on TCP disconnects is replaced by that error. The codec between
-pymavlink messages and the pure protocol messages of `mission_protocol` lives here too.
+a serial device such as /dev/ttyACM0 or /dev/ttyUSB0,57600, opened through pyserial).
+Failures become one line a pilot can act on: LinkError (exit 1) when the vehicle cannot be
+reached, InputError (exit 2) when the connection string or the serial device it names is
+wrong; pymavlink's own console chatter on TCP disconnects is replaced by that error. The
+codec between pymavlink messages and the pure protocol messages of `mission_protocol` lives
+here too.
 """
 
 from __future__ import annotations
@@ -208,12 +211,42 @@ class MavLink:
                 return msg
 
 
+# pymavlink's network and other non-serial prefixes (mavutil.mavlink_connection); anything else
+# without a colon, that is not a file, it opens as a serial device
+_NETWORK_PREFIXES = ("tcp:", "tcpin:", "udp:", "udpin:", "udpout:", "udpbcast:", "mcast:", "uds:", "unix:",
+                     "ws:", "wss:", "wsserver:", "csv:")
+
+
+def serial_device(url: str) -> str | None:
+    """The serial device pymavlink opens for `url` (without a ",BAUD" suffix), or None for any other link."""
+    if url.lower().startswith(_NETWORK_PREFIXES) or ":" in url or os.path.isfile(url):
+        return None
+    if "," in url and not os.path.exists(url):
+        return url.split(",", 1)[0]
+    return url
+
+
+def _serial_reason(exc: OSError) -> str:
+    """Why a serial device did not open, in words a pilot can act on (pyserial's SerialException is an OSError)."""
+    if exc.errno == errno.ENOENT:
+        return "no such device (is the autopilot plugged in? over USB it is usually /dev/ttyACM0 or /dev/ttyUSB0)"
+    if exc.errno in (errno.EACCES, errno.EPERM):
+        return "permission denied (add your user to the dialout group and log in again)"
+    if exc.errno == errno.EBUSY:
+        return "the device is busy (another program has it open)"
+    why = os.strerror(exc.errno) if exc.errno else (str(exc).splitlines() or [type(exc).__name__])[0]
+    return f"not a serial port ({why})"
+
+
 def open_link(url: str, timeout: float) -> MavLink:
     """Open `url` and wait for a vehicle heartbeat; LinkError (exit 1) or InputError (exit 2) otherwise."""
     if not url or not url.strip():
         raise InputError("--connect is empty: give a pymavlink connection string such as tcp:127.0.0.1:5760")
     if os.path.isfile(url):
         raise InputError(f"--connect {url!r} is a file; give a link such as tcp:HOST:PORT, udpin:HOST:PORT or a serial device")
+    device = serial_device(url)
+    if device is not None and device != url and not url.rsplit(",", 1)[1].strip().isdigit():
+        raise InputError(f"--connect {url!r}: the baud rate after the comma must be a whole number such as 57600 or 115200")
     mavutil = _mavutil()
     previous = socket.getdefaulttimeout()
     socket.setdefaulttimeout(timeout)  # bounds a TCP connect to a host that never answers
@@ -222,14 +255,13 @@ def open_link(url: str, timeout: float) -> MavLink:
                                           retries=0, autoreconnect=False)
     except ValueError as exc:
         raise InputError(f"--connect {url!r}: {exc}") from None
-    except ConnectionRefusedError:
-        raise LinkError(f"{url}: connection refused (nothing listens there: is the vehicle or SITL running?)") from None
-    except socket.gaierror as exc:
-        raise LinkError(f"{url}: cannot resolve the host: {exc.strerror or exc}") from None
-    except TimeoutError:
-        raise LinkError(f"{url}: no connection within {timeout:g} s") from None
-    except OSError as exc:  # includes pyserial's SerialException for a missing device
-        raise LinkError(f"{url}: cannot open: {exc.strerror or exc}") from None
+    except ImportError as exc:  # pymavlink imports pyserial only when it opens a serial device
+        raise InputError(f"--connect {url!r} names a serial device, and serial devices need pyserial, which is "
+                         f"missing ({exc}): reinstall aerosurvey with its dependencies or pip install pyserial") from None
+    except OSError as exc:
+        if device is None:
+            raise _network_error(url, exc, timeout) from None
+        raise InputError(f"--connect {url!r}: cannot open the serial device {device}: {_serial_reason(exc)}") from None
     finally:
         socket.setdefaulttimeout(previous)
     link = MavLink(url, conn)
@@ -239,3 +271,14 @@ def open_link(url: str, timeout: float) -> MavLink:
         link.close()
         raise
     return link
+
+
+def _network_error(url: str, exc: OSError, timeout: float) -> LinkError:
+    """The one-line error for a network link that did not open."""
+    if isinstance(exc, ConnectionRefusedError):
+        return LinkError(f"{url}: connection refused (nothing listens there: is the vehicle or SITL running?)")
+    if isinstance(exc, socket.gaierror):
+        return LinkError(f"{url}: cannot resolve the host: {exc.strerror or exc}")
+    if isinstance(exc, TimeoutError):
+        return LinkError(f"{url}: no connection within {timeout:g} s")
+    return LinkError(f"{url}: cannot open: {exc.strerror or exc}")

@@ -9,6 +9,10 @@ MISSION_REQUEST_INT (or legacy MISSION_REQUEST) → we answer MISSION_ITEM_INT �
 ends with MISSION_ACK. Download: MISSION_REQUEST_LIST → MISSION_COUNT → MISSION_REQUEST_INT
 per item → MISSION_ITEM_INT → we end with MISSION_ACK.
 
+Both sides follow the same rules: a step is resent after `Policy.timeout`, `Policy.retries`
+unanswered resends in a row restart the transaction, restarts are bounded, and every
+transfer ends within `Policy.limit(n)` seconds whatever the vehicle does.
+
 Numbers follow MAVLink common.xml (MAV_MISSION_RESULT, MAV_MISSION_TYPE); they are plain
 integers here so this module stays free of pymavlink.
 """
@@ -18,7 +22,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Union
 
 # MAV_MISSION_TYPE
 MISSION = 0
@@ -122,7 +125,7 @@ class Ack:
     mission_type: int = MISSION
 
 
-Message = Union[Count, RequestList, Request, Item, Ack]
+Message = Count | RequestList | Request | Item | Ack
 
 
 @dataclass(frozen=True)
@@ -130,13 +133,17 @@ class Policy:
     """How long to wait and how often to try again; all bounded so a transfer always ends.
 
     `timeout`: seconds without an answer before a step is resent. `retries`: resends in a row
-    that the vehicle does not answer at all before the transaction is restarted (or, for the
-    first step, given up). `stall`: seconds an upload may go without the vehicle asking for a
-    new item while it still answers (it may be re-requesting at its own pace: ArduPilot asks
-    again after 1 s and cancels after 8 s) before it is restarted. `restarts`: whole-transaction
-    restarts allowed. `busy_wait`: pause before restarting after MAV_MISSION_NO_SPACE (ArduPilot
-    sends it right after boot) or MAV_MISSION_DENIED (the vehicle is still busy with another
-    transfer), so that 3 restarts span ArduPilot's 8 s upload timeout.
+    that the vehicle does not answer at all before the transaction is restarted (or, for an
+    upload's first step, given up). `stall`: seconds an upload may go without the vehicle
+    asking for a new item while it still answers (it may be re-requesting at its own pace:
+    ArduPilot asks again after 1 s and cancels after 8 s) before it is restarted. `restarts`:
+    an upload's whole-transaction restarts (each sends every item again); a download keeps the
+    items it has and may restart any number of times as long as each restart follows a new
+    item, but no more than `restarts` times in a row without one. `busy_wait`: pause before
+    restarting after MAV_MISSION_NO_SPACE (ArduPilot sends it right after boot) or
+    MAV_MISSION_DENIED (the vehicle is still busy with another transfer), so that 3 restarts
+    span ArduPilot's 8 s upload timeout. `item_time`: the average seconds per item a whole
+    transfer may take (None: the larger of 5 s and 5 timeouts); see `limit`.
     """
 
     timeout: float = 1.0
@@ -144,12 +151,35 @@ class Policy:
     restarts: int = 3
     busy_wait: float = 3.0
     stall: float = 10.0
+    item_time: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.timeout > 0 and math.isfinite(self.timeout)):
             raise ValueError(f"timeout must be a positive number of seconds, got {self.timeout!r}")
         if self.retries < 0 or self.restarts < 0 or self.busy_wait < 0 or not self.stall > 0:
             raise ValueError("retries, restarts and busy_wait must not be negative, stall must be positive")
+        if self.item_time is not None and not (self.item_time > 0 and math.isfinite(self.item_time)):
+            raise ValueError(f"item_time must be a positive number of seconds, got {self.item_time!r}")
+
+    @property
+    def per_item(self) -> float:
+        """Average seconds per item a transfer may take: `item_time`, by default max(5 s, 5 timeouts)."""
+        return self.item_time if self.item_time is not None else max(5.0, 5.0 * self.timeout)
+
+    @property
+    def setup(self) -> float:
+        """The part of `limit` that does not grow with the items: each allowed restart may wait
+        `busy_wait`, go `retries` + 1 timeouts unanswered and stall for `stall`."""
+        return (self.restarts + 1) * (self.busy_wait + (self.retries + 1) * self.timeout + self.stall)
+
+    def limit(self, n: int) -> float:
+        """Seconds a transfer of `n` items may take in all: `setup` + n × `per_item`.
+
+        The machines fail a transfer that has not ended by then, whatever the vehicle does
+        (one that answers just often enough never to trip the other rules included); the
+        resend, retry and restart rules decide long before it on any link that is merely lossy.
+        """
+        return self.setup + n * self.per_item
 
 
 @dataclass
@@ -163,6 +193,7 @@ class Stats:
     ignored: int = 0
     error_acks: list[int] = field(default_factory=list)
     ack_lost: bool = False  # an upload ended without the vehicle's ACCEPTED (see Uploader)
+    confirmed: int = 0  # upload: items the vehicle confirmed in the last attempt (see Uploader.confirmed)
 
 
 class TransferFailed(Exception):
@@ -170,7 +201,7 @@ class TransferFailed(Exception):
 
 
 class _Machine:
-    """Shared bookkeeping: state, deadline and outcome of one transfer."""
+    """Shared bookkeeping: state, deadlines and outcome of one transfer."""
 
     kind = "transfer"
 
@@ -185,15 +216,37 @@ class _Machine:
         self.stats = Stats()
         self.done = False
         self.error: str | None = None
-        self.deadline = math.inf
+        self._step_deadline = math.inf  # when the current step is resent (or the wait ends)
+        self._started = 0.0
+        self._end = math.inf  # `_started` + `policy.limit(n)`: the transfer fails then
 
     @property
     def finished(self) -> bool:
         return self.done or self.error is not None
 
+    @property
+    def deadline(self) -> float:
+        """When `poll` has something to do next, if nothing arrives before."""
+        return math.inf if self.finished else min(self._step_deadline, self._end)
+
+    @property
+    def progress(self) -> tuple[int, int]:
+        """(items done, items in all) so far, for a progress display."""
+        return (0, 0)
+
+    def _limit(self, n: int) -> None:
+        self._end = self._started + self.policy.limit(n)
+
+    def _over_time(self, now: float, n: int) -> bool:
+        if now < self._end:
+            return False
+        p = self.policy
+        self._fail(f"{self.what} failed: not finished within {p.limit(n):g} s, the limit for {n} item(s) "
+                   f"({p.setup:g} s + {p.per_item:g} s per item); the link is too poor or the vehicle too slow")
+        return True
+
     def _fail(self, message: str) -> list[Message]:
         self.error = message
-        self.deadline = math.inf
         return []
 
     def _out(self, msgs: list[Message]) -> list[Message]:
@@ -243,19 +296,32 @@ class Uploader(_Machine):
         self._last_progress = 0.0
         self._suspect: int | None = None
 
+    @property
+    def confirmed(self) -> int:
+        """Items the vehicle has confirmed in this attempt: asking for item k confirms items 0…k-1
+        (it stores them in order), its ACCEPTED all of them. Kept in `stats.confirmed`."""
+        return self.stats.confirmed
+
+    @property
+    def progress(self) -> tuple[int, int]:
+        return (self.confirmed, len(self.items))
+
     def start(self, now: float) -> list[Message]:
         self.stats.restarts = -1
+        self._started = now
+        self._limit(len(self.items))
         return self._restart(now)
 
     def _restart(self, now: float) -> list[Message]:
         self.stats.restarts += 1
         self._phase = "count"
         self._requested.clear()
+        self.stats.confirmed = 0
         self._last_seq = -1
         self._step_tries = 0
         self._suspect = None
         self._last_progress = now
-        self.deadline = now + self.policy.timeout
+        self._step_deadline = now + self.policy.timeout
         return self._out([Count(len(self.items), self.mission_type)])
 
     def _restart_or_fail(self, now: float, why: str) -> list[Message]:
@@ -286,9 +352,9 @@ class Uploader(_Machine):
             self.stats.duplicate_requests += 1
         else:
             self._requested.add(seq)
-            self._step_tries = 0
+            self.stats.confirmed = max(self.stats.confirmed, seq)
             self._last_progress = now
-            self.deadline = now + self.policy.timeout
+            self._step_deadline = now + self.policy.timeout
         self._last_seq = seq
         return self._out([Item(self.items[seq])])
 
@@ -297,7 +363,7 @@ class Uploader(_Machine):
             complete = len(self._requested) == len(self.items)
             if (self._phase == "items" and complete) or (self._phase == "count" and not self.items):
                 self.done = True
-                self.deadline = math.inf
+                self.stats.confirmed = len(self.items)
             else:
                 self.stats.ignored += 1
             return []
@@ -312,7 +378,7 @@ class Uploader(_Machine):
                 return self._fail(f"{self.what} failed: the vehicle answered {result_name(result)} for "
                                   f"{len(self.items)} items {self.stats.restarts + 1} time(s); {why}")
             self._phase = "wait"
-            self.deadline = now + self.policy.busy_wait
+            self._step_deadline = now + self.policy.busy_wait
             return []
         if result == NO_SPACE:
             # the vehicle has already accepted this attempt's count: a stale answer
@@ -330,7 +396,7 @@ class Uploader(_Machine):
         return self._fail(f"{self.what} rejected by the vehicle{where}: {result_name(result)}")
 
     def poll(self, now: float) -> list[Message]:
-        if self.finished or now < self.deadline:
+        if self.finished or now < self.deadline or self._over_time(now, len(self.items)):
             return []
         if self._phase == "wait":
             return self._restart(now)
@@ -341,7 +407,6 @@ class Uploader(_Machine):
                 self._suspect is not None or stalled or self._step_tries > self.policy.retries):
             self.stats.ack_lost = True
             self.done = True
-            self.deadline = math.inf
             return []
         if self._suspect is not None:
             return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect)} and stopped asking for items")
@@ -350,7 +415,7 @@ class Uploader(_Machine):
                 return self._fail(f"{self.what} failed: no answer to MISSION_COUNT after {self.policy.retries} "
                                   f"resend(s), {self.policy.timeout:g} s each")
             self.stats.resends += 1
-            self.deadline = now + self.policy.timeout
+            self._step_deadline = now + self.policy.timeout
             return self._out([Count(len(self.items), self.mission_type)])
         if stalled:
             return self._restart_or_fail(now, f"the vehicle asked for nothing new after item {self._last_seq} of "
@@ -359,22 +424,40 @@ class Uploader(_Machine):
             return self._restart_or_fail(now, f"no answer after item {self._last_seq} of {len(self.items)} "
                                               f"to {self.policy.retries} resend(s), {self.policy.timeout:g} s each")
         self.stats.resends += 1
-        self.deadline = now + self.policy.timeout
+        self._step_deadline = now + self.policy.timeout
         return self._out([Item(self.items[self._last_seq])])
 
 
 class Downloader(_Machine):
-    """Ground-station side of a download: collects every item, then acknowledges."""
+    """Ground-station side of a download: asks for every item in order, then acknowledges.
+
+    It restarts like the Uploader: when `retries` resends of one step (MISSION_REQUEST_LIST or
+    the request for the next item) go unanswered, or the vehicle answers with an error and
+    nothing follows within one timeout, the transaction starts again with MISSION_REQUEST_LIST.
+    Unlike an upload it keeps what it has: when the vehicle reports the same count again the
+    requests go on from the first missing item (a different count starts from item 0). Any
+    number of restarts may follow new items; `policy.restarts` in a row without a new item end
+    the download. `expected` (the number of items uploaded) sizes the time limit; without it
+    the vehicle's count does.
+    """
 
     kind = "download"
 
-    def __init__(self, mission_type: int, policy: Policy) -> None:
+    def __init__(self, mission_type: int, policy: Policy, expected: int | None = None) -> None:
         super().__init__(mission_type, policy)
+        self.expected = expected
+        self.count: int | None = None  # the vehicle's count, once it has said it
         self.items: list[WireItem | None] = []
         self._phase = "idle"
         self._next = 0
         self._step_tries = 0
         self._suspect: int | None = None
+        self._mark = 0  # the most items held at any restart: a restart that adds none to it is idle
+        self._idle_restarts = 0
+
+    @property
+    def progress(self) -> tuple[int, int]:
+        return (self._next, self.count or 0)
 
     def result(self) -> list[WireItem]:
         if not self.done:
@@ -383,31 +466,52 @@ class Downloader(_Machine):
 
     def start(self, now: float) -> list[Message]:
         self.stats.restarts = -1
+        self._started = now
+        self._limit(self.expected or 0)
         return self._restart(now)
 
     def _restart(self, now: float) -> list[Message]:
         self.stats.restarts += 1
         self._phase = "count"
-        self.items = []
-        self._next = 0
         self._step_tries = 0
         self._suspect = None
-        self.deadline = now + self.policy.timeout
+        self._step_deadline = now + self.policy.timeout
         return self._out([RequestList(self.mission_type)])
+
+    def _may_restart(self) -> bool:
+        """Count a restart against the budget unless items came in since the last one."""
+        if self._next > self._mark:
+            self._idle_restarts = 0
+            self._mark = self._next
+        else:
+            self._idle_restarts += 1
+        return self._idle_restarts <= self.policy.restarts
+
+    def _restart_or_fail(self, now: float, why: str) -> list[Message]:
+        if not self._may_restart():
+            return self._fail(f"{self.what} failed: {why}; gave up after {self.policy.restarts} restart(s) in a row "
+                              f"that brought no new item ({self._next} of {self.count if self.count is not None else '?'} "
+                              "items read)")
+        return self._restart(now)
 
     def _request_next(self, now: float) -> list[Message]:
         self._step_tries = 0
         self._suspect = None
-        self.deadline = now + self.policy.timeout
+        self._step_deadline = now + self.policy.timeout
         return self._out([Request(self._next, self.mission_type)])
 
     def handle(self, msg: Message, now: float) -> list[Message]:
         if not self._ours(msg):
             return []
         if isinstance(msg, Count) and self._phase == "count":
-            self.items = [None] * msg.count
+            if msg.count != self.count:  # first answer, or the vehicle's mission changed: from item 0
+                self.count = msg.count
+                self.items = [None] * msg.count
+                self._next = 0
+                if self.expected is None:
+                    self._limit(msg.count)
             self._phase = "items"
-            if msg.count == 0:
+            if self._next == msg.count:
                 return self._finish()
             return self._request_next(now)
         if isinstance(msg, Item) and self._phase == "items" and msg.item.seq == self._next:
@@ -420,11 +524,11 @@ class Downloader(_Machine):
             # the vehicle is still receiving an upload (a late copy of our MISSION_COUNT can
             # start one): wait for it to give that up, then start again
             self.stats.error_acks.append(msg.result)
-            if self.stats.restarts >= self.policy.restarts:
-                return self._fail(f"{self.what} failed: the vehicle answered MAV_MISSION_DENIED {self.stats.restarts + 1} "
+            if not self._may_restart():
+                return self._fail(f"{self.what} failed: the vehicle answered MAV_MISSION_DENIED {self._idle_restarts} "
                                   "time(s); it is busy with another transfer")
             self._phase = "wait"
-            self.deadline = now + self.policy.busy_wait
+            self._step_deadline = now + self.policy.busy_wait
             return []
         if isinstance(msg, Ack) and msg.result != ACCEPTED and self._phase in ("count", "items"):
             # may be a late answer to an earlier transfer: act on it only if nothing follows
@@ -436,26 +540,24 @@ class Downloader(_Machine):
 
     def _finish(self) -> list[Message]:
         self.done = True
-        self.deadline = math.inf
         return self._out([Ack(ACCEPTED, self.mission_type)])
 
     def poll(self, now: float) -> list[Message]:
         if self.finished or now < self.deadline:
             return []
+        if self._over_time(now, self.expected if self.expected is not None else self.count or 0):
+            return []
         if self._phase == "wait":
             return self._restart(now)
         if self._suspect is not None:
-            why = f"the vehicle answered {result_name(self._suspect)}"
-            if self.stats.restarts >= self.policy.restarts:
-                return self._fail(f"{self.what} failed: {why}; gave up after {self.stats.restarts} restart(s)")
-            return self._restart(now)
+            return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect)}")
         self._step_tries += 1
         if self._step_tries > self.policy.retries:
             step = "MISSION_REQUEST_LIST" if self._phase == "count" else f"MISSION_REQUEST_INT for item {self._next}"
-            return self._fail(f"{self.what} failed: no answer to {step} after {self.policy.retries} resend(s), "
-                              f"{self.policy.timeout:g} s each")
+            return self._restart_or_fail(now, f"no answer to {step} after {self.policy.retries} resend(s), "
+                                              f"{self.policy.timeout:g} s each")
         self.stats.resends += 1
-        self.deadline = now + self.policy.timeout
+        self._step_deadline = now + self.policy.timeout
         if self._phase == "count":
             return self._out([RequestList(self.mission_type)])
         return self._out([Request(self._next, self.mission_type)])

@@ -18,11 +18,13 @@ import shutil
 import subprocess
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from aerosurvey.errors import CheckFailed, InputError
+from aerosurvey.mission.items import Mission
 
 PARAMS_FILE = Path(__file__).resolve().parents[3] / "sitl" / "aerosurvey-sitl.parm"
 COPTER_MODES = {"AUTO": 3, "RTL": 6, "LAND": 9}
@@ -89,7 +91,7 @@ class SitlVehicle:
         self.defaults = defaults
         self.workdir = workdir
         self.boot_timeout = boot_timeout
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
         self.conn: Any = None
 
     def start(self) -> None:
@@ -217,8 +219,8 @@ def prepare(sv: SitlVehicle) -> None:
     sv.request_messages()
 
 
-def fly(sv: SitlVehicle, mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
-        upload) -> Flight:
+def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
+        upload: Callable[[Mission], str]) -> Flight:
     """Upload (with verification), arm, fly AUTO to the end, and record what happened."""
     from pymavlink import mavutil
 
@@ -307,11 +309,11 @@ def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tupl
     if len(flight.triggers) == len(stations):
         for a, b in runs:
             if b > a:
-                t0 = flight.track[flight.trigger_track_index[a]][0] if flight.trigger_track_index[a] < len(flight.track) else None
-                t1 = flight.track[flight.trigger_track_index[b]][0] if flight.trigger_track_index[b] < len(flight.track) else None
-                if t0 is not None and t1 is not None and t1 > t0:
+                ms0 = flight.track[flight.trigger_track_index[a]][0] if flight.trigger_track_index[a] < len(flight.track) else None
+                ms1 = flight.track[flight.trigger_track_index[b]][0] if flight.trigger_track_index[b] < len(flight.track) else None
+                if ms0 is not None and ms1 is not None and ms1 > ms0:
                     length = sum(_dist(*stations[i], *stations[i + 1]) for i in range(a, b))
-                    speeds.append(length / ((t1 - t0) / 1000.0))
+                    speeds.append(length / ((ms1 - ms0) / 1000.0))
     return {
         "sortie": flight.name, "completed": flight.completed, "photos_planned": len(stations),
         "triggers_flown": len(flight.triggers), "triggers_match": len(flight.triggers) == len(stations),

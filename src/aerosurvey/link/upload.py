@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import struct
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -40,12 +40,32 @@ class Link(Protocol):
     def recv(self, until: float) -> mp.Message | None: ...
 
 
+Progress = Callable[[str, int, int], None]
+"""Called as `progress(what, done, total)` (e.g. "mission upload", 350, 701) while a transfer runs."""
+
+
 class VerificationFailed(CheckFailed):
-    """The vehicle accepted the upload but stores something else (exit code 1)."""
+    """The vehicle stores something other than the plan (exit code 1)."""
 
     def __init__(self, message: str, mismatches: Sequence[Mismatch]) -> None:
         super().__init__(message)
         self.mismatches = list(mismatches)
+
+
+class DownloadFailed(LinkError):
+    """A read-back did not finish; `count` is the number of items the vehicle said it holds, if it said."""
+
+    def __init__(self, message: str, count: int | None) -> None:
+        super().__init__(message)
+        self.count = count
+
+
+class UploadFailed(LinkError):
+    """An upload did not finish; `confirmed` items were confirmed by the vehicle in its last attempt."""
+
+    def __init__(self, message: str, confirmed: int) -> None:
+        super().__init__(message)
+        self.confirmed = confirmed
 
 
 # --- the mission model on the wire -------------------------------------------------------
@@ -205,7 +225,7 @@ def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem]
         if e.seq in skip:
             continue
 
-        def miss(name: str, ev: object, av: object) -> None:
+        def miss(name: str, ev: object, av: object, e: mp.WireItem = e) -> None:
             out.append(Mismatch(e.seq, name, ev, av, e.command, mission_type))
 
         if e.command != a.command:
@@ -227,47 +247,56 @@ def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem]
 
 # --- transfers ---------------------------------------------------------------------------
 
-def _hard_limit(policy: mp.Policy, n: int) -> float:
-    """A wall-clock bound no transfer can pass, whatever the vehicle sends."""
-    per_attempt = (policy.timeout * (policy.retries + 2) + policy.stall) * (n + 2)
-    return (policy.restarts + 1) * (per_attempt + policy.busy_wait) + 1.0
+def run_transfer(link: Link, machine: mp.Uploader | mp.Downloader, progress: Progress | None = None) -> None:
+    """Drive one protocol machine over `link` until it succeeds (return) or fails (LinkError).
 
-
-def run_transfer(link: Link, machine: mp.Uploader | mp.Downloader, n_hint: int) -> None:
-    """Drive one protocol machine over `link` until it succeeds (return) or fails (LinkError)."""
+    The machine bounds the time itself (`Policy.limit`): its deadline is never later than
+    that, and every pass through the loop polls it.
+    """
     for m in machine.start(link.now()):
         link.send(m)
-    give_up = link.now() + _hard_limit(machine.policy, n_hint)
     while not machine.finished:
-        now = link.now()
-        if now > give_up:
-            raise LinkError(f"{machine.what} did not finish within {_hard_limit(machine.policy, n_hint):.0f} s")
-        msg = link.recv(min(machine.deadline, give_up))
+        if progress is not None:
+            progress(machine.what, *machine.progress)
+        msg = link.recv(machine.deadline)
         now = link.now()
         out = machine.handle(msg, now) if msg is not None else []
         out += machine.poll(now)
         for m in out:
             link.send(m)
+    if progress is not None:
+        progress(machine.what, *machine.progress)
     if machine.error is not None:
         raise LinkError(machine.error)
 
 
 def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, policy: mp.Policy,
-                 confirm_by_download: bool = False) -> mp.Stats:
+                 confirm_by_download: bool = False, progress: Progress | None = None) -> mp.Stats:
     """Upload one mission type's items; returns what the link cost (resends, restarts).
 
     With `confirm_by_download` the upload may end without the vehicle's final ACCEPTED
     (`stats.ack_lost`); the caller must then read the items back and compare them.
+    Raises UploadFailed when the upload does not finish.
     """
     machine = mp.Uploader(items, mission_type, policy, confirm_by_download)
-    run_transfer(link, machine, len(items))
+    try:
+        run_transfer(link, machine, progress)
+    except LinkError as exc:
+        raise UploadFailed(str(exc), machine.confirmed) from None
     return machine.stats
 
 
-def download_items(link: Link, mission_type: int, policy: mp.Policy, n_hint: int = 1000) -> tuple[list[mp.WireItem], mp.Stats]:
-    """Every item of one mission type as the vehicle stores it; `n_hint` sizes the hard time bound."""
-    machine = mp.Downloader(mission_type, policy)
-    run_transfer(link, machine, n_hint)
+def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: int | None = None,
+                   progress: Progress | None = None) -> tuple[list[mp.WireItem], mp.Stats]:
+    """Every item of one mission type as the vehicle stores it; `expected` sizes the time limit.
+
+    Raises DownloadFailed (with the vehicle's count, when it gave one) when the read-back does not finish.
+    """
+    machine = mp.Downloader(mission_type, policy, expected)
+    try:
+        run_transfer(link, machine, progress)
+    except LinkError as exc:
+        raise DownloadFailed(str(exc), machine.count) from None
     return machine.result(), machine.stats
 
 
@@ -298,6 +327,12 @@ class UploadReport:
     notes: list[str] = field(default_factory=list)
 
 
+def _stats_said(mission: TransferReport, fence: TransferReport | None, kind: int) -> str:
+    rep = mission if kind == mp.MISSION or fence is None else fence
+    return ("its final MISSION_ACK never came" if rep.stats.ack_lost else
+            "although it acknowledged the upload") + "; the read-back shows it"
+
+
 def _distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     k = math.pi / 180.0
     x = (lon2 - lon1) * k * math.cos((lat1 + lat2) * k / 2)
@@ -318,20 +353,40 @@ def check_firmware(m: Mission, vehicle: Vehicle) -> None:
                          f"plan the mission for {said} and upload that")
 
 
-def _verify(link: Link, kind: int, expected: list[mp.WireItem], policy: mp.Policy, storage: str, plane: bool,
-            skip: frozenset[int]) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
-    actual, stats = download_items(link, kind, policy, len(expected))
+_ITEMS = {mp.MISSION: "mission items", mp.FENCE: "fence vertices", mp.RALLY: "rally points"}
+
+
+def _holds(held: object, total: int, kind: int) -> str:
+    return f"the vehicle holds {held} of {total} {_ITEMS.get(kind, 'items')}: do not fly it"
+
+
+def _verify(link: Link, rep: TransferReport, expected: list[mp.WireItem], policy: mp.Policy, storage: str, plane: bool,
+            skip: frozenset[int], progress: Progress | None) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
+    """Read one mission type back and compare; a failed read-back is a LinkError that says what the vehicle holds."""
+    kind, n = rep.mission_type, len(expected)
+    try:
+        actual, stats = download_items(link, kind, policy, n, progress)
+    except DownloadFailed as exc:
+        if exc.count is not None and exc.count != n:
+            raise LinkError(f"{_holds(exc.count, n, kind)} (it says so; the read-back then failed: {exc})") from None
+        if rep.stats.ack_lost:
+            raise LinkError(f"{_holds(rep.stats.confirmed, n, kind)} (it asked for every item but never acknowledged the "
+                            f"last one, and the read-back failed: {exc})") from None
+        raise LinkError(f"upload acknowledged by the vehicle but not verified: {exc}") from None
     wanted = [ardupilot_stored(it, plane) for it in expected] if storage == "ardupilot" else expected
     return actual, stats, compare_items(wanted, actual, skip, kind)
 
 
-def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = True) -> UploadReport:
+def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = True,
+                   progress: Progress | None = None) -> UploadReport:
     """Upload the mission (and its fence when it has one), then read both back and compare.
 
     Raises LinkError when a transfer fails, VerificationFailed when the vehicle stores
     something else; returns a report only when everything asked for succeeded. With
     `verify`, an upload whose final ACCEPTED was lost (`stats.ack_lost`) is settled by the
-    read-back instead of being sent again; without it, such an upload is restarted.
+    read-back instead of being sent again; without it, such an upload is restarted. A
+    vehicle that holds only part of the mission is reported as "the vehicle holds N of M
+    mission items: do not fly it". `progress` is called while each transfer runs.
     """
     vehicle = link.vehicle
     if vehicle is None:
@@ -345,18 +400,18 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     t0 = time.monotonic()
     started = link.now()
     try:
-        stats = upload_items(link, items, mp.MISSION, policy, confirm_by_download=verify)
-    except LinkError as exc:
-        raise LinkError(f"{exc}{_vehicle_said(link, started)}; the vehicle's mission is incomplete or unchanged: "
-                        "do not fly it") from None
+        stats = upload_items(link, items, mp.MISSION, policy, verify, progress)
+    except UploadFailed as exc:
+        raise LinkError(f"{exc}{_vehicle_said(link, started)}; the vehicle's mission is incomplete or unchanged "
+                        f"(it confirmed {exc.confirmed} of {len(items)} items): do not fly it") from None
     mission_rep = TransferReport(mp.MISSION, len(items), time.monotonic() - t0, stats)
     fence_rep = None
     if fence:
         t0 = time.monotonic()
         started = link.now()
         try:
-            fstats = upload_items(link, fence, mp.FENCE, policy, confirm_by_download=verify)
-        except LinkError as exc:
+            fstats = upload_items(link, fence, mp.FENCE, policy, verify, progress)
+        except UploadFailed as exc:
             raise LinkError(f"the mission was uploaded but the {exc}{_vehicle_said(link, started)}; the vehicle's "
                             "fence is not the plan's") from None
         fence_rep = TransferReport(mp.FENCE, len(fence), time.monotonic() - t0, fstats)
@@ -374,11 +429,8 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
         if rep is None:
             continue
         t0 = time.monotonic()
-        try:
-            actual, dstats, found = _verify(link, rep.mission_type, expected, policy, storage, plane,
-                                            skip if rep.mission_type == mp.MISSION else frozenset())
-        except LinkError as exc:
-            raise LinkError(f"upload done but not verified: {exc}") from None
+        actual, dstats, found = _verify(link, rep, expected, policy, storage, plane,
+                                        skip if rep.mission_type == mp.MISSION else frozenset(), progress)
         rep.verify_seconds = time.monotonic() - t0
         rep.download_stats = dstats
         mismatches += found
@@ -389,9 +441,14 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
                 f"{_distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7):.0f} m from the planned home")
             report.home_note = f"item 0 (home) not compared: ArduPilot replaces it with its own home; the vehicle {where}"
     if mismatches:
+        first = mismatches[0]
+        if first.seq is None:  # the item count differs: the vehicle holds part of the mission (or more)
+            n = len(items) if first.mission_type == mp.MISSION else len(fence)
+            raise VerificationFailed(f"verification failed: {_holds(first.actual, n, first.mission_type)} "
+                                     f"({_stats_said(mission_rep, fence_rep, first.mission_type)})", mismatches)
         more = f" (and {len(mismatches) - 1} more difference(s))" if len(mismatches) > 1 else ""
-        raise VerificationFailed(f"verification failed: {mismatches[0]}{more}; the vehicle accepted the upload "
-                                 "but stores something else: do not fly it", mismatches)
+        raise VerificationFailed(f"verification failed: {first}{more}; the vehicle stores something other than "
+                                 "the plan: do not fly it", mismatches)
     mission_rep.verified = True
     if fence_rep is not None:
         fence_rep.verified = True

@@ -17,16 +17,17 @@ from __future__ import annotations
 
 import math
 
+from aerosurvey import ids
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
-from aerosurvey.plan.planner import PlanResult, RouteWaypoint
+from aerosurvey.plan.planner import Plan, RouteWaypoint
 
 
-def _frame(plan: PlanResult) -> int:
+def _frame(plan: Plan) -> int:
     return mav.FRAME_GLOBAL_TERRAIN_ALT if plan.altitude_frame == "terrain" else mav.FRAME_GLOBAL_RELATIVE_ALT
 
 
-def _yaw_param4(plan: PlanResult) -> float:
+def _yaw_param4(plan: Plan) -> float:
     yaw = plan.spec.flight.fixed_yaw_deg
     return float(yaw) if yaw is not None and plan.spec.vehicle.firmware == "px4" else 0.0
 
@@ -37,16 +38,17 @@ def _yaw_param4(plan: PlanResult) -> float:
 PLANE_LINE_ACCEPTANCE_M = 2.0
 
 
-def _wp(plan: PlanResult, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
+def _wp(plan: Plan, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
     alt = w.alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     accept = PLANE_LINE_ACCEPTANCE_M if plan.spec.vehicle.type == "plane" and w.kind in ("line_start", "terrain", "line_end") else 0.0
     return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, accept, 0.0, _yaw_param4(plan),
                        round(w.lat, 8), round(w.lon, 8), round(alt, 2), True, tag)
 
 
-def _camera_on(plan: PlanResult, tag: str) -> list[MissionItem]:
+def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
+        assert plan.trigger_distance_m is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, plan.trigger_distance_m, 0.0, 1.0, tag=tag)]
     if trig == "time":
         assert plan.trigger_interval_s is not None
@@ -54,21 +56,22 @@ def _camera_on(plan: PlanResult, tag: str) -> list[MissionItem]:
     return []
 
 
-def _camera_off(plan: PlanResult, tag: str) -> list[MissionItem]:
+def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
     trig = plan.spec.camera.trigger
     if trig == "distance":
+        assert plan.trigger_distance_m is not None
         return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0, tag=tag)]
     if trig == "time":
         return [MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, 0.0, -1.0, tag=tag)]
     return []
 
 
-def run_id(plan: PlanResult, run: int) -> str:
+def run_id(plan: Plan, run: int) -> str:
     r = plan.route.runs[run]
-    return f"P{r.pass_index}-L{r.line + 1:03d}-R{r.part + 1}"
+    return ids.run_id(r.pass_index, r.line, r.part)
 
 
-def _landing(plan: PlanResult, lat: float, lon: float) -> list[MissionItem]:
+def _landing(plan: Plan, lat: float, lon: float) -> list[MissionItem]:
     """DO_LAND_START, an approach waypoint downwind of the launch point, NAV_LAND into the wind."""
     f = plan.spec.flight
     assert f.wind_from_deg is not None
@@ -85,7 +88,7 @@ def _landing(plan: PlanResult, lat: float, lon: float) -> list[MissionItem]:
     ]
 
 
-def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None, name: str = "mission",
+def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name: str = "mission",
                   home: tuple[float, float, float] | None = None) -> Mission:
     """The mission for one flight: takeoff, survey runs in order, then RTL or land.
 
@@ -100,7 +103,8 @@ def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None
     first_alt = wps[0].alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
     pitch = 15.0 if spec.vehicle.type == "plane" else 0.0
-    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8), takeoff_alt, tag="takeoff"))
+    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8),
+                             takeoff_alt, tag="takeoff"))
     # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies
     # its cruise airspeed, so planes get the speed as airspeed (type 0; equal to ground speed in still air)
     speed_type = 0.0 if spec.vehicle.type == "plane" else 1.0
@@ -119,11 +123,16 @@ def build_mission(plan: PlanResult, waypoints: list[RouteWaypoint] | None = None
             rid = run_id(plan, w.run)
             items.append(_wp(plan, w, f"{rid}:end", alt_shift))
             items.extend(_camera_off(plan, f"{rid}:camera-off"))
+        elif w.kind == "transit":
+            items.append(_wp(plan, w, "transit", alt_shift))
         else:
             items.append(_wp(plan, w, "detour", alt_shift))
+    # the straight way home crosses a zone: the transit waypoints fly round it and a copter
+    # lands at the launch point (NAV_LAND) rather than leaving the way home to RTL
+    home_detour = bool(wps) and wps[-1].kind == "transit"
     if spec.flight.end == "land" and spec.vehicle.type == "plane":
         items.extend(_landing(plan, lat, lon))
-    elif spec.flight.end == "land":
+    elif spec.flight.end == "land" or (home_detour and spec.vehicle.type == "copter"):
         items.append(MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"))
     else:
         items.append(MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl"))

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
+import numpy.typing as npt
 
 from aerosurvey.camera import Camera
 
@@ -20,10 +22,13 @@ _EPS = 1e-9
 #: files (1 cm heights, 1e-8° positions) can never take the overlap below the target.
 SAFETY = 1e-3
 
+#: A float, or an array of them (one value per station).
+FloatOrArray = TypeVar("FloatOrArray", float, npt.NDArray[np.float64])
 
-def gsd_from_height(height_m: float, camera: Camera) -> float:
+
+def gsd_from_height(height_m: FloatOrArray, camera: Camera) -> FloatOrArray:
     """GSD = H · p / f (metres per pixel)."""
-    return height_m * camera.pixel_pitch_mm / camera.focal_mm
+    return gsd_m(height_m, camera.pixel_pitch_mm, camera.focal_mm)
 
 
 def height_from_gsd(gsd_m: float, camera: Camera) -> float:
@@ -31,7 +36,7 @@ def height_from_gsd(gsd_m: float, camera: Camera) -> float:
     return gsd_m * camera.focal_mm / camera.pixel_pitch_mm
 
 
-def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tuple[float, float]:
+def footprint(height_m: FloatOrArray, camera: Camera, mount: str = "landscape") -> tuple[FloatOrArray, FloatOrArray]:
     """Ground footprint (across track, along track) in metres.
 
     Landscape puts the sensor's long side across the flight line (wider strips, shorter
@@ -40,15 +45,8 @@ def footprint(height_m: float, camera: Camera, mount: str = "landscape") -> tupl
     (Sony a6000: 4000 px × 3.917 µm = 15.67 mm, sensor 15.6 mm), and the smaller one
     keeps the overlap at or above the target.
     """
-    gsd = gsd_from_height(height_m, camera)
-    scale = height_m / camera.focal_mm
-    long_side = np.minimum(camera.image_width_px * gsd, camera.sensor_width_mm * scale)
-    short_side = np.minimum(camera.image_height_px * gsd, camera.sensor_height_mm * scale)
-    if mount == "landscape":
-        return long_side, short_side
-    if mount == "portrait":
-        return short_side, long_side
-    raise ValueError(f"mount must be 'landscape' or 'portrait', not {mount!r}")
+    return footprint_m(height_m, camera.sensor_width_mm, camera.sensor_height_mm, camera.image_width_px,
+                       camera.image_height_px, camera.focal_mm, mount)
 
 
 def line_spacing(across_m: float, side_overlap: float) -> float:
@@ -155,3 +153,45 @@ def plane_lead_in(speed_ms: float, nav_period_s: float, damping: float = 0.75) -
 def stop_distance(speed_ms: float, accel_ms2: float) -> float:
     """Distance a copter needs to reach (or leave) `speed_ms`: v² / (2a)."""
     return speed_ms**2 / (2.0 * accel_ms2)
+
+
+# --- The same formulas on plain numbers -------------------------------------------------
+# For code that has a camera's numbers but no Camera: the rules read them from a plan's
+# manifest (camera.sensor_mm, image_px, focal_mm). The Camera-taking functions above give
+# bit-identical results (tests/rules/test_footprint_rule.py); they may delegate here.
+
+
+
+def pixel_pitch_mm(sensor_width_mm: float, image_width_px: int) -> float:
+    """Pixel pitch from the sensor's long side, p = W / N (domain.md section 1), as Camera.pixel_pitch_mm."""
+    return sensor_width_mm / image_width_px
+
+
+def gsd_m(height_m: FloatOrArray, pitch_mm: float, focal_mm: float) -> FloatOrArray:
+    """GSD = H · p / f in metres per pixel, the pitch in millimetres (as gsd_from_height)."""
+    return height_m * pitch_mm / focal_mm
+
+
+def footprint_m(
+    height_m: FloatOrArray,
+    sensor_width_mm: float,
+    sensor_height_mm: float,
+    image_width_px: int,
+    image_height_px: int,
+    focal_mm: float,
+    mount: str = "landscape",
+) -> tuple[FloatOrArray, FloatOrArray]:
+    """Ground footprint (across track, along track) in metres, by the rule of `footprint`.
+
+    Each side is the smaller of N · GSD and the published sensor size · H / f; landscape
+    puts the long side across the flight line, portrait along it.
+    """
+    gsd = gsd_m(height_m, pixel_pitch_mm(sensor_width_mm, image_width_px), focal_mm)
+    scale = height_m / focal_mm
+    long_side: FloatOrArray = np.minimum(image_width_px * gsd, sensor_width_mm * scale)
+    short_side: FloatOrArray = np.minimum(image_height_px * gsd, sensor_height_mm * scale)
+    if mount == "landscape":
+        return long_side, short_side
+    if mount == "portrait":
+        return short_side, long_side
+    raise ValueError(f"mount must be 'landscape' or 'portrait', not {mount!r}")

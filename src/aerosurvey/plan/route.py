@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -102,7 +102,7 @@ def _runs_of_pass(p: Pass, lead_in: float, order: list[int], first_dir: int) -> 
     for s in p.segments:
         by_line.setdefault(s.line, []).append(s)
     offsets = _offsets(p)
-    runs = []
+    runs: list[Run] = []
     for k, line in enumerate(order):
         direction = first_dir if k % 2 == 0 else -first_dir
         segs = sorted(by_line[line], key=lambda s: s.x0, reverse=direction < 0)
@@ -144,7 +144,8 @@ def _cell_runs(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, 
             for k, s in enumerate(segs)]
 
 
-def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, first_dir: int):
+def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool,
+               first_dir: int) -> tuple[tuple[float, float], tuple[float, float]]:
     """Where a cell flown this way starts (its first lead-in) and ends, without building it."""
     segs = cell[::-1] if reverse else cell
     a, b = segs[0], segs[-1]
@@ -391,6 +392,23 @@ class Detours:
         return out[::-1]
 
 
+def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
+    """The run with its lead-in shortened to stop `gap_m` short of a zone's margin in its way."""
+    if detours.blocked is None:
+        return run
+    first = (float(run.station_xy[0, 0]), float(run.station_xy[0, 1]))
+    approach = shapely.LineString([first, run.lead_in_xy])
+    hit = shapely.intersection(approach, detours.blocked)
+    if hit.is_empty:
+        return run
+    d = shapely.line_locate_point(approach, shapely.get_point(shapely.shortest_line(shapely.Point(first), hit), 1))
+    keep = max(0.0, float(d) - gap_m)
+    lx, ly = run.lead_in_xy
+    length = math.dist(first, (lx, ly))
+    t = keep / length if length > 0 else 0.0
+    return replace(run, lead_in_xy=(first[0] + (lx - first[0]) * t, first[1] + (ly - first[1]) * t))
+
+
 def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],
                 start_near: tuple[float, float] | None, detours: Detours) -> Route:
     """Order every pass, join them, and insert detours wherever a leg would enter a zone."""
@@ -404,6 +422,7 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
         runs.extend(pr)
         how.append(chosen)
         here = pr[-1].end_xy
+    runs = [clip_lead_in(r, detours) for r in runs]
     wps: list[Waypoint] = []
     last: tuple[float, float] | None = None
     for i, r in enumerate(runs):

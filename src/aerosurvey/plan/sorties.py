@@ -19,7 +19,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.route import Detours, Kinematics, descent_time, path_time
+from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
+from aerosurvey.plan.route import Detours, Kinematics, Run, descent_time, path_time
+from aerosurvey.spec import VehicleSpec
+
+
+@dataclass(frozen=True, eq=False)
+class FlightPath:
+    """What the battery split needs of a planned route: stations, runs and waypoints in
+    flight order, and how altitudes and triggers work along them."""
+
+    stations: Stations
+    runs: tuple[Run, ...]
+    waypoints: tuple[RouteWaypoint, ...]
+    lead_in_m: float
+    base_m: float
+    grid_scale: float
+    altitude_frame: str
+    heights: Heights
+    home_ground_m: float  # ground under the plan's home (relative altitudes are above it)
+    trigger: str
+    vehicle: VehicleSpec
 
 
 @dataclass(frozen=True)
@@ -78,13 +98,16 @@ class Sortie:
 
 
 def wind_factor(wind_ms: float, speed_ms: float) -> float:
+    """Time allowance of a round trip against and with a steady wind: 1 / (1 − (w/v)²); w < v."""
+    if not 0.0 <= wind_ms < speed_ms:
+        raise ValueError(f"wind {wind_ms:g} m/s must be below the speed {speed_ms:g} m/s")
     return 1.0 / (1.0 - (wind_ms / speed_ms) ** 2)
 
 
 class Splitter:
     """Builds and costs candidate sorties over a planned route."""
 
-    def __init__(self, plan, sites: list[LaunchSite], budget: Budget, kin: Kinematics, detours: Detours,
+    def __init__(self, plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
                  fixed_launch: int | None):
         self.plan = plan
         self.sites = sites
@@ -95,12 +118,12 @@ class Splitter:
         st = plan.stations
         self.run_of = st.run
         self.n = len(st.ids)
-        self.run_start = np.searchsorted(st.run, np.arange(len(plan.route.runs)))
-        self.run_end = np.searchsorted(st.run, np.arange(len(plan.route.runs)), side="right") - 1
+        self.run_start = np.searchsorted(st.run, np.arange(len(plan.runs)))
+        self.run_end = np.searchsorted(st.run, np.arange(len(plan.runs)), side="right") - 1
         # the original waypoints of each run, and the detours leading into it
-        self.by_run: dict[int, list] = {}
-        self.detours_before: dict[int, list] = {}
-        pending: list = []
+        self.by_run: dict[int, list[RouteWaypoint]] = {}
+        self.detours_before: dict[int, list[RouteWaypoint]] = {}
+        pending: list[RouteWaypoint] = []
         for w in plan.waypoints:
             if w.kind == "detour":
                 pending.append(w)
@@ -110,7 +133,7 @@ class Splitter:
                 pending = []
             self.by_run.setdefault(w.run, []).append(w)
         self.station_index = {sid: i for i, sid in enumerate(st.ids)}
-        self._evaluated: dict[tuple[int, int], tuple] = {}
+        self._evaluated: dict[tuple[int, int], tuple[float, int, float, float, float, list[SortieWaypoint], int]] = {}
 
     def _run_waypoints(self, r: int, a: int, b: int) -> list[SortieWaypoint]:
         """Waypoints flying stations a..b (global indices) of run r."""
@@ -133,7 +156,7 @@ class Splitter:
         return out
 
     def _direction(self, r: int) -> tuple[float, float]:
-        h = math.radians(self.plan.route.runs[r].heading_deg)
+        h = math.radians(self.plan.runs[r].heading_deg)
         return math.sin(h), math.cos(h)
 
     def waypoints(self, a: int, b: int) -> list[SortieWaypoint]:
@@ -148,7 +171,7 @@ class Splitter:
         return out
 
     def _items(self, wps: list[SortieWaypoint]) -> int:
-        per_trigger = 0 if self.plan.spec.camera.trigger == "camera" else 2
+        per_trigger = 0 if self.plan.trigger == "camera" else 2
         runs = sum(1 for w in wps if w.kind == "line_start")
         return 3 + len(wps) + per_trigger * runs
 
@@ -163,32 +186,37 @@ class Splitter:
         return self._evaluated[key]
 
     def _evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
-        wps = self.waypoints(a, b)
-        pts = np.asarray([(w.x, w.y) for w in wps])
-        climb = max(w.alt_m for w in wps) if self.plan.altitude_frame == "relative" else self.plan.heights.nominal_agl_m
+        survey = self.waypoints(a, b)
+        pts = np.asarray([(w.x, w.y) for w in survey])
+        climb = max(w.alt_m for w in survey) if self.plan.altitude_frame == "relative" else self.plan.heights.nominal_agl_m
         candidates = [self.fixed_launch] if self.fixed_launch is not None else range(len(self.sites))
-        best = None
+        best: tuple[float, int, float, float, float, list[SortieWaypoint]] | None = None
+        first, last = (survey[0].x, survey[0].y), (survey[-1].x, survey[-1].y)
         for li in candidates:
             s = self.sites[li]
             home = (s.x, s.y)
-            alt_shift = self.plan.home[2] - s.ground_m
-            out_leg = [home, *self.detours.path(home, (wps[0].x, wps[0].y))]
-            back_leg = [*self.detours.path((wps[-1].x, wps[-1].y), home), home]
+            alt_shift = self.plan.home_ground_m - s.ground_m
+            out_via, back_via = self.detours.path(home, first), self.detours.path(last, home)
+            out_leg = [home, *out_via]
+            back_leg = [*back_via, home]
             poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
             horiz = path_time(poly, self.kin)
-            v = self.plan.spec.vehicle
+            v = self.plan.vehicle
             h = max(climb + alt_shift, 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             if v.type == "plane":  # climb and descent overlap the transits out and back
-                t_out = path_time(np.asarray(out_leg + [(wps[0].x, wps[0].y)]) / self.plan.grid_scale, self.kin)
-                t_back = path_time(np.asarray([(wps[-1].x, wps[-1].y)] + back_leg) / self.plan.grid_scale, self.kin)
+                t_out = path_time(np.asarray([*out_leg, first]) / self.plan.grid_scale, self.kin)
+                t_back = path_time(np.asarray([last, *back_leg]) / self.plan.grid_scale, self.kin)
                 vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
             dist = float(np.hypot(*np.diff(poly, axis=0).T).sum())
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
-                best = (used, li, horiz, vert, dist)
+                # the way from the launch point and back home goes round the zones as the costing did
+                wps = ([SortieWaypoint(x, y, survey[0].alt_m, "transit", -1, "") for x, y in out_via] + survey
+                       + [SortieWaypoint(x, y, survey[-1].alt_m, "transit", -1, "") for x, y in back_via])
+                best = (used, li, horiz, vert, dist, wps)
         assert best is not None
-        return (*best, wps, self._items(wps))
+        return (*best, self._items(best[5]))
 
     def fits(self, a: int, b: int, budget: float) -> bool:
         used, *_, items = self.evaluate(a, b)
@@ -216,7 +244,7 @@ class Splitter:
         return out
 
 
-def split(plan, sites: list[LaunchSite], budget: Budget, kin: Kinematics, detours: Detours,
+def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
           fixed_launch: int | None) -> list[Sortie]:
     """Fewest sorties, then as balanced as they can be."""
     sp = Splitter(plan, sites, budget, kin, detours, fixed_launch)

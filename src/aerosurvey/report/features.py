@@ -12,8 +12,10 @@ from typing import Any
 import numpy as np
 import shapely
 
+from aerosurvey import ids
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.planner import PlanResult
+from aerosurvey.plan.footprints import footprint_corners
+from aerosurvey.plan.planner import Plan
 
 
 def _r(v: float, nd: int = 8) -> float:
@@ -31,20 +33,7 @@ def _round_nested(c: Any) -> Any:
     return [_round_nested(x) for x in c]
 
 
-def footprint_corners(x: np.ndarray, y: np.ndarray, heading_deg: np.ndarray, across: np.ndarray, along: np.ndarray) -> np.ndarray:
-    """(n, 4, 2) corners of nadir footprints centred at x, y, long axis `along` the heading."""
-    h = np.radians(heading_deg)
-    ux, uy = np.sin(h), np.cos(h)  # along track
-    vx, vy = uy, -ux  # across track (to the right)
-    a2, c2 = along[:, None] / 2.0, across[:, None] / 2.0
-    su = np.array([1, 1, -1, -1])[None, :]
-    sv = np.array([1, -1, -1, 1])[None, :]
-    cx = x[:, None] + su * a2 * ux[:, None] + sv * c2 * vx[:, None]
-    cy = y[:, None] + su * a2 * uy[:, None] + sv * c2 * vy[:, None]
-    return np.stack([cx, cy], axis=-1)
-
-
-def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, Any]:
+def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     feats: list[dict[str, Any]] = []
     feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": round(plan.area.area / 1e4, 4)},
                   "geometry": {"type": plan.area_wgs84.geom_type, "coordinates": _coords(plan.area_wgs84)}})
@@ -59,7 +48,7 @@ def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, A
         coords = [[_r(st.lon[j]), _r(st.lat[j])] for j in (sel[0], sel[-1])]
         rid = run_id(plan, i)
         feats.append({"type": "Feature", "id": rid, "properties": {
-            "role": "line", "id": rid, "line": f"P{r.pass_index}-L{r.line + 1:03d}", "pass": r.pass_index,
+            "role": "line", "id": rid, "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
             "heading_deg": round(r.heading_deg, 3), "photos": int(len(sel)), "first_station": st.ids[sel[0]],
             "last_station": st.ids[sel[-1]]}, "geometry": {"type": "LineString", "coordinates": coords}})
     lonlat = np.round(np.column_stack([st.lon, st.lat]), 8).tolist()
@@ -82,6 +71,10 @@ def plan_features(plan: PlanResult, with_footprints: bool = True) -> dict[str, A
         for j, sid in enumerate(st.ids):
             feats.append({"type": "Feature", "id": f"{sid}-fp", "properties": {"role": "footprint", "id": f"{sid}-fp", "station": sid},
                           "geometry": {"type": "Polygon", "coordinates": [rings[j]]}})
+    for i, part in enumerate(plan.coverage.polygons(), start=1):
+        feats.append({"type": "Feature", "id": f"uncovered-{i}", "properties": {
+            "role": "uncovered", "id": f"uncovered-{i}", "area_m2": round(part.area / plan.grid_scale ** 2, 2),
+            "min_images": 2}, "geometry": {"type": "Polygon", "coordinates": _coords(plan.planar.inverse(part))}})
     lon, lat, _ = plan.home
     feats.append({"type": "Feature", "id": "home", "properties": {"role": "home", "id": "home"},
                   "geometry": {"type": "Point", "coordinates": [_r(lon), _r(lat)]}})

@@ -13,7 +13,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.plan.planner import PlanResult
+from aerosurvey.plan.planner import Plan
 
 _W, _H, _PAD, _HEAD, _FOOT = 1000, 800, 40, 70, 30
 
@@ -52,7 +52,7 @@ def _scale_bar(view: _View) -> str:
             f'<text x="{x + px + 6:.1f}" y="{y}" font-size="13">{label}</text></g>')
 
 
-def render_svg(plan: PlanResult, rules: list | None = None, points: list | None = None) -> str:
+def render_svg(plan: Plan, rules: list | None = None, points: list | None = None) -> str:
     """The preview as SVG text (deterministic), with rule results and control points when given."""
     st = plan.stations
     wp = np.asarray([(w.x, w.y) for w in plan.waypoints])
@@ -70,9 +70,11 @@ def render_svg(plan: PlanResult, rules: list | None = None, points: list | None 
     parts.append(f'<text x="{_PAD}" y="30" font-size="18" font-weight="bold">{title}</text>')
     parts.append(f'<text x="{_PAD}" y="52" font-size="13">heading {plan.heading_deg:.1f}° ({escape(plan.heading_chosen)}), '
                  f'spacing {plan.spacing_m:.1f} m, photo base {plan.base_m:.1f} m, CRS {escape(plan.planar.name)}</text>')
-    parts.append(f'<path d="{view.path(plan.area)}" fill="#cfe8c4" fill-rule="evenodd" stroke="#3a7d2c" stroke-width="2"><title>area</title></path>')
+    parts.append(f'<path d="{view.path(plan.area)}" fill="#cfe8c4" fill-rule="evenodd" stroke="#3a7d2c" '
+                 'stroke-width="2"><title>area</title></path>')
     if plan.exclusions is not None:
-        parts.append(f'<path d="{view.path(plan.exclusions)}" fill="#f4b4b4" fill-opacity="0.8" stroke="#b00" stroke-width="2"><title>exclusion zone</title></path>')
+        parts.append(f'<path d="{view.path(plan.exclusions)}" fill="#f4b4b4" fill-opacity="0.8" stroke="#b00" '
+                     'stroke-width="2"><title>exclusion zone</title></path>')
     path_pts = [view.pt(x, y) for x, y in wp]
     parts.append('<polyline fill="none" stroke="#888" stroke-width="1" stroke-dasharray="4 3" points="'
                  + " ".join(f"{a:.1f},{b:.1f}" for a, b in path_pts) + '"><title>route</title></polyline>')
@@ -86,9 +88,11 @@ def render_svg(plan: PlanResult, rules: list | None = None, points: list | None 
         dots = "".join(f"M{p[0]:.1f},{p[1]:.1f}h0.01" for p in (view.pt(x, y) for x, y in zip(st.x, st.y)))
         parts.append(f'<path d="{dots}" stroke="#111" stroke-width="2.5" stroke-linecap="round"><title>photo stations</title></path>')
     hx, hy = view.pt(*plan.home_xy)
-    parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2"><title>take-off (home)</title></circle>')
+    parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2">'
+                 '<title>take-off (home)</title></circle>')
     sx, sy = path_pts[0]
-    parts.append(f'<polygon points="{sx:.1f},{sy - 9:.1f} {sx + 8:.1f},{sy + 6:.1f} {sx - 8:.1f},{sy + 6:.1f}" fill="#0a0"><title>start of the survey</title></polygon>')
+    parts.append(f'<polygon points="{sx:.1f},{sy - 9:.1f} {sx + 8:.1f},{sy + 6:.1f} {sx - 8:.1f},{sy + 6:.1f}" fill="#0a0">'
+                 '<title>start of the survey</title></polygon>')
     for p in points or []:
         px, py = view.pt(p.x, p.y)
         if p.role == "gcp":

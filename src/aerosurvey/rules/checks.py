@@ -7,11 +7,31 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
+
+import numpy as np
+import numpy.typing as npt
+import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.rules.footprints import ViewCamera
+from aerosurvey.rules.planview import PlanView
+from aerosurvey.rules.profile import ParamValue
+
+if TYPE_CHECKING:  # engine.py imports this module
+    from aerosurvey.rules.engine import Evidence
+
+
+class Where(TypedDict, total=False):
+    """Where on the map a failure lies, for a viewer to highlight (one key per entry)."""
+
+    run: str
+    runs: list[str]
+    station: str
+    point: str  # control point id
+    xy: list[float]  # planning CRS
 
 
 @dataclass(frozen=True)
@@ -20,18 +40,50 @@ class Outcome:
     measured: str
     required: str
     evidence: list[str] = field(default_factory=list)
-    # where on the map the failure lies, for a viewer to highlight: {"run": id}, {"runs": [a, b]},
-    # {"station": id}, {"point": control point id} or {"xy": [x, y]} in the planning CRS
-    where: list[dict[str, Any]] = field(default_factory=list)
+    where: list[Where] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Params:
+    """A rule's parameters (defaults filled in), read with the type the check declared."""
+
+    values: Mapping[str, ParamValue]
+
+    def _get(self, key: str) -> ParamValue:
+        if key not in self.values:
+            raise InputError(f"rule parameter {key!r} is missing")
+        return self.values[key]
+
+    def num(self, key: str) -> float:
+        v = self._get(key)
+        if isinstance(v, str):
+            raise InputError(f"rule parameter {key!r} = {v!r} must be a number")
+        return v
+
+    def whole(self, key: str) -> int:
+        v = self._get(key)
+        if not isinstance(v, int):
+            raise InputError(f"rule parameter {key!r} = {v!r} must be a whole number")
+        return v
+
+    def text(self, key: str) -> str:
+        v = self._get(key)
+        if not isinstance(v, str):
+            raise InputError(f"rule parameter {key!r} = {v!r} must be a string")
+        return v
+
+
+CheckFn = Callable[[PlanView, Params, "Evidence"], Outcome]
 
 
 @dataclass(frozen=True)
 class Check:
     params: dict[str, type | tuple[type, ...]]
-    run: Callable[..., Outcome]
-    defaults: dict[str, Any] = field(default_factory=dict)
+    run: CheckFn
+    defaults: dict[str, ParamValue] = field(default_factory=dict)
 
-    def validate(self, params: dict[str, Any], where: str) -> None:
+    def validate(self, params: Mapping[str, object], where: str) -> dict[str, ParamValue]:
+        """The parameters a profile gives, checked against what this check takes."""
         for key in params:
             if key not in self.params:
                 raise InputError(f"{where}: unknown parameter {key!r}; this check takes {', '.join(sorted(self.params)) or 'none'}")
@@ -41,25 +93,30 @@ class Check:
             v = params.get(key, self.defaults.get(key))
             if isinstance(v, bool) or not isinstance(v, typ):
                 raise InputError(f"{where}: parameter {key!r} = {v!r} must be a {getattr(typ, '__name__', 'number')}")
-        if "formula" in params:
-            compile_formula(params["formula"], where)
+        out: dict[str, ParamValue] = {}
+        for key, v in params.items():
+            if not isinstance(v, (int, float, str)):  # the declared types are all of these
+                raise InputError(f"{where}: parameter {key!r} = {v!r} must be a number or a string")
+            out[key] = v
+        formula = out.get("formula")
+        if isinstance(formula, str):
+            compile_formula(formula, where)
+        return out
 
 
 NUM = (int, float)
 CHECKS: dict[str, Check] = {}
 
 
-def check(name: str, defaults: dict[str, Any] | None = None, **params: type | tuple[type, ...]):
-    def deco(fn: Callable[..., Outcome]) -> Callable[..., Outcome]:
+def check(name: str, defaults: dict[str, ParamValue] | None = None, **params: type | tuple[type, ...]) -> Callable[[CheckFn], CheckFn]:
+    def deco(fn: CheckFn) -> CheckFn:
         CHECKS[name] = Check(params, fn, defaults or {})
         return fn
 
     return deco
 
 
-def _flatnonzero(mask: Any) -> list[int]:
-    import numpy as np
-
+def _flatnonzero(mask: npt.ArrayLike) -> list[int]:
     return [int(i) for i in np.flatnonzero(np.asarray(mask))]
 
 
@@ -68,89 +125,94 @@ def _pct(v: float) -> str:
 
 
 @check("sensor_min_size", min_long_mm=NUM, min_short_mm=NUM)
-def _sensor(view, p, ev) -> Outcome:
-    w, h = view.camera["sensor_mm"]
-    ok = w >= p["min_long_mm"] and h >= p["min_short_mm"]
-    return Outcome("pass" if ok else "fail", f"{w:g} x {h:g} mm ({view.camera['name']})",
-                   f">= {p['min_long_mm']:g} x {p['min_short_mm']:g} mm")
+def _sensor(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    cam = ViewCamera.of(view).camera
+    w, h = cam.sensor_width_mm, cam.sensor_height_mm
+    ok = w >= p.num("min_long_mm") and h >= p.num("min_short_mm")
+    return Outcome("pass" if ok else "fail", f"{w:g} x {h:g} mm ({cam.name})",
+                   f">= {p.num('min_long_mm'):g} x {p.num('min_short_mm'):g} mm")
 
 
 @check("pixel_pitch_max", max_um=NUM)
-def _pitch(view, p, ev) -> Outcome:
-    pitch = view.camera["pixel_pitch_um"]
-    return Outcome("pass" if pitch <= p["max_um"] + 1e-9 else "fail", f"{pitch:.2f} um ({view.camera['name']})", f"<= {p['max_um']:g} um")
+def _pitch(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    cam = ViewCamera.of(view).camera
+    pitch = cam.pixel_pitch_um
+    return Outcome("pass" if pitch <= p.num("max_um") + 1e-9 else "fail", f"{pitch:.2f} um ({cam.name})", f"<= {p.num('max_um'):g} um")
 
 
 @check("forward_overlap_min", min=NUM)
-def _fwd(view, p, ev) -> Outcome:
+def _fwd(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     per_run = ev.forward_overlaps
+    least = p.num("min")
     if not per_run:
-        return Outcome("fail", "no run with two photos", f">= {_pct(p['min'])}")
+        return Outcome("fail", "no run with two photos", f">= {_pct(least)}")
     worst = min(per_run, key=lambda t: t[1])
-    low = [(rid, v) for rid, v in per_run if v < p["min"] - 1e-9]
+    low = [(rid, v) for rid, v in per_run if v < least - 1e-9]
     bad = [f"{rid}: {_pct(v)}" for rid, v in low]
-    return Outcome("pass" if not bad else "fail", f"{_pct(worst[1])} (lowest, run {worst[0]})", f">= {_pct(p['min'])}",
+    return Outcome("pass" if not bad else "fail", f"{_pct(worst[1])} (lowest, run {worst[0]})", f">= {_pct(least)}",
                    bad[:20] + ([f"... and {len(bad) - 20} more runs"] if len(bad) > 20 else []),
                    [{"run": rid} for rid, _ in low])
 
 
 @check("side_overlap_min", min=NUM)
-def _side(view, p, ev) -> Outcome:
+def _side(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     pairs = ev.side_overlaps
+    least = p.num("min")
     if not pairs:
-        return Outcome("not-checkable", "a single strip", f">= {_pct(p['min'])}", ["one strip has no side neighbour"])
+        return Outcome("not-checkable", "a single strip", f">= {_pct(least)}", ["one strip has no side neighbour"])
     worst = min(pairs, key=lambda t: t[2])
-    low = [(a, b, v) for a, b, v in pairs if v < p["min"] - 1e-9]
+    low = [(a, b, v) for a, b, v in pairs if v < least - 1e-9]
     bad = [f"{a} / {b}: {_pct(v)}" for a, b, v in low]
     return Outcome("pass" if not bad else "fail", f"{_pct(worst[2])} (lowest, runs {worst[0]} / {worst[1]})",
-                   f">= {_pct(p['min'])}", bad[:20], [{"runs": [a, b]} for a, b, _ in low])
+                   f">= {_pct(least)}", bad[:20], [{"runs": [a, b]} for a, b, _ in low])
 
 
 @check("gsd_max", max_cm=NUM)
-def _gsd(view, p, ev) -> Outcome:
-    cam = view.camera
-    gsd_all = view.agl * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"] * 100
+def _gsd(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    most = p.num("max_cm")
+    gsd_all = ViewCamera.of(view).gsd_m(view.agl) * 100
     gsd = float(gsd_all.max())
-    where = [{"station": view.station_ids[i]} for i in _flatnonzero(gsd_all > p["max_cm"] + 1e-9)]
-    return Outcome("pass" if gsd <= p["max_cm"] + 1e-9 else "fail", f"{gsd:.2f} cm (coarsest photo)", f"<= {p['max_cm']:g} cm",
-                   where=where)
+    where: list[Where] = [{"station": view.station_ids[i]} for i in _flatnonzero(gsd_all > most + 1e-9)]
+    return Outcome("pass" if gsd <= most + 1e-9 else "fail", f"{gsd:.2f} cm (coarsest photo)", f"<= {most:g} cm", where=where)
 
 
 @check("images_beyond_boundary", min=int)
-def _beyond(view, p, ev) -> Outcome:
-    found = ev.crossings(p["min"])
+def _beyond(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    least = p.whole("min")
+    found = ev.crossings(least)
     if not found:
-        return Outcome("fail", "no run crosses the area", f">= {p['min']} photos outside at every crossing")
-    bad = [f"{c['run']} {c['where']}: {c['outside_photos']} photos outside" for c in found if not c["ok"]]
-    counted = [c["outside_photos"] for c in found if c["where"] in ("entry", "exit")]
+        return Outcome("fail", "no run crosses the area", f">= {least} photos outside at every crossing")
+    bad = [f"{c.run} {c.where}: {c.outside_photos} photos outside" for c in found if not c.ok]
+    counted = [c.outside_photos for c in found if c.where in ("entry", "exit")]
     return Outcome("pass" if not bad else "fail", f"{min(counted)} photos (fewest, over {len(counted)} crossings)",
-                   f">= {p['min']} at every crossing", bad[:30] + ([f"... and {len(bad) - 30} more"] if len(bad) > 30 else []),
-                   [{"run": c["run"]} for c in found if not c["ok"]])
+                   f">= {least} at every crossing", bad[:30] + ([f"... and {len(bad) - 30} more"] if len(bad) > 30 else []),
+                   [{"run": c.run} for c in found if not c.ok])
 
 
 @check("coverage_min_images", min=int)
-def _coverage(view, p, ev) -> Outcome:
+def _coverage(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    least = p.whole("min")
     counts, gx, gy = ev.grid_counts
     worst = int(counts.argmin())
-    short = int((counts < p["min"]).sum())
-    evidence = [f"{short} of {len(counts)} sample points seen by fewer photos; the worst at x {gx[worst]:.1f}, y {gy[worst]:.1f}"] if short else []
-    where = [{"xy": [round(float(gx[i]), 2), round(float(gy[i]), 2)]} for i in _flatnonzero(counts < p["min"])[:500]]
+    short = int((counts < least).sum())
+    evidence = [f"{short} of {len(counts)} sample points seen by fewer photos; "
+                f"the worst at x {gx[worst]:.1f}, y {gy[worst]:.1f}"] if short else []
+    where: list[Where] = [{"xy": [round(float(gx[i]), 2), round(float(gy[i]), 2)]} for i in _flatnonzero(counts < least)[:500]]
     return Outcome("pass" if short == 0 else "fail", f"{int(counts.min())} photos (fewest, {len(counts)} sample points)",
-                   f">= {p['min']} photos on every point of the area", evidence, where)
+                   f">= {least} photos on every point of the area", evidence, where)
 
 
 @check("max_height_agl", max_m=NUM)
-def _height(view, p, ev) -> Outcome:
+def _height(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    most = p.num("max_m")
     h = float(view.agl.max())
-    where = [{"station": view.station_ids[i]} for i in _flatnonzero(view.agl > p["max_m"] + 1e-6)]
-    return Outcome("pass" if h <= p["max_m"] + 1e-6 else "fail", f"{h:.1f} m (highest photo above ground)", f"<= {p['max_m']:g} m",
-                   where=where)
+    where: list[Where] = [{"station": view.station_ids[i]} for i in _flatnonzero(view.agl > most + 1e-6)]
+    return Outcome("pass" if h <= most + 1e-6 else "fail", f"{h:.1f} m (highest photo above ground)", f"<= {most:g} m", where=where)
 
 
 @check("gcp_outside_envelope", defaults={"min_enclosed": 0.98}, min_enclosed=NUM)
-def _envelope(view, p, ev) -> Outcome:
-    import shapely
-
+def _envelope(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    least = p.num("min_enclosed")
     gcps = ev.control_points("gcp")
     if len(gcps) < 3:
         return Outcome("fail", f"{len(gcps)} GCPs", "an envelope of GCPs outside the perimeter")
@@ -158,46 +220,49 @@ def _envelope(view, p, ev) -> Outcome:
     hull = shapely.Polygon([(g.x, g.y) for g in ev.ring_order(gcps)])
     hull = hull if hull.is_valid else shapely.convex_hull(hull)
     enclosed = shapely.intersection(view.area, hull).area / view.area.area
-    ok = not inside and enclosed >= p["min_enclosed"]
+    ok = not inside and enclosed >= least
     evidence = [f"GCP {i} lies inside the area" for i in inside]
-    if enclosed < p["min_enclosed"]:
+    if enclosed < least:
         evidence.append(f"the GCP polygon encloses only {_pct(enclosed)} of the area")
     return Outcome("pass" if ok else "fail", f"{len(gcps) - len(inside)} of {len(gcps)} outside, polygon encloses {_pct(enclosed)}",
-                   f"all outside, enclosing >= {_pct(p['min_enclosed'])} of the area", evidence, [{"point": i} for i in inside])
+                   f"all outside, enclosing >= {_pct(least)} of the area", evidence, [{"point": i} for i in inside])
 
 
 @check("gcp_visibility", min_images=int)
-def _visible(view, p, ev) -> Outcome:
+def _visible(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    least = p.whole("min_images")
     gcps = ev.control_points("gcp")
     if not gcps:
-        return Outcome("fail", "no GCP", f"each GCP on >= {p['min_images']} photos")
-    bad = [f"GCP {g.id}: {g.images} photos" for g in gcps if g.images < p["min_images"]]
+        return Outcome("fail", "no GCP", f"each GCP on >= {least} photos")
+    bad = [f"GCP {g.id}: {g.images} photos" for g in gcps if g.images < least]
     fewest = min(g.images for g in gcps)
-    return Outcome("pass" if not bad else "fail", f"{fewest} photos (fewest)", f">= {p['min_images']} photos on each GCP", bad,
-                   [{"point": g.id} for g in gcps if g.images < p["min_images"]])
+    return Outcome("pass" if not bad else "fail", f"{fewest} photos (fewest)", f">= {least} photos on each GCP", bad,
+                   [{"point": g.id} for g in gcps if g.images < least])
 
 
 @check("gcp_count", formula=str)
-def _gcp_count(view, p, ev) -> Outcome:
+def _gcp_count(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    formula = p.text("formula")
     n = len(view.station_ids)
-    need = math.ceil(evaluate_formula(p["formula"], n_images=n, area_ha=view.area_ha, area_km2=view.area_ha / 100))
+    need = math.ceil(evaluate_formula(formula, n_images=n, area_ha=view.area_ha, area_km2=view.area_ha / 100))
     have = len(ev.control_points("gcp"))
-    return Outcome("pass" if have >= need else "fail", f"{have} GCPs", f">= {need} ({p['formula']} with n_images = {n})")
+    return Outcome("pass" if have >= need else "fail", f"{have} GCPs", f">= {need} ({formula} with n_images = {n})")
 
 
 @check("target_size", factor=NUM)
-def _target(view, p, ev) -> Outcome:
-    cam = view.camera
-    gsd = float(view.agl.max()) * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"]
-    return Outcome("info", f"targets of at least {p['factor'] * gsd * 100:.1f} cm", f"{p['factor']:g} x GSD ({gsd * 100:.2f} cm)")
+def _target(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    factor = p.num("factor")
+    gsd = float(ViewCamera.of(view).gsd_m(view.agl).max())
+    return Outcome("info", f"targets of at least {factor * gsd * 100:.1f} cm", f"{factor:g} x GSD ({gsd * 100:.2f} cm)")
 
 
 @check("check_point_density", ha_per_point=NUM)
-def _cp_density(view, p, ev) -> Outcome:
+def _cp_density(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    ha = p.num("ha_per_point")
     cps = ev.control_points("check")
-    need = math.ceil(view.area_ha / p["ha_per_point"] - 1e-9)
+    need = math.ceil(view.area_ha / ha - 1e-9)
     return Outcome("pass" if len(cps) >= need else "fail", f"{len(cps)} check points",
-                   f">= {need} (1 per {p['ha_per_point']:g} ha over {view.area_ha:.1f} ha)")
+                   f">= {need} (1 per {ha:g} ha over {view.area_ha:.1f} ha)")
 
 
 ASPRS_2014 = [(500, 20, 25), (750, 25, 30), (1000, 30, 40), (1250, 35, 50), (1500, 40, 60), (1750, 45, 70),
@@ -224,19 +289,19 @@ def asprs_required(edition: str, area_km2: float) -> tuple[int, int]:
 
 
 @check("asprs_check_points", edition=str)
-def _asprs(view, p, ev) -> Outcome:
-    if p["edition"] not in ("2014", "2023"):
-        raise InputError(f"asprs_check_points: edition = {p['edition']!r}; allowed: 2014, 2023")
-    h, v = asprs_required(p["edition"], view.area_ha / 100)
+def _asprs(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    edition = p.text("edition")
+    if edition not in ("2014", "2023"):
+        raise InputError(f"asprs_check_points: edition = {edition!r}; allowed: 2014, 2023")
+    h, v = asprs_required(edition, view.area_ha / 100)
     have = len(ev.control_points("check"))
     return Outcome("pass" if have >= max(h, v) else "fail", f"{have} check points",
-                   f">= {h} horizontal and {v} vertical (ASPRS {p['edition']}, {view.area_ha / 100:.3f} km2)")
+                   f">= {h} horizontal and {v} vertical (ASPRS {edition}, {view.area_ha / 100:.3f} km2)")
 
 
 @check("check_point_distribution", min_quadrant_share=NUM, min_spacing_diagonal=NUM)
-def _distribution(view, p, ev) -> Outcome:
-    import numpy as np
-
+def _distribution(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    share, spacing = p.num("min_quadrant_share"), p.num("min_spacing_diagonal")
     cps = ev.control_points("check")
     if len(cps) < 4:
         return Outcome("fail", f"{len(cps)} check points", "points in every quadrant of the area")
@@ -244,28 +309,32 @@ def _distribution(view, p, ev) -> Outcome:
     y = np.array([c.y for c in cps])
     x0, y0, x1, y1 = view.area.bounds
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-    quads = [((x >= cx) & (y >= cy)).mean(), ((x < cx) & (y >= cy)).mean(), ((x < cx) & (y < cy)).mean(), ((x >= cx) & (y < cy)).mean()]
+    quads = [float(((x >= cx) & (y >= cy)).mean()), float(((x < cx) & (y >= cy)).mean()),
+             float(((x < cx) & (y < cy)).mean()), float(((x >= cx) & (y < cy)).mean())]
     d = np.hypot(x[:, None] - x[None, :], y[:, None] - y[None, :])
     d[np.diag_indices_from(d)] = np.inf
     diag = math.hypot(x1 - x0, y1 - y0)
     closest = float(d.min())
     evidence = []
-    if min(quads) < p["min_quadrant_share"]:
+    if min(quads) < share:
         evidence.append("quadrant shares NE/NW/SW/SE: " + ", ".join(_pct(q) for q in quads))
-    if closest < p["min_spacing_diagonal"] * diag:
-        evidence.append(f"closest pair {closest:.0f} m apart, under {_pct(p['min_spacing_diagonal'])} of the {diag:.0f} m diagonal")
+    if closest < spacing * diag:
+        evidence.append(f"closest pair {closest:.0f} m apart, under {_pct(spacing)} of the {diag:.0f} m diagonal")
     return Outcome("pass" if not evidence else "fail", f"fewest in a quadrant {_pct(min(quads))}, closest pair {closest:.0f} m",
-                   f">= {_pct(p['min_quadrant_share'])} per quadrant, >= {p['min_spacing_diagonal'] * diag:.0f} m apart", evidence)
+                   f">= {_pct(share)} per quadrant, >= {spacing * diag:.0f} m apart", evidence)
 
 
 @check("manual", note=str)
-def _manual(view, p, ev) -> Outcome:
-    return Outcome("not-checkable", "-", p["note"], ["recorded as metadata; not checkable before flight"])
+def _manual(view: PlanView, p: Params, ev: Evidence) -> Outcome:
+    return Outcome("not-checkable", "-", p.text("note"), ["recorded as metadata; not checkable before flight"])
 
 
-_OPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
-        ast.FloorDiv: operator.floordiv, ast.Pow: operator.pow, ast.USub: operator.neg}
-_FUNCS = {"ceil": math.ceil, "floor": math.floor, "min": min, "max": max, "round": round, "sqrt": math.sqrt}
+_BINOPS: dict[type[ast.operator], Callable[[float, float], float]] = {
+    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+    ast.FloorDiv: operator.floordiv, ast.Pow: operator.pow}
+_UNOPS: dict[type[ast.unaryop], Callable[[float], float]] = {ast.USub: operator.neg}
+_FUNCS: dict[str, Callable[..., float]] = {"ceil": math.ceil, "floor": math.floor, "min": min, "max": max, "round": round,
+                                           "sqrt": math.sqrt}
 _NAMES = ("n_images", "area_ha", "area_km2")
 
 
@@ -280,7 +349,9 @@ def compile_formula(text: str, where: str) -> ast.Expression:
         ok = isinstance(node, (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Call, ast.Load, ast.operator, ast.unaryop)) \
             or (isinstance(node, ast.Constant) and isinstance(node.value, (int, float))) \
             or (isinstance(node, ast.Name) and (node.id in _NAMES or node.id in _FUNCS))
-        if isinstance(node, ast.BinOp) and type(node.op) not in _OPS:
+        if isinstance(node, ast.BinOp) and type(node.op) not in _BINOPS:
+            ok = False
+        if isinstance(node, ast.UnaryOp) and type(node.op) not in _UNOPS:
             ok = False
         if isinstance(node, ast.Call) and not (isinstance(node.func, ast.Name) and node.func.id in _FUNCS):
             ok = False
@@ -292,18 +363,18 @@ def compile_formula(text: str, where: str) -> ast.Expression:
 def evaluate_formula(text: str, **names: float) -> float:
     tree = compile_formula(text, "formula")
 
-    def ev(node: ast.AST) -> Any:
+    def ev(node: ast.AST) -> float:
         if isinstance(node, ast.Expression):
             return ev(node.body)
-        if isinstance(node, ast.Constant):
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
             return node.value
         if isinstance(node, ast.Name):
             return names[node.id]
         if isinstance(node, ast.BinOp):
-            return _OPS[type(node.op)](ev(node.left), ev(node.right))
+            return _BINOPS[type(node.op)](ev(node.left), ev(node.right))
         if isinstance(node, ast.UnaryOp):
-            return _OPS[type(node.op)](ev(node.operand))
-        if isinstance(node, ast.Call):
+            return _UNOPS[type(node.op)](ev(node.operand))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
             return _FUNCS[node.func.id](*[ev(a) for a in node.args])
         raise InputError(f"formula {text!r}: unsupported element")
 

@@ -11,18 +11,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.rules.footprints import Footprints
+from aerosurvey.rules.footprints import FloatArray, Footprints
+
+#: A ground control point (used in the adjustment) or a check point (kept out of it).
+Role = Literal["gcp", "check"]
 
 
 @dataclass(frozen=True)
 class ControlPoint:
     id: str
-    role: str  # gcp or check
+    role: Role
     x: float
     y: float
     images: int
@@ -58,20 +62,20 @@ def _settle(pid: str, p: shapely.Point, near: shapely.Point, outline: BaseGeomet
     """Move a GCP along its normal towards the outline until enough photos see it."""
     dx, dy = p.x - near.x, p.y - near.y
     dist = math.hypot(dx, dy)
-    best = None
+    best: tuple[float, float, int, float] | None = None
     for frac in np.linspace(1.0, 0.0, 21)[:-1]:
         x, y = near.x + dx * frac, near.y + dy * frac
         if shapely.contains_xy(outline, x, y) or (nogo is not None and shapely.contains_xy(nogo, x, y)):
             continue
         n = int(fp.count_at(np.array([x]), np.array([y]))[0])
         if best is None or n > best[2]:
-            best = (x, y, n, frac)
+            best = (float(x), float(y), n, float(frac))
         if n >= min_images:
             note = "" if frac == 1.0 else f"moved to {dist * frac:.1f} m outside the outline to be seen by {n} photos"
             return ControlPoint(pid, "gcp", float(x), float(y), n, note)
     if best is None:
         return ControlPoint(pid, "gcp", float(p.x), float(p.y), 0, "no place outside the outline and the no-go zones")
-    return ControlPoint(pid, "gcp", float(best[0]), float(best[1]), best[2],
+    return ControlPoint(pid, "gcp", best[0], best[1], best[2],
                         f"seen by only {best[2]} photos even at {dist * best[3]:.1f} m from the outline: extend the plan "
                         f"(set targets.coverage_margin_m to at least {dist + 2:.0f} m) or place this GCP by hand")
 
@@ -82,19 +86,21 @@ def ring_order(points: list[ControlPoint], area: BaseGeometry) -> list[ControlPo
     return sorted(points, key=lambda g: ring.project(shapely.Point(g.x, g.y)))
 
 
-def hex_grid(geom: BaseGeometry, spacing: float) -> np.ndarray:
+def hex_grid(geom: BaseGeometry, spacing: float) -> FloatArray:
+    """(n, 2) points of a hexagonal grid with `spacing` between neighbours, inside `geom`."""
     x0, y0, x1, y1 = geom.bounds
     dy = spacing * math.sqrt(3) / 2
     rows = np.arange(y0 + dy / 2, y1, dy)
-    pts = []
+    pts: list[tuple[float, float]] = []
     for i, y in enumerate(rows):
         off = spacing / 2 if i % 2 else 0.0
         xs = np.arange(x0 + spacing / 4 + off, x1, spacing)
-        pts.extend((x, y) for x in xs)
+        pts.extend((float(x), float(y)) for x in xs)
     if not pts:
         return np.empty((0, 2))
-    a = np.asarray(pts)
-    return a[shapely.contains_xy(geom, a[:, 0], a[:, 1])]
+    a = np.asarray(pts, float)
+    inside: FloatArray = a[shapely.contains_xy(geom, a[:, 0], a[:, 1])]
+    return inside
 
 
 def propose_check_points(area: BaseGeometry, fp: Footprints, ha_per_point: float, minimum: int,

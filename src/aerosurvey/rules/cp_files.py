@@ -11,19 +11,21 @@ from html import escape
 
 import numpy as np
 
-from aerosurvey.rules.control_points import ControlPoint
-from aerosurvey.rules.footprints import Footprints
+from aerosurvey.errors import InputError
+from aerosurvey.reproject import planar
+from aerosurvey.rules.control_points import ControlPoint, Role
+from aerosurvey.rules.footprints import FloatArray, Footprints, ViewCamera, footprints
 from aerosurvey.rules.planview import PlanView
 
 
-def _lonlat(view: PlanView, pts: list[ControlPoint]) -> tuple[np.ndarray, np.ndarray]:
-    lon, lat = view.to_wgs84.transform(np.array([p.x for p in pts], float), np.array([p.y for p in pts], float))
+def _lonlat(view: PlanView, pts: list[ControlPoint]) -> tuple[FloatArray, FloatArray]:
+    lon, lat = planar(view.crs).lonlat(np.array([p.x for p in pts], float), np.array([p.y for p in pts], float))
     return np.atleast_1d(lon), np.atleast_1d(lat)
 
 
 def target_size_cm(view: PlanView, factor: float = 3.5) -> float:
-    cam = view.camera
-    gsd_cm = float(view.agl.max()) * cam["pixel_pitch_um"] / 1000.0 / cam["focal_mm"] * 100
+    """Side of a GCP target: `factor` times the coarsest photo's GSD, in cm to 1 mm."""
+    gsd_cm = float(ViewCamera.of(view).gsd_m(view.agl).max()) * 100
     return round(factor * gsd_cm, 1)
 
 
@@ -70,8 +72,8 @@ def to_odm_gcp_list(view: PlanView, pts: list[ControlPoint], fp: Footprints, per
     The image column holds the station id: replace it with the image file name once the
     photos are linked to stations; heights are 0 until the GCPs are surveyed.
     """
-    cam = view.camera
-    nw, nh = cam["image_px"]
+    cam = ViewCamera.of(view)
+    nw, nh = cam.camera.image_width_px, cam.camera.image_height_px
     lines = [view.crs]
     s, c = np.sin(fp.heading_rad), np.cos(fp.heading_rad)
     for p in pts:
@@ -83,7 +85,7 @@ def to_odm_gcp_list(view: PlanView, pts: list[ControlPoint], fp: Footprints, per
         inside = (np.abs(u) <= fp.along / 2) & (np.abs(v) <= fp.across / 2)
         order = np.argsort(np.hypot(u, v))
         for i in [j for j in order if inside[j]][:per_point]:
-            if cam["mount"] == "landscape":
+            if cam.mount == "landscape":
                 col = nw / 2 + v[i] / fp.across[i] * nw
                 row = nh / 2 - u[i] / fp.along[i] * nh
             else:
@@ -102,25 +104,39 @@ def control_point_files(view: PlanView, pts: list[ControlPoint], fp: Footprints)
     }
 
 
+def _layout_point(f: object, i: int, where: str) -> tuple[str, Role, float, float, str]:
+    """(id, role, longitude, latitude, note) of feature `i` of a control point GeoJSON."""
+    props = f.get("properties", {}) if isinstance(f, dict) else None
+    if not isinstance(props, dict):
+        raise InputError(f"{where}: feature {i + 1} is not a GeoJSON feature with properties")
+    role: Role
+    if props.get("role") == "gcp":
+        role = "gcp"
+    elif props.get("role") == "check":
+        role = "check"
+    else:
+        raise InputError(f"{where}: feature {i + 1} has role {props.get('role')!r}; allowed: gcp, check")
+    geometry = f.get("geometry") if isinstance(f, dict) else None
+    coords = geometry.get("coordinates") if isinstance(geometry, dict) else None
+    if not isinstance(coords, list) or len(coords) < 2 or not all(isinstance(c, (int, float)) for c in coords[:2]):
+        raise InputError(f"{where}: feature {i + 1} has no point coordinates [longitude, latitude]")
+    return str(props.get("id", f"P{i + 1}")), role, coords[0], coords[1], str(props.get("note", ""))
+
+
 def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
     """Control points from a control_points.geojson; images per point are measured again."""
-    from aerosurvey.errors import InputError
-    from aerosurvey.rules.footprints import footprints
-
     try:
-        fc = json.loads(text)
-        feats = fc["features"]
+        feats = json.loads(text)["features"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise InputError(f"{where}: not a control point GeoJSON ({exc})") from None
+    if not isinstance(feats, list):
+        raise InputError(f"{where}: not a control point GeoJSON (features is not a list)")
     pts = []
     for i, f in enumerate(feats):
-        props = f.get("properties", {})
-        role = props.get("role")
-        if role not in ("gcp", "check"):
-            raise InputError(f"{where}: feature {i + 1} has role {role!r}; allowed: gcp, check")
-        lon, lat = f["geometry"]["coordinates"][:2]
-        x, y = view.to_plan.transform(lon, lat)
-        pts.append(ControlPoint(str(props.get("id", f"P{i + 1}")), role, float(x), float(y), 0, str(props.get("note", ""))))
-    fp = footprints(view)
-    counts = fp.count_at(np.array([p.x for p in pts]), np.array([p.y for p in pts])) if pts else []
+        pid, role, lon, lat, note = _layout_point(f, i, where)
+        x, y = planar(view.crs).xy(np.array([lon], float), np.array([lat], float))
+        pts.append(ControlPoint(pid, role, float(x[0]), float(y[0]), 0, note))
+    if not pts:
+        return []
+    counts = footprints(view).count_at(np.array([p.x for p in pts]), np.array([p.y for p in pts]))
     return [ControlPoint(p.id, p.role, p.x, p.y, int(n), p.note) for p, n in zip(pts, counts)]

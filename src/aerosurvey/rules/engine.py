@@ -5,14 +5,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 import shapely
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.rules import footprints as fpm
-from aerosurvey.rules.checks import CHECKS, Outcome, asprs_required, evaluate_formula
-from aerosurvey.rules.control_points import ControlPoint, propose_check_points, propose_gcps, ring_order
+from aerosurvey.rules.checks import CHECKS, Outcome, Params, Where, asprs_required, evaluate_formula
+from aerosurvey.rules.control_points import ControlPoint, Role, propose_check_points, propose_gcps, ring_order
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import Profile
 
@@ -29,38 +30,42 @@ class LayoutSettings:
     cp_minimum: int = 0
     cp_edge_margin_m: float = 15.0
     cp_gcp_clearance_m: float = 50.0
-    nogo: Any = None
+    nogo: BaseGeometry | None = None
 
 
-def layout_settings(view: PlanView, profiles: list[Profile], nogo=None, **over: Any) -> LayoutSettings:
+def layout_settings(view: PlanView, profiles: list[Profile], nogo: BaseGeometry | None = None,
+                    gcp_offset_m: float | None = None) -> LayoutSettings:
     """Counts and visibility the chosen profiles ask for (the strictest of them)."""
-    s: dict[str, Any] = dict(LayoutSettings().__dict__)
-    s["nogo"] = nogo
+    base = LayoutSettings()
+    gcp_count, gcp_min_images = base.gcp_count, base.gcp_min_images
+    cp_ha_per_point, cp_minimum = base.cp_ha_per_point, base.cp_minimum
     area_km2 = view.area_ha / 100
     for p in profiles:
         for r in p.rules:
+            params = Params(r.params)
             if r.check == "gcp_count":
-                need = math.ceil(evaluate_formula(r.params["formula"], n_images=len(view.station_ids),
+                need = math.ceil(evaluate_formula(params.text("formula"), n_images=len(view.station_ids),
                                                   area_ha=view.area_ha, area_km2=area_km2))
-                s["gcp_count"] = max(s["gcp_count"], need)
+                gcp_count = max(gcp_count, need)
             elif r.check == "gcp_visibility":
-                s["gcp_min_images"] = max(s["gcp_min_images"], r.params["min_images"])
+                gcp_min_images = max(gcp_min_images, params.whole("min_images"))
             elif r.check == "check_point_density":
-                s["cp_ha_per_point"] = min(s["cp_ha_per_point"], r.params["ha_per_point"])
+                cp_ha_per_point = min(cp_ha_per_point, params.num("ha_per_point"))
             elif r.check == "asprs_check_points":
-                s["cp_minimum"] = max(s["cp_minimum"], max(asprs_required(r.params["edition"], area_km2)))
-    s.update({k: v for k, v in over.items() if v is not None})
-    return LayoutSettings(**s)
+                cp_minimum = max(cp_minimum, max(asprs_required(params.text("edition"), area_km2)))
+    return LayoutSettings(gcp_count=gcp_count, gcp_min_images=gcp_min_images,
+                          gcp_offset_m=base.gcp_offset_m if gcp_offset_m is None else gcp_offset_m,
+                          cp_ha_per_point=cp_ha_per_point, cp_minimum=cp_minimum, nogo=nogo)
 
 
-@dataclass
+@dataclass(frozen=True)
 class Evidence:
     """Measurements shared by the checks, computed once and only when a check needs them."""
 
     view: PlanView
     settings: LayoutSettings
     layout: list[ControlPoint] | None = None
-    _crossings: dict[int, list[dict]] = field(default_factory=dict)
+    _crossings: dict[int, list[fpm.Crossing]] = field(default_factory=dict)
 
     @cached_property
     def footprints(self) -> fpm.Footprints:
@@ -74,18 +79,18 @@ class Evidence:
     def side_overlaps(self) -> list[tuple[str, str, float]]:
         return fpm.side_overlaps(self.view, self.footprints)
 
-    def crossings(self, min_outside: int) -> list[dict]:
+    def crossings(self, min_outside: int) -> list[fpm.Crossing]:
         if min_outside not in self._crossings:
             self._crossings[min_outside] = fpm.boundary_crossings(self.view, min_outside)
         return self._crossings[min_outside]
 
     @cached_property
-    def grid_counts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def grid_counts(self) -> tuple[fpm.IntArray, fpm.FloatArray, fpm.FloatArray]:
         region = self.view.area
         if self.view.exclusions is not None:
             # ground under a zone and next to it cannot be photographed from above it
             reach = float(np.hypot(self.footprints.across, self.footprints.along).max()) / 2
-            margin = self.view.manifest.get("derived", {}).get("exclusion_margin_m", 10.0)
+            margin = float(self.view.manifest.get("derived", {}).get("exclusion_margin_m", 10.0))
             region = shapely.difference(region, shapely.buffer(self.view.exclusions, reach + margin))
         gx, gy = fpm.sample_grid(region)
         return self.footprints.count_at(gx, gy), gx, gy
@@ -101,11 +106,26 @@ class Evidence:
                                    s.cp_edge_margin_m, gcps, s.cp_gcp_clearance_m, s.nogo)
         return gcps + cps
 
-    def control_points(self, role: str) -> list[ControlPoint]:
+    def control_points(self, role: Role) -> list[ControlPoint]:
         return [p for p in self.points if p.role == role]
 
     def ring_order(self, gcps: list[ControlPoint]) -> list[ControlPoint]:
         return ring_order(gcps, self.view.area)
+
+
+class RuleRecord(TypedDict):
+    """A rule result as JSON (manifest.json "rules", `check --json`)."""
+
+    profile: str
+    rule: str
+    status: str
+    severity: str
+    statement: str
+    measured: str
+    required: str
+    evidence: list[str]
+    where: list[Where]
+    source: str
 
 
 @dataclass(frozen=True)
@@ -124,7 +144,7 @@ class RuleResult:
             return "warning"
         return self.outcome.status
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> RuleRecord:
         return {"profile": self.profile, "rule": self.rule, "status": self.status, "severity": self.severity,
                 "statement": self.statement, "measured": self.outcome.measured, "required": self.outcome.required,
                 "evidence": list(self.outcome.evidence), "where": list(self.outcome.where), "source": self.source}
@@ -134,7 +154,7 @@ def evaluate(profiles: list[Profile], evidence: Evidence) -> list[RuleResult]:
     out = []
     for p in profiles:
         for r in p.rules:
-            params = {**CHECKS[r.check].defaults, **r.params}
+            params = Params({**CHECKS[r.check].defaults, **r.params})
             outcome = CHECKS[r.check].run(evidence.view, params, evidence)
             out.append(RuleResult(p.id, r.id, r.statement, r.severity, r.source, outcome))
     return out

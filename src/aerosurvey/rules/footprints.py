@@ -1,8 +1,10 @@
 """Evidence measured from the planned photo footprints, not from the planner's spacing.
 
 Footprints are nadir rectangles from the camera's sensor and each station's height above
-ground, turned to the station's heading. Coverage is counted on a sample grid; overlaps
-are measured between consecutive photos of a run and between neighbouring parallel runs.
+ground, turned to the station's heading; their size comes from the planner's own formula
+(aerosurvey.plan.photogrammetry.footprint_m). Coverage is counted on a sample grid;
+overlaps are measured between consecutive photos of a run and between neighbouring
+parallel runs.
 """
 
 from __future__ import annotations
@@ -11,21 +13,61 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.camera import Camera, camera_from_mapping
+from aerosurvey.errors import InputError
+from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.rules.planview import PlanView
+from aerosurvey.spec import MOUNTS
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+
+@dataclass(frozen=True)
+class ViewCamera:
+    """The camera and its mount as the plan's manifest records them (section `camera`)."""
+
+    camera: Camera
+    mount: str  # landscape or portrait
+
+    @classmethod
+    def of(cls, view: PlanView) -> ViewCamera:
+        cam = view.camera
+        (sw, sh), (nw, nh) = cam["sensor_mm"], cam["image_px"]
+        table = {"name": cam["name"], "sensor_width_mm": sw, "sensor_height_mm": sh, "image_width_px": nw,
+                 "image_height_px": nh, "focal_mm": cam["focal_mm"]}
+        camera = camera_from_mapping(str(cam.get("id", "camera")), table, "manifest camera")
+        mount = cam["mount"]
+        if mount not in MOUNTS:
+            raise InputError(f"manifest camera.mount = {mount!r}; allowed: {', '.join(MOUNTS)}")
+        return cls(camera, str(mount))
+
+    def gsd_m(self, agl_m: FloatArray) -> FloatArray:
+        """GSD of each photo taken `agl_m` above ground, as the planner computes it."""
+        return pg.gsd_m(agl_m, self.camera.pixel_pitch_mm, self.camera.focal_mm)
+
+    def footprint_m(self, agl_m: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(across, along) track ground footprint of each photo, as the planner computes it."""
+        c = self.camera
+        return pg.footprint_m(agl_m, c.sensor_width_mm, c.sensor_height_mm, c.image_width_px, c.image_height_px,
+                              c.focal_mm, self.mount)
 
 
 @dataclass(frozen=True)
 class Footprints:
-    x: np.ndarray
-    y: np.ndarray
-    heading_rad: np.ndarray  # compass bearing in radians
-    across: np.ndarray
-    along: np.ndarray
+    """Photo rectangles in the planning CRS: centres, compass heading, sides in grid metres."""
 
-    def count_at(self, px: np.ndarray, py: np.ndarray) -> np.ndarray:
+    x: FloatArray
+    y: FloatArray
+    heading_rad: FloatArray  # compass bearing in radians
+    across: FloatArray
+    along: FloatArray
+
+    def count_at(self, px: FloatArray, py: FloatArray) -> IntArray:
         """How many footprints contain each point."""
         counts = np.zeros(len(px), int)
         s, c = np.sin(self.heading_rad), np.cos(self.heading_rad)
@@ -41,31 +83,28 @@ class Footprints:
 
 
 def footprints(view: PlanView) -> Footprints:
-    cam = view.camera
-    sw, sh = cam["sensor_mm"]
-    f = cam["focal_mm"]
+    """The footprint of every station of the view, scaled from ground to grid metres."""
     k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))  # ground metres to grid metres
-    long_, short = sw / f * view.agl * k, sh / f * view.agl * k
-    across, along = (long_, short) if cam["mount"] == "landscape" else (short, long_)
-    return Footprints(view.x, view.y, np.radians(view.heading_deg), across, along)
+    across, along = ViewCamera.of(view).footprint_m(np.asarray(view.agl, float))
+    return Footprints(view.x, view.y, np.radians(view.heading_deg), across * k, along * k)
 
 
-def sample_grid(geom: BaseGeometry, target_points: int = 4000) -> tuple[np.ndarray, np.ndarray]:
+def sample_grid(geom: BaseGeometry, target_points: int = 4000) -> tuple[FloatArray, FloatArray]:
     """A regular grid of points inside `geom`, about `target_points` of them."""
     step = math.sqrt(max(geom.area, 1.0) / target_points)
     x0, y0, x1, y1 = geom.bounds
-    gx, gy = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
-    gx, gy = gx.ravel(), gy.ravel()
+    mx, my = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
+    gx, gy = mx.ravel(), my.ravel()
     keep = shapely.contains_xy(geom, gx, gy)
     return gx[keep], gy[keep]
 
 
-def runs(view: PlanView) -> dict[str, np.ndarray]:
+def runs(view: PlanView) -> dict[str, IntArray]:
     """Station indices of each run, in flight order."""
     out: dict[str, list[int]] = {}
     for i, r in enumerate(view.run_ids):
         out.setdefault(r, []).append(i)
-    return {k: np.asarray(v) for k, v in out.items()}
+    return {k: np.asarray(v, np.intp) for k, v in out.items()}
 
 
 def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
@@ -83,7 +122,7 @@ def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
 def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]]:
     """(run, nearest parallel run beside it, overlap of their strips) for every run."""
     rs = runs(view)
-    info = {}
+    info: dict[str, tuple[float, float, float, float, float]] = {}
     for rid, idx in rs.items():
         h = float(np.median(fp.heading_rad[idx]))
         s, c = math.sin(h), math.cos(h)
@@ -91,9 +130,9 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
         v = fp.x[idx] * c - fp.y[idx] * s
         info[rid] = (h, float(u.min()), float(u.max()), float(v.mean()), float(fp.across[idx].min()))
     out = []
-    for rid, (h, umin, umax, v, w) in info.items():
+    for rid, (h, umin, umax, v_mean, w) in info.items():
         s, c = math.sin(h), math.cos(h)
-        best = None
+        best: tuple[float, str, float] | None = None
         for q, (hq, _, _, _, wq) in info.items():
             if q == rid or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
                 continue
@@ -102,7 +141,7 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
             vq = float(np.mean(fp.x[idx] * c - fp.y[idx] * s))
             if uq.max() < umin or uq.min() > umax:
                 continue
-            d = abs(vq - v)
+            d = abs(vq - v_mean)
             if d > 1e-6 and (best is None or d < best[0]):
                 best = (d, q, min(w, wq))
         if best is not None:
@@ -110,7 +149,17 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
     return out
 
 
-def boundary_crossings(view: PlanView, min_outside: int) -> list[dict]:
+@dataclass(frozen=True)
+class Crossing:
+    """Photos outside the area's outline where a run enters it, leaves it or crosses a notch."""
+
+    run: str
+    where: str  # entry, exit, or "notch crossed with the camera on"
+    outside_photos: int
+    ok: bool
+
+
+def boundary_crossings(view: PlanView, min_outside: int) -> list[Crossing]:
     """Photos outside the area's outline at every place a run crosses it.
 
     A run that leaves the area and re-enters it (a notch) with photos all the way across
@@ -125,10 +174,10 @@ def boundary_crossings(view: PlanView, min_outside: int) -> list[dict]:
             continue
         pos = np.flatnonzero(ins)
         first, last = int(pos[0]), int(pos[-1])
-        found.append({"run": rid, "where": "entry", "outside_photos": first, "ok": first >= min_outside})
-        found.append({"run": rid, "where": "exit", "outside_photos": len(idx) - 1 - last, "ok": len(idx) - 1 - last >= min_outside})
+        found.append(Crossing(rid, "entry", first, first >= min_outside))
+        found.append(Crossing(rid, "exit", len(idx) - 1 - last, len(idx) - 1 - last >= min_outside))
         gaps = np.flatnonzero(np.diff(pos) > 1)
         for g in gaps:
             n = int(pos[g + 1] - pos[g] - 1)
-            found.append({"run": rid, "where": "notch crossed with the camera on", "outside_photos": n, "ok": True})
+            found.append(Crossing(rid, "notch crossed with the camera on", n, True))
     return found

@@ -11,7 +11,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.rules.planview import PlanView
 
 if TYPE_CHECKING:
-    from aerosurvey.plan.planner import PlanResult
+    from aerosurvey.plan.planner import Plan
 
 
 @dataclass(frozen=True)
@@ -22,7 +22,7 @@ class Target:
     outdir: Path | None
 
 
-def plan_documents(plan: PlanResult) -> tuple[dict[str, Any], dict[str, Any]]:
+def plan_documents(plan: Plan) -> tuple[dict[str, Any], dict[str, Any]]:
     """The manifest and GeoJSON of a plan, in memory (no files written)."""
     from aerosurvey.manifest import build_manifest
     from aerosurvey.mission.builder import build_mission
@@ -38,11 +38,11 @@ def open_target(path: Path) -> Target:
         doc = view.document
         return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path)
     if path.suffix.lower() == ".toml":
-        from aerosurvey.plan.planner import plan_mission
+        from aerosurvey.inputs import plan_from_files
         from aerosurvey.spec import load_spec
 
         spec = load_spec(path)
-        manifest, features = plan_documents(plan_mission(spec))
+        manifest, features = plan_documents(plan_from_files(spec))
         view = PlanView.from_documents(manifest, features, str(path))
         return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
     if not path.exists():

@@ -10,14 +10,17 @@ from __future__ import annotations
 
 import os
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 from aerosurvey.errors import InputError
 
 SEVERITIES = ("error", "warning", "info")
+
+#: A rule parameter's value: the checks take numbers and strings (Check.validate).
+ParamValue = int | float | str
 
 
 @dataclass(frozen=True)
@@ -27,7 +30,7 @@ class Rule:
     check: str
     severity: str
     source: str
-    params: dict[str, Any] = field(default_factory=dict)
+    params: dict[str, ParamValue] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -76,8 +79,7 @@ def parse_profile(text: str, where: str) -> Profile:
         params = r.get("params", {})
         if not isinstance(params, dict):
             raise InputError(f"{name}: field 'params' must be a table")
-        CHECKS[r["check"]].validate(params, name)
-        rules.append(Rule(rid, r["statement"], r["check"], sev, r["source"], dict(params)))
+        rules.append(Rule(rid, r["statement"], r["check"], sev, r["source"], CHECKS[r["check"]].validate(params, name)))
     return Profile(head["id"], str(head.get("name", head["id"])), str(head.get("source", "")), tuple(rules), where)
 
 
@@ -111,7 +113,7 @@ def select_profiles(ids: list[str], extra_dirs: list[Path] | None = None) -> lis
     return [have[i] for i in ids]
 
 
-def apply_overrides(profiles: list[Profile], overrides: dict[str, Any]) -> list[Profile]:
+def apply_overrides(profiles: list[Profile], overrides: Mapping[str, object]) -> list[Profile]:
     """Override rule parameters from the mission spec: {"rule-id.param": value}."""
     from aerosurvey.rules.checks import CHECKS
 
@@ -123,8 +125,8 @@ def apply_overrides(profiles: list[Profile], overrides: dict[str, Any]) -> list[
             raise InputError(f"rules.overrides: {key!r} names no rule of the chosen profiles")
         pi, ri = rules[rid]
         r = out[pi][ri]
-        params = dict(r.params)
+        params: dict[str, object] = dict(r.params)
         params[param] = value
-        CHECKS[r.check].validate(params, f"rules.overrides {key!r}")
-        out[pi][ri] = Rule(r.id, r.statement, r.check, r.severity, r.source + " (overridden by the mission spec)", params)
+        checked = CHECKS[r.check].validate(params, f"rules.overrides {key!r}")
+        out[pi][ri] = Rule(r.id, r.statement, r.check, r.severity, r.source + " (overridden by the mission spec)", checked)
     return [Profile(p.id, p.name, p.source, tuple(rs), p.path) for p, rs in zip(profiles, out)]

@@ -26,7 +26,7 @@ from aerosurvey.web.mapproj import MapFrame
 
 if TYPE_CHECKING:
     from aerosurvey.outputs import Rendered
-    from aerosurvey.plan.planner import PlanResult
+    from aerosurvey.plan.planner import Plan
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
 PATH_KEYS = (("area", "file"), ("terrain", "dem"))
@@ -197,15 +197,15 @@ class PlanBundle:
 
 
 def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) -> PlanBundle:
+    from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import render_outputs
-    from aerosurvey.plan.planner import plan_mission
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
     spec = parse_spec(spec_data, base=ws.base, path=None)
-    plan = plan_mission(spec, progress)
+    plan = plan_from_files(spec, progress)
     progress("mission files and rules", 0.92)
     rendered = render_outputs(plan)
     progress("control points", 0.97)
@@ -242,7 +242,7 @@ def _sortie_of_stations(manifest: mf.Manifest) -> list[int]:
     return out
 
 
-def _view(plan: PlanResult, frame: MapFrame, manifest: mf.Manifest, features: dict[str, Any], points: Any,
+def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str, Any], points: Any,
           rendered: Rendered) -> dict[str, Any]:
     feats = features["features"]
     by_role: dict[str, list[dict[str, Any]]] = {}
@@ -314,7 +314,7 @@ def _m(v: float) -> float:
     return round(float(v), 2)
 
 
-def _summary(plan: PlanResult, manifest: mf.Manifest) -> dict[str, Any]:
+def _summary(plan: Plan, manifest: mf.Manifest) -> dict[str, Any]:
     e = plan.estimates
     h = plan.heights
     return {

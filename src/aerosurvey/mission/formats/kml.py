@@ -28,7 +28,7 @@ from typing import Any
 from aerosurvey.errors import InputError
 from aerosurvey.mission.formats.wpl import format_number
 
-ROLE_ORDER = ("area", "exclusion", "line", "station", "footprint", "home", "gcp", "check", "sortie", "gap", "other")
+ROLE_ORDER = ("area", "exclusion", "line", "station", "footprint", "home", "gcp", "check", "sortie", "gap", "uncovered", "other")
 # role -> (line colour, fill colour, line width, icon colour, icon scale); KML colours are aabbggrr
 STYLES: dict[str, tuple[str, str, float, str, float]] = {
     "area": ("ff2c7d3a", "4000ff00", 2.0, "ff2c7d3a", 1.0),
@@ -41,6 +41,7 @@ STYLES: dict[str, tuple[str, str, float, str, float]] = {
     "check": ("ffff8800", "00000000", 1.0, "ffff8800", 1.0),
     "sortie": ("ff00aaff", "00000000", 3.0, "ff00aaff", 1.0),
     "gap": ("ff7f00ff", "807f00ff", 2.0, "ff7f00ff", 1.0),
+    "uncovered": ("ff0080ff", "990080ff", 2.0, "ff0080ff", 1.0),
     "other": ("ff555555", "33555555", 1.0, "ff555555", 1.0),
 }
 _ESC = str.maketrans({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;"})

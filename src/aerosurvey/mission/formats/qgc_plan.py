@@ -242,7 +242,7 @@ def _read_item(d: Any, i: int, source: str) -> tuple[MissionItem, int | None]:
     tag = d.get(TAG_KEY, "")
     if not isinstance(tag, str):
         raise InputError(f"{where} field '{TAG_KEY}' = {tag!r} is not allowed: a string")
-    it = MissionItem(command, frame, *vals, autocontinue=auto, tag=tag)
+    it = MissionItem(command, frame, vals[0], vals[1], vals[2], vals[3], vals[4], vals[5], vals[6], autocontinue=auto, tag=tag)
     if it.has_position:
         for name, v in zip(_PARAM_NAMES[4:], vals[4:]):
             if math.isnan(v):
@@ -260,9 +260,9 @@ def _resolve_jumps(items: list[MissionItem], jump_ids: list[int | None], source:
     for seq, it in enumerate(items, start=1):
         if it.command == _DO_JUMP:
             target = it.param1
-            if not math.isfinite(target) or target not in seq_of:
+            if not math.isfinite(target) or not target.is_integer() or int(target) not in seq_of:
                 raise InputError(f"{source}: mission item {seq} is a DO_JUMP to doJumpId {target!r}, which no item has")
-            it = MissionItem(it.command, it.frame, float(seq_of[target]), it.param2, it.param3, it.param4,
+            it = MissionItem(it.command, it.frame, float(seq_of[int(target)]), it.param2, it.param3, it.param4,
                              it.x, it.y, it.z, it.autocontinue, it.tag)
         out.append(it)
     return out
@@ -318,8 +318,8 @@ def loads_plan(text: str, source: str = "<string>") -> Mission:
         raise InputError(f"{where} field 'version' = {mis['version']!r} is not allowed: {MISSION_VERSION}")
     firmware_type = _get(mis, "firmwareType", where)
     firmware = None
-    if isinstance(firmware_type, (int, float)) and not isinstance(firmware_type, bool):
-        firmware = {v: k for k, v in _FIRMWARE.items()}.get(firmware_type)
+    if isinstance(firmware_type, (int, float)) and not isinstance(firmware_type, bool) and float(firmware_type).is_integer():
+        firmware = {v: k for k, v in _FIRMWARE.items()}.get(int(firmware_type))
     if firmware is None:
         raise InputError(f"{where} field 'firmwareType' = {firmware_type!r} is not allowed: "
                          f"{mav.AUTOPILOT_ARDUPILOTMEGA} (ArduPilot) or {mav.AUTOPILOT_PX4} (PX4)")
@@ -344,12 +344,12 @@ def loads_plan(text: str, source: str = "<string>") -> Mission:
     if isinstance(rally, dict) and rally.get("points"):
         raise InputError(f"{source}: rallyPoints has {len(rally['points'])} point(s); aerosurvey does not upload rally "
                          "points: remove them, or upload this plan with QGroundControl")
-    inc, exc = _read_fence(doc, source)
+    inc, excl = _read_fence(doc, source)
     name = doc.get(NAME_KEY, "mission")
     if not isinstance(name, str):
         raise InputError(f"{source}: field '{NAME_KEY}' = {name!r} is not allowed: a string")
     return Mission(
         vehicle=vehicle, firmware=firmware, home=(h_lat, h_lon, h_alt), items=tuple(items),
         cruise_speed=speeds["cruiseSpeed"], hover_speed=speeds["hoverSpeed"], name=name,
-        fence_inclusion=tuple(inc), fence_exclusion=tuple(exc),
+        fence_inclusion=tuple(inc), fence_exclusion=tuple(excl),
     )

@@ -1,0 +1,72 @@
+"""Estimates: distances and times of the whole mission, and the sun over the planned window."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
+from aerosurvey.plan.route import Kinematics, Route, descent_time, path_time
+from aerosurvey.plan.sun import elevation_over_window
+from aerosurvey.spec import MissionSpec
+
+
+def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], stations: Stations, kin: Kinematics,
+             home_xy: tuple[float, float], heights: Heights, base: float, k: float) -> dict[str, float]:
+    """Distances and times on the ground (grid lengths divided by the scale factor k)."""
+    home = (home_xy[0] / k, home_xy[1] / k)
+    # the detours from home and back home fly at transit speed, like the straight legs
+    n_out = next((i for i, w in enumerate(wps) if w.kind != "transit"), len(wps))
+    n_back = next((i for i, w in enumerate(reversed(wps)) if w.kind != "transit"), 0)
+    xy = np.asarray([(w.x, w.y) for w in wps]) / k
+    pts = xy[n_out: len(xy) - n_back]
+    leg_out = np.vstack([[home], xy[: n_out + 1]])
+    leg_back = np.vstack([xy[len(xy) - n_back - 1:], [home]])
+    survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
+    survey_time = path_time(pts, kin)
+    transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
+    transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
+    transit_kin = Kinematics(kin.vehicle, spec.vehicle.cruise_speed_ms, kin.accel_ms2, kin.turn_radius_m)
+    climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
+    t_climb = climb / spec.vehicle.climb_rate_ms
+    t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)
+    t_out = path_time(leg_out, transit_kin)
+    t_back = path_time(leg_back, transit_kin)
+    if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
+        t_climb, t_descent = max(0.0, t_climb - t_out), max(0.0, t_descent - t_back)
+    photo_len = float(sum((r.station_xy.shape[0] - 1) * base for r in route.runs))
+    return {
+        "survey_distance_m": round(survey_len, 1),
+        "photo_line_length_m": round(photo_len, 1),
+        "transit_distance_m": round(transit_out + transit_back, 1),
+        "total_distance_m": round(survey_len + transit_out + transit_back, 1),
+        "survey_time_s": round(survey_time, 1),
+        "climb_time_s": round(t_climb, 1),
+        "transit_time_s": round(t_out + t_back, 1),
+        "descent_time_s": round(t_descent, 1),
+        "total_time_s": round(survey_time + t_climb + t_descent + t_out + t_back, 1),
+        "photos": float(len(stations.ids)),
+    }
+
+
+def sun_over_window(spec: MissionSpec, lon: float, lat: float) -> tuple[dict[str, Any] | None, tuple[str, ...]]:
+    """The sun's elevation over `conditions.start`..`end` at the launch point, and a warning when it is low."""
+    c = spec.conditions
+    if c.start is None or c.end is None:
+        return None, ()
+    samples = elevation_over_window(lon, lat, c.start, c.end)
+    elev = [e for _, e in samples]
+    sun = {
+        "start": c.start.isoformat(),
+        "end": c.end.isoformat(),
+        "min_elevation_deg": round(min(elev), 2),
+        "max_elevation_deg": round(max(elev), 2),
+        "threshold_deg": c.min_sun_elevation_deg,
+        "samples": [[t.isoformat(), round(e, 2)] for t, e in samples],
+    }
+    if min(elev) >= c.min_sun_elevation_deg:
+        return sun, ()
+    low = [t.isoformat() for t, e in samples if e < c.min_sun_elevation_deg]
+    return sun, (f"sun elevation drops to {min(elev):.1f}° (below conditions.min_sun_elevation_deg = "
+                 f"{c.min_sun_elevation_deg:g}°) between {low[0]} and {low[-1]}: long shadows hurt image matching",)

@@ -1,0 +1,115 @@
+"""The final gate and the legs to and from the survey around exclusion zones."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import pytest
+import shapely
+import tomli_w
+from click.testing import CliRunner
+
+from aerosurvey.area import planning_crs
+from aerosurvey.cli import main
+from aerosurvey.mission import mavlink_ids as mav
+from aerosurvey.mission.gate import check_legs, mission_legs
+from aerosurvey.mission.items import Mission, MissionItem
+
+LON0, LAT0 = 15.0, 49.4
+LOCAL = pyproj.Transformer.from_crs(f"+proj=aeqd +lat_0={LAT0} +lon_0={LON0} +datum=WGS84", "EPSG:4326", always_xy=True)
+
+
+def lonlat(x: float, y: float) -> list[float]:
+    lo, la = LOCAL.transform(x, y)
+    return [round(lo, 8), round(la, 8)]
+
+
+def box_ring(x0: float, y0: float, x1: float, y1: float) -> list[list[float]]:
+    return [lonlat(x0, y0), lonlat(x1, y0), lonlat(x1, y1), lonlat(x0, y1), lonlat(x0, y0)]
+
+
+def write_fc(path: Path, ring: list[list[float]]) -> str:
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+    return path.name
+
+
+def test_gate_finds_a_leg_through_a_zone():
+    planar = planning_crs("auto", shapely.Point(LON0, LAT0).buffer(0.01))
+    zone = planar.forward(shapely.Polygon(box_ring(100, -50, 200, 50)))
+    home = lonlat(0, 0)
+    far = lonlat(300, 0)
+    m = Mission("copter", "ardupilot", (home[1], home[0], 0.0), (
+        MissionItem(mav.NAV_TAKEOFF, x=0.0, y=0.0, z=30.0, tag="takeoff"),
+        MissionItem(mav.NAV_WAYPOINT, x=far[1], y=far[0], z=30.0, tag="P1-L001-R1:lead-in"),
+        MissionItem(mav.NAV_RETURN_TO_LAUNCH, tag="rtl"),
+    ), 10.0, 5.0, "t")
+    legs = mission_legs(m, "mission.waypoints", planar)
+    assert [leg.seq for leg in legs] == [1, 2, 3]
+    bad = check_legs(legs, zone, 10.0, 1.0, planar)
+    # out through the zone (100 m inside) and back home through it again
+    assert [v.leg.seq for v in bad] == [2, 3]
+    assert all(v.zone and v.inside_m == pytest.approx(100.0, abs=0.5) for v in bad)
+    assert "mission.waypoints: the leg to item 2 (P1-L001-R1:lead-in) flies 100.0 m inside an exclusion zone" in bad[0].message()
+
+
+def test_a_plane_whose_landing_approach_crosses_a_zone_is_not_written(tmp_path: Path):
+    # a plane lands at home into a north wind: the approach starts 300 m south of home, inside the zone
+    write_fc(tmp_path / "area.geojson", box_ring(-300, 400, 300, 900))
+    write_fc(tmp_path / "zone.geojson", box_ring(-100, -400, 100, -200))
+    spec = {"mission": {"name": "gate"}, "area": {"file": "area.geojson", "exclusions": ["zone.geojson"],
+                                                  "launch": lonlat(0, 0)},
+            "camera": {"model": "ricoh-gr"}, "targets": {"gsd_cm": 3.0},
+            "vehicle": {"type": "plane"}, "flight": {"end": "land", "wind_from_deg": 0.0, "heading": 90.0}}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(spec))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(tmp_path / "s.toml"), "-o", str(out)])
+    assert res.exit_code == 1, res.output
+    assert "the plan is not written: mission.waypoints: the leg to item" in res.output
+    assert "(approach)" in res.output and "inside an exclusion zone" in res.output
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]
+
+
+def _legs_from_waypoints(text: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Legs of a QGC WPL 110 file as ArduPilot flies them, parsed here (not with our reader)."""
+    to_local = pyproj.Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={LAT0} +lon_0={LON0} +datum=WGS84", always_xy=True)
+    rows = [line.split("\t") for line in text.strip().splitlines()[1:]]
+    home = np.array(to_local.transform(float(rows[0][9]), float(rows[0][8])))
+    pts = [home]
+    for r in rows[1:]:
+        cmd, lat, lon = int(r[3]), float(r[8]), float(r[9])
+        if cmd in (16, 21, 22):
+            pts.append(pts[-1] if lat == 0 and lon == 0 else np.array(to_local.transform(lon, lat)))
+        elif cmd == 20:
+            pts.append(home)
+    return list(zip(pts[:-1], pts[1:]))
+
+
+@pytest.mark.parametrize("battery", [False, True])
+def test_the_way_home_goes_round_a_zone(tmp_path: Path, battery: bool):
+    # a zone straddles the area's south edge, between the survey's last line and the launch point
+    write_fc(tmp_path / "area.geojson", box_ring(-200, 0, 200, 300))
+    write_fc(tmp_path / "zone.geojson", box_ring(-60, -150, 60, 40))
+    spec = {"mission": {"name": "home"}, "area": {"file": "area.geojson", "exclusions": ["zone.geojson"],
+                                                  "launch": lonlat(0, -250)},
+            "camera": {"model": "sony-a6000-16mm"}, "targets": {"gsd_cm": 2.0},
+            "vehicle": {"type": "copter"}, "flight": {"heading": 90.0}}
+    if battery:
+        spec["battery"] = {"usable_min": 7.0, "reserve": 0.2}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(spec))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(tmp_path / "s.toml"), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    zone = shapely.box(-60, -150, 60, 40)
+    files = sorted(out.glob("*.waypoints"))
+    assert len(files) >= (3 if battery else 1)
+    for f in files:
+        legs = _legs_from_waypoints(f.read_text())
+        inside = [shapely.LineString([a, b]).intersection(zone).length for a, b in legs]
+        assert max(inside) == 0.0, (f.name, inside)
+        # the survey starts and ends north of the zone: there is a way round it, and a copter lands at home
+        assert "\t21\t" in f.read_text().splitlines()[-1]
