@@ -67,6 +67,7 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
     prev_dir = None
     phase = 0.0
     time_trigger = camera_interval_s is not None
+    pending: list[int] = []  # pictures taken at a waypoint: they fly the heading of the next leg
     for r in rows:
         cmd, frame = int(r[3]), int(r[2])
         if cmd == DO_CHANGE_SPEED:
@@ -77,7 +78,11 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
             if dist > 0:
                 run += 1
                 last = pos.copy()
-                xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+                xs.append(pos[0])
+                ys.append(pos[1])
+                hs.append(None)
+                zs.append((alt_prev, frame_prev))
+                runs.append(run)
             else:
                 last = None
         if cmd == NAV_WAYPOINT:
@@ -89,10 +94,18 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                     dist = speed * camera_interval_s
                     run += 1
                     last = pos.copy()
-                    xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+                    xs.append(pos[0])
+                    ys.append(pos[1])
+                    hs.append(None)
+                    zs.append((alt_prev, frame_prev))
+                    runs.append(run)
                 elif prev_dir is not None and (abs(math.sin(d - prev_dir)) > 1e-3 or math.cos(d - prev_dir) < 0):
                     run += 1
                 prev_dir = d
+            if pos is not None and pending and float(np.hypot(*(new - pos))) > 0:
+                for i in pending:
+                    hs[i] = math.atan2(new[1] - pos[1], new[0] - pos[0])
+                pending = []
             if pos is not None and dist > 0 and last is not None:
                 leg = new - pos
                 length = float(np.hypot(*leg))
@@ -117,7 +130,11 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                     for t in ts:
                         p = pos + u * t
                         alt = alt_prev + (r[10] - alt_prev) * (t / length)
-                        xs.append(p[0]); ys.append(p[1]); hs.append(math.atan2(u[1], u[0])); zs.append((alt, frame)); runs.append(run)
+                        xs.append(p[0])
+                        ys.append(p[1])
+                        hs.append(math.atan2(u[1], u[0]))
+                        zs.append((alt, frame))
+                        runs.append(run)
                         last = p
             alt_prev = r[10]
             frame_prev = frame
@@ -128,8 +145,13 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                 run += 1
                 last = pos.copy()
                 if r[6] == 1:
-                    # picture now; its heading is that of the next leg, found below
-                    xs.append(pos[0]); ys.append(pos[1]); hs.append(None); zs.append((alt_prev, frame_prev)); runs.append(run)
+                    # picture now; its heading is that of the next leg, found above at the next waypoint
+                    pending.append(len(xs))
+                    xs.append(pos[0])
+                    ys.append(pos[1])
+                    hs.append(None)
+                    zs.append((alt_prev, frame_prev))
+                    runs.append(run)
             else:
                 last = None
     x, y = np.asarray(xs), np.asarray(ys)

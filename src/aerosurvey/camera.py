@@ -137,7 +137,7 @@ def camera_from_mapping(cam_id: str, data: Mapping[str, Any], where: str) -> Cam
         raise bad_value(f"{where}.shutter", shutter, f"one of {', '.join(SHUTTERS)}")
     name = _text(where, "name", data["name"], required=True)
     texts = {key: _text(where, key, data[key], required=False) for key in _TEXT if key in data}
-    cam = Camera(id=cam_id, name=name, shutter=shutter, **texts, **values)
+    cam = Camera(id=cam_id, name=name, shutter=shutter, **texts, **values)  # type: ignore[arg-type]  # keys checked above
     if cam.exposure_s >= cam.min_cycle_s:
         raise InputError(
             f"{where}.exposure_s = {cam.exposure_s:g} is not shorter than min_cycle_s = {cam.min_cycle_s:g}: "

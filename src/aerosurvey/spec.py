@@ -197,7 +197,7 @@ class _Table:
         v = self.data.get(key, default)
         if v not in choices:
             raise bad_value(self.key(key), v, "one of " + ", ".join(choices))
-        return v
+        return str(v)
 
     def string(self, key: str, default: str | None = None) -> str | None:
         self.used.add(key)

@@ -56,7 +56,7 @@ def test_gate_finds_a_leg_through_a_zone():
     assert "mission.waypoints: the leg to item 2 (P1-L001-R1:lead-in) flies 100.0 m inside an exclusion zone" in bad[0].message()
 
 
-def test_a_plane_whose_landing_approach_crosses_a_zone_is_not_written(tmp_path: Path):
+def _landing_case(tmp_path: Path) -> Path:
     # a plane lands at home into a north wind: the approach starts 300 m south of home, inside the zone
     write_fc(tmp_path / "area.geojson", box_ring(-300, 400, 300, 900))
     write_fc(tmp_path / "zone.geojson", box_ring(-100, -400, 100, -200))
@@ -65,11 +65,31 @@ def test_a_plane_whose_landing_approach_crosses_a_zone_is_not_written(tmp_path: 
             "camera": {"model": "ricoh-gr"}, "targets": {"gsd_cm": 3.0},
             "vehicle": {"type": "plane"}, "flight": {"end": "land", "wind_from_deg": 0.0, "heading": 90.0}}
     (tmp_path / "s.toml").write_text(tomli_w.dumps(spec))
+    return tmp_path / "s.toml"
+
+
+def test_a_landing_approach_across_a_zone_is_refused_with_a_valid_place(tmp_path: Path):
     out = tmp_path / "out"
-    res = CliRunner().invoke(main, ["plan", str(tmp_path / "s.toml"), "-o", str(out)])
+    res = CliRunner().invoke(main, ["plan", str(_landing_case(tmp_path)), "-o", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "has its landing approach (flight.approach_m = 300 m into flight.wind_from_deg = 0) across an exclusion zone" in res.output
+    assert "the nearest valid launch point on the area's edge is [" in res.output
+    assert not out.exists()
+
+
+def test_the_final_gate_stops_what_planning_let_through(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """The gate is the last line: with the launch check switched off, the exported approach leg is caught."""
+    import aerosurvey.plan.planner as planner
+    import aerosurvey.plan.routing as routing
+
+    for module in (routing, planner):
+        monkeypatch.setattr(module, "check_launch", lambda *a, **k: None)
+        monkeypatch.setattr(module, "end_of_flight", lambda spec, site, home: home)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(_landing_case(tmp_path)), "-o", str(out)])
     assert res.exit_code == 1, res.output
     assert "the plan is not written: mission.waypoints: the leg to item" in res.output
-    assert "(approach)" in res.output and "inside an exclusion zone" in res.output
+    assert "(approach) flies" in res.output and "inside an exclusion zone" in res.output
     assert not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]
 

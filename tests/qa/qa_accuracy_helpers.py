@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -15,12 +16,12 @@ OBRATAN = REF / "bayes_obratan.csv"
 COUNTS_2014 = REF / "asprs2014_checkpoint_counts.csv"
 
 
-def make_points(dx, dy, dz=None, x=None, y=None, ids=None, roles=None, vegetated=None, sigma_xy=None,
-                sigma_z=None, crs: str | None = None) -> CheckPoints:
+def make_points(dx: Any, dy: Any, dz: Any = None, x: Any = None, y: Any = None, ids: Any = None, roles: Any = None,
+                vegetated: Any = None, sigma_xy: Any = None, sigma_z: Any = None, crs: str | None = None) -> CheckPoints:
     n = len(dx)
     nan = np.full(n, np.nan)
 
-    def arr(v) -> np.ndarray:
+    def arr(v: Any) -> np.ndarray:
         return nan.copy() if v is None else np.asarray(v, float)
 
     return CheckPoints(tuple(ids or [f"P{i + 1}" for i in range(n)]), tuple(roles or ["check"] * n),

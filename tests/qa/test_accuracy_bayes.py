@@ -7,6 +7,9 @@ import csv
 import json
 import math
 import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -27,8 +30,10 @@ def _rows() -> list[dict[str, str]]:
 def _taus() -> tuple[float, float]:
     """The reference survey's σ as the CSV's header states them."""
     head = OBRATAN.read_text(encoding="utf-8")
-    return (float(re.search(r"sigma_xy_ref = ([\d.]+) mm", head).group(1)),
-            float(re.search(r"sigma_z_ref = ([\d.]+) mm", head).group(1)))
+    mx = re.search(r"sigma_xy_ref = ([\d.]+) mm", head)
+    mz = re.search(r"sigma_z_ref = ([\d.]+) mm", head)
+    assert mx is not None and mz is not None
+    return float(mx.group(1)), float(mz.group(1))
 
 
 def _cases() -> list[tuple[str, int, float, float, float, float, float]]:
@@ -46,7 +51,7 @@ def _cases() -> list[tuple[str, int, float, float, float, float, float]]:
 CASES = _cases()
 
 
-def _unnormalised(m: int, s: float, tau: float):
+def _unnormalised(m: int, s: float, tau: float) -> Callable[[float], float]:
     """Formula (1) of the source without its constant, written out again here on purpose."""
     def f(x: float) -> float:
         if x <= 0:
@@ -56,13 +61,13 @@ def _unnormalised(m: int, s: float, tau: float):
     return f
 
 
-def _integrate(f, a: float, b: float, peak: float) -> float:
+def _integrate(f: Callable[[float], float], a: float, b: float, peak: float) -> float:
     pts = [p for p in (peak,) if a < p < b]
-    return integrate.quad(f, a, b, points=pts or None, limit=500, epsabs=0, epsrel=1e-11)[0]
+    return float(integrate.quad(f, a, b, points=pts or None, limit=500, epsabs=0, epsrel=1e-11)[0])
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
-def test_mode_equals_formula_column(case):
+def test_mode_equals_formula_column(case: Any) -> None:
     # the formula column, not the printed table: the source's two Stage 1 XY values are swapped
     name, m, s, tau, formula, _, _ = case
     assert bz.mode(m, s, tau) == pytest.approx(formula, abs=0.1)
@@ -74,7 +79,7 @@ def test_mode_equals_formula_column(case):
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
-def test_credible_interval_against_quad(case):
+def test_credible_interval_against_quad(case: Any) -> None:
     name, m, s, tau, _, _, _ = case
     p = bz.posterior(m, s, tau)
     f = _unnormalised(m, s, tau)
@@ -89,7 +94,7 @@ def test_credible_interval_against_quad(case):
     assert bz.density(xs, m, s, tau) == pytest.approx([f(x) / total for x in xs], rel=1e-7)
 
 
-def test_published_intervals_are_close_to_ours():
+def test_published_intervals_are_close_to_ours() -> None:
     """The source's '±' is not reproduced exactly (its interval definition is not stated);
     after undoing the swapped Stage 1 XY rows, our 95 % half-widths lie within 5 % of it."""
     ours = {c[0]: bz.posterior(c[1], c[2], c[3]).half_width for c in CASES}
@@ -100,7 +105,7 @@ def test_published_intervals_are_close_to_ours():
         assert ours[k] == pytest.approx(published[k], rel=0.05), k
 
 
-def test_tau_zero_is_the_classical_case():
+def test_tau_zero_is_the_classical_case() -> None:
     # tau = 0: sigma^2 | s ~ m s^2 / chi2(m), so the interval is the chi-square one
     from scipy import stats
     m, s = 40, 3.0
@@ -109,7 +114,7 @@ def test_tau_zero_is_the_classical_case():
     assert p.upper == pytest.approx(math.sqrt(m * s * s / stats.chi2.ppf(0.025, m)), rel=1e-9)
 
 
-def test_bayes_cli_from_summary_statistics(tmp_path):
+def test_bayes_cli_from_summary_statistics(tmp_path: Path) -> None:
     res = CliRunner().invoke(main, ["qa", "bayes", "--points", "108", "--s", "57", "--tau", "12", "--axis", "xy",
                                     "--json"])
     assert res.exit_code == 0, res.output
@@ -126,7 +131,7 @@ def test_bayes_cli_from_summary_statistics(tmp_path):
     assert bad.exit_code == 2
 
 
-def test_bayes_standard_from_points():
+def test_bayes_standard_from_points() -> None:
     rng = np.random.default_rng(11)
     n = 60
     dx, dy = scaled_to(rng.normal(size=n), 0.05), scaled_to(rng.normal(size=n), 0.05)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyproj
@@ -31,7 +33,7 @@ from aerosurvey.qa.accuracy_input import read_points
     ("id,dx_m,dx_cm,dy\nA,1,2,3\n", "column 'dx' is given twice"),
     ("# only a comment\n", "no header"),
 ])
-def test_bad_point_files(tmp_path, content, needle):
+def test_bad_point_files(tmp_path: Path, content: Any, needle: Any) -> None:
     p = tmp_path / "pts.csv"
     p.write_text(content)
     with pytest.raises(InputError) as exc:
@@ -42,7 +44,7 @@ def test_bad_point_files(tmp_path, content, needle):
     assert not (tmp_path / "out").exists()  # bad input leaves nothing behind
 
 
-def test_missing_file_and_contradicting_crs(tmp_path):
+def test_missing_file_and_contradicting_crs(tmp_path: Path) -> None:
     assert CliRunner().invoke(main, ["qa", "accuracy", str(tmp_path / "nope.csv")]).exit_code == 2
     p = tmp_path / "pts.csv"
     p.write_text("id,dx,dy,crs\nA,1,2,EPSG:5514\n")
@@ -52,7 +54,7 @@ def test_missing_file_and_contradicting_crs(tmp_path):
         read_points(p, crs="EPSG:999999")
 
 
-def test_units_suffix_option_and_statement(tmp_path):
+def test_units_suffix_option_and_statement(tmp_path: Path) -> None:
     pts = read_points(KUBAD)
     assert pts.units == "cm" and pts.units_stated and pts.dx[0] == pytest.approx(0.0611981)
     p = tmp_path / "mm.csv"
@@ -65,7 +67,7 @@ def test_units_suffix_option_and_statement(tmp_path):
     assert read_points(semi).dx[0] == pytest.approx(0.010)
 
 
-def test_coordinates_projected_and_roles(tmp_path):
+def test_coordinates_projected_and_roles(tmp_path: Path) -> None:
     p = tmp_path / "xy.csv"
     p.write_text("id,role,landcover,x,y,z,x_ref,y_ref,z_ref\n"
                  "C1,CP,open,-714000.03,-1120000.00,400.10,-714000.00,-1120000.02,400.00\n"
@@ -77,7 +79,7 @@ def test_coordinates_projected_and_roles(tmp_path):
     assert pts.crs == "EPSG:5514" and pts.has_positions
 
 
-def test_us_survey_feet_crs(tmp_path):
+def test_us_survey_feet_crs(tmp_path: Path) -> None:
     p = tmp_path / "ft.csv"
     p.write_text("id,x,y,z,x_ref,y_ref,z_ref\nA,1000.5,2000,10,1000,2000,9\n")
     with pytest.raises(InputError, match="US survey foot"):
@@ -86,7 +88,7 @@ def test_us_survey_feet_crs(tmp_path):
     assert pts.dx[0] == pytest.approx(0.5 * 0.3048, rel=1e-5) and pts.dz[0] == pytest.approx(0.3048)
 
 
-def test_geojson_is_longitude_latitude_and_converted_on_the_ellipsoid(tmp_path):
+def test_geojson_is_longitude_latitude_and_converted_on_the_ellipsoid(tmp_path: Path) -> None:
     lon0, lat0 = 14.95, 49.43
     feats = []
     for i in range(4):
@@ -105,7 +107,7 @@ def test_geojson_is_longitude_latitude_and_converted_on_the_ellipsoid(tmp_path):
         assert (pts.dx[i], pts.dy[i]) == pytest.approx((east, north), abs=1e-6)
     assert pts.dz == pytest.approx([0.05] * 4)
     # a GeoJSON crs member makes the coordinates projected
-    fc = {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::5514"}},
+    fc: dict[str, Any] = {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::5514"}},
           "features": [{"type": "Feature", "properties": {"id": "A", "x": -714000.02, "y": -1120000.0},
                         "geometry": {"type": "Point", "coordinates": [-714000.0, -1120000.0]}}]}
     p.write_text(json.dumps(fc))

@@ -20,7 +20,7 @@ floats = hs.floats(-5, 5, allow_nan=False, allow_infinity=False)
 
 @settings(max_examples=60, deadline=None)
 @given(hs.lists(floats, min_size=1, max_size=80))
-def test_axis_statistics_against_numpy(values):
+def test_axis_statistics_against_numpy(values: Any) -> None:
     e = np.asarray(values)
     s = st.axis_stats(e)
     assert s["n"] == len(e)
@@ -36,7 +36,7 @@ def test_axis_statistics_against_numpy(values):
 
 def _point_sets() -> hs.SearchStrategy:
     @hs.composite
-    def build(draw) -> dict[str, Any]:
+    def build(draw: Any) -> dict[str, Any]:
         n = draw(hs.integers(6, 30))
         seed = draw(hs.integers(0, 2**32 - 1))
         rng = np.random.default_rng(seed)
@@ -87,7 +87,7 @@ def _same(a: Any, b: Any, key: str, rel: float = 1e-9) -> None:
 
 @settings(max_examples=12, deadline=None)
 @given(_point_sets())
-def test_every_result_is_invariant_to_the_order_of_the_points(d):
+def test_every_result_is_invariant_to_the_order_of_the_points(d: Any) -> None:
     pts = make_points(d["dx"], d["dy"], d["dz"], x=d["x"], y=d["y"], vegetated=d["vegetated"], crs="EPSG:32633")
     p = d["perm"]
     shuffled = make_points(d["dx"][p], d["dy"][p], d["dz"][p], x=d["x"][p], y=d["y"][p],
@@ -106,7 +106,7 @@ def _scaled_settings(s: Settings, k: float) -> Settings:
 
 @settings(max_examples=12, deadline=None)
 @given(_point_sets())
-def test_scaling_the_residuals_scales_the_lengths_and_nothing_else(d):
+def test_scaling_the_residuals_scales_the_lengths_and_nothing_else(d: Any) -> None:
     k = d["k"]
     pts = make_points(d["dx"], d["dy"], d["dz"], vegetated=d["vegetated"])
     big = make_points(d["dx"] * k, d["dy"] * k, d["dz"] * k, vegetated=d["vegetated"])
@@ -132,7 +132,7 @@ def test_scaling_the_residuals_scales_the_lengths_and_nothing_else(d):
             assert pb["dx_m"] == pytest.approx(pa["dx_m"] * k) and pa["flags"] == pb["flags"]
 
 
-def test_influence_matches_a_direct_leave_one_out():
+def test_influence_matches_a_direct_leave_one_out() -> None:
     rng = np.random.default_rng(12)
     dx, dy = rng.normal(size=15), rng.normal(size=15)
     dy[3] = np.nan

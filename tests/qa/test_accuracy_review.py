@@ -26,14 +26,14 @@ def _residuals(n: int, seed: int = 0, s: float = 0.03) -> tuple[np.ndarray, np.n
     return rng.normal(0, s, n), rng.normal(0, s, n), rng.normal(0, s, n)
 
 
-def test_clean_well_spread_set_has_no_warnings():
+def test_clean_well_spread_set_has_no_warnings() -> None:
     x, y = _grid()
     dx, dy, dz = _residuals(len(x))
     r = assess(make_points(dx, dy, dz, x=x, y=y, crs="EPSG:32633"), Settings(standard="asprs2014", area_km2=0.36))
     assert [w for w in r["warnings"] if "VVA" not in w] == []
 
 
-def test_clustered_points_are_flagged():
+def test_clustered_points_are_flagged() -> None:
     x, y = _grid(8)
     keep = ~((x > 500300) & (y > 5470300))  # an L: nothing in the north-east quadrant
     x, y = x[keep], y[keep]
@@ -45,7 +45,7 @@ def test_clustered_points_are_flagged():
     assert any("closer than 10 % of the diagonal" in w and "P1-P2" in w for w in r["warnings"])
 
 
-def test_bias_outlier_and_single_point_dependence():
+def test_bias_outlier_and_single_point_dependence() -> None:
     x, y = _grid()
     dx, dy, dz = _residuals(len(x), seed=3)
     r = assess(make_points(dx, dy, dz + 0.05, x=x, y=y), Settings(standard="asprs2014"))
@@ -60,13 +60,13 @@ def test_bias_outlier_and_single_point_dependence():
     assert any("verdict rests on single points" in w and "P8" in w for w in r["warnings"])
 
 
-def test_survey_not_accurate_enough():
+def test_survey_not_accurate_enough() -> None:
     dx, dy, dz = _residuals(30, seed=5, s=0.02)
     r = assess(make_points(dx, dy, dz), Settings(standard="asprs2014", class_h_cm=3, ref_sigma_xy_m=0.015))
     assert any("not 3x more accurate" in w for w in r["warnings"])
 
 
-def test_mixed_roles_test_only_the_check_points():
+def test_mixed_roles_test_only_the_check_points() -> None:
     dx, dy, dz = _residuals(25, seed=6)
     roles = ["control"] * 5 + ["check"] * 20
     r = assess(make_points(dx, dy, dz, roles=roles), Settings(standard="asprs2014"))
@@ -96,7 +96,7 @@ def _campaign(folder: Path, proposed: dict[str, str]) -> Path:
     return folder
 
 
-def test_campaign_links_area_layout_and_gsd(tmp_path):
+def test_campaign_links_area_layout_and_gsd(tmp_path: Path) -> None:
     x, y = _grid()
     x = 500000 + (x - 500000) / 2  # all in the western half of the planned area
     y = 5470000 + (y - 5470000) / 2
@@ -124,7 +124,7 @@ def test_campaign_links_area_layout_and_gsd(tmp_path):
     assert nope.exit_code == 2 and "manifest.json is missing" in nope.output
 
 
-def test_outlier_rule_needs_both_tests():
+def test_outlier_rule_needs_both_tests() -> None:
     from aerosurvey.qa import statistics as st
     # a two-humped dozen: the MAD alone would flag -3.3, but it is not far from the others
     assert not st.outliers(np.array([-3.3, -2.4, -0.3, -0.1, 0.0, 0.2, 0.6, 0.7, 0.8, 2.7, 2.7])).any()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,15 +26,16 @@ def _source_set() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return DX * k, DY * k, DZ * 0.412 / math.sqrt(float(np.mean(DZ**2)))
 
 
-def test_worked_thresholds_of_the_source():
+def test_worked_thresholds_of_the_source() -> None:
     dx, dy, dz = _source_set()
     s = snoop(dx, dy, dz)
     assert s.sigma_h == pytest.approx(1.245) and s.sigma_v == pytest.approx(0.412)
+    assert s.threshold_v is not None
     assert round(s.threshold_h, 2) == 2.44 and round(s.threshold_v, 2) == 0.89
     assert not s.rejected.any() and s.passed  # as in the source: no point had to be rejected
 
 
-def test_planted_blunder_is_rejected_and_fails_nine_points():
+def test_planted_blunder_is_rejected_and_fails_nine_points() -> None:
     dx, dy, dz = _source_set()
     dx[4] = 9.0
     s = snoop(dx, dy, dz)
@@ -49,7 +51,7 @@ def test_planted_blunder_is_rejected_and_fails_nine_points():
     assert list(np.flatnonzero(s.rejected_v)) == [2] and not s.rejected_h.any()
 
 
-def test_five_percent_limit():
+def test_five_percent_limit() -> None:
     rng = np.random.default_rng(1)
     ex, ey = rng.uniform(-1, 1, 41), rng.uniform(-1, 1, 41)  # |e| <= 1.73 rms: nothing to reject
     clean = snoop(ex, ey)
@@ -65,19 +67,20 @@ def test_five_percent_limit():
     assert snoop(ex, ey, k_h=100.0).rejected.sum() == 0
 
 
-def test_global_chi_square_test():
+def test_global_chi_square_test() -> None:
     rng = np.random.default_rng(4)
     ex, ey = rng.uniform(-0.5, 0.5, 50), rng.uniform(-0.5, 0.5, 50)  # sigma about 0.29, nothing rejected
     s = snoop(ex, ey, sigma0_h=0.35)
     g = s.global_h
+    assert g is not None and s.sigma_h_kept is not None
     f = 2 * int((~s.rejected).sum())
     assert g["dof"] == f and g["statistic"] == pytest.approx(f * s.sigma_h_kept**2 / 0.35**2)
     assert g["limit"] == pytest.approx(stats.chi2.ppf(0.95, f)) and g["passed"] and s.passed
     tight = snoop(ex, ey, sigma0_h=0.2)
-    assert not tight.global_h["passed"] and not tight.passed
+    assert tight.global_h is not None and not tight.global_h["passed"] and not tight.passed
 
 
-def test_snooping_standard_and_cli(tmp_path):
+def test_snooping_standard_and_cli(tmp_path: Path) -> None:
     dx, dy, dz = _source_set()
     dx[4] = 9.0
     r = assess(make_points(dx, dy, dz), Settings(standard="snooping"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ from aerosurvey.qa import statistics as st
 from aerosurvey.qa.assessment import Settings, assess
 
 
-def test_required_counts_2014_match_the_reference_table():
+def test_required_counts_2014_match_the_reference_table() -> None:
     with open(COUNTS_2014, encoding="utf-8") as fh:
         rows = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
     previous = 0.0
@@ -30,7 +31,7 @@ def test_required_counts_2014_match_the_reference_table():
     assert asprs.required_2014(None).horizontal == 20
 
 
-def test_required_counts_2023():
+def test_required_counts_2023() -> None:
     assert asprs.required_2023(None).horizontal == 30
     assert asprs.required_2023(0.72).horizontal == 30
     assert asprs.required_2023(600).horizontal == 35
@@ -39,7 +40,7 @@ def test_required_counts_2023():
     assert big.horizontal <= asprs.MAX_CHECK_POINTS_2023 and "120" in big.note
 
 
-def test_asprs2014_vva_and_classes():
+def test_asprs2014_vva_and_classes() -> None:
     rng = np.random.default_rng(2)
     n = 40
     veg = np.arange(n) % 4 == 0
@@ -55,7 +56,7 @@ def test_asprs2014_vva_and_classes():
     assert r["horizontal_class_cm"] == min(c for c in asprs.HORIZONTAL_CLASSES_2014_CM if c >= x - 1e-9)
 
 
-def test_asprs2023_product_accuracy_includes_the_survey():
+def test_asprs2023_product_accuracy_includes_the_survey() -> None:
     rng = np.random.default_rng(3)
     n = 35
     dx, dy, dz = (scaled_to(rng.normal(size=n), v) for v in (0.03, 0.04, 0.05))
@@ -71,7 +72,7 @@ def test_asprs2023_product_accuracy_includes_the_survey():
 
 
 @pytest.mark.parametrize("fit_cm,product_cm", [(1.00, 2.24), (1.50, 2.50), (2.00, 2.83), (5.00, 5.39)])
-def test_asprs2023_vertical_rows_of_table_7_4(fit_cm, product_cm):
+def test_asprs2023_vertical_rows_of_table_7_4(fit_cm: Any, product_cm: Any) -> None:
     """Rows of Edition 2 Table 7.4 (2.0 cm check point survey) as transcribed by a secondary
     source (see qa/asprs.py): the combination formula reproduces them to the printed 0.01 cm."""
     dz = np.array([fit_cm, -fit_cm]) / 100
@@ -79,7 +80,7 @@ def test_asprs2023_vertical_rows_of_table_7_4(fit_cm, product_cm):
     assert round(r["rmse_v_m"] * 100, 2) == product_cm
 
 
-def test_asprs2023_missing_survey_is_a_warning():
+def test_asprs2023_missing_survey_is_a_warning() -> None:
     rng = np.random.default_rng(8)
     pts = make_points(rng.normal(0, 0.02, 30), rng.normal(0, 0.02, 30), rng.normal(0, 0.03, 30))
     r = assess(pts, Settings(standard="asprs2023"))
@@ -87,7 +88,7 @@ def test_asprs2023_missing_survey_is_a_warning():
     assert any("not confirmed" in n for n in r["notes"])
 
 
-def test_nssda_ratio_branches():
+def test_nssda_ratio_branches() -> None:
     e = np.array([1.0, -1.0, 1.0, -1.0] * 5)
     eq = nssda.evaluate(0.1 * e, 0.1 * e, 0.2 * e)
     assert eq["horizontal_95_m"] == pytest.approx(1.7308 * math.hypot(0.1, 0.1))
@@ -103,7 +104,7 @@ def test_nssda_ratio_branches():
     assert nssda.evaluate(0.1 * e, 0.1 * e, 0.2 * e, max_h95_cm=25, max_v95_cm=40)["passed"] is True
 
 
-def test_circular_error_exact():
+def test_circular_error_exact() -> None:
     for p in (0.5, 0.9, 0.95):
         assert st.circular_error(2.0, 2.0, p) == pytest.approx(2.0 * math.sqrt(-2 * math.log(1 - p)), rel=1e-9)
     assert st.circular_error(1.0, 0.0, 0.95) == pytest.approx(1.959964, rel=1e-6)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from aerosurvey.errors import CheckFailed, InputError
+from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.qa import bayes as bz
 from aerosurvey.qa.accuracy_input import UNITS, read_points
@@ -18,6 +18,12 @@ from aerosurvey.qa.report_text import summary
 
 _POS = click.FloatRange(min=0, min_open=True)
 _NONNEG = click.FloatRange(min=0)
+
+
+class NotTested(AerosurveyError):
+    """The points do not make a valid test by the standard: no verdict (exit code 3)."""
+
+    exit_code = 3
 
 
 def _dumps(data: object) -> str:
@@ -60,8 +66,16 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
              outdir: Path | None) -> None:
     """Accuracy of a product from its check points, by a standard.
 
-    Exit code 0 when the tested class or specification is met (or none was tested),
-    1 when it is not, 2 for bad input.
+    \b
+    Exit codes:
+      0  a valid test: the tested class or specification is met, or none was asked
+         (figures reported only)
+      1  a valid test, and the class or specification is NOT met
+      2  bad input (nothing written)
+      3  no valid test: NOT TESTED (no independent check points: control points
+         show the fit, not the accuracy) or INDICATIVE ONLY (too few check points,
+         check points not accurate enough, mean error above the standard's limit,
+         or the plan's own check point rule not met); the reasons are printed
     """
     if area_km2 is not None and area_ha is not None:
         raise InputError(f"--area-km2 = {area_km2} and --area-ha = {area_ha}: give the project area once")
@@ -82,6 +96,9 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
             atomic_write_text(stage / "accuracy.txt", text)
             atomic_write_text(stage / "accuracy.html", render(result, pts))
     click.echo(_dumps(result) if as_json else text, nl=False)
+    v = result["verdict"]
+    if v["status"] != "valid":
+        raise NotTested(f"{result['standard_name']}: {v['status']}, no verdict: {'; '.join(v['reasons'])}")
     if result["passed"] is False:
         raise CheckFailed(f"{result['standard_name']}: the data set does not meet the tested class or specification")
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -11,7 +12,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 
 
-def _crop_geoms(path: Path, grid_crs) -> tuple:
+def _crop_geoms(path: Path, grid_crs: Any) -> tuple[Any, ...]:
     import numpy as np
     import pyproj
     import shapely
@@ -28,32 +29,46 @@ def _crop_geoms(path: Path, grid_crs) -> tuple:
 
 @click.command()
 @click.argument("orthos", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--window", type=int, default=5, show_default=True, help="Moving window size in pixels (odd, >= 3).")
-@click.option("--threshold", type=float, default=0.95, show_default=True, help="Correlation from which a pixel is reproducible.")
+@click.option("--statistic", type=click.Choice(["pixel", "window"]), default="pixel", show_default=True,
+              help="pixel: per-pixel correlation across the bands (the source study's, raster::corLocal on bricks); "
+                   "window: a w x w window with the bands pooled.")
+@click.option("--window", type=int, default=5, show_default=True,
+              help="Window size in pixels for --statistic window (odd, >= 3).")
+@click.option("--threshold", type=float, default=0.95, show_default=True,
+              help="A pixel is reproducible when r > threshold.")
+@click.option("--resample", is_flag=True,
+              help="Warp inputs on another grid (CRS, transform, size) onto the first input's (bilinear); without "
+                   "it such inputs are refused.")
 @click.option("--crop", default="none", show_default=True, help="none, auto (data footprint shrunk by --crop-margin) or a polygon file.")
 @click.option("--crop-margin", type=click.IntRange(0, 5000), default=50, show_default=True, help="Pixels removed at the data edge (auto).")
 @click.option("--block", type=click.IntRange(64, 8192), default=1024, show_default=True, help="Block size in pixels.")
 @click.option("--scheduler", default="threads", show_default=True,
               help="threads, local (a Dask LocalCluster) or the address of a Dask scheduler (tcp://host:8786).")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
-def reproducibility(orthos: tuple[Path, ...], window: int, threshold: float, crop: str, crop_margin: int, block: int,
-                    scheduler: str, outdir: Path) -> None:
-    """Reproducibility layer of orthomosaics processed several times with the same settings."""
+def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int, threshold: float, resample: bool, crop: str,
+                    crop_margin: int, block: int, scheduler: str, outdir: Path) -> None:
+    """Reproducibility layer of orthomosaics processed several times with the same settings.
+
+    \b
+    Exit codes: 0 done; 2 bad input (unreadable raster, other grid without
+    --resample, unreachable Dask scheduler, bad option); nothing is written then.
+    """
     from aerosurvey.qa import reproducibility as rp
 
-    rp.validate_settings(window, threshold)
+    rp.validate_settings(window, threshold, statistic)
     paths = list(orthos)
-    grid = rp.inspect(paths)
-    geoms: tuple = ()
+    grid = rp.inspect(paths, resample)
+    geoms: tuple[Any, ...] = ()
     if crop not in ("none", "auto"):
         geoms = _crop_geoms(Path(crop), grid.crs)
     s = rp.Settings(window=window, threshold=threshold, crop=crop if crop in ("none", "auto") else "file",
-                    crop_margin_px=crop_margin, block=block, crop_geoms=geoms)
+                    crop_margin_px=crop_margin, block=block, crop_geoms=geoms, statistic=statistic, resample=resample)
     with staged_directory(outdir) as stage:
         summary = rp.run(paths, stage, s, scheduler)
         rp.write_summary(stage, summary)
-    click.echo(f"{summary['pairs']} pairs: {100 * summary['reproducible_share']:.2f} % of {summary['judged_pixels']} judged "
-               f"pixels reproducible in every pair; wrote reproducibility.tif, summary.json, summary.txt to {outdir}")
+    click.echo(f"{summary['pairs']} pairs ({statistic} statistic): {100 * summary['reproducible_share']:.2f} % of "
+               f"{summary['judged_pixels']} judged pixels reproducible in every pair; wrote reproducibility.tif, "
+               f"summary.json, summary.txt to {outdir}")
 
 
 @click.command()
@@ -83,8 +98,8 @@ def shift(objects: tuple[Path, ...], id_field: str, outdir: Path | None) -> None
 
     res = object_shift(list(objects), id_field)
     for d in res["per_date"]:
-        click.echo(f"{d['date']}: {d['objects']} objects, centroid shift mean {d['centroid_shift_mean']:.3f}, "
-                   f"median {d['centroid_shift_median']:.3f}, max {d['centroid_shift_max']:.3f} (CRS units)"
+        click.echo(f"{d['date']}: {d['objects']} objects, centroid shift mean {d['centroid_shift_mean_m']:.3f}, "
+                   f"median {d['centroid_shift_median_m']:.3f}, max {d['centroid_shift_max_m']:.3f} ({res['unit']})"
                    + (f"; missing {', '.join(d['missing'])}" if d["missing"] else ""))
     if outdir is not None:
         with staged_directory(outdir) as stage:

@@ -15,11 +15,10 @@ CONDITION_YAW: a fixed heading goes into each waypoint's param4, as PX4 reads it
 
 from __future__ import annotations
 
-import math
-
 from aerosurvey import ids
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
+from aerosurvey.plan.landing import approach_lonlat
 from aerosurvey.plan.planner import Plan, RouteWaypoint
 
 
@@ -74,12 +73,8 @@ def run_id(plan: Plan, run: int) -> str:
 def _landing(plan: Plan, lat: float, lon: float) -> list[MissionItem]:
     """DO_LAND_START, an approach waypoint downwind of the launch point, NAV_LAND into the wind."""
     f = plan.spec.flight
-    assert f.wind_from_deg is not None
     # the plane lands heading into the wind: the approach starts downwind of the touchdown point
-    back = math.radians((f.wind_from_deg + 180.0) % 360.0)
-    d_north, d_east = f.approach_m * math.cos(back), f.approach_m * math.sin(back)
-    alat = lat + d_north / 111_320.0
-    alon = lon + d_east / (111_320.0 * math.cos(math.radians(lat)))
+    alon, alat = approach_lonlat(plan.spec, lon, lat)
     return [
         MissionItem(mav.DO_LAND_START, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(alat, 8), round(alon, 8), 0.0, tag="land-start"),
         MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(alat, 8), round(alon, 8),

@@ -21,9 +21,9 @@ from aerosurvey.mission.items import Mission
 
 #: commands whose latitude/longitude the vehicle flies to
 _NAV = {mav.NAV_WAYPOINT, mav.NAV_TAKEOFF, mav.NAV_LAND}
-#: the margin is checked a little inside its outline: the detours fly round polygons of it
-#: (a buffer with two segments a quarter circle lies up to 7.6 % of the margin inside the round one)
-MARGIN_TOLERANCE = 0.9
+#: the margin is checked a little inside its outline: the route keeps out of a polygon of it
+#: (eight segments a quarter circle, whose chords lie up to 2 % of the margin inside the circle)
+MARGIN_TOLERANCE = 0.95
 
 
 @dataclass(frozen=True)
@@ -48,8 +48,9 @@ class Violation:
                 f"first at lon {self.at_lonlat[0]:.6f}, lat {self.at_lonlat[1]:.6f}")
 
 
-def mission_legs(mission: Mission, file: str, planar: Planar) -> list[Leg]:
-    """The horizontal legs the autopilot flies for `mission` (home is item 0)."""
+def mission_legs(mission: Mission, file: str, planar: Planar, rtl_loiter: float = 0.0) -> list[Leg]:
+    """The horizontal legs the autopilot flies for `mission` (home is item 0); a plane's RTL
+    ends circling home at `rtl_loiter` (planning-grid metres) and that circle is legs too."""
     home_lat, home_lon, _ = mission.home
     hx, hy = planar.xy(np.array([home_lon]), np.array([home_lat]))
     home = (float(hx[0]), float(hy[0]))
@@ -72,6 +73,10 @@ def mission_legs(mission: Mission, file: str, planar: Planar) -> list[Leg]:
         cur = prev if h else (float(px), float(py))
         legs.append(Leg(file, seq, what, prev, cur))
         prev = cur
+    if rtl_loiter > 0 and mission.vehicle == "plane" and legs and legs[-1].what == "rtl":
+        a = np.linspace(0.0, 2 * np.pi, 37)
+        ring = [(home[0] + rtl_loiter * float(np.cos(t)), home[1] + rtl_loiter * float(np.sin(t))) for t in a]
+        legs += [Leg(file, legs[-1].seq, "rtl-loiter", p, q) for p, q in zip(ring[:-1], ring[1:])]
     return legs
 
 

@@ -27,6 +27,10 @@ from aerosurvey.spec import MissionSpec
 MIN_IMAGES = 2
 #: parts of the shortfall smaller than this are rounding slivers of the polygon operations
 SLIVER_M2 = 0.01
+#: ground counts as seen by a photo only this far inside its footprint: where a photo is
+#: really taken varies by a few metres (ArduPilot's 50 Hz distance trigger, the track; SITL
+#: showed up to 5 m along the line), so the shortfall reported errs on the side of too much
+EDGE_TOLERANCE_M = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,6 +60,8 @@ def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base:
     starts = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
     ends = np.r_[starts[1:], len(runs)] - 1
     for a, b in zip(starts, ends):
+        if b == a:  # one photo sees its ground once
+            continue
         L, W = float(along[a: b + 1].min()), float(across[a: b + 1].min())
         reach = L / 2.0 - base
         if reach <= 0:
@@ -82,7 +88,8 @@ def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, st
     if not len(stations.ids):
         return Coverage(required.area / k2, near.area / k2, near, near.area / k2)
     across, along = pg.footprint(np.asarray(stations.agl_m, float), spec.camera.camera, spec.camera.mount)
-    across, along = np.asarray(across, float) * k, np.asarray(along, float) * k
+    across = (np.asarray(across, float) - 2 * EDGE_TOLERANCE_M) * k
+    along = (np.asarray(along, float) - 2 * EDGE_TOLERANCE_M) * k
     # what two photos of one run surely see needs no pairwise intersection
     rest = shapely.difference(near, _run_strips(stations, across, along, sensor.base_m * k))
     if rest.is_empty:

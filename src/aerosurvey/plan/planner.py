@@ -27,7 +27,7 @@ from aerosurvey.plan.model import Heights, Plan, RouteWaypoint, SortiePlan, Stat
 from aerosurvey.plan.pattern import pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours
-from aerosurvey.plan.routing import RoutePlan, plan_route
+from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
 from aerosurvey.plan.sensor import SensorSolution, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, split, wind_factor
@@ -64,7 +64,8 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
     if spec.battery is not None:
         report("battery sorties", 0.88)
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
-                          site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle)
+                          site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
+                          tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites))
         budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours)
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale)
@@ -136,9 +137,7 @@ def launch_sites(spec: MissionSpec, site: Site, home_xy: tuple[float, float],
     x, y = site.planar.xy(lon, lat)
     ground = site.dem.sample(x, y, "launch points") if site.dem is not None else np.zeros(len(pts))
     for i, (px, py) in enumerate(zip(x, y)):
-        if site.zones_buffered is not None and shapely.intersects(site.zones_buffered, shapely.Point(px, py)):
-            raise InputError(f"battery.launch_points[{i + 1}] = {list(pts[i])} lies inside an exclusion zone "
-                             f"(or its {spec.flight.exclusion_margin_m:g} m margin)", key="battery.launch_points")
+        check_launch(spec, site, (float(px), float(py)), f"battery.launch_points[{i + 1}] = {list(pts[i])}", "battery.launch_points")
     return tuple(LaunchSite(float(px), float(py), float(lo), float(la), float(g)) for px, py, lo, la, g in zip(x, y, lon, lat, ground))
 
 
@@ -163,7 +162,11 @@ def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tupl
     )
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
     out = []
-    for s in split(path, sites, budget, sensor.kinematics, detours, fixed):
+    try:
+        raw = split(path, sites, budget, sensor.kinematics, detours, fixed)
+    except ValueError as exc:
+        raise InputError(f"battery sorties: {exc}") from None
+    for s in raw:
         x = np.array([w.x for w in s.waypoints])
         y = np.array([w.y for w in s.waypoints])
         lon, lat = site.planar.lonlat(x, y)

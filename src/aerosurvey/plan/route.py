@@ -346,7 +346,9 @@ class Detours:
         if zones is None or zones.is_empty:
             return
         # fly around a slightly larger outline than the one that must not be crossed
-        self.blocked = shapely.buffer(zones, margin, quad_segs=2)
+        # eight segments a quarter circle: GEOS rounds the segment count of a corner down, so two
+        # (one chord across up to 90°) let legs cut up to 29 % of the margin at a zone's corners
+        self.blocked = shapely.buffer(zones, margin, quad_segs=8)
         around = shapely.buffer(zones, margin + max(1.0, 0.02 * margin) + 1.0, quad_segs=2, join_style="mitre")
         shapely.prepare(self.blocked)
         for poly in shapely.get_parts(around):
@@ -392,21 +394,27 @@ class Detours:
         return out[::-1]
 
 
-def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
-    """The run with its lead-in shortened to stop `gap_m` short of a zone's margin in its way."""
+def clip_approach(first: tuple[float, float], lead: tuple[float, float], detours: Detours,
+                  gap_m: float = 1.0) -> tuple[float, float]:
+    """The lead-in point moved towards `first` so that the approach stops `gap_m` short of a zone's margin."""
     if detours.blocked is None:
-        return run
-    first = (float(run.station_xy[0, 0]), float(run.station_xy[0, 1]))
-    approach = shapely.LineString([first, run.lead_in_xy])
+        return lead
+    approach = shapely.LineString([first, lead])
     hit = shapely.intersection(approach, detours.blocked)
     if hit.is_empty:
-        return run
+        return lead
     d = shapely.line_locate_point(approach, shapely.get_point(shapely.shortest_line(shapely.Point(first), hit), 1))
     keep = max(0.0, float(d) - gap_m)
-    lx, ly = run.lead_in_xy
-    length = math.dist(first, (lx, ly))
+    length = math.dist(first, lead)
     t = keep / length if length > 0 else 0.0
-    return replace(run, lead_in_xy=(first[0] + (lx - first[0]) * t, first[1] + (ly - first[1]) * t))
+    return (first[0] + (lead[0] - first[0]) * t, first[1] + (lead[1] - first[1]) * t)
+
+
+def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
+    """The run with its lead-in shortened to stop `gap_m` short of a zone's margin in its way."""
+    first = (float(run.station_xy[0, 0]), float(run.station_xy[0, 1]))
+    lead = clip_approach(first, run.lead_in_xy, detours, gap_m)
+    return run if lead == run.lead_in_xy else replace(run, lead_in_xy=lead)
 
 
 def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],

@@ -10,6 +10,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.plan.landing import approach_lonlat, home_clearance_m, lands_with_approach
 from aerosurvey.plan.pattern import Layout
 from aerosurvey.plan.route import Detours, Route, build_route
 from aerosurvey.plan.sensor import SensorSolution
@@ -27,18 +28,61 @@ class RoutePlan:
     transit_back: tuple[tuple[float, float], ...]  # from the last waypoint home
 
 
-def default_home(site: Site, first: tuple[float, float]) -> tuple[float, float]:
-    """No launch point given: the area's edge nearest the first waypoint, outside every zone
-    and its margin (the first waypoint itself when zones cover the whole edge)."""
+def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0) -> tuple[float, float]:
+    """No launch point given: the area's edge nearest the first waypoint, `clearance` and a
+    metre more outside every zone's margin; where zones take the whole edge, the nearest such
+    place around the area."""
     area = site.area
     edge = area.exterior if area.geom_type == "Polygon" else area.boundary
-    if site.zones_buffered is not None:
-        # a metre more than the margin, so that the launch point is not on its line
-        edge = shapely.difference(edge, shapely.buffer(site.zones_buffered, 1.0, quad_segs=2))
-        if edge.is_empty:
-            return first
-    near = shapely.get_point(shapely.shortest_line(edge, shapely.Point(first)), 0)
+    if site.zones_buffered is None:
+        allowed = edge
+    else:
+        keep_out = shapely.buffer(site.zones_buffered, clearance + 1.0, quad_segs=4)
+        allowed = shapely.difference(edge, keep_out)
+        if allowed.is_empty:
+            allowed = shapely.difference(shapely.buffer(area, 3.0 * clearance + 200.0, quad_segs=4), keep_out)
+            if allowed.is_empty:
+                raise InputError("no launch point can be found outside the exclusion zones and their margins near the area: "
+                                 "give area.launch", key="area.launch")
+    near = shapely.get_point(shapely.shortest_line(allowed, shapely.Point(first)), 0)
     return (float(near.x), float(near.y))
+
+
+def end_of_flight(spec: MissionSpec, site: Site, home: tuple[float, float]) -> tuple[float, float]:
+    """Where the way home ends: a landing plane's approach waypoint, else the launch point."""
+    if not lands_with_approach(spec):
+        return home
+    lon, lat = site.planar.lonlat(np.array([home[0]]), np.array([home[1]]))
+    alon, alat = approach_lonlat(spec, float(lon[0]), float(lat[0]))
+    ax, ay = site.planar.xy(np.array([alon]), np.array([alat]))
+    return (float(ax[0]), float(ay[0]))
+
+
+def check_launch(spec: MissionSpec, site: Site, home: tuple[float, float], what: str, key: str) -> None:
+    """A launch point inside a zone's margin, too near one for a plane's loiter, or whose
+    landing approach crosses one, is refused with the nearest valid place on the area's edge."""
+    if site.zones_buffered is None:
+        return
+    clearance = home_clearance_m(spec) * site.grid_scale
+    d = shapely.distance(site.zones_buffered, shapely.Point(home))
+    problem = None
+    if d <= 0:
+        problem = f"lies inside an exclusion zone (or its {spec.flight.exclusion_margin_m:g} m margin)"
+    elif d < clearance:
+        problem = (f"lies {d / site.grid_scale:.0f} m from an exclusion zone's margin, inside the {home_clearance_m(spec):g} m "
+                   "a plane circles home at after RTL (ArduPlane WP_LOITER_RAD)")
+    elif lands_with_approach(spec):
+        approach = end_of_flight(spec, site, home)
+        if shapely.intersects(site.zones_buffered, shapely.LineString([approach, home])):
+            problem = (f"has its landing approach (flight.approach_m = {spec.flight.approach_m:g} m into flight.wind_from_deg = "
+                       f"{spec.flight.wind_from_deg:g}) across an exclusion zone or its margin; change the approach, the wind "
+                       "or the launch point, or end with flight.end = 'rtl'")
+    if problem is None:
+        return
+    ok = default_home(site, home, clearance)
+    lon, lat = site.planar.lonlat(np.array([ok[0]]), np.array([ok[1]]))
+    raise InputError(f"{what} {problem}; the nearest valid launch point on the area's edge is "
+                     f"[{float(lon[0]):.6f}, {float(lat[0]):.6f}]", key=key)
 
 
 def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> RoutePlan:
@@ -47,9 +91,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     if spec.area.launch is not None:
         lx, ly = site.planar.xy(np.array([spec.area.launch[0]]), np.array([spec.area.launch[1]]))
         launch_xy = (float(lx[0]), float(ly[0]))
-        if site.zones_buffered is not None and shapely.intersects(site.zones_buffered, shapely.Point(launch_xy)):
-            raise InputError(f"area.launch = {list(spec.area.launch)} lies inside an exclusion zone "
-                             f"(or its {spec.flight.exclusion_margin_m:g} m margin)", key="area.launch")
+        check_launch(spec, site, launch_xy, f"area.launch = {list(spec.area.launch)}", "area.launch")
     detours = Detours(site.zones, spec.flight.exclusion_margin_m)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, sensor.kinematics,
@@ -58,9 +100,11 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         raise InputError(f"routing failed: {exc}") from None
     first = (route.waypoints[0].x, route.waypoints[0].y)
     last = (route.waypoints[-1].x, route.waypoints[-1].y)
-    home = launch_xy if launch_xy is not None else default_home(site, first)
+    home = launch_xy if launch_xy is not None else default_home(site, first, home_clearance_m(spec) * k)
+    if launch_xy is None:
+        check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
     try:
-        out, back = detours.path(home, first), detours.path(last, home)
+        out, back = detours.path(home, first), detours.path(last, end_of_flight(spec, site, home))
     except ValueError as exc:
         raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
     return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))

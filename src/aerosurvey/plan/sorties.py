@@ -20,7 +20,7 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Detours, Kinematics, Run, descent_time, path_time
+from aerosurvey.plan.route import Detours, Kinematics, Run, clip_approach, descent_time, path_time
 from aerosurvey.spec import VehicleSpec
 
 
@@ -40,6 +40,7 @@ class FlightPath:
     home_ground_m: float  # ground under the plan's home (relative altitudes are above it)
     trigger: str
     vehicle: VehicleSpec
+    ends: tuple[tuple[float, float], ...]  # per launch site: where the way home ends (a landing plane's approach, else the site)
 
 
 @dataclass(frozen=True)
@@ -145,7 +146,9 @@ class Splitter:
         lead, half = plan.lead_in_m * plan.grid_scale, plan.base_m * plan.grid_scale / 2.0
         alt_a = float(st.alt_rel_m[a]) if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
         alt_b = float(st.alt_rel_m[b]) if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
-        out = [SortieWaypoint(st.x[a] - ux * lead, st.y[a] - uy * lead, alt_a, "lead_in", r, ""),
+        # a sortie resuming mid-line approaches its first station anew (shortened where a zone is in the way)
+        lx, ly = clip_approach((float(st.x[a]), float(st.y[a])), (st.x[a] - ux * lead, st.y[a] - uy * lead), self.detours)
+        out = [SortieWaypoint(lx, ly, alt_a, "lead_in", r, ""),
                SortieWaypoint(float(st.x[a]), float(st.y[a]), alt_a, "line_start", r, st.ids[a])]
         for w in self.by_run[r]:
             if w.kind == "terrain" and a < self.station_index[w.station] < b:
@@ -196,9 +199,10 @@ class Splitter:
             s = self.sites[li]
             home = (s.x, s.y)
             alt_shift = self.plan.home_ground_m - s.ground_m
-            out_via, back_via = self.detours.path(home, first), self.detours.path(last, home)
+            end = self.plan.ends[li]
+            out_via, back_via = self.detours.path(home, first), self.detours.path(last, end)
             out_leg = [home, *out_via]
-            back_leg = [*back_via, home]
+            back_leg = [*back_via, *([end] if end != home else []), home]
             poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
             horiz = path_time(poly, self.kin)
             v = self.plan.vehicle

@@ -33,6 +33,9 @@ import pyproj
 
 from aerosurvey.errors import InputError
 
+#: Largest residual accepted (m): anything larger is a wrong point or unit, and squaring
+#: values near 1e300 would overflow the statistics.
+MAX_RESIDUAL_M = 1.0e5
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048}
 _LENGTH_COLUMNS = ("dx", "dy", "dz", "x", "y", "z", "x_ref", "y_ref", "z_ref", "sigma_xy", "sigma_z")
 _ROLES = {"check": "check", "cp": "check", "checkpoint": "check", "check point": "check", "icp": "check",
@@ -105,6 +108,8 @@ def geographic_offsets(lon: np.ndarray, lat: np.ndarray, lon_ref: np.ndarray, la
     the error is far below a millimetre, which is what check point residuals need.
     """
     ell = pyproj.CRS.from_user_input(crs or "OGC:CRS84").ellipsoid
+    if ell is None:
+        raise InputError(f"CRS {crs!r} has no ellipsoid: geographic coordinates cannot be turned into metres")
     a, inv_f = ell.semi_major_metre, ell.inverse_flattening
     e2 = 0.0 if not inv_f else (2 - 1 / inv_f) / inv_f
     phi = np.radians(lat_ref)
@@ -186,7 +191,16 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     if units is not None and units not in UNITS:
         raise InputError(f"--units = {units!r} is not allowed: one of {', '.join(UNITS)}")
     where = path.name
-    text = path.read_text(encoding="utf-8-sig")
+    if path.is_dir():
+        raise InputError(f"check points: {str(path)!r} is a folder; give a CSV or GeoJSON file")
+    content = path.read_bytes()
+    if b"\x00" in content[:65536]:
+        raise InputError(f"{where}: a binary file (NUL bytes), not a CSV or GeoJSON text file")
+    try:
+        text = content.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where}: not UTF-8 text (byte {exc.start}); save the check points as UTF-8 CSV or "
+                         "GeoJSON") from None
     stated: list[str] = []
     is_geojson = path.suffix.lower() in (".geojson", ".json")
     if is_geojson:
@@ -209,6 +223,8 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
     if crs_obj is None and is_geojson:
         crs_obj = pyproj.CRS.from_user_input("OGC:CRS84")  # RFC 7946: GeoJSON is longitude/latitude
     geographic = bool(crs_obj is not None and crs_obj.is_geographic)
+    crs_text = crs_obj.to_string() if crs_obj is not None else None
+    crs_name = crs_obj.name if crs_obj is not None else "none"
 
     id_col = next((cols[c][0] for c in ("id", "label", "name", "point") if c in cols), None)
     if id_col is None:
@@ -225,7 +241,7 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
         suffixed = [cols[c][0] for c in planar if cols[c][1]]
         if suffixed:
             raise InputError(f"{where}: {', '.join(suffixed)} carry a length unit, but the CRS "
-                             f"{crs_obj.name} is geographic (degrees)")
+                             f"{crs_name} is geographic (degrees)")
     checked = [c for c in _LENGTH_COLUMNS if c in cols and not (geographic and c in planar)]
     found = {c: cols[c][1] or units or "m" for c in checked}
     if crs_obj is not None and not geographic:
@@ -283,13 +299,17 @@ def read_points(path: Path, units: str | None = None, default_role: str = "check
             xp, yp = num(row, "x", i, pf), num(row, "y", i, pf)
             if geographic:
                 ex, ny = geographic_offsets(np.array([xp]), np.array([yp]), np.array([xr]), np.array([yr]),
-                                            crs_obj.to_string())
+                                            crs_text)
                 dx, dy = float(ex[0]), float(ny[0])
             else:
                 dx, dy = xp - xr, yp - yr
             dz = num(row, "z", i) - num(row, "z_ref", i) if "z" in cols else math.nan
         if math.isnan(dx) or math.isnan(dy):
             raise InputError(f"{where}: row {i + 1} ({pid}) has no horizontal residual (empty dx/dy or coordinates)")
+        for name, val in (("dx", dx), ("dy", dy), ("dz", dz)):
+            if abs(val) > MAX_RESIDUAL_M:  # NaN compares False
+                raise InputError(f"{where}: row {i + 1} ({pid}): residual {name} = {val:.6g} m is not allowed: at most "
+                                 f"{MAX_RESIDUAL_M:g} m (a larger difference is not the same point measured twice)")
         arr["dx"].append(dx)
         arr["dy"].append(dy)
         arr["dz"].append(dz)

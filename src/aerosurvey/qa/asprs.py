@@ -20,7 +20,17 @@ Where the numbers come from:
   with RMSE_H2 = √2 × the per-axis survey RMSE; horizontal classes stated on RMSE_H;
   check points about 2× more accurate than the product; the check point counts by area
   (30 up to 500 km², +5 per 250 km², 70 at 2,500 km²). Table 7.4's rows (e.g. 1.00 cm fit
-  with a 2.0 cm survey → 2.24 cm) agree with the combination formula.
+  with a 2.0 cm survey → 2.24 cm) agree with the combination formula. Beyond 2,500 km² we
+  carry the table's slope on (+5 per 250 km²) up to the cap of 120 (GPS World: "limiting
+  the maximum number of checkpoints for large projects to 120"); that continuation is ours.
+  A search of the public documentation (November 2026) found copies of Edition 2 (a
+  scribd mirror of the 97-page PDF) but not the text of its count table: every count
+  above 30 is reported as NOT confirmed.
+- Mean error: docs/standards.md says Edition 1 assumes the mean error "removed or small";
+  the limit used here, |mean| ≤ 25 % of the class's per-axis RMSE, is from secondary
+  sources (course notes and vendor summaries of section 7.2 / Edition 2's "mean error"
+  clause). The standard's own sentence could not be read through the search tool, so the
+  report says the figure is not confirmed.
 """
 
 from __future__ import annotations
@@ -50,6 +60,9 @@ MIN_CHECK_POINTS_2014 = 20
 SURVEY_RATIO_2014 = 3.0  # check points at least 3× more accurate than the product
 
 # --- Edition 2 (2023) ------------------------------------------------------------------
+
+#: Mean error limit as a share of the class's per-axis RMSE (secondary sources, NOT confirmed).
+MEAN_ERROR_SHARE = 0.25
 
 MIN_CHECK_POINTS_2023 = 30  # GPS World, 6 Dec 2023: "from 20 to 30"
 MAX_CHECK_POINTS_2023 = 120  # GPS World, 6 Dec 2023: "maximum number of checkpoints ... to 120"
@@ -92,8 +105,10 @@ def required_2023(area_km2: float | None) -> Required:
         if area_km2 <= limit:
             return Required(n, n, 0, f"{area_km2:.3g} km2 <= {limit} km2 (Table C.1 as transcribed by a secondary "
                                      "source, not confirmed)")
-    return Required(70, 70, 0, f"{area_km2:.4g} km2 > 2,500 km2: beyond the transcribed table; by agreement, "
-                               f"never more than {MAX_CHECK_POINTS_2023}")
+    n = min(70 + 5 * math.ceil((area_km2 - 2500) / 250 - 1e-9), MAX_CHECK_POINTS_2023)
+    return Required(n, n, 0, f"{area_km2:.4g} km2 > 2,500 km2: the table's +5 per 250 km2 carried on, capped at "
+                             f"{MAX_CHECK_POINTS_2023} (the cap is confirmed by GPS World; the continuation is ours, "
+                             "not the standard's text)")
 
 
 def _smallest_class(x_cm: float, classes: tuple[float, ...]) -> float | None:
@@ -118,7 +133,10 @@ def record_verdicts(out: dict[str, Any], horizontal: bool | None, vertical: bool
     out["passed"] = all(tested) if tested else None
 
 
-def _lead(std: str, cls: float, what: str, met: bool) -> str:
+def _lead(std: str, cls: float, what: str, met: bool, valid: bool = True) -> str:
+    if not valid:
+        return (f"NOT a test by {std} (see the verdict's reasons): the figures correspond to a {cls:g} (cm) "
+                f"{what} class, but the set of points does not make a valid test.")
     if met:
         return f"This data set was tested to meet {std} for a {cls:g} (cm) {what} class."
     return f"This data set was tested against {std} for a {cls:g} (cm) {what} class and does not meet it."
@@ -137,7 +155,9 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     `exact=False` skips the exact circular errors (informative only, not part of the test)."""
     h = st.horizontal_summary(dx, dy, exact)
     rx, ry, rr = h["rmse_x_m"], h["rmse_y_m"], h["rmse_r_m"]
-    h95 = st.CE95_PER_RADIAL * rr
+    # Edition 1 takes the 95 % figure from NSSDA: 1.7308 RMSE_r only for equal axes, the
+    # NSSDA rule for unequal ones (see nssda_horizontal_95)
+    h95, h95_method = nssda_horizontal_95(rx, ry)
     nonveg, veg = _split(dz, vegetated)
     rz = st.rmse(nonveg) if len(nonveg) else None
     nva = NVA95_FACTOR * rz if rz is not None else None
@@ -147,8 +167,8 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     x_v_parts = [v for v in (rz, vva / VVA_FACTOR if vva is not None else None) if v is not None]
     x_v = max(x_v_parts) if x_v_parts else None
     out: dict[str, Any] = {
-        "rmse_x_m": rx, "rmse_y_m": ry, "rmse_r_m": rr, "horizontal_95_m": h95,
-        "horizontal_95_nssda_m": nssda_horizontal_95(rx, ry)[0] if exact else None, "ce95_exact_m": h["ce95_m"],
+        "rmse_x_m": rx, "rmse_y_m": ry, "rmse_r_m": rr, "horizontal_95_m": h95, "horizontal_95_method": h95_method,
+        "horizontal_95_equal_axes_m": st.CE95_PER_RADIAL * rr, "ce95_exact_m": h["ce95_m"],
         "rmse_z_nva_m": rz, "nva_95_m": nva, "vva_95_m": vva,
         "n_horizontal": int(len(dx)), "n_nva": int(len(nonveg)), "n_vva": int(len(veg)),
         "smallest_x_horizontal_m": x_h, "smallest_x_vertical_m": x_v,
@@ -165,7 +185,7 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     if class_v_cm is not None and (rz is not None or vva is not None):
         x = class_v_cm / 100
         checks = {}
-        if rz is not None:
+        if rz is not None and nva is not None:
             checks["NVA RMSE_z"] = rz <= x + 1e-12
             checks["NVA 95 %"] = nva <= NVA95_FACTOR * x + 1e-12
         if vva is not None:
@@ -173,23 +193,23 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
         out["vertical_checks"] = checks
         v_met = all(checks.values())
     record_verdicts(out, h_met, v_met)
-    out["sentences"] = _sentences_2014(out)
+    out["sentences"] = sentences_2014(out)
     return out
 
 
-def _sentences_2014(r: dict[str, Any]) -> list[str]:
+def sentences_2014(r: dict[str, Any], valid: bool = True) -> list[str]:
     """The standard's reporting statements (docs/standards.md template; paper 000 section 4)."""
     std = "ASPRS Positional Accuracy Standards for Digital Geospatial Data (2014)"
     out = []
     cls = r["class_h_tested_cm"] if r["class_h_tested_cm"] is not None else r["horizontal_class_cm"]
     if cls is not None:
-        lead = _lead(std, cls, "RMSE_x / RMSE_y horizontal accuracy", r.get("horizontal_met", True))
+        lead = _lead(std, cls, "RMSE_x / RMSE_y horizontal accuracy", r.get("horizontal_met", True), valid)
         out.append(f"{lead} Actual positional accuracy was found to be RMSE_x = {_cm(r['rmse_x_m'])} cm and "
                    f"RMSE_y = {_cm(r['rmse_y_m'])} cm which equates to Positional Horizontal Accuracy = "
                    f"+/- {_cm(r['horizontal_95_m'])} cm at 95 % confidence level.")
     vcls = r["class_v_tested_cm"] if r["class_v_tested_cm"] is not None else r["vertical_class_cm"]
     if vcls is not None and (r["rmse_z_nva_m"] is not None or r["vva_95_m"] is not None):
-        parts = [_lead(std, vcls, "RMSE_z vertical accuracy", r.get("vertical_met", True))]
+        parts = [_lead(std, vcls, "RMSE_z vertical accuracy", r.get("vertical_met", True), valid)]
         if r["rmse_z_nva_m"] is not None:
             parts.append(f"Actual NVA accuracy was found to be RMSE_z = {_cm(r['rmse_z_nva_m'])} cm, equating to "
                          f"+/- {_cm(r['nva_95_m'])} cm at 95 % confidence level.")
@@ -199,17 +219,37 @@ def _sentences_2014(r: dict[str, Any]) -> list[str]:
     return out
 
 
+#: NSSDA's range for the approximation, RMSE_min / RMSE_max "between 0.6 and 1.0"; both ends
+#: are taken as inside (the wording gives no strict inequality).
+NSSDA_RATIO_MIN = 0.6
+
+
 def nssda_horizontal_95(rx: float, ry: float) -> tuple[float, str]:
-    """NSSDA horizontal accuracy at 95 % by the RMSE_min / RMSE_max rule (FGDC-STD-007.3-1998)."""
+    """Horizontal accuracy at 95 % by the NSSDA (FGDC-STD-007.3-1998, Appendix 3-A) rule.
+
+    What the rule says, as we implement it (the standard's own text was found in public
+    copies — studylib.net/doc/18297622, pdfslide.us — but the search tool returned only its
+    front matter, so the wording below is docs/standards.md's, not a quotation):
+    - RMSE_x = RMSE_y: Accuracy_r = 1.7308 RMSE_r (= 2.4477 RMSE_x);
+    - RMSE_min / RMSE_max between 0.6 and 1.0: Accuracy_r ≈ 2.4477 × 0.5 × (RMSE_x + RMSE_y)
+      (this equals the first case when the axes are equal, so one formula serves both);
+    - outside that range the approximation does not hold: the exact circular error at 95 %
+      of the bivariate normal is used.
+    At exactly 0.6 the approximation applies ("between 0.6 and 1.0", read inclusively); the
+    step to the exact value just below 0.6 (about 6 %) is the standard's, and the report
+    gives the exact CE95 beside the figure whatever the ratio.
+    """
     hi, lo = max(rx, ry), min(rx, ry)
     ratio = lo / hi if hi > 0 else 1.0
-    if ratio >= 1 - 1e-9:
+    if ratio >= 1 - 1e-12:
         return st.CE95_PER_RADIAL * math.hypot(rx, ry), "1.7308 x RMSE_r (RMSE_x = RMSE_y)"
-    if ratio > 0.6:
+    if ratio >= NSSDA_RATIO_MIN:
         return (st.CE95_EQUAL * 0.5 * (rx + ry),
-                f"2.4477 x 0.5 x (RMSE_x + RMSE_y), the NSSDA approximation for 0.6 < RMSE_min/RMSE_max = {ratio:.3f} < 1")
+                f"2.4477 x 0.5 x (RMSE_x + RMSE_y), the NSSDA approximation for RMSE_min/RMSE_max = {ratio:.3f} "
+                "(between 0.6 and 1.0)")
     return (st.circular_error(rx, ry, 0.95),
-            f"the exact circular error at 95 % of the bivariate normal (RMSE_min/RMSE_max = {ratio:.3f} <= 0.6)")
+            f"the exact circular error at 95 % of the bivariate normal (RMSE_min/RMSE_max = {ratio:.3f} < 0.6, "
+            "outside the NSSDA approximation's range)")
 
 
 def survey_rmse(sigma_per_point: np.ndarray, sigma_set: float | None) -> float | None:
@@ -251,23 +291,23 @@ def evaluate_2023(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     }
     record_verdicts(out, rmse_h <= class_h_cm / 100 + 1e-12 if class_h_cm is not None else None,
                     rmse_v <= class_v_cm / 100 + 1e-12 if class_v_cm is not None and rmse_v is not None else None)
-    out["sentences"] = _sentences_2023(out)
+    out["sentences"] = sentences_2023(out)
     return out
 
 
-def _sentences_2023(r: dict[str, Any]) -> list[str]:
+def sentences_2023(r: dict[str, Any], valid: bool = True) -> list[str]:
     """Edition 2 statements: our wording, modelled on Edition 1's, RMSE only (no 95 % figures)."""
     std = "ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023)"
     out = []
     cls = r["class_h_tested_cm"] if r["class_h_tested_cm"] is not None else r["horizontal_class_cm"]
-    lead = _lead(std, cls, "RMSE_H horizontal positional accuracy", r.get("horizontal_met", True))
+    lead = _lead(std, cls, "RMSE_H horizontal positional accuracy", r.get("horizontal_met", True), valid)
     survey = (f" (fit to the check points {_cm(r['rmse_h_fit_m'])} cm combined with the check point survey's "
               f"{_cm(r['rmse_h_survey_m'])} cm)" if r["rmse_h_survey_m"] is not None else "")
     out.append(f"{lead} The tested horizontal positional accuracy was found to be RMSE_H = {_cm(r['rmse_h_m'])} cm"
                f"{survey}.")
     if r["rmse_v_m"] is not None:
         vcls = r["class_v_tested_cm"] if r["class_v_tested_cm"] is not None else r["vertical_class_cm"]
-        lead = _lead(std, vcls, "RMSE_V vertical positional accuracy", r.get("vertical_met", True))
+        lead = _lead(std, vcls, "RMSE_V vertical positional accuracy", r.get("vertical_met", True), valid)
         text = f"{lead} The tested NVA was found to be RMSE_V = {_cm(r['rmse_v_m'])} cm."
         if r["vva_rmse_v_m"] is not None:
             text += f" The VVA was found to be RMSE_V = {_cm(r['vva_rmse_v_m'])} cm (reported, no pass/fail)."

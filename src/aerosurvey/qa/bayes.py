@@ -57,11 +57,13 @@ def log_density(sigma: np.ndarray | float, m: int, s: float, tau: float) -> np.n
     with np.errstate(divide="ignore", invalid="ignore"):
         out = ((1 - m / 2) * math.log(2) + np.log(sig) + (m / 2) * math.log(m * s * s) - (m / 2 + 1) * np.log(v)
                - m * s * s / (2 * v) - norm)
-    return np.where(sig > 0, out, -np.inf)
+    res: np.ndarray = np.where(sig > 0, out, -np.inf)
+    return res
 
 
 def density(sigma: np.ndarray | float, m: int, s: float, tau: float) -> np.ndarray:
-    return np.exp(log_density(sigma, m, s, tau))
+    res: np.ndarray = np.exp(log_density(sigma, m, s, tau))
+    return res
 
 
 def cdf(a: float, m: int, s: float, tau: float) -> float:

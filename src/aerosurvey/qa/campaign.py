@@ -14,15 +14,19 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pyproj
+import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.qa import validity
 from aerosurvey.qa.accuracy_input import CheckPoints, geographic_offsets
+from aerosurvey.rules.profile import select_profiles
 
 MANIFEST_SCHEMA = "aerosurvey-manifest"
 
@@ -38,10 +42,12 @@ class Campaign:
     gsd_range_cm: tuple[float | None, float | None]
     area_ring_lonlat: list[tuple[float, float]] | None  # outer ring of the project area
     proposed: dict[str, str] = field(default_factory=dict)  # id -> "control" / "check"
+    profiles: tuple[str, ...] = ()  # the rule profiles the plan was checked against (manifest mission.profiles)
 
     def summary(self) -> dict[str, Any]:
         return {"folder": self.folder, "mission": self.mission, "area_km2": self.area_km2,
-                "planning_crs": self.planning_crs, "photos": self.photos, "gsd_target_cm": self.gsd_target_cm,
+                "planning_crs": self.planning_crs, "photos": self.photos, "profiles": list(self.profiles),
+                "gsd_target_cm": self.gsd_target_cm,
                 "gsd_min_cm": self.gsd_range_cm[0], "gsd_max_cm": self.gsd_range_cm[1],
                 "proposed_control": sorted(k for k, v in self.proposed.items() if v == "control"),
                 "proposed_check": sorted(k for k, v in self.proposed.items() if v == "check")}
@@ -81,9 +87,13 @@ def read_campaign(folder: Path) -> Campaign:
             role = str(row.get("role", "")).strip().upper()
             if row.get("id") and role in ("GCP", "CP"):
                 proposed[row["id"].strip()] = "control" if role == "GCP" else "check"
+    profiles = (m.get("mission") or {}).get("profiles") or []
+    if not isinstance(profiles, list):
+        profiles = [profiles]
     return Campaign(str(folder), str((m.get("mission") or {}).get("name", "")), area_km2, crs,
                     (m.get("estimates") or {}).get("photos"), (m.get("targets") or {}).get("gsd_cm"),
-                    (derived.get("gsd_min_cm"), derived.get("gsd_max_cm")), ring, proposed)
+                    (derived.get("gsd_min_cm"), derived.get("gsd_max_cm")), ring, proposed,
+                    tuple(str(p) for p in profiles))
 
 
 def area_bounds_local(c: Campaign, pts: CheckPoints) -> tuple[float, float, float, float] | None:
@@ -129,3 +139,46 @@ def campaign_roles(c: Campaign, pts: CheckPoints) -> tuple[tuple[str, ...], list
             notes.append(f"{len(extra)} tested point(s) are not in the plan's layout: "
                          f"{', '.join(extra[:12])}{' ...' if len(extra) > 12 else ''}")
     return tuple(roles), warnings, notes
+
+
+def campaign_checks(c: Campaign, pts: CheckPoints, tested: CheckPoints | None,
+                    v: validity.Validity) -> tuple[list[str], list[str]]:
+    """The plan's own rules again at QA time: check points per area (rule `check_point_density`
+    of the plan's profiles, e.g. the Czech 1 per 3 ha) as a condition of a valid test, and
+    where the check points lie against the planned area (warnings)."""
+    warnings: list[str] = []
+    notes: list[str] = []
+    n_check = tested.n if tested is not None else 0
+    area_ha = c.area_km2 * 100
+    for pid in c.profiles:
+        try:
+            profs = select_profiles([pid])
+        except InputError as exc:
+            notes.append(f"the plan's rule profile {pid!r} is not available here ({exc}); its rules were not re-checked")
+            continue
+        for prof in profs:
+            for rule in prof.rules:
+                if rule.check == "check_point_density":
+                    per = float(rule.params["ha_per_point"])
+                    need = math.ceil(area_ha / per - 1e-9)
+                    validity.count(v, n_check, need, f"check points by the plan's rule {rule.id} (1 per {per:g} ha "
+                                                     f"over {area_ha:.1f} ha)")
+    if tested is None or c.area_ring_lonlat is None or not tested.has_positions or tested.crs is None:
+        if c.area_ring_lonlat is not None and tested is not None:
+            notes.append("the check points' CRS or positions are not given: their layout against the planned area "
+                         "was not checked")
+        return warnings, notes
+    if tested.geographic:
+        lon, lat = tested.x, tested.y
+    else:
+        t = pyproj.Transformer.from_crs(tested.crs, "OGC:CRS84", always_xy=True)
+        lon, lat = (np.asarray(a) for a in t.transform(tested.x, tested.y))
+    area = shapely.Polygon(c.area_ring_lonlat)
+    inside = shapely.contains_xy(area, lon, lat)
+    if not inside.all():
+        out = [i for i, f in zip(tested.ids, inside) if not f]
+        warnings.append(f"{len(out)} of {tested.n} check point(s) lie outside the planned area ({', '.join(out[:10])}"
+                        f"{' ...' if len(out) > 10 else ''}): check points belong inside the perimeter, the GCP "
+                        "envelope outside it")
+    notes.append(f"{int(inside.sum())} of {tested.n} check points lie inside the planned area")
+    return warnings, notes

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.qa.accuracy_input import CheckPoints
-from aerosurvey.qa.report_text import verdict_line
+from aerosurvey.qa.report_text import uncertainty_lines, verdict_line
 
 _CSS = ("body{font-family:sans-serif;margin:2em;max-width:1100px;color:#222} table{border-collapse:collapse;"
         "margin:.5em 0} td,th{border:1px solid #ccc;padding:2px 8px;text-align:right} th{background:#f0f0f0}"
@@ -24,7 +24,7 @@ def _nice(x: float) -> float:
     if not x > 0:
         return 1.0
     k = math.floor(math.log10(x))
-    return min((m * 10**k for m in (1, 2, 5, 10)), key=lambda v: abs(v - x))
+    return float(min((m * 10.0**k for m in (1, 2, 5, 10)), key=lambda v: abs(v - x)))
 
 
 def vector_map(pts: CheckPoints, flagged: set[str], w: int = 520, h: int = 520) -> str:
@@ -121,7 +121,7 @@ def posterior_plot(post: dict[str, Any], unit: str = "cm", factor: float = 100.0
     sy = (h - pt - pb) / ys.max()
 
     def vx(v: float) -> float:
-        return pl + (v - xs[0]) * sx
+        return float(pl + (v - xs[0]) * sx)
 
     lo, hi, md = post["lower_m"] * factor, post["upper_m"] * factor, post["mode_m"] * factor
     poly = " ".join(f"{vx(a):.1f},{h - pb - b * sy:.1f}" for a, b in zip(xs, ys))
@@ -189,6 +189,9 @@ def render(r: dict[str, Any], pts: CheckPoints | None) -> str:
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{escape(title)}</title><style>{_CSS}</style>"
              f"</head><body><h1>{escape(title)}</h1>", f"<p class='{cls}'><b>{escape(verdict)}</b></p>"]
     parts += [f"<p><b>{escape(s)}</b></p>" for s in r["sentences"]]
+    unc = uncertainty_lines(r)
+    if unc:
+        parts.append("<h2>Uncertainty</h2><ul>" + "".join(f"<li>{escape(u.strip())}</li>" for u in unc) + "</ul>")
     if r["warnings"]:
         parts.append("<h2>Warnings</h2><ul>" + "".join(f"<li class='warn'>{escape(w)}</li>" for w in r["warnings"])
                      + "</ul>")

@@ -14,11 +14,30 @@ def _p(v: float | None) -> str:
 
 
 def verdict_line(r: dict[str, Any]) -> str:
+    v = r["verdict"]
+    if v["status"] != "valid":
+        return f"RESULT: {v['status'].upper()} (no verdict by the standard): " + "; ".join(v["reasons"])
     if r["passed"] is True:
         return "RESULT: met"
     if r["passed"] is False:
         return "RESULT: NOT met"
     return "RESULT: reported only (no class or specification was tested)"
+
+
+def uncertainty_lines(r: dict[str, Any]) -> list[str]:
+    """The confidence interval of each RMSE and the probability of meeting the class."""
+    u = r.get("uncertainty") or {}
+    out = []
+    for axis in ("x", "y", "z"):
+        a = u.get(axis) or {}
+        if a.get("n") and a.get("ci_lower_m") is not None:
+            out.append(f"  RMSE_{axis} {_cm(a['rmse_m'])} cm, {a['level'] * 100:g} % confidence interval "
+                       f"{_cm(a['ci_lower_m'])} .. {_cm(a['ci_upper_m'])} cm (n = {a['n']})")
+    for comp, p in (u.get("probability_within_class") or {}).items():
+        if p.get("probability") is not None:
+            out.append(f"  P(true accuracy meets the {p['class_cm']:g} cm {comp} class) = {p['probability']:.3f} "
+                       f"({p['rule']})")
+    return out
 
 
 def summary(r: dict[str, Any]) -> str:
@@ -42,6 +61,9 @@ def summary(r: dict[str, Any]) -> str:
     if v.get("n"):
         lines.append(f"vertical:   RMSE_z {_cm(v['rmse_z_m'])} cm, LE90 {_cm(v['le90_m'])} cm, LE95 {_cm(v['le95_m'])} cm;"
                      f" RMSE_3D {_cm(r['statistics']['rmse_3d_m'])} cm")
+    unc = uncertainty_lines(r)
+    if unc:
+        lines += ["", "Uncertainty:"] + unc
     lines.append("")
     lines += r["sentences"]
     lines += ["", verdict_line(r)]

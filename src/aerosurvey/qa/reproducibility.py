@@ -1,18 +1,23 @@
 """Reproducibility of orthomosaics processed several times: streamed by blocks.
 
-Every pair of inputs is compared with repro_core's moving-window correlation; the binary
-layers are summed into the reproducibility layer (0 … x(x−1)/2, 255 = not judged), written
-as a Cloud-Optimised GeoTIFF. Inputs are read window by window (a halo of w//2 pixels, or
-the crop margin, around each block), so memory follows the block size, not the raster.
-Inputs on another grid are warped onto the first input's grid (bilinear) with rasterio's
-WarpedVRT. Blocks run on threads, or on a Dask cluster when asked; either way the result
-is identical.
+Every pair of inputs is compared with repro_core's correlation (per pixel across the bands
+by default, the source study's statistic; a moving window as an option); the binary layers
+are summed into the reproducibility layer (0 … x(x−1)/2, 255 = not judged), written as a
+Cloud-Optimised GeoTIFF. Inputs are read window by window (with a halo of w//2 pixels, or
+the crop margin, around each block for the window statistic), so memory follows the block
+size, not the raster. Inputs on different grids (CRS, transform or size) are refused unless
+`resample` is asked; then they are warped onto the first input's grid (bilinear) with
+rasterio's WarpedVRT, and pixels outside an input's footprint are invalid, so only the
+common valid footprint is judged. Blocks run on threads, or on a Dask cluster when asked;
+either way the result is identical.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import socket
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +33,9 @@ from rasterio.windows import Window
 from scipy import ndimage
 
 from aerosurvey.errors import InputError
-from aerosurvey.qa.repro_core import NODATA, pairs, reproducible
+from aerosurvey.qa.repro_core import NODATA, STATISTICS, pairs, reproducible
+
+DASK_CONNECT_TIMEOUT_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -47,21 +54,27 @@ class Settings:
     crop: str = "none"  # none, auto, or a polygon file
     crop_margin_px: int = 50
     block: int = 1024
-    crop_geoms: tuple = field(default=())  # polygons in the grid's CRS (for a crop file)
+    crop_geoms: tuple[Any, ...] = field(default=())  # polygons in the grid's CRS (for a crop file)
+    statistic: str = "pixel"  # pixel (the source study's) or window
+    resample: bool = False  # warp inputs on other grids onto the first input's
 
     @property
     def halo(self) -> int:
-        return max(self.window // 2, self.crop_margin_px if self.crop == "auto" else 0)
+        w = self.window // 2 if self.statistic == "window" else 0
+        return max(w, self.crop_margin_px if self.crop == "auto" else 0)
 
 
-def validate_settings(window: int, threshold: float) -> None:
+def validate_settings(window: int, threshold: float, statistic: str = "pixel") -> None:
+    if statistic not in STATISTICS:
+        raise InputError(f"--statistic = {statistic!r} is not allowed: one of {', '.join(STATISTICS)}")
     if window < 3 or window % 2 == 0:
         raise InputError(f"--window = {window} is not allowed: an odd number of pixels, 3 or more")
-    if not 0 < threshold <= 1:
-        raise InputError(f"--threshold = {threshold} is not allowed: a correlation in (0, 1]")
+    if not 0 < threshold < 1:
+        raise InputError(f"--threshold = {threshold} is not allowed: a correlation in (0, 1) (a pixel is "
+                         "reproducible when r > threshold)")
 
 
-def inspect(paths: list[Path]) -> Grid:
+def inspect(paths: list[Path], resample: bool = False) -> Grid:
     """Check the inputs and return the first input's grid (the one results are on)."""
     if len(paths) < 2:
         raise InputError(f"give at least two orthomosaics of the same area, got {len(paths)}")
@@ -84,18 +97,34 @@ def inspect(paths: list[Path]) -> Grid:
         missing = [i[0].name for i in infos if i[1] is None]
         raise InputError(f"{', '.join(missing)}: no CRS, while {with_crs[0][0].name} has one; georeference every input")
     if not with_crs and len({(i[3], i[4]) for i in infos}) > 1:
-        raise InputError("inputs without a CRS must have the same size in pixels")
+        raise InputError("inputs without a CRS must have the same size in pixels: "
+                         + ", ".join(f"{i[0].name} {i[3]} x {i[4]}" for i in infos))
     p, crs, tr, w, h, n = infos[0]
+    if with_crs and not resample:
+        for q, c2, t2, w2, h2, _ in infos[1:]:
+            diff = [what for what, same in (("CRS", c2 == crs), ("transform", t2 == tr), ("size", (w2, h2) == (w, h)))
+                    if not same]
+            if diff:
+                raise InputError(f"{q.name} is on another grid than {p.name} ({', '.join(diff)} differ: {w2} x {h2} "
+                                 f"vs {w} x {h}); give --resample to warp it onto {p.name}'s grid (bilinear; only "
+                                 "the common valid footprint is judged)")
     return Grid(crs, tr, w, h, n)
 
 
-def _open(path: Path, grid: Grid):
+def _same_grid(ds: Any, grid: Grid) -> bool:
+    return bool(ds.crs == grid.crs and ds.transform == grid.transform and ds.width == grid.width
+                and ds.height == grid.height)
+
+
+def _open(path: Path, grid: Grid) -> tuple[Any, Any]:
     ds = rasterio.open(path)
-    if ds.crs is None or (ds.crs == grid.crs and ds.transform == grid.transform and ds.width == grid.width
-                          and ds.height == grid.height):
+    if ds.crs is None or _same_grid(ds, grid):
         return ds, ds
+    # without a nodata value or an alpha band, an alpha band marks the warped footprint, so
+    # that pixels outside this input are invalid rather than black
+    has_alpha = any(ci.name == "alpha" for ci in ds.colorinterp)
     vrt = WarpedVRT(ds, crs=grid.crs, transform=grid.transform, width=grid.width, height=grid.height,
-                    resampling=Resampling.bilinear)
+                    resampling=Resampling.bilinear, add_alpha=ds.nodata is None and not has_alpha)
     return vrt, ds
 
 
@@ -115,7 +144,7 @@ def compute_block(paths: list[str], grid: Grid, win: tuple[int, int, int, int], 
     for p in paths:
         src, base = _open(Path(p), grid)
         try:
-            data.append(src.read([1, 2, 3], window=big).astype(np.float64))
+            data.append(src.read([1, 2, 3], window=big))
             valid.append(src.dataset_mask(window=big) > 0)
         finally:
             if src is not base:
@@ -137,47 +166,87 @@ def compute_block(paths: list[str], grid: Grid, win: tuple[int, int, int, int], 
     judged_all = np.ones((h, w), bool)
     counts = []
     for i, j in pl:
-        layer = reproducible(data[i], data[j], valid[i] & valid[j], s.window, s.threshold)[inner]
+        if s.statistic == "pixel":  # no neighbourhood: only the block itself is needed
+            vi = (valid[i] & valid[j])[inner]
+            layer, flat = reproducible(data[i][(slice(None), *inner)], data[j][(slice(None), *inner)], vi, s.window,
+                                       s.threshold, "pixel")
+            flat_n = int((vi & keep).sum()) - int(((layer != NODATA) & keep).sum())
+        else:
+            layer = reproducible(data[i], data[j], valid[i] & valid[j], s.window, s.threshold, "window")[0][inner]
+            flat_n = 0
         judged = (layer != NODATA) & keep
         judged_all &= judged
-        counts.append([int(((layer == 1) & judged).sum()), int(((layer == 0) & judged).sum())])
-        total += np.where(layer == 1, 1, 0).astype(np.uint16)
+        counts.append([int(((layer == 1) & judged).sum()), int(((layer == 0) & judged).sum()), flat_n])
+        total += layer == 1
     out = np.where(judged_all, total, NODATA).astype(np.uint8)
     hist = np.bincount(out[judged_all].ravel(), minlength=len(pl) + 1)[: len(pl) + 1]
     return {"win": win, "sum": out, "pairs": counts, "hist": hist.tolist()}
 
 
-def _executor(scheduler: str):
+Mapper = Callable[[Callable[[tuple[int, int, int, int]], dict[str, Any]], Iterable[tuple[int, int, int, int]]],
+                  Iterator[dict[str, Any]]]
+
+
+def _executor(scheduler: str) -> tuple[Mapper, Callable[[], object]]:
     """(map function, closer) for 'threads', 'local' (a Dask LocalCluster) or a Dask address."""
     if scheduler == "threads":
         pool = ThreadPoolExecutor(max_workers=2)
         return (lambda fn, items: pool.map(fn, items)), pool.shutdown
+    # distributed is heavy and only needed here
     from distributed import Client, LocalCluster, as_completed
 
     if scheduler == "local":
-        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None)
-        client = Client(cluster)
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False,  # type: ignore[no-untyped-call]
+                               dashboard_address=None)
+        client = Client(cluster)  # type: ignore[no-untyped-call]
         closers = [client.close, cluster.close]
     else:
-        client = Client(scheduler, timeout="20s")
+        probe_scheduler(scheduler)
+        try:
+            client = Client(scheduler, timeout=f"{2 * DASK_CONNECT_TIMEOUT_S:g}s")  # type: ignore[no-untyped-call]
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"--scheduler {scheduler}: no Dask scheduler answered ({type(exc).__name__}: {exc})") \
+                from None
         closers = [client.close]
 
-    def run(fn, items):
+    def run(fn: Callable[[tuple[int, int, int, int]], dict[str, Any]],
+            items: Iterable[tuple[int, int, int, int]]) -> Iterator[dict[str, Any]]:
         futures = client.map(fn, list(items), pure=False)
-        for fut in as_completed(futures):
+        for fut in as_completed(futures):  # type: ignore[no-untyped-call]
             yield fut.result()
 
     return run, lambda: [c() for c in closers]
 
 
+def probe_scheduler(address: str, timeout: float = DASK_CONNECT_TIMEOUT_S) -> None:
+    """Fail fast, with one line naming the address, when nothing listens there."""
+    from urllib.parse import urlsplit
+
+    u = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = u.hostname, u.port
+    except ValueError:
+        host, port = None, None
+    if u.scheme not in ("tcp", "tls") or not host or port is None:
+        raise InputError(f"--scheduler = {address!r} is not allowed: threads, local, or a Dask scheduler address "
+                         "such as tcp://host:8786")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        raise InputError(f"--scheduler {address}: cannot reach a Dask scheduler at {host}:{port} within "
+                         f"{timeout:g} s ({exc.strerror or type(exc).__name__}); start one or use --scheduler "
+                         "threads / local") from None
+
+
 def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads") -> dict[str, Any]:
     """Compute the layer into `stage`/reproducibility.tif (COG) and return the summary."""
-    grid = inspect(paths)
+    grid = inspect(paths, s.resample)
     pl = pairs(len(paths))
     tmp = stage / ".layer.tif"
     profile = dict(driver="GTiff", width=grid.width, height=grid.height, count=1, dtype="uint8", crs=grid.crs,
                    transform=grid.transform, nodata=NODATA, tiled=True, blockxsize=512, blockysize=512, compress="deflate")
-    pair_counts = np.zeros((len(pl), 2), np.int64)
+    pair_counts = np.zeros((len(pl), 3), np.int64)
     hist = np.zeros(len(pl) + 1, np.int64)
     str_paths = [str(p) for p in paths]
     mapper, close = _executor(scheduler)
@@ -196,15 +265,27 @@ def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads")
     tmp.unlink()
     judged = int(hist.sum())
     summary = {
-        "inputs": [p.name for p in paths], "pairs": len(pl), "window": s.window, "threshold": s.threshold,
+        "inputs": [p.name for p in paths], "pairs": len(pl), "statistic": s.statistic,
+        "definition": DEFINITIONS[s.statistic], "window": s.window if s.statistic == "window" else None,
+        "threshold": s.threshold, "rule": "reproducible when r > threshold", "resampled": s.resample,
         "crop": s.crop, "grid": {"width": grid.width, "height": grid.height, "crs": str(grid.crs)},
         "judged_pixels": judged,
         "reproducible_share": float(hist[-1] / judged) if judged else math.nan,
         "share_by_sum": {str(k): float(v / judged) if judged else math.nan for k, v in enumerate(hist)},
-        "per_pair": [{"pair": [paths[i].name, paths[j].name], "reproducible_share": float(a / (a + b)) if a + b else math.nan}
-                     for (i, j), (a, b) in zip(pl, pair_counts)],
+        "per_pair": [{"pair": [paths[i].name, paths[j].name],
+                      "reproducible_share": float(a / (a + b)) if a + b else math.nan, "judged_pixels": int(a + b),
+                      "flat_pixels": int(f)}
+                     for (i, j), (a, b, f) in zip(pl, pair_counts)],
     }
     return summary
+
+
+DEFINITIONS = {
+    "pixel": "per pixel, the Pearson correlation between the band values of the two orthomosaics (n = 3 for RGB), "
+             "as raster::corLocal on two bricks in the source study's scripts; pixels with no variance across the "
+             "bands in either image are not judged (NA in R)",
+    "window": "per pixel, the Pearson correlation over a w x w window with the three bands pooled (3 w^2 pairs)",
+}
 
 
 @dataclass(frozen=True)
@@ -215,7 +296,7 @@ class _Task:
     grid: Grid
     s: Settings
 
-    def __call__(self, win):
+    def __call__(self, win: tuple[int, int, int, int]) -> dict[str, Any]:
         return compute_block(self.paths, self.grid, win, self.s)
 
 
@@ -223,9 +304,11 @@ def write_summary(stage: Path, summary: dict[str, Any]) -> None:
     from aerosurvey.fileio import atomic_write_text
 
     atomic_write_text(stage / "summary.json", json.dumps(summary, indent=1) + "\n")
-    lines = [f"{summary['pairs']} pairs of {len(summary['inputs'])} inputs, window {summary['window']}, threshold "
-             f"{summary['threshold']}", f"reproducible in every pair: {100 * summary['reproducible_share']:.2f} % of "
+    stat = summary["statistic"] + (f" (window {summary['window']})" if summary["window"] else "")
+    lines = [f"{summary['pairs']} pairs of {len(summary['inputs'])} inputs, statistic {stat}: {summary['definition']}; "
+             f"reproducible when r > {summary['threshold']}", f"reproducible in every pair: {100 * summary['reproducible_share']:.2f} % of "
              f"{summary['judged_pixels']} judged pixels"]
     lines += [f"  sum {k}: {100 * v:.2f} %" for k, v in summary["share_by_sum"].items()]
-    lines += [f"  {p['pair'][0]} / {p['pair'][1]}: {100 * p['reproducible_share']:.2f} %" for p in summary["per_pair"]]
+    lines += [f"  {p['pair'][0]} / {p['pair'][1]}: {100 * p['reproducible_share']:.2f} % of {p['judged_pixels']} judged "
+              f"({p['flat_pixels']} flat pixels not judged)" for p in summary["per_pair"]]
     atomic_write_text(stage / "summary.txt", "\n".join(lines) + "\n")

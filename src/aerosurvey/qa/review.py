@@ -98,7 +98,7 @@ def distribution_findings(tested: CheckPoints, bounds: tuple[float, float, float
         return []
     x, y = tested.local_xy()
     own = bounds is None
-    x0, y0, x1, y1 = (float(x.min()), float(y.min()), float(x.max()), float(y.max())) if own else bounds
+    x0, y0, x1, y1 = (float(x.min()), float(y.min()), float(x.max()), float(y.max())) if bounds is None else bounds
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     quads = {"NE": (x >= cx) & (y >= cy), "NW": (x < cx) & (y >= cy), "SW": (x < cx) & (y < cy),
              "SE": (x >= cx) & (y < cy)}

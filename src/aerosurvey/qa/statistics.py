@@ -8,6 +8,7 @@ check that scaling the residuals scales exactly the lengths.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -57,16 +58,28 @@ def axis_stats(e: np.ndarray) -> dict[str, Any]:
         out[f"abs_p{p:g}_m".replace(".", "_")] = float(np.percentile(a, p))
     spread = float(np.ptp(e))
     tests = n >= 3 and spread > 1e-8 * float(a.max()) and spread > 1e-150  # else scipy loses all precision
-    t = stats.ttest_1samp(e, 0.0) if tests else None
-    out["bias_t"] = float(t.statistic) if t is not None else None
-    out["bias_p_value"] = float(t.pvalue) if t is not None else None
-    out["bias_significant"] = bool(t.pvalue < BIAS_ALPHA) if t is not None else None
-    out["skew"] = float(stats.skew(e, bias=False)) if tests else None
-    out["kurtosis"] = float(stats.kurtosis(e, bias=False)) if tests and n > 3 else None
-    sw = stats.shapiro(e) if tests else None
-    out["normality_p_value"] = float(sw.pvalue) if sw is not None else None
-    out["normal"] = bool(sw.pvalue >= 0.05) if sw is not None else None
+    # scipy warns (and returns NaN) on nearly degenerate samples: no warning reaches the user,
+    # a value that is not finite is reported as None
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        t = stats.ttest_1samp(e, 0.0) if tests else None
+        skew = float(stats.skew(e, bias=False)) if tests else None
+        kurt = float(stats.kurtosis(e, bias=False)) if tests and n > 3 else None
+        sw = stats.shapiro(e) if tests else None
+    t_stat, t_p = (_finite(float(t.statistic)), _finite(float(t.pvalue))) if t is not None else (None, None)
+    out["bias_t"] = t_stat
+    out["bias_p_value"] = t_p
+    out["bias_significant"] = bool(t_p < BIAS_ALPHA) if t_p is not None else None
+    out["skew"] = _finite(skew)
+    out["kurtosis"] = _finite(kurt)
+    sw_p = _finite(float(sw.pvalue)) if sw is not None else None
+    out["normality_p_value"] = sw_p
+    out["normal"] = bool(sw_p >= 0.05) if sw_p is not None else None
     return out
+
+
+def _finite(v: float | None) -> float | None:
+    return v if v is not None and math.isfinite(v) else None
 
 
 def outliers(e: np.ndarray, k: float = OUTLIER_Z, k_loo: float = OUTLIER_LOO) -> np.ndarray:
@@ -124,7 +137,7 @@ def circular_error(sx: float, sy: float, p: float) -> float:
             return c * math.exp(-x * x / (2 * big * big)) * inner
 
         knee = [r - 8 * small] if r > 8 * small else None
-        return 2 * integrate.quad(f, 0, r, limit=200, points=knee, epsabs=1e-13, epsrel=1e-11)[0]
+        return 2 * float(integrate.quad(f, 0, r, limit=200, points=knee, epsabs=1e-13, epsrel=1e-11)[0])
 
     return float(optimize.brentq(lambda r: cdf(r) - p, 0.0, 7 * big, xtol=1e-12 * big))
 
@@ -171,4 +184,5 @@ def influence(values: list[np.ndarray]) -> np.ndarray:
     left_sum = sq.sum(axis=1)[:, None] - sq
     with np.errstate(invalid="ignore", divide="ignore"):
         per_axis = np.where(left_cnt > 0, left_sum / np.maximum(left_cnt, 1), 0.0)
-    return np.sqrt(per_axis.sum(axis=0)) / full - 1.0
+    res: np.ndarray = np.sqrt(per_axis.sum(axis=0)) / full - 1.0
+    return res

@@ -75,9 +75,9 @@ def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
         feats.append({"type": "Feature", "id": f"uncovered-{i}", "properties": {
             "role": "uncovered", "id": f"uncovered-{i}", "area_m2": round(part.area / plan.grid_scale ** 2, 2),
             "min_images": 2}, "geometry": {"type": "Polygon", "coordinates": _coords(plan.planar.inverse(part))}})
-    lon, lat, _ = plan.home
+    hlon, hlat, _ = plan.home
     feats.append({"type": "Feature", "id": "home", "properties": {"role": "home", "id": "home"},
-                  "geometry": {"type": "Point", "coordinates": [_r(lon), _r(lat)]}})
-    if not all(math.isfinite(v) for v in (lon, lat)):
+                  "geometry": {"type": "Point", "coordinates": [_r(hlon), _r(hlat)]}})
+    if not all(math.isfinite(v) for v in (hlon, hlat)):
         raise ValueError("home position is not finite")
     return {"type": "FeatureCollection", "name": plan.spec.name, "features": feats}

@@ -8,12 +8,17 @@ from __future__ import annotations
 
 import math
 from html import escape
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.planner import Plan
+
+if TYPE_CHECKING:
+    from aerosurvey.rules.control_points import ControlPoint
+    from aerosurvey.rules.engine import RuleResult
 
 _W, _H, _PAD, _HEAD, _FOOT = 1000, 800, 40, 70, 30
 
@@ -52,7 +57,7 @@ def _scale_bar(view: _View) -> str:
             f'<text x="{x + px + 6:.1f}" y="{y}" font-size="13">{label}</text></g>')
 
 
-def render_svg(plan: Plan, rules: list | None = None, points: list | None = None) -> str:
+def render_svg(plan: Plan, rules: list[RuleResult] | None = None, points: list[ControlPoint] | None = None) -> str:
     """The preview as SVG text (deterministic), with rule results and control points when given."""
     st = plan.stations
     wp = np.asarray([(w.x, w.y) for w in plan.waypoints])

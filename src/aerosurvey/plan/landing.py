@@ -1,0 +1,30 @@
+"""Where a plane's landing approach starts, and how far a plane circles home after RTL."""
+
+from __future__ import annotations
+
+import math
+
+from aerosurvey.spec import MissionSpec
+
+#: ArduPlane circles home after RTL at WP_LOITER_RAD (default 60 m; RTL_RADIUS 0 uses it)
+PLANE_RTL_LOITER_M = 60.0
+
+
+def approach_lonlat(spec: MissionSpec, lon: float, lat: float) -> tuple[float, float]:
+    """The approach waypoint `flight.approach_m` downwind of the touchdown point at (lon, lat):
+    the plane lands heading into `flight.wind_from_deg`."""
+    f = spec.flight
+    assert f.wind_from_deg is not None
+    back = math.radians((f.wind_from_deg + 180.0) % 360.0)
+    d_north, d_east = f.approach_m * math.cos(back), f.approach_m * math.sin(back)
+    return lon + d_east / (111_320.0 * math.cos(math.radians(lat))), lat + d_north / 111_320.0
+
+
+def lands_with_approach(spec: MissionSpec) -> bool:
+    return spec.vehicle.type == "plane" and spec.flight.end == "land"
+
+
+def home_clearance_m(spec: MissionSpec) -> float:
+    """How far from every zone's margin the launch point must lie: a plane ending with RTL
+    circles it at the loiter radius."""
+    return PLANE_RTL_LOITER_M if spec.vehicle.type == "plane" and spec.flight.end == "rtl" else 0.0
