@@ -4,6 +4,7 @@
 - run     ``P1-L003-R2``    the second photo run on that line (a line cut by a notch or a zone)
 - station ``P1-L003-S0042`` the 42nd station along that line (by +x of the line frame)
 - sortie  ``S01``           the first battery's flight
+- event   ``E00007``        the seventh camera event of a flight log (flown photos in place of stations)
 """
 
 from __future__ import annotations
@@ -50,3 +51,16 @@ def sortie_id(number: int) -> str:
 
 def sortie_file_stem(number: int) -> str:
     return f"sortie-{number:02d}"
+
+
+def event_id(number: int) -> str:
+    """``E00007``: a flown photo of a log (camera events in the log's order), in place of a station;
+    `number` counts from 1."""
+    return f"E{number:05d}"
+
+
+#: The formats as patterns (the `pattern`s of data/manifest.schema.json; a test holds them equal).
+LINE_PATTERN = r"^P([0-9]+)-L([0-9]{3,})$"
+RUN_PATTERN = r"^P([0-9]+)-L([0-9]{3,})-R([0-9]+)$"
+STATION_PATTERN = _STATION.pattern
+SORTIE_PATTERN = r"^S([0-9]{2,})$"

@@ -1,6 +1,11 @@
 """manifest.json: the record of a plan that every later step links to by id.
 
-Schema documented in docs/manifest.md; bump SCHEMA_VERSION on any incompatible change.
+The one writer (:func:`build_manifest`, :func:`dumps`) and the one reader
+(:func:`read_manifest`, :func:`loads`, :func:`from_data`) of the format. Its schema ships
+with the package (data/manifest.schema.json); docs/manifest.md is generated from it.
+Bump SCHEMA_VERSION (and the schema's `schema_version` const) on any incompatible change;
+the reader refuses other versions and says what to do.
+
 The manifest holds no time stamp and no absolute path, so the same spec and input files
 give a byte-identical manifest.
 """
@@ -10,17 +15,25 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from aerosurvey import __version__
-from aerosurvey.mission.builder import run_id
-from aerosurvey.plan.planner import Plan
+from aerosurvey import __version__, ids, schemas
+from aerosurvey.camera import Camera
+from aerosurvey.errors import InputError
+from aerosurvey.plan import photogrammetry as pg
+
+if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
+    from aerosurvey.plan.planner import Plan
 
 SCHEMA = "aerosurvey-manifest"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: The file name `aerosurvey plan` writes the manifest under.
+FILE_NAME = "manifest.json"
 
 
 def sha256_file(path: Path) -> str:
@@ -43,17 +56,22 @@ def _lonlat(plan: Plan, xy: tuple[float, float]) -> list[float | None]:
 
 def _sorties(plan: Plan) -> list[dict[str, Any]]:
     st = plan.stations
-    out = []
-    for k, (s, wps) in enumerate(plan.sorties, start=1):
+    out: list[dict[str, Any]] = []
+    if not plan.sorties:
+        return out
+    budget = cast(Any, plan.battery)  # the sortie Budget (typed `object` on the plan)
+    assert plan.spec.battery is not None, "sorties are split only with a [battery] table"
+    reserve = plan.spec.battery.reserve
+    for k, (s, _wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[s.launch]
         out.append({
-            "id": f"S{k:02d}", "files": [f"sortie-{k:02d}.plan", f"sortie-{k:02d}.waypoints"],
+            "id": ids.sortie_id(k), "files": [f"{ids.sortie_file_stem(k)}.plan", f"{ids.sortie_file_stem(k)}.waypoints"],
             "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
             "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
             "time_s": _f(s.horizontal_s + s.vertical_s, 1),
-            "time_with_wind_allowance_s": _f(s.horizontal_s * plan.battery.wind_factor + s.vertical_s, 1),
+            "time_with_wind_allowance_s": _f(s.horizontal_s * budget.wind_factor + s.vertical_s, 1),
             "distance_m": _f(s.distance_m, 1),
-            "battery_used_pct": _f(100 * s.battery_used * (1 - plan.spec.battery.reserve), 1),
+            "battery_used_pct": _f(100 * s.battery_used * (1 - reserve), 1),
             "usable_used_pct": _f(100 * s.battery_used, 1), "mission_items": s.items + 1,
         })
     return out
@@ -69,6 +87,16 @@ def _input(path: Path | None, base: Path) -> dict[str, Any] | None:
     return {"path": rel, "sha256": sha256_file(path)}
 
 
+def _gsd_cm(agl_m: np.ndarray, cam: Camera) -> np.ndarray:
+    """GSD in cm at heights above ground, by the photogrammetry module."""
+    return np.asarray(pg.gsd_from_height(agl_m, cam), float) * 100.0
+
+
+def _run_id(plan: Plan, run: int) -> str:
+    r = plan.route.runs[run]
+    return ids.run_id(r.pass_index, r.line, r.part)
+
+
 def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
     """The manifest as plain JSON data. `outputs` maps each written file name to its sha256."""
     spec = plan.spec
@@ -80,19 +108,19 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> d
     for i, r in enumerate(plan.route.runs):
         sel = np.flatnonzero(st.run == i)
         lines.append({
-            "id": run_id(plan, i), "line": f"P{r.pass_index}-L{r.line + 1:03d}", "pass": r.pass_index,
+            "id": _run_id(plan, i), "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
             "order": i + 1, "heading_deg": _f(r.heading_deg), "photos": int(len(sel)),
             "first_station": st.ids[sel[0]], "last_station": st.ids[sel[-1]],
             "lead_in": _lonlat(plan, r.lead_in_xy),
             "end": _lonlat(plan, r.end_xy),
         })
-    gsd_cm = st.agl_m * cam.pixel_pitch_mm / cam.focal_mm * 100
+    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), cam)
 
     def col(a: np.ndarray, nd: int) -> list[float | None]:
         r = np.round(np.asarray(a, float), nd)
         return [None if not math.isfinite(v) else v for v in r.tolist()]
 
-    columns = zip(st.ids, [run_id(plan, int(r)) for r in st.run], col(st.x, 3), col(st.y, 3), col(st.lon, 8),
+    columns = zip(st.ids, [_run_id(plan, int(r)) for r in st.run], col(st.x, 3), col(st.y, 3), col(st.lon, 8),
                   col(st.lat, 8), col(st.ground_m, 2), col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3),
                   col(st.heading_deg, 3))
     stations = [
@@ -183,3 +211,243 @@ def dumps(manifest: dict[str, Any]) -> str:
             out.append(f"{enc.encode(key)}: {enc.encode(value)}{comma}")
     out.append("}")
     return "\n".join(out) + "\n"
+
+
+# ---- the reader -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Mission:
+    name: str
+    vehicle: str
+    firmware: str
+    profiles: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class CameraInfo:
+    id: str | None
+    name: str
+    sensor_mm: tuple[float, float]
+    image_px: tuple[int, int]
+    focal_mm: float
+    pixel_pitch_um: float
+    mount: str
+    trigger: str
+    min_cycle_s: float
+    exposure_s: float
+    source: str
+
+    def model(self) -> Camera:
+        """The camera as the photogrammetry functions take it."""
+        return Camera(self.id or "manifest", self.name, self.sensor_mm[0], self.sensor_mm[1], self.image_px[0],
+                      self.image_px[1], self.focal_mm, self.min_cycle_s, self.exposure_s, source=self.source)
+
+    def gsd_cm(self, agl_m: np.ndarray) -> np.ndarray:
+        """GSD (cm) at heights above ground, by aerosurvey.plan.photogrammetry."""
+        return _gsd_cm(np.asarray(agl_m, float), self.model())
+
+
+@dataclass(frozen=True)
+class Derived:
+    """The derived figures consumers use; every other one is in `Manifest.raw["derived"]`."""
+
+    height_agl_m: float | None
+    footprint_across_m: float | None
+    footprint_along_m: float | None
+    line_spacing_m: float | None
+    photo_base_m: float
+    side_images_per_point: int
+    forward_images_per_point: int
+    area_ha: float | None
+    grid_scale: float
+
+    @property
+    def images_per_point(self) -> int:
+        return self.side_images_per_point * self.forward_images_per_point
+
+    @property
+    def footprint_m(self) -> float:
+        """The longer side of the nominal footprint (ground metres)."""
+        return float(max(self.footprint_across_m or 0.0, self.footprint_along_m or 0.0))
+
+
+@dataclass(frozen=True)
+class Home:
+    lon: float | None
+    lat: float | None
+    ground_amsl_m: float | None
+
+
+@dataclass(frozen=True)
+class Sortie:
+    id: str
+    files: tuple[str, ...]
+    first_station: str
+    last_station: str
+    photos: int
+    time_s: float | None
+
+
+@dataclass(frozen=True)
+class Line:
+    id: str  # run id P1-L003-R1
+    line: str
+    pass_index: int
+    order: int
+    heading_deg: float | None
+    photos: int
+    first_station: str
+    last_station: str
+
+
+def _col(rows: list[dict[str, Any]], key: str) -> np.ndarray:
+    a = np.array([np.nan if r[key] is None else r[key] for r in rows], float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Stations:
+    """The planned photo stations in flight order, as read-only columns."""
+
+    ids: tuple[str, ...]
+    seq: np.ndarray
+    run: tuple[str, ...]  # the run (line id) of each station
+    x: np.ndarray  # planning CRS
+    y: np.ndarray
+    lon: np.ndarray
+    lat: np.ndarray
+    ground_m: np.ndarray  # NaN where null
+    alt_rel_m: np.ndarray
+    agl_m: np.ndarray
+    gsd_cm: np.ndarray
+    heading_deg: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    @classmethod
+    def from_rows(cls, rows: list[dict[str, Any]]) -> Stations:
+        seq = np.array([r["seq"] for r in rows], int)
+        seq.setflags(write=False)
+        return cls(tuple(r["id"] for r in rows), seq, tuple(r["line"] for r in rows),
+                   *(_col(rows, k) for k in ("x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg")))
+
+    def index(self, station: str) -> int:
+        try:
+            return self.ids.index(station)
+        except ValueError:
+            raise InputError(f"station {station!r} is not in the manifest") from None
+
+    def select(self, first: int, last: int) -> Stations:
+        """Stations first..last (indices, both included)."""
+        sl = slice(first, last + 1)
+        return Stations(self.ids[sl], self.seq[sl], self.run[sl], self.x[sl], self.y[sl], self.lon[sl], self.lat[sl],
+                        self.ground_m[sl], self.alt_rel_m[sl], self.agl_m[sl], self.gsd_cm[sl], self.heading_deg[sl])
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A manifest read and checked against its schema; `raw` is the validated JSON data."""
+
+    raw: Mapping[str, Any]
+    where: str
+    schema_version: int
+    aerosurvey_version: str
+    mission: Mission
+    rule_overrides: Mapping[str, Any]
+    crs: str  # the planning CRS
+    camera: CameraInfo
+    targets: Mapping[str, Any]
+    derived: Derived
+    home: Home
+    estimates: Mapping[str, float]
+    sorties: tuple[Sortie, ...]
+    lines: tuple[Line, ...]
+    stations: Stations
+    mission_items: int
+    outputs: Mapping[str, str]
+    rules: tuple[Mapping[str, Any], ...]
+    warnings: tuple[str, ...]
+
+    def sortie(self, sortie_id: str) -> Sortie:
+        found = next((s for s in self.sorties if s.id == sortie_id), None)
+        if found is None:
+            have = ", ".join(s.id for s in self.sorties) or "none (the plan is one mission)"
+            raise InputError(f"--sortie {sortie_id!r} is not a sortie of {self.where}: it has {have}", key="--sortie")
+        return found
+
+    def sortie_stations(self, sortie_id: str | None) -> Stations:
+        """The stations one sortie flies (all of them for None)."""
+        if sortie_id is None:
+            return self.stations
+        s = self.sortie(sortie_id)
+        return self.stations.select(self.stations.index(s.first_station), self.stations.index(s.last_station))
+
+
+def from_data(data: Any, where: str) -> Manifest:
+    """Check parsed JSON data against the schema (name, version, then content) and type it."""
+    if not isinstance(data, dict):
+        raise InputError(f"{where} is not an aerosurvey manifest: a JSON {type(data).__name__}, not an object")
+    if data.get("schema") != SCHEMA:
+        raise InputError(f"{where} is not an aerosurvey manifest: schema = {data.get('schema')!r}, expected {SCHEMA!r}")
+    version = data.get("schema_version")
+    schemas.check_version(where, "manifest", version, SCHEMA_VERSION, "re-plan it with `aerosurvey plan SPEC -o DIR`",
+                          str(data.get("aerosurvey_version", "?")))
+    schemas.check("manifest", data, where, "manifest", SCHEMA_VERSION)
+    m, cam, d, h = data["mission"], data["camera"], data["derived"], data["home"]
+    return Manifest(
+        raw=data, where=where, schema_version=SCHEMA_VERSION, aerosurvey_version=data["aerosurvey_version"],
+        mission=Mission(m["name"], m["vehicle"], m["firmware"], tuple(m["profiles"])),
+        rule_overrides=data["rule_overrides"], crs=data["crs"]["planning"],
+        camera=CameraInfo(cam["id"], cam["name"], (float(cam["sensor_mm"][0]), float(cam["sensor_mm"][1])),
+                          (int(cam["image_px"][0]), int(cam["image_px"][1])), float(cam["focal_mm"]),
+                          float(cam["pixel_pitch_um"]), cam["mount"], cam["trigger"], float(cam["min_cycle_s"]),
+                          float(cam["exposure_s"]), cam["source"]),
+        targets=data["targets"],
+        derived=Derived(d["height_agl_m"], d["footprint_across_m"], d["footprint_along_m"], d["line_spacing_m"],
+                        float(d["photo_base_m"]), int(d["side_images_per_point"]), int(d["forward_images_per_point"]),
+                        d["area_ha"], float(d["grid_scale"])),
+        home=Home(h["lon"], h["lat"], h["ground_amsl_m"]),
+        estimates=data["estimates"],
+        sorties=tuple(Sortie(s["id"], tuple(s["files"]), s["first_station"], s["last_station"], s["photos"], s["time_s"])
+                      for s in data["sorties"]),
+        lines=tuple(Line(r["id"], r["line"], r["pass"], r["order"], r["heading_deg"], r["photos"], r["first_station"],
+                         r["last_station"]) for r in data["lines"]),
+        stations=Stations.from_rows(data["stations"]),
+        mission_items=data["mission_items"], outputs=data["outputs"],
+        rules=tuple(data.get("rules", [])), warnings=tuple(data["warnings"]),
+    )
+
+
+def loads(text: str | bytes, where: str) -> Manifest:
+    """A manifest from its JSON text."""
+    try:
+        data = json.loads(text)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{where} is not valid JSON: {exc}") from None
+    return from_data(data, where)
+
+
+def manifest_path(path: str | Path, option: str = "--plan") -> Path:
+    """The manifest file of a plan folder (or the file itself), or a one-line error."""
+    p = Path(path)
+    if p.is_dir():
+        m = p / FILE_NAME
+        if not m.is_file():
+            raise InputError(f"{option} {str(p)!r} has no {FILE_NAME}: give the folder `aerosurvey plan` wrote", key=option)
+        return m
+    if not p.exists():
+        raise InputError(f"{option} {str(p)!r} does not exist: give the folder `aerosurvey plan` wrote", key=option)
+    return p
+
+
+def read_manifest(path_or_folder: str | Path, option: str = "--plan") -> Manifest:
+    """Read and check the manifest of a plan folder (or a manifest file)."""
+    p = manifest_path(path_or_folder, option)
+    try:
+        text = p.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{option} {str(p)!r} cannot be read: {exc.strerror}", key=option) from None
+    return loads(text, str(p))

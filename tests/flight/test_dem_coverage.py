@@ -6,7 +6,6 @@ and an independent footprint count (tests/independent_coverage.py), not from the
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -17,12 +16,13 @@ import pytest
 import rasterio
 import shapely
 from click.testing import CliRunner
+from csvrows import event_rows
 from dfwriter import camera_log
 from rasterio.transform import from_origin
 
 import independent_coverage as ic
 from aerosurvey.cli import main
-from aerosurvey.flight.coverage import flown_manifest
+from aerosurvey.flight.coverage import flown_photos
 from aerosurvey.flight.events import Events
 from conftest import make_spec
 
@@ -92,7 +92,7 @@ def _flight(tmp: Path, manifest: dict) -> tuple[Path, np.ndarray, np.ndarray, np
 def _ingest(log: Path, plan: Path, out: Path, *extra: str):
     res = CliRunner().invoke(main, ["log", "ingest", str(log), "--plan", str(plan), *extra, "-o", str(out)])
     assert res.exit_code == 0, res.output
-    rows = list(csv.DictReader(open(out / "events.csv")))
+    rows = event_rows(out / "events.csv")
     return res, json.loads((out / "log_report.json").read_text()), rows
 
 
@@ -226,7 +226,6 @@ def test_tilted_camera_height_and_centre_agree(pitch, roll, yaw):
     """With --fixed-camera the centre moves with the height: the result is the fixed point of both."""
     x0, slope = 500_000.0, 0.25
     ground = lambda x, y: 300.0 + slope * (np.asarray(x) - x0) + 0.1 * (np.asarray(y) - 5_472_000.0)  # noqa: E731
-    manifest = {"crs": {"planning": "EPSG:32633"}, "stations": []}
     t = pyproj.Transformer.from_crs("EPSG:32633", "EPSG:4326", always_xy=True)
     px = np.array([500_000.0, 500_100.0, 499_900.0])
     py = np.array([5_472_000.0, 5_472_050.0, 5_471_900.0])
@@ -234,15 +233,17 @@ def test_tilted_camera_height_and_centre_agree(pitch, roll, yaw):
     n = len(px)
     ev = Events(np.arange(n, dtype=float), lat, lon, np.full(n, 420.0), np.full(n, 100.0), np.full(n, roll),
                 np.full(n, pitch), np.full(n, yaw), "test")
-    flown = flown_manifest(manifest, ev, None, fixed_camera=True, ground=ground)
+    flown = flown_photos("EPSG:32633", {}, ev, None, fixed_camera=True, ground=ground)
     back = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32633", always_xy=True)
     cx0, cy0 = (np.asarray(a) for a in back.transform(lon, lat))
     tilt = math.hypot(math.tan(math.radians(pitch)), math.tan(math.radians(roll)))
-    for i, s in enumerate(flown["stations"]):
-        assert s["agl_m"] == pytest.approx(420.0 - ground(s["x"], s["y"]), abs=1e-3)
-        assert math.hypot(s["x"] - cx0[i], s["y"] - cy0[i]) == pytest.approx(s["agl_m"] * tilt, abs=1e-3)
-        assert s["ground_m"] == pytest.approx(ground(s["x"], s["y"]), abs=1e-3)
-    nadir = flown_manifest(manifest, ev, None, fixed_camera=False, ground=ground)
-    for i, s in enumerate(nadir["stations"]):
-        assert (s["x"], s["y"]) == (pytest.approx(cx0[i]), pytest.approx(cy0[i]))
-        assert s["agl_m"] == pytest.approx(420.0 - ground(cx0[i], cy0[i]), abs=1e-6)
+    assert len(flown) == n
+    for i in range(n):
+        x, y, agl = flown.x[i], flown.y[i], flown.agl_m[i]
+        assert agl == pytest.approx(420.0 - ground(x, y), abs=1e-3)
+        assert math.hypot(x - cx0[i], y - cy0[i]) == pytest.approx(agl * tilt, abs=1e-3)
+        assert flown.ground_m[i] == pytest.approx(ground(x, y), abs=1e-3)
+    nadir = flown_photos("EPSG:32633", {}, ev, None, fixed_camera=False, ground=ground)
+    for i in range(n):
+        assert (nadir.x[i], nadir.y[i]) == (pytest.approx(cx0[i]), pytest.approx(cy0[i]))
+        assert nadir.agl_m[i] == pytest.approx(420.0 - ground(cx0[i], cy0[i]), abs=1e-6)

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
 from click.testing import CliRunner
+from csvrows import event_rows
 
 from aerosurvey.cli import main
 from conftest import REPO, make_spec
@@ -35,7 +35,7 @@ def test_every_event_matches_its_station(tmp_path):
     rz = rep["realized"]
     assert rz["forward_overlap_min"] >= 0.74 and rz["side_overlap_min"] >= 0.59
     assert 2.4 < rz["gsd_cm_min"] <= rz["gsd_cm_max"] < 2.6
-    rows = list(csv.DictReader(open(tmp_path / "log" / "events.csv")))
+    rows = event_rows(tmp_path / "log" / "events.csv")
     manifest = json.loads((plan / "manifest.json").read_text())
     assert [r["station"] for r in rows] == [s["id"] for s in manifest["stations"]]
 
@@ -87,7 +87,7 @@ def test_plane_example_flown_in_sitl(tmp_path):
     assert rep["missed_stations"] == [] and rep["extra_triggers"] == [] and rep["read"]["skipped_bytes"] == 0
     # every trigger within the default tolerance (a quarter base) of its station: the lead-in works
     assert rep["max_distance_m"] < 5.5 and rep["far_triggers"] == []
-    rows = list(csv.DictReader(open(tmp_path / "log" / "events.csv")))
+    rows = event_rows(tmp_path / "log" / "events.csv")
     first, last = rows[0], rows[-1]
     assert (first["station"], last["station"]) == ("P1-L001-S0001", "P1-L013-S0052")
     assert (float(first["lat"]), float(first["lon"]), float(first["alt_m"])) == (37.77154, 31.548007, 158.62)

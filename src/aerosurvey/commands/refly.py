@@ -2,13 +2,9 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
-
-from aerosurvey.errors import InputError
-from aerosurvey.fileio import atomic_write_text
 
 
 @click.command()
@@ -21,33 +17,20 @@ from aerosurvey.fileio import atomic_write_text
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
 def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, outdir: Path) -> None:
     """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."""
-    import numpy as np  # not at the top: `aerosurvey --help` imports this module to list the command
-    import shapely
-    import shapely.geometry
-
-    from aerosurvey.flight.refly import gap_area, needed_images, refly_spec
-    from aerosurvey.inputs import plan_from_files
-    from aerosurvey.outputs import write_outputs
+    # the planner and rasterio are heavy: imported when the command runs
+    from aerosurvey.flight.refly import plan_refly, write_refly
     from aerosurvey.rules.planview import PlanView
-    from aerosurvey.spec import parse_spec
 
-    cov = log_dir / "coverage.tif"
-    if not cov.exists():
-        raise InputError(f"{log_dir}: coverage.tif is missing; run `aerosurvey log ingest LOG --plan PLAN -o {log_dir}` first")
-    view = PlanView.from_outdir(plan_dir)
-    need = needed_images(view.manifest)
-    gaps = gap_area(cov, need, view.area, min_gap_m2)
-    if gaps.is_empty:
-        click.echo(f"no gaps: every cell of the area is seen by at least {need} flown photos; nothing to re-fly")
+    r = plan_refly(log_dir, PlanView.from_outdir(plan_dir, "--plan"), spec_path, min_gap_m2)
+    for note in r.notes:
+        click.echo(f"note: {note}")
+    if r.plan is None:
+        click.echo(f"no gaps: every cell of the area is seen by at least {r.need} flown photos; nothing to re-fly")
         return
-    data = refly_spec(spec_path, gaps, view.crs)
-    spec = parse_spec(data, base=spec_path.parent, path=None)
-    plan = plan_from_files(spec)
-    rendered = write_outputs(plan, outdir)
-    click.echo(f"{shapely.area(gaps) / 1e4:.3f} ha in {len(shapely.get_parts(gaps))} gap(s) seen by fewer than {need} photos; "
-               f"re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
-               f"{plan.estimates['total_time_s'] / 60:.1f} min; wrote {', '.join(sorted(rendered.files))} to {outdir}")
-    gaps_ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
-    atomic_write_text(outdir / "gaps.geojson", json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"role": "gap", "needed_images": need},
-         "geometry": shapely.geometry.mapping(gaps_ll)}]}) + "\n")
+    write_refly(r, outdir)
+    plan = r.plan
+    import shapely  # loaded by the command, not by `aerosurvey --help`
+
+    click.echo(f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than {r.need} "
+               f"photos; re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
+               f"{plan.estimates['total_time_s'] / 60:.1f} min; wrote {', '.join(sorted(r.files))} to {outdir}")

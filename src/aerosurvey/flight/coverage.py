@@ -3,9 +3,10 @@ plan's rules evaluated on them with the same engine as before flight."""
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -15,12 +16,18 @@ import rasterio
 import rasterio.errors
 import rasterio.features
 import shapely
+from affine import Affine
 from rasterio.enums import MergeAlg
 from rasterio.transform import from_origin
 
+from aerosurvey import ids
+from aerosurvey.area import Planar, transformer
 from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
-from aerosurvey.report.features import footprint_corners
+from aerosurvey.manifest import Home
+from aerosurvey.plan.footprints import footprint_corners
+from aerosurvey.rules.footprints import footprints
+from aerosurvey.rules.planview import PlanView
 
 if TYPE_CHECKING:
     from aerosurvey.plan.terrain import Dem
@@ -70,34 +77,47 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
     return np.where(ok, alt - g, home), np.where(ok, g, np.nan), cx, cy
 
 
-def flown_manifest(manifest: dict[str, Any], ev: Events, match: Match | None, fixed_camera: bool = False,
-                   ground: GroundFn | None = None) -> dict[str, Any]:
-    """The plan's manifest with the logged photos in place of the planned stations.
+@dataclass(frozen=True)
+class FlownPhotos:
+    """The logged photos in place of the planned stations, in the log's order."""
 
-    Each photo keeps the run of the station it matched (unmatched photos form runs of
-    their own by order) and its logged yaw as heading. Its height above ground is the
-    height above home (flat ground) unless `ground` gives the terrain, see
-    :func:`photo_heights`; `ground_m` is None where the height above home was used.
-    A camera on a nadir gimbal (the default) looks straight down; with `fixed_camera` the
-    body's roll and pitch move the footprint's centre by h·tan(angle).
+    ids: tuple[str, ...]  # E00001 …
+    run: tuple[str, ...]  # the run of the station each matched (unmatched photos: runs of their own)
+    x: np.ndarray  # footprint centre, planning CRS
+    y: np.ndarray
+    agl_m: np.ndarray
+    ground_m: np.ndarray  # NaN where the height above home was used
+    heading_deg: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+def flown_photos(crs: str, run_of: Mapping[str, str], ev: Events, match: Match | None, fixed_camera: bool = False,
+                 ground: GroundFn | None = None) -> FlownPhotos:
+    """The logged photos with the footprint geometry the rules measure.
+
+    Each photo keeps the run of the station it matched (`run_of`: station id → run id;
+    unmatched photos form runs of their own by order) and its logged yaw as heading. Its
+    height above ground is the height above home (flat ground) unless `ground` gives the
+    terrain, see :func:`photo_heights`. A camera on a nadir gimbal (the default) looks
+    straight down; with `fixed_camera` the body's roll and pitch move the footprint's
+    centre by h·tan(angle).
     """
-    crs = manifest["crs"]["planning"]
-    t = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
-    x, y = (np.asarray(a, float) for a in t.transform(ev.lon, ev.lat))
+    x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(ev.lon, ev.lat))
     h, g, cx, cy = photo_heights(x, y, ev, 1.0 if fixed_camera else 0.0, ground)
-    heading = np.nan_to_num(ev.yaw) % 360.0
-    run_of = {s["id"]: s["line"] for s in manifest["stations"]}
-    stations = []
+    runs = []
     for i in range(len(ev)):
         st = match.station[i] if match is not None else None
-        run = run_of.get(st, f"unmatched-{i}") if st else f"unmatched-{i}"
-        stations.append({"id": f"E{i + 1:05d}", "seq": i + 1, "line": run, "x": float(cx[i]), "y": float(cy[i]),
-                         "lon": float(ev.lon[i]), "lat": float(ev.lat[i]), "agl_m": float(h[i]),
-                         "ground_m": float(g[i]) if np.isfinite(g[i]) else None,
-                         "heading_deg": float(heading[i])})
-    flown = copy.deepcopy(manifest)
-    flown["stations"] = stations
-    return flown
+        runs.append(run_of.get(st, f"unmatched-{i}") if st else f"unmatched-{i}")
+    return FlownPhotos(tuple(ids.event_id(i + 1) for i in range(len(ev))), tuple(runs), np.asarray(cx, float),
+                       np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float), np.nan_to_num(ev.yaw) % 360.0)
+
+
+def flown_view(view: PlanView, photos: FlownPhotos) -> PlanView:
+    """The plan as the rules see it, with the flown photos in place of the planned stations."""
+    return dataclasses.replace(view, station_ids=list(photos.ids), run_ids=list(photos.run), x=photos.x, y=photos.y,
+                               agl=photos.agl_m, heading_deg=photos.heading_deg)
 
 
 class DemGround:
@@ -112,8 +132,6 @@ class DemGround:
     """
 
     def __init__(self, path: Path, planning_crs: str, option: str = "--dem"):
-        from aerosurvey.area import Planar
-
         if not path.is_file():
             raise InputError(f"{option} {str(path)!r}: no such file; give a DEM GeoTIFF")
         try:
@@ -125,8 +143,7 @@ class DemGround:
         if not has_crs:
             raise InputError(f"{option} {str(path)!r} has no CRS; give the DEM a georeference (e.g. gdal_edit.py -a_srs)")
         crs = pyproj.CRS.from_user_input(planning_crs)
-        self.planar = Planar(crs, pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True),
-                             pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True))
+        self.planar = Planar(crs, transformer("EPSG:4326", planning_crs), transformer(planning_crs, "EPSG:4326"))
         self.path = path
         self.crs = pyproj.CRS.from_wkt(crs_wkt)
         self._dem: Dem | None = None
@@ -206,7 +223,7 @@ class DemGround:
 HOME_CHECK_M = 10.0
 
 
-def heights_summary(flown: dict[str, Any], ev: Events, dem: DemGround | None) -> dict[str, Any]:
+def heights_summary(photos: FlownPhotos, ev: Events, dem: DemGround | None, home: Home, crs: str) -> dict[str, Any]:
     """The report's `heights`: where the heights above ground came from and which photos fell back.
 
     With a DEM it also checks the vertical sense: the log's home altitude (AMSL altitude
@@ -214,7 +231,7 @@ def heights_summary(flown: dict[str, Any], ev: Events, dem: DemGround | None) ->
     difference means the altitudes and the DEM are not on the same vertical datum, or the
     GPS height was off at arming, and every DEM height above ground is off by about as much.
     """
-    agl = np.array([s["agl_m"] for s in flown["stations"]], float)
+    agl = photos.agl_m
     fin = agl[np.isfinite(agl)]
     out: dict[str, Any] = {
         "source": "dem" if dem is not None else "above_home", "dem": dem.path.name if dem is not None else None,
@@ -224,18 +241,16 @@ def heights_summary(flown: dict[str, Any], ev: Events, dem: DemGround | None) ->
     if dem is None:
         out.update({"outside_dem": 0, "note": "heights above home; flat ground assumed (give --dem for the terrain)"})
         return out
-    fallback = [s["seq"] for s in flown["stations"] if s["ground_m"] is None]
+    fallback = [int(i) + 1 for i in np.flatnonzero(~np.isfinite(photos.ground_m))]
     out.update({"outside_dem": len(fallback), "outside_dem_events": fallback,
                 "note": "height above ground = AMSL altitude - DEM ground under the footprint centre; photos off "
                         "the DEM, on nodata or not above its surface use their height above home",
                 "dem_vertical": dem.vertical_note()})
     log_home = ev.alt_m - ev.rel_alt_m
     log_home = log_home[np.isfinite(log_home)]
-    home = flown.get("home") or {}
     home_ground_m = float("nan")
-    if "lon" in home and "lat" in home:
-        t = pyproj.Transformer.from_crs("EPSG:4326", flown["crs"]["planning"], always_xy=True)
-        hx, hy = t.transform(home["lon"], home["lat"])
+    if home.lon is not None and home.lat is not None:
+        hx, hy = transformer("EPSG:4326", crs).transform(home.lon, home.lat)
         home_ground_m = float(dem(np.array([hx]), np.array([hy]))[0])
     if np.isfinite(home_ground_m) and log_home.size:
         d = float(np.median(log_home)) - home_ground_m
@@ -248,10 +263,19 @@ def heights_summary(flown: dict[str, Any], ev: Events, dem: DemGround | None) ->
     return out
 
 
-def count_raster(path: Path, view, cell_m: float) -> dict[str, Any]:
-    """GeoTIFF of how many flown photos see each cell, over the area's bounds (planning CRS)."""
-    from aerosurvey.rules.footprints import footprints
+@dataclass(frozen=True)
+class CountRaster:
+    """How many flown photos see each cell (planning CRS), and its summary over the area."""
 
+    counts: np.ndarray  # uint16, rows from the north
+    transform: Affine
+    crs: str
+    cell_m: float
+    summary: dict[str, Any]
+
+
+def count_raster(view: PlanView, cell_m: float) -> CountRaster:
+    """Counts of the view's photo footprints on cells over the area's bounds."""
     fp = footprints(view)
     corners = footprint_corners(fp.x, fp.y, np.degrees(fp.heading_rad), fp.across, fp.along)
     polys = shapely.polygons(corners)
@@ -263,10 +287,16 @@ def count_raster(path: Path, view, cell_m: float) -> dict[str, Any]:
     counts = rasterio.features.rasterize(((p, 1) for p in polys), out_shape=(height, width), transform=transform,
                                          fill=0, merge_alg=MergeAlg.add, dtype="uint16")
     inside = rasterio.features.geometry_mask([view.area], out_shape=(height, width), transform=transform, invert=True)
-    with rasterio.open(path, "w", driver="GTiff", width=width, height=height, count=1, dtype="uint16",
-                       crs=view.crs, transform=transform, compress="deflate", tiled=True) as ds:
-        ds.write(counts, 1)
     vals = counts[inside]
-    return {"cell_m": cell_m, "min_images_in_area": int(vals.min()) if vals.size else 0,
-            "median_images_in_area": float(np.median(vals)) if vals.size else 0.0,
-            "uncovered_share": float(np.mean(vals == 0)) if vals.size else 0.0}
+    summary = {"cell_m": cell_m, "min_images_in_area": int(vals.min()) if vals.size else 0,
+               "median_images_in_area": float(np.median(vals)) if vals.size else 0.0,
+               "uncovered_share": float(np.mean(vals == 0)) if vals.size else 0.0}
+    return CountRaster(counts, transform, view.crs, cell_m, summary)
+
+
+def write_count_raster(path: Path, r: CountRaster) -> None:
+    """coverage.tif: the counts as a deflated, tiled GeoTIFF."""
+    height, width = r.counts.shape
+    with rasterio.open(path, "w", driver="GTiff", width=width, height=height, count=1, dtype="uint16",
+                       crs=r.crs, transform=r.transform, compress="deflate", tiled=True) as ds:
+        ds.write(r.counts, 1)

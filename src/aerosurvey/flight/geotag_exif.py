@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import dataclass
+from typing import Any
 
 EXIF_HEADER = b"Exif\x00\x00"
 APP1, SOS, EOI, APP0 = 0xE1, 0xDA, 0xD9, 0xE0
@@ -61,12 +62,12 @@ def dms_rationals(deg: float) -> tuple[tuple[int, int], tuple[int, int], tuple[i
     return (d, 1), (m, 1), (s, _SECONDS_DENOMINATOR)
 
 
-def gps_entries(fix: GpsFix) -> list[tuple[int, int, list]]:
+def gps_entries(fix: GpsFix) -> list[tuple[int, int, list[Any]]]:
     """(tag, TIFF type, values) of the GPS IFD for a fix, in tag order."""
     if not (math.isfinite(fix.lat) and math.isfinite(fix.lon)) or abs(fix.lat) > 90 or abs(fix.lon) > 180:
         raise GeotagError(f"position lat {fix.lat!r}, lon {fix.lon!r} is not a WGS84 position "
                           "(latitude -90..90, longitude -180..180)")
-    out: list[tuple[int, int, list]] = [
+    out: list[tuple[int, int, list[Any]]] = [
         (0x0000, _BYTE, [2, 3, 0, 0]),  # GPSVersionID 2.3.0.0
         (0x0001, _ASCII, ["N" if fix.lat >= 0 else "S"]),
         (0x0002, _RATIONAL, list(dms_rationals(fix.lat))),
@@ -84,7 +85,7 @@ def gps_entries(fix: GpsFix) -> list[tuple[int, int, list]]:
     return out
 
 
-def _pack_values(typ: int, values: list, bo: str) -> tuple[int, bytes]:
+def _pack_values(typ: int, values: list[Any], bo: str) -> tuple[int, bytes]:
     """(count, bytes) of one entry's values in byte order `bo` ('<' or '>')."""
     if typ == _ASCII:
         raw = values[0].encode("ascii") + b"\x00"
@@ -96,7 +97,7 @@ def _pack_values(typ: int, values: list, bo: str) -> tuple[int, bytes]:
     raise ValueError(f"TIFF type {typ} is not written here")
 
 
-def _ifd_bytes(entries: list[tuple[int, int, list]], at: int, bo: str) -> bytes:
+def _ifd_bytes(entries: list[tuple[int, int, list[Any]]], at: int, bo: str) -> bytes:
     """A TIFF IFD placed at offset `at` of the TIFF block, its long values right after it."""
     n = len(entries)
     data_at = at + 2 + 12 * n + 4
@@ -176,7 +177,8 @@ def jpeg_segments(data: bytes) -> tuple[list[Segment], int]:
     n = len(data)
     if data[:2] != b"\xff\xd8":
         raise GeotagError("not a JPEG file (it does not start with the JPEG start-of-image marker FFD8)")
-    pos, segments = 2, []
+    pos = 2
+    segments: list[Segment] = []
     while True:
         if pos >= n:
             raise GeotagError(f"the JPEG ends after {n} bytes, before its image data (no SOS marker): the file is cut off")

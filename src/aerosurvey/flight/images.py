@@ -57,7 +57,7 @@ def match_images(files: list[Path], ev: Events, tolerance_s: float = 0.5) -> Ima
     times = [capture_time(f) for f in files]
     have = [i for i, t in enumerate(times) if t is not None]
     ev_t = ev.utc_s if ev.utc_s is not None else ev.time_s
-    best = (0, None)
+    best: tuple[int, float | None] = (0, None)
     if len(have) >= 2 and len(ev_t) >= 2:
         it = np.array([times[i] for i in have])
         diffs = (it[:, None] - ev_t[None, :]).ravel()
@@ -70,17 +70,18 @@ def match_images(files: list[Path], ev: Events, tolerance_s: float = 0.5) -> Ima
         n = int(np.sum(np.min(np.abs(it[:, None] - (ev_t[None, :] + d)), axis=1) <= tolerance_s))
         best = (n, d)
     event_of: list[int | None] = [None] * len(files)
-    if best[1] is not None and best[0] >= 0.5 * min(len(have), len(ev_t)):
-        d = best[1]
+    voted, offset = best
+    if offset is not None and voted >= 0.5 * min(len(have), len(ev_t)):
+        d = offset
         # refine the offset as the median difference of the voted pairs, then pair greedily
         it = np.array([times[i] for i in have])
         near = np.argmin(np.abs(it[:, None] - (ev_t[None, :] + d)), axis=1)
         ok = np.abs(it - (ev_t[near] + d)) <= tolerance_s
         d = float(np.median(it[ok] - ev_t[near[ok]]))
         used = set()
-        for k, i in enumerate(have):
-            j = int(np.argmin(np.abs(ev_t + d - times[i])))
-            if abs(ev_t[j] + d - times[i]) <= tolerance_s and j not in used:
+        for i, ti in zip(have, it.tolist()):
+            j = int(np.argmin(np.abs(ev_t + d - ti)))
+            if abs(ev_t[j] + d - ti) <= tolerance_s and j not in used:
                 event_of[i] = j
                 used.add(j)
         method, offset = "capture time", d

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +13,17 @@ import pyproj
 import rasterio
 import rasterio.features
 import shapely
+import shapely.geometry
+
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.flight import records
+from aerosurvey.inputs import plan_from_files
+from aerosurvey.manifest import sha256_file
+from aerosurvey.outputs import render_outputs
+from aerosurvey.plan.planner import Plan
+from aerosurvey.rules.planview import PlanView
+from aerosurvey.spec import load_spec, parse_spec
 
 
 def gap_area(coverage_tif: Path, need: int, area_plan: shapely.Geometry, min_area_m2: float) -> shapely.Geometry:
@@ -47,6 +60,62 @@ def refly_spec(spec_path: Path, gaps_plan: shapely.Geometry, crs: str) -> dict[s
     return data
 
 
-def needed_images(manifest: dict[str, Any]) -> int:
-    d = manifest["derived"]
-    return int(d["side_images_per_point"]) * int(d["forward_images_per_point"])
+@dataclass(frozen=True)
+class Refly:
+    """A re-fly over the gaps: the gaps, the photos each point needs, the new plan and its files."""
+
+    gaps: shapely.Geometry  # planning CRS of the flown plan
+    need: int
+    plan: Plan | None  # the re-fly (None when there are no gaps)
+    files: dict[str, str]  # file name -> text: every output of `plan` and gaps.geojson
+    notes: tuple[str, ...]
+
+
+def check_log_of_plan(log_dir: Path, view: PlanView) -> None:
+    """The log folder's report must name the plan's mission (a coverage of another plan is refused)."""
+    report = records.read_report(log_dir / "log_report.json") if (log_dir / "log_report.json").is_file() else None
+    if report is None:
+        raise InputError(f"{str(log_dir)!r} has no log_report.json: give the folder `aerosurvey log ingest LOG --plan PLAN` wrote")
+    flown = (report.get("plan") or {}).get("mission")
+    if flown is None:
+        raise InputError(f"{str(log_dir)!r} was ingested without --plan: run `aerosurvey log ingest LOG --plan PLAN -o {log_dir}`")
+    doc = view.document
+    if flown != doc.mission.name:
+        raise InputError(f"{str(log_dir)!r} is the coverage of mission {flown!r}, but --plan {doc.where!r} is mission "
+                         f"{doc.mission.name!r}: give the plan the log was ingested against")
+
+
+def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float) -> Refly:
+    """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos, with the plan's own spec."""
+    doc = view.document
+    spec = load_spec(spec_path)
+    if spec.name != doc.mission.name:
+        raise InputError(f"--spec {str(spec_path)!r} is mission {spec.name!r}, but --plan {doc.where!r} is mission "
+                         f"{doc.mission.name!r}: give the spec the plan was made from", key="--spec")
+    notes = []
+    planned = (doc.raw.get("inputs") or {}).get("spec") or {}
+    if planned.get("sha256") and planned["sha256"] != sha256_file(spec_path):
+        notes.append(f"--spec {str(spec_path)!r} has changed since the plan was made; the re-fly uses it as it is now")
+    check_log_of_plan(log_dir, view)
+    cov = log_dir / "coverage.tif"
+    if not cov.is_file():
+        raise InputError(f"{log_dir}: coverage.tif is missing; run `aerosurvey log ingest LOG --plan PLAN -o {log_dir}` first")
+    need = doc.derived.images_per_point
+    gaps = gap_area(cov, need, view.area, min_gap_m2)
+    if gaps.is_empty:
+        return Refly(gaps, need, None, {}, tuple(notes))
+    data = refly_spec(spec_path, gaps, view.crs)
+    plan = plan_from_files(parse_spec(data, base=spec_path.parent, path=None))
+    files = dict(render_outputs(plan).files)
+    gaps_ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
+    files["gaps.geojson"] = json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"role": "gap", "needed_images": need},
+         "geometry": shapely.geometry.mapping(gaps_ll)}]}) + "\n"
+    return Refly(gaps, need, plan, files, tuple(notes))
+
+
+def write_refly(r: Refly, outdir: Path) -> None:
+    """Every file of the re-fly into `outdir`, all or nothing."""
+    with staged_directory(outdir) as stage:
+        for name, text in r.files.items():
+            atomic_write_text(stage / name, text)

@@ -3,13 +3,15 @@ output folder of `aerosurvey plan`."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aerosurvey.errors import InputError
 from aerosurvey.rules.planview import PlanView
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.planner import Plan
 
 
 @dataclass(frozen=True)
@@ -20,7 +22,7 @@ class Target:
     outdir: Path | None
 
 
-def plan_documents(plan) -> tuple[dict[str, Any], dict[str, Any]]:
+def plan_documents(plan: Plan) -> tuple[dict[str, Any], dict[str, Any]]:
     """The manifest and GeoJSON of a plan, in memory (no files written)."""
     from aerosurvey.manifest import build_manifest
     from aerosurvey.mission.builder import build_mission
@@ -33,15 +35,15 @@ def plan_documents(plan) -> tuple[dict[str, Any], dict[str, Any]]:
 def open_target(path: Path) -> Target:
     if path.is_dir():
         view = PlanView.from_outdir(path)
-        m = view.manifest
-        return Target(view, list(m["mission"].get("profiles", [])), dict(m.get("rule_overrides", {})), path)
+        doc = view.document
+        return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path)
     if path.suffix.lower() == ".toml":
         from aerosurvey.inputs import plan_from_files
         from aerosurvey.spec import load_spec
 
         spec = load_spec(path)
         manifest, features = plan_documents(plan_from_files(spec))
-        view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, str(path))
+        view = PlanView.from_documents(manifest, features, str(path))
         return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")

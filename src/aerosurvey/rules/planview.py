@@ -16,6 +16,7 @@ import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey import manifest as mf
 from aerosurvey.area import transformer
 from aerosurvey.errors import InputError
 
@@ -34,10 +35,12 @@ class PlanView:
     heading_deg: np.ndarray
     to_plan: pyproj.Transformer
     to_wgs84: pyproj.Transformer
+    document: mf.Manifest  # the typed manifest; `manifest` is its JSON data, which the checks read
 
     @property
     def camera(self) -> dict[str, Any]:
-        return self.manifest["camera"]
+        camera: dict[str, Any] = self.manifest["camera"]
+        return camera
 
     @property
     def area_ha(self) -> float:
@@ -45,15 +48,12 @@ class PlanView:
 
     @classmethod
     def from_documents(cls, manifest: dict[str, Any], features: dict[str, Any], where: str) -> PlanView:
-        try:
-            if manifest.get("schema") != "aerosurvey-manifest":
-                raise InputError(f"{where}: not an aerosurvey manifest (schema = {manifest.get('schema')!r})")
-            if manifest.get("schema_version") != 1:
-                raise InputError(f"{where}: manifest schema_version = {manifest.get('schema_version')!r}; this aerosurvey reads version 1")
-            crs = manifest["crs"]["planning"]
-            stations = manifest["stations"]
-        except (KeyError, TypeError) as exc:
-            raise InputError(f"{where}: manifest lacks {exc}") from None
+        """From the manifest as JSON data (checked against its schema) and the plan's GeoJSON."""
+        return cls.from_manifest(mf.from_data(manifest, where), features, where)
+
+    @classmethod
+    def from_manifest(cls, doc: mf.Manifest, features: dict[str, Any], where: str) -> PlanView:
+        crs = doc.crs
         try:
             to_plan, to_wgs84 = transformer("EPSG:4326", crs), transformer(crs, "EPSG:4326")
         except pyproj.exceptions.CRSError:
@@ -62,7 +62,8 @@ class PlanView:
         def proj(g: BaseGeometry) -> BaseGeometry:
             return shapely.transform(g, lambda xy: np.column_stack(to_plan.transform(xy[:, 0], xy[:, 1])))
 
-        areas, zones = [], []
+        areas: list[BaseGeometry] = []
+        zones: list[BaseGeometry] = []
         for f in features.get("features", []):
             role = f.get("properties", {}).get("role")
             if role in ("area", "exclusion"):
@@ -70,23 +71,23 @@ class PlanView:
                 (areas if role == "area" else zones).append(g)
         if not areas:
             raise InputError(f"{where}: plan.geojson has no feature with role 'area'")
+        st = doc.stations
         return cls(
-            manifest=manifest, crs=crs, area=shapely.union_all(areas),
+            manifest=dict(doc.raw), crs=crs, area=shapely.union_all(areas),
             exclusions=shapely.union_all(zones) if zones else None,
-            station_ids=[s["id"] for s in stations], run_ids=[s["line"] for s in stations],
-            x=np.asarray([s["x"] for s in stations], float), y=np.asarray([s["y"] for s in stations], float),
-            agl=np.asarray([s["agl_m"] for s in stations], float),
-            heading_deg=np.asarray([s["heading_deg"] for s in stations], float),
-            to_plan=to_plan, to_wgs84=to_wgs84,
+            station_ids=list(st.ids), run_ids=list(st.run), x=np.array(st.x), y=np.array(st.y), agl=np.array(st.agl_m),
+            heading_deg=np.array(st.heading_deg), to_plan=to_plan, to_wgs84=to_wgs84, document=doc,
         )
 
     @classmethod
-    def from_outdir(cls, outdir: Path) -> PlanView:
-        m, g = outdir / "manifest.json", outdir / "plan.geojson"
-        for p in (m, g):
-            if not p.exists():
-                raise InputError(f"{outdir}: {p.name} is missing; give a folder written by `aerosurvey plan`")
+    def from_outdir(cls, outdir: Path, option: str = "plan folder") -> PlanView:
+        """From a folder written by `aerosurvey plan`; `option` names it in errors (e.g. --plan)."""
+        doc = mf.read_manifest(outdir, option)
+        g = outdir / "plan.geojson"
+        if not g.is_file():
+            raise InputError(f"{outdir}: plan.geojson is missing; give a folder written by `aerosurvey plan`")
         try:
-            return cls.from_documents(json.loads(m.read_text()), json.loads(g.read_text()), str(outdir))
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{outdir}: {exc.doc[:0]}a file is not valid JSON: {exc}") from None
+            features = json.loads(g.read_text(encoding="utf-8"))
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise InputError(f"{g}: not valid JSON: {exc}") from None
+        return cls.from_manifest(doc, features, str(outdir))

@@ -4,15 +4,18 @@ camera positions and the flown-coverage raster, in the plan's map frame."""
 from __future__ import annotations
 
 import base64
-import csv
 import io
-import json
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from aerosurvey import manifest as mf
 from aerosurvey.errors import InputError
+from aerosurvey.flight import records
+from aerosurvey.flight.ingest import distance_text, far_from_plan
+from aerosurvey.manifest import Manifest
 from aerosurvey.web.mapproj import MapFrame
 
 #: Colours for photo counts 1, 2, 3 … (0 stays transparent); the last repeats beyond.
@@ -20,39 +23,59 @@ _RAMP = np.array([[215, 48, 39], [244, 109, 67], [253, 174, 97], [254, 224, 139]
                   [166, 217, 106], [102, 189, 99], [26, 152, 80], [0, 104, 55]], dtype=np.uint8)
 
 
-def flown_layers(files: dict[str, Path], frame: MapFrame) -> dict[str, Any]:
-    """Layers from the uploaded files: events.csv (required), coverage.tif and log_report.json (optional)."""
+def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str | None = None) -> dict[str, Any]:
+    """Layers from the uploaded files: events.csv (required), coverage.tif and log_report.json (optional).
+
+    Results of another mission are refused as `log ingest` refuses a log of another plan:
+    with the page's plan (`plan`: its manifest, or manifest.json's text) when the events lie a
+    median of more than one footprint from its stations or the report names another mission;
+    without it, when they lie outside the plan's map frame.
+    """
     if "events.csv" not in files:
         raise InputError(f"flight results: events.csv is missing among {sorted(files) or 'no files'}; choose the folder "
                          "written by `aerosurvey log ingest`", key="flight")
-    out: dict[str, Any] = {"events": _events(files["events.csv"], frame)}
+    try:
+        rows = records.read_events_csv(files["events.csv"])
+        report = records.read_report(files["log_report.json"]) if "log_report.json" in files else None
+        doc = mf.loads(plan, "the page's plan") if isinstance(plan, str) else plan
+    except InputError as exc:
+        raise InputError(f"flight results: {exc}", key="flight") from None
+    _same_plan(rows, report, frame, doc)
+    out: dict[str, Any] = {"events": _events(rows, frame)}
     if "coverage.tif" in files:
         out["coverage"] = _coverage(files["coverage.tif"], frame)
-    if "log_report.json" in files:
-        try:
-            report = json.loads(files["log_report.json"].read_text(encoding="utf-8"))
-        except (ValueError, UnicodeDecodeError) as exc:
-            raise InputError(f"flight results: log_report.json is not valid JSON: {exc}", key="flight") from None
+    if report is not None:
         out["report"] = {k: report.get(k) for k in ("log", "events", "planned", "matched", "missed_stations", "extra_triggers",
                                                   "far_triggers", "coverage", "realized") if k in report}
     return out
 
 
-def _events(path: Path, frame: MapFrame) -> dict[str, Any]:
-    try:
-        rows = list(csv.DictReader(io.StringIO(path.read_text(encoding="utf-8"))))
-    except UnicodeDecodeError as exc:
-        raise InputError(f"flight results: events.csv is not text: {exc}", key="flight") from None
-    if rows and not {"lat", "lon"} <= set(rows[0]):
-        raise InputError(f"flight results: events.csv has columns {list(rows[0])}; lat and lon are needed", key="flight")
-    try:
-        lat = np.array([float(r["lat"]) for r in rows])
-        lon = np.array([float(r["lon"]) for r in rows])
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"flight results: events.csv holds a position that is not a number: {exc}", key="flight") from None
-    x, y = frame.from_lonlat(lon, lat)
+def _same_plan(rows: records.EventRows, report: dict[str, Any] | None, frame: MapFrame, doc: Manifest | None) -> None:
+    flown = ((report or {}).get("plan") or {}).get("mission")
+    of = f" of mission {flown!r}" if flown else ""
+    if doc is not None:
+        if flown is not None and flown != doc.mission.name:
+            raise InputError(f"flight results of mission {flown!r} are not of this plan, mission {doc.mission.name!r}: "
+                             "load the results of a flight of this plan", key="flight")
+        med, limit = far_from_plan(rows.lon, rows.lat, doc)
+        if math.isfinite(med) and med > limit:
+            raise InputError(f"flight results{of} are not of this plan, mission {doc.mission.name!r}: their camera events "
+                             f"lie a median {distance_text(med)} from the nearest planned station, more than one footprint "
+                             f"({limit:.0f} m)", key="flight")
+        return
+    x, y = frame.from_lonlat(rows.lon, rows.lat)
+    d = np.hypot(x, y)
+    d = d[np.isfinite(d)]
+    if d.size and float(np.median(d)) > frame.half:
+        raise InputError(f"flight results{of} are not of this plan: their camera events lie a median "
+                         f"{distance_text(float(np.median(d)))} from the plan's area, outside its map; load the results "
+                         "of a flight of this plan", key="flight")
+
+
+def _events(rows: records.EventRows, frame: MapFrame) -> dict[str, Any]:
+    x, y = frame.from_lonlat(rows.lon, rows.lat)
     return {"x": np.round(x, 2).tolist(), "y": np.round(y, 2).tolist(),
-            "station": [r.get("station", "") for r in rows], "event": [r.get("event", "") for r in rows]}
+            "station": [s or "" for s in rows.station], "event": [str(int(e)) for e in rows.event]}
 
 
 def _coverage(path: Path, frame: MapFrame) -> dict[str, Any]:

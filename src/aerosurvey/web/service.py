@@ -16,12 +16,17 @@ import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aerosurvey import manifest as mf
 from aerosurvey.errors import InputError
 from aerosurvey.web.mapproj import MapFrame
+
+if TYPE_CHECKING:
+    from aerosurvey.outputs import Rendered
+    from aerosurvey.plan.planner import Plan
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
 PATH_KEYS = (("area", "file"), ("terrain", "dem"))
@@ -205,7 +210,7 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) ->
     rendered = render_outputs(plan)
     progress("control points", 0.97)
     files = dict(rendered.files)
-    manifest = json.loads(files["manifest.json"])
+    manifest = mf.loads(files["manifest.json"], "the plan's manifest")
     features = json.loads(files["plan.geojson"])
     points, cp_files = _control_points(rendered, manifest, features)
     files.update(cp_files)
@@ -215,29 +220,30 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) ->
     return PlanBundle(view, files, frame)
 
 
-def _control_points(rendered, manifest: dict[str, Any], features: dict[str, Any]):
+def _control_points(rendered: Rendered, manifest: mf.Manifest, features: dict[str, Any]) -> tuple[Any, dict[str, str]]:
     from aerosurvey.rules.cp_files import control_point_files
     from aerosurvey.rules.engine import Evidence, layout_settings
     from aerosurvey.rules.planview import PlanView
 
     ev = rendered.evidence
     if ev is None:
-        view = PlanView.from_documents(manifest, features, "the plan")
+        view = PlanView.from_manifest(manifest, features, "the plan")
         ev = Evidence(view, layout_settings(view, []))
     return ev.points, control_point_files(ev.view, ev.points, ev.footprints)
 
 
-def _sortie_of_stations(manifest: dict[str, Any]) -> list[int]:
-    ids = [s["id"] for s in manifest["stations"]]
+def _sortie_of_stations(manifest: mf.Manifest) -> list[int]:
+    ids = manifest.stations.ids
     out = [0] * len(ids)
     index = {sid: i for i, sid in enumerate(ids)}
-    for k, s in enumerate(manifest.get("sorties", []), start=1):
-        for i in range(index[s["first_station"]], index[s["last_station"]] + 1):
+    for k, s in enumerate(manifest.sorties, start=1):
+        for i in range(index[s.first_station], index[s.last_station] + 1):
             out[i] = k
     return out
 
 
-def _view(plan, frame: MapFrame, manifest: dict[str, Any], features: dict[str, Any], points, rendered) -> dict[str, Any]:
+def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str, Any], points: Any,
+          rendered: Rendered) -> dict[str, Any]:
     feats = features["features"]
     by_role: dict[str, list[dict[str, Any]]] = {}
     for f in feats:
@@ -288,7 +294,7 @@ def _view(plan, frame: MapFrame, manifest: dict[str, Any], features: dict[str, A
             "control_points": cps,
         },
         "summary": _summary(plan, manifest),
-        "sorties": manifest.get("sorties", []),
+        "sorties": manifest.raw["sorties"],
         "rules": rules,
         "warnings": rendered.warnings,
     }
@@ -308,7 +314,7 @@ def _m(v: float) -> float:
     return round(float(v), 2)
 
 
-def _summary(plan, manifest: dict[str, Any]) -> dict[str, Any]:
+def _summary(plan: Plan, manifest: mf.Manifest) -> dict[str, Any]:
     e = plan.estimates
     h = plan.heights
     return {
@@ -329,5 +335,5 @@ def _summary(plan, manifest: dict[str, Any]) -> dict[str, Any]:
         "distance_km": round(e["total_distance_m"] / 1000, 2),
         "time_min": round(e["total_time_s"] / 60, 1),
         "sorties": len(plan.sorties),
-        "mission_items": manifest.get("mission_items"),
+        "mission_items": manifest.mission_items,
     }

@@ -1,0 +1,243 @@
+"""A flight log's camera events against the plan it flew: the work of `aerosurvey log ingest`.
+
+:func:`ingest` reads the log (and the images, when given), refuses a log of another plan,
+matches events to the planned stations, measures the flown footprints (overlaps, GSD, a
+photo-count raster) and runs the plan's rules on them; nothing is written.
+:func:`write_ingest` writes the result into a staged folder, all or nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.flight import records
+from aerosurvey.flight.coverage import (
+    CountRaster,
+    DemGround,
+    FlownPhotos,
+    count_raster,
+    flown_photos,
+    flown_view,
+    heights_summary,
+    write_count_raster,
+)
+from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
+from aerosurvey.flight.images import ImageMatch, geo_txt, geotag_images, list_images, match_images, reference_csv
+from aerosurvey.manifest import Manifest, Stations
+from aerosurvey.rules import footprints as fpm
+from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
+from aerosurvey.rules.planview import PlanView
+from aerosurvey.rules.profile import apply_overrides, select_profiles
+
+_EARTH_M = 6_371_000.0
+
+
+@dataclass(frozen=True)
+class Ingested:
+    """What `log ingest` found; `report` is log_report.json's content (without the geotag part)."""
+
+    events: Events
+    match: Match | None
+    images: ImageMatch | None
+    photos: FlownPhotos | None
+    coverage: CountRaster | None
+    report: dict[str, Any]
+    rules: list[dict[str, Any]]
+
+
+def _local_xy(lon: np.ndarray, lat: np.ndarray, lat0: float) -> np.ndarray:
+    k = math.pi / 180.0
+    return np.column_stack([np.asarray(lon, float) * k * math.cos(lat0 * k) * _EARTH_M, np.asarray(lat, float) * k * _EARTH_M])
+
+
+def nearest_station(lon: np.ndarray, lat: np.ndarray, stations: Stations) -> tuple[np.ndarray, np.ndarray]:
+    """(metres to, index of) the nearest planned station of each position (WGS84); NaN and -1 for
+    positions that are not numbers."""
+    lon, lat = np.asarray(lon, float), np.asarray(lat, float)
+    dist, index = np.full(len(lon), np.nan), np.full(len(lon), -1)
+    ok = np.isfinite(lon) & np.isfinite(lat)
+    sok = np.flatnonzero(np.isfinite(stations.lon) & np.isfinite(stations.lat))
+    if not ok.any() or not len(sok):
+        return dist, index
+    lat0 = float(np.mean(stations.lat[sok]))
+    tree = cKDTree(_local_xy(stations.lon[sok], stations.lat[sok], lat0))
+    d, k = tree.query(_local_xy(lon[ok], lat[ok], lat0))
+    dist[ok], index[ok] = d, sok[k]
+    return dist, index
+
+
+def distance_text(m: float) -> str:
+    return f"{m / 1000:,.1f} km" if m >= 10_000 else f"{m:.0f} m"
+
+
+def far_from_plan(lon: np.ndarray, lat: np.ndarray, doc: Manifest) -> tuple[float, float]:
+    """(median metres from the positions to the nearest planned station, the limit: one footprint's longer side)."""
+    d, _ = nearest_station(lon, lat, doc.stations)
+    fin = d[np.isfinite(d)]
+    return (float(np.median(fin)) if fin.size else math.nan), (doc.derived.footprint_m or 100.0)
+
+
+def _sortie_flown(ev: Events, doc: Manifest) -> tuple[str | None, int]:
+    """The sortie whose stations most events lie nearest to, and how many do."""
+    _, index = nearest_station(ev.lon, ev.lat, doc.stations)
+    of = np.full(len(doc.stations), -1)
+    for k, s in enumerate(doc.sorties):
+        of[doc.stations.index(s.first_station): doc.stations.index(s.last_station) + 1] = k
+    votes = of[index[index >= 0]]
+    votes = votes[votes >= 0]
+    if not votes.size:
+        return None, 0
+    best = int(np.bincount(votes).argmax())
+    return doc.sorties[best].id, int(np.sum(votes == best))
+
+
+def check_same_plan(ev: Events, view: PlanView, log_name: str, sortie: str | None) -> float:
+    """The median distance of the events to the nearest planned station. A log whose events lie
+    farther than one footprint (the longer side) is of another mission, and one whose events lie
+    mostly nearest another sortie's stations than `sortie`'s is of that sortie: both refused."""
+    doc = view.document
+    med, limit = far_from_plan(ev.lon, ev.lat, doc)
+    what = f"mission {doc.mission.name!r}"
+    if not math.isfinite(med):
+        raise InputError(f"flight log {log_name!r}: none of its {len(ev)} camera events has a position, so it cannot be "
+                         f"matched to {what} of {doc.where}")
+    if med > limit:
+        raise InputError(f"flight log {log_name!r} is not of {what} ({doc.where}): its camera events lie a median "
+                         f"{distance_text(med)} from the nearest planned station, more than one footprint ({limit:.0f} m); "
+                         "give the plan folder of the mission flown")
+    if sortie is not None:
+        flown, votes = _sortie_flown(ev, doc)
+        if flown is not None and flown != sortie and votes > len(ev) / 2:
+            raise InputError(f"flight log {log_name!r} is not of --sortie {sortie} of {what}: {votes} of its {len(ev)} "
+                             f"camera events lie nearest the stations of sortie {flown}; give --sortie {flown}", key="--sortie")
+    return med
+
+
+def _dem_ground(dem_path: Path | None, view: PlanView | None) -> DemGround | None:
+    if dem_path is None:
+        return None
+    if view is None:
+        raise InputError(f"--dem {str(dem_path)!r}: heights above the DEM are used for the flown footprints, "
+                         "which need the plan: give --plan too", key="--dem")
+    return DemGround(dem_path, view.crs)
+
+
+def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None = None, tolerance_m: float | None = None,
+           fixed_camera: bool = False, dem_path: Path | None = None, images_dir: Path | None = None) -> Ingested:
+    """Camera events of `flight_log`; with the plan's `view`, their match to its stations and the flown coverage."""
+    if dem_path is not None and view is None:
+        _dem_ground(dem_path, view)
+    stations = view.document.sortie_stations(sortie) if view is not None else None
+    if sortie is not None and view is None:
+        raise InputError(f"--sortie {sortie!r}: a sortie is of a plan; give --plan too", key="--sortie")
+    ev, info = read_events(flight_log)
+    report: dict[str, Any] = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
+    img = None
+    if images_dir is not None:
+        img = match_images(list_images(images_dir), ev)
+        report["images"] = {"files": len(img.files), "method": img.method, "clock_offset_s": img.offset_s,
+                            "unmatched_files": img.unmatched_files, "unmatched_events": img.unmatched_events}
+    if view is None or stations is None:
+        return Ingested(ev, None, img, None, None, report, [])
+    doc = view.document
+    median = check_same_plan(ev, view, flight_log.name, sortie)
+    tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
+    rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
+    match = match_to_stations(ev, rows, tol)
+    report["plan"] = {"mission": doc.mission.name, "folder": doc.where, "sortie": sortie, "median_distance_m": round(median, 3)}
+    report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
+                   "extra_triggers": match.extra, "far_triggers": match.far, "tolerance_m": tol,
+                   "max_distance_m": float(max((d for d in match.distance_m if d == d), default=0.0))})
+    dem = _dem_ground(dem_path, view)
+    try:
+        photos = flown_photos(view.crs, dict(zip(doc.stations.ids, doc.stations.run)), ev, match, fixed_camera, dem)
+        report["heights"] = heights_summary(photos, ev, dem, doc.home, view.crs)
+    finally:
+        if dem is not None:
+            dem.close()
+    flown = flown_view(view, photos)
+    fp = fpm.footprints(flown)
+    fwd = fpm.forward_overlaps(flown, fp)
+    side = fpm.side_overlaps(flown, fp)
+    gsd = doc.camera.gsd_cm(photos.agl_m)
+    report["realized"] = {
+        "forward_overlap_min": min((v for _, v in fwd), default=None),
+        "side_overlap_min": min((v for _, _, v in side), default=None),
+        "gsd_cm_min": float(np.nanmin(gsd)) if np.isfinite(gsd).any() else None,
+        "gsd_cm_max": float(np.nanmax(gsd)) if np.isfinite(gsd).any() else None,
+    }
+    rules: list[dict[str, Any]] = []
+    if doc.mission.profiles:
+        profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides))
+        rules = [dict(r.as_dict()) for r in evaluate(profiles, Evidence(flown, layout_settings(flown, profiles)))]
+        report["rules_on_flown_data"] = rules
+    coverage = count_raster(flown, max(doc.derived.photo_base_m / 5, 0.5))
+    report["coverage"] = coverage.summary
+    records.report_document(report)  # a report that does not match its schema is a bug: found before writing
+    return Ingested(ev, match, img, photos, coverage, report, rules)
+
+
+def event_columns(result: Ingested) -> dict[str, Any]:
+    """The columns of events.csv."""
+    ev, match, photos = result.events, result.match, result.photos
+    n = len(ev)
+    station = list(match.station) if match is not None else [None] * n
+    dist = np.where([s is not None for s in station], match.distance_m, np.nan) if match is not None else np.full(n, np.nan)
+    return {"event": np.arange(1, n + 1), "time_s": ev.time_s, "lat": ev.lat, "lon": ev.lon, "alt_m": ev.alt_m,
+            "rel_alt_m": ev.rel_alt_m, "roll": ev.roll, "pitch": ev.pitch, "yaw": ev.yaw, "station": station,
+            "distance_m": dist, "ground_m": photos.ground_m if photos is not None else np.full(n, np.nan),
+            "agl_m": photos.agl_m if photos is not None else np.full(n, np.nan)}
+
+
+def write_ingest(result: Ingested, outdir: Path, *, accuracy_xy: float = 2.0, accuracy_z: float = 4.0,
+                 geotag_dir: Path | None = None, geotag_in_place: bool = False) -> dict[str, Any]:
+    """Write events.csv, log_report.json and coverage.tif (with a plan), geo.txt and
+    image_reference.csv (with images) into `outdir`, all or nothing; tag the images when asked.
+    Returns the report as written."""
+    report = dict(result.report)
+    events_text = records.dumps_events(event_columns(result))
+    with staged_directory(outdir) as stage:
+        if result.coverage is not None:
+            write_count_raster(stage / "coverage.tif", result.coverage)
+        atomic_write_text(stage / "events.csv", events_text)
+        if result.images is not None:
+            atomic_write_text(stage / "geo.txt", geo_txt(result.images, result.events))
+            atomic_write_text(stage / "image_reference.csv", reference_csv(result.images, result.events, accuracy_xy, accuracy_z))
+            if geotag_dir is not None:
+                report["geotag"] = {**geotag_images(result.images, result.events, geotag_dir), "in_place": geotag_in_place}
+        atomic_write_text(stage / "log_report.json", records.dumps_report(report))
+    return records.report_document(report)
+
+
+def geotag_destination(images_dir: Path | None, geotag_dir: Path | None, in_place: bool) -> Path | None:
+    """Where geotagged JPEGs go; the originals' folder only when --geotag-in-place says so."""
+    if geotag_dir is None and not in_place:
+        return None
+    option = "--geotag-in-place" if geotag_dir is None else f"--geotag-copies {str(geotag_dir)!r}"
+    if images_dir is None:
+        raise InputError(f"{option}: geotagging needs the images; give --images too", key="--images")
+    if in_place:
+        if geotag_dir is not None and not _same_folder(geotag_dir, images_dir):
+            raise InputError(f"--geotag-copies {str(geotag_dir)!r} with --geotag-in-place: in place means into the "
+                             f"--images folder {str(images_dir)!r}; give one of the two options", key="--geotag-copies")
+        return images_dir
+    assert geotag_dir is not None
+    if _same_folder(geotag_dir, images_dir):
+        raise InputError(f"--geotag-copies {str(geotag_dir)!r} is the --images folder {str(images_dir)!r}: the originals are never "
+                         "overwritten by copies; give another folder, or --geotag-in-place to tag the originals "
+                         "themselves", key="--geotag-copies")
+    return geotag_dir
+
+
+def _same_folder(a: Path, b: Path) -> bool:
+    if a.exists() and b.exists():
+        return a.samefile(b)
+    return a.resolve() == b.resolve()

@@ -1,0 +1,117 @@
+"""Fly a plan folder's sorties in ArduPilot SITL: the work of `aerosurvey sitl fly`.
+
+The plan is read through the manifest reader; each sortie's stations and photo runs come
+from it, each sortie's mission from its `.plan` file. The SITL processes themselves are
+run by aerosurvey.link.sitl (a binary the user has).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text
+from aerosurvey.link import sitl as harness
+from aerosurvey.manifest import Manifest
+
+
+@dataclass(frozen=True)
+class SortieRoute:
+    """One sortie as SITL flies it: its mission file, planned stations and photo runs."""
+
+    name: str  # sortie id (S01 …), or "mission" for an unsplit plan
+    mission_file: Path
+    stations: tuple[tuple[float, float], ...]  # (lat, lon) in flight order
+    runs: tuple[tuple[int, int], ...]  # (first, last) index within `stations`, per photo run
+    estimated_s: float
+
+
+def _runs(run_of: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
+    out: list[tuple[int, int]] = []
+    for k, run in enumerate(run_of):
+        if out and run_of[out[-1][0]] == run:
+            out[-1] = (out[-1][0], k)
+        else:
+            out.append((k, k))
+    return tuple(out)
+
+
+def sortie_routes(doc: Manifest, plan_dir: Path) -> list[SortieRoute]:
+    """Every sortie of the plan (the whole mission when it is not split)."""
+    out = []
+    parts = [(s.id, s.files[0], doc.sortie_stations(s.id), s.time_s) for s in doc.sorties]
+    if not parts:
+        parts = [("mission", "mission.plan", doc.stations, doc.estimates.get("total_time_s"))]
+    for name, file, st, est in parts:
+        path = plan_dir / file
+        if not path.is_file():
+            raise InputError(f"{str(plan_dir)!r}: {file} is missing (the manifest lists it); plan again with `aerosurvey plan`")
+        if est is None:
+            raise InputError(f"{doc.where}: sortie {name} has no time estimate; plan again with `aerosurvey plan`")
+        out.append(SortieRoute(name, path, tuple(zip(st.lat.tolist(), st.lon.tolist())), _runs(st.run), float(est)))
+    return out
+
+
+@dataclass(frozen=True)
+class SitlSettings:
+    vehicle: str
+    binary: Path
+    defaults: tuple[Path, ...]
+    speedup: float
+    timeout_factor: float
+
+
+def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
+                on_sortie: Callable[[dict[str, Any]], None] = lambda row: None) -> list[dict[str, Any]]:
+    """Upload, verify and fly every sortie in SITL; copy each DataFlash log into `report_dir`
+    and write sitl_report.json / .txt there. Returns one comparison row per sortie."""
+    # the MAVLink link layer and the mission reader are needed only here
+    from aerosurvey.link.connection import open_link
+    from aerosurvey.link.mission_protocol import Policy
+    from aerosurvey.link.upload import upload_mission
+    from aerosurvey.mission.formats.qgc_plan import loads_plan
+
+    results = []
+    for route in sortie_routes(doc, plan_dir):
+        mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
+        lat, lon, alt = mission.home
+        work = harness.workdir()
+        sv = harness.SitlVehicle(settings.binary, settings.vehicle, (lat, lon, alt), settings.speedup,
+                                 list(settings.defaults), work)
+        try:
+            sv.start()
+            harness.prepare(sv)
+
+            def upload(m: Any) -> str:
+                with open_link("tcp:127.0.0.1:5762", 30.0) as link:
+                    rep = upload_mission(link, m, Policy())
+                return f"{rep.mission.items} items uploaded and verified"
+
+            flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items), settings.timeout_factor,
+                                 upload)
+        finally:
+            sv.stop()
+        logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []
+        if logs:
+            report_dir.mkdir(parents=True, exist_ok=True)
+            dest = report_dir / f"{route.name}.BIN"
+            shutil.copyfile(logs[-1], dest)
+            flight.log = dest.name
+        shutil.rmtree(work, ignore_errors=True)
+        row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
+        if doc.camera.trigger == "camera":
+            row["triggers_match"] = None  # the camera's own intervalometer is not simulated
+        results.append(row)
+        on_sortie(row)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(report_dir / "sitl_report.json", json.dumps({
+        "vehicle": settings.vehicle, "binary": str(settings.binary), "speedup": settings.speedup, "sorties": results},
+        indent=1) + "\n")
+    text = "\n".join(f"{r['sortie']}: " + ", ".join(f"{k}={v}" for k, v in r.items() if k != "sortie") for r in results)
+    atomic_write_text(report_dir / "sitl_report.txt", text + "\n")
+    return results

@@ -1,0 +1,106 @@
+"""`sitl fly`'s work without a SITL binary: the sortie routes from the manifest, and the fly loop
+driven through a stand-in for the process harness (the real one is tested in tests/test_sitl.py)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from aerosurvey import manifest as mf
+from aerosurvey.cli import main
+from aerosurvey.errors import InputError
+from aerosurvey.flight import sitl_run
+from aerosurvey.link import sitl as harness
+from conftest import make_spec
+
+
+@pytest.fixture(scope="module")
+def split_plan(tmp_path_factory) -> Path:
+    tmp = tmp_path_factory.mktemp("split")
+    spec = make_spec(tmp, {"flight": {"heading": 0.0}, "battery": {"usable_min": 6.0}})
+    out = tmp / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    return out
+
+
+def test_sortie_routes_follow_the_manifest(split_plan):
+    raw = json.loads((split_plan / "manifest.json").read_text())
+    routes = sitl_run.sortie_routes(mf.read_manifest(split_plan), split_plan)
+    assert [r.name for r in routes] == [s["id"] for s in raw["sorties"]] and len(routes) >= 2
+    flat = [p for r in routes for p in r.stations]
+    assert flat == [(s["lat"], s["lon"]) for s in raw["stations"]]  # every station flown once, in order
+    for r, s in zip(routes, raw["sorties"]):
+        assert r.mission_file == split_plan / s["files"][0] and r.estimated_s == s["time_s"] and len(r.stations) == s["photos"]
+        first = next(i for i, st in enumerate(raw["stations"]) if st["id"] == s["first_station"])
+        lines = [st["line"] for st in raw["stations"][first: first + s["photos"]]]
+        # runs: consecutive stations of one line, covering the sortie without gaps
+        assert r.runs[0][0] == 0 and r.runs[-1][1] == len(r.stations) - 1
+        assert all(b + 1 == c for (_, b), (c, _) in zip(r.runs, r.runs[1:]))
+        for a, b in r.runs:
+            assert len(set(lines[a:b + 1])) == 1
+        assert len(r.runs) == len(dict.fromkeys(lines))
+
+
+def test_missing_sortie_file_is_bad_input(split_plan, tmp_path):
+    import shutil
+
+    copy = tmp_path / "plan"
+    shutil.copytree(split_plan, copy)
+    (copy / "sortie-02.plan").unlink()
+    with pytest.raises(InputError, match="sortie-02.plan is missing"):
+        sitl_run.sortie_routes(mf.read_manifest(copy), copy)
+
+
+class _FakeVehicle:
+    started: list[str] = []
+
+    def __init__(self, binary, vehicle, home, speedup, defaults, work):
+        self.work = work
+
+    def start(self) -> None:
+        _FakeVehicle.started.append("start")
+        (self.work / "logs").mkdir(parents=True)
+        (self.work / "logs" / "00000001.BIN").write_bytes(b"log")
+
+    def stop(self) -> None:
+        _FakeVehicle.started.append("stop")
+
+
+def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path, monkeypatch):
+    doc = mf.read_manifest(split_plan)
+    routes = {r.name: r for r in sitl_run.sortie_routes(doc, split_plan)}
+    counter = iter(range(100))
+
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload):
+        f = harness.Flight(name)
+        for lat, lon in routes[name].stations:  # every planned photo, exactly where planned
+            f.triggers.append((lat, lon, 100.0))
+            f.trigger_track_index.append(len(f.track))
+            f.track.append((len(f.track) * 1000, lat, lon, 100.0))
+        f.armed_ms, f.disarmed_ms, f.completed = 1, 1 + round(est * 1000), True
+        return f
+
+    monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
+    monkeypatch.setattr(harness, "prepare", lambda sv: None)
+    monkeypatch.setattr(harness, "fly", fake_fly)
+    monkeypatch.setattr(harness, "workdir", lambda: tmp_path / f"work{next(counter)}")
+    settings = sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0)
+    seen = []
+    rows = sitl_run.fly_sorties(doc, split_plan, settings, tmp_path / "report", seen.append)
+    assert [r["sortie"] for r in rows] == list(routes) == [r["sortie"] for r in seen]
+    assert all(r["completed"] and r["triggers_match"] and r["max_trigger_offset_m"] == 0.0 for r in rows)
+    assert all(r["time_ratio"] == 1.0 for r in rows)
+    assert _FakeVehicle.started == ["start", "stop"] * len(routes)
+    report = json.loads((tmp_path / "report" / "sitl_report.json").read_text())
+    assert [r["photos_planned"] for r in report["sorties"]] == [len(r.stations) for r in routes.values()]
+    assert sorted(p.name for p in (tmp_path / "report").glob("*.BIN")) == sorted(f"{n}.BIN" for n in routes)
+    assert not any((tmp_path / f"work{i}").exists() for i in range(len(routes)))  # work folders removed
+
+
+def test_sitl_fly_without_a_manifest_is_one_line(tmp_path):
+    res = CliRunner().invoke(main, ["sitl", "fly", str(tmp_path)])
+    assert res.exit_code == 2 and res.output.count("\n") == 1
+    assert "has no manifest.json: give the folder `aerosurvey plan` wrote" in res.output
