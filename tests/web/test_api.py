@@ -440,3 +440,21 @@ def test_serve_binds_loopback_and_warns_when_exposed(monkeypatch, obratan):
     res = CliRunner().invoke(main, ["serve", str(obratan), "--host", "0.0.0.0", "--port", "8766"])
     assert res.exit_code == 0 and "warning: listening on 0.0.0.0" in res.output
     assert calls[-1][1] == "0.0.0.0"
+
+
+def test_unphotographed_ground_is_a_map_layer(tmp_path):
+    """A plane's lines cut next to zones leave ground fewer than two photos see: the page draws it."""
+    import zone_cases as zc
+
+    p = zc.CaseParams(kind="convex", size_ha=9.23, lat=65.0, lon=-163.183, vehicle="plane", zones=("crossing", "crossing"),
+                      battery_min=None, launch="default", end="rtl", margin_m=20.0, height_m=100.0, heading=None, seed=1087)
+    spec_path = zc.write_case(zc.make_case(p), tmp_path)
+    with client(spec_path) as c:
+        st = run_plan(c, c.get("/api/state").json()["spec"])
+        assert st["state"] == "done", st
+        fc = c.get(f"/api/plans/{st['result']['plan_id']}/files/plan.geojson").json()
+    parts = [f for f in fc["features"] if f["properties"]["role"] == "uncovered"]
+    assert parts, "this case leaves ground unphotographed next to its zones"
+    assert len(st["result"]["layers"]["uncovered"]) == len(parts)
+    rule = next(r for r in st["result"]["rules"] if r["rule"] == "uncovered-ground")
+    assert rule["status"] == "fail" and rule["where"]

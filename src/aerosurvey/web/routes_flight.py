@@ -43,4 +43,5 @@ def _layers(uploads: list[UploadFile], folder: Path, bundle: service.PlanBundle)
     from aerosurvey.web.flown import flown_layers
 
     files = {Path(u.filename or "").name: save_upload(u, folder) for u in uploads}
-    return flown_layers(files, bundle.frame)
+    # the plan's manifest: results of another plan are refused by distance and mission name
+    return flown_layers(files, bundle.frame, bundle.files["manifest.json"])

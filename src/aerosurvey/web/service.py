@@ -45,7 +45,8 @@ def spec_to_json(data: dict[str, Any]) -> dict[str, Any]:
             return v.isoformat()
         return v
 
-    return conv(data)
+    out: dict[str, Any] = conv(data)
+    return out
 
 
 def read_spec_file(path: Path) -> dict[str, Any]:
@@ -287,6 +288,8 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],
             "exclusions": [frame.rings(g) for g in _polygons(by_role.get("exclusion", []))],
+            # required ground next to the zones fewer than two photos see (rule uncovered-ground)
+            "uncovered": [frame.rings(g) for g in _polygons(by_role.get("uncovered", []))],
             "lines": lines,
             "stations": {"ids": st.ids, "x": [_m(v) for v in sx], "y": [_m(v) for v in sy], "sortie": sortie},
             "launch": launch,
@@ -303,7 +306,7 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
 def _polygons(feats: list[dict[str, Any]]) -> list[Any]:
     import shapely.geometry
 
-    out = []
+    out: list[Any] = []
     for f in feats:
         g = shapely.geometry.shape(f["geometry"])
         out.extend(g.geoms if g.geom_type == "MultiPolygon" else [g])

@@ -251,6 +251,8 @@ function render(view) {
   for (const p of L.area) svgEl("path", { d: ringPath(p) }, area);
   const ex = $("#layer-exclusions"); clear(ex);
   for (const p of L.exclusions) svgEl("path", { d: ringPath(p) }, ex);
+  const un = $("#layer-uncovered"); clear(un);
+  for (const p of L.uncovered || []) svgEl("path", { d: ringPath(p) }, un);
   const lines = $("#layer-lines"); clear(lines);
   for (const l of L.lines) {
     svgEl("line", { "data-id": l.id, x1: l.xy[0][0], y1: -l.xy[0][1], x2: l.xy[1][0], y2: -l.xy[1][1],
