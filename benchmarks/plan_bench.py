@@ -147,14 +147,14 @@ def quality(plan) -> dict[str, float]:
 
 
 def run_case(name: str) -> dict:
-    from aerosurvey.outputs import render_outputs, write_outputs
     from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import write_outputs
     from aerosurvey.spec import load_spec
 
     with tempfile.TemporaryDirectory() as td:
         tmp = Path(td)
         spec_path = make_case(name, tmp)
-        render_outputs  # imported before timing: module import is not planning work
+        # the modules are imported above, before timing: module import is not planning work
         t0 = time.perf_counter()
         plan = plan_from_files(load_spec(spec_path))
         t1 = time.perf_counter()
