@@ -235,8 +235,3 @@ def geotag_jpeg(data: bytes, fix: GpsFix) -> bytes:
                           f"a JPEG segment holds at most {MAX_SEGMENT_PAYLOAD}")
     segment = b"\xff\xe1" + struct.pack(">H", len(payload) + 2) + payload
     return data[:cut] + segment + data[resume:]
-
-
-def scan_data(data: bytes) -> bytes:
-    """Everything from the first SOS marker on: the compressed image, which geotagging never touches."""
-    return data[jpeg_segments(data)[1]:]

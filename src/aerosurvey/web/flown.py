@@ -54,10 +54,11 @@ def _same_plan(rows: records.EventRows, report: dict[str, Any] | None, frame: Ma
     flown = ((report or {}).get("plan") or {}).get("mission")
     of = f" of mission {flown!r}" if flown else ""
     if doc is not None:
-        if flown is not None and flown != doc.mission.name:
-            raise InputError(f"flight results of mission {flown!r} are not of this plan, mission {doc.mission.name!r}: "
-                             "load the results of a flight of this plan", key="flight")
         med, limit = far_from_plan(rows.lon, rows.lat, doc)
+        if flown is not None and flown != doc.mission.name:
+            where = f" (their camera events lie a median {distance_text(med)} from its stations)" if math.isfinite(med) else ""
+            raise InputError(f"flight results of mission {flown!r} are not of this plan, mission {doc.mission.name!r}{where}: "
+                             "load the results of a flight of this plan", key="flight")
         if math.isfinite(med) and med > limit:
             raise InputError(f"flight results{of} are not of this plan, mission {doc.mission.name!r}: their camera events "
                              f"lie a median {distance_text(med)} from the nearest planned station, more than one footprint "

@@ -73,11 +73,6 @@ class MapFrame:
         x, y = mercator(lon, lat)
         return x - self.ox, y - self.oy
 
-    def plan_xy(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The fitted plan-CRS coordinates of frame points (what the page shows under the cursor)."""
-        a = _terms(np.asarray(x, float) / self.half, np.asarray(y, float) / self.half)
-        return a @ np.array(self.cx), a @ np.array(self.cy)
-
     def rings(self, polygon: BaseGeometry) -> list[list[list[float]]]:
         out = []
         for ring in [polygon.exterior, *polygon.interiors]:
