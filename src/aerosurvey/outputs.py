@@ -60,7 +60,7 @@ def final_gate(plan: Plan, missions: dict[str, Mission]) -> None:
     """Every leg of every mission file outside the zones and their margins, or nothing is written."""
     bad = []
     for stem, m in missions.items():
-        legs = mission_legs(m, f"{stem}.waypoints", plan.planar, PLANE_RTL_LOITER_M * plan.grid_scale)
+        legs = mission_legs(m, f"{stem}.waypoints", plan.planar, PLANE_RTL_LOITER_M * plan.grid_scale, plan.grid_scale)
         bad += check_legs(legs, plan.exclusions, plan.spec.flight.exclusion_margin_m, plan.grid_scale, plan.planar)
     if bad:
         more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""

@@ -18,7 +18,7 @@ from __future__ import annotations
 from aerosurvey import ids
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
-from aerosurvey.plan.landing import approach_lonlat
+from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG, approach_lonlat
 from aerosurvey.plan.planner import Plan, RouteWaypoint
 
 
@@ -97,7 +97,7 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
     items: list[MissionItem] = []
     first_alt = wps[0].alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
     takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
-    pitch = 15.0 if spec.vehicle.type == "plane" else 0.0
+    pitch = PLANE_TAKEOFF_PITCH_DEG if spec.vehicle.type == "plane" else 0.0
     items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8),
                              takeoff_alt, tag="takeoff"))
     # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies

@@ -9,6 +9,7 @@ allows, stops the plan with the file, the item and the place.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,9 +49,13 @@ class Violation:
                 f"first at lon {self.at_lonlat[0]:.6f}, lat {self.at_lonlat[1]:.6f}")
 
 
-def mission_legs(mission: Mission, file: str, planar: Planar, rtl_loiter: float = 0.0) -> list[Leg]:
-    """The horizontal legs the autopilot flies for `mission` (home is item 0); a plane's RTL
-    ends circling home at `rtl_loiter` (planning-grid metres) and that circle is legs too."""
+def mission_legs(mission: Mission, file: str, planar: Planar, rtl_loiter: float = 0.0, grid_scale: float = 1.0) -> list[Leg]:
+    """The horizontal legs the autopilot flies for `mission` (home is item 0).
+
+    A plane's NAV_TAKEOFF climbs straight ahead at its pitch (param1) to the take-off altitude,
+    taken towards the next waypoint; when that waypoint is nearer than the climb, the climb
+    ends beyond it and the plane turns back to it. A plane's RTL ends circling home at
+    `rtl_loiter` (planning-grid metres), and that circle is legs too."""
     home_lat, home_lon, _ = mission.home
     hx, hy = planar.xy(np.array([home_lon]), np.array([home_lat]))
     home = (float(hx[0]), float(hy[0]))
@@ -67,10 +72,20 @@ def mission_legs(mission: Mission, file: str, planar: Planar, rtl_loiter: float 
     # latitude/longitude 0 means "where the vehicle is" (a take-off or land in place)
     here = (lat == 0) & (lon == 0)
     x, y = planar.xy(np.where(here, home_lon, lon), np.where(here, home_lat, lat))
-    legs = []
+    climb = 0.0
+    if mission.vehicle == "plane":
+        takeoff = next((it for it in mission.items if it.command == mav.NAV_TAKEOFF), None)
+        if takeoff is not None and takeoff.param1 > 0:
+            climb = max(takeoff.z, 0.0) / math.tan(math.radians(takeoff.param1)) * grid_scale
+    legs: list[Leg] = []
     prev = home
     for (seq, what, _, _), px, py, h in zip(pts, x, y, here):
         cur = prev if h else (float(px), float(py))
+        d = math.dist(prev, cur)
+        if climb > d > 0 and prev == home and legs and legs[-1].what == "takeoff":
+            out = (prev[0] + (cur[0] - prev[0]) * climb / d, prev[1] + (cur[1] - prev[1]) * climb / d)
+            legs.append(Leg(file, legs[-1].seq, "climb-out", prev, out))
+            prev = out
         legs.append(Leg(file, seq, what, prev, cur))
         prev = cur
     if rtl_loiter > 0 and mission.vehicle == "plane" and legs and legs[-1].what == "rtl":

@@ -8,6 +8,15 @@ from aerosurvey.spec import MissionSpec
 
 #: ArduPlane circles home after RTL at WP_LOITER_RAD (default 60 m; RTL_RADIUS 0 uses it)
 PLANE_RTL_LOITER_M = 60.0
+#: a plane's NAV_TAKEOFF pitch (param1): it climbs straight ahead at this angle to the take-off altitude
+PLANE_TAKEOFF_PITCH_DEG = 15.0
+
+
+def climb_out_m(spec: MissionSpec, altitude_m: float) -> float:
+    """How far a plane flies straight ahead while it climbs to `altitude_m` (0 for a copter)."""
+    if spec.vehicle.type != "plane":
+        return 0.0
+    return max(altitude_m, 0.0) / math.tan(math.radians(PLANE_TAKEOFF_PITCH_DEG))
 
 
 def approach_lonlat(spec: MissionSpec, lon: float, lat: float) -> tuple[float, float]:

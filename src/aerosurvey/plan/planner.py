@@ -13,6 +13,8 @@ Each step is a function of frozen data from the steps before it and can be calle
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import shapely
 
@@ -22,6 +24,7 @@ from aerosurvey.plan.coverage import coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
+from aerosurvey.plan.landing import climb_out_m
 from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Plan, RouteWaypoint, SortiePlan, Stations
 from aerosurvey.plan.pattern import pattern_for
@@ -31,6 +34,7 @@ from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan
 from aerosurvey.plan.sensor import SensorSolution, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, split, wind_factor
+from aerosurvey.plan.zone_edges import edge_passes
 from aerosurvey.spec import MissionSpec
 
 __all__ = ["Heights", "Plan", "PlanInputs", "Progress", "RouteWaypoint", "Stations", "plan_mission"]
@@ -54,6 +58,14 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
     report("coverage next to the zones", 0.84)
     coverage = coverage_shortfall(spec, site, sensor, alts.stations)
+    extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
+    if extra:
+        # lines along the zones' margins where the cut lines leave ground unphotographed
+        layout = replace(layout, passes=layout.passes + extra)
+        routed = plan_route(spec, site, sensor, layout)
+        home_ground = _ground(site, routed.home_xy, "launch point")
+        alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
+        coverage = coverage_shortfall(spec, site, sensor, alts.stations)
     waypoints = _with_transits(alts.waypoints, routed, site)
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
@@ -65,7 +77,8 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
         report("battery sorties", 0.88)
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
-                          tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites))
+                          tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites),
+                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale)
         budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours)
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale)

@@ -10,9 +10,15 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.landing import approach_lonlat, home_clearance_m, lands_with_approach
+from aerosurvey.plan.landing import (
+    PLANE_TAKEOFF_PITCH_DEG,
+    approach_lonlat,
+    climb_out_m,
+    home_clearance_m,
+    lands_with_approach,
+)
 from aerosurvey.plan.pattern import Layout
-from aerosurvey.plan.route import Detours, Route, build_route
+from aerosurvey.plan.route import Detours, Route, build_route, climb_out_path
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec
@@ -46,6 +52,20 @@ def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0)
                                  "give area.launch", key="area.launch")
     near = shapely.get_point(shapely.shortest_line(allowed, shapely.Point(first)), 0)
     return (float(near.x), float(near.y))
+
+
+def climb_out(spec: MissionSpec, site: Site, sensor: SensorSolution, detours: Detours, home: tuple[float, float],
+              first: tuple[float, float]) -> list[tuple[float, float]]:
+    """Waypoints from the launch point to the survey: the detours round the zones, and for a
+    plane whose straight climb (at its take-off pitch) would end past the first waypoint, a
+    first waypoint where the climb ends, in the clear direction nearest the way to the survey."""
+    climb = climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale
+    try:
+        return climb_out_path(home, first, climb, detours)
+    except ValueError:
+        raise InputError("a plane taking off at the launch point climbs into an exclusion zone whichever way it heads "
+                         f"({climb / site.grid_scale:.0f} m at {PLANE_TAKEOFF_PITCH_DEG:g}° to the survey height): give "
+                         "area.launch farther from the zones", key="area.launch") from None
 
 
 def end_of_flight(spec: MissionSpec, site: Site, home: tuple[float, float]) -> tuple[float, float]:
@@ -104,7 +124,8 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     if launch_xy is None:
         check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
     try:
-        out, back = detours.path(home, first), detours.path(last, end_of_flight(spec, site, home))
+        out = climb_out(spec, site, sensor, detours, home, first)
+        back = detours.path(last, end_of_flight(spec, site, home))
     except ValueError as exc:
         raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
     return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))

@@ -20,7 +20,7 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Detours, Kinematics, Run, clip_approach, descent_time, path_time
+from aerosurvey.plan.route import Detours, Kinematics, Run, climb_out_path, clip_approach, descent_time, path_time
 from aerosurvey.spec import VehicleSpec
 
 
@@ -41,6 +41,7 @@ class FlightPath:
     trigger: str
     vehicle: VehicleSpec
     ends: tuple[tuple[float, float], ...]  # per launch site: where the way home ends (a landing plane's approach, else the site)
+    climb: float = 0.0  # planning-grid metres a plane climbs straight ahead after take-off
 
 
 @dataclass(frozen=True)
@@ -200,7 +201,7 @@ class Splitter:
             home = (s.x, s.y)
             alt_shift = self.plan.home_ground_m - s.ground_m
             end = self.plan.ends[li]
-            out_via, back_via = self.detours.path(home, first), self.detours.path(last, end)
+            out_via, back_via = climb_out_path(home, first, self.plan.climb, self.detours), self.detours.path(last, end)
             out_leg = [home, *out_via]
             back_leg = [*back_via, *([end] if end != home else []), home]
             poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
