@@ -63,6 +63,7 @@ def _cam_times_before(data: bytes, limit: int) -> int:
     """CAM events wholly before byte `limit` in the intact log."""
     with DataFlashLog(LOG) as log:
         t = log.type_of("CAM")
+        assert t is not None
         offs = np.frombuffer(log.offsets[t.type], dtype=np.uint64)
         return int(np.sum(offs + t.length <= limit))
 

@@ -58,9 +58,11 @@ class ReadInfo(TypedDict):
 
 MAX_SKIPS = 50
 #: a camera event farther than this from every GPS fix logged within EVENT_WINDOW_S of it is not
-#: plausible: in the SITL logs of tests/data events lie within 2.5 m of the GPS track
-EVENT_TRACK_M = 50.0
-EVENT_WINDOW_S = 2.0
+#: plausible: in the SITL logs of tests/data events lie within 2.5 m of the GPS track at their
+#: time; the window allows for the GPS's lag. A time stamp off by more than about
+#: EVENT_WINDOW_S + EVENT_TRACK_M / speed puts the event off the track.
+EVENT_TRACK_M = 30.0
+EVENT_WINDOW_S = 1.0
 #: without a GPS fix in the window, the bracketing fixes, with this much more per second away
 EVENT_GAP_MS = 60.0
 
@@ -136,6 +138,7 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray,
             if hi > lo:
                 out[i] = float(np.min(np.hypot(gx[lo:hi] - ex[i], gy[lo:hi] - ey[i])))
             else:  # a gap in the GPS messages: the fixes either side, allowing for the time to them
+                # (events outside the GPS messages' span are dropped before)
                 near = [j for j in (lo - 1, lo) if 0 <= j < len(gt)]
                 out[i] = min(float(np.hypot(gx[j] - ex[i], gy[j] - ey[i])) - EVENT_GAP_MS * abs(gt[j] - t[i]) for j in near)
         else:
@@ -208,6 +211,11 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     if track is not None:
         checks = f"GPS track ({len(track[0])} fixes), time order"
         tcheck = time_s if np.isfinite(time_s).all() else np.full(n, np.nan)
+        gt = track[0]
+        if np.isfinite(gt).all() and np.isfinite(tcheck).all():
+            lo, hi = float(gt[0]) - EVENT_WINDOW_S, float(gt[-1]) + EVENT_WINDOW_S
+            drop((tcheck < lo) | (tcheck > hi), "event",
+                 f"its time lies outside the log's GPS messages ({gt[0]:.3f} to {gt[-1]:.3f} s); dropped")
         dist = np.full(n, np.inf)
         dist[keep] = _far_from_track(tcheck[keep], lat[keep], lon[keep], track)
         drop(dist > EVENT_TRACK_M, "event", lambda i: f"{lat[i]:.7f}, {lon[i]:.7f} lies {dist[i]:.0f} m from the "
