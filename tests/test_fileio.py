@@ -180,6 +180,39 @@ def test_the_current_folder_is_not_replaced(tmp_path: Path, monkeypatch: pytest.
         _write(tmp_path, NEW)
 
 
+def _write_merged(outdir: Path, files: dict[str, str]) -> None:
+    with staged_directory(outdir, merge=True) as stage:
+        for name, text in files.items():
+            atomic_write_text(stage / name, text)
+
+
+def _listing(folder: Path) -> list[str]:
+    return [ln for ln in (folder / LISTING).read_text().splitlines() if not ln.startswith("#")]
+
+
+def test_merge_keeps_the_files_the_run_does_not_write(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    _write(out, OLD)
+    (out / "notes.txt").write_text("the user's")
+    _write_merged(out, {"plan.kml": "gcp kml", "control_points.csv": "gcp"})
+    got = _contents(out)
+    assert {k: v for k, v in got.items() if k != LISTING} == {**OLD, "notes.txt": "the user's", "plan.kml": "gcp kml",
+                                                              "control_points.csv": "gcp"}
+    assert _listing(out) == sorted({*OLD, "control_points.csv"})  # notes.txt is still not aerosurvey's
+    assert _hidden_leftovers(tmp_path) == []
+
+
+def test_merge_with_a_failing_rename_leaves_the_old_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "plan"
+    _write(out, OLD)
+    before = _contents(out)
+    with pytest.raises(InputError, match="left as it was"), staged_directory(out, merge=True) as stage:
+        atomic_write_text(stage / "control_points.csv", "gcp")
+        _failing(monkeypatch, {2})
+    monkeypatch.undo()
+    assert _contents(out) == before and _hidden_leftovers(tmp_path) == []
+
+
 # --- the commands -----------------------------------------------------------------------
 
 

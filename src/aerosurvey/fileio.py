@@ -102,8 +102,26 @@ def _output_place(outdir: Path) -> Path:
     return target
 
 
+def _carry_over(outdir: Path, target: Path, stage: Path, written: set[str]) -> set[str]:
+    """Hard-link (or, where the file system has no hard links, copy) into `stage` every file of
+    `target` that the run did not write; returns their names."""
+    kept = _files(target) - {LISTING} - written
+    for name in sorted(kept):
+        src, dst = target / name, stage / name
+        try:
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                os.link(src, dst, follow_symlinks=False)
+            except OSError:
+                shutil.copy2(src, dst, follow_symlinks=False)
+        except OSError as exc:
+            raise InputError(f"output folder {str(outdir)!r}: cannot keep its file {name} ({exc.strerror or exc}); "
+                             "it is left as it was") from None
+    return kept
+
+
 @contextlib.contextmanager
-def staged_directory(outdir: str | os.PathLike[str]) -> Iterator[Path]:
+def staged_directory(outdir: str | os.PathLike[str], merge: bool = False) -> Iterator[Path]:
     """Yield an empty staging folder; on success it replaces `outdir` whole.
 
     Every output of a command is written into the staging folder (a sibling of `outdir`),
@@ -119,10 +137,16 @@ def staged_directory(outdir: str | os.PathLike[str]) -> Iterator[Path]:
     before the swap: nothing of the user's is ever deleted. What a run wrote is listed in
     the folder's LISTING file. A target that is a file, a parent that is a file, or a
     parent that cannot be written is an InputError naming the folder and the reason.
+
+    merge=True is for a command that adds its files to a folder another command wrote (`gcp`
+    writes its control point files into the plan folder): the files of `outdir` that the run
+    does not write are hard-linked into the staged folder (copied where the file system has
+    no hard links) before the same swap, so they are kept and the swap is still all or
+    nothing. Nothing is refused then, and what the folder's listing named stays listed.
     """
     outdir = Path(outdir)
     target = _output_place(outdir)
-    if target.exists() and _listed(target) is not None:
+    if not merge and target.exists() and _listed(target) is not None:
         _foreign(outdir, target, None)  # early, before any work; a folder without a listing is judged at the swap
     try:
         stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".staging", dir=target.parent))
@@ -132,10 +156,14 @@ def staged_directory(outdir: str | os.PathLike[str]) -> Iterator[Path]:
     try:
         yield stage
         written = _files(stage) - {LISTING}
-        if target.exists():
+        listing = set(written)
+        if target.exists() and merge:
+            kept = _carry_over(outdir, target, stage, written)
+            listing |= kept & (_listed(target) or set())
+        elif target.exists():
             _foreign(outdir, target, written)
         with open(stage / LISTING, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(_LISTING_HEAD + "".join(f"{name}\n" for name in sorted(written)))
+            fh.write(_LISTING_HEAD + "".join(f"{name}\n" for name in sorted(listing)))
         _swap(outdir, stage, target)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
