@@ -9,7 +9,7 @@ unknown type) is skipped by searching for the next valid header; what was skippe
 where, is reported.
 
 Damage can also look like data. An FMT record is taken only when its name, format
-characters, column names and length all hold together (random bytes after an FMT header
+characters and length all hold together (random bytes after an FMT header
 almost never do); one that redefines a type already defined with another layout, or gives
 a second type an existing name, is ignored and reported, so a junk record cannot take the
 GPS type away. After a stretch of damage the reader takes a header it finds only when
@@ -85,8 +85,9 @@ def check_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) ->
     """Why an FMT record cannot be a real one, or None when it can.
 
     The name is 1-4 letters, digits or '_'; every format character is a DataFlash one; the
-    column names are printable ASCII; the length is the one the format characters add up
-    to. ArduPilot wrote a few records whose column list and length are both out of step
+    length is the one the format characters add up to. (Column names are not checked here: a
+    record whose layout holds but whose column names are damaged still frames and decodes its
+    messages; the reader reports it.) ArduPilot wrote a few records whose column list and length are both out of step
     with the format (EKF5 in some ArduCopter 3.3 logs: 13 format characters, 10 columns,
     28 bytes); such a record still frames its messages and is kept (never decoded).
     """
@@ -95,8 +96,6 @@ def check_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) ->
         return f"FMT record with an invalid name {n!r}"
     if any(chr(b) not in _SIZES for b in f):
         return f"FMT record for {n.decode()} with invalid format characters {f!r}"
-    if any(b < 0x20 or b > 0x7E for b in c):
-        return f"FMT record for {n.decode()} with invalid column names {c!r}"
     implied = 3 + sum(_SIZES[chr(b)] for b in f)
     if typ == FMT_TYPE and (length != FMT_LEN or implied != FMT_LEN):
         return f"FMT record for the FMT type with length {length} or format {f!r} (must be {FMT_LEN}, 'BBnNZ')"
@@ -159,7 +158,11 @@ class DataFlashLog:
         if why is not None:
             self._reject = why
             return False
-        name_s, fmt_s, cols_s = (_cstr(x).decode("ascii") for x in (name, fmt, cols))
+        name_s, fmt_s, cols_s = (_cstr(x).decode("ascii", "replace") for x in (name, fmt, cols))
+        bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
+        if bad:
+            self._skip(o + 3 + 22 + bad[0], bad[-1] - bad[0] + 1, f"FMT record for {name_s}: damaged column names "
+                       f"{cols_s!r}; kept for its layout, which holds", "format")
         columns = cols_s.split(",") if cols_s else []
         old = self.formats.get(typ)
         if old is not None:
