@@ -16,15 +16,15 @@ from aerosurvey.flight.dataflash import DataFlashLog
 LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_copter_survey.bin"
 
 
-def _pymavlink_counts(path: Path) -> collections.Counter:
+def _pymavlink_counts(path: Path) -> collections.Counter[str]:
     r = DFReader.DFReader_binary(str(path))
-    c: collections.Counter = collections.Counter()
+    c: collections.Counter[str] = collections.Counter()
     while (m := r.recv_msg()) is not None:
         c[m.get_type()] += 1
     return c
 
 
-def test_real_sitl_log_events():
+def test_real_sitl_log_events() -> None:
     with DataFlashLog(LOG) as log:
         cam = log.messages("CAM")
         assert len(cam["Lat"]) == 152
@@ -37,7 +37,7 @@ def test_real_sitl_log_events():
         assert len(gps["Lat"]) > 100 and gps["Lat"].min() > 49.39
 
 
-def test_counts_agree_with_pymavlink():
+def test_counts_agree_with_pymavlink() -> None:
     with DataFlashLog(LOG) as log:
         ours = log.counts()
     theirs = _pymavlink_counts(LOG)
@@ -45,7 +45,7 @@ def test_counts_agree_with_pymavlink():
         assert ours.get(name) == n, name
 
 
-def test_values_agree_with_pymavlink():
+def test_values_agree_with_pymavlink() -> None:
     r = DFReader.DFReader_binary(str(LOG))
     cams = []
     while (m := r.recv_match(type="CAM")) is not None:
@@ -63,13 +63,14 @@ def _cam_times_before(data: bytes, limit: int) -> int:
     """CAM events wholly before byte `limit` in the intact log."""
     with DataFlashLog(LOG) as log:
         t = log.type_of("CAM")
+        assert t is not None
         offs = np.frombuffer(log.offsets[t.type], dtype=np.uint64)
         return int(np.sum(offs + t.length <= limit))
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.integers(1, LOG.stat().st_size - 1))
-def test_truncated_log_keeps_everything_before_the_cut(tmp_path_factory, cut):
+def test_truncated_log_keeps_everything_before_the_cut(tmp_path_factory: pytest.TempPathFactory, cut: int) -> None:
     data = LOG.read_bytes()
     p = tmp_path_factory.mktemp("cut") / "cut.bin"
     p.write_bytes(data[:cut])
@@ -81,7 +82,8 @@ def test_truncated_log_keeps_everything_before_the_cut(tmp_path_factory, cut):
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.integers(4000, LOG.stat().st_size - 1), min_size=1, max_size=20), st.integers(0, 255))
-def test_corrupted_bytes_never_crash_and_keep_the_events_before(tmp_path_factory, positions, value):
+def test_corrupted_bytes_never_crash_and_keep_the_events_before(tmp_path_factory: pytest.TempPathFactory, positions: list[int],
+                                                                 value: int) -> None:
     data = bytearray(LOG.read_bytes())
     for p in positions:
         data[p] = value if data[p] != value else (value + 1) % 256
@@ -95,7 +97,7 @@ def test_corrupted_bytes_never_crash_and_keep_the_events_before(tmp_path_factory
             assert 0 <= s.offset < len(data) and s.length > 0
 
 
-def test_empty_and_garbage_files(tmp_path):
+def test_empty_and_garbage_files(tmp_path: Path) -> None:
     (tmp_path / "empty.bin").write_bytes(b"")
     with DataFlashLog(tmp_path / "empty.bin") as log:
         assert log.counts() == {} and log.messages("CAM") == {}

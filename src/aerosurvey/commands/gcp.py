@@ -61,7 +61,7 @@ def gcp(target: Path, outdir: Path | None, profiles: tuple[str, ...], profile_di
     ev = Evidence(t.view, layout_settings(t.view, chosen, nogo=zones, gcp_offset_m=offset))
     pts = ev.points
     files = control_point_files(t.view, pts, ev.footprints)
-    with staged_directory(out) as stage:
+    with staged_directory(out, merge=True) as stage:  # by default `out` is the plan folder: its files stay
         for name, text in files.items():
             atomic_write_text(stage / name, text)
     gcps = [p for p in pts if p.role == "gcp"]

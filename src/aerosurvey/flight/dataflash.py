@@ -7,6 +7,15 @@ offset in a compact array per type (no Python object per message), and decodes t
 asked for in one numpy operation each. Damage (a truncated tail, corrupted bytes, an
 unknown type) is skipped by searching for the next valid header; what was skipped, and
 where, is reported.
+
+Damage can also look like data. An FMT record is taken only when its name, format
+characters and length all hold together (random bytes after an FMT header
+almost never do); one that redefines a type already defined with another layout, or gives
+a second type an existing name, is ignored and reported, so a junk record cannot take the
+GPS type away. After a stretch of damage the reader takes a header it finds only when
+another header (or the end of the file) follows the message it frames, so two bytes that
+happen to read 0xA3 0x95 inside damage are not taken for a message. `repeated()` finds the
+messages of a type that repeat an earlier one byte for byte (a duplicated chunk).
 """
 
 from __future__ import annotations
@@ -43,7 +52,8 @@ class Format:
 
 
 def _dtype(fmt: str, columns: list[str]) -> tuple[np.dtype, dict[str, float]] | None:
-    fields, scale = [], {}
+    fields: list[tuple[str, str] | tuple[str, str, tuple[int]]] = []
+    scale: dict[str, float] = {}
     for ch, col in zip(fmt, columns):
         if ch not in _CHARS:
             return None
@@ -60,11 +70,54 @@ def _dtype(fmt: str, columns: list[str]) -> tuple[np.dtype, dict[str, float]] | 
         return None
 
 
+#: bytes each format character takes in a message
+_SIZES: dict[str, int] = {ch: (64 if ch == "a" else np.dtype(t).itemsize) for ch, (t, _) in _CHARS.items()}
+_NAME_CHARS = frozenset(b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_")
+
+
+def _cstr(raw: bytes) -> bytes:
+    """A NUL-padded field up to its first NUL."""
+    end = raw.find(b"\0")
+    return raw if end < 0 else raw[:end]
+
+
+def check_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) -> str | None:
+    """Why an FMT record cannot be a real one, or None when it can.
+
+    The name is 1-4 letters, digits or '_'; every format character is a DataFlash one; the
+    length is the one the format characters add up to. (Column names are not checked here: a
+    record whose layout holds but whose column names are damaged still frames and decodes its
+    messages; the reader reports it.) ArduPilot wrote a few records whose column list and length are both out of step
+    with the format (EKF5 in some ArduCopter 3.3 logs: 13 format characters, 10 columns,
+    28 bytes); such a record still frames its messages and is kept (never decoded).
+    """
+    n, f, c = _cstr(name), _cstr(fmt), _cstr(cols)
+    if not n or any(b not in _NAME_CHARS for b in n):
+        return f"FMT record with an invalid name {n!r}"
+    if any(chr(b) not in _SIZES for b in f):
+        return f"FMT record for {n.decode()} with invalid format characters {f!r}"
+    implied = 3 + sum(_SIZES[chr(b)] for b in f)
+    if typ == FMT_TYPE and (length != FMT_LEN or implied != FMT_LEN):
+        return f"FMT record for the FMT type with length {length} or format {f!r} (must be {FMT_LEN}, 'BBnNZ')"
+    if length < 3:
+        return f"FMT record for {n.decode()} with length {length} (less than the 3-byte header)"
+    if implied != length and len(c.split(b",") if c else []) == len(f):
+        return f"FMT record for {n.decode()}: its format {f.decode()!r} takes {implied} bytes, the record says {length}"
+    return None
+
+
 @dataclass
 class Skip:
+    """Bytes the reader did not take as messages, and why.
+
+    kind: "damage" (bytes outside any message, a message cut off, an unknown type),
+    "format" (an FMT record rejected or ignored).
+    """
+
     offset: int
     length: int
     reason: str
+    kind: str = "damage"
 
 
 class DataFlashLog:
@@ -77,8 +130,10 @@ class DataFlashLog:
         self._buf = mmap.mmap(self._fh.fileno(), 0, access=mmap.ACCESS_READ) if size else b""
         self.size = size
         self.formats: dict[int, Format] = {}
-        self.offsets: dict[int, array] = {}
+        self.offsets: dict[int, array[int]] = {}
         self.skipped: list[Skip] = []
+        self._names: dict[str, Format] = {}
+        self._reject = ""
         self._scan()
 
     def close(self) -> None:
@@ -93,16 +148,32 @@ class DataFlashLog:
         self.close()
 
     def _add_format(self, o: int) -> bool:
+        """Take the FMT record at `o`; False when it is not a real one (damage, reported by the caller)."""
         try:
             typ, length, name, fmt, cols = struct.unpack_from("<BB4s16s64s", self._buf, o + 3)
         except struct.error:
+            self._reject = "FMT record cut off at the end of the file"
             return False
-        name_s = name.rstrip(b"\0").decode("ascii", "replace")
-        fmt_s = fmt.rstrip(b"\0").decode("ascii", "replace")
-        cols_s = cols.rstrip(b"\0").decode("ascii", "replace")
+        why = check_format(typ, length, name, fmt, cols)
+        if why is not None:
+            self._reject = why
+            return False
+        name_s, fmt_s, cols_s = (_cstr(x).decode("ascii", "replace") for x in (name, fmt, cols))
+        bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
+        if bad:
+            self._skip(o + 3 + 22 + bad[0], bad[-1] - bad[0] + 1, f"FMT record for {name_s}: damaged column names "
+                       f"{cols_s!r}; kept for its layout, which holds", "format")
         columns = cols_s.split(",") if cols_s else []
-        if length < 3 or not name_s.isprintable() or not name_s.strip() or (typ == FMT_TYPE and length != FMT_LEN):
-            return False
+        old = self.formats.get(typ)
+        if old is not None:
+            if (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns):
+                self._skip(o, FMT_LEN, f"FMT record redefines type {typ} ({old.name}, {old.fmt}, {old.length} bytes) as "
+                                       f"{name_s}, {fmt_s}, {length} bytes: ignored, the first definition is kept", "format")
+            return True
+        same = self.type_of(name_s)
+        if same is not None:
+            self._skip(o, FMT_LEN, f"FMT record gives type {typ} the name {name_s} of type {same.type}: ignored", "format")
+            return True
         # Real logs hold FMT records whose column list does not match the format (old firmware's
         # FMT-for-FMT names four columns for "BBnNZ"; some EKF5 records list 10 names for 13
         # fields) and records with no fields at all (STRT). Their length still frames the
@@ -112,6 +183,7 @@ class DataFlashLog:
         if dt is not None and dt[0].itemsize == length - 3:
             f.dtype, f.scale = dt
         self.formats[typ] = f
+        self._names[name_s] = f
         return True
 
     def _scan(self) -> None:
@@ -121,19 +193,30 @@ class DataFlashLog:
         offsets = self.offsets
         o = 0
         find = buf.find
+        resync = False  # True after damage: the next header must be confirmed by the one after it
         while o + 3 <= n:
             if buf[o] == 0xA3 and buf[o + 1] == 0x95:
                 t = buf[o + 2]
                 ln = lengths[t]
                 if ln and o + ln <= n:
+                    if resync:
+                        e = o + ln
+                        if not (e == n or buf[e:e + 2] == HEAD or (e + 1 == n and buf[e] == 0xA3)):
+                            nxt = find(HEAD, o + 1)
+                            self._skip(o, (nxt if nxt >= 0 else n) - o, "bytes outside any message")
+                            o = nxt if nxt >= 0 else n
+                            continue
+                        resync = False
                     if t == FMT_TYPE:
                         if self._add_format(o):
-                            f = self.formats[buf[o + 3]]
-                            lengths[f.type] = f.length
+                            f = self.formats.get(buf[o + 3])
+                            if f is not None:
+                                lengths[f.type] = f.length
                         else:
                             nxt = find(HEAD, o + 1)
-                            self._skip(o, (nxt if nxt >= 0 else n) - o, "malformed FMT message")
+                            self._skip(o, (nxt if nxt >= 0 else n) - o, self._reject, "format")
                             o = nxt if nxt >= 0 else n
+                            resync = True
                             continue
                     a = offsets.get(t)
                     if a is None:
@@ -148,14 +231,16 @@ class DataFlashLog:
             end = nxt if nxt >= 0 else n
             self._skip(o, end - o, reason)
             o = end
+            resync = True
         if o < n:
             self._skip(o, n - o, "message cut off at the end of the file")
 
-    def _skip(self, offset: int, length: int, reason: str) -> None:
-        if self.skipped and self.skipped[-1].offset + self.skipped[-1].length == offset and self.skipped[-1].reason == reason:
-            self.skipped[-1].length += length
+    def _skip(self, offset: int, length: int, reason: str, kind: str = "damage") -> None:
+        last = self.skipped[-1] if self.skipped else None
+        if last is not None and last.offset + last.length == offset and last.reason == reason and kind == "damage":
+            last.length += length
         else:
-            self.skipped.append(Skip(offset, length, reason))
+            self.skipped.append(Skip(offset, length, reason, kind))
 
     @property
     def skipped_bytes(self) -> int:
@@ -170,7 +255,39 @@ class DataFlashLog:
         return bytes(self._buf[offset:offset + (FMT_LEN if t == FMT_TYPE else self.formats[t].length)])
 
     def type_of(self, name: str) -> Format | None:
-        return next((f for f in self.formats.values() if f.name == name), None)
+        return self._names.get(name)
+
+    def message_offsets(self, name: str) -> np.ndarray:
+        """File offsets of the messages of one type, in file order (empty when there are none)."""
+        f = self.type_of(name)
+        if f is None or f.type not in self.offsets:
+            return np.zeros(0, np.int64)
+        return np.frombuffer(self.offsets[f.type], dtype=np.uint64).astype(np.int64)
+
+    def _rows(self, f: Format, offs: np.ndarray, width: int) -> np.ndarray:
+        """The `width` bytes after the header of each message at `offs`, one row each."""
+        raw = np.frombuffer(self._buf, dtype=np.uint8)
+        cols = np.arange(width)
+        out = np.empty((len(offs), width), np.uint8)
+        chunk = max(1, (8 << 20) // (8 * max(width, 1)))  # bounds the gather index at about 8 MB
+        for a in range(0, len(offs), chunk):
+            part = offs[a:a + chunk] + 3
+            out[a:a + len(part)] = raw[part[:, None] + cols[None, :]]
+        return out
+
+    def repeated(self, name: str) -> np.ndarray:
+        """For each message of a type (file order): the index of the earlier message it repeats
+        byte for byte, or -1. Messages carry a time stamp, so a repeat is a copied chunk."""
+        offs = self.message_offsets(name)
+        f = self.type_of(name)
+        if f is None or not len(offs):
+            return np.full(len(offs), -1, np.int64)
+        rows = self._rows(f, offs, f.length - 3)
+        keys = np.ascontiguousarray(rows).view(np.dtype((np.void, rows.shape[1]))).reshape(-1) if rows.shape[1] else \
+            np.zeros(len(offs), np.dtype((np.void, 1)))
+        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        orig = first[inverse.reshape(-1)]
+        return np.where(orig == np.arange(len(offs)), -1, orig).astype(np.int64)
 
     def messages(self, name: str, scaled: bool = True) -> dict[str, np.ndarray]:
         """All messages of one type as columns (empty dict when the log has none).
@@ -181,16 +298,9 @@ class DataFlashLog:
         f = self.type_of(name)
         if f is None or f.dtype is None or f.type not in self.offsets:
             return {}
-        offs = np.frombuffer(self.offsets[f.type], dtype=np.uint64).astype(np.int64) + 3
-        raw = np.frombuffer(self._buf, dtype=np.uint8)
-        width = np.arange(f.dtype.itemsize)
-        rec = np.empty(len(offs), dtype=f.dtype)
-        chunk = max(1, (8 << 20) // (8 * f.dtype.itemsize))  # bounds the gather index at about 8 MB
-        for a in range(0, len(offs), chunk):
-            part = offs[a:a + chunk]
-            rec[a:a + len(part)] = raw[part[:, None] + width[None, :]].view(f.dtype).reshape(-1)
+        rec = self._rows(f, self.message_offsets(name), f.dtype.itemsize).view(f.dtype).reshape(-1)
         out: dict[str, np.ndarray] = {}
-        for col in f.dtype.names:
+        for col in f.dtype.names or ():
             v = rec[col]
             if scaled and col in f.scale:
                 v = v.astype(np.float64) * f.scale[col]

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, TypedDict
 
 import numpy as np
 
 from aerosurvey.errors import InputError
+from aerosurvey.flight.dataflash import DataFlashLog
 
 
 @dataclass(frozen=True)
@@ -30,22 +34,149 @@ class Events:
         return len(self.time_s)
 
 
-def from_dataflash(path: Path) -> tuple[Events, dict]:
-    """CAM messages (or TRIG when no CAM was logged) of an ArduPilot DataFlash log."""
-    from aerosurvey.flight.dataflash import DataFlashLog
+class SkipInfo(TypedDict):
+    """One place of a log the reader did not take as it stands (log_report.json's read.skipped)."""
 
+    offset: int  # byte offset in the log
+    length: int  # bytes
+    reason: str
+    kind: str  # "damage", "format" (an FMT record rejected or ignored), "repeat" (a copied run of events),
+    #            "event" (a camera event implausible for the log)
+
+
+class ReadInfo(TypedDict):
+    """What reading a log took and left (log_report.json's "read")."""
+
+    bytes: int
+    messages: int
+    skipped_bytes: int  # every byte not taken, dropped events' messages included
+    skipped: list[SkipInfo]  # the first MAX_SKIPS places, in file order
+    skipped_places: int  # all places
+    dropped_events: int  # camera events the log holds but the checks dropped (repeats, implausible)
+    checks: str  # what the events were checked against
+
+
+MAX_SKIPS = 50
+#: a camera event farther than this from every GPS fix logged within EVENT_WINDOW_S of it is not
+#: plausible: in the SITL logs of tests/data events lie within 2.5 m of the GPS track at their
+#: time; the window allows for the GPS's lag. A time stamp off by more than about
+#: EVENT_WINDOW_S + EVENT_TRACK_M / speed puts the event off the track.
+EVENT_TRACK_M = 30.0
+EVENT_WINDOW_S = 1.0
+#: without a GPS fix in the window, the bracketing fixes, with this much more per second away
+EVENT_GAP_MS = 60.0
+
+
+def _info(size: int, messages: int, skips: list[SkipInfo], dropped: int, checks: str) -> ReadInfo:
+    skips = sorted(skips, key=lambda s: s["offset"])
+    return {"bytes": size, "messages": messages, "skipped_bytes": sum(s["length"] for s in skips),
+            "skipped": skips[:MAX_SKIPS], "skipped_places": len(skips), "dropped_events": dropped, "checks": checks}
+
+
+def _longest_increasing(t: np.ndarray) -> np.ndarray:
+    """Mask of a longest strictly increasing subsequence of `t` (file order). Patience sorting run
+    from the end keeps, of equally long choices, the earlier elements: a damaged event late in
+    the log cannot push out an intact one before it."""
+    n = len(t)
+    tails: list[float] = []  # over the reversed, negated sequence
+    tail_at: list[int] = []
+    prev = [-1] * n
+    for i in range(n - 1, -1, -1):
+        v = -float(t[i])
+        k = bisect.bisect_left(tails, v)
+        if k == len(tails):
+            tails.append(v)
+            tail_at.append(i)
+        else:
+            tails[k], tail_at[k] = v, i
+        prev[i] = tail_at[k - 1] if k else -1
+    keep = np.zeros(n, bool)
+    i = tail_at[-1] if tail_at else -1
+    while i >= 0:
+        keep[i] = True
+        i = prev[i]
+    return keep
+
+
+def _local_m(lat: np.ndarray, lon: np.ndarray, lat0: float, lon0: float) -> tuple[np.ndarray, np.ndarray]:
+    k = math.pi / 180.0 * 6_371_000.0
+    return (lon - lon0) * k * math.cos(math.radians(lat0)), (lat - lat0) * k
+
+
+def _gps_track(log: DataFlashLog) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(time_s or NaN, lat, lon) of the log's GPS fixes that can be fixes: 3D fix where the layout
+    logs its status, a position on the globe and not 0/0."""
+    g = log.messages("GPS")
+    if not g or "Lat" not in g or "Lng" not in g:
+        return None
+    lat, lon = np.asarray(g["Lat"], float), np.asarray(g["Lng"], float)
+    ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0))
+    if "Status" in g:
+        ok &= np.asarray(g["Status"]) >= 3
+    t = np.asarray(g["TimeUS"], float) / 1e6 if "TimeUS" in g else np.full(len(lat), np.nan)
+    if not ok.any():
+        return None
+    order = np.argsort(t[ok], kind="stable")
+    return t[ok][order], lat[ok][order], lon[ok][order]
+
+
+def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray,
+                    track: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Distance (m) from each event to the GPS track: to the nearest fix within EVENT_WINDOW_S of
+    its time, less the allowance for the bracketing fixes when none is that near (events
+    without a time: to the nearest fix of the whole track)."""
+    gt, glat, glon = track
+    gx, gy = _local_m(glat, glon, float(np.median(glat)), float(np.median(glon)))
+    ex, ey = _local_m(lat, lon, float(np.median(glat)), float(np.median(glon)))
+    timed = np.isfinite(gt).all() and len(gt) > 0
+    out = np.full(len(t), np.inf)
+    for i in range(len(t)):
+        if not (np.isfinite(ex[i]) and np.isfinite(ey[i])):
+            continue
+        if timed and np.isfinite(t[i]):
+            lo, hi = np.searchsorted(gt, t[i] - EVENT_WINDOW_S), np.searchsorted(gt, t[i] + EVENT_WINDOW_S, "right")
+            if hi > lo:
+                out[i] = float(np.min(np.hypot(gx[lo:hi] - ex[i], gy[lo:hi] - ey[i])))
+            else:  # a gap in the GPS messages: the fixes either side, allowing for the time to them
+                # (events outside the GPS messages' span are dropped before)
+                near = [j for j in (lo - 1, lo) if 0 <= j < len(gt)]
+                out[i] = min(float(np.hypot(gx[j] - ex[i], gy[j] - ey[i])) - EVENT_GAP_MS * abs(gt[j] - t[i]) for j in near)
+        else:
+            out[i] = float(np.min(np.hypot(gx - ex[i], gy - ey[i])))
+    return out
+
+
+def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
+    """CAM messages (or TRIG when no CAM was logged) of an ArduPilot DataFlash log, checked.
+
+    Dropped, each with its place and reason in the report: messages that repeat an earlier
+    one byte for byte (a copied chunk: every message carries a time stamp, so no two real
+    ones are equal); events with no position on the globe; events farther than EVENT_TRACK_M
+    from every GPS fix logged within EVENT_WINDOW_S of them (the log's own track: damaged or
+    invented positions and times); events whose time breaks the order of the others (the
+    fewest are dropped that leave the times strictly increasing in file order). One log is
+    one boot of the autopilot (ArduPilot starts a new file at each), so its times increase.
+    """
     with DataFlashLog(path) as log:
-        cam = log.messages("CAM")
         source = "CAM"
+        cam = log.messages("CAM")
         if not cam:
-            cam, source = log.messages("TRIG"), "TRIG"
-        info = {"bytes": log.size, "skipped_bytes": log.skipped_bytes,
-                "skipped": [{"offset": s.offset, "length": s.length, "reason": s.reason} for s in log.skipped[:50]],
-                "messages": sum(log.counts().values())}
-    if not cam:
-        raise InputError(f"{path.name}: no CAM or TRIG camera events in the log "
-                         f"({info['messages']} messages read, {info['skipped_bytes']} bytes skipped)")
-    n = len(next(iter(cam.values())))
+            source = "TRIG"
+            cam = log.messages("TRIG")
+        skips: list[SkipInfo] = [{"offset": s.offset, "length": s.length, "reason": s.reason, "kind": s.kind}
+                                 for s in log.skipped]
+        messages = sum(log.counts().values())
+        if not cam:
+            info = _info(log.size, messages, skips, 0, "none")
+            raise InputError(f"{path.name}: no CAM or TRIG camera events in the log "
+                             f"({messages} messages read, {info['skipped_bytes']} bytes skipped)")
+        offs = log.message_offsets(source)
+        fmt = log.type_of(source)
+        assert fmt is not None  # it has messages
+        rec_len = fmt.length
+        rep = log.repeated(source)
+        track = _gps_track(log)
+    n = len(offs)
 
     def get(*names: str) -> np.ndarray:  # the first of the column names the layout has
         k = next((k for k in names if k in cam), None)
@@ -56,12 +187,67 @@ def from_dataflash(path: Path) -> tuple[Events, dict]:
     # later versions add TimeUS (and GPSAlt), and ArduCopter 4.6 names the attitude R,P,Y.
     time_s = get("TimeUS") / 1e6 if "TimeUS" in cam else get("TimeMS") / 1e3
     utc = gps_to_utc(get("GPSWeek"), get("GPSTime")) if "GPSWeek" in cam and "GPSTime" in cam else None
-    key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else np.arange(n)
-    order = np.argsort(key, kind="stable")
-    ev = Events(time_s[order], get("Lat")[order], get("Lng")[order], get("Alt")[order], get("RelAlt")[order],
-                get("R", "Roll")[order], get("P", "Pitch")[order], get("Y", "Yaw")[order], source,
-                utc[order] if utc is not None else None)
+    lat, lon = get("Lat"), get("Lng")
+
+    keep = np.ones(n, bool)
+
+    def drop(mask: np.ndarray, kind: str, why: str | Callable[[int], str]) -> None:
+        for i in np.flatnonzero(mask & keep).tolist():
+            skips.append({"offset": int(offs[i]), "length": rec_len, "kind": kind,
+                          "reason": f"{source} event at {_when(time_s, utc, i)}: " + (why(i) if callable(why) else why)})
+        keep[mask] = False
+
+    # a run of repeats (each the message after the one the previous repeats) is one place
+    runs = np.flatnonzero(rep >= 0)
+    for run in np.split(runs, np.flatnonzero(np.diff(rep[runs]) != 1) + 1) if len(runs) else []:
+        first, last = int(run[0]), int(run[-1])
+        skips.append({"offset": int(offs[first]), "length": int(offs[last] - offs[first]) + rec_len, "kind": "repeat",
+                      "reason": f"{len(run)} {source} event(s) from {_when(time_s, utc, first)} to {_when(time_s, utc, last)} "
+                                f"repeat the messages from offset {int(offs[rep[first]])} on byte for byte (a copied "
+                                "chunk of the log); dropped"})
+    keep[runs] = False
+    bad_pos = ~(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0)))
+    drop(bad_pos, "event", lambda i: f"position {lat[i]:.7f}, {lon[i]:.7f} is not a place on the globe; dropped")
+    if track is not None:
+        checks = f"GPS track ({len(track[0])} fixes), time order"
+        tcheck = time_s if np.isfinite(time_s).all() else np.full(n, np.nan)
+        gt = track[0]
+        if np.isfinite(gt).all() and np.isfinite(tcheck).all():
+            lo, hi = float(gt[0]) - EVENT_WINDOW_S, float(gt[-1]) + EVENT_WINDOW_S
+            drop((tcheck < lo) | (tcheck > hi), "event",
+                 f"its time lies outside the log's GPS messages ({gt[0]:.3f} to {gt[-1]:.3f} s); dropped")
+        dist = np.full(n, np.inf)
+        dist[keep] = _far_from_track(tcheck[keep], lat[keep], lon[keep], track)
+        drop(dist > EVENT_TRACK_M, "event", lambda i: f"{lat[i]:.7f}, {lon[i]:.7f} lies {dist[i]:.0f} m from the "
+             f"log's GPS track within {EVENT_WINDOW_S:g} s of its time (allowed {EVENT_TRACK_M:g} m); dropped")
+    else:
+        checks = "time order (no GPS fixes in the log)"
+    key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else None
+    if key is not None:
+        idx = np.flatnonzero(keep)
+        order_ok = np.zeros(n, bool)
+        order_ok[idx[_longest_increasing(key[idx])]] = True
+        drop(~order_ok, "event", "its time breaks the order of the log's other events; dropped")
+    else:
+        checks += " (events have no time)"
+    info = _info(path.stat().st_size, messages, skips, int(n - keep.sum()), checks)
+    if not keep.any():
+        raise InputError(f"{path.name}: none of the {n} {source} events in the log is plausible "
+                         f"(first reason: {next(s['reason'] for s in skips if s['kind'] in ('repeat', 'event'))})")
+    k = np.flatnonzero(keep)
+    sort_key = key if key is not None else np.arange(n, dtype=float)
+    k = k[np.argsort(sort_key[k], kind="stable")]
+    ev = Events(time_s[k], lat[k], lon[k], get("Alt")[k], get("RelAlt")[k], get("R", "Roll")[k], get("P", "Pitch")[k],
+                get("Y", "Yaw")[k], source, utc[k] if utc is not None else None)
     return ev, info
+
+
+def _when(time_s: np.ndarray, utc: np.ndarray | None, i: int) -> str:
+    if np.isfinite(time_s[i]):
+        return f"{time_s[i]:.3f} s"
+    if utc is not None and np.isfinite(utc[i]):
+        return f"UTC {utc[i]:.3f} s"
+    return f"#{i + 1}"
 
 
 #: GPS time runs ahead of UTC by the leap seconds since 1980 (18 s since 2017)
@@ -72,7 +258,7 @@ def gps_to_utc(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
     return GPS_EPOCH_UNIX + week * 604_800.0 + ms_of_week / 1000.0 - LEAP_SECONDS
 
 
-def _tlog_packets(data: bytes, mav) -> tuple[list, int]:
+def _tlog_packets(data: bytes, mav: Any) -> tuple[list[Any], int]:
     """Walk [8-byte time stamp][MAVLink packet] records; on a packet that does not decode
     (bad CRC, cut off), move one byte on and look for the next one that does."""
     out, skipped, o, n = [], 0, 0, len(data)
@@ -99,7 +285,7 @@ def _tlog_packets(data: bytes, mav) -> tuple[list, int]:
     return out, skipped + max(0, n - o)
 
 
-def from_tlog(path: Path) -> tuple[Events, dict]:
+def from_tlog(path: Path) -> tuple[Events, ReadInfo]:
     """CAMERA_FEEDBACK messages of a MAVLink telemetry log; damage costs only what it touches."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -107,7 +293,8 @@ def from_tlog(path: Path) -> tuple[Events, dict]:
     msgs, skipped = _tlog_packets(data, mavlink.MAVLink(None))
     rows = [(m.time_usec, m.lat * 1e-7, m.lng * 1e-7, m.alt_msl, m.alt_rel, m.roll, m.pitch, m.yaw)
             for m in msgs if m.get_type() == "CAMERA_FEEDBACK"]
-    info = {"bytes": len(data), "skipped_bytes": skipped, "skipped": [], "messages": len(msgs)}
+    info = _info(len(data), len(msgs), [], 0, "none")
+    info["skipped_bytes"] = skipped  # the walker counts bytes, not places
     if not rows:
         raise InputError(f"{path.name}: no CAMERA_FEEDBACK messages in the telemetry log ({len(msgs)} messages read)")
     a = np.asarray(rows, float)
@@ -115,7 +302,7 @@ def from_tlog(path: Path) -> tuple[Events, dict]:
     return Events(a[:, 0] / 1e6, a[:, 1], a[:, 2], a[:, 3], a[:, 4], a[:, 5], a[:, 6], a[:, 7], "CAMERA_FEEDBACK"), info
 
 
-def from_ulog(path: Path) -> tuple[Events, dict]:
+def from_ulog(path: Path) -> tuple[Events, ReadInfo]:
     """camera_capture topics of a PX4 ULog (pyulog)."""
     from pyulog import ULog
 
@@ -124,7 +311,7 @@ def from_ulog(path: Path) -> tuple[Events, dict]:
     except Exception as exc:  # pyulog raises plain exceptions for files it cannot parse
         raise InputError(f"{path.name}: not a readable ULog ({exc})") from None
     data = [d for d in u.data_list if d.name == "camera_capture"]
-    info = {"bytes": path.stat().st_size, "skipped_bytes": 0, "skipped": [], "messages": sum(len(d.data["timestamp"]) for d in data)}
+    info = _info(path.stat().st_size, sum(len(d.data["timestamp"]) for d in data), [], 0, "none")
     if not data:
         raise InputError(f"{path.name}: no camera_capture topic in the ULog")
     d = data[0].data
@@ -139,7 +326,7 @@ def from_ulog(path: Path) -> tuple[Events, dict]:
     return ev, info
 
 
-def read_events(path: Path) -> tuple[Events, dict]:
+def read_events(path: Path) -> tuple[Events, ReadInfo]:
     if not path.exists():
         raise InputError(f"flight log {str(path)!r} does not exist")
     suffix = path.suffix.lower()
@@ -161,7 +348,7 @@ class Match:
     far: list[int]  # matched events farther than the tolerance
 
 
-def match_to_stations(ev: Events, stations: list[dict], tolerance_m: float, window: int = 60) -> Match:
+def match_to_stations(ev: Events, stations: list[dict[str, Any]], tolerance_m: float, window: int = 60) -> Match:
     """Match events to planned stations, both in flight order.
 
     Each event takes the nearest station among the next `window` not yet matched ones,
