@@ -16,7 +16,8 @@ rebuilt; ArduPilot's rules as modelled here:
 - NAV_WAYPOINT, NAV_SPLINE_WAYPOINT, NAV_LOITER_* and NAV_LAND fly straight from the
   current position to their point; lat = lon = 0 means "here" (the current position); a
   loiter with a radius adds its circle; NAV_LAND ends the flight;
-- DO_LAND_START is a marker (no movement in a mission flown in sequence); DO_JUMP repeats;
+- DO_LAND_START is a marker (no movement in a mission flown in sequence; the legs after it
+  are labelled land-approach); DO_JUMP repeats;
 - NAV_RETURN_TO_LAUNCH flies straight to the nearest of home and the .plan's rally points
   (ArduCopter, RALLY_INCL_HOME = 1; ArduPlane, 0: the nearest rally point when there is one)
   and ends the flight; a copter climbs to RTL_ALT first (vertical) and lands there, a plane
@@ -70,7 +71,7 @@ class Item:
 class Leg:
     file: str
     item: int  # the seq of the item that starts the leg (0 = home)
-    kind: str  # climb-out, to-first (take-off to the first point), waypoint, loiter, land, rtl, rtl-loiter, end-rtl
+    kind: str  # climb-out, to-first (take-off to the first point), waypoint, loiter, land-approach, land, rtl, rtl-loiter, end-rtl
     path: shapely.LineString  # local metres
     inside_m: tuple[float, ...]  # metres inside each zone
     in_margin_m: float = 0.0  # metres inside the zones grown by the margin less 0.5 m (information: the docs promise it too)
@@ -148,6 +149,7 @@ def rebuild_legs(home: Item, items: list[Item], local: Local, vehicle: str,
     by_seq = {it.seq: k for k, it in enumerate(items)}
     k = 0
     steps = 0
+    landing = False  # after DO_LAND_START: the legs of the landing sequence
 
     def go(seq: int, kind: str, to: tuple[float, float]) -> None:
         nonlocal pos, takeoff
@@ -182,8 +184,10 @@ def rebuild_legs(home: Item, items: list[Item], local: Local, vehicle: str,
         to = pos if here else local.xy(it.lon, it.lat)
         if it.command in (NAV_TAKEOFF, NAV_VTOL_TAKEOFF):
             takeoff = it if it.command == NAV_TAKEOFF else None
+        elif it.command == DO_LAND_START:
+            landing = True
         elif it.command in GOTO:
-            go(it.seq, "loiter" if it.command in LOITER_RADIUS_PARAM else "waypoint", to)
+            go(it.seq, "loiter" if it.command in LOITER_RADIUS_PARAM else ("land-approach" if landing else "waypoint"), to)
             r = abs(it.params[LOITER_RADIUS_PARAM[it.command]]) if it.command in LOITER_RADIUS_PARAM else 0.0
             if r > 0:
                 legs.append((it.seq, "loiter", _circle(to[0], to[1], r)))

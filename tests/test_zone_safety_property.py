@@ -249,3 +249,12 @@ def test_a_leg_in_the_margin_is_measured_apart(tmp_path: Path) -> None:
     assert rep.violations == []
     # the line at 10 m from the zone crosses its 20 m margin (less 0.5 m) over 100 + 2·sqrt(19.5² - 10²) m
     assert rep.legs[1].in_margin_m == pytest.approx(100 + 2 * np.sqrt(19.5**2 - 10**2), abs=0.3)
+
+
+def test_a_plane_landing_sequence_is_flown_from_the_last_point(tmp_path: Path) -> None:
+    # DO_LAND_START's own position is not flown to; the approach waypoint and the touchdown are
+    text = _wpl((0, 0), [(22, None, 15, 100), (16, (0, 600), 0, 100), (189, (0, 0), 0, 0), (16, (300, 300), 0, 30), (21, (0, 0), 0, 0)])
+    rep = _legs(tmp_path, text, [_square(150, 450, 20)], vehicle="plane")
+    assert [leg.kind for leg in rep.legs] == ["to-first", "land-approach", "land"]  # 600 m: beyond the 373 m climb-out
+    assert rep.legs[1].path.coords[0] == pytest.approx((0, 600), abs=0.01)
+    assert rep.legs[1].worst_m == pytest.approx(40 * np.sqrt(2), abs=0.1)
