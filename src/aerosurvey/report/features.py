@@ -6,7 +6,10 @@ the layers with the manifest and later with flight logs.
 
 from __future__ import annotations
 
+import gc
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -33,7 +36,27 @@ def _round_nested(c: Any) -> Any:
     return [_round_nested(x) for x in c]
 
 
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """The cyclic garbage collector off while a few hundred thousand dicts and lists are made that
+    all live on (none can be garbage): each collection would walk every one of them again. Measured
+    on the 100 km² benchmark (51,379 stations and as many footprints): plan_features 700 ms → 300 ms
+    CPU. Switched back on only if it was on, so nested or concurrent pauses leave it as they found it."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()
+
+
 def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
+    with _collector_paused():
+        return _features(plan, with_footprints)
+
+
+def _features(plan: Plan, with_footprints: bool) -> dict[str, Any]:
     feats: list[dict[str, Any]] = []
     feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": round(plan.area.area / 1e4, 4)},
                   "geometry": {"type": plan.area_wgs84.geom_type, "coordinates": _coords(plan.area_wgs84)}})
