@@ -6,7 +6,8 @@
 Per case, in its own process (so that its peak RSS is its own): the inputs are loaded once
 (not timed: file reading is not planning), then `plan_mission` + `render_outputs` (every
 output, footprints in the GeoJSON included) run once to warm up and `--runs` more times;
-the median is reported.
+the median is reported, of wall-clock time and of the process's CPU time (on a machine shared
+with other work the CPU time moves much less).
 
 The machine is shared and noisy, so every case also times a fixed reference workload between
 its runs (interleaved, so that a busy spell hits both) and reports its median as a ratio to
@@ -73,14 +74,14 @@ def make_case(name: str, tmp: Path) -> Path:
     return p
 
 
-def reference_work() -> float:
-    """Seconds for a fixed interpreter-bound workload (see the module docstring)."""
-    t0 = time.perf_counter()
+def reference_work() -> tuple[float, float]:
+    """Wall and CPU seconds of a fixed interpreter-bound workload (see the module docstring)."""
+    t0, c0 = time.perf_counter(), time.process_time()
     rows = [{"id": f"P1-L{i % 97:03d}-S{i:04d}", "seq": i, "alt": i * 0.01, "xy": [i * 1e-6, -i * 1e-6]}
             for i in range(20000)]
     json.dumps(rows, separators=(",", ":"))
     " ".join(f"{v * 1.0000001:.8f},{v * 0.5:.8f}" for v in range(40000))
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, time.process_time() - c0
 
 
 def run_case(name: str, runs: int) -> dict[str, object]:
@@ -93,31 +94,35 @@ def run_case(name: str, runs: int) -> dict[str, object]:
     spec = load_spec(make_case(name, Path(td.name)))
     inputs = load_inputs(spec)
     rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    times, plan_times, refs = [], [], []
+    times, cpu, plan_times, refs, cpu_refs = [], [], [], [], []
     photos = out_mb = 0.0
     for k in range(runs + 1):
-        ref = reference_work()
-        t0 = time.perf_counter()
+        ref, cpu_ref = reference_work()
+        t0, c0 = time.perf_counter(), time.process_time()
         plan = plan_mission(spec, inputs)
         t1 = time.perf_counter()
         files = render_outputs(plan).files
-        t2 = time.perf_counter()
+        t2, c2 = time.perf_counter(), time.process_time()
         if k == 0:  # warm-up: imports inside functions, caches
             photos = len(plan.stations.ids)
             out_mb = sum(len(v.encode()) for v in files.values()) / 1e6
             continue
         times.append(t2 - t0)
+        cpu.append(c2 - c0)
         plan_times.append(t1 - t0)
         refs.append(ref)
+        cpu_refs.append(cpu_ref)
         del plan, files
     td.cleanup()
     ms = statistics.median(times) * 1000
     ref_ms = statistics.median(refs) * 1000
+    cpu_ms, cpu_ref_ms = statistics.median(cpu) * 1000, statistics.median(cpu_refs) * 1000
     return {"case": name, "photos": photos, "output_mb": round(out_mb, 2),
             "plan_ms": round(statistics.median(plan_times) * 1000, 1),
             "render_ms": round(ms - statistics.median(plan_times) * 1000, 1),
             "total_ms": round(ms, 1), "min_ms": round(min(times) * 1000, 1), "ref_ms": round(ref_ms, 1),
-            "x_ref": round(ms / ref_ms, 2), "target_ms": TARGET_MS.get(name),
+            "x_ref": round(ms / ref_ms, 2), "cpu_ms": round(cpu_ms, 1), "cpu_ref_ms": round(cpu_ref_ms, 1),
+            "x_cpu_ref": round(cpu_ms / cpu_ref_ms, 2), "target_ms": TARGET_MS.get(name),
             "rss_loaded_mb": round(rss_loaded, 1),
             "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}
 
@@ -130,9 +135,9 @@ def main() -> None:
     if a.case:
         print(json.dumps(run_case(a.case, a.runs)))
         return
-    cols = ["case", "photos", "plan_ms", "render_ms", "total_ms", "min_ms", "ref_ms", "x_ref", "target_ms",
-            "rss_loaded_mb", "peak_rss_mb", "output_mb"]
-    print("  ".join(f"{c:>13}" for c in cols))
+    cols = ["case", "photos", "plan_ms", "render_ms", "total_ms", "min_ms", "ref_ms", "x_ref", "cpu_ms",
+            "cpu_ref_ms", "x_cpu_ref", "target_ms", "rss_loaded_mb", "peak_rss_mb", "output_mb"]
+    print("  ".join(f"{c:>11}" for c in cols))
     for case in CASES:
         out = subprocess.run([sys.executable, __file__, "--case", case, "--runs", str(a.runs)],
                              capture_output=True, text=True)
@@ -140,7 +145,7 @@ def main() -> None:
             print(f"{case}: failed\n{out.stderr}", file=sys.stderr)
             continue
         r = json.loads(out.stdout.strip().splitlines()[-1])
-        print("  ".join(f"{str(r[c]):>13}" for c in cols), flush=True)
+        print("  ".join(f"{str(r[c]):>11}" for c in cols), flush=True)
 
 
 if __name__ == "__main__":

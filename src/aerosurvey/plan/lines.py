@@ -146,7 +146,7 @@ def cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearanc
     for s in sorted(out, key=lambda s: (s.line, s.x0)):
         k = counts.get(s.line, 0)
         counts[s.line] = k + 1
-        renum.append(LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
+        renum.append(s if s.part == k else LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
     return renum
 
 
@@ -183,4 +183,4 @@ def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeom
     segs = cut_by_zones(segs, zones_f, g.clearance)
     lines_used = sorted({s.line for s in segs})
     index = {old: new for new, old in enumerate(lines_used)}
-    return [LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
+    return [s if index[s.line] == s.line else LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
