@@ -167,6 +167,8 @@ def _geometry(g: Any, where: str = "geometry") -> str:
     if not isinstance(g, dict) or "type" not in g:
         raise InputError(f"{where} = {g!r} is not allowed: a GeoJSON geometry object")
     t = g["type"]
+    if t == "Point" and where == "geometry" and type(c := g.get("coordinates")) is list and len(c) == 2:  # most features
+        return f"<Point><coordinates>{_number(c[0], t)},{_number(c[1], t)}</coordinates></Point>"
     if t == "GeometryCollection":
         parts = g.get("geometries")
         if not isinstance(parts, list):
