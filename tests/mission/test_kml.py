@@ -166,3 +166,23 @@ def test_empty_collection_has_styles_and_no_folders() -> None:
 def test_bad_input_is_refused_naming_the_feature(fc: dict, message: str) -> None:
     with pytest.raises(InputError, match=message):
         feature_collection_to_kml(fc, "x")
+
+
+@pytest.mark.parametrize("where, bad", [("note", "\x00"), ("note", "\ud800"), ("note", "\ufffe"), ("note", "\uffff"),
+                                        ("tags", ["ok", "\udfff"]), ("id", "s\x1f"), ("key", "\x0b")])
+def test_a_character_xml_cannot_hold_is_found_anywhere_after_many_good_features(where: str, bad: object) -> None:
+    """The document is checked once as a whole; the error still names the feature and the text."""
+    good = [feature("station", {"type": "Point", "coordinates": [15.0 + k * 1e-5, 49.4, 80.0]}, f"s{k}", id=f"s{k}",
+                    note="ž \ufffd ok", seq=k) for k in range(1, 200)]
+    odd = feature("station", {"type": "Point", "coordinates": [15.0, 49.4]}, "odd")
+    if where == "key":
+        odd["properties"][f"k{bad}"] = 1
+    else:
+        odd["properties"][where] = bad
+    fc = {"type": "FeatureCollection", "features": [*good[:150], odd, *good[150:]]}
+    with pytest.raises(InputError, match=r"feature 151 .*is not allowed: text without control characters \(found U\+"):
+        feature_collection_to_kml(fc, "x")
+    fc["features"].pop(150)
+    assert "ž \ufffd ok" in feature_collection_to_kml(fc, "x")
+    with pytest.raises(InputError, match=r"document name = .* \(found U\+FFFF\)"):
+        feature_collection_to_kml(fc, "name\uffff")

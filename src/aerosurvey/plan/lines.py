@@ -120,9 +120,16 @@ def cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearanc
         return segs
     out: list[LineSegment] = []
     ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
-    hits = shapely.intersection(shapely.linestrings(ends.reshape(-1, 2, 2)), zones_f)
+    # only runs whose box meets the zones' box can meet a zone: the heading search cuts dozens of
+    # layouts, and most runs lie far from every zone
+    zx0, zy0, zx1, zy1 = zones_f.bounds
+    near = np.flatnonzero((ends[:, 1] >= zy0) & (ends[:, 1] <= zy1) & (ends[:, 2] >= zx0) & (ends[:, 0] <= zx1))
+    hits: list[BaseGeometry | None] = [None] * len(segs)
+    if len(near):
+        for i, hit in zip(near.tolist(), shapely.intersection(shapely.linestrings(ends[near].reshape(-1, 2, 2)), zones_f)):
+            hits[i] = None if hit.is_empty else hit
     for seg, hit in zip(segs, hits):
-        if hit.is_empty:
+        if hit is None:
             out.append(seg)
             continue
         xs = seg.xs()
@@ -139,7 +146,7 @@ def cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearanc
     for s in sorted(out, key=lambda s: (s.line, s.x0)):
         k = counts.get(s.line, 0)
         counts[s.line] = k + 1
-        renum.append(LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
+        renum.append(s if s.part == k else LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
     return renum
 
 
@@ -176,4 +183,4 @@ def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeom
     segs = cut_by_zones(segs, zones_f, g.clearance)
     lines_used = sorted({s.line for s in segs})
     index = {old: new for new, old in enumerate(lines_used)}
-    return [LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
+    return [s if index[s.line] == s.line else LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]

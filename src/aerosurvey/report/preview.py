@@ -34,6 +34,12 @@ class _View:
     def pt(self, x: float, y: float) -> tuple[float, float]:
         return self.ox + (x - self.x0) * self.s, self.oy + (self.y1 - y) * self.s
 
+    def pts(self, x: np.ndarray, y: np.ndarray) -> tuple[list[float], list[float]]:
+        """`pt` of many points at once (the same arithmetic, so the same numbers)."""
+        px: list[float] = (self.ox + (np.asarray(x, float) - self.x0) * self.s).tolist()
+        py: list[float] = (self.oy + (self.y1 - np.asarray(y, float)) * self.s).tolist()
+        return px, py
+
     def path(self, geom: BaseGeometry) -> str:
         out = []
         for poly in shapely.get_parts(geom):
@@ -90,7 +96,8 @@ def render_svg(plan: Plan, rules: list[RuleResult] | None = None, points: list[C
         parts.append(f'<line x1="{a[0]:.1f}" y1="{a[1]:.1f}" x2="{b[0]:.1f}" y2="{b[1]:.1f}" stroke="{colours.get(r.pass_index, "#555")}" '
                      f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></line>')
     if len(st.ids) <= 20000:
-        dots = "".join(f"M{p[0]:.1f},{p[1]:.1f}h0.01" for p in (view.pt(x, y) for x, y in zip(st.x, st.y)))
+        dx, dy = view.pts(st.x, st.y)
+        dots = "".join([f"M{a:.1f},{b:.1f}h0.01" for a, b in zip(dx, dy)])
         parts.append(f'<path d="{dots}" stroke="#111" stroke-width="2.5" stroke-linecap="round"><title>photo stations</title></path>')
     hx, hy = view.pt(*plan.home_xy)
     parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2">'

@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Callable
 from functools import lru_cache
 from typing import Any
 
@@ -44,17 +45,35 @@ STYLES: dict[str, tuple[str, str, float, str, float]] = {
     "uncovered": ("ff0080ff", "990080ff", 2.0, "ff0080ff", 1.0),
     "other": ("ff555555", "33555555", 1.0, "ff555555", 1.0),
 }
-_ESC = str.maketrans({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;"})
+_ESCAPES = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;"}
+_ESC = str.maketrans(_ESCAPES)
 _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+# escapes as _ESC, and every character XML cannot hold becomes U+FFFF (itself one), so that one
+# search for that character in the finished document tells whether any text held one
+_NOT_XML_CODES = [*range(0x00, 0x09), 0x0B, 0x0C, *range(0x0E, 0x20), *range(0xD800, 0xE000), 0xFFFE]
+_ESC_MARK = str.maketrans(_ESCAPES | dict.fromkeys(_NOT_XML_CODES, "\uffff"))
 
 
 def _text(value: str, where: str) -> str:
     """XML-escaped text; a character XML 1.0 cannot carry is an error, not silently dropped."""
-    bad = _NOT_XML.search(value)
-    if bad:
-        raise InputError(f"{where} = {value!r} is not allowed: text without control characters "
-                         f"(found U+{ord(bad.group()):04X})")
+    if _NOT_XML.search(value):
+        raise _not_xml(value, where)
     return value.translate(_ESC)
+
+
+def _not_xml(value: str, where: str) -> InputError:
+    bad = _NOT_XML.search(value)
+    assert bad is not None
+    return InputError(f"{where} = {value!r} is not allowed: text without control characters (found U+{ord(bad.group()):04X})")
+
+
+def _escaped(value: str, where: str) -> str:
+    """XML-escaped text, checked later: a character XML cannot carry is written as U+FFFF, the
+    document is searched once for it, and only then made again with `_text` to say where it is."""
+    return value.translate(_ESC_MARK)
+
+
+Escape = Callable[[str, str], str]
 
 
 def _value(v: Any) -> str:
@@ -78,26 +97,54 @@ def _data_open(key: str) -> str | None:
     return f'<Data name="{key.translate(_ESC)}"><value>'
 
 
-def _cell(key: Any, v: Any) -> str:
-    opening = _data_open(str(key))
-    if opening is None:
-        _text(str(key), "property name")
+def _data_text(v: Any) -> str:
+    """A property value as it goes into <value>: `_value`, XML-escaped where it can hold markup."""
+    if type(v) is str:
+        return v.translate(_ESC_MARK)
+    if type(v) is float and v - v == 0.0:  # finite
+        return repr(v)
     if v is None or isinstance(v, (bool, int, float)):
-        return f"{opening}{_value(v)}</value></Data>"
-    return f"{opening}{_text(_value(v), f'property {key!r}')}</value></Data>"
+        return _value(v)
+    return _value(v).translate(_ESC_MARK)
+
+
+@lru_cache(maxsize=256)
+def _cells(keys: tuple[Any, ...]) -> tuple[tuple[Any, ...], str]:
+    """The keys in their order (`id` first, then by name) and the Data elements' %-template; cached
+    because thousands of features share a few key sets. A name XML cannot hold is an error."""
+    order = (("id",) if "id" in keys else ()) + tuple(sorted((k for k in keys if k != "id"), key=str))
+    cells = []
+    for k in order:
+        opening = _data_open(str(k))
+        if opening is None:
+            raise _not_xml(str(k), "property name")
+        cells.append(opening.replace("%", "%%") + "%s</value></Data>")
+    return order, "".join(cells)
+
+
+def _check_values(data: dict[str, Any], keys: tuple[Any, ...]) -> None:
+    """Every text value free of characters XML cannot hold, or an error naming the property."""
+    for k in keys:
+        v = data[k]
+        if not (v is None or isinstance(v, (bool, int, float))):
+            _text(_value(v), f"property {k!r}")
 
 
 def _number(c: Any, where: str) -> str:
-    if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c):
+    if type(c) is float and c - c == 0.0:  # finite: most are written as repr writes them
+        text = repr(c)
+        return text if text[-2:] != ".0" and "e" not in text else format_number(c)
+    if type(c) is not float and (isinstance(c, bool) or not isinstance(c, (int, float))) or not math.isfinite(c):
         raise InputError(f"{where} = {c!r} is not allowed: a finite number")
     return format_number(c)
 
 
 def _position(p: Any, where: str, with_z: bool) -> str:
-    if not isinstance(p, (list, tuple)) or not 2 <= len(p) <= 3:
+    if type(p) is not list and not isinstance(p, (list, tuple)) or not 2 <= len(p) <= 3:
         raise InputError(f"{where} = {p!r} is not allowed: [longitude, latitude] or [longitude, latitude, height]")
-    n = 3 if with_z and len(p) == 3 else 2
-    return ",".join([_number(c, where) for c in p[:n]])
+    if with_z and len(p) == 3:
+        return f"{_number(p[0], where)},{_number(p[1], where)},{_number(p[2], where)}"
+    return f"{_number(p[0], where)},{_number(p[1], where)}"
 
 
 def _positions(seq: Any, where: str, minimum: int) -> list[Any]:
@@ -120,6 +167,8 @@ def _geometry(g: Any, where: str = "geometry") -> str:
     if not isinstance(g, dict) or "type" not in g:
         raise InputError(f"{where} = {g!r} is not allowed: a GeoJSON geometry object")
     t = g["type"]
+    if t == "Point" and where == "geometry" and type(c := g.get("coordinates")) is list and len(c) == 2:  # most features
+        return f"<Point><coordinates>{_number(c[0], t)},{_number(c[1], t)}</coordinates></Point>"
     if t == "GeometryCollection":
         parts = g.get("geometries")
         if not isinstance(parts, list):
@@ -150,15 +199,18 @@ def _geometry(g: Any, where: str = "geometry") -> str:
                      "or GeometryCollection")
 
 
-def _placemark(f: dict[str, Any], props: dict[str, Any], role: str) -> str:
+def _placemark(f: dict[str, Any], props: dict[str, Any], role: str, text: Escape) -> str:
     """One Placemark: named by its id (else its role), the id and properties as Data, then the geometry."""
-    data: dict[str, Any] = {}
-    if f.get("id") is not None:
-        data["id"] = f["id"]
-    data.update(props)
-    keys = (["id"] if "id" in data else []) + sorted((k for k in data if k != "id"), key=str)
-    name = _text(_value(data.get("id", role)), "id")
-    cells = "".join([_cell(k, data[k]) for k in keys])
+    fid = f.get("id")
+    data: dict[str, Any] = props if fid is None or "id" in props else {"id": fid, **props}
+    name = text(_value(data.get("id", role)), "id")
+    keys, template = _cells(tuple(data))
+    if text is _text:
+        _check_values(data, keys)
+    # the common values (text, finite floats, whole numbers) inline: this runs for every property of thousands of stations
+    cells = template % tuple([v.translate(_ESC_MARK) if type(v) is str
+                              else repr(v) if type(v) is int or type(v) is float and v - v == 0.0
+                              else _data_text(v) for v in map(data.__getitem__, keys)])
     geom = "" if f.get("geometry") is None else _geometry(f["geometry"])
     return (f"<Placemark><name>{name}</name><styleUrl>#{role}</styleUrl>"
             f"<ExtendedData>{cells}</ExtendedData>{geom}</Placemark>")
@@ -175,6 +227,13 @@ def _style(role: str) -> str:
 
 def feature_collection_to_kml(fc: dict[str, Any], name: str) -> str:
     """KML text for `fc`, one Folder per role in ROLE_ORDER (empty roles left out), named `name`."""
+    out = _document(fc, name, _escaped)
+    if not out.isascii() and "\uffff" in out:  # rare: made again, checking every text, to name where
+        return _document(fc, name, _text)
+    return out
+
+
+def _document(fc: dict[str, Any], name: str, text: Escape) -> str:
     if not isinstance(fc, dict) or not isinstance(fc.get("features"), list):
         raise InputError("KML export: the input is not a GeoJSON FeatureCollection with a 'features' list")
     by_role: dict[str, list[str]] = {}
@@ -187,14 +246,14 @@ def feature_collection_to_kml(fc: dict[str, Any], name: str) -> str:
         role = props.get("role", "other")
         role = role if isinstance(role, str) and role in STYLES else "other"
         try:
-            mark = _placemark(f, props, role)
+            mark = _placemark(f, props, role, text)
         except InputError as exc:
             fid = f.get("id", props.get("id"))
             where = f"KML export: feature {k}" + (f" (id {fid!r})" if fid is not None else "")
             raise InputError(f"{where} {exc}") from None
         by_role.setdefault(role, []).append(mark)
     out = ['<?xml version="1.0" encoding="UTF-8"?>', '<kml xmlns="http://www.opengis.net/kml/2.2">',
-           f"<Document><name>{_text(name, 'KML export: document name')}</name>"]
+           f"<Document><name>{text(name, 'KML export: document name')}</name>"]
     out += [_style(role) for role in ROLE_ORDER]
     for role in ROLE_ORDER:
         marks = by_role.get(role)

@@ -32,17 +32,13 @@ _WHOLE = {"seq": 2**31 - 1, "current": 1, "frame": 255, "command": 65535, "autoc
 
 def format_number(v: float) -> str:
     """The shortest positional decimal that parses back to `v` ("nan" for NaN; infinity is refused by callers)."""
-    v = float(v)
-    if math.isnan(v):
-        return "nan"
-    if v == 0.0:
-        return "0"
-    text = repr(v)
+    text = repr(float(v))
+    if text[-2:] == ".0":  # whole numbers, both zeros included ("-0.0" is "0")
+        return "0" if text == "-0.0" else text[:-2]
     if "e" in text:
         text = format(Decimal(text), "f")
-    if text.endswith(".0"):
-        text = text[:-2]
-    return text
+        return text[:-2] if text.endswith(".0") else text
+    return text  # "nan" and "inf" as repr writes them
 
 
 def _num(v: float, where: str, *, nan_ok: bool) -> str:
