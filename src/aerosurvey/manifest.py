@@ -120,7 +120,8 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> d
         r = np.round(np.asarray(a, float), nd)
         return [None if not math.isfinite(v) else v for v in r.tolist()]
 
-    columns = zip(st.ids, [_run_id(plan, int(r)) for r in st.run], col(st.x, 3), col(st.y, 3), col(st.lon, 8),
+    run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
+    columns = zip(st.ids, [run_ids[r] for r in st.run.tolist()], col(st.x, 3), col(st.y, 3), col(st.lon, 8),
                   col(st.lat, 8), col(st.ground_m, 2), col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3),
                   col(st.heading_deg, 3))
     stations = [

@@ -68,10 +68,15 @@ class AreaGrid:
         g = strip_geometry(sensor, self.images_beyond_boundary, k)
         lead = sensor.lead_in_m * k
 
+        laid: dict[float, tuple[LineFrame, list[LineSegment]]] = {}
+
         def lines_for(h: float) -> tuple[LineFrame, list[LineSegment]]:
-            fr = LineFrame(h)
-            zf = fr.geom_to_frame(site.zones_buffered) if site.zones_buffered is not None else None
-            return fr, build_lines(fr.geom_to_frame(covered), zf, g)
+            # the heading search lays every candidate; the chosen one is not laid again
+            if h not in laid:
+                fr = LineFrame(h)
+                zf = fr.geom_to_frame(site.zones_buffered) if site.zones_buffered is not None else None
+                laid[h] = (fr, build_lines(fr.geom_to_frame(covered), zf, g))
+            return laid[h]
 
         if self.heading_deg is None:
             n_cand = len(candidate_headings(covered)) + 10
