@@ -32,6 +32,9 @@ bench: install
 	$(BIN)/python benchmarks/repro_bench.py
 	$(BIN)/python benchmarks/log_bench.py
 	$(BIN)/python benchmarks/upload_bench.py
+	$(BIN)/python benchmarks/inprocess_bench.py
+	$(BIN)/python benchmarks/manifest_bench.py
+	$(BIN)/python benchmarks/safety_bench.py
 
 clean:
 	rm -rf out build dist src/*.egg-info .pytest_cache .hypothesis
