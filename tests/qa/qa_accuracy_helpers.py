@@ -33,3 +33,30 @@ def make_points(dx: Any, dy: Any, dz: Any = None, x: Any = None, y: Any = None, 
 def scaled_to(e: np.ndarray, rms: float) -> np.ndarray:
     """`e` rescaled so that sqrt(mean(e²)) = rms."""
     return e * rms / math.sqrt(float(np.mean(e**2)))
+
+
+def planned_square(folder, side_m: float, name: str, profiles: tuple[str, ...] = ()):
+    """`aerosurvey plan` of a side_m square at 2 cm GSD in UTM 33N (corner 500000, 5470000) into `folder`."""
+    import json as _json
+
+    import pyproj
+    import tomli_w
+    from click.testing import CliRunner
+
+    from aerosurvey.cli import main
+
+    src = folder.parent / f"{folder.name}-spec"
+    src.mkdir()
+    t = pyproj.Transformer.from_crs("EPSG:32633", "OGC:CRS84", always_xy=True)
+    x0, y0 = 500000.0, 5470000.0
+    corners = [(x0, y0), (x0 + side_m, y0), (x0 + side_m, y0 + side_m), (x0, y0 + side_m), (x0, y0)]
+    ring = [[round(v, 9) for v in t.transform(a, b)] for a, b in corners]
+    (src / "area.geojson").write_text(_json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+    spec = {"mission": {"name": name, "crs": "EPSG:32633"}, "area": {"file": "area.geojson"},
+            "camera": {"model": "sony-a6000-16mm"}, "targets": {"gsd_cm": 2.0}, "flight": {"heading": 0.0},
+            "rules": {"profiles": list(profiles)}}
+    (src / "spec.toml").write_text(tomli_w.dumps(spec))
+    res = CliRunner().invoke(main, ["plan", str(src / "spec.toml"), "-o", str(folder)])
+    assert res.exit_code == 0, res.output
+    return folder

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from qa_accuracy_helpers import make_points
+from qa_accuracy_helpers import make_points, planned_square
 
 from aerosurvey.cli import main
 from aerosurvey.qa.assessment import Settings, assess
@@ -77,19 +77,8 @@ def test_mixed_roles_test_only_the_check_points() -> None:
 
 
 def _campaign(folder: Path, proposed: dict[str, str]) -> Path:
-    """A plan folder as `aerosurvey plan` + `aerosurvey gcp` write it (the keys docs/manifest.md names)."""
-    folder.mkdir()
-    (folder / "manifest.json").write_text(json.dumps({
-        "schema": "aerosurvey-manifest", "schema_version": 1, "mission": {"name": "grid test"},
-        "crs": {"planning": "EPSG:32633", "geographic": "EPSG:4326"}, "targets": {"gsd_cm": 2.0},
-        "estimates": {"photos": 412}, "derived": {"area_ha": 36.0, "gsd_min_cm": 1.9, "gsd_max_cm": 2.1}}))
-    import pyproj
-    t = pyproj.Transformer.from_crs("EPSG:32633", "OGC:CRS84", always_xy=True)
-    corners = [(500000, 5470000), (500600, 5470000), (500600, 5470600), (500000, 5470600), (500000, 5470000)]
-    ring = [list(t.transform(a, b)) for a, b in corners]
-    (folder / "plan.geojson").write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"role": "area", "id": "area"},
-         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+    """A plan folder as `aerosurvey plan` + `aerosurvey gcp` write it: 36 ha planned at 2 cm."""
+    planned_square(folder, 600.0, "grid test")
     (folder / "control_points.csv").write_text(
         "id,role,easting,northing,lat,lon,crs,target_size_cm,images,note\n"
         + "".join(f"{k},{v},0,0,0,0,EPSG:32633,7,10,\n" for k, v in proposed.items()))
@@ -105,7 +94,8 @@ def test_campaign_links_area_layout_and_gsd(tmp_path: Path) -> None:
     proposed = {k: ("control" if v == "GCP" else v) for k, v in proposed.items()}
     camp = _campaign(tmp_path / "plan", {k: ("GCP" if v == "control" else "CP") for k, v in proposed.items()})
     c = read_campaign(camp)
-    assert c.area_km2 == pytest.approx(0.36) and c.proposed["P1"] == "control" and c.photos == 412
+    photos = json.loads((camp / "manifest.json").read_text())["estimates"]["photos"]
+    assert c.area_km2 == pytest.approx(0.36) and c.proposed["P1"] == "control" and c.photos == photos > 100
     r = assess(make_points(dx, dy, dz, x=x, y=y, crs="EPSG:32633"), Settings(standard="asprs2014"), c)
     assert r["area_km2"] == pytest.approx(0.36) and r["required_check_points"]["horizontal"] == 20
     assert any("proposed by the plan's layout as GCPs (P1)" in w for w in r["warnings"])

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 from click.testing import CliRunner, Result
-from qa_accuracy_helpers import KUBAD, make_points, scaled_to
+from qa_accuracy_helpers import KUBAD, make_points, planned_square, scaled_to
 from scipy import stats
 
 from aerosurvey.cli import main
@@ -195,12 +195,7 @@ def test_edition_2_counts_beyond_2500_km2_are_capped_at_120() -> None:
 
 
 def test_campaign_rule_one_check_point_per_3_ha(tmp_path: Path) -> None:
-    folder = tmp_path / "plan"
-    folder.mkdir()
-    (folder / "manifest.json").write_text(json.dumps({
-        "schema": "aerosurvey-manifest", "schema_version": 1,
-        "mission": {"name": "cz", "profiles": ["cz-land-consolidation"]},
-        "crs": {"planning": "EPSG:32633"}, "derived": {"area_ha": 72.0}}))
+    folder = planned_square(tmp_path / "plan", 720_000 ** 0.5, "cz", ("cz-land-consolidation",))  # 72 ha
     n = 20  # 72 ha / 3 ha = 24 check points asked by the plan's profile
     path = _csv(tmp_path / "cp.csv", _normal(n, 0.02, 1), _normal(n, 0.02, 2))
     res = _cli(str(path), "--standard", "bayes", "--ref-sigma-xy", "0.01", "--campaign", str(folder))

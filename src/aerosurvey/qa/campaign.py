@@ -24,11 +24,10 @@ import pyproj
 import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.manifest import read_manifest
 from aerosurvey.qa import validity
 from aerosurvey.qa.accuracy_input import CheckPoints, geographic_offsets
 from aerosurvey.rules.profile import select_profiles
-
-MANIFEST_SCHEMA = "aerosurvey-manifest"
 
 
 @dataclass(frozen=True)
@@ -54,18 +53,12 @@ class Campaign:
 
 
 def read_campaign(folder: Path) -> Campaign:
-    m_path = folder / "manifest.json"
-    if not m_path.is_file():
+    if not (folder / "manifest.json").is_file():
         raise InputError(f"--campaign {folder}: manifest.json is missing; give a folder written by `aerosurvey plan`")
-    try:
-        m = json.loads(m_path.read_text(encoding="utf-8"))
-        if m.get("schema") != MANIFEST_SCHEMA:
-            raise InputError(f"--campaign {folder}: manifest.json has schema {m.get('schema')!r}, "
-                             f"not {MANIFEST_SCHEMA!r}")
-        area_km2 = float(m["derived"]["area_ha"]) / 100.0
-        crs = str(m["crs"]["planning"])
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"--campaign {folder}: manifest.json is not readable as an aerosurvey manifest ({exc})") from None
+    doc = read_manifest(folder, "--campaign")
+    m = doc.raw
+    area_km2 = float(doc.derived.area_ha or 0.0) / 100.0
+    crs = doc.crs
     derived = m.get("derived") or {}
     ring = None
     g_path = folder / "plan.geojson"
@@ -87,13 +80,10 @@ def read_campaign(folder: Path) -> Campaign:
             role = str(row.get("role", "")).strip().upper()
             if row.get("id") and role in ("GCP", "CP"):
                 proposed[row["id"].strip()] = "control" if role == "GCP" else "check"
-    profiles = (m.get("mission") or {}).get("profiles") or []
-    if not isinstance(profiles, list):
-        profiles = [profiles]
-    return Campaign(str(folder), str((m.get("mission") or {}).get("name", "")), area_km2, crs,
-                    (m.get("estimates") or {}).get("photos"), (m.get("targets") or {}).get("gsd_cm"),
-                    (derived.get("gsd_min_cm"), derived.get("gsd_max_cm")), ring, proposed,
-                    tuple(str(p) for p in profiles))
+    photos = doc.estimates.get("photos")
+    return Campaign(str(folder), doc.mission.name, area_km2, crs, None if photos is None else int(photos),
+                    (m.get("targets") or {}).get("gsd_cm"), (derived.get("gsd_min_cm"), derived.get("gsd_max_cm")), ring,
+                    proposed, doc.mission.profiles)
 
 
 def area_bounds_local(c: Campaign, pts: CheckPoints) -> tuple[float, float, float, float] | None:
