@@ -303,3 +303,16 @@ def test_timeseries_runs_in_a_fresh_process(tmp_path: Path) -> None:
                        env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(src)}, timeout=300)
     assert p.returncode == 0, p.stderr
     assert (tmp_path / "ts" / "quality_mask.tif").exists() and "reproducible at every date" in p.stdout
+
+
+def test_the_layer_reports_progress_block_by_block(tmp_path: Path) -> None:
+    from aerosurvey.qa import reproducibility as rp
+
+    a, b = _planted(tmp_path)
+    seen: list[tuple[str, float]] = []
+    s = rp.Settings(block=64)
+    (tmp_path / "stage").mkdir()
+    rp.run([a, b], tmp_path / "stage", s, progress=lambda stage, done: seen.append((stage, done)))
+    blocks = len(rp.block_windows(rp.inspect([a, b]), 64))
+    assert blocks > 1 and len(seen) == blocks
+    assert [d for _, d in seen] == sorted(d for _, d in seen) and seen[-1] == ("blocks", 1.0)

@@ -7,6 +7,8 @@ from typing import Any
 
 import click
 
+from aerosurvey import console
+
 
 @click.group()
 def log() -> None:
@@ -46,8 +48,9 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
 
     geotag_dir = geotag_destination(images_dir, geotag_dir, geotag_in_place)
     view = PlanView.from_outdir(plan_dir, "--plan") if plan_dir is not None else None
-    result = ingest(flight_log, view, sortie=sortie, tolerance_m=tolerance, fixed_camera=fixed_camera, dem_path=dem_path,
-                    images_dir=images_dir)
+    with console.progress(f"log ingest {flight_log.name}") as step:
+        result = ingest(flight_log, view, sortie=sortie, tolerance_m=tolerance, fixed_camera=fixed_camera, dem_path=dem_path,
+                        images_dir=images_dir, progress=step)
     report = write_ingest(result, outdir, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, geotag_dir=geotag_dir,
                           geotag_in_place=geotag_in_place)
     _echo(report)

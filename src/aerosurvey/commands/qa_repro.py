@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from aerosurvey import console
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 
@@ -63,8 +64,8 @@ def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int, thres
         geoms = _crop_geoms(Path(crop), grid.crs)
     s = rp.Settings(window=window, threshold=threshold, crop=crop if crop in ("none", "auto") else "file",
                     crop_margin_px=crop_margin, block=block, crop_geoms=geoms, statistic=statistic, resample=resample)
-    with staged_directory(outdir) as stage:
-        summary = rp.run(paths, stage, s, scheduler)
+    with staged_directory(outdir) as stage, console.progress("reproducibility") as report:
+        summary = rp.run(paths, stage, s, scheduler, progress=report)
         rp.write_summary(stage, summary)
     click.echo(f"{summary['pairs']} pairs ({statistic} statistic): {100 * summary['reproducible_share']:.2f} % of "
                f"{summary['judged_pixels']} judged pixels reproducible in every pair; wrote reproducibility.tif, "

@@ -32,6 +32,7 @@ from aerosurvey.flight.coverage import (
 from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
 from aerosurvey.flight.images import ImageMatch, geo_txt, geotag_images, list_images, match_images, reference_csv
 from aerosurvey.manifest import Manifest, Stations
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.rules import footprints as fpm
 from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
 from aerosurvey.rules.planview import PlanView
@@ -131,14 +132,20 @@ def _dem_ground(dem_path: Path | None, view: PlanView | None) -> DemGround | Non
 
 
 def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None = None, tolerance_m: float | None = None,
-           fixed_camera: bool = False, dem_path: Path | None = None, images_dir: Path | None = None) -> Ingested:
-    """Camera events of `flight_log`; with the plan's `view`, their match to its stations and the flown coverage."""
+           fixed_camera: bool = False, dem_path: Path | None = None, images_dir: Path | None = None,
+           progress: Progress | None = None) -> Ingested:
+    """Camera events of `flight_log`; with the plan's `view`, their match to its stations and the flown coverage.
+
+    `progress` hears of each stage (the planner's signature: stage name, share done)."""
+    report_progress = progress or no_progress
     if dem_path is not None and view is None:
         _dem_ground(dem_path, view)
     stations = view.document.sortie_stations(sortie) if view is not None else None
     if sortie is not None and view is None:
         raise InputError(f"--sortie {sortie!r}: a sortie is of a plan; give --plan too", key="--sortie")
+    report_progress("reading the log", 0.0)
     ev, info = read_events(flight_log)
+    report_progress("camera events read", 0.4)
     report: dict[str, Any] = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
     img = None
     if images_dir is not None:
@@ -152,6 +159,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
     rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
     match = match_to_stations(ev, rows, tol)
+    report_progress("flown footprints and overlaps", 0.55)
     report["plan"] = {"mission": doc.mission.name, "folder": doc.where, "sortie": sortie, "median_distance_m": round(median, 3)}
     report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
                    "extra_triggers": match.extra, "far_triggers": match.far, "tolerance_m": tol,
@@ -179,8 +187,10 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides))
         rules = [dict(r.as_dict()) for r in evaluate(profiles, Evidence(flown, layout_settings(flown, profiles)))]
         report["rules_on_flown_data"] = rules
+    report_progress("flown coverage", 0.8)
     coverage = count_raster(flown, max(doc.derived.photo_base_m / 5, 0.5))
     report["coverage"] = coverage.summary
+    report_progress("done", 1.0)
     records.report_document(report)  # a report that does not match its schema is a bug: found before writing
     return Ingested(ev, match, img, photos, coverage, report, rules)
 

@@ -239,8 +239,10 @@ def probe_scheduler(address: str, timeout: float = DASK_CONNECT_TIMEOUT_S) -> No
                          "threads / local") from None
 
 
-def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads") -> dict[str, Any]:
-    """Compute the layer into `stage`/reproducibility.tif (COG) and return the summary."""
+def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads",
+        progress: Callable[[str, float], None] | None = None) -> dict[str, Any]:
+    """Compute the layer into `stage`/reproducibility.tif (COG) and return the summary; `progress`
+    hears of each block done (stage name, share done)."""
     grid = inspect(paths, s.resample)
     pl = pairs(len(paths))
     tmp = stage / ".layer.tif"
@@ -250,14 +252,19 @@ def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads")
     hist = np.zeros(len(pl) + 1, np.int64)
     str_paths = [str(p) for p in paths]
     mapper, close = _executor(scheduler)
+    windows = block_windows(grid, s.block)
+    done = 0
     try:
         with rasterio.open(tmp, "w", **profile) as dst:
-            for res in mapper(lambda win: compute_block(str_paths, grid, win, s), block_windows(grid, s.block)) \
-                    if scheduler == "threads" else mapper(_Task(str_paths, grid, s), block_windows(grid, s.block)):
+            for res in mapper(lambda win: compute_block(str_paths, grid, win, s), windows) \
+                    if scheduler == "threads" else mapper(_Task(str_paths, grid, s), windows):
                 r0, c0, h, w = res["win"]
                 dst.write(res["sum"], 1, window=Window(c0, r0, w, h))
                 pair_counts += np.asarray(res["pairs"], np.int64)
                 hist += np.asarray(res["hist"], np.int64)
+                done += 1
+                if progress is not None:
+                    progress("blocks", done / len(windows))
     finally:
         close()
     rasterio.shutil.copy(tmp, stage / "reproducibility.tif", driver="COG", compress="DEFLATE", blocksize=512,
