@@ -28,7 +28,6 @@ def load_inputs(spec: MissionSpec) -> PlanInputs:
     """Read the area, the exclusion zones and the part of the DEM the plan can reach."""
     area = read_area(spec.area.file, spec.area.wkt, spec.area.wkt_crs, "area")
     zones = tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)
-    names = tuple(p.name for p in spec.area.exclusions)
     dem = None
     if spec.terrain.dem is not None:
         from aerosurvey.plan.sensor import reach_beyond_area_m
@@ -37,7 +36,7 @@ def load_inputs(spec: MissionSpec) -> PlanInputs:
         if spec.battery is not None:
             extra += [shapely.Point(p) for p in spec.battery.launch_points]
         dem = read_dem_window(spec.terrain.dem, shapely.union_all([area, *extra]), reach_beyond_area_m(spec))
-    return PlanInputs(area, zones, names, dem)
+    return PlanInputs(area, zones, dem)
 
 
 def plan_from_files(spec: MissionSpec, progress: Progress | None = None) -> Plan:

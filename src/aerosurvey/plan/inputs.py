@@ -37,5 +37,4 @@ class PlanInputs:
 
     area_wgs84: BaseGeometry
     exclusions_wgs84: tuple[BaseGeometry, ...] = ()
-    exclusion_names: tuple[str, ...] = ()  # one per zone, for messages (file names)
     dem: DemGrid | None = None

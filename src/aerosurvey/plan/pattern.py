@@ -19,7 +19,6 @@ from aerosurvey.errors import InputError
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.lines import LineSegment, StripGeometry, build_lines
-from aerosurvey.plan.model import Heights
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.route import Pass, quick_cost
 from aerosurvey.plan.sensor import SensorSolution
@@ -110,4 +109,4 @@ def pattern_for(spec: MissionSpec) -> Pattern:
                     spec.targets.coverage_margin_m)
 
 
-__all__ = ["AreaGrid", "Heights", "Layout", "Pattern", "pattern_for", "strip_geometry"]
+__all__ = ["AreaGrid", "Layout", "Pattern", "pattern_for", "strip_geometry"]

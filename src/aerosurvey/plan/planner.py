@@ -19,15 +19,15 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.altitudes import assign_altitudes
-from aerosurvey.plan.coverage import coverage_shortfall
+from aerosurvey.plan.altitudes import Altitudes, assign_altitudes
+from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.plan.landing import climb_out_m
 from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Plan, RouteWaypoint, SortiePlan, Stations
-from aerosurvey.plan.pattern import pattern_for
+from aerosurvey.plan.pattern import Layout, pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours
 from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
@@ -52,20 +52,13 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
     limit_warnings = check_limits(spec, site, sensor)
     layout = pattern_for(spec).layout(site, sensor, report)
     report("route", 0.72)
-    routed = plan_route(spec, site, sensor, layout)
-    home_ground = _ground(site, routed.home_xy, "launch point")
-    report("heights along the route", 0.8)
-    alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
-    report("coverage next to the zones", 0.84)
-    coverage = coverage_shortfall(spec, site, sensor, alts.stations)
+    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout)
     extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
     if extra:
         # lines along the zones' margins where the cut lines leave ground unphotographed
+        report("lines along the zones", 0.85)
         layout = replace(layout, passes=layout.passes + extra)
-        routed = plan_route(spec, site, sensor, layout)
-        home_ground = _ground(site, routed.home_xy, "launch point")
-        alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
-        coverage = coverage_shortfall(spec, site, sensor, alts.stations)
+        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout)
     waypoints = _with_transits(alts.waypoints, routed, site)
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
@@ -98,6 +91,15 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
         fence_inclusion=fence.inclusion, fence_exclusion=fence.exclusion, launch_sites=sites, sorties=sorties,
         battery=budget, coverage=coverage,
     )
+
+
+def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution,
+         layout: Layout) -> tuple[RoutePlan, float, Altitudes, Coverage]:
+    """Route, altitudes and the coverage check of a layout."""
+    routed = plan_route(spec, site, sensor, layout)
+    home_ground = _ground(site, routed.home_xy, "launch point")
+    alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
+    return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations)
 
 
 def _with_transits(survey: tuple[RouteWaypoint, ...], routed: RoutePlan, site: Site) -> tuple[RouteWaypoint, ...]:
@@ -136,7 +138,7 @@ def _zone_warnings(spec: MissionSpec, site: Site) -> tuple[str, ...]:
     if lost <= 0:
         return ()
     return (f"{lost / 1e4:.2f} ha of the area lie in exclusion zones or their {spec.flight.exclusion_margin_m:g} m margin "
-            "and are not photographed from above; coverage next to them is reduced",)
+            "and are not photographed from above (the rule uncovered-ground gives what next to them no two photos see)",)
 
 
 def launch_sites(spec: MissionSpec, site: Site, home_xy: tuple[float, float],
