@@ -134,6 +134,14 @@ class _Run:
     invalid_sentences: Callable[[], list[str]] | None = None
 
 
+def _class_limits(t: CheckPoints, s: Settings) -> tuple[float | None, float | None, np.ndarray]:
+    """The horizontal and vertical class asked for, in metres (None: no class asked, figures only),
+    and which points test the non-vegetated vertical accuracy."""
+    x_h = s.class_h_cm / 100 if s.class_h_cm is not None else None
+    x_v = s.class_v_cm / 100 if s.class_v_cm is not None else None
+    return x_h, x_v, np.isfinite(t.dz) & ~t.vegetated
+
+
 def _run_asprs2014(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     result = asprs.evaluate_2014(t.dx, t.dy, t.dz, t.vegetated, s.class_h_cm, s.class_v_cm)
 
@@ -159,9 +167,7 @@ def _run_asprs2014(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     run.warnings += review.survey_findings(sx, sz, product_h, product_v, asprs.SURVEY_RATIO_2014,
                                            "ASPRS 2014 asks for 3x")
     # the survey and mean-error conditions apply to the class asked for (none asked: figures reported only)
-    x_h = s.class_h_cm / 100 if s.class_h_cm is not None else None
-    x_v = s.class_v_cm / 100 if s.class_v_cm is not None else None
-    nva = np.isfinite(t.dz) & ~t.vegetated
+    x_h, x_v, nva = _class_limits(t, s)
 
     def conditions(v: validity.Validity) -> None:
         req = run.required
@@ -211,9 +217,7 @@ def _run_asprs2023(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     product_v = s.class_v_cm / 100 if s.class_v_cm is not None else result["rmse_v_m"]
     run.warnings += review.survey_findings(sx, sz, per_axis_h, product_v, asprs.SURVEY_RATIO_2023,
                                            "Edition 2: about 2x, not confirmed")
-    x_h = s.class_h_cm / 100 if s.class_h_cm is not None else None
-    x_v = s.class_v_cm / 100 if s.class_v_cm is not None else None
-    nva = np.isfinite(t.dz) & ~t.vegetated
+    x_h, x_v, nva = _class_limits(t, s)
 
     def conditions(v: validity.Validity) -> None:
         req = run.required
