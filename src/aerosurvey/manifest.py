@@ -97,6 +97,15 @@ def _run_id(plan: Plan, run: int) -> str:
     return ids.run_id(r.pass_index, r.line, r.part)
 
 
+def _coverage(plan: Plan) -> dict[str, Any]:
+    """The required ground and what of it next to the zones fewer than MIN_IMAGES photos see."""
+    from aerosurvey.plan.coverage import MIN_IMAGES  # the writer's; the reader does not load the planner
+
+    c = plan.coverage
+    return {"min_images": MIN_IMAGES, "required_m2": round(c.required_m2, 1), "checked_m2": round(c.checked_m2, 1),
+            "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
+
+
 def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
     """The manifest as plain JSON data. `outputs` maps each written file name to its sha256."""
     spec = plan.spec
@@ -193,6 +202,7 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> d
             "reserve": plan.spec.battery.reserve, "wind_ms": plan.spec.battery.wind_ms,
             "max_mission_items": plan.spec.battery.max_mission_items},
         "warnings": list(plan.warnings),
+        "coverage": _coverage(plan),
     }
 
 

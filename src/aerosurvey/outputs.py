@@ -67,12 +67,6 @@ def final_gate(plan: Plan, missions: dict[str, Mission]) -> None:
         raise CheckFailed("the plan is not written: " + "; ".join(v.message() for v in bad[:3]) + more)
 
 
-def coverage_section(plan: Plan) -> dict[str, Any]:
-    c = plan.coverage
-    return {"min_images": MIN_IMAGES, "required_m2": round(c.required_m2, 1), "checked_m2": round(c.checked_m2, 1),
-            "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
-
-
 def uncovered_rule(plan: Plan) -> dict[str, Any]:
     """The planner's own rule result: required ground fewer than two photos see (next to the zones)."""
     c = plan.coverage
@@ -129,8 +123,6 @@ def render_outputs(plan: Plan) -> Rendered:
     final_gate(plan, missions)
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, len(mission.items), {})
-    manifest["warnings"] = list(warnings)
-    manifest["coverage"] = coverage_section(plan)
     results, points, evidence = _rules(plan, manifest, fc)
     for r in results:
         if r.status in ("fail", "warning"):
