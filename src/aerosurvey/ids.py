@@ -36,6 +36,12 @@ def station_id(pass_index: int, line: int, station: int) -> str:
     return f"{line_id(pass_index, line)}-S{station + 1:04d}"
 
 
+def station_ids(pass_index: int, line: int, stations: list[int]) -> list[str]:
+    """`station_id` of each of one line's stations (the line's part made once)."""
+    prefix = f"{line_id(pass_index, line)}-S"
+    return [f"{prefix}{s + 1:04d}" for s in stations]
+
+
 def parse_station_id(text: str) -> StationRef:
     """The parts of a station id; ValueError for text that is not one."""
     m = _STATION.match(text)

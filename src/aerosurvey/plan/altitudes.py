@@ -27,15 +27,13 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     """Stations with ids and altitudes, and the route's waypoints with theirs."""
     runs = route.runs
     sid: list[str] = []
-    run_idx, xs, ys, hd = [], [], [], []
-    for i, r in enumerate(runs):
-        for j, s in enumerate(r.station_index):
-            sid.append(ids.station_id(r.pass_index, r.line, int(s)))
-            run_idx.append(i)
-            xs.append(r.station_xy[j, 0])
-            ys.append(r.station_xy[j, 1])
-            hd.append(r.heading_deg)
-    x, y = np.asarray(xs), np.asarray(ys)
+    for r in runs:
+        sid += ids.station_ids(r.pass_index, r.line, np.asarray(r.station_index, int).tolist())
+    counts = [len(r.station_index) for r in runs]
+    xy = np.concatenate([np.asarray(r.station_xy, float).reshape(-1, 2) for r in runs]) if runs else np.zeros((0, 2))
+    x, y = xy[:, 0].copy(), xy[:, 1].copy()
+    run_idx = np.repeat(np.arange(len(runs)), counts)
+    hd = np.repeat(np.asarray([r.heading_deg for r in runs], float), counts)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
     if mode == "fixed":
@@ -49,7 +47,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
         alt_rel = np.full(len(x), heights.nominal_agl_m)
         agl = np.full(len(x), heights.nominal_agl_m)
     lon, lat = planar.lonlat(x, y)
-    stations = Stations(sid, np.asarray(run_idx, int), x, y, lon, lat, ground, alt_rel, agl, np.asarray(hd))
+    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd)
 
     start_of_run = np.searchsorted(stations.run, np.arange(len(runs)))
     end_of_run = np.searchsorted(stations.run, np.arange(len(runs)), side="right")
