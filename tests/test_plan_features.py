@@ -53,3 +53,17 @@ def test_each_line_names_its_first_and_last_station_and_counts_its_photos(plan) 
     for i, props in enumerate(lines):
         mine = [sid for sid, r in zip(st.ids, st.run.tolist()) if r == i]
         assert (props["first_station"], props["last_station"], props["photos"]) == (mine[0], mine[-1], len(mine))
+
+
+def test_geojson_text_is_the_features_as_json(plan) -> None:
+    """plan.geojson's text (footprints written straight from arrays) is the FeatureCollection
+    with footprints, as json writes it; the collection handed to the KML and the rules has all
+    but the footprints."""
+    import json
+
+    from aerosurvey.report.features import plan_geojson
+
+    fc, text = plan_geojson(plan)
+    full = plan_features(plan)
+    assert text == json.dumps(full, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    assert fc["features"] == [f for f in full["features"] if f["properties"]["role"] != "footprint"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -12,6 +11,7 @@ from aerosurvey import ids
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.gcpause import collector_paused
 from aerosurvey.mission.builder import build_mission
 from aerosurvey.mission.formats.kml import feature_collection_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
@@ -25,7 +25,7 @@ from aerosurvey.plan.planner import Plan
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
     from aerosurvey.rules.engine import Evidence, RuleResult
-from aerosurvey.report.features import plan_features
+from aerosurvey.report.features import plan_geojson
 from aerosurvey.report.preview import render_svg
 
 
@@ -82,10 +82,6 @@ def uncovered_rule(plan: Plan) -> dict[str, Any]:
             "where": where, "source": "aerosurvey planner (plan/coverage.py)"}
 
 
-def _without(fc: dict[str, Any], role: str) -> dict[str, Any]:
-    return {**fc, "features": [f for f in fc["features"] if f["properties"].get("role") != role]}
-
-
 def _rules(plan: Plan, manifest: dict[str, Any],
            features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
     """Evaluate the spec's rule profiles on the plan as later readers will see it."""
@@ -102,16 +98,25 @@ def _rules(plan: Plan, manifest: dict[str, Any],
 
 
 def render_outputs(plan: Plan) -> Rendered:
-    """File name → text of every output (the manifest last: it lists the others' hashes)."""
+    """File name → text of every output (the manifest last: it lists the others' hashes).
+
+    The collector is paused: rendering makes hundreds of thousands of objects (features,
+    manifest rows, texts) that live until it returns, and each collection walked them all
+    again. Measured on the 100 km² benchmark (51,379 photos): 1,505 → 967 ms CPU."""
+    with collector_paused():
+        return _render(plan)
+
+
+def _render(plan: Plan) -> Rendered:
     mission = build_mission(plan, name=plan.spec.name)
-    fc = plan_features(plan)
+    fc, geojson = plan_geojson(plan)
     missions = {"mission": mission}
     files = {
         "mission.plan": dumps_plan(mission),
         "mission.waypoints": dumps_wpl(mission),
-        "plan.geojson": json.dumps(fc, separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n",
-        # footprints stay in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
-        "plan.kml": feature_collection_to_kml(_without(fc, "footprint"), plan.spec.name),
+        "plan.geojson": geojson + "\n",
+        # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
+        "plan.kml": feature_collection_to_kml(fc, plan.spec.name),
     }
     for k, (sortie, wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[sortie.launch]

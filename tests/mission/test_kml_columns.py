@@ -1,0 +1,71 @@
+"""Points written a column at a time give the very text that writing them one by one gives,
+for ordinary stations and for every odd value a feature can hold; an odd point among many is
+still refused naming that feature."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aerosurvey.errors import InputError
+from aerosurvey.mission.formats import kml
+
+number = st.floats(-200, 200, allow_nan=False) | st.builds(round, st.floats(-200, 200), st.integers(0, 9)) \
+    | st.sampled_from([1e-5, -0.0, 3.0, 1e16, 2.5e-7])
+value = (st.none() | st.booleans() | st.integers(-10**6, 10**6) | number | st.sampled_from([math.nan, math.inf])
+         | st.text(alphabet=st.sampled_from('aZ-&<>"\' ž%\u2028'), max_size=6) | st.lists(st.integers(), max_size=2))
+
+
+@st.composite
+def points(draw: st.DrawFn) -> dict:
+    n = draw(st.integers(1, 12))
+    names = draw(st.lists(st.sampled_from(["id", "seq", "alt_rel_m", "line", "note", "%s"]), unique=True, max_size=4))
+    dims = draw(st.sampled_from([2, 3]))
+    same_dims = draw(st.booleans())
+    with_fid = draw(st.booleans())
+    role = draw(st.sampled_from(["station", "gcp", "bogus"]))
+    feats = []
+    for i in range(n):
+        props = {"role": role, **{k: draw(value) for k in names}}
+        d = dims if same_dims else draw(st.sampled_from([2, 3]))
+        coords = [draw(number) for _ in range(d)]
+        f = {"type": "Feature", "properties": props, "geometry": {"type": "Point", "coordinates": coords}}
+        if with_fid:
+            f["id"] = f"S{i}"
+        feats.append(f)
+    return {"type": "FeatureCollection", "features": feats}
+
+
+def one_by_one(fc: dict) -> str:
+    return kml._document(fc, "x", kml._escaped)
+
+
+@settings(max_examples=300)
+@given(points())
+def test_columns_give_the_same_text(fc: dict) -> None:
+    assert kml._document(fc, "x", kml._escaped, points_by_column=True) == one_by_one(fc)
+
+
+def stations(n: int) -> list[dict]:
+    return [{"type": "Feature", "id": f"P1-L001-S{k:04d}", "properties": {
+        "role": "station", "id": f"P1-L001-S{k:04d}", "seq": k, "line": "P1-L001", "alt_rel_m": 80.25 + k, "agl_m": 80.0,
+        "heading_deg": 12.5}, "geometry": {"type": "Point", "coordinates": [15.0 + k * 1e-5, 49.4 + k * 1e-6]}}
+        for k in range(1, n + 1)]
+
+
+def test_stations_by_column_and_one_by_one() -> None:
+    fc = {"type": "FeatureCollection", "features": stations(500)}
+    assert kml.feature_collection_to_kml(fc, "x") == one_by_one(fc)
+
+
+@pytest.mark.parametrize("coords, message", [([15.0, math.nan], "Point = nan is not allowed"),
+                                              ([15.0, 49.4, "80"], "Point = '80' is not allowed: a finite number"),
+                                              ([15.0], r"Point = \[15.0\] is not allowed")])
+def test_an_odd_point_among_many_is_named(coords: list, message: str) -> None:
+    feats = stations(300)
+    feats[200]["geometry"]["coordinates"] = coords
+    with pytest.raises(InputError, match=rf"feature 201 \(id 'P1-L001-S0201'\) {message}"):
+        kml.feature_collection_to_kml({"type": "FeatureCollection", "features": feats}, "x")

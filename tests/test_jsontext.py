@@ -1,0 +1,95 @@
+"""jsontext writes numbers and rows exactly as Python's json and repr do (the manifest and the
+KML keep their bytes), and compact documents that read back to the same data."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from aerosurvey.jsontext import dumps_compact, float_texts, rows_text, value_texts
+
+finite = st.floats(allow_nan=False, allow_infinity=False)
+# the numbers plans write: coordinates and heights rounded to a few decimals
+rounded = st.builds(round, st.floats(-1e5, 1e5, allow_nan=False), st.integers(0, 9))
+
+
+@given(st.lists(finite | rounded, max_size=60))
+def test_float_texts_is_repr(xs: list[float]) -> None:
+    assert float_texts(xs) == [repr(x) for x in xs]
+
+
+@pytest.mark.parametrize("x", [0.0, -0.0, 1e-4, 9.99e-5, 1e-5, 5e-324, 1e16, 9999999999999998.0, 1.7976931348623157e308,
+                               -1e22, 0.1, 14.12345678, 1.0, 100.0])
+def test_float_texts_edges(x: float) -> None:
+    assert float_texts([x, x]) == [repr(x)] * 2
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_float_texts_refuses_what_json_refuses(bad: float) -> None:
+    with pytest.raises(ValueError, match="not finite"):
+        float_texts([1.0, bad])
+    with pytest.raises(ValueError):
+        json.dumps(bad, allow_nan=False)
+
+
+scalar = st.none() | st.booleans() | st.integers(-10**20, 10**20) | finite | st.text(max_size=8)
+
+
+@given(st.lists(scalar, max_size=30))
+def test_value_texts_is_json(values: list[object]) -> None:
+    assert value_texts(values) == [json.dumps(v, ensure_ascii=False, separators=(",", ":")) for v in values]
+
+
+@given(st.integers(0, 5).flatmap(lambda n: st.lists(
+    st.fixed_dictionaries({f"k{i}": scalar for i in range(n)}), min_size=1, max_size=20)))
+def test_rows_text_is_the_json_encoder(rows: list[dict[str, object]]) -> None:
+    enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
+    if all(tuple(r) == tuple(rows[0]) for r in rows):
+        assert rows_text(rows) == [enc.encode(r) for r in rows]
+    else:  # the same keys in another order: the caller encodes them
+        assert rows_text(rows) is None
+
+
+def test_rows_text_leaves_unlike_rows_to_the_caller() -> None:
+    assert rows_text([{"a": 1}, {"b": 1}]) is None  # other keys
+    assert rows_text([{"a": 1, "b": 2}, {"b": 2, "a": 1}]) is None  # other order
+    assert rows_text([{"a": 1}, {"a": 1, "b": 2}]) is None  # more keys
+    assert rows_text([{"a": [1, 2]}]) is None  # not flat
+    assert rows_text([{"a": np.float64(1.5)}]) is None  # not a plain float
+    assert rows_text([{"%s": "50%", "b": "%d"}]) == ['{"%s": "50%", "b": "%d"}']  # % in keys and values
+    with pytest.raises(ValueError):
+        rows_text([{"a": math.nan}])
+
+
+json_data = st.recursive(scalar, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner, max_size=4),
+                         max_leaves=25)
+
+
+@given(json_data)
+def test_dumps_compact_reads_back_the_same(data: object) -> None:
+    text = dumps_compact(data)
+    assert json.loads(text) == data
+    plain = json.dumps(data, separators=(",", ":"), ensure_ascii=False)
+    # the same text as json writes whenever no number needs an exponent
+    if not _has_exponent_number(data):
+        assert text == plain
+
+
+def _has_exponent_number(data: object) -> bool:
+    if type(data) is float:
+        return "e" in repr(data)
+    if isinstance(data, list):
+        return any(_has_exponent_number(v) for v in data)
+    if isinstance(data, dict):
+        return any(_has_exponent_number(v) for v in data.values())
+    return False
+
+
+def test_dumps_compact_numpy_arrays_as_lists() -> None:
+    a = np.round(np.random.default_rng(1).uniform(-180, 180, (50, 5, 2)), 8)
+    assert dumps_compact(a) == json.dumps(a.tolist(), separators=(",", ":"))
