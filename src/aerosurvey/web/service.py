@@ -114,7 +114,7 @@ def default_spec(area_file: str, name: str) -> dict[str, Any]:
     return {
         "mission": {"name": name, "crs": "auto"},
         "area": {"file": area_file},
-        "camera": {"model": "dji-phantom4-rtk", "trigger": "distance"},
+        "camera": {"model": "dji-phantom-4-rtk", "trigger": "distance"},
         "targets": {"gsd_cm": 2.5, "forward_overlap": 0.75, "side_overlap": 0.65},
         "vehicle": {"type": "copter", "cruise_speed_ms": 10.0},
         "flight": {"heading": "auto"},
