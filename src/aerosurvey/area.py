@@ -9,7 +9,10 @@ must never enter them.
 from __future__ import annotations
 
 import functools
+import io
 import re
+import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -99,30 +102,44 @@ def validate_polygons(geom: BaseGeometry, name: str, geographic: bool) -> BaseGe
 
 
 def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
-    import pyogrio
-
     if not path.exists():
         raise InputError(f"{name}: file {str(path)!r} does not exist")
     if path.suffix.lower() not in _VECTOR_SUFFIXES | {".wkt"}:
         raise InputError(f"{name}: {str(path)!r} has an unknown extension; allowed: {', '.join(sorted(_VECTOR_SUFFIXES | {'.wkt'}))}")
     if path.suffix.lower() == ".wkt":
         return _from_wkt(path.read_text(encoding="utf-8"), name), _WGS84
+    return _parse_vector(path, str(path), path.name, name)
+
+
+#: pyogrio's name for bytes it hands GDAL (/vsimem/pyogrio_<hex>, under /vsizip/ for a zip)
+_VSIMEM = re.compile(r"((/vsizip/)?/vsimem/)?pyogrio_[0-9a-f]{32}(\.zip)?")
+
+
+def _parse_vector(source: Path | bytes, where: str, short: str, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
+    """The polygons of every layer of a vector dataset (a file, or a zip held in memory), unioned,
+    and its CRS. `where` and `short` name the source in messages."""
+    import pyogrio
+
+    def why(exc: Exception) -> str:  # GDAL's message, naming the upload rather than pyogrio's memory file
+        return _VSIMEM.sub(short, str(exc))
+
     try:
-        layers = [row[0] for row in pyogrio.list_layers(path)]
+        # by index: GDAL names the layer of an in-memory file after pyogrio's random file name, new on each call
+        layers = [_VSIMEM.sub(short, str(row[0])) for row in pyogrio.list_layers(source)]
     except Exception as exc:  # GDAL's own error types vary between versions
-        raise InputError(f"{name}: {str(path)!r} cannot be read as a vector file: {exc}") from None
+        raise InputError(f"{name}: {where!r} cannot be read as a vector file: {why(exc)}") from None
     parts: list[BaseGeometry] = []
     crs: pyproj.CRS | None = None
-    for layer in layers:
+    for index, layer in enumerate(layers):
         try:
-            meta, _, wkb, _ = pyogrio.raw.read(path, layer=layer, force_2d=True)
+            meta, _, wkb, _ = pyogrio.raw.read(source, layer=index, force_2d=True)
         except Exception as exc:
-            raise InputError(f"{name}: layer {layer!r} of {str(path)!r} cannot be read: {exc}") from None
+            raise InputError(f"{name}: layer {layer!r} of {where!r} cannot be read: {why(exc)}") from None
         if wkb is None or len(wkb) == 0:
             continue
         layer_crs = pyproj.CRS.from_user_input(meta["crs"]) if meta.get("crs") else _WGS84
         if crs is not None and not layer_crs.equals(crs):
-            raise InputError(f"{name}: layers of {str(path)!r} are in different CRSs ({crs.name}, {layer_crs.name})")
+            raise InputError(f"{name}: layers of {where!r} are in different CRSs ({crs.name}, {layer_crs.name})")
         crs = layer_crs
         geoms = shapely.from_wkb(wkb)
         for i, g in enumerate(geoms):
@@ -134,9 +151,9 @@ def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
                 elif part.geom_type not in ("Point", "LineString", "MultiPoint", "MultiLineString"):
                     raise InputError(f"{name}: feature {i} of layer {layer!r} is a {part.geom_type}; only polygons are areas")
     if not parts:
-        raise InputError(f"{name}: {str(path)!r} holds no polygon")
+        raise InputError(f"{name}: {where!r} holds no polygon")
     for i, p in enumerate(parts):
-        validate_polygons(p, f"{name} ({path.name}, polygon {i + 1})", (crs or _WGS84).is_geographic)
+        validate_polygons(p, f"{name} ({short}, polygon {i + 1})", (crs or _WGS84).is_geographic)
     geom = shapely.union_all(parts) if len(parts) > 1 else parts[0]
     return geom, crs or _WGS84
 
@@ -156,6 +173,37 @@ def read_area(path: Path | None, wkt: str | None, wkt_crs: str, name: str) -> Ba
         assert wkt is not None
         geom = _from_wkt(wkt, name)
         crs = _crs(wkt_crs, f"{name} wkt_crs")
+    return _in_wgs84(geom, crs, name)
+
+
+def read_area_data(shown: str, files: Mapping[str, bytes], name: str) -> BaseGeometry:
+    """`read_area` for files held in memory (a web page's upload), parsed by the same code.
+
+    `files` is one dataset by base name: a single file (a `.wkt` one is read as WKT), the
+    files of one Shapefile, or the `.kml` documents of a KMZ. They reach GDAL as a zip in
+    memory, so that it picks its driver by the files' names as it does on disk. `shown`
+    names the upload in messages.
+    """
+    names = list(files)
+    bad = [n for n in names if not n or n != Path(n).name]
+    if not names or bad:
+        raise InputError(f"{name}: expected the files of one dataset by base name, got {names!r}")
+    if len(names) == 1 and names[0].lower().endswith(".wkt"):
+        try:
+            text = files[names[0]].decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{name}: {shown!r} is not UTF-8 text: {exc}") from None
+        return _in_wgs84(_from_wkt(text, name), _WGS84, name)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:  # stored: a copy, no compression work
+        for n in names:
+            zf.writestr(n, files[n])
+    geom, crs = _parse_vector(buf.getvalue(), shown, shown, name)
+    return _in_wgs84(geom, crs, name)
+
+
+def _in_wgs84(geom: BaseGeometry, crs: pyproj.CRS, name: str) -> BaseGeometry:
+    """A parsed area checked in its own CRS, then in WGS84 longitude/latitude."""
     geom = validate_polygons(geom, name, crs.is_geographic)
     if not crs.equals(_WGS84):
         t = pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True)

@@ -3,7 +3,7 @@
 Endpoints (all JSON unless said otherwise), each a small handler in a module of its own:
   GET    /                           the page                                   (routes_spec)
   GET    /api/state                  the starting spec, cameras, rule profiles, settings
-  POST   /api/area                   multipart `file`: an area file → a spec over it
+  POST   /api/area                   multipart `file`: an area file, read in memory → a spec over it (area as WKT)
   POST   /api/spec/toml              {"spec": {...}} → the spec as TOML (attachment)
   POST   /api/spec/save              {"spec": {...}} → written over the spec file the server was started with
   POST   /api/plan                   {"spec": {...}} → 202 {"job": id}; a plan runs as a job  (routes_plan)

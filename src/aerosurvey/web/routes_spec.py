@@ -2,7 +2,7 @@
 
   GET    /                 the page
   GET    /api/state        the starting spec, cameras, rule profiles, settings
-  POST   /api/area         multipart `file`: an area file → a spec over it
+  POST   /api/area         multipart `file`: an area file, read in memory → a spec over it (area as WKT)
   POST   /api/spec/toml    {"spec": {...}} → the spec as TOML (attachment)
   POST   /api/spec/save    {"spec": {...}} → written over the spec file the server was started with
 """
@@ -10,7 +10,6 @@
 from __future__ import annotations
 
 import json
-import shutil
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -23,7 +22,7 @@ from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.fileio import atomic_write_text
 from aerosurvey.web import service
 from aerosurvey.web.specfile import validated_toml
-from aerosurvey.web.state import ServerState, blocking, error, save_upload, server, spec_body
+from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body
 
 
 async def index(request: Request) -> Response:
@@ -50,37 +49,23 @@ def _state(state: ServerState) -> dict[str, Any]:
 async def upload_area(request: Request) -> Response:
     state = server(request)
     try:
-        form = await request.form(max_files=1, max_fields=10)
-    except AerosurveyError as exc:
-        return error(exc)
-    upload = form.get("file")
-    if not isinstance(upload, UploadFile):
-        return error(InputError("area upload: send the area file as the multipart field 'file'", key="area.file"))
-    current = form.get("spec")
-    try:
-        info = await blocking(_take_area, state, upload)
+        form = await form_in_memory(request, state.upload_limit, "area upload", "area.file", max_files=1, max_fields=10)
+        upload = form.get("file")
+        if not isinstance(upload, UploadFile):
+            raise InputError("area upload: send the area file as the multipart field 'file'", key="area.file")
+        data = await upload.read()  # in memory: the form parser does not spool to disk
+        current = form.get("spec")
+        await form.close()
+        name = Path(upload.filename or "area").name
+        got = await blocking(service.read_uploaded_area, name, data, state.upload_limit // 2)
     except AerosurveyError as exc:
         return error(exc)
     try:
         base_spec = json.loads(current) if isinstance(current, str) and current else state.spec
     except ValueError:
         base_spec = state.spec
-    path, area = info
-    name = Path(upload.filename or "area").stem
-    return JSONResponse({"spec": service.with_new_area(base_spec, str(path), name), "area": area,
-                         "file_name": Path(upload.filename or "area").name})
-
-
-def _take_area(state: ServerState, upload: UploadFile) -> tuple[Path, dict[str, Any]]:
-    """Keep the uploaded area in the workspace and read it as the planner will."""
-    serial = state.next_serial()
-    incoming = state.workspace.uploads / f"incoming-{serial}"
-    try:
-        tmp = save_upload(upload, incoming)
-        path = service.store_upload(state.workspace, upload.filename or "area", tmp, serial)
-        return path, service.validate_area(path)
-    finally:
-        shutil.rmtree(incoming, ignore_errors=True)
+    return JSONResponse({"spec": service.with_new_area(base_spec, got.area, Path(name).stem), "file_name": name,
+                         "area": {"bounds": list(got.bounds), "vertices": got.vertices}})
 
 
 async def spec_toml(request: Request) -> Response:

@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import copy
 import datetime as dt
+import io
 import json
 import tomllib
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey import manifest as mf
 from aerosurvey.errors import InputError
@@ -80,7 +83,11 @@ def _drop_none(v: Any) -> Any:
 
 @dataclass
 class Workspace:
-    """Where spec paths resolve (the spec's folder) and the only folders they may point into."""
+    """Where spec paths resolve (the spec's folder) and the only folders they may point into.
+
+    Uploaded areas are not files here: they travel in the spec as WKT. `uploads` is scratch
+    space for the flight results a page sends (a `log ingest` folder's files).
+    """
 
     base: Path
     uploads: Path
@@ -88,33 +95,34 @@ class Workspace:
 
     def allowed(self, p: Path) -> bool:
         r = p.resolve()
-        return any(r == root or root in r.parents for root in [self.uploads.resolve(), *(x.resolve() for x in self.roots)])
+        return any(r == root or root in r.parents for root in (x.resolve() for x in self.roots))
 
     def check_paths(self, spec: dict[str, Any]) -> None:
         """Refuse file paths outside the workspace: the page must not read arbitrary files."""
         for table, key in PATH_KEYS:
             v = (spec.get(table) or {}).get(key)
             if isinstance(v, str) and not self.allowed(self.resolve(v)):
-                raise InputError(f"{table}.{key} = {v!r} is not allowed: a file in the mission's folder or one uploaded "
-                                 "to this page", key=f"{table}.{key}")
+                hint = " (or upload the area to this page)" if table == "area" else ""
+                raise InputError(f"{table}.{key} = {v!r} is not allowed: a file in the mission's folder{hint}",
+                                 key=f"{table}.{key}")
         ex = (spec.get("area") or {}).get("exclusions") or []
         if isinstance(ex, list):
             for v in ex:
                 if isinstance(v, str) and not self.allowed(self.resolve(v)):
-                    raise InputError(f"area.exclusions: {v!r} is not allowed: a file in the mission's folder or one "
-                                     "uploaded to this page", key="area.exclusions")
+                    raise InputError(f"area.exclusions: {v!r} is not allowed: a file in the mission's folder",
+                                     key="area.exclusions")
 
     def resolve(self, value: str) -> Path:
         p = Path(value)
         return p if p.is_absolute() else self.base / p
 
 
-def default_spec(area_file: str, name: str) -> dict[str, Any]:
+def default_spec(area: dict[str, Any], name: str) -> dict[str, Any]:
     """A new plan's spec: the defaults a pilot most often starts from."""
     return {
         "mission": {"name": name, "crs": "auto"},
-        "area": {"file": area_file},
-        "camera": {"model": "dji-phantom4-rtk", "trigger": "distance"},
+        "area": area,
+        "camera": {"model": "dji-phantom-4-rtk", "trigger": "distance"},
         "targets": {"gsd_cm": 2.5, "forward_overlap": 0.75, "side_overlap": 0.65},
         "vehicle": {"type": "copter", "cruise_speed_ms": 10.0},
         "flight": {"heading": "auto"},
@@ -122,13 +130,13 @@ def default_spec(area_file: str, name: str) -> dict[str, Any]:
     }
 
 
-def with_new_area(spec: dict[str, Any], area_file: str, name: str) -> dict[str, Any]:
-    """The current settings over a new area: what belonged to the old place is dropped
-    (exclusion zones, launch points, DEM, a national CRS)."""
-    out = copy.deepcopy(spec) if spec else default_spec(area_file, name)
+def with_new_area(spec: dict[str, Any], area: dict[str, Any], name: str) -> dict[str, Any]:
+    """The current settings over a new area (the spec's `[area]` table): what belonged to the
+    old place is dropped (exclusion zones, launch points, DEM, a national CRS)."""
+    out = copy.deepcopy(spec) if spec else default_spec(area, name)
     out.setdefault("mission", {})["name"] = name
     out["mission"]["crs"] = "auto"
-    out["area"] = {"file": area_file}
+    out["area"] = dict(area)
     out.pop("terrain", None)
     if "battery" in out:
         out["battery"].pop("launch_points", None)
@@ -136,51 +144,108 @@ def with_new_area(spec: dict[str, Any], area_file: str, name: str) -> dict[str, 
     return out
 
 
-def store_upload(ws: Workspace, filename: str, data_path: Path, serial: int) -> Path:
-    """Keep an uploaded area file in the workspace; a zipped Shapefile is unpacked.
+# ---- area uploads: read in memory, never stored --------------------------------------------
 
-    Returns the path of the file the spec should name. Archive members may not escape their
-    folder (no absolute paths or '..').
+#: What an upload's archive (a zipped Shapefile, a KMZ) may unpack to in memory.
+MAX_UNPACKED = 100 * 1024 * 1024
+#: A Shapefile's own files: the ones of the .shp's name that GDAL reads.
+_SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
+
+
+@dataclass(frozen=True)
+class UploadedArea:
+    """An uploaded area, read as the planner reads an area file: the `[area]` table that holds it
+    (WKT in WGS84, exact), and its bounds for a first look."""
+
+    area: dict[str, Any]
+    bounds: tuple[float, float, float, float]
+    vertices: int
+
+
+def read_uploaded_area(filename: str, data: bytes, max_wkt: int) -> UploadedArea:
+    """An uploaded area file's bytes → the spec's `[area]` as exact WKT in WGS84.
+
+    Parsed in memory by the loader's own parser (`read_area_data`); nothing is written to
+    disk. The WKT travels in every plan request, so it may not exceed `max_wkt` characters.
     """
-    name = Path(filename).name
+    from aerosurvey.area import read_area_data
+
+    name = Path(filename).name or "area"
+    try:
+        geom = read_area_data(name, _dataset_files(name, data), f"area file {name}")
+    except InputError as exc:  # the loader's message; the page shows it by the area's drop zone
+        if exc.key is not None:
+            raise
+        raise InputError(str(exc), key="area.file") from None
+    wkt = exact_wkt(geom)
+    vertices = int(shapely.get_num_coordinates(geom))
+    if len(wkt) > max_wkt:
+        raise InputError(f"area upload {name!r}: {vertices} vertices make {len(wkt) / 1048576:.1f} MB of WKT; the page plans "
+                         f"areas up to {max_wkt / 1048576:.1f} MB (half the upload limit): simplify the outline or plan "
+                         "it with `aerosurvey plan`", key="area.file")
+    x0, y0, x1, y1 = geom.bounds
+    return UploadedArea({"wkt": wkt}, (x0, y0, x1, y1), vertices)
+
+
+def _dataset_files(name: str, data: bytes) -> dict[str, bytes]:
+    """The files of the upload's dataset by base name: the upload itself, the files of the one
+    Shapefile in a .zip, or the .kml documents of a KMZ."""
     suffix = Path(name).suffix.lower()
     if suffix not in AREA_SUFFIXES:
         raise InputError(f"area upload {name!r} is not allowed: a GeoJSON, KML/KMZ, GeoPackage, FlatGeobuf, GML, WKT "
                          "or a Shapefile as .zip", key="area.file")
-    folder = ws.uploads / f"{serial:04d}"
-    folder.mkdir(parents=True, exist_ok=True)
-    if suffix != ".zip":
-        target = folder / name
-        data_path.replace(target)
-        return target
+    if suffix == ".shp":
+        raise InputError(f"area upload {name!r}: a Shapefile needs its .shx, .dbf and .prj files; upload them together "
+                         "as a .zip", key="area.file")
+    if suffix not in (".zip", ".kmz"):
+        return {name: data}
     try:
-        with zipfile.ZipFile(data_path) as zf:
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
             members = [m for m in zf.infolist() if not m.is_dir()]
             for m in members:
-                p = Path(m.filename)
+                p = PurePosixPath(m.filename)
                 if p.is_absolute() or ".." in p.parts:
                     raise InputError(f"area upload {name!r}: member {m.filename!r} points outside the archive", key="area.file")
-            if sum(m.file_size for m in members) > 500 * 1024 * 1024:
-                raise InputError(f"area upload {name!r}: unpacks to more than 500 MB", key="area.file")
-            shp = [m for m in members if m.filename.lower().endswith(".shp")]
-            if len(shp) != 1:
-                raise InputError(f"area upload {name!r}: a zipped Shapefile must hold exactly one .shp file, found {len(shp)}",
-                                 key="area.file")
-            zf.extractall(folder, members)
-    except zipfile.BadZipFile:
-        raise InputError(f"area upload {name!r} is not a valid zip archive", key="area.file") from None
-    finally:
-        data_path.unlink(missing_ok=True)
-    return folder / shp[0].filename
+            if suffix == ".kmz":
+                wanted = [m for m in members if m.filename.lower().endswith(".kml")]
+                if not wanted:
+                    raise InputError(f"area upload {name!r}: a KMZ must hold a .kml document, found none", key="area.file")
+            else:
+                shp = [m for m in members if m.filename.lower().endswith(".shp")]
+                if len(shp) != 1:
+                    raise InputError(f"area upload {name!r}: a zipped Shapefile must hold exactly one .shp file, found "
+                                     f"{len(shp)}", key="area.file")
+                stem = shp[0].filename[:-4]
+                wanted = [m for m in members if m.filename[:-4] == stem and m.filename[-4:].lower() in _SHAPEFILE_PARTS]
+            if sum(m.file_size for m in wanted) > MAX_UNPACKED:
+                raise InputError(f"area upload {name!r}: unpacks to more than {MAX_UNPACKED // 1048576} MB", key="area.file")
+            # base names at the root (a KMZ's documents flattened: GDAL's LIBKML driver reads them as one folder)
+            return {m.filename.replace("/", "_") if suffix == ".kmz" else PurePosixPath(m.filename).name: zf.read(m)
+                    for m in wanted}
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError) as exc:
+        raise InputError(f"area upload {name!r} is not a valid zip archive: {exc}", key="area.file") from None
 
 
-def validate_area(path: Path) -> dict[str, Any]:
-    """Read an uploaded area as the planner will; its outline in WGS84 for a first look."""
-    from aerosurvey.area import read_area
+def exact_wkt(geom: BaseGeometry) -> str:
+    """A polygon or multipolygon as WKT that reads back to the same coordinates, bit for bit.
 
-    geom = read_area(path, None, "EPSG:4326", f"area file {path.name}")
-    x0, y0, x1, y1 = geom.bounds
-    return {"bounds": [x0, y0, x1, y1]}
+    GEOS's writer (shapely.to_wkt) keeps 16 significant digits (17 or 18 with
+    rounding_precision): 1137 (126, 14) of 400 000 random longitudes and latitudes came back
+    changed in their last bit, which would make a plan of an upload differ from the plan of
+    its file. Python's float repr is the shortest text that reads back exactly.
+    """
+
+    def ring(r: Any) -> str:
+        return "(" + ", ".join(f"{x!r} {y!r}" for x, y in shapely.get_coordinates(r).tolist()) + ")"
+
+    def polygon(p: Any) -> str:
+        return "(" + ", ".join(ring(r) for r in (p.exterior, *p.interiors)) + ")"
+
+    if geom.geom_type == "Polygon":
+        return "POLYGON " + polygon(geom)
+    if geom.geom_type == "MultiPolygon":
+        return "MULTIPOLYGON (" + ", ".join(polygon(p) for p in geom.geoms) + ")"
+    raise ValueError(f"exact_wkt: a {geom.geom_type} is not an area")
 
 
 # ---- plans ---------------------------------------------------------------------------------
@@ -206,6 +271,8 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) ->
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
     spec = parse_spec(spec_data, base=ws.base, path=None)
+    # an uploaded area is inline WKT: the loader parses it in memory and reads files only for
+    # what the spec's folder holds (exclusion zones, a DEM)
     plan = plan_from_files(spec, progress)
     progress("mission files and rules", 0.92)
     rendered = render_outputs(plan)

@@ -16,7 +16,8 @@ from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
 from starlette.concurrency import run_in_threadpool
-from starlette.datastructures import UploadFile
+from starlette.datastructures import FormData, UploadFile
+from starlette.formparsers import MultiPartException, MultiPartParser
 from starlette.requests import Request
 from starlette.responses import JSONResponse
 
@@ -94,6 +95,24 @@ async def spec_body(request: Request) -> dict[str, Any]:
         raise InputError('request body: expected {"spec": {...}} with the mission spec\'s tables', key="spec")
     spec: dict[str, Any] = body["spec"]
     return spec
+
+
+async def form_in_memory(request: Request, limit: int, what: str, key: str, max_files: int, max_fields: int) -> FormData:
+    """The request's multipart form with its files held in memory, not spooled to a temporary
+    file as `request.form()` does above 1 MB; `BodyLimit` bounds the whole body to `limit`.
+
+    The caller closes the form. InputError (naming `what`, for spec key `key`) when the body is
+    not a multipart form.
+    """
+    if request.headers.get("content-type", "").split(";")[0].strip() != "multipart/form-data":
+        raise InputError(f"{what}: send the file as the multipart field 'file' (Content-Type: multipart/form-data)", key=key)
+    parser = MultiPartParser(request.headers, request.stream(), max_files=max_files, max_fields=max_fields,
+                             max_part_size=limit)
+    parser.spool_max_size = limit  # Starlette's documented knob: files up to it stay in memory
+    try:
+        return await parser.parse()
+    except MultiPartException as exc:
+        raise InputError(f"{what}: {exc.message}", key=key) from None
 
 
 def save_upload(upload: UploadFile, folder: Path) -> Path:

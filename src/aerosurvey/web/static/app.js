@@ -505,7 +505,8 @@ async function uploadArea(file) {
   clearError("area.file");
   const fd = new FormData();
   fd.append("file", file, file.name);
-  fd.append("spec", JSON.stringify(S.spec));
+  const { area, ...settings } = S.spec || {};  // the new area replaces the old one: no need to send it
+  fd.append("spec", JSON.stringify(settings));
   setStatus(`reading ${file.name}…`);
   try {
     const r = await api("POST", "/api/area", fd);
