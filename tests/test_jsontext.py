@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aerosurvey.jsontext import dumps_compact, float_texts, rows_text, value_texts
+from aerosurvey.jsontext import dumps_compact, float_texts, join_rows, rows_text, value_texts
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 # the numbers plans write: coordinates and heights rounded to a few decimals
@@ -50,20 +50,33 @@ def test_value_texts_is_json(values: list[object]) -> None:
 def test_rows_text_is_the_json_encoder(rows: list[dict[str, object]]) -> None:
     enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
     if all(tuple(r) == tuple(rows[0]) for r in rows):
-        assert rows_text(rows) == [enc.encode(r) for r in rows]
+        assert rows_text(rows, ",\n ") == ",\n ".join(enc.encode(r) for r in rows)
     else:  # the same keys in another order: the caller encodes them
-        assert rows_text(rows) is None
+        assert rows_text(rows, ",") is None
 
 
 def test_rows_text_leaves_unlike_rows_to_the_caller() -> None:
-    assert rows_text([{"a": 1}, {"b": 1}]) is None  # other keys
-    assert rows_text([{"a": 1, "b": 2}, {"b": 2, "a": 1}]) is None  # other order
-    assert rows_text([{"a": 1}, {"a": 1, "b": 2}]) is None  # more keys
-    assert rows_text([{"a": [1, 2]}]) is None  # not flat
-    assert rows_text([{"a": np.float64(1.5)}]) is None  # not a plain float
-    assert rows_text([{"%s": "50%", "b": "%d"}]) == ['{"%s": "50%", "b": "%d"}']  # % in keys and values
+    assert rows_text([{"a": 1}, {"b": 1}], ",") is None  # other keys
+    assert rows_text([{"a": 1, "b": 2}, {"b": 2, "a": 1}], ",") is None  # other order
+    assert rows_text([{"a": 1}, {"a": 1, "b": 2}], ",") is None  # more keys
+    assert rows_text([{"a": [1, 2]}], ",") is None  # not flat
+    assert rows_text([{"a": np.float64(1.5)}], ",") is None  # not a plain float
+    assert rows_text([{"%s": "50%", "b": "%d"}], ",") == '{"%s": "50%", "b": "%d"}'  # % in keys and values
+    assert rows_text([], ",") == ""
     with pytest.raises(ValueError):
-        rows_text([{"a": math.nan}])
+        rows_text([{"a": math.nan}], ",")
+
+
+@given(st.lists(st.lists(st.text(max_size=3), min_size=3, max_size=3), max_size=20), st.text(max_size=2))
+def test_join_rows_is_a_join_of_rows(rows: list[list[str]], sep: str) -> None:
+    cols = [list(c) for c in zip(*rows)] or [[], [], []]
+    assert join_rows(["<", cols[0], "|", cols[1], cols[2], ">"], len(rows), sep) == sep.join(
+        f"<{a}|{b}{c}>" for a, b, c in rows)
+
+
+def test_join_rows_refuses_a_short_column() -> None:
+    with pytest.raises(ValueError):
+        join_rows(["a", ["1", "2"]], 3, ",")
 
 
 json_data = st.recursive(scalar, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner, max_size=4),

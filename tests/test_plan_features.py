@@ -56,14 +56,17 @@ def test_each_line_names_its_first_and_last_station_and_counts_its_photos(plan) 
 
 
 def test_geojson_text_is_the_features_as_json(plan) -> None:
-    """plan.geojson's text (footprints written straight from arrays) is the FeatureCollection
-    with footprints, as json writes it; the collection handed to the KML and the rules has all
-    but the footprints."""
+    """plan.geojson's text (stations and footprints written straight from columns and arrays)
+    is the FeatureCollection with footprints, as json writes it; the collection handed to the
+    KML and the rules has all but the stations and footprints, and the stations' layer makes
+    the very station features."""
     import json
 
     from aerosurvey.report.features import plan_geojson
 
-    fc, text = plan_geojson(plan)
+    fc, stations, text = plan_geojson(plan)
     full = plan_features(plan)
     assert text == json.dumps(full, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-    assert fc["features"] == [f for f in full["features"] if f["properties"]["role"] != "footprint"]
+    role = [f["properties"]["role"] for f in full["features"]]
+    assert fc["features"] == [f for f, r in zip(full["features"], role) if r not in ("station", "footprint")]
+    assert stations.features() == [f for f, r in zip(full["features"], role) if r == "station"]

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from operator import itemgetter
 from typing import Any
 
 import numpy as np
@@ -44,8 +45,10 @@ def _array_as_list(o: Any) -> Any:
     raise TypeError(f"Object of type {type(o).__name__} is not JSON serializable")
 
 
-def float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
-    """`repr(v)` of every value, which must all be finite floats; ValueError names the first that is not."""
+def float_texts(values: Sequence[float] | np.ndarray, python_exponents: bool = True) -> list[str]:
+    """`repr(v)` of every value, which must all be finite floats; ValueError names the first
+    that is not. With `python_exponents` off, numbers that need an exponent are spelled as
+    `dumps_compact` spells them (5e-5, not 5e-05)."""
     a = np.asarray(values, dtype=float)
     if a.ndim != 1:
         a = a.ravel()
@@ -55,6 +58,8 @@ def float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
     if not finite.all():
         raise ValueError(f"number {a[~finite][0]!r} is not finite")
     texts = orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[1:-1].split(",")
+    if not python_exponents:
+        return texts
     mag = np.abs(a)
     # Python writes an exponent below 1e-4 and from 1e16 on; orjson spells those its own way
     for i in np.flatnonzero((mag >= 1e16) | ((mag < 1e-4) & (mag > 0))).tolist():
@@ -67,12 +72,12 @@ def string_texts(values: Sequence[str]) -> list[str]:
     return list(map(_encode_str, values))
 
 
-def value_texts(values: Sequence[Any]) -> list[str]:
+def value_texts(values: Sequence[Any], python_exponents: bool = True) -> list[str]:
     """JSON text of each value of one column, as json writes it: floats through `float_texts`
     (in one call), None as null; a column of one plain type is made in one pass."""
     kinds = set(map(type, values))
     if kinds == {float}:
-        return float_texts(values)
+        return float_texts(values, python_exponents)
     if kinds == {str}:
         return list(map(_encode_str, values))
     if kinds == {int}:
@@ -81,7 +86,7 @@ def value_texts(values: Sequence[Any]) -> list[str]:
     enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode
     out = ["null" if v is None else _encode_str(v) if type(v) is str else "" if type(v) is float else enc(v)
            for v in values]
-    for i, text in zip(at, float_texts([values[i] for i in at])):
+    for i, text in zip(at, float_texts([values[i] for i in at], python_exponents)):
         out[i] = text
     return out
 
@@ -89,27 +94,45 @@ def value_texts(values: Sequence[Any]) -> list[str]:
 _FLAT = frozenset({str, int, float, bool, type(None)})
 
 
-def rows_text(rows: Sequence[dict[str, Any]], item_sep: str = ", ", key_sep: str = ": ") -> list[str] | None:
-    """One JSON object text per row, as json.JSONEncoder(separators=(item_sep, key_sep),
-    ensure_ascii=False, allow_nan=False) writes it; None unless every row has the same keys in
-    the same order and only numbers, strings, booleans and None as values (their exact types, no subclasses) (the caller then
-    encodes the rows itself). Made a column at a time, so the numbers go through `float_texts`."""
+def rows_text(rows: Sequence[dict[str, Any]], sep: str, item_sep: str = ", ", key_sep: str = ": ") -> str | None:
+    """`sep`.join of each row's JSON object text, as json.JSONEncoder(separators=(item_sep,
+    key_sep), ensure_ascii=False, allow_nan=False) writes it; None unless every row has the
+    same keys in the same order and only numbers, strings, booleans and None as values, of
+    exactly those types (the caller then encodes the rows itself). Made a column at a time, so
+    the numbers go through `float_texts`, and joined by `join_rows`."""
     if not rows:
-        return []
-    keys = tuple(rows[0])
-    columns: list[list[str]] = []
-    for k in keys:
-        try:
-            col = [r[k] for r in rows]
-        except KeyError:
-            return None
-        if not _FLAT.issuperset(map(type, col)):
-            return None
-        columns.append(value_texts(col))
-    if not all(type(k) is str for k in keys) or any(len(r) != len(keys) or tuple(r) != keys for r in rows):
+        return ""
+    if set(map(type, rows)) != {dict}:
         return None
+    keys = tuple(rows[0])
+    if not all(type(k) is str for k in keys) or not all(map(keys.__eq__, map(tuple, rows))):
+        return None
+    if keys:
+        # the columns, by C-level calls: each row's values in the keys' order, then transposed
+        columns = list(zip(*map(itemgetter(*keys), rows))) if len(keys) > 1 else [[r[keys[0]] for r in rows]]
+    else:
+        columns = []
+    if not all(_FLAT.issuperset(map(type, col)) for col in columns):
+        return None
+    texts = [value_texts(col) for col in columns]
     if not keys:
-        return ["{}"] * len(rows)
-    lit = (item_sep.replace("%", "%%"), key_sep.replace("%", "%%"))
-    template = "{" + lit[0].join(_encode_str(k).replace("%", "%%") + lit[1] + "%s" for k in keys) + "}"
-    return list(map(template.__mod__, zip(*columns)))
+        return sep.join(["{}"] * len(rows))
+    parts: list[str | list[str]] = []
+    for i, (k, col) in enumerate(zip(keys, texts)):
+        parts += [("{" if i == 0 else item_sep) + _encode_str(k) + key_sep, col]
+    return join_rows([*parts, "}"], len(rows), sep)
+
+
+def join_rows(parts: Sequence[str | list[str]], n: int, sep: str) -> str:
+    """`sep`.join of `n` rows, row i the concatenation of the parts: a text (the same in every
+    row) or a column (a list of n texts, its i-th). One join of one list, filled a part at a
+    time by slice assignment, so no Python code runs per row: measured with 51,379 rows of 12
+    columns, 25-36 ms against 53-58 ms for a %-template a row."""
+    if n == 0:
+        return ""
+    stride = len(parts) + 1
+    flat = [sep] * (n * stride)
+    for j, p in enumerate(parts):
+        flat[j::stride] = [p] * n if isinstance(p, str) else p  # a column of another length: ValueError
+    flat[-1] = ""
+    return "".join(flat)

@@ -220,8 +220,8 @@ def dumps(manifest: dict[str, Any]) -> str:
         value = manifest[key]
         comma = "," if i < len(keys) - 1 else ""
         if isinstance(value, list) and value and isinstance(value[0], dict):
-            texts = rows_text(value)  # the stations, a column at a time: most of the manifest's numbers
-            rows = ",\n  ".join(texts if texts is not None else map(enc.encode, value))
+            text = rows_text(value, ",\n  ")  # the stations, a column at a time: most of the manifest's numbers
+            rows = text if text is not None else ",\n  ".join(map(enc.encode, value))
             out.append(f"{enc.encode(key)}: [\n  {rows}\n]{comma}")
         else:
             out.append(f"{enc.encode(key)}: {enc.encode(value)}{comma}")

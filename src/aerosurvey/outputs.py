@@ -109,14 +109,14 @@ def render_outputs(plan: Plan) -> Rendered:
 
 def _render(plan: Plan) -> Rendered:
     mission = build_mission(plan, name=plan.spec.name)
-    fc, geojson = plan_geojson(plan)
+    fc, stations, geojson = plan_geojson(plan)
     missions = {"mission": mission}
     files = {
         "mission.plan": dumps_plan(mission),
         "mission.waypoints": dumps_wpl(mission),
         "plan.geojson": geojson + "\n",
         # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
-        "plan.kml": feature_collection_to_kml(fc, plan.spec.name),
+        "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }
     for k, (sortie, wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[sortie.launch]

@@ -11,7 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.errors import InputError
+from aerosurvey.jsontext import dumps_compact
 from aerosurvey.mission.formats import kml
+from aerosurvey.mission.formats.points import PointLayer
 
 number = st.floats(-200, 200, allow_nan=False) | st.builds(round, st.floats(-200, 200), st.integers(0, 9)) \
     | st.sampled_from([1e-5, -0.0, 3.0, 1e16, 2.5e-7])
@@ -69,3 +71,39 @@ def test_an_odd_point_among_many_is_named(coords: list, message: str) -> None:
     feats[200]["geometry"]["coordinates"] = coords
     with pytest.raises(InputError, match=rf"feature 201 \(id 'P1-L001-S0201'\) {message}"):
         kml.feature_collection_to_kml({"type": "FeatureCollection", "features": feats}, "x")
+
+
+@st.composite
+def layers(draw: st.DrawFn) -> PointLayer:
+    n = draw(st.integers(0, 10))
+    names = draw(st.lists(st.sampled_from(["id", "seq", "alt_rel_m", "note", "%s"]), unique=True, max_size=4))
+    role = draw(st.sampled_from(["station", "gcp", "bogus"]))
+    plain = st.none() | st.booleans() | st.integers(-10**6, 10**6) | number \
+        | st.text(alphabet=st.sampled_from('aZ-&<>"\' ž%'), max_size=6)
+    props = (("role", (role,) * n),) + tuple((k, tuple(draw(plain) for _ in range(n))) for k in names)
+    return PointLayer(tuple(f"S{i}" for i in range(n)), props, tuple(draw(number) for _ in range(n)),
+                      tuple(draw(number) for _ in range(n)))
+
+
+@settings(max_examples=200)
+@given(layers())
+def test_a_layer_is_written_as_its_features_would_be(layer: PointLayer) -> None:
+    others = [{"type": "Feature", "id": "area", "properties": {"role": "area"},
+               "geometry": {"type": "Point", "coordinates": [1.0, 2.0]}},
+              {"type": "Feature", "id": "g0", "properties": {"role": "gcp"}, "geometry": {"type": "Point", "coordinates": [1.5, 2.5]}}]
+    fc = {"type": "FeatureCollection", "features": others}
+    whole = {"type": "FeatureCollection", "features": others + layer.features()}
+    assert kml.feature_collection_to_kml(fc, "x", [layer]) == kml.feature_collection_to_kml(whole, "x")
+    text = dumps_compact(layer.features())[1:-1]
+    assert layer.geojson() == text
+
+
+def test_a_layer_with_a_character_xml_cannot_hold_is_named() -> None:
+    layer = PointLayer(("a", "b"), (("role", ("station", "station")), ("note", ("ok", "bell\x07"))), (1.0, 2.0), (3.0, 4.0))
+    with pytest.raises(InputError, match=r"feature 2 \(id 'b'\) property 'note'"):
+        kml.feature_collection_to_kml({"type": "FeatureCollection", "features": []}, "x", [layer])
+
+
+def test_a_layer_needs_a_value_for_every_feature() -> None:
+    with pytest.raises(ValueError, match="one value per feature"):
+        PointLayer(("a", "b"), (("seq", (1,)),), (1.0, 2.0), (3.0, 4.0))

@@ -22,12 +22,14 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import lru_cache
+from itertools import repeat
 from typing import Any
 
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import float_texts
+from aerosurvey.jsontext import float_texts, join_rows
+from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.mission.formats.wpl import format_number
 
 ROLE_ORDER = ("area", "exclusion", "line", "station", "footprint", "home", "gcp", "check", "sortie", "gap", "uncovered", "other")
@@ -226,15 +228,18 @@ def _style(role: str) -> str:
             f"<PolyStyle><color>{fill}</color><fill>{filled}</fill><outline>1</outline></PolyStyle></Style>")
 
 
-def feature_collection_to_kml(fc: dict[str, Any], name: str) -> str:
-    """KML text for `fc`, one Folder per role in ROLE_ORDER (empty roles left out), named `name`."""
-    out = _document(fc, name, _escaped, points_by_column=True)
+def feature_collection_to_kml(fc: dict[str, Any], name: str, layers: Sequence[PointLayer] = ()) -> str:
+    """KML text for `fc`, one Folder per role in ROLE_ORDER (empty roles left out), named
+    `name`; each of `layers` (points held as columns) goes after `fc`'s features of its role."""
+    out = _document(fc, name, _escaped, points_by_column=True, layers=layers)
     if not out.isascii() and "\uffff" in out:  # rare: made again, checking every text, to name where
+        fc = {**fc, "features": [*fc["features"], *(f for layer in layers for f in layer.features())]}
         return _document(fc, name, _text)
     return out
 
 
-def _document(fc: dict[str, Any], name: str, text: Escape, points_by_column: bool = False) -> str:
+def _document(fc: dict[str, Any], name: str, text: Escape, points_by_column: bool = False,
+              layers: Sequence[PointLayer] = ()) -> str:
     """The document. With `points_by_column`, points are written a column at a time (`_points`),
     the same text, faster; if one of them is unusual the document is made again without that."""
     if not isinstance(fc, dict) or not isinstance(fc.get("features"), list):
@@ -263,12 +268,20 @@ def _document(fc: dict[str, Any], name: str, text: Escape, points_by_column: boo
             raise InputError(f"{where} {exc}") from None
         marks.append(mark)
     for role, group in points.items():
-        made = _points([f for _, f in group], role)
-        if made is None:
-            return _document(fc, name, text)
+        parts = _points([f for _, f in group], role)
+        if parts is None:
+            return _document(fc, name, text, layers=layers)
+        if len(group) == len(by_role[role]):  # the folder holds only these points: one text
+            by_role[role] = [join_rows(parts, len(group), "\n")]
+            continue
         marks = by_role[role]
-        for (at, _), mark in zip(group, made):
-            marks[at] = mark
+        rows = zip(*[repeat(p) if isinstance(p, str) else p for p in parts])
+        for (at, _), row in zip(group, rows):
+            marks[at] = "".join(row)
+    for layer in layers:
+        if len(layer):
+            role, parts = _layer_parts(layer)
+            by_role.setdefault(role, []).append(join_rows(parts, len(layer), "\n"))
     out = ['<?xml version="1.0" encoding="UTF-8"?>', '<kml xmlns="http://www.opengis.net/kml/2.2">',
            f"<Document><name>{text(name, 'KML export: document name')}</name>"]
     out += [_style(role) for role in ROLE_ORDER]
@@ -309,9 +322,10 @@ def _cell_texts(col: list[Any]) -> list[str]:
             else _data_text(v) for v in col]
 
 
-def _points(feats: list[dict[str, Any]], role: str) -> list[str] | None:
-    """Placemarks of point features of one role, as `_placemark` writes each, made a column at a
-    time (thousands of stations: their numbers through `float_texts`). None if the features are
+def _points(feats: list[dict[str, Any]], role: str) -> list[str | list[str]] | None:
+    """Placemarks of point features of one role, as `_placemark` writes each, as `join_rows`
+    parts: made a column at a time (thousands of stations: their numbers through
+    `float_texts`). None if the features are
     not all alike — the same property names, [lon, lat] or all [lon, lat, height] of finite
     floats, and no feature `id` beside a property `id` — or any value is one `_placemark` would
     refuse: the caller then writes them one by one, which names the feature at fault."""
@@ -323,18 +337,38 @@ def _points(feats: list[dict[str, Any]], role: str) -> list[str] | None:
     keys = tuple(datas[0])
     if any(tuple(d) != keys for d in datas):
         return None
-    try:
-        order, cells = _cells(keys)
-    except InputError:
-        return None
     coords = [f["geometry"]["coordinates"] for f in feats]
     dims = {len(c) for c in coords}
     if len(dims) != 1 or not dims <= {2, 3}:
         return None
-    columns = [_cell_texts([d[k] for d in datas]) for k in order]
+    return _point_parts(role, {k: [d[k] for d in datas] for k in keys}, [[c[i] for c in coords] for i in range(dims.pop())])
+
+
+def _layer_parts(layer: PointLayer) -> tuple[str, list[str | list[str]]]:
+    """The role and `_point_parts` of a PointLayer; ValueError if the layer is not one role's
+    points or holds a value the KML cannot carry (a layer is made by our own code)."""
+    props = dict(layer.properties)
+    roles = set(props.get("role", ("other",)))
+    role = roles.pop() if len(roles) == 1 else ""
+    role = role if isinstance(role, str) and role in STYLES else "other"
+    data = props if "id" in props else {"id": layer.ids, **props}
+    parts = _point_parts(role, {k: list(v) for k, v in data.items()}, [list(layer.lon), list(layer.lat)])
+    if parts is None:
+        raise ValueError("a point layer with a value KML cannot carry")
+    return role, parts
+
+
+def _point_parts(role: str, data: dict[str, list[Any]], coords: list[list[Any]]) -> list[str | list[str]] | None:
+    """`join_rows` parts of the placemarks of points with these property columns (in the
+    features' order, `id` among them if they have one) and coordinate columns; None if a
+    name or value is one `_placemark` would refuse."""
+    try:
+        order, _ = _cells(tuple(data))  # and the names checked
+    except InputError:
+        return None
+    columns = [_cell_texts(data[k]) for k in order]
     positions = []
-    for i in range(dims.pop()):
-        col = [c[i] for c in coords]
+    for col in coords:
         if set(map(type, col)) != {float}:
             return None
         try:
@@ -342,14 +376,19 @@ def _points(feats: list[dict[str, Any]], role: str) -> list[str] | None:
         except ValueError:
             return None
         positions.append([t if t[-2:] != ".0" and "e" not in t else format_number(v) for t, v in zip(texts, col)])
-    if "id" in keys:
-        ids = [d["id"] for d in datas]
+    n = len(coords[0])
+    if "id" in data:
+        ids = data["id"]
         names = (_escaped_all(ids) if set(map(type, ids)) == {str}
                  else [_value(v).translate(_ESC_MARK) for v in ids])
     else:
-        names = [role.translate(_ESC_MARK)] * len(feats)
+        names = [role.translate(_ESC_MARK)] * n
     mode = "<altitudeMode>relativeToGround</altitudeMode>" if len(positions) == 3 else ""
-    where = ",".join(["%s"] * len(positions))
-    template = (f"<Placemark><name>%s</name><styleUrl>#{role}</styleUrl><ExtendedData>{cells}</ExtendedData>"
-                f"<Point>{mode}<coordinates>{where}</coordinates></Point></Placemark>")
-    return list(map(template.__mod__, zip(names, *columns, *positions)))
+    parts: list[str | list[str]] = ["<Placemark><name>", names, f"</name><styleUrl>#{role}</styleUrl><ExtendedData>"]
+    for k, col in zip(order, columns):
+        parts += [_data_open(str(k)) or "", col, "</value></Data>"]
+    parts += [f"</ExtendedData><Point>{mode}<coordinates>", positions[0]]
+    for more in positions[1:]:
+        parts += [",", more]
+    parts.append("</coordinates></Point></Placemark>")
+    return parts
