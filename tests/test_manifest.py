@@ -83,6 +83,23 @@ def test_writer_output_in_memory_passes_the_schema(small_plan):
     assert len(json.loads(text)["sorties"]) >= 2  # the battery split is exercised
 
 
+def test_stations_written_from_columns_are_the_rows(small_plan):
+    """The text `plan` writes (stations from a StationTable, no rows made) is the text of the
+    manifest with its rows, and the table's rows are the manifest's rows."""
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.spec import load_spec
+
+    plan = plan_from_files(load_spec(small_plan.parent / "spec.toml"))
+    full = mf.build_manifest(plan, 7, {"a": "b"})
+    bare = mf.build_manifest(plan, 7, {"a": "b"}, with_stations=False)
+    table = mf.station_table(plan)
+    assert bare["stations"] == [] and table.rows() == full["stations"] and len(full["stations"]) > 10
+    assert mf.dumps(bare, table) == mf.dumps(full)
+    assert json.loads(mf.dumps(bare, table)) == full
+    with pytest.raises(ValueError, match="given twice"):
+        mf.dumps(full, table)
+
+
 def _write(folder: Path, data: dict) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "manifest.json").write_text(json.dumps(data))

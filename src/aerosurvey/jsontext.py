@@ -114,13 +114,22 @@ def rows_text(rows: Sequence[dict[str, Any]], sep: str, item_sep: str = ", ", ke
         columns = []
     if not all(_FLAT.issuperset(map(type, col)) for col in columns):
         return None
-    texts = [value_texts(col) for col in columns]
     if not keys:
         return sep.join(["{}"] * len(rows))
+    return table_text(keys, columns, sep, item_sep, key_sep)
+
+
+def table_text(keys: Sequence[str], columns: Sequence[Sequence[Any]], sep: str, item_sep: str = ", ",
+               key_sep: str = ": ") -> str:
+    """`rows_text` of the rows that have these columns under these keys (plain values only)."""
+    n = len(columns[0]) if columns else 0
+    if not keys:
+        return ""
+    texts = [value_texts(col) for col in columns]
     parts: list[str | list[str]] = []
     for i, (k, col) in enumerate(zip(keys, texts)):
         parts += [("{" if i == 0 else item_sep) + _encode_str(k) + key_sep, col]
-    return join_rows([*parts, "}"], len(rows), sep)
+    return join_rows([*parts, "}"], n, sep)
 
 
 def join_rows(parts: Sequence[str | list[str]], n: int, sep: str) -> str:

@@ -25,7 +25,7 @@ import numpy as np
 from aerosurvey import __version__, ids, schemas
 from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import rows_text
+from aerosurvey.jsontext import rows_text, table_text
 from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
@@ -107,8 +107,46 @@ def _coverage(plan: Plan) -> dict[str, Any]:
             "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
 
 
-def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> dict[str, Any]:
-    """The manifest as plain JSON data. `outputs` maps each written file name to its sha256."""
+STATION_KEYS = ("id", "seq", "line", "x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg")
+
+
+@dataclass(frozen=True)
+class StationTable:
+    """The manifest's stations as columns, one per STATION_KEYS, of plain JSON values."""
+
+    columns: tuple[tuple[Any, ...], ...]
+
+    def rows(self) -> list[dict[str, Any]]:
+        """The stations as the manifest's JSON rows."""
+        return [{"id": sid, "seq": seq, "line": line, "x": x, "y": y, "lon": lon, "lat": lat, "ground_m": g,
+                 "alt_rel_m": a, "agl_m": agl, "gsd_cm": gsd, "heading_deg": hd}
+                for sid, seq, line, x, y, lon, lat, g, a, agl, gsd, hd in zip(*self.columns)]
+
+    def text(self, sep: str) -> str:
+        """The rows' JSON text, `sep` between them, as `dumps` writes rows (made from the columns)."""
+        return table_text(STATION_KEYS, self.columns, sep)
+
+
+def station_table(plan: Plan) -> StationTable:
+    """The plan's stations as the manifest records them (rounded; None where a value is not finite)."""
+    st = plan.stations
+
+    def col(a: np.ndarray, nd: int) -> tuple[float | None, ...]:
+        r = np.round(np.asarray(a, float), nd)
+        if np.isfinite(r).all():  # most columns: no per-value test
+            return tuple(r.tolist())
+        return tuple(None if not math.isfinite(v) else v for v in r.tolist())
+
+    run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
+    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
+    return StationTable((tuple(st.ids), tuple(range(1, len(st.ids) + 1)), tuple([run_ids[r] for r in st.run.tolist()]),
+                         col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
+                         col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3)))
+
+
+def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with_stations: bool = True) -> dict[str, Any]:
+    """The manifest as plain JSON data. `outputs` maps each written file name to its sha256.
+    Without `with_stations`, `stations` is left empty, for `dumps` to write from a StationTable."""
     spec = plan.spec
     base = spec.path.parent if spec.path else Path(".")
     cam = spec.camera.camera
@@ -124,23 +162,7 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> d
             "lead_in": _lonlat(plan, r.lead_in_xy),
             "end": _lonlat(plan, r.end_xy),
         })
-    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), cam)
-
-    def col(a: np.ndarray, nd: int) -> list[float | None]:
-        r = np.round(np.asarray(a, float), nd)
-        if np.isfinite(r).all():  # most columns: no per-value test
-            return cast("list[float | None]", r.tolist())
-        return [None if not math.isfinite(v) else v for v in r.tolist()]
-
-    run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
-    columns = zip(st.ids, [run_ids[r] for r in st.run.tolist()], col(st.x, 3), col(st.y, 3), col(st.lon, 8),
-                  col(st.lat, 8), col(st.ground_m, 2), col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3),
-                  col(st.heading_deg, 3))
-    stations = [
-        {"id": sid, "seq": j + 1, "line": line, "x": x, "y": y, "lon": lon, "lat": lat, "ground_m": g,
-         "alt_rel_m": a, "agl_m": agl, "gsd_cm": gsd, "heading_deg": hd}
-        for j, (sid, line, x, y, lon, lat, g, a, agl, gsd, hd) in enumerate(columns)
-    ]
+    stations = station_table(plan).rows() if with_stations else []
     inputs = {
         "spec": _input(spec.path, base) if spec.path else None,
         "area": _input(spec.area.file, base) if spec.area.file else {"wkt": spec.area.wkt, "crs": spec.area.wkt_crs},
@@ -209,18 +231,25 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str]) -> d
     }
 
 
-def dumps(manifest: dict[str, Any]) -> str:
+def dumps(manifest: dict[str, Any], stations: StationTable | None = None) -> str:
     """JSON with one top-level key per line and one line or station per line: readable,
     diff-friendly, and written by json's C encoder (an `indent` would fall back to Python),
-    rows of plain values by `jsontext.rows_text` (the same text, their numbers written faster)."""
+    rows of plain values by `jsontext.rows_text` (the same text, their numbers written faster).
+    `stations`, if given, is written as the stations (their rows never made: most of the
+    manifest's numbers), and `manifest["stations"]` must then be empty."""
     enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
     out = ["{"]
     keys = list(manifest)
     for i, key in enumerate(keys):
         value = manifest[key]
         comma = "," if i < len(keys) - 1 else ""
-        if isinstance(value, list) and value and isinstance(value[0], dict):
-            text = rows_text(value, ",\n  ")  # the stations, a column at a time: most of the manifest's numbers
+        if key == "stations" and stations is not None:
+            if value:
+                raise ValueError("manifest dumps: stations given twice, as rows and as a table")
+            rows = stations.text(",\n  ")
+            out.append(f"{enc.encode(key)}: [\n  {rows}\n]{comma}" if rows else f"{enc.encode(key)}: []{comma}")
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            text = rows_text(value, ",\n  ")  # a column at a time
             rows = text if text is not None else ",\n  ".join(map(enc.encode, value))
             out.append(f"{enc.encode(key)}: [\n  {rows}\n]{comma}")
         else:

@@ -127,7 +127,8 @@ def _render(plan: Plan) -> Rendered:
         files[f"{stem}.waypoints"] = dumps_wpl(sm)
     final_gate(plan, missions)
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
-    manifest = mf.build_manifest(plan, len(mission.items), {})
+    # the stations' rows only where the rules read them; the manifest's text is written from columns
+    manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=bool(plan.spec.profiles))
     results, points, evidence = _rules(plan, manifest, fc)
     for r in results:
         if r.status in ("fail", "warning"):
@@ -138,7 +139,7 @@ def _render(plan: Plan) -> Rendered:
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
-    files["manifest.json"] = mf.dumps(manifest)
+    files["manifest.json"] = mf.dumps({**manifest, "stations": []}, mf.station_table(plan))
     return Rendered(files, manifest["rules"], warnings, evidence)
 
 
