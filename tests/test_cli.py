@@ -76,7 +76,8 @@ def _restore_logging():
 
 
 @pytest.mark.parametrize("args", [["--help"], ["plan", "--help"], ["qa", "--help"], ["log", "--help"], ["sitl", "--help"],
-                                  ["cameras", "--help"], ["check", "--help"]])
+                                  ["cameras", "--help"], ["check", "--help"], ["qa", "accuracy", "--help"],
+                                  ["qa", "bayes", "--help"], ["qa", "shift", "--help"]])
 def test_help_pages_import_no_heavy_library(args, tmp_path):
     mods, res = _imported_by(args, tmp_path)
     assert res.returncode == 0, res.stderr
