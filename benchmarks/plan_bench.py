@@ -210,7 +210,8 @@ def startup(before: str | None = None, rounds: int = STARTUP_ROUNDS) -> list[dic
         times: dict[str, list[float]] = {name: [] for name, *_ in commands}
         cpu: dict[str, list[float]] = {name: [] for name, *_ in commands}
         for rnd in range(rounds + 1):  # round 0 compiles the byte code and is not counted
-            for name, argv, _, extra_env in commands:
+            # every other round in reverse order: a drift in the machine's load then biases no command
+            for name, argv, _, extra_env in (commands if rnd % 2 else commands[::-1]):
                 cmd = [sys.executable, *(a.replace("{tmp}", td) for a in argv)]
                 r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 t0 = time.perf_counter()
