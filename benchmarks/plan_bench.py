@@ -3,6 +3,7 @@
     python benchmarks/plan_bench.py            # all cases, one subprocess each, then start-up
     python benchmarks/plan_bench.py --case 1000ha-holes
     python benchmarks/plan_bench.py --startup  # only the command start-up section
+    python benchmarks/plan_bench.py --startup --before /work/main/src  # and the same commands from other sources
 
 Each case runs in its own process so that its peak memory (max RSS) is its own. Times are
 wall-clock seconds on this machine in this run; the 72 ha block is planned in the same
@@ -174,8 +175,9 @@ STARTUP = [
     ("import click", ["-c", "import click"], []),
     ("import numpy, shapely, pyproj", ["-c", "import numpy, shapely, pyproj"], []),
     ("aerosurvey --help", ["-m", "aerosurvey.cli", "--help"], [("import click", 4.0)]),
-    ("aerosurvey plan --help", ["-m", "aerosurvey.cli", "plan", "--help"], [("import click", None)]),
-    ("aerosurvey qa --help", ["-m", "aerosurvey.cli", "qa", "--help"], [("import click", None)]),
+    # a group's help page lists its subcommands from a registry, importing none of them (scipy for qa)
+    ("aerosurvey plan --help", ["-m", "aerosurvey.cli", "plan", "--help"], [("import click", 4.0)]),
+    ("aerosurvey qa --help", ["-m", "aerosurvey.cli", "qa", "--help"], [("import click", 4.0)]),
     # the plan's work through the library, no CLI: the ratio of the command to it is what start-up adds
     ("library plan 72ha", ["-c", "from pathlib import Path; from aerosurvey.spec import load_spec; "
                            "from aerosurvey.inputs import plan_from_files; from aerosurvey.outputs import write_outputs; "
@@ -186,22 +188,34 @@ STARTUP = [
 ]
 
 
-def startup() -> list[dict]:
+def _startup_rows(before: str | None) -> list[tuple[str, list[str], list, dict[str, str]]]:
+    """STARTUP with an environment each; with `before` (a source folder), each aerosurvey command twice:
+    as this interpreter imports it and, as "NAME (before)", from `before` (e.g. the main checkout's src)."""
+    rows = [(name, argv, comparisons, {}) for name, argv, comparisons in STARTUP]
+    if before:
+        rows += [(f"{name} (before)", argv, comparisons, {"PYTHONPATH": before})
+                 for name, argv, comparisons in STARTUP if name.startswith(("aerosurvey", "library"))]
+    return rows
+
+
+def startup(before: str | None = None, rounds: int = STARTUP_ROUNDS) -> list[dict]:
     """Fresh-process wall times of the STARTUP commands and their ratios to their baselines."""
     import os
     import statistics
 
+    commands = _startup_rows(before)
     with tempfile.TemporaryDirectory() as td:
-        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-        env["PYTHONPYCACHEPREFIX"] = str(Path(td) / "pycache")
-        times: dict[str, list[float]] = {name: [] for name, *_ in STARTUP}
-        cpu: dict[str, list[float]] = {name: [] for name, *_ in STARTUP}
-        for rnd in range(STARTUP_ROUNDS + 1):  # round 0 compiles the byte code and is not counted
-            for name, argv, _ in STARTUP:
+        base_env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        base_env["PYTHONPYCACHEPREFIX"] = str(Path(td) / "pycache")
+        times: dict[str, list[float]] = {name: [] for name, *_ in commands}
+        cpu: dict[str, list[float]] = {name: [] for name, *_ in commands}
+        for rnd in range(rounds + 1):  # round 0 compiles the byte code and is not counted
+            # every other round in reverse order: a drift in the machine's load then biases no command
+            for name, argv, _, extra_env in (commands if rnd % 2 else commands[::-1]):
                 cmd = [sys.executable, *(a.replace("{tmp}", td) for a in argv)]
                 r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 t0 = time.perf_counter()
-                out = subprocess.run(cmd, capture_output=True, text=True, env=env)
+                out = subprocess.run(cmd, capture_output=True, text=True, env={**base_env, **extra_env})
                 dt = time.perf_counter() - t0
                 r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 if out.returncode != 0:
@@ -212,8 +226,10 @@ def startup() -> list[dict]:
     med = {name: statistics.median(v) for name, v in times.items()}
     med_cpu = {name: statistics.median(v) for name, v in cpu.items()}
     rows = []
-    for name, _, comparisons in STARTUP:
+    for name, _, comparisons, _ in commands:
         for base, limit in comparisons or [(None, None)]:
+            if name.endswith(" (before)") and base in med and f"{base} (before)" in med:
+                base = f"{base} (before)"  # the library baseline of the same sources
             ratio = med[name] / med[base] if base else None
             rows.append({"command": name, "median_s": round(med[name], 3), "cpu_s": round(med_cpu[name], 3),
                          "baseline": base or "", "ratio": round(ratio, 2) if ratio is not None else "",
@@ -223,8 +239,8 @@ def startup() -> list[dict]:
     return rows
 
 
-def print_startup(rows: list[dict]) -> None:
-    print(f"start-up: fresh processes, median of {STARTUP_ROUNDS} rounds; ratio of wall times (the target), "
+def print_startup(rows: list[dict], rounds: int = STARTUP_ROUNDS) -> None:
+    print(f"start-up: fresh processes, median of {rounds} rounds; ratio of wall times (the target), "
           "cpu_ratio of user+system CPU times (steadier on a busy machine)")
     cols = ["command", "median_s", "cpu_s", "baseline", "ratio", "cpu_ratio", "target", "met"]
     widths = {c: max(len(c), *(len(str(r[c])) for r in rows)) for c in cols}
@@ -240,12 +256,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", choices=CASES)
     ap.add_argument("--startup", action="store_true", help="Only the start-up section.")
+    ap.add_argument("--before", metavar="SRC", help="Start-up: also time the aerosurvey commands from this source folder "
+                    "(e.g. /work/main/src) in the same rounds, as rows 'NAME (before)'.")
+    ap.add_argument("--rounds", type=int, default=STARTUP_ROUNDS, help="Start-up rounds (median of them).")
     a = ap.parse_args()
     if a.case:
         print(json.dumps(run_case(a.case)))
         return
     if a.startup:
-        print_startup(startup())
+        print_startup(startup(a.before, a.rounds), a.rounds)
         return
     rows = []
     for case in CASES:
@@ -262,7 +281,7 @@ def main() -> None:
         r["x72ha"] = round(r["total_s"] / base, 1) if base else float("nan")
         print("  ".join(f"{str(r[c]):>11}" for c in cols))
     print()
-    print_startup(startup())
+    print_startup(startup(a.before, a.rounds), a.rounds)
 
 
 if __name__ == "__main__":

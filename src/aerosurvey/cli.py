@@ -1,12 +1,18 @@
-"""The `aerosurvey` command: a click group whose subcommands are entry points, loaded on use.
+"""The `aerosurvey` command: a click group whose subcommands are loaded on use.
 
-Commands are registered like rasterio's `rio` commands: as entry points in the group
-`aerosurvey.commands` (pyproject.toml's [project.entry-points."aerosurvey.commands"]), so
-another package can add a command by declaring one in its own metadata. A command's module
-is imported only when it runs or when `aerosurvey --help` lists it, and command modules keep
-their heavy imports inside the command functions: `aerosurvey --help` loads click and the
-command modules, `aerosurvey plan` what planning needs and nothing of the QA, web or
-MAVLink commands.
+aerosurvey's own commands are listed in `COMMANDS` (target and short help), the same
+targets its metadata declares as entry points in the group `aerosurvey.commands`
+(pyproject.toml's [project.entry-points."aerosurvey.commands"]; tests/test_cli.py checks
+they agree). Another package adds a command by declaring an entry point in that group in
+its own metadata, as rasterio's `rio` finds its commands. Running one of aerosurvey's
+commands reads no package metadata (importlib.metadata and the scan of every installed
+package's metadata cost 50-80 ms); the help page and a name aerosurvey does not know
+look the plug-ins up.
+
+A command's module is imported only when it runs or when its own help page is shown:
+`aerosurvey --help` lists aerosurvey's commands from `COMMANDS` and loads only plug-ins,
+`aerosurvey plan` loads what planning needs and nothing of the QA, web or MAVLink
+commands; command modules keep their heavy imports inside the command functions.
 
 Each command stays thin: it parses options, calls library functions and prints. Errors a
 user can act on (AerosurveyError) become one line on stderr and the exit code 2 (bad input)
@@ -17,12 +23,12 @@ from __future__ import annotations
 
 import functools
 import sys
-from pathlib import Path
+from collections.abc import Mapping
 
 import click
 
 from aerosurvey import __version__
-from aerosurvey.commands import LazyGroup, load_command
+from aerosurvey.commands import Lazy, LazyGroup, load_command
 from aerosurvey.console import configure_logging
 from aerosurvey.errors import AerosurveyError
 
@@ -30,52 +36,36 @@ from aerosurvey.errors import AerosurveyError
 GROUP = "aerosurvey.commands"
 DIST = "aerosurvey"
 
+#: aerosurvey's own commands: {name: Lazy(target, short help)}. The targets are the entry
+#: points pyproject.toml declares, the short helps the commands' own (tests/test_cli.py).
+COMMANDS: Mapping[str, Lazy] = {
+    "cameras": Lazy("aerosurvey.commands.cameras:cameras", "List the camera database (or `cameras show ID` for one camera)."),
+    "check": Lazy("aerosurvey.commands.check:check", "Check a mission spec or a plan folder against rule profiles."),
+    "gcp": Lazy("aerosurvey.commands.gcp:gcp", "Propose GCPs (an envelope outside the perimeter) and check points (inside)."),
+    "log": Lazy("aerosurvey.commands.log:log", "Flight logs: camera events, their match to the plan."),
+    "plan": Lazy("aerosurvey.commands.plan:plan", "Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."),
+    "qa": Lazy("aerosurvey.commands.qa:qa", "Quality assessment of finished products (accuracy, reproducibility, time series)."),
+    "refly": Lazy("aerosurvey.commands.refly:refly", "Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."),
+    "serve": Lazy("aerosurvey.commands.serve:serve",
+                  "Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."),
+    "sitl": Lazy("aerosurvey.commands.sitl:sitl", "ArduPilot SITL: fly the planned missions in simulation (needs a SITL binary you have)."),
+    "upload": Lazy("aerosurvey.commands.upload:upload",
+                   "Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare."),
+}
+
 
 @functools.cache
-def own_commands() -> dict[str, str]:
-    """{name: "module:attribute"} of aerosurvey's own commands, from its installed metadata.
-
-    An editable install made before a command was registered does not list it until
-    reinstalled (`pip install -e .`); when the installed metadata lists none of aerosurvey's
-    commands, they are read from the checkout's pyproject.toml.
-    """
-    from importlib.metadata import PackageNotFoundError, distribution  # pyproj imports it too
-
-    try:
-        eps = distribution(DIST).entry_points.select(group=GROUP)  # one package's metadata: running a command reads no other
-    except PackageNotFoundError:
-        return _checkout_commands()
-    return {ep.name: f"{ep.module}:{ep.attr}" for ep in eps} or _checkout_commands()
-
-
-@functools.cache
-def plugin_commands() -> dict[str, str]:
-    """{name: "module:attribute"} of commands other packages add; a plug-in cannot replace one of aerosurvey's."""
+def plugin_commands() -> dict[str, Lazy]:
+    """{name: Lazy(target)} of commands other packages add; a plug-in cannot replace one of aerosurvey's."""
     from importlib.metadata import entry_points  # reads every installed package's metadata: only to list or for a plug-in
 
-    own = own_commands()
-    return {ep.name: f"{ep.module}:{ep.attr}" for ep in entry_points(group=GROUP)
-            if (ep.dist is None or ep.dist.name != DIST) and ep.name not in own}
+    return {ep.name: Lazy(f"{ep.module}:{ep.attr}") for ep in entry_points(group=GROUP)
+            if (ep.dist is None or ep.dist.name != DIST) and ep.name not in COMMANDS}
 
 
 def registry() -> tuple[dict[str, str], dict[str, str]]:
     """(aerosurvey's own commands, plug-ins' commands), each {name: "module:attribute"}."""
-    return own_commands(), plugin_commands()
-
-
-def _checkout_commands() -> dict[str, str]:
-    """aerosurvey's commands as the source checkout's pyproject.toml declares them ({} when not in a checkout)."""
-    import tomllib
-
-    pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
-    try:
-        project = tomllib.loads(pyproject.read_text(encoding="utf-8")).get("project", {})
-    except (OSError, tomllib.TOMLDecodeError):
-        return {}
-    if project.get("name") != DIST:
-        return {}
-    eps = project.get("entry-points", {}).get(GROUP, {})
-    return {name: value.split("[")[0].replace(" ", "") for name, value in eps.items()}
+    return {n: c.target for n, c in COMMANDS.items()}, {n: c.target for n, c in plugin_commands().items()}
 
 
 def _broken(name: str, target: str, exc: Exception) -> click.Command:
@@ -89,15 +79,14 @@ def _broken(name: str, target: str, exc: Exception) -> click.Command:
 
 
 class _Main(LazyGroup):
-    def lazy_subcommands(self) -> dict[str, str]:
-        own, plugins = registry()
-        return {**plugins, **own}
+    def lazy_subcommands(self) -> Mapping[str, Lazy]:
+        return {**plugin_commands(), **COMMANDS}
 
-    def target(self, name: str) -> str | None:
-        return own_commands().get(name) or plugin_commands().get(name)
+    def lazy(self, name: str) -> Lazy | None:
+        return COMMANDS.get(name) or plugin_commands().get(name)  # one of aerosurvey's: no metadata read
 
     def load(self, name: str, target: str) -> click.Command:
-        if name in own_commands():
+        if name in COMMANDS:
             return load_command(target)  # aerosurvey's own: failing to load is a defect, shown as one
         try:
             return load_command(target)

@@ -9,12 +9,7 @@ import click
 
 from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
-from aerosurvey.qa import bayes as bz
-from aerosurvey.qa.accuracy_input import UNITS, read_points
-from aerosurvey.qa.assessment import STANDARDS, Settings, assess
-from aerosurvey.qa.campaign import read_campaign
-from aerosurvey.qa.report_html import posterior_page, render
-from aerosurvey.qa.report_text import summary
+from aerosurvey.qa.choices import STANDARDS, UNITS  # names only: the statistics (scipy) load in the commands
 
 _POS = click.FloatRange(min=0, min_open=True)
 _NONNEG = click.FloatRange(min=0)
@@ -77,6 +72,13 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
          check points not accurate enough, mean error above the standard's limit,
          or the plan's own check point rule not met); the reasons are printed
     """
+    # imported here, not at the top: the help pages must not load scipy
+    from aerosurvey.qa.accuracy_input import read_points
+    from aerosurvey.qa.assessment import Settings, assess
+    from aerosurvey.qa.campaign import read_campaign
+    from aerosurvey.qa.report_html import render
+    from aerosurvey.qa.report_text import summary
+
     if area_km2 is not None and area_ha is not None:
         raise InputError(f"--area-km2 = {area_km2} and --area-ha = {area_ha}: give the project area once")
     pts = read_points(points, units, default_role, crs)
@@ -119,6 +121,9 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
 def bayes(points: int, s: float, tau: float, axis: str, level: float, cls: float | None, unit: str, as_json: bool,
           outdir: Path | None) -> None:
     """Bayesian sigma from summary statistics alone, as published tables give them."""
+    from aerosurvey.qa import bayes as bz  # scipy: loaded by the command, not by its help page
+    from aerosurvey.qa.report_html import posterior_page
+
     m = 2 * points if axis == "xy" else points
     p = bz.posterior(m, s, tau, level)
     res: dict[str, object] = {"axis": axis, "points": points, "m": m, "s": s, "tau": tau, "unit": unit or None,

@@ -32,11 +32,11 @@ import numpy as np
 import pyproj
 
 from aerosurvey.errors import InputError
+from aerosurvey.qa.choices import UNITS
 
 #: Largest residual accepted (m): anything larger is a wrong point or unit, and squaring
 #: values near 1e300 would overflow the statistics.
 MAX_RESIDUAL_M = 1.0e5
-UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048}
 _LENGTH_COLUMNS = ("dx", "dy", "dz", "x", "y", "z", "x_ref", "y_ref", "z_ref", "sigma_xy", "sigma_z")
 _ROLES = {"check": "check", "cp": "check", "checkpoint": "check", "check point": "check", "icp": "check",
           "control": "control", "gcp": "control", "ground control": "control", "control point": "control"}

@@ -15,15 +15,8 @@ from aerosurvey.qa import statistics as st
 from aerosurvey.qa import uncertainty as un
 from aerosurvey.qa.accuracy_input import CheckPoints
 from aerosurvey.qa.campaign import Campaign, area_bounds_local, campaign_checks, campaign_roles
+from aerosurvey.qa.choices import STANDARDS
 from aerosurvey.qa.snooping import K_H, K_V, MAX_SHARE, Snooping, snoop
-
-STANDARDS = {
-    "asprs2014": "ASPRS Positional Accuracy Standards, Edition 1 (2014)",
-    "asprs2023": "ASPRS Positional Accuracy Standards, Edition 2 (2023)",
-    "nssda": "NSSDA (FGDC-STD-007.3-1998)",
-    "snooping": "Cadastral data snooping (Hellenic Cadastre practice)",
-    "bayes": "Bayesian estimate with an uncertain reference survey (Jeffreys prior)",
-}
 
 EDITION2_UNCONFIRMED = ("Edition 2 figures not confirmed against the standard's own text (a secondary source only): "
                         "RMSE_H = sqrt(RMSE_H1^2 + RMSE_H2^2) with RMSE_H2 = sqrt(2) x the per-coordinate survey "
