@@ -113,6 +113,7 @@ def test_planning_loads_only_what_planning_needs(tmp_path):
     assert {"numpy", "shapely", "pyproj", "aerosurvey.rules.footprints"} <= mods | modules  # the example's rules ran
     assert sorted(mods & set(NOT_FOR_PLANNING)) == []
     assert "numpy.ma" not in modules  # np.median loads it (12-17 ms): the rules take statistics.median
+    assert "jsonschema" not in mods  # the manifest just written is not checked again in the same process (~80 ms)
 
 
 def test_registry_is_the_pyproject_entry_points():

@@ -43,7 +43,7 @@ def open_target(path: Path) -> Target:
 
         spec = load_spec(path)
         manifest, features = plan_documents(plan_from_files(spec))
-        view = PlanView.from_documents(manifest, features, str(path))
+        view = PlanView.from_documents(manifest, features, str(path), check=False)  # made here, by the writer
         return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")

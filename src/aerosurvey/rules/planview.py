@@ -47,9 +47,10 @@ class PlanView:
         return float(self.area.area / 1e4)
 
     @classmethod
-    def from_documents(cls, manifest: dict[str, Any], features: dict[str, Any], where: str) -> PlanView:
-        """From the manifest as JSON data (checked against its schema) and the plan's GeoJSON."""
-        return cls.from_manifest(mf.from_data(manifest, where), features, where)
+    def from_documents(cls, manifest: dict[str, Any], features: dict[str, Any], where: str, *, check: bool = True) -> PlanView:
+        """From the manifest as JSON data (checked against its schema unless `check` is off:
+        see `manifest.from_data`) and the plan's GeoJSON."""
+        return cls.from_manifest(mf.from_data(manifest, where, check=check), features, where)
 
     @classmethod
     def from_manifest(cls, doc: mf.Manifest, features: dict[str, Any], where: str) -> PlanView:
