@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import io
+import json
 import re
 import zipfile
 from collections.abc import Mapping
@@ -108,7 +109,53 @@ def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
         raise InputError(f"{name}: {str(path)!r} has an unknown extension; allowed: {', '.join(sorted(_VECTOR_SUFFIXES | {'.wkt'}))}")
     if path.suffix.lower() == ".wkt":
         return _from_wkt(path.read_text(encoding="utf-8"), name), _WGS84
+    if path.suffix.lower() in (".geojson", ".json"):
+        geoms = _plain_geojson(path.read_bytes())
+        if geoms is not None:
+            return _polygons(geoms, _WGS84, str(path), path.name, name), _WGS84
     return _parse_vector(path, str(path), path.name, name)
+
+
+_GEOMETRY_TYPES = frozenset({"Point", "MultiPoint", "LineString", "MultiLineString", "Polygon", "MultiPolygon"})
+
+
+def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
+    """The geometries of a plain RFC 7946 GeoJSON document, read without GDAL; None for
+    anything else (GDAL reads it then, and says what is wrong).
+
+    Plain: a FeatureCollection, a Feature or a geometry of the six simple types, in WGS84 (no
+    legacy `crs` member). Why: loading pyogrio and GDAL for it took ~105 ms of each `aerosurvey
+    plan` start-up and ~40 ms more on the first read (-X importtime, cProfile). The numbers
+    are parsed by Python's correctly rounded float parser, as GDAL's are; a test compares both
+    readers on the repository's areas and on random polygons."""
+    try:
+        doc = json.loads(data)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(doc, dict) or "crs" in doc:
+        return None
+    kind = doc.get("type")
+    if kind == "FeatureCollection":
+        feats = doc.get("features")
+        if not isinstance(feats, list) or not all(isinstance(f, dict) and f.get("type") == "Feature" for f in feats):
+            return None
+        raw = [f.get("geometry") for f in feats]
+    elif kind == "Feature":
+        raw = [doc.get("geometry")]
+    else:
+        raw = [doc]
+    out: list[BaseGeometry | None] = []
+    for g in raw:
+        if g is None:
+            out.append(None)
+            continue
+        if not isinstance(g, dict) or g.get("type") not in _GEOMETRY_TYPES:
+            return None
+        try:
+            out.append(shapely.force_2d(shapely.geometry.shape(g)))
+        except (ValueError, TypeError, IndexError, AttributeError, shapely.errors.ShapelyError):
+            return None
+    return out
 
 
 #: pyogrio's name for bytes it hands GDAL (/vsimem/pyogrio_<hex>, under /vsizip/ for a zip)
@@ -141,8 +188,7 @@ def _parse_vector(source: Path | bytes, where: str, short: str, name: str) -> tu
         if crs is not None and not layer_crs.equals(crs):
             raise InputError(f"{name}: layers of {where!r} are in different CRSs ({crs.name}, {layer_crs.name})")
         crs = layer_crs
-        geoms = shapely.from_wkb(wkb)
-        for i, g in enumerate(geoms):
+        for i, g in enumerate(shapely.from_wkb(wkb)):
             if g is None or g.is_empty:
                 continue
             for part in shapely.get_parts(g):
@@ -150,12 +196,18 @@ def _parse_vector(source: Path | bytes, where: str, short: str, name: str) -> tu
                     parts.append(part)
                 elif part.geom_type not in ("Point", "LineString", "MultiPoint", "MultiLineString"):
                     raise InputError(f"{name}: feature {i} of layer {layer!r} is a {part.geom_type}; only polygons are areas")
+    return _polygons(parts, crs or _WGS84, where, short, name), crs or _WGS84
+
+
+def _polygons(geoms: list[BaseGeometry | None], crs: pyproj.CRS, where: str, short: str, name: str) -> BaseGeometry:
+    """The polygons among a dataset's geometries (points and lines left out), each checked, unioned."""
+    parts = [p for g in geoms if g is not None and not g.is_empty for p in shapely.get_parts(g)
+             if p.geom_type in ("Polygon", "MultiPolygon")]
     if not parts:
         raise InputError(f"{name}: {where!r} holds no polygon")
     for i, p in enumerate(parts):
-        validate_polygons(p, f"{name} ({short}, polygon {i + 1})", (crs or _WGS84).is_geographic)
-    geom = shapely.union_all(parts) if len(parts) > 1 else parts[0]
-    return geom, crs or _WGS84
+        validate_polygons(p, f"{name} ({short}, polygon {i + 1})", crs.is_geographic)
+    return shapely.union_all(parts) if len(parts) > 1 else parts[0]
 
 
 def _from_wkt(text: str, name: str) -> BaseGeometry:

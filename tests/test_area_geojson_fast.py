@@ -1,0 +1,102 @@
+"""Plain GeoJSON areas are read without GDAL, and give exactly what GDAL's reader gives: the same
+coordinates bit for bit, the same union, the same errors (anything unusual goes to GDAL)."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aerosurvey import area
+from aerosurvey.errors import InputError
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def by_gdal(path: Path) -> shapely.Geometry:
+    geom, crs = area._parse_vector(path, str(path), path.name, "area")
+    return geom
+
+
+def same(a: shapely.Geometry, b: shapely.Geometry) -> bool:
+    return a.geom_type == b.geom_type and np.array_equal(shapely.get_coordinates(a), shapely.get_coordinates(b)) \
+        and shapely.equals_exact(a, b, tolerance=0.0)
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "missions" / "areas").glob("*.geojson")), ids=lambda p: p.name)
+def test_repository_areas_read_as_gdal_reads_them(path: Path) -> None:
+    assert area._plain_geojson(path.read_bytes()) is not None  # the fast path is taken
+    fast, crs = area._read_vector(path, "area")
+    assert same(fast, by_gdal(path))
+
+
+digits = st.integers(0, 17)
+lon = st.builds(lambda v, n: round(v, n), st.floats(14.0, 14.2), digits)
+lat = st.builds(lambda v, n: round(v, n), st.floats(49.0, 49.2), digits)
+
+
+@st.composite
+def documents(draw: st.DrawFn) -> dict:
+    feats = []
+    for _ in range(draw(st.integers(1, 3))):
+        cx, cy, r = draw(lon), draw(lat), draw(st.floats(0.001, 0.02))
+        n = draw(st.integers(3, 9))
+        ring = [[cx + r * math.cos(2 * math.pi * k / n) + draw(st.floats(-1e-4, 1e-4)),
+                 cy + r * math.sin(2 * math.pi * k / n)] for k in range(n)]
+        if draw(st.booleans()):
+            ring = [[round(x, draw(digits)), round(y, draw(digits))] for x, y in ring]
+        if draw(st.booleans()):
+            ring = [[x, y, draw(st.floats(0, 500))] for x, y in ring]  # heights are dropped
+        ring.append(list(ring[0]))
+        kind = draw(st.sampled_from(["Polygon", "MultiPolygon", "Point", "null"]))
+        geom = ({"type": "Polygon", "coordinates": [ring]} if kind == "Polygon"
+                else {"type": "MultiPolygon", "coordinates": [[ring]]} if kind == "MultiPolygon"
+                else {"type": "Point", "coordinates": ring[0]} if kind == "Point" else None)
+        feats.append({"type": "Feature", "properties": {"n": 1}, "geometry": geom})
+    if len(feats) == 1 and draw(st.booleans()):
+        return feats[0] if draw(st.booleans()) else (feats[0]["geometry"] or {"type": "Point", "coordinates": [1.0, 2.0]})
+    return {"type": "FeatureCollection", "features": feats}
+
+
+@settings(max_examples=60, deadline=None)
+@given(documents())
+def test_random_documents_read_as_gdal_reads_them(tmp_path_factory, doc: dict) -> None:
+    path = tmp_path_factory.mktemp("gj") / "a.geojson"
+    path.write_text(json.dumps(doc))
+    try:
+        want = by_gdal(path)
+    except InputError as exc:
+        with pytest.raises(InputError) as got:
+            area._read_vector(path, "area")
+        assert str(got.value) == str(exc)
+        return
+    fast, _ = area._read_vector(path, "area")
+    assert same(fast, want)
+
+
+@pytest.mark.parametrize("doc", [
+    {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "EPSG:5514"}}, "features": []},
+    {"type": "GeometryCollection", "geometries": []},
+    {"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": {"type": "Polygon", "coordinates": "x"}}]},
+    [1, 2],
+])
+def test_anything_unusual_goes_to_gdal(doc: object) -> None:
+    assert area._plain_geojson(json.dumps(doc).encode()) is None
+    assert area._plain_geojson(b"{not json") is None
+
+
+def test_a_plain_geojson_plan_loads_no_gdal(tmp_path: Path) -> None:
+    import subprocess
+
+    code = ("import sys; from aerosurvey.area import read_area; from pathlib import Path; "
+            f"read_area(Path({str(REPO / 'missions' / 'areas' / 'obratan-72ha.geojson')!r}), None, '', 'area'); "
+            "print(sorted(m for m in sys.modules if m.startswith('pyogrio')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
