@@ -80,3 +80,23 @@ def test_gcp_moved_towards_the_outline_says_so():
     fp = Footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 110.0), np.full(6, 110.0))
     gcps = propose_gcps(area, fp, count=4, min_images=6, offset=10.0, max_spacing=400.0, nogo=None)
     assert all(g.images == 6 and g.note.startswith("moved to") for g in gcps)
+
+
+def test_count_at_is_the_count_of_footprints_holding_each_point() -> None:
+    """Against a direct count, footprint by footprint, over every point (random rectangles)."""
+    from aerosurvey.rules.footprints import Footprints
+
+    rng = np.random.default_rng(7)
+    n = 300
+    fp = Footprints(rng.uniform(0, 1000, n), rng.uniform(0, 1000, n), rng.uniform(0, 2 * np.pi, n),
+                    rng.uniform(20, 80, n), rng.uniform(10, 60, n))
+    px, py = rng.uniform(-50, 1050, 2000), rng.uniform(-50, 1050, 2000)
+    want = np.zeros(len(px), int)
+    for i in range(n):
+        dx, dy = px - fp.x[i], py - fp.y[i]
+        h = fp.heading_rad[i]
+        u, v = dx * np.sin(h) + dy * np.cos(h), dx * np.cos(h) - dy * np.sin(h)
+        want += (np.abs(u) <= fp.along[i] / 2 + 1e-6) & (np.abs(v) <= fp.across[i] / 2 + 1e-6)
+    assert want.max() >= 2
+    assert np.array_equal(fp.count_at(px, py), want)
+    assert fp.count_at(np.array([]), np.array([])).tolist() == []

@@ -69,18 +69,24 @@ class Footprints:
     along: FloatArray
 
     def count_at(self, px: FloatArray, py: FloatArray) -> IntArray:
-        """How many footprints contain each point."""
-        counts = np.zeros(len(px), int)
-        s, c = np.sin(self.heading_rad), np.cos(self.heading_rad)
-        x0, y0, x1, y1 = px.min(), py.min(), px.max(), py.max()
+        """How many footprints contain each point.
+
+        The pairs (footprint, point) to test are those whose point lies in the square the
+        footprint can reach (an STRtree query), then each pair is tested exactly; measured on
+        the Obrataň example (1,756 photos, 4,000 points): 41 → ~8 ms against one footprint at
+        a time over every point."""
+        px, py = np.asarray(px, float), np.asarray(py, float)
+        if not len(px) or not len(self.x):
+            return np.zeros(len(px), int)
         reach = np.hypot(self.across, self.along) / 2
-        near = (self.x + reach >= x0) & (self.x - reach <= x1) & (self.y + reach >= y0) & (self.y - reach <= y1)
-        for i in np.flatnonzero(near):
-            dx, dy = px - self.x[i], py - self.y[i]
-            u = dx * s[i] + dy * c[i]
-            v = dx * c[i] - dy * s[i]
-            counts += (np.abs(u) <= self.along[i] / 2 + 1e-6) & (np.abs(v) <= self.across[i] / 2 + 1e-6)
-        return counts
+        tree = shapely.STRtree(shapely.points(px, py))
+        fi, pj = tree.query(shapely.box(self.x - reach, self.y - reach, self.x + reach, self.y + reach))
+        s, c = np.sin(self.heading_rad)[fi], np.cos(self.heading_rad)[fi]
+        dx, dy = px[pj] - self.x[fi], py[pj] - self.y[fi]
+        u = dx * s + dy * c
+        v = dx * c - dy * s
+        inside = (np.abs(u) <= self.along[fi] / 2 + 1e-6) & (np.abs(v) <= self.across[fi] / 2 + 1e-6)
+        return np.bincount(pj[inside], minlength=len(px)).astype(int)
 
 
 def footprints(view: PlanView) -> Footprints:
