@@ -82,6 +82,8 @@ def value_texts(values: Sequence[Any], python_exponents: bool = True) -> list[st
         return list(map(_encode_str, values))
     if kinds == {int}:
         return list(map(int.__repr__, values))
+    if kinds == {type(None)}:
+        return ["null"] * len(values)
     at = [i for i, v in enumerate(values) if type(v) is float]
     enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode
     out = ["null" if v is None else _encode_str(v) if type(v) is str else "" if type(v) is float else enc(v)

@@ -133,8 +133,11 @@ def station_table(plan: Plan) -> StationTable:
 
     def col(a: np.ndarray, nd: int) -> tuple[float | None, ...]:
         r = np.round(np.asarray(a, float), nd)
-        if np.isfinite(r).all():  # most columns: no per-value test
+        finite = np.isfinite(r)
+        if finite.all():  # most columns: no per-value test
             return tuple(r.tolist())
+        if not finite.any():  # the ground without a DEM
+            return (None,) * len(r)
         return tuple(None if not math.isfinite(v) else v for v in r.tolist())
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
