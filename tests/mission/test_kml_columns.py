@@ -107,3 +107,13 @@ def test_a_layer_with_a_character_xml_cannot_hold_is_named() -> None:
 def test_a_layer_needs_a_value_for_every_feature() -> None:
     with pytest.raises(ValueError, match="one value per feature"):
         PointLayer(("a", "b"), (("seq", (1,)),), (1.0, 2.0), (3.0, 4.0))
+
+
+def test_an_odd_point_before_an_odd_shape_is_the_one_named() -> None:
+    """Points are set aside to be written a column at a time; a wrong feature after them must
+    not be named first: the error names the first wrong feature, as one by one."""
+    feats: list[dict] = stations(3)
+    feats[1]["geometry"]["coordinates"] = [15.0, math.nan]
+    feats.append({"type": "Feature", "properties": {"role": "line"}, "geometry": {"type": "Wat", "coordinates": []}})
+    with pytest.raises(InputError, match=r"feature 2 \(id 'P1-L001-S0002'\) Point = nan"):
+        kml.feature_collection_to_kml({"type": "FeatureCollection", "features": feats}, "x")
