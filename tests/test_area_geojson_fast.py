@@ -100,3 +100,24 @@ def test_a_plain_geojson_plan_loads_no_gdal(tmp_path: Path) -> None:
             "print(sorted(m for m in sys.modules if m.startswith('pyogrio')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+SQUARE = [[14.0, 49.0], [14.01, 49.0], [14.01, 49.01], [14.0, 49.01], [14.0, 49.0]]
+
+
+@pytest.mark.parametrize("text", [
+    json.dumps({"type": "Polygon", "coordinates": [[[str(x), str(y)] for x, y in SQUARE]]}),  # numbers as strings
+    json.dumps({"type": "Polygon", "coordinates": [[[14.0, 49.0], [True, 49.0], [True, True], [14.0, True], [14.0, 49.0]]]}),
+    json.dumps({"type": "Polygon", "coordinates": [[[14, 49], [14.01, 49], [10**400, 49.01], [14, 49.01], [14, 49]]]}),
+    '{"type": "Polygon", "coordinates": ' + "[" * 100_000 + "]" * 100_000 + "}",  # nested too deep
+], ids=["strings", "booleans", "huge-integer", "deep"])
+def test_odd_coordinates_give_gdals_answer(tmp_path: Path, text: str) -> None:
+    """Coordinates GDAL does not read as numbers are not taken as numbers (shapely would take
+    "14.0" and true), and nothing a file holds ends in a traceback: the same one-line error."""
+    path = tmp_path / "a.geojson"
+    path.write_text(text)
+    with pytest.raises(InputError) as want:
+        by_gdal(path)
+    with pytest.raises(InputError) as got:
+        area._read_vector(path, "area")
+    assert str(got.value) == str(want.value)

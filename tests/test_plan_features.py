@@ -70,3 +70,18 @@ def test_geojson_text_is_the_features_as_json(plan) -> None:
     role = [f["properties"]["role"] for f in full["features"]]
     assert fc["features"] == [f for f, r in zip(full["features"], role) if r not in ("station", "footprint")]
     assert stations.features() == [f for f, r in zip(full["features"], role) if r == "station"]
+
+
+def test_geojson_text_at_the_greenwich_meridian_is_json_text(tmp_path: Path) -> None:
+    """Coordinates within ~11 m of longitude 0 are below 1e-4: json writes them 5e-05, as
+    plan.geojson always had them (orjson would write 0.00005)."""
+    import json
+
+    from aerosurvey.report.features import plan_geojson
+    from conftest import make_spec
+
+    ring = [[-0.006, 51.478], [0.00005, 51.478], [0.00005, 51.4815], [-0.006, 51.4815], [-0.006, 51.478]]
+    near = plan_from_files(load_spec(make_spec(tmp_path, area=ring)))
+    _, _, text = plan_geojson(near)
+    assert "5e-05" in text
+    assert text == json.dumps(plan_features(near), separators=(",", ":"), ensure_ascii=False, allow_nan=False)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import io
+import itertools
 import json
 import re
 import zipfile
@@ -117,6 +118,19 @@ def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
 
 
 _GEOMETRY_TYPES = frozenset({"Point", "MultiPoint", "LineString", "MultiLineString", "Polygon", "MultiPolygon"})
+_DEPTH = {"Point": 1, "MultiPoint": 2, "LineString": 2, "MultiLineString": 3, "Polygon": 3, "MultiPolygon": 4}
+
+
+def _numbers(coords: object, depth: int) -> bool:
+    """Whether `coords` are lists nested `depth` deep of JSON numbers GDAL reads as we do: not
+    strings or booleans (shapely would take "14.5" and true as numbers, GDAL reads no polygon),
+    no integer beyond 64 bits (GDAL clamps it; float() overflows)."""
+    items = [coords]
+    for _ in range(depth):
+        if not all(type(c) is list for c in items):
+            return False
+        items = list(itertools.chain.from_iterable(items))  # type: ignore[arg-type]
+    return all(type(v) is float or (type(v) is int and -(2**63) <= v < 2**63) for v in items)
 
 
 def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
@@ -130,7 +144,7 @@ def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
     readers on the repository's areas and on random polygons."""
     try:
         doc = json.loads(data)
-    except (ValueError, UnicodeDecodeError):
+    except (ValueError, UnicodeDecodeError, RecursionError):  # RecursionError: nested too deep (GDAL says so)
         return None
     if not isinstance(doc, dict) or "crs" in doc:
         return None
@@ -149,7 +163,7 @@ def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
         if g is None:
             out.append(None)
             continue
-        if not isinstance(g, dict) or g.get("type") not in _GEOMETRY_TYPES:
+        if not isinstance(g, dict) or g.get("type") not in _GEOMETRY_TYPES or not _numbers(g.get("coordinates"), _DEPTH[g["type"]]):
             return None
         try:
             out.append(shapely.force_2d(shapely.geometry.shape(g)))

@@ -10,11 +10,11 @@ What is the same and what is not:
 - `float_texts` gives exactly `repr(v)` for every finite float (the exponent forms, which
   orjson spells differently, are made by `repr` itself), so KML and the manifest keep their
   bytes.
-- `dumps_compact` is `json.dumps(obj, separators=(",", ":"), ensure_ascii=False,
-  allow_nan=False)` but for the spelling of numbers that need an exponent: orjson writes
-  `5e-5` and `1e16` where json writes `5e-05` and `1e+16`; every JSON reader reads both as
-  the same number. It checks no number: a NaN would become `null`, so callers pass only
-  finite numbers (the GeoJSON builder checks its arrays).
+- `dumps_compact` is exactly `json.dumps(obj, separators=(",", ":"), ensure_ascii=False,
+  allow_nan=False)`: orjson's text is kept unless it holds a number orjson spells its own
+  way (below 1e-4 it writes `0.00005` or `1e-7` where json writes `5e-05` and `1e-07`: a
+  plan within ~11 m of the Greenwich meridian or the equator has such coordinates) or a
+  `null` (orjson writes NaN and infinity as null); then json writes it, or refuses a NaN.
 """
 
 from __future__ import annotations
@@ -34,9 +34,27 @@ _encode_str = json.encoder.c_encode_basestring or json.encoder.py_encode_basestr
 def dumps_compact(obj: Any) -> str:
     """Compact JSON text (no spaces), non-ASCII kept as it is, numpy arrays as nested lists. See the module docstring."""
     try:
-        return orjson.dumps(obj, option=orjson.OPT_SERIALIZE_NUMPY).decode("utf-8")
+        text = orjson.dumps(obj, option=orjson.OPT_SERIALIZE_NUMPY).decode("utf-8")
     except orjson.JSONEncodeError:  # what orjson cannot write (an integer beyond 64 bits …): json writes it or says why
+        text = None
+    if text is None or _maybe_not_as_json(text):
         return json.dumps(obj, separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_array_as_list)
+    return text
+
+
+def _maybe_not_as_json(text: str) -> bool:
+    """Whether orjson's text may differ from json's: a number with an exponent (1e-7, 1e+16),
+    one below 1e-4 written without (0.00005), a null (maybe a NaN or an infinity). Found in a
+    string too, it merely has json write the same text. By str.find, not a regular expression
+    (~70 ms a megabyte), as most of plan.geojson passes through here."""
+    if "null" in text or "e-" in text or "e+" in text:
+        return True
+    i = text.find("0.0000")
+    while i != -1:
+        if i == 0 or text[i - 1] in "-[,:":
+            return True
+        i = text.find("0.0000", i + 1)
+    return False
 
 
 def _array_as_list(o: Any) -> Any:
@@ -45,10 +63,9 @@ def _array_as_list(o: Any) -> Any:
     raise TypeError(f"Object of type {type(o).__name__} is not JSON serializable")
 
 
-def float_texts(values: Sequence[float] | np.ndarray, python_exponents: bool = True) -> list[str]:
+def float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
     """`repr(v)` of every value, which must all be finite floats; ValueError names the first
-    that is not. With `python_exponents` off, numbers that need an exponent are spelled as
-    `dumps_compact` spells them (5e-5, not 5e-05)."""
+    that is not."""
     a = np.asarray(values, dtype=float)
     if a.ndim != 1:
         a = a.ravel()
@@ -58,8 +75,6 @@ def float_texts(values: Sequence[float] | np.ndarray, python_exponents: bool = T
     if not finite.all():
         raise ValueError(f"number {a[~finite][0]!r} is not finite")
     texts = orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[1:-1].split(",")
-    if not python_exponents:
-        return texts
     mag = np.abs(a)
     # Python writes an exponent below 1e-4 and from 1e16 on; orjson spells those its own way
     for i in np.flatnonzero((mag >= 1e16) | ((mag < 1e-4) & (mag > 0))).tolist():
@@ -72,12 +87,12 @@ def string_texts(values: Sequence[str]) -> list[str]:
     return list(map(_encode_str, values))
 
 
-def value_texts(values: Sequence[Any], python_exponents: bool = True) -> list[str]:
+def value_texts(values: Sequence[Any]) -> list[str]:
     """JSON text of each value of one column, as json writes it: floats through `float_texts`
     (in one call), None as null; a column of one plain type is made in one pass."""
     kinds = set(map(type, values))
     if kinds == {float}:
-        return float_texts(values, python_exponents)
+        return float_texts(values)
     if kinds == {str}:
         return list(map(_encode_str, values))
     if kinds == {int}:
@@ -88,7 +103,7 @@ def value_texts(values: Sequence[Any], python_exponents: bool = True) -> list[st
     enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode
     out = ["null" if v is None else _encode_str(v) if type(v) is str else "" if type(v) is float else enc(v)
            for v in values]
-    for i, text in zip(at, float_texts([values[i] for i in at], python_exponents)):
+    for i, text in zip(at, float_texts([values[i] for i in at])):
         out[i] = text
     return out
 

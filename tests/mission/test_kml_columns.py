@@ -4,6 +4,7 @@ still refused naming that feature."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -11,7 +12,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import dumps_compact
 from aerosurvey.mission.formats import kml
 from aerosurvey.mission.formats.points import PointLayer
 
@@ -94,7 +94,7 @@ def test_a_layer_is_written_as_its_features_would_be(layer: PointLayer) -> None:
     fc = {"type": "FeatureCollection", "features": others}
     whole = {"type": "FeatureCollection", "features": others + layer.features()}
     assert kml.feature_collection_to_kml(fc, "x", [layer]) == kml.feature_collection_to_kml(whole, "x")
-    text = dumps_compact(layer.features())[1:-1]
+    text = json.dumps(layer.features(), separators=(",", ":"), ensure_ascii=False)[1:-1]  # as plan.geojson was written
     assert layer.geojson() == text
 
 
@@ -107,3 +107,13 @@ def test_a_layer_with_a_character_xml_cannot_hold_is_named() -> None:
 def test_a_layer_needs_a_value_for_every_feature() -> None:
     with pytest.raises(ValueError, match="one value per feature"):
         PointLayer(("a", "b"), (("seq", (1,)),), (1.0, 2.0), (3.0, 4.0))
+
+
+def test_an_odd_point_before_an_odd_shape_is_the_one_named() -> None:
+    """Points are set aside to be written a column at a time; a wrong feature after them must
+    not be named first: the error names the first wrong feature, as one by one."""
+    feats: list[dict] = stations(3)
+    feats[1]["geometry"]["coordinates"] = [15.0, math.nan]
+    feats.append({"type": "Feature", "properties": {"role": "line"}, "geometry": {"type": "Wat", "coordinates": []}})
+    with pytest.raises(InputError, match=r"feature 2 \(id 'P1-L001-S0002'\) Point = nan"):
+        kml.feature_collection_to_kml({"type": "FeatureCollection", "features": feats}, "x")

@@ -100,3 +100,17 @@ def test_count_at_is_the_count_of_footprints_holding_each_point() -> None:
     assert want.max() >= 2
     assert np.array_equal(fp.count_at(px, py), want)
     assert fp.count_at(np.array([]), np.array([])).tolist() == []
+
+
+def test_count_at_keeps_points_within_the_tolerance_at_a_corner() -> None:
+    """A point up to 1e-6 beyond a corner counts (the direct test's tolerance), also where the
+    footprint's diagonal lies along an axis, so the corner is the farthest it reaches."""
+    from aerosurvey.rules.footprints import Footprints
+
+    along, across = 80.0, 60.0
+    h = float(np.arctan2(across, along))
+    fp = Footprints(np.array([0.0]), np.array([0.0]), np.array([h]), np.array([across]), np.array([along]))
+    u = np.array([1, 1, -1, -1]) * (along / 2 + 0.9e-6)
+    v = np.array([1, -1, 1, -1]) * (across / 2 + 0.9e-6)
+    px, py = u * np.sin(h) + v * np.cos(h), u * np.cos(h) - v * np.sin(h)  # back from the footprint's axes
+    assert fp.count_at(px, py).tolist() == [1, 1, 1, 1]

@@ -78,7 +78,8 @@ class Footprints:
         px, py = np.asarray(px, float), np.asarray(py, float)
         if not len(px) or not len(self.x):
             return np.zeros(len(px), int)
-        reach = np.hypot(self.across, self.along) / 2
+        # the exact test below allows 1e-6 beyond each side: the square must hold those corners too
+        reach = np.hypot(self.across / 2 + 2e-6, self.along / 2 + 2e-6)
         tree = shapely.STRtree(shapely.points(px, py))
         fi, pj = tree.query(shapely.box(self.x - reach, self.y - reach, self.x + reach, self.y + reach))
         s, c = np.sin(self.heading_rad)[fi], np.cos(self.heading_rad)[fi]

@@ -263,6 +263,8 @@ def _document(fc: dict[str, Any], name: str, text: Escape, points_by_column: boo
         try:
             mark = _placemark(f, props, role, text)
         except InputError as exc:
+            if points:  # a point before it, not yet written, may be wrong: one by one, the first is named
+                return _document(fc, name, text, layers=layers)
             fid = f.get("id", props.get("id"))
             where = f"KML export: feature {k}" + (f" (id {fid!r})" if fid is not None else "")
             raise InputError(f"{where} {exc}") from None

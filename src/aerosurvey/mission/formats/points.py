@@ -40,15 +40,15 @@ class PointLayer:
                 for fid, x, y, *values in zip(self.ids, self.lon, self.lat, *(c for _, c in self.properties))]
 
     def geojson(self) -> str:
-        """The features as compact GeoJSON, comma-separated (jsontext.dumps_compact's text of
-        `features()` without the brackets)."""
+        """The features as compact GeoJSON, comma-separated (json.dumps's compact text of
+        `features()` without the brackets, numbers spelled as repr spells them)."""
         if not self.ids:
             return ""
         parts: list[str | list[str]] = ['{"type":"Feature","id":', string_texts(self.ids), ',"properties":{']
         for i, (name, col) in enumerate(self.properties):
-            parts += [("," if i else "") + string_texts([name])[0] + ":", value_texts(col, python_exponents=False)]
-        parts += ['},"geometry":{"type":"Point","coordinates":[', float_texts(self.lon, python_exponents=False), ",",
-                  float_texts(self.lat, python_exponents=False), "]}}"]
+            parts += [("," if i else "") + string_texts([name])[0] + ":", value_texts(col)]
+        parts += ['},"geometry":{"type":"Point","coordinates":[', float_texts(self.lon), ",",
+                  float_texts(self.lat), "]}}"]
         return join_rows(parts, len(self.ids), ",")
 
 
