@@ -18,6 +18,8 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.plan.frame import LineFrame
+
 _EPS = 1e-6
 
 
@@ -63,16 +65,19 @@ def band_intervals(area_f: BaseGeometry, vs: np.ndarray, half_width: float) -> l
     """For each line ordinate, the merged x-intervals where its strip (±half_width) meets the area."""
     minx, _, maxx, _ = area_f.bounds
     # clipping by a rectangle is 3x faster than a general intersection (measured: 149 strips of a
-    # 1,000 ha area with holes, 7 ms against 21 ms) and gives the same pieces
-    inter = np.array([shapely.clip_by_rect(area_f, minx - 1.0, v - half_width, maxx + 1.0, v + half_width) for v in vs.tolist()])
+    # 1,000 ha area with holes, 7 ms against 21 ms) and gives the same pieces. shapely's ufunc
+    # clips by every strip in one call (its wrapper takes one rectangle a call): the same GEOS
+    # clip per strip, without the per-call overhead (measured: 75 strips, 1.1 ms against 0.4 ms)
+    inter = shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), vs - half_width, np.double(maxx + 1.0),
+                                     vs + half_width)
     parts, idx = shapely.get_parts(inter, return_index=True)
     out: list[list[tuple[float, float]]] = [[] for _ in vs]
     if len(parts):
         keep = ~shapely.is_empty(parts) & (shapely.area(parts) > 0)
         b = shapely.bounds(parts[keep])
-        for i, (x0, x1) in zip(idx[keep], b[:, [0, 2]]):
-            out[i].append((float(x0), float(x1)))
-    return [_merge(iv) for iv in out]
+        for i, x0, x1 in zip(idx[keep].tolist(), b[:, 0].tolist(), b[:, 2].tolist()):
+            out[i].append((x0, x1))
+    return [_merge(iv) if len(iv) > 1 else iv for iv in out]
 
 
 def _merge(intervals: list[tuple[float, float]], gap: float = 0.0) -> list[tuple[float, float]]:
@@ -171,16 +176,200 @@ class StripGeometry:
     clearance: float  # flight along the line before/after a station that must stay out of zones
 
 
+def _lone_runs(intervals: list[list[tuple[float, float]]], g: StripGeometry) -> dict[int, tuple[float, int]]:
+    """(x0, n) of the one run of every line with one interval, as `segments_for_line` lays it
+    (the same operations in the same order, on arrays: most lines have one interval, and the
+    heading search lays dozens of passes; measured: 75 lines, 0.6 ms one by one, 0.1 ms so)."""
+    lines = [i for i, iv in enumerate(intervals) if len(iv) == 1]
+    if not lines:
+        return {}
+    ab = np.array([intervals[i][0] for i in lines])
+    a, b = ab[:, 0], ab[:, 1]
+    reach = g.along / 2.0 - (g.fwd_per_point - 1) * g.base
+    s = np.minimum(a + reach, a - g.beyond * g.base)  # station_span
+    e = np.maximum(b - reach, b + g.beyond * g.base)
+    n = np.maximum(g.fwd_per_point, np.ceil((e - s) / g.base - _EPS).astype(np.int64) + 1)
+    x0 = (s + e) / 2.0 - (n - 1) * g.base / 2.0
+    return dict(zip(lines, zip(x0.tolist(), n.tolist())))
+
+
 def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry) -> list[LineSegment]:
     """All photo runs of one pass over the area (in the line frame)."""
     _, vmin, _, vmax = area_f.bounds
     vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
     intervals = band_intervals(area_f, vs, g.across / 2.0)
+    lone = _lone_runs(intervals, g)
     segs: list[LineSegment] = []
-    for i, (v, iv) in enumerate(zip(vs, intervals)):
-        if iv:
-            segs.extend(segments_for_line(i, float(v), iv, g.along, g.base, g.fwd_per_point, g.beyond, merge_gap=g.along))
+    for i, (v, iv) in enumerate(zip(vs.tolist(), intervals)):
+        if i in lone:
+            x0, n = lone[i]
+            segs.append(LineSegment(line=i, part=0, v=v, x0=x0, n=n, base=g.base))
+        elif iv:
+            segs.extend(segments_for_line(i, v, iv, g.along, g.base, g.fwd_per_point, g.beyond, merge_gap=g.along))
     segs = cut_by_zones(segs, zones_f, g.clearance)
     lines_used = sorted({s.line for s in segs})
     index = {old: new for new, old in enumerate(lines_used)}
     return [s if index[s.line] == s.line else LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
+
+
+@dataclass(frozen=True)
+class LineBounds:
+    """What `build_lines` is sure of for one heading, found without clipping a single strip.
+
+    Arrays are per line ordinate of `strip_offsets` (the lines `build_lines` may lay), in the
+    line frame. Where `exists` is False the line may or may not get a run and nothing else is
+    claimed (unless `absent` says that it surely has none). Where it is True the line surely keeps at least one station after the zone cut,
+    and its first and last stations (by x) lie in [first_lo, first_hi] and [last_lo, last_hi],
+    at least `extent` apart. `single` says that the line surely has exactly one run.
+    """
+
+    v: np.ndarray
+    exists: np.ndarray
+    absent: np.ndarray  # bool: surely no run (the closed strip does not meet the area)
+    extent: np.ndarray
+    single: np.ndarray
+    first_lo: np.ndarray
+    first_hi: np.ndarray
+    last_lo: np.ndarray
+    last_hi: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Outline:
+    """The area's and the zones' vertices, and what about them does not change with the heading
+    (`line_bounds` turns the vertices into each heading's line frame)."""
+
+    xy: np.ndarray  # (N, 2) every vertex of every ring of the area, rings closed, as get_coordinates gives them
+    start: np.ndarray  # index in xy of each edge's first vertex (the second is the next one)
+    ring_of_edge: np.ndarray
+    shells: np.ndarray  # bool per ring: a polygon's exterior (each polygon's rings in a row, exterior first)
+    convex: np.ndarray  # bool per polygon: its exterior turns one way only
+    shell_vertex: np.ndarray  # bool per vertex: on an exterior (the bounds are the exteriors')
+    zone_xy: np.ndarray  # (M, 2) every vertex of the zones, polygon after polygon
+    zone_start: np.ndarray  # index in zone_xy of each zone polygon's first vertex
+
+    @classmethod
+    def of(cls, area: BaseGeometry, zones: BaseGeometry | None) -> Outline:
+        polys = shapely.get_parts(area)
+        rings, poly_of_ring = shapely.get_rings(polys, return_index=True)
+        xy, ring_of = shapely.get_coordinates(rings, return_index=True)
+        same = ring_of[1:] == ring_of[:-1]  # consecutive points of one ring make an edge
+        start = np.flatnonzero(same)
+        shells = np.r_[True, poly_of_ring[1:] != poly_of_ring[:-1]] if len(rings) else np.zeros(0, bool)
+        convex = np.array([_convex(xy[ring_of == r]) for r in np.flatnonzero(shells).tolist()], bool)
+        if zones is not None and not zones.is_empty:
+            zxy, zpart = shapely.get_coordinates(shapely.get_parts(zones), return_index=True)
+            zstart = np.flatnonzero(np.r_[True, zpart[1:] != zpart[:-1]])
+        else:
+            zxy, zstart = np.zeros((0, 2)), np.zeros(0, int)
+        return cls(xy, start, ring_of[start], shells, convex, shells[ring_of], zxy, zstart)
+
+
+def _ranges(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (owner, index) with lo[owner] <= index < hi[owner]."""
+    counts = np.maximum(hi - lo, 0)
+    owner = np.repeat(np.arange(len(lo)), counts)
+    return owner, np.arange(int(counts.sum())) + np.repeat(lo - (np.cumsum(counts) - counts), counts)
+
+
+def _convex(ring_xy: np.ndarray) -> bool:
+    """The closed ring turns one way only (collinear points allowed, to a relative 1e-9 of
+    the edges' lengths: a pocket that flat is far shallower than a photo's footprint)."""
+    d = np.diff(ring_xy, axis=0)
+    d = d[np.hypot(d[:, 0], d[:, 1]) > 0]
+    if len(d) < 3:
+        return False
+    nxt = np.roll(d, -1, axis=0)
+    cross = d[:, 0] * nxt[:, 1] - d[:, 1] * nxt[:, 0]
+    tol = 1e-9 * np.hypot(d[:, 0], d[:, 1]) * np.hypot(nxt[:, 0], nxt[:, 1])
+    return bool(np.all(cross >= -tol) or np.all(cross <= tol))
+
+
+def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry) -> LineBounds:
+    """Sure facts about the runs `build_lines(area_f, zones_f, g)` lays, from the area's edges,
+    where area_f and zones_f are the outline's area and zones in `frame`.
+
+    Why they hold (`build_lines` step by step, h = across/2, B = base, tol covers rounding):
+    - the lines are `strip_offsets` of the same bounds, so the same ordinates;
+    - a point of the area's boundary strictly inside a strip is the limit of interior points
+      of area ∩ strip, so it lies within the bounds of a piece of positive area, i.e. within
+      the line's merged band intervals; the x-range of the area's vertices and edge crossings
+      in the slightly narrowed strip is therefore inside the intervals' hull [a, b], and that of
+      the closed strip contains it;
+    - `station_span` stretches every interval to [a' + c, b' − c] with c = min(L/2 − (k−1)B,
+      −beyond·B); merging only joins spans; a run of n = max(k, ⌈(e − s)/B − ε⌉ + 1) stations
+      centred on its span [s, e] starts at s + εB/2 or before and ends at e − εB/2 or after,
+      and at most max(B, (k−1)B)/2 + max(0, c) beyond; and has n ≥ k stations;
+    - the zone cut removes only stations within `clearance` of the zones' pieces on the line,
+      so only stations in [zx0 − clearance, zx1 + clearance] of the zones whose y-range holds
+      the line; when that window lies strictly between the line's first and last stations,
+      both stay and the cut changes neither end (it may split the run);
+    - a strip meets a convex polygon (no hole within the strip's y-range) in one convex piece:
+      one interval, one run (when no zone is near the line).
+    """
+    # the same arithmetic as LineFrame.geom_to_frame, so the same bounds and line ordinates
+    fx, fy = frame.to_frame(outline.xy[:, 0], outline.xy[:, 1])
+    shell_y = fy[outline.shell_vertex]
+    vs = strip_offsets(float(shell_y.min()), float(shell_y.max()), g.across, g.spacing, g.side_per_point)
+    n = len(vs)
+    half = g.across / 2.0
+    scale = 1.0 + float(max(np.max(np.abs(fx)), np.max(np.abs(fy))))
+    tol = 1e-7 * scale + 1e-6 * (g.base + g.across + g.clearance)
+    s0 = outline.start
+    x0, y0, x1, y1 = fx[s0], fy[s0], fx[s0 + 1], fy[s0 + 1]
+
+    # the narrowed strip (inner hull) and the closed strip (outer hull) of every line at once:
+    # the x-range of the area's vertices within each, and of its edges' crossings of their sides
+    ylo, yhi = np.minimum(y0, y1), np.maximum(y0, y1)
+    narrow = half * (1.0 - 1e-6)
+    xmin, xmax = np.full(2 * n, np.inf), np.full(2 * n, -np.inf)  # inner strips, then outer ones
+    sloped = np.flatnonzero(y1 != y0)
+    sides = np.concatenate([vs - narrow, vs - half, vs + narrow, vs + half])
+    order = np.argsort(sides, kind="stable")
+    level = sides[order]
+    edge, at = _ranges(np.searchsorted(level, ylo[sloped], "left"), np.searchsorted(level, yhi[sloped], "right"))
+    e = sloped[edge]
+    xc = x0[e] + (level[at] - y0[e]) * ((x1[e] - x0[e]) / (y1[e] - y0[e]))
+    strip = order[at] % (2 * n)
+    np.minimum.at(xmin, strip, xc)
+    np.maximum.at(xmax, strip, xc)
+    for w, first in ((narrow, 0), (half, n)):
+        vertex, line = _ranges(np.searchsorted(vs + w, y0, "left"), np.searchsorted(vs - w, y0, "right"))
+        np.minimum.at(xmin, first + line, x0[vertex])
+        np.maximum.at(xmax, first + line, x0[vertex])
+    a_in, b_in, a_out, b_out = xmin[:n], xmax[:n], xmin[n:], xmax[n:]
+    met = np.isfinite(a_in) & (b_in - a_in > 2.0 * tol)
+    a_in, b_in = a_in + tol, b_in - tol
+    a_out, b_out = a_out - tol, b_out + tol
+
+    k, base = g.fwd_per_point, g.base
+    c = min(g.along / 2.0 - (k - 1) * base, -g.beyond * base)
+    lo, hi = a_in + c, b_in - c
+    slack = max(base, (k - 1) * base) / 2.0 + max(0.0, c) + tol
+    exists = met.copy()
+    extent = np.where(met, np.maximum(hi - lo, (k - 1) * base) - tol, 0.0)
+
+    # one run: the strip meets one polygon, convex, none of whose holes reaches into the strip
+    n_rings = len(outline.shells)
+    ring_lo = np.full(n_rings, np.inf)
+    ring_hi = np.full(n_rings, -np.inf)
+    np.minimum.at(ring_lo, outline.ring_of_edge, ylo)
+    np.maximum.at(ring_hi, outline.ring_of_edge, yhi)
+    reach = (ring_lo <= (vs + half + tol)[:, None]) & (ring_hi >= (vs - half - tol)[:, None])
+    polys_met = reach[:, outline.shells]  # one exterior per polygon, in polygon order
+    single = (met & (polys_met.sum(axis=1) == 1) & (polys_met & outline.convex).any(axis=1)
+              & ~reach[:, ~outline.shells].any(axis=1))
+
+    if len(outline.zone_start):
+        zx, zy = frame.to_frame(outline.zone_xy[:, 0], outline.zone_xy[:, 1])
+        zb = np.column_stack([np.minimum.reduceat(zx, outline.zone_start), np.minimum.reduceat(zy, outline.zone_start),
+                              np.maximum.reduceat(zx, outline.zone_start), np.maximum.reduceat(zy, outline.zone_start)])
+        near = (zb[None, :, 1] - tol <= vs[:, None]) & (zb[None, :, 3] + tol >= vs[:, None])
+        touched = near.any(axis=1)
+        w0 = np.where(near, zb[None, :, 0], np.inf).min(axis=1, initial=np.inf) - g.clearance - tol
+        w1 = np.where(near, zb[None, :, 2], -np.inf).max(axis=1, initial=-np.inf) + g.clearance + tol
+        kept = ~touched | ((w0 > lo + tol) & (w1 < hi - tol))
+        exists &= kept
+        single &= ~touched
+        extent = np.where(exists, extent, 0.0)
+    return LineBounds(vs, exists, ~np.isfinite(a_out), extent, single & exists, a_out + c - slack, lo + tol, hi - tol, b_out - c + slack)

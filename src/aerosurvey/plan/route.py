@@ -16,7 +16,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame
-from aerosurvey.plan.lines import LineSegment
+from aerosurvey.plan.lines import LineBounds, LineSegment
 
 
 @dataclass(frozen=True)
@@ -246,8 +246,10 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
     ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
     turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
     if k.vehicle == "copter":
-        total, run = 0.0, lengths[0]
-        for t, length in zip(turn, lengths[1:]):
+        # Python floats: the same sums, without numpy's per-scalar cost (this loop runs for every
+        # candidate heading)
+        total, run = 0.0, float(lengths[0])
+        for t, length in zip(turn.tolist(), lengths[1:].tolist()):
             if t > corner_deg:
                 total += _straight_time(run, k)
                 run = length
@@ -306,6 +308,77 @@ def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> fl
             first, last = (s.x0, s.x1) if d > 0 else (s.x1, s.x0)
             pts.extend([(first - d * lead_in, s.v), (first, s.v), (last + d * s.base / 2.0, s.v)])
     return path_time(np.asarray(pts), k)
+
+
+def _least_gain(d: np.ndarray, k: Kinematics) -> np.ndarray:
+    """Per run length d: the least G(x) = t(x) − x/v of a copter's straight run
+    (`_straight_time`) over every x ≥ d. G is v/a + a/J from D = v(v/a + a/J) on and
+    2√(x/a) + a/J − x/v (concave) below D, so the least is at d, just below D, or past D."""
+    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
+    ramp = a / j if j > 0 else 0.0
+    big, top = v * (v / a + ramp), v / a + ramp
+    below_big = 2.0 * math.sqrt(big / a) + ramp - big / v
+    here = 2.0 * np.sqrt(np.maximum(d, 0.0) / a) + ramp - np.maximum(d, 0.0) / v
+    return np.where(d >= big, top, np.minimum(np.minimum(here, below_big), top))
+
+
+def quick_cost_lower_bound(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> float:
+    """A proven lower bound of `quick_cost(build_lines(...), lead_in, k)` from `line_bounds`.
+
+    The path quick_cost times is, line after line (those with runs, by ordinate), the line's
+    part P (lead-in, stations, half a base past the last run, all on the line, backwards
+    between runs that overlap) and a connector to the next line, at least Δv long. For a line
+    sure to exist, P runs from before its first station to past its last one: it is at least
+    λ = extent + lead_in + base/2 long.
+
+    Copter (t = d/v + G(d) per stop-to-stop run, G ≥ least_gain): every leg is along the line
+    but the connectors, so a stop within P is a reversal (two corners of 180°: ≥ 3 runs, G ≥ 3m,
+    m = least_gain(0)); otherwise P lies in one run of length ≥ λ. A connector's two corners
+    add up to 180°, so at least one is a stop: either both are (the connector is a run of
+    its own: Δv/v + least_gain(Δv)), or it turns by ≤ 30° into a line, so it is at least 2Δv
+    long. Runs of different lines and those connector runs are distinct, hence the sum.
+    Between two sure lines with unsure ones between them there is at least one connector and
+    they add up to the ordinate difference; each connector has G ≥ m or the extra length ≥ Δv.
+
+    Plane (length/v, where a reversal's middle leg is replaced by the turn `plane_turn_length`,
+    which is never shorter than the lateral offset): connectors count at least Δv. A line's legs
+    are sure to be flown as they are (no reversal pairs them) when it has one run, a lead-in,
+    and both connectors turn by 30°-150° (checked from the bounds of both lines' ends): then
+    it counts λ and the connector after it is surely replaced by the turn over |Δv|.
+    """
+    exists = np.flatnonzero(lb.exists)
+    if len(exists) == 0:
+        return 0.0
+    v = lb.v
+    lam = lb.extent[exists] + lead_in + base / 2.0
+    speed = k.speed_ms
+    i, j = exists[:-1], exists[1:]
+    dv = v[j] - v[i]
+    # consecutive sure lines with only surely empty ones between them: the connector joins them
+    unknown = np.cumsum(~lb.exists & ~lb.absent)
+    joined = unknown[j] == unknown[i]
+    if k.vehicle == "copter":
+        m = float(_least_gain(np.zeros(1), k)[0])
+        total = float(np.sum(lam / speed + np.minimum(_least_gain(lam, k), 3.0 * m)))
+        gap = np.array([np.min(np.diff(v[a:b + 1])) for a, b in zip(i[~joined].tolist(), j[~joined].tolist())])
+        total += float(np.sum(np.minimum(dv[joined] / speed + _least_gain(dv[joined], k), 2.0 * dv[joined] / speed)))
+        total += float(np.sum(dv[~joined] / speed + np.minimum(m, gap / speed)))
+        return total * (1.0 - 1e-7)
+    # plane: connectors that surely turn by at most 150° out of the line before them, whichever
+    # way that line is flown (see the docstring)
+    cot30 = math.sqrt(3.0) * (1.0 - 1e-6)
+    ahead_right = lb.last_lo[j] + lead_in - lb.last_hi[i] - base / 2.0
+    ahead_left = lb.first_lo[i] - base / 2.0 - lb.first_hi[j] + lead_in
+    gentle = joined & (ahead_right >= -dv * cot30) & (ahead_left >= -dv * cot30) & (lead_in > 1e-6)
+    first_known = unknown[exists[0]] == 0
+    last_known = unknown[exists[-1]] == unknown[-1]
+    before = np.r_[first_known and lead_in > 1e-6, gentle]
+    after = np.r_[gentle, last_known and lead_in > 1e-6]
+    as_laid = before & after
+    short = lead_in + base / 2.0 + plane_turn_length(0.0, k.turn_radius_m)
+    length = float(np.sum(np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid]))
+    length += sum(plane_turn_length(float(d), k.turn_radius_m) for d in dv[gentle]) + float(np.sum(dv[~gentle]))
+    return length / speed * (1.0 - 1e-7)
 
 
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
