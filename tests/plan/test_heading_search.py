@@ -98,8 +98,8 @@ def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, l
 
     outline = Outline.of(covered, zones)
 
-    def bound(fr: LineFrame) -> float:
-        return quick_cost_lower_bound(line_bounds(outline, fr, g), lead, g.base, kin)
+    def bound(fr: LineFrame) -> float:  # as pattern.AreaGrid bounds it
+        return quick_cost_lower_bound(line_bounds(outline, fr, g, kin.vehicle != "copter"), lead, g.base, kin)
 
     return cost, bound
 
@@ -134,6 +134,9 @@ def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool],
     assert np.array_equal(lb.v, strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point))
     exact = quick_cost(segs, lead, kin) if segs else math.inf
     assert quick_cost_lower_bound(lb, lead, g.base, kin) <= exact
+    short = line_bounds(Outline.of(covered, zones), fr, g, ends=False)
+    assert quick_cost_lower_bound(short, lead, g.base, kin) <= exact
+    assert np.array_equal(short.exists, lb.exists) and np.array_equal(short.extent, lb.extent)
     # and what the bound rests on, line by line, against the lines actually laid
     by_v: dict[float, list[tuple[float, float]]] = {}
     for s in segs:

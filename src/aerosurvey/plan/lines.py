@@ -52,10 +52,22 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
     need = vmax - vmin - across + 2.0 * (per_point - 1) * spacing
     n = max(per_point, math.ceil(need / spacing - _EPS) + 1, 1)
     probe = np.linspace(vmin, vmax, 257)
+    reach = half + _EPS
+    # a probe lies in the strips of the lines within `reach` only: those are in a window of
+    # `width` lines from two below the first line at or above probe − reach (every line outside
+    # it is half a spacing or more beyond reach), so comparing the window's lines alone counts
+    # the same (measured: 168 lines, 430 µs for all of them, 60 µs for the windows; with 60 lines
+    # or fewer, the same time)
+    width = math.ceil(2.0 * reach / spacing) + 5
     while True:
         mid = (vmin + vmax) / 2.0
         vs = mid + spacing * (np.arange(n) - (n - 1) / 2.0)
-        counts = (np.abs(probe[:, None] - vs[None, :]) <= half + _EPS).sum(axis=1)
+        if n > max(width, 64):
+            first = np.clip(np.searchsorted(vs, probe - reach) - 2, 0, n - width)
+            near = vs[first[:, None] + np.arange(width)]
+        else:
+            near = vs[None, :]
+        counts = (np.abs(probe[:, None] - near) <= reach).sum(axis=1)
         if counts.min() >= per_point:
             return vs
         n += 1
@@ -245,8 +257,9 @@ class Outline:
     shells: np.ndarray  # bool per ring: a polygon's exterior (each polygon's rings in a row, exterior first)
     convex: np.ndarray  # bool per polygon: its exterior turns one way only
     shell_vertex: np.ndarray  # bool per vertex: on an exterior (the bounds are the exteriors')
-    zone_xy: np.ndarray  # (M, 2) every vertex of the zones, polygon after polygon
-    zone_start: np.ndarray  # index in zone_xy of each zone polygon's first vertex
+    zone_centre: np.ndarray  # (M, 2) the centre of each zone polygon's bounding box
+    zone_radius: np.ndarray  # (M,) the largest distance of its vertices from that centre
+    radius: float  # largest distance of a vertex from the origin (no frame coordinate is larger)
 
     @classmethod
     def of(cls, area: BaseGeometry, zones: BaseGeometry | None) -> Outline:
@@ -257,12 +270,16 @@ class Outline:
         start = np.flatnonzero(same)
         shells = np.r_[True, poly_of_ring[1:] != poly_of_ring[:-1]] if len(rings) else np.zeros(0, bool)
         convex = np.array([_convex(xy[ring_of == r]) for r in np.flatnonzero(shells).tolist()], bool)
+        centre, zone_radius = np.zeros((0, 2)), np.zeros(0)
         if zones is not None and not zones.is_empty:
-            zxy, zpart = shapely.get_coordinates(shapely.get_parts(zones), return_index=True)
-            zstart = np.flatnonzero(np.r_[True, zpart[1:] != zpart[:-1]])
-        else:
-            zxy, zstart = np.zeros((0, 2)), np.zeros(0, int)
-        return cls(xy, start, ring_of[start], shells, convex, shells[ring_of], zxy, zstart)
+            parts = shapely.get_parts(zones)
+            b = shapely.bounds(parts)
+            centre = (b[:, :2] + b[:, 2:]) / 2.0
+            zxy, part = shapely.get_coordinates(parts, return_index=True)
+            zone_radius = np.zeros(len(parts))
+            np.maximum.at(zone_radius, part, np.hypot(*(zxy - centre[part]).T))
+        radius = float(np.max(np.hypot(xy[:, 0], xy[:, 1]))) if len(xy) else 0.0
+        return cls(xy, start, ring_of[start], shells, convex, shells[ring_of], centre, zone_radius, radius)
 
 
 def _ranges(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -285,9 +302,11 @@ def _convex(ring_xy: np.ndarray) -> bool:
     return bool(np.all(cross >= -tol) or np.all(cross <= tol))
 
 
-def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry) -> LineBounds:
+def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry, ends: bool = True) -> LineBounds:
     """Sure facts about the runs `build_lines(area_f, zones_f, g)` lays, from the area's edges,
-    where area_f and zones_f are the outline's area and zones in `frame`.
+    where area_f and zones_f are the outline's area and zones in `frame`. Without `ends` it
+    claims nothing about where lines end or which have one run (nor which are surely empty),
+    and it takes half the time (the copter's bound needs neither).
 
     Why they hold (`build_lines` step by step, h = across/2, B = base, tol covers rounding):
     - the lines are `strip_offsets` of the same bounds, so the same ordinates;
@@ -301,9 +320,10 @@ def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry) -> LineBou
       centred on its span [s, e] starts at s + εB/2 or before and ends at e − εB/2 or after,
       and at most max(B, (k−1)B)/2 + max(0, c) beyond; and has n ≥ k stations;
     - the zone cut removes only stations within `clearance` of the zones' pieces on the line,
-      so only stations in [zx0 − clearance, zx1 + clearance] of the zones whose y-range holds
-      the line; when that window lies strictly between the line's first and last stations,
-      both stay and the cut changes neither end (it may split the run);
+      so only stations within `clearance` of the x-range of the zones' circles (about their
+      centres, through their farthest vertices) that the line crosses; when that window lies
+      strictly between the line's first and last stations, both stay and the cut changes
+      neither end (it may split the run);
     - a strip meets a convex polygon (no hole within the strip's y-range) in one convex piece:
       one interval, one run (when no zone is near the line).
     """
@@ -313,34 +333,35 @@ def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry) -> LineBou
     vs = strip_offsets(float(shell_y.min()), float(shell_y.max()), g.across, g.spacing, g.side_per_point)
     n = len(vs)
     half = g.across / 2.0
-    scale = 1.0 + float(max(np.max(np.abs(fx)), np.max(np.abs(fy))))
-    tol = 1e-7 * scale + 1e-6 * (g.base + g.across + g.clearance)
+    tol = 1e-7 * (1.0 + outline.radius) + 1e-6 * (g.base + g.across + g.clearance)
     s0 = outline.start
     x0, y0, x1, y1 = fx[s0], fy[s0], fx[s0 + 1], fy[s0 + 1]
 
-    # the narrowed strip (inner hull) and the closed strip (outer hull) of every line at once:
-    # the x-range of the area's vertices within each, and of its edges' crossings of their sides
-    ylo, yhi = np.minimum(y0, y1), np.maximum(y0, y1)
+    # the x-range of the area's vertices within each narrowed strip (inner hull) and, with
+    # `ends`, each closed strip (outer hull), and of its edges' crossings of their sides
     narrow = half * (1.0 - 1e-6)
-    xmin, xmax = np.full(2 * n, np.inf), np.full(2 * n, -np.inf)  # inner strips, then outer ones
+    widths = (narrow, half) if ends else (narrow,)
+    m = len(widths) * n
+    xmin, xmax = np.full(m, np.inf), np.full(m, -np.inf)  # inner strips, then outer ones
     sloped = np.flatnonzero(y1 != y0)
-    sides = np.concatenate([vs - narrow, vs - half, vs + narrow, vs + half])
+    ylo, yhi = np.minimum(y0, y1), np.maximum(y0, y1)
+    sides = np.concatenate([vs - w for w in widths] + [vs + w for w in widths])
     order = np.argsort(sides, kind="stable")
     level = sides[order]
     edge, at = _ranges(np.searchsorted(level, ylo[sloped], "left"), np.searchsorted(level, yhi[sloped], "right"))
     e = sloped[edge]
     xc = x0[e] + (level[at] - y0[e]) * ((x1[e] - x0[e]) / (y1[e] - y0[e]))
-    strip = order[at] % (2 * n)
-    np.minimum.at(xmin, strip, xc)
-    np.maximum.at(xmax, strip, xc)
-    for w, first in ((narrow, 0), (half, n)):
-        vertex, line = _ranges(np.searchsorted(vs + w, y0, "left"), np.searchsorted(vs - w, y0, "right"))
-        np.minimum.at(xmin, first + line, x0[vertex])
-        np.maximum.at(xmax, first + line, x0[vertex])
-    a_in, b_in, a_out, b_out = xmin[:n], xmax[:n], xmin[n:], xmax[n:]
+    strip = order[at] % m
+    vertex, line = _ranges(np.concatenate([np.searchsorted(vs + w, y0, "left") for w in widths]),
+                           np.concatenate([np.searchsorted(vs - w, y0, "right") for w in widths]))
+    strip = np.concatenate([strip, line + n * (vertex // len(y0))])
+    xs = np.concatenate([xc, x0[vertex % len(y0)]])
+    np.minimum.at(xmin, strip, xs)
+    np.maximum.at(xmax, strip, xs)
+    a_in, b_in = xmin[:n], xmax[:n]
+    a_out, b_out = (xmin[n:] - tol, xmax[n:] + tol) if ends else (np.full(n, -np.inf), np.full(n, np.inf))
     met = np.isfinite(a_in) & (b_in - a_in > 2.0 * tol)
     a_in, b_in = a_in + tol, b_in - tol
-    a_out, b_out = a_out - tol, b_out + tol
 
     k, base = g.fwd_per_point, g.base
     c = min(g.along / 2.0 - (k - 1) * base, -g.beyond * base)
@@ -350,26 +371,29 @@ def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry) -> LineBou
     extent = np.where(met, np.maximum(hi - lo, (k - 1) * base) - tol, 0.0)
 
     # one run: the strip meets one polygon, convex, none of whose holes reaches into the strip
-    n_rings = len(outline.shells)
-    ring_lo = np.full(n_rings, np.inf)
-    ring_hi = np.full(n_rings, -np.inf)
-    np.minimum.at(ring_lo, outline.ring_of_edge, ylo)
-    np.maximum.at(ring_hi, outline.ring_of_edge, yhi)
-    reach = (ring_lo <= (vs + half + tol)[:, None]) & (ring_hi >= (vs - half - tol)[:, None])
-    polys_met = reach[:, outline.shells]  # one exterior per polygon, in polygon order
-    single = (met & (polys_met.sum(axis=1) == 1) & (polys_met & outline.convex).any(axis=1)
-              & ~reach[:, ~outline.shells].any(axis=1))
+    single = np.zeros(n, bool)
+    if ends:
+        ring_lo = np.full(len(outline.shells), np.inf)
+        ring_hi = np.full(len(outline.shells), -np.inf)
+        np.minimum.at(ring_lo, outline.ring_of_edge, ylo)
+        np.maximum.at(ring_hi, outline.ring_of_edge, yhi)
+        reach = (ring_lo <= (vs + half + tol)[:, None]) & (ring_hi >= (vs - half - tol)[:, None])
+        polys_met = reach[:, outline.shells]  # one exterior per polygon, in polygon order
+        single = (met & (polys_met.sum(axis=1) == 1) & (polys_met & outline.convex).any(axis=1)
+                  & ~reach[:, ~outline.shells].any(axis=1))
 
-    if len(outline.zone_start):
-        zx, zy = frame.to_frame(outline.zone_xy[:, 0], outline.zone_xy[:, 1])
-        zb = np.column_stack([np.minimum.reduceat(zx, outline.zone_start), np.minimum.reduceat(zy, outline.zone_start),
-                              np.maximum.reduceat(zx, outline.zone_start), np.maximum.reduceat(zy, outline.zone_start)])
-        near = (zb[None, :, 1] - tol <= vs[:, None]) & (zb[None, :, 3] + tol >= vs[:, None])
+    if len(outline.zone_radius):
+        # each zone lies within its circle about its centre, in every frame
+        zx, zy = frame.to_frame(outline.zone_centre[:, 0], outline.zone_centre[:, 1])
+        r = outline.zone_radius + tol
+        near = (np.abs(vs[:, None] - zy) <= r)
         touched = near.any(axis=1)
-        w0 = np.where(near, zb[None, :, 0], np.inf).min(axis=1, initial=np.inf) - g.clearance - tol
-        w1 = np.where(near, zb[None, :, 2], -np.inf).max(axis=1, initial=-np.inf) + g.clearance + tol
+        w0 = np.where(near, zx - r, np.inf).min(axis=1, initial=np.inf) - g.clearance
+        w1 = np.where(near, zx + r, -np.inf).max(axis=1, initial=-np.inf) + g.clearance
         kept = ~touched | ((w0 > lo + tol) & (w1 < hi - tol))
         exists &= kept
         single &= ~touched
         extent = np.where(exists, extent, 0.0)
-    return LineBounds(vs, exists, ~np.isfinite(a_out), extent, single & exists, a_out + c - slack, lo + tol, hi - tol, b_out - c + slack)
+    absent = ~np.isfinite(a_out) if ends else np.zeros(n, bool)
+    return LineBounds(vs, exists, absent, extent, single & exists, a_out + c - slack, lo + tol, hi - tol,
+                      b_out - c + slack)

@@ -89,9 +89,10 @@ class AreaGrid:
                 return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
 
             outline = Outline.of(covered, site.zones_buffered)
+            ends = sensor.kinematics.vehicle != "copter"  # only the plane's bound looks at the lines' ends
 
             def bound(fr: LineFrame) -> float:
-                return quick_cost_lower_bound(line_bounds(outline, fr, g), lead, g.base, sensor.kinematics)
+                return quick_cost_lower_bound(line_bounds(outline, fr, g, ends), lead, g.base, sensor.kinematics)
 
             heading, _ = best_heading(covered, cost, bound=bound)
             chosen = "auto: the shortest estimated flight time"

@@ -310,16 +310,17 @@ def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> fl
     return path_time(np.asarray(pts), k)
 
 
-def _least_gain(d: np.ndarray, k: Kinematics) -> np.ndarray:
+def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
     """Per run length d: the least G(x) = t(x) − x/v of a copter's straight run
-    (`_straight_time`) over every x ≥ d. G is v/a + a/J from D = v(v/a + a/J) on and
-    2√(x/a) + a/J − x/v (concave) below D, so the least is at d, just below D, or past D."""
+    (`_straight_time`) over every x ≥ d; and the least over every x > 0. G is v/a + a/J from
+    D = v(v/a + a/J) on and 2√(x/a) + a/J − x/v (concave) below D, so the least is at d, just
+    below D, or past D."""
     v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
     ramp = a / j if j > 0 else 0.0
     big, top = v * (v / a + ramp), v / a + ramp
-    below_big = 2.0 * math.sqrt(big / a) + ramp - big / v
+    below_big = min(2.0 * math.sqrt(big / a) + ramp - big / v, top)
     here = 2.0 * np.sqrt(np.maximum(d, 0.0) / a) + ramp - np.maximum(d, 0.0) / v
-    return np.where(d >= big, top, np.minimum(np.minimum(here, below_big), top))
+    return np.where(d >= big, top, np.minimum(here, below_big)), min(ramp, below_big)
 
 
 def quick_cost_lower_bound(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> float:
@@ -358,11 +359,11 @@ def quick_cost_lower_bound(lb: LineBounds, lead_in: float, base: float, k: Kinem
     unknown = np.cumsum(~lb.exists & ~lb.absent)
     joined = unknown[j] == unknown[i]
     if k.vehicle == "copter":
-        m = float(_least_gain(np.zeros(1), k)[0])
-        total = float(np.sum(lam / speed + np.minimum(_least_gain(lam, k), 3.0 * m)))
-        gap = np.array([np.min(np.diff(v[a:b + 1])) for a, b in zip(i[~joined].tolist(), j[~joined].tolist())])
-        total += float(np.sum(np.minimum(dv[joined] / speed + _least_gain(dv[joined], k), 2.0 * dv[joined] / speed)))
-        total += float(np.sum(dv[~joined] / speed + np.minimum(m, gap / speed)))
+        gain, m = _least_gain(np.concatenate([lam, dv[joined]]), k)
+        total = float(np.sum(lam / speed + np.minimum(gain[:len(lam)], 3.0 * m)))
+        total += float(np.sum(np.minimum(dv[joined] / speed + gain[len(lam):], 2.0 * dv[joined] / speed)))
+        gap = float(np.min(np.diff(v))) if len(v) > 1 else 0.0  # no two lines are closer
+        total += float(np.sum(dv[~joined])) / speed + int(np.count_nonzero(~joined)) * min(m, gap / speed)
         return total * (1.0 - 1e-7)
     # plane: connectors that surely turn by at most 150° out of the line before them, whichever
     # way that line is flown (see the docstring)
