@@ -31,7 +31,7 @@ from aerosurvey.plan.frame import LineFrame  # noqa: E402
 from aerosurvey.plan.heading import best_heading  # noqa: E402
 from aerosurvey.plan.lines import Outline, build_lines, line_bounds  # noqa: E402
 from aerosurvey.plan.pattern import strip_geometry  # noqa: E402
-from aerosurvey.plan.route import quick_cost, quick_cost_lower_bound  # noqa: E402
+from aerosurvey.plan.route import quick_cost, quick_cost_lower_bounds  # noqa: E402
 from aerosurvey.plan.sensor import solve_heights, solve_sensor, target_height  # noqa: E402
 from aerosurvey.plan.site import prepare_site  # noqa: E402
 from aerosurvey.spec import load_spec  # noqa: E402
@@ -67,8 +67,9 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
             return (*best_heading(covered, cost), costed)
         outline = Outline.of(covered, site.zones_buffered)
 
-        def bound(fr: LineFrame) -> float:
-            return quick_cost_lower_bound(line_bounds(outline, fr, g), lead, g.base, sensor.kinematics)
+        def bound(frames: list[LineFrame]) -> list[float]:  # as AreaGrid.layout bounds them
+            lb = line_bounds(outline, frames, g, sensor.kinematics.vehicle != "copter")
+            return quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics).tolist()
 
         return (*best_heading(covered, cost, bound=bound), costed)
 

@@ -8,6 +8,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -25,7 +26,7 @@ from aerosurvey.plan.lines import (
     segments_for_line,
     strip_offsets,
 )
-from aerosurvey.plan.route import Kinematics, quick_cost, quick_cost_lower_bound
+from aerosurvey.plan.route import Kinematics, quick_cost, quick_cost_lower_bounds
 
 KINDS = ("convex", "concave", "holed", "split")
 
@@ -88,7 +89,7 @@ def random_case(seed: int, kind: str, vehicle: str, n_zones: int, far: bool
 
 
 def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, lead: float, kin: Kinematics
-          ) -> tuple[Callable[[LineFrame], float], Callable[[LineFrame], float]]:
+          ) -> tuple[Callable[[LineFrame], float], Callable[[list[LineFrame]], list[float]]]:
     """The exact cost pattern.AreaGrid scores a heading with, and its lower bound."""
 
     def cost(fr: LineFrame) -> float:
@@ -98,8 +99,9 @@ def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, l
 
     outline = Outline.of(covered, zones)
 
-    def bound(fr: LineFrame) -> float:  # as pattern.AreaGrid bounds it
-        return quick_cost_lower_bound(line_bounds(outline, fr, g, kin.vehicle != "copter"), lead, g.base, kin)
+    def bound(frames: list[LineFrame]) -> list[float]:  # as pattern.AreaGrid bounds them
+        lb = line_bounds(outline, frames, g, kin.vehicle != "copter")
+        return quick_cost_lower_bounds(lb, lead, g.base, kin).tolist()
 
     return cost, bound
 
@@ -129,13 +131,13 @@ def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool],
     zf = fr.geom_to_frame(zones) if zones is not None else None
     area_f = fr.geom_to_frame(covered)
     segs = build_lines(area_f, zf, g)
-    lb = line_bounds(Outline.of(covered, zones), fr, g)
+    lb = line_bounds(Outline.of(covered, zones), [fr], g)
     _, vmin, _, vmax = area_f.bounds
     assert np.array_equal(lb.v, strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point))
     exact = quick_cost(segs, lead, kin) if segs else math.inf
-    assert quick_cost_lower_bound(lb, lead, g.base, kin) <= exact
-    short = line_bounds(Outline.of(covered, zones), fr, g, ends=False)
-    assert quick_cost_lower_bound(short, lead, g.base, kin) <= exact
+    assert quick_cost_lower_bounds(lb, lead, g.base, kin)[0] <= exact
+    short = line_bounds(Outline.of(covered, zones), [fr], g, ends=False)
+    assert quick_cost_lower_bounds(short, lead, g.base, kin)[0] <= exact
     assert np.array_equal(short.exists, lb.exists) and np.array_equal(short.extent, lb.extent)
     # and what the bound rests on, line by line, against the lines actually laid
     by_v: dict[float, list[tuple[float, float]]] = {}
@@ -176,8 +178,8 @@ def test_ties_go_to_the_smaller_heading_with_or_without_a_bound() -> None:
 
     expected = exhaustive_heading(area, flat)
     assert expected[1] == 100.0 and best_heading(area, flat) == expected
-    assert best_heading(area, flat, bound=lambda fr: 100.0) == expected
-    assert best_heading(area, flat, bound=lambda fr: 0.0) == expected
+    assert best_heading(area, flat, bound=lambda frames: [100.0] * len(frames)) == expected
+    assert best_heading(area, flat, bound=lambda frames: [0.0] * len(frames)) == expected
 
 
 def test_a_bound_prunes_candidates_it_proves_worse() -> None:
@@ -188,7 +190,7 @@ def test_a_bound_prunes_candidates_it_proves_worse() -> None:
         tried.append(fr.heading_deg)
         return 1000.0 + abs(fr.heading_deg - 90.0)
 
-    got = best_heading(area, cost, bound=lambda fr: 1000.0 + abs(fr.heading_deg - 90.0) * 0.5)
+    got = best_heading(area, cost, bound=lambda frames: [1000.0 + abs(fr.heading_deg - 90.0) * 0.5 for fr in frames])
     assert got == exhaustive_heading(area, lambda fr: 1000.0 + abs(fr.heading_deg - 90.0))
     assert len(tried) < len(candidate_headings(area)) / 2
 
@@ -226,3 +228,39 @@ def test_lines_are_laid_as_one_clip_and_one_line_at_a_time_lays_them(case: tuple
     got, expected = build_lines(fr.geom_to_frame(covered), zf, g), laid_one_by_one(fr.geom_to_frame(covered), zf, g)
     assert got == expected
     assert [type(x) for s in got for x in (s.v, s.x0, s.n)] == [type(x) for s in expected for x in (s.v, s.x0, s.n)]
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases, st.lists(st.floats(0.0, 180.0, exclude_max=True), min_size=2, max_size=6))
+def test_headings_bounded_together_are_bounded_as_each_alone(case: tuple[int, str, str, int, bool],
+                                                             headings: list[float]) -> None:
+    covered, zones, g, lead, kin = random_case(*case)
+    outline, frames = Outline.of(covered, zones), [LineFrame(round(h, 6)) for h in headings]
+    together = quick_cost_lower_bounds(line_bounds(outline, frames, g), lead, g.base, kin)
+    alone = [quick_cost_lower_bounds(line_bounds(outline, [fr], g), lead, g.base, kin)[0] for fr in frames]
+    assert together.tolist() == pytest.approx(alone, rel=1e-12, abs=1e-9)
+
+
+def offsets_comparing_every_line(vmin: float, vmax: float, across: float, spacing: float, per_point: int) -> np.ndarray:
+    """strip_offsets as it was before it compared each probe with the lines near it only."""
+    half = across / 2.0
+    need = vmax - vmin - across + 2.0 * (per_point - 1) * spacing
+    n = max(per_point, math.ceil(need / spacing - 1e-6) + 1, 1)
+    probe = np.linspace(vmin, vmax, 257)
+    while True:
+        vs = (vmin + vmax) / 2.0 + spacing * (np.arange(n) - (n - 1) / 2.0)
+        if (np.abs(probe[:, None] - vs[None, :]) <= half + 1e-6).sum(axis=1).min() >= per_point:
+            return vs
+        n += 1
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-1e7, 1e7), st.floats(0.0, 1.0), st.floats(1.0, 400.0), st.floats(0.1, 0.95), st.integers(0, 3),
+       st.integers(1, 1500))
+def test_strip_offsets_are_those_comparing_every_line(vmin: float, frac: float, across: float, side: float,
+                                                      fewer: int, lines: int) -> None:
+    spacing = across * (1.0 - side)  # side overlap `side`, and as many strips a point as it allows, or fewer
+    per_point = max(1, math.floor(1.0 / (1.0 - side) + 1e-9) - fewer)
+    vmax = vmin + frac * lines * spacing
+    assert np.array_equal(strip_offsets(vmin, vmax, across, spacing, per_point),
+                          offsets_comparing_every_line(vmin, vmax, across, spacing, per_point))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import shapely
@@ -26,18 +26,19 @@ def candidate_headings(area: BaseGeometry, step_deg: float = 10.0) -> list[float
 
 
 def best_heading(area: BaseGeometry, cost: Callable[[LineFrame], float], step_deg: float = 10.0,
-                 bound: Callable[[LineFrame], float] | None = None) -> tuple[float, float]:
+                 bound: Callable[[list[LineFrame]], Sequence[float]] | None = None) -> tuple[float, float]:
     """(heading, cost) of the cheapest candidate, refined by 1° steps around it; ties go to
     the smaller heading.
 
-    With `bound` (a lower bound of `cost`, cheap to compute) candidates are costed in order
+    With `bound` (lower bounds of `cost` for a list of frames, cheap to compute) candidates are
+    costed in order
     of their bound, and the search stops at the first whose (bound, heading) exceeds the best
     (cost, heading) found so far: that candidate and every later one costs at least its bound,
     so none of them can be the minimum. The result is the one costing every candidate gives."""
     cands = candidate_headings(area, step_deg)
     if bound is None:
-        def bound(fr: LineFrame) -> float:
-            return -math.inf  # every candidate costed, in order of heading
+        def bound(frames: list[LineFrame]) -> list[float]:
+            return [-math.inf] * len(frames)  # every candidate costed, in order of heading
     best_h, best_c = _bounded_min(cands, cost, bound, (math.inf, math.inf))
     known = set(cands)
     refine = []
@@ -49,11 +50,11 @@ def best_heading(area: BaseGeometry, cost: Callable[[LineFrame], float], step_de
     return _bounded_min(refine, cost, bound, (best_c, best_h))
 
 
-def _bounded_min(headings: list[float], cost: Callable[[LineFrame], float], bound: Callable[[LineFrame], float],
-                 best: tuple[float, float]) -> tuple[float, float]:
+def _bounded_min(headings: list[float], cost: Callable[[LineFrame], float],
+                 bound: Callable[[list[LineFrame]], Sequence[float]], best: tuple[float, float]) -> tuple[float, float]:
     """(heading, cost) of min by (cost, heading) over `headings` and the incumbent `best`
     (cost, heading), costing candidates in order of their lower bound."""
-    order = sorted((bound(LineFrame(h)), h) for h in headings)
+    order = sorted(zip([float(b) for b in bound([LineFrame(h) for h in headings])], headings)) if headings else []
     best_c, best_h = best
     for lower, h in order:
         if (lower, h) > (best_c, best_h):

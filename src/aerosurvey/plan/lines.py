@@ -226,15 +226,18 @@ def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeom
 
 @dataclass(frozen=True)
 class LineBounds:
-    """What `build_lines` is sure of for one heading, found without clipping a single strip.
+    """What `build_lines` is sure of for some headings, found without clipping a single strip.
 
     Arrays are per line ordinate of `strip_offsets` (the lines `build_lines` may lay), in the
-    line frame. Where `exists` is False the line may or may not get a run and nothing else is
-    claimed (unless `absent` says that it surely has none). Where it is True the line surely keeps at least one station after the zone cut,
-    and its first and last stations (by x) lie in [first_lo, first_hi] and [last_lo, last_hi],
-    at least `extent` apart. `single` says that the line surely has exactly one run.
+    line frame, heading after heading (`heading` says whose line each is). Where `exists` is
+    False the line may or may not get a run and nothing else is claimed (unless `absent` says
+    that it surely has none). Where it is True the line surely keeps at least one station
+    after the zone cut, and its first and last stations (by x) lie in [first_lo, first_hi] and
+    [last_lo, last_hi], at least `extent` apart. `single` says that the line surely has
+    exactly one run.
     """
 
+    heading: np.ndarray  # index of the line's heading in the headings asked for
     v: np.ndarray
     exists: np.ndarray
     absent: np.ndarray  # bool: surely no run (the closed strip does not meet the area)
@@ -302,11 +305,12 @@ def _convex(ring_xy: np.ndarray) -> bool:
     return bool(np.all(cross >= -tol) or np.all(cross <= tol))
 
 
-def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry, ends: bool = True) -> LineBounds:
-    """Sure facts about the runs `build_lines(area_f, zones_f, g)` lays, from the area's edges,
-    where area_f and zones_f are the outline's area and zones in `frame`. Without `ends` it
-    claims nothing about where lines end or which have one run (nor which are surely empty),
-    and it takes half the time (the copter's bound needs neither).
+def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, ends: bool = True) -> LineBounds:
+    """Sure facts about the runs `build_lines(area_f, zones_f, g)` lays for each frame, from
+    the area's edges, where area_f and zones_f are the outline's area and zones in the frame.
+    Every frame's lines are bounded at once (one numpy step for all of them: the heading search
+    bounds dozens). Without `ends` it claims nothing about where lines end or which have one
+    run (nor which are surely empty), and takes less time (the copter's bound needs neither).
 
     Why they hold (`build_lines` step by step, h = across/2, B = base, tol covers rounding):
     - the lines are `strip_offsets` of the same bounds, so the same ordinates;
@@ -328,36 +332,57 @@ def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry, ends: bool
       one interval, one run (when no zone is near the line).
     """
     # the same arithmetic as LineFrame.geom_to_frame, so the same bounds and line ordinates
-    fx, fy = frame.to_frame(outline.xy[:, 0], outline.xy[:, 1])
-    shell_y = fy[outline.shell_vertex]
-    vs = strip_offsets(float(shell_y.min()), float(shell_y.max()), g.across, g.spacing, g.side_per_point)
-    n = len(vs)
+    turned = [fr.to_frame(outline.xy[:, 0], outline.xy[:, 1]) for fr in frames]
+    fx, fy = np.array([t[0] for t in turned]), np.array([t[1] for t in turned])
+    shell_y = fy[:, outline.shell_vertex]
+    per_frame = [strip_offsets(lo, hi, g.across, g.spacing, g.side_per_point)
+                 for lo, hi in zip(shell_y.min(axis=1).tolist(), shell_y.max(axis=1).tolist())]
+    counts = np.array([len(vs) for vs in per_frame])
+    offset = np.cumsum(counts) - counts
+    n = int(counts.sum())
+    hid = np.repeat(np.arange(len(frames)), counts)
+    vs = np.concatenate(per_frame)
+    v0 = np.array([vs[0] for vs in per_frame])
     half = g.across / 2.0
     tol = 1e-7 * (1.0 + outline.radius) + 1e-6 * (g.base + g.across + g.clearance)
     s0 = outline.start
-    x0, y0, x1, y1 = fx[s0], fy[s0], fx[s0 + 1], fy[s0 + 1]
+    x0, y0, x1, y1 = fx[:, s0], fy[:, s0], fx[:, s0 + 1], fy[:, s0 + 1]
+    ylo, yhi = np.minimum(y0, y1), np.maximum(y0, y1)
 
     # the x-range of the area's vertices within each narrowed strip (inner hull) and, with
-    # `ends`, each closed strip (outer hull), and of its edges' crossings of their sides
+    # `ends`, each closed strip widened by tol (outer hull), and of its edges' crossings of the
+    # strips' sides. Which lines a vertex or an edge meets comes from the lines' even spacing;
+    # rounding may add one whose side is a hair away, which only moves a point a hair off the
+    # narrowed strip (still well inside the strip) or adds to the outer hull.
     narrow = half * (1.0 - 1e-6)
-    widths = (narrow, half) if ends else (narrow,)
-    m = len(widths) * n
-    xmin, xmax = np.full(m, np.inf), np.full(m, -np.inf)  # inner strips, then outer ones
-    sloped = np.flatnonzero(y1 != y0)
-    ylo, yhi = np.minimum(y0, y1), np.maximum(y0, y1)
-    sides = np.concatenate([vs - w for w in widths] + [vs + w for w in widths])
-    order = np.argsort(sides, kind="stable")
-    level = sides[order]
-    edge, at = _ranges(np.searchsorted(level, ylo[sloped], "left"), np.searchsorted(level, yhi[sloped], "right"))
-    e = sloped[edge]
-    xc = x0[e] + (level[at] - y0[e]) * ((x1[e] - x0[e]) / (y1[e] - y0[e]))
-    strip = order[at] % m
-    vertex, line = _ranges(np.concatenate([np.searchsorted(vs + w, y0, "left") for w in widths]),
-                           np.concatenate([np.searchsorted(vs - w, y0, "right") for w in widths]))
-    strip = np.concatenate([strip, line + n * (vertex // len(y0))])
-    xs = np.concatenate([xc, x0[vertex % len(y0)]])
-    np.minimum.at(xmin, strip, xs)
-    np.maximum.at(xmax, strip, xs)
+    widths = (narrow, half + tol) if ends else (narrow,)
+    xmin, xmax = np.full(len(widths) * n, np.inf), np.full(len(widths) * n, -np.inf)
+    n_of = counts[:, None]
+    strips, xs = [], []
+    for k, w in enumerate(widths):
+        for sign in (-1.0, 1.0):  # crossings of the strips' lower and upper sides
+            first = np.maximum(np.ceil((ylo - sign * w - v0[:, None]) / g.spacing), 0)
+            last = np.minimum(np.floor((yhi - sign * w - v0[:, None]) / g.spacing), n_of - 1)
+            sloped = (y1 != y0).ravel()
+            owner, line = _ranges(np.where(sloped, first.ravel(), 0).astype(np.int64),
+                                  np.where(sloped, last.ravel() + 1, 0).astype(np.int64))
+            h = owner // len(s0)
+            at = vs[offset[h] + line] + sign * w
+            ex0, ey0, ex1, ey1 = (a.ravel()[owner] for a in (x0, y0, x1, y1))
+            t = np.clip((at - ey0) / (ey1 - ey0), 0.0, 1.0)
+            strips.append(k * n + offset[h] + line)
+            xs.append(ex0 + t * (ex1 - ex0))
+        # vertices (the outer strip's widened by another tol: a crossing of its side that rounding
+        # misses is then near a vertex it takes in)
+        wv = w + tol if k else w
+        first = np.maximum(np.ceil((y0 - wv - v0[:, None]) / g.spacing), 0)
+        last = np.minimum(np.floor((y0 + wv - v0[:, None]) / g.spacing), n_of - 1)
+        owner, line = _ranges(first.ravel().astype(np.int64), last.ravel().astype(np.int64) + 1)
+        strips.append(k * n + offset[owner // len(s0)] + line)
+        xs.append(x0.ravel()[owner])
+    strip, x = np.concatenate(strips), np.concatenate(xs)
+    np.minimum.at(xmin, strip, x)
+    np.maximum.at(xmax, strip, x)
     a_in, b_in = xmin[:n], xmax[:n]
     a_out, b_out = (xmin[n:] - tol, xmax[n:] + tol) if ends else (np.full(n, -np.inf), np.full(n, np.inf))
     met = np.isfinite(a_in) & (b_in - a_in > 2.0 * tol)
@@ -373,10 +398,10 @@ def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry, ends: bool
     # one run: the strip meets one polygon, convex, none of whose holes reaches into the strip
     single = np.zeros(n, bool)
     if ends:
-        ring_lo = np.full(len(outline.shells), np.inf)
-        ring_hi = np.full(len(outline.shells), -np.inf)
-        np.minimum.at(ring_lo, outline.ring_of_edge, ylo)
-        np.maximum.at(ring_hi, outline.ring_of_edge, yhi)
+        rings = np.arange(len(outline.shells))
+        of_ring = outline.ring_of_edge[None, :] == rings[:, None]
+        ring_lo = np.array([ylo[:, e].min(axis=1) for e in of_ring]).T[hid]  # (lines, rings)
+        ring_hi = np.array([yhi[:, e].max(axis=1) for e in of_ring]).T[hid]
         reach = (ring_lo <= (vs + half + tol)[:, None]) & (ring_hi >= (vs - half - tol)[:, None])
         polys_met = reach[:, outline.shells]  # one exterior per polygon, in polygon order
         single = (met & (polys_met.sum(axis=1) == 1) & (polys_met & outline.convex).any(axis=1)
@@ -384,16 +409,17 @@ def line_bounds(outline: Outline, frame: LineFrame, g: StripGeometry, ends: bool
 
     if len(outline.zone_radius):
         # each zone lies within its circle about its centre, in every frame
-        zx, zy = frame.to_frame(outline.zone_centre[:, 0], outline.zone_centre[:, 1])
+        zx, zy = (np.array(a) for a in zip(*(fr.to_frame(outline.zone_centre[:, 0], outline.zone_centre[:, 1])
+                                             for fr in frames)))
         r = outline.zone_radius + tol
-        near = (np.abs(vs[:, None] - zy) <= r)
+        near = np.abs(vs[:, None] - zy[hid]) <= r
         touched = near.any(axis=1)
-        w0 = np.where(near, zx - r, np.inf).min(axis=1, initial=np.inf) - g.clearance
-        w1 = np.where(near, zx + r, -np.inf).max(axis=1, initial=-np.inf) + g.clearance
+        w0 = np.where(near, zx[hid] - r, np.inf).min(axis=1, initial=np.inf) - g.clearance
+        w1 = np.where(near, zx[hid] + r, -np.inf).max(axis=1, initial=-np.inf) + g.clearance
         kept = ~touched | ((w0 > lo + tol) & (w1 < hi - tol))
         exists &= kept
         single &= ~touched
         extent = np.where(exists, extent, 0.0)
     absent = ~np.isfinite(a_out) if ends else np.zeros(n, bool)
-    return LineBounds(vs, exists, absent, extent, single & exists, a_out + c - slack, lo + tol, hi - tol,
+    return LineBounds(hid, vs, exists, absent, extent, single & exists, a_out + c - slack, lo + tol, hi - tol,
                       b_out - c + slack)

@@ -20,7 +20,7 @@ from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.lines import LineSegment, Outline, StripGeometry, build_lines, line_bounds
 from aerosurvey.plan.progress import Progress
-from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bound
+from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec
@@ -91,8 +91,9 @@ class AreaGrid:
             outline = Outline.of(covered, site.zones_buffered)
             ends = sensor.kinematics.vehicle != "copter"  # only the plane's bound looks at the lines' ends
 
-            def bound(fr: LineFrame) -> float:
-                return quick_cost_lower_bound(line_bounds(outline, fr, g, ends), lead, g.base, sensor.kinematics)
+            def bound(frames: list[LineFrame]) -> list[float]:
+                lb = line_bounds(outline, frames, g, ends)
+                return [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics)]
 
             heading, _ = best_heading(covered, cost, bound=bound)
             chosen = "auto: the shortest estimated flight time"

@@ -323,8 +323,8 @@ def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
     return np.where(d >= big, top, np.minimum(here, below_big)), min(ramp, below_big)
 
 
-def quick_cost_lower_bound(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> float:
-    """A proven lower bound of `quick_cost(build_lines(...), lead_in, k)` from `line_bounds`.
+def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> np.ndarray:
+    """Per heading of `lb`: a proven lower bound of `quick_cost(build_lines(...), lead_in, k)`.
 
     The path quick_cost times is, line after line (those with runs, by ordinate), the line's
     part P (lead-in, stations, half a base past the last run, all on the line, backwards
@@ -347,23 +347,28 @@ def quick_cost_lower_bound(lb: LineBounds, lead_in: float, base: float, k: Kinem
     and both connectors turn by 30°-150° (checked from the bounds of both lines' ends): then
     it counts λ and the connector after it is surely replaced by the turn over |Δv|.
     """
+    frames = int(lb.heading.max()) + 1 if len(lb.heading) else 0
     exists = np.flatnonzero(lb.exists)
-    if len(exists) == 0:
-        return 0.0
-    v = lb.v
+    hid, v, speed = lb.heading, lb.v, k.speed_ms
     lam = lb.extent[exists] + lead_in + base / 2.0
-    speed = k.speed_ms
     i, j = exists[:-1], exists[1:]
+    pair = hid[i] == hid[j]  # consecutive sure lines of one heading
+    i, j = i[pair], j[pair]
     dv = v[j] - v[i]
-    # consecutive sure lines with only surely empty ones between them: the connector joins them
+    # with only surely empty lines between them, the connector joins them
     unknown = np.cumsum(~lb.exists & ~lb.absent)
     joined = unknown[j] == unknown[i]
+
+    def per_heading(at: np.ndarray, values: np.ndarray) -> np.ndarray:
+        return np.bincount(hid[at], weights=values, minlength=frames).astype(float)  # float when empty too
+
     if k.vehicle == "copter":
         gain, m = _least_gain(np.concatenate([lam, dv[joined]]), k)
-        total = float(np.sum(lam / speed + np.minimum(gain[:len(lam)], 3.0 * m)))
-        total += float(np.sum(np.minimum(dv[joined] / speed + gain[len(lam):], 2.0 * dv[joined] / speed)))
-        gap = float(np.min(np.diff(v))) if len(v) > 1 else 0.0  # no two lines are closer
-        total += float(np.sum(dv[~joined])) / speed + int(np.count_nonzero(~joined)) * min(m, gap / speed)
+        same = hid[1:] == hid[:-1]
+        gap = float(np.min(np.diff(v)[same])) if same.any() else 0.0  # no two lines of a heading are closer
+        total = per_heading(exists, lam / speed + np.minimum(gain[:len(lam)], 3.0 * m))
+        total += per_heading(i[joined], np.minimum(dv[joined] / speed + gain[len(lam):], 2.0 * dv[joined] / speed))
+        total += per_heading(i[~joined], dv[~joined] / speed + min(m, gap / speed))
         return total * (1.0 - 1e-7)
     # plane: connectors that surely turn by at most 150° out of the line before them, whichever
     # way that line is flown (see the docstring)
@@ -371,14 +376,25 @@ def quick_cost_lower_bound(lb: LineBounds, lead_in: float, base: float, k: Kinem
     ahead_right = lb.last_lo[j] + lead_in - lb.last_hi[i] - base / 2.0
     ahead_left = lb.first_lo[i] - base / 2.0 - lb.first_hi[j] + lead_in
     gentle = joined & (ahead_right >= -dv * cot30) & (ahead_left >= -dv * cot30) & (lead_in > 1e-6)
-    first_known = unknown[exists[0]] == 0
-    last_known = unknown[exists[-1]] == unknown[-1]
-    before = np.r_[first_known and lead_in > 1e-6, gentle]
-    after = np.r_[gentle, last_known and lead_in > 1e-6]
-    as_laid = before & after
+    # each heading's first and last sure line: are all lines before (after) it surely empty?
+    start = np.flatnonzero(np.r_[True, hid[1:] != hid[:-1]])
+    end = np.r_[start[1:], len(hid)] - 1
+    before_start = np.where(start > 0, unknown[np.maximum(start - 1, 0)], 0)[hid[exists]]
+    known_before = unknown[exists] == before_start
+    known_after = unknown[exists] == unknown[end][hid[exists]]
+    # a sure line's connectors in and out, where it has them
+    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]]
+    last = np.r_[first[1:], True]
+    into, out = np.zeros(len(exists), bool), np.zeros(len(exists), bool)
+    into[~first] = gentle
+    out[~last] = gentle
+    as_laid = (np.where(first, known_before, into) & np.where(last, known_after, out) & (lead_in > 1e-6))
     short = lead_in + base / 2.0 + plane_turn_length(0.0, k.turn_radius_m)
-    length = float(np.sum(np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid]))
-    length += sum(plane_turn_length(float(d), k.turn_radius_m) for d in dv[gentle]) + float(np.sum(dv[~gentle]))
+    length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
+    radius = k.turn_radius_m
+    bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + dv) / (4.0 * radius))))
+    turn = np.where(dv >= 2.0 * radius, math.pi * radius + (dv - 2.0 * radius), bulb)  # plane_turn_length
+    length += per_heading(i, np.where(gentle, turn, dv))
     return length / speed * (1.0 - 1e-7)
 
 
