@@ -31,10 +31,10 @@ def best_heading(area: BaseGeometry, cost: Callable[[LineFrame], float], step_de
     the smaller heading.
 
     With `bound` (lower bounds of `cost` for a list of frames, cheap to compute) candidates are
-    costed in order
-    of their bound, and the search stops at the first whose (bound, heading) exceeds the best
-    (cost, heading) found so far: that candidate and every later one costs at least its bound,
-    so none of them can be the minimum. The result is the one costing every candidate gives."""
+    costed in order of their bound, and the search stops at the first whose (bound, heading)
+    exceeds the best (cost, heading) found so far: that candidate and every later one costs at
+    least its bound, so none of them can be the minimum. The result is the one costing every
+    candidate gives."""
     cands = candidate_headings(area, step_deg)
     if bound is None:
         def bound(frames: list[LineFrame]) -> list[float]:
