@@ -341,11 +341,19 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     Between two sure lines with unsure ones between them there is at least one connector and
     they add up to the ordinate difference; each connector has G ≥ m or the extra length ≥ Δv.
 
-    Plane (length/v, where a reversal's middle leg is replaced by the turn `plane_turn_length`,
-    which is never shorter than the lateral offset): connectors count at least Δv. A line's legs
-    are sure to be flown as they are (no reversal pairs them) when it has one run, a lead-in,
-    and both connectors turn by 30°-150° (checked from the bounds of both lines' ends): then
-    it counts λ and the connector after it is surely replaced by the turn over |Δv|.
+    Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two
+    corners add up to more than 150°, by the turn `plane_turn_length` over its lateral offset,
+    never shorter than that offset; it pairs corners from the first on, skipping the corner
+    after a pair). A connector's offset is Δv (the leg before it runs along the line), so it
+    counts at least Δv. A connector that surely turns by at most 150° out of the line before
+    it ("gentle", from the bounds of both lines' ends, either way they are flown) is surely
+    replaced by the turn over Δv: its first corner is skipped only when paired with the 0°
+    corner before it. Its second corner is then skipped, so the lead-in after it (lead_in > 0)
+    is not replaced. A sure line with gentle connectors in and out (or only surely empty lines
+    beyond it) thus keeps its first lead-in and its last run: with no reversal within (a line
+    of one run has none) nothing of it is replaced, λ; else its first reversal replaces the
+    leg before it and the lead-in after it by the turn over 0 each: at least
+    lead_in + base/2 + 2·turn(0).
     """
     frames = int(lb.heading.max()) + 1 if len(lb.heading) else 0
     exists = np.flatnonzero(lb.exists)
@@ -389,7 +397,7 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     into[~first] = gentle
     out[~last] = gentle
     as_laid = (np.where(first, known_before, into) & np.where(last, known_after, out) & (lead_in > 1e-6))
-    short = lead_in + base / 2.0 + plane_turn_length(0.0, k.turn_radius_m)
+    short = lead_in + base / 2.0 + 2.0 * plane_turn_length(0.0, k.turn_radius_m)
     length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
     radius = k.turn_radius_m
     bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + dv) / (4.0 * radius))))
