@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import shapely
@@ -24,13 +25,41 @@ def candidate_headings(area: BaseGeometry, step_deg: float = 10.0) -> list[float
     return sorted(cands)
 
 
-def best_heading(area: BaseGeometry, cost: Callable[[LineFrame], float], step_deg: float = 10.0) -> tuple[float, float]:
-    """(heading, cost) of the cheapest candidate, refined by 1° steps around it."""
-    scores = {h: cost(LineFrame(h)) for h in candidate_headings(area, step_deg)}
-    best = min(scores, key=lambda h: (scores[h], h))
+def best_heading(area: BaseGeometry, cost: Callable[[LineFrame], float], step_deg: float = 10.0,
+                 bound: Callable[[list[LineFrame]], Sequence[float]] | None = None) -> tuple[float, float]:
+    """(heading, cost) of the cheapest candidate, refined by 1° steps around it; ties go to
+    the smaller heading.
+
+    With `bound` (lower bounds of `cost` for a list of frames, cheap to compute) candidates are
+    costed in order of their bound, and the search stops at the first whose (bound, heading)
+    exceeds the best (cost, heading) found so far: that candidate and every later one costs at
+    least its bound, so none of them can be the minimum. The result is the one costing every
+    candidate gives."""
+    cands = candidate_headings(area, step_deg)
+    if bound is None:
+        def bound(frames: list[LineFrame]) -> list[float]:
+            return [-math.inf] * len(frames)  # every candidate costed, in order of heading
+    best_h, best_c = _bounded_min(cands, cost, bound, (math.inf, math.inf))
+    known = set(cands)
+    refine = []
     for delta in range(-int(step_deg // 2), int(step_deg // 2) + 1):
-        h = round((best + delta) % 180.0, 6)
-        if h not in scores:
-            scores[h] = cost(LineFrame(h))
-    best = min(scores, key=lambda h: (scores[h], h))
-    return best, scores[best]
+        h = round((best_h + delta) % 180.0, 6)
+        if h not in known:
+            known.add(h)
+            refine.append(h)
+    return _bounded_min(refine, cost, bound, (best_c, best_h))
+
+
+def _bounded_min(headings: list[float], cost: Callable[[LineFrame], float],
+                 bound: Callable[[list[LineFrame]], Sequence[float]], best: tuple[float, float]) -> tuple[float, float]:
+    """(heading, cost) of min by (cost, heading) over `headings` and the incumbent `best`
+    (cost, heading), costing candidates in order of their lower bound."""
+    order = sorted(zip([float(b) for b in bound([LineFrame(h) for h in headings])], headings)) if headings else []
+    best_c, best_h = best
+    for lower, h in order:
+        if (lower, h) > (best_c, best_h):
+            break
+        c = cost(LineFrame(h))
+        if (c, h) < (best_c, best_h):
+            best_c, best_h = c, h
+    return best_h, best_c

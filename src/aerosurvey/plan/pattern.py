@@ -18,9 +18,9 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey.errors import InputError
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
-from aerosurvey.plan.lines import LineSegment, StripGeometry, build_lines
+from aerosurvey.plan.lines import LineSegment, Outline, StripGeometry, build_lines, line_bounds
 from aerosurvey.plan.progress import Progress
-from aerosurvey.plan.route import Pass, quick_cost
+from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec
@@ -88,7 +88,14 @@ class AreaGrid:
                 _, segs = lines_for(fr.heading_deg)
                 return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
 
-            heading, _ = best_heading(covered, cost)
+            outline = Outline.of(covered, site.zones_buffered)
+            ends = sensor.kinematics.vehicle != "copter"  # only the plane's bound looks at the lines' ends
+
+            def bound(frames: list[LineFrame]) -> list[float]:
+                lb = line_bounds(outline, frames, g, ends)
+                return [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics)]
+
+            heading, _ = best_heading(covered, cost, bound=bound)
             chosen = "auto: the shortest estimated flight time"
         else:
             heading, chosen = self.heading_deg, "fixed by the spec"

@@ -16,7 +16,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame
-from aerosurvey.plan.lines import LineSegment
+from aerosurvey.plan.lines import LineBounds, LineSegment
 
 
 @dataclass(frozen=True)
@@ -246,8 +246,10 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
     ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
     turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
     if k.vehicle == "copter":
-        total, run = 0.0, lengths[0]
-        for t, length in zip(turn, lengths[1:]):
+        # Python floats: the same sums, without numpy's per-scalar cost (this loop runs for every
+        # candidate heading)
+        total, run = 0.0, float(lengths[0])
+        for t, length in zip(turn.tolist(), lengths[1:].tolist()):
             if t > corner_deg:
                 total += _straight_time(run, k)
                 run = length
@@ -306,6 +308,102 @@ def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> fl
             first, last = (s.x0, s.x1) if d > 0 else (s.x1, s.x0)
             pts.extend([(first - d * lead_in, s.v), (first, s.v), (last + d * s.base / 2.0, s.v)])
     return path_time(np.asarray(pts), k)
+
+
+def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
+    """Per run length d: the least G(x) = t(x) − x/v of a copter's straight run
+    (`_straight_time`) over every x ≥ d; and the least over every x > 0. G is v/a + a/J from
+    D = v(v/a + a/J) on and 2√(x/a) + a/J − x/v (concave) below D, so the least is at d, just
+    below D, or past D."""
+    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
+    ramp = a / j if j > 0 else 0.0
+    big, top = v * (v / a + ramp), v / a + ramp
+    below_big = min(2.0 * math.sqrt(big / a) + ramp - big / v, top)
+    here = 2.0 * np.sqrt(np.maximum(d, 0.0) / a) + ramp - np.maximum(d, 0.0) / v
+    return np.where(d >= big, top, np.minimum(here, below_big)), min(ramp, below_big)
+
+
+def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> np.ndarray:
+    """Per heading of `lb`: a proven lower bound of `quick_cost(build_lines(...), lead_in, k)`.
+
+    The path quick_cost times is, line after line (those with runs, by ordinate), the line's
+    part P (lead-in, stations, half a base past the last run, all on the line, backwards
+    between runs that overlap) and a connector to the next line, at least Δv long. For a line
+    sure to exist, P runs from before its first station to past its last one: it is at least
+    λ = extent + lead_in + base/2 long.
+
+    Copter (t = d/v + G(d) per stop-to-stop run, G ≥ least_gain): every leg is along the line
+    but the connectors, so a stop within P is a reversal (two corners of 180°: ≥ 3 runs, G ≥ 3m,
+    m = least_gain(0)); otherwise P lies in one run of length ≥ λ. A connector's two corners
+    add up to 180°, so at least one is a stop: either both are (the connector is a run of
+    its own: Δv/v + least_gain(Δv)), or it turns by ≤ 30° into a line, so it is at least 2Δv
+    long. Runs of different lines and those connector runs are distinct, hence the sum.
+    Between two sure lines with unsure ones between them there is at least one connector and
+    they add up to the ordinate difference; each connector has G ≥ m or the extra length ≥ Δv.
+
+    Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two
+    corners add up to more than 150°, by the turn `plane_turn_length` over its lateral offset,
+    never shorter than that offset; it pairs corners from the first on, skipping the corner
+    after a pair). A connector's offset is Δv (the leg before it runs along the line), so it
+    counts at least Δv. A connector that surely turns by at most 150° out of the line before
+    it ("gentle", from the bounds of both lines' ends, either way they are flown) is surely
+    replaced by the turn over Δv: its first corner is skipped only when paired with the 0°
+    corner before it. Its second corner is then skipped, so the lead-in after it (lead_in > 0)
+    is not replaced. A sure line with gentle connectors in and out (or only surely empty lines
+    beyond it) thus keeps its first lead-in and its last run: with no reversal within (a line
+    of one run has none) nothing of it is replaced, λ; else its first reversal replaces the
+    leg before it and the lead-in after it by the turn over 0 each: at least
+    lead_in + base/2 + 2·turn(0).
+    """
+    frames = int(lb.heading.max()) + 1 if len(lb.heading) else 0
+    exists = np.flatnonzero(lb.exists)
+    hid, v, speed = lb.heading, lb.v, k.speed_ms
+    lam = lb.extent[exists] + lead_in + base / 2.0
+    i, j = exists[:-1], exists[1:]
+    pair = hid[i] == hid[j]  # consecutive sure lines of one heading
+    i, j = i[pair], j[pair]
+    dv = v[j] - v[i]
+    # with only surely empty lines between them, the connector joins them
+    unknown = np.cumsum(~lb.exists & ~lb.absent)
+    joined = unknown[j] == unknown[i]
+
+    def per_heading(at: np.ndarray, values: np.ndarray) -> np.ndarray:
+        return np.bincount(hid[at], weights=values, minlength=frames).astype(float)  # float when empty too
+
+    if k.vehicle == "copter":
+        gain, m = _least_gain(np.concatenate([lam, dv[joined]]), k)
+        same = hid[1:] == hid[:-1]
+        gap = float(np.min(np.diff(v)[same])) if same.any() else 0.0  # no two lines of a heading are closer
+        total = per_heading(exists, lam / speed + np.minimum(gain[:len(lam)], 3.0 * m))
+        total += per_heading(i[joined], np.minimum(dv[joined] / speed + gain[len(lam):], 2.0 * dv[joined] / speed))
+        total += per_heading(i[~joined], dv[~joined] / speed + min(m, gap / speed))
+        return total * (1.0 - 1e-7)
+    # plane: connectors that surely turn by at most 150° out of the line before them, whichever
+    # way that line is flown (see the docstring)
+    cot30 = math.sqrt(3.0) * (1.0 - 1e-6)
+    ahead_right = lb.last_lo[j] + lead_in - lb.last_hi[i] - base / 2.0
+    ahead_left = lb.first_lo[i] - base / 2.0 - lb.first_hi[j] + lead_in
+    gentle = joined & (ahead_right >= -dv * cot30) & (ahead_left >= -dv * cot30) & (lead_in > 1e-6)
+    # each heading's first and last sure line: are all lines before (after) it surely empty?
+    start = np.flatnonzero(np.r_[True, hid[1:] != hid[:-1]])
+    end = np.r_[start[1:], len(hid)] - 1
+    before_start = np.where(start > 0, unknown[np.maximum(start - 1, 0)], 0)[hid[exists]]
+    known_before = unknown[exists] == before_start
+    known_after = unknown[exists] == unknown[end][hid[exists]]
+    # a sure line's connectors in and out, where it has them
+    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]]
+    last = np.r_[first[1:], True]
+    into, out = np.zeros(len(exists), bool), np.zeros(len(exists), bool)
+    into[~first] = gentle
+    out[~last] = gentle
+    as_laid = (np.where(first, known_before, into) & np.where(last, known_after, out) & (lead_in > 1e-6))
+    short = lead_in + base / 2.0 + 2.0 * plane_turn_length(0.0, k.turn_radius_m)
+    length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
+    radius = k.turn_radius_m
+    bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + dv) / (4.0 * radius))))
+    turn = np.where(dv >= 2.0 * radius, math.pi * radius + (dv - 2.0 * radius), bulb)  # plane_turn_length
+    length += per_heading(i, np.where(gentle, turn, dv))
+    return length / speed * (1.0 - 1e-7)
 
 
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,

@@ -1,0 +1,266 @@
+"""The heading search with a lower bound picks what costing every candidate picks, and the
+bound never exceeds the cost it bounds (random convex, concave, holed and split areas, with
+and without exclusion zones, planes and copters, near the origin and at UTM-sized coordinates)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from shapely.geometry.base import BaseGeometry
+
+from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.heading import best_heading, candidate_headings
+from aerosurvey.plan.lines import (
+    LineSegment,
+    Outline,
+    StripGeometry,
+    build_lines,
+    cut_by_zones,
+    line_bounds,
+    segments_for_line,
+    strip_offsets,
+)
+from aerosurvey.plan.route import Kinematics, quick_cost, quick_cost_lower_bounds
+
+KINDS = ("convex", "concave", "holed", "split")
+
+
+def random_area(kind: str, rng: np.random.Generator, size: float) -> BaseGeometry:
+    if kind == "convex":
+        return shapely.convex_hull(shapely.MultiPoint(rng.uniform(-size, size, (10, 2))))
+    if kind == "concave":
+        ang = np.sort(rng.uniform(0, 2 * np.pi, 9))
+        rad = rng.uniform(0.3, 1.0, 9) * size
+        g = shapely.Polygon(np.column_stack([rad * np.cos(ang), rad * np.sin(ang)]))
+        return g if g.is_valid else shapely.convex_hull(g)
+    if kind == "holed":
+        outer = shapely.Point(0, 0).buffer(size, quad_segs=4)
+        holes = [shapely.Point(*rng.uniform(-size / 2, size / 2, 2)).buffer(size * rng.uniform(0.05, 0.2), quad_segs=3)
+                 for _ in range(int(rng.integers(1, 3)))]
+        return shapely.difference(outer, shapely.union_all(holes))
+    a = shapely.box(-size, -size, -size * 0.1, size)  # two pieces with a gap between them
+    b = shapely.box(size * rng.uniform(0.0, 0.6), -size * rng.uniform(0.2, 1.0), size, size * 0.7)
+    return shapely.union(a, b)
+
+
+def random_zones(rng: np.random.Generator, size: float, count: int, margin: float) -> BaseGeometry | None:
+    if count == 0:
+        return None
+    zones = [shapely.box(x, y, x + w, y + h) for x, y, w, h in
+             zip(*rng.uniform(-size, size * 0.8, (2, count)), *rng.uniform(size * 0.03, size * 0.3, (2, count)))]
+    return shapely.buffer(shapely.union_all(zones), margin, quad_segs=4)
+
+
+def random_case(seed: int, kind: str, vehicle: str, n_zones: int, far: bool
+                ) -> tuple[BaseGeometry, BaseGeometry | None, StripGeometry, float, Kinematics]:
+    rng = np.random.default_rng(seed)
+    size = float(rng.uniform(150.0, 1200.0))
+    area = random_area(kind, rng, size)
+    margin = float(rng.uniform(0.0, 40.0))
+    covered = shapely.buffer(area, margin, quad_segs=4) if margin > 0 else area
+    zones = random_zones(rng, size, n_zones, float(rng.uniform(5.0, 30.0)))
+    if far:  # planning coordinates of the size UTM has
+        covered = shapely.affinity.translate(covered, 512_345.6, 5_470_123.4)
+        zones = shapely.affinity.translate(zones, 512_345.6, 5_470_123.4) if zones is not None else None
+    across = float(rng.uniform(40.0, 220.0))
+    along = across * float(rng.uniform(0.6, 0.8))
+    side, forward = float(rng.uniform(0.3, 0.8)), float(rng.uniform(0.5, 0.85))
+    if vehicle == "copter":
+        kin = Kinematics("copter", float(rng.uniform(4.0, 15.0)), float(rng.uniform(1.0, 4.0)), 0.0,
+                         float(rng.uniform(0.3, 3.0)))
+        lead = float(rng.choice([0.0, rng.uniform(1.0, 40.0)]))
+    else:
+        speed = float(rng.uniform(13.0, 25.0))
+        radius = speed**2 / (9.80665 * math.tan(math.radians(float(rng.uniform(20.0, 40.0)))))
+        kin = Kinematics("plane", speed, 2.0, radius)
+        lead = float(rng.choice([0.0, rng.uniform(20.0, 300.0)]))
+    base = along * (1.0 - forward)
+    turn = kin.turn_radius_m
+    g = StripGeometry(across, along, across * (1.0 - side), base, max(1, math.floor(1.0 / (1.0 - side) + 1e-9)),
+                      max(1, math.floor(1.0 / (1.0 - forward) + 1e-9)), int(rng.integers(0, 4)),
+                      base / 2.0 + turn + 1.0)
+    return covered, zones, g, lead, kin
+
+
+def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, lead: float, kin: Kinematics
+          ) -> tuple[Callable[[LineFrame], float], Callable[[list[LineFrame]], list[float]]]:
+    """The exact cost pattern.AreaGrid scores a heading with, and its lower bound."""
+
+    def cost(fr: LineFrame) -> float:
+        zf = fr.geom_to_frame(zones) if zones is not None else None
+        segs = build_lines(fr.geom_to_frame(covered), zf, g)
+        return quick_cost(segs, lead, kin) if segs else math.inf
+
+    outline = Outline.of(covered, zones)
+
+    def bound(frames: list[LineFrame]) -> list[float]:  # as pattern.AreaGrid bounds them
+        lb = line_bounds(outline, frames, g, kin.vehicle != "copter")
+        return quick_cost_lower_bounds(lb, lead, g.base, kin).tolist()
+
+    return cost, bound
+
+
+def exhaustive_heading(area: BaseGeometry, cost: Callable[[LineFrame], float], step_deg: float = 10.0
+                       ) -> tuple[float, float]:
+    """The search before the bound: every candidate costed, then 1° steps around the best."""
+    scores = {h: cost(LineFrame(h)) for h in candidate_headings(area, step_deg)}
+    best = min(scores, key=lambda h: (scores[h], h))
+    for delta in range(-int(step_deg // 2), int(step_deg // 2) + 1):
+        h = round((best + delta) % 180.0, 6)
+        if h not in scores:
+            scores[h] = cost(LineFrame(h))
+    best = min(scores, key=lambda h: (scores[h], h))
+    return best, scores[best]
+
+
+cases = st.tuples(st.integers(0, 2**32 - 1), st.sampled_from(KINDS), st.sampled_from(("copter", "plane")),
+                  st.integers(0, 2), st.booleans())
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases, st.floats(0.0, 180.0, exclude_max=True))
+def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool], heading: float) -> None:
+    covered, zones, g, lead, kin = random_case(*case)
+    fr = LineFrame(round(heading, 6))
+    zf = fr.geom_to_frame(zones) if zones is not None else None
+    area_f = fr.geom_to_frame(covered)
+    segs = build_lines(area_f, zf, g)
+    lb = line_bounds(Outline.of(covered, zones), [fr], g)
+    _, vmin, _, vmax = area_f.bounds
+    assert np.array_equal(lb.v, strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point))
+    exact = quick_cost(segs, lead, kin) if segs else math.inf
+    assert quick_cost_lower_bounds(lb, lead, g.base, kin)[0] <= exact
+    short = line_bounds(Outline.of(covered, zones), [fr], g, ends=False)
+    assert quick_cost_lower_bounds(short, lead, g.base, kin)[0] <= exact
+    assert np.array_equal(short.exists, lb.exists) and np.array_equal(short.extent, lb.extent)
+    # and what the bound rests on, line by line, against the lines actually laid
+    by_v: dict[float, list[tuple[float, float]]] = {}
+    for s in segs:
+        by_v.setdefault(s.v, []).append((s.x0, s.x1))
+    assert set(by_v) <= set(lb.v.tolist())
+    for i, v in enumerate(lb.v.tolist()):
+        runs = sorted(by_v.get(v, []))
+        if lb.exists[i]:
+            assert runs, f"line {i} was sure to exist"
+            first, last = runs[0][0], max(r[1] for r in runs)
+            assert last - first >= lb.extent[i]
+            assert lb.first_lo[i] <= first <= lb.first_hi[i] and lb.last_lo[i] <= last <= lb.last_hi[i]
+        if lb.single[i]:
+            assert len(runs) == 1
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_the_bounded_search_picks_what_costing_every_heading_picks(case: tuple[int, str, str, int, bool]) -> None:
+    covered, zones, g, lead, kin = random_case(*case)
+    cost, bound = costs(covered, zones, g, lead, kin)
+    tried: list[float] = []
+
+    def counted(fr: LineFrame) -> float:
+        tried.append(fr.heading_deg)
+        return cost(fr)
+
+    assert best_heading(covered, counted, bound=bound) == exhaustive_heading(covered, cost)
+    assert len(tried) == len(set(tried))  # no candidate costed twice
+
+
+def test_ties_go_to_the_smaller_heading_with_or_without_a_bound() -> None:
+    area = shapely.Polygon([(0, 0), (900, 100), (800, 700), (-50, 600)])
+
+    def flat(fr: LineFrame) -> float:
+        return 100.0 if fr.heading_deg > 30.0 else 120.0
+
+    expected = exhaustive_heading(area, flat)
+    assert expected[1] == 100.0 and best_heading(area, flat) == expected
+    assert best_heading(area, flat, bound=lambda frames: [100.0] * len(frames)) == expected
+    assert best_heading(area, flat, bound=lambda frames: [0.0] * len(frames)) == expected
+
+
+def test_a_bound_prunes_candidates_it_proves_worse() -> None:
+    area = shapely.Polygon([(0, 0), (900, 100), (800, 700), (-50, 600)])
+    tried: list[float] = []
+
+    def cost(fr: LineFrame) -> float:
+        tried.append(fr.heading_deg)
+        return 1000.0 + abs(fr.heading_deg - 90.0)
+
+    got = best_heading(area, cost, bound=lambda frames: [1000.0 + abs(fr.heading_deg - 90.0) * 0.5 for fr in frames])
+    assert got == exhaustive_heading(area, lambda fr: 1000.0 + abs(fr.heading_deg - 90.0))
+    assert len(tried) < len(candidate_headings(area)) / 2
+
+
+def laid_one_by_one(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry) -> list[LineSegment]:
+    """build_lines as it was before it clipped every strip in one call and laid the lines
+    with one interval together: one clip and one line at a time."""
+    _, vmin, _, vmax = area_f.bounds
+    minx, _, maxx, _ = area_f.bounds
+    vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
+    segs: list[LineSegment] = []
+    for i, v in enumerate(vs):
+        clip = shapely.clip_by_rect(area_f, minx - 1.0, float(v) - g.across / 2.0, maxx + 1.0, float(v) + g.across / 2.0)
+        pieces = sorted(p.bounds[0::2] for p in shapely.get_parts(clip) if not p.is_empty and p.area > 0)
+        merged: list[tuple[float, float]] = []
+        for a, b in pieces:
+            if merged and a <= merged[-1][1]:
+                merged[-1] = (merged[-1][0], max(merged[-1][1], b))
+            else:
+                merged.append((a, b))
+        if merged:
+            segs.extend(segments_for_line(i, float(v), merged, g.along, g.base, g.fwd_per_point, g.beyond, g.along))
+    segs = cut_by_zones(segs, zones_f, g.clearance)
+    index = {old: new for new, old in enumerate(sorted({s.line for s in segs}))}
+    return [LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases, st.floats(0.0, 180.0, exclude_max=True))
+def test_lines_are_laid_as_one_clip_and_one_line_at_a_time_lays_them(case: tuple[int, str, str, int, bool],
+                                                                      heading: float) -> None:
+    covered, zones, g, lead, kin = random_case(*case)
+    fr = LineFrame(round(heading, 6))
+    zf = fr.geom_to_frame(zones) if zones is not None else None
+    got, expected = build_lines(fr.geom_to_frame(covered), zf, g), laid_one_by_one(fr.geom_to_frame(covered), zf, g)
+    assert got == expected
+    assert [type(x) for s in got for x in (s.v, s.x0, s.n)] == [type(x) for s in expected for x in (s.v, s.x0, s.n)]
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases, st.lists(st.floats(0.0, 180.0, exclude_max=True), min_size=2, max_size=6))
+def test_headings_bounded_together_are_bounded_as_each_alone(case: tuple[int, str, str, int, bool],
+                                                             headings: list[float]) -> None:
+    covered, zones, g, lead, kin = random_case(*case)
+    outline, frames = Outline.of(covered, zones), [LineFrame(round(h, 6)) for h in headings]
+    together = quick_cost_lower_bounds(line_bounds(outline, frames, g), lead, g.base, kin)
+    alone = [quick_cost_lower_bounds(line_bounds(outline, [fr], g), lead, g.base, kin)[0] for fr in frames]
+    assert together.tolist() == pytest.approx(alone, rel=1e-12, abs=1e-9)
+
+
+def offsets_comparing_every_line(vmin: float, vmax: float, across: float, spacing: float, per_point: int) -> np.ndarray:
+    """strip_offsets as it was before it compared each probe with the lines near it only."""
+    half = across / 2.0
+    need = vmax - vmin - across + 2.0 * (per_point - 1) * spacing
+    n = max(per_point, math.ceil(need / spacing - 1e-6) + 1, 1)
+    probe = np.linspace(vmin, vmax, 257)
+    while True:
+        vs = (vmin + vmax) / 2.0 + spacing * (np.arange(n) - (n - 1) / 2.0)
+        if (np.abs(probe[:, None] - vs[None, :]) <= half + 1e-6).sum(axis=1).min() >= per_point:
+            return vs
+        n += 1
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-1e7, 1e7), st.floats(0.0, 1.0), st.floats(1.0, 400.0), st.floats(0.1, 0.95), st.integers(0, 3),
+       st.integers(1, 1500))
+def test_strip_offsets_are_those_comparing_every_line(vmin: float, frac: float, across: float, side: float,
+                                                      fewer: int, lines: int) -> None:
+    spacing = across * (1.0 - side)  # side overlap `side`, and as many strips a point as it allows, or fewer
+    per_point = max(1, math.floor(1.0 / (1.0 - side) + 1e-9) - fewer)
+    vmax = vmin + frac * lines * spacing
+    assert np.array_equal(strip_offsets(vmin, vmax, across, spacing, per_point),
+                          offsets_comparing_every_line(vmin, vmax, across, spacing, per_point))
