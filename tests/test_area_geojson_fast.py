@@ -121,3 +121,23 @@ def test_odd_coordinates_give_gdals_answer(tmp_path: Path, text: str) -> None:
     with pytest.raises(InputError) as got:
         area._read_vector(path, "area")
     assert str(got.value) == str(want.value)
+
+
+def test_an_unclosed_ring_is_one_line_error_on_both_paths(tmp_path: Path) -> None:
+    path = tmp_path / "open.geojson"
+    path.write_text(json.dumps({"type": "Polygon", "coordinates": [[[14.0, 49.0], [14.01, 49.0], [14.01, 49.01], [14.0, 49.01]]]}))
+    assert area._plain_geojson(path.read_bytes()) is None  # shapely would close it quietly: GDAL's path decides
+    with pytest.raises(InputError, match=r"^area: layer .* holds a geometry that is not valid: .*closed.*close every ring"):
+        area._read_vector(path, "area")
+
+
+def test_a_large_geojson_goes_to_gdal(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Above PLAIN_GEOJSON_MAX_BYTES GDAL reads the file (faster on huge rings); the geometry is the same."""
+    src = REPO / "missions" / "areas" / "obratan-72ha.geojson"
+    calls: list[int] = []
+    real = area._plain_geojson
+    monkeypatch.setattr(area, "_plain_geojson", lambda data: calls.append(len(data)) or real(data))
+    small, _ = area._read_vector(src, "area")
+    monkeypatch.setattr(area, "PLAIN_GEOJSON_MAX_BYTES", src.stat().st_size - 1)
+    large, _ = area._read_vector(src, "area")
+    assert calls == [src.stat().st_size] and same(small, large)
