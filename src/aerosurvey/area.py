@@ -15,9 +15,9 @@ import json
 import re
 import zipfile
 from collections.abc import Mapping
-from typing import Any
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyproj
