@@ -99,6 +99,7 @@ def test_count_at_is_the_count_of_footprints_holding_each_point() -> None:
         want += (np.abs(u) <= fp.along[i] / 2 + 1e-6) & (np.abs(v) <= fp.across[i] / 2 + 1e-6)
     assert want.max() >= 2
     assert np.array_equal(fp.count_at(px, py), want)
+    assert [int(fp.count_at(px[i:i + 1], py[i:i + 1])[0]) for i in range(200)] == want[:200].tolist()  # one at a time
     assert fp.count_at(np.array([]), np.array([])).tolist() == []
 
 

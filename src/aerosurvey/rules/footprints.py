@@ -72,16 +72,22 @@ class Footprints:
         """How many footprints contain each point.
 
         The pairs (footprint, point) to test are those whose point lies in the square the
-        footprint can reach (an STRtree query), then each pair is tested exactly; measured on
-        the Obrataň example (1,756 photos, 4,000 points): 41 → ~8 ms against one footprint at
-        a time over every point."""
+        footprint can reach (an STRtree query over the footprints whose square meets the
+        points' bounding box), then each pair is tested exactly. Measured on the Obrataň
+        example (1,756 photos, 4,004 points): 41.9 → 21.7 ms CPU against one footprint at a
+        time over every point; a single point (the control-point search asks for those) is
+        tested against its few near footprints only."""
         px, py = np.asarray(px, float), np.asarray(py, float)
         if not len(px) or not len(self.x):
             return np.zeros(len(px), int)
         # the exact test below allows 1e-6 beyond each side: the square must hold those corners too
         reach = np.hypot(self.across / 2 + 2e-6, self.along / 2 + 2e-6)
+        near = np.flatnonzero((self.x + reach >= px.min()) & (self.x - reach <= px.max())
+                              & (self.y + reach >= py.min()) & (self.y - reach <= py.max()))
         tree = shapely.STRtree(shapely.points(px, py))
-        fi, pj = tree.query(shapely.box(self.x - reach, self.y - reach, self.x + reach, self.y + reach))
+        found, pj = tree.query(shapely.box(self.x[near] - reach[near], self.y[near] - reach[near],
+                                           self.x[near] + reach[near], self.y[near] + reach[near]))
+        fi = near[found]
         s, c = np.sin(self.heading_rad)[fi], np.cos(self.heading_rad)[fi]
         dx, dy = px[pj] - self.x[fi], py[pj] - self.y[fi]
         u = dx * s + dy * c
