@@ -24,7 +24,6 @@ import math
 import re
 from collections.abc import Callable, Sequence
 from functools import lru_cache
-from itertools import repeat
 from typing import Any
 
 from aerosurvey.errors import InputError
@@ -231,21 +230,23 @@ def _style(role: str) -> str:
 def feature_collection_to_kml(fc: dict[str, Any], name: str, layers: Sequence[PointLayer] = ()) -> str:
     """KML text for `fc`, one Folder per role in ROLE_ORDER (empty roles left out), named
     `name`; each of `layers` (points held as columns) goes after `fc`'s features of its role."""
-    out = _document(fc, name, _escaped, points_by_column=True, layers=layers)
+    out = _document(fc, name, _escaped, layers)
     if not out.isascii() and "\uffff" in out:  # rare: made again, checking every text, to name where
-        fc = {**fc, "features": [*fc["features"], *(f for layer in layers for f in layer.features())]}
-        return _document(fc, name, _text)
+        return _document(_with_features(fc, layers), name, _text)
     return out
 
 
-def _document(fc: dict[str, Any], name: str, text: Escape, points_by_column: bool = False,
-              layers: Sequence[PointLayer] = ()) -> str:
-    """The document. With `points_by_column`, points are written a column at a time (`_points`),
-    the same text, faster; if one of them is unusual the document is made again without that."""
+def _with_features(fc: dict[str, Any], layers: Sequence[PointLayer]) -> dict[str, Any]:
+    """`fc` with the layers' points as features after its own (each then written one by one)."""
+    return {**fc, "features": [*fc["features"], *(f for layer in layers for f in layer.features())]}
+
+
+def _document(fc: dict[str, Any], name: str, text: Escape, layers: Sequence[PointLayer] = ()) -> str:
+    """The document; the layers' points a column at a time (`_layer_parts`), the same text as
+    one by one, faster. A layer holding a value KML refuses is written one by one, which names it."""
     if not isinstance(fc, dict) or not isinstance(fc.get("features"), list):
         raise InputError("KML export: the input is not a GeoJSON FeatureCollection with a 'features' list")
     by_role: dict[str, list[str]] = {}
-    points: dict[str, list[tuple[int, dict[str, Any]]]] = {}
     for k, f in enumerate(fc["features"], start=1):
         if not isinstance(f, dict):
             raise InputError(f"KML export: feature {k} = {f!r} is not allowed: a GeoJSON Feature object")
@@ -254,35 +255,19 @@ def _document(fc: dict[str, Any], name: str, text: Escape, points_by_column: boo
             raise InputError(f"KML export: feature {k} properties = {props!r} is not allowed: an object")
         role = props.get("role", "other")
         role = role if isinstance(role, str) and role in STYLES else "other"
-        marks = by_role.setdefault(role, [])
-        if points_by_column and type(g := f.get("geometry")) is dict and g.get("type") == "Point" \
-                and type(g.get("coordinates")) is list:
-            points.setdefault(role, []).append((len(marks), f))
-            marks.append("")  # its place in the folder
-            continue
         try:
             mark = _placemark(f, props, role, text)
         except InputError as exc:
-            if points:  # a point before it, not yet written, may be wrong: one by one, the first is named
-                return _document(fc, name, text, layers=layers)
             fid = f.get("id", props.get("id"))
             where = f"KML export: feature {k}" + (f" (id {fid!r})" if fid is not None else "")
             raise InputError(f"{where} {exc}") from None
-        marks.append(mark)
-    for role, group in points.items():
-        parts = _points([f for _, f in group], role)
-        if parts is None:
-            return _document(fc, name, text, layers=layers)
-        if len(group) == len(by_role[role]):  # the folder holds only these points: one text
-            by_role[role] = [join_rows(parts, len(group), "\n")]
-            continue
-        marks = by_role[role]
-        rows = zip(*[repeat(p) if isinstance(p, str) else p for p in parts])
-        for (at, _), row in zip(group, rows):
-            marks[at] = "".join(row)
+        by_role.setdefault(role, []).append(mark)
     for layer in layers:
         if len(layer):
-            role, parts = _layer_parts(layer)
+            made = _layer_parts(layer)
+            if made is None:
+                return _document(_with_features(fc, layers), name, text)
+            role, parts = made
             by_role.setdefault(role, []).append(join_rows(parts, len(layer), "\n"))
     out = ['<?xml version="1.0" encoding="UTF-8"?>', '<kml xmlns="http://www.opengis.net/kml/2.2">',
            f"<Document><name>{text(name, 'KML export: document name')}</name>"]
@@ -324,46 +309,25 @@ def _cell_texts(col: list[Any]) -> list[str]:
             else _data_text(v) for v in col]
 
 
-def _points(feats: list[dict[str, Any]], role: str) -> list[str | list[str]] | None:
-    """Placemarks of point features of one role, as `_placemark` writes each, as `join_rows`
-    parts: made a column at a time (thousands of stations: their numbers through
-    `float_texts`). None if the features are
-    not all alike — the same property names, [lon, lat] or all [lon, lat, height] of finite
-    floats, and no feature `id` beside a property `id` — or any value is one `_placemark` would
-    refuse: the caller then writes them one by one, which names the feature at fault."""
-    datas = []
-    for f in feats:
-        props = f.get("properties") or {}
-        fid = f.get("id")
-        datas.append(props if fid is None or "id" in props else {"id": fid, **props})
-    keys = tuple(datas[0])
-    if any(tuple(d) != keys for d in datas):
-        return None
-    coords = [f["geometry"]["coordinates"] for f in feats]
-    dims = {len(c) for c in coords}
-    if len(dims) != 1 or not dims <= {2, 3}:
-        return None
-    return _point_parts(role, {k: [d[k] for d in datas] for k in keys}, [[c[i] for c in coords] for i in range(dims.pop())])
-
-
-def _layer_parts(layer: PointLayer) -> tuple[str, list[str | list[str]]]:
-    """The role and `_point_parts` of a PointLayer; ValueError if the layer is not one role's
-    points or holds a value the KML cannot carry (a layer is made by our own code)."""
+def _layer_parts(layer: PointLayer) -> tuple[str, list[str | list[str]]] | None:
+    """The role and `_point_parts` of a PointLayer; None if it holds a name or value
+    `_placemark` would refuse (or points of several roles)."""
     props = dict(layer.properties)
     roles = set(props.get("role", ("other",)))
-    role = roles.pop() if len(roles) == 1 else ""
+    if len(roles) != 1:
+        return None
+    role = roles.pop()
     role = role if isinstance(role, str) and role in STYLES else "other"
     data = props if "id" in props else {"id": layer.ids, **props}
     parts = _point_parts(role, {k: list(v) for k, v in data.items()}, [list(layer.lon), list(layer.lat)])
-    if parts is None:
-        raise ValueError("a point layer with a value KML cannot carry")
-    return role, parts
+    return None if parts is None else (role, parts)
 
 
 def _point_parts(role: str, data: dict[str, list[Any]], coords: list[list[Any]]) -> list[str | list[str]] | None:
     """`join_rows` parts of the placemarks of points with these property columns (in the
-    features' order, `id` among them if they have one) and coordinate columns; None if a
-    name or value is one `_placemark` would refuse."""
+    features' order, `id` among them if they have one) and coordinate columns, as
+    `_placemark` writes each (thousands of stations: their numbers through `float_texts`);
+    None if a name or value is one `_placemark` would refuse."""
     try:
         order, _ = _cells(tuple(data))  # and the names checked
     except InputError:
