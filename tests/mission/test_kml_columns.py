@@ -35,7 +35,8 @@ def test_stations_as_a_layer_and_one_by_one() -> None:
                        tuple(f["geometry"]["coordinates"][0] for f in feats), tuple(f["geometry"]["coordinates"][1] for f in feats))
     assert layer.features() == feats
     fc = {"type": "FeatureCollection", "features": feats}
-    assert kml.feature_collection_to_kml({"type": "FeatureCollection", "features": []}, "x", [layer]) == kml._document(fc, "x", kml._escaped)
+    empty = {"type": "FeatureCollection", "features": []}
+    assert kml.feature_collection_to_kml(empty, "x", [layer]) == kml._document(fc, "x", kml._escaped)
 
 
 @pytest.mark.parametrize("coords, message", [([15.0, math.nan], "Point = nan is not allowed"),
