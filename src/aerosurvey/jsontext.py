@@ -124,24 +124,19 @@ def rows_text(rows: Sequence[dict[str, Any]], sep: str, item_sep: str = ", ", ke
     keys = tuple(rows[0])
     if not all(type(k) is str for k in keys) or not all(map(keys.__eq__, map(tuple, rows))):
         return None
-    if keys:
-        # the columns, by C-level calls: each row's values in the keys' order, then transposed
-        columns = list(zip(*map(itemgetter(*keys), rows))) if len(keys) > 1 else [[r[keys[0]] for r in rows]]
-    else:
-        columns = []
-    if not all(_FLAT.issuperset(map(type, col)) for col in columns):
-        return None
     if not keys:
         return sep.join(["{}"] * len(rows))
+    # the columns, by C-level calls: each row's values in the keys' order, then transposed
+    columns = list(zip(*map(itemgetter(*keys), rows))) if len(keys) > 1 else [[r[keys[0]] for r in rows]]
+    if not all(_FLAT.issuperset(map(type, col)) for col in columns):
+        return None
     return table_text(keys, columns, sep, item_sep, key_sep)
 
 
 def table_text(keys: Sequence[str], columns: Sequence[Sequence[Any]], sep: str, item_sep: str = ", ",
                key_sep: str = ": ") -> str:
-    """`rows_text` of the rows that have these columns under these keys (plain values only)."""
-    n = len(columns[0]) if columns else 0
-    if not keys:
-        return ""
+    """`rows_text` of the rows that have these columns (at least one) under these keys (plain values only)."""
+    n = len(columns[0])
     texts = [value_texts(col) for col in columns]
     parts: list[str | list[str]] = []
     for i, (k, col) in enumerate(zip(keys, texts)):
