@@ -46,8 +46,7 @@ def _finite(what: str, *arrays: np.ndarray) -> None:
 def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     """The plan's FeatureCollection as JSON data (with every footprint as a feature if asked)."""
     with collector_paused():
-        fc, stations = _features(plan)
-        at = _stations_at(fc)
+        fc, stations, at = _features(plan)
         more = stations.features()
         if with_footprints:
             more += json.loads("[" + _footprints_text(plan) + "]")
@@ -65,18 +64,11 @@ def plan_geojson(plan: Plan) -> tuple[dict[str, Any], PointLayer, str]:
     1,000 ha benchmark (7,309 photos): making and encoding the footprints as data ~35 ms, this
     way ~10 ms."""
     with collector_paused():
-        fc, stations = _features(plan)
-    at = _stations_at(fc)
+        fc, stations, at = _features(plan)
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
     parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan), dumps_compact(feats[at:])[1:-1]]
     return fc, stations, head + ',"features":[' + ",".join(p for p in parts if p) + "]}"
-
-
-def _stations_at(fc: dict[str, Any]) -> int:
-    """Where the stations (and after them the footprints) go: after the lines, the zones, the area."""
-    feats = fc["features"]
-    return next((i for i in range(len(feats), 0, -1) if feats[i - 1]["properties"]["role"] in ("area", "exclusion", "line")), 0)
 
 
 def _footprints_text(plan: Plan) -> str:
@@ -101,8 +93,9 @@ def _footprints_text(plan: Plan) -> str:
                       '},"geometry":{"type":"Polygon","coordinates":[[[', each, "]]]}}"], len(st.ids), ",")
 
 
-def _features(plan: Plan) -> tuple[dict[str, Any], PointLayer]:
-    """Every feature but the stations and footprints, and the stations as columns."""
+def _features(plan: Plan) -> tuple[dict[str, Any], PointLayer, int]:
+    """Every feature but the stations and footprints, the stations as columns, and the index
+    of the features where the stations (and after them the footprints) belong."""
     feats: list[dict[str, Any]] = []
     feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": round(plan.area.area / 1e4, 4)},
                   "geometry": {"type": plan.area_wgs84.geom_type, "coordinates": _coords(plan.area_wgs84)}})
@@ -126,6 +119,7 @@ def _features(plan: Plan) -> tuple[dict[str, Any], PointLayer]:
     _finite("station", st.lon, st.lat, st.alt_rel_m, st.agl_m, st.heading_deg)  # the GeoJSON writer writes NaN as null
     n = len(st.ids)
     line_of_run = [ids.line_id(r.pass_index, r.line) for r in plan.route.runs]
+    at = len(feats)  # the stations (and after them the footprints) go after the lines
     stations = PointLayer(tuple(st.ids), (
         ("role", ("station",) * n), ("id", tuple(st.ids)), ("seq", tuple(range(1, n + 1))),
         ("line", tuple([line_of_run[r] for r in st.run.tolist()])),
@@ -141,4 +135,4 @@ def _features(plan: Plan) -> tuple[dict[str, Any], PointLayer]:
                   "geometry": {"type": "Point", "coordinates": [_r(hlon), _r(hlat)]}})
     if not all(math.isfinite(v) for v in (hlon, hlat)):
         raise ValueError("home position is not finite")
-    return {"type": "FeatureCollection", "name": plan.spec.name, "features": feats}, stations
+    return {"type": "FeatureCollection", "name": plan.spec.name, "features": feats}, stations, at
