@@ -82,16 +82,18 @@ def uncovered_rule(plan: Plan) -> dict[str, Any]:
             "where": where, "source": "aerosurvey planner (plan/coverage.py)"}
 
 
-def _rules(plan: Plan, manifest: dict[str, Any],
+def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
            features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
-    """Evaluate the spec's rule profiles on the plan as later readers will see it."""
+    """Evaluate the spec's rule profiles on the plan as later readers will see it (the
+    manifest with its station rows, made here only when there are profiles to read them)."""
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
     from aerosurvey.rules.planview import PlanView
     from aerosurvey.rules.profile import apply_overrides, select_profiles
 
     if not plan.spec.profiles:
         return [], [], None
-    view = PlanView.from_documents(manifest, features, "the plan", check=False)  # just made by the writer
+    view = PlanView.from_documents({**manifest, "stations": stations.rows()}, features, "the plan",
+                                   check=False)  # just made by the writer
     profiles = apply_overrides(select_profiles(list(plan.spec.profiles)), plan.spec.rule_overrides)
     ev = Evidence(view, layout_settings(view, profiles))
     return evaluate(profiles, ev), ev.points, ev
@@ -127,9 +129,10 @@ def _render(plan: Plan) -> Rendered:
         files[f"{stem}.waypoints"] = dumps_wpl(sm)
     final_gate(plan, missions)
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
-    # the stations' rows only where the rules read them; the manifest's text is written from columns
-    manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=bool(plan.spec.profiles))
-    results, points, evidence = _rules(plan, manifest, fc)
+    # the manifest's stations as columns: its text is written from them, the rules make their rows
+    stations_table = mf.station_table(plan)
+    manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=False)
+    results, points, evidence = _rules(plan, manifest, stations_table, fc)
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
@@ -139,7 +142,7 @@ def _render(plan: Plan) -> Rendered:
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
-    files["manifest.json"] = mf.dumps({**manifest, "stations": []}, mf.station_table(plan))
+    files["manifest.json"] = mf.dumps(manifest, stations_table)
     return Rendered(files, manifest["rules"], warnings, evidence)
 
 
