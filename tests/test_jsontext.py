@@ -11,7 +11,16 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aerosurvey.jsontext import dumps_compact, float_texts, join_rows, rows_text, value_texts
+from aerosurvey.jsontext import (
+    Column,
+    dumps_compact,
+    dumps_indented,
+    float_texts,
+    join_rows,
+    rows_text,
+    string_texts,
+    value_texts,
+)
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 # the numbers plans write: coordinates and heights rounded to a few decimals
@@ -109,3 +118,46 @@ def test_dumps_compact_refuses_what_json_refuses(bad: object) -> None:
 def test_dumps_compact_numpy_arrays_as_lists() -> None:
     a = np.round(np.random.default_rng(1).uniform(-180, 180, (50, 5, 2)), 8)
     assert dumps_compact(a) == json.dumps(a.tolist(), separators=(",", ":"))
+
+
+finite_data = st.recursive(st.none() | st.booleans() | st.integers(-10**20, 10**20) | finite | rounded | st.text(max_size=8),
+                           lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner, max_size=4),
+                           max_leaves=30)
+
+
+@given(finite_data)
+def test_dumps_indented_is_json_indent_4_sorted(data: object) -> None:
+    assert dumps_indented(data) == json.dumps(data, indent=4, sort_keys=True, ensure_ascii=False)
+
+
+@pytest.mark.parametrize("data", [
+    {}, [], {"a": [], "b": {}, "c": [[], [{}]]},  # empty containers stay on their line
+    {"b": [1, {"d": [2.5, None, "x  y"], "c": True}], "a": "\n\t\b\f\x01\x7f\u2028é"},  # escapes, spaces in strings
+    {"z": 5e-05, "y": [1e-07, -2.5e22, 1e16, 0.0001, -0.0]},  # numbers orjson spells its own way
+    {"n": 10**30}, {1: "non-string key"},  # what orjson refuses
+    {"deep": [[[[[[[[1.5]]]]]]]]},
+])
+def test_dumps_indented_edges(data: object) -> None:
+    assert dumps_indented(data) == json.dumps(data, indent=4, sort_keys=True, ensure_ascii=False)
+
+
+@given(st.lists(scalar, max_size=30))
+def test_a_column_writes_as_its_values(values: list[object]) -> None:
+    col = Column(values)
+    assert col == tuple(values)
+    assert value_texts(col) == value_texts(values) == value_texts(col)  # made once, the same each time
+    if all(type(v) is float for v in values):
+        assert float_texts(col) == float_texts(values)
+    if all(type(v) is str for v in values):
+        assert string_texts(col) == string_texts(values)
+
+
+def test_a_column_refuses_what_json_refuses_each_time() -> None:
+    col = Column([1.0, math.nan])
+    for _ in range(2):
+        with pytest.raises(ValueError, match="not finite"):
+            float_texts(col)
+    two = Column([1.5, 2.5])
+    texts = value_texts(two)
+    texts[0] = "changed"  # a copy: the column's texts stay
+    assert value_texts(two) == float_texts(two) == ["1.5", "2.5"]

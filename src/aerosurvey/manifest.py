@@ -25,7 +25,7 @@ import numpy as np
 from aerosurvey import __version__, ids, schemas
 from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import rows_text, table_text
+from aerosurvey.jsontext import Column, rows_text, table_text
 from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
@@ -126,23 +126,29 @@ class StationTable:
         """The rows' JSON text, `sep` between them, as `dumps` writes rows (made from the columns)."""
         return table_text(STATION_KEYS, self.columns, sep)
 
+    def column(self, key: str) -> tuple[Any, ...]:
+        """The column of one of STATION_KEYS."""
+        return self.columns[STATION_KEYS.index(key)]
+
 
 def station_table(plan: Plan) -> StationTable:
-    """The plan's stations as the manifest records them (rounded; None where a value is not finite)."""
+    """The plan's stations as the manifest records them (rounded; None where a value is not
+    finite). Its columns are `jsontext.Column`s: plan.geojson and plan.kml write the ids,
+    positions and heights from them too (`report.features.plan_geojson`), their texts made once."""
     st = plan.stations
 
-    def col(a: np.ndarray, nd: int) -> tuple[float | None, ...]:
+    def col(a: np.ndarray, nd: int) -> Column:
         r = np.round(np.asarray(a, float), nd)
         finite = np.isfinite(r)
         if finite.all():  # most columns: no per-value test
-            return tuple(r.tolist())
+            return Column(r.tolist())
         if not finite.any():  # the ground without a DEM
-            return (None,) * len(r)
-        return tuple(None if not math.isfinite(v) else v for v in r.tolist())
+            return Column((None,) * len(r))
+        return Column(None if not math.isfinite(v) else v for v in r.tolist())
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
     gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
-    return StationTable((tuple(st.ids), tuple(range(1, len(st.ids) + 1)), tuple([run_ids[r] for r in st.run.tolist()]),
+    return StationTable((Column(st.ids), Column(range(1, len(st.ids) + 1)), Column([run_ids[r] for r in st.run.tolist()]),
                          col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
                          col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3)))
 

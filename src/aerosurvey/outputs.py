@@ -111,7 +111,10 @@ def render_outputs(plan: Plan) -> Rendered:
 
 def _render(plan: Plan) -> Rendered:
     mission = build_mission(plan, name=plan.spec.name)
-    fc, stations, geojson = plan_geojson(plan)
+    # the manifest's stations as columns: its text is written from them, the rules make their
+    # rows, and plan.geojson and plan.kml share their ids, positions and heights (texts made once)
+    stations_table = mf.station_table(plan)
+    fc, stations, geojson = plan_geojson(plan, stations_table)
     missions = {"mission": mission}
     files = {
         "mission.plan": dumps_plan(mission),
@@ -129,8 +132,6 @@ def _render(plan: Plan) -> Rendered:
         files[f"{stem}.waypoints"] = dumps_wpl(sm)
     final_gate(plan, missions)
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
-    # the manifest's stations as columns: its text is written from them, the rules make their rows
-    stations_table = mf.station_table(plan)
     manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=False)
     results, points, evidence = _rules(plan, manifest, stations_table, fc)
     for r in results:

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.errors import InputError
+from aerosurvey.jsontext import Column
 from aerosurvey.mission.formats import kml
 from aerosurvey.mission.formats.points import PointLayer
 
@@ -68,14 +69,21 @@ def test_a_layer_is_written_as_its_features_would_be(layer: PointLayer) -> None:
               {"type": "Feature", "id": "g0", "properties": {"role": "gcp"}, "geometry": {"type": "Point", "coordinates": [1.5, 2.5]}}]
     fc = {"type": "FeatureCollection", "features": others}
     whole = {"type": "FeatureCollection", "features": others + layer.features()}
-    assert kml.feature_collection_to_kml(fc, "x", [layer]) == kml.feature_collection_to_kml(whole, "x")
+    # the same columns as jsontext.Columns (texts made once, as the stations' shared with the manifest)
+    cached = PointLayer(Column(layer.ids), tuple((k, Column(v)) for k, v in layer.properties), Column(layer.lon),
+                        Column(layer.lat))
+    for _ in range(2):  # the second time from the columns' texts
+        assert kml.feature_collection_to_kml(fc, "x", [layer]) == kml.feature_collection_to_kml(fc, "x", [cached]) \
+            == kml.feature_collection_to_kml(whole, "x")
     try:
         text = json.dumps(layer.features(), separators=(",", ":"), ensure_ascii=False, allow_nan=False)[1:-1]
     except ValueError:  # a NaN: plan.geojson refuses it as json did
         with pytest.raises(ValueError):
             layer.geojson()
+        with pytest.raises(ValueError):
+            cached.geojson()
         return
-    assert layer.geojson() == text  # as plan.geojson was written
+    assert layer.geojson() == cached.geojson() == text  # as plan.geojson was written
 
 
 def test_a_layer_with_a_character_xml_cannot_hold_is_named() -> None:

@@ -22,12 +22,14 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import lru_cache
 from typing import Any
 
+import numpy as np
+
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import float_texts, join_rows
+from aerosurvey.jsontext import Column, float_texts, join_rows
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.mission.formats.wpl import format_number
 
@@ -281,24 +283,24 @@ def _document(fc: dict[str, Any], name: str, text: Escape, layers: Sequence[Poin
     return "\n".join(out) + "\n"
 
 
-def _escaped_all(texts: list[str]) -> list[str]:
+def _escaped_all(texts: Sequence[str]) -> list[str]:
     """`_escaped` of each text; one search of them all first, as most (ids) need nothing done."""
     joined = "".join(texts)
     if joined.isascii() and not _NEEDS_ESCAPE.search(joined):
-        return texts
+        return list(texts)
     return [v.translate(_ESC_MARK) for v in texts]
 
 
 _NEEDS_ESCAPE = re.compile('[&<>"\x00-\x08\x0b\x0c\x0e-\x1f]')
 
 
-def _cell_texts(col: list[Any]) -> list[str]:
+def _cell_texts(col: Sequence[Any]) -> list[str]:
     """A property column as `_placemark` writes its values (escaped as `_escaped` does)."""
-    kinds = set(map(type, col))
+    kinds = col.kinds if type(col) is Column else frozenset(map(type, col))
     if kinds == {str}:
         return _escaped_all(col)
-    if kinds == {int}:
-        return list(map(int.__repr__, col))
+    if kinds == {int}:  # JSON writes an int as repr does: a Column's texts serve
+        return list(col.texts) if type(col) is Column else list(map(int.__repr__, col))
     if kinds == {float}:
         try:
             return float_texts(col)
@@ -319,11 +321,11 @@ def _layer_parts(layer: PointLayer) -> tuple[str, list[str | list[str]]] | None:
     role = roles.pop()
     role = role if isinstance(role, str) and role in STYLES else "other"
     data = props if "id" in props else {"id": layer.ids, **props}
-    parts = _point_parts(role, {k: list(v) for k, v in data.items()}, [list(layer.lon), list(layer.lat)])
+    parts = _point_parts(role, data, [layer.lon, layer.lat])
     return None if parts is None else (role, parts)
 
 
-def _point_parts(role: str, data: dict[str, list[Any]], coords: list[list[Any]]) -> list[str | list[str]] | None:
+def _point_parts(role: str, data: Mapping[str, Sequence[Any]], coords: list[Sequence[Any]]) -> list[str | list[str]] | None:
     """`join_rows` parts of the placemarks of points with these property columns (in the
     features' order, `id` among them if they have one) and coordinate columns, as
     `_placemark` writes each (thousands of stations: their numbers through `float_texts`);
@@ -341,7 +343,12 @@ def _point_parts(role: str, data: dict[str, list[Any]], coords: list[list[Any]])
             texts = float_texts(col)
         except ValueError:
             return None
-        positions.append([t if t[-2:] != ".0" and "e" not in t else format_number(v) for t, v in zip(texts, col)])
+        # repr ends in ".0" for a whole number and has an "e" below 1e-4 and from 1e16 on: those
+        # are written by format_number, as `_placemark` writes them
+        a = np.abs(np.asarray(col, float))
+        for i in np.flatnonzero((a == np.floor(a)) | (a < 1e-4) | (a >= 1e16)).tolist():
+            texts[i] = format_number(col[i])
+        positions.append(texts)
     n = len(coords[0])
     if "id" in data:
         ids = data["id"]

@@ -34,6 +34,7 @@ import math
 from typing import Any
 
 from aerosurvey.errors import InputError
+from aerosurvey.jsontext import dumps_indented
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 
@@ -92,17 +93,31 @@ def _check_item(it: MissionItem, where: str) -> None:
                 raise InputError(f"{where} {name} = {v!r} is not allowed: a position item needs a finite position")
 
 
+def _params(values: tuple[float, ...], where: str) -> list[float | int | None]:
+    """`_finite_or_nan` of the seven values, the names for an error made only when one is infinite."""
+    out: list[float | int | None] = []
+    for v in map(float, values):
+        if v != v:  # NaN
+            out.append(None)
+        elif v - v != 0.0:  # an infinity: its name in the error
+            _finite_or_nan(v, f"{where} {_PARAM_NAMES[len(out)]}")
+        elif v.is_integer() and abs(v) < 2**53:
+            out.append(int(v))
+        else:
+            out.append(v)
+    return out
+
+
 def _item_dict(it: MissionItem, seq: int) -> dict[str, Any]:
     """A SimpleItem as QGroundControl saves it; `seq` (1-based) is also its doJumpId, as in QGC's own files."""
     where = f"mission item {seq}"
     _check_item(it, where)
-    values = (*it.params, it.x, it.y, it.z)
     d: dict[str, Any] = {
         "autoContinue": bool(it.autocontinue),
         "command": it.command,
         "doJumpId": seq,
         "frame": it.frame,
-        "params": [_finite_or_nan(v, f"{where} {name}") for name, v in zip(_PARAM_NAMES, values)],
+        "params": _params((*it.params, it.x, it.y, it.z), where),
         "type": "SimpleItem",
     }
     if it.has_position and it.frame in _ALT_MODE:
@@ -168,8 +183,10 @@ def mission_to_plan_dict(m: Mission) -> dict[str, Any]:
 
 
 def dumps_plan(m: Mission) -> str:
-    """The plan as JSON text: sorted keys, indent 4, newline at the end, so equal missions give equal bytes."""
-    return json.dumps(mission_to_plan_dict(m), indent=4, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n"
+    """The plan as JSON text: sorted keys, indent 4, newline at the end, so equal missions give
+    equal bytes. Every float in `mission_to_plan_dict` has passed `_finite_or_nan` or `_finite`
+    (NaN is None there, infinity refused), as `dumps_indented` requires."""
+    return dumps_indented(mission_to_plan_dict(m)) + "\n"
 
 
 def _number(v: Any, where: str, *, nullable: bool = False) -> float:
