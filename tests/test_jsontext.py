@@ -17,6 +17,7 @@ from aerosurvey.jsontext import (
     dumps_indented,
     float_texts,
     join_rows,
+    pair_texts,
     rows_text,
     string_texts,
     value_texts,
@@ -36,6 +37,7 @@ def test_float_texts_is_repr(xs: list[float]) -> None:
                                -1e22, 0.1, 14.12345678, 1.0, 100.0])
 def test_float_texts_edges(x: float) -> None:
     assert float_texts([x, x]) == [repr(x)] * 2
+    assert float_texts(np.array([[x, 1.5], [x, 2.5]])[:, 0]) == [repr(x)] * 2  # a strided view
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
@@ -161,3 +163,18 @@ def test_a_column_refuses_what_json_refuses_each_time() -> None:
     texts = value_texts(two)
     texts[0] = "changed"  # a copy: the column's texts stay
     assert value_texts(two) == float_texts(two) == ["1.5", "2.5"]
+
+
+@given(st.lists(st.tuples(finite | rounded, finite | rounded), max_size=40))
+def test_pair_texts_is_the_inside_of_json_pairs(pairs: list[tuple[float, float]]) -> None:
+    x = np.array([p[0] for p in pairs], float)
+    y = np.array([p[1] for p in pairs], float)
+    assert pair_texts(x, y) == [json.dumps([p, q], separators=(",", ":"))[1:-1] for p, q in pairs]
+
+
+@pytest.mark.parametrize("odd", [5e-05, -1e-07, 1e16, 0.0, -0.0, 1e-4])
+def test_pair_texts_spells_every_number_as_json(odd: float) -> None:
+    x, y = np.array([14.5, odd, 1.0]), np.array([odd, 49.25, -2.5])
+    assert pair_texts(x, y) == [json.dumps([p, q], separators=(",", ":"))[1:-1] for p, q in zip(x.tolist(), y.tolist())]
+    with pytest.raises(ValueError, match="not finite"):
+        pair_texts(x, np.array([1.0, math.nan, 2.0]))

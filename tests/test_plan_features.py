@@ -66,7 +66,7 @@ def test_geojson_text_is_the_features_as_json(plan) -> None:
 
     fc, stations, text = plan_geojson(plan)
     full = plan_features(plan)
-    assert text == json.dumps(full, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    assert text == json.dumps(full, separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n"
     role = [f["properties"]["role"] for f in full["features"]]
     assert fc["features"] == [f for f, r in zip(full["features"], role) if r not in ("station", "footprint")]
     assert stations.features() == [f for f, r in zip(full["features"], role) if r == "station"]
@@ -84,4 +84,4 @@ def test_geojson_text_at_the_greenwich_meridian_is_json_text(tmp_path: Path) -> 
     near = plan_from_files(load_spec(make_spec(tmp_path, area=ring)))
     _, _, text = plan_geojson(near)
     assert "5e-05" in text
-    assert text == json.dumps(plan_features(near), separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    assert text == json.dumps(plan_features(near), separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n"

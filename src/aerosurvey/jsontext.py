@@ -131,9 +131,7 @@ def float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
 
 
 def _float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
-    a = np.asarray(values, dtype=float)
-    if a.ndim != 1:
-        a = a.ravel()
+    a = np.ascontiguousarray(np.asarray(values, dtype=float).ravel())  # orjson writes contiguous arrays only
     if not len(a):
         return []
     finite = np.isfinite(a)
@@ -145,6 +143,23 @@ def _float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
     for i in np.flatnonzero((mag >= 1e16) | ((mag < 1e-4) & (mag > 0))).tolist():
         texts[i] = repr(float(a[i]))
     return texts
+
+
+def pair_texts(x: np.ndarray, y: np.ndarray) -> list[str]:
+    """`float_texts(x)[i] + "," + float_texts(y)[i]` for each i: the inside of the pair
+    `[x, y]` as json writes it compactly (ValueError for a value that is not finite). One
+    orjson call of the pairs, split between them: measured on the 1,000 ha plan's 29,236
+    footprint corners, ~4 ms against ~9 ms for two `float_texts` and a join."""
+    a = np.column_stack([np.asarray(x, float).ravel(), np.asarray(y, float).ravel()])
+    if not len(a):
+        return []
+    if not np.isfinite(a).all():
+        raise ValueError(f"number {a[~np.isfinite(a)][0]!r} is not finite")
+    mag = np.abs(a)
+    if ((mag >= 1e16) | ((mag < 1e-4) & (mag > 0))).any():  # spelled by repr (see float_texts)
+        return [f"{p},{q}" for p, q in zip(_float_texts(a[:, 0]), _float_texts(a[:, 1]))]
+    # "[[x,y],[x,y],…]": numbers hold no "]"
+    return orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[2:-2].split("],[")
 
 
 def string_texts(values: Sequence[str]) -> list[str]:

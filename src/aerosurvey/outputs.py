@@ -119,7 +119,7 @@ def _render(plan: Plan) -> Rendered:
     files = {
         "mission.plan": dumps_plan(mission),
         "mission.waypoints": dumps_wpl(mission),
-        "plan.geojson": geojson + "\n",
+        "plan.geojson": geojson,
         # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
         "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }

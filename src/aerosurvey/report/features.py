@@ -15,7 +15,7 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.gcpause import collector_paused
-from aerosurvey.jsontext import dumps_compact, join_rows, string_texts
+from aerosurvey.jsontext import dumps_compact, join_rows, pair_texts, string_texts
 from aerosurvey.manifest import StationTable, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan import photogrammetry as pg
@@ -59,7 +59,7 @@ def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
 def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[str, Any], PointLayer, str]:
     """The FeatureCollection without stations and footprints, the stations as a PointLayer
     (what the KML writer and the rules read), and the text of plan.geojson: `plan_features`
-    written by `jsontext.dumps_compact` (a test checks it).
+    as `jsontext.dumps_compact` writes it, and a newline (a test checks it).
 
     The stations and footprints, one of each per photo, are most of the file: they are
     written straight from their columns and arrays, never made into JSON data. Measured on the
@@ -72,7 +72,7 @@ def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[st
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
     parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table), dumps_compact(feats[at:])[1:-1]]
-    return fc, stations, head + ',"features":[' + ",".join(p for p in parts if p) + "]}"
+    return fc, stations, "".join([head, ',"features":[', ",".join([p for p in parts if p]), "]}\n"])
 
 
 def _footprints_text(plan: Plan, table: StationTable) -> str:
@@ -87,14 +87,14 @@ def _footprints_text(plan: Plan, table: StationTable) -> str:
     corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float) * k, np.asarray(along, float) * k)
     clon, clat = plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
     _finite("footprint", clon, clat)
-    ring = np.round(np.stack([clon.reshape(-1, 4), clat.reshape(-1, 4)], axis=-1), 8)
-    rings = np.concatenate([ring, ring[:, :1]], axis=1)
-    # "[[[x,y],…,[x,y]],[[x,y],…,[x,y]]]": split between rings (numbers hold no "]"), each piece "x,y],…,[x,y"
-    each = dumps_compact(rings)[3:-3].split("]],[[")
+    # "x,y" of each corner, four a footprint in order; the ring closes on its first corner
+    pairs = pair_texts(np.round(clon, 8), np.round(clat, 8))
+    c0, c1, c2, c3 = (pairs[j::4] for j in range(4))
     sids = string_texts(table.column("id"))
     fids = string_texts([f"{sid}-fp" for sid in st.ids])
     return join_rows(['{"type":"Feature","id":', fids, ',"properties":{"role":"footprint","id":', fids, ',"station":', sids,
-                      '},"geometry":{"type":"Polygon","coordinates":[[[', each, "]]]}}"], len(st.ids), ",")
+                      '},"geometry":{"type":"Polygon","coordinates":[[[', c0, "],[", c1, "],[", c2, "],[", c3, "],[", c0,
+                      "]]]}}"], len(st.ids), ",")
 
 
 def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLayer, int]:
