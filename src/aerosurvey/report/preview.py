@@ -14,6 +14,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.jsontext import float_texts, join_rows
 from aerosurvey.plan.planner import Plan
 
 if TYPE_CHECKING:
@@ -47,6 +48,25 @@ class _View:
                 pts = [self.pt(x, y) for x, y in ring.coords]
                 out.append("M" + " L".join(f"{a:.1f},{b:.1f}" for a, b in pts) + " Z")
         return " ".join(out)
+
+
+def tenths(values: list[float]) -> list[str]:
+    """`f"{v:.1f}"` of each value, made by numpy and orjson (`jsontext.float_texts`) rather
+    than a format a value: the stations' dots, two numbers a photo (measured on the 1,000 ha
+    benchmark's 7,309 dots: 6 ms a format each, ~1.5 ms this way).
+
+    `.1f` rounds the value's exact decimal to the nearest tenth, ties to even. Away from a tie
+    that is `rint(10 v)` (the product's rounding error is far below the 1e-6 kept from a tie),
+    and `repr(k / 10)` is then the text: the double nearest to k/10 reads back from one decimal,
+    and -0.0 stays "-0.0". Near a tie, at 1e15 or more, or not finite, the value is formatted."""
+    a = np.asarray(values, float)
+    big = ~(np.abs(a) < 1e15)  # NaN too
+    ten = np.where(big, 0.0, a) * 10.0
+    odd = big | (np.abs(ten - np.floor(ten) - 0.5) < 1e-6)
+    texts = float_texts(np.where(odd, 0.0, np.rint(ten) / 10.0))
+    for i in np.flatnonzero(odd).tolist():
+        texts[i] = f"{values[i]:.1f}"
+    return texts
 
 
 def _scale_bar(view: _View) -> str:
@@ -97,7 +117,7 @@ def render_svg(plan: Plan, rules: list[RuleResult] | None = None, points: list[C
                      f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></line>')
     if len(st.ids) <= 20000:
         dx, dy = view.pts(st.x, st.y)
-        dots = "".join([f"M{a:.1f},{b:.1f}h0.01" for a, b in zip(dx, dy)])
+        dots = join_rows(["M", tenths(dx), ",", tenths(dy), "h0.01"], len(dx), "")
         parts.append(f'<path d="{dots}" stroke="#111" stroke-width="2.5" stroke-linecap="round"><title>photo stations</title></path>')
     hx, hy = view.pt(*plan.home_xy)
     parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2">'
