@@ -18,6 +18,7 @@ from aerosurvey.jsontext import (
     float_texts,
     join_rows,
     pair_texts,
+    quoted_as_is,
     rows_text,
     string_texts,
     value_texts,
@@ -178,3 +179,8 @@ def test_pair_texts_spells_every_number_as_json(odd: float) -> None:
     assert pair_texts(x, y) == [json.dumps([p, q], separators=(",", ":"))[1:-1] for p, q in zip(x.tolist(), y.tolist())]
     with pytest.raises(ValueError, match="not finite"):
         pair_texts(x, np.array([1.0, math.nan, 2.0]))
+
+
+@given(st.lists(st.text(max_size=6), max_size=8))
+def test_quoted_as_is_says_when_json_escapes_nothing(values: list[str]) -> None:
+    assert quoted_as_is(values) == all(json.dumps(v, ensure_ascii=False) == f'"{v}"' for v in values)

@@ -72,6 +72,23 @@ def test_geojson_text_is_the_features_as_json(plan) -> None:
     assert stations.features() == [f for f, r in zip(full["features"], role) if r == "station"]
 
 
+def test_geojson_text_with_ids_json_escapes_is_json_text(plan) -> None:
+    """Station ids JSON must escape (a quote, a backslash, a control character) or keeps as they
+    are (non-ASCII) are written as json writes them (footprints take another path for those)."""
+    import dataclasses
+    import json
+
+    from aerosurvey.report.features import plan_geojson
+
+    for odd in ['"', "\\", "\t", "é"]:
+        ids = [f"{sid}{odd}" for sid in plan.stations.ids]
+        other = dataclasses.replace(plan, stations=dataclasses.replace(plan.stations, ids=ids))
+        _, _, text = plan_geojson(other)
+        assert text == json.dumps(plan_features(other), separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n"
+        footprints = [f for f in json.loads(text)["features"] if f["properties"]["role"] == "footprint"]
+        assert [f["properties"]["station"] for f in footprints] == ids
+
+
 def test_geojson_text_at_the_greenwich_meridian_is_json_text(tmp_path: Path) -> None:
     """Coordinates within ~11 m of longitude 0 are below 1e-4: json writes them 5e-05, as
     plan.geojson always had them (orjson would write 0.00005)."""

@@ -162,6 +162,13 @@ def pair_texts(x: np.ndarray, y: np.ndarray) -> list[str]:
     return orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[2:-2].split("],[")
 
 
+def quoted_as_is(values: Sequence[str]) -> bool:
+    """Whether JSON writes each of these strings as itself between quotes (nothing escaped), so
+    a writer may put the strings themselves between quote marks. One C scan of them all."""
+    joined = "".join(values)
+    return len(_encode_str(joined)) == len(joined) + 2
+
+
 def string_texts(values: Sequence[str]) -> list[str]:
     """Each string as a JSON string literal, exactly as json.dumps(ensure_ascii=False) writes it."""
     if type(values) is Column and values.kinds == {str}:

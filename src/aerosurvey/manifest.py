@@ -253,24 +253,24 @@ def dumps(manifest: dict[str, Any], stations: StationTable | None = None) -> str
     `stations`, if given, is written as the stations (their rows never made: most of the
     manifest's numbers), and `manifest["stations"]` must then be empty."""
     enc = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
-    out = ["{"]
+    out = ["{\n"]  # pieces, joined once: the stations' rows, most of the text, are not copied before
     keys = list(manifest)
     for i, key in enumerate(keys):
         value = manifest[key]
-        comma = "," if i < len(keys) - 1 else ""
+        end = ",\n" if i < len(keys) - 1 else "\n"
         if key == "stations" and stations is not None:
             if value:
                 raise ValueError("manifest dumps: stations given twice, as rows and as a table")
             rows = stations.text(",\n  ")
-            out.append(f"{enc.encode(key)}: [\n  {rows}\n]{comma}" if rows else f"{enc.encode(key)}: []{comma}")
+            out += [f"{enc.encode(key)}: [\n  ", rows, "\n]", end] if rows else [f"{enc.encode(key)}: []", end]
         elif isinstance(value, list) and value and isinstance(value[0], dict):
             text = rows_text(value, ",\n  ")  # a column at a time
             rows = text if text is not None else ",\n  ".join(map(enc.encode, value))
-            out.append(f"{enc.encode(key)}: [\n  {rows}\n]{comma}")
+            out += [f"{enc.encode(key)}: [\n  ", rows, "\n]", end]
         else:
-            out.append(f"{enc.encode(key)}: {enc.encode(value)}{comma}")
-    out.append("}")
-    return "\n".join(out) + "\n"
+            out += [f"{enc.encode(key)}: {enc.encode(value)}", end]
+    out.append("}\n")
+    return "".join(out)
 
 
 # ---- the reader -----------------------------------------------------------------------------

@@ -15,7 +15,7 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.gcpause import collector_paused
-from aerosurvey.jsontext import dumps_compact, join_rows, pair_texts, string_texts
+from aerosurvey.jsontext import dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan import photogrammetry as pg
@@ -90,11 +90,15 @@ def _footprints_text(plan: Plan, table: StationTable) -> str:
     # "x,y" of each corner, four a footprint in order; the ring closes on its first corner
     pairs = pair_texts(np.round(clon, 8), np.round(clat, 8))
     c0, c1, c2, c3 = (pairs[j::4] for j in range(4))
-    sids = string_texts(table.column("id"))
-    fids = string_texts([f"{sid}-fp" for sid in st.ids])
-    return join_rows(['{"type":"Feature","id":', fids, ',"properties":{"role":"footprint","id":', fids, ',"station":', sids,
-                      '},"geometry":{"type":"Polygon","coordinates":[[[', c0, "],[", c1, "],[", c2, "],[", c3, "],[", c0,
-                      "]]]}}"], len(st.ids), ",")
+    ring: list[str | list[str]] = ['},"geometry":{"type":"Polygon","coordinates":[[[', c0, "],[", c1, "],[", c2, "],[", c3,
+                                   "],[", c0, "]]]}}"]
+    sids = list(st.ids)
+    if quoted_as_is(sids):  # station ids as they are (no JSON text made for each, nor a "-fp" id)
+        return join_rows(['{"type":"Feature","id":"', sids, '-fp","properties":{"role":"footprint","id":"', sids,
+                          '-fp","station":"', sids, '"', *ring], len(sids), ",")
+    fids = string_texts([f"{sid}-fp" for sid in sids])
+    return join_rows(['{"type":"Feature","id":', fids, ',"properties":{"role":"footprint","id":', fids, ',"station":',
+                      string_texts(table.column("id")), *ring], len(sids), ",")
 
 
 def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLayer, int]:

@@ -279,8 +279,8 @@ def _document(fc: dict[str, Any], name: str, text: Escape, layers: Sequence[Poin
             out.append(f"<Folder><name>{role}</name>")
             out.extend(by_role[role])
             out.append("</Folder>")
-    out.append("</Document></kml>")
-    return "\n".join(out) + "\n"
+    out += ["</Document></kml>", ""]  # the last: the newline at the end, without another copy of the text
+    return "\n".join(out)
 
 
 def _escaped_all(texts: Sequence[str]) -> list[str]:
