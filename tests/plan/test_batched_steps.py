@@ -6,12 +6,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
-from aerosurvey.plan.route import Pass, Run, _build_runs, _run_ends
+from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_lead_in, clip_lead_ins
 
 # -- the former one-run-at-a-time route code (reference) ------------------------------------
 
@@ -77,3 +78,39 @@ def test_no_legs_no_runs() -> None:
     p = Pass(1, LineFrame(30.0), ())
     assert _build_runs(p, [], 10.0, {}) == []
     assert _run_ends(p, [], 10.0).shape == (0, 2)
+
+
+# -- detours: legs checked together, lead-ins clipped where their box meets the zones ------------
+
+zone_boxes = st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(5, 300), st.floats(5, 300)),
+                      min_size=0, max_size=4)
+points = st.lists(st.tuples(st.floats(-900, 900), st.floats(-900, 900)), min_size=0, max_size=40)
+
+
+def _detours(boxes: list[tuple[float, float, float, float]], margin: float) -> Detours:
+    zones = shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]) if boxes else None
+    return Detours(zones, margin)
+
+
+@settings(max_examples=150, deadline=None)
+@given(zone_boxes, st.floats(0.0, 60.0), points)
+def test_legs_checked_together_are_those_checked_one_by_one(boxes: list[tuple[float, float, float, float]],
+                                                          margin: float, pts: list[tuple[float, float]]) -> None:
+    det = _detours(boxes, margin)
+    together = det.clear_legs(np.array(pts, float).reshape(-1, 2))
+    assert together.dtype == bool
+    assert together.tolist() == [det.clear(a, b) for a, b in zip(pts[:-1], pts[1:])]
+
+
+@settings(max_examples=150, deadline=None)
+@given(zone_boxes, st.floats(0.0, 60.0), st.lists(st.tuples(st.floats(-900, 900), st.floats(-900, 900),
+                                                            st.floats(-900, 900), st.floats(-900, 900)), max_size=30))
+def test_lead_ins_clipped_together_are_those_clipped_one_by_one(boxes: list[tuple[float, float, float, float]], margin: float,
+                                                                raw: list[tuple[float, float, float, float]]) -> None:
+    det = _detours(boxes, margin)
+    runs = [Run(1, i, 0, 1, 0.0, np.array([[fx, fy], [fx + 1.0, fy]]), np.arange(2), (lx, ly), (fx + 2.0, fy))
+            for i, (fx, fy, lx, ly) in enumerate(raw)]
+    together = clip_lead_ins(runs, det)
+    alone = [clip_lead_in(r, det) for r in runs]
+    assert [r.lead_in_xy for r in together] == [r.lead_in_xy for r in alone]
+    assert all(a is r for a, r, b in zip(together, runs, alone) if b is r)  # untouched runs are the same objects

@@ -496,6 +496,15 @@ class Detours:
             return True
         return not shapely.intersects(self.blocked, shapely.LineString([a, b]))
 
+    def clear_legs(self, points: np.ndarray) -> np.ndarray:
+        """`clear` of every leg of a polyline ((n, 2) points: n − 1 legs), in one GEOS call."""
+        legs = max(len(points) - 1, 0)
+        if self.blocked is None or not legs:
+            return np.ones(legs, bool)
+        pts = np.asarray(points, float)
+        hit: np.ndarray = shapely.intersects(self.blocked, shapely.linestrings(np.stack([pts[:-1], pts[1:]], axis=1)))
+        return ~hit
+
     def path(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
         """Intermediate points of the shortest way from a to b that stays out of the zones."""
         if self.clear(a, b):
@@ -553,6 +562,20 @@ def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
     return run if lead == run.lead_in_xy else replace(run, lead_in_xy=lead)
 
 
+def clip_lead_ins(runs: list[Run], detours: Detours, gap_m: float = 1.0) -> list[Run]:
+    """`clip_lead_in` of every run. Only an approach whose box meets the zones' margins' box
+    can meet them (GEOS answers an empty intersection for disjoint boxes), so only those are
+    clipped one by one; the heading search keeps most lead-ins far from every zone."""
+    if detours.blocked is None or not runs:
+        return list(runs)
+    first = np.array([r.station_xy[0] for r in runs], float)
+    lead = np.array([r.lead_in_xy for r in runs], float)
+    zx0, zy0, zx1, zy1 = detours.blocked.bounds
+    lo, hi = np.minimum(first, lead), np.maximum(first, lead)
+    near = (hi[:, 0] >= zx0) & (lo[:, 0] <= zx1) & (hi[:, 1] >= zy0) & (lo[:, 1] <= zy1)
+    return [clip_lead_in(r, detours, gap_m) if n else r for r, n in zip(runs, near.tolist())]
+
+
 def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb: float,
                    detours: Detours) -> list[tuple[float, float]]:
     """Waypoints from the launch point to `first`: the detours round the zones, and when a
@@ -586,15 +609,16 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
         runs.extend(pr)
         how.append(chosen)
         here = pr[-1].end_xy
-    runs = [clip_lead_in(r, detours) for r in runs]
+    runs = clip_lead_ins(runs, detours)
+    stops = [(i, kind, pt) for i, r in enumerate(runs)
+             for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))),
+                              ("line_end", r.end_xy))]
+    # which legs cross a zone's margin, in one call: only those look for a way round
+    clear = detours.clear_legs(np.array([pt for _, _, pt in stops], float).reshape(-1, 2)).tolist()
     wps: list[Waypoint] = []
-    last: tuple[float, float] | None = None
-    for i, r in enumerate(runs):
-        first = (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))
-        for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", first), ("line_end", r.end_xy)):
-            if last is not None:
-                for d in detours.path(last, pt):
-                    wps.append(Waypoint(d[0], d[1], "detour", -1))
-            wps.append(Waypoint(pt[0], pt[1], kind, i))
-            last = pt
+    for m, (i, kind, pt) in enumerate(stops):
+        if m and not clear[m - 1]:
+            for d in detours.path(stops[m - 1][2], pt):
+                wps.append(Waypoint(d[0], d[1], "detour", -1))
+        wps.append(Waypoint(pt[0], pt[1], kind, i))
     return Route(tuple(runs), tuple(wps), tuple(how))
