@@ -11,7 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey import ids
+from aerosurvey.area import planning_crs
 from aerosurvey.plan.coverage import _run_strips
+from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 from aerosurvey.plan.model import Stations
@@ -164,3 +167,39 @@ def test_run_strips_made_together_are_those_made_one_by_one(raw: list[tuple[int,
 def test_no_stations_no_strips() -> None:  # the former code needed one (the caller answers before)
     nan = np.zeros(0)
     assert _run_strips(Stations([], np.zeros(0, np.int64), nan, nan, nan, nan, nan, nan, nan, nan), nan, nan, 5.0).is_empty
+
+
+# -- station ids of many lines, lon/lat of stations and waypoints in one transform ---------------
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 3), st.integers(0, 1500), st.lists(st.integers(-3, 20000), max_size=30)),
+                max_size=12))
+def test_station_ids_of_many_lines_are_those_of_each_line(lines: list[tuple[int, int, list[int]]]) -> None:
+    expected = [s for p, line, stations in lines for s in ids.station_ids(p, line, stations)]
+    assert ids.station_ids_of_lines(iter(lines)) == expected
+    assert ids.station_ids_of_lines(lines) == [ids.station_id(p, line, s) for p, line, stations in lines for s in stations]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from([32633, 5514, 3857]), st.lists(st.tuples(st.floats(-1e5, 1e5), st.floats(-1e5, 1e5)), max_size=30),
+       st.integers(0, 30))
+def test_lonlat_of_points_together_is_that_of_each_part(epsg: int, raw: list[tuple[float, float]], cut: int) -> None:
+    planar = planning_crs(f"EPSG:{epsg}", shapely.Point(15.0, 49.4))
+    x0, y0 = {32633: (500000.0, 5470000.0), 5514: (-650000.0, -1120000.0), 3857: (1670000.0, 6340000.0)}[epsg]
+    xy = np.array(raw, float).reshape(-1, 2) + (x0, y0)
+    lon, lat = planar.lonlat(xy[:, 0], xy[:, 1])
+    a_lon, a_lat = planar.lonlat(xy[:cut, 0], xy[:cut, 1])
+    b_lon, b_lat = planar.lonlat(xy[cut:, 0], xy[cut:, 1])
+    assert _same_bits(lon, np.concatenate([a_lon, b_lon])) and _same_bits(lat, np.concatenate([a_lat, b_lat]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-3000, 3000), st.floats(-3000, 3000)), min_size=1, max_size=60))
+def test_the_fence_hull_of_an_array_is_that_of_the_points_one_by_one(raw: list[tuple[float, float]]) -> None:
+    planar = planning_crs("EPSG:32633", shapely.Point(15.0, 49.4))
+    flown = [(500000.0 + x, 5470000.0 + y) for x, y in raw]
+    old_hull = shapely.buffer(shapely.convex_hull(shapely.MultiPoint(list(flown))), FENCE_MARGIN_M, quad_segs=2)
+    ring = np.asarray(old_hull.exterior.coords)[:-1]
+    lon, lat = planar.lonlat(ring[:, 0], ring[:, 1])
+    assert geofence(planar, flown, []).inclusion == (tuple((round(float(a), 8), round(float(b), 8)) for a, b in zip(lat, lon)),)
