@@ -16,7 +16,7 @@ from aerosurvey.area import planning_crs
 from aerosurvey.plan.coverage import _run_strips
 from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame
-from aerosurvey.plan.lines import LineSegment
+from aerosurvey.plan.lines import LineSegment, cut_by_zones
 from aerosurvey.plan.model import Stations
 from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_lead_in, clip_lead_ins
 
@@ -203,3 +203,57 @@ def test_the_fence_hull_of_an_array_is_that_of_the_points_one_by_one(raw: list[t
     ring = np.asarray(old_hull.exterior.coords)[:-1]
     lon, lat = planar.lonlat(ring[:, 0], ring[:, 1])
     assert geofence(planar, flown, []).inclusion == (tuple((round(float(a), 8), round(float(b), 8)) for a, b in zip(lat, lon)),)
+
+
+# -- lines cut by the zones: pieces found together, only the lines cut renumbered -----------------
+
+
+def _old_cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearance: float) -> list[LineSegment]:
+    if zones_f is None or zones_f.is_empty or not segs:
+        return segs
+    out: list[LineSegment] = []
+    ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
+    zx0, zy0, zx1, zy1 = zones_f.bounds
+    near = np.flatnonzero((ends[:, 1] >= zy0) & (ends[:, 1] <= zy1) & (ends[:, 2] >= zx0) & (ends[:, 0] <= zx1))
+    hits: list[BaseGeometry | None] = [None] * len(segs)
+    if len(near):
+        for i, hit in zip(near.tolist(), shapely.intersection(shapely.linestrings(ends[near].reshape(-1, 2, 2)), zones_f)):
+            hits[i] = None if hit.is_empty else hit
+    for seg, hit in zip(segs, hits):
+        if hit is None:
+            out.append(seg)
+            continue
+        xs = seg.xs()
+        blocked = np.zeros(len(xs), bool)
+        for piece in shapely.get_parts(hit):
+            px0, _, px1, _ = piece.bounds
+            blocked |= (xs >= px0 - clearance) & (xs <= px1 + clearance)
+        part = len(out)
+        padded = np.diff(np.concatenate([[False], ~blocked, [False]]).astype(np.int8))
+        for i0, i1 in zip(np.flatnonzero(padded == 1).tolist(), np.flatnonzero(padded == -1).tolist()):
+            out.append(LineSegment(seg.line, part, seg.v, float(xs[i0]), i1 - i0, seg.base))
+            part += 1
+    renum: list[LineSegment] = []
+    counts: dict[int, int] = {}
+    for s in sorted(out, key=lambda s: (s.line, s.x0)):
+        k = counts.get(s.line, 0)
+        counts[s.line] = k + 1
+        renum.append(s if s.part == k else LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
+    return renum
+
+
+@settings(max_examples=250, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 6), st.floats(-400, 400), st.integers(1, 40)), min_size=0, max_size=30),
+       st.booleans(), zone_boxes, st.floats(0.0, 40.0), st.floats(5.0, 30.0), st.floats(0.0, 40.0))
+def test_runs_cut_together_are_those_cut_one_by_one(raw: list[tuple[int, float, int]], laid: bool,
+                                                   boxes: list[tuple[float, float, float, float]], margin: float,
+                                                   base: float, clearance: float) -> None:
+    if laid:  # as build_lines lays them: by line, then by x, numbered on each line
+        raw = sorted(raw)
+    parts: dict[int, int] = {}
+    segs: list[LineSegment] = []
+    for line, x0, n in raw:
+        segs.append(LineSegment(line, parts.get(line, 0) if laid else len(segs) % 3, line * 60.0 - 200.0, x0, n, base))
+        parts[line] = parts.get(line, 0) + 1
+    zones = shapely.buffer(shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]), margin) if boxes else None
+    assert cut_by_zones(list(segs), zones, clearance) == _old_cut_by_zones(list(segs), zones, clearance)

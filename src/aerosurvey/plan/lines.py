@@ -136,14 +136,16 @@ def cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearanc
     if zones_f is None or zones_f.is_empty or not segs:
         return segs
     out: list[LineSegment] = []
-    ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
     # only runs whose box meets the zones' box can meet a zone: the heading search cuts dozens of
-    # layouts, and most runs lie far from every zone
+    # layouts, and most runs lie far from every zone (first by ordinate: most fail that already,
+    # so only the runs of a few lines have their ends worked out)
     zx0, zy0, zx1, zy1 = zones_f.bounds
-    near = np.flatnonzero((ends[:, 1] >= zy0) & (ends[:, 1] <= zy1) & (ends[:, 2] >= zx0) & (ends[:, 0] <= zx1))
+    ends = [(i, s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0) for i, s in enumerate(segs) if zy0 <= s.v <= zy1]
+    near = [(i, a, v, b) for i, a, v, b in ends if b >= zx0 and a <= zx1]
     hits: list[BaseGeometry | None] = [None] * len(segs)
-    if len(near):
-        for i, hit in zip(near.tolist(), shapely.intersection(shapely.linestrings(ends[near].reshape(-1, 2, 2)), zones_f)):
+    if near:
+        lines = shapely.linestrings(np.array([(a, v, b, v) for _, a, v, b in near], float).reshape(-1, 2, 2))
+        for (i, *_), hit in zip(near, shapely.intersection(lines, zones_f)):
             hits[i] = None if hit.is_empty else hit
     for seg, hit in zip(segs, hits):
         if hit is None:
