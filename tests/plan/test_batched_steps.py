@@ -18,18 +18,7 @@ from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment, cut_by_zones
 from aerosurvey.plan.model import Stations
-from aerosurvey.plan.route import (
-    Detours,
-    Kinematics,
-    Pass,
-    Run,
-    _build_runs,
-    _run_ends,
-    _straight_time,
-    clip_lead_in,
-    clip_lead_ins,
-    path_time,
-)
+from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_lead_in, clip_lead_ins
 
 # -- the former one-run-at-a-time route code (reference) ------------------------------------
 
@@ -268,42 +257,3 @@ def test_runs_cut_together_are_those_cut_one_by_one(raw: list[tuple[int, float, 
         parts[line] = parts.get(line, 0) + 1
     zones = shapely.buffer(shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]), margin) if boxes else None
     assert cut_by_zones(list(segs), zones, clearance) == _old_cut_by_zones(list(segs), zones, clearance)
-
-
-# -- a copter's time along a polyline: runs between stops summed together -------------------------
-
-
-def _old_copter_path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> float:
-    if len(points) < 2:
-        return 0.0
-    seg = np.diff(points, axis=0)
-    lengths = np.hypot(seg[:, 0], seg[:, 1])
-    keep = lengths > 1e-9
-    seg, lengths = seg[keep], lengths[keep]
-    if len(lengths) == 0:
-        return 0.0
-    ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
-    turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
-    total, run = 0.0, float(lengths[0])
-    for t, length in zip(turn.tolist(), lengths[1:].tolist()):
-        if t > corner_deg:
-            total += _straight_time(run, k)
-            run = length
-        else:
-            run += length
-    return total + _straight_time(run, k)
-
-
-@settings(max_examples=300, deadline=None)
-@given(st.lists(st.tuples(st.floats(-5.0, 5.0), st.floats(0.0, 400.0)), max_size=120), st.floats(1.0, 20.0),
-       st.floats(0.5, 5.0), st.floats(0.0, 3.0), st.floats(-1e6, 1e6), st.integers(1, 4))
-def test_copter_time_summed_together_is_that_summed_leg_by_leg(legs: list[tuple[float, float]], speed: float, accel: float,
-                                                               jerk: float, x0: float, repeat: int) -> None:
-    # mostly gentle bends (long runs), some sharp turns and reversals, repeated points
-    ang = np.cumsum([a for a, _ in legs]) * 0.2 if legs else np.zeros(0)
-    steps = np.column_stack([np.cos(ang), np.sin(ang)]) * np.array([d for _, d in legs]).reshape(-1, 1)
-    pts = np.repeat(np.vstack([[x0, -x0], x0 + np.cumsum(steps, axis=0)]), repeat, axis=0)
-    k = Kinematics("copter", speed, accel, 0.0, jerk)
-    assert path_time(pts, k) == _old_copter_path_time(pts, k)
-    long = np.column_stack([np.arange(200.0), np.zeros(200)])  # one run of 199 legs (the leg-by-leg branch)
-    assert path_time(long, k) == _old_copter_path_time(long, k)

@@ -272,36 +272,6 @@ def _straight_time(d: float, k: Kinematics) -> float:
     return 2.0 * math.sqrt(d / a) + ramp
 
 
-def _stop_to_stop_time(lengths: np.ndarray, stop: np.ndarray, k: Kinematics) -> float:
-    """A copter's time over legs of these lengths, stopping where `stop` says (after leg i when
-    stop[i]): the legs between stops are summed into straight runs, each timed by
-    `_straight_time`, and the runs' times summed, all in the order of the legs. Runs are summed
-    a leg at a time for all of them together (left to right, as one by one), the times with a
-    cumulative sum (left to right too)."""
-    starts = np.r_[0, np.flatnonzero(stop) + 1]
-    size = np.diff(np.r_[starts, len(lengths)])
-    longest = int(size.max())
-    if longest > 64:  # long gentle polylines (terrain following): one leg at a time
-        total, run = 0.0, float(lengths[0])
-        for t, length in zip(stop.tolist(), lengths[1:].tolist()):
-            if t:
-                total += _straight_time(run, k)
-                run = length
-            else:
-                run += length
-        return total + _straight_time(run, k)
-    runs = lengths[starts]
-    for m in range(1, longest):
-        more = size > m
-        runs[more] += lengths[starts[more] + m]
-    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
-    ramp = a / j if j > 0 else 0.0  # _straight_time, run by run
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(runs >= v * (v / a + ramp), runs / v + v / a + ramp, 2.0 * np.sqrt(runs / a) + ramp)
-    t = np.where(runs <= 0, 0.0, t)
-    return float(np.cumsum(t)[-1])
-
-
 def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> float:
     """Flight time along a polyline.
 
@@ -320,7 +290,16 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
     ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
     turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
     if k.vehicle == "copter":
-        return _stop_to_stop_time(lengths, turn > corner_deg, k)
+        # Python floats: the same sums, without numpy's per-scalar cost (this loop runs for every
+        # candidate heading)
+        total, run = 0.0, float(lengths[0])
+        for t, length in zip(turn.tolist(), lengths[1:].tolist()):
+            if t > corner_deg:
+                total += _straight_time(run, k)
+                run = length
+            else:
+                run += length
+        return total + _straight_time(run, k)
     total_len = float(lengths.sum())
     i = 0
     while i < len(turn) - 1:
