@@ -257,3 +257,55 @@ def test_runs_cut_together_are_those_cut_one_by_one(raw: list[tuple[int, float, 
         parts[line] = parts.get(line, 0) + 1
     zones = shapely.buffer(shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]), margin) if boxes else None
     assert cut_by_zones(list(segs), zones, clearance) == _old_cut_by_zones(list(segs), zones, clearance)
+
+
+def _old_path(det: Detours, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
+    import heapq
+
+    if det.clear(a, b):
+        return []
+    nodes = [a, b, *det.nodes]
+    dist = {0: 0.0}
+    prev: dict[int, int] = {}
+    heap = [(0.0, 0)]
+    done = set()
+    while heap:
+        d, i = heapq.heappop(heap)
+        if i in done:
+            continue
+        done.add(i)
+        if i == 1:
+            break
+        for j in range(1, len(nodes)):
+            if j in done:
+                continue
+            nd = d + math.dist(nodes[i], nodes[j])
+            if nd < dist.get(j, math.inf) and det.clear(nodes[i], nodes[j]):
+                dist[j] = nd
+                prev[j] = i
+                heapq.heappush(heap, (nd, j))
+    if 1 not in prev:
+        raise ValueError("no way around the exclusion zones between two waypoints")
+    out = []
+    j = prev[1]
+    while j != 0:
+        out.append(nodes[j])
+        j = prev[j]
+    return out[::-1]
+
+
+@settings(max_examples=150, deadline=None)
+@given(zone_boxes, st.floats(0.0, 60.0), st.tuples(st.floats(-900, 900), st.floats(-900, 900)),
+       st.tuples(st.floats(-900, 900), st.floats(-900, 900)))
+def test_detours_with_legs_checked_per_node_are_those_checked_leg_by_leg(
+        boxes: list[tuple[float, float, float, float]], margin: float, a: tuple[float, float], b: tuple[float, float]) -> None:
+    det = _detours(boxes, margin)
+    try:
+        expected: list[tuple[float, float]] | str = _old_path(det, a, b)
+    except ValueError as exc:
+        expected = str(exc)
+    try:
+        got: list[tuple[float, float]] | str = det.path(a, b)
+    except ValueError as exc:
+        got = str(exc)
+    assert got == expected

@@ -521,11 +521,14 @@ class Detours:
             done.add(i)
             if i == 1:
                 break
-            for j in range(1, len(nodes)):
-                if j in done:
-                    continue
-                nd = d + math.dist(nodes[i], nodes[j])
-                if nd < dist.get(j, math.inf) and self.clear(nodes[i], nodes[j]):
+            # the legs that would shorten the way to a node, checked against the zones in one call
+            better = [(j, nd) for j in range(1, len(nodes)) if j not in done
+                      for nd in (d + math.dist(nodes[i], nodes[j]),) if nd < dist.get(j, math.inf)]
+            if not better:
+                continue
+            legs = np.array([(nodes[i], nodes[j]) for j, _ in better], float)
+            for (j, nd), hit in zip(better, shapely.intersects(self.blocked, shapely.linestrings(legs)).tolist()):
+                if not hit:
                     dist[j] = nd
                     prev[j] = i
                     heapq.heappush(heap, (nd, j))
