@@ -54,7 +54,8 @@ def station_ids_of_lines(lines: Iterable[tuple[int, int, list[int]]]) -> list[st
     texts = [f"{s + 1:04d}" for s in range(1 + max((max(st) for st in used), default=-1))]
     out: list[str] = []
     for p, line, stations in lines:
-        out += map(f"{line_id(p, line)}-S".__add__, map(texts.__getitem__, stations))
+        prefix = f"{line_id(p, line)}-S"
+        out += [prefix + texts[s] for s in stations]
     return out
 
 
