@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -13,10 +14,11 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey import ids
 from aerosurvey.area import planning_crs
+from aerosurvey.plan import lines as lines_module
 from aerosurvey.plan.coverage import _run_strips
 from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame
-from aerosurvey.plan.lines import LineSegment, cut_by_zones
+from aerosurvey.plan.lines import LineSegment, cut_by_zones, strip_offsets, strip_offsets_many
 from aerosurvey.plan.model import Stations
 from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_lead_in, clip_lead_ins
 
@@ -309,3 +311,49 @@ def test_detours_with_legs_checked_per_node_are_those_checked_leg_by_leg(
     except ValueError as exc:
         got = str(exc)
     assert got == expected
+
+
+# -- strip offsets of many headings, their coverage checked together ------------------------------
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e7, 1e7) | st.integers(-5000, 5000).map(float), st.floats(0.0, 1.0)
+                          | st.sampled_from([0.0, 0.25, 0.5, 1.0])), min_size=0, max_size=12),
+       st.floats(1.0, 400.0) | st.sampled_from([100.0, 150.0, 64.0]), st.floats(0.1, 0.95) | st.sampled_from([0.5, 0.6, 0.75]),
+       st.integers(0, 3), st.integers(1, 400))
+def test_strip_offsets_checked_together_are_those_of_each(pairs: list[tuple[float, float]], across: float, side: float,
+                                                          fewer: int, lines: int) -> None:
+    spacing = across * (1.0 - side)
+    per_point = max(1, math.floor(1.0 / (1.0 - side) + 1e-9) - fewer)
+    vmins = np.array([v for v, _ in pairs], float)
+    vmaxs = np.array([v + frac * lines * spacing for v, frac in pairs], float)
+    together = strip_offsets_many(vmins, vmaxs, across, spacing, per_point)
+    alone = [strip_offsets(float(a), float(b), across, spacing, per_point) for a, b in zip(vmins, vmaxs)]
+    assert len(together) == len(alone)
+    for x, y in zip(together, alone):
+        assert _same_bits(x, y)
+
+
+def test_strip_offsets_on_the_edge_are_left_to_the_full_check(monkeypatch: pytest.MonkeyPatch) -> None:
+    # reach = across/2 + 1e-6 = 50 (to a rounding): with an odd count of lines one lies on the middle
+    # probe and two lie exactly `reach` from it, so that count is not sure from the positions alone
+    # and the pair goes to strip_offsets, which compares every line; with an even count (6 lines
+    # over 306.4 m, probes 1.196875 m apart) every count is sure
+    left: list[tuple[float, float]] = []
+    alone = lines_module.strip_offsets
+
+    def counted(vmin: float, vmax: float, across: float, spacing: float, per_point: int) -> np.ndarray:
+        left.append((vmin, vmax))
+        return alone(vmin, vmax, across, spacing, per_point)
+
+    monkeypatch.setattr(lines_module, "strip_offsets", counted)
+    across, spacing = 2.0 * (50.0 - 1e-6), 50.0
+    vmins, vmaxs = np.array([0.0, 0.3, 5e6 + 0.3]), np.array([256.0, 306.7, 5e6 + 306.7])
+    together = strip_offsets_many(vmins, vmaxs, across, spacing, 1)
+    assert left == [(0.0, 256.0)]
+    for x, a, b in zip(together, vmins, vmaxs):
+        assert _same_bits(x, alone(float(a), float(b), across, spacing, 1))
+    left.clear()
+    # short of strips with the first count of lines: strip_offsets adds lines
+    assert _same_bits(strip_offsets_many(np.array([0.0]), np.array([0.0]), 10.0, 5.0, 2)[0], alone(0.0, 0.0, 10.0, 5.0, 2))
+    assert strip_offsets_many(np.zeros(0), np.zeros(0), 10.0, 5.0, 2) == []
