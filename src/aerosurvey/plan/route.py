@@ -426,8 +426,8 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     known_before = unknown[exists] == before_start
     known_after = unknown[exists] == unknown[end][hid[exists]]
     # a sure line's connectors in and out, where it has them
-    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]]
-    last = np.r_[first[1:], True]
+    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]] if len(exists) else np.zeros(0, bool)  # no sure line: none
+    last = np.r_[first[1:], True] if len(exists) else np.zeros(0, bool)
     into, out = np.zeros(len(exists), bool), np.zeros(len(exists), bool)
     into[~first] = gentle
     out[~last] = gentle
