@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 import shapely
-from hypothesis import HealthCheck, Phase, event, given, settings
+from hypothesis import HealthCheck, Phase, event, example, given, settings
 
 import independent_legs as il
 import zone_cases as zc
@@ -31,6 +31,11 @@ EXAMPLES = int(os.environ.get("AEROSURVEY_SAFETY_EXAMPLES", "40"))
           # no shrinking: a plan takes up to seconds, and the first failing case is printed with all its problems
           phases=[Phase.explicit, Phase.reuse, Phase.generate])
 @given(params=zc.case_params())
+# a plane over 0.5 ha with three zones: no heading had a line sure to survive the zones, and the
+# plane's heading bound failed on that (IndexError) before it planned
+@example(params=zc.CaseParams(kind="convex", size_ha=0.5, lat=50.0, lon=0.0, vehicle="plane",
+                              zones=("crossing", "crossing", "crossing"), battery_min=None, launch="default", end="rtl",
+                              margin_m=30.0, height_m=80.0, heading=None, seed=0))
 def test_zones_are_never_entered_and_gaps_are_reported(tmp_path_factory: pytest.TempPathFactory, params: zc.CaseParams) -> None:
     case = zc.make_case(params)
     folder = tmp_path_factory.mktemp("zone-case")

@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from typing import NamedTuple
 
 _STATION = re.compile(r"^P(\d+)-L(\d{3,})-S(\d{4,})$")
@@ -40,6 +41,22 @@ def station_ids(pass_index: int, line: int, stations: list[int]) -> list[str]:
     """`station_id` of each of one line's stations (the line's part made once)."""
     prefix = f"{line_id(pass_index, line)}-S"
     return [f"{prefix}{s + 1:04d}" for s in stations]
+
+
+def station_ids_of_lines(lines: Iterable[tuple[int, int, list[int]]]) -> list[str]:
+    """`station_ids` of many (pass, line, stations), one after another: each station number's
+    text is made once (a plan has thousands of stations, but only as many numbers as its longest
+    line has stations), then only joined to its line's part."""
+    lines = list(lines)
+    used = [st for _, _, st in lines if st]
+    if any(min(st) < 0 for st in used):  # not a planner's numbers: made one by one
+        return [i for p, line, st in lines for i in station_ids(p, line, st)]
+    texts = [f"{s + 1:04d}" for s in range(1 + max((max(st) for st in used), default=-1))]
+    out: list[str] = []
+    for p, line, stations in lines:
+        prefix = f"{line_id(p, line)}-S"
+        out += [prefix + texts[s] for s in stations]
+    return out
 
 
 def parse_station_id(text: str) -> StationRef:

@@ -17,6 +17,7 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.lines import (
+    LineBounds,
     LineSegment,
     Outline,
     StripGeometry,
@@ -101,7 +102,7 @@ def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, l
 
     def bound(frames: list[LineFrame]) -> list[float]:  # as pattern.AreaGrid bounds them
         lb = line_bounds(outline, frames, g, kin.vehicle != "copter")
-        return quick_cost_lower_bounds(lb, lead, g.base, kin).tolist()
+        return [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, kin)]
 
     return cost, bound
 
@@ -264,3 +265,16 @@ def test_strip_offsets_are_those_comparing_every_line(vmin: float, frac: float, 
     vmax = vmin + frac * lines * spacing
     assert np.array_equal(strip_offsets(vmin, vmax, across, spacing, per_point),
                           offsets_comparing_every_line(vmin, vmax, across, spacing, per_point))
+
+
+@pytest.mark.parametrize("vehicle", ["plane", "copter"])
+def test_headings_with_no_sure_line_are_bounded_by_zero(vehicle: str) -> None:
+    # the plane's bound indexed the connectors of an empty set of sure lines with a one-element
+    # mask (IndexError, found by test_zone_safety_property: a 0.5 ha plane case with three zones)
+    n = 4
+    unsure = np.zeros(n, bool)
+    lb = LineBounds(heading=np.array([0, 0, 1, 1]), v=np.array([0.0, 30.0, 0.0, 30.0]), exists=unsure, absent=unsure,
+                    extent=np.zeros(n), single=unsure, first_lo=np.zeros(n), first_hi=np.zeros(n), last_lo=np.zeros(n),
+                    last_hi=np.zeros(n))
+    k = Kinematics(vehicle, 10.0, 2.5, 17.0)
+    assert quick_cost_lower_bounds(lb, 100.0, 20.0, k).tolist() == [0.0, 0.0]

@@ -26,9 +26,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
                      tolerance_m: float) -> Altitudes:
     """Stations with ids and altitudes, and the route's waypoints with theirs."""
     runs = route.runs
-    sid: list[str] = []
-    for r in runs:
-        sid += ids.station_ids(r.pass_index, r.line, np.asarray(r.station_index, int).tolist())
+    sid = ids.station_ids_of_lines((r.pass_index, r.line, np.asarray(r.station_index, int).tolist()) for r in runs)
     counts = [len(r.station_index) for r in runs]
     xy = np.concatenate([np.asarray(r.station_xy, float).reshape(-1, 2) for r in runs]) if runs else np.zeros((0, 2))
     x, y = xy[:, 0].copy(), xy[:, 1].copy()
@@ -46,11 +44,8 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     else:  # terrain-frame (above terrain) or none
         alt_rel = np.full(len(x), heights.nominal_agl_m)
         agl = np.full(len(x), heights.nominal_agl_m)
-    lon, lat = planar.lonlat(x, y)
-    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd)
-
-    start_of_run = np.searchsorted(stations.run, np.arange(len(runs)))
-    end_of_run = np.searchsorted(stations.run, np.arange(len(runs)), side="right")
+    start_of_run = np.searchsorted(run_idx, np.arange(len(runs)))
+    end_of_run = np.searchsorted(run_idx, np.arange(len(runs)), side="right")
     pts: list[tuple[float, float, float, str, int, str]] = []
 
     def alt_at(px: float, py: float, what: str) -> float:
@@ -89,9 +84,10 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
             prev = next((alts[j] for j in range(i - 1, -1, -1) if not math.isnan(alts[j])), None)
             nxt = next((alts[j] for j in range(i + 1, len(alts)) if not math.isnan(alts[j])), None)
             alts[i] = max(v for v in (prev, nxt) if v is not None)
-    wx = np.asarray([p[0] for p in pts])
-    wy = np.asarray([p[1] for p in pts])
-    wlon, wlat = planar.lonlat(wx, wy)
+    # the stations' and the waypoints' longitudes and latitudes in one transform (point by point alike)
+    lon, lat = planar.lonlat(np.concatenate([x, [p[0] for p in pts]]), np.concatenate([y, [p[1] for p in pts]]))
+    lon, lat, wlon, wlat = lon[:len(x)].copy(), lat[:len(x)].copy(), lon[len(x):], lat[len(x):]
+    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd)
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
     return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative")

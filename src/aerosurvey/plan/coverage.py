@@ -54,25 +54,33 @@ class Coverage:
 def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base: float) -> BaseGeometry:
     """Ground that two photos of one run are sure to see: with a photo base of at most half the
     footprint, every point from the first station less (L/2 − B) to the last plus (L/2 − B) lies in
-    two consecutive footprints (L, W the smallest footprint of the run). Empty below 50 % forward overlap."""
-    strips = []
+    two consecutive footprints (L, W the smallest footprint of the run). Empty below 50 % forward overlap.
+
+    Every run's strip is made in one numpy step (the same operations, element by element, as
+    one run at a time; sine and cosine once per heading, as numpy scalars)."""
     runs = stations.run
+    if not len(runs):
+        return shapely.Polygon()
     starts = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
     ends = np.r_[starts[1:], len(runs)] - 1
-    for a, b in zip(starts, ends):
-        if b == a:  # one photo sees its ground once
-            continue
-        L, W = float(along[a: b + 1].min()), float(across[a: b + 1].min())
-        reach = L / 2.0 - base
-        if reach <= 0:
-            continue
-        h = np.radians(stations.heading_deg[a])
-        u = np.array([np.sin(h), np.cos(h)])
-        v = np.array([u[1], -u[0]])
-        p0 = np.array([stations.x[a], stations.y[a]]) - u * reach
-        p1 = np.array([stations.x[b], stations.y[b]]) + u * reach
-        strips.append(shapely.Polygon([p0 + v * W / 2, p1 + v * W / 2, p1 - v * W / 2, p0 - v * W / 2]))
-    return shapely.union_all(strips) if strips else shapely.Polygon()
+    L = np.minimum.reduceat(np.asarray(along, float), starts)
+    W = np.minimum.reduceat(np.asarray(across, float), starts)
+    reach = L / 2.0 - base
+    keep = (ends > starts) & ~(reach <= 0)  # one photo sees its ground once; below 50 % no two
+    if not keep.any():
+        return shapely.Polygon()
+    a, b, reach, W = starts[keep], ends[keep], reach[keep], W[keep]
+    heading = np.asarray(stations.heading_deg, float)[a]
+    trig = {h: (np.sin(np.radians(np.float64(h))), np.cos(np.radians(np.float64(h)))) for h in set(heading.tolist())}
+    ux, uy = (np.array(c, float) for c in zip(*(trig[h] for h in heading.tolist())))
+    vx, vy = uy, -ux
+    x, y = np.asarray(stations.x, float), np.asarray(stations.y, float)
+    p0x, p0y = x[a] - ux * reach, y[a] - uy * reach
+    p1x, p1y = x[b] + ux * reach, y[b] + uy * reach
+    hx, hy = vx * W / 2, vy * W / 2
+    ring = np.stack([np.column_stack([p0x + hx, p0y + hy]), np.column_stack([p1x + hx, p1y + hy]),
+                     np.column_stack([p1x - hx, p1y - hy]), np.column_stack([p0x - hx, p0y - hy])], axis=1)
+    return shapely.union_all(shapely.polygons(ring))
 
 
 def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, stations: Stations) -> Coverage:

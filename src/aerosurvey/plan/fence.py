@@ -16,7 +16,9 @@ FENCE_MARGIN_M = 50.0
 
 
 def geofence(planar: Planar, flown_xy: Sequence[tuple[float, float]], exclusions_wgs84: Sequence[BaseGeometry]) -> Fence:
-    hull = shapely.buffer(shapely.convex_hull(shapely.MultiPoint(list(flown_xy))), FENCE_MARGIN_M, quad_segs=2)
+    # the points as one array (shapely.MultiPoint of a list makes a Point of each first)
+    points = shapely.multipoints(np.asarray(flown_xy, float).reshape(-1, 2)) if len(flown_xy) else shapely.MultiPoint()
+    hull = shapely.buffer(shapely.convex_hull(points), FENCE_MARGIN_M, quad_segs=2)
     ring = np.asarray(hull.exterior.coords)[:-1]
     lon, lat = planar.lonlat(ring[:, 0], ring[:, 1])
     inclusion: Ring = tuple((round(float(a), 8), round(float(b), 8)) for a, b in zip(lat, lon))

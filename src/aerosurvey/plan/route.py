@@ -81,33 +81,79 @@ def _offsets(p: Pass) -> dict[tuple[int, int], int]:
     return out
 
 
-def _run(p: Pass, seg: LineSegment, direction: int, lead_in: float, offset: int) -> Run:
+#: A run as ordered: its segment and its direction (+1 along the frame's +x, −1 against it).
+Leg = tuple[LineSegment, int]
+
+
+def _leg_stations(legs: list[Leg]) -> tuple[np.ndarray, np.ndarray]:
+    """Per station of every leg, in flight order: the leg it belongs to and its index along its
+    segment (j of x0 + j·B)."""
+    n = np.array([s.n for s, _ in legs], np.int64)
+    back = np.array([d < 0 for _, d in legs], bool)
+    leg = np.repeat(np.arange(len(legs)), n)
+    start = np.cumsum(n) - n
+    j = np.arange(int(n.sum()), dtype=np.int64) - start[leg]
+    j = np.where(back[leg], n[leg] - 1 - j, j)  # backwards: from the last station to the first
+    return leg, j
+
+
+def _leg_arrays(legs: list[Leg]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    x0, n, base, v = (np.array(a, float) for a in zip(*((s.x0, s.n, s.base, s.v) for s, _ in legs)))
+    return x0, n, base, v, np.array([d for _, d in legs], np.int64)
+
+
+def _run_ends(p: Pass, legs: list[Leg], lead_in: float) -> np.ndarray:
+    """(3·len(legs), 2): the lead-in, the first station and the end of every run the legs make
+    (`_build_runs`), in flight order, without making the runs: the same operations on the same
+    values, element by element, so the same numbers."""
+    if not legs:
+        return np.zeros((0, 2))
+    x0, n, base, v, d = _leg_arrays(legs)
+    first = x0 + base * np.where(d > 0, 0.0, n - 1.0)
+    last = x0 + base * np.where(d > 0, n - 1.0, 0.0)
+    u = np.column_stack([first - d * lead_in, first, last + d * base / 2.0]).ravel()
+    X, Y = p.frame.from_frame(u, np.repeat(v, 3))
+    return np.column_stack([X, Y])
+
+
+def _build_runs(p: Pass, legs: list[Leg], lead_in: float, offsets: dict[tuple[int, int], int]) -> list[Run]:
+    """The runs of the legs, in flight order: each line's stations (x0 + j·B) in the planning
+    CRS, its lead-in `lead_in` before the first and its end half a base after the last. Every
+    leg is turned out of the line frame in one numpy step."""
+    if not legs:
+        return []
     fr = p.frame
-    xs = seg.xs()
-    idx = offset + np.arange(seg.n)
-    if direction < 0:
-        xs, idx = xs[::-1], idx[::-1]
-    u_lead = xs[0] - direction * lead_in
-    u_end = xs[-1] + direction * seg.base / 2.0
-    us = np.concatenate([[u_lead], xs, [u_end]])
-    X, Y = fr.from_frame(us, np.full(len(us), seg.v))
-    heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
-    return Run(p.index, seg.line, seg.part, direction, heading, np.column_stack([X[1:-1], Y[1:-1]]),
-               idx.astype(int), (float(X[0]), float(Y[0])), (float(X[-1]), float(Y[-1])))
+    leg, j = _leg_stations(legs)
+    x0, _, base, v, d = _leg_arrays(legs)
+    n_st = len(j)
+    # one array of every station, then each leg's lead-in and end after them
+    xs = x0[leg] + base[leg] * j
+    first_at = np.searchsorted(leg, np.arange(len(legs)))
+    last_at = np.searchsorted(leg, np.arange(len(legs)), side="right") - 1
+    u = np.concatenate([xs, xs[first_at] - d * lead_in, xs[last_at] + d * base / 2.0])
+    X, Y = fr.from_frame(u, np.concatenate([v[leg], v, v]))
+    xy = np.column_stack([X[:n_st], Y[:n_st]])
+    idx = np.array([offsets[(s.line, s.part)] for s, _ in legs], np.int64)[leg] + j
+    lead_x, lead_y = X[n_st:n_st + len(legs)].tolist(), Y[n_st:n_st + len(legs)].tolist()
+    end_x, end_y = X[n_st + len(legs):].tolist(), Y[n_st + len(legs):].tolist()
+    runs = []
+    for i, ((s, direction), a, b) in enumerate(zip(legs, first_at.tolist(), last_at.tolist())):
+        heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
+        runs.append(Run(p.index, s.line, s.part, direction, heading, xy[a:b + 1].copy(), idx[a:b + 1].copy(),
+                        (lead_x[i], lead_y[i]), (end_x[i], end_y[i])))
+    return runs
 
 
-def _runs_of_pass(p: Pass, lead_in: float, order: list[int], first_dir: int) -> list[Run]:
+def _legs_of_pass(p: Pass, order: list[int], first_dir: int) -> list[Leg]:
     """Every line in `order`, alternating direction, all runs of a line in one pass."""
     by_line: dict[int, list[LineSegment]] = {}
     for s in p.segments:
         by_line.setdefault(s.line, []).append(s)
-    offsets = _offsets(p)
-    runs: list[Run] = []
+    legs: list[Leg] = []
     for k, line in enumerate(order):
         direction = first_dir if k % 2 == 0 else -first_dir
-        segs = sorted(by_line[line], key=lambda s: s.x0, reverse=direction < 0)
-        runs.extend(_run(p, s, direction, lead_in, offsets[(s.line, s.part)]) for s in segs)
-    return runs
+        legs.extend((s, direction) for s in sorted(by_line[line], key=lambda s: s.x0, reverse=direction < 0))
+    return legs
 
 
 def cells(segments: tuple[LineSegment, ...]) -> list[list[LineSegment]]:
@@ -137,11 +183,9 @@ def cells(segments: tuple[LineSegment, ...]) -> list[list[LineSegment]]:
     return out
 
 
-def _cell_runs(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool, first_dir: int,
-               offsets: dict[tuple[int, int], int]) -> list[Run]:
+def _cell_legs(cell: list[LineSegment], reverse: bool, first_dir: int) -> list[Leg]:
     segs = cell[::-1] if reverse else cell
-    return [_run(p, s, first_dir if k % 2 == 0 else -first_dir, lead_in, offsets[(s.line, s.part)])
-            for k, s in enumerate(segs)]
+    return [(s, first_dir if k % 2 == 0 else -first_dir) for k, s in enumerate(segs)]
 
 
 def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool,
@@ -156,13 +200,13 @@ def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool,
     return (float(X[0]), float(Y[0])), (float(X[1]), float(Y[1]))
 
 
-def _cells_route(p: Pass, lead_in: float, k: Kinematics, start_near: tuple[float, float] | None) -> list[Run]:
+def _cells_route(p: Pass, todo: list[list[LineSegment]], lead_in: float,
+                 start_near: tuple[float, float] | None) -> list[Leg]:
     """Fly cell after cell, each as its own boustrophedon, always to the nearest next cell corner."""
-    offsets = _offsets(p)
-    todo = cells(p.segments)
+    todo = list(todo)
     ends = [{(rv, fd): _cell_ends(p, c, lead_in, rv, fd) for rv in (False, True) for fd in (1, -1)} for c in todo]
     here = start_near
-    runs: list[Run] = []
+    legs: list[Leg] = []
     while todo:
         best = None
         for ci in range(len(todo)):
@@ -172,11 +216,11 @@ def _cells_route(p: Pass, lead_in: float, k: Kinematics, start_near: tuple[float
                     best = (d, ci, rv, fd)
         assert best is not None
         _, ci, rv, fd = best
-        runs.extend(_cell_runs(p, todo[ci], lead_in, rv, fd, offsets))
+        legs.extend(_cell_legs(todo[ci], rv, fd))
         here = ends[ci][(rv, fd)][1]
         todo.pop(ci)
         ends.pop(ci)
-    return runs
+    return legs
 
 
 def line_orders(n_lines: int, spacing: float, turn_radius: float, vehicle: str) -> list[list[int]]:
@@ -281,15 +325,6 @@ def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
     return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
 
 
-def _route_points(runs: list[Run]) -> np.ndarray:
-    pts = []
-    for r in runs:
-        pts.append(r.lead_in_xy)
-        pts.extend(map(tuple, r.station_xy[:1]))
-        pts.append(r.end_xy)
-    return np.asarray(pts, float)
-
-
 def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> float:
     """Estimated time of a boustrophedon over the segments, in their own line frame.
 
@@ -391,8 +426,8 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     known_before = unknown[exists] == before_start
     known_after = unknown[exists] == unknown[end][hid[exists]]
     # a sure line's connectors in and out, where it has them
-    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]]
-    last = np.r_[first[1:], True]
+    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]] if len(exists) else np.zeros(0, bool)  # no sure line: none
+    last = np.r_[first[1:], True] if len(exists) else np.zeros(0, bool)
     into, out = np.zeros(len(exists), bool), np.zeros(len(exists), bool)
     into[~first] = gentle
     out[~last] = gentle
@@ -411,28 +446,31 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
     """The fastest way through a pass: every line across the whole area (camera off over
     notches and holes) or cell by cell where the lines split, each from its best corner.
 
-    Returns the runs and which of the two was chosen.
+    Returns the runs and which of the two was chosen. Candidates are timed from their runs'
+    ends alone (`_run_ends`); only the chosen one's runs are made.
     """
     n_lines = 1 + max(s.line for s in p.segments)
-    best: tuple[float, list[Run], str] | None = None
+    best: tuple[float, list[Leg], str] | None = None
 
-    def consider(runs: list[Run], how: str) -> None:
+    def consider(legs: list[Leg], how: str) -> None:
         nonlocal best
-        cost = path_time(_route_points(runs), k)
+        ends = _run_ends(p, legs, lead_in)
+        cost = path_time(ends, k)
         if start_near is not None:
-            cost += math.dist(start_near, runs[0].lead_in_xy) / k.speed_ms
+            cost += math.dist(start_near, (float(ends[0, 0]), float(ends[0, 1]))) / k.speed_ms
         if best is None or cost < best[0] - 1e-9:
-            best = (cost, runs, how)
+            best = (cost, legs, how)
 
     for order in line_orders(n_lines, spacing, k.turn_radius_m, k.vehicle):
         for reverse in (False, True):
             o = order[::-1] if reverse else order
             for first_dir in (1, -1):
-                consider(_runs_of_pass(p, lead_in, o, first_dir), "lines across the whole area")
-    if len(cells(p.segments)) > 1:
-        consider(_cells_route(p, lead_in, k, start_near), f"{len(cells(p.segments))} cells flown one after another")
+                consider(_legs_of_pass(p, o, first_dir), "lines across the whole area")
+    todo = cells(p.segments)
+    if len(todo) > 1:
+        consider(_cells_route(p, todo, lead_in, start_near), f"{len(todo)} cells flown one after another")
     assert best is not None
-    return best[1], best[2]
+    return _build_runs(p, best[1], lead_in, _offsets(p)), best[2]
 
 
 class Detours:
@@ -458,6 +496,15 @@ class Detours:
             return True
         return not shapely.intersects(self.blocked, shapely.LineString([a, b]))
 
+    def clear_legs(self, points: np.ndarray) -> np.ndarray:
+        """`clear` of every leg of a polyline ((n, 2) points: n − 1 legs), in one GEOS call."""
+        legs = max(len(points) - 1, 0)
+        if self.blocked is None or not legs:
+            return np.ones(legs, bool)
+        pts = np.asarray(points, float)
+        hit: np.ndarray = shapely.intersects(self.blocked, shapely.linestrings(np.stack([pts[:-1], pts[1:]], axis=1)))
+        return ~hit
+
     def path(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
         """Intermediate points of the shortest way from a to b that stays out of the zones."""
         if self.clear(a, b):
@@ -474,11 +521,14 @@ class Detours:
             done.add(i)
             if i == 1:
                 break
-            for j in range(1, len(nodes)):
-                if j in done:
-                    continue
-                nd = d + math.dist(nodes[i], nodes[j])
-                if nd < dist.get(j, math.inf) and self.clear(nodes[i], nodes[j]):
+            # the legs that would shorten the way to a node, checked against the zones in one call
+            better = [(j, nd) for j in range(1, len(nodes)) if j not in done
+                      for nd in (d + math.dist(nodes[i], nodes[j]),) if nd < dist.get(j, math.inf)]
+            if not better:
+                continue
+            legs = np.array([(nodes[i], nodes[j]) for j, _ in better], float)
+            for (j, nd), hit in zip(better, shapely.intersects(self.blocked, shapely.linestrings(legs)).tolist()):
+                if not hit:
                     dist[j] = nd
                     prev[j] = i
                     heapq.heappush(heap, (nd, j))
@@ -515,6 +565,20 @@ def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
     return run if lead == run.lead_in_xy else replace(run, lead_in_xy=lead)
 
 
+def clip_lead_ins(runs: list[Run], detours: Detours, gap_m: float = 1.0) -> list[Run]:
+    """`clip_lead_in` of every run. Only an approach whose box meets the zones' margins' box
+    can meet them (GEOS answers an empty intersection for disjoint boxes), so only those are
+    clipped one by one; the heading search keeps most lead-ins far from every zone."""
+    if detours.blocked is None or not runs:
+        return list(runs)
+    first = np.array([r.station_xy[0] for r in runs], float)
+    lead = np.array([r.lead_in_xy for r in runs], float)
+    zx0, zy0, zx1, zy1 = detours.blocked.bounds
+    lo, hi = np.minimum(first, lead), np.maximum(first, lead)
+    near = (hi[:, 0] >= zx0) & (lo[:, 0] <= zx1) & (hi[:, 1] >= zy0) & (lo[:, 1] <= zy1)
+    return [clip_lead_in(r, detours, gap_m) if n else r for r, n in zip(runs, near.tolist())]
+
+
 def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb: float,
                    detours: Detours) -> list[tuple[float, float]]:
     """Waypoints from the launch point to `first`: the detours round the zones, and when a
@@ -548,15 +612,16 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
         runs.extend(pr)
         how.append(chosen)
         here = pr[-1].end_xy
-    runs = [clip_lead_in(r, detours) for r in runs]
+    runs = clip_lead_ins(runs, detours)
+    stops = [(i, kind, pt) for i, r in enumerate(runs)
+             for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))),
+                              ("line_end", r.end_xy))]
+    # which legs cross a zone's margin, in one call: only those look for a way round
+    clear = detours.clear_legs(np.array([pt for _, _, pt in stops], float).reshape(-1, 2)).tolist()
     wps: list[Waypoint] = []
-    last: tuple[float, float] | None = None
-    for i, r in enumerate(runs):
-        first = (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))
-        for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", first), ("line_end", r.end_xy)):
-            if last is not None:
-                for d in detours.path(last, pt):
-                    wps.append(Waypoint(d[0], d[1], "detour", -1))
-            wps.append(Waypoint(pt[0], pt[1], kind, i))
-            last = pt
+    for m, (i, kind, pt) in enumerate(stops):
+        if m and not clear[m - 1]:
+            for d in detours.path(stops[m - 1][2], pt):
+                wps.append(Waypoint(d[0], d[1], "detour", -1))
+        wps.append(Waypoint(pt[0], pt[1], kind, i))
     return Route(tuple(runs), tuple(wps), tuple(how))

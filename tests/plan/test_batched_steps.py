@@ -1,0 +1,359 @@
+"""Planning steps done in one numpy/shapely call for many items give, bit for bit, what the
+former one-at-a-time code gave (kept here, as it was, as the reference)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from shapely.geometry.base import BaseGeometry
+
+from aerosurvey import ids
+from aerosurvey.area import planning_crs
+from aerosurvey.plan import lines as lines_module
+from aerosurvey.plan.coverage import _run_strips
+from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
+from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.lines import LineSegment, cut_by_zones, strip_offsets, strip_offsets_many
+from aerosurvey.plan.model import Stations
+from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_lead_in, clip_lead_ins
+
+# -- the former one-run-at-a-time route code (reference) ------------------------------------
+
+
+def _old_run(p: Pass, seg: LineSegment, direction: int, lead_in: float, offset: int) -> Run:
+    fr = p.frame
+    xs = seg.xs()
+    idx = offset + np.arange(seg.n)
+    if direction < 0:
+        xs, idx = xs[::-1], idx[::-1]
+    u_lead = xs[0] - direction * lead_in
+    u_end = xs[-1] + direction * seg.base / 2.0
+    us = np.concatenate([[u_lead], xs, [u_end]])
+    X, Y = fr.from_frame(us, np.full(len(us), seg.v))
+    heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
+    return Run(p.index, seg.line, seg.part, direction, heading, np.column_stack([X[1:-1], Y[1:-1]]),
+               idx.astype(int), (float(X[0]), float(Y[0])), (float(X[-1]), float(Y[-1])))
+
+
+def _old_route_points(runs: list[Run]) -> np.ndarray:
+    pts = []
+    for r in runs:
+        pts.append(r.lead_in_xy)
+        pts.extend(map(tuple, r.station_xy[:1]))
+        pts.append(r.end_xy)
+    return np.asarray(pts, float)
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+coord = st.floats(-2e6, 2e6, allow_nan=False)
+legs_strategy = st.lists(
+    st.tuples(st.integers(0, 40), coord, coord, st.integers(1, 60), st.floats(0.5, 80.0), st.sampled_from([1, -1]),
+              st.integers(0, 500)),
+    min_size=1, max_size=25)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(0.0, 180.0, exclude_max=True), legs_strategy, st.floats(0.0, 300.0), st.integers(1, 3))
+def test_runs_made_together_are_those_made_one_by_one(heading: float, raw: list[tuple[int, float, float, int, float, int, int]],
+                                                       lead_in: float, index: int) -> None:
+    legs = [(LineSegment(line, part, v, x0, n, base), d) for part, (line, v, x0, n, base, d, _) in enumerate(raw)]
+    offsets = {(s.line, s.part): off for (s, _), (*_, off) in zip(legs, raw)}
+    p = Pass(index, LineFrame(heading), tuple(s for s, _ in legs))
+    new = _build_runs(p, legs, lead_in, offsets)
+    old = [_old_run(p, s, d, lead_in, offsets[(s.line, s.part)]) for s, d in legs]
+    assert len(new) == len(old)
+    for a, b in zip(new, old):
+        assert (a.pass_index, a.line, a.part, a.direction) == (b.pass_index, b.line, b.part, b.direction)
+        assert math.copysign(1.0, a.heading_deg) == math.copysign(1.0, b.heading_deg) and a.heading_deg == b.heading_deg
+        assert _same_bits(a.station_xy, b.station_xy)
+        assert _same_bits(a.station_index, b.station_index)
+        assert np.array([a.lead_in_xy, a.end_xy]).tobytes() == np.array([b.lead_in_xy, b.end_xy]).tobytes()
+    # the ends the route is timed by, without making the runs
+    assert _same_bits(_run_ends(p, legs, lead_in), _old_route_points(old))
+    assert _same_bits(_run_ends(p, legs, lead_in), _old_route_points(new))
+
+
+def test_no_legs_no_runs() -> None:
+    p = Pass(1, LineFrame(30.0), ())
+    assert _build_runs(p, [], 10.0, {}) == []
+    assert _run_ends(p, [], 10.0).shape == (0, 2)
+
+
+# -- detours: legs checked together, lead-ins clipped where their box meets the zones ------------
+
+zone_boxes = st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(5, 300), st.floats(5, 300)),
+                      min_size=0, max_size=4)
+points = st.lists(st.tuples(st.floats(-900, 900), st.floats(-900, 900)), min_size=0, max_size=40)
+
+
+def _detours(boxes: list[tuple[float, float, float, float]], margin: float) -> Detours:
+    zones = shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]) if boxes else None
+    return Detours(zones, margin)
+
+
+@settings(max_examples=150, deadline=None)
+@given(zone_boxes, st.floats(0.0, 60.0), points)
+def test_legs_checked_together_are_those_checked_one_by_one(boxes: list[tuple[float, float, float, float]],
+                                                          margin: float, pts: list[tuple[float, float]]) -> None:
+    det = _detours(boxes, margin)
+    together = det.clear_legs(np.array(pts, float).reshape(-1, 2))
+    assert together.dtype == bool
+    assert together.tolist() == [det.clear(a, b) for a, b in zip(pts[:-1], pts[1:])]
+
+
+@settings(max_examples=150, deadline=None)
+@given(zone_boxes, st.floats(0.0, 60.0), st.lists(st.tuples(st.floats(-900, 900), st.floats(-900, 900),
+                                                            st.floats(-900, 900), st.floats(-900, 900)), max_size=30))
+def test_lead_ins_clipped_together_are_those_clipped_one_by_one(boxes: list[tuple[float, float, float, float]], margin: float,
+                                                                raw: list[tuple[float, float, float, float]]) -> None:
+    det = _detours(boxes, margin)
+    runs = [Run(1, i, 0, 1, 0.0, np.array([[fx, fy], [fx + 1.0, fy]]), np.arange(2), (lx, ly), (fx + 2.0, fy))
+            for i, (fx, fy, lx, ly) in enumerate(raw)]
+    together = clip_lead_ins(runs, det)
+    alone = [clip_lead_in(r, det) for r in runs]
+    assert [r.lead_in_xy for r in together] == [r.lead_in_xy for r in alone]
+    assert all(a is r for a, r, b in zip(together, runs, alone) if b is r)  # untouched runs are the same objects
+
+
+# -- coverage: every run's sure strip made at once ------------------------------------------------
+
+
+def _old_run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base: float) -> BaseGeometry:
+    strips = []
+    runs = stations.run
+    starts = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
+    ends = np.r_[starts[1:], len(runs)] - 1
+    for a, b in zip(starts, ends):
+        if b == a:
+            continue
+        L, W = float(along[a: b + 1].min()), float(across[a: b + 1].min())
+        reach = L / 2.0 - base
+        if reach <= 0:
+            continue
+        h = np.radians(stations.heading_deg[a])
+        u = np.array([np.sin(h), np.cos(h)])
+        v = np.array([u[1], -u[0]])
+        p0 = np.array([stations.x[a], stations.y[a]]) - u * reach
+        p1 = np.array([stations.x[b], stations.y[b]]) + u * reach
+        strips.append(shapely.Polygon([p0 + v * W / 2, p1 + v * W / 2, p1 - v * W / 2, p0 - v * W / 2]))
+    return shapely.union_all(strips) if strips else shapely.Polygon()
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 12), st.sampled_from([0.0, 17.25, 90.0, 197.25, 359.9]),
+                          st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=1, max_size=20),
+       st.floats(1.0, 40.0), st.integers(0, 2**32 - 1))
+def test_run_strips_made_together_are_those_made_one_by_one(raw: list[tuple[int, float, float, float]], base: float,
+                                                           seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    run = np.repeat(np.arange(len(raw)), [n for n, *_ in raw]).astype(np.int64)
+    heading = np.repeat([h for _, h, _, _ in raw], [n for n, *_ in raw]).astype(float)
+    start = np.repeat(np.array([(x, y) for *_, x, y in raw], float).reshape(-1, 2), [n for n, *_ in raw], axis=0)
+    xy = start + np.cumsum(rng.uniform(0.0, 30.0, (len(run), 2)), axis=0)
+    across, along = rng.uniform(10.0, 120.0, len(run)), rng.uniform(5.0, 100.0, len(run))
+    nan = np.full(len(run), np.nan)
+    stations = Stations([str(i) for i in range(len(run))], run, xy[:, 0], xy[:, 1], nan, nan, nan, nan, nan, heading)
+    new, old = _run_strips(stations, across, along, base), _old_run_strips(stations, across, along, base)
+    assert shapely.to_wkb(new) == shapely.to_wkb(old)
+
+
+def test_no_stations_no_strips() -> None:  # the former code needed one (the caller answers before)
+    nan = np.zeros(0)
+    assert _run_strips(Stations([], np.zeros(0, np.int64), nan, nan, nan, nan, nan, nan, nan, nan), nan, nan, 5.0).is_empty
+
+
+# -- station ids of many lines, lon/lat of stations and waypoints in one transform ---------------
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 3), st.integers(0, 1500), st.lists(st.integers(-3, 20000), max_size=30)),
+                max_size=12))
+def test_station_ids_of_many_lines_are_those_of_each_line(lines: list[tuple[int, int, list[int]]]) -> None:
+    expected = [s for p, line, stations in lines for s in ids.station_ids(p, line, stations)]
+    assert ids.station_ids_of_lines(iter(lines)) == expected
+    assert ids.station_ids_of_lines(lines) == [ids.station_id(p, line, s) for p, line, stations in lines for s in stations]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from([32633, 5514, 3857]), st.lists(st.tuples(st.floats(-1e5, 1e5), st.floats(-1e5, 1e5)), max_size=30),
+       st.integers(0, 30))
+def test_lonlat_of_points_together_is_that_of_each_part(epsg: int, raw: list[tuple[float, float]], cut: int) -> None:
+    planar = planning_crs(f"EPSG:{epsg}", shapely.Point(15.0, 49.4))
+    x0, y0 = {32633: (500000.0, 5470000.0), 5514: (-650000.0, -1120000.0), 3857: (1670000.0, 6340000.0)}[epsg]
+    xy = np.array(raw, float).reshape(-1, 2) + (x0, y0)
+    lon, lat = planar.lonlat(xy[:, 0], xy[:, 1])
+    a_lon, a_lat = planar.lonlat(xy[:cut, 0], xy[:cut, 1])
+    b_lon, b_lat = planar.lonlat(xy[cut:, 0], xy[cut:, 1])
+    assert _same_bits(lon, np.concatenate([a_lon, b_lon])) and _same_bits(lat, np.concatenate([a_lat, b_lat]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-3000, 3000), st.floats(-3000, 3000)), min_size=1, max_size=60))
+def test_the_fence_hull_of_an_array_is_that_of_the_points_one_by_one(raw: list[tuple[float, float]]) -> None:
+    planar = planning_crs("EPSG:32633", shapely.Point(15.0, 49.4))
+    flown = [(500000.0 + x, 5470000.0 + y) for x, y in raw]
+    old_hull = shapely.buffer(shapely.convex_hull(shapely.MultiPoint(list(flown))), FENCE_MARGIN_M, quad_segs=2)
+    ring = np.asarray(old_hull.exterior.coords)[:-1]
+    lon, lat = planar.lonlat(ring[:, 0], ring[:, 1])
+    assert geofence(planar, flown, []).inclusion == (tuple((round(float(a), 8), round(float(b), 8)) for a, b in zip(lat, lon)),)
+
+
+# -- lines cut by the zones: pieces found together, only the lines cut renumbered -----------------
+
+
+def _old_cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearance: float) -> list[LineSegment]:
+    if zones_f is None or zones_f.is_empty or not segs:
+        return segs
+    out: list[LineSegment] = []
+    ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
+    zx0, zy0, zx1, zy1 = zones_f.bounds
+    near = np.flatnonzero((ends[:, 1] >= zy0) & (ends[:, 1] <= zy1) & (ends[:, 2] >= zx0) & (ends[:, 0] <= zx1))
+    hits: list[BaseGeometry | None] = [None] * len(segs)
+    if len(near):
+        for i, hit in zip(near.tolist(), shapely.intersection(shapely.linestrings(ends[near].reshape(-1, 2, 2)), zones_f)):
+            hits[i] = None if hit.is_empty else hit
+    for seg, hit in zip(segs, hits):
+        if hit is None:
+            out.append(seg)
+            continue
+        xs = seg.xs()
+        blocked = np.zeros(len(xs), bool)
+        for piece in shapely.get_parts(hit):
+            px0, _, px1, _ = piece.bounds
+            blocked |= (xs >= px0 - clearance) & (xs <= px1 + clearance)
+        part = len(out)
+        padded = np.diff(np.concatenate([[False], ~blocked, [False]]).astype(np.int8))
+        for i0, i1 in zip(np.flatnonzero(padded == 1).tolist(), np.flatnonzero(padded == -1).tolist()):
+            out.append(LineSegment(seg.line, part, seg.v, float(xs[i0]), i1 - i0, seg.base))
+            part += 1
+    renum: list[LineSegment] = []
+    counts: dict[int, int] = {}
+    for s in sorted(out, key=lambda s: (s.line, s.x0)):
+        k = counts.get(s.line, 0)
+        counts[s.line] = k + 1
+        renum.append(s if s.part == k else LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
+    return renum
+
+
+@settings(max_examples=250, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 6), st.floats(-400, 400), st.integers(1, 40)), min_size=0, max_size=30),
+       st.booleans(), zone_boxes, st.floats(0.0, 40.0), st.floats(5.0, 30.0), st.floats(0.0, 40.0))
+def test_runs_cut_together_are_those_cut_one_by_one(raw: list[tuple[int, float, int]], laid: bool,
+                                                   boxes: list[tuple[float, float, float, float]], margin: float,
+                                                   base: float, clearance: float) -> None:
+    if laid:  # as build_lines lays them: by line, then by x, numbered on each line
+        raw = sorted(raw)
+    parts: dict[int, int] = {}
+    segs: list[LineSegment] = []
+    for line, x0, n in raw:
+        segs.append(LineSegment(line, parts.get(line, 0) if laid else len(segs) % 3, line * 60.0 - 200.0, x0, n, base))
+        parts[line] = parts.get(line, 0) + 1
+    zones = shapely.buffer(shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]), margin) if boxes else None
+    assert cut_by_zones(list(segs), zones, clearance) == _old_cut_by_zones(list(segs), zones, clearance)
+
+
+def _old_path(det: Detours, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
+    import heapq
+
+    if det.clear(a, b):
+        return []
+    nodes = [a, b, *det.nodes]
+    dist = {0: 0.0}
+    prev: dict[int, int] = {}
+    heap = [(0.0, 0)]
+    done = set()
+    while heap:
+        d, i = heapq.heappop(heap)
+        if i in done:
+            continue
+        done.add(i)
+        if i == 1:
+            break
+        for j in range(1, len(nodes)):
+            if j in done:
+                continue
+            nd = d + math.dist(nodes[i], nodes[j])
+            if nd < dist.get(j, math.inf) and det.clear(nodes[i], nodes[j]):
+                dist[j] = nd
+                prev[j] = i
+                heapq.heappush(heap, (nd, j))
+    if 1 not in prev:
+        raise ValueError("no way around the exclusion zones between two waypoints")
+    out = []
+    j = prev[1]
+    while j != 0:
+        out.append(nodes[j])
+        j = prev[j]
+    return out[::-1]
+
+
+@settings(max_examples=150, deadline=None)
+@given(zone_boxes, st.floats(0.0, 60.0), st.tuples(st.floats(-900, 900), st.floats(-900, 900)),
+       st.tuples(st.floats(-900, 900), st.floats(-900, 900)))
+def test_detours_with_legs_checked_per_node_are_those_checked_leg_by_leg(
+        boxes: list[tuple[float, float, float, float]], margin: float, a: tuple[float, float], b: tuple[float, float]) -> None:
+    det = _detours(boxes, margin)
+    try:
+        expected: list[tuple[float, float]] | str = _old_path(det, a, b)
+    except ValueError as exc:
+        expected = str(exc)
+    try:
+        got: list[tuple[float, float]] | str = det.path(a, b)
+    except ValueError as exc:
+        got = str(exc)
+    assert got == expected
+
+
+# -- strip offsets of many headings, their coverage checked together ------------------------------
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e7, 1e7) | st.integers(-5000, 5000).map(float), st.floats(0.0, 1.0)
+                          | st.sampled_from([0.0, 0.25, 0.5, 1.0])), min_size=0, max_size=12),
+       st.floats(1.0, 400.0) | st.sampled_from([100.0, 150.0, 64.0]), st.floats(0.1, 0.95) | st.sampled_from([0.5, 0.6, 0.75]),
+       st.integers(0, 3), st.integers(1, 400))
+def test_strip_offsets_checked_together_are_those_of_each(pairs: list[tuple[float, float]], across: float, side: float,
+                                                          fewer: int, lines: int) -> None:
+    spacing = across * (1.0 - side)
+    per_point = max(1, math.floor(1.0 / (1.0 - side) + 1e-9) - fewer)
+    vmins = np.array([v for v, _ in pairs], float)
+    vmaxs = np.array([v + frac * lines * spacing for v, frac in pairs], float)
+    together = strip_offsets_many(vmins, vmaxs, across, spacing, per_point)
+    alone = [strip_offsets(float(a), float(b), across, spacing, per_point) for a, b in zip(vmins, vmaxs)]
+    assert len(together) == len(alone)
+    for x, y in zip(together, alone):
+        assert _same_bits(x, y)
+
+
+def test_strip_offsets_on_the_edge_are_left_to_the_full_check(monkeypatch: pytest.MonkeyPatch) -> None:
+    # reach = across/2 + 1e-6 = 50 (to a rounding): with an odd count of lines one lies on the middle
+    # probe and two lie exactly `reach` from it, so that count is not sure from the positions alone
+    # and the pair goes to strip_offsets, which compares every line; with an even count (6 lines
+    # over 306.4 m, probes 1.196875 m apart) every count is sure
+    left: list[tuple[float, float]] = []
+    alone = lines_module.strip_offsets
+
+    def counted(vmin: float, vmax: float, across: float, spacing: float, per_point: int) -> np.ndarray:
+        left.append((vmin, vmax))
+        return alone(vmin, vmax, across, spacing, per_point)
+
+    monkeypatch.setattr(lines_module, "strip_offsets", counted)
+    across, spacing = 2.0 * (50.0 - 1e-6), 50.0
+    vmins, vmaxs = np.array([0.0, 0.3, 5e6 + 0.3]), np.array([256.0, 306.7, 5e6 + 306.7])
+    together = strip_offsets_many(vmins, vmaxs, across, spacing, 1)
+    assert left == [(0.0, 256.0)]
+    for x, a, b in zip(together, vmins, vmaxs):
+        assert _same_bits(x, alone(float(a), float(b), across, spacing, 1))
+    left.clear()
+    # short of strips with the first count of lines: strip_offsets adds lines
+    assert _same_bits(strip_offsets_many(np.array([0.0]), np.array([0.0]), 10.0, 5.0, 2)[0], alone(0.0, 0.0, 10.0, 5.0, 2))
+    assert strip_offsets_many(np.zeros(0), np.zeros(0), 10.0, 5.0, 2) == []
