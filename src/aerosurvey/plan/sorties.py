@@ -13,6 +13,7 @@ descent at their rates; energy = time × power when the battery is given in Wh.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Detours, Kinematics, Run, climb_out_path, clip_approach, descent_time, path_time
+from aerosurvey.plan.route import Detours, Kinematics, Run, _straight_time, climb_out_path, clip_approach, descent_time, path_time
 from aerosurvey.spec import VehicleSpec
 
 
@@ -106,8 +107,119 @@ def wind_factor(wind_ms: float, speed_ms: float) -> float:
     return 1.0 / (1.0 - (wind_ms / speed_ms) ** 2)
 
 
+#: A sortie waypoint's fields (x, y, alt_m, kind, run, station); SortieWaypoints are made for the chosen sorties only
+_Wp = tuple[float, float, float, str, int, str]
+_XY = tuple[float, float]
+#: The segments route.path_time keeps of a polyline: (lengths, directions in degrees), planning-grid units / grid scale
+_Segs = tuple[list[float], list[float]]
+
+
+def _segments(points: np.ndarray) -> _Segs:
+    """The segments route.path_time keeps of a polyline (already divided by the grid scale), by
+    the same numpy operations on the same values (np.diff is this subtraction): elementwise, so a
+    segment's length and direction are the same floats whichever polyline it is part of."""
+    d = (points[1:] - points[:-1]).T
+    dx, dy = d[0], d[1]
+    lengths = np.hypot(dx, dy)
+    keep = lengths > 1e-9
+    if not keep.all():
+        dx, dy, lengths = dx[keep], dy[keep], lengths[keep]
+    return lengths.tolist(), np.degrees(np.arctan2(dy, dx)).tolist()
+
+
+class _Piece:
+    """Stations lo..hi of one run as a sortie flies them (made once for each)."""
+
+    __slots__ = ("wps", "first", "last", "alt_max", "starts")
+
+    def __init__(self, wps: list[_Wp]):
+        self.wps = wps
+        self.first: _XY = (wps[0][0], wps[0][1])
+        self.last: _XY = (wps[-1][0], wps[-1][1])
+        self.alt_max = max(w[2] for w in wps)
+        self.starts = sum(1 for w in wps if w[3] == "line_start")
+
+
+class _RouteSegments:
+    """The kept segments of the whole runs and the detours between them, in flight order, with
+    path_time's corners, each segment's length flown straight since the last corner (`running`)
+    and, at each corner, the time of the straight stretch it ends (`closed`)."""
+
+    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before")
+
+    def __init__(self, points: np.ndarray, kin: Kinematics):
+        self.lengths, self.angles = _segments(points)
+        seg = np.diff(points, axis=0)
+        # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
+        self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > 1e-9)]).tolist()
+        turn = np.abs((np.diff(np.asarray(self.angles)) + 180.0) % 360.0 - 180.0)
+        self.corners: list[int] = (np.flatnonzero(turn > _CopterTime.CORNER_DEG) + 1).tolist()
+        self.running: list[float] = []
+        self.closed: dict[int, float] = {}
+        at_corner = set(self.corners)
+        for k, length in enumerate(self.lengths):
+            if k in at_corner:
+                self.closed[k] = _straight_time(self.running[-1], kin)
+            self.running.append(length if k == 0 or k in at_corner else self.running[-1] + length)
+
+
+class _CopterTime:
+    """route.path_time of a copter, summed in the same order, term by term: it stops at every corner
+    sharper than 30° and times each straight stretch by route._straight_time. Fed in parts, so that
+    the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
+
+    __slots__ = ("kin", "total", "run", "last")
+    CORNER_DEG = 30.0  # path_time's default
+
+    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0):
+        self.kin = kin
+        self.total = total  # the stretches ended so far
+        self.run = run  # flown straight since the last corner (None before the first kept segment)
+        self.last = last  # direction of the last kept segment
+
+    def feed(self, segs: _Segs) -> None:
+        for length, ang in zip(*segs):
+            if self.run is None:
+                self.run = length
+            elif abs((ang - self.last + 180.0) % 360.0 - 180.0) > self.CORNER_DEG:
+                self.total += _straight_time(self.run, self.kin)
+                self.run = length
+            else:
+                self.run += length
+            self.last = ang
+
+    def route(self, rs: _RouteSegments, k0: int, k1: int) -> None:
+        """Feed the route's kept segments k0..k1-1: the first as any other, then one by one up to
+        the first corner, the stretches between corners by their times, the last by its length."""
+        if k0 >= k1:
+            return
+        self.feed(([rs.lengths[k0]], [rs.angles[k0]]))
+        assert self.run is not None
+        ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
+        for k in range(k0 + 1, rs.corners[ci] if ci < cj else k1):
+            self.run += rs.lengths[k]
+        if ci < cj:
+            self.total += _straight_time(self.run, self.kin)
+            for c in rs.corners[ci + 1:cj]:
+                self.total += rs.closed[c]
+            self.run = rs.running[k1 - 1]
+        self.last = rs.angles[k1 - 1]
+
+    def time(self) -> float:
+        return 0.0 if self.run is None else self.total + _straight_time(self.run, self.kin)
+
+
 class Splitter:
-    """Builds and costs candidate sorties over a planned route."""
+    """Builds and costs candidate sorties over a planned route.
+
+    A sortie's survey is a piece of its first run (from its first station), the detours and whole
+    runs after it, and a piece of its last run (to its last station). The budget bisection costs
+    hundreds of sorties that share these parts (550 for the Obrataň example), so each piece is made
+    once, the way from a launch point through the first piece into the route (the head) and out of
+    the route through the last piece home (the tail) are measured once, and a copter's time along
+    the whole runs between is summed from stretches timed once (_RouteSegments). The sums are
+    route.path_time's, term by term in the same order, so the costs are the floats timing each
+    sortie's whole polyline gives (tests/test_sorties_exact.py compares them)."""
 
     def __init__(self, plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
                  fixed_launch: int | None):
@@ -118,10 +230,10 @@ class Splitter:
         self.detours = detours
         self.fixed_launch = fixed_launch
         st = plan.stations
-        self.run_of = st.run
+        self.run_of: list[int] = st.run.tolist()
         self.n = len(st.ids)
-        self.run_start = np.searchsorted(st.run, np.arange(len(plan.runs)))
-        self.run_end = np.searchsorted(st.run, np.arange(len(plan.runs)), side="right") - 1
+        self.run_start: list[int] = np.searchsorted(st.run, np.arange(len(plan.runs))).tolist()
+        self.run_end: list[int] = (np.searchsorted(st.run, np.arange(len(plan.runs)), side="right") - 1).tolist()
         # the original waypoints of each run, and the detours leading into it
         self.by_run: dict[int, list[RouteWaypoint]] = {}
         self.detours_before: dict[int, list[RouteWaypoint]] = {}
@@ -135,112 +247,194 @@ class Splitter:
                 pending = []
             self.by_run.setdefault(w.run, []).append(w)
         self.station_index = {sid: i for i, sid in enumerate(st.ids)}
-        self._evaluated: dict[tuple[int, int], tuple[float, int, float, float, float, list[SortieWaypoint], int]] = {}
-        self._run_wps: dict[tuple[int, int, int], list[SortieWaypoint]] = {}
-        self._detour_wps: dict[int, list[SortieWaypoint]] = {}
+        # every run's detour in and whole waypoints in flight order; where each run's detour and waypoints begin
+        self.route_wps: list[_Wp] = []
+        self.detour_at: list[int] = []
+        self.run_at: list[int] = []
+        for r in range(len(plan.runs)):
+            self.detour_at.append(len(self.route_wps))
+            self.route_wps.extend((w.x, w.y, w.alt_m, w.kind, w.run, "") for w in self.detours_before.get(r, []))
+            self.run_at.append(len(self.route_wps))
+            self.route_wps.extend((w.x, w.y, w.alt_m, w.kind, w.run, w.station) for w in self.by_run.get(r, []))
+        self.route_alts = [w[2] for w in self.route_wps]
+        self.route_starts: list[int] = np.cumsum([0, *(w[3] == "line_start" for w in self.route_wps)]).tolist()
+        self._route_segments: _RouteSegments | None = None
+        self._pieces: dict[tuple[int, int, int], _Piece] = {}
+        self._out: dict[tuple[int, int], list[_XY]] = {}
+        self._back: dict[tuple[int, int], list[_XY]] = {}
+        self._heads: dict[tuple[int, int, bool], tuple[float, float | None, float]] = {}
+        self._highest_in: dict[tuple[int, int], list[float]] = {}
+        self._tails: dict[tuple[int, int, int], _Segs] = {}
+        self._costs: dict[tuple[int, int], tuple[float, int, float, float, int]] = {}
 
-    def _run_waypoints(self, r: int, a: int, b: int) -> list[SortieWaypoint]:
-        """Waypoints flying stations a..b (global indices) of run r; made once for each (the
-        budget bisection asks for the same runs again and again: 4,101 times for 550 distinct
-        sorties of the Obrataň example, 65 of the split's 227 ms)."""
+    def _piece(self, r: int, a: int, b: int) -> _Piece:
+        """Stations a..b (global indices) of run r."""
         key = (r, a, b)
-        if key not in self._run_wps:
-            self._run_wps[key] = self._make_run_waypoints(r, a, b)
-        return self._run_wps[key]
+        if key not in self._pieces:
+            self._pieces[key] = _Piece(self._make_run_waypoints(r, a, b))
+        return self._pieces[key]
 
-    def _detour_waypoints(self, r: int) -> list[SortieWaypoint]:
-        """The detour into run r, as sortie waypoints (made once a run)."""
-        if r not in self._detour_wps:
-            self._detour_wps[r] = [SortieWaypoint(w.x, w.y, w.alt_m, w.kind, w.run, "") for w in self.detours_before.get(r, [])]
-        return self._detour_wps[r]
-
-    def _make_run_waypoints(self, r: int, a: int, b: int) -> list[SortieWaypoint]:
+    def _make_run_waypoints(self, r: int, a: int, b: int) -> list[_Wp]:
         plan = self.plan
         st = plan.stations
         if a == self.run_start[r] and b == self.run_end[r]:
-            return [SortieWaypoint(w.x, w.y, w.alt_m, w.kind, w.run, w.station) for w in self.by_run[r]]
+            return [(w.x, w.y, w.alt_m, w.kind, w.run, w.station) for w in self.by_run[r]]
         ux, uy = self._direction(r)
         lead, half = plan.lead_in_m * plan.grid_scale, plan.base_m * plan.grid_scale / 2.0
         alt_a = float(st.alt_rel_m[a]) if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
         alt_b = float(st.alt_rel_m[b]) if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
         # a sortie resuming mid-line approaches its first station anew (shortened where a zone is in the way)
         lx, ly = clip_approach((float(st.x[a]), float(st.y[a])), (st.x[a] - ux * lead, st.y[a] - uy * lead), self.detours)
-        out = [SortieWaypoint(lx, ly, alt_a, "lead_in", r, ""),
-               SortieWaypoint(float(st.x[a]), float(st.y[a]), alt_a, "line_start", r, st.ids[a])]
+        out: list[_Wp] = [(lx, ly, alt_a, "lead_in", r, ""), (float(st.x[a]), float(st.y[a]), alt_a, "line_start", r, st.ids[a])]
         for w in self.by_run[r]:
             if w.kind == "terrain" and a < self.station_index[w.station] < b:
-                out.append(SortieWaypoint(w.x, w.y, w.alt_m, "terrain", r, w.station))
+                out.append((w.x, w.y, w.alt_m, "terrain", r, w.station))
         if plan.heights.mode == "follow" and b > a:
-            out.append(SortieWaypoint(float(st.x[b]), float(st.y[b]), alt_b, "terrain", r, st.ids[b]))
-        out.append(SortieWaypoint(st.x[b] + ux * half, st.y[b] + uy * half, alt_b, "line_end", r, ""))
+            out.append((float(st.x[b]), float(st.y[b]), alt_b, "terrain", r, st.ids[b]))
+        out.append((st.x[b] + ux * half, st.y[b] + uy * half, alt_b, "line_end", r, ""))
         return out
 
     def _direction(self, r: int) -> tuple[float, float]:
         h = math.radians(self.plan.runs[r].heading_deg)
         return math.sin(h), math.cos(h)
 
-    def waypoints(self, a: int, b: int) -> list[SortieWaypoint]:
-        out: list[SortieWaypoint] = []
-        r0, r1 = int(self.run_of[a]), int(self.run_of[b])
-        for r in range(r0, r1 + 1):
-            if r > r0:
-                out.extend(self._detour_waypoints(r))
-            lo = max(a, int(self.run_start[r]))
-            hi = min(b, int(self.run_end[r]))
-            out.extend(self._run_waypoints(r, lo, hi))
-        return out
+    def _parts(self, a: int, b: int) -> tuple[_Piece, int, int, _Piece]:
+        """Stations a..b: the piece of the first run, the route's waypoints [i, j) after it (detours
+        and whole runs) and the piece of the last run (the first piece again, j = i, within one run)."""
+        r0, r1 = self.run_of[a], self.run_of[b]
+        if r0 == r1:
+            p = self._piece(r0, a, b)
+            return p, 0, 0, p
+        return (self._piece(r0, a, self.run_end[r0]), self.detour_at[r0 + 1], self.run_at[r1],
+                self._piece(r1, self.run_start[r1], b))
 
-    def _items(self, wps: list[SortieWaypoint]) -> int:
-        per_trigger = 0 if self.plan.trigger == "camera" else 2
-        runs = sum(1 for w in wps if w.kind == "line_start")
-        return 3 + len(wps) + per_trigger * runs
+    def waypoints(self, a: int, b: int) -> list[_Wp]:
+        """The survey waypoints of stations a..b in flight order."""
+        p0, i, j, p1 = self._parts(a, b)
+        return p0.wps if p1 is p0 else [*p0.wps, *self.route_wps[i:j], *p1.wps]
 
-    def evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
-        """(battery used, launch index, horizontal s, vertical s, distance m, waypoints, items).
+    def _ways(self, li: int, first: _Piece, last: _Piece) -> tuple[list[_XY], list[_XY]]:
+        """The points between launch site li and the first piece, and between the last piece and the
+        site's end (round the zones)."""
+        ko, kb = (li, id(first)), (li, id(last))  # pieces live as long as the splitter
+        if ko not in self._out:
+            home = (self.sites[li].x, self.sites[li].y)
+            self._out[ko] = climb_out_path(home, first.first, self.plan.climb, self.detours)
+        if kb not in self._back:
+            self._back[kb] = self.detours.path(last.last, self.plan.ends[li])
+        return self._out[ko], self._back[kb]
 
-        Memoised: the budget bisection asks for the same (first, last) stations again (550
-        distinct of 890 calls for the Obrataň example)."""
+    def _legs(self, li: int, p0: _Piece, p1: _Piece) -> tuple[list[_XY], list[_XY], list[_XY], list[_XY]]:
+        """(way out, way home, polyline out: the site and the way out, polyline home: the way home, the end, the site)."""
+        out_via, back_via = self._ways(li, p0, p1)
+        home, end = (self.sites[li].x, self.sites[li].y), self.plan.ends[li]
+        return out_via, back_via, [home, *out_via], [*back_via, *([end] if end != home else []), home]
+
+    def _points(self, li: int, a: int, b: int) -> np.ndarray:
+        """The sortie's polyline from launch site li, divided by the grid scale (as the old costing made it)."""
+        p0, i, j, p1 = self._parts(a, b)
+        _, _, out_leg, back_leg = self._legs(li, p0, p1)
+        pts = np.asarray([(w[0], w[1]) for w in self.waypoints(a, b)])
+        return np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
+
+    def _copter_time(self, li: int, p0: _Piece, i: int, j: int, p1: _Piece) -> float:
+        """route.path_time of the sortie's polyline: the head (site, way out, first piece, into the
+        route), the route's whole runs, the tail (out of the route, last piece, way home)."""
+        _, _, out_leg, back_leg = self._legs(li, p0, p1)
+        gs = self.plan.grid_scale
+        kh = (li, id(p0), i < j)
+        if kh not in self._heads:  # the sum from the start: the same for every sortie with this head
+            into = [(self.route_wps[i][0], self.route_wps[i][1])] if i < j else []
+            h = _CopterTime(self.kin)
+            h.feed(_segments(np.asarray([*out_leg, *((w[0], w[1]) for w in p0.wps), *into]) / gs))
+            self._heads[kh] = (h.total, h.run, h.last)
+        t = _CopterTime(self.kin, *self._heads[kh])
+        if i < j:
+            rs = self._route()
+            t.route(rs, rs.kept_before[i], rs.kept_before[j - 1])
+        # within one run the tail is the way home from the piece's end; else it comes out of the route's
+        # last waypoint, or straight from the first piece where no whole run or detour lies between
+        kt = (li, id(p1), -1 if i < j else id(p0))
+        if kt not in self._tails:
+            if p1 is p0:
+                tail = [p0.last, *back_leg]
+            else:
+                start = (self.route_wps[j - 1][0], self.route_wps[j - 1][1]) if i < j else p0.last
+                tail = [start, *((w[0], w[1]) for w in p1.wps), *back_leg]
+            self._tails[kt] = _segments(np.asarray(tail) / gs)
+        t.feed(self._tails[kt])
+        return t.time()
+
+    def _highest(self, i: int, j: int) -> list[float]:
+        """The highest of the route's waypoints [i, j) (none if empty), found once for each range."""
+        if (i, j) not in self._highest_in:
+            self._highest_in[(i, j)] = [max(self.route_alts[i:j])] if i < j else []
+        return self._highest_in[(i, j)]
+
+    def _route(self) -> _RouteSegments:
+        if self._route_segments is None:
+            xy = np.asarray([(w[0], w[1]) for w in self.route_wps]).reshape(-1, 2)
+            self._route_segments = _RouteSegments(xy / self.plan.grid_scale, self.kin)
+        return self._route_segments
+
+    def cost(self, a: int, b: int) -> tuple[float, int, float, float, int]:
+        """(battery used, launch index, horizontal s, vertical s, items) of the sortie of stations a..b.
+
+        Memoised: the budget bisection asks for the same (first, last) stations again (550 distinct
+        of 890 calls for the Obrataň example)."""
         key = (a, b)
-        if key not in self._evaluated:
-            self._evaluated[key] = self._evaluate(a, b)
-        return self._evaluated[key]
+        if key not in self._costs:
+            self._costs[key] = self._cost(a, b)
+        return self._costs[key]
 
-    def _evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
-        survey = self.waypoints(a, b)
-        pts = np.asarray([(w.x, w.y) for w in survey])
-        climb = max(w.alt_m for w in survey) if self.plan.altitude_frame == "relative" else self.plan.heights.nominal_agl_m
+    def _cost(self, a: int, b: int) -> tuple[float, int, float, float, int]:
+        p0, i, j, p1 = self._parts(a, b)
+        n_survey = len(p0.wps) if p1 is p0 else len(p0.wps) + (j - i) + len(p1.wps)
+        starts = p0.starts if p1 is p0 else p0.starts + (self.route_starts[j] - self.route_starts[i]) + p1.starts
+        if self.plan.altitude_frame != "relative":
+            climb = self.plan.heights.nominal_agl_m
+        elif p1 is p0:
+            climb = p0.alt_max
+        else:  # the highest survey waypoint: max() over them all is the first of the highest, as here
+            climb = max(p0.alt_max, *self._highest(i, j), p1.alt_max)
+        per_trigger = 0 if self.plan.trigger == "camera" else 2
         candidates = [self.fixed_launch] if self.fixed_launch is not None else range(len(self.sites))
-        best: tuple[float, int, float, float, float, list[SortieWaypoint]] | None = None
-        first, last = (survey[0].x, survey[0].y), (survey[-1].x, survey[-1].y)
+        best: tuple[float, int, float, float, int] | None = None
+        v = self.plan.vehicle
+        gs = self.plan.grid_scale
         for li in candidates:
-            s = self.sites[li]
-            home = (s.x, s.y)
-            alt_shift = self.plan.home_ground_m - s.ground_m
-            end = self.plan.ends[li]
-            out_via, back_via = climb_out_path(home, first, self.plan.climb, self.detours), self.detours.path(last, end)
-            out_leg = [home, *out_via]
-            back_leg = [*back_via, *([end] if end != home else []), home]
-            poly = np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
-            horiz = path_time(poly, self.kin)
-            v = self.plan.vehicle
-            h = max(climb + alt_shift, 1.0)
+            out_via, back_via, out_leg, back_leg = self._legs(li, p0, p1)
+            if self.kin.vehicle == "copter":
+                horiz = self._copter_time(li, p0, i, j, p1)
+            else:
+                horiz = path_time(self._points(li, a, b), self.kin)
+            h = max(climb + (self.plan.home_ground_m - self.sites[li].ground_m), 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             if v.type == "plane":  # climb and descent overlap the transits out and back
-                t_out = path_time(np.asarray([*out_leg, first]) / self.plan.grid_scale, self.kin)
-                t_back = path_time(np.asarray([last, *back_leg]) / self.plan.grid_scale, self.kin)
+                t_out = path_time(np.asarray([*out_leg, p0.first]) / gs, self.kin)
+                t_back = path_time(np.asarray([p1.last, *back_leg]) / gs, self.kin)
                 vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
-            dist = float(np.hypot(*np.diff(poly, axis=0).T).sum())
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
-                # the way from the launch point and back home goes round the zones as the costing did
-                wps = ([SortieWaypoint(x, y, survey[0].alt_m, "transit", -1, "") for x, y in out_via] + survey
-                       + [SortieWaypoint(x, y, survey[-1].alt_m, "transit", -1, "") for x, y in back_via])
-                best = (used, li, horiz, vert, dist, wps)
+                best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts)
         assert best is not None
-        return (*best, self._items(best[5]))
+        return best
+
+    def evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
+        """(battery used, launch index, horizontal s, vertical s, distance m, waypoints, items)."""
+        used, li, horiz, vert, items = self.cost(a, b)
+        p0, _, _, p1 = self._parts(a, b)
+        out_via, back_via, _, _ = self._legs(li, p0, p1)
+        dist = float(np.hypot(*np.diff(self._points(li, a, b), axis=0).T).sum())
+        survey = self.waypoints(a, b)
+        # the way from the launch point and back home goes round the zones as the costing did
+        wps = ([SortieWaypoint(x, y, survey[0][2], "transit", -1, "") for x, y in out_via]
+               + [SortieWaypoint(*w) for w in survey]
+               + [SortieWaypoint(x, y, survey[-1][2], "transit", -1, "") for x, y in back_via])
+        return used, li, horiz, vert, dist, wps, items
 
     def fits(self, a: int, b: int, budget: float) -> bool:
-        used, *_, items = self.evaluate(a, b)
+        used, *_, items = self.cost(a, b)
         return used <= budget and items <= self.budget.max_items
 
     def greedy(self, budget: float) -> list[tuple[int, int]]:
@@ -269,7 +463,7 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
           fixed_launch: int | None) -> list[Sortie]:
     """Fewest sorties, then as balanced as they can be."""
     sp = Splitter(plan, sites, budget, kin, detours, fixed_launch)
-    used, li, horiz, vert, dist, wps, items = sp.evaluate(0, 0)
+    used, li, horiz, vert, items = sp.cost(0, 0)
     if used > budget.usable or items > budget.max_items:
         unit = "Wh" if budget.usable_j is not None else "min"
         scale = 3600.0 if budget.usable_j is not None else 60.0
@@ -283,7 +477,7 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
         raise InputError("battery too small: a station farther out cannot be reached and photographed on one battery "
                          "from any launch point; add a launch point nearer to the area")
     n = len(first)
-    total = sum(sp.evaluate(a, b)[0] for a, b in first)
+    total = sum(sp.cost(a, b)[0] for a, b in first)
     lo, hi = total / n, budget.usable
     best = first
     for _ in range(12):

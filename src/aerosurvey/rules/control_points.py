@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.rules.footprints import FloatArray, Footprints
+from aerosurvey.rules.footprints import BoolArray, FloatArray, Footprints, IntArray
 
 #: A ground control point (used in the adjustment) or a check point (kept out of it).
 Role = Literal["gcp", "check"]
@@ -37,37 +37,60 @@ def _outline(area: BaseGeometry) -> BaseGeometry:
     return shapely.union_all([shapely.Polygon(p.exterior) for p in shapely.get_parts(area)])
 
 
+#: Where a GCP may go along its normal: the envelope (1) to 1/20 of the way from the outline
+_FRACS = np.linspace(1.0, 0.0, 21)[:-1]
+
+
 def propose_gcps(area: BaseGeometry, fp: Footprints, count: int, min_images: int, offset: float,
                  max_spacing: float, nogo: BaseGeometry | None) -> list[ControlPoint]:
     """GCPs as an envelope outside the outline, each checked against the planned photos."""
     outline = _outline(area)
+    boundary = outline.boundary
     ring_geom = shapely.buffer(outline, offset, quad_segs=8)
-    points: list[ControlPoint] = []
-    k = 0
+    places: list[tuple[str, shapely.Point, shapely.Point]] = []  # (id, on the envelope, nearest on the outline)
     for part in shapely.get_parts(ring_geom):
         ring = part.exterior
-        n = max(count if k == 0 else 3, math.ceil(ring.length / max_spacing), 3)
+        n = max(count if not places else 3, math.ceil(ring.length / max_spacing), 3)
         start = ring.project(shapely.Point(ring.bounds[0], ring.bounds[3]))
         for j in range(n):
             pos = (start + ring.length * j / n) % ring.length
             p = ring.interpolate(pos)
-            near = shapely.get_point(shapely.shortest_line(outline.boundary, p), 0)
-            k += 1
-            points.append(_settle(f"GCP{k:02d}", p, near, outline, fp, min_images, nogo))
-    return points
+            places.append((f"GCP{len(places) + 1:02d}", p, shapely.get_point(shapely.shortest_line(boundary, p), 0)))
+    if not places:
+        return []
+    # every GCP's candidate places along its normal, from the envelope in (the floats one at a time gives)
+    near_x, near_y = np.array([q.x for _, _, q in places]), np.array([q.y for _, _, q in places])
+    dx, dy = np.array([p.x - q.x for _, p, q in places]), np.array([p.y - q.y for _, p, q in places])
+    xs, ys = near_x[:, None] + dx[:, None] * _FRACS, near_y[:, None] + dy[:, None] * _FRACS
+    blocked = shapely.contains_xy(outline, xs, ys)
+    if nogo is not None:
+        blocked |= shapely.contains_xy(nogo, xs, ys)
+    # photos seeing each GCP's first free place, counted for all at once (a point's count is its own:
+    # the same as one at a time), then for the other places of those that too few photos see
+    counts = np.full(xs.shape, -1)
+    free = ~blocked
+    rows = np.flatnonzero(free.any(axis=1))
+    first = free[rows].argmax(axis=1)
+    counts[rows, first] = fp.count_at(xs[rows, first], ys[rows, first])
+    short = counts[rows, first] < min_images
+    rest = free[rows[short]]
+    rest[np.arange(len(rest)), first[short]] = False
+    r, c = np.nonzero(rest)
+    if len(r):
+        counts[rows[short][r], c] = fp.count_at(xs[rows[short][r], c], ys[rows[short][r], c])
+    return [_settle(pid, p, near, xs[i], ys[i], blocked[i], counts[i], min_images) for i, (pid, p, near) in enumerate(places)]
 
 
-def _settle(pid: str, p: shapely.Point, near: shapely.Point, outline: BaseGeometry, fp: Footprints,
-            min_images: int, nogo: BaseGeometry | None) -> ControlPoint:
-    """Move a GCP along its normal towards the outline until enough photos see it."""
-    dx, dy = p.x - near.x, p.y - near.y
-    dist = math.hypot(dx, dy)
+def _settle(pid: str, p: shapely.Point, near: shapely.Point, xs: FloatArray, ys: FloatArray, blocked: BoolArray,
+            counts: IntArray, min_images: int) -> ControlPoint:
+    """The first place along the GCP's normal, from the envelope towards the outline, that enough
+    photos see (places inside the outline or a no-go zone skipped; `counts`: photos at each place)."""
+    dist = math.hypot(p.x - near.x, p.y - near.y)
     best: tuple[float, float, int, float] | None = None
-    for frac in np.linspace(1.0, 0.0, 21)[:-1]:
-        x, y = near.x + dx * frac, near.y + dy * frac
-        if shapely.contains_xy(outline, x, y) or (nogo is not None and shapely.contains_xy(nogo, x, y)):
+    for k, frac in enumerate(_FRACS):
+        if blocked[k]:
             continue
-        n = int(fp.count_at(np.array([x]), np.array([y]))[0])
+        x, y, n = xs[k], ys[k], int(counts[k])
         if best is None or n > best[2]:
             best = (float(x), float(y), n, float(frac))
         if n >= min_images:

@@ -26,6 +26,7 @@ from aerosurvey.spec import MOUNTS
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
@@ -134,32 +135,54 @@ def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
 
 
 def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]]:
-    """(run, nearest parallel run beside it, overlap of their strips) for every run."""
+    """(run, nearest parallel run beside it, overlap of their strips) for every run.
+
+    Each run's stations are measured across and along the lines of its heading; runs of the same
+    heading (all the runs of one direction of a pass: 4 headings for the 34 runs of the Obrataň
+    example) share those measures, made once for all stations of every run (elementwise, the same
+    floats as run by run) instead of once for every pair of runs (10-20 ms there, 544 pairs)."""
     rs = runs(view)
-    info: dict[str, tuple[float, float, float, float, float]] = {}
-    for rid, idx in rs.items():
-        # statistics.median, not np.median: numpy imports numpy.ma for the latter's NaN check (12-17 ms on
-        # every `aerosurvey plan`); the headings are finite numbers (the manifest schema) and the value is the same
-        h = float(statistics.median(fp.heading_rad[idx].tolist()))
-        s, c = math.sin(h), math.cos(h)
-        u = fp.x[idx] * s + fp.y[idx] * c
-        v = fp.x[idx] * c - fp.y[idx] * s
-        info[rid] = (h, float(u.min()), float(u.max()), float(v.mean()), float(fp.across[idx].min()))
+    if not rs:
+        return []
+    ids = list(rs)
+    order = np.concatenate(list(rs.values()))  # the stations run by run, each run in flight order
+    ends = np.cumsum([len(idx) for idx in rs.values()]).tolist()
+    starts = [0, *ends[:-1]]
+    xs, ys = fp.x[order], fp.y[order]
+    # statistics.median, not np.median: numpy imports numpy.ma for the latter's NaN check (12-17 ms on
+    # every `aerosurvey plan`); the headings are finite numbers (the manifest schema) and the value is the same
+    heads = [float(statistics.median(fp.heading_rad[idx].tolist())) for idx in rs.values()]
+    widths = [float(fp.across[idx].min()) for idx in rs.values()]
+    # per heading: each run's least and greatest position along the lines, each station's across them
+    frames: dict[float, tuple[list[float], list[float], FloatArray]] = {}
+    means: dict[tuple[float, int], float] = {}
+
+    def frame(h: float) -> tuple[list[float], list[float], FloatArray]:
+        if h not in frames:
+            s, c = math.sin(h), math.cos(h)
+            u = xs * s + ys * c
+            frames[h] = (np.minimum.reduceat(u, starts).tolist(), np.maximum.reduceat(u, starts).tolist(), xs * c - ys * s)
+        return frames[h]
+
+    def across(h: float, k: int) -> float:
+        """Run k's mean position across the lines of heading h."""
+        if (h, k) not in means:
+            means[(h, k)] = float(np.mean(frame(h)[2][starts[k]:ends[k]]))
+        return means[(h, k)]
+
     out = []
-    for rid, (h, umin, umax, v_mean, w) in info.items():
-        s, c = math.sin(h), math.cos(h)
+    for k, (rid, h) in enumerate(zip(ids, heads)):
+        umins, umaxs, _ = frame(h)
+        umin, umax, v_mean, w = umins[k], umaxs[k], across(h, k), widths[k]
         best: tuple[float, str, float] | None = None
-        for q, (hq, _, _, _, wq) in info.items():
-            if q == rid or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
+        for q, hq in enumerate(heads):
+            if q == k or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
                 continue
-            idx = rs[q]
-            uq = fp.x[idx] * s + fp.y[idx] * c
-            vq = float(np.mean(fp.x[idx] * c - fp.y[idx] * s))
-            if uq.max() < umin or uq.min() > umax:
+            if umaxs[q] < umin or umins[q] > umax:
                 continue
-            d = abs(vq - v_mean)
+            d = abs(across(h, q) - v_mean)
             if d > 1e-6 and (best is None or d < best[0]):
-                best = (d, q, min(w, wq))
+                best = (d, ids[q], min(w, widths[q]))
         if best is not None:
             out.append((rid, best[1], 1 - best[0] / best[2]))
     return out

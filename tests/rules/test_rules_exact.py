@@ -1,0 +1,103 @@
+"""Side overlaps measured per heading and GCPs counted together: the same results as the code
+before (tests/rules/rules_reference.py), on random footprints and on planned missions."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import shapely
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from aerosurvey.inputs import plan_from_files
+from aerosurvey.rules.control_points import propose_gcps
+from aerosurvey.rules.engine import Evidence, layout_settings
+from aerosurvey.rules.footprints import Footprints, side_overlaps
+from aerosurvey.rules.load import plan_documents
+from aerosurvey.rules.planview import PlanView
+from aerosurvey.rules.profile import select_profiles
+from aerosurvey.spec import load_spec
+from conftest import REPO, make_spec, random_polygon
+from rules.rules_reference import reference_propose_gcps, reference_side_overlaps
+
+
+def _runs_of_lines(rng: np.random.Generator, n_runs: int, headings: list[float], interleave: bool):
+    """Stations along parallel lines (several runs a heading, some reversed), as run ids and footprints."""
+    run_ids, xs, ys, hs = [], [], [], []
+    for r in range(n_runs):
+        h = headings[r % len(headings)] + (np.pi if r % 2 else 0.0) + rng.choice([0.0, rng.normal(0, 0.03)])
+        k = int(rng.integers(1, 30))
+        along = np.sort(rng.uniform(-300, 300, k)) + rng.normal(0, 2, k)
+        off = r * 40.0 + rng.normal(0, 3)
+        s, c = np.sin(h), np.cos(h)
+        xs += list(along * s + off * c)
+        ys += list(along * c - off * s)
+        hs += list(np.full(k, h) + rng.choice([0.0, 1e-4], k))
+        run_ids += [f"L{r}"] * k
+    order = rng.permutation(len(run_ids)) if interleave else np.arange(len(run_ids))
+    ids = [run_ids[i] for i in order]
+    fp = Footprints(np.asarray(xs)[order], np.asarray(ys)[order], np.asarray(hs)[order],
+                    rng.uniform(50, 90, len(ids)), rng.uniform(30, 70, len(ids)))
+    return SimpleNamespace(run_ids=ids), fp
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_runs=st.integers(0, 25), n_headings=st.integers(1, 3), interleave=st.booleans())
+def test_side_overlaps_are_the_references(seed, n_runs, n_headings, interleave):
+    rng = np.random.default_rng(seed)
+    view, fp = _runs_of_lines(rng, n_runs, list(rng.uniform(0, np.pi, n_headings)), interleave)
+    assert repr(side_overlaps(view, fp)) == repr(reference_side_overlaps(view, fp))
+
+
+@settings(max_examples=120, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(["convex", "concave", "holed", "two"]),
+       reach=st.floats(10, 140), min_images=st.integers(1, 12), count=st.integers(3, 12), offset=st.floats(2, 40),
+       nogo=st.booleans())
+def test_gcps_are_the_references(seed, kind, reach, min_images, count, offset, nogo):
+    """Random photo rectangles over random areas (some reaching past the GCP ring, some not), with
+    and without a no-go zone: the same GCPs, places, counts and notes."""
+    rng = np.random.default_rng(seed)
+    if kind == "two":
+        area = shapely.union(shapely.box(0, 0, 300, 200), shapely.box(500, 0, 700, 250))
+    else:
+        area = shapely.Polygon(np.asarray(random_polygon(kind, seed % 10_000, 300.0)[0]) * [60_000, 110_000])
+        area = area if area.is_valid else area.convex_hull
+    x0, y0, x1, y1 = area.bounds
+    n = 400
+    fp = Footprints(rng.uniform(x0, x1, n), rng.uniform(y0, y1, n), rng.uniform(0, 2 * np.pi, n),
+                    rng.uniform(reach / 2, reach, n), rng.uniform(reach / 2, reach, n))
+    zone = shapely.buffer(shapely.Point(x0, y1), 0.3 * (x1 - x0)) if nogo else None
+    got = propose_gcps(area, fp, count, min_images, offset, 400.0, zone)
+    assert repr(got) == repr(reference_propose_gcps(area, fp, count, min_images, offset, 400.0, zone))
+    assert got
+
+
+def test_obratan_side_overlaps_and_gcps_are_the_references():
+    manifest, features = plan_documents(plan_from_files(load_spec(REPO / "missions" / "obratan-72ha.toml")))
+    view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
+    ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
+    pairs = side_overlaps(view, ev.footprints)
+    assert len(pairs) == len(set(view.run_ids)) and pairs == reference_side_overlaps(view, ev.footprints)
+    s = ev.settings
+    got = propose_gcps(view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
+    assert len(got) >= 18
+    assert got == reference_propose_gcps(view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m,
+                                         s.gcp_max_spacing_m, s.nogo)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 450),
+       cross=st.booleans(), margin=st.sampled_from([0.0, 12.0]))
+def test_planned_side_overlaps_and_gcps_are_the_references(tmp_path_factory, kind, seed, size, cross, margin):
+    tmp = tmp_path_factory.mktemp("exact")
+    spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 2, "coverage_margin_m": margin}, "flight": {"cross_hatch": cross}},
+                     rings=random_polygon(kind, seed, size))
+    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
+    view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
+    ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
+    assert side_overlaps(view, ev.footprints) == reference_side_overlaps(view, ev.footprints)
+    s = ev.settings
+    args = (view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
+    assert repr(propose_gcps(*args)) == repr(reference_propose_gcps(*args))
