@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 import aerosurvey.plan.planner as planner
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
-from aerosurvey.plan.route import Kinematics, path_time
-from aerosurvey.plan.sorties import Splitter, _CopterTime, _RouteSegments, _segments, split
+from aerosurvey.plan.route import CopterTime, Kinematics, RouteSegments, kept_segments, path_time
+from aerosurvey.plan.sorties import Splitter, split
 from aerosurvey.spec import load_spec
 from conftest import REPO, make_spec, write_geojson
 from sorties_reference import ReferenceSplitter, reference_split
@@ -47,7 +47,7 @@ def _polyline(x0: float, y0: float, moves: list[tuple[float, float]]) -> np.ndar
        cut=st.tuples(st.floats(0, 0.999), st.floats(0, 0.999)), pad=st.tuples(st.lists(_move, max_size=5), st.lists(_move, max_size=5)),
        speed=st.floats(2.0, 20.0), accel=st.floats(0.5, 5.0), jerk=st.sampled_from([0.0, 1.0, 5.0]))
 def test_copter_time_by_parts_is_path_time(start, moves, cut, pad, speed, accel, jerk):
-    """Head, a slice of a longer route and tail summed by _CopterTime: path_time of the whole, bit for bit."""
+    """Head, a slice of a longer route and tail summed by CopterTime: path_time of the whole, bit for bit."""
     kin = Kinematics("copter", speed, accel, 0.0, jerk)
     p = _polyline(*start, moves)
     n = len(p)
@@ -58,37 +58,37 @@ def test_copter_time_by_parts_is_path_time(start, moves, cut, pad, speed, accel,
     after = _polyline(*p[j], pad[1])
     route = np.vstack([before - before[-1] + p[i], p[i + 1:j], after])
     o = len(before) - 1
-    rs = _RouteSegments(route, kin)
-    t = _CopterTime(kin)
-    t.feed(_segments(p[:i + 1]))
+    rs = RouteSegments(route, kin)
+    t = CopterTime(kin)
+    t.feed(kept_segments(p[:i + 1]))
     t.route(rs, rs.kept_before[o], rs.kept_before[o + j - i])
-    t.feed(_segments(p[j:]))
+    t.feed(kept_segments(p[j:]))
     assert t.time() == path_time(p, kin)
     # and the whole in one feed
-    whole = _CopterTime(kin)
-    whole.feed(_segments(p))
+    whole = CopterTime(kin)
+    whole.feed(kept_segments(p))
     assert whole.time() == path_time(p, kin)
 
 
 def test_a_turn_of_exactly_30_degrees_is_no_corner():
     """A turn of exactly 30° (45° then 75.0°, as numpy computes the directions) is flown through, as in path_time."""
     p = np.array([[-100.0, -100.0], [0.0, 0.0], [0.5, 1.8660254037844388], [200.0, 0.0]])
-    lengths, angles = _segments(p)
+    lengths, angles = kept_segments(p)
     assert angles[:2] == [45.0, 75.0]
-    t = _CopterTime(KIN)
-    t.feed(_segments(p))
+    t = CopterTime(KIN)
+    t.feed(kept_segments(p))
     assert t.time() == path_time(p, KIN)
-    rs = _RouteSegments(p, KIN)
+    rs = RouteSegments(p, KIN)
     assert rs.corners == [2]  # the second segment continues the first stretch
-    by_route = _CopterTime(KIN)
+    by_route = CopterTime(KIN)
     by_route.route(rs, 0, 3)
     assert by_route.time() == path_time(p, KIN)
 
 
-def test_segments_are_path_times_segments():
+def test_segments_are_path_timeskept_segments():
     """_segments keeps and measures what path_time does (a zero-length and a sub-1e-9 segment dropped)."""
     p = np.array([[0.0, 0.0], [0.0, 0.0], [3.0, 4.0], [3.0 + 1e-10, 4.0], [3.0, 10.0]])
-    lengths, angles = _segments(p)
+    lengths, angles = kept_segments(p)
     assert lengths == [5.0, pytest.approx(6.0, abs=1e-9)]
     assert angles == pytest.approx([math.degrees(math.atan2(4, 3)), 90.0])
 

@@ -7,6 +7,7 @@ waypoints in the planning CRS with the photo runs attached, as plain data.
 
 from __future__ import annotations
 
+import bisect
 import heapq
 import math
 from dataclasses import dataclass, replace
@@ -257,6 +258,10 @@ def plane_turn_length(lateral: float, radius: float) -> float:
     return radius * (math.pi + 4 * alpha)
 
 
+#: A copter stops at a corner sharper than this (degrees) and flies on through a gentler one
+CORNER_DEG = 30.0
+
+
 def _straight_time(d: float, k: Kinematics) -> float:
     """Copter from rest to rest over d metres: top speed v, acceleration a, jerk J.
 
@@ -272,7 +277,7 @@ def _straight_time(d: float, k: Kinematics) -> float:
     return 2.0 * math.sqrt(d / a) + ramp
 
 
-def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> float:
+def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = CORNER_DEG) -> float:
     """Flight time along a polyline.
 
     Copter: it stops at every corner sharper than `corner_deg` and flies straight runs
@@ -281,6 +286,10 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
     """
     if len(points) < 2:
         return 0.0
+    if k.vehicle == "copter":  # the battery split times sorties in parts by the same CopterTime
+        timer = CopterTime(k, corner_deg=corner_deg)
+        timer.feed(kept_segments(points))
+        return timer.time()
     seg = np.diff(points, axis=0)
     lengths = np.hypot(seg[:, 0], seg[:, 1])
     keep = lengths > 1e-9
@@ -289,17 +298,6 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
         return 0.0
     ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
     turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
-    if k.vehicle == "copter":
-        # Python floats: the same sums, without numpy's per-scalar cost (this loop runs for every
-        # candidate heading)
-        total, run = 0.0, float(lengths[0])
-        for t, length in zip(turn.tolist(), lengths[1:].tolist()):
-            if t > corner_deg:
-                total += _straight_time(run, k)
-                run = length
-            else:
-                run += length
-        return total + _straight_time(run, k)
     total_len = float(lengths.sum())
     i = 0
     while i < len(turn) - 1:
@@ -311,6 +309,94 @@ def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = 30.0) -> fl
         else:
             i += 1
     return total_len / k.speed_ms
+
+
+#: The segments path_time keeps of a polyline: (lengths, directions in degrees), planning-grid units / grid scale
+Segments = tuple[list[float], list[float]]
+
+
+def kept_segments(points: np.ndarray) -> Segments:
+    """The segments path_time keeps of a polyline (already divided by the grid scale), by
+    the same numpy operations on the same values (np.diff is this subtraction): elementwise, so a
+    segment's length and direction are the same floats whichever polyline it is part of."""
+    d = (points[1:] - points[:-1]).T
+    dx, dy = d[0], d[1]
+    lengths = np.hypot(dx, dy)
+    keep = lengths > 1e-9
+    if not keep.all():
+        dx, dy, lengths = dx[keep], dy[keep], lengths[keep]
+    return lengths.tolist(), np.degrees(np.arctan2(dy, dx)).tolist()
+
+
+class RouteSegments:
+    """The kept segments of the whole runs and the detours between them, in flight order, with
+    path_time's corners, each segment's length flown straight since the last corner (`running`)
+    and, at each corner, the time of the straight stretch it ends (`closed`)."""
+
+    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before")
+
+    def __init__(self, points: np.ndarray, kin: Kinematics):
+        self.lengths, self.angles = kept_segments(points)
+        seg = np.diff(points, axis=0)
+        # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
+        self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > 1e-9)]).tolist()
+        turn = np.abs((np.diff(np.asarray(self.angles)) + 180.0) % 360.0 - 180.0)
+        self.corners: list[int] = (np.flatnonzero(turn > CORNER_DEG) + 1).tolist()
+        self.running: list[float] = []
+        self.closed: dict[int, float] = {}
+        at_corner = set(self.corners)
+        for k, length in enumerate(self.lengths):
+            if k in at_corner:
+                self.closed[k] = _straight_time(self.running[-1], kin)
+            self.running.append(length if k == 0 or k in at_corner else self.running[-1] + length)
+
+
+class CopterTime:
+    """path_time of a copter (path_time is made by it): it stops at every corner sharper than
+    CORNER_DEG and times each straight stretch by _straight_time. Fed in parts, so that
+    the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
+
+    __slots__ = ("kin", "total", "run", "last", "corner_deg")
+
+    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0,
+                 corner_deg: float = CORNER_DEG):
+        self.kin = kin
+        self.corner_deg = corner_deg
+        self.total = total  # the stretches ended so far
+        self.run = run  # flown straight since the last corner (None before the first kept segment)
+        self.last = last  # direction of the last kept segment
+
+    def feed(self, segs: Segments) -> None:
+        for length, ang in zip(*segs):
+            if self.run is None:
+                self.run = length
+            elif abs((ang - self.last + 180.0) % 360.0 - 180.0) > self.corner_deg:
+                self.total += _straight_time(self.run, self.kin)
+                self.run = length
+            else:
+                self.run += length
+            self.last = ang
+
+    def route(self, rs: RouteSegments, k0: int, k1: int) -> None:
+        """Feed the route's kept segments k0..k1-1: the first as any other, then one by one up to
+        the first corner, the stretches between corners by their times, the last by its length."""
+        if k0 >= k1:
+            return
+        self.feed(([rs.lengths[k0]], [rs.angles[k0]]))
+        assert self.run is not None
+        ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
+        for k in range(k0 + 1, rs.corners[ci] if ci < cj else k1):
+            self.run += rs.lengths[k]
+        if ci < cj:
+            self.total += _straight_time(self.run, self.kin)
+            for c in rs.corners[ci + 1:cj]:
+                self.total += rs.closed[c]
+            self.run = rs.running[k1 - 1]
+        self.last = rs.angles[k1 - 1]
+
+    def time(self) -> float:
+        return 0.0 if self.run is None else self.total + _straight_time(self.run, self.kin)
+
 
 
 #: A copter lands its last metres slowly (ArduCopter: below LAND_ALT_LOW = 10 m at LAND_SPEED = 0.5 m/s).

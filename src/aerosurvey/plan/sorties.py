@@ -13,7 +13,6 @@ descent at their rates; energy = time × power when the battery is given in Wh.
 
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass
 
@@ -21,7 +20,19 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Detours, Kinematics, Run, _straight_time, climb_out_path, clip_approach, descent_time, path_time
+from aerosurvey.plan.route import (
+    CopterTime,
+    Detours,
+    Kinematics,
+    RouteSegments,
+    Run,
+    Segments,
+    climb_out_path,
+    clip_approach,
+    descent_time,
+    kept_segments,
+    path_time,
+)
 from aerosurvey.spec import VehicleSpec
 
 
@@ -110,23 +121,6 @@ def wind_factor(wind_ms: float, speed_ms: float) -> float:
 #: A sortie waypoint's fields (x, y, alt_m, kind, run, station); SortieWaypoints are made for the chosen sorties only
 _Wp = tuple[float, float, float, str, int, str]
 _XY = tuple[float, float]
-#: The segments route.path_time keeps of a polyline: (lengths, directions in degrees), planning-grid units / grid scale
-_Segs = tuple[list[float], list[float]]
-
-
-def _segments(points: np.ndarray) -> _Segs:
-    """The segments route.path_time keeps of a polyline (already divided by the grid scale), by
-    the same numpy operations on the same values (np.diff is this subtraction): elementwise, so a
-    segment's length and direction are the same floats whichever polyline it is part of."""
-    d = (points[1:] - points[:-1]).T
-    dx, dy = d[0], d[1]
-    lengths = np.hypot(dx, dy)
-    keep = lengths > 1e-9
-    if not keep.all():
-        dx, dy, lengths = dx[keep], dy[keep], lengths[keep]
-    return lengths.tolist(), np.degrees(np.arctan2(dy, dx)).tolist()
-
-
 class _Piece:
     """Stations lo..hi of one run as a sortie flies them (made once for each)."""
 
@@ -140,75 +134,6 @@ class _Piece:
         self.starts = sum(1 for w in wps if w[3] == "line_start")
 
 
-class _RouteSegments:
-    """The kept segments of the whole runs and the detours between them, in flight order, with
-    path_time's corners, each segment's length flown straight since the last corner (`running`)
-    and, at each corner, the time of the straight stretch it ends (`closed`)."""
-
-    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before")
-
-    def __init__(self, points: np.ndarray, kin: Kinematics):
-        self.lengths, self.angles = _segments(points)
-        seg = np.diff(points, axis=0)
-        # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
-        self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > 1e-9)]).tolist()
-        turn = np.abs((np.diff(np.asarray(self.angles)) + 180.0) % 360.0 - 180.0)
-        self.corners: list[int] = (np.flatnonzero(turn > _CopterTime.CORNER_DEG) + 1).tolist()
-        self.running: list[float] = []
-        self.closed: dict[int, float] = {}
-        at_corner = set(self.corners)
-        for k, length in enumerate(self.lengths):
-            if k in at_corner:
-                self.closed[k] = _straight_time(self.running[-1], kin)
-            self.running.append(length if k == 0 or k in at_corner else self.running[-1] + length)
-
-
-class _CopterTime:
-    """route.path_time of a copter, summed in the same order, term by term: it stops at every corner
-    sharper than 30° and times each straight stretch by route._straight_time. Fed in parts, so that
-    the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
-
-    __slots__ = ("kin", "total", "run", "last")
-    CORNER_DEG = 30.0  # path_time's default
-
-    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0):
-        self.kin = kin
-        self.total = total  # the stretches ended so far
-        self.run = run  # flown straight since the last corner (None before the first kept segment)
-        self.last = last  # direction of the last kept segment
-
-    def feed(self, segs: _Segs) -> None:
-        for length, ang in zip(*segs):
-            if self.run is None:
-                self.run = length
-            elif abs((ang - self.last + 180.0) % 360.0 - 180.0) > self.CORNER_DEG:
-                self.total += _straight_time(self.run, self.kin)
-                self.run = length
-            else:
-                self.run += length
-            self.last = ang
-
-    def route(self, rs: _RouteSegments, k0: int, k1: int) -> None:
-        """Feed the route's kept segments k0..k1-1: the first as any other, then one by one up to
-        the first corner, the stretches between corners by their times, the last by its length."""
-        if k0 >= k1:
-            return
-        self.feed(([rs.lengths[k0]], [rs.angles[k0]]))
-        assert self.run is not None
-        ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
-        for k in range(k0 + 1, rs.corners[ci] if ci < cj else k1):
-            self.run += rs.lengths[k]
-        if ci < cj:
-            self.total += _straight_time(self.run, self.kin)
-            for c in rs.corners[ci + 1:cj]:
-                self.total += rs.closed[c]
-            self.run = rs.running[k1 - 1]
-        self.last = rs.angles[k1 - 1]
-
-    def time(self) -> float:
-        return 0.0 if self.run is None else self.total + _straight_time(self.run, self.kin)
-
-
 class Splitter:
     """Builds and costs candidate sorties over a planned route.
 
@@ -217,7 +142,7 @@ class Splitter:
     hundreds of sorties that share these parts (550 for the Obrataň example), so each piece is made
     once, the way from a launch point through the first piece into the route (the head) and out of
     the route through the last piece home (the tail) are measured once, and a copter's time along
-    the whole runs between is summed from stretches timed once (_RouteSegments). The sums are
+    the whole runs between is summed from stretches timed once (RouteSegments). The sums are
     route.path_time's, term by term in the same order, so the costs are the floats timing each
     sortie's whole polyline gives (tests/test_sorties_exact.py compares them)."""
 
@@ -258,13 +183,13 @@ class Splitter:
             self.route_wps.extend((w.x, w.y, w.alt_m, w.kind, w.run, w.station) for w in self.by_run.get(r, []))
         self.route_alts = [w[2] for w in self.route_wps]
         self.route_starts: list[int] = np.cumsum([0, *(w[3] == "line_start" for w in self.route_wps)]).tolist()
-        self._route_segments: _RouteSegments | None = None
+        self._route_segments: RouteSegments | None = None
         self._pieces: dict[tuple[int, int, int], _Piece] = {}
         self._out: dict[tuple[int, int], list[_XY]] = {}
         self._back: dict[tuple[int, int], list[_XY]] = {}
         self._heads: dict[tuple[int, int, bool], tuple[float, float | None, float]] = {}
         self._highest_in: dict[tuple[int, int], list[float]] = {}
-        self._tails: dict[tuple[int, int, int], _Segs] = {}
+        self._tails: dict[tuple[int, int, int], Segments] = {}
         self._costs: dict[tuple[int, int], tuple[float, int, float, float, int]] = {}
 
     def _piece(self, r: int, a: int, b: int) -> _Piece:
@@ -345,10 +270,10 @@ class Splitter:
         kh = (li, id(p0), i < j)
         if kh not in self._heads:  # the sum from the start: the same for every sortie with this head
             into = [(self.route_wps[i][0], self.route_wps[i][1])] if i < j else []
-            h = _CopterTime(self.kin)
-            h.feed(_segments(np.asarray([*out_leg, *((w[0], w[1]) for w in p0.wps), *into]) / gs))
+            h = CopterTime(self.kin)
+            h.feed(kept_segments(np.asarray([*out_leg, *((w[0], w[1]) for w in p0.wps), *into]) / gs))
             self._heads[kh] = (h.total, h.run, h.last)
-        t = _CopterTime(self.kin, *self._heads[kh])
+        t = CopterTime(self.kin, *self._heads[kh])
         if i < j:
             rs = self._route()
             t.route(rs, rs.kept_before[i], rs.kept_before[j - 1])
@@ -361,7 +286,7 @@ class Splitter:
             else:
                 start = (self.route_wps[j - 1][0], self.route_wps[j - 1][1]) if i < j else p0.last
                 tail = [start, *((w[0], w[1]) for w in p1.wps), *back_leg]
-            self._tails[kt] = _segments(np.asarray(tail) / gs)
+            self._tails[kt] = kept_segments(np.asarray(tail) / gs)
         t.feed(self._tails[kt])
         return t.time()
 
@@ -371,10 +296,10 @@ class Splitter:
             self._highest_in[(i, j)] = [max(self.route_alts[i:j])] if i < j else []
         return self._highest_in[(i, j)]
 
-    def _route(self) -> _RouteSegments:
+    def _route(self) -> RouteSegments:
         if self._route_segments is None:
             xy = np.asarray([(w[0], w[1]) for w in self.route_wps]).reshape(-1, 2)
-            self._route_segments = _RouteSegments(xy / self.plan.grid_scale, self.kin)
+            self._route_segments = RouteSegments(xy / self.plan.grid_scale, self.kin)
         return self._route_segments
 
     def cost(self, a: int, b: int) -> tuple[float, int, float, float, int]:
