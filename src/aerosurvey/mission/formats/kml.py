@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import Column, float_texts, join_rows
+from aerosurvey.jsontext import Column, exponent_form, float_texts, join_rows
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.mission.formats.wpl import format_number
 
@@ -343,10 +343,10 @@ def _point_parts(role: str, data: Mapping[str, Sequence[Any]], coords: list[Sequ
             texts = float_texts(col)
         except ValueError:
             return None
-        # repr ends in ".0" for a whole number and has an "e" below 1e-4 and from 1e16 on: those
-        # are written by format_number, as `_placemark` writes them
-        a = np.abs(np.asarray(col, float))
-        for i in np.flatnonzero((a == np.floor(a)) | (a < 1e-4) | (a >= 1e16)).tolist():
+        # repr ends in ".0" for a whole number, or has an exponent: those are written by
+        # format_number, as `_placemark` writes them
+        a = np.asarray(col, float)
+        for i in np.flatnonzero((a == np.floor(a)) | exponent_form(a)).tolist():
             texts[i] = format_number(col[i])
         positions.append(texts)
     n = len(coords[0])
