@@ -123,9 +123,7 @@ class StationTable:
 
     def rows(self) -> list[dict[str, Any]]:
         """The stations as the manifest's JSON rows."""
-        return [{"id": sid, "seq": seq, "line": line, "x": x, "y": y, "lon": lon, "lat": lat, "ground_m": g,
-                 "alt_rel_m": a, "agl_m": agl, "gsd_cm": gsd, "heading_deg": hd}
-                for sid, seq, line, x, y, lon, lat, g, a, agl, gsd, hd in zip(*self.columns)]
+        return [dict(zip(STATION_KEYS, row)) for row in zip(*self.columns)]
 
     def text(self, sep: str) -> str:
         """The rows' JSON text, `sep` between them, as `dumps` writes rows (made from the columns)."""
