@@ -61,13 +61,14 @@ _HOME_NAMES = ("latitude", "longitude", "altitude")
 Polygon = tuple[tuple[float, float], ...]
 
 
-def _finite_or_nan(value: float, where: str) -> float | int | None:
-    """A JSON value for a number: NaN becomes null as QGroundControl writes it, infinity is refused."""
+def _finite_or_nan(value: float, where: str, name: str = "") -> float | int | None:
+    """A JSON value for a number: NaN becomes null as QGroundControl writes it, infinity is
+    refused (the error names `where` and `name`, joined only then: thousands of items pass)."""
     v = float(value)
     if math.isnan(v):
         return None
     if math.isinf(v):
-        raise InputError(f"{where} = {v!r} is not allowed: a finite number (or NaN for 'unset')")
+        raise InputError(f"{where}{' ' + name if name else ''} = {v!r} is not allowed: a finite number (or NaN for 'unset')")
     if v.is_integer() and abs(v) < 2**53:
         return int(v)
     return v
@@ -93,21 +94,6 @@ def _check_item(it: MissionItem, where: str) -> None:
                 raise InputError(f"{where} {name} = {v!r} is not allowed: a position item needs a finite position")
 
 
-def _params(values: tuple[float, ...], where: str) -> list[float | int | None]:
-    """`_finite_or_nan` of the seven values, the names for an error made only when one is infinite."""
-    out: list[float | int | None] = []
-    for v in map(float, values):
-        if v != v:  # NaN
-            out.append(None)
-        elif v - v != 0.0:  # an infinity: its name in the error
-            _finite_or_nan(v, f"{where} {_PARAM_NAMES[len(out)]}")
-        elif v.is_integer() and abs(v) < 2**53:
-            out.append(int(v))
-        else:
-            out.append(v)
-    return out
-
-
 def _item_dict(it: MissionItem, seq: int) -> dict[str, Any]:
     """A SimpleItem as QGroundControl saves it; `seq` (1-based) is also its doJumpId, as in QGC's own files."""
     where = f"mission item {seq}"
@@ -117,7 +103,7 @@ def _item_dict(it: MissionItem, seq: int) -> dict[str, Any]:
         "command": it.command,
         "doJumpId": seq,
         "frame": it.frame,
-        "params": _params((*it.params, it.x, it.y, it.z), where),
+        "params": [_finite_or_nan(v, where, name) for name, v in zip(_PARAM_NAMES, (*it.params, it.x, it.y, it.z))],
         "type": "SimpleItem",
     }
     if it.has_position and it.frame in _ALT_MODE:
