@@ -134,7 +134,8 @@ def exponent_form(a: np.ndarray) -> np.ndarray:
     """Where `repr` writes a float with an exponent: below 1e-4 (but not 0) and from 1e16 on.
     orjson spells those its own way, and KML's numbers are written positionally there."""
     mag = np.abs(a)
-    return (mag >= 1e16) | ((mag < 1e-4) & (mag > 0))
+    out: np.ndarray = (mag >= 1e16) | ((mag < 1e-4) & (mag > 0))
+    return out
 
 
 def _finite_floats(values: Sequence[float] | np.ndarray) -> np.ndarray:
