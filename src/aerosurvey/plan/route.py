@@ -633,6 +633,12 @@ def clip_approach(first: tuple[float, float], lead: tuple[float, float], detours
     """The lead-in point moved towards `first` so that the approach stops `gap_m` short of a zone's margin."""
     if detours.blocked is None:
         return lead
+    # GEOS answers an empty intersection for an approach whose box misses the margins' box: most
+    # lead-ins lie far from every zone, and this is asked for each run of every candidate heading
+    zx0, zy0, zx1, zy1 = detours.blocked.bounds
+    if (max(first[0], lead[0]) < zx0 or min(first[0], lead[0]) > zx1
+            or max(first[1], lead[1]) < zy0 or min(first[1], lead[1]) > zy1):
+        return lead
     approach = shapely.LineString([first, lead])
     hit = shapely.intersection(approach, detours.blocked)
     if hit.is_empty:
@@ -649,20 +655,6 @@ def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
     first = (float(run.station_xy[0, 0]), float(run.station_xy[0, 1]))
     lead = clip_approach(first, run.lead_in_xy, detours, gap_m)
     return run if lead == run.lead_in_xy else replace(run, lead_in_xy=lead)
-
-
-def clip_lead_ins(runs: list[Run], detours: Detours, gap_m: float = 1.0) -> list[Run]:
-    """`clip_lead_in` of every run. Only an approach whose box meets the zones' margins' box
-    can meet them (GEOS answers an empty intersection for disjoint boxes), so only those are
-    clipped one by one; the heading search keeps most lead-ins far from every zone."""
-    if detours.blocked is None or not runs:
-        return list(runs)
-    first = np.array([r.station_xy[0] for r in runs], float)
-    lead = np.array([r.lead_in_xy for r in runs], float)
-    zx0, zy0, zx1, zy1 = detours.blocked.bounds
-    lo, hi = np.minimum(first, lead), np.maximum(first, lead)
-    near = (hi[:, 0] >= zx0) & (lo[:, 0] <= zx1) & (hi[:, 1] >= zy0) & (lo[:, 1] <= zy1)
-    return [clip_lead_in(r, detours, gap_m) if n else r for r, n in zip(runs, near.tolist())]
 
 
 def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb: float,
@@ -698,7 +690,7 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
         runs.extend(pr)
         how.append(chosen)
         here = pr[-1].end_xy
-    runs = clip_lead_ins(runs, detours)
+    runs = [clip_lead_in(r, detours) for r in runs]
     stops = [(i, kind, pt) for i, r in enumerate(runs)
              for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))),
                               ("line_end", r.end_xy))]
