@@ -37,20 +37,15 @@ def station_id(pass_index: int, line: int, station: int) -> str:
     return f"{line_id(pass_index, line)}-S{station + 1:04d}"
 
 
-def station_ids(pass_index: int, line: int, stations: list[int]) -> list[str]:
-    """`station_id` of each of one line's stations (the line's part made once)."""
-    prefix = f"{line_id(pass_index, line)}-S"
-    return [f"{prefix}{s + 1:04d}" for s in stations]
-
-
 def station_ids_of_lines(lines: Iterable[tuple[int, int, list[int]]]) -> list[str]:
-    """`station_ids` of many (pass, line, stations), one after another: each station number's
-    text is made once (a plan has thousands of stations, but only as many numbers as its longest
-    line has stations), then only joined to its line's part."""
+    """`station_id` of each station of many (pass, line, stations), one after another: each
+    station number's text is made once (a plan has thousands of stations, but only as many
+    numbers as its longest line has stations), then only joined to its line's part. Stations
+    count from 0 (ValueError for a negative one)."""
     lines = list(lines)
     used = [st for _, _, st in lines if st]
-    if any(min(st) < 0 for st in used):  # not a planner's numbers: made one by one
-        return [i for p, line, st in lines for i in station_ids(p, line, st)]
+    if any(min(st) < 0 for st in used):
+        raise ValueError(f"station ids: station numbers count from 0, got {min(min(st) for st in used)}")
     texts = [f"{s + 1:04d}" for s in range(1 + max((max(st) for st in used), default=-1))]
     out: list[str] = []
     for p, line, stations in lines:

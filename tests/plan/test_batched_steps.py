@@ -186,12 +186,16 @@ def test_no_stations_no_strips() -> None:  # the former code needed one (the cal
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.tuples(st.integers(1, 3), st.integers(0, 1500), st.lists(st.integers(-3, 20000), max_size=30)),
+@given(st.lists(st.tuples(st.integers(1, 3), st.integers(0, 1500), st.lists(st.integers(0, 20000), max_size=30)),
                 max_size=12))
 def test_station_ids_of_many_lines_are_those_of_each_line(lines: list[tuple[int, int, list[int]]]) -> None:
-    expected = [s for p, line, stations in lines for s in ids.station_ids(p, line, stations)]
-    assert ids.station_ids_of_lines(iter(lines)) == expected
-    assert ids.station_ids_of_lines(lines) == [ids.station_id(p, line, s) for p, line, stations in lines for s in stations]
+    expected = [ids.station_id(p, line, s) for p, line, stations in lines for s in stations]
+    assert ids.station_ids_of_lines(iter(lines)) == ids.station_ids_of_lines(lines) == expected
+
+
+def test_station_ids_refuse_a_negative_station() -> None:
+    with pytest.raises(ValueError, match="count from 0, got -1"):
+        ids.station_ids_of_lines([(1, 0, [0, 1]), (1, 1, [-1])])
 
 
 @settings(max_examples=60, deadline=None)

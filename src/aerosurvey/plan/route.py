@@ -277,17 +277,17 @@ def _straight_time(d: float, k: Kinematics) -> float:
     return 2.0 * math.sqrt(d / a) + ramp
 
 
-def path_time(points: np.ndarray, k: Kinematics, corner_deg: float = CORNER_DEG) -> float:
+def path_time(points: np.ndarray, k: Kinematics) -> float:
     """Flight time along a polyline.
 
-    Copter: it stops at every corner sharper than `corner_deg` and flies straight runs
+    Copter: it stops at every corner sharper than CORNER_DEG and flies straight runs
     with the acceleration model. Plane: constant speed; a reversal between two lines is
     flown as the turn of :func:`plane_turn_length` instead of the straight connection.
     """
     if len(points) < 2:
         return 0.0
     if k.vehicle == "copter":  # the battery split times sorties in parts by the same CopterTime
-        timer = CopterTime(k, corner_deg=corner_deg)
+        timer = CopterTime(k)
         timer.feed(kept_segments(points))
         return timer.time()
     seg = np.diff(points, axis=0)
@@ -356,12 +356,10 @@ class CopterTime:
     CORNER_DEG and times each straight stretch by _straight_time. Fed in parts, so that
     the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
 
-    __slots__ = ("kin", "total", "run", "last", "corner_deg")
+    __slots__ = ("kin", "total", "run", "last")
 
-    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0,
-                 corner_deg: float = CORNER_DEG):
+    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0):
         self.kin = kin
-        self.corner_deg = corner_deg
         self.total = total  # the stretches ended so far
         self.run = run  # flown straight since the last corner (None before the first kept segment)
         self.last = last  # direction of the last kept segment
@@ -370,7 +368,7 @@ class CopterTime:
         for length, ang in zip(*segs):
             if self.run is None:
                 self.run = length
-            elif abs((ang - self.last + 180.0) % 360.0 - 180.0) > self.corner_deg:
+            elif abs((ang - self.last + 180.0) % 360.0 - 180.0) > CORNER_DEG:
                 self.total += _straight_time(self.run, self.kin)
                 self.run = length
             else:
