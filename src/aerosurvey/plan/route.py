@@ -586,13 +586,19 @@ class Detours:
         if self.blocked is None or not legs:
             return np.ones(legs, bool)
         pts = np.asarray(points, float)
-        hit: np.ndarray = shapely.intersects(self.blocked, shapely.linestrings(np.stack([pts[:-1], pts[1:]], axis=1)))
-        return ~hit
+        return ~self._hits(pts[:-1], pts[1:])
+
+    def _hits(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Whether each leg starts[k] → ends[k] ((m, 2) arrays) meets the zones' margins: one GEOS call."""
+        hit: np.ndarray = shapely.intersects(self.blocked, shapely.linestrings(np.stack([starts, ends], axis=1)))
+        return hit
 
     def path(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
         """Intermediate points of the shortest way from a to b that stays out of the zones."""
-        if self.clear(a, b):
-            return []
+        return [] if self.clear(a, b) else self.way_round(a, b)
+
+    def way_round(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
+        """`path` of a leg already known to cross the zones: the search on the corners' graph."""
         nodes = [a, b, *self.nodes]
         dist = {0: 0.0}
         prev: dict[int, int] = {}
@@ -610,8 +616,8 @@ class Detours:
                       for nd in (d + math.dist(nodes[i], nodes[j]),) if nd < dist.get(j, math.inf)]
             if not better:
                 continue
-            legs = np.array([(nodes[i], nodes[j]) for j, _ in better], float)
-            for (j, nd), hit in zip(better, shapely.intersects(self.blocked, shapely.linestrings(legs)).tolist()):
+            ends = np.array([nodes[j] for j, _ in better], float)
+            for (j, nd), hit in zip(better, self._hits(np.broadcast_to(nodes[i], ends.shape), ends).tolist()):
                 if not hit:
                     dist[j] = nd
                     prev[j] = i
@@ -697,7 +703,7 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
     wps: list[Waypoint] = []
     for m, (i, kind, pt) in enumerate(stops):
         if m and not clear[m - 1]:
-            for d in detours.path(stops[m - 1][2], pt):
+            for d in detours.way_round(stops[m - 1][2], pt):
                 wps.append(Waypoint(d[0], d[1], "detour", -1))
         wps.append(Waypoint(pt[0], pt[1], kind, i))
     return Route(tuple(runs), tuple(wps), tuple(how))
