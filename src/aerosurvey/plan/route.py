@@ -119,24 +119,22 @@ def _run_ends(p: Pass, legs: list[Leg], lead_in: float) -> np.ndarray:
 
 def _build_runs(p: Pass, legs: list[Leg], lead_in: float, offsets: dict[tuple[int, int], int]) -> list[Run]:
     """The runs of the legs, in flight order: each line's stations (x0 + j·B) in the planning
-    CRS, its lead-in `lead_in` before the first and its end half a base after the last. Every
-    leg is turned out of the line frame in one numpy step."""
+    CRS, its lead-in `lead_in` before the first and its end half a base after the last (those
+    two by `_run_ends`, as the candidate orders were costed). Every leg's stations are turned out
+    of the line frame in one numpy step."""
     if not legs:
         return []
     fr = p.frame
     leg, j = _leg_stations(legs)
-    x0, _, base, v, d = _leg_arrays(legs)
-    n_st = len(j)
-    # one array of every station, then each leg's lead-in and end after them
-    xs = x0[leg] + base[leg] * j
+    x0, _, base, v, _ = _leg_arrays(legs)
+    X, Y = fr.from_frame(x0[leg] + base[leg] * j, v[leg])
+    xy = np.column_stack([X, Y])
     first_at = np.searchsorted(leg, np.arange(len(legs)))
     last_at = np.searchsorted(leg, np.arange(len(legs)), side="right") - 1
-    u = np.concatenate([xs, xs[first_at] - d * lead_in, xs[last_at] + d * base / 2.0])
-    X, Y = fr.from_frame(u, np.concatenate([v[leg], v, v]))
-    xy = np.column_stack([X[:n_st], Y[:n_st]])
     idx = np.array([offsets[(s.line, s.part)] for s, _ in legs], np.int64)[leg] + j
-    lead_x, lead_y = X[n_st:n_st + len(legs)].tolist(), Y[n_st:n_st + len(legs)].tolist()
-    end_x, end_y = X[n_st + len(legs):].tolist(), Y[n_st + len(legs):].tolist()
+    ends = _run_ends(p, legs, lead_in).reshape(-1, 3, 2)
+    lead_x, lead_y = ends[:, 0, 0].tolist(), ends[:, 0, 1].tolist()
+    end_x, end_y = ends[:, 2, 0].tolist(), ends[:, 2, 1].tolist()
     runs = []
     for i, ((s, direction), a, b) in enumerate(zip(legs, first_at.tolist(), last_at.tolist())):
         heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
