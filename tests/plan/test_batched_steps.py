@@ -372,3 +372,11 @@ def test_strip_offsets_on_the_edge_are_left_to_the_full_check(monkeypatch: pytes
     # short of strips with the first count of lines: strip_offsets adds lines
     assert _same_bits(strip_offsets_many(np.array([0.0]), np.array([0.0]), 10.0, 5.0, 2)[0], alone(0.0, 0.0, 10.0, 5.0, 2))
     assert strip_offsets_many(np.zeros(0), np.zeros(0), 10.0, 5.0, 2) == []
+
+
+@given(st.lists(st.floats(0.0, 2000.0), max_size=20), st.floats(1.0, 500.0))
+def test_plane_turn_lengths_are_plane_turn_length(lateral: list[float], radius: float) -> None:
+    from aerosurvey.plan.route import plane_turn_length, plane_turn_lengths
+
+    many = plane_turn_lengths(np.array(lateral), radius).tolist()
+    assert many == pytest.approx([plane_turn_length(d, radius) for d in lateral], rel=1e-12, abs=1e-9)

@@ -256,6 +256,15 @@ def plane_turn_length(lateral: float, radius: float) -> float:
     return radius * (math.pi + 4 * alpha)
 
 
+def plane_turn_lengths(lateral: np.ndarray, radius: float) -> np.ndarray:
+    """`plane_turn_length` of many non-negative distances at once (numpy's arccos may differ
+    from math.acos by an ulp: for bounds, not for the route's own times)."""
+    d = np.asarray(lateral, float)
+    bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + d) / (4.0 * radius))))
+    out: np.ndarray = np.where(d >= 2.0 * radius, math.pi * radius + (d - 2.0 * radius), bulb)
+    return out
+
+
 #: A copter stops at a corner sharper than this (degrees) and flies on through a gentler one
 CORNER_DEG = 30.0
 
@@ -516,10 +525,7 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     as_laid = (np.where(first, known_before, into) & np.where(last, known_after, out) & (lead_in > 1e-6))
     short = lead_in + base / 2.0 + 2.0 * plane_turn_length(0.0, k.turn_radius_m)
     length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
-    radius = k.turn_radius_m
-    bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + dv) / (4.0 * radius))))
-    turn = np.where(dv >= 2.0 * radius, math.pi * radius + (dv - 2.0 * radius), bulb)  # plane_turn_length
-    length += per_heading(i, np.where(gentle, turn, dv))
+    length += per_heading(i, np.where(gentle, plane_turn_lengths(dv, k.turn_radius_m), dv))
     return length / speed * (1.0 - 1e-7)
 
 
