@@ -27,6 +27,8 @@ MISSION_ENDS = ("rtl", "land")
 
 @dataclass(frozen=True)
 class AreaSpec:
+    """The spec's [area] table: the area (a vector file, or WKT in `wkt_crs`), the exclusion zone files, the launch point."""
+
     file: Path | None
     wkt: str | None
     wkt_crs: str
@@ -36,6 +38,8 @@ class AreaSpec:
 
 @dataclass(frozen=True)
 class CameraSpec:
+    """The spec's [camera] table: the camera (from the database or given), its mount, how it is triggered, its limits."""
+
     camera: Camera
     mount: str
     trigger: str  # distance: autopilot by distance; time: autopilot by interval; camera: own intervalometer
@@ -47,6 +51,8 @@ class CameraSpec:
 
 @dataclass(frozen=True)
 class Targets:
+    """The spec's [targets] table: GSD or height, overlaps, images beyond the boundary, the coverage margin."""
+
     gsd_m: float | None
     height_m: float | None
     forward_overlap: float
@@ -58,6 +64,8 @@ class Targets:
 
 @dataclass(frozen=True)
 class VehicleSpec:
+    """The spec's [vehicle] table: copter or plane, firmware, speeds, turn and climb performance, the height cap."""
+
     type: str
     firmware: str
     cruise_speed_ms: float
@@ -71,6 +79,8 @@ class VehicleSpec:
 
 @dataclass(frozen=True)
 class FlightSpec:
+    """The spec's [flight] table: heading, cross-hatch, zone margin, how the mission ends, lead-ins, landing approach."""
+
     heading_deg: float | None  # None: choose the fastest
     cross_hatch: bool
     exclusion_margin_m: float
@@ -84,6 +94,8 @@ class FlightSpec:
 
 @dataclass(frozen=True)
 class TerrainSpec:
+    """The spec's [terrain] table: the DEM, how heights follow it, and the clearances kept."""
+
     dem: Path | None
     mode: str
     tolerance_m: float
@@ -107,6 +119,8 @@ class BatterySpec:
 
 @dataclass(frozen=True)
 class ConditionsSpec:
+    """The spec's [conditions] table: the planned time window and the lowest sun elevation allowed in it."""
+
     start: dt.datetime | None
     end: dt.datetime | None
     min_sun_elevation_deg: float
@@ -122,6 +136,9 @@ class LimitsSpec:
 
 @dataclass(frozen=True)
 class MissionSpec:
+    """A whole mission spec as `load_spec` reads it from TOML: every table checked, defaults filled in,
+    file paths taken relative to the spec's folder."""
+
     name: str
     crs: str  # "auto" or an authority string such as "EPSG:5514"
     area: AreaSpec

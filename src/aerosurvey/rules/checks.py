@@ -36,6 +36,8 @@ class Where(TypedDict, total=False):
 
 @dataclass(frozen=True)
 class Outcome:
+    """What a check found: its status, the measured and required values as text, evidence and where."""
+
     status: str  # pass, fail, info, not-checkable
     measured: str
     required: str
@@ -78,6 +80,8 @@ CheckFn = Callable[[PlanView, Params, "Evidence"], Outcome]
 
 @dataclass(frozen=True)
 class Check:
+    """A check the profiles may name: the parameters it takes (and their defaults) and the function that runs it."""
+
     params: dict[str, type | tuple[type, ...]]
     run: CheckFn
     defaults: dict[str, ParamValue] = field(default_factory=dict)

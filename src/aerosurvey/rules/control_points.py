@@ -25,6 +25,8 @@ Role = Literal["gcp", "check"]
 
 @dataclass(frozen=True)
 class ControlPoint:
+    """A proposed ground control or check point in the planning CRS, with the number of photos that see it."""
+
     id: str
     role: Role
     x: float

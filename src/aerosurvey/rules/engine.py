@@ -130,6 +130,8 @@ class RuleRecord(TypedDict):
 
 @dataclass(frozen=True)
 class RuleResult:
+    """One rule of one profile evaluated on a plan: the rule's words and its check's outcome."""
+
     profile: str
     rule: str
     statement: str

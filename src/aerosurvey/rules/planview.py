@@ -21,8 +21,11 @@ from aerosurvey.area import transformer
 from aerosurvey.errors import InputError
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PlanView:
+    """A plan as the rules read it, from its manifest and plan.geojson: the area and zones in the planning CRS,
+    and each station's position, height above ground and heading. Compared by identity: it holds arrays."""
+
     manifest: dict[str, Any]
     crs: str
     area: BaseGeometry  # planning CRS

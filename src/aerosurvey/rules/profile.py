@@ -25,6 +25,8 @@ ParamValue = int | float | str
 
 @dataclass(frozen=True)
 class Rule:
+    """One rule of a profile: what it states, the check that measures it, its severity, source and parameters."""
+
     id: str
     statement: str
     check: str
@@ -35,6 +37,8 @@ class Rule:
 
 @dataclass(frozen=True)
 class Profile:
+    """A rule profile (a TOML file: the Czech land consolidation rules, ASPRS …) and its rules."""
+
     id: str
     name: str
     source: str
