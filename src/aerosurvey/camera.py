@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
 import tomllib
@@ -188,6 +187,8 @@ def get_camera(cam_id: str) -> Camera:
     key = str(cam_id).strip().lower().replace(" ", "-").replace("_", "-")
     if key in db:
         return db[key]
+    import difflib  # only for this error: 1.3 ms of every `aerosurvey plan` otherwise
+
     close = [c for c in db if key and (key in c or c in key)]
     close += [c for c in difflib.get_close_matches(key, list(db), n=5, cutoff=0.6) if c not in close]
     hint = f"; did you mean {', '.join(close[:5])}?" if close else "; `aerosurvey cameras` lists them"
