@@ -144,14 +144,14 @@ def station_table(plan: Plan) -> StationTable:
         r = np.round(np.asarray(a, float), nd)
         finite = np.isfinite(r)
         if finite.all():  # most columns: no per-value test
-            return Column(r.tolist())
+            return Column.of_array(r)
         if not finite.any():  # the ground without a DEM
             return Column((None,) * len(r))
         return Column(None if not math.isfinite(v) else v for v in r.tolist())
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
     gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
-    return StationTable((Column(st.ids), Column(range(1, len(st.ids) + 1)), Column([run_ids[r] for r in st.run.tolist()]),
+    return StationTable((Column(st.ids), Column.of_array(np.arange(1, len(st.ids) + 1)), Column.of_codes(run_ids, st.run),
                          col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
                          col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3)))
 

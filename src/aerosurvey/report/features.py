@@ -15,7 +15,7 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.gcpause import collector_paused
-from aerosurvey.jsontext import dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
+from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan import photogrammetry as pg
@@ -132,8 +132,8 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
     # the table's columns are rounded as these were (lon, lat 8 decimals, heights 2, heading 3), and finite (above)
     col = table.column
     stations = PointLayer(col("id"), (
-        ("role", ("station",) * n), ("id", col("id")), ("seq", col("seq")),
-        ("line", tuple([line_of_run[r] for r in st.run.tolist()])),
+        ("role", Column.of_codes(("station",), np.zeros(n, np.intp))), ("id", col("id")), ("seq", col("seq")),
+        ("line", Column.of_codes(line_of_run, st.run)),
         ("alt_rel_m", col("alt_rel_m")), ("agl_m", col("agl_m")), ("heading_deg", col("heading_deg"))),
         col("lon"), col("lat"))
     for i, part in enumerate(plan.coverage.polygons(), start=1):
