@@ -71,11 +71,12 @@ _CONTROL = re.compile(r"\\u00[01]|\\[bf]")
 def _double_indent(text: str, strings_have_double_spaces: bool) -> str:
     """JSON text indented by 2 spaces a level, indented by 4. Its strings hold no raw newline
     or tab (JSON escapes them), so a line starts with its indent. Unless a string holds two
-    spaces in a row, every pair of spaces is indent: each becomes a tab, and `expandtabs(4)`
-    makes a line's k tabs 4k spaces (measured on the 1,000 ha plan's mission.plan, 6,400
-    lines: 0.8 ms, against 1.7 ms line by line, which is the way when a string does)."""
+    spaces in a row, every pair of spaces is indent, and a line's k pairs become 2k by one
+    replace (measured on the 1,000 ha plan's mission.plan, 6,400 lines: 0.5 ms, against 0.8 ms
+    for pairs made tabs and `expandtabs(4)`, and 1.7 ms line by line, which is the way when a
+    string holds two spaces)."""
     if not strings_have_double_spaces:
-        return text.replace("  ", "\t").expandtabs(4)
+        return text.replace("  ", "    ")
     return "\n".join([line[:len(line) - len(line.lstrip(" "))] + line for line in text.split("\n")])
 
 

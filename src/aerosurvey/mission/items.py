@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import chain
 from operator import attrgetter
 from typing import TYPE_CHECKING
 
@@ -86,7 +87,7 @@ def item_columns(items: Sequence[MissionItem]) -> tuple[list[int], list[int], np
     frames = [it.frame for it in items]
     numbers = list(map(_NUMBERS, items))
     if not items or (set(map(type, commands)) | set(map(type, frames))) != {int} \
-            or not {float, int}.issuperset({type(v) for row in numbers for v in row}) \
+            or not {float, int}.issuperset(map(type, chain.from_iterable(numbers))) \
             or not (0 <= min(commands) and max(commands) <= 65535 and 0 <= min(frames) and max(frames) <= 255):
         return None
     import numpy as np  # here: this module is on the CLI's start-up path (commands/upload.py), numpy is not
