@@ -132,3 +132,8 @@ def test_a_layer_of_array_and_code_columns_is_written_as_its_features_would_be(l
 @given(st.lists(st.text(alphabet=st.sampled_from('aZ-&<>"\' ž\t\n\r\x07\x1f\x7f\ud800\ufffe'), max_size=5), max_size=8))
 def test_escaped_all_is_each_text_escaped(texts: list[str]) -> None:
     assert kml._escaped_all(texts) == [kml._escaped(t, "x") for t in texts]
+
+
+@given(st.text(alphabet=st.sampled_from('aZ-&<>"\' ž\t\n\r\x00\x07\x0b\x1f\x7f\ud800\udfff\ufffe\uffff'), max_size=8))
+def test_mark_is_translate(text: str) -> None:
+    assert kml._mark(text) == text.translate(kml._ESC_MARK)
