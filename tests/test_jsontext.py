@@ -17,6 +17,7 @@ from aerosurvey.jsontext import (
     dumps_indented,
     float_texts,
     join_rows,
+    one_value,
     pair_texts,
     quoted_as_is,
     rows_text,
@@ -184,3 +185,65 @@ def test_pair_texts_spells_every_number_as_json(odd: float) -> None:
 @given(st.lists(st.text(max_size=6), max_size=8))
 def test_quoted_as_is_says_when_json_escapes_nothing(values: list[str]) -> None:
     assert quoted_as_is(values) == all(json.dumps(v, ensure_ascii=False) == f'"{v}"' for v in values)
+
+
+@given(st.lists(rounded | st.sampled_from([0.0, -0.0, 1e-4, 123456789.12345678]), max_size=40),
+       st.lists(rounded | st.just(-0.0), max_size=40))
+def test_pair_texts_without_exponents_is_json(xs: list[float], ys: list[float]) -> None:
+    """The orjson path (no value written with an exponent), against json's own pairs."""
+    n = min(len(xs), len(ys))
+    x, y = np.array(xs[:n], float), np.array(ys[:n], float)
+    assert pair_texts(x, y) == [json.dumps([p, q], separators=(",", ":"))[1:-1] for p, q in zip(xs[:n], ys[:n])]
+
+
+@given(st.lists(finite | rounded | st.just(-0.0), max_size=40))
+def test_a_column_of_a_float_array_writes_as_json(values: list[float]) -> None:
+    a = np.array(values, float)
+    col = Column.of_array(a)
+    assert col == tuple(values)
+    assert col.kinds == frozenset(map(type, values))
+    assert value_texts(col) == float_texts(col) == [json.dumps(v) for v in values]
+    assert value_texts(Column.of_array(np.array([values, values]).T[:, 0])) == [json.dumps(v) for v in values]  # strided
+
+
+@given(st.lists(st.integers(-2**63, 2**63 - 1), max_size=40))
+def test_a_column_of_an_int_array_writes_as_json(values: list[int]) -> None:
+    col = Column.of_array(np.array(values, dtype=np.int64))
+    assert col == tuple(values)
+    assert all(type(v) is int for v in col)
+    assert value_texts(col) == [json.dumps(v) for v in values]
+
+
+@pytest.mark.parametrize("a", [np.array([1.0, math.nan]), np.array([math.inf]), np.array([[1.0]]), np.array(["a"])])
+def test_a_column_of_an_array_refuses_what_it_cannot_write(a: np.ndarray) -> None:
+    with pytest.raises(ValueError):
+        Column.of_array(a)
+
+
+@given(st.lists(st.text(max_size=6), min_size=1, max_size=5).flatmap(
+    lambda names: st.tuples(st.just(names), st.lists(st.integers(0, len(names) - 1), max_size=30))))
+def test_a_column_of_codes_writes_its_names_as_json(case: tuple[list[str], list[int]]) -> None:
+    names, codes = case
+    col = Column.of_codes(names, np.array(codes, dtype=np.int64))
+    assert col == tuple(names[c] for c in codes)
+    assert col.kinds == frozenset(map(type, col))
+    assert value_texts(col) == string_texts(col) == [json.dumps(names[c], ensure_ascii=False) for c in codes]
+    assert one_value(col) == (names[0] if len(names) == 1 and codes else None)
+
+
+def test_one_value_is_only_for_a_column_of_one_name() -> None:
+    assert one_value(Column.of_codes(["ž"], np.zeros(3, int))) == "ž"
+    assert one_value(Column(["a", "a"])) is None  # not known without reading every value
+    assert one_value(["a"]) is None
+    with pytest.raises(ValueError):
+        Column.of_codes([1], np.zeros(1, int))  # type: ignore[list-item]
+
+
+@given(st.lists(st.lists(st.text(max_size=3), min_size=2, max_size=2), max_size=12), st.text(max_size=2),
+       st.lists(st.sampled_from(["c0", "c1", "a", "b", ""]), max_size=7))
+def test_join_rows_with_texts_side_by_side(rows: list[list[str]], sep: str, layout: list[str]) -> None:
+    """Texts next to each other, at the ends or alone (joined before the rows are): the plain join of rows."""
+    cols = [list(c) for c in zip(*rows)] or [[], []]
+    parts: list[str | list[str]] = [cols[int(p[1])] if p in ("c0", "c1") else p for p in layout]
+    expected = sep.join("".join(p if isinstance(p, str) else p[i] for p in parts) for i in range(len(rows)))
+    assert join_rows(parts, len(rows), sep) == expected

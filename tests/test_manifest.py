@@ -265,3 +265,17 @@ def test_docs_table_is_generated_from_the_schema():
     doc = (REPO / "docs" / "manifest.md").read_text(encoding="utf-8")
     assert schemas.markdown_table("manifest") in doc
     assert f"version {mf.SCHEMA_VERSION}" in doc.splitlines()[0]
+
+
+def test_run_stations_are_each_runs_first_last_and_count(small_plan):
+    """Against a scan of the stations for each run (the way the lines were found before)."""
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.spec import load_spec
+
+    plan = plan_from_files(load_spec(small_plan.parent / "spec.toml"))
+    expected = []
+    for i in range(len(plan.route.runs)):
+        sel = [k for k, r in enumerate(plan.stations.run.tolist()) if r == i]
+        expected.append((sel[0], sel[-1], len(sel)))
+    assert mf.run_stations(plan) == expected
+    assert len(expected) > 3

@@ -112,6 +112,20 @@ def _coverage(plan: Plan) -> dict[str, Any]:
             "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
 
 
+def run_stations(plan: Plan) -> list[tuple[int, int, int]]:
+    """Each run's first and last station (their indexes) and how many it has. Stations are in
+    flight order, so a stable sort by run keeps their order within a run: one sort, not a scan
+    of every station for each run (~0.6 ms on the 1,000 ha plan's 64 runs). A run without
+    stations is an IndexError, as its first station is not there."""
+    n_runs = len(plan.route.runs)
+    order = np.argsort(plan.stations.run, kind="stable").tolist()
+    ends = np.cumsum(np.bincount(plan.stations.run, minlength=n_runs)).tolist()
+    starts = [0, *ends[:-1]]
+    if any(e == s for s, e in zip(starts[:n_runs], ends[:n_runs])):
+        raise IndexError("a run has no stations")
+    return [(order[s], order[e - 1], e - s) for s, e in zip(starts[:n_runs], ends[:n_runs])]
+
+
 STATION_KEYS = ("id", "seq", "line", "x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg")
 
 
@@ -144,14 +158,14 @@ def station_table(plan: Plan) -> StationTable:
         r = np.round(np.asarray(a, float), nd)
         finite = np.isfinite(r)
         if finite.all():  # most columns: no per-value test
-            return Column(r.tolist())
+            return Column.of_array(r)
         if not finite.any():  # the ground without a DEM
             return Column((None,) * len(r))
         return Column(None if not math.isfinite(v) else v for v in r.tolist())
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
     gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
-    return StationTable((Column(st.ids), Column(range(1, len(st.ids) + 1)), Column([run_ids[r] for r in st.run.tolist()]),
+    return StationTable((Column(st.ids), Column.of_array(np.arange(1, len(st.ids) + 1)), Column.of_codes(run_ids, st.run),
                          col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
                          col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3)))
 
@@ -166,12 +180,11 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
     h = plan.heights
     lines = []
     ends = _lonlats(plan, [xy for r in plan.route.runs for xy in (r.lead_in_xy, r.end_xy)])
-    for i, r in enumerate(plan.route.runs):
-        sel = np.flatnonzero(st.run == i)
+    for i, (r, (first, last, photos)) in enumerate(zip(plan.route.runs, run_stations(plan))):
         lines.append({
             "id": _run_id(plan, i), "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
-            "order": i + 1, "heading_deg": _f(r.heading_deg), "photos": int(len(sel)),
-            "first_station": st.ids[sel[0]], "last_station": st.ids[sel[-1]],
+            "order": i + 1, "heading_deg": _f(r.heading_deg), "photos": photos,
+            "first_station": st.ids[first], "last_station": st.ids[last],
             "lead_in": ends[2 * i],
             "end": ends[2 * i + 1],
         })

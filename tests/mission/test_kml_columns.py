@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -95,3 +96,44 @@ def test_a_layer_with_a_character_xml_cannot_hold_is_named() -> None:
 def test_a_layer_needs_a_value_for_every_feature() -> None:
     with pytest.raises(ValueError, match="one value per feature"):
         PointLayer(("a", "b"), (("seq", (1,)),), (1.0, 2.0), (3.0, 4.0))
+
+
+def _from_arrays(layer: PointLayer) -> PointLayer:
+    """The layer's columns as the station table makes them where it can: strings by codes (a
+    role of one name among them), finite floats and integers from arrays."""
+    def made(col: tuple) -> tuple:
+        kinds = set(map(type, col))
+        if kinds == {str}:
+            names = sorted(set(col))
+            return Column.of_codes(names, np.array([names.index(v) for v in col], dtype=np.intp))
+        if kinds == {float} and all(math.isfinite(v) for v in col):
+            return Column.of_array(np.array(col, float))
+        if kinds == {int} and all(abs(v) < 2**63 for v in col):
+            return Column.of_array(np.array(col, dtype=np.int64))
+        return col
+    return PointLayer(made(layer.ids), tuple((k, made(v)) for k, v in layer.properties), made(layer.lon), made(layer.lat))
+
+
+@settings(max_examples=200)
+@given(layers())
+def test_a_layer_of_array_and_code_columns_is_written_as_its_features_would_be(layer: PointLayer) -> None:
+    fc = {"type": "FeatureCollection", "features": []}
+    fast = _from_arrays(layer)
+    assert fast.features() == layer.features()
+    assert kml.feature_collection_to_kml(fc, "x", [fast]) == kml.feature_collection_to_kml(
+        {**fc, "features": layer.features()}, "x")
+    try:
+        text = json.dumps(layer.features(), separators=(",", ":"), ensure_ascii=False, allow_nan=False)[1:-1]
+    except ValueError:
+        return
+    assert fast.geojson() == text
+
+
+@given(st.lists(st.text(alphabet=st.sampled_from('aZ-&<>"\' ž\t\n\r\x07\x1f\x7f\ud800\ufffe'), max_size=5), max_size=8))
+def test_escaped_all_is_each_text_escaped(texts: list[str]) -> None:
+    assert kml._escaped_all(texts) == [kml._escaped(t, "x") for t in texts]
+
+
+@given(st.text(alphabet=st.sampled_from('aZ-&<>"\' ž\t\n\r\x00\x07\x0b\x1f\x7f\ud800\udfff\ufffe\uffff'), max_size=8))
+def test_mark_is_translate(text: str) -> None:
+    assert kml._mark(text) == text.translate(kml._ESC_MARK)

@@ -15,8 +15,8 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.gcpause import collector_paused
-from aerosurvey.jsontext import dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
-from aerosurvey.manifest import StationTable, station_table
+from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
+from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.footprints import footprint_corners
@@ -114,15 +114,11 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
     st = plan.stations
     from aerosurvey.mission.builder import run_id
 
-    # each run's first and last station (stations are in flight order; a stable sort keeps it within a run)
-    order = np.argsort(st.run, kind="stable")
-    ends = np.cumsum(np.bincount(st.run, minlength=len(plan.route.runs)))
-    for i, r in enumerate(plan.route.runs):
-        first, last = int(order[ends[i - 1] if i else 0]), int(order[ends[i] - 1])
+    for i, (r, (first, last, photos)) in enumerate(zip(plan.route.runs, run_stations(plan))):
         rid = run_id(plan, i)
         feats.append({"type": "Feature", "id": rid, "properties": {
             "role": "line", "id": rid, "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
-            "heading_deg": round(r.heading_deg, 3), "photos": int(ends[i] - (ends[i - 1] if i else 0)),
+            "heading_deg": round(r.heading_deg, 3), "photos": photos,
             "first_station": st.ids[first], "last_station": st.ids[last]},
             "geometry": {"type": "LineString", "coordinates": [[_r(st.lon[j]), _r(st.lat[j])] for j in (first, last)]}})
     _finite("station", st.lon, st.lat, st.alt_rel_m, st.agl_m, st.heading_deg)  # the GeoJSON writer writes NaN as null
@@ -132,8 +128,8 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
     # the table's columns are rounded as these were (lon, lat 8 decimals, heights 2, heading 3), and finite (above)
     col = table.column
     stations = PointLayer(col("id"), (
-        ("role", ("station",) * n), ("id", col("id")), ("seq", col("seq")),
-        ("line", tuple([line_of_run[r] for r in st.run.tolist()])),
+        ("role", Column.of_codes(("station",), np.zeros(n, np.intp))), ("id", col("id")), ("seq", col("seq")),
+        ("line", Column.of_codes(line_of_run, st.run)),
         ("alt_rel_m", col("alt_rel_m")), ("agl_m", col("agl_m")), ("heading_deg", col("heading_deg"))),
         col("lon"), col("lat"))
     for i, part in enumerate(plan.coverage.polygons(), start=1):

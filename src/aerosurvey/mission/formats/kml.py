@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import Column, exponent_form, float_texts, join_rows
+from aerosurvey.jsontext import Column, exponent_form, float_array, float_texts, join_rows, kinds_of, one_value
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.mission.formats.wpl import format_number
 
@@ -56,6 +56,14 @@ _NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 # search for that character in the finished document tells whether any text held one
 _NOT_XML_CODES = [*range(0x00, 0x09), 0x0B, 0x0C, *range(0x0E, 0x20), *range(0xD800, 0xE000), 0xFFFE]
 _ESC_MARK = str.maketrans(_ESCAPES | dict.fromkeys(_NOT_XML_CODES, "\uffff"))
+# the characters _ESC_MARK changes
+_TO_MARK = re.compile('[&<>"\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe]')
+
+
+def _mark(value: str) -> str:
+    """`value.translate(_ESC_MARK)`, the text itself when there is nothing to change: a search
+    is ~0.3 µs on an id, translate ~1.8 µs (its fast path is for one-character replacements only)."""
+    return value if _TO_MARK.search(value) is None else value.translate(_ESC_MARK)
 
 
 def _text(value: str, where: str) -> str:
@@ -74,7 +82,7 @@ def _not_xml(value: str, where: str) -> InputError:
 def _escaped(value: str, where: str) -> str:
     """XML-escaped text, checked later: a character XML cannot carry is written as U+FFFF, the
     document is searched once for it, and only then made again with `_text` to say where it is."""
-    return value.translate(_ESC_MARK)
+    return _mark(value)
 
 
 Escape = Callable[[str, str], str]
@@ -104,12 +112,12 @@ def _data_open(key: str) -> str | None:
 def _data_text(v: Any) -> str:
     """A property value as it goes into <value>: `_value`, XML-escaped where it can hold markup."""
     if type(v) is str:
-        return v.translate(_ESC_MARK)
+        return _mark(v)
     if type(v) is float and v - v == 0.0:  # finite
         return repr(v)
     if v is None or isinstance(v, (bool, int, float)):
         return _value(v)
-    return _value(v).translate(_ESC_MARK)
+    return _mark(_value(v))
 
 
 @lru_cache(maxsize=256)
@@ -212,7 +220,7 @@ def _placemark(f: dict[str, Any], props: dict[str, Any], role: str, text: Escape
     if text is _text:
         _check_values(data, keys)
     # the common values (text, finite floats, whole numbers) inline: this runs for every property of thousands of stations
-    cells = template % tuple([v.translate(_ESC_MARK) if type(v) is str
+    cells = template % tuple([_mark(v) if type(v) is str
                               else repr(v) if type(v) is int or type(v) is float and v - v == 0.0
                               else _data_text(v) for v in map(data.__getitem__, keys)])
     geom = "" if f.get("geometry") is None else _geometry(f["geometry"])
@@ -286,17 +294,23 @@ def _document(fc: dict[str, Any], name: str, text: Escape, layers: Sequence[Poin
 def _escaped_all(texts: Sequence[str]) -> list[str]:
     """`_escaped` of each text; one search of them all first, as most (ids) need nothing done."""
     joined = "".join(texts)
-    if joined.isascii() and not _NEEDS_ESCAPE.search(joined):
+    # printable ASCII (no control character) without a character to escape; by str methods in C,
+    # not a regular expression: measured on the 1,000 ha plan's 7,309 stations, ~2 ms → ~0.2 ms a KML
+    if joined.isascii() and joined.isprintable() and not any(c in joined for c in _TO_ESCAPE):
         return list(texts)
-    return [v.translate(_ESC_MARK) for v in texts]
+    return [_mark(v) for v in texts]
 
 
-_NEEDS_ESCAPE = re.compile('[&<>"\x00-\x08\x0b\x0c\x0e-\x1f]')
+_TO_ESCAPE = tuple(_ESCAPES)
 
 
-def _cell_texts(col: Sequence[Any]) -> list[str]:
-    """A property column as `_placemark` writes its values (escaped as `_escaped` does)."""
-    kinds = col.kinds if type(col) is Column else frozenset(map(type, col))
+def _cell_texts(col: Sequence[Any]) -> str | list[str]:
+    """A property column as `_placemark` writes its values (escaped as `_escaped` does); a
+    column of one string (`jsontext.one_value`, the role) as its one text."""
+    one = one_value(col)
+    if one is not None:
+        return _escaped_all([one])[0]
+    kinds = kinds_of(col)
     if kinds == {str}:
         return _escaped_all(col)
     if kinds == {int}:  # JSON writes an int as repr does: a Column's texts serve
@@ -306,7 +320,7 @@ def _cell_texts(col: Sequence[Any]) -> list[str]:
             return float_texts(col)
         except ValueError:  # a NaN or infinity: written as the rows below write it
             pass
-    return [v.translate(_ESC_MARK) if type(v) is str
+    return [_mark(v) if type(v) is str
             else repr(v) if type(v) is int or type(v) is float and v - v == 0.0
             else _data_text(v) for v in col]
 
@@ -337,7 +351,7 @@ def _point_parts(role: str, data: Mapping[str, Sequence[Any]], coords: list[Sequ
     columns = [_cell_texts(data[k]) for k in order]
     positions = []
     for col in coords:
-        if set(map(type, col)) != {float}:
+        if kinds_of(col) != {float}:
             return None
         try:
             texts = float_texts(col)
@@ -345,17 +359,17 @@ def _point_parts(role: str, data: Mapping[str, Sequence[Any]], coords: list[Sequ
             return None
         # repr ends in ".0" for a whole number, or has an exponent: those are written by
         # format_number, as `_placemark` writes them
-        a = np.asarray(col, float)
+        a = float_array(col)
         for i in np.flatnonzero((a == np.floor(a)) | exponent_form(a)).tolist():
             texts[i] = format_number(col[i])
         positions.append(texts)
     n = len(coords[0])
     if "id" in data:
         ids = data["id"]
-        names = (_escaped_all(ids) if set(map(type, ids)) == {str}
-                 else [_value(v).translate(_ESC_MARK) for v in ids])
+        names = (_escaped_all(ids) if kinds_of(ids) == {str}
+                 else [_mark(_value(v)) for v in ids])
     else:
-        names = [role.translate(_ESC_MARK)] * n
+        names = [_mark(role)] * n
     mode = "<altitudeMode>relativeToGround</altitudeMode>" if len(positions) == 3 else ""
     parts: list[str | list[str]] = ["<Placemark><name>", names, f"</name><styleUrl>#{role}</styleUrl><ExtendedData>"]
     for k, col in zip(order, columns):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from aerosurvey.jsontext import float_texts, join_rows, string_texts, value_texts
+from aerosurvey.jsontext import float_texts, join_rows, one_value, string_texts, value_texts
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,9 @@ class PointLayer:
             return ""
         parts: list[str | list[str]] = ['{"type":"Feature","id":', string_texts(self.ids), ',"properties":{']
         for i, (name, col) in enumerate(self.properties):
-            parts += [("," if i else "") + string_texts([name])[0] + ":", value_texts(col)]
+            one = one_value(col)  # a column of one string (the role): its text once, joined to the key's
+            parts += [("," if i else "") + string_texts([name])[0] + ":",
+                      value_texts(col) if one is None else string_texts([one])[0]]
         parts += ['},"geometry":{"type":"Point","coordinates":[', float_texts(self.lon), ",",
                   float_texts(self.lat), "]}}"]
         return join_rows(parts, len(self.ids), ",")
