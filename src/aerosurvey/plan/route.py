@@ -284,6 +284,10 @@ def _straight_time(d: float, k: Kinematics) -> float:
     return 2.0 * math.sqrt(d / a) + ramp
 
 
+#: path_time drops segments this short or shorter (planning-grid units / grid scale)
+KEPT = 1e-9
+
+
 def path_time(points: np.ndarray, k: Kinematics) -> float:
     """Flight time along a polyline.
 
@@ -299,7 +303,7 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
         return timer.time()
     seg = np.diff(points, axis=0)
     lengths = np.hypot(seg[:, 0], seg[:, 1])
-    keep = lengths > 1e-9
+    keep = lengths > KEPT
     seg, lengths = seg[keep], lengths[keep]
     if len(lengths) == 0:
         return 0.0
@@ -322,6 +326,13 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
 Segments = tuple[list[float], list[float]]
 
 
+def all_segments(points: np.ndarray) -> Segments:
+    """Every segment's length and direction (degrees) of a polyline, the dropped ones too, as
+    `kept_segments` measures them (elementwise: the same floats whichever polyline a segment is part of)."""
+    d = (points[1:] - points[:-1]).T
+    return np.hypot(d[0], d[1]).tolist(), np.degrees(np.arctan2(d[1], d[0])).tolist()
+
+
 def kept_segments(points: np.ndarray) -> Segments:
     """The segments path_time keeps of a polyline (already divided by the grid scale), by
     the same numpy operations on the same values (np.diff is this subtraction): elementwise, so a
@@ -329,7 +340,7 @@ def kept_segments(points: np.ndarray) -> Segments:
     d = (points[1:] - points[:-1]).T
     dx, dy = d[0], d[1]
     lengths = np.hypot(dx, dy)
-    keep = lengths > 1e-9
+    keep = lengths > KEPT
     if not keep.all():
         dx, dy, lengths = dx[keep], dy[keep], lengths[keep]
     return lengths.tolist(), np.degrees(np.arctan2(dy, dx)).tolist()
@@ -346,7 +357,7 @@ class RouteSegments:
         self.lengths, self.angles = kept_segments(points)
         seg = np.diff(points, axis=0)
         # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
-        self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > 1e-9)]).tolist()
+        self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > KEPT)]).tolist()
         turn = np.abs((np.diff(np.asarray(self.angles)) + 180.0) % 360.0 - 180.0)
         self.corners: list[int] = (np.flatnonzero(turn > CORNER_DEG) + 1).tolist()
         self.running: list[float] = []
@@ -600,6 +611,13 @@ class Detours:
     def path(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
         """Intermediate points of the shortest way from a to b that stays out of the zones."""
         return [] if self.clear(a, b) else self.way_round(a, b)
+
+    def paths(self, starts: np.ndarray, b: tuple[float, float]) -> list[list[tuple[float, float]]]:
+        """`path` from each of the (n, 2) points `starts` to b, the legs tested in one GEOS call."""
+        if self.blocked is None or not len(starts):
+            return [[] for _ in range(len(starts))]
+        hit = self._hits(starts, np.broadcast_to(np.asarray(b, float), starts.shape)).tolist()
+        return [self.way_round((p[0], p[1]), b) if h else [] for p, h in zip(starts, hit)]
 
     def way_round(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
         """`path` of a leg already known to cross the zones: the search on the corners' graph."""
