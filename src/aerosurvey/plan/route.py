@@ -460,6 +460,29 @@ def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
     return np.where(d >= big, top, np.minimum(here, below_big)), min(ramp, below_big)
 
 
+def _connector_ahead(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float,
+                     base: float) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """How far the connector from sure line i to sure line j (flown the other way) runs ahead,
+    along line i's direction of flight, as (least, most), line i flown to the right (+x: from its
+    last station + base/2 to line j's last station + lead_in) and to the left (from its first
+    station − base/2 to line j's first station − lead_in)."""
+    right = (lb.last_lo[j] + lead_in - lb.last_hi[i] - base / 2.0, lb.last_hi[j] + lead_in - lb.last_lo[i] - base / 2.0)
+    left = (lb.first_lo[i] - base / 2.0 - lb.first_hi[j] + lead_in, lb.first_hi[i] - base / 2.0 - lb.first_lo[j] + lead_in)
+    return right, left
+
+
+def connector_stops(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float, base: float) -> np.ndarray:
+    """Per pair of sure lines (i, j) of a heading: is a copter surely stopped at both corners of
+    the connector from line i to line j (each turn sharper than CORNER_DEG), whichever way the two
+    lines are flown (see quick_cost_lower_bounds)?"""
+    dv = lb.v[j] - lb.v[i]
+    cot = 1.0 / math.tan(math.radians(CORNER_DEG)) * (1.0 - 1e-6)
+    stops = np.ones(len(i), bool)
+    for lo, hi in _connector_ahead(lb, i, j, lead_in, base):
+        stops &= (hi < dv * cot) & (lo > -dv * cot)
+    return stops
+
+
 def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> np.ndarray:
     """Per heading of `lb`: a proven lower bound of `quick_cost(build_lines(...), lead_in, k)`.
 
@@ -474,7 +497,14 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     m = least_gain(0)); otherwise P lies in one run of length ≥ λ. A connector's two corners
     add up to 180°, so at least one is a stop: either both are (the connector is a run of
     its own: Δv/v + least_gain(Δv)), or it turns by ≤ 30° into a line, so it is at least 2Δv
-    long. Runs of different lines and those connector runs are distinct, hence the sum.
+    long. Where both corners are surely sharper than 30°, whichever way the two lines are flown,
+    the connector is a run of its own: it runs from line i's end (its last station + base/2 flown
+    to the right, its first − base/2 to the left: a line's runs lie apart, so its last run ends
+    at its outermost station) to line j's lead-in (its last station + lead_in, its first −
+    lead_in), and the bounds of those stations bound how far it runs ahead along line i (a
+    corner is sharper than 30° when that is below Δv·cot 30° out of line i and above −Δv·cot 30°
+    into line j; the segments before and after it run along the lines). Runs of different lines
+    and those connector runs are distinct, hence the sum.
     Between two sure lines with unsure ones between them there is at least one connector and
     they add up to the ordinate difference; each connector has G ≥ m or the extra length ≥ Δv.
 
@@ -512,14 +542,17 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
         same = hid[1:] == hid[:-1]
         gap = float(np.min(np.diff(v)[same])) if same.any() else 0.0  # no two lines of a heading are closer
         total = per_heading(exists, lam / speed + np.minimum(gain[:len(lam)], 3.0 * m))
-        total += per_heading(i[joined], np.minimum(dv[joined] / speed + gain[len(lam):], 2.0 * dv[joined] / speed))
+        # a joined connector whose corners are surely both sharper than 30°, whichever way the two
+        # lines are flown, is a run of its own (see the docstring)
+        stops = connector_stops(lb, i, j, lead_in, base)
+        own = dv[joined] / speed + gain[len(lam):]
+        total += per_heading(i[joined], np.where(stops[joined], own, np.minimum(own, 2.0 * dv[joined] / speed)))
         total += per_heading(i[~joined], dv[~joined] / speed + min(m, gap / speed))
         return total * (1.0 - 1e-7)
     # plane: connectors that surely turn by at most 150° out of the line before them, whichever
     # way that line is flown (see the docstring)
     cot30 = math.sqrt(3.0) * (1.0 - 1e-6)
-    ahead_right = lb.last_lo[j] + lead_in - lb.last_hi[i] - base / 2.0
-    ahead_left = lb.first_lo[i] - base / 2.0 - lb.first_hi[j] + lead_in
+    (ahead_right, _), (ahead_left, _) = _connector_ahead(lb, i, j, lead_in, base)
     gentle = joined & (ahead_right >= -dv * cot30) & (ahead_left >= -dv * cot30) & (lead_in > 1e-6)
     # each heading's first and last sure line: are all lines before (after) it surely empty?
     start = np.flatnonzero(np.r_[True, hid[1:] != hid[:-1]])
