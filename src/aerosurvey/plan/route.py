@@ -645,12 +645,13 @@ class Detours:
         """Intermediate points of the shortest way from a to b that stays out of the zones."""
         return [] if self.clear(a, b) else self.way_round(a, b)
 
-    def paths(self, starts: np.ndarray, b: tuple[float, float]) -> list[list[tuple[float, float]]]:
-        """`path` from each of the (n, 2) points `starts` to b, the legs tested in one GEOS call."""
+    def crossing(self, starts: np.ndarray, b: tuple[float, float]) -> list[bool]:
+        """Whether the leg from each of the (n, 2) points `starts` to b crosses the zones' margins
+        (not `clear`), in one GEOS call."""
         if self.blocked is None or not len(starts):
-            return [[] for _ in range(len(starts))]
-        hit = self._hits(starts, np.broadcast_to(np.asarray(b, float), starts.shape)).tolist()
-        return [self.way_round((p[0], p[1]), b) if h else [] for p, h in zip(starts, hit)]
+            return [False] * len(starts)
+        crossed: list[bool] = self._hits(starts, np.broadcast_to(np.asarray(b, float), starts.shape)).tolist()
+        return crossed
 
     def way_round(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
         """`path` of a leg already known to cross the zones: the search on the corners' graph."""

@@ -145,12 +145,18 @@ class _Ends:
     last (as `_make_run_waypoints` lays them), with the ways home after them to one launch site:
     the lead-in, the chain of points every such piece starts with (lead-in, first station, the
     run's terrain waypoints: a piece has those before b) and its kept-segment measures, and the
-    points after the way home round the zones (the end, the site)."""
+    points after the way home round the zones (the end, the site). And for every b at once, by
+    the same elementwise numpy operations on the same values as `kept_segments` (k = b − the
+    run's first station, n of them): `own` holds the segments from the chain's last point b's
+    piece has to b (follow mode) or its line end (k), from b to its line end (n + k), and from
+    the line end straight to the first point of `after` (2n + k; unless `round_home[k]`: the
+    straight way home crosses a zone)."""
 
-    __slots__ = ("lead", "chain", "chain_segments", "terrain_at", "highest", "after", "straight_home")
+    __slots__ = ("lead", "chain", "chain_segments", "terrain_at", "highest", "after", "straight_home", "own",
+                 "round_home")
 
     def __init__(self, lead: _XY, chain: list[_XY], chain_segments: Segments, terrain_at: list[int],
-                 highest: list[float], after: list[_XY], straight_home: Segments):
+                 highest: list[float], after: list[_XY], straight_home: Segments, own: Segments, round_home: list[bool]):
         self.lead = lead
         self.chain = chain
         self.chain_segments = chain_segments  # every segment, dropped ones too (`all_segments`)
@@ -158,6 +164,8 @@ class _Ends:
         self.highest = highest  # per chain terrain waypoints kept: the highest altitude of the chain so far
         self.after = after
         self.straight_home = straight_home  # the segments of `after`
+        self.own = own  # every segment, dropped ones too
+        self.round_home = round_home
 
 
 #: A last piece ending before its run's last station: (waypoints, highest altitude, way home, segments from its lead-in to the site)
@@ -236,6 +244,7 @@ class Splitter:
         self._ends_of: dict[tuple[int, int], _Ends] = {}
         self._lasts: dict[tuple[int, int], _Last] = {}
         self._junctions: dict[tuple[int, int, int], Segments] = {}
+        self._before_last: dict[tuple[int, int, int], _State] = {}
         self._highest_in: dict[tuple[int, int], list[float]] = {}
         self._costs: dict[tuple[int, int], tuple[float, int, float, float, int]] = {}
 
@@ -318,13 +327,29 @@ class Splitter:
         pts = np.asarray([(w[0], w[1]) for w in self.waypoints(a, b)])
         return np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
 
-    def _copter_time(self, li: int, p0: _Piece, i: int, j: int, *tail: Segments) -> float:
+    def _copter_time(self, li: int, p0: _Piece, i: int, j: int, tail: Segments) -> float:
         """route.path_time of the sortie's polyline: the head (site, way out, first piece, into the
         route), the route's whole runs, and the kept segments of the tail after them.
 
         CopterTime is a fold over the polyline's kept segments, so its state after a part is kept
         and the rest fed from it: after the head (the same for every sortie with this head) and
         after the route's runs up to a run (every sortie of that head ending in that run)."""
+        t = CopterTime(self.kin, *self._routed_state(li, p0, i, j))
+        t.feed(tail)
+        return t.time()
+
+    def _into_state(self, li: int, p0: _Piece, i: int, j: int, r: int) -> _State:
+        """CopterTime's state after the head, the route's whole runs and the segment into run r's
+        last pieces (every sortie of this head ending mid-run r), found once."""
+        key = (li, id(p0), r)
+        if key not in self._before_last:
+            t = CopterTime(self.kin, *self._routed_state(li, p0, i, j))
+            t.feed(self._into(li, p0, i, j, r))
+            self._before_last[key] = (t.total, t.run, t.last)
+        return self._before_last[key]
+
+    def _routed_state(self, li: int, p0: _Piece, i: int, j: int) -> _State:
+        """CopterTime's state after the head and the route's waypoints [i, j)."""
         kh = (li, id(p0), i < j)
         state = self._heads.get(kh)
         if state is None:  # the sum from the start: the same for every sortie with this head
@@ -341,10 +366,7 @@ class Splitter:
                 t.route(rs, rs.kept_before[i], rs.kept_before[j - 1])
                 routed = self._routed[(kh, j)] = (t.total, t.run, t.last)
             state = routed
-        t = CopterTime(self.kin, *state)
-        for segs in tail:
-            t.feed(segs)
-        return t.time()
+        return state
 
     def _tail(self, li: int, p0: _Piece, i: int, j: int, p1: _Piece) -> Segments:
         """The kept segments after the route's whole runs: within one run the way home from the
@@ -376,17 +398,31 @@ class Splitter:
     def _ends(self, li: int, r: int) -> _Ends:
         """What run r's last pieces and ways home to site li share (`_Ends`), made once."""
         if (li, r) not in self._ends_of:
-            a, gs = self.run_start[r], self.plan.grid_scale
+            plan, st, gs = self.plan, self.plan.stations, self.plan.grid_scale
+            a, e = self.run_start[r], self.run_end[r]
             lead, start, _ = self._piece(r, a, a).wps  # as every piece from a lays them
             terr = [w for w in self.by_run[r] if w.kind == "terrain" and a < self.station_index[w.station]]
             at = [self.station_index[w.station] for w in terr]
             assert at == sorted(at), "a run's terrain waypoints follow its stations"
             chain = [(lead[0], lead[1]), (start[0], start[1]), *((w.x, w.y) for w in terr)]
-            home, end = (self.sites[li].x, self.sites[li].y), self.plan.ends[li]
+            home, end = (self.sites[li].x, self.sites[li].y), plan.ends[li]
             after = [*([end] if end != home else []), home]
+            # every b's own segments (see _Ends): the points as _make_run_waypoints makes them
+            bs = np.arange(a, e)
+            q = (np.asarray(chain, float) / gs)[np.searchsorted(np.asarray(at, np.int64), bs) + 1]
+            ux, uy = self._direction(r)
+            half = plan.base_m * plan.grid_scale / 2.0
+            ex, ey = st.x[a:e] + ux * half, st.y[a:e] + uy * half
+            sx, sy, exg, eyg = st.x[a:e] / gs, st.y[a:e] / gs, ex / gs, ey / gs
+            follow = (bs > a) & (plan.heights.mode == "follow")
+            nx, ny = after[0][0] / gs, after[0][1] / gs
+            dx = np.concatenate([np.where(follow, sx, exg) - q[:, 0], exg - sx, nx - exg])
+            dy = np.concatenate([np.where(follow, sy, eyg) - q[:, 1], eyg - sy, ny - eyg])
             self._ends_of[(li, r)] = _Ends(
                 chain[0], chain, all_segments(np.asarray(chain, float) / gs), at,
-                list(accumulate([lead[2], *(w.alt_m for w in terr)], max)), after, all_segments(np.asarray(after, float) / gs))
+                list(accumulate([lead[2], *(w.alt_m for w in terr)], max)), after, all_segments(np.asarray(after, float) / gs),
+                (np.hypot(dx, dy).tolist(), np.degrees(np.arctan2(dy, dx)).tolist()),
+                self.detours.crossing(np.column_stack([ex, ey]), end))
         return self._ends_of[(li, r)]
 
     def _last(self, li: int, r: int, b: int) -> _Last:
@@ -397,15 +433,21 @@ class Splitter:
         ends = self._ends(li, r)
         m = bisect.bisect_left(ends.terrain_at, b)  # the piece has the terrain waypoints before b
         follow = plan.heights.mode == "follow" and b > self.run_start[r]
-        ux, uy = self._direction(r)
-        half = plan.base_m * plan.grid_scale / 2.0
-        # as _make_run_waypoints makes it (a Python float's sum is a numpy float's)
-        line_end = (self.station_x[b] + ux * half, self.station_y[b] + uy * half)
-        back = self.detours.path(line_end, plan.ends[li])
-        own = [ends.chain[m + 1], *([(self.station_x[b], self.station_y[b])] if follow else []), line_end,
-               back[0] if back else ends.after[0]]
-        lengths, angles = all_segments(np.asarray(own, float) / plan.grid_scale)
-        rest = all_segments(np.asarray([*back, *ends.after], float) / plan.grid_scale) if back else ends.straight_home
+        k, n = b - self.run_start[r], len(ends.round_home)
+        back: list[_XY] = []
+        if ends.round_home[k]:
+            ux, uy = self._direction(r)
+            half = plan.base_m * plan.grid_scale / 2.0
+            # as _make_run_waypoints makes it (a Python float's sum is a numpy float's)
+            line_end = (self.station_x[b] + ux * half, self.station_y[b] + uy * half)
+            back = self.detours.way_round(line_end, plan.ends[li])
+            own = [ends.chain[m + 1], *([(self.station_x[b], self.station_y[b])] if follow else []), line_end, back[0]]
+            lengths, angles = all_segments(np.asarray(own, float) / plan.grid_scale)
+            rest = all_segments(np.asarray([*back, *ends.after], float) / plan.grid_scale)
+        else:
+            at = [k, n + k, 2 * n + k] if follow else [k, 2 * n + k]
+            lengths, angles = [ends.own[0][x] for x in at], [ends.own[1][x] for x in at]
+            rest = ends.straight_home
         alt = self.station_alt[b] if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
         chain = ends.chain_segments
         last = self._lasts[(li, b)] = (3 + m + follow, max(ends.highest[m], alt), back,
@@ -463,7 +505,9 @@ class Splitter:
             out_via = self._way_out(li, p0)
             if p1 is None:
                 _, _, back_via, segs = self._last(li, r1, b)
-                horiz = self._copter_time(li, p0, i, j, self._into(li, p0, i, j, r1), segs)
+                t = CopterTime(self.kin, *self._into_state(li, p0, i, j, r1))
+                t.feed(segs)
+                horiz = t.time()
             else:
                 _, back_via, out_leg, back_leg = self._legs(li, p0, p1)
                 if self.kin.vehicle == "copter":
