@@ -18,7 +18,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.frame import LineFrame, to_frames
 
 _EPS = 1e-6
 
@@ -377,8 +377,7 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
       one interval, one run (when no zone is near the line).
     """
     # the same arithmetic as LineFrame.geom_to_frame, so the same bounds and line ordinates
-    turned = [fr.to_frame(outline.xy[:, 0], outline.xy[:, 1]) for fr in frames]
-    fx, fy = np.array([t[0] for t in turned]), np.array([t[1] for t in turned])
+    fx, fy = to_frames(frames, outline.xy[:, 0], outline.xy[:, 1])
     shell_y = fy[:, outline.shell_vertex]
     per_frame = strip_offsets_many(shell_y.min(axis=1), shell_y.max(axis=1), g.across, g.spacing, g.side_per_point)
     counts = np.array([len(vs) for vs in per_frame])
@@ -453,8 +452,7 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
 
     if len(outline.zone_radius):
         # each zone lies within its circle about its centre, in every frame
-        zx, zy = (np.array(a) for a in zip(*(fr.to_frame(outline.zone_centre[:, 0], outline.zone_centre[:, 1])
-                                             for fr in frames)))
+        zx, zy = to_frames(frames, outline.zone_centre[:, 0], outline.zone_centre[:, 1])
         r = outline.zone_radius + tol
         near = np.abs(vs[:, None] - zy[hid]) <= r
         touched = near.any(axis=1)

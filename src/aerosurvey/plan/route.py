@@ -383,15 +383,19 @@ class CopterTime:
         self.last = last  # direction of the last kept segment
 
     def feed(self, segs: Segments) -> None:
+        # the state in locals while the loop runs (the same operations in the same order; measured on
+        # a 57-line boustrophedon's 170 segments: 82-88 -> 75-79 µs, /tmp/p2/feedt.py)
+        total, run, last, kin, corner = self.total, self.run, self.last, self.kin, CORNER_DEG
         for length, ang in zip(*segs):
-            if self.run is None:
-                self.run = length
-            elif abs((ang - self.last + 180.0) % 360.0 - 180.0) > CORNER_DEG:
-                self.total += _straight_time(self.run, self.kin)
-                self.run = length
+            if run is None:
+                run = length
+            elif abs((ang - last + 180.0) % 360.0 - 180.0) > corner:
+                total += _straight_time(run, kin)
+                run = length
             else:
-                self.run += length
-            self.last = ang
+                run += length
+            last = ang
+        self.total, self.run, self.last = total, run, last
 
     def route(self, rs: RouteSegments, k0: int, k1: int) -> None:
         """Feed the route's kept segments k0..k1-1: the first as any other, then one by one up to
