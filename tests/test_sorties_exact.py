@@ -168,3 +168,32 @@ def test_random_plans_split_as_the_reference(tmp_path_factory, vehicle, zone, si
     except InputError:  # battery too small, a launch point a plane cannot use, terrain mode refused
         assume(False)
     _same_split(args)
+
+
+def _every_last_station(args: tuple, firsts: int) -> int:
+    """Sorties from a few first stations to every later station (the copter's last pieces ending
+    mid-run are costed from per-run tables): the reference's costs, values and types."""
+    ref, new = ReferenceSplitter(*args), Splitter(*args)
+    n = new.n
+    compared = 0
+    for a in sorted({0, n // 3, n // 2, *range(0, n, max(1, n // firsts))}):
+        for b in range(a, n, max(1, n // 400)):
+            used, li, horiz, vert, _, _, items = ref.evaluate(a, b)
+            assert repr(new.cost(a, b)) == repr((used, li, horiz, vert, items)), (a, b)
+            compared += 1
+    return compared
+
+
+def test_forest_follow_every_last_station_is_the_references():
+    """Terrain-following copter (terrain waypoints inside runs)."""
+    assert _every_last_station(_split_args(REPO / "missions" / "forest-dem.toml"), 4) > 400
+
+
+def test_zone_and_two_sites_every_last_station_is_the_references(tmp_path):
+    """Ways home round a zone, two launch sites, terrain following."""
+    write_geojson(tmp_path / "zone.geojson", [ZONE])
+    write_dem(str(tmp_path / "dem.tif"), 32633, 499500.0, 5472600.0, 180, 180, 10.0, 400.0, 25.0)
+    spec = make_spec(tmp_path, {"battery": {"usable_min": 9.0, "launch_points": SITES}, "area": {"exclusions": ["zone.geojson"]},
+                                "terrain": {"dem": "dem.tif", "mode": "follow"},
+                                "vehicle": {"type": "copter", "cruise_speed_ms": 10.0, "max_height_agl_m": 120}})
+    assert _every_last_station(_split_args(spec), 6) > 100

@@ -17,7 +17,7 @@ from aerosurvey.area import planning_crs
 from aerosurvey.plan import lines as lines_module
 from aerosurvey.plan.coverage import _run_strips
 from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
-from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.frame import LineFrame, to_frames
 from aerosurvey.plan.lines import LineSegment, cut_by_zones, strip_offsets, strip_offsets_many
 from aerosurvey.plan.model import Stations
 from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_approach
@@ -380,3 +380,18 @@ def test_plane_turn_lengths_are_plane_turn_length(lateral: list[float], radius: 
 
     many = plane_turn_lengths(np.array(lateral), radius).tolist()
     assert many == pytest.approx([plane_turn_length(d, radius) for d in lateral], rel=1e-12, abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.0, 180.0, exclude_max=True), min_size=1, max_size=8),
+       st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 6e6)), min_size=1, max_size=30))
+def test_points_turned_into_many_frames_at_once_are_each_frames(headings: list[float],
+                                                               points: list[tuple[float, float]]) -> None:
+    """to_frames (line_bounds turns the outline into every candidate's frame at once): each row is
+    LineFrame.to_frame's, bit for bit."""
+    xy = np.asarray(points, float)
+    frames = [LineFrame(round(h, 6)) for h in headings]
+    fx, fy = to_frames(frames, xy[:, 0], xy[:, 1])
+    for k, fr in enumerate(frames):
+        x, y = fr.to_frame(xy[:, 0], xy[:, 1])
+        assert fx[k].tobytes() == x.tobytes() and fy[k].tobytes() == y.tobytes()

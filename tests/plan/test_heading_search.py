@@ -27,7 +27,7 @@ from aerosurvey.plan.lines import (
     segments_for_line,
     strip_offsets,
 )
-from aerosurvey.plan.route import Kinematics, quick_cost, quick_cost_lower_bounds
+from aerosurvey.plan.route import Kinematics, connector_stops, quick_cost, quick_cost_lower_bounds
 
 KINDS = ("convex", "concave", "holed", "split")
 
@@ -101,7 +101,7 @@ def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, l
     outline = Outline.of(covered, zones)
 
     def bound(frames: list[LineFrame]) -> list[float]:  # as pattern.AreaGrid bounds them
-        lb = line_bounds(outline, frames, g, kin.vehicle != "copter")
+        lb = line_bounds(outline, frames, g, single_runs=kin.vehicle != "copter")
         return [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, kin)]
 
     return cost, bound
@@ -139,6 +139,9 @@ def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool],
     assert quick_cost_lower_bounds(lb, lead, g.base, kin)[0] <= exact
     short = line_bounds(Outline.of(covered, zones), [fr], g, ends=False)
     assert quick_cost_lower_bounds(short, lead, g.base, kin)[0] <= exact
+    runs_unasked = line_bounds(Outline.of(covered, zones), [fr], g, single_runs=False)
+    assert quick_cost_lower_bounds(runs_unasked, lead, g.base, kin)[0] <= exact
+    assert not runs_unasked.single.any() and np.array_equal(runs_unasked.last_hi, lb.last_hi)
     assert np.array_equal(short.exists, lb.exists) and np.array_equal(short.extent, lb.extent)
     # and what the bound rests on, line by line, against the lines actually laid
     by_v: dict[float, list[tuple[float, float]]] = {}
@@ -147,6 +150,8 @@ def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool],
     assert set(by_v) <= set(lb.v.tolist())
     for i, v in enumerate(lb.v.tolist()):
         runs = sorted(by_v.get(v, []))
+        # a line's runs are apart: flown either way, it ends at its last station that way (the bounds' premise)
+        assert all(r[1] < nxt[0] for r, nxt in zip(runs, runs[1:]))
         if lb.exists[i]:
             assert runs, f"line {i} was sure to exist"
             first, last = runs[0][0], max(r[1] for r in runs)
@@ -278,3 +283,55 @@ def test_headings_with_no_sure_line_are_bounded_by_zero(vehicle: str) -> None:
                     last_hi=np.zeros(n))
     k = Kinematics(vehicle, 10.0, 2.5, 17.0)
     assert quick_cost_lower_bounds(lb, 100.0, 20.0, k).tolist() == [0.0, 0.0]
+
+
+def _turn(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> float:
+    """The turn at b of the path a → b → c, in degrees (0 straight on, 180 back)."""
+    d1, d2 = math.atan2(b[1] - a[1], b[0] - a[0]), math.atan2(c[1] - b[1], c[0] - b[0])
+    return abs(math.degrees((d2 - d1 + math.pi) % (2 * math.pi) - math.pi))
+
+
+def _sheared(seed: int) -> tuple[BaseGeometry, float]:
+    """A parallelogram whose sides lean by up to 80° off the lines (connectors from gentle to sharp)."""
+    rng = np.random.default_rng(seed)
+    w, h = float(rng.uniform(300.0, 1500.0)), float(rng.uniform(300.0, 1500.0))
+    lean = math.tan(math.radians(float(rng.uniform(-80.0, 80.0)))) * h
+    return shapely.Polygon([(0, 0), (w, 0), (w + lean, h), (lean, h)]), float(rng.uniform(0.0, 40.0))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases, st.integers(0, 2**32 - 1), st.booleans(), st.floats(0.0, 180.0, exclude_max=True))
+def test_connectors_the_bound_says_stop_do(case: tuple[int, str, str, int, bool], seed: int, sheared: bool,
+                                           heading: float) -> None:
+    """Where connector_stops says a copter stops at both corners of a connector, it turns by more
+    than 30° at both in the path quick_cost times, whichever way the first line is flown."""
+    covered, zones, g, lead, _ = random_case(*case)
+    if sheared:
+        covered, lead = _sheared(seed)
+        zones = None
+    fr = LineFrame(round(heading, 6))
+    segs = build_lines(fr.geom_to_frame(covered), fr.geom_to_frame(zones) if zones is not None else None, g)
+    lb = line_bounds(Outline.of(covered, zones), [fr], g)
+    runs: dict[float, list[LineSegment]] = {}
+    for s in segs:
+        runs.setdefault(s.v, []).append(s)
+    sure = np.flatnonzero(lb.exists)
+    i, j = sure[:-1], sure[1:]
+    between = [bool(np.all(lb.absent[a + 1:b])) for a, b in zip(i, j)]
+    stops = connector_stops(lb, i, j, lead, g.base)
+    checked = 0
+    for a, b, joined, stop in zip(i.tolist(), j.tolist(), between, stops.tolist()):
+        if not (joined and stop):
+            continue
+        va, vb = float(lb.v[a]), float(lb.v[b])
+        ra, rb = sorted(runs[va], key=lambda s: s.x0), sorted(runs[vb], key=lambda s: s.x0)
+        for d in (1, -1):  # line a flown to the right (line b to the left), and the other way
+            end_a = ra[-1].x1 + g.base / 2.0 if d > 0 else ra[0].x0 - g.base / 2.0
+            start_b = rb[-1].x1 if d > 0 else rb[0].x0
+            lead_b = start_b + lead if d > 0 else start_b - lead
+            before = (end_a - d, va)  # line a's last leg runs along it
+            after = (lead_b - d, vb)  # line b's first leg runs along it the other way
+            assert _turn(before, (end_a, va), (lead_b, vb)) > 30.0
+            assert _turn((end_a, va), (lead_b, vb), after) > 30.0
+            checked += 1
+    assert checked == 2 * int((stops & np.array(between, bool)).sum())

@@ -36,3 +36,11 @@ class LineFrame:
 
     def geom_from_frame(self, geom: BaseGeometry) -> BaseGeometry:
         return shapely.transform(geom, lambda xy: np.column_stack(self.from_frame(xy[:, 0], xy[:, 1])))
+
+
+def to_frames(frames: list[LineFrame], x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`to_frame` of the points in every frame, (frames, points) arrays: the same operations,
+    element by element (each frame's sine and cosine broadcast along its row)."""
+    cs = np.array([fr._cs for fr in frames], float).reshape(-1, 2)
+    ux, uy = cs[:, :1], cs[:, 1:]
+    return x * ux + y * uy, -x * uy + y * ux

@@ -89,10 +89,10 @@ class AreaGrid:
                 return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
 
             outline = Outline.of(covered, site.zones_buffered)
-            ends = sensor.kinematics.vehicle != "copter"  # only the plane's bound looks at the lines' ends
+            plane = sensor.kinematics.vehicle != "copter"  # only the plane's bound asks which lines have one run
 
             def bound(frames: list[LineFrame]) -> list[float]:
-                lb = line_bounds(outline, frames, g, ends)
+                lb = line_bounds(outline, frames, g, single_runs=plane)
                 return [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics)]
 
             heading, _ = best_heading(covered, cost, bound=bound)

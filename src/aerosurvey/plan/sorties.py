@@ -13,20 +13,24 @@ descent at their rates; energy = time × power when the battery is given in Wh.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.route import (
+    KEPT,
     CopterTime,
     Detours,
     Kinematics,
     RouteSegments,
     Run,
     Segments,
+    all_segments,
     climb_out_path,
     clip_approach,
     descent_time,
@@ -121,6 +125,8 @@ def wind_factor(wind_ms: float, speed_ms: float) -> float:
 #: A sortie waypoint's fields (x, y, alt_m, kind, run, station); SortieWaypoints are made for the chosen sorties only
 _Wp = tuple[float, float, float, str, int, str]
 _XY = tuple[float, float]
+#: CopterTime's state (total, run, last)
+_State = tuple[float, float | None, float]
 class _Piece:
     """Stations lo..hi of one run as a sortie flies them (made once for each)."""
 
@@ -134,6 +140,46 @@ class _Piece:
         self.starts = sum(1 for w in wps if w[3] == "line_start")
 
 
+class _Ends:
+    """What the last pieces of one run share, from its first station to each station b before its
+    last (as `_make_run_waypoints` lays them), with the ways home after them to one launch site:
+    the lead-in, the chain of points every such piece starts with (lead-in, first station, the
+    run's terrain waypoints: a piece has those before b) and its kept-segment measures, and the
+    points after the way home round the zones (the end, the site). And for every b at once, by
+    the same elementwise numpy operations on the same values as `kept_segments` (k = b − the
+    run's first station, n of them): `own` holds the segments from the chain's last point b's
+    piece has to b (follow mode) or its line end (k), from b to its line end (n + k), and from
+    the line end straight to the first point of `after` (2n + k; unless `round_home[k]`: the
+    straight way home crosses a zone)."""
+
+    __slots__ = ("lead", "chain", "chain_segments", "terrain_at", "highest", "after", "straight_home", "own",
+                 "round_home")
+
+    def __init__(self, lead: _XY, chain: list[_XY], chain_segments: Segments, terrain_at: list[int],
+                 highest: list[float], after: list[_XY], straight_home: Segments, own: Segments, round_home: list[bool]):
+        self.lead = lead
+        self.chain = chain
+        self.chain_segments = chain_segments  # every segment, dropped ones too (`all_segments`)
+        self.terrain_at = terrain_at  # the station index of each terrain waypoint of the chain
+        self.highest = highest  # per chain terrain waypoints kept: the highest altitude of the chain so far
+        self.after = after
+        self.straight_home = straight_home  # the segments of `after`
+        self.own = own  # every segment, dropped ones too
+        self.round_home = round_home
+
+
+#: A last piece ending before its run's last station: (waypoints, highest altitude, way home, segments from its lead-in to the site)
+_Last = tuple[int, float, list[_XY], Segments]
+
+
+def _kept(lengths: list[float], angles: list[float]) -> Segments:
+    """The segments path_time keeps of these (`kept_segments`' test)."""
+    keep = [length > KEPT for length in lengths]
+    if all(keep):
+        return lengths, angles
+    return [x for x, y in zip(lengths, keep) if y], [x for x, y in zip(angles, keep) if y]
+
+
 class Splitter:
     """Builds and costs candidate sorties over a planned route.
 
@@ -142,7 +188,9 @@ class Splitter:
     hundreds of sorties that share these parts (550 for the Obrataň example), so each piece is made
     once, the way from a launch point through the first piece into the route (the head) and out of
     the route through the last piece home (the tail) are measured once, and a copter's time along
-    the whole runs between is summed from stretches timed once (RouteSegments). The sums are
+    the whole runs between is summed from stretches timed once (RouteSegments). A copter's last
+    pieces ending mid-run are not made: what they share per run (`_Ends`) is, and per last station
+    only the few segments of its own (`_last`). The sums are
     route.path_time's, term by term in the same order, so the costs are the floats timing each
     sortie's whole polyline gives (tests/test_sorties_exact.py compares them)."""
 
@@ -156,6 +204,9 @@ class Splitter:
         self.fixed_launch = fixed_launch
         st = plan.stations
         self.run_of: list[int] = st.run.tolist()
+        self.station_x: list[float] = st.x.tolist()
+        self.station_y: list[float] = st.y.tolist()
+        self.station_alt: list[float] = st.alt_rel_m.tolist()
         self.n = len(st.ids)
         self.run_start: list[int] = np.searchsorted(st.run, np.arange(len(plan.runs))).tolist()
         self.run_end: list[int] = (np.searchsorted(st.run, np.arange(len(plan.runs)), side="right") - 1).tolist()
@@ -187,9 +238,14 @@ class Splitter:
         self._pieces: dict[tuple[int, int, int], _Piece] = {}
         self._out: dict[tuple[int, int], list[_XY]] = {}
         self._back: dict[tuple[int, int], list[_XY]] = {}
-        self._heads: dict[tuple[int, int, bool], tuple[float, float | None, float]] = {}
-        self._highest_in: dict[tuple[int, int], list[float]] = {}
+        self._heads: dict[tuple[int, int, bool], _State] = {}
+        self._routed: dict[tuple[tuple[int, int, bool], int], _State] = {}
         self._tails: dict[tuple[int, int, int], Segments] = {}
+        self._ends_of: dict[tuple[int, int], _Ends] = {}
+        self._lasts: dict[tuple[int, int], _Last] = {}
+        self._junctions: dict[tuple[int, int, int], Segments] = {}
+        self._before_last: dict[tuple[int, int, int], _State] = {}
+        self._highest_in: dict[tuple[int, int], list[float]] = {}
         self._costs: dict[tuple[int, int], tuple[float, int, float, float, int]] = {}
 
     def _piece(self, r: int, a: int, b: int) -> _Piece:
@@ -241,13 +297,22 @@ class Splitter:
     def _ways(self, li: int, first: _Piece, last: _Piece) -> tuple[list[_XY], list[_XY]]:
         """The points between launch site li and the first piece, and between the last piece and the
         site's end (round the zones)."""
-        ko, kb = (li, id(first)), (li, id(last))  # pieces live as long as the splitter
+        kb = (li, id(last))  # pieces live as long as the splitter
+        if kb not in self._back:
+            self._back[kb] = self.detours.path(last.last, self.plan.ends[li])
+        return self._way_out(li, first), self._back[kb]
+
+    def _way_out(self, li: int, first: _Piece) -> list[_XY]:
+        """The points between launch site li and the first piece (round the zones)."""
+        ko = (li, id(first))
         if ko not in self._out:
             home = (self.sites[li].x, self.sites[li].y)
             self._out[ko] = climb_out_path(home, first.first, self.plan.climb, self.detours)
-        if kb not in self._back:
-            self._back[kb] = self.detours.path(last.last, self.plan.ends[li])
-        return self._out[ko], self._back[kb]
+        return self._out[ko]
+
+    def _leg_out(self, li: int, first: _Piece) -> list[_XY]:
+        """The polyline out: the site and the way out."""
+        return [(self.sites[li].x, self.sites[li].y), *self._way_out(li, first)]
 
     def _legs(self, li: int, p0: _Piece, p1: _Piece) -> tuple[list[_XY], list[_XY], list[_XY], list[_XY]]:
         """(way out, way home, polyline out: the site and the way out, polyline home: the way home, the end, the site)."""
@@ -262,33 +327,132 @@ class Splitter:
         pts = np.asarray([(w[0], w[1]) for w in self.waypoints(a, b)])
         return np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
 
-    def _copter_time(self, li: int, p0: _Piece, i: int, j: int, p1: _Piece) -> float:
+    def _copter_time(self, li: int, p0: _Piece, i: int, j: int, tail: Segments) -> float:
         """route.path_time of the sortie's polyline: the head (site, way out, first piece, into the
-        route), the route's whole runs, the tail (out of the route, last piece, way home)."""
-        _, _, out_leg, back_leg = self._legs(li, p0, p1)
-        gs = self.plan.grid_scale
+        route), the route's whole runs, and the kept segments of the tail after them.
+
+        CopterTime is a fold over the polyline's kept segments, so its state after a part is kept
+        and the rest fed from it: after the head (the same for every sortie with this head) and
+        after the route's runs up to a run (every sortie of that head ending in that run)."""
+        t = CopterTime(self.kin, *self._routed_state(li, p0, i, j))
+        t.feed(tail)
+        return t.time()
+
+    def _into_state(self, li: int, p0: _Piece, i: int, j: int, r: int) -> _State:
+        """CopterTime's state after the head, the route's whole runs and the segment into run r's
+        last pieces (every sortie of this head ending mid-run r), found once."""
+        key = (li, id(p0), r)
+        if key not in self._before_last:
+            t = CopterTime(self.kin, *self._routed_state(li, p0, i, j))
+            t.feed(self._into(li, p0, i, j, r))
+            self._before_last[key] = (t.total, t.run, t.last)
+        return self._before_last[key]
+
+    def _routed_state(self, li: int, p0: _Piece, i: int, j: int) -> _State:
+        """CopterTime's state after the head and the route's waypoints [i, j)."""
         kh = (li, id(p0), i < j)
-        if kh not in self._heads:  # the sum from the start: the same for every sortie with this head
+        state = self._heads.get(kh)
+        if state is None:  # the sum from the start: the same for every sortie with this head
             into = [(self.route_wps[i][0], self.route_wps[i][1])] if i < j else []
             h = CopterTime(self.kin)
-            h.feed(kept_segments(np.asarray([*out_leg, *((w[0], w[1]) for w in p0.wps), *into]) / gs))
-            self._heads[kh] = (h.total, h.run, h.last)
-        t = CopterTime(self.kin, *self._heads[kh])
+            h.feed(kept_segments(np.asarray([*self._leg_out(li, p0), *((w[0], w[1]) for w in p0.wps), *into])
+                                 / self.plan.grid_scale))
+            state = self._heads[kh] = (h.total, h.run, h.last)
         if i < j:
-            rs = self._route()
-            t.route(rs, rs.kept_before[i], rs.kept_before[j - 1])
-        # within one run the tail is the way home from the piece's end; else it comes out of the route's
-        # last waypoint, or straight from the first piece where no whole run or detour lies between
+            routed = self._routed.get((kh, j))
+            if routed is None:  # every sortie of this head ending in the run at j
+                t = CopterTime(self.kin, *state)
+                rs = self._route()
+                t.route(rs, rs.kept_before[i], rs.kept_before[j - 1])
+                routed = self._routed[(kh, j)] = (t.total, t.run, t.last)
+            state = routed
+        return state
+
+    def _tail(self, li: int, p0: _Piece, i: int, j: int, p1: _Piece) -> Segments:
+        """The kept segments after the route's whole runs: within one run the way home from the
+        piece's end; else out of the route's last waypoint (or straight from the first piece where
+        no whole run or detour lies between), the last piece and the way home."""
         kt = (li, id(p1), -1 if i < j else id(p0))
         if kt not in self._tails:
+            _, _, _, back_leg = self._legs(li, p0, p1)
             if p1 is p0:
                 tail = [p0.last, *back_leg]
             else:
-                start = (self.route_wps[j - 1][0], self.route_wps[j - 1][1]) if i < j else p0.last
-                tail = [start, *((w[0], w[1]) for w in p1.wps), *back_leg]
-            self._tails[kt] = kept_segments(np.asarray(tail) / gs)
-        t.feed(self._tails[kt])
-        return t.time()
+                tail = [self._into_last(p0, i, j), *((w[0], w[1]) for w in p1.wps), *back_leg]
+            self._tails[kt] = kept_segments(np.asarray(tail) / self.plan.grid_scale)
+        return self._tails[kt]
+
+    def _into(self, li: int, p0: _Piece, i: int, j: int, r: int) -> Segments:
+        """The kept segment into run r's last pieces (to site li): from the route's waypoint before
+        it, or from the first piece's end where no whole run or detour lies between; measured once."""
+        key = (li, r, -1 if i < j else id(p0))
+        if key not in self._junctions:
+            ends = np.asarray([self._into_last(p0, i, j), self._ends(li, r).lead], float)
+            self._junctions[key] = kept_segments(ends / self.plan.grid_scale)
+        return self._junctions[key]
+
+    def _into_last(self, p0: _Piece, i: int, j: int) -> _XY:
+        """Where the way into the last run starts: the route's waypoint before it, or the first piece's end."""
+        return (self.route_wps[j - 1][0], self.route_wps[j - 1][1]) if i < j else p0.last
+
+    def _ends(self, li: int, r: int) -> _Ends:
+        """What run r's last pieces and ways home to site li share (`_Ends`), made once."""
+        if (li, r) not in self._ends_of:
+            plan, st, gs = self.plan, self.plan.stations, self.plan.grid_scale
+            a, e = self.run_start[r], self.run_end[r]
+            lead, start, _ = self._piece(r, a, a).wps  # as every piece from a lays them
+            terr = [w for w in self.by_run[r] if w.kind == "terrain" and a < self.station_index[w.station]]
+            at = [self.station_index[w.station] for w in terr]
+            assert at == sorted(at), "a run's terrain waypoints follow its stations"
+            chain = [(lead[0], lead[1]), (start[0], start[1]), *((w.x, w.y) for w in terr)]
+            home, end = (self.sites[li].x, self.sites[li].y), plan.ends[li]
+            after = [*([end] if end != home else []), home]
+            # every b's own segments (see _Ends): the points as _make_run_waypoints makes them
+            bs = np.arange(a, e)
+            q = (np.asarray(chain, float) / gs)[np.searchsorted(np.asarray(at, np.int64), bs) + 1]
+            ux, uy = self._direction(r)
+            half = plan.base_m * plan.grid_scale / 2.0
+            ex, ey = st.x[a:e] + ux * half, st.y[a:e] + uy * half
+            sx, sy, exg, eyg = st.x[a:e] / gs, st.y[a:e] / gs, ex / gs, ey / gs
+            follow = (bs > a) & (plan.heights.mode == "follow")
+            nx, ny = after[0][0] / gs, after[0][1] / gs
+            dx = np.concatenate([np.where(follow, sx, exg) - q[:, 0], exg - sx, nx - exg])
+            dy = np.concatenate([np.where(follow, sy, eyg) - q[:, 1], eyg - sy, ny - eyg])
+            self._ends_of[(li, r)] = _Ends(
+                chain[0], chain, all_segments(np.asarray(chain, float) / gs), at,
+                list(accumulate([lead[2], *(w.alt_m for w in terr)], max)), after, all_segments(np.asarray(after, float) / gs),
+                (np.hypot(dx, dy).tolist(), np.degrees(np.arctan2(dy, dx)).tolist()),
+                self.detours.crossing(np.column_stack([ex, ey]), end))
+        return self._ends_of[(li, r)]
+
+    def _last(self, li: int, r: int, b: int) -> _Last:
+        """The last piece of run r from its first station to b (before its last one), made once."""
+        if (li, b) in self._lasts:
+            return self._lasts[(li, b)]
+        plan = self.plan
+        ends = self._ends(li, r)
+        m = bisect.bisect_left(ends.terrain_at, b)  # the piece has the terrain waypoints before b
+        follow = plan.heights.mode == "follow" and b > self.run_start[r]
+        k, n = b - self.run_start[r], len(ends.round_home)
+        back: list[_XY] = []
+        if ends.round_home[k]:
+            ux, uy = self._direction(r)
+            half = plan.base_m * plan.grid_scale / 2.0
+            # as _make_run_waypoints makes it (a Python float's sum is a numpy float's)
+            line_end = (self.station_x[b] + ux * half, self.station_y[b] + uy * half)
+            back = self.detours.way_round(line_end, plan.ends[li])
+            own = [ends.chain[m + 1], *([(self.station_x[b], self.station_y[b])] if follow else []), line_end, back[0]]
+            lengths, angles = all_segments(np.asarray(own, float) / plan.grid_scale)
+            rest = all_segments(np.asarray([*back, *ends.after], float) / plan.grid_scale)
+        else:
+            at = [k, n + k, 2 * n + k] if follow else [k, 2 * n + k]
+            lengths, angles = [ends.own[0][x] for x in at], [ends.own[1][x] for x in at]
+            rest = ends.straight_home
+        alt = self.station_alt[b] if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
+        chain = ends.chain_segments
+        last = self._lasts[(li, b)] = (3 + m + follow, max(ends.highest[m], alt), back,
+                                       _kept(chain[0][:m + 1] + lengths + rest[0], chain[1][:m + 1] + angles + rest[1]))
+        return last
 
     def _highest(self, i: int, j: int) -> list[float]:
         """The highest of the route's waypoints [i, j) (none if empty), found once for each range."""
@@ -313,29 +477,46 @@ class Splitter:
         return self._costs[key]
 
     def _cost(self, a: int, b: int) -> tuple[float, int, float, float, int]:
-        p0, i, j, p1 = self._parts(a, b)
-        n_survey = len(p0.wps) if p1 is p0 else len(p0.wps) + (j - i) + len(p1.wps)
-        starts = p0.starts if p1 is p0 else p0.starts + (self.route_starts[j] - self.route_starts[i]) + p1.starts
+        r0, r1 = self.run_of[a], self.run_of[b]
+        # a copter's sortie ending mid-run: its last piece and way home from the run's table (_Ends)
+        by_ends = self.kin.vehicle == "copter" and r0 != r1 and b < self.run_end[r1]
+        if by_ends:
+            p0, i, j, p1 = self._piece(r0, a, self.run_end[r0]), self.detour_at[r0 + 1], self.run_at[r1], None
+            n1, alt1, _, _ = self._last(self.fixed_launch or 0, r1, b)
+            starts1 = 1
+        else:
+            p0, i, j, p1 = self._parts(a, b)
+            n1, starts1, alt1 = len(p1.wps), p1.starts, p1.alt_max
+        one = p1 is p0
+        n_survey = len(p0.wps) if one else len(p0.wps) + (j - i) + n1
+        starts = p0.starts if one else p0.starts + (self.route_starts[j] - self.route_starts[i]) + starts1
         if self.plan.altitude_frame != "relative":
             climb = self.plan.heights.nominal_agl_m
-        elif p1 is p0:
+        elif one:
             climb = p0.alt_max
         else:  # the highest survey waypoint: max() over them all is the first of the highest, as here
-            climb = max(p0.alt_max, *self._highest(i, j), p1.alt_max)
+            climb = max(p0.alt_max, *self._highest(i, j), alt1)
         per_trigger = 0 if self.plan.trigger == "camera" else 2
         candidates = [self.fixed_launch] if self.fixed_launch is not None else range(len(self.sites))
         best: tuple[float, int, float, float, int] | None = None
         v = self.plan.vehicle
         gs = self.plan.grid_scale
         for li in candidates:
-            out_via, back_via, out_leg, back_leg = self._legs(li, p0, p1)
-            if self.kin.vehicle == "copter":
-                horiz = self._copter_time(li, p0, i, j, p1)
+            out_via = self._way_out(li, p0)
+            if p1 is None:
+                _, _, back_via, segs = self._last(li, r1, b)
+                t = CopterTime(self.kin, *self._into_state(li, p0, i, j, r1))
+                t.feed(segs)
+                horiz = t.time()
             else:
-                horiz = path_time(self._points(li, a, b), self.kin)
+                _, back_via, out_leg, back_leg = self._legs(li, p0, p1)
+                if self.kin.vehicle == "copter":
+                    horiz = self._copter_time(li, p0, i, j, self._tail(li, p0, i, j, p1))
+                else:
+                    horiz = path_time(self._points(li, a, b), self.kin)
             h = max(climb + (self.plan.home_ground_m - self.sites[li].ground_m), 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
-            if v.type == "plane":  # climb and descent overlap the transits out and back
+            if v.type == "plane" and p1 is not None:  # climb and descent overlap the transits out and back
                 t_out = path_time(np.asarray([*out_leg, p0.first]) / gs, self.kin)
                 t_back = path_time(np.asarray([p1.last, *back_leg]) / gs, self.kin)
                 vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
@@ -362,11 +543,15 @@ class Splitter:
         used, *_, items = self.cost(a, b)
         return used <= budget and items <= self.budget.max_items
 
-    def greedy(self, budget: float) -> list[tuple[int, int]]:
-        """Sorties as long as `budget` allows, by binary search for each sortie's last station."""
-        out = []
+    def greedy(self, budget: float, most: int | None = None) -> list[tuple[int, int]]:
+        """Sorties as long as `budget` allows, by binary search for each sortie's last station; none
+        when a station does not fit alone, or when more than `most` sorties would be needed (the
+        search stops there: the budget bisection needs to know no more)."""
+        out: list[tuple[int, int]] = []
         a = 0
         while a < self.n:
+            if most is not None and len(out) == most:
+                return []
             if not self.fits(a, a, budget):
                 return []
             lo, hi = a, self.n - 1
@@ -407,8 +592,8 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
     best = first
     for _ in range(12):
         mid = (lo + hi) / 2
-        trial = sp.greedy(mid)
-        if trial and len(trial) == n:
+        trial = sp.greedy(mid, n)  # more than n sorties fail the trial as none do
+        if trial:
             best, hi = trial, mid
         else:
             lo = mid
