@@ -137,12 +137,9 @@ def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool],
     assert np.array_equal(lb.v, strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point))
     exact = quick_cost(segs, lead, kin) if segs else math.inf
     assert quick_cost_lower_bounds(lb, lead, g.base, kin)[0] <= exact
-    short = line_bounds(Outline.of(covered, zones), [fr], g, ends=False)
-    assert quick_cost_lower_bounds(short, lead, g.base, kin)[0] <= exact
     runs_unasked = line_bounds(Outline.of(covered, zones), [fr], g, single_runs=False)
     assert quick_cost_lower_bounds(runs_unasked, lead, g.base, kin)[0] <= exact
     assert not runs_unasked.single.any() and np.array_equal(runs_unasked.last_hi, lb.last_hi)
-    assert np.array_equal(short.exists, lb.exists) and np.array_equal(short.extent, lb.extent)
     # and what the bound rests on, line by line, against the lines actually laid
     by_v: dict[float, list[tuple[float, float]]] = {}
     for s in segs:

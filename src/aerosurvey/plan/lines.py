@@ -350,15 +350,13 @@ def _convex(ring_xy: np.ndarray) -> bool:
     return bool(np.all(cross >= -tol) or np.all(cross <= tol))
 
 
-def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, ends: bool = True,
-                single_runs: bool = True) -> LineBounds:
+def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, single_runs: bool = True) -> LineBounds:
     """Sure facts about the runs `build_lines(area_f, zones_f, g)` lays for each frame, from
     the area's edges, where area_f and zones_f are the outline's area and zones in the frame.
     Every frame's lines are bounded at once (one numpy step for all of them: the heading search
-    bounds dozens). Without `ends` it claims nothing about where lines end or which have one
-    run (nor which are surely empty), and takes less time; without `single_runs` it claims
-    no line has surely one run (the copter's bound needs the ends, not that: measured, 23
-    headings of the 1,000 ha case with two holes, 1.5-2.7 -> 1.4-1.5 ms, /tmp/p2/lb3.py).
+    bounds dozens). Without `single_runs` it claims no line has surely one run (the copter's
+    bound needs where lines end, not that: measured, 23 headings of the 1,000 ha case with two
+    holes, 1.5-2.7 -> 1.4-1.5 ms).
 
     Why they hold (`build_lines` step by step, h = across/2, B = base, tol covers rounding):
     - the lines are `strip_offsets` of the same bounds, so the same ordinates;
@@ -395,13 +393,13 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
     x0, y0, x1, y1 = fx[:, s0], fy[:, s0], fx[:, s0 + 1], fy[:, s0 + 1]
     ylo, yhi = np.minimum(y0, y1), np.maximum(y0, y1)
 
-    # the x-range of the area's vertices within each narrowed strip (inner hull) and, with
-    # `ends`, each closed strip widened by tol (outer hull), and of its edges' crossings of the
+    # the x-range of the area's vertices within each narrowed strip (inner hull) and each
+    # closed strip widened by tol (outer hull), and of its edges' crossings of the
     # strips' sides. Which lines a vertex or an edge meets comes from the lines' even spacing;
     # rounding may add one whose side is a hair away, which only moves a point a hair off the
     # narrowed strip (still well inside the strip) or adds to the outer hull.
     narrow = half * (1.0 - 1e-6)
-    widths = (narrow, half + tol) if ends else (narrow,)
+    widths = (narrow, half + tol)
     xmin, xmax = np.full(len(widths) * n, np.inf), np.full(len(widths) * n, -np.inf)
     n_of = counts[:, None]
     strips, xs = [], []
@@ -430,7 +428,7 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
     np.minimum.at(xmin, strip, x)
     np.maximum.at(xmax, strip, x)
     a_in, b_in = xmin[:n], xmax[:n]
-    a_out, b_out = (xmin[n:] - tol, xmax[n:] + tol) if ends else (np.full(n, -np.inf), np.full(n, np.inf))
+    a_out, b_out = xmin[n:] - tol, xmax[n:] + tol
     met = np.isfinite(a_in) & (b_in - a_in > 2.0 * tol)
     a_in, b_in = a_in + tol, b_in - tol
 
@@ -443,7 +441,7 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
 
     # one run: the strip meets one polygon, convex, none of whose holes reaches into the strip
     single = np.zeros(n, bool)
-    if ends and single_runs:
+    if single_runs:
         rings = np.arange(len(outline.shells))
         of_ring = outline.ring_of_edge[None, :] == rings[:, None]
         ring_lo = np.array([ylo[:, e].min(axis=1) for e in of_ring]).T[hid]  # (lines, rings)
@@ -465,6 +463,6 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, end
         exists &= kept
         single &= ~touched
         extent = np.where(exists, extent, 0.0)
-    absent = ~np.isfinite(a_out) if ends else np.zeros(n, bool)
+    absent = ~np.isfinite(a_out)
     return LineBounds(hid, vs, exists, absent, extent, single & exists, a_out + c - slack, lo + tol, hi - tol,
                       b_out - c + slack)
