@@ -100,18 +100,18 @@ def _item_dict(it: MissionItem, seq: int) -> dict[str, Any]:
     """A SimpleItem as QGroundControl saves it; `seq` (1-based) is also its doJumpId, as in QGC's own files."""
     where = f"mission item {seq}"
     _check_item(it, where)
-    d: dict[str, Any] = {
-        "autoContinue": bool(it.autocontinue),
-        "command": it.command,
-        "doJumpId": seq,
-        "frame": it.frame,
-        "params": [_finite_or_nan(v, where, name) for name, v in zip(_PARAM_NAMES, (*it.params, it.x, it.y, it.z))],
-        "type": "SimpleItem",
-    }
-    if it.has_position and it.frame in _ALT_MODE:
+    params = [_finite_or_nan(v, where, name) for name, v in zip(_PARAM_NAMES, (*it.params, it.x, it.y, it.z))]
+    return _simple_item(it, seq, it.command, it.frame, params, it.has_position)
+
+
+def _simple_item(it: MissionItem, seq: int, command: int, frame: int, params: list[Any], positioned: bool) -> dict[str, Any]:
+    """The SimpleItem's JSON data from its checked command, frame and params (JSON values)."""
+    d: dict[str, Any] = {"autoContinue": bool(it.autocontinue), "command": command, "doJumpId": seq, "frame": frame,
+                         "params": params, "type": "SimpleItem"}
+    if positioned and frame in _ALT_MODE:
         d["AMSLAltAboveTerrain"] = None
-        d["Altitude"] = d["params"][6]
-        d["AltitudeMode"] = _ALT_MODE[it.frame]
+        d["Altitude"] = params[6]
+        d["AltitudeMode"] = _ALT_MODE[frame]
     if it.tag:
         d[TAG_KEY] = it.tag
     return d
@@ -132,19 +132,9 @@ def _item_dicts(items: tuple[MissionItem, ...]) -> list[dict[str, Any]] | None:
     whole = np.isfinite(a) & (a == np.floor(a)) & (np.abs(a) < 2**53)
     values[whole] = a[whole].astype(np.int64).astype(object)
     values[np.isnan(a)] = None
-    out = []
-    for seq, (it, command, frame, params, pos) in enumerate(zip(items, commands, frames, values.tolist(), positioned.tolist()),
-                                                             start=1):
-        d: dict[str, Any] = {"autoContinue": bool(it.autocontinue), "command": command, "doJumpId": seq, "frame": frame,
-                             "params": params, "type": "SimpleItem"}
-        if pos and frame in _ALT_MODE:
-            d["AMSLAltAboveTerrain"] = None
-            d["Altitude"] = params[6]
-            d["AltitudeMode"] = _ALT_MODE[frame]
-        if it.tag:
-            d[TAG_KEY] = it.tag
-        out.append(d)
-    return out
+    return [_simple_item(it, seq, command, frame, params, pos)
+            for seq, (it, command, frame, params, pos)
+            in enumerate(zip(items, commands, frames, values.tolist(), positioned.tolist()), start=1)]
 
 
 def _fence_polygons(m: Mission) -> list[dict[str, Any]]:
