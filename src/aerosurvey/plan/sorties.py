@@ -153,10 +153,11 @@ class _Ends:
     straight way home crosses a zone)."""
 
     __slots__ = ("lead", "chain", "chain_segments", "terrain_at", "highest", "after", "straight_home", "own",
-                 "round_home")
+                 "round_home", "line_ends")
 
     def __init__(self, lead: _XY, chain: list[_XY], chain_segments: Segments, terrain_at: list[int],
-                 highest: list[float], after: list[_XY], straight_home: Segments, own: Segments, round_home: list[bool]):
+                 highest: list[float], after: list[_XY], straight_home: Segments, own: Segments, round_home: list[bool],
+                 line_ends: list[_XY]):
         self.lead = lead
         self.chain = chain
         self.chain_segments = chain_segments  # every segment, dropped ones too (`all_segments`)
@@ -166,6 +167,7 @@ class _Ends:
         self.straight_home = straight_home  # the segments of `after`
         self.own = own  # every segment, dropped ones too
         self.round_home = round_home
+        self.line_ends = line_ends  # the line end after each b (k = b - the run's first station)
 
 
 #: A last piece ending before its run's last station: (waypoints, highest altitude, way home, segments from its lead-in to the site)
@@ -422,7 +424,7 @@ class Splitter:
                 chain[0], chain, all_segments(np.asarray(chain, float) / gs), at,
                 list(accumulate([lead[2], *(w.alt_m for w in terr)], max)), after, all_segments(np.asarray(after, float) / gs),
                 (np.hypot(dx, dy).tolist(), np.degrees(np.arctan2(dy, dx)).tolist()),
-                self.detours.crossing(np.column_stack([ex, ey]), end))
+                self.detours.crossing(np.column_stack([ex, ey]), end), list(zip(ex.tolist(), ey.tolist())))
         return self._ends_of[(li, r)]
 
     def _last(self, li: int, r: int, b: int) -> _Last:
@@ -436,10 +438,7 @@ class Splitter:
         k, n = b - self.run_start[r], len(ends.round_home)
         back: list[_XY] = []
         if ends.round_home[k]:
-            ux, uy = self._direction(r)
-            half = plan.base_m * plan.grid_scale / 2.0
-            # as _make_run_waypoints makes it (a Python float's sum is a numpy float's)
-            line_end = (self.station_x[b] + ux * half, self.station_y[b] + uy * half)
+            line_end = ends.line_ends[k]
             back = self.detours.way_round(line_end, plan.ends[li])
             own = [ends.chain[m + 1], *([(self.station_x[b], self.station_y[b])] if follow else []), line_end, back[0]]
             lengths, angles = all_segments(np.asarray(own, float) / plan.grid_scale)
