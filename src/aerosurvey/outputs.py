@@ -123,13 +123,11 @@ def _mission_texts(mission: Mission) -> tuple[str, str]:
 
 def _render_hashing(plan: Plan, hasher: ThreadPoolExecutor) -> Rendered:
     mission = build_mission(plan, name=plan.spec.name)
-    # its files are written on the other thread while this one waits in PROJ (the footprints'
-    # corners to WGS84, which lets go of the GIL). No PROJ work goes there: a Transformer used
-    # on a new thread builds its own PROJ object (~40 ms for S-JTSK).
-    # The manifest's stations as columns are made there first (no PROJ in them either; measured on the
-    # 1,000 ha benchmark: PROJ ~7 ms, the mission texts ~4.5 ms, the table ~2.7 ms): its text is
-    # written from them, the rules make their rows, and plan.geojson and plan.kml share their ids,
-    # positions and heights (texts made once).
+    # While this thread waits in PROJ for the footprints' corners (it lets go of the GIL), the other
+    # makes the manifest's station table and then the mission's two files (1,000 ha benchmark: PROJ
+    # ~7 ms, table ~2.7 ms, mission texts ~4.5 ms). No PROJ work goes there: a Transformer used on a
+    # new thread builds its own PROJ object (~40 ms for S-JTSK). The table's columns are written into
+    # the manifest, plan.geojson and plan.kml (their texts made once) and the rules make its rows.
     table = hasher.submit(mf.station_table, plan)
     mission_texts = hasher.submit(_mission_texts, mission)
     corners = footprint_lonlat(plan) if len(plan.stations.ids) else None  # PROJ, first, while the other thread works
