@@ -2,7 +2,7 @@
 
 Horizontal: 1.7308 RMSE_r when RMSE_x = RMSE_y; 2.4477 × 0.5 × (RMSE_x + RMSE_y) when
 0.6 < RMSE_min / RMSE_max < 1; outside that ratio the exact circular error (the standard
-asks for it there; docs/standards.md). Vertical: 1.9600 RMSE_z. At least 20 check points.
+asks for it there). Vertical: 1.9600 RMSE_z. At least 20 check points.
 """
 
 from __future__ import annotations

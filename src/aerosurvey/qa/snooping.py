@@ -1,4 +1,4 @@
-"""Cadastral acceptance by data snooping (Hellenic Cadastre practice, shared/papers/002),
+"""Cadastral acceptance by data snooping (Hellenic Cadastre practice, the Hellenic Cadastre orthoimage paper, ISPRS Archives XXXV (2004)),
 run iteratively in Baarda's manner.
 
 σ_hor = √(Σ(dx² + dy²) / 2n) and σ_ver = √(Σ dz² / n) (the source's formulas (1), (2)).

@@ -276,7 +276,7 @@ ASPRS_2014 = [(500, 20, 25), (750, 25, 30), (1000, 30, 40), (1250, 35, 50), (150
 def asprs_required(edition: str, area_km2: float) -> tuple[int, int]:
     """(horizontal, vertical) check points recommended for the project area.
 
-    2014: Table C.1 of the standard (shared/reference/asprs2014_checkpoint_counts.csv);
+    2014: Table C.1 of the standard (Korumaz and Yıldız, Heritage 4 (2021), Table 5);
     beyond 2,500 km² vertical +5 per 500 km², horizontal by agreement (kept at 60).
     2023 (Edition 2): the accuracy module's table (qa/asprs.py, with its sources).
     """
