@@ -1,4 +1,5 @@
-"""Cadastral data snooping (the Hellenic Cadastre orthoimage paper, ISPRS Archives XXXV (2004)): worked thresholds, a planted blunder, the 5 % limit, the global test."""
+"""Cadastral data snooping (the Hellenic Cadastre orthoimage paper, ISPRS Archives XXXV (2004)): worked thresholds,
+a planted blunder, the 5 % limit, the global test."""
 
 from __future__ import annotations
 
