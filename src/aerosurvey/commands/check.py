@@ -58,7 +58,10 @@ def format_results(results: list[RuleResult]) -> list[str]:
               help="With a flight folder: the plan folder it flew (default: the one its log_report.json names).")
 def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], list_profiles: bool,
           as_json: bool, plan_dir: Path | None) -> None:
-    """Check a mission spec, a plan folder or a flight folder (`log ingest`: planned vs flown) against rule profiles.
+    """Check a mission spec or a plan folder against rule profiles.
+
+    A flight folder (`log ingest --plan` output) is checked planned vs flown; the places a rule
+    fails on the flown photos go to its failing_places.geojson.
 
     Exit code 0 when every error-level rule passes, 1 when one fails, 2 for bad input.
     """
