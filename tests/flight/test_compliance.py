@@ -190,6 +190,9 @@ def test_whole_flight_passes_every_rule_it_passed_as_planned(copter):
         assert " planned " in f" {line}" and " / flown " in line and " PASS " in line, line
     assert "flat ground assumed" in text and "flat ground assumed" in data["heights"]
     assert _layer(folder) == []
+    # GSD from each photo's flown height above home
+    agl = max(float(r["agl_m"]) for r in event_rows(folder / "events.csv"))
+    assert next(r for r in data["results"] if r["rule"] == "gsd")["measured"] == f"{_gsd_cm(agl):.2f} cm (coarsest photo)"
     # the GCPs are the plan's, each on at least GCP_MIN flown photos by the independent count
     assert _expected_failing(copter["plan"], folder, "gcp", GCP_MIN)[0] == set()
 
@@ -350,3 +353,43 @@ def test_an_extra_trigger_joins_the_run_it_lies_within(stations):
         before = next((run_of[t] for t in reversed(stations[:i]) if t is not None), None)
         after = next((run_of[t] for t in stations[i + 1:] if t is not None), None)
         assert r == (before if before is not None and before == after else f"unmatched-{i}")
+
+
+def _gsd_cm(agl_m: float) -> float:
+    """GSD of the Sony a6000 with its 16 mm lens (23.5 mm over 6000 px) at `agl_m` above ground."""
+    return agl_m * (23.5 / 6000) / 16.0 * 100
+
+
+def test_gsd_is_judged_at_each_photo_from_its_height_above_the_dem(copter):
+    """A DEM whose ground falls 8 m from the area's east edge to its west edge: the photos over the low
+    ground are farther above it than planned, and their GSD fails there."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    dem = copter["tmp"] / "valley.tif"
+    res, west, north = 0.0001, 14.99, 49.41
+    cols = west + (np.arange(300) + 0.5) * res
+
+    def ground(lon):
+        return np.clip(-8.0 * (15.006 - np.asarray(lon)) / 0.006, -8.0, 0.0)
+
+    with rasterio.open(dem, "w", driver="GTiff", width=300, height=200, count=1, dtype="float64", crs="EPSG:4326",
+                       transform=from_origin(west, north, res, res)) as ds:
+        ds.write(np.tile(ground(cols), (200, 1)), 1)
+    folder = copter["tmp"] / "dem"
+    code, out = _run("log", "ingest", COPTER_LOG, "--plan", copter["plan"], "--dem", dem, "-o", folder)
+    assert code == 0, out
+    code, res_, text = _check(copter, folder)
+    assert "heights above the DEM valley.tif" in text.splitlines()[1]
+    rows = event_rows(folder / "events.csv")
+    agl = np.array([float(r["agl_m"]) for r in rows])
+    # the heights are above the DEM: the logged altitude less the ground under the photo (bilinear on a ramp)
+    lon = np.array([float(r["lon"]) for r in rows])
+    assert np.abs(agl - (np.array([float(r["alt_m"]) for r in rows]) - ground(lon))).max() < 0.1
+    gsd = next(r for r in res_["results"] if r["rule"] == "gsd")
+    assert gsd["planned"]["status"] == "pass" and gsd["status"] == "fail" and code == 1
+    assert gsd["measured"] == f"{_gsd_cm(agl.max()):.2f} cm (coarsest photo)"
+    failing = {f["properties"]["photo"] for f in _layer(folder) if f["properties"]["rule"] == "gsd"}
+    must = {f"E{int(r['event']):05d}" for r, h in zip(rows, agl) if _gsd_cm(h) > 2.6 + 1e-3}
+    may = {f"E{int(r['event']):05d}" for r, h in zip(rows, agl) if _gsd_cm(h) > 2.6 - 1e-3}
+    assert must and must <= failing <= may and len(must) < len(rows)
