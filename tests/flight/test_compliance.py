@@ -270,20 +270,24 @@ def test_a_line_flown_without_photos_leaves_a_gap_where_it_was(copter):
     assert must <= _failing_points(folder, "gcp-seen") <= may
 
 
-def test_check_agrees_with_the_rules_log_ingest_ran(copter):
-    """events.csv holds what the flown view needs: the rules give what `log ingest` found in memory."""
-    (copter["tmp"] / "agree").mkdir()
-    spec = make_spec(copter["tmp"] / "agree", {"flight": {"heading": 0.0}, "rules": {"profiles": ["cz-land-consolidation"]}})
-    plan = copter["tmp"] / "agree" / "plan"
+@pytest.mark.parametrize("fixed", [False, True])
+def test_check_agrees_with_the_rules_log_ingest_ran(copter, fixed):
+    """events.csv holds what the flown view needs: the rules give what `log ingest` found in memory,
+    also with a camera fixed to the body (the copter pitches up to 30° as it speeds up: its footprints move)."""
+    tmp = copter["tmp"] / f"agree-{fixed}"
+    tmp.mkdir()
+    spec = make_spec(tmp, {"flight": {"heading": 0.0}, "rules": {"profiles": ["cz-land-consolidation"]}})
+    plan = tmp / "plan"
     assert _run("plan", spec, "-o", plan)[0] == 0
-    folder = copter["tmp"] / "agree" / "log"
-    assert _run("log", "ingest", COPTER_LOG, "--plan", plan, "-o", folder)[0] == 0
+    folder = tmp / "log"
+    assert _run("log", "ingest", COPTER_LOG, "--plan", plan, "-o", folder, *(["--fixed-camera"] if fixed else []))[0] == 0
     ingested = json.loads((folder / "log_report.json").read_text())["rules_on_flown_data"]
     code, text = _run("check", folder, "--json")
-    checked = json.loads(text)["results"]
-    assert [(r["rule"], r["status"], r["measured"]) for r in checked] == \
+    res = json.loads(text)
+    assert [(r["rule"], r["status"], r["measured"]) for r in res["results"]] == \
         [(r["rule"], r["status"], r["measured"]) for r in ingested]
-    assert code == (1 if any(r["status"] == "fail" for r in checked) else 0)
+    assert code == (1 if res["failed"] else 0)
+    assert ("camera fixed to the body" in res["heights"]) == fixed and "the report does not say" not in res["heights"]
 
 
 def test_plane_flight_every_failing_rule_has_its_places(tmp_path):

@@ -37,13 +37,13 @@ if TYPE_CHECKING:
 GroundFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, ev: Events | EventRows, tilt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Footprint centres: the camera position, moved by h·tan(angle) when the camera tilts with the body
-    (the roll, pitch and yaw of the log's events or of events.csv's rows, degrees)."""
-    yaw = np.radians(np.nan_to_num(ev.yaw))
+def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, roll: np.ndarray, pitch: np.ndarray, yaw_deg: np.ndarray,
+             tilt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Footprint centres: the camera position, moved by h·tan(angle) when the camera tilts with the body."""
+    yaw = np.radians(np.nan_to_num(yaw_deg))
     hh = np.nan_to_num(h)
-    along = tilt * hh * np.tan(np.radians(np.nan_to_num(ev.pitch)))
-    across = tilt * hh * np.tan(np.radians(np.nan_to_num(ev.roll)))
+    along = tilt * hh * np.tan(np.radians(np.nan_to_num(pitch)))
+    across = tilt * hh * np.tan(np.radians(np.nan_to_num(roll)))
     # nose-down pitch looks backwards, right roll looks left: the footprint centre moves against them
     return x - along * np.sin(yaw) + across * np.cos(yaw), y - along * np.cos(yaw) - across * np.sin(yaw)
 
@@ -61,7 +61,7 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
     """
     home = np.where(np.isfinite(ev.rel_alt_m), ev.rel_alt_m, np.nan)
     if ground is None:
-        cx, cy = _centres(x, y, home, ev, tilt)
+        cx, cy = _centres(x, y, home, ev.roll, ev.pitch, ev.yaw, tilt)
         return home, np.full(len(x), np.nan), cx, cy
     alt = np.asarray(ev.alt_m, float)
     h = home.copy()
@@ -71,7 +71,7 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
         new = np.where(np.isfinite(g) & np.isfinite(alt) & (alt - g > 0), alt - g, home)
         done = np.all((np.abs(new - h) < 1e-4) | ~np.isfinite(new))
         h = new
-        cx, cy = _centres(x, y, h, ev, tilt)
+        cx, cy = _centres(x, y, h, ev.roll, ev.pitch, ev.yaw, tilt)
         if done:
             break
     g = np.asarray(ground(cx, cy), float)
@@ -117,12 +117,12 @@ def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_
     """The photos events.csv records, with the heights above ground `log ingest` gave them (its
     agl_m column: above the DEM or above home) and the footprint centres :func:`flown_photos`
     makes from them. Rows without a position or a height are left out: no footprint is known."""
-    keep = np.isfinite(rows.lon) & np.isfinite(rows.lat) & np.isfinite(rows.agl_m)
-    rows = dataclasses.replace(rows, **{f.name: np.asarray(getattr(rows, f.name))[keep] for f in dataclasses.fields(rows)})
-    x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(rows.lon, rows.lat))
-    cx, cy = _centres(x, y, rows.agl_m, rows, 1.0 if fixed_camera else 0.0)
-    return FlownPhotos(tuple(ids.event_id(int(n)) for n in rows.event), photo_runs(list(rows.station), run_of),
-                       np.asarray(cx, float), np.asarray(cy, float), rows.agl_m, rows.ground_m, np.nan_to_num(rows.yaw) % 360.0)
+    keep = np.flatnonzero(np.isfinite(rows.lon) & np.isfinite(rows.lat) & np.isfinite(rows.agl_m))
+    x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(rows.lon[keep], rows.lat[keep]))
+    h, yaw = rows.agl_m[keep], rows.yaw[keep]
+    cx, cy = _centres(x, y, h, rows.roll[keep], rows.pitch[keep], yaw, 1.0 if fixed_camera else 0.0)
+    return FlownPhotos(tuple(ids.event_id(int(rows.event[i])) for i in keep), photo_runs([rows.station[i] for i in keep], run_of),
+                       np.asarray(cx, float), np.asarray(cy, float), h, rows.ground_m[keep], np.nan_to_num(yaw) % 360.0)
 
 
 def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tuple[str, ...]:
