@@ -397,3 +397,32 @@ def test_gsd_is_judged_at_each_photo_from_its_height_above_the_dem(copter):
     must = {f"E{int(r['event']):05d}" for r, h in zip(rows, agl) if _gsd_cm(h) > 2.6 + 1e-3}
     may = {f"E{int(r['event']):05d}" for r, h in zip(rows, agl) if _gsd_cm(h) > 2.6 - 1e-3}
     assert must and must <= failing <= may and len(must) < len(rows)
+
+
+def test_a_sortie_is_judged_against_its_own_planned_stations(tmp_path):
+    """A log of the first sortie of a plan split by a small battery: the planned side is that sortie's stations."""
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}, "battery": {"usable_min": 6.0}})
+    plan = tmp_path / "plan"
+    assert _run("plan", spec, "-o", plan)[0] == 0
+    manifest = json.loads((plan / "manifest.json").read_text())
+    s01 = manifest["sorties"][0]
+    ids = [s["id"] for s in manifest["stations"]]
+    own = ids[ids.index(s01["first_station"]): ids.index(s01["last_station"]) + 1]
+    assert len(manifest["sorties"]) > 1 and len(own) < len(ids)
+    log = tmp_path / "s01.bin"
+    data = COPTER_LOG.read_bytes()
+    log.write_bytes(data[: int(len(data) * 0.27)])  # the first line and a bit: photos of S01's stations only
+    folder = tmp_path / "log"
+    assert _run("log", "ingest", log, "--plan", plan, "--sortie", s01["id"], "-o", folder)[0] == 0
+    profiles = tmp_path / "profiles"
+    profiles.mkdir()
+    (profiles / "after-flight.toml").write_text(PROFILE)
+    code, text = _run("check", folder, "--profile", "after-flight", "--profile-dir", profiles, "--json")
+    res = {r["rule"]: r for r in json.loads(text)["results"]}
+    whole, _ = _run("check", plan, "--profile", "after-flight", "--profile-dir", profiles, "--json")
+    assert whole == 0  # the whole plan passes every rule
+    # as planned, the sortie's own stations already leave most of the area short of photos
+    assert res["cover"]["planned"]["status"] == "fail"
+    photos = len(event_rows(folder / "events.csv"))
+    plain = _run("check", folder, "--profile", "after-flight", "--profile-dir", profiles)[1]
+    assert plain.splitlines()[0].startswith(f"{photos} flown photos against {len(own)} planned stations of sortie {s01['id']} ")
