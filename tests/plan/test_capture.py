@@ -31,8 +31,9 @@ def photos(yaw: float, pitch: float, roll: float = 0.0, z: float = 100.0, x: flo
 def test_nadir_is_the_rectangle_of_the_sensor_scaled_by_h_over_f() -> None:
     c = footprint_corners(photos(0.0, -90.0), Optics.of(CAM, "landscape"), 0.0)[0]
     half_across, half_along = W * 100 / F / 2, H_SENSOR * 100 / F / 2  # 73.4375, 48.75
-    assert c == pytest.approx(np.array([[half_across, half_along], [half_across, -half_along],
-                                        [-half_across, -half_along], [-half_across, half_along]]), abs=1e-9)
+    assert c == pytest.approx(np.array([[half_across, half_along], [-half_across, half_along],
+                                        [-half_across, -half_along], [half_across, -half_along]]), abs=1e-9)
+    assert shapely.Polygon(c).exterior.is_ccw
     p = footprint_corners(photos(0.0, -90.0), Optics.of(CAM, "portrait"), 0.0)[0]
     assert p.max(axis=0) == pytest.approx([half_along, half_across])
 
@@ -42,7 +43,7 @@ def test_nadir_is_the_rectangle_of_the_sensor_scaled_by_h_over_f() -> None:
 def test_nadir_footprint_turns_with_the_yaw_and_keeps_its_size(yaw: float, z: float, x: float, y: float) -> None:
     c = footprint_corners(photos(yaw, -90.0, z=z, x=x, y=y), Optics.of(CAM, "landscape"), 0.0)[0]
     assert c.mean(axis=0) == pytest.approx([x, y], abs=1e-6)
-    top_mid = (c[0] + c[3]) / 2 - [x, y]  # the image's top edge lies ahead, along the yaw
+    top_mid = (c[0] + c[1]) / 2 - [x, y]  # the image's top edge lies ahead, along the yaw
     assert top_mid == pytest.approx(np.array([math.sin(math.radians(yaw)), math.cos(math.radians(yaw))]) * H_SENSOR * z / F / 2,
                                     abs=1e-6)
     assert shapely.Polygon(c).area == pytest.approx(W * H_SENSOR * (z / F) ** 2, rel=1e-9)
@@ -54,12 +55,12 @@ def test_a_forward_tilt_gives_the_trapezoid_of_tan_theta_plus_minus_beta(tilt: f
     c = footprint_corners(photos(0.0, -90.0 + tilt), Optics.of(CAM, "landscape"), 0.0)[0]
     beta = math.atan(H_SENSOR / 2 / F)
     near, far = z * math.tan(math.radians(tilt) - beta), z * math.tan(math.radians(tilt) + beta)
-    assert c[:, 1] == pytest.approx([far, near, near, far], abs=1e-9)
+    assert c[:, 1] == pytest.approx([far, far, near, near], abs=1e-9)
     # across: the ray's range to the ground over f, times the half width
     th = math.radians(tilt)
     half_far = (W / 2) * z / (F * math.cos(th) - (H_SENSOR / 2) * math.sin(th))
     half_near = (W / 2) * z / (F * math.cos(th) + (H_SENSOR / 2) * math.sin(th))
-    assert c[:, 0] == pytest.approx([half_far, half_near, -half_near, -half_far], abs=1e-9)
+    assert c[:, 0] == pytest.approx([half_far, -half_far, -half_near, half_near], abs=1e-9)
 
 
 def test_roll_tilts_to_the_right_as_pitch_does_forward() -> None:
@@ -105,7 +106,7 @@ def test_rays_meet_a_sloping_ground_where_the_plane_says() -> None:
     t = 100 / (1 + 0.2 * s)
     assert c[0] == pytest.approx([s * t, H_SENSOR / 2 / F * t], abs=1e-3)
     t_west = 100 / (1 - 0.2 * s)
-    assert c[2] == pytest.approx([-s * t_west, -H_SENSOR / 2 / F * t_west], abs=1e-3)
+    assert c[1] == pytest.approx([-s * t_west, H_SENSOR / 2 / F * t_west], abs=1e-3)
 
 
 def test_images_seeing_counts_overlapping_footprints() -> None:

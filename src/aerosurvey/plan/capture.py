@@ -97,10 +97,16 @@ class Photos:
     z: FloatArray
     attitude: Attitudes
 
+    @classmethod
+    def nadir(cls, x: FloatArray, y: FloatArray, agl_m: FloatArray, yaw_deg: FloatArray) -> Photos:
+        """Photos looking straight down from `agl_m` above flat ground at height 0, the image's top towards `yaw_deg`."""
+        return cls(np.asarray(x, float), np.asarray(y, float), np.asarray(agl_m, float), Attitudes.nadir(yaw_deg))
+
 
 #: Image points (u, v) in units of the imaging area's half sides: the four corners, in the
-#: order top-right, bottom-right, bottom-left, top-left (top = the image's top edge).
-CORNERS = np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, -1.0], [-1.0, 1.0]])
+#: order top-right, top-left, bottom-left, bottom-right (top = the image's top edge): on the
+#: ground of a camera looking down, a counter-clockwise ring, as GeoJSON wants its outer rings.
+CORNERS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
 
 
 def ray_directions(optics: Optics, attitude: Attitudes, uv: FloatArray) -> FloatArray:
