@@ -15,7 +15,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.camera import Camera
-from aerosurvey.plan.capture import Attitudes, Optics, Photos, edge_gsd, footprint_corners, footprint_polygons, images_seeing
+from aerosurvey.plan.capture import (
+    Attitudes,
+    Optics,
+    Photos,
+    edge_gsd,
+    footprint_corners,
+    footprint_polygons,
+    ground_points,
+    image_points,
+    images_seeing,
+)
 
 # a sensor whose pixel grid is shorter than the published short side (as the Sony a6000's is not):
 # 6000 x 4000 px of 23.5 mm / 6000 = 3.9167 µm; the short side's imaging area is min(15.667, 15.6) = 15.6 mm
@@ -115,3 +125,25 @@ def test_images_seeing_counts_overlapping_footprints() -> None:
     fps = footprint_polygons(ph, Optics.of(CAM, "landscape"), 0.0)
     counts = images_seeing(a([25.0, -60.0, 110.0, 200.0]), a([0.0, 0.0, 0.0, 0.0]), fps)
     assert counts.tolist() == [2, 1, 1, 0]
+
+
+@given(st.floats(0, 360), st.floats(-89.0, -40.0), st.floats(-20.0, 20.0), st.floats(-0.95, 0.95), st.floats(-0.95, 0.95))
+@settings(max_examples=80, deadline=None)
+def test_a_ground_point_projects_back_to_the_image_point_whose_ray_met_it(yaw: float, pitch: float, roll: float,
+                                                                           u: float, v: float) -> None:
+    ph = photos(yaw, pitch, roll, z=120.0, x=1000.0, y=-500.0)
+    optics = Optics.of(CAM, "landscape")
+    g = ground_points(ph, optics, np.array([[u, v]]), 0.0, grid_scale=0.9996)[0, 0]
+    ip = image_points(ph, optics, np.array([g[0]]), np.array([g[1]]), 0.0, grid_scale=0.9996)
+    assert ip.seen[0, 0]
+    # (u, v) in half sides of the imaging area (23.5 x 15.6 mm) → pixels of 23.5/6000 mm from the
+    # top-left corner of the 6000 x 4000 px image, whose centre is the principal point
+    pitch_mm = 23.5 / 6000
+    assert ip.col[0, 0] == pytest.approx(3000 + u * 23.5 / 2 / pitch_mm, abs=1e-6)
+    assert ip.row[0, 0] == pytest.approx(2000 - v * 15.6 / 2 / pitch_mm, abs=1e-6)
+
+
+def test_a_point_behind_or_beside_the_camera_is_not_seen() -> None:
+    ph = photos(0.0, -45.0)
+    ip = image_points(ph, Optics.of(CAM, "landscape"), np.array([0.0, 0.0, 500.0]), np.array([-50.0, 100.0, 100.0]), 0.0)
+    assert ip.seen[0].tolist() == [False, True, False]

@@ -26,7 +26,6 @@ from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.flight.records import EventRows
 from aerosurvey.manifest import Home
-from aerosurvey.plan.footprints import footprint_corners
 from aerosurvey.rules.footprints import footprints
 from aerosurvey.rules.planview import PlanView
 
@@ -186,7 +185,6 @@ class DemGround:
 
     def _window(self, x: np.ndarray, y: np.ndarray) -> Dem:
         """The DEM read around the points asked for (once, then reused when they lie inside)."""
-        import shapely
 
         from aerosurvey.inputs import read_dem_window
         from aerosurvey.plan.terrain import Dem
@@ -305,9 +303,7 @@ class CountRaster:
 
 def count_raster(view: PlanView, cell_m: float) -> CountRaster:
     """Counts of the view's photo footprints on cells over the area's bounds."""
-    fp = footprints(view)
-    corners = footprint_corners(fp.x, fp.y, np.degrees(fp.heading_rad), fp.across, fp.along)
-    polys = shapely.polygons(corners)
+    polys = footprints(view).polygons
     x0, y0, x1, y1 = view.area.bounds
     pad = cell_m * 2
     width = int(math.ceil((x1 - x0 + 2 * pad) / cell_m))

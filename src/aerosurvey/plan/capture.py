@@ -62,6 +62,8 @@ class Optics:
     height_mm: float  # the imaging area along the image (top to bottom)
     focal_mm: float
     pixel_mm: float
+    width_px: int  # the image's pixels across and along, as it is shown
+    height_px: int
 
     @classmethod
     def of(cls, camera: Camera, mount: str) -> Optics:
@@ -70,8 +72,9 @@ class Optics:
         p = camera.sensor_width_mm / camera.image_width_px
         long_side = min(camera.image_width_px * p, camera.sensor_width_mm)
         short_side = min(camera.image_height_px * p, camera.sensor_height_mm)
-        w, h = (long_side, short_side) if mount == "landscape" else (short_side, long_side)
-        return cls(w, h, camera.focal_mm, p)
+        if mount == "landscape":
+            return cls(long_side, short_side, camera.focal_mm, p, camera.image_width_px, camera.image_height_px)
+        return cls(short_side, long_side, camera.focal_mm, p, camera.image_height_px, camera.image_width_px)
 
 
 @dataclass(frozen=True)
@@ -202,6 +205,37 @@ def edge_gsd(photos: Photos, optics: Optics, ground: float | FloatArray | Ground
     base, right, up = pts[:, :k], pts[:, k:2 * k], pts[:, 2 * k:]
     size = np.maximum(np.linalg.norm(right - base, axis=-1), np.linalg.norm(up - base, axis=-1))
     return EdgeGsd(size[:, 0], size[:, 1], size[:, 2:].max(axis=1))
+
+
+@dataclass(frozen=True)
+class ImagePoints:
+    """Where ground points appear in each photo: (n photos, m points) pixel column (from the
+    image's left edge) and row (from its top), and whether the point is in the image."""
+
+    col: FloatArray
+    row: FloatArray
+    seen: npt.NDArray[np.bool_]
+
+
+def image_points(photos: Photos, optics: Optics, gx: FloatArray, gy: FloatArray, gz: float | FloatArray,
+                 grid_scale: float = 1.0) -> ImagePoints:
+    """Project ground points (planning CRS x, y; height gz) into every photo: the inverse of
+    `ray_directions` (yaw, then roll, then pitch undone), then the pinhole. Occlusion by the
+    ground itself is not modelled."""
+    gx, gy = np.asarray(gx, float)[None, :], np.asarray(gy, float)[None, :]
+    e = (gx - np.asarray(photos.x, float)[:, None]) / grid_scale
+    n = (gy - np.asarray(photos.y, float)[:, None]) / grid_scale
+    z2 = np.broadcast_to(np.asarray(gz, float), gx.shape[1:])[None, :] - np.asarray(photos.z, float)[:, None]
+    r, p, y = (np.radians(np.asarray(a, float))[:, None] for a in (photos.attitude.roll_deg, photos.attitude.pitch_deg,
+                                                                      photos.attitude.yaw_deg))
+    x2, y1 = e * np.cos(y) - n * np.sin(y), e * np.sin(y) + n * np.cos(y)
+    x1, z1 = x2 * np.cos(r) + z2 * np.sin(r), -x2 * np.sin(r) + z2 * np.cos(r)
+    y0, z0 = y1 * np.cos(p) + z1 * np.sin(p), -y1 * np.sin(p) + z1 * np.cos(p)
+    ahead = y0 > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u_mm, v_mm = optics.focal_mm * x1 / y0, optics.focal_mm * z0 / y0
+    seen = ahead & (np.abs(u_mm) <= optics.width_mm / 2) & (np.abs(v_mm) <= optics.height_mm / 2)
+    return ImagePoints(optics.width_px / 2 + u_mm / optics.pixel_mm, optics.height_px / 2 - v_mm / optics.pixel_mm, seen)
 
 
 def images_seeing(px: FloatArray, py: FloatArray, footprints: npt.NDArray[np.object_]) -> IntArray:
