@@ -47,7 +47,7 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
-from scipy import integrate, optimize, stats
+from scipy import integrate, optimize, special, stats
 
 ALPHA0 = 0.001  # per value: Baarda's customary choice, k = 3.29
 POWER = 0.80
@@ -74,19 +74,15 @@ def _power(method: str, alpha0: float, f: int, delta: float) -> float:
         k = critical_value(W_TEST, alpha0, f)
         return float(stats.norm.sf(k - delta) + stats.norm.cdf(-k - delta))
     # P(|t(ν, δ)| > t_c), ν = f − 1, integrated over x = √χ²(ν) of the other values, whose
-    # density is finite at 0 (scipy's noncentral t returns NaN this far in the tail for ν = 1)
+    # density is finite at 0 (scipy's noncentral t returns NaN this far in the tail for ν = 1);
+    # beyond c = δ + 12 both normal tails are below 1e-32, beyond `top` the density is
     nu = f - 1
-    tc = float(stats.t.isf(alpha0 / 2, nu))
-    scale = tc / math.sqrt(nu)
-
-    def tails(x: float) -> float:
-        c = scale * x
-        return float((stats.norm.sf(c - delta) + stats.norm.cdf(-c - delta)) * stats.chi.pdf(x, nu))
-
-    # beyond c = δ + 12 both tails are below 1e-32; beyond `top` the density is
+    scale = float(stats.t.isf(alpha0 / 2, nu)) / math.sqrt(nu)
     top = min(float(stats.chi.isf(1e-14, nu)), (delta + 12) / scale)
-    knee = min(delta / scale, top / 2)
-    return float(integrate.quad(tails, 0.0, top, limit=200, points=[knee], epsabs=1e-14)[0])
+    x = np.linspace(0.0, top, 4001)
+    c = scale * x
+    tails = (special.ndtr(delta - c) + special.ndtr(-c - delta)) * stats.chi.pdf(x, nu)
+    return float(integrate.simpson(tails, x=x))
 
 
 def power(method: str, alpha0: float, f: int, delta: float) -> float:
