@@ -54,7 +54,9 @@ def _dumps(data: object) -> str:
 @click.option("--ref-sigma-xy", type=_NONNEG, default=None,
               help="Reference survey: standard deviation of one horizontal coordinate, m (ASPRS 2023, bayes).")
 @click.option("--ref-sigma-z", type=_NONNEG, default=None, help="Reference survey: height standard deviation, m.")
-@click.option("--sigma0-h", type=_POS, default=None, help="Snooping: a-priori sigma0 of one horizontal coordinate, m (Baarda's w-test and the global test; without it Pope's tau-test).")
+@click.option("--sigma0-h", type=_POS, default=None,
+              help="Snooping: a-priori sigma0 of one horizontal coordinate, m (Baarda's w-test and the global test; "
+                   "without it Pope's tau-test).")
 @click.option("--sigma0-v", type=_POS, default=None, help="Snooping: a-priori sigma0 of heights, m (as --sigma0-h).")
 @click.option("--alpha0", type=click.FloatRange(0, 0.5, min_open=True), default=0.001, show_default=True,
               help="Snooping: probability that one blunder-free value is rejected (0.001: Baarda's k = 3.29).")

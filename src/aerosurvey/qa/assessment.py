@@ -11,11 +11,11 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.qa import asprs, bayes, nssda, review, validity
+from aerosurvey.qa import snooping as sn
 from aerosurvey.qa import statistics as st
 from aerosurvey.qa import uncertainty as un
 from aerosurvey.qa.accuracy_input import CheckPoints
 from aerosurvey.qa.campaign import Campaign, area_bounds_local, campaign_checks, campaign_roles
-from aerosurvey.qa import snooping as sn
 from aerosurvey.qa.choices import STANDARDS
 from aerosurvey.qa.identity import Identity, Product
 
@@ -286,7 +286,7 @@ def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     fewest = sn.fewest_points(methods["horizontal"], methods["vertical"] if heights else None, s.alpha0, s.power,
                               s.max_mdb)
     n_values = 2 * t.n + int(np.isfinite(t.dz).sum())
-    iterations = [{"iteration": k + 1, "points": it.kept, "tests": [c.as_dict(s.alpha0) for c in it.tests],
+    iterations: list[dict[str, Any]] = [{"iteration": k + 1, "points": it.kept, "tests": [c.as_dict(s.alpha0) for c in it.tests],
                    "rejected": t.ids[it.rejected] if it.rejected >= 0 else None, "axis": it.axis}
                   for k, it in enumerate(res.iterations)]
     result: dict[str, Any] = {
@@ -295,8 +295,8 @@ def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
         "max_mdb_sigma": s.max_mdb, "fewest_points": fewest, "iterations": iterations, "rejected": rejected,
         "rejected_share": res.rejected_share, "max_share": res.max_share, "share_ok": res.share_ok,
         "global_test_all": res.global_all, "global_test_kept": res.global_kept, "passed": res.passed,
-        "mdb_m": {c.axis: _finite(c.mdb_m) for c in res.last.tests},
-        "redundancy": {c.axis: c.values for c in res.last.tests}}
+        **{f"mdb_{c.axis}_m": _finite(c.mdb_m) for c in res.last.tests},
+        **{f"redundancy_{c.axis}": c.values for c in res.last.tests}}
     sentences = [
         "Data snooping, one point rejected per iteration: " + "; ".join(
             f"{axis}, {name}" for axis, name in result["methods"].items())

@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-
 NOT_TESTED = "not tested"
 INDICATIVE = "indicative only"
 VALID = "valid"
