@@ -1,5 +1,5 @@
-"""Bayesian estimate (shared/papers/003): modes against the formula columns, credible
-intervals against an independent numerical integration done here."""
+"""Bayesian estimate ("Terms for the determination of spatial objects by UAS used for land consolidation"): modes
+against the formula columns, credible intervals against an independent numerical integration done here."""
 
 from __future__ import annotations
 
