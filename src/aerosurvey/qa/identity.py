@@ -9,6 +9,7 @@ tested* with the list of what is missing (qa/validity.py).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import pyproj
 
@@ -25,6 +26,7 @@ class Product:
     survey_source: str | None = None  # how the check points were surveyed, e.g. "GNSS RTK, CZEPOS"
 
 
+@lru_cache(maxsize=64)
 def datums(crs_text: str | None) -> tuple[str | None, str | None]:
     """(horizontal datum, vertical datum) of a CRS by pyproj's database; a compound CRS gives both."""
     if not crs_text:

@@ -70,7 +70,10 @@ def critical_value(method: str, alpha0: float, f: int) -> float:
     return math.sqrt(f) * t / math.sqrt(f - 1 + t * t)
 
 
-def _power(method: str, alpha0: float, f: int, delta: float) -> float:
+def power(method: str, alpha0: float, f: int, delta: float) -> float:
+    """Probability that a blunder of δ σ on one value is rejected by that value's test."""
+    if method == TAU_TEST and f < 2:
+        return 0.0
     if method == W_TEST:
         k = critical_value(W_TEST, alpha0, f)
         return float(stats.norm.sf(k - delta) + stats.norm.cdf(-k - delta))
@@ -84,13 +87,6 @@ def _power(method: str, alpha0: float, f: int, delta: float) -> float:
     c = scale * x
     tails = (special.ndtr(delta - c) + special.ndtr(-c - delta)) * stats.chi.pdf(x, nu)
     return float(integrate.simpson(tails, x=x))
-
-
-def power(method: str, alpha0: float, f: int, delta: float) -> float:
-    """Probability that a blunder of δ σ on one value is rejected by that value's test."""
-    if method == TAU_TEST and f < 2:
-        return 0.0
-    return _power(method, alpha0, f, delta)
 
 
 @lru_cache(maxsize=4096)
