@@ -96,16 +96,17 @@ def test_the_issues_clean_set_of_30_points_keeps_its_points() -> None:
     assert g_all["limit"] == pytest.approx(stats.chi2.ppf(0.95, 60))
 
 
-@pytest.mark.parametrize("n", [10, 30, 100])
-def test_a_blunder_at_the_mdb_is_found_at_the_stated_power(n: int) -> None:
+@pytest.mark.parametrize("n,method", [(10, sn.TAU_TEST), (30, sn.TAU_TEST), (100, sn.TAU_TEST), (10, sn.W_TEST)])
+def test_a_blunder_at_the_mdb_is_found_at_the_stated_power(n: int, method: str) -> None:
     rng = np.random.default_rng(200 + n)
     trials = 1000
-    delta = sn.mdb_factor(sn.TAU_TEST, 0.001, 0.80, 2 * n)
+    sigma0 = 1.0 if method == sn.W_TEST else None
+    delta = sn.mdb_factor(method, 0.001, 0.80, 2 * n)
     found = 0
     for _ in range(trials):
         dx, dy = rng.normal(0, 1, n), rng.normal(0, 1, n)
         dx[0] += delta * rng.choice([-1, 1])
-        found += bool(sn.snoop(dx, dy).rejected[0])
+        found += bool(sn.snoop(dx, dy, sigma0_h=sigma0).rejected[0])
     _within_3se(found, trials, 0.80)
 
 
