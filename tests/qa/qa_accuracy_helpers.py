@@ -10,7 +10,7 @@ import numpy as np
 
 from aerosurvey.qa.accuracy_input import CheckPoints
 
-REF = Path(__file__).resolve().parents[3] / "shared" / "reference"
+REF = Path(__file__).resolve().parents[1] / "data" / "reference"
 KUBAD = REF / "kubad_abad_gcp_residuals.csv"
 OBRATAN = REF / "bayes_obratan.csv"
 COUNTS_2014 = REF / "asprs2014_checkpoint_counts.csv"

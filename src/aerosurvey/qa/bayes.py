@@ -1,8 +1,7 @@
 """Bayesian estimate of the product's σ when the reference survey itself has σ = τ.
 
-Czech land-consolidation practice ("Terms for the determination of spatial objects by the
-unmanned aerial systems used for land consolidation", formulas (1) and (2); the domain
-notes, section 2): with Jeffreys' prior, m differences with sample standard deviation s (about
+Czech land-consolidation practice (Zaoralová et al., land consolidation terms paper, formulas (1) and (2);
+section 2): with Jeffreys' prior, m differences with sample standard deviation s (about
 zero) give the posterior
 
     f(σ) = 2^(1−m/2) σ (m s²)^(m/2) (σ² + τ²)^(−m/2−1) exp(−m s² / (2(σ² + τ²)))

@@ -3,8 +3,8 @@
 Horizontal: 1.7308 RMSE_r when RMSE_x = RMSE_y; 2.4477 × 0.5 × (RMSE_x + RMSE_y) when
 0.6 ≤ RMSE_min / RMSE_max ≤ 1 (both ends included, compared within a few ulps: see
 asprs.nssda_horizontal_95); below 0.6 the exact circular error (the standard asks for it
-there; the project's standards notes). Vertical: 1.9600 RMSE_z. At least 20 check points.
-Reporting statement (section 3.2.3, as the project's standards notes give it; not confirmed
+there). Vertical: 1.9600 RMSE_z. At least 20 check points.
+Reporting statement (section 3.2.3, as secondary sources give it; not confirmed
 against the standard's text): "Tested ___ (meters, feet) horizontal accuracy at 95% confidence
 level", and the same for vertical accuracy.
 """

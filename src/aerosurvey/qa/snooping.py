@@ -10,8 +10,8 @@ The method is the geodetic literature's, chosen per component by what is known a
   residuals and the detection of outliers*, NOAA Technical Report NOS 65 NGS 1, 1976).
   τ_i = e_i / (σ̂ √r_i) with σ̂² = Σe² / f follows the τ distribution with f degrees of
   freedom, τ = √f · t / √(f − 1 + t²) with t Student's t(f − 1); the critical value is that
-  transform of t(f − 1) at 1 − α₀/2. (The σ̂ of the Hellenic Cadastre practice, in the paper on
-  its orthoimages in ISPRS Archives XXXV Part B-YF, 2004, formulas (1), (2), is this σ̂:
+  transform of t(f − 1) at 1 − α₀/2. (The σ̂ of the Hellenic Cadastre practice, in the Hellenic Cadastre
+  orthoimage paper, ISPRS Archives XXXV (2004), formulas (1), (2), is this σ̂:
   σ_hor = √(Σ(dx² + dy²) / 2n), σ_ver = √(Σdz² / n).)
 
 Residuals are direct differences, product − reference, with no parameter estimated: every

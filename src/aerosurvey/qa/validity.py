@@ -5,7 +5,7 @@ result is **not tested** (no independent check point at all) or **indicative onl
 test ran, but a condition of the standard is not met), with the reasons. The conditions:
 
 - independent check points: control points used in the adjustment show the fit, never the
-  accuracy (ASPRS 2014 and NSSDA ask for independent check points; docs/standards.md);
+  accuracy (ASPRS 2014 and NSSDA ask for independent check points);
 - their number: the standard's minimum for the project area (asprs.Required), and the
   plan's own rule (e.g. the Czech land-consolidation profile's 1 check point per 3 ha) when
   a campaign is given;

@@ -18,8 +18,7 @@ from aerosurvey.gcpause import collector_paused
 from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
-from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.footprints import footprint_corners
+from aerosurvey.plan.capture import Optics, Photos, footprint_corners
 from aerosurvey.plan.planner import Plan
 
 
@@ -82,10 +81,8 @@ def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     latitude arrays (not checked: `plan_geojson` says which is not finite): each on flat ground at
     the station's height above ground."""
     st = plan.stations
-    cam = plan.spec.camera.camera
-    across, along = pg.footprint(st.agl_m, cam, plan.spec.camera.mount)
-    k = plan.grid_scale
-    corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float) * k, np.asarray(along, float) * k)
+    photos = Photos.nadir(st.x, st.y, st.agl_m, st.heading_deg)
+    corners = footprint_corners(photos, Optics.of(plan.spec.camera.camera, plan.spec.camera.mount), 0.0, plan.grid_scale)
     return plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
 
 

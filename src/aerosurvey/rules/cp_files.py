@@ -4,6 +4,7 @@ gcp_list.txt template."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -136,7 +137,12 @@ def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
         pid, role, lon, lat, note = _layout_point(f, i, where)
         x, y = planar(view.crs).xy(np.array([lon], float), np.array([lat], float))
         pts.append(ControlPoint(pid, role, float(x[0]), float(y[0]), 0, note))
+    return seen_by(view, pts)
+
+
+def seen_by(view: PlanView, pts: list[ControlPoint]) -> list[ControlPoint]:
+    """The points where they are, each with the number of the view's photos that see it."""
     if not pts:
         return []
     counts = footprints(view).count_at(np.array([p.x for p in pts]), np.array([p.y for p in pts]))
-    return [ControlPoint(p.id, p.role, p.x, p.y, int(n), p.note) for p, n in zip(pts, counts)]
+    return [dataclasses.replace(p, images=int(n)) for p, n in zip(pts, counts)]
