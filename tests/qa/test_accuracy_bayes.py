@@ -1,5 +1,5 @@
-"""Bayesian estimate (Zaoralová et al., land consolidation terms paper): modes
-against the formula columns, credible intervals against an independent numerical integration done here."""
+"""Bayesian estimate (Zaoralová et al., land consolidation terms paper): modes against the formula columns, credible
+intervals against an independent numerical integration done here."""
 
 from __future__ import annotations
 

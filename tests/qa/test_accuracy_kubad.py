@@ -1,4 +1,4 @@
-"""ASPRS 2014 on the Kubad Abad GCP residuals (Korumaz and Yıldız, Heritage 4 (2021) Table 4): the issue's numbers and warnings."""
+"""ASPRS 2014 on the Kubad Abad GCP residuals (Korumaz and Yıldız, Heritage 4 (2021), Table 4): the issue's numbers and warnings."""
 
 from __future__ import annotations
 

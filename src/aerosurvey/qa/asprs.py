@@ -5,9 +5,9 @@ Where the numbers come from:
 
 - Edition 1 (2014): the class rules (RMSE_x, RMSE_y ≤ X; RMSE_r ≤ 1.414 X; 95 % ≤
   2.4477 X; NVA RMSE_z ≤ X, NVA 95 % = 1.96 RMSE_z ≤ 1.96 X; VVA 95th percentile ≤ 3.00 X),
-  the common classes and the check point table are read from Korumaz and Yıldız, Heritage 4 (2021) (its Tables 5,
-  6, 7, 9 and 10, which reproduce the standard; Table 5 is also the project's reference
-  table of counts); the 3× check point accuracy rule
+  the common classes and the check point table are read from Korumaz and Yıldız, Heritage 4 (2021) (its
+  Tables 5, 6, 7, 9 and 10, which reproduce the standard) and
+  tests/data/reference/asprs2014_checkpoint_counts.csv; the 3× check point accuracy rule
   from secondary sources and the standard's text quoted on a public page
   ("at least three times more accurate than the required accuracy").
 - Edition 2 (2023): the list of changes (RMSE only, no 95 % figures; check point survey
@@ -29,10 +29,11 @@ Where the numbers come from:
 - Mean error: Edition 1 (section 7.5) assumes the mean error "removed or small".
   The 25 % limit of secondary sources could not be quoted from either edition, so it flags
   the mean error (review.mean_error_findings) and decides nothing.
-- Reporting statements: Edition 1's wording as Korumaz and Yıldız, Heritage 4 (2021) (section 4) reproduces it
-  ("This data set was tested to meet …"); Edition 2's modelled on it with RMSE_H / RMSE_V /
-  RMSE_3D (not confirmed against the standard's text). Issued only for a valid test with every
-  input named (qa/identity.py); otherwise the figures are given in our own words.
+- Reporting statements: Edition 1's wording as Korumaz and Yıldız, Heritage 4 (2021), section
+  4, reproduces it ("This data set was tested to meet …"); Edition 2's modelled on it with
+  RMSE_H / RMSE_V / RMSE_3D (not confirmed against the standard's text). Issued only for a
+  valid test with every input named (qa/identity.py); otherwise the figures are given in our
+  own words.
 """
 
 from __future__ import annotations
@@ -47,15 +48,15 @@ from aerosurvey.qa import statistics as st
 
 # --- Edition 1 (2014) ------------------------------------------------------------------
 
-#: Common horizontal classes, RMSE_x = RMSE_y (cm): Korumaz and Yıldız, Heritage 4 (2021) Table 7.
+#: Common horizontal classes, RMSE_x = RMSE_y (cm): Korumaz and Yıldız, Heritage 4 (2021), Table 7.
 HORIZONTAL_CLASSES_2014_CM = (0.63, 1.25, 2.5, 5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 45.0,
                               60.0, 75.0, 100.0, 150.0, 200.0, 250.0, 300.0, 500.0, 1000.0)
-#: Common vertical classes, RMSE_z (cm): Korumaz and Yıldız, Heritage 4 (2021) Table 10.
+#: Common vertical classes, RMSE_z (cm): Korumaz and Yıldız, Heritage 4 (2021), Table 10.
 VERTICAL_CLASSES_2014_CM = (1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 33.3, 66.7, 100.0)
 #: Class limits as multiples of X (Korumaz and Yıldız, Heritage 4 (2021), Tables 6 and 9).
 RMSE_R_FACTOR, H95_FACTOR, NVA95_FACTOR, VVA_FACTOR = 1.414, 2.4477, 1.96, 3.00
 #: Check points per project area, Edition 1: (largest km², horizontal, NVA, VVA) from
-#: Korumaz and Yıldız, Heritage 4 (2021), Table 5 (the project's reference table of counts).
+#: tests/data/reference/asprs2014_checkpoint_counts.csv (Korumaz and Yıldız, Heritage 4 (2021), Table 5).
 COUNTS_2014 = ((500, 20, 20, 5), (750, 25, 20, 10), (1000, 30, 25, 15), (1250, 35, 30, 20), (1500, 40, 35, 25),
                (1750, 45, 40, 30), (2000, 50, 45, 35), (2250, 55, 50, 40), (2500, 60, 55, 45))
 MIN_CHECK_POINTS_2014 = 20

@@ -1,7 +1,7 @@
 """What a careful reviewer would say about a check point test (pure).
 
 Each finding names the points and the numbers behind it. Sources: independent check
-points and counts by area (ASPRS 2014 Annex C, Korumaz and Yıldız, Heritage 4 (2021) Table 5; Edition 2: at
+points and counts by area (ASPRS 2014 Annex C, Korumaz and Yıldız, Heritage 4 (2021), Table 5; Edition 2: at
 least 30), distribution (NSSDA guidance used by ASPRS: at least 20 % of the points in each
 quadrant, points at least 10 % of the diagonal apart).
 """
