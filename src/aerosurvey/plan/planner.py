@@ -20,7 +20,7 @@ import shapely
 
 from aerosurvey.errors import InputError
 from aerosurvey.gcpause import collector_paused
-from aerosurvey.plan.altitudes import Altitudes, assign_altitudes
+from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
 from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
@@ -96,7 +96,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress) -> Plan:
         heading_deg=layout.heading_deg, heading_chosen=layout.heading_chosen, passes=layout.passes, route=routed.route,
         stations=alts.stations, waypoints=waypoints, home=home, home_xy=routed.home_xy, altitude_frame=alts.frame,
         grid_scale=site.grid_scale, trigger_distance_m=sensor.trigger_distance_m, estimates=est, sun=sun,
-        warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + sun_warnings + _zone_warnings(spec, site),
+        warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings + _zone_warnings(spec, site),
         fence_inclusion=fence.inclusion, fence_exclusion=fence.exclusion, launch_sites=sites, sorties=sorties,
         battery=budget, coverage=coverage,
     )
@@ -107,7 +107,8 @@ def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution,
     """Route, altitudes and the coverage check of a layout."""
     routed = plan_route(spec, site, sensor, layout)
     home_ground = _ground(site, routed.home_xy, "launch point")
-    alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
+    slopes = Slopes.of(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms, sensor.speed.speed_ms)
+    alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes)
     return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations)
 
 
