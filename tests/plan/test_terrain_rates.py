@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 import rasterio
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rasterio.transform import from_origin
 
+from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.plan.altitudes import Slopes, flyable_profile
 from aerosurvey.spec import load_spec
@@ -43,11 +45,11 @@ def test_a_flyable_profile_is_kept() -> None:
     assert np.array_equal(flyable_profile(s, wanted, Slopes(0.25, 0.15)), wanted)
 
 
-def _cliff_dem(path: Path) -> None:
-    """Ground at 400 m west of x = 500,000 (UTM 33N) and 460 m east of it, rising over 20 m."""
+def _cliff_dem(path: Path, height: float) -> None:
+    """Ground at 400 m west of x = 500,000 (UTM 33N) and `height` m higher east of it, rising over 20 m."""
     west, north, res, n = 499_700.0, 5_472_400.0, 5.0, 280
     x = west + res * (np.arange(n) + 0.5)
-    z = 400.0 + 60.0 * np.clip((x - 499_990.0) / 20.0, 0.0, 1.0)
+    z = 400.0 + height * np.clip((x - 499_990.0) / 20.0, 0.0, 1.0)
     profile = dict(driver="GTiff", width=n, height=n, count=1, dtype="float32", crs="EPSG:32633",
                    transform=from_origin(west, north, res, res), nodata=-9999.0)
     with rasterio.open(path, "w", **profile) as ds:
@@ -55,7 +57,7 @@ def _cliff_dem(path: Path) -> None:
 
 
 def test_a_cliff_is_climbed_early_and_reported(tmp_path: Path) -> None:
-    _cliff_dem(tmp_path / "dem.tif")
+    _cliff_dem(tmp_path / "dem.tif", 12.0)
     spec = make_spec(tmp_path, {"terrain": {"dem": "dem.tif", "mode": "follow", "tolerance_m": 2.0},
                                 "flight": {"heading": 90.0, "cross_hatch": False},
                                 "vehicle": {"climb_rate_ms": 2.0, "descent_rate_ms": 1.0}})
@@ -72,3 +74,12 @@ def test_a_cliff_is_climbed_early_and_reported(tmp_path: Path) -> None:
     assert st_.agl_m.max() > wanted_agl + 2.0  # the cliff cannot be followed within the tolerance ...
     warning = [w for w in plan.warnings if w.startswith("terrain: the ground along")]
     assert len(warning) == 1 and "runs P1-L001-R1" in warning[0], plan.warnings  # ... and that is said
+
+
+def test_a_cliff_that_would_take_the_photos_over_the_cap_is_refused(tmp_path: Path) -> None:
+    _cliff_dem(tmp_path / "dem.tif", 60.0)
+    spec = make_spec(tmp_path, {"terrain": {"dem": "dem.tif", "mode": "follow", "tolerance_m": 2.0},
+                                "flight": {"heading": 90.0, "cross_hatch": False},
+                                "vehicle": {"climb_rate_ms": 2.0, "descent_rate_ms": 1.0}})
+    with pytest.raises(InputError, match=r"m above ground, over the 120 m cap \(vehicle.max_height_agl_m\)"):
+        plan_from_files(load_spec(spec))

@@ -18,6 +18,7 @@ import numpy as np
 
 from aerosurvey import ids
 from aerosurvey.area import Planar
+from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.route import Route, Run
 from aerosurvey.plan.terrain import Dem, thin_profile
@@ -54,9 +55,10 @@ def flyable_profile(s: np.ndarray, wanted: np.ndarray, slopes: Slopes) -> np.nda
 
 
 def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_ground: float, planar: Planar,
-                     tolerance_m: float, slopes: Slopes | None = None) -> Altitudes:
+                     tolerance_m: float, slopes: Slopes | None = None, cap_agl_m: float = math.inf) -> Altitudes:
     """Stations with ids and altitudes, and the route's waypoints with theirs; in follow mode
-    each run's profile within `slopes` (None: as steep as the ground)."""
+    each run's profile within `slopes` (None: as steep as the ground), refused (InputError)
+    where that takes a photo above `cap_agl_m`."""
     runs = route.runs
     sid = ids.station_ids_of_lines((r.pass_index, r.line, np.asarray(r.station_index, int).tolist()) for r in runs)
     counts = [len(r.station_index) for r in runs]
@@ -76,6 +78,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
         agl = np.full(len(x), heights.nominal_agl_m)
         if slopes is not None:
             alt_rel, agl, warnings = _within_slopes(runs, run_idx, x, y, alt_rel, ground, home_ground, slopes, tolerance_m)
+            _under_cap(runs, run_idx, agl, cap_agl_m, slopes)
     else:  # terrain-frame (above terrain) or none
         alt_rel = np.full(len(x), heights.nominal_agl_m)
         agl = np.full(len(x), heights.nominal_agl_m)
@@ -126,6 +129,19 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
     return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", warnings)
+
+
+def _under_cap(runs: tuple[Run, ...], run_idx: np.ndarray, agl: np.ndarray, cap_agl_m: float, slopes: Slopes) -> None:
+    if not len(agl) or agl.max() <= cap_agl_m + 1e-6:
+        return
+    i = int(np.argmax(agl))
+    r = runs[int(run_idx[i])]
+    raise InputError(
+        f"terrain: along run {ids.run_id(r.pass_index, r.line, r.part)} the ground rises or falls faster than the vehicle "
+        f"climbs ({slopes.climb:.3f} m/m) or descends ({slopes.descent:.3f} m/m) at the survey speed, and following it "
+        f"would take the photos to {agl[i]:.1f} m above ground, over the {cap_agl_m:g} m cap (vehicle.max_height_agl_m): "
+        "raise vehicle.climb_rate_ms or descent_rate_ms if the vehicle can, lower vehicle.cruise_speed_ms, or leave "
+        "this ground out of the area", key="vehicle.climb_rate_ms")
 
 
 def _within_slopes(runs: tuple[Run, ...], run_idx: np.ndarray, x: np.ndarray, y: np.ndarray, wanted: np.ndarray,

@@ -108,7 +108,8 @@ def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution,
     routed = plan_route(spec, site, sensor, layout)
     home_ground = _ground(site, routed.home_xy, "launch point")
     slopes = Slopes.of(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms, sensor.speed.speed_ms)
-    alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes)
+    alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes,
+                            spec.vehicle.max_height_agl_m)
     return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations)
 
 
