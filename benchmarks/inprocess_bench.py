@@ -1,7 +1,10 @@
 """In-process planning and rendering speed, and peak memory (issue: plan contract, speed targets).
 
     python benchmarks/inprocess_bench.py                 # every case, one subprocess each
-    python benchmarks/inprocess_bench.py --case 1000ha-2h1z [--runs 5]
+    python benchmarks/inprocess_bench.py --case 1000ha-2h1z [--runs 5] [--gpkg]
+
+`--gpkg` renders plan.gpkg too (`aerosurvey plan --gpkg`); `gpkg_ms` is then the median time of
+making it alone (the GeoPackage's share of `render_ms`).
 
 Per case, in its own process (so that its peak RSS is its own): the inputs are loaded once
 (not timed: file reading is not planning), then `plan_mission` + `render_outputs` (every
@@ -84,7 +87,7 @@ def reference_work() -> tuple[float, float]:
     return time.perf_counter() - t0, time.process_time() - c0
 
 
-def run_case(name: str, runs: int) -> dict[str, object]:
+def run_case(name: str, runs: int, gpkg: bool = False) -> dict[str, object]:
     from aerosurvey.inputs import load_inputs
     from aerosurvey.outputs import render_outputs
     from aerosurvey.plan.planner import plan_mission
@@ -94,25 +97,32 @@ def run_case(name: str, runs: int) -> dict[str, object]:
     spec = load_spec(make_case(name, Path(td.name)))
     inputs = load_inputs(spec)
     rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    times, cpu, plan_times, refs, cpu_refs = [], [], [], [], []
+    times, cpu, plan_times, refs, cpu_refs, gpkg_times = [], [], [], [], [], []
     photos = out_mb = 0.0
     for k in range(runs + 1):
         ref, cpu_ref = reference_work()
         t0, c0 = time.perf_counter(), time.process_time()
         plan = plan_mission(spec, inputs)
         t1 = time.perf_counter()
-        files = render_outputs(plan).files
+        rendered = render_outputs(plan, gpkg)
+        files = rendered.files
         t2, c2 = time.perf_counter(), time.process_time()
+        if gpkg:
+            from aerosurvey.report.gpkg import gpkg_bytes
+
+            t3 = time.perf_counter()
+            gpkg_bytes(plan)
+            gpkg_times.append(time.perf_counter() - t3)
         if k == 0:  # warm-up: imports inside functions, caches
             photos = len(plan.stations.ids)
-            out_mb = sum(len(v.encode()) for v in files.values()) / 1e6
+            out_mb = (sum(len(v.encode()) for v in files.values()) + sum(len(b) for b in rendered.binary.values())) / 1e6
             continue
         times.append(t2 - t0)
         cpu.append(c2 - c0)
         plan_times.append(t1 - t0)
         refs.append(ref)
         cpu_refs.append(cpu_ref)
-        del plan, files
+        del plan, files, rendered
     td.cleanup()
     ms = statistics.median(times) * 1000
     ref_ms = statistics.median(refs) * 1000
@@ -124,22 +134,24 @@ def run_case(name: str, runs: int) -> dict[str, object]:
             "x_ref": round(ms / ref_ms, 2), "cpu_ms": round(cpu_ms, 1), "cpu_ref_ms": round(cpu_ref_ms, 1),
             "x_cpu_ref": round(cpu_ms / cpu_ref_ms, 2), "target_ms": TARGET_MS.get(name),
             "rss_loaded_mb": round(rss_loaded, 1),
-            "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}
+            "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+            "gpkg_ms": round(statistics.median(gpkg_times[1:] or [math.nan]) * 1000, 1)}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", choices=CASES)
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--gpkg", action="store_true", help="render plan.gpkg too")
     a = ap.parse_args()
     if a.case:
-        print(json.dumps(run_case(a.case, a.runs)))
+        print(json.dumps(run_case(a.case, a.runs, a.gpkg)))
         return
     cols = ["case", "photos", "plan_ms", "render_ms", "total_ms", "min_ms", "ref_ms", "x_ref", "cpu_ms",
-            "cpu_ref_ms", "x_cpu_ref", "target_ms", "rss_loaded_mb", "peak_rss_mb", "output_mb"]
+            "cpu_ref_ms", "x_cpu_ref", "target_ms", "rss_loaded_mb", "peak_rss_mb", "output_mb", "gpkg_ms"]
     print("  ".join(f"{c:>11}" for c in cols))
     for case in CASES:
-        out = subprocess.run([sys.executable, __file__, "--case", case, "--runs", str(a.runs)],
+        out = subprocess.run([sys.executable, __file__, "--case", case, "--runs", str(a.runs)] + (["--gpkg"] if a.gpkg else []),
                              capture_output=True, text=True)
         if out.returncode != 0:
             print(f"{case}: failed\n{out.stderr}", file=sys.stderr)

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aerosurvey import ids
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
-from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.gcpause import collector_paused
 from aerosurvey.mission.builder import build_mission
 from aerosurvey.mission.formats.kml import feature_collection_to_kml
@@ -35,6 +35,7 @@ class Rendered:
     rules: list[dict[str, Any]]
     warnings: list[str]
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
+    binary: dict[str, bytes] = field(default_factory=dict)  # file name → bytes of the binary outputs (plan.gpkg when asked)
 
 
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
@@ -99,17 +100,19 @@ def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
     return evaluate(profiles, ev), ev.points, ev
 
 
-def render_outputs(plan: Plan) -> Rendered:
-    """File name → text of every output (the manifest last: it lists the others' hashes).
+def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
+    """File name → text of every output (the manifest last: it lists the others' hashes);
+    with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
+    is made when asked).
 
     The collector is paused: rendering makes hundreds of thousands of objects (features,
     manifest rows, texts) that live until it returns, and each collection walked them all
     again. Measured on the 100 km² benchmark (51,379 photos): 1,505 → 967 ms CPU."""
     with collector_paused():
-        return _render(plan)
+        return _render(plan, gpkg)
 
 
-def _render(plan: Plan) -> Rendered:
+def _render(plan: Plan, gpkg: bool) -> Rendered:
     mission = build_mission(plan, name=plan.spec.name)
     # the station table's columns are written into the manifest, plan.geojson and plan.kml
     # (their texts made once), and the rules make its rows
@@ -138,23 +141,32 @@ def _render(plan: Plan) -> Rendered:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
     files["preview.svg"] = render_svg(plan, results, points)
-    manifest["outputs"] = {name: _sha256(text) for name, text in sorted(files.items())}
+    binary = {}
+    if gpkg:
+        from aerosurvey.report.gpkg import gpkg_bytes
+
+        binary["plan.gpkg"] = gpkg_bytes(plan, points)
+    hashes = {name: _sha256(text.encode("utf-8")) for name, text in files.items()}
+    hashes |= {name: _sha256(data) for name, data in binary.items()}
+    manifest["outputs"] = dict(sorted(hashes.items()))
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan)]
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
     files["manifest.json"] = mf.dumps(manifest, stations_table)
-    return Rendered(files, manifest["rules"], warnings, evidence)
+    return Rendered(files, manifest["rules"], warnings, evidence, binary)
 
 
-def _sha256(text: str) -> str:
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
-def write_outputs(plan: Plan, outdir: Path) -> Rendered:
+def write_outputs(plan: Plan, outdir: Path, gpkg: bool = False) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
-    rendered = render_outputs(plan)
+    rendered = render_outputs(plan, gpkg)
     with staged_directory(outdir) as stage:
         for name, text in rendered.files.items():
             atomic_write_text(stage / name, text)
+        for name, data in rendered.binary.items():
+            atomic_write_bytes(stage / name, data)
     return rendered

@@ -63,7 +63,9 @@ def summary(plan: Plan, warnings: list[str], rules: list[dict[str, Any]]) -> lis
 @click.argument("spec", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Folder for the mission files, manifest and preview (created if missing).")
-def plan(spec: Path, outdir: Path) -> None:
+@click.option("--gpkg", is_flag=True, help="Also write plan.gpkg: the plan as a GeoPackage, one styled layer per kind "
+                                           "(docs/clients/qgis.md).")
+def plan(spec: Path, outdir: Path, gpkg: bool) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."""
     # imported here, not at the top: listing this command in `aerosurvey --help` must not load the planner
     from aerosurvey.inputs import plan_from_files
@@ -76,8 +78,8 @@ def plan(spec: Path, outdir: Path) -> None:
         result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()
         report("mission files, rules and preview", 0.85)
-        rendered = write_outputs(result, outdir)
+        rendered = write_outputs(result, outdir, gpkg)
     log.info("planned in %.2f s, files written in %.2f s", t1 - t0, time.perf_counter() - t1)
     for line in summary(result, rendered.warnings, rendered.rules):
         click.echo(line)
-    click.echo(f"wrote {', '.join(sorted(rendered.files))} to {outdir}")
+    click.echo(f"wrote {', '.join(sorted([*rendered.files, *rendered.binary]))} to {outdir}")
