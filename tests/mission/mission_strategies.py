@@ -55,6 +55,7 @@ def missions(draw: st.DrawFn, max_items: int = 12) -> Mission:
         name=draw(tags),
         fence_inclusion=tuple(draw(st.lists(polygons, max_size=2))),
         fence_exclusion=tuple(draw(st.lists(polygons, max_size=2))),
+        rally=tuple(draw(st.lists(st.tuples(lat, lon, finite), max_size=3))),
     )
 
 

@@ -168,6 +168,16 @@ def test_reads_a_qgroundcontrol_written_plan() -> None:
     assert m.fence_inclusion == (((47.39, 8.54), (47.40, 8.54), (47.40, 8.55), (47.39, 8.55)),) and m.fence_exclusion == ()
 
 
+def test_rally_points_are_read_as_qgroundcontrol_writes_them() -> None:
+    """RallyPointController saves version 2 with points [latitude, longitude, altitude]."""
+    doc = json.loads(QGC_WRITTEN)
+    doc["rallyPoints"]["points"] = [[47.3981, 8.5462, 40], [47.3990, 8.5470, 45.5]]
+    m = loads_plan(json.dumps(doc), "qgc.plan")
+    assert m.rally == ((47.3981, 8.5462, 40.0), (47.399, 8.547, 45.5))
+    back = json.loads(dumps_plan(m))["rallyPoints"]
+    assert back == {"points": [[47.3981, 8.5462, 40], [47.399, 8.547, 45.5]], "version": 2}
+
+
 def test_vtol_and_fixed_wing_vehicle_types_read_as_plane() -> None:
     for vt, vehicle in ((1, "plane"), (20, "plane"), (13, "copter")):
         doc = json.loads(QGC_WRITTEN)
@@ -239,8 +249,14 @@ def _broken(change) -> str:
     (lambda d: d["geoFence"]["polygons"][0].pop("inclusion"), r"geoFence polygon 1: field 'inclusion' is missing"),
     (lambda d: d["geoFence"]["polygons"][0]["polygon"].__setitem__(1, [47.4]),
      r"geoFence polygon 1 vertex 2 = \[47.4\] is not allowed: \[latitude, longitude\]"),
-    (lambda d: d["rallyPoints"]["points"].append([47.39, 8.54, 30]),
-     r"rallyPoints has 1 point\(s\); aerosurvey does not upload rally points"),
+    (lambda d: d["rallyPoints"]["points"].append([47.39, 8.54]),
+     r"p.plan: rallyPoints point 1 = \[47.39, 8.54\] is not allowed: \[latitude, longitude, altitude\]"),
+    (lambda d: d["rallyPoints"]["points"].append([47.39, 8.54, None]),
+     r"p.plan: rallyPoints point 1 altitude = None is not allowed: a number"),
+    (lambda d: d["rallyPoints"]["points"].append([147.39, 8.54, 30]),
+     r"rallyPoints point 1 = \[147.39, 8.54, 30\] is not allowed: latitude -90..90"),
+    (lambda d: d["rallyPoints"].update(version=1, points=[[47.39, 8.54, 30]]),
+     r"rallyPoints field 'version' = 1 is not allowed: 2"),
 ])
 def test_bad_plans_are_refused_naming_item_and_field(change, message) -> None:
     with pytest.raises(InputError, match=message):

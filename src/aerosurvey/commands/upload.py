@@ -34,6 +34,9 @@ def read_mission(path: Path) -> Mission:
     m = loads_wpl(text, str(path)) if text.lstrip().startswith("QGC WPL") else loads_plan(text, str(path))
     if not m.items:
         raise InputError(f"{path}: the plan has no mission items; there is nothing to upload")
+    if m.rally:
+        click.echo(f"note: the plan's {len(m.rally)} rally point(s) are not uploaded (aerosurvey uploads the mission "
+                   "and the fence); upload them with QGroundControl or Mission Planner", err=True)
     return m
 
 

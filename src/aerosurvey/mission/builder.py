@@ -136,9 +136,23 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
         firmware=spec.vehicle.firmware,
         home=(round(lat, 8), round(lon, 8), round(ground, 2)),
         items=tuple(items),
-        cruise_speed=round(spec.vehicle.cruise_speed_ms, 2),
-        hover_speed=round(plan.speed.speed_ms, 2),
+        # whole m/s: Mission Planner reads a .plan's cruiseSpeed and hoverSpeed into ints
+        # (MissionFile.cs); QGroundControl uses them only for time estimates, the vehicle flies
+        # the DO_CHANGE_SPEED above
+        cruise_speed=float(max(1, round(spec.vehicle.cruise_speed_ms))),
+        hover_speed=float(max(1, round(plan.speed.speed_ms))),
         name=name,
         fence_inclusion=plan.fence_inclusion,
         fence_exclusion=plan.fence_exclusion,
+        rally=rally_points(plan, ground),
     )
+
+
+def rally_points(plan: Plan, home_ground_m: float) -> tuple[tuple[float, float, float], ...]:
+    """Every launch site of the plan as a rally point, at the survey's height above that site's
+    ground, as an altitude above the home of the mission (ground `home_ground_m`). An autopilot
+    returns to the nearest of its rally points and home (ArduPilot with RALLY_INCL_HOME), so a
+    sortie launched away from where it was armed, or that must turn back, lands at a planned
+    site. None without launch sites (a plan without a [battery] table)."""
+    h = plan.heights.nominal_agl_m
+    return tuple((round(s.lat, 8), round(s.lon, 8), round(s.ground_m - home_ground_m + h, 2)) for s in plan.launch_sites)

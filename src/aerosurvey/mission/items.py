@@ -62,6 +62,8 @@ class Mission:
     name: str = "mission"
     fence_inclusion: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
     fence_exclusion: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
+    # rally points: (latitude, longitude, altitude above home in metres), where RTL may go instead of home
+    rally: tuple[tuple[float, float, float], ...] = field(default=())
 
     @property
     def autopilot_id(self) -> int:

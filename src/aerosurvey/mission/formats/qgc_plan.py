@@ -20,9 +20,17 @@ Two keys are aerosurvey's own: `aerosurveyName` (top level) and `aerosurveyTag` 
 item with a non-empty tag). QGroundControl validates only the keys it knows, so it loads
 such files, but it drops both keys when it saves the plan again.
 
+Rally points: `rallyPoints` version 2, `points` a list of [latitude, longitude, altitude]
+(RallyPointController::load reads them with altitudes required; the altitude is above home).
+
+Mission Planner reads a .plan through MissionFile.cs, whose `cruiseSpeed`, `hoverSpeed`,
+`firmwareType`, `vehicleType`, `version`, `command`, `doJumpId` and `frame` are C# ints and
+`params` a list of doubles: the builder makes the speeds whole numbers, and this writer
+writes every whole float as an integer.
+
 Reading: our own files and QGroundControl-written plans of SimpleItems. ComplexItems
-(survey, corridor and structure scans, landing patterns), circular fences and rally
-points have no place in aerosurvey's mission model and are refused with what to do.
+(survey, corridor and structure scans, landing patterns) and circular fences have no place
+in aerosurvey's mission model and are refused with what to do.
 `mission.cruiseSpeed`/`hoverSpeed` are optional in QGroundControl and read as 0.0 when
 absent; a missing `vehicleType` reads as a copter (QGroundControl's multirotor default).
 """
@@ -158,7 +166,8 @@ def mission_to_plan_dict(m: Mission) -> dict[str, Any]:
         "groundStation": "QGroundControl",
         "mission": mission,
         NAME_KEY: m.name,
-        "rallyPoints": {"points": [], "version": RALLY_VERSION},
+        "rallyPoints": {"points": [[_finite(v, f"rally point {k} {name}") for name, v in zip(_HOME_NAMES, p)]
+                                   for k, p in enumerate(m.rally, start=1)], "version": RALLY_VERSION},
         "version": PLAN_FILE_VERSION,
     }
 
@@ -338,10 +347,7 @@ def loads_plan(text: str, source: str = "<string>") -> Mission:
     speeds = {key: _number(mis[key], f"{where} field '{key}'") if key in mis else 0.0 for key in ("cruiseSpeed", "hoverSpeed")}
     read = [_read_item(d, i, source) for i, d in enumerate(_list(_get(mis, "items", where), f"{where} field 'items'"), start=1)]
     items = _resolve_jumps([it for it, _ in read], [jid for _, jid in read], source)
-    rally = doc.get("rallyPoints")
-    if isinstance(rally, dict) and rally.get("points"):
-        raise InputError(f"{source}: rallyPoints has {len(rally['points'])} point(s); aerosurvey does not upload rally "
-                         "points: remove them, or upload this plan with QGroundControl")
+    rally = _read_rally(doc, source)
     inc, excl = _read_fence(doc, source)
     name = doc.get(NAME_KEY, "mission")
     if not isinstance(name, str):
@@ -349,5 +355,25 @@ def loads_plan(text: str, source: str = "<string>") -> Mission:
     return Mission(
         vehicle=vehicle, firmware=firmware, home=(h_lat, h_lon, h_alt), items=tuple(items),
         cruise_speed=speeds["cruiseSpeed"], hover_speed=speeds["hoverSpeed"], name=name,
-        fence_inclusion=tuple(inc), fence_exclusion=tuple(excl),
+        fence_inclusion=tuple(inc), fence_exclusion=tuple(excl), rally=rally,
     )
+
+
+def _read_rally(doc: dict[str, Any], source: str) -> tuple[tuple[float, float, float], ...]:
+    """Rally points as QGroundControl reads them: version 2, each [latitude, longitude, altitude]."""
+    if "rallyPoints" not in doc:
+        return ()
+    where = f"{source}: rallyPoints"
+    rally = _object(doc["rallyPoints"], where)
+    points = _list(rally.get("points", []), f"{where} field 'points'")
+    if points and not _is(rally.get("version"), RALLY_VERSION):
+        raise InputError(f"{where} field 'version' = {rally.get('version')!r} is not allowed: {RALLY_VERSION}")
+    out = []
+    for k, p in enumerate(points, start=1):
+        if not isinstance(p, list) or len(p) != 3:
+            raise InputError(f"{where} point {k} = {p!r} is not allowed: [latitude, longitude, altitude]")
+        lat, lon, alt = (_number(v, f"{where} point {k} {name}") for name, v in zip(_HOME_NAMES, p))
+        if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+            raise InputError(f"{where} point {k} = {p!r} is not allowed: latitude -90..90, longitude -180..180")
+        out.append((lat, lon, alt))
+    return tuple(out)
