@@ -49,8 +49,9 @@ def test_ingest_writes_geotags(tmp_path):
     assert geo[0] == "EPSG:4326" and len(geo) == 1 + len(ev)
     name, lon, lat, alt = geo[1].split()[:4]
     assert name == "DSC00001.JPG" and abs(float(lat) - ev.lat[0]) < 1e-8 and abs(float(lon) - ev.lon[0]) < 1e-8
-    ref = (tmp_path / "o" / "image_reference.csv").read_text().splitlines()
-    assert ref[0].startswith("label,longitude,latitude,altitude") and len(ref) == 1 + len(ev)
+    for name in ("pix4d_geolocation.csv", "metashape_reference.csv"):
+        ref = (tmp_path / "o" / name).read_text().splitlines()
+        assert ref[0].startswith("#") and len(ref) == 1 + len(ev)
 
 
 def test_unusable_times_fall_back_to_order(tmp_path):

@@ -25,7 +25,7 @@ def view(tmp_path_factory) -> PlanView:
 
 def test_written_layout_reads_back_with_the_same_points(view):
     ev = Evidence(view, layout_settings(view, []))
-    text = control_point_files(view, ev.points, ev.footprints)["control_points.geojson"]
+    text = control_point_files(view, ev.points)["control_points.geojson"]
     back = read_layout(text, view, "control_points.geojson")
     assert [(p.id, p.role, p.images) for p in back] == [(p.id, p.role, p.images) for p in ev.points]
     # positions go through longitude/latitude rounded to 1e-8 degrees (about 1 mm)

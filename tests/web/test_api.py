@@ -75,7 +75,7 @@ def test_plan_equals_the_cli_byte_for_byte(planned):
         assert sorted(zf.namelist()) == sorted(result["files"])
         assert zf.read("mission.waypoints") == (out / "mission.waypoints").read_bytes()
     # the control point files the field crew needs come with the plan
-    assert {"control_points.geojson", "control_points.csv", "control_points.gpx", "gcp_list.txt"} <= set(result["files"])
+    assert {"control_points.geojson", "control_points.csv", "control_points.gpx"} <= set(result["files"])
 
 
 def test_layers_match_the_manifest(planned):

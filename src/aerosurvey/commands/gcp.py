@@ -60,7 +60,7 @@ def gcp(target: Path, outdir: Path | None, profiles: tuple[str, ...], profile_di
     zones = _nogo_zones(t.view, nogo)
     ev = Evidence(t.view, layout_settings(t.view, chosen, nogo=zones, gcp_offset_m=offset))
     pts = ev.points
-    files = control_point_files(t.view, pts, ev.footprints)
+    files = control_point_files(t.view, pts)
     with staged_directory(out, merge=True) as stage:  # by default `out` is the plan folder: its files stay
         for name, text in files.items():
             atomic_write_text(stage / name, text)

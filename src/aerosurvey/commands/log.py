@@ -23,9 +23,12 @@ def log() -> None:
 @click.option("--tolerance", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Metres a trigger may lie from its station (default: a quarter of the photo base).")
 @click.option("--images", "images_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Folder of the flight's images: matched to events by EXIF time; writes geo.txt and image_reference.csv.")
-@click.option("--accuracy-xy", type=float, default=2.0, show_default=True, help="Position accuracy for image_reference.csv (m).")
-@click.option("--accuracy-z", type=float, default=4.0, show_default=True, help="Height accuracy for image_reference.csv (m).")
+              help="Folder of the flight's images: matched to events by EXIF time; writes the camera poses for "
+                   "photogrammetry (geo.txt, pix4d_geolocation.csv, metashape_reference.csv).")
+@click.option("--accuracy-xy", type=float, default=2.0, show_default=True,
+              help="Camera position accuracy (m, one standard deviation) in the camera pose files.")
+@click.option("--accuracy-z", type=float, default=4.0, show_default=True,
+              help="Camera height accuracy (m, one standard deviation) in the camera pose files.")
 @click.option("--fixed-camera", is_flag=True, help="The camera is fixed to the body (no gimbal): apply roll and pitch to the footprints.")
 @click.option("--dem", "dem_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="DEM GeoTIFF (any CRS, orthometric heights): with --plan, photo heights above ground are the "
@@ -36,8 +39,8 @@ def log() -> None:
 @click.option("--geotag-in-place", is_flag=True,
               help="With --images: write the EXIF GPS tags into the original JPEGs themselves (each replaced atomically).")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Folder for events.csv, log_report.json and, with --plan, coverage.tif; with --images, geo.txt "
-                   "and image_reference.csv.")
+              help="Folder for events.csv, log_report.json and, with --plan, coverage.tif; with --images, geo.txt, "
+                   "pix4d_geolocation.csv and metashape_reference.csv.")
 def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, images_dir: Path | None,
            accuracy_xy: float, accuracy_z: float, fixed_camera: bool, dem_path: Path | None, geotag_dir: Path | None,
            geotag_in_place: bool, outdir: Path) -> None:
@@ -51,8 +54,8 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
     with console.progress(f"log ingest {flight_log.name}") as step:
         result = ingest(flight_log, view, sortie=sortie, tolerance_m=tolerance, fixed_camera=fixed_camera, dem_path=dem_path,
                         images_dir=images_dir, progress=step)
-    report = write_ingest(result, outdir, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, geotag_dir=geotag_dir,
-                          geotag_in_place=geotag_in_place)
+    report = write_ingest(result, outdir, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, fixed_camera=fixed_camera,
+                          geotag_dir=geotag_dir, geotag_in_place=geotag_in_place)
     _echo(report)
 
 
@@ -105,3 +108,81 @@ def _echo_geotag(g: dict[str, Any]) -> None:
     if names:
         more = f" and {len(names) - 10} more (log_report.json)" if len(names) > 10 else ""
         click.echo(f"  unmatched: {', '.join(names[:10])}{more}")
+
+
+@log.command("gcp-predict")
+@click.argument("ingest_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--plan", "plan_dir", required=True, type=click.Path(file_okay=False, exists=True, path_type=Path),
+              help="The plan folder (manifest.json: camera and CRS).")
+@click.option("--points", "points_path", type=click.Path(dir_okay=False, exists=True, path_type=Path), default=None,
+              help="control_points.geojson of `aerosurvey gcp` (default: the one in the plan folder).")
+@click.option("--dem", "dem_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="DEM GeoTIFF (orthometric heights) for the points' ground heights (default: flat ground at home).")
+@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="The predictions CSV to write (gcp, image, col, row).")
+def gcp_predict(ingest_dir: Path, plan_dir: Path, points_path: Path | None, dem_path: Path | None, out: Path) -> None:
+    """Predict where each control point appears in the flown images (for a marking tool)."""
+    import numpy as np
+
+    from aerosurvey.errors import InputError
+    from aerosurvey.fileio import atomic_write_text
+    from aerosurvey.flight.handoff import GroundPoint, predict_marks, predictions_csv, read_geo_txt
+    from aerosurvey.flight.records import read_events_csv
+    from aerosurvey.rules.cp_files import read_layout
+    from aerosurvey.rules.footprints import ViewCamera
+    from aerosurvey.rules.planview import PlanView
+
+    geo = ingest_dir / "geo.txt"
+    if not geo.exists():
+        raise InputError(f"{ingest_dir}: no geo.txt; run `aerosurvey log ingest --images ...` into it first")
+    poses = read_geo_txt(geo.read_text(encoding="utf-8"), str(geo))
+    view = PlanView.from_outdir(plan_dir, "--plan")
+    src = points_path or plan_dir / "control_points.geojson"
+    if not src.exists():
+        raise InputError(f"{src}: no control points; run `aerosurvey gcp {plan_dir}` or give --points")
+    pts = read_layout(src.read_text(encoding="utf-8"), view, str(src))
+    x, y = np.array([p.x for p in pts], float), np.array([p.y for p in pts], float)
+    if dem_path is not None:
+        from aerosurvey.flight.coverage import DemGround
+
+        with DemGround(dem_path, view.crs) as dem:
+            z = np.asarray(dem(x, y), float)
+        if not np.isfinite(z).all():
+            bad = [p.id for p, v in zip(pts, z) if not np.isfinite(v)]
+            raise InputError(f"--dem {dem_path}: no ground height under {', '.join(bad[:5])} (off the DEM or nodata)")
+    else:
+        ev = read_events_csv(ingest_dir / "events.csv")
+        home = ev.alt_m - ev.rel_alt_m
+        if not np.isfinite(home).any():
+            raise InputError(f"{ingest_dir / 'events.csv'}: no altitude above home is logged; give --dem")
+        z = np.full(len(pts), float(np.nanmedian(home)))
+    grid_scale = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))
+    marks = predict_marks(poses, [GroundPoint(p.id, p.x, p.y, float(h)) for p, h in zip(pts, z)],
+                          ViewCamera.of(view).optics, view.crs, grid_scale)
+    atomic_write_text(out, predictions_csv(marks))
+    seen = {m.gcp for m in marks}
+    click.echo(f"{len(marks)} predicted marks of {len(seen)} of {len(pts)} points in {len(poses)} images; wrote {out}")
+    unseen = [p.id for p in pts if p.id not in seen]
+    if unseen:
+        click.echo(f"  seen by no image: {', '.join(unseen)}")
+
+
+@log.command("gcp-list")
+@click.argument("marks_path", type=click.Path(dir_okay=False, exists=True, path_type=Path))
+@click.option("--surveyed", "surveyed_path", required=True, type=click.Path(dir_okay=False, exists=True, path_type=Path),
+              help="CSV of the GCPs' surveyed coordinates: id, easting, northing, elevation, crs.")
+@click.option("--images", "images_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="The images folder ODM will read: every marked image must be in it.")
+@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="The gcp_list.txt to write.")
+def gcp_list(marks_path: Path, surveyed_path: Path, images_dir: Path | None, out: Path) -> None:
+    """OpenDroneMap's gcp_list.txt from a marking tool's CSV (gcp id, image, pixel x, pixel y)."""
+    from aerosurvey.fileio import atomic_write_text
+    from aerosurvey.flight.handoff import odm_gcp_list, read_marks, read_surveyed
+    from aerosurvey.flight.images import list_images
+
+    marks = read_marks(marks_path.read_text(encoding="utf-8-sig"), marks_path.name)
+    crs, surveyed = read_surveyed(surveyed_path)
+    images = [p.name for p in list_images(images_dir)] if images_dir is not None else None
+    atomic_write_text(out, odm_gcp_list(marks, surveyed, crs, marks_path.name, images))
+    click.echo(f"{len(marks)} marks of {len({m.gcp for m in marks})} GCPs in {len({m.image for m in marks})} images; wrote {out}")

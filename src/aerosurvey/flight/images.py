@@ -103,25 +103,6 @@ def list_images(folder: Path) -> list[Path]:
     return files
 
 
-def geo_txt(m: ImageMatch, ev: Events) -> str:
-    """OpenDroneMap geo.txt: the CRS line, then image, longitude, latitude, altitude, yaw, pitch, roll."""
-    lines = ["EPSG:4326"]
-    for f, j in zip(m.files, m.event_of):
-        if j is not None:
-            lines.append(f"{f.name} {ev.lon[j]:.8f} {ev.lat[j]:.8f} {ev.alt_m[j]:.3f} {ev.yaw[j]:.2f} {ev.pitch[j]:.2f} {ev.roll[j]:.2f}")
-    return "\n".join(lines) + "\n"
-
-
-def reference_csv(m: ImageMatch, ev: Events, accuracy_xy: float, accuracy_z: float) -> str:
-    """Camera reference CSV for Metashape / Pix4D, with accuracy columns."""
-    rows = ["label,longitude,latitude,altitude,yaw,pitch,roll,accuracy_xy,accuracy_z"]
-    for f, j in zip(m.files, m.event_of):
-        if j is not None:
-            rows.append(f"{f.name},{ev.lon[j]:.8f},{ev.lat[j]:.8f},{ev.alt_m[j]:.3f},{ev.yaw[j]:.2f},{ev.pitch[j]:.2f},"
-                        f"{ev.roll[j]:.2f},{accuracy_xy:g},{accuracy_z:g}")
-    return "\n".join(rows) + "\n"
-
-
 def geotag_images(m: ImageMatch, ev: Events, dest: Path) -> dict[str, Any]:
     """Write each matched JPEG into `dest` with EXIF GPS tags from its camera event.
 

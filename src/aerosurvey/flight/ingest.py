@@ -30,7 +30,8 @@ from aerosurvey.flight.coverage import (
     write_count_raster,
 )
 from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
-from aerosurvey.flight.images import ImageMatch, geo_txt, geotag_images, list_images, match_images, reference_csv
+from aerosurvey.flight.handoff import camera_poses, geo_txt, metashape_csv, pix4d_csv
+from aerosurvey.flight.images import ImageMatch, geotag_images, list_images, match_images
 from aerosurvey.manifest import Manifest, Stations
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.rules import footprints as fpm
@@ -210,10 +211,11 @@ def event_columns(result: Ingested) -> dict[str, Any]:
 
 
 def write_ingest(result: Ingested, outdir: Path, *, accuracy_xy: float = 2.0, accuracy_z: float = 4.0,
-                 geotag_dir: Path | None = None, geotag_in_place: bool = False) -> dict[str, Any]:
-    """Write events.csv, log_report.json and coverage.tif (with a plan), geo.txt and
-    image_reference.csv (with images) into `outdir`, all or nothing; tag the images when asked.
-    Returns the report as written."""
+                 fixed_camera: bool = False, geotag_dir: Path | None = None, geotag_in_place: bool = False) -> dict[str, Any]:
+    """Write events.csv, log_report.json and coverage.tif (with a plan), and with images the
+    camera poses for photogrammetry (geo.txt, pix4d_geolocation.csv, metashape_reference.csv:
+    flight/handoff.py) into `outdir`, all or nothing; tag the images when asked. Returns the
+    report as written."""
     report = dict(result.report)
     events_text = records.dumps_events(event_columns(result))
     with staged_directory(outdir) as stage:
@@ -221,8 +223,10 @@ def write_ingest(result: Ingested, outdir: Path, *, accuracy_xy: float = 2.0, ac
             write_count_raster(stage / "coverage.tif", result.coverage)
         atomic_write_text(stage / "events.csv", events_text)
         if result.images is not None:
-            atomic_write_text(stage / "geo.txt", geo_txt(result.images, result.events))
-            atomic_write_text(stage / "image_reference.csv", reference_csv(result.images, result.events, accuracy_xy, accuracy_z))
+            poses = camera_poses(result.images, result.events, fixed_camera)
+            for name, write in (("geo.txt", geo_txt), ("pix4d_geolocation.csv", pix4d_csv),
+                                ("metashape_reference.csv", metashape_csv)):
+                atomic_write_text(stage / name, write(poses, accuracy_xy, accuracy_z))
             if geotag_dir is not None:
                 report["geotag"] = {**geotag_images(result.images, result.events, geotag_dir), "in_place": geotag_in_place}
         atomic_write_text(stage / "log_report.json", records.dumps_report(report))

@@ -90,6 +90,30 @@ class Attitudes:
         yaw = np.asarray(yaw_deg, float)
         return cls(yaw, np.full(yaw.shape, -90.0), np.zeros(yaw.shape))
 
+    @classmethod
+    def of_body(cls, yaw_deg: FloatArray, pitch_deg: FloatArray, roll_deg: FloatArray) -> Attitudes:
+        """The attitude of a camera fixed to a body, looking down with the image's top towards
+        the nose, from the body's yaw, pitch (nose up positive) and roll (right side down
+        positive), rotated in that order (the aircraft convention MAVLink's ATTITUDE uses).
+        These are also the yaw, pitch, roll of a camera in Pix4D's, Metashape's and
+        OpenDroneMap's convention (0, 0, 0: looking down, the image's top to the north); a
+        camera on a nadir gimbal is (yaw, 0, 0), which gives `nadir(yaw)`.
+
+        Exact: the camera's right and optical axis (the body's right and down) are found and
+        the module's pitch, roll, yaw read off them (the inverse of `ray_directions`)."""
+        y, p, r = (np.radians(np.asarray(a, float)) for a in (yaw_deg, pitch_deg, roll_deg))
+        cy, sy, cp, sp, cr, sr = np.cos(y), np.sin(y), np.cos(p), np.sin(p), np.cos(r), np.sin(r)
+        # the body's right and down axes in north, east, down (columns 2 and 3 of Rz(y)·Ry(p)·Rx(r)),
+        # turned to east, north, up
+        right_e, right_n, right_u = sy * sp * sr + cy * cr, cy * sp * sr - sy * cr, -(cp * sr)
+        down_e, down_n, down_u = sy * sp * cr - cy * sr, cy * sp * cr + sy * sr, -(cp * cr)
+        roll = np.arcsin(np.clip(right_u, -1.0, 1.0))
+        yaw = np.arctan2(-right_n, right_e)
+        along = down_e * np.sin(yaw) + down_n * np.cos(yaw)  # the axis with the yaw undone
+        across = down_e * np.cos(yaw) - down_n * np.sin(yaw)
+        up = -across * np.sin(roll) + down_u * np.cos(roll)  # and the roll
+        return cls(np.degrees(yaw) % 360.0, np.degrees(np.arctan2(up, along)), np.degrees(roll))
+
 
 @dataclass(frozen=True)
 class Photos:

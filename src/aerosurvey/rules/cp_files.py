@@ -1,5 +1,8 @@
-"""Control point files for the field crew: GeoJSON, CSV, GPX, and an OpenDroneMap
-gcp_list.txt template."""
+"""Control point files for the field crew: GeoJSON, CSV (with an empty `elevation` column for
+the surveyed height: `aerosurvey log gcp-list --surveyed` reads it back), GPX.
+
+OpenDroneMap's gcp_list.txt names images and pixel positions measured in them, so it is made
+after the flight from image marks (flight/handoff.py), never from planned stations."""
 
 from __future__ import annotations
 
@@ -7,16 +10,14 @@ import csv
 import dataclasses
 import io
 import json
-import math
 from html import escape
 
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan import capture
 from aerosurvey.reproject import planar
 from aerosurvey.rules.control_points import ControlPoint, Role
-from aerosurvey.rules.footprints import FloatArray, Footprints, ViewCamera, footprints
+from aerosurvey.rules.footprints import FloatArray, ViewCamera, footprints
 from aerosurvey.rules.planview import PlanView
 
 
@@ -47,9 +48,9 @@ def to_csv(view: PlanView, pts: list[ControlPoint]) -> str:
     size = target_size_cm(view)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["id", "role", "easting", "northing", "lat", "lon", "crs", "target_size_cm", "images", "note"])
+    w.writerow(["id", "role", "easting", "northing", "elevation", "lat", "lon", "crs", "target_size_cm", "images", "note"])
     for p, lo, la in zip(pts, lon, lat):
-        w.writerow([p.id, "GCP" if p.role == "gcp" else "CP", f"{p.x:.3f}", f"{p.y:.3f}", f"{la:.8f}", f"{lo:.8f}",
+        w.writerow([p.id, "GCP" if p.role == "gcp" else "CP", f"{p.x:.3f}", f"{p.y:.3f}", "", f"{la:.8f}", f"{lo:.8f}",
                     view.crs, size, p.images, p.note])
     return buf.getvalue()
 
@@ -67,35 +68,11 @@ def to_gpx(view: PlanView, pts: list[ControlPoint]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_odm_gcp_list(view: PlanView, pts: list[ControlPoint], fp: Footprints, per_point: int = 6) -> str:
-    """OpenDroneMap gcp_list.txt template: the CRS line, then per GCP the planned photos
-    that should see it (nearest first), with the pixel where it should appear (the capture
-    model's projection of the point into each photo, flat ground).
-
-    The image column holds the station id: replace it with the image file name once the
-    photos are linked to stations; heights are 0 until the GCPs are surveyed.
-    """
-    lines = [view.crs]
-    gcps = [p for p in pts if p.role == "gcp"]
-    if gcps and len(fp.x):
-        k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))
-        photos = capture.Photos.nadir(fp.x, fp.y, np.asarray(view.agl, float), np.degrees(fp.heading_rad))
-        ip = capture.image_points(photos, ViewCamera.of(view).optics, np.array([p.x for p in gcps]),
-                                  np.array([p.y for p in gcps]), 0.0, k)
-        for j, p in enumerate(gcps):
-            order = np.argsort(np.hypot(fp.x - p.x, fp.y - p.y))
-            for i in order[ip.seen[order, j]][:per_point]:
-                lines.append(f"{p.x:.3f} {p.y:.3f} 0.000 {math.floor(ip.col[i, j])} {math.floor(ip.row[i, j])} "
-                             f"{view.station_ids[i]} {p.id}")
-    return "\n".join(lines) + "\n"
-
-
-def control_point_files(view: PlanView, pts: list[ControlPoint], fp: Footprints) -> dict[str, str]:
+def control_point_files(view: PlanView, pts: list[ControlPoint]) -> dict[str, str]:
     return {
         "control_points.geojson": to_geojson(view, pts),
         "control_points.csv": to_csv(view, pts),
         "control_points.gpx": to_gpx(view, pts),
-        "gcp_list.txt": to_odm_gcp_list(view, pts, fp),
     }
 
 

@@ -297,7 +297,7 @@ def _control_points(rendered: Rendered, manifest: mf.Manifest, features: dict[st
     if ev is None:
         view = PlanView.from_manifest(manifest, features, "the plan")
         ev = Evidence(view, layout_settings(view, []))
-    return ev.points, control_point_files(ev.view, ev.points, ev.footprints)
+    return ev.points, control_point_files(ev.view, ev.points)
 
 
 def _sortie_of_stations(manifest: mf.Manifest) -> list[int]:
