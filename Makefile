@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint install install-test clean bench
+.PHONY: demo handoff-demo test lint install install-test clean bench
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -23,6 +23,11 @@ install-test: $(BIN)/python
 demo: install
 	$(BIN)/aerosurvey plan missions/obratan-72ha.toml -o out/obratan
 	@echo "outputs written to out/obratan (open out/obratan/preview.svg)"
+
+# every hand-off format (GeoPackage, rally points, control points, camera poses for ODM, Pix4D and
+# Metashape, GCP predictions, gcp_list.txt) from the fixed-wing example and its SITL flight log
+handoff-demo: install
+	$(BIN)/python missions/tools/handoff_example.py out/handoff
 
 test: install-test lint
 	$(BIN)/python -m pytest
