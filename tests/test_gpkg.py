@@ -136,3 +136,20 @@ def test_control_points_are_the_rules_proposals(written) -> None:
             assert abs(x - p.x) < 0.01 and abs(y - p.y) < 0.01
     if plan.spec.profiles:
         assert any(p.role == "gcp" for p in points)
+
+
+def test_plan_geojson_splits_by_role_in_gdal(written) -> None:
+    """plan.geojson stays one collection of mixed geometry; GDAL reads its `role` field, and each
+    role selects features of one geometry type (`ogr2ogr -where "role='station'"`)."""
+    _, _, out = written
+    path = out / "plan.geojson"
+    _, _, _, fields = pyogrio.raw.read(path, columns=["role"], read_geometry=False)
+    roles = set(fields[0])
+    assert {"area", "line", "station", "footprint", "home"} <= roles
+    total = 0
+    for role in roles:
+        _, _, geoms, _ = pyogrio.raw.read(path, columns=["role"], where=f"role = '{role}'")
+        kinds = {shapely.from_wkb(g).geom_type for g in geoms}
+        assert len(kinds) == 1 or kinds <= {"Polygon", "MultiPolygon"}, (role, kinds)
+        total += len(geoms)
+    assert total == pyogrio.read_info(path)["features"]
