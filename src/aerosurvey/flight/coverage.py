@@ -43,8 +43,9 @@ def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, roll: np.ndarray, pitc
     hh = np.nan_to_num(h)
     along = tilt * hh * np.tan(np.radians(np.nan_to_num(pitch)))
     across = tilt * hh * np.tan(np.radians(np.nan_to_num(roll)))
-    # nose-down pitch looks backwards, right roll looks left: the footprint centre moves against them
-    return x - along * np.sin(yaw) + across * np.cos(yaw), y - along * np.cos(yaw) - across * np.sin(yaw)
+    # nose-up pitch (positive) looks ahead, right roll (positive) looks left: the footprint centre
+    # moves ahead by `along` and to the left by `across` (capture.Attitudes.of_body's camera)
+    return x + along * np.sin(yaw) - across * np.cos(yaw), y + along * np.cos(yaw) + across * np.sin(yaw)
 
 
 def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground: GroundFn | None,
