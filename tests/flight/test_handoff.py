@@ -239,3 +239,24 @@ def test_predict_then_list_on_the_command_line(tmp_path: Path) -> None:
     assert r.exit_code == 0, r.output
     kept = odm_filtered_gcp(gl.read_text(), {f"IMG_{k}{j}.JPG" for k in range(2) for j in range(3)})
     assert kept is not None and len(kept) == len(rows)
+
+
+def test_control_points_csv_opens_as_points_in_gdal(tmp_path: Path) -> None:
+    """control_points.csv with its .prj: GDAL's CSV driver gives point geometry in WGS84 at lon/lat."""
+    import pyogrio
+    import shapely
+    from click.testing import CliRunner
+
+    from aerosurvey.cli import main
+
+    root = Path(__file__).resolve().parents[2]
+    plan_dir = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(root / "missions" / "obratan-72ha.toml"), "-o", str(plan_dir)]).exit_code == 0
+    assert CliRunner().invoke(main, ["gcp", str(plan_dir)]).exit_code == 0
+    path = plan_dir / "control_points.csv"
+    assert pyogrio.read_info(path)["crs"] is not None
+    _, _, geoms, fields = pyogrio.raw.read(path, columns=["lat", "lon"])
+    assert len(geoms) > 0
+    for g, lat, lon in zip(geoms, *fields):
+        p = shapely.from_wkb(g)
+        assert p.geom_type == "Point" and abs(p.x - float(lon)) < 1e-8 and abs(p.y - float(lat)) < 1e-8

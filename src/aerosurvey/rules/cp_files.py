@@ -1,6 +1,10 @@
 """Control point files for the field crew: GeoJSON, CSV (with an empty `elevation` column for
 the surveyed height: `aerosurvey log gcp-list --surveyed` reads it back), GPX.
 
+The CSV's last column `WKT` is each point in WGS84 longitude/latitude, the column GDAL's CSV
+driver makes the geometry without being told, and control_points.prj beside it (GDAL reads a
+.prj of the same name) gives that CRS, so QGIS and ogr2ogr place the points as they open it.
+
 OpenDroneMap's gcp_list.txt names images and pixel positions measured in them, so it is made
 after the flight from image marks (flight/handoff.py), never from planned stations."""
 
@@ -13,6 +17,7 @@ import json
 from html import escape
 
 import numpy as np
+import pyproj
 
 from aerosurvey.errors import InputError
 from aerosurvey.reproject import planar
@@ -48,10 +53,11 @@ def to_csv(view: PlanView, pts: list[ControlPoint]) -> str:
     size = target_size_cm(view)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["id", "role", "easting", "northing", "elevation", "lat", "lon", "crs", "target_size_cm", "images", "note"])
+    w.writerow(["id", "role", "easting", "northing", "elevation", "lat", "lon", "crs", "target_size_cm", "images", "note",
+                "WKT"])
     for p, lo, la in zip(pts, lon, lat):
         w.writerow([p.id, "GCP" if p.role == "gcp" else "CP", f"{p.x:.3f}", f"{p.y:.3f}", "", f"{la:.8f}", f"{lo:.8f}",
-                    view.crs, size, p.images, p.note])
+                    view.crs, size, p.images, p.note, f"POINT ({lo:.8f} {la:.8f})"])
     return buf.getvalue()
 
 
@@ -73,6 +79,7 @@ def control_point_files(view: PlanView, pts: list[ControlPoint]) -> dict[str, st
         "control_points.geojson": to_geojson(view, pts),
         "control_points.csv": to_csv(view, pts),
         "control_points.gpx": to_gpx(view, pts),
+        "control_points.prj": pyproj.CRS("EPSG:4326").to_wkt("WKT1_ESRI") + "\n",
     }
 
 
