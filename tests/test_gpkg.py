@@ -153,3 +153,18 @@ def test_plan_geojson_splits_by_role_in_gdal(written) -> None:
         assert len(kinds) == 1 or kinds <= {"Polygon", "MultiPolygon"}, (role, kinds)
         total += len(geoms)
     assert total == pyogrio.read_info(path)["features"]
+
+
+def test_a_plan_without_sorties_has_one_route_from_home(spec_factory, tmp_path) -> None:
+    plan = plan_from_files(load_spec(spec_factory()))
+    assert not plan.sorties
+    write_outputs(plan, tmp_path / "o", gpkg=True)
+    path = tmp_path / "o" / "plan.gpkg"
+    _, _, geoms, fields = pyogrio.raw.read(path, layer="route")
+    assert list(fields[0]) == ["mission"]
+    rows = _wpl_rows(tmp_path / "o" / "mission.waypoints")
+    coords = np.array(shapely.from_wkb(geoms[0]).coords)
+    want = [[float(r[9]), float(r[8])] for r in rows[1:] if r[3] == "16"]
+    np.testing.assert_allclose(coords[1:-1], want, atol=1e-7)
+    _, _, _, lp = pyogrio.raw.read(path, layer="launch_points", read_geometry=False)
+    assert len(lp[0]) == max(1, len(plan.launch_sites))

@@ -153,6 +153,6 @@ def rally_points(plan: Plan, home_ground_m: float) -> tuple[tuple[float, float, 
     ground, as an altitude above the home of the mission (ground `home_ground_m`). An autopilot
     returns to the nearest of its rally points and home (ArduPilot with RALLY_INCL_HOME), so a
     sortie launched away from where it was armed, or that must turn back, lands at a planned
-    site. None without launch sites (a plan without a [battery] table)."""
+    site. None when the plan has no launch site."""
     h = plan.heights.nominal_agl_m
     return tuple((round(s.lat, 8), round(s.lon, 8), round(s.ground_m - home_ground_m + h, 2)) for s in plan.launch_sites)
