@@ -46,6 +46,8 @@ COMMANDS: Mapping[str, Lazy] = {
     "plan": Lazy("aerosurvey.commands.plan:plan", "Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."),
     "qa": Lazy("aerosurvey.commands.qa:qa", "Quality assessment of finished products (accuracy, reproducibility, time series)."),
     "refly": Lazy("aerosurvey.commands.refly:refly", "Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."),
+    "resume": Lazy("aerosurvey.commands.resume:resume",
+                   "Missions for the rest of a flight of PLAN_DIR cut short, from the station after its last photo."),
     "serve": Lazy("aerosurvey.commands.serve:serve",
                   "Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."),
     "sitl": Lazy("aerosurvey.commands.sitl:sitl", "ArduPilot SITL: fly the planned missions in simulation (needs a SITL binary you have)."),

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import hashlib
+import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -123,13 +125,9 @@ def _render(plan: Plan) -> Rendered:
         # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
         "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }
-    for k, (sortie, wps) in enumerate(plan.sorties, start=1):
-        site = plan.launch_sites[sortie.launch]
-        stem = ids.sortie_file_stem(k)
-        sm = build_mission(plan, list(wps), name=f"{plan.spec.name}-{stem}", home=(site.lon, site.lat, site.ground_m))
-        missions[stem] = sm
-        files[f"{stem}.plan"] = dumps_plan(sm)
-        files[f"{stem}.waypoints"] = dumps_wpl(sm)
+    sortie_missions = _sortie_missions(plan, ids.sortie_file_stem)
+    missions.update(sortie_missions)
+    files.update(_mission_files(sortie_missions))
     final_gate(plan, missions)
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=False)
@@ -145,6 +143,47 @@ def _render(plan: Plan) -> Rendered:
     manifest["warnings"] = warnings
     files["manifest.json"] = mf.dumps(manifest, stations_table)
     return Rendered(files, manifest["rules"], warnings, evidence)
+
+
+def _sortie_missions(plan: Plan, stem: Callable[[int], str]) -> dict[str, Mission]:
+    """Each sortie's mission from its launch site, by file stem."""
+    out = {}
+    for k, (sortie, wps) in enumerate(plan.sorties, start=1):
+        site = plan.launch_sites[sortie.launch]
+        out[stem(k)] = build_mission(plan, list(wps), name=f"{plan.spec.name}-{stem(k)}", home=(site.lon, site.lat, site.ground_m))
+    return out
+
+
+def _mission_files(missions: dict[str, Mission]) -> dict[str, str]:
+    return {name: text for stem, m in missions.items()
+            for name, text in ((f"{stem}.plan", dumps_plan(m)), (f"{stem}.waypoints", dumps_wpl(m)))}
+
+
+#: resume.json: what `aerosurvey resume` wrote (its one writer is `render_resume`)
+RESUME_SCHEMA, RESUME_VERSION = "aerosurvey-resume", 1
+
+
+def render_resume(plan: Plan, after_station: str, plan_folder: str) -> dict[str, str]:
+    """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
+    .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
+    station the flight resumes after and what each sortie flies."""
+    missions = _sortie_missions(plan, ids.resume_file_stem)
+    final_gate(plan, missions)
+    files = _mission_files(missions)
+    st = plan.stations
+    sorties: list[dict[str, Any]] = []
+    for k, ((s, _wps), m) in enumerate(zip(plan.sorties, missions.values()), start=1):
+        site = plan.launch_sites[s.launch]
+        stem = ids.resume_file_stem(k)
+        sorties.append({"files": [f"{stem}.plan", f"{stem}.waypoints"], "first_station": st.ids[s.first],
+                        "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
+                        "time_s": round(s.horizontal_s + s.vertical_s, 1), "distance_m": round(s.distance_m, 1),
+                        "mission_items": len(m.items) + 1,
+                        "launch": {"index": s.launch + 1, "lon": round(site.lon, 8), "lat": round(site.lat, 8)}})
+    doc = {"schema": RESUME_SCHEMA, "schema_version": RESUME_VERSION, "mission": plan.spec.name, "plan": plan_folder,
+           "after_station": after_station, "stations_left": sum(int(d["photos"]) for d in sorties), "sorties": sorties}
+    files["resume.json"] = json.dumps(doc, indent=1, ensure_ascii=False) + "\n"
+    return files
 
 
 def _sha256(text: str) -> str:
