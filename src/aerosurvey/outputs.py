@@ -27,14 +27,20 @@ if TYPE_CHECKING:
     from aerosurvey.rules.engine import Evidence, RuleResult
 from aerosurvey.report.features import footprint_lonlat, plan_geojson
 from aerosurvey.report.preview import render_svg
+from aerosurvey.report.summary import Summary, plan_summary
 
 
 @dataclass(frozen=True)
 class Rendered:
     files: dict[str, str]
-    rules: list[dict[str, Any]]
+    rules: list[dict[str, Any]]  # every rule result, the planner's own included (manifest "rules")
     warnings: list[str]
+    summary: Summary
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
+
+
+#: the profile name of the rules the planner evaluates itself (uncovered-ground)
+PLANNER_PROFILE = "plan"
 
 
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
@@ -74,7 +80,7 @@ def uncovered_rule(plan: Plan) -> dict[str, Any]:
     for part in c.polygons()[:50]:
         p = part.representative_point()
         where.append({"xy": [round(p.x, 2), round(p.y, 2)]})
-    return {"profile": "plan", "rule": "uncovered-ground", "status": "fail" if c.uncovered_m2 > 0 else "pass",
+    return {"profile": PLANNER_PROFILE, "rule": "uncovered-ground", "status": "fail" if c.uncovered_m2 > 0 else "pass",
             "severity": "error",
             "statement": "every point of the area outside the exclusion zones and their margins is seen by at least two photos",
             "measured": f"{c.uncovered_m2:.2f} m² in {c.parts} part(s) seen by fewer than {MIN_IMAGES} photos",
@@ -148,15 +154,16 @@ def _render_hashing(plan: Plan, hasher: ThreadPoolExecutor) -> Rendered:
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
-    files["preview.svg"] = render_svg(plan, results, points)
+    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan)]
+    summary = plan_summary(manifest, manifest["rules"])
+    files["preview.svg"] = render_svg(plan, summary, points)
     manifest["outputs"] = {name: digests[name].result() if name in digests else _sha256(text)
                            for name, text in sorted(files.items())}
-    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan)]
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
     files["manifest.json"] = mf.dumps(manifest, stations_table)
-    return Rendered(files, manifest["rules"], warnings, evidence)
+    return Rendered(files, manifest["rules"], warnings, summary, evidence)
 
 
 def _sha256(text: str) -> str:

@@ -7,6 +7,8 @@ from typing import Any
 
 import click
 
+from aerosurvey import console
+
 
 @click.group()
 def sitl() -> None:
@@ -51,6 +53,6 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None,
 
 
 def _echo_row(row: dict[str, Any]) -> None:
-    click.echo(f"{row['sortie']}: completed={row['completed']} triggers {row['triggers_flown']}/{row['photos_planned']}, "
+    console.echo(f"{row['sortie']}: completed={row['completed']} triggers {row['triggers_flown']}/{row['photos_planned']}, "
                f"max trigger offset {row['max_trigger_offset_m']} m, max cross-track {row['max_cross_track_m']} m, "
                f"time {row['flown_time_s']} s flown vs {row['estimated_time_s']} s estimated ({row['time_ratio']})")
