@@ -39,8 +39,8 @@ def _from_text(text: str) -> dict:
 
 
 def _from_svg(svg: str) -> dict:
-    title = re.search(r">[^<>]*: ([\d.]+) m AGL, GSD ([\d.]+)(?:\.\.([\d.]+))? cm, \d+ runs, (\d+) photos, [\d.]+ km, "
-                      r"([\d.]+) min(?:, (\d+) sorties)?<", svg)
+    title = re.search(r">[^<>]*: ([\d.]+) m AGL, GSD (\d+\.\d+)(?:\.\.(\d+\.\d+))? cm, \d+ runs, (\d+) photos, [\d.]+ km, "
+                      r"([\d.]+) min(?:, (\d+) sorties?)?<", svg)
     assert title, svg[:600]
     spacing = re.search(r"spacing ([\d.]+) m,", svg)
     rules = re.search(r">rules: (\d+) evaluated: (\d+) passed, (\d+) failing", svg)
@@ -71,11 +71,8 @@ def obratan(tmp_path_factory):
     return spec, out, _plan(spec, out).stdout
 
 
-def test_plan_check_preview_and_web_show_the_same_figures(obratan):
-    from webutil import client, run_plan
-
-    spec, out, plan_stdout = obratan
-    manifest = json.loads((out / "manifest.json").read_text())
+def _cli_views(out: Path, plan_stdout: str) -> dict[str, dict]:
+    """The figures as `plan`, `check`, `check --json` and preview.svg show them."""
     views = {"plan": _from_text(plan_stdout)}
     check = CliRunner().invoke(main, ["check", str(out)])
     assert check.exit_code == 0, check.output
@@ -84,6 +81,27 @@ def test_plan_check_preview_and_web_show_the_same_figures(obratan):
     assert check_json.exit_code == 0, check_json.output
     views["check --json"] = _from_json(json.loads(check_json.stdout)["summary"])
     views["preview.svg"] = _from_svg((out / "preview.svg").read_text())
+    return views
+
+
+def _agree_with_the_manifest(figures: dict, manifest: dict) -> None:
+    # the manifest, the plan's record: every rule it holds is counted, the planner's own included
+    rules = manifest["rules"]
+    assert figures["rules"] == (len(rules), sum(r["status"] == "pass" for r in rules),
+                                sum(r["status"] in ("fail", "warning") for r in rules))
+    assert any(r["rule"] == "uncovered-ground" for r in rules)
+    assert figures["photos"] == len(manifest["stations"]) and figures["sorties"] == len(manifest["sorties"])
+    d = manifest["derived"]
+    assert figures["height"] == round(d["height_agl_m"], 1)
+    assert figures["gsd"] == (round(d["gsd_min_cm"], 2), round(d["gsd_max_cm"], 2))
+    assert figures["time"] == round(manifest["estimates"]["total_time_s"] / 60, 1)
+
+
+def test_plan_check_preview_and_web_show_the_same_figures(obratan):
+    from webutil import client, run_plan
+
+    spec, out, plan_stdout = obratan
+    views = _cli_views(out, plan_stdout)
     with client(spec) as c:
         st = run_plan(c, c.get("/api/state").json()["spec"])
         assert st["state"] == "done", st
@@ -91,14 +109,17 @@ def test_plan_check_preview_and_web_show_the_same_figures(obratan):
     expected = views["plan"]
     for name, figures in views.items():
         assert figures == expected, name
-    # against the manifest, the plan's record: every rule it holds is counted, the planner's own included
-    rules = manifest["rules"]
-    assert expected["rules"] == (len(rules), sum(r["status"] == "pass" for r in rules),
-                                 sum(r["status"] in ("fail", "warning") for r in rules))
-    assert any(r["rule"] == "uncovered-ground" for r in rules) and expected["rules"][0] == 14
-    assert expected["photos"] == len(manifest["stations"]) and expected["sorties"] == len(manifest["sorties"]) == 6
-    assert expected["height"] == round(manifest["derived"]["height_agl_m"], 1)
-    assert expected["time"] == round(manifest["estimates"]["total_time_s"] / 60, 1)
+    _agree_with_the_manifest(expected, json.loads((out / "manifest.json").read_text()))
+    assert expected["rules"][0] == 14 and expected["sorties"] == 6
+
+
+@pytest.mark.parametrize("example", ["forest-dem", "kubad-abad-fixed-wing"])
+def test_the_other_examples_show_the_same_figures_everywhere(example, tmp_path):
+    out = tmp_path / example
+    views = _cli_views(out, _plan(REPO / "missions" / f"{example}.toml", out).stdout)
+    for name, figures in views.items():
+        assert figures == views["plan"], name
+    _agree_with_the_manifest(views["plan"], json.loads((out / "manifest.json").read_text()))
 
 
 @pytest.mark.parametrize("example", ["obratan-72ha", "kubad-abad-fixed-wing"])

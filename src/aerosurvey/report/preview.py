@@ -97,8 +97,10 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
              f'<rect width="{_W}" height="{_H}" fill="#fafaf7"/>']
     s = summary
     gsd = f"{s.gsd_cm[1]:.2f}" if s.gsd_cm[0] == s.gsd_cm[1] else f"{s.gsd_cm[0]:.2f}..{s.gsd_cm[1]:.2f}"
+    n = len(s.sorties)
+    sorties = "" if not n else f", {n} sortie" if n == 1 else f", {n} sorties"
     title = escape(f"{s.name}: {s.height_agl_m:.1f} m AGL, GSD {gsd} cm, {s.runs} runs, {s.photos} photos, "
-                   f"{s.distance_km:.2f} km, {s.time_min:.1f} min" + (f", {len(s.sorties)} sorties" if s.sorties else ""))
+                   f"{s.distance_km:.2f} km, {s.time_min:.1f} min{sorties}")
     parts.append(f'<text x="{_PAD}" y="30" font-size="18" font-weight="bold">{title}</text>')
     parts.append(f'<text x="{_PAD}" y="52" font-size="13">heading {s.heading_deg:.1f}° ({escape(s.heading_chosen)}), '
                  f'spacing {s.spacing_m:.1f} m, photo base {s.photo_base_m:.2f} m, CRS {escape(s.crs)}</text>')
