@@ -33,8 +33,8 @@ def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) 
     ids = profile_ids or target.profiles
     if not ids:
         have = ", ".join(available_profiles(profile_dirs))
-        log.warning("no rule profile chosen (the plan names none): only the planner's own rules are checked; "
-                    "add --profile ID, one of: %s", have)
+        log.warning("no rule profile chosen (none given, none in the plan's spec): only the planner's own rules are "
+                    "checked; add --profile ID, one of: %s", have)
         return list(target.planner_rules), None
     profiles = apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
     layout = None
@@ -72,7 +72,7 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
     printed (the planner's own rule, uncovered-ground, included). Without a profile (none
     given, none in the plan) only the planner's own rules are checked and the profiles
     there are are listed. Exit code 0 when every error-level rule passes, 1 when one fails
-    (named on stderr), 2 for bad input. With -q, nothing but that error.
+    (named on stderr), 2 for bad input. With -q (and no --json), nothing but that error.
     """
     from aerosurvey.report.summary import plan_summary, summary_json, summary_text
     from aerosurvey.rules.load import open_target
