@@ -70,8 +70,8 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
 
     Prints each rule's result and the plan's summary, whose rule count is the one `plan`
     printed (the planner's own rule, uncovered-ground, included). Without a profile (none
-    given, none in the plan) only the planner's own rules are checked and the profiles
-    there are are listed. Exit code 0 when every error-level rule passes, 1 when one fails
+    given, none in the plan) only the planner's own rules are checked, and a warning lists
+    the available profiles. Exit code 0 when every error-level rule passes, 1 when one fails
     (named on stderr), 2 for bad input. With -q (and no --json), nothing but that error.
     """
     from aerosurvey.report.summary import plan_summary, summary_json, summary_text
