@@ -13,7 +13,7 @@ and protocol code: (a) directly, (b) through our UDP relay that drops `--drop` o
 datagrams each way (seeded). The vehicle re-requests a missing item after
 `--vehicle-resend` s (ArduPilot: 1 s), so a lost request costs that long.
 
-With --sitl the vehicle is ArduPilot's SITL binary (default /root/sitl/bin/arducopter),
+With --sitl the vehicle is ArduPilot's SITL binary (default: arducopter in AEROSURVEY_SITL_BIN),
 started in a temporary folder at the mission's home: (a) on its TCP port 5760 + 10·I for the
 first instance I ≥ 5 whose ports are free (so that a SITL on the usual 5760, e.g. the
 `aerosurvey sitl` harness, is not disturbed), (b) with SERIAL0 sent as UDP to our lossy relay.
@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import socket
 import subprocess
 import sys
@@ -56,8 +57,9 @@ from aerosurvey.link.connection import LinkError, open_link  # noqa: E402
 from aerosurvey.link.upload import VerificationFailed, mission_wire_items, upload_mission  # noqa: E402
 from aerosurvey.mission.items import Mission  # noqa: E402
 
-SITL_BIN = "/root/sitl/bin/arducopter"
-SITL_DEFAULTS = "/root/sitl/params/copter.parm"
+#: The SITL binary and its defaults from the same variables as `aerosurvey sitl` (a folder each), if set.
+SITL_BIN = str(Path(os.environ.get("AEROSURVEY_SITL_BIN", ".")) / "arducopter")
+SITL_DEFAULTS = str(Path(os.environ.get("AEROSURVEY_SITL_DEFAULTS", ".")) / "copter.parm")
 
 
 def _timed(url: str, mission: Mission, policy: mp.Policy, warm_up: bool) -> tuple[float, object]:

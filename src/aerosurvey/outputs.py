@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,7 +24,7 @@ from aerosurvey.plan.planner import Plan
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
     from aerosurvey.rules.engine import Evidence, RuleResult
-from aerosurvey.report.features import footprint_lonlat, plan_geojson
+from aerosurvey.report.features import plan_geojson
 from aerosurvey.report.preview import render_svg
 from aerosurvey.report.summary import Summary, plan_summary
 
@@ -107,39 +106,19 @@ def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
 
 def render_outputs(plan: Plan) -> Rendered:
     """File name → text of every output (the manifest last: it lists the others' hashes)."""
-    # sha256 releases the GIL on texts this long: the big files are hashed on another core while
-    # the rest is written. Measured on the 1,000 ha benchmark (9.9 MB): ~6 ms of hashing, off the path.
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="aerosurvey-sha256") as hasher:
-        return _render_hashing(plan, hasher)
-
-
-def _mission_texts(mission: Mission) -> tuple[str, str]:
-    return dumps_plan(mission), dumps_wpl(mission)
-
-
-def _render_hashing(plan: Plan, hasher: ThreadPoolExecutor) -> Rendered:
     mission = build_mission(plan, name=plan.spec.name)
-    # While this thread waits in PROJ for the footprints' corners (it lets go of the GIL), the other
-    # makes the manifest's station table and then the mission's two files (1,000 ha benchmark: PROJ
-    # ~7 ms, table ~2.7 ms, mission texts ~4.5 ms). No PROJ work goes there: a Transformer used on a
-    # new thread builds its own PROJ object (~40 ms for S-JTSK). The table's columns are written into
-    # the manifest, plan.geojson and plan.kml (their texts made once) and the rules make its rows.
-    table = hasher.submit(mf.station_table, plan)
-    mission_texts = hasher.submit(_mission_texts, mission)
-    corners = footprint_lonlat(plan) if len(plan.stations.ids) else None  # PROJ, first, while the other thread works
-    stations_table = table.result()
-    fc, stations, geojson = plan_geojson(plan, stations_table, corners)
+    # the station table's columns are written into the manifest, plan.geojson and plan.kml
+    # (their texts made once), and the rules make its rows
+    stations_table = mf.station_table(plan)
+    fc, stations, geojson = plan_geojson(plan, stations_table)
     missions = {"mission": mission}
-    digests = {"plan.geojson": hasher.submit(_sha256, geojson)}
-    plan_text, wpl_text = mission_texts.result()  # its errors after plan_geojson's, as they were
     files = {
-        "mission.plan": plan_text,
-        "mission.waypoints": wpl_text,
+        "mission.plan": dumps_plan(mission),
+        "mission.waypoints": dumps_wpl(mission),
         "plan.geojson": geojson,
         # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
         "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }
-    digests["plan.kml"] = hasher.submit(_sha256, files["plan.kml"])
     for k, (sortie, wps) in enumerate(plan.sorties, start=1):
         site = plan.launch_sites[sortie.launch]
         stem = ids.sortie_file_stem(k)
@@ -157,8 +136,7 @@ def _render_hashing(plan: Plan, hasher: ThreadPoolExecutor) -> Rendered:
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
-    manifest["outputs"] = {name: digests[name].result() if name in digests else _sha256(text)
-                           for name, text in sorted(files.items())}
+    manifest["outputs"] = {name: _sha256(text) for name, text in sorted(files.items())}
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings

@@ -14,12 +14,13 @@ from hypothesis import strategies as st
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.rules.control_points import propose_gcps
 from aerosurvey.rules.engine import Evidence, layout_settings
-from aerosurvey.rules.footprints import Footprints, side_overlaps
+from aerosurvey.rules.footprints import side_overlaps
 from aerosurvey.rules.load import plan_documents
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import select_profiles
 from aerosurvey.spec import load_spec
 from conftest import REPO, make_spec, random_polygon
+from rules.rectangles import rect_footprints
 from rules.rules_reference import reference_propose_gcps, reference_side_overlaps
 
 
@@ -38,7 +39,7 @@ def _runs_of_lines(rng: np.random.Generator, n_runs: int, headings: list[float],
         run_ids += [f"L{r}"] * k
     order = rng.permutation(len(run_ids)) if interleave else np.arange(len(run_ids))
     ids = [run_ids[i] for i in order]
-    fp = Footprints(np.asarray(xs)[order], np.asarray(ys)[order], np.asarray(hs)[order],
+    fp = rect_footprints(np.asarray(xs)[order], np.asarray(ys)[order], np.asarray(hs)[order],
                     rng.uniform(50, 90, len(ids)), rng.uniform(30, 70, len(ids)))
     return SimpleNamespace(run_ids=ids), fp
 
@@ -66,7 +67,7 @@ def test_gcps_are_the_references(seed, kind, reach, min_images, count, offset, n
         area = area if area.is_valid else area.convex_hull
     x0, y0, x1, y1 = area.bounds
     n = 400
-    fp = Footprints(rng.uniform(x0, x1, n), rng.uniform(y0, y1, n), rng.uniform(0, 2 * np.pi, n),
+    fp = rect_footprints(rng.uniform(x0, x1, n), rng.uniform(y0, y1, n), rng.uniform(0, 2 * np.pi, n),
                     rng.uniform(reach / 2, reach, n), rng.uniform(reach / 2, reach, n))
     zone = shapely.buffer(shapely.Point(x0, y1), 0.3 * (x1 - x0)) if nogo else None
     got = propose_gcps(area, fp, count, min_images, offset, 400.0, zone)

@@ -4,7 +4,7 @@ Per photo run: a lead-in waypoint (straight approach), the first station with th
 switched on (DO_SET_CAM_TRIGG_DIST with 'trigger once now'), terrain waypoints where the
 `follow` mode needs them, a line-end waypoint half a photo base past the last station
 (ArduPilot does not take the picture that falls exactly on the waypoint,
-shared/docs/ardupilot.md), and the camera switched off again so no photos are taken in
+as seen in ArduPilot SITL), and the camera switched off again so no photos are taken in
 turns.
 
 Dialects: ArduCopter (takeoff, optional CONDITION_YAW for one fixed heading, RTL or LAND
