@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from aerosurvey import console
 from aerosurvey.errors import InputError
 
 if TYPE_CHECKING:
@@ -99,9 +100,9 @@ def resume(plan_dir: Path, spec_path: Path, after: str | None, log_dir: Path | N
             atomic_write_text(stage / name, text)
     st = plan.stations
     left = sum(s.last - s.first + 1 for s, _ in plan.sorties)
-    click.echo(f"resume after {station}: {left} of {len(st.ids)} photos left, from {st.ids[plan.sorties[0].sortie.first]}, "
+    console.echo(f"resume after {station}: {left} of {len(st.ids)} photos left, from {st.ids[plan.sorties[0].sortie.first]}, "
                f"in {len(plan.sorties)} sortie(s)")
     for k, (s, _) in enumerate(plan.sorties, start=1):
-        click.echo(f"  resume-{k:02d}  {s.last - s.first + 1:5d} photos  {(s.horizontal_s + s.vertical_s) / 60:6.1f} min  "
+        console.echo(f"  resume-{k:02d}  {s.last - s.first + 1:5d} photos  {(s.horizontal_s + s.vertical_s) / 60:6.1f} min  "
                    f"{st.ids[s.first]} -> {st.ids[s.last]}")
-    click.echo(f"wrote {', '.join(sorted(files))} to {outdir}")
+    console.echo(f"wrote {', '.join(sorted(files))} to {outdir}")
