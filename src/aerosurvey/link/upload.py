@@ -23,7 +23,8 @@ from aerosurvey.mission.items import Mission, MissionItem
 
 AUTOPILOT_ARDUPILOT = 3
 AUTOPILOT_PX4 = 12
-_PLANE_TYPES = frozenset({1, *range(19, 26)})  # MAV_TYPE fixed wing and VTOLs: ArduPlane builds
+PLANE_TYPES = frozenset({1, *range(19, 26)})  # MAV_TYPE fixed wing and VTOLs: ArduPlane builds
+COPTER_TYPES = frozenset({2, 3, 4, 13, 14, 15})  # MAV_TYPE multirotors and helicopters: ArduCopter builds
 
 _COMMAND_NAMES = {v: k for k, v in vars(mav).items() if k.isupper() and not k.startswith(("FRAME_", "AUTOPILOT_", "TYPE_"))}
 
@@ -271,14 +272,15 @@ def run_transfer(link: Link, machine: mp.Uploader | mp.Downloader, progress: Pro
 
 
 def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, policy: mp.Policy,
-                 confirm_by_download: bool = False, progress: Progress | None = None) -> mp.Stats:
+                 confirm_by_download: bool = False, progress: Progress | None = None,
+                 timer: mp.ResendTimer | None = None) -> mp.Stats:
     """Upload one mission type's items; returns what the link cost (resends, restarts).
 
     With `confirm_by_download` the upload may end without the vehicle's final ACCEPTED
     (`stats.ack_lost`); the caller must then read the items back and compare them.
     Raises UploadFailed when the upload does not finish.
     """
-    machine = mp.Uploader(items, mission_type, policy, confirm_by_download)
+    machine = mp.Uploader(items, mission_type, policy, confirm_by_download, timer)
     try:
         run_transfer(link, machine, progress)
     except LinkError as exc:
@@ -287,12 +289,14 @@ def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, po
 
 
 def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: int | None = None,
-                   progress: Progress | None = None) -> tuple[list[mp.WireItem], mp.Stats]:
-    """Every item of one mission type as the vehicle stores it; `expected` sizes the time limit.
+                   progress: Progress | None = None, timer: mp.ResendTimer | None = None,
+                   resume: bool = True) -> tuple[list[mp.WireItem], mp.Stats]:
+    """Every item of one mission type as the vehicle stores it; `expected` sizes the time limit,
+    `resume` (see mission_protocol.Downloader) is False for PX4.
 
     Raises DownloadFailed (with the vehicle's count, when it gave one) when the read-back does not finish.
     """
-    machine = mp.Downloader(mission_type, policy, expected)
+    machine = mp.Downloader(mission_type, policy, expected, timer, resume)
     try:
         run_transfer(link, machine, progress)
     except LinkError as exc:
@@ -361,11 +365,12 @@ def _holds(held: object, total: int, kind: int) -> str:
 
 
 def _verify(link: Link, rep: TransferReport, expected: list[mp.WireItem], policy: mp.Policy, storage: str, plane: bool,
-            skip: frozenset[int], progress: Progress | None) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
+            skip: frozenset[int], progress: Progress | None, timer: mp.ResendTimer,
+            resume: bool) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
     """Read one mission type back and compare; a failed read-back is a LinkError that says what the vehicle holds."""
     kind, n = rep.mission_type, len(expected)
     try:
-        actual, stats = download_items(link, kind, policy, n, progress)
+        actual, stats = download_items(link, kind, policy, n, progress, timer, resume)
     except DownloadFailed as exc:
         if exc.count is not None and exc.count != n:
             raise LinkError(f"{_holds(exc.count, n, kind)} (it says so; the read-back then failed: {exc})") from None
@@ -395,12 +400,13 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     items = mission_wire_items(m)
     fence = fence_wire_items(m)
     storage = "ardupilot" if vehicle.autopilot == AUTOPILOT_ARDUPILOT else "verbatim"
-    plane = vehicle.mav_type in _PLANE_TYPES
+    plane = vehicle.mav_type in PLANE_TYPES
+    timer = mp.ResendTimer(policy)  # the link's round trips, measured by every transfer on it
 
     t0 = time.monotonic()
     started = link.now()
     try:
-        stats = upload_items(link, items, mp.MISSION, policy, verify, progress)
+        stats = upload_items(link, items, mp.MISSION, policy, verify, progress, timer)
     except UploadFailed as exc:
         raise LinkError(f"{exc}{_vehicle_said(link, started)}; the vehicle's mission is incomplete or unchanged "
                         f"(it confirmed {exc.confirmed} of {len(items)} items): do not fly it") from None
@@ -410,7 +416,7 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
         t0 = time.monotonic()
         started = link.now()
         try:
-            fstats = upload_items(link, fence, mp.FENCE, policy, verify, progress)
+            fstats = upload_items(link, fence, mp.FENCE, policy, verify, progress, timer)
         except UploadFailed as exc:
             raise LinkError(f"the mission was uploaded but the {exc}{_vehicle_said(link, started)}; the vehicle's "
                             "fence is not the plan's") from None
@@ -430,7 +436,8 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
             continue
         t0 = time.monotonic()
         actual, dstats, found = _verify(link, rep, expected, policy, storage, plane,
-                                        skip if rep.mission_type == mp.MISSION else frozenset(), progress)
+                                        skip if rep.mission_type == mp.MISSION else frozenset(), progress, timer,
+                                        resume=vehicle.autopilot != AUTOPILOT_PX4)
         rep.verify_seconds = time.monotonic() - t0
         rep.download_stats = dstats
         mismatches += found
