@@ -196,6 +196,10 @@ class Policy:
         return self.setup + n * self.per_item
 
 
+#: Resends of one step that wait one timer each before the waits double (see ResendTimer)
+FLAT_RESENDS = 3
+
+
 class ResendTimer:
     """When to resend: RFC 6298's retransmission timer, fed with the times the machines are given.
 
@@ -205,9 +209,10 @@ class ResendTimer:
     trip is measured on a step sent once; on a step sent again (Karn's rule: which copy was
     answered is not known) only when the answer came a whole timer or more after the last
     copy, which proves the round trip is at least that long (so a link that got slower is
-    followed). Backing off: the first two resends of a step wait one timer each (on a lossy
-    radio a lost packet is most often just lost), each further one twice the one before, up to
-    `timeout`. One timer is shared by the transfers on one link.
+    followed). Backing off: the first `FLAT_RESENDS` resends of a step wait one timer each (on
+    a lossy radio a lost packet is most often just lost: at 30 % loss each way half the
+    exchanges fail, and doubling from the first resend costs as much again as the losses), each
+    further one twice the one before, up to `timeout`. One timer is shared by the transfers on one link.
     """
 
     def __init__(self, policy: Policy) -> None:
@@ -235,7 +240,7 @@ class ResendTimer:
 
     def value(self, resends: int) -> float:
         """The wait after a step's `resends`-th resend (0: after sending it the first time)."""
-        return min(self.policy.timeout, self.base * 2.0 ** max(0, resends - 1))
+        return min(self.policy.timeout, self.base * 2.0 ** max(0, resends - FLAT_RESENDS))
 
     def answered(self, resends: int, first_sent: float, last_sent: float, now: float) -> None:
         """A step sent 1 + `resends` times (first and last at the times given) was answered `now`."""
