@@ -440,3 +440,92 @@ def test_whatever_the_vehicle_says_a_transfer_ends_within_its_limit(upload: bool
         assert len(machine.result()) == last_count == machine.count
     if isinstance(machine, mp.Uploader) and machine.done and not machine.stats.ack_lost:
         assert machine.confirmed == n
+
+
+def rfc6298(samples: list[float], g: float) -> float:
+    """RFC 6298 section 2, written out here: the timer after these round trips (no bounds)."""
+    srtt, rttvar = samples[0], samples[0] / 2
+    for r in samples[1:]:
+        rttvar = (1 - 1 / 4) * rttvar + 1 / 4 * abs(srtt - r)
+        srtt = (1 - 1 / 8) * srtt + 1 / 8 * r
+    return srtt + max(g, 4 * rttvar)
+
+
+@settings(max_examples=100, deadline=None, derandomize=True)
+@given(st.lists(st.floats(0.0, 2.0), min_size=1, max_size=30))
+def test_resend_timer_follows_rfc_6298_within_its_bounds(samples: list[float]) -> None:
+    policy = mp.Policy(timeout=1.0, min_timeout=0.01)
+    timer = mp.ResendTimer(policy)
+    assert timer.value(0) == 1.0  # before any round trip: the timeout
+    for r in samples:
+        timer.measured(r)
+    expected = min(1.0, max(0.01, rfc6298(samples, 0.01)))
+    assert timer.value(0) == pytest.approx(expected)
+    waits = [timer.value(k) for k in range(8)]
+    assert waits[: mp.FLAT_RESENDS + 1] == [waits[0]] * (mp.FLAT_RESENDS + 1)
+    assert all(b == min(1.0, 2 * a) for a, b in zip(waits[mp.FLAT_RESENDS:], waits[mp.FLAT_RESENDS + 1:]))
+
+
+def test_upload_measures_round_trips_only_on_items_sent_once() -> None:
+    policy = mp.Policy(timeout=1.0, min_timeout=0.01)
+    up = mp.Uploader(items(6), mp.MISSION, policy)
+    up.start(0.0)
+    up.handle(mp.Request(0), 0.05)  # MISSION_COUNT answered after 50 ms
+    up.handle(mp.Request(1), 0.10)  # item 0 after 50 ms
+    assert up.timer.samples == 2 and up.timer.srtt == pytest.approx(0.05)
+    assert up.deadline == pytest.approx(0.10 + max(0.01, 0.05 + 4 * up.timer.rttvar))
+    t = up.deadline
+    assert sent_items(up.poll(t)) == [1, 2]  # the request for 2 is late: 1 and the one after it
+    up.handle(mp.Request(2), t + 0.001)  # answered, but which copy? Karn: no round trip taken
+    assert up.timer.samples == 2
+    t = up.deadline
+    assert sent_items(up.poll(t)) == [2, 3]
+    assert sent_items(up.poll(up.deadline)) == [2, 3, 4]  # its requests for 3 and 4 may both be lost
+    up.handle(mp.Request(3), up.deadline + 5.0)  # long after the last copy: the round trip is at least that
+    assert up.timer.samples == 3 and up.timer.srtt > 0.05
+
+
+def test_upload_window_reaches_the_item_the_vehicle_wants_when_its_requests_are_lost() -> None:
+    """A vehicle (as ArduPilot) that stored items 1 and 2 from a resent window, whose requests for 2 and 3 were
+    lost: it wants 3, which the next window carries; every other item is answered INVALID_SEQUENCE and is harmless."""
+    up = mp.Uploader(items(8), mp.MISSION, mp.Policy(timeout=1.0, min_timeout=0.01))
+    up.start(0.0)
+    up.handle(mp.Request(0), 0.01)
+    up.handle(mp.Request(1), 0.02)
+    wants = 1
+    for _ in range(4):
+        out = up.poll(up.deadline)
+        for seq in sent_items(out):
+            if seq == wants:
+                wants += 1  # stored; its request for the next one is lost
+            else:
+                up.handle(mp.Ack(mp.INVALID_SEQUENCE), up.deadline)
+        if wants > 3:
+            break
+    assert wants > 3 and not up.finished
+    assert all(len(sent_items([m])) == 1 for m in out) and len(sent_items(out)) <= mp.RESEND_WINDOW
+
+
+def test_accepted_after_a_window_that_carried_the_last_item_is_success() -> None:
+    up = mp.Uploader(items(3), mp.MISSION, mp.Policy(timeout=1.0, min_timeout=0.01))
+    up.start(0.0)
+    up.handle(mp.Request(0), 0.01)
+    up.handle(mp.Request(1), 0.02)
+    assert sent_items(up.poll(up.deadline)) == [1, 2]  # its request for 2 was lost
+    up.handle(mp.Ack(mp.ACCEPTED), up.deadline)
+    assert up.done and up.confirmed == 3
+
+
+def test_download_without_resume_asks_again_from_item_0() -> None:
+    """PX4 answers only the next item of its transfer or the one before: after a restart, item 0 first."""
+    src = items(3)
+    dl = mp.Downloader(mp.MISSION, POLICY, resume=False)
+    dl.start(0.0)
+    dl.handle(mp.Count(3), 0.0)
+    dl.handle(mp.Item(src[0]), 0.1)
+    dl.handle(mp.Item(src[1]), 0.2)
+    dl.handle(mp.Ack(mp.ERROR), 0.3)
+    dl.poll(1.2)
+    assert dl.poll(2.2) == [mp.RequestList(mp.MISSION)]
+    assert dl.handle(mp.Count(3), 2.3) == [mp.Request(0, mp.MISSION)]
+    assert dl.progress == (2, 3)  # what it holds is kept; the requests start over

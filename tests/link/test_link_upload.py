@@ -12,7 +12,15 @@ from fake_vehicle import FakeVehicle, Faults, LossyRelay, VehicleModel, survey_m
 from aerosurvey.errors import InputError
 from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.connection import LinkError, open_link
-from aerosurvey.link.upload import Refused, VerificationFailed, ardupilot_stored, compare_items, fence_wire_items, mission_wire_items, upload_mission
+from aerosurvey.link.upload import (
+    Refused,
+    VerificationFailed,
+    ardupilot_stored,
+    compare_items,
+    fence_wire_items,
+    mission_wire_items,
+    upload_mission,
+)
 from aerosurvey.mission import mavlink_ids as mav
 
 FAST = mp.Policy(timeout=0.1, retries=5, restarts=3, busy_wait=0.3)
