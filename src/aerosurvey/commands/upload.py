@@ -34,8 +34,9 @@ from aerosurvey.mission.items import Mission
 _DEFAULTS = mp.Policy()  # the command's defaults are the protocol's: one place for both
 
 
-def read_mission(path: Path) -> Mission:
-    """A QGroundControl .plan or a QGC WPL 110 waypoint file, told apart by its first line."""
+def read_mission(path: Path) -> tuple[Mission, bool]:
+    """A QGroundControl .plan or a QGC WPL 110 waypoint file, told apart by its first line;
+    True when it is a waypoint file (it says nothing of the vehicle type)."""
     from aerosurvey.mission.formats.qgc_plan import loads_plan
     from aerosurvey.mission.formats.wpl import loads_wpl
 
@@ -43,10 +44,11 @@ def read_mission(path: Path) -> Mission:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read the plan: {getattr(exc, 'strerror', None) or exc}") from None
-    m = loads_wpl(text, str(path)) if text.lstrip().startswith("QGC WPL") else loads_plan(text, str(path))
+    waypoints = text.lstrip().startswith("QGC WPL")
+    m = loads_wpl(text, str(path)) if waypoints else loads_plan(text, str(path))
     if not m.items:
         raise InputError(f"{path}: the plan has no mission items; there is nothing to upload")
-    return m
+    return m, waypoints
 
 
 def _battery_words(battery: dict[str, Any]) -> str:
@@ -59,19 +61,18 @@ def _battery_words(battery: dict[str, Any]) -> str:
     return f"{battery['capacity_wh']:g} Wh at {battery['cruise_power_w']:g} W cruise ({reserve})"
 
 
-def mission_facts(path: Path, mission: Mission, vehicle: str | None) -> tuple[MissionFacts, str]:
+def mission_facts(path: Path, mission: Mission, waypoints: bool, vehicle: str | None) -> tuple[MissionFacts, str]:
     """What the checks compare with the vehicle, and the words saying where it came from.
 
-    From the file itself (a .plan says its vehicle type, firmware and home; a .waypoints only
-    its home, so `vehicle` must name the type), and from the manifest.json beside it when it
+    From the file itself (a .plan says its vehicle type, firmware and home; a `waypoints` file
+    only its home, so `vehicle` must name the type), and from the manifest.json beside it when it
     lists this very file (same name and sha256): the vehicle type, the estimated time, the
     battery, the sorties and the spec's item limit. A file the manifest does not list, or lists
     with another sha256 (changed since planning), is checked on its own fields only.
     """
     from aerosurvey import manifest as mf
 
-    is_plan = path.suffix.lower() == ".plan"
-    own = mission.vehicle if is_plan else vehicle
+    own = vehicle if waypoints else mission.vehicle
     doc_path = path.parent / mf.FILE_NAME
     doc = mf.read_manifest(doc_path, "the manifest beside the plan") if doc_path.is_file() else None
     if doc is not None and doc.outputs.get(path.name) != mf.sha256_file(path):
@@ -212,9 +213,9 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
     mission is "the vehicle holds N of M mission items: do not fly it"), 2 for bad input.
     Progress goes to stderr when it is a terminal and the upload takes more than a second.
     """
-    mission = read_mission(plan_file)
+    mission, waypoints = read_mission(plan_file)
     limit = _launch_distance(launch_distance)
-    facts, source = mission_facts(plan_file, mission, vehicle)
+    facts, source = mission_facts(plan_file, mission, waypoints, vehicle)
     policy = mp.Policy(timeout=timeout, retries=retries)
     with open_link(url, policy.silence) as link:
         assert link.vehicle is not None

@@ -378,21 +378,23 @@ class MissionFacts:
     sorties: tuple[str, ...] = ()  # the sortie files, when this file is the whole mission and it needs several
 
 
-def check_firmware(m: Mission, vehicle: Vehicle) -> None:
-    """Refuse a plan made for the other autopilot: item numbering and commands differ."""
+def check_firmware(firmware: str, vehicle: Vehicle) -> None:
+    """Refuse a plan made for the other autopilot: item numbering and commands differ. An
+    autopilot that is neither ArduPilot nor PX4 (a generic MAVLink vehicle) is not refused."""
     said = {AUTOPILOT_ARDUPILOT: "ardupilot", AUTOPILOT_PX4: "px4"}.get(vehicle.autopilot)
-    if said is not None and said != m.firmware:
-        raise Refused(f"the plan is for {m.firmware} but the vehicle reports {vehicle.autopilot_name}: "
+    if said is not None and said != firmware:
+        raise Refused(f"the plan is for {firmware} but the vehicle reports {vehicle.autopilot_name}: "
                       f"plan the mission for {said} and upload that")
 
 
 def check_vehicle(facts: MissionFacts, vehicle: Vehicle, position: tuple[float, float] | None,
                   launch_distance: float | None = LAUNCH_DISTANCE_M) -> str:
     """Refuse (Refused, one line with the figures) a mission that does not fit the vehicle:
-    another vehicle type, a vehicle farther than `launch_distance` metres from the planned
-    launch point or without a position (None: not compared), a whole mission that needs
-    several batteries, more items than the vehicle takes. Returns the line that says where
-    the vehicle is."""
+    another autopilot or vehicle type, more items than the vehicle takes, a whole mission that
+    needs several batteries, a vehicle farther than `launch_distance` metres from the planned
+    launch point or without a position (`launch_distance` None: not compared). Returns the
+    line that says where the vehicle is."""
+    check_firmware(facts.firmware, vehicle)
     types = COPTER_TYPES if facts.vehicle == "copter" else PLANE_TYPES
     if vehicle.mav_type not in types:
         said = ("a copter" if vehicle.mav_type in COPTER_TYPES else "a plane" if vehicle.mav_type in PLANE_TYPES
@@ -461,7 +463,7 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     vehicle = link.vehicle
     if vehicle is None:
         raise RuntimeError("the link has no vehicle yet: wait for its heartbeat first")
-    check_firmware(m, vehicle)
+    check_firmware(m.firmware, vehicle)
     items = mission_wire_items(m)
     fence = fence_wire_items(m)
     storage = "ardupilot" if vehicle.autopilot == AUTOPILOT_ARDUPILOT else "verbatim"
