@@ -160,4 +160,4 @@ def test_a_long_failing_upload_in_a_pipe_prints_only_the_error(tmp_path: Path) -
     assert res.exit_code == 1
     assert res.stdout == ""
     assert res.stderr.splitlines() == [res.stderr.strip()]  # 1.5 s of silence: still only the error line
-    assert res.stderr.startswith("Error: mission upload failed: no answer to MISSION_COUNT for 1.5 s (4 resend(s) in all)")
+    assert res.stderr.startswith("Error: mission upload failed: no answer to MISSION_COUNT for 1.6 s (5 resend(s) in all)")

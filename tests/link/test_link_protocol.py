@@ -456,7 +456,7 @@ def rfc6298(samples: list[float], g: float) -> float:
 def test_resend_timer_follows_rfc_6298_within_its_bounds(samples: list[float]) -> None:
     policy = mp.Policy(timeout=1.0, min_timeout=0.01)
     timer = mp.ResendTimer(policy)
-    assert timer.value(0) == 1.0  # before any round trip: the timeout
+    assert timer.value(0) == mp.FIRST_TIMEOUT  # before any round trip
     for r in samples:
         timer.measured(r)
     expected = min(1.0, max(0.01, rfc6298(samples, 0.01)))
