@@ -137,9 +137,9 @@ class Policy:
     """How long to wait and how often to try again; all bounded so a transfer always ends.
 
     `timeout`: the resend timer's ceiling; below it the timer follows the round trips
-    measured (`ResendTimer`), never shorter than `min_timeout`. `retries`: silence from the vehicle for `timeout` × (`retries`
-    + 1) seconds (`silence`) restarts the transaction (or, for an upload's first step, gives
-    up). `stall`: seconds an upload may go without the vehicle asking for a new item while it
+    measured (`ResendTimer`), never shorter than `min_timeout`. `retries`: silence from the
+    vehicle for `timeout` × (`retries` + 1) seconds (`silence`) restarts the transaction (or,
+    for an upload's first step, gives up). `stall`: seconds an upload may go without the vehicle asking for a new item while it
     still answers (it may be re-requesting at its own pace: ArduPilot asks again after 1 s and
     cancels after 8 s) before it is restarted. `restarts`: an upload's whole-transaction
     restarts (each sends every item again); a download keeps the items it has and may restart
