@@ -529,3 +529,16 @@ def test_download_without_resume_asks_again_from_item_0() -> None:
     assert dl.poll(2.2) == [mp.RequestList(mp.MISSION)]
     assert dl.handle(mp.Count(3), 2.3) == [mp.Request(0, mp.MISSION)]
     assert dl.progress == (2, 3)  # what it holds is kept; the requests start over
+
+
+def test_ack_lost_needs_the_vehicle_near_the_end_not_only_a_window_that_reached_it() -> None:
+    up = mp.Uploader(items(6), mp.MISSION, POLICY, confirm_by_download=True)
+    up.start(0.0)
+    for seq in range(3):
+        up.handle(mp.Request(seq), 0.0)
+    assert sent_items(up.poll(1.0)) == [2, 3]
+    assert sent_items(up.poll(2.0)) == [2, 3, 4]
+    up.handle(mp.Ack(mp.INVALID_SEQUENCE), 2.5)  # heard: not silent yet
+    assert sent_items(up.poll(3.0)) == [2, 3, 4, 5]  # every item sent, but the vehicle asked only for 2
+    assert up.poll(6.0) == [mp.Count(6, mp.MISSION)]  # silence: a restart, not "ACK lost"
+    assert not up.stats.ack_lost and up.stats.restarts == 1
