@@ -388,10 +388,11 @@ class Uploader(_Machine):
     is stale (from an earlier transaction) and is ignored, so a partial upload is never reported
     as done.
 
-    One exception, only with `confirm_by_download`: every item was sent after the vehicle asked
-    for the last or the one before it, and then the vehicle stopped answering or answered our
-    resent items with ERROR or OPERATION_CANCELLED (it is no longer receiving: its ACCEPTED was
-    lost, or it failed on the last item). The machine then
+    One exception, only with `confirm_by_download`: every item was sent, and then the vehicle
+    stopped answering or answered our resent items with ERROR or OPERATION_CANCELLED (it is no
+    longer receiving: its ACCEPTED was lost, or it failed on the last item). A resent window may
+    have carried the last items before the vehicle asked for them, so the vehicle may also hold
+    less; the read-back that must follow counts and compares every item either way. The machine then
     ends with `stats.ack_lost` set instead of sending all items again, and the caller must read
     the mission back and compare it before calling it uploaded.
     """
@@ -522,8 +523,7 @@ class Uploader(_Machine):
             return self._restart(now)
         stalled = now - self._last_progress >= self.policy.stall
         silent = self._silent(now)
-        near_end = self._all_sent and self._asked >= len(self.items) - 2  # it stored all but the last one or two
-        if near_end and self.confirm_by_download and (self._suspect is not None or stalled or silent):
+        if self._all_sent and self.confirm_by_download and (self._suspect is not None or stalled or silent):
             self.stats.ack_lost = True
             self.done = True
             return []
