@@ -58,7 +58,8 @@ THREE_D_MODES = ("follow", "terrain-frame")
 
 @dataclass(frozen=True)
 class Style:
-    """A single-symbol QGIS style: fill, line or marker, an RGBA colour, an outline colour and width (mm)."""
+    """A single-symbol QGIS style: fill, line or marker, an RGBA colour, an outline colour, and a
+    size in mm (a fill's outline width, a line's width, a marker's diameter)."""
 
     kind: str  # "fill", "line" or "marker"
     color: str  # "r,g,b,a"
