@@ -65,6 +65,20 @@ EVENT_TRACK_M = 30.0
 EVENT_WINDOW_S = 1.0
 #: without a GPS fix in the window, the bracketing fixes, with this much more per second away
 EVENT_GAP_MS = 60.0
+#: an event's own fields against the track: projected on the GPS track (the fixes within
+#: EVENT_WINDOW_S of its time), its position gives the time the track passed there and its
+#: distance from the track. Every event of a log shares one GPS lag, so the event's time minus
+#: that track time is one constant and its distance one small figure, within a spread the log
+#: shows itself; an event whose time or place lies more than EVENT_SPREAD robust standard
+#: deviations (1.4826 median absolute deviations) off, and more than the floors below, is not
+#: the event the autopilot logged. Measured on the SITL logs of tests/data: the time offsets lie
+#: within 23 ms of their median (median absolute deviation 6 ms, plane at 16 m/s; 2 ms, copter
+#: at 10 m/s), the distances within 0.7 m. Events slower than TRACK_MIN_SPEED_MS along the
+#: track are not checked for time (the place says little about the time when the vehicle hovers).
+EVENT_SPREAD = 4.0
+EVENT_TIME_FLOOR_S = 0.025
+EVENT_CROSS_FLOOR_M = 1.0
+TRACK_MIN_SPEED_MS = 2.0
 
 
 def _info(size: int, messages: int, skips: list[SkipInfo], dropped: int, checks: str) -> ReadInfo:
@@ -103,9 +117,20 @@ def _local_m(lat: np.ndarray, lon: np.ndarray, lat0: float, lon0: float) -> tupl
     return (lon - lon0) * k * math.cos(math.radians(lat0)), (lat - lat0) * k
 
 
-def _gps_track(log: DataFlashLog) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(time_s or NaN, lat, lon) of the log's GPS fixes that can be fixes: 3D fix where the layout
-    logs its status, a position on the globe and not 0/0."""
+@dataclass(frozen=True)
+class _Track:
+    """The log's GPS fixes in time order, each once (a copied chunk repeats some)."""
+
+    t: np.ndarray  # seconds since boot, or NaN
+    lat: np.ndarray
+    lon: np.ndarray
+    week: np.ndarray | None  # GPS week and milliseconds of the week of each fix, when logged
+    ms: np.ndarray | None
+
+
+def _gps_track(log: DataFlashLog) -> _Track | None:
+    """The log's GPS fixes that can be fixes: 3D fix where the layout logs its status, a
+    position on the globe and not 0/0."""
     g = log.messages("GPS")
     if not g or "Lat" not in g or "Lng" not in g:
         return None
@@ -113,19 +138,23 @@ def _gps_track(log: DataFlashLog) -> tuple[np.ndarray, np.ndarray, np.ndarray] |
     ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0))
     if "Status" in g:
         ok &= np.asarray(g["Status"]) >= 3
+    if "I" in g:  # the first receiver's fixes (a second one has a clock and a lag of its own)
+        ok &= np.asarray(g["I"]) == 0
     t = np.asarray(g["TimeUS"], float) / 1e6 if "TimeUS" in g else np.full(len(lat), np.nan)
     if not ok.any():
         return None
-    order = np.argsort(t[ok], kind="stable")
-    return t[ok][order], lat[ok][order], lon[ok][order]
+    clock = "GWk" in g and "GMS" in g
+    week = np.asarray(g["GWk"], float) if clock else np.zeros(len(lat))
+    ms = np.asarray(g["GMS"], float) if clock else np.zeros(len(lat))
+    rows = np.unique(np.column_stack([t, lat, lon, week, ms])[ok], axis=0)  # in time order, repeats once
+    return _Track(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] if clock else None, rows[:, 4] if clock else None)
 
 
-def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray,
-                    track: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> np.ndarray:
     """Distance (m) from each event to the GPS track: to the nearest fix within EVENT_WINDOW_S of
     its time, less the allowance for the bracketing fixes when none is that near (events
     without a time: to the nearest fix of the whole track)."""
-    gt, glat, glon = track
+    gt, glat, glon = track.t, track.lat, track.lon
     gx, gy = _local_m(glat, glon, float(np.median(glat)), float(np.median(glon)))
     ex, ey = _local_m(lat, lon, float(np.median(glat)), float(np.median(glon)))
     timed = np.isfinite(gt).all() and len(gt) > 0
@@ -146,16 +175,82 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray,
     return out
 
 
+def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the event's time minus the time the GPS track passed its place, its distance from the
+    track (m), the track's speed there (m/s)) of each event: its position projected on the
+    nearest segment between two fixes within EVENT_WINDOW_S of its time; NaN where there is none."""
+    gt = track.t
+    n = len(t)
+    dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    if not (len(gt) > 1 and np.isfinite(gt).all()):
+        return dt_out, d_out, v_out
+    lat0, lon0 = float(np.median(track.lat)), float(np.median(track.lon))
+    gx, gy = _local_m(track.lat, track.lon, lat0, lon0)
+    ex, ey = _local_m(lat, lon, lat0, lon0)
+    for i in np.flatnonzero(np.isfinite(t) & np.isfinite(ex) & np.isfinite(ey)).tolist():
+        a = max(int(np.searchsorted(gt, t[i] - EVENT_WINDOW_S)) - 1, 0)
+        b = min(int(np.searchsorted(gt, t[i] + EVENT_WINDOW_S, "right")), len(gt) - 1)
+        if b <= a:
+            continue
+        ax, ay, dx, dy = gx[a:b], gy[a:b], gx[a + 1:b + 1] - gx[a:b], gy[a + 1:b + 1] - gy[a:b]
+        dur = gt[a + 1:b + 1] - gt[a:b]
+        length2 = dx * dx + dy * dy
+        ok = (length2 > 0) & (dur > 0)
+        if not ok.any():
+            continue
+        u = np.clip(((ex[i] - ax) * dx + (ey[i] - ay) * dy) / np.where(ok, length2, 1.0), 0.0, 1.0)
+        d = np.where(ok, np.hypot(ax + u * dx - ex[i], ay + u * dy - ey[i]), np.inf)
+        k = int(np.argmin(d))
+        dt_out[i] = t[i] - (gt[a + k] + u[k] * dur[k])
+        d_out[i] = d[k]
+        v_out[i] = math.sqrt(length2[k]) / dur[k]
+    return dt_out, d_out, v_out
+
+
+def _off_spread(v: np.ndarray, floor: float, one_sided: bool = False) -> tuple[np.ndarray, float, float]:
+    """(mask of the values farther from their median than the limit, the median, the limit):
+    the limit is EVENT_SPREAD robust standard deviations of the values, and at least `floor`."""
+    fin = v[np.isfinite(v)]
+    if len(fin) < 5:  # too few to know the log's own spread
+        return np.zeros(len(v), bool), math.nan, math.nan
+    med = float(np.median(fin))
+    limit = max(floor, EVENT_SPREAD * 1.4826 * float(np.median(np.abs(fin - med))))
+    off = (v - med) if one_sided else np.abs(v - med)
+    return np.isfinite(v) & (off > limit), med, limit
+
+
+def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: _Track) -> np.ndarray:
+    """Events whose boot time lies outside the span from the GPS fix their own GPS time names
+    to the next fix: ArduPilot writes the time of the last fix into a CAM message, so it was
+    logged after that fix's GPS message and before the next one (1 ms allowed for rounding).
+    Events whose fix is not in the log are not checked."""
+    bad = np.zeros(len(time_s), bool)
+    if track.week is None or track.ms is None or not np.isfinite(track.t).all():
+        return bad
+    keys = track.week * 604_800_000.0 + track.ms
+    order = np.argsort(keys, kind="stable")
+    ev = week * 604_800_000.0 + ms
+    at = np.clip(np.searchsorted(keys[order], ev), 0, len(keys) - 1)
+    fix = order[at]
+    named = np.isfinite(ev) & (keys[fix] == ev) & np.isfinite(time_s)
+    t_next = np.append(track.t[1:], np.inf)[fix]
+    return named & ((time_s < track.t[fix] - 0.001) | (time_s > t_next + 0.001))
+
+
 def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     """CAM messages (or TRIG when no CAM was logged) of an ArduPilot DataFlash log, checked.
 
-    Dropped, each with its place and reason in the report: messages that repeat an earlier
-    one byte for byte (a copied chunk: every message carries a time stamp, so no two real
-    ones are equal); events with no position on the globe; events farther than EVENT_TRACK_M
-    from every GPS fix logged within EVENT_WINDOW_S of them (the log's own track: damaged or
-    invented positions and times); events whose time breaks the order of the others (the
-    fewest are dropped that leave the times strictly increasing in file order). One log is
-    one boot of the autopilot (ArduPilot starts a new file at each), so its times increase.
+    Kept: one copy of every event. A copied chunk of the log repeats messages byte for byte
+    (every message carries a time stamp, so no two real ones are equal), before, after or
+    overlapping its source; of the copies, the one that fits the time order of the others is
+    kept and the rest are reported as repeats. Dropped, each with its place and reason in the
+    report, events whose own fields disagree with the log: no position on the globe; a time
+    outside the span of the log's GPS messages; farther than EVENT_TRACK_M from every GPS fix
+    logged within EVENT_WINDOW_S; a boot time outside the span of the GPS fix its own GPS time
+    names; a time or a place off the GPS track beyond the log's own spread (`_on_track`); a time
+    that breaks the order of the others (the fewest are dropped that leave the times strictly
+    increasing in file order). One log is one boot of the autopilot (ArduPilot starts a new
+    file at each), so its times increase.
     """
     with DataFlashLog(path) as log:
         source = "CAM"
@@ -186,32 +281,25 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     # logs GPSTime,GPSWeek,Lat,Lng,Alt,Roll,Pitch,Yaw (no boot time, no RelAlt), 3.2 adds RelAlt,
     # later versions add TimeUS (and GPSAlt), and ArduCopter 4.6 names the attitude R,P,Y.
     time_s = get("TimeUS") / 1e6 if "TimeUS" in cam else get("TimeMS") / 1e3
-    utc = gps_to_utc(get("GPSWeek"), get("GPSTime")) if "GPSWeek" in cam and "GPSTime" in cam else None
+    has_clock = "GPSWeek" in cam and "GPSTime" in cam
+    utc = gps_to_utc(get("GPSWeek"), get("GPSTime")) if has_clock else None
     lat, lon = get("Lat"), get("Lng")
+    original = np.where(rep >= 0, rep, np.arange(n))  # the first copy of each message
 
     keep = np.ones(n, bool)
 
     def drop(mask: np.ndarray, kind: str, why: str | Callable[[int], str]) -> None:
-        for i in np.flatnonzero(mask & keep).tolist():
+        for i in np.flatnonzero(mask & keep & (original == np.arange(n))).tolist():
             skips.append({"offset": int(offs[i]), "length": rec_len, "kind": kind,
                           "reason": f"{source} event at {_when(time_s, utc, i)}: " + (why(i) if callable(why) else why)})
         keep[mask] = False
 
-    # a run of repeats (each the message after the one the previous repeats) is one place
-    runs = np.flatnonzero(rep >= 0)
-    for run in np.split(runs, np.flatnonzero(np.diff(rep[runs]) != 1) + 1) if len(runs) else []:
-        first, last = int(run[0]), int(run[-1])
-        skips.append({"offset": int(offs[first]), "length": int(offs[last] - offs[first]) + rec_len, "kind": "repeat",
-                      "reason": f"{len(run)} {source} event(s) from {_when(time_s, utc, first)} to {_when(time_s, utc, last)} "
-                                f"repeat the messages from offset {int(offs[rep[first]])} on byte for byte (a copied "
-                                "chunk of the log); dropped"})
-    keep[runs] = False
     bad_pos = ~(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0)))
     drop(bad_pos, "event", lambda i: f"position {lat[i]:.7f}, {lon[i]:.7f} is not a place on the globe; dropped")
     if track is not None:
-        checks = f"GPS track ({len(track[0])} fixes), time order"
+        checks = f"GPS track ({len(track.t)} fixes), time order"
         tcheck = time_s if np.isfinite(time_s).all() else np.full(n, np.nan)
-        gt = track[0]
+        gt = track.t
         if np.isfinite(gt).all() and np.isfinite(tcheck).all():
             lo, hi = float(gt[0]) - EVENT_WINDOW_S, float(gt[-1]) + EVENT_WINDOW_S
             drop((tcheck < lo) | (tcheck > hi), "event",
@@ -220,16 +308,50 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
         dist[keep] = _far_from_track(tcheck[keep], lat[keep], lon[keep], track)
         drop(dist > EVENT_TRACK_M, "event", lambda i: f"{lat[i]:.7f}, {lon[i]:.7f} lies {dist[i]:.0f} m from the "
              f"log's GPS track within {EVENT_WINDOW_S:g} s of its time (allowed {EVENT_TRACK_M:g} m); dropped")
+        if has_clock:
+            checks += ", GPS clock"
+            week, ms = get("GPSWeek"), get("GPSTime")
+            drop(_off_gps_clock(tcheck, week, ms, track), "event",
+                 lambda i: f"its boot time lies outside the span of the GPS fix its GPS time ({week[i]:.0f}, "
+                           f"{ms[i]:.0f} ms) names; dropped")
+        lag, cross, speed = (np.full(n, np.nan) for _ in range(3))
+        lag[keep], cross[keep], speed[keep] = _on_track(tcheck[keep], lat[keep], lon[keep], track)
+        if np.isfinite(cross).any():
+            checks += ", place and time on the GPS track"
+        far, _, far_limit = _off_spread(cross, EVENT_CROSS_FLOOR_M, one_sided=True)
+        drop(far, "event", lambda i: f"{lat[i]:.7f}, {lon[i]:.7f} lies {cross[i]:.2f} m off the log's GPS track, "
+             f"more than the log's own spread allows ({far_limit:.2f} m); dropped")
+        lag[speed < TRACK_MIN_SPEED_MS] = np.nan
+        late, lag_med, lag_limit = _off_spread(lag, EVENT_TIME_FLOOR_S)
+        drop(late, "event", lambda i: f"the GPS track passed its place at {time_s[i] - lag[i]:.3f} s, "
+             f"{1e3 * (lag[i] - lag_med):+.0f} ms off the log's own lag ({1e3 * lag_med:.0f} ms, allowed "
+             f"{1e3 * lag_limit:.0f} ms): its time or place is not the logged one; dropped")
     else:
         checks = "time order (no GPS fixes in the log)"
     key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else None
     if key is not None:
+        # copies of one message have one time, so an increasing sequence takes at most one of them
         idx = np.flatnonzero(keep)
-        order_ok = np.zeros(n, bool)
-        order_ok[idx[_longest_increasing(key[idx])]] = True
-        drop(~order_ok, "event", "its time breaks the order of the log's other events; dropped")
+        in_order = np.zeros(n, bool)
+        in_order[idx[_longest_increasing(key[idx])]] = True
+        kept_copy = np.zeros(n, bool)
+        kept_copy[original[in_order]] = True
+        repeat = keep & ~in_order & kept_copy[original]
     else:
         checks += " (events have no time)"
+        in_order = keep.copy()
+        repeat = keep & (rep >= 0)
+        in_order[repeat] = False
+    # a run of copies dropped (each the message after the previous one in the file) is one place
+    runs = np.flatnonzero(repeat)
+    for run in np.split(runs, np.flatnonzero(np.diff(runs) != 1) + 1) if len(runs) else []:
+        first, last = int(run[0]), int(run[-1])
+        skips.append({"offset": int(offs[first]), "length": int(offs[last] - offs[first]) + rec_len, "kind": "repeat",
+                      "reason": f"{len(run)} {source} event(s) from {_when(time_s, utc, first)} to {_when(time_s, utc, last)} "
+                                "repeat other messages of the log byte for byte (a copied chunk of the log); the copy "
+                                "that fits the time order of the others is kept, these are dropped"})
+    keep[repeat] = False
+    drop(keep & ~in_order, "event", "its time breaks the order of the log's other events; dropped")
     info = _info(path.stat().st_size, messages, skips, int(n - keep.sum()), checks)
     if not keep.any():
         raise InputError(f"{path.name}: none of the {n} {source} events in the log is plausible "
