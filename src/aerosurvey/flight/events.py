@@ -53,6 +53,8 @@ class ReadInfo(TypedDict):
     skipped: list[SkipInfo]  # the first MAX_SKIPS places, in file order
     skipped_places: int  # all places
     dropped_events: int  # camera events the log holds but the checks dropped (repeats, implausible)
+    implausible_events: int  # of those, events whose fields disagree with the log (kind "event"), each once
+    lost_bytes: int  # bytes skipped as damage or a rejected FMT record (kinds "damage", "format")
     checks: str  # what the events were checked against
 
 
@@ -73,18 +75,20 @@ EVENT_GAP_MS = 60.0
 #: deviations (1.4826 median absolute deviations) off, and more than the floors below, is not
 #: the event the autopilot logged. Measured on the SITL logs of tests/data: the time offsets lie
 #: within 23 ms of their median (median absolute deviation 6 ms, plane at 16 m/s; 2 ms, copter
-#: at 10 m/s), the distances within 0.7 m. Events slower than TRACK_MIN_SPEED_MS along the
+#: at 10 m/s), the distances within 1.2 m. Events slower than TRACK_MIN_SPEED_MS along the
 #: track are not checked for time (the place says little about the time when the vehicle hovers).
 EVENT_SPREAD = 4.0
 EVENT_TIME_FLOOR_S = 0.025
-EVENT_CROSS_FLOOR_M = 1.0
+EVENT_CROSS_FLOOR_M = 2.0
 TRACK_MIN_SPEED_MS = 2.0
 
 
 def _info(size: int, messages: int, skips: list[SkipInfo], dropped: int, checks: str) -> ReadInfo:
     skips = sorted(skips, key=lambda s: s["offset"])
     return {"bytes": size, "messages": messages, "skipped_bytes": sum(s["length"] for s in skips),
-            "skipped": skips[:MAX_SKIPS], "skipped_places": len(skips), "dropped_events": dropped, "checks": checks}
+            "skipped": skips[:MAX_SKIPS], "skipped_places": len(skips), "dropped_events": dropped,
+            "implausible_events": sum(s["kind"] == "event" for s in skips),
+            "lost_bytes": sum(s["length"] for s in skips if s["kind"] in ("damage", "format")), "checks": checks}
 
 
 def _longest_increasing(t: np.ndarray) -> np.ndarray:
@@ -178,7 +182,9 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Tra
 def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
-    nearest segment between two fixes within EVENT_WINDOW_S of its time; NaN where there is none."""
+    nearest segment between two fixes within EVENT_WINDOW_S of its time; NaN where there is none,
+    where the nearest point is an end of the track (a cut-off log), or where the segment spans a
+    gap in the fixes (more than 2.5 periods of the GPS: damage took the fixes between)."""
     gt = track.t
     n = len(t)
     dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
@@ -187,6 +193,7 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     lat0, lon0 = float(np.median(track.lat)), float(np.median(track.lon))
     gx, gy = _local_m(track.lat, track.lon, lat0, lon0)
     ex, ey = _local_m(lat, lon, lat0, lon0)
+    gap = 2.5 * float(np.median(np.diff(gt)))
     for i in np.flatnonzero(np.isfinite(t) & np.isfinite(ex) & np.isfinite(ey)).tolist():
         a = max(int(np.searchsorted(gt, t[i] - EVENT_WINDOW_S)) - 1, 0)
         b = min(int(np.searchsorted(gt, t[i] + EVENT_WINDOW_S, "right")), len(gt) - 1)
@@ -195,12 +202,14 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
         ax, ay, dx, dy = gx[a:b], gy[a:b], gx[a + 1:b + 1] - gx[a:b], gy[a + 1:b + 1] - gy[a:b]
         dur = gt[a + 1:b + 1] - gt[a:b]
         length2 = dx * dx + dy * dy
-        ok = (length2 > 0) & (dur > 0)
+        ok = (length2 > 0) & (dur > 0) & (dur <= gap)
         if not ok.any():
             continue
         u = np.clip(((ex[i] - ax) * dx + (ey[i] - ay) * dy) / np.where(ok, length2, 1.0), 0.0, 1.0)
         d = np.where(ok, np.hypot(ax + u * dx - ex[i], ay + u * dy - ey[i]), np.inf)
         k = int(np.argmin(d))
+        if not np.isfinite(d[k]) or (u[k] == 0.0 and a + k == 0) or (u[k] == 1.0 and a + k + 1 == len(gt) - 1):
+            continue
         dt_out[i] = t[i] - (gt[a + k] + u[k] * dur[k])
         d_out[i] = d[k]
         v_out[i] = math.sqrt(length2[k]) / dur[k]
@@ -234,7 +243,7 @@ def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: 
     fix = order[at]
     named = np.isfinite(ev) & (keys[fix] == ev) & np.isfinite(time_s)
     t_next = np.append(track.t[1:], np.inf)[fix]
-    return named & ((time_s < track.t[fix] - 0.001) | (time_s > t_next + 0.001))
+    return np.asarray(named & ((time_s < track.t[fix] - 0.001) | (time_s > t_next + 0.001)), bool)
 
 
 def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
@@ -416,7 +425,7 @@ def from_tlog(path: Path) -> tuple[Events, ReadInfo]:
     rows = [(m.time_usec, m.lat * 1e-7, m.lng * 1e-7, m.alt_msl, m.alt_rel, m.roll, m.pitch, m.yaw)
             for m in msgs if m.get_type() == "CAMERA_FEEDBACK"]
     info = _info(len(data), len(msgs), [], 0, "none")
-    info["skipped_bytes"] = skipped  # the walker counts bytes, not places
+    info["skipped_bytes"] = info["lost_bytes"] = skipped  # the walker counts bytes, not places
     if not rows:
         raise InputError(f"{path.name}: no CAMERA_FEEDBACK messages in the telemetry log ({len(msgs)} messages read)")
     a = np.asarray(rows, float)
