@@ -49,6 +49,7 @@ class Format:
     columns: list[str]
     dtype: np.dtype | None = None
     scale: dict[str, float] = field(default_factory=dict)
+    undecoded: frozenset[str] = frozenset()  # columns whose format character was damaged (`_repair_format`)
 
 
 def _dtype(fmt: str, columns: list[str]) -> tuple[np.dtype, dict[str, float]] | None:
@@ -106,6 +107,26 @@ def check_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) ->
     return None
 
 
+#: a format character of each size, standing in for a damaged one of that size
+_OF_SIZE = {1: "B", 2: "H", 4: "I", 8: "Q", 16: "N", 64: "Z"}
+
+
+def _repair_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) -> tuple[bytes, int] | None:
+    """(the format with its one damaged character replaced, that character's index) when an FMT
+    record holds together but for one format character that is not a DataFlash one: its length,
+    its column names (one per character) and its other characters give that character's size, so
+    the record still frames its messages and decodes every other column; None otherwise."""
+    f, c = _cstr(fmt), _cstr(cols)
+    bad = [i for i, b in enumerate(f) if chr(b) not in _SIZES]
+    if len(bad) != 1 or len(c.split(b",")) != len(f):
+        return None
+    size = length - 3 - sum(_SIZES[chr(b)] for i, b in enumerate(f) if i != bad[0])
+    if size not in _OF_SIZE:
+        return None
+    fixed = f[:bad[0]] + _OF_SIZE[size].encode() + f[bad[0] + 1:]
+    return (fixed, bad[0]) if check_format(typ, length, name, fixed, cols) is None else None
+
+
 @dataclass
 class Skip:
     """Bytes the reader did not take as messages, and why.
@@ -155,9 +176,17 @@ class DataFlashLog:
             self._reject = "FMT record cut off at the end of the file"
             return False
         why = check_format(typ, length, name, fmt, cols)
+        undecoded: frozenset[str] = frozenset()
         if why is not None:
-            self._reject = why
-            return False
+            repaired = _repair_format(typ, length, name, fmt, cols)
+            if repaired is None:
+                self._reject = why
+                return False
+            fmt, at = repaired
+            col = _cstr(cols).split(b",")[at].decode("ascii", "replace")
+            undecoded = frozenset([col])
+            self._skip(o + 3 + 6 + at, 1, f"{why}: character {at + 1} damaged; the record's length and other characters "
+                       f"still frame its messages, column {col} is not decoded", "format")
         name_s, fmt_s, cols_s = (_cstr(x).decode("ascii", "replace") for x in (name, fmt, cols))
         bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
         if bad:
@@ -166,6 +195,8 @@ class DataFlashLog:
         columns = cols_s.split(",") if cols_s else []
         old = self.formats.get(typ)
         if old is not None:
+            if (old.length, old.name, old.fmt, old.columns) == (length, name_s, fmt_s, columns) and not undecoded:
+                old.undecoded = frozenset()  # an intact copy of a repaired record: every column decodes
             if (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns):
                 self._skip(o, FMT_LEN, f"FMT record redefines type {typ} ({old.name}, {old.fmt}, {old.length} bytes) as "
                                        f"{name_s}, {fmt_s}, {length} bytes: ignored, the first definition is kept", "format")
@@ -178,7 +209,7 @@ class DataFlashLog:
         # FMT-for-FMT names four columns for "BBnNZ"; some EKF5 records list 10 names for 13
         # fields) and records with no fields at all (STRT). Their length still frames the
         # messages, so the type is kept; it just cannot be decoded into named columns.
-        f = Format(typ, length, name_s, fmt_s, columns)
+        f = Format(typ, length, name_s, fmt_s, columns, undecoded=undecoded)
         dt = _dtype(fmt_s, columns) if fmt_s and len(columns) == len(fmt_s) else None
         if dt is not None and dt[0].itemsize == length - 3:
             f.dtype, f.scale = dt
@@ -301,6 +332,8 @@ class DataFlashLog:
         rec = self._rows(f, self.message_offsets(name), f.dtype.itemsize).view(f.dtype).reshape(-1)
         out: dict[str, np.ndarray] = {}
         for col in f.dtype.names or ():
+            if col in f.undecoded:
+                continue
             v = rec[col]
             if scaled and col in f.scale:
                 v = v.astype(np.float64) * f.scale[col]
