@@ -305,3 +305,25 @@ def test_an_fmt_record_with_damaged_column_names_keeps_its_messages(tmp_path: Pa
     assert len(ev) == len(true) and info["dropped_events"] == 0
     (s,) = info["skipped"]
     assert (s["offset"], s["length"], s["kind"]) == (at + 26, 1, "format") and "damaged column names" in s["reason"]
+
+
+@pytest.mark.parametrize("base", [PLANE, COPTER])
+@pytest.mark.parametrize("shift_us", [-65_280, -51_200, 51_200, 65_280])  # bits of the time stamp's second byte flipped
+def test_an_event_some_tens_of_ms_off_in_time_is_dropped_and_reported(tmp_path: Path, base: Path, shift_us: int) -> None:
+    data, true = truth(base)
+    damaged = bytearray(data)
+    with DataFlashLog(base) as log:
+        offs = log.message_offsets("CAM")
+    picked = list(range(10, len(true) - 10, len(true) // 8))
+    for i in picked:
+        at = int(offs[i])
+        (t,) = struct.unpack_from("<Q", damaged, at + 3)
+        struct.pack_into("<Q", damaged, at + 3, t + shift_us)
+    path = tmp_path / "late.bin"
+    path.write_bytes(bytes(damaged))
+    ev, info = read_events(path)
+    times = {round(t * 1e6) for t in ev.time_s.tolist()}
+    assert len(ev) == len(true) - len(picked)
+    assert not times & {round(true[i][1] * 1e6) + shift_us for i in picked}
+    dropped = [s for s in info["skipped"] if s["kind"] == "event"]
+    assert sorted(s["offset"] for s in dropped) == [int(offs[i]) for i in picked]

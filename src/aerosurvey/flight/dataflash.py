@@ -225,6 +225,7 @@ class DataFlashLog:
         o = 0
         find = buf.find
         resync = False  # True after damage: the next header must be confirmed by the one after it
+        last = -1  # offset of the last message taken
         while o + 3 <= n:
             if buf[o] == 0xA3 and buf[o + 1] == 0x95:
                 t = buf[o + 2]
@@ -253,11 +254,22 @@ class DataFlashLog:
                     if a is None:
                         a = offsets[t] = array("Q")
                     a.append(o)
+                    last = o
                     o += ln
                     continue
                 reason = "message cut off at the end of the file" if ln else f"unknown message type {t}"
             else:
                 reason = "bytes outside any message"
+            # damage right after a message taken as it stood: damage may have cut that one short
+            # (a message after it starts inside it), then it is damage and the scan goes on there
+            lt = buf[last + 2] if last >= 0 else FMT_TYPE
+            if not resync and lt != FMT_TYPE and last + lengths[lt] == o:
+                cut = self._cut_at(last, o, lengths)
+                if cut is not None:
+                    offsets[lt].pop()
+                    self._skip(last, cut - last, "message cut off by damage")
+                    o, last = cut, -1
+                    continue
             nxt = find(HEAD, o + 1)
             end = nxt if nxt >= 0 else n
             self._skip(o, end - o, reason)
@@ -265,6 +277,22 @@ class DataFlashLog:
             resync = True
         if o < n:
             self._skip(o, n - o, "message cut off at the end of the file")
+
+    def _cut_at(self, o: int, e: int, lengths: list[int]) -> int | None:
+        """Where a message that seems to span [o, e) really ends, when damage cut it short: it is
+        not followed by a header (nor the end of the file), and a header inside it frames a
+        message that is (the first such one). None when the message stands as it is."""
+        buf, n = self._buf, self.size
+        if e >= n - 1 or buf[e:e + 2] == HEAD:
+            return None
+        h = buf.find(HEAD, o + 1, e)
+        while h >= 0:
+            ln = lengths[buf[h + 2]] if h + 2 < n else 0
+            f = h + ln
+            if ln and f <= n and (f >= n - 1 or buf[f:f + 2] == HEAD):
+                return h
+            h = buf.find(HEAD, h + 1, e)
+        return None
 
     def _skip(self, offset: int, length: int, reason: str, kind: str = "damage") -> None:
         last = self.skipped[-1] if self.skipped else None
