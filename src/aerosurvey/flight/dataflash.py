@@ -285,13 +285,13 @@ class DataFlashLog:
         buf, n = self._buf, self.size
         if e >= n - 1 or buf[e:e + 2] == HEAD:
             return None
-        h = buf.find(HEAD, o + 1, e)
+        h = buf.find(HEAD, o + 1, e + 1)  # a header may start on the message's last byte
         while h >= 0:
             ln = lengths[buf[h + 2]] if h + 2 < n else 0
             f = h + ln
             if ln and f <= n and (f >= n - 1 or buf[f:f + 2] == HEAD):
                 return h
-            h = buf.find(HEAD, h + 1, e)
+            h = buf.find(HEAD, h + 1, e + 1)
         return None
 
     def _skip(self, offset: int, length: int, reason: str, kind: str = "damage") -> None:

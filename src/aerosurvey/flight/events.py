@@ -155,12 +155,17 @@ def _gps_track(log: DataFlashLog) -> _Track | None:
     return _Track(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] if clock else None, rows[:, 4] if clock else None)
 
 
-#: a GPS fix whose GPS clock minus boot clock lies this far from its neighbours' (the median of
-#: five fixes), or whose place lies this far from the line between the fixes before and after
-#: it (more than both of them from theirs), is damaged and left out of the track the events are
-#: checked against. Measured on the SITL logs of tests/data: the clocks agree within a few ms.
+#: a GPS fix is damaged, and left out of the track the events are checked against, when its
+#: GPS clock minus boot clock lies more than FIX_CLOCK_S from its neighbours' (the median of
+#: five fixes), when its GPS time falls off the receiver's fix grid (the commonest step between
+#: fixes) on both sides, or when its place lies off the line between the fixes either side by
+#: more than FIX_PLACE_M and EVENT_SPREAD robust standard deviations of the log's own fixes
+#: (and more than those neighbours do). Measured on the SITL logs of tests/data: the clocks
+#: agree within 20 ms (the logging delay), the places within centimetres on straight legs.
 FIX_CLOCK_S = 0.05
-FIX_PLACE_M = 2.0
+FIX_PLACE_M = 0.2
+#: the logging delay of a GPS message after its fix varies by a loop or two (about 20 ms)
+GPS_CLOCK_SLACK_S = 0.05
 
 
 def _damaged_fixes(rows: np.ndarray, clock: bool) -> np.ndarray:
@@ -172,16 +177,24 @@ def _damaged_fixes(rows: np.ndarray, clock: bool) -> np.ndarray:
         return bad
     t = rows[:, 0]
     if clock:
-        r = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0 - t
+        gps_s = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0
+        r = gps_s - t
         near = np.median(np.lib.stride_tricks.sliding_window_view(np.pad(r, 2, mode="edge"), 5), axis=1)
         bad |= np.abs(r - near) > FIX_CLOCK_S
+        step_ms = np.round(np.diff(gps_s) * 1000.0)
+        steps, counts = np.unique(step_ms[step_ms > 0], return_counts=True)
+        if len(steps):
+            off = (step_ms % steps[np.argmax(counts)]) != 0
+            bad |= np.r_[off[0], off[1:] & off[:-1], off[-1]]
     x, y = _local_m(rows[:, 1], rows[:, 2], float(np.median(rows[:, 1])), float(np.median(rows[:, 2])))
-    span = t[2:] - t[:-2]
-    f = np.where(span > 0, (t[1:-1] - t[:-2]) / np.where(span > 0, span, 1.0), 0.5)
+    when = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0 if clock else t  # the fixes' own time: no logging jitter
+    span = when[2:] - when[:-2]
+    f = np.where(span > 0, (when[1:-1] - when[:-2]) / np.where(span > 0, span, 1.0), 0.5)
     dev = np.zeros(n)
     dev[1:-1] = np.hypot(x[:-2] + f * (x[2:] - x[:-2]) - x[1:-1], y[:-2] + f * (y[2:] - y[:-2]) - y[1:-1])
+    limit = max(FIX_PLACE_M, EVENT_SPREAD * 1.4826 * float(np.median(dev[1:-1])))
     peak = np.zeros(n, bool)
-    peak[1:-1] = (dev[1:-1] > FIX_PLACE_M) & (dev[1:-1] >= dev[:-2]) & (dev[1:-1] >= dev[2:])
+    peak[1:-1] = (dev[1:-1] > limit) & (dev[1:-1] >= dev[:-2]) & (dev[1:-1] >= dev[2:])
     return bad | peak
 
 
@@ -210,6 +223,20 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Tra
     return out
 
 
+def _fix_times(track: _Track) -> np.ndarray:
+    """The fixes' times on the boot clock, from their own GPS time where the log has it: a GPS
+    message is logged up to a loop or two after its fix (tens of ms of jitter, and a damaged
+    time stamp), the fix times are exact; the two clocks' offset is the median over the nearest
+    51 fixes (it drifts slowly over a flight)."""
+    gt = track.t
+    if track.week is None or track.ms is None or len(gt) < 5:
+        return gt
+    gps_s = track.week * 604_800.0 + track.ms / 1000.0
+    w = min(51, len(gt) - (len(gt) + 1) % 2)
+    core = np.median(np.lib.stride_tricks.sliding_window_view(gt - gps_s, w), axis=1)
+    return np.asarray(gps_s + np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])])  # ends: first, last w
+
+
 def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
@@ -221,14 +248,7 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     if not (len(gt) > 1 and np.isfinite(gt).all()):
         return dt_out, d_out, v_out
-    if track.week is not None and track.ms is not None and len(gt) >= 5:
-        # the fixes' own GPS time, on the boot clock: a GPS message is logged up to a loop or two
-        # after its fix (tens of ms of jitter), the fix times are exact; the two clocks' offset
-        # is taken as the median of the nearest 51 fixes (it drifts slowly over a flight)
-        gps_s = track.week * 604_800.0 + track.ms / 1000.0
-        w = min(51, len(gt) - (len(gt) + 1) % 2)
-        core = np.median(np.lib.stride_tricks.sliding_window_view(gt - gps_s, w), axis=1)
-        gt = gps_s + np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])]  # the ends: the first, last w
+    gt = _fix_times(track)
     lat0, lon0 = float(np.median(track.lat)), float(np.median(track.lon))
     gx, gy = _local_m(track.lat, track.lon, lat0, lon0)
     ex, ey = _local_m(lat, lon, lat0, lon0)
@@ -269,9 +289,10 @@ def _off_spread(v: np.ndarray, floor: float, one_sided: bool = False) -> tuple[n
 
 def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: _Track) -> np.ndarray:
     """Events whose boot time lies outside the span from the GPS fix their own GPS time names
-    to the next fix: ArduPilot writes the time of the last fix into a CAM message, so it was
-    logged after that fix's GPS message and before the next one (1 ms allowed for rounding).
-    Events whose fix is not in the log are not checked."""
+    to the next fix, by more than GPS_CLOCK_SLACK_S: ArduPilot writes the time of the last fix
+    into a CAM message, so it was logged after that fix and before the next one. The fixes'
+    times are `_fix_times` (logging jitter and damaged GPS time stamps aside). Events whose fix
+    is not in the log (or was left out as damaged) are not checked."""
     bad = np.zeros(len(time_s), bool)
     if track.week is None or track.ms is None or not np.isfinite(track.t).all():
         return bad
@@ -281,8 +302,9 @@ def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: 
     at = np.clip(np.searchsorted(keys[order], ev), 0, len(keys) - 1)
     fix = order[at]
     named = np.isfinite(ev) & (keys[fix] == ev) & np.isfinite(time_s)
-    t_next = np.append(track.t[1:], np.inf)[fix]
-    return np.asarray(named & ((time_s < track.t[fix] - 0.001) | (time_s > t_next + 0.001)), bool)
+    ft = _fix_times(track)
+    t_next = np.append(ft[1:], np.inf)[fix]
+    return np.asarray(named & ((time_s < ft[fix] - GPS_CLOCK_SLACK_S) | (time_s > t_next + GPS_CLOCK_SLACK_S)), bool)
 
 
 def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
