@@ -159,8 +159,8 @@ def _gps_track(log: DataFlashLog) -> _Track | None:
 #: GPS clock minus boot clock lies more than FIX_CLOCK_S from its neighbours' (the median of
 #: five fixes), when its GPS time falls off the receiver's fix grid (the commonest step between
 #: fixes) on both sides, or when its place lies off the line between the fixes either side by
-#: more than FIX_PLACE_M and EVENT_SPREAD robust standard deviations of the log's own fixes
-#: (and more than those neighbours do). Measured on the SITL logs of tests/data: the clocks
+#: more than the fixes around it do (a turn bends every fix alike), by FIX_PLACE_M and
+#: EVENT_SPREAD robust standard deviations of the log's own fixes. Measured on the SITL logs of tests/data: the clocks
 #: agree within 20 ms (the logging delay), the places within centimetres on straight legs.
 FIX_CLOCK_S = 0.05
 FIX_PLACE_M = 0.2
@@ -186,16 +186,25 @@ def _damaged_fixes(rows: np.ndarray, clock: bool) -> np.ndarray:
         if len(steps):
             off = (step_ms % steps[np.argmax(counts)]) != 0
             bad |= np.r_[off[0], off[1:] & off[:-1], off[-1]]
+    keep = np.flatnonzero(~bad)  # the places are judged among the fixes whose clocks hold
+    if len(keep) < 5:
+        return bad
+    rows, t = rows[keep], t[keep]
+    n = len(rows)
     x, y = _local_m(rows[:, 1], rows[:, 2], float(np.median(rows[:, 1])), float(np.median(rows[:, 2])))
     when = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0 if clock else t  # the fixes' own time: no logging jitter
     span = when[2:] - when[:-2]
     f = np.where(span > 0, (when[1:-1] - when[:-2]) / np.where(span > 0, span, 1.0), 0.5)
     dev = np.zeros(n)
     dev[1:-1] = np.hypot(x[:-2] + f * (x[2:] - x[:-2]) - x[1:-1], y[:-2] + f * (y[2:] - y[:-2]) - y[1:-1])
-    limit = max(FIX_PLACE_M, EVENT_SPREAD * 1.4826 * float(np.median(dev[1:-1])))
+    # a turn bends the track at every fix alike, a damaged fix bends it at itself (and half as much
+    # at its neighbours): its deviation stands out from the median of the five around it
+    excess = dev - np.median(np.lib.stride_tricks.sliding_window_view(np.pad(dev, 2, mode="edge"), 5), axis=1)
+    limit = max(FIX_PLACE_M, EVENT_SPREAD * 1.4826 * float(np.median(np.abs(excess[1:-1]))))
     peak = np.zeros(n, bool)
-    peak[1:-1] = (dev[1:-1] > limit) & (dev[1:-1] >= dev[:-2]) & (dev[1:-1] >= dev[2:])
-    return bad | peak
+    peak[1:-1] = (excess[1:-1] > limit) & (dev[1:-1] >= dev[:-2]) & (dev[1:-1] >= dev[2:])
+    bad[keep[peak]] = True
+    return bad
 
 
 def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> np.ndarray:
