@@ -250,8 +250,9 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
     nearest segment between two fixes within EVENT_WINDOW_S of its time; NaN where there is none,
-    where the nearest point is an end of the track (a cut-off log), or where the segment spans a
-    gap in the fixes (more than 2.5 periods of the GPS: damage took the fixes between)."""
+    where the nearest point is a segment's end (the event lies beyond it: the track's end, a
+    gap), or where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
+    damage took the fixes between)."""
     gt = track.t
     n = len(t)
     dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
@@ -276,7 +277,7 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
         u = np.clip(((ex[i] - ax) * dx + (ey[i] - ay) * dy) / np.where(ok, length2, 1.0), 0.0, 1.0)
         d = np.where(ok, np.hypot(ax + u * dx - ex[i], ay + u * dy - ey[i]), np.inf)
         k = int(np.argmin(d))
-        if not np.isfinite(d[k]) or (u[k] == 0.0 and a + k == 0) or (u[k] == 1.0 and a + k + 1 == len(gt) - 1):
+        if not np.isfinite(d[k]) or u[k] in (0.0, 1.0):  # beyond the segment: a gap, or the track's end
             continue
         dt_out[i] = t[i] - (gt[a + k] + u[k] * dur[k])
         d_out[i] = d[k]
