@@ -3,6 +3,7 @@
     python benchmarks/log_bench.py                      # the committed SITL plane log, repeated to >= 110 MB
     python benchmarks/log_bench.py --log FLIGHT.BIN     # a log of your own (repeated if under --min-mb)
     python benchmarks/log_bench.py --damaged 0          # speed and memory only
+    python benchmarks/log_bench.py --no-speed --readers ours   # the damaged copies only, our reader only
 
 Two tasks, each reader in its own process per task (so the peak memory is the task's own):
 
@@ -15,8 +16,9 @@ Two tasks, each reader in its own process per task (so the peak memory is the ta
 The big log is the chosen log written N times back to back; N flights in one file are a valid
 DataFlash log (each copy repeats its FMT records with the same layouts).
 
-Then damaged copies of the committed SITL logs (junk FMT records inserted, a chunk copied
-again, bytes flipped; seeded): for each reader the camera events it returns against those
+Then damaged copies of the committed SITL logs (junk FMT records inserted; a chunk copied
+again after itself, before itself or inside itself; the log cut off; bits flipped; seeded),
+per kind of damage: for each reader the camera events it returns against those
 of the intact log, over the events the damage did not touch: recovered, returned twice,
 and returned but not in the intact log (altered or invented). pymavlink reads CAM with
 recv_match; ours is `read_events`, the reader plus its checks, as `log ingest` uses it.
