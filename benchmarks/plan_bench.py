@@ -3,7 +3,7 @@
     python benchmarks/plan_bench.py            # all cases, one subprocess each, then start-up
     python benchmarks/plan_bench.py --case 1000ha-holes
     python benchmarks/plan_bench.py --startup  # only the command start-up section
-    python benchmarks/plan_bench.py --startup --before /work/main/src  # and the same commands from other sources
+    python benchmarks/plan_bench.py --startup --before ../other/src  # and the same commands from other sources
 
 Each case runs in its own process so that its peak memory (max RSS) is its own. Times are
 wall-clock seconds on this machine in this run; the 72 ha block is planned in the same
@@ -257,7 +257,7 @@ def main() -> None:
     ap.add_argument("--case", choices=CASES)
     ap.add_argument("--startup", action="store_true", help="Only the start-up section.")
     ap.add_argument("--before", metavar="SRC", help="Start-up: also time the aerosurvey commands from this source folder "
-                    "(e.g. /work/main/src) in the same rounds, as rows 'NAME (before)'.")
+                    "(e.g. ../other/src) in the same rounds, as rows 'NAME (before)'.")
     ap.add_argument("--rounds", type=int, default=STARTUP_ROUNDS, help="Start-up rounds (median of them).")
     a = ap.parse_args()
     if a.case:

@@ -13,7 +13,6 @@ import shapely
 import tomli_w
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED = REPO.parent / "shared"
 
 
 def write_geojson(path: Path, coords: list, geom_type: str = "Polygon") -> Path:

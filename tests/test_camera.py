@@ -23,7 +23,7 @@ from aerosurvey.camera import (
 )
 from aerosurvey.errors import InputError
 
-REFERENCE_CSV = Path(__file__).resolve().parents[2] / "shared" / "reference" / "cameras_from_sources.csv"
+REFERENCE_CSV = Path(__file__).resolve().parent / "data" / "reference" / "cameras_from_sources.csv"
 
 #: Cameras the brief requires in the database, by id.
 REQUIRED_IDS = (

@@ -1,4 +1,4 @@
-"""The formulas of docs/domain.md section 1 against the worked numbers of the sources."""
+"""The formulas of docs/planning.md against the worked numbers of the sources."""
 
 import math
 

@@ -53,7 +53,7 @@ class Camera:
 
     @property
     def pixel_pitch_mm(self) -> float:
-        """Pixel pitch from the long side (domain.md section 1)."""
+        """Pixel pitch from the long side (docs/planning.md)."""
         return self.sensor_width_mm / self.image_width_px
 
     @property

@@ -13,7 +13,7 @@ from mission_strategies import DO_JUMP, canon, missions
 
 from aerosurvey.errors import InputError
 from aerosurvey.mission import mavlink_ids as mav
-from aerosurvey.mission.formats.qgc_plan import _item_dict, dumps_plan, loads_plan, mission_to_plan_dict
+from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan, mission_to_plan_dict
 from aerosurvey.mission.items import Mission, MissionItem
 
 HOME = (49.3995, 14.9995, 402.5)
@@ -274,20 +274,6 @@ def test_writer_refuses_what_no_reader_could_use() -> None:
         dumps_plan(dataclasses.replace(m, items=(MissionItem(70000),)))
 
 
-def _items_one_by_one(m: Mission) -> list[dict]:
-    return [_item_dict(it, seq) for seq, it in enumerate(m.items, start=1)]
-
-
-@settings(max_examples=200, deadline=None)
-@given(missions())
-def test_the_columns_writer_makes_each_item_as_item_dict_does(m: Mission) -> None:
-    made = mission_to_plan_dict(m)["mission"]["items"]
-    expected = _items_one_by_one(m)
-    # the same values of the same types (an int is not a float here: the text differs)
-    assert json.dumps(made, sort_keys=True) == json.dumps(expected, sort_keys=True)
-    assert [[type(v) for v in d["params"]] for d in made] == [[type(v) for v in d["params"]] for d in expected]
-
-
 @pytest.mark.parametrize("item, message", [
     (MissionItem(mav.NAV_WAYPOINT, x=math.nan), r"mission item 2 x \(latitude\) = nan"),
     (MissionItem(mav.DO_CHANGE_SPEED, param2=math.inf), "mission item 2 param2 = inf"),
@@ -299,13 +285,3 @@ def test_a_refused_item_among_good_ones_is_named(item: MissionItem, message: str
     m = dataclasses.replace(survey(), items=(survey().items[0], item, *survey().items[1:]))
     with pytest.raises(InputError, match=message):
         dumps_plan(m)
-
-
-def test_whole_numbers_ints_and_odd_types_as_one_by_one() -> None:
-    items = (MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL, -0.0, 2.0**53, 2.0**53 - 1, 7, 49.5, 15, 10**17),
-             MissionItem(mav.DO_CHANGE_SPEED, param1=True, x=math.nan),  # type: ignore[arg-type]
-             MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_TERRAIN_ALT, x=1.0, y=2.0, z=3.5))
-    for m in (dataclasses.replace(survey(), items=items), dataclasses.replace(survey(), items=items[::2])):
-        made = mission_to_plan_dict(m)["mission"]["items"]
-        assert json.dumps(made, sort_keys=True) == json.dumps(_items_one_by_one(m), sort_keys=True)
-        assert [[type(v) for v in d["params"]] for d in made] == [[type(v) for v in d["params"]] for d in _items_one_by_one(m)]

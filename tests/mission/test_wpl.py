@@ -7,16 +7,14 @@ import math
 import tempfile
 from pathlib import Path
 
-import numpy as np
 import pytest
 from hypothesis import given, settings
-from hypothesis import strategies as st
 from mission_strategies import canon, missions, same_float
 from pymavlink import mavwp
 
 from aerosurvey.errors import InputError
 from aerosurvey.mission import mavlink_ids as mav
-from aerosurvey.mission.formats.wpl import HEADER, _row, dumps_wpl, format_number, format_numbers, loads_wpl
+from aerosurvey.mission.formats.wpl import dumps_wpl, format_number, loads_wpl
 from aerosurvey.mission.items import Mission, MissionItem
 
 HOME = (49.3995, 14.9995, 402.5)
@@ -163,24 +161,6 @@ def test_bad_reader_options_and_unwritable_missions() -> None:
         dumps_wpl(dataclasses.replace(m, items=(MissionItem(mav.NAV_WAYPOINT, 300, x=49.4, y=15.0, z=80.0),)))
 
 
-@given(st.lists(st.floats() | st.builds(round, st.floats(-1e6, 1e6), st.integers(0, 9))
-                | st.sampled_from([-0.0, 0.0, 1e16, 9999999999999998.0, 1e-4, 9.99e-5, 5e-324, 2.0**53, -(2.0**63)]),
-                max_size=40))
-def test_format_numbers_is_format_number(values: list[float]) -> None:
-    assert format_numbers(np.array(values, float)) == [format_number(v) for v in values]
-
-
-def _one_by_one(m: Mission) -> str:
-    home = MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL, x=m.home[0], y=m.home[1], z=m.home[2])
-    return "\n".join([HEADER, _row(0, 1, home), *(_row(seq, 0, it) for seq, it in enumerate(m.items, start=1))]) + "\n"
-
-
-@settings(max_examples=200)
-@given(missions())
-def test_the_columns_writer_writes_each_row_as_row_does(m: Mission) -> None:
-    assert dumps_wpl(m) == _one_by_one(m)
-
-
 @pytest.mark.parametrize("item, message", [
     (MissionItem(mav.NAV_WAYPOINT, x=math.nan), "mission item 2 latitude = nan"),
     (MissionItem(mav.DO_CHANGE_SPEED, param2=math.inf), "mission item 2 param2 = inf"),
@@ -192,9 +172,3 @@ def test_a_refused_item_among_good_ones_is_named(item: MissionItem, message: str
     m = dataclasses.replace(survey(), items=(survey().items[0], item, *survey().items[1:]))
     with pytest.raises(InputError, match=message.replace("(", r"\(")):
         dumps_wpl(m)
-
-
-def test_odd_value_types_are_written_as_row_writes_them() -> None:
-    m = dataclasses.replace(survey(), items=(MissionItem(mav.NAV_WAYPOINT, param1=True, x=49, y=15, z=80),  # type: ignore[arg-type]
-                                             MissionItem(mav.NAV_WAYPOINT, x=49.5, y=15.5, z=10**17)))
-    assert dumps_wpl(m) == _one_by_one(m)

@@ -15,11 +15,9 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey import ids
 from aerosurvey.area import planning_crs
 from aerosurvey.plan import lines as lines_module
-from aerosurvey.plan.coverage import _run_strips
 from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame, to_frames
 from aerosurvey.plan.lines import LineSegment, cut_by_zones, strip_offsets, strip_offsets_many
-from aerosurvey.plan.model import Stations
 from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_approach
 
 # -- the former one-run-at-a-time route code (reference) ------------------------------------
@@ -133,53 +131,6 @@ def test_approaches_outside_the_zones_box_are_what_geos_says(boxes: list[tuple[f
     det = _detours(boxes, margin)
     for fx, fy, lx, ly in raw:
         assert clip_approach((fx, fy), (lx, ly), det) == _geos_clip((fx, fy), (lx, ly), det)
-
-
-# -- coverage: every run's sure strip made at once ------------------------------------------------
-
-
-def _old_run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base: float) -> BaseGeometry:
-    strips = []
-    runs = stations.run
-    starts = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
-    ends = np.r_[starts[1:], len(runs)] - 1
-    for a, b in zip(starts, ends):
-        if b == a:
-            continue
-        L, W = float(along[a: b + 1].min()), float(across[a: b + 1].min())
-        reach = L / 2.0 - base
-        if reach <= 0:
-            continue
-        h = np.radians(stations.heading_deg[a])
-        u = np.array([np.sin(h), np.cos(h)])
-        v = np.array([u[1], -u[0]])
-        p0 = np.array([stations.x[a], stations.y[a]]) - u * reach
-        p1 = np.array([stations.x[b], stations.y[b]]) + u * reach
-        strips.append(shapely.Polygon([p0 + v * W / 2, p1 + v * W / 2, p1 - v * W / 2, p0 - v * W / 2]))
-    return shapely.union_all(strips) if strips else shapely.Polygon()
-
-
-@settings(max_examples=150, deadline=None)
-@given(st.lists(st.tuples(st.integers(1, 12), st.sampled_from([0.0, 17.25, 90.0, 197.25, 359.9]),
-                          st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=1, max_size=20),
-       st.floats(1.0, 40.0), st.integers(0, 2**32 - 1))
-def test_run_strips_made_together_are_those_made_one_by_one(raw: list[tuple[int, float, float, float]], base: float,
-                                                           seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    run = np.repeat(np.arange(len(raw)), [n for n, *_ in raw]).astype(np.int64)
-    heading = np.repeat([h for _, h, _, _ in raw], [n for n, *_ in raw]).astype(float)
-    start = np.repeat(np.array([(x, y) for *_, x, y in raw], float).reshape(-1, 2), [n for n, *_ in raw], axis=0)
-    xy = start + np.cumsum(rng.uniform(0.0, 30.0, (len(run), 2)), axis=0)
-    across, along = rng.uniform(10.0, 120.0, len(run)), rng.uniform(5.0, 100.0, len(run))
-    nan = np.full(len(run), np.nan)
-    stations = Stations([str(i) for i in range(len(run))], run, xy[:, 0], xy[:, 1], nan, nan, nan, nan, nan, heading)
-    new, old = _run_strips(stations, across, along, base), _old_run_strips(stations, across, along, base)
-    assert shapely.to_wkb(new) == shapely.to_wkb(old)
-
-
-def test_no_stations_no_strips() -> None:  # the former code needed one (the caller answers before)
-    nan = np.zeros(0)
-    assert _run_strips(Stations([], np.zeros(0, np.int64), nan, nan, nan, nan, nan, nan, nan, nan), nan, nan, 5.0).is_empty
 
 
 # -- station ids of many lines, lon/lat of stations and waypoints in one transform ---------------

@@ -10,7 +10,7 @@ import numpy as np
 
 from aerosurvey.qa.accuracy_input import CheckPoints
 
-REF = Path(__file__).resolve().parents[3] / "shared" / "reference"
+REF = Path(__file__).resolve().parents[1] / "data" / "reference"
 KUBAD = REF / "kubad_abad_gcp_residuals.csv"
 OBRATAN = REF / "bayes_obratan.csv"
 COUNTS_2014 = REF / "asprs2014_checkpoint_counts.csv"
@@ -60,3 +60,16 @@ def planned_square(folder, side_m: float, name: str, profiles: tuple[str, ...] =
     res = CliRunner().invoke(main, ["plan", str(src / "spec.toml"), "-o", str(folder)])
     assert res.exit_code == 0, res.output
     return folder
+
+
+#: Everything a standard's statement names (qa/identity.py), for tests that want a valid test:
+#: the command's options, and the same as Settings fields (CRS and survey sigmas apart).
+STATEMENT_ARGS = ["--product", "orthoimagery", "--gsd-cm", "2", "--product-date", "2026-05-12", "--crs",
+                  "EPSG:32633", "--vertical-datum", "EGM2008 geoid", "--ref-sigma-xy", "0.005", "--ref-sigma-z",
+                  "0.008", "--survey-source", "GNSS RTK, 30 s occupations"]
+
+
+def product() -> Any:
+    from aerosurvey.qa.identity import Product
+
+    return Product("orthoimagery", 2.0, "2026-05-12", "EGM2008 geoid", "GNSS RTK, 30 s occupations")

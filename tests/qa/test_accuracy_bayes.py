@@ -1,4 +1,4 @@
-"""Bayesian estimate (shared/papers/003): modes against the formula columns, credible
+"""Bayesian estimate (Zaoralová et al., land consolidation terms paper): modes against the formula columns, credible
 intervals against an independent numerical integration done here."""
 
 from __future__ import annotations

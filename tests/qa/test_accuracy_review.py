@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from qa_accuracy_helpers import make_points, planned_square
+from qa_accuracy_helpers import STATEMENT_ARGS, make_points, planned_square
 
 from aerosurvey.cli import main
 from aerosurvey.qa.assessment import Settings, assess
@@ -107,7 +107,7 @@ def test_campaign_links_area_layout_and_gsd(tmp_path: Path) -> None:
     csv_path = tmp_path / "pts.csv"
     csv_path.write_text("id,dx,dy,dz,x_ref,y_ref\n" + "".join(
         f"P{i + 1},{a},{b},{c_},{u},{v}\n" for i, (a, b, c_, u, v) in enumerate(zip(dx, dy, dz, x, y))))
-    res = CliRunner().invoke(main, ["qa", "accuracy", str(csv_path), "--crs", "EPSG:32633", "--campaign", str(camp)])
+    res = CliRunner().invoke(main, ["qa", "accuracy", str(csv_path), "--campaign", str(camp), *STATEMENT_ARGS])
     assert res.exit_code == 0, res.output
     assert "x the planned GSD of 2 cm (grid test)" in res.output
     nope = CliRunner().invoke(main, ["qa", "accuracy", str(csv_path), "--campaign", str(tmp_path)])

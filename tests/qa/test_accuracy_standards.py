@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from qa_accuracy_helpers import COUNTS_2014, make_points, scaled_to
+from qa_accuracy_helpers import COUNTS_2014, make_points, product, scaled_to
 
 from aerosurvey.qa import asprs, nssda
 from aerosurvey.qa import statistics as st
@@ -80,11 +80,14 @@ def test_asprs2023_vertical_rows_of_table_7_4(fit_cm: Any, product_cm: Any) -> N
     assert round(r["rmse_v_m"] * 100, 2) == product_cm
 
 
-def test_asprs2023_missing_survey_is_a_warning() -> None:
+def test_asprs2023_missing_survey_is_not_tested() -> None:
     rng = np.random.default_rng(8)
-    pts = make_points(rng.normal(0, 0.02, 30), rng.normal(0, 0.02, 30), rng.normal(0, 0.03, 30))
-    r = assess(pts, Settings(standard="asprs2023"))
-    assert any("survey's accuracy is not given" in w for w in r["warnings"])
+    pts = make_points(rng.normal(0, 0.02, 30), rng.normal(0, 0.02, 30), rng.normal(0, 0.03, 30), crs="EPSG:32633")
+    r = assess(pts, Settings(standard="asprs2023", product=product()))
+    assert r["verdict"]["status"] == "not tested"
+    assert any("the check point survey's horizontal accuracy (--ref-sigma-xy or sigma_xy)" in x
+               for x in r["verdict"]["reasons"])
+    assert "the check point survey's accuracy is not given" in r["sentences"][0]
     assert any("not confirmed" in n for n in r["notes"])
 
 
@@ -93,8 +96,8 @@ def test_nssda_ratio_branches() -> None:
     eq = nssda.evaluate(0.1 * e, 0.1 * e, 0.2 * e)
     assert eq["horizontal_95_m"] == pytest.approx(1.7308 * math.hypot(0.1, 0.1))
     assert eq["vertical_95_m"] == pytest.approx(1.96 * 0.2)
-    assert eq["sentences"] == ["Tested 0.245 (m) horizontal accuracy at 95 % confidence level",
-                               "Tested 0.392 (m) vertical accuracy at 95 % confidence level"]
+    assert eq["sentences"] == ["Tested 0.245 meters horizontal accuracy at 95% confidence level",
+                               "Tested 0.392 meters vertical accuracy at 95% confidence level"]
     mid = nssda.evaluate(0.1 * e, 0.08 * e, np.full(20, np.nan))
     assert mid["horizontal_95_m"] == pytest.approx(2.4477 * 0.5 * 0.18) and "approximation" in mid["horizontal_method"]
     far = nssda.evaluate(0.1 * e, 0.02 * e, np.full(20, np.nan))

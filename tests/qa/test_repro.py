@@ -150,6 +150,7 @@ def test_nodata_and_auto_crop(tmp_path: Path) -> None:
 @pytest.mark.parametrize("case,needle", [
     ("text", "not a raster"), ("bands", "mismatched band counts"), ("crs", "no CRS"),
     ("window", "--window = 4"), ("small", "--window = 1"), ("threshold", "--threshold = 1.5"),
+    ("pixel-window", "--window = 5 is not allowed with --statistic pixel"),
 ])
 def test_bad_input(tmp_path: Path, case: Any, needle: Any) -> None:
     a = _write(tmp_path / "a.tif", _base())
@@ -163,9 +164,11 @@ def test_bad_input(tmp_path: Path, case: Any, needle: Any) -> None:
     elif case == "crs":
         args = [str(a), str(_write(tmp_path / "nocrs.tif", _base(), crs=None))]
     elif case == "window":
-        args += ["--window", "4"]
+        args += ["--statistic", "window", "--window", "4"]
     elif case == "small":
-        args += ["--window", "1"]
+        args += ["--statistic", "window", "--window", "1"]
+    elif case == "pixel-window":  # the default statistic has no window: the option is not silently ignored
+        args += ["--window", "5"]
     elif case == "threshold":
         args += ["--threshold", "1.5"]
     out = tmp_path / "out"
@@ -272,6 +275,7 @@ def test_other_grid_is_refused_unless_resample_and_only_the_overlap_is_judged(tm
     out = tmp_path / "out"
     res = _run([str(pa), str(pb), "-o", str(out)])
     assert res.exit_code == 2 and "another grid" in res.output and "--resample" in res.output
+    assert "size 100 x 160 vs 200 x 160" in res.output and "transform" not in res.output and "CRS" not in res.output
     assert not out.exists()
     res = _run([str(pa), str(pb), "-o", str(out), "--resample", "--block", "64"])
     assert res.exit_code == 0, res.output
@@ -316,3 +320,39 @@ def test_the_layer_reports_progress_block_by_block(tmp_path: Path) -> None:
     blocks = len(rp.block_windows(rp.inspect([a, b]), 64))
     assert blocks > 1 and len(seen) == blocks
     assert [d for _, d in seen] == sorted(d for _, d in seen) and seen[-1] == ("blocks", 1.0)
+
+
+def test_grid_refusal_names_the_transforms_and_crs_that_differ(tmp_path: Path) -> None:
+    a = _base()
+    pa = _write(tmp_path / "a.tif", a)
+    moved = _shifted_grid(tmp_path / "moved.tif", a, 500000.5)  # same size, origin half a metre east
+    res = _run([str(pa), str(moved), "-o", str(tmp_path / "out")])
+    assert res.exit_code == 2, res.output
+    assert "transform (0.05, 0, 500000.5, 0, -0.05, 5470000) vs (0.05, 0, 500000, 0, -0.05, 5470000)" in res.output
+    assert "size" not in res.output.split("(", 1)[1].split(";")[0]
+    other = _write(tmp_path / "utm34.tif", a, crs="EPSG:32634")
+    res = _run([str(pa), str(other), "-o", str(tmp_path / "out")])
+    assert res.exit_code == 2 and "CRS EPSG:32634 vs EPSG:32633" in res.output, res.output
+
+
+def test_chance_level_is_the_null_distribution_of_r(tmp_path: Path) -> None:
+    """Two unrelated RGB pixels pass r > 0.95 about 10 % of the time (n = 3); the report says so."""
+    rng = np.random.default_rng(11)
+    a, b = rng.normal(size=(2, 200_000, 3))
+    a -= a.mean(axis=1, keepdims=True)
+    b -= b.mean(axis=1, keepdims=True)
+    r = (a * b).sum(axis=1) / np.sqrt((a * a).sum(axis=1) * (b * b).sum(axis=1))
+    share = float(np.mean(r > 0.95))
+    assert share == pytest.approx(math.acos(0.95) / math.pi, abs=3 * math.sqrt(0.1 * 0.9 / 200_000))
+    pa, pb = _write(tmp_path / "a.tif", _base(1)), _write(tmp_path / "b.tif", _base(2))  # unrelated images
+    res = _run([str(pa), str(pb), "-o", str(tmp_path / "out"), "--block", "64"])
+    assert res.exit_code == 0, res.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    chance = summary["chance_level"]
+    assert chance["values"] == 3 and chance["probability"] == pytest.approx(math.acos(0.95) / math.pi, rel=1e-9)
+    assert "chance level: 10.1 %" in res.output
+    assert "chance level 10.1 %" in (tmp_path / "out" / "summary.txt").read_text()
+    # uniform 8-bit values are not normal, yet unrelated images pass near the chance level
+    assert abs(summary["reproducible_share"] - chance["probability"]) < 0.02
+    win = _run([str(pa), str(pb), "-o", str(tmp_path / "w"), "--statistic", "window", "--window", "3"])
+    assert win.exit_code == 0 and "n = 27 values" in win.output, win.output

@@ -17,6 +17,7 @@ from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import select_profiles
 from aerosurvey.spec import load_spec
 from conftest import make_spec, random_polygon
+from rules.rectangles import rect_footprints
 
 
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -60,11 +61,10 @@ def test_layout_on_random_areas(tmp_path_factory, kind, seed, size):
 
 def test_gcp_that_no_photo_reaches_says_how_to_extend_the_plan():
     from aerosurvey.rules.control_points import propose_gcps
-    from aerosurvey.rules.footprints import Footprints
 
     area = shapely.box(0, 0, 100, 100)
     # six photos over the middle only: nothing sees the outline
-    fp = Footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 60.0), np.full(6, 60.0))
+    fp = rect_footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 60.0), np.full(6, 60.0))
     gcps = propose_gcps(area, fp, count=4, min_images=6, offset=10.0, max_spacing=400.0, nogo=None)
     assert len(gcps) >= 4
     assert all(g.images == 0 and "targets.coverage_margin_m to at least 12 m" in g.note for g in gcps)
@@ -73,45 +73,39 @@ def test_gcp_that_no_photo_reaches_says_how_to_extend_the_plan():
 
 def test_gcp_moved_towards_the_outline_says_so():
     from aerosurvey.rules.control_points import propose_gcps
-    from aerosurvey.rules.footprints import Footprints
 
     area = shapely.box(0, 0, 100, 100)
     # photos reach 5 m past the outline, the ring is 10 m out
-    fp = Footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 110.0), np.full(6, 110.0))
+    fp = rect_footprints(np.full(6, 50.0), np.full(6, 50.0), np.zeros(6), np.full(6, 110.0), np.full(6, 110.0))
     gcps = propose_gcps(area, fp, count=4, min_images=6, offset=10.0, max_spacing=400.0, nogo=None)
     assert all(g.images == 6 and g.note.startswith("moved to") for g in gcps)
 
 
 def test_count_at_is_the_count_of_footprints_holding_each_point() -> None:
-    """Against a direct count, footprint by footprint, over every point (random rectangles)."""
-    from aerosurvey.rules.footprints import Footprints
-
+    """Against a direct count, footprint by footprint, over every point (random rectangles; a
+    point on an edge has probability zero here)."""
     rng = np.random.default_rng(7)
     n = 300
-    fp = Footprints(rng.uniform(0, 1000, n), rng.uniform(0, 1000, n), rng.uniform(0, 2 * np.pi, n),
-                    rng.uniform(20, 80, n), rng.uniform(10, 60, n))
+    x, y, h = rng.uniform(0, 1000, n), rng.uniform(0, 1000, n), rng.uniform(0, 2 * np.pi, n)
+    across, along = rng.uniform(20, 80, n), rng.uniform(10, 60, n)
+    fp = rect_footprints(x, y, h, across, along)
     px, py = rng.uniform(-50, 1050, 2000), rng.uniform(-50, 1050, 2000)
     want = np.zeros(len(px), int)
     for i in range(n):
-        dx, dy = px - fp.x[i], py - fp.y[i]
-        h = fp.heading_rad[i]
-        u, v = dx * np.sin(h) + dy * np.cos(h), dx * np.cos(h) - dy * np.sin(h)
-        want += (np.abs(u) <= fp.along[i] / 2 + 1e-6) & (np.abs(v) <= fp.across[i] / 2 + 1e-6)
+        dx, dy = px - x[i], py - y[i]
+        u, v = dx * np.sin(h[i]) + dy * np.cos(h[i]), dx * np.cos(h[i]) - dy * np.sin(h[i])
+        want += (np.abs(u) <= along[i] / 2) & (np.abs(v) <= across[i] / 2)
     assert want.max() >= 2
     assert np.array_equal(fp.count_at(px, py), want)
     assert [int(fp.count_at(px[i:i + 1], py[i:i + 1])[0]) for i in range(200)] == want[:200].tolist()  # one at a time
     assert fp.count_at(np.array([]), np.array([])).tolist() == []
 
 
-def test_count_at_keeps_points_within_the_tolerance_at_a_corner() -> None:
-    """A point up to 1e-6 beyond a corner counts (the direct test's tolerance), also where the
-    footprint's diagonal lies along an axis, so the corner is the farthest it reaches."""
-    from aerosurvey.rules.footprints import Footprints
-
+def test_count_at_counts_a_footprint_s_corners_and_edges() -> None:
     along, across = 80.0, 60.0
     h = float(np.arctan2(across, along))
-    fp = Footprints(np.array([0.0]), np.array([0.0]), np.array([h]), np.array([across]), np.array([along]))
-    u = np.array([1, 1, -1, -1]) * (along / 2 + 0.9e-6)
-    v = np.array([1, -1, 1, -1]) * (across / 2 + 0.9e-6)
-    px, py = u * np.sin(h) + v * np.cos(h), u * np.cos(h) - v * np.sin(h)  # back from the footprint's axes
-    assert fp.count_at(px, py).tolist() == [1, 1, 1, 1]
+    fp = rect_footprints([0.0], [0.0], [h], [across], [along])
+    corners = fp.corners[0]
+    mids = (corners + np.roll(corners, -1, axis=0)) / 2
+    pts = np.concatenate([corners, mids, corners * 1.001])
+    assert fp.count_at(pts[:, 0], pts[:, 1]).tolist() == [1] * 8 + [0] * 4

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from datetime import datetime
 from pathlib import Path
 
 import click
@@ -19,6 +20,16 @@ class NotTested(AerosurveyError):
     """The points do not make a valid test by the standard: no verdict (exit code 3)."""
 
     exit_code = 3
+
+
+def _text(value: str | None, option: str) -> str | None:
+    """A statement's text input: stripped, one line, not empty."""
+    if value is None:
+        return None
+    v = value.strip()
+    if not v or "\n" in v or len(v) > 200:
+        raise InputError(f"{option} = {value!r} is not allowed: one line of 1 to 200 characters")
+    return v
 
 
 def _dumps(data: object) -> str:
@@ -43,22 +54,38 @@ def _dumps(data: object) -> str:
 @click.option("--ref-sigma-xy", type=_NONNEG, default=None,
               help="Reference survey: standard deviation of one horizontal coordinate, m (ASPRS 2023, bayes).")
 @click.option("--ref-sigma-z", type=_NONNEG, default=None, help="Reference survey: height standard deviation, m.")
-@click.option("--sigma0-h", type=_POS, default=None, help="Snooping: the specification's sigma0, horizontal, m.")
-@click.option("--sigma0-v", type=_POS, default=None, help="Snooping: the specification's sigma0, vertical, m.")
-@click.option("--k-h", type=_POS, default=1.96, show_default=True, help="Snooping: horizontal blunder factor.")
-@click.option("--k-v", type=_POS, default=2.16, show_default=True, help="Snooping: vertical blunder factor.")
+@click.option("--sigma0-h", type=_POS, default=None,
+              help="Snooping: a-priori sigma0 of one horizontal coordinate, m (Baarda's w-test and the global test; "
+                   "without it Pope's tau-test).")
+@click.option("--sigma0-v", type=_POS, default=None, help="Snooping: a-priori sigma0 of heights, m (as --sigma0-h).")
+@click.option("--alpha0", type=click.FloatRange(0, 0.5, min_open=True), default=0.001, show_default=True,
+              help="Snooping: probability that one blunder-free value is rejected (0.001: Baarda's k = 3.29).")
+@click.option("--power", type=click.FloatRange(0.5, 1, max_open=True), default=0.80, show_default=True,
+              help="Snooping: power at which the minimal detectable bias is stated.")
+@click.option("--max-mdb", type=_POS, default=8.0, show_default=True,
+              help="Snooping: decide only when the minimal detectable bias is at most this many sigma.")
 @click.option("--max-rejected", type=click.FloatRange(0, 1), default=0.05, show_default=True,
               help="Snooping: largest share of rejected points before the set fails.")
 @click.option("--alpha", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
               help="Snooping: significance level of the global chi-square test.")
+@click.option("--product", "product_kind", default=None,
+              help="What was tested, for the statement: e.g. orthoimagery, DEM, DSM.")
+@click.option("--gsd-cm", type=_POS, default=None, help="The product's GSD (or cell size), cm, for the statement.")
+@click.option("--product-date", type=click.DateTime(formats=["%Y-%m-%d"]), default=None,
+              help="The product's date, YYYY-MM-DD, for the statement.")
+@click.option("--vertical-datum", default=None,
+              help="Vertical datum or geoid of the heights, when the CRS has no vertical part (e.g. 'EGM2008').")
+@click.option("--survey-source", default=None,
+              help="How the check points were surveyed, for the statement (e.g. 'GNSS RTK, CZEPOS network').")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON result instead of the text summary.")
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write accuracy.json, accuracy.txt and accuracy.html there.")
 def accuracy(points: Path, standard: str, units: str | None, crs: str | None, default_role: str,
              class_h: float | None, class_v: float | None, area_km2: float | None, area_ha: float | None,
              campaign: Path | None, ref_sigma_xy: float | None, ref_sigma_z: float | None, sigma0_h: float | None,
-             sigma0_v: float | None, k_h: float, k_v: float, max_rejected: float, alpha: float, as_json: bool,
-             outdir: Path | None) -> None:
+             sigma0_v: float | None, alpha0: float, power: float, max_mdb: float, max_rejected: float, alpha: float,
+             product_kind: str | None, gsd_cm: float | None, product_date: datetime | None,
+             vertical_datum: str | None, survey_source: str | None, as_json: bool, outdir: Path | None) -> None:
     """Accuracy of a product from its check points, by a standard.
 
     \b
@@ -68,14 +95,18 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
       1  a valid test, and the class or specification is NOT met
       2  bad input (nothing written)
       3  no valid test: NOT TESTED (no independent check points: control points
-         show the fit, not the accuracy) or INDICATIVE ONLY (too few check points,
-         check points not accurate enough, mean error above the standard's limit,
-         or the plan's own check point rule not met); the reasons are printed
+         show the fit, not the accuracy; too few points for the method to decide;
+         an input the standard's statement names is missing: --product, --gsd-cm,
+         --product-date, the CRS, the vertical datum, the check point survey's
+         accuracy and --survey-source) or INDICATIVE ONLY (too few check points
+         for the standard, check points not accurate enough, or the plan's own
+         check point rule not met); the reasons are printed
     """
     # imported here, not at the top: the help pages must not load scipy
     from aerosurvey.qa.accuracy_input import read_points
     from aerosurvey.qa.assessment import Settings, assess
     from aerosurvey.qa.campaign import read_campaign
+    from aerosurvey.qa.identity import Product
     from aerosurvey.qa.report_html import render
     from aerosurvey.qa.report_text import summary
 
@@ -85,8 +116,12 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
     camp = read_campaign(campaign) if campaign is not None else None
     settings = Settings(standard=standard, class_h_cm=class_h, class_v_cm=class_v,
                         area_km2=area_km2 if area_ha is None else area_ha / 100.0, ref_sigma_xy_m=ref_sigma_xy,
-                        ref_sigma_z_m=ref_sigma_z, k_h=k_h, k_v=k_v, max_rejected=max_rejected, sigma0_h_m=sigma0_h,
-                        sigma0_v_m=sigma0_v, alpha=alpha)
+                        ref_sigma_z_m=ref_sigma_z, alpha0=alpha0, power=power, max_mdb=max_mdb,
+                        max_rejected=max_rejected, sigma0_h_m=sigma0_h, sigma0_v_m=sigma0_v, alpha=alpha,
+                        product=Product(_text(product_kind, "--product"), gsd_cm,
+                                        product_date.date().isoformat() if product_date is not None else None,
+                                        _text(vertical_datum, "--vertical-datum"),
+                                        _text(survey_source, "--survey-source")))
     try:
         result = assess(pts, settings, camp)
     except ValueError as exc:

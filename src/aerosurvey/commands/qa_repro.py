@@ -33,8 +33,9 @@ def _crop_geoms(path: Path, grid_crs: Any) -> tuple[Any, ...]:
 @click.option("--statistic", type=click.Choice(["pixel", "window"]), default="pixel", show_default=True,
               help="pixel: per-pixel correlation across the bands (the source study's, raster::corLocal on bricks); "
                    "window: a w x w window with the bands pooled.")
-@click.option("--window", type=int, default=5, show_default=True,
-              help="Window size in pixels for --statistic window (odd, >= 3).")
+@click.option("--window", type=int, default=None,
+              help="Window size in pixels for --statistic window (odd, >= 3; default 5); an error with --statistic "
+                   "pixel.")
 @click.option("--threshold", type=float, default=0.95, show_default=True,
               help="A pixel is reproducible when r > threshold.")
 @click.option("--resample", is_flag=True,
@@ -46,7 +47,7 @@ def _crop_geoms(path: Path, grid_crs: Any) -> tuple[Any, ...]:
 @click.option("--scheduler", default="threads", show_default=True,
               help="threads, local (a Dask LocalCluster) or the address of a Dask scheduler (tcp://host:8786).")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
-def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int, threshold: float, resample: bool, crop: str,
+def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int | None, threshold: float, resample: bool, crop: str,
                     crop_margin: int, block: int, scheduler: str, outdir: Path) -> None:
     """Reproducibility layer of orthomosaics processed several times with the same settings.
 
@@ -56,20 +57,22 @@ def reproducibility(orthos: tuple[Path, ...], statistic: str, window: int, thres
     """
     from aerosurvey.qa import reproducibility as rp
 
-    rp.validate_settings(window, threshold, statistic)
+    size = rp.validate_settings(window, threshold, statistic)
     paths = list(orthos)
     grid = rp.inspect(paths, resample)
     geoms: tuple[Any, ...] = ()
     if crop not in ("none", "auto"):
         geoms = _crop_geoms(Path(crop), grid.crs)
-    s = rp.Settings(window=window, threshold=threshold, crop=crop if crop in ("none", "auto") else "file",
+    s = rp.Settings(window=size, threshold=threshold, crop=crop if crop in ("none", "auto") else "file",
                     crop_margin_px=crop_margin, block=block, crop_geoms=geoms, statistic=statistic, resample=resample)
     with staged_directory(outdir) as stage, console.progress("reproducibility") as report:
         summary = rp.run(paths, stage, s, scheduler, progress=report)
         rp.write_summary(stage, summary)
+    chance = summary["chance_level"]
     click.echo(f"{summary['pairs']} pairs ({statistic} statistic): {100 * summary['reproducible_share']:.2f} % of "
-               f"{summary['judged_pixels']} judged pixels reproducible in every pair; wrote reproducibility.tif, "
-               f"summary.json, summary.txt to {outdir}")
+               f"{summary['judged_pixels']} judged pixels reproducible in every pair (chance level: "
+               f"{100 * chance['probability']:.1f} % of unrelated pixels pass r > {threshold:g} in one pair, n = "
+               f"{chance['values']} values); wrote reproducibility.tif, summary.json, summary.txt to {outdir}")
 
 
 @click.command()

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -24,8 +24,8 @@ from aerosurvey import ids
 from aerosurvey.area import Planar, transformer
 from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
+from aerosurvey.flight.records import EventRows
 from aerosurvey.manifest import Home
-from aerosurvey.plan.footprints import footprint_corners
 from aerosurvey.rules.footprints import footprints
 from aerosurvey.rules.planview import PlanView
 
@@ -36,12 +36,13 @@ if TYPE_CHECKING:
 GroundFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, ev: Events, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, roll: np.ndarray, pitch: np.ndarray, yaw_deg: np.ndarray,
+             tilt: float) -> tuple[np.ndarray, np.ndarray]:
     """Footprint centres: the camera position, moved by h·tan(angle) when the camera tilts with the body."""
-    yaw = np.radians(np.nan_to_num(ev.yaw))
+    yaw = np.radians(np.nan_to_num(yaw_deg))
     hh = np.nan_to_num(h)
-    along = tilt * hh * np.tan(np.radians(np.nan_to_num(ev.pitch)))
-    across = tilt * hh * np.tan(np.radians(np.nan_to_num(ev.roll)))
+    along = tilt * hh * np.tan(np.radians(np.nan_to_num(pitch)))
+    across = tilt * hh * np.tan(np.radians(np.nan_to_num(roll)))
     # nose-down pitch looks backwards, right roll looks left: the footprint centre moves against them
     return x - along * np.sin(yaw) + across * np.cos(yaw), y - along * np.cos(yaw) - across * np.sin(yaw)
 
@@ -59,7 +60,7 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
     """
     home = np.where(np.isfinite(ev.rel_alt_m), ev.rel_alt_m, np.nan)
     if ground is None:
-        cx, cy = _centres(x, y, home, ev, tilt)
+        cx, cy = _centres(x, y, home, ev.roll, ev.pitch, ev.yaw, tilt)
         return home, np.full(len(x), np.nan), cx, cy
     alt = np.asarray(ev.alt_m, float)
     h = home.copy()
@@ -69,7 +70,7 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
         new = np.where(np.isfinite(g) & np.isfinite(alt) & (alt - g > 0), alt - g, home)
         done = np.all((np.abs(new - h) < 1e-4) | ~np.isfinite(new))
         h = new
-        cx, cy = _centres(x, y, h, ev, tilt)
+        cx, cy = _centres(x, y, h, ev.roll, ev.pitch, ev.yaw, tilt)
         if done:
             break
     g = np.asarray(ground(cx, cy), float)
@@ -97,21 +98,46 @@ def flown_photos(crs: str, run_of: Mapping[str, str], ev: Events, match: Match |
                  ground: GroundFn | None = None) -> FlownPhotos:
     """The logged photos with the footprint geometry the rules measure.
 
-    Each photo keeps the run of the station it matched (`run_of`: station id → run id;
-    unmatched photos form runs of their own by order) and its logged yaw as heading. Its
-    height above ground is the height above home (flat ground) unless `ground` gives the
-    terrain, see :func:`photo_heights`. A camera on a nadir gimbal (the default) looks
-    straight down; with `fixed_camera` the body's roll and pitch move the footprint's
-    centre by h·tan(angle).
+    Each photo keeps the run of the station it matched (see :func:`photo_runs`) and its
+    logged yaw as heading. Its height above ground is the height above home (flat ground)
+    unless `ground` gives the terrain, see :func:`photo_heights`. A camera on a nadir gimbal
+    (the default) looks straight down; with `fixed_camera` the body's roll and pitch move the
+    footprint's centre by h·tan(angle).
     """
     x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(ev.lon, ev.lat))
     h, g, cx, cy = photo_heights(x, y, ev, 1.0 if fixed_camera else 0.0, ground)
-    runs = []
-    for i in range(len(ev)):
-        st = match.station[i] if match is not None else None
-        runs.append(run_of.get(st, f"unmatched-{i}") if st else f"unmatched-{i}")
-    return FlownPhotos(tuple(ids.event_id(i + 1) for i in range(len(ev))), tuple(runs), np.asarray(cx, float),
-                       np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float), np.nan_to_num(ev.yaw) % 360.0)
+    stations = match.station if match is not None else [None] * len(ev)
+    return FlownPhotos(tuple(ids.event_id(i + 1) for i in range(len(ev))), photo_runs(stations, run_of),
+                       np.asarray(cx, float), np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float),
+                       np.nan_to_num(ev.yaw) % 360.0)
+
+
+def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_camera: bool) -> FlownPhotos:
+    """The photos events.csv records, with the heights above ground `log ingest` gave them (its
+    agl_m column: above the DEM or above home) and the footprint centres :func:`flown_photos`
+    makes from them. Rows without a position or a height are left out: no footprint is known."""
+    keep = np.flatnonzero(np.isfinite(rows.lon) & np.isfinite(rows.lat) & np.isfinite(rows.agl_m))
+    x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(rows.lon[keep], rows.lat[keep]))
+    h, yaw = rows.agl_m[keep], rows.yaw[keep]
+    cx, cy = _centres(x, y, h, rows.roll[keep], rows.pitch[keep], yaw, 1.0 if fixed_camera else 0.0)
+    return FlownPhotos(tuple(ids.event_id(int(rows.event[i])) for i in keep), photo_runs([rows.station[i] for i in keep], run_of),
+                       np.asarray(cx, float), np.asarray(cy, float), h, rows.ground_m[keep], np.nan_to_num(yaw) % 360.0)
+
+
+def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tuple[str, ...]:
+    """The run of each photo, in the log's order: the run of the station it matched (`run_of`:
+    station id → run id). A photo matched to no station (an extra trigger) between two photos
+    of one run is part of that run; any other forms a run of its own, ``unmatched-<index>``."""
+    runs: list[str | None] = [run_of.get(s) if s else None for s in stations]
+    known = [i for i, r in enumerate(runs) if r is not None]
+    out = []
+    for i, r in enumerate(runs):
+        if r is None:
+            k = int(np.searchsorted(known, i))
+            before, after = (runs[known[k - 1]] if k > 0 else None), (runs[known[k]] if k < len(known) else None)
+            r = before if before is not None and before == after else f"unmatched-{i}"
+        out.append(r)
+    return tuple(out)
 
 
 def flown_view(view: PlanView, photos: FlownPhotos) -> PlanView:
@@ -159,7 +185,6 @@ class DemGround:
 
     def _window(self, x: np.ndarray, y: np.ndarray) -> Dem:
         """The DEM read around the points asked for (once, then reused when they lie inside)."""
-        import shapely
 
         from aerosurvey.inputs import read_dem_window
         from aerosurvey.plan.terrain import Dem
@@ -223,8 +248,10 @@ class DemGround:
 HOME_CHECK_M = 10.0
 
 
-def heights_summary(photos: FlownPhotos, ev: Events, dem: DemGround | None, home: Home, crs: str) -> dict[str, Any]:
-    """The report's `heights`: where the heights above ground came from and which photos fell back.
+def heights_summary(photos: FlownPhotos, ev: Events, dem: DemGround | None, home: Home, crs: str,
+                    fixed_camera: bool = False) -> dict[str, Any]:
+    """The report's `heights`: where the heights above ground came from, which photos fell back,
+    and whether the camera was fixed to the body (`fixed_camera`: its tilt moved the footprints).
 
     With a DEM it also checks the vertical sense: the log's home altitude (AMSL altitude
     minus height above home) should lie near the DEM's ground at the plan's home; a large
@@ -236,7 +263,7 @@ def heights_summary(photos: FlownPhotos, ev: Events, dem: DemGround | None, home
     out: dict[str, Any] = {
         "source": "dem" if dem is not None else "above_home", "dem": dem.path.name if dem is not None else None,
         "agl_min_m": round(float(fin.min()), 3) if fin.size else None,
-        "agl_max_m": round(float(fin.max()), 3) if fin.size else None,
+        "agl_max_m": round(float(fin.max()), 3) if fin.size else None, "fixed_camera": fixed_camera,
     }
     if dem is None:
         out.update({"outside_dem": 0, "note": "heights above home; flat ground assumed (give --dem for the terrain)"})
@@ -276,9 +303,7 @@ class CountRaster:
 
 def count_raster(view: PlanView, cell_m: float) -> CountRaster:
     """Counts of the view's photo footprints on cells over the area's bounds."""
-    fp = footprints(view)
-    corners = footprint_corners(fp.x, fp.y, np.degrees(fp.heading_rad), fp.across, fp.along)
-    polys = shapely.polygons(corners)
+    polys = footprints(view).polygons
     x0, y0, x1, y1 = view.area.bounds
     pad = cell_m * 2
     width = int(math.ceil((x1 - x0 + 2 * pad) / cell_m))

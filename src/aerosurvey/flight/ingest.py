@@ -34,7 +34,8 @@ from aerosurvey.flight.images import ImageMatch, geo_txt, geotag_images, list_im
 from aerosurvey.manifest import Manifest, Stations
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.rules import footprints as fpm
-from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
+from aerosurvey.rules.engine import evaluate
+from aerosurvey.rules.flown import on_view, plan_evidence
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import apply_overrides, select_profiles
 
@@ -183,7 +184,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     dem = _dem_ground(dem_path, view)
     try:
         photos = flown_photos(view.crs, dict(zip(doc.stations.ids, doc.stations.run)), ev, match, fixed_camera, dem)
-        report["heights"] = heights_summary(photos, ev, dem, doc.home, view.crs)
+        report["heights"] = heights_summary(photos, ev, dem, doc.home, view.crs, fixed_camera)
     finally:
         if dem is not None:
             dem.close()
@@ -201,7 +202,8 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     rules: list[dict[str, Any]] = []
     if doc.mission.profiles:
         profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides))
-        rules = [dict(r.as_dict()) for r in evaluate(profiles, Evidence(flown, layout_settings(flown, profiles)))]
+        base = plan_evidence(view, profiles, Path(doc.where).parent)  # the plan's control points, seen by the flown photos
+        rules = [dict(r.as_dict()) for r in evaluate(profiles, on_view(base, flown))]
         report["rules_on_flown_data"] = rules
     report_progress("flown coverage", 0.8)
     coverage = count_raster(flown, max(doc.derived.photo_base_m / 5, 0.5))

@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
-from itertools import chain
-from operator import attrgetter
 from typing import TYPE_CHECKING
 
 from aerosurvey.mission import mavlink_ids as mav
 
 if TYPE_CHECKING:
-    import numpy as np
+    pass
 
 #: the commands whose x/y/z are a place the vehicle flies to
 POSITION_COMMANDS = (mav.NAV_WAYPOINT, mav.NAV_TAKEOFF, mav.NAV_LAND, mav.NAV_VTOL_TAKEOFF, mav.NAV_VTOL_LAND)
@@ -73,26 +70,3 @@ class Mission:
     @property
     def vehicle_type_id(self) -> int:
         return mav.TYPE_FIXED_WING if self.vehicle == "plane" else mav.TYPE_QUADROTOR
-
-
-_NUMBERS = attrgetter("param1", "param2", "param3", "param4", "x", "y", "z")
-
-
-def item_columns(items: Sequence[MissionItem]) -> tuple[list[int], list[int], np.ndarray] | None:
-    """The items' commands, frames and numbers (an (n, 7) float array: param1-4, x, y, z), for
-    writers that write a column at a time; None unless every command and frame is an int in
-    MAVLink's range (0-65535, 0-255) and every number an int or float (a writer then goes item
-    by item, which names what is wrong)."""
-    commands = [it.command for it in items]
-    frames = [it.frame for it in items]
-    numbers = list(map(_NUMBERS, items))
-    if not items or (set(map(type, commands)) | set(map(type, frames))) != {int} \
-            or not {float, int}.issuperset(map(type, chain.from_iterable(numbers))) \
-            or not (0 <= min(commands) and max(commands) <= 65535 and 0 <= min(frames) and max(frames) <= 255):
-        return None
-    import numpy as np  # here: this module is on the CLI's start-up path (commands/upload.py), numpy is not
-
-    try:
-        return commands, frames, np.array(numbers, dtype=float).reshape(len(items), 7)
-    except OverflowError:  # an int beyond any float
-        return None

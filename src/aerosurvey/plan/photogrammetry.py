@@ -1,6 +1,6 @@
 """Nadir frame-camera geometry: the one source of truth for GSD, footprint, spacing and speeds.
 
-Formulas are those of docs/domain.md section 1. Heights are above ground, lengths in
+Formulas are those of docs/planning.md. Heights are above ground, lengths in
 metres, times in seconds. Every function is pure and works on floats or numpy arrays.
 """
 
@@ -163,7 +163,7 @@ def stop_distance(speed_ms: float, accel_ms2: float) -> float:
 
 
 def pixel_pitch_mm(sensor_width_mm: float, image_width_px: int) -> float:
-    """Pixel pitch from the sensor's long side, p = W / N (domain.md section 1), as Camera.pixel_pitch_mm."""
+    """Pixel pitch from the sensor's long side, p = W / N (docs/planning.md), as Camera.pixel_pitch_mm."""
     return sensor_width_mm / image_width_px
 
 

@@ -1,6 +1,6 @@
 """Sun elevation at a place and time (NOAA's solar position equations, ~0.01° here).
 
-Low sun means long shadows and poor image matching (docs/domain.md section 5), so the
+Low sun means long shadows and poor image matching (Remote Sensing 12 (2020) 3831), so the
 planner reports the elevation over the planned window.
 """
 

@@ -5,10 +5,10 @@ Where the numbers come from:
 
 - Edition 1 (2014): the class rules (RMSE_x, RMSE_y ≤ X; RMSE_r ≤ 1.414 X; 95 % ≤
   2.4477 X; NVA RMSE_z ≤ X, NVA 95 % = 1.96 RMSE_z ≤ 1.96 X; VVA 95th percentile ≤ 3.00 X),
-  the common classes and the check point table are read from shared/papers/000 (its
+  the common classes and the check point table are read from Korumaz and Yıldız, Heritage 4 (2021) (its
   Tables 5, 6, 7, 9 and 10, which reproduce the standard) and
-  shared/reference/asprs2014_checkpoint_counts.csv; the 3× check point accuracy rule
-  from docs/standards.md and the standard's text quoted on a public page
+  tests/data/reference/asprs2014_checkpoint_counts.csv; the 3× check point accuracy rule
+  from secondary sources and the standard's text quoted on a public page
   ("at least three times more accurate than the required accuracy").
 - Edition 2 (2023): the list of changes (RMSE only, no 95 % figures; check point survey
   accuracy in the product accuracy; no VVA pass/fail (for lidar); minimum 30 check
@@ -26,11 +26,14 @@ Where the numbers come from:
   A search of the public documentation (November 2026) found copies of Edition 2 (a
   scribd mirror of the 97-page PDF) but not the text of its count table: every count
   above 30 is reported as NOT confirmed.
-- Mean error: docs/standards.md says Edition 1 assumes the mean error "removed or small";
-  the limit used here, |mean| ≤ 25 % of the class's per-axis RMSE, is from secondary
-  sources (course notes and vendor summaries of section 7.2 / Edition 2's "mean error"
-  clause). The standard's own sentence could not be read through the search tool, so the
-  report says the figure is not confirmed.
+- Mean error: Edition 1 (section 7.5) assumes the mean error "removed or small".
+  The 25 % limit of secondary sources could not be quoted from either edition, so it flags
+  the mean error (review.mean_error_findings) and decides nothing.
+- Reporting statements: Edition 1's wording as Korumaz and Yıldız, Heritage 4 (2021), section
+  4, reproduces it ("This data set was tested to meet …"); Edition 2's modelled on it with
+  RMSE_H / RMSE_V / RMSE_3D (not confirmed against the standard's text). Issued only for a
+  valid test with every input named (qa/identity.py); otherwise the figures are given in our
+  own words.
 """
 
 from __future__ import annotations
@@ -45,15 +48,15 @@ from aerosurvey.qa import statistics as st
 
 # --- Edition 1 (2014) ------------------------------------------------------------------
 
-#: Common horizontal classes, RMSE_x = RMSE_y (cm): shared/papers/000 Table 7.
+#: Common horizontal classes, RMSE_x = RMSE_y (cm): Korumaz and Yıldız, Heritage 4 (2021), Table 7.
 HORIZONTAL_CLASSES_2014_CM = (0.63, 1.25, 2.5, 5.0, 7.5, 10.0, 12.5, 15.0, 17.5, 20.0, 22.5, 25.0, 27.5, 30.0, 45.0,
                               60.0, 75.0, 100.0, 150.0, 200.0, 250.0, 300.0, 500.0, 1000.0)
-#: Common vertical classes, RMSE_z (cm): shared/papers/000 Table 10.
+#: Common vertical classes, RMSE_z (cm): Korumaz and Yıldız, Heritage 4 (2021), Table 10.
 VERTICAL_CLASSES_2014_CM = (1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 33.3, 66.7, 100.0)
-#: Class limits as multiples of X (shared/papers/000 Tables 6 and 9; docs/standards.md).
+#: Class limits as multiples of X (Korumaz and Yıldız, Heritage 4 (2021), Tables 6 and 9).
 RMSE_R_FACTOR, H95_FACTOR, NVA95_FACTOR, VVA_FACTOR = 1.414, 2.4477, 1.96, 3.00
 #: Check points per project area, Edition 1: (largest km², horizontal, NVA, VVA) from
-#: shared/reference/asprs2014_checkpoint_counts.csv (paper 000 Table 5).
+#: tests/data/reference/asprs2014_checkpoint_counts.csv (Korumaz and Yıldız, Heritage 4 (2021), Table 5).
 COUNTS_2014 = ((500, 20, 20, 5), (750, 25, 20, 10), (1000, 30, 25, 15), (1250, 35, 30, 20), (1500, 40, 35, 25),
                (1750, 45, 40, 30), (2000, 50, 45, 35), (2250, 55, 50, 40), (2500, 60, 55, 45))
 MIN_CHECK_POINTS_2014 = 20
@@ -61,15 +64,12 @@ SURVEY_RATIO_2014 = 3.0  # check points at least 3× more accurate than the prod
 
 # --- Edition 2 (2023) ------------------------------------------------------------------
 
-#: Mean error limit as a share of the class's per-axis RMSE (secondary sources, NOT confirmed).
-MEAN_ERROR_SHARE = 0.25
-
 MIN_CHECK_POINTS_2023 = 30  # GPS World, 6 Dec 2023: "from 20 to 30"
 MAX_CHECK_POINTS_2023 = 120  # GPS World, 6 Dec 2023: "maximum number of checkpoints ... to 120"
 #: (largest km², total check points): secondary source for Table C.1, NOT confirmed.
 COUNTS_2023 = ((500, 30), (750, 35), (1000, 40), (1250, 45), (1500, 50), (1750, 55), (2000, 60), (2250, 65),
                (2500, 70))
-SURVEY_RATIO_2023 = 2.0  # secondary source ("7.12"), NOT confirmed; standards.md: "about 2×"
+SURVEY_RATIO_2023 = 2.0  # secondary source ("7.12"), NOT confirmed; a secondary source says "about 2×"
 
 
 @dataclass(frozen=True)
@@ -133,10 +133,21 @@ def record_verdicts(out: dict[str, Any], horizontal: bool | None, vertical: bool
     out["passed"] = all(tested) if tested else None
 
 
-def _lead(std: str, cls: float, what: str, met: bool, valid: bool = True) -> str:
-    if not valid:
-        return (f"NOT a test by {std} (see the verdict's reasons): the figures correspond to a {cls:g} (cm) "
-                f"{what} class, but the set of points does not make a valid test.")
+def within(value: float, limit: float) -> bool:
+    """value ≤ limit, with a few ulps of room: a figure computed exactly at a class limit (3 cm
+    from residuals of 3 cm) meets it whatever the last bit of its floating-point sum."""
+    return value <= limit or math.isclose(value, limit, rel_tol=ULPS, abs_tol=0.0)
+
+
+#: Relative room of a boundary comparison: 8 units in the last place of a double.
+ULPS = 8 * 2.0**-52
+
+
+STD_2014 = "ASPRS Positional Accuracy Standards for Digital Geospatial Data (2014)"
+STD_2023 = "ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023)"
+
+
+def _lead(std: str, cls: float, what: str, met: bool) -> str:
     if met:
         return f"This data set was tested to meet {std} for a {cls:g} (cm) {what} class."
     return f"This data set was tested against {std} for a {cls:g} (cm) {what} class and does not meet it."
@@ -179,17 +190,17 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     h_met = v_met = None
     if class_h_cm is not None:
         x = class_h_cm / 100
-        out["horizontal_checks"] = {"RMSE_x": rx <= x + 1e-12, "RMSE_y": ry <= x + 1e-12,
-                                    "RMSE_r": rr <= RMSE_R_FACTOR * x + 1e-12, "95 %": h95 <= H95_FACTOR * x + 1e-12}
+        out["horizontal_checks"] = {"RMSE_x": within(rx, x), "RMSE_y": within(ry, x),
+                                    "RMSE_r": within(rr, RMSE_R_FACTOR * x), "95 %": within(h95, H95_FACTOR * x)}
         h_met = all(out["horizontal_checks"].values())
     if class_v_cm is not None and (rz is not None or vva is not None):
         x = class_v_cm / 100
         checks = {}
         if rz is not None and nva is not None:
-            checks["NVA RMSE_z"] = rz <= x + 1e-12
-            checks["NVA 95 %"] = nva <= NVA95_FACTOR * x + 1e-12
+            checks["NVA RMSE_z"] = within(rz, x)
+            checks["NVA 95 %"] = within(nva, NVA95_FACTOR * x)
         if vva is not None:
-            checks["VVA 95th percentile"] = vva <= VVA_FACTOR * x + 1e-12
+            checks["VVA 95th percentile"] = within(vva, VVA_FACTOR * x)
         out["vertical_checks"] = checks
         v_met = all(checks.values())
     record_verdicts(out, h_met, v_met)
@@ -197,30 +208,50 @@ def evaluate_2014(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
     return out
 
 
-def sentences_2014(r: dict[str, Any], valid: bool = True) -> list[str]:
-    """The standard's reporting statements (docs/standards.md template; paper 000 section 4)."""
-    std = "ASPRS Positional Accuracy Standards for Digital Geospatial Data (2014)"
+def sentences_2014(r: dict[str, Any]) -> list[str]:
+    """Edition 1's reporting statements, worded as Korumaz and Yıldız, Heritage 4 (2021) (section 4) reproduces them;
+    for a valid test only (the verdict's conditions and qa/identity.py)."""
     out = []
     cls = r["class_h_tested_cm"] if r["class_h_tested_cm"] is not None else r["horizontal_class_cm"]
     if cls is not None:
-        lead = _lead(std, cls, "RMSE_x / RMSE_y horizontal accuracy", r.get("horizontal_met", True), valid)
+        lead = _lead(STD_2014, cls, "RMSE_x/RMSE_y horizontal accuracy", r.get("horizontal_met", True))
         out.append(f"{lead} Actual positional accuracy was found to be RMSE_x = {_cm(r['rmse_x_m'])} cm and "
-                   f"RMSE_y = {_cm(r['rmse_y_m'])} cm which equates to Positional Horizontal Accuracy = "
-                   f"+/- {_cm(r['horizontal_95_m'])} cm at 95 % confidence level.")
+                   f"RMSE_y = {_cm(r['rmse_y_m'])} cm which equates to +/- {_cm(r['horizontal_95_m'])} cm at a 95% "
+                   "confidence level.")
     vcls = r["class_v_tested_cm"] if r["class_v_tested_cm"] is not None else r["vertical_class_cm"]
     if vcls is not None and (r["rmse_z_nva_m"] is not None or r["vva_95_m"] is not None):
-        parts = [_lead(std, vcls, "RMSE_z vertical accuracy", r.get("vertical_met", True), valid)]
-        if r["rmse_z_nva_m"] is not None:
-            parts.append(f"Actual NVA accuracy was found to be RMSE_z = {_cm(r['rmse_z_nva_m'])} cm, equating to "
-                         f"+/- {_cm(r['nva_95_m'])} cm at 95 % confidence level.")
-        if r["vva_95_m"] is not None:
-            parts.append(f"Actual VVA accuracy was found to be +/- {_cm(r['vva_95_m'])} cm at the 95th percentile.")
+        parts = [_lead(STD_2014, vcls, "RMSE_z vertical accuracy", r.get("vertical_met", True))]
+        parts += _vertical_2014(r)
         out.append(" ".join(parts))
     return out
 
 
+def _vertical_2014(r: dict[str, Any]) -> list[str]:
+    parts = []
+    if r["rmse_z_nva_m"] is not None:
+        parts.append(f"Actual NVA accuracy was found to be RMSE_z = {_cm(r['rmse_z_nva_m'])} cm, equating to "
+                     f"+/- {_cm(r['nva_95_m'])} cm at a 95% confidence level.")
+    if r["vva_95_m"] is not None:
+        parts.append(f"Actual VVA accuracy was found to be +/- {_cm(r['vva_95_m'])} cm at the 95th percentile.")
+    return parts
+
+
+def figures_2014(r: dict[str, Any]) -> list[str]:
+    """The figures in our own words, for a set that does not make a valid test (no statement)."""
+    out = [f"Figures only, no {STD_2014} statement (see the result's reasons): RMSE_x = {_cm(r['rmse_x_m'])} cm, "
+           f"RMSE_y = {_cm(r['rmse_y_m'])} cm, horizontal accuracy at 95 % +/- {_cm(r['horizontal_95_m'])} cm "
+           f"({r['horizontal_95_method']})."]
+    if r["rmse_z_nva_m"] is not None:
+        out.append(f"NVA: RMSE_z = {_cm(r['rmse_z_nva_m'])} cm, +/- {_cm(r['nva_95_m'])} cm at 95 %."
+                   + (f" VVA: +/- {_cm(r['vva_95_m'])} cm at the 95th percentile." if r["vva_95_m"] is not None
+                      else ""))
+    return out
+
+
 #: NSSDA's range for the approximation, RMSE_min / RMSE_max "between 0.6 and 1.0"; both ends
-#: are taken as inside (the wording gives no strict inequality).
+#: are taken as inside (the wording gives no strict inequality), compared without division and
+#: with a few ulps of room (`within`), so that RMSEs of 3 and 5 cm, whose quotient computes as
+#: 0.5999999999999999, are at 0.6.
 NSSDA_RATIO_MIN = 0.6
 
 
@@ -229,21 +260,23 @@ def nssda_horizontal_95(rx: float, ry: float) -> tuple[float, str]:
 
     What the rule says, as we implement it (the standard's own text was found in public
     copies — studylib.net/doc/18297622, pdfslide.us — but the search tool returned only its
-    front matter, so the wording below is docs/standards.md's, not a quotation):
+    front matter, so the wording below is ours, not a quotation):
     - RMSE_x = RMSE_y: Accuracy_r = 1.7308 RMSE_r (= 2.4477 RMSE_x);
     - RMSE_min / RMSE_max between 0.6 and 1.0: Accuracy_r ≈ 2.4477 × 0.5 × (RMSE_x + RMSE_y)
       (this equals the first case when the axes are equal, so one formula serves both);
     - outside that range the approximation does not hold: the exact circular error at 95 %
       of the bivariate normal is used.
-    At exactly 0.6 the approximation applies ("between 0.6 and 1.0", read inclusively); the
-    step to the exact value just below 0.6 (about 6 %) is the standard's, and the report
-    gives the exact CE95 beside the figure whatever the ratio.
+    At exactly 0.6 the approximation applies ("between 0.6 and 1.0", read inclusively; the
+    comparison is 0.6 RMSE_max ≤ RMSE_min within a few ulps, so that the rounding of the RMSEs'
+    sums cannot move a ratio of 0.6 out); the step to the exact value just below 0.6 (about
+    6 %) is the standard's, and the report gives the exact CE95 beside the figure whatever
+    the ratio.
     """
     hi, lo = max(rx, ry), min(rx, ry)
     ratio = lo / hi if hi > 0 else 1.0
-    if ratio >= 1 - 1e-12:
+    if math.isclose(lo, hi, rel_tol=ULPS, abs_tol=0.0):
         return st.CE95_PER_RADIAL * math.hypot(rx, ry), "1.7308 x RMSE_r (RMSE_x = RMSE_y)"
-    if ratio >= NSSDA_RATIO_MIN:
+    if within(NSSDA_RATIO_MIN * hi, lo):
         return (st.CE95_EQUAL * 0.5 * (rx + ry),
                 f"2.4477 x 0.5 x (RMSE_x + RMSE_y), the NSSDA approximation for RMSE_min/RMSE_max = {ratio:.3f} "
                 "(between 0.6 and 1.0)")
@@ -289,28 +322,41 @@ def evaluate_2023(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, vegetated: np.
         "vertical_class_cm": _round_up_cm(rmse_v) if rmse_v is not None else None,
         "class_h_tested_cm": class_h_cm, "class_v_tested_cm": class_v_cm,
     }
-    record_verdicts(out, rmse_h <= class_h_cm / 100 + 1e-12 if class_h_cm is not None else None,
-                    rmse_v <= class_v_cm / 100 + 1e-12 if class_v_cm is not None and rmse_v is not None else None)
+    record_verdicts(out, within(rmse_h, class_h_cm / 100) if class_h_cm is not None else None,
+                    within(rmse_v, class_v_cm / 100) if class_v_cm is not None and rmse_v is not None else None)
     out["sentences"] = sentences_2023(out)
     return out
 
 
-def sentences_2023(r: dict[str, Any], valid: bool = True) -> list[str]:
-    """Edition 2 statements: our wording, modelled on Edition 1's, RMSE only (no 95 % figures)."""
-    std = "ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023)"
+def sentences_2023(r: dict[str, Any]) -> list[str]:
+    """Edition 2 statements, modelled on Edition 1's with RMSE_H, RMSE_V and RMSE_3D (not confirmed
+    against the standard's text); RMSE_H and RMSE_V include the check point survey's accuracy as
+    Edition 2 requires. For a valid test only (the survey accuracy is then known)."""
     out = []
     cls = r["class_h_tested_cm"] if r["class_h_tested_cm"] is not None else r["horizontal_class_cm"]
-    lead = _lead(std, cls, "RMSE_H horizontal positional accuracy", r.get("horizontal_met", True), valid)
-    survey = (f" (fit to the check points {_cm(r['rmse_h_fit_m'])} cm combined with the check point survey's "
-              f"{_cm(r['rmse_h_survey_m'])} cm)" if r["rmse_h_survey_m"] is not None else "")
-    out.append(f"{lead} The tested horizontal positional accuracy was found to be RMSE_H = {_cm(r['rmse_h_m'])} cm"
-               f"{survey}.")
+    lead = _lead(STD_2023, cls, "RMSE_H horizontal positional accuracy", r.get("horizontal_met", True))
+    out.append(f"{lead} The tested horizontal positional accuracy was found to be RMSE_H = {_cm(r['rmse_h_m'])} cm "
+               f"(RMSE_H1 = {_cm(r['rmse_h_fit_m'])} cm from the check points combined with the check point "
+               f"survey's RMSE_H2 = {_cm(r['rmse_h_survey_m'] or 0.0)} cm).")
     if r["rmse_v_m"] is not None:
         vcls = r["class_v_tested_cm"] if r["class_v_tested_cm"] is not None else r["vertical_class_cm"]
-        lead = _lead(std, vcls, "RMSE_V vertical positional accuracy", r.get("vertical_met", True), valid)
-        text = f"{lead} The tested NVA was found to be RMSE_V = {_cm(r['rmse_v_m'])} cm."
+        lead = _lead(STD_2023, vcls, "RMSE_V vertical positional accuracy", r.get("vertical_met", True))
+        text = (f"{lead} The tested NVA was found to be RMSE_V = {_cm(r['rmse_v_m'])} cm (RMSE_V1 = "
+                f"{_cm(r['rmse_v_fit_m'])} cm from the check points combined with the check point survey's RMSE_V2 = "
+                f"{_cm(r['rmse_v_survey_m'] or 0.0)} cm).")
         if r["vva_rmse_v_m"] is not None:
             text += f" The VVA was found to be RMSE_V = {_cm(r['vva_rmse_v_m'])} cm (reported, no pass/fail)."
         out.append(text)
         out.append(f"The three-dimensional positional accuracy was found to be RMSE_3D = {_cm(r['rmse_3d_m'])} cm.")
+    return out
+
+
+def figures_2023(r: dict[str, Any]) -> list[str]:
+    """The figures in our own words, for a set that does not make a valid test (no statement)."""
+    survey = (f" with the check point survey's {_cm(r['rmse_h_survey_m'])} cm" if r["rmse_h_survey_m"] is not None
+              else " (the check point survey's accuracy is not given)")
+    out = [f"Figures only, no {STD_2023} statement (see the result's reasons): RMSE_H = {_cm(r['rmse_h_m'])} cm "
+           f"(RMSE_x = {_cm(r['rmse_x_m'])} cm, RMSE_y = {_cm(r['rmse_y_m'])} cm{survey})."]
+    if r["rmse_v_m"] is not None:
+        out.append(f"NVA: RMSE_V = {_cm(r['rmse_v_m'])} cm; RMSE_3D = {_cm(r['rmse_3d_m'])} cm.")
     return out

@@ -11,18 +11,19 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.qa import asprs, bayes, nssda, review, validity
+from aerosurvey.qa import snooping as sn
 from aerosurvey.qa import statistics as st
 from aerosurvey.qa import uncertainty as un
 from aerosurvey.qa.accuracy_input import CheckPoints
 from aerosurvey.qa.campaign import Campaign, area_bounds_local, campaign_checks, campaign_roles
 from aerosurvey.qa.choices import STANDARDS
-from aerosurvey.qa.snooping import K_H, K_V, MAX_SHARE, Snooping, snoop
+from aerosurvey.qa.identity import Identity, Product
 
 EDITION2_UNCONFIRMED = ("Edition 2 figures not confirmed against the standard's own text (a secondary source only): "
                         "RMSE_H = sqrt(RMSE_H1^2 + RMSE_H2^2) with RMSE_H2 = sqrt(2) x the per-coordinate survey "
                         "RMSE, horizontal classes on RMSE_H, check points 2x more accurate than the product, the "
                         "check point counts by area (and, beyond 2,500 km2, our continuation of them up to the cap), "
-                        "the 25 % mean-error limit. Confirmed (GPS World, 6 Dec 2023): RMSE only, survey accuracy "
+                        "the wording of the statements. Confirmed (GPS World, 6 Dec 2023): RMSE only, survey accuracy "
                         "included, no VVA pass/fail for lidar, minimum 30, at most 120, RMSE_3D.")
 
 
@@ -32,6 +33,7 @@ class Settings:
 
     class_h_cm / class_v_cm mean: ASPRS, the class X; NSSDA, the required accuracy at 95 %;
     Bayes, the largest acceptable σ (one horizontal coordinate / height); unused by snooping.
+    `product` names what the statements of ASPRS and NSSDA identify (qa/identity.py).
     """
 
     standard: str = "asprs2014"
@@ -40,12 +42,22 @@ class Settings:
     area_km2: float | None = None
     ref_sigma_xy_m: float | None = None  # reference survey σ of one coordinate, one value for the set
     ref_sigma_z_m: float | None = None
-    k_h: float = K_H
-    k_v: float = K_V
-    max_rejected: float = MAX_SHARE
+    alpha0: float = sn.ALPHA0  # snooping: per value
+    power: float = sn.POWER  # snooping: of the minimal detectable bias
+    max_mdb: float = sn.MAX_MDB  # snooping: the largest MDB (in σ) it decides with
+    max_rejected: float = sn.MAX_SHARE
     sigma0_h_m: float | None = None
     sigma0_v_m: float | None = None
     alpha: float = 0.05
+    product: Product = field(default_factory=Product)
+
+
+#: Standards whose reporting statements name the product (qa/identity.py).
+STATEMENT_STANDARDS = ("asprs2014", "asprs2023", "nssda")
+#: The Bayesian estimate decides on at least this many points per tested component: the
+#: minimum NSSDA and ASPRS 2014 set for an RMSE-based verdict (the posterior mode stands where
+#: the RMSE stands in them; with τ = 0 it is the RMSE times √(m/(m+1))).
+BAYES_MIN_POINTS = 20
 
 
 def _statistics(p: CheckPoints) -> dict[str, Any]:
@@ -172,12 +184,10 @@ def _run_asprs2014(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
                                  "ASPRS 2014: 3x")
         if nva.any():
             validity.survey_accuracy(v, "vertical", sz, x_v, asprs.SURVEY_RATIO_2014, "ASPRS 2014: 3x")
-        for axis, e, lim in (("x", t.dx, x_h), ("y", t.dy, x_h), ("z", t.dz[nva], x_v)):
-            validity.mean_error(v, axis, e, lim, asprs.MEAN_ERROR_SHARE,
-                                "ASPRS: systematic error assumed removed; the 25 % figure is not confirmed")
 
+    run.warnings += review.mean_error_findings([("x", t.dx, x_h), ("y", t.dy, x_h), ("z", t.dz[nva], x_v)])
     run.conditions = conditions
-    run.invalid_sentences = lambda: asprs.sentences_2014(result, valid=False)
+    run.invalid_sentences = lambda: asprs.figures_2014(result)
     if s.class_h_cm is not None:
         x = s.class_h_cm / 100
         px, py = un.probability_within(result["rmse_x_m"], t.n, x), un.probability_within(result["rmse_y_m"], t.n, x)
@@ -202,10 +212,6 @@ def _run_asprs2023(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
         return res
 
     run = _Run(result, asprs.required_2023(area_km2), verdict, notes=[EDITION2_UNCONFIRMED])
-    if sx is None or (sz is None and result["rmse_v_fit_m"] is not None):
-        run.warnings.append("the check point survey's accuracy is not given (--ref-sigma-xy / --ref-sigma-z or the "
-                            "sigma_xy / sigma_z columns): Edition 2 adds it into the product accuracy; it is taken "
-                            "as 0 here, which overstates the accuracy")
     per_axis_h = (s.class_h_cm / 100 if s.class_h_cm is not None else result["rmse_h_m"]) / math.sqrt(2)
     product_v = s.class_v_cm / 100 if s.class_v_cm is not None else result["rmse_v_m"]
     run.warnings += review.survey_findings(sx, sz, per_axis_h, product_v, asprs.SURVEY_RATIO_2023,
@@ -221,13 +227,11 @@ def _run_asprs2023(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
         if nva.any():
             validity.survey_accuracy(v, "vertical", sz, x_v, asprs.SURVEY_RATIO_2023,
                                      "Edition 2: about 2x, not confirmed")
-        lim_xy = x_h / math.sqrt(2) if x_h is not None else None
-        for axis, e, lim in (("x", t.dx, lim_xy), ("y", t.dy, lim_xy), ("z", t.dz[nva], x_v)):
-            validity.mean_error(v, axis, e, lim, asprs.MEAN_ERROR_SHARE,
-                                "ASPRS: systematic error assumed removed; the 25 % figure is not confirmed")
 
+    lim_xy = x_h / math.sqrt(2) if x_h is not None else None
+    run.warnings += review.mean_error_findings([("x", t.dx, lim_xy), ("y", t.dy, lim_xy), ("z", t.dz[nva], x_v)])
     run.conditions = conditions
-    run.invalid_sentences = lambda: asprs.sentences_2023(result, valid=False)
+    run.invalid_sentences = lambda: asprs.figures_2023(result)
     if x_h is not None:
         pooled, m = un.pooled(t.dx, t.dy)
         room = x_h * x_h - (result["rmse_h_survey_m"] or 0.0) ** 2
@@ -255,8 +259,7 @@ def _run_nssda(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
         validity.count(v, t.n, nssda.MIN_CHECK_POINTS, "check points")
 
     run.conditions = conditions
-    run.invalid_sentences = lambda: [f"NOT a test by NSSDA (see the verdict's reasons): computed {x[len('Tested '):]}"
-                                     for x in result["sentences"]]
+    run.invalid_sentences = lambda: nssda.figures(result)
     if s.class_h_cm is not None:
         pooled, m = un.pooled(t.dx, t.dy)
         run.probability["horizontal"] = {
@@ -271,51 +274,63 @@ def _run_nssda(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
 
 
 def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
-    def run_on(m: np.ndarray) -> Snooping:
-        return snoop(t.dx[m], t.dy[m], t.dz[m], s.k_h, s.k_v, s.max_rejected, s.sigma0_h_m, s.sigma0_v_m, s.alpha)
+    def run_on(m: np.ndarray) -> sn.Snooping:
+        return sn.snoop(t.dx[m], t.dy[m], t.dz[m], s.sigma0_h_m, s.sigma0_v_m, s.alpha0, s.power, s.max_rejected,
+                        s.alpha)
 
-    sn = run_on(np.ones(t.n, bool))
-    rejected = sorted((i for i, f in zip(t.ids, sn.rejected) if f), key=review.natural_key)
-    result: dict[str, Any] = {"sigma_h_m": sn.sigma_h, "sigma_v_m": sn.sigma_v, "k_h": s.k_h, "k_v": s.k_v,
-              "threshold_h_m": sn.threshold_h, "threshold_v_m": sn.threshold_v, "rejected": rejected,
-              "rejected_share": sn.rejected_share, "max_share": sn.max_share, "share_ok": sn.share_ok,
-              "sigma_h_kept_m": sn.sigma_h_kept, "sigma_v_kept_m": sn.sigma_v_kept,
-              "global_test_h": sn.global_h, "global_test_v": sn.global_v, "passed": sn.passed,
-              "iterations": [{"id": t.ids[st_["index"]], **{k: v for k, v in st_.items() if k != "index"}}
-                             for st_ in sn.steps],
-              "mdb_h_m": _finite(sn.mdb_h), "mdb_v_m": _finite(sn.mdb_v), "power": 0.80,
-              "blunders_detectable_h": sn.detectable_h, "blunders_detectable_v": sn.detectable_v,
-              "mdb_per_point": [{"id": i, "mdb_h_m": _finite(sn.mdb_h),
-                                 "mdb_v_m": _finite(sn.mdb_v) if np.isfinite(z) else None}
-                                for i, z in sorted(zip(t.ids, t.dz), key=lambda p: review.natural_key(p[0]))]}
-    sentence = (f"{len(rejected)} of {t.n} points rejected by iterative data snooping"
-                f"{' (' + ', '.join(rejected) + ')' if rejected else ''}: {sn.rejected_share * 100:.1f} %, "
-                f"limit {sn.max_share * 100:g} %; thresholds {sn.threshold_h:.3g} m horizontal "
-                f"({s.k_h:g} x sigma_hor = {sn.sigma_h:.4g} m)")
-    if sn.threshold_v is not None:
-        sentence += f", {sn.threshold_v:.3g} m vertical ({s.k_v:g} x sigma_ver = {sn.sigma_v:.4g} m)"
-    result["sentences"] = [sentence + ("." if sn.share_ok else "; the data set fails.")]
-    for label, g in (("horizontal", sn.global_h), ("vertical", sn.global_v)):
-        if g is not None:
-            result["sentences"].append(
-                f"Global test ({label}): sigma = {g['sigma_m']:.4g} m on the kept points, f sigma^2 / sigma0^2 = "
-                f"{g['statistic']:.2f} {'<=' if g['passed'] else '>'} chi2({g['dof']}, {1 - g['alpha']:g}) = "
-                f"{g['limit']:.2f} with sigma0 = {g['sigma0_m']:.4g} m: {'passed' if g['passed'] else 'failed'}.")
-    if sn.mdb_h is not None:
-        mdb = f"minimal detectable bias (80 % power) {_mdb_text(sn.mdb_h)} per coordinate"
-        if sn.mdb_v is not None:
-            mdb += f", {_mdb_text(sn.mdb_v)} in height"
-        result["sentences"].append(mdb[0].upper() + mdb[1:] + " (the same for every point: each residual is a "
-                                   "direct difference, redundancy 1).")
-    run = _Run(result, None, lambda m: run_on(m).passed, flags={"snooping_rejected": sn.rejected})
-    for label, ok, nval, k in (("horizontal", sn.detectable_h, 2 * t.n, s.k_h),
-                               ("vertical", sn.detectable_v, int(np.isfinite(t.dz).sum()), s.k_v)):
-        if not ok:
-            run.warnings.append(f"no {label} blunder can be detected: with sigma estimated from the same {nval} "
-                                f"values, |e| / sigma never exceeds sqrt({nval}) = {math.sqrt(nval):.2f} < k = {k:g}; "
-                                "a blunder of any size passes (give more points, or test against a stated sigma0)")
-    if sn.global_h is None and sn.global_v is None:
-        run.notes.append("no specification sigma0 given (--sigma0-h / --sigma0-v): the global test was not run")
+    res = run_on(np.ones(t.n, bool))
+    rejected = sorted((i for i, f in zip(t.ids, res.rejected) if f), key=review.natural_key)
+    heights = bool(np.isfinite(t.dz).any())
+    methods = {"horizontal": sn.W_TEST if s.sigma0_h_m is not None else sn.TAU_TEST,
+               "vertical": sn.W_TEST if s.sigma0_v_m is not None else sn.TAU_TEST}
+    fewest = sn.fewest_points(methods["horizontal"], methods["vertical"] if heights else None, s.alpha0, s.power,
+                              s.max_mdb)
+    n_values = 2 * t.n + int(np.isfinite(t.dz).sum())
+    iterations: list[dict[str, Any]] = [{"iteration": k + 1, "points": it.kept, "tests": [c.as_dict(s.alpha0) for c in it.tests],
+                   "rejected": t.ids[it.rejected] if it.rejected >= 0 else None, "axis": it.axis}
+                  for k, it in enumerate(res.iterations)]
+    result: dict[str, Any] = {
+        "methods": {axis: sn.METHOD_NAMES[m] for axis, m in methods.items() if axis == "horizontal" or heights},
+        "alpha0": s.alpha0, "power": s.power, "values_tested": n_values, "survey_alpha": res.survey_alpha,
+        "max_mdb_sigma": s.max_mdb, "fewest_points": fewest, "iterations": iterations, "rejected": rejected,
+        "rejected_share": res.rejected_share, "max_share": res.max_share, "share_ok": res.share_ok,
+        "global_test_all": res.global_all, "global_test_kept": res.global_kept, "passed": res.passed,
+        **{f"mdb_{c.axis}_m": _finite(c.mdb_m) for c in res.last.tests},
+        **{f"redundancy_{c.axis}": c.values for c in res.last.tests}}
+    sentences = [
+        "Data snooping, one point rejected per iteration: " + "; ".join(
+            f"{axis}, {name}" for axis, name in result["methods"].items())
+        + f"; alpha0 = {s.alpha0:g} per value, so a blunder-free set of these {n_values} values loses a point "
+          f"with probability {res.survey_alpha * 100:.1f} %; minimal detectable bias (MDB) at {s.power * 100:g} % "
+          "power; every value has redundancy number 1 (direct differences)."]
+    for it in iterations:
+        parts = [f"{c['axis']} {c['method']}-test, redundancy {c['redundancy']}, sigma {_cm_text(c['sigma_m'])}, "
+                 f"critical value {_num(c['critical_value'])} (threshold {_cm_text(c['threshold_m'])}), largest "
+                 f"{c['largest_statistic']:.2f}, MDB {_cm_text(c['mdb_m'])}" for c in it["tests"]]
+        outcome = f"rejects {it['rejected']} ({it['axis']})" if it["rejected"] else "rejects none"
+        sentences.append(f"Iteration {it['iteration']} ({it['points']} points): " + "; ".join(parts) + f": {outcome}.")
+    sentences.append(f"{len(rejected)} of {t.n} points rejected{' (' + ', '.join(rejected) + ')' if rejected else ''}"
+                     f": {res.rejected_share * 100:.1f} %, limit {res.max_share * 100:g} %"
+                     + ("." if res.share_ok else "; the data set fails."))
+    for label, every, kept in ((a, res.global_all.get(a), res.global_kept.get(a)) for a in ("horizontal", "vertical")):
+        for which, g in (("every point", every), ("the points kept", kept)):
+            if g is not None:
+                sentences.append(
+                    f"Global test ({label}, {which}): sigma = {_cm_text(g['sigma_m'])}, sum e^2 / sigma0^2 = "
+                    f"{g['statistic']:.2f} {'<=' if g['passed'] else '>'} chi2({g['dof']}, {1 - g['alpha']:g}) = "
+                    f"{g['limit']:.2f} with sigma0 = {_cm_text(g['sigma0_m'])}: {'passed' if g['passed'] else 'failed'}.")
+    result["sentences"] = sentences
+    run = _Run(result, None, lambda m: run_on(m).passed, flags={"snooping_rejected": res.rejected})
+    why = (f"a blunder of {s.max_mdb:g} sigma on one value must be found with {s.power * 100:g} % power at alpha0 = "
+           f"{s.alpha0:g}; with sigma estimated from the same points (Pope's tau-test) this needs enough redundancy")
+
+    def conditions(v: validity.Validity) -> None:
+        validity.evidence(v, "data snooping", t.n, fewest, why)
+
+    run.conditions = conditions
+    if not any(g is not None for g in res.global_kept.values()):
+        run.notes.append("no specification sigma0 given (--sigma0-h / --sigma0-v): sigma is estimated from the points "
+                         "(Pope's tau-test) and the global test was not run")
     return run
 
 
@@ -323,8 +338,12 @@ def _finite(v: float | None) -> float | None:
     return v if v is not None and math.isfinite(v) else None
 
 
-def _mdb_text(v: float) -> str:
-    return "infinite (undetectable)" if math.isinf(v) else f"{v:.4g} m"
+def _num(v: float | None) -> str:
+    return "infinite" if v is None else f"{v:.3f}"
+
+
+def _cm_text(v: float | None) -> str:
+    return "infinite (undetectable)" if v is None else f"{v * 100:.2f} cm"
 
 
 def _run_bayes(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
@@ -338,8 +357,17 @@ def _run_bayes(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
     xs, ys = bayes.density_curve(p)
     plot = {"axis": axis, "sigma_m": xs.tolist(), "density": ys.tolist(), "mode_m": p.mode, "lower_m": p.lower,
             "upper_m": p.upper}
-    return _Run({**res, "passed": passed, "sentences": sentences}, None, lambda m: _bayes(t.select(m), s)[2],
-                posterior=plot)
+    run = _Run({**res, "passed": passed, "sentences": sentences}, None, lambda m: _bayes(t.select(m), s)[2],
+               posterior=plot)
+    counts = {"xy": t.n, "z": int(np.isfinite(t.dz).sum())}
+
+    def conditions(v: validity.Validity) -> None:
+        validity.evidence(v, "the Bayesian estimate", min(counts[a] for a in res), BAYES_MIN_POINTS,
+                          "the verdict compares the posterior mode with the class, as the standards compare the RMSE: "
+                          f"at least {BAYES_MIN_POINTS} points per tested component, NSSDA's and ASPRS 2014's minimum")
+
+    run.conditions = conditions
+    return run
 
 
 _RUNNERS: dict[str, Callable[[CheckPoints, Settings, float | None], _Run]] = {
@@ -389,6 +417,12 @@ def assess(points: CheckPoints, s: Settings, campaign: Campaign | None = None) -
     validity.independence(valid, int(is_check.sum()), int((~is_check).sum()))
     if run.conditions is not None and is_check.any():
         run.conditions(valid)
+    identity = None
+    if s.standard in STATEMENT_STANDARDS and is_check.any():
+        identity = Identity(s.product, tested.crs, tested.n, bool(np.isfinite(tested.dz).any()),
+                            asprs.survey_rmse(tested.sigma_xy, s.ref_sigma_xy_m),
+                            asprs.survey_rmse(tested.sigma_z, s.ref_sigma_z_m))
+        validity.statement_inputs(valid, standard_name, identity.missing())
     if campaign is not None:
         c_warn, c_notes = campaign_checks(campaign, points, tested if is_check.any() else None, valid)
         warnings += c_warn
@@ -397,6 +431,8 @@ def assess(points: CheckPoints, s: Settings, campaign: Campaign | None = None) -
     sentences = result.pop("sentences", [])
     if valid.status != validity.VALID and run.invalid_sentences is not None:
         sentences = run.invalid_sentences()
+    elif identity is not None:
+        sentences = [identity.sentence()] + sentences
     if not is_check.any():
         sentences = [f"These are the residuals of {points.n} ground control point(s) used in the adjustment: they "
                      "measure the fit of the adjustment, not the accuracy of the product."] + sentences
@@ -414,8 +450,9 @@ def assess(points: CheckPoints, s: Settings, campaign: Campaign | None = None) -
         "standard": s.standard, "standard_name": standard_name,
         "input": {"file": points.source, "points": points.n, "check_points": int(is_check.sum()),
                   "control_points": int((~is_check).sum()), "tested": tested.n, "units": points.units,
-                  "units_stated": points.units_stated, "crs": points.crs, "positions": tested.has_positions},
-        "settings": dict(vars(s)),
+                  "units_stated": points.units_stated, "crs": points.crs, "positions": tested.has_positions,
+                  "product": dict(vars(s.product))},
+        "settings": {k: v for k, v in vars(s).items() if k != "product"},
         "campaign": campaign.summary() if campaign is not None else None,
         "area_km2": area_km2,
         "required_check_points": None if run.required is None else {

@@ -1,6 +1,6 @@
 """Bayesian estimate of the product's σ when the reference survey itself has σ = τ.
 
-Czech land-consolidation practice (shared/papers/003, formulas (1) and (2); docs/domain.md
+Czech land-consolidation practice (Zaoralová et al., land consolidation terms paper, formulas (1) and (2);
 section 2): with Jeffreys' prior, m differences with sample standard deviation s (about
 zero) give the posterior
 

@@ -30,7 +30,7 @@ No NaN reaches the layers.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, stats
 
 NODATA = 255
 _FLAT = 1e-9  # relative variance below which a window is flat
@@ -188,6 +188,21 @@ def reproducible(a: np.ndarray, b: np.ndarray, valid: np.ndarray, w: int, thresh
     out = ok.astype(np.uint8)
     out[~judged] = NODATA
     return out, 0
+
+
+def chance_level(threshold: float, values: int) -> float:
+    """P(r > threshold) for two unrelated pixels: Pearson's r of `values` independent normal
+    pairs has the null distribution (r + 1) / 2 ~ Beta(n/2 − 1, n/2 − 1) (n ≥ 3). For RGB
+    (n = 3) r is spread like the arcsine law and P(r > 0.95) = arccos(0.95) / π = 10.1 %."""
+    if values < 3:
+        raise ValueError(f"the chance level of r needs 3 or more values, got {values}")
+    a = values / 2 - 1
+    return float(stats.beta.sf((threshold + 1) / 2, a, a))
+
+
+def statistic_values(statistic: str, bands: int, window: int) -> int:
+    """How many pairs of values one r is computed from: the bands (pixel), or the bands over a w × w window."""
+    return bands if statistic == "pixel" else bands * window * window
 
 
 def pairs(x: int) -> list[tuple[int, int]]:

@@ -33,7 +33,7 @@ from rasterio.windows import Window
 from scipy import ndimage
 
 from aerosurvey.errors import InputError
-from aerosurvey.qa.repro_core import NODATA, STATISTICS, pairs, reproducible
+from aerosurvey.qa.repro_core import NODATA, STATISTICS, chance_level, pairs, reproducible, statistic_values
 
 DASK_CONNECT_TIMEOUT_S = 5.0
 
@@ -64,14 +64,25 @@ class Settings:
         return max(w, self.crop_margin_px if self.crop == "auto" else 0)
 
 
-def validate_settings(window: int, threshold: float, statistic: str = "pixel") -> None:
+#: The window of `--statistic window` when `--window` is not given.
+DEFAULT_WINDOW = 5
+
+
+def validate_settings(window: int | None, threshold: float, statistic: str = "pixel") -> int:
+    """Check the options and return the window size (the default when the window statistic is asked
+    without one). `--window` with the per-pixel statistic is an error: it has no window."""
     if statistic not in STATISTICS:
         raise InputError(f"--statistic = {statistic!r} is not allowed: one of {', '.join(STATISTICS)}")
+    if window is not None and statistic == "pixel":
+        raise InputError(f"--window = {window} is not allowed with --statistic pixel (the per-pixel correlation "
+                         "across the bands has no window); give --statistic window to use one")
+    window = DEFAULT_WINDOW if window is None else window
     if window < 3 or window % 2 == 0:
         raise InputError(f"--window = {window} is not allowed: an odd number of pixels, 3 or more")
     if not 0 < threshold < 1:
         raise InputError(f"--threshold = {threshold} is not allowed: a correlation in (0, 1) (a pixel is "
                          "reproducible when r > threshold)")
+    return window
 
 
 def inspect(paths: list[Path], resample: bool = False) -> Grid:
@@ -102,13 +113,18 @@ def inspect(paths: list[Path], resample: bool = False) -> Grid:
     p, crs, tr, w, h, n = infos[0]
     if with_crs and not resample:
         for q, c2, t2, w2, h2, _ in infos[1:]:
-            diff = [what for what, same in (("CRS", c2 == crs), ("transform", t2 == tr), ("size", (w2, h2) == (w, h)))
-                    if not same]
+            diff = [f"{what} {b} vs {a}" for what, a, b in (
+                ("CRS", crs, c2), ("transform", _transform_text(tr), _transform_text(t2)),
+                ("size", f"{w} x {h}", f"{w2} x {h2}")) if a != b]
             if diff:
-                raise InputError(f"{q.name} is on another grid than {p.name} ({', '.join(diff)} differ: {w2} x {h2} "
-                                 f"vs {w} x {h}); give --resample to warp it onto {p.name}'s grid (bilinear; only "
-                                 "the common valid footprint is judged)")
+                raise InputError(f"{q.name} is on another grid than {p.name} ({'; '.join(diff)}); give --resample to "
+                                 f"warp it onto {p.name}'s grid (bilinear; only the common valid footprint is judged)")
     return Grid(crs, tr, w, h, n)
+
+
+def _transform_text(t: Any) -> str:
+    """An affine transform as its six coefficients (a, b, c, d, e, f): pixel size, rotation and origin."""
+    return "(" + ", ".join(f"{v:.10g}" for v in tuple(t)[:6]) + ")"
 
 
 def _same_grid(ds: Any, grid: Grid) -> bool:
@@ -278,6 +294,7 @@ def run(paths: list[Path], stage: Path, s: Settings, scheduler: str = "threads",
         "crop": s.crop, "grid": {"width": grid.width, "height": grid.height, "crs": str(grid.crs)},
         "judged_pixels": judged,
         "reproducible_share": float(hist[-1] / judged) if judged else math.nan,
+        "chance_level": _chance(s),
         "share_by_sum": {str(k): float(v / judged) if judged else math.nan for k, v in enumerate(hist)},
         "per_pair": [{"pair": [paths[i].name, paths[j].name],
                       "reproducible_share": float(a / (a + b)) if a + b else math.nan, "judged_pixels": int(a + b),
@@ -293,6 +310,14 @@ DEFINITIONS = {
              "bands in either image are not judged (NA in R)",
     "window": "per pixel, the Pearson correlation over a w x w window with the three bands pooled (3 w^2 pairs)",
 }
+
+
+def _chance(s: Settings) -> dict[str, Any]:
+    """The share of unrelated pixel pairs that pass the rule by chance, for the statistic's number of values."""
+    n = statistic_values(s.statistic, 3, s.window)
+    return {"probability": chance_level(s.threshold, n), "values": n,
+            "meaning": f"P(r > {s.threshold:g}) for two unrelated pixels (independent normal values): the null "
+                       f"distribution of Pearson's r for n = {n} values; a pair's share near it says nothing"}
 
 
 @dataclass(frozen=True)
@@ -312,10 +337,14 @@ def write_summary(stage: Path, summary: dict[str, Any]) -> None:
 
     atomic_write_text(stage / "summary.json", json.dumps(summary, indent=1) + "\n")
     stat = summary["statistic"] + (f" (window {summary['window']})" if summary["window"] else "")
+    chance = summary["chance_level"]
     lines = [f"{summary['pairs']} pairs of {len(summary['inputs'])} inputs, statistic {stat}: {summary['definition']}; "
              f"reproducible when r > {summary['threshold']}", f"reproducible in every pair: {100 * summary['reproducible_share']:.2f} % of "
-             f"{summary['judged_pixels']} judged pixels"]
+             f"{summary['judged_pixels']} judged pixels",
+             f"chance level: {100 * chance['probability']:.1f} % of unrelated pixel pairs pass in one pair "
+             f"({chance['meaning']})"]
     lines += [f"  sum {k}: {100 * v:.2f} %" for k, v in summary["share_by_sum"].items()]
     lines += [f"  {p['pair'][0]} / {p['pair'][1]}: {100 * p['reproducible_share']:.2f} % of {p['judged_pixels']} judged "
-              f"({p['flat_pixels']} flat pixels not judged)" for p in summary["per_pair"]]
+              f"(chance level {100 * chance['probability']:.1f} %; {p['flat_pixels']} flat pixels not judged)"
+              for p in summary["per_pair"]]
     atomic_write_text(stage / "summary.txt", "\n".join(lines) + "\n")

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from scipy import integrate, optimize, stats
 
-#: Normal-theory factors (docs/standards.md, NSSDA FGDC-STD-007.3-1998 and ASPRS 2014):
+#: Normal-theory factors (NSSDA FGDC-STD-007.3-1998 and ASPRS 2014):
 #: LE90/LE95 for one axis; CE90/CE95 for equal σx = σy (the exact CE is computed below).
 LE90, LE95 = 1.6449, 1.9600
 CE90_EQUAL, CE95_EQUAL = 2.1460, 2.4477

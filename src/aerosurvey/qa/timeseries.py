@@ -1,5 +1,5 @@
 """Time series QA: the quality mask of pixels reproducible at every date, and the shift of
-objects digitised at each date (shared/papers/004, sections 2.7 and 3.4).
+objects digitised at each date (Remote Sensing 12 (2020) 3831, sections 2.7 and 3.4).
 
 Shifts are in metres: a projected CRS's unit is converted to metres (its axis unit
 factor); in a geographic CRS the shift is measured on the CRS's ellipsoid (pyproj.Geod,

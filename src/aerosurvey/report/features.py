@@ -14,12 +14,10 @@ import numpy as np
 import shapely
 
 from aerosurvey import ids
-from aerosurvey.gcpause import collector_paused
 from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
-from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.footprints import footprint_corners
+from aerosurvey.plan.capture import Optics, Photos, footprint_corners
 from aerosurvey.plan.planner import Plan
 
 
@@ -46,18 +44,16 @@ def _finite(what: str, *arrays: np.ndarray) -> None:
 
 def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     """The plan's FeatureCollection as JSON data (with every footprint as a feature if asked)."""
-    with collector_paused():
-        table = station_table(plan)
-        fc, stations, at = _features(plan, table)
-        more = stations.features()
-        if with_footprints:
-            more += json.loads("[" + _footprints_text(plan, table) + "]")
-        fc["features"][at:at] = more
-        return fc
+    table = station_table(plan)
+    fc, stations, at = _features(plan, table)
+    more = stations.features()
+    if with_footprints:
+        more += json.loads("[" + _footprints_text(plan, table) + "]")
+    fc["features"][at:at] = more
+    return fc
 
 
-def plan_geojson(plan: Plan, table: StationTable | None = None,
-                 corners: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[dict[str, Any], PointLayer, str]:
+def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[str, Any], PointLayer, str]:
     """The FeatureCollection without stations and footprints, the stations as a PointLayer
     (what the KML writer and the rules read), and the text of plan.geojson: `plan_features`
     as `jsontext.dumps_compact` writes it, and a newline (a test checks it).
@@ -66,14 +62,12 @@ def plan_geojson(plan: Plan, table: StationTable | None = None,
     written straight from their columns and arrays, never made into JSON data. Measured on the
     1,000 ha benchmark (7,309 photos): making and encoding the footprints as data ~35 ms, this
     way ~10 ms. `table`, the manifest's stations if the caller has them, gives the columns
-    they share (ids, positions, heights), so that their texts are made once for all the files;
-    `corners`, `footprint_lonlat(plan)` if the caller made it already."""
-    with collector_paused():
-        table = table or station_table(plan)
-        fc, stations, at = _features(plan, table)
+    they share (ids, positions, heights), so that their texts are made once for all the files."""
+    table = table or station_table(plan)
+    fc, stations, at = _features(plan, table)
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
-    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table, corners), dumps_compact(feats[at:])[1:-1]]
+    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table), dumps_compact(feats[at:])[1:-1]]
     return fc, stations, "".join([head, ',"features":[', ",".join([p for p in parts if p]), "]}\n"])
 
 
@@ -82,20 +76,18 @@ def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     latitude arrays (not checked: `plan_geojson` says which is not finite): each on flat ground at
     the station's height above ground."""
     st = plan.stations
-    cam = plan.spec.camera.camera
-    across, along = pg.footprint(st.agl_m, cam, plan.spec.camera.mount)
-    k = plan.grid_scale
-    corners = footprint_corners(st.x, st.y, st.heading_deg, np.asarray(across, float) * k, np.asarray(along, float) * k)
+    photos = Photos.nadir(st.x, st.y, st.agl_m, st.heading_deg)
+    corners = footprint_corners(photos, Optics.of(plan.spec.camera.camera, plan.spec.camera.mount), 0.0, plan.grid_scale)
     return plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
 
 
-def _footprints_text(plan: Plan, table: StationTable, corners: tuple[np.ndarray, np.ndarray] | None = None) -> str:
+def _footprints_text(plan: Plan, table: StationTable) -> str:
     """The GeoJSON Features of the photos' footprints (`footprint_lonlat`), comma-separated, in
     WGS84, corners rounded to 8 decimals, the ring closed."""
     st = plan.stations
     if not len(st.ids):
         return ""
-    clon, clat = corners if corners is not None else footprint_lonlat(plan)
+    clon, clat = footprint_lonlat(plan)
     _finite("footprint", clon, clat)
     # "x,y" of each corner, four a footprint in order; the ring closes on its first corner
     pairs = pair_texts(np.round(clon, 8), np.round(clat, 8))

@@ -260,13 +260,28 @@ def _target(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     return Outcome("info", f"targets of at least {factor * gsd * 100:.1f} cm", f"{factor:g} x GSD ({gsd * 100:.2f} cm)")
 
 
+#: Photos that must see a check point for it to count: a point is measured from two photos at least.
+CHECK_POINT_MIN_IMAGES = 2
+
+
+def _check_points(ev: Evidence, need: int, required: str) -> Outcome:
+    """At least `need` check points that photos can measure; where: those too few photos see."""
+    cps = ev.control_points("check")
+    unseen = [c for c in cps if c.images < CHECK_POINT_MIN_IMAGES]
+    have = len(cps) - len(unseen)
+    measured = f"{have} check points" + (f" ({len(unseen)} more seen by fewer than {CHECK_POINT_MIN_IMAGES} photos)"
+                                          if unseen else "")
+    if have >= need:
+        return Outcome("pass", measured, required)
+    return Outcome("fail", measured, required, [f"check point {c.id}: seen by {c.images} photos" for c in unseen][:20],
+                   [{"point": c.id} for c in unseen])
+
+
 @check("check_point_density", ha_per_point=NUM)
 def _cp_density(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     ha = p.num("ha_per_point")
-    cps = ev.control_points("check")
     need = math.ceil(view.area_ha / ha - 1e-9)
-    return Outcome("pass" if len(cps) >= need else "fail", f"{len(cps)} check points",
-                   f">= {need} (1 per {ha:g} ha over {view.area_ha:.1f} ha)")
+    return _check_points(ev, need, f">= {need} (1 per {ha:g} ha over {view.area_ha:.1f} ha)")
 
 
 ASPRS_2014 = [(500, 20, 25), (750, 25, 30), (1000, 30, 40), (1250, 35, 50), (1500, 40, 60), (1750, 45, 70),
@@ -276,7 +291,7 @@ ASPRS_2014 = [(500, 20, 25), (750, 25, 30), (1000, 30, 40), (1250, 35, 50), (150
 def asprs_required(edition: str, area_km2: float) -> tuple[int, int]:
     """(horizontal, vertical) check points recommended for the project area.
 
-    2014: Table C.1 of the standard (shared/reference/asprs2014_checkpoint_counts.csv);
+    2014: Table C.1 of the standard (Korumaz and Yıldız, Heritage 4 (2021), Table 5);
     beyond 2,500 km² vertical +5 per 500 km², horizontal by agreement (kept at 60).
     2023 (Edition 2): the accuracy module's table (qa/asprs.py, with its sources).
     """
@@ -298,9 +313,7 @@ def _asprs(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     if edition not in ("2014", "2023"):
         raise InputError(f"asprs_check_points: edition = {edition!r}; allowed: 2014, 2023")
     h, v = asprs_required(edition, view.area_ha / 100)
-    have = len(ev.control_points("check"))
-    return Outcome("pass" if have >= max(h, v) else "fail", f"{have} check points",
-                   f">= {h} horizontal and {v} vertical (ASPRS {edition}, {view.area_ha / 100:.3f} km2)")
+    return _check_points(ev, max(h, v), f">= {h} horizontal and {v} vertical (ASPRS {edition}, {view.area_ha / 100:.3f} km2)")
 
 
 @check("check_point_distribution", min_quadrant_share=NUM, min_spacing_diagonal=NUM)

@@ -4,6 +4,7 @@ gcp_list.txt template."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -12,6 +13,7 @@ from html import escape
 import numpy as np
 
 from aerosurvey.errors import InputError
+from aerosurvey.plan import capture
 from aerosurvey.reproject import planar
 from aerosurvey.rules.control_points import ControlPoint, Role
 from aerosurvey.rules.footprints import FloatArray, Footprints, ViewCamera, footprints
@@ -67,31 +69,24 @@ def to_gpx(view: PlanView, pts: list[ControlPoint]) -> str:
 
 def to_odm_gcp_list(view: PlanView, pts: list[ControlPoint], fp: Footprints, per_point: int = 6) -> str:
     """OpenDroneMap gcp_list.txt template: the CRS line, then per GCP the planned photos
-    that should see it, with the pixel where it should appear (nadir model).
+    that should see it (nearest first), with the pixel where it should appear (the capture
+    model's projection of the point into each photo, flat ground).
 
     The image column holds the station id: replace it with the image file name once the
     photos are linked to stations; heights are 0 until the GCPs are surveyed.
     """
-    cam = ViewCamera.of(view)
-    nw, nh = cam.camera.image_width_px, cam.camera.image_height_px
     lines = [view.crs]
-    s, c = np.sin(fp.heading_rad), np.cos(fp.heading_rad)
-    for p in pts:
-        if p.role != "gcp":
-            continue
-        dx, dy = p.x - fp.x, p.y - fp.y
-        u = dx * s + dy * c  # along track, forward
-        v = dx * c - dy * s  # across track, to the right
-        inside = (np.abs(u) <= fp.along / 2) & (np.abs(v) <= fp.across / 2)
-        order = np.argsort(np.hypot(u, v))
-        for i in [j for j in order if inside[j]][:per_point]:
-            if cam.mount == "landscape":
-                col = nw / 2 + v[i] / fp.across[i] * nw
-                row = nh / 2 - u[i] / fp.along[i] * nh
-            else:
-                col = nh / 2 + v[i] / fp.across[i] * nh
-                row = nw / 2 - u[i] / fp.along[i] * nw
-            lines.append(f"{p.x:.3f} {p.y:.3f} 0.000 {math.floor(col)} {math.floor(row)} {view.station_ids[i]} {p.id}")
+    gcps = [p for p in pts if p.role == "gcp"]
+    if gcps and len(fp.x):
+        k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))
+        photos = capture.Photos.nadir(fp.x, fp.y, np.asarray(view.agl, float), np.degrees(fp.heading_rad))
+        ip = capture.image_points(photos, ViewCamera.of(view).optics, np.array([p.x for p in gcps]),
+                                  np.array([p.y for p in gcps]), 0.0, k)
+        for j, p in enumerate(gcps):
+            order = np.argsort(np.hypot(fp.x - p.x, fp.y - p.y))
+            for i in order[ip.seen[order, j]][:per_point]:
+                lines.append(f"{p.x:.3f} {p.y:.3f} 0.000 {math.floor(ip.col[i, j])} {math.floor(ip.row[i, j])} "
+                             f"{view.station_ids[i]} {p.id}")
     return "\n".join(lines) + "\n"
 
 
@@ -136,7 +131,12 @@ def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
         pid, role, lon, lat, note = _layout_point(f, i, where)
         x, y = planar(view.crs).xy(np.array([lon], float), np.array([lat], float))
         pts.append(ControlPoint(pid, role, float(x[0]), float(y[0]), 0, note))
+    return seen_by(view, pts)
+
+
+def seen_by(view: PlanView, pts: list[ControlPoint]) -> list[ControlPoint]:
+    """The points where they are, each with the number of the view's photos that see it."""
     if not pts:
         return []
     counts = footprints(view).count_at(np.array([p.x for p in pts]), np.array([p.y for p in pts]))
-    return [ControlPoint(p.id, p.role, p.x, p.y, int(n), p.note) for p, n in zip(pts, counts)]
+    return [dataclasses.replace(p, images=int(n)) for p, n in zip(pts, counts)]

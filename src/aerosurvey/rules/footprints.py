@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import statistics
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -20,6 +21,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.camera import Camera, camera_from_mapping
 from aerosurvey.errors import InputError
+from aerosurvey.plan import capture
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.spec import MOUNTS
@@ -52,56 +54,56 @@ class ViewCamera:
         """GSD of each photo taken `agl_m` above ground, as the planner computes it."""
         return pg.gsd_m(agl_m, self.camera.pixel_pitch_mm, self.camera.focal_mm)
 
-    def footprint_m(self, agl_m: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(across, along) track ground footprint of each photo, as the planner computes it."""
-        c = self.camera
-        return pg.footprint_m(agl_m, c.sensor_width_mm, c.sensor_height_mm, c.image_width_px, c.image_height_px,
-                              c.focal_mm, self.mount)
+    @property
+    def optics(self) -> capture.Optics:
+        return capture.Optics.of(self.camera, self.mount)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Footprints:
-    """Photo rectangles in the planning CRS: centres, compass heading, sides in grid metres."""
+    """Photo footprints in the planning CRS from the capture model (plan/capture.py): centres,
+    compass heading, and the corners of each (image top-right, top-left, bottom-left, bottom-right)."""
 
     x: FloatArray
     y: FloatArray
     heading_rad: FloatArray  # compass bearing in radians
-    across: FloatArray
-    along: FloatArray
+    corners: FloatArray  # (n, 4, 2) grid metres
+
+    @cached_property
+    def across(self) -> FloatArray:
+        """Each footprint's width across the image on the ground, at its narrower edge (grid metres)."""
+        c = self.corners
+        width: FloatArray = np.minimum(np.linalg.norm(c[:, 0] - c[:, 1], axis=1), np.linalg.norm(c[:, 3] - c[:, 2], axis=1))
+        return width
+
+    @cached_property
+    def along(self) -> FloatArray:
+        """Each footprint's length along the image on the ground, at its shorter side (grid metres)."""
+        c = self.corners
+        length: FloatArray = np.minimum(np.linalg.norm(c[:, 1] - c[:, 2], axis=1), np.linalg.norm(c[:, 0] - c[:, 3], axis=1))
+        return length
+
+    @cached_property
+    def polygons(self) -> npt.NDArray[np.object_]:
+        polygons: npt.NDArray[np.object_] = shapely.polygons(self.corners)
+        return polygons
 
     def count_at(self, px: FloatArray, py: FloatArray) -> IntArray:
-        """How many footprints contain each point.
-
-        The pairs (footprint, point) to test are those whose point lies in the square the
-        footprint can reach (an STRtree query over the footprints whose square meets the
-        points' bounding box), then each pair is tested exactly. Measured on the Obrataň
-        example (1,756 photos, 4,004 points): 41.9 → 21.7 ms CPU against one footprint at a
-        time over every point; a single point (the control-point search asks for those) is
-        tested against its few near footprints only."""
+        """How many footprints contain each point (their edges included)."""
         px, py = np.asarray(px, float), np.asarray(py, float)
         if not len(px) or not len(self.x):
-            return np.zeros(len(px), int)
-        # the exact test below allows 1e-6 beyond each side: the square must hold those corners too
-        reach = np.hypot(self.across / 2 + 2e-6, self.along / 2 + 2e-6)
-        near = np.flatnonzero((self.x + reach >= px.min()) & (self.x - reach <= px.max())
-                              & (self.y + reach >= py.min()) & (self.y - reach <= py.max()))
-        tree = shapely.STRtree(shapely.points(px, py))
-        found, pj = tree.query(shapely.box(self.x[near] - reach[near], self.y[near] - reach[near],
-                                           self.x[near] + reach[near], self.y[near] + reach[near]))
-        fi = near[found]
-        s, c = np.sin(self.heading_rad)[fi], np.cos(self.heading_rad)[fi]
-        dx, dy = px[pj] - self.x[fi], py[pj] - self.y[fi]
-        u = dx * s + dy * c
-        v = dx * c - dy * s
-        inside = (np.abs(u) <= self.along[fi] / 2 + 1e-6) & (np.abs(v) <= self.across[fi] / 2 + 1e-6)
-        return np.bincount(pj[inside], minlength=len(px)).astype(int)
+            return np.zeros(len(px), np.intp)
+        return capture.images_seeing(px, py, self.polygons)
 
 
 def footprints(view: PlanView) -> Footprints:
-    """The footprint of every station of the view, scaled from ground to grid metres."""
+    """The footprint of every station of the view (nadir, over flat ground at its height above
+    ground), from the capture model, in grid metres."""
     k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))  # ground metres to grid metres
-    across, along = ViewCamera.of(view).footprint_m(np.asarray(view.agl, float))
-    return Footprints(view.x, view.y, np.radians(view.heading_deg), across * k, along * k)
+    cam = ViewCamera.of(view)
+    photos = capture.Photos.nadir(view.x, view.y, np.asarray(view.agl, float), view.heading_deg)
+    corners = capture.footprint_corners(photos, cam.optics, 0.0, k)
+    return Footprints(np.asarray(view.x, float), np.asarray(view.y, float), np.radians(view.heading_deg), corners)
 
 
 def sample_grid(geom: BaseGeometry, target_points: int = 4000) -> tuple[FloatArray, FloatArray]:
@@ -135,7 +137,10 @@ def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
 
 
 def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]]:
-    """(run, nearest parallel run beside it, overlap of their strips) for every run.
+    """(run, neighbour, overlap of their strips) for every run that has a parallel run beside it:
+    the nearest parallel run on each side where there is one, and of the two the farther (the
+    smaller overlap). A run whose neighbour on one side was not flown is measured against the
+    next run on that side, so a missing line fails the rule on both runs beside it.
 
     Each run's stations are measured across and along the lines of its heading; runs of the same
     heading (all the runs of one direction of a pass: 4 headings for the 34 runs of the Obrataň
@@ -174,17 +179,20 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
     for k, (rid, h) in enumerate(zip(ids, heads)):
         umins, umaxs, _ = frame(h)
         umin, umax, v_mean, w = umins[k], umaxs[k], across(h, k), widths[k]
-        best: tuple[float, str, float] | None = None
+        nearest: dict[bool, tuple[float, str, float]] = {}  # per side (right of the heading or not)
         for q, hq in enumerate(heads):
             if q == k or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
                 continue
             if umaxs[q] < umin or umins[q] > umax:
                 continue
-            d = abs(across(h, q) - v_mean)
-            if d > 1e-6 and (best is None or d < best[0]):
-                best = (d, ids[q], min(w, widths[q]))
-        if best is not None:
-            out.append((rid, best[1], 1 - best[0] / best[2]))
+            signed = across(h, q) - v_mean
+            d = abs(signed)
+            side = signed > 0
+            if d > 1e-6 and (side not in nearest or d < nearest[side][0]):
+                nearest[side] = (d, ids[q], min(w, widths[q]))
+        if nearest:
+            d, neighbour, width = max(nearest.values())
+            out.append((rid, neighbour, 1 - d / width))
     return out
 
 

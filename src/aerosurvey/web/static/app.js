@@ -318,6 +318,7 @@ function renderSummary(view) {
     ["time", `${s.time_min} min`],
     ["sorties", s.sorties ? String(s.sorties) : "one flight (no battery set)"],
     ["mission items", String(s.mission_items)],
+    ["rules", s.rules.text],
   ];
   const dl = $("#summary"); dl.textContent = "";
   for (const [k, v] of rows) {

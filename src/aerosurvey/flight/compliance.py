@@ -1,0 +1,158 @@
+"""Compliance after the flight: `aerosurvey check FLIGHT_FOLDER` on a folder `log ingest` wrote.
+
+The plan's rules run on the plan as planned and on the flown photos of events.csv (the same
+checks, :mod:`aerosurvey.rules.flown`); each rule is shown planned against flown, and the
+places where a rule fails on the flown photos are written into the folder as a GeoJSON
+layer (`failing_places.geojson`) for `refly` and the web page.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import click
+
+from aerosurvey import manifest as mf
+from aerosurvey.errors import InputError
+from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.flight import records
+from aerosurvey.flight.coverage import flown_view, recorded_photos
+from aerosurvey.flight.refly import check_log_of_plan
+from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, failed_errors
+from aerosurvey.rules.flown import PLACES_FILE, Judged, failing_places, judge, on_view, part
+from aerosurvey.rules.load import Target
+from aerosurvey.rules.planview import PlanView
+from aerosurvey.rules.profile import Profile, apply_overrides, select_profiles
+
+#: `check`'s rule run on a plan: the results of the chosen profiles and the evidence they used.
+RunRules = Callable[[Target], tuple[list[RuleResult], Evidence]]
+
+
+@dataclass(frozen=True)
+class Flight:
+    """A `log ingest` folder with the plan it flew."""
+
+    folder: Path
+    plan_folder: Path
+    plan: PlanView  # the whole plan
+    planned: PlanView  # the stations the log is of: one sortie's, or all
+    flown: PlanView  # the plan with the flown photos in place of its stations
+    sortie: str | None
+    heights: str  # where the flown heights above ground came from, and the camera mount
+
+    @property
+    def target(self) -> Target:
+        doc = self.plan.document
+        return Target(self.plan, list(doc.mission.profiles), dict(doc.rule_overrides), self.plan_folder)
+
+
+def _plan_folder(folder: Path, named: str, plan_dir: Path | None) -> Path:
+    if plan_dir is not None:
+        return plan_dir
+    p = Path(named)
+    p = p.parent if p.name == mf.FILE_NAME else p
+    if not (p / mf.FILE_NAME).is_file():
+        raise InputError(f"{str(folder)!r}: its log_report.json names the plan {named!r}, which is not there (from "
+                         f"{str(Path.cwd())!r}); give the plan folder with --plan", key="--plan")
+    return p
+
+
+def _heights(report: dict[str, Any]) -> str:
+    h = report.get("heights") or {}
+    if h.get("source") == "dem":
+        text = (f"heights above the DEM {h.get('dem')}" + (f" ({h['outside_dem']} photo(s) off it: above home)"
+                                                           if h.get("outside_dem") else ""))
+    else:
+        text = "heights above home: flat ground assumed (`log ingest --dem` gives heights above the terrain)"
+    if "fixed_camera" not in h:
+        return text + "; camera taken as on a nadir gimbal (the report does not say)"
+    return text + ("; camera fixed to the body: roll and pitch move the footprints" if h["fixed_camera"]
+                   else "; camera on a nadir gimbal")
+
+
+def open_flight(folder: Path, plan_dir: Path | None = None) -> Flight:
+    """The flight folder's photos as a view of the plan (`plan_dir`, or the one its report names)."""
+    report = records.read_report(folder / "log_report.json")
+    info = report.get("plan")
+    if info is None:
+        raise InputError(f"{str(folder)!r} was ingested without --plan, so its photos are of no plan: run "
+                         f"`aerosurvey log ingest LOG --plan PLAN -o {folder}`")
+    plan_folder = _plan_folder(folder, info["folder"], plan_dir)
+    view = PlanView.from_outdir(plan_folder, "--plan")
+    check_log_of_plan(folder, view)
+    events = folder / "events.csv"
+    if not events.is_file():
+        raise InputError(f"{str(folder)!r} has no events.csv: give the folder `aerosurvey log ingest` wrote")
+    rows = records.read_events_csv(events)
+    doc = view.document
+    unknown = sorted({s for s in rows.station if s} - set(doc.stations.ids))
+    if unknown:
+        raise InputError(f"{events}: station {unknown[0]!r}{f' and {len(unknown) - 1} more' if len(unknown) > 1 else ''} "
+                         f"is not in the plan {doc.where!r}: the plan has changed since the flight was ingested; "
+                         "run `aerosurvey log ingest` again")
+    sortie = info["sortie"]
+    fixed = bool((report.get("heights") or {}).get("fixed_camera", False))
+    photos = recorded_photos(view.crs, dict(zip(doc.stations.ids, doc.stations.run)), rows, fixed)
+    if not len(photos):
+        raise InputError(f"{events}: none of its {len(rows)} photos has a position and a height above ground: "
+                         "nothing flown can be measured")
+    planned = view if sortie is None else part(view, doc.sortie_stations(sortie).ids)
+    heights = _heights(report)
+    if len(photos) < len(rows):
+        heights += f"; {len(rows) - len(photos)} photo(s) without a position or height left out"
+    return Flight(folder, plan_folder, view, planned, flown_view(view, photos), sortie, heights)
+
+
+def _profiles_of(results: list[RuleResult], target: Target, profile_dirs: list[Path]) -> list[Profile]:
+    """The profiles `check` chose for the results (their ids, in order), with the plan's overrides."""
+    ids = list(dict.fromkeys(r.profile for r in results))
+    return apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
+
+
+def judge_flight(flight: Flight, run_rules: RunRules, profile_dirs: list[Path]) -> tuple[list[Judged], Evidence]:
+    """Each rule of the chosen profiles planned (on the stations the log is of) and flown, with the flown evidence."""
+    target = flight.target
+    planned, base = run_rules(target)
+    profiles = _profiles_of(planned, target, profile_dirs)
+    if flight.planned is not flight.plan:
+        planned = evaluate(profiles, on_view(base, flight.planned))
+    flown = on_view(base, flight.flown)
+    return judge(profiles, planned, flown), flown
+
+
+def write_places(folder: Path, layer: dict[str, Any]) -> None:
+    """failing_places.geojson into the flight folder, atomically; its other files are kept."""
+    with staged_directory(folder, merge=True) as stage:
+        atomic_write_text(stage / PLACES_FILE, json.dumps(layer, indent=1) + "\n")
+
+
+def check_flight(folder: Path, plan_dir: Path | None, run_rules: RunRules, profile_dirs: list[Path], as_json: bool) -> None:
+    """`aerosurvey check FLIGHT_FOLDER`: print each rule planned / flown, write the failing places;
+    exit 1 when an error-level rule fails on the flown photos."""
+    flight = open_flight(folder, plan_dir)
+    judged, flown = judge_flight(flight, run_rules, profile_dirs)
+    layer = failing_places(judged, flown)
+    write_places(folder, layer)
+    bad = failed_errors([j.flown for j in judged])
+    if as_json:
+        click.echo(json.dumps({"results": [j.as_dict() for j in judged], "failed": [r.rule for r in bad],
+                               "heights": flight.heights, "places": str(folder / PLACES_FILE)}, indent=1))
+    else:
+        doc = flight.plan.document
+        of = f"sortie {flight.sortie} of " if flight.sortie else ""
+        click.echo(f"{len(flight.flown.station_ids)} flown photos against {len(flight.planned.station_ids)} planned "
+                   f"stations of {of}mission {doc.mission.name!r} ({flight.plan_folder})")
+        click.echo(flight.heights)
+        for j in judged:
+            click.echo(j.line())
+            if j.flown.outcome.status == "fail":
+                click.echo("".join(f"     - {e}\n" for e in j.flown.outcome.evidence), nl=False)
+        before = sum(r.outcome.status == "fail" and r.severity == "error" for r in (j.planned for j in judged))
+        click.echo(f"{len(judged)} rules as flown: {sum(j.status == 'pass' for j in judged)} passed, {len(bad)} failed "
+                   f"({before} failed as planned); {len(layer['features'])} failing place(s) in {folder / PLACES_FILE}")
+    if bad:
+        raise SystemExit(1)
