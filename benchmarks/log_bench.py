@@ -3,6 +3,7 @@
     python benchmarks/log_bench.py                      # the committed SITL plane log, repeated to >= 110 MB
     python benchmarks/log_bench.py --log FLIGHT.BIN     # a log of your own (repeated if under --min-mb)
     python benchmarks/log_bench.py --damaged 0          # speed and memory only
+    python benchmarks/log_bench.py --no-speed --readers ours   # the damaged copies only, our reader only
 
 Two tasks, each reader in its own process per task (so the peak memory is the task's own):
 
@@ -15,8 +16,9 @@ Two tasks, each reader in its own process per task (so the peak memory is the ta
 The big log is the chosen log written N times back to back; N flights in one file are a valid
 DataFlash log (each copy repeats its FMT records with the same layouts).
 
-Then damaged copies of the committed SITL logs (junk FMT records inserted, a chunk copied
-again, bytes flipped; seeded): for each reader the camera events it returns against those
+Then damaged copies of the committed SITL logs (junk FMT records inserted; a chunk copied
+again after itself, before itself or inside itself; the log cut off; bits flipped; seeded),
+per kind of damage: for each reader the camera events it returns against those
 of the intact log, over the events the damage did not touch: recovered, returned twice,
 and returned but not in the intact log (altered or invented). pymavlink reads CAM with
 recv_match; ours is `read_events`, the reader plus its checks, as `log ingest` uses it.
@@ -92,6 +94,9 @@ def _intact_events(path: Path) -> list[tuple[int, int, int, int, int]]:
     return out
 
 
+KINDS = ("junk-fmt", "copy-after", "copy-before", "copy-overlap", "truncated", "flipped-bits")
+
+
 def damage(data: bytes, kind: str, rng: random.Random) -> tuple[bytes, list[tuple[int, int]]]:
     """A damaged copy and the byte ranges of the original that the damage touched."""
     if kind == "junk-fmt":  # random bytes after an FMT header, inserted at random places
@@ -101,15 +106,19 @@ def damage(data: bytes, kind: str, rng: random.Random) -> tuple[bytes, list[tupl
             touched.append((p, p + 1))
             last = p
         return bytes(out + data[last:]), touched
-    if kind == "copied-chunk":  # a chunk written again right after itself
+    if kind.startswith("copy-"):  # a chunk of up to 200 kB written again after itself, before it, or inside it
         a = rng.randrange(len(data) - 1)
         b = min(len(data), a + rng.randrange(1, 200_000))
-        return data[:b] + data[a:b] + data[b:], [(b, b + 1)]
-    flipped = bytearray(data)
+        at = {"copy-after": b, "copy-before": rng.randrange(0, a + 1), "copy-overlap": rng.randrange(a, b + 1)}[kind]
+        return data[:at] + data[a:b] + data[at:], [(at, at + 1)]
+    if kind == "truncated":  # the log cut off at a random place
+        p = rng.randrange(1, len(data))
+        return data[:p], [(p, len(data))]
+    flipped = bytearray(data)  # 20 bits flipped at random places
     touched = []
     for _ in range(20):
         p = rng.randrange(len(data))
-        flipped[p] ^= rng.randrange(1, 256)
+        flipped[p] ^= 1 << rng.randrange(8)
         touched.append((p, p + 1))
     return bytes(flipped), touched
 
@@ -162,15 +171,17 @@ def _near(g: tuple[int, int, int], e: tuple[int, int, int]) -> bool:
     return abs(g[0] - e[0]) <= 5_000_000 and abs(g[1] - e[1]) <= 5_400 and abs(g[2] - e[2]) <= 8_000
 
 
-def damaged_runs(per_kind: int, seed: int) -> dict[str, dict[str, int]]:
+def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlink", "ours")) -> dict[tuple[str, str], dict[str, int]]:
+    """Totals per (reader, kind of damage), and per reader over every kind ("all")."""
     rng = random.Random(seed)
-    totals: dict[str, dict[str, int]] = {r: {"untouched": 0, "recovered": 0, "twice": 0, "not_in_log": 0, "altered": 0,
-                                            "raised": 0, "copies": 0} for r in ("pymavlink", "ours")}
+    totals: dict[tuple[str, str], dict[str, int]] = {
+        (r, k): {"untouched": 0, "recovered": 0, "twice": 0, "not_in_log": 0, "altered": 0, "raised": 0, "copies": 0}
+        for r in readers for k in (*KINDS, "all")}
     with tempfile.TemporaryDirectory() as td:
         for base in (DATA / "sitl_plane_kubad.bin", DATA / "sitl_copter_survey.bin"):
             data, intact = base.read_bytes(), _intact_events(base)
             keys = {e[2:] for e in intact}
-            for kind in ("junk-fmt", "copied-chunk", "flipped-bytes"):
+            for kind in KINDS:
                 for _ in range(per_kind):
                     bad, touched = damage(data, kind, rng)
                     p = Path(td) / "damaged.bin"
@@ -179,16 +190,18 @@ def damaged_runs(per_kind: int, seed: int) -> dict[str, dict[str, int]]:
                     untouched = {e[2:] for e, ok in zip(intact, hit) if ok}
                     damaged_events = [e[2:] for e, ok in zip(intact, hit) if not ok]
                     for reader, read in (("pymavlink", _pymavlink_events), ("ours", _our_events)):
+                        if reader not in readers:
+                            continue
                         got, raised = read(p)
-                        tot = totals[reader]
-                        tot["copies"] += 1
-                        tot["untouched"] += len(untouched)
-                        tot["recovered"] += len(untouched & set(got))
-                        tot["twice"] += len(got) - len(set(got))
                         extra = [g for g in set(got) if g not in keys]
-                        tot["not_in_log"] += len(extra)
-                        tot["altered"] += sum(1 for g in extra if any(_near(g, e) for e in damaged_events))
-                        tot["raised"] += bool(raised)
+                        for tot in (totals[reader, kind], totals[reader, "all"]):
+                            tot["copies"] += 1
+                            tot["untouched"] += len(untouched)
+                            tot["recovered"] += len(untouched & set(got))
+                            tot["twice"] += len(got) - len(set(got))
+                            tot["not_in_log"] += len(extra)
+                            tot["altered"] += sum(1 for g in extra if any(_near(g, e) for e in damaged_events))
+                            tot["raised"] += bool(raised)
     return totals
 
 
@@ -198,21 +211,38 @@ def main() -> None:
     ap.add_argument("--min-mb", type=float, default=110.0, help="repeat the log until it is at least this big")
     ap.add_argument("--damaged", type=int, default=20, help="damaged copies per kind of damage and per SITL log")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--no-speed", action="store_true", help="the damaged copies only, no speed and memory runs")
+    ap.add_argument("--readers", default="pymavlink,ours", help="readers of the damaged copies (comma-separated)")
     ap.add_argument("--child", nargs=2, metavar=("READER", "TASK"))
     a = ap.parse_args()
     if a.child:
         print(json.dumps(child(a.child[0], a.child[1], a.log)))
         return
-    src = Path(a.log).read_bytes()
-    copies = max(1, -(-int(a.min_mb * 1e6) // len(src)))
+    if not a.no_speed:
+        speed(a.log, a.min_mb)
+    if a.damaged:
+        print(f"damaged copies: {a.damaged} per kind of damage of each of the two SITL logs, seed {a.seed}; "
+              "over the camera events the damage did not touch:")
+        print("| damage | reader | untouched events returned | returned twice | altered | made up | raised |")
+        print("| --- | --- | --- | --- | --- | --- | --- |")
+        for (reader, kind), t in damaged_runs(a.damaged, a.seed, tuple(a.readers.split(","))).items():
+            print(f"| {kind} | {reader} | {t['recovered']:,} of {t['untouched']:,} "
+                  f"({100 * t['recovered'] / max(1, t['untouched']):.2f} %) | {t['twice']:,} | {t['altered']} | "
+                  f"{t['not_in_log'] - t['altered']} | on {t['raised']} of {t['copies']} copies |")
+
+
+def speed(log: str, min_mb: float) -> None:
+    """Both readers on the two tasks, each in its own process, on the log repeated to `min_mb`."""
+    src = Path(log).read_bytes()
+    copies = max(1, -(-int(min_mb * 1e6) // len(src)))
     with tempfile.TemporaryDirectory() as td:
-        big = Path(a.log) if copies == 1 else Path(td) / "big.bin"
+        big = Path(log) if copies == 1 else Path(td) / "big.bin"
         if copies > 1:
             with open(big, "wb") as fh:
                 for _ in range(copies):
                     fh.write(src)
         mb = big.stat().st_size / 1e6
-        print(f"log: {copies} x {Path(a.log).name} = {mb:.1f} MB")
+        print(f"log: {copies} x {Path(log).name} = {mb:.1f} MB")
         res: dict[tuple[str, str], dict[str, float]] = {}
         for task in TASKS:
             for reader in ("pymavlink", "ours"):
@@ -224,14 +254,6 @@ def main() -> None:
                       f"({r['peak_rss_mb'] - r['base_rss_mb']:+.0f} MB over the {r['base_rss_mb']:.0f} MB after imports)")
             ratio = res["pymavlink", task]["seconds"] / res["ours", task]["seconds"]
             print(f"{task:>11} time pymavlink / ours: {ratio:.2f}")
-    if a.damaged:
-        print(f"damaged copies: {a.damaged} per kind (junk FMT x3, a copied chunk, 20 flipped bytes) of each of the "
-              f"two SITL logs, seed {a.seed}")
-        for reader, t in damaged_runs(a.damaged, a.seed).items():
-            print(f"  {reader:>9}: recovered {t['recovered']}/{t['untouched']} untouched events "
-                  f"({100 * t['recovered'] / max(1, t['untouched']):.2f} %), {t['twice']} returned twice, "
-                  f"{t['not_in_log']} not in the intact log ({t['altered']} of them a damaged event's time or place altered, "
-                  f"{t['not_in_log'] - t['altered']} made up), raised on {t['raised']} of {t['copies']} copies")
 
 
 if __name__ == "__main__":

@@ -49,11 +49,14 @@ def _metres(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     return math.hypot((lat1 - lat2) * k, (lon1 - lon2) * k * math.cos(math.radians(lat1)))
 
 
-def check_events(tmp: Path, base: Path, damaged: bytes, first_damage: int) -> None:
+def check_events(tmp: Path, base: Path, damaged: bytes, first_damage: int, only_at: bool = False) -> None:
+    """`only_at`: the damage touched the original log at `first_damage` only (a chunk inserted
+    there), so every event but one straddling that place must come back."""
     data, true = truth(base)
     path = tmp / "damaged.bin"
     path.write_bytes(damaged)
-    before = [e for e in true if e[0] <= first_damage]
+    length = cam_length(base)
+    before = [e for e in true if e[0] <= first_damage or (only_at and e[0] - length >= first_damage)]
     try:
         ev, info = read_events(path)
     except InputError:
@@ -121,12 +124,13 @@ def test_junk_fmt_records(tmp_path: Path, base: Path, at: float, random_bytes: b
 @SETTINGS
 @given(base=bases, a=st.floats(0, 1), size=st.integers(1, 200_000), after_itself=st.booleans(), to=st.floats(0, 1))
 def test_duplicated_chunks(tmp_path: Path, base: Path, a: float, size: int, after_itself: bool, to: float) -> None:
-    """A chunk of the log copied again, right after itself or anywhere else."""
+    """A chunk of the log copied again, right after itself or anywhere else (before it, inside
+    it): every event comes back once, but the one the insertion cuts."""
     data = truth(base)[0]
     start = int(a * (len(data) - 1))
     end = min(len(data), start + size)
     pos = end if after_itself else int(to * len(data))
-    check_events(tmp_path, base, data[:pos] + data[start:end] + data[pos:], pos)
+    check_events(tmp_path, base, data[:pos] + data[start:end] + data[pos:], pos, only_at=True)
 
 
 @SETTINGS
@@ -255,8 +259,23 @@ def test_an_fmt_record_that_does_not_hold_together_is_damage(tmp_path: Path, fie
     path = tmp_path / "fmt.bin"
     path.write_bytes(_fmt_record(**rec) + good + msg)
     with DataFlashLog(path) as log:
-        assert [(s.offset, s.kind) for s in log.skipped] == [(0, "format")]
+        # one damaged format character: its size follows from the length, so the record frames its
+        # messages; the damage is reported at that character
+        at = 3 + 6 + 2 if field == "fmt" else 0
+        assert [(s.offset, s.kind) for s in log.skipped] == [(at, "format")]
         assert log.messages("XYZ")["B"].tolist() == [2]
+
+
+def test_a_damaged_format_character_leaves_its_column_undecoded_and_the_rest_decoded(tmp_path: Path) -> None:
+    rec = _fmt_record(201, 3 + 8 + 1 + 2, b"XYZ", b"Q%H", b"TimeUS,A,B")
+    msg = HEAD + bytes([201]) + struct.pack("<QBH", 5, 1, 2)
+    path = tmp_path / "fmt.bin"
+    path.write_bytes(rec + msg + msg)
+    with DataFlashLog(path) as log:
+        (s,) = log.skipped
+        assert (s.offset, s.length, s.kind) == (3 + 6 + 1, 1, "format") and "column A is not decoded" in s.reason
+        cols = log.messages("XYZ")
+        assert sorted(cols) == ["B", "TimeUS"] and cols["B"].tolist() == [2, 2] and cols["TimeUS"].tolist() == [5, 5]
 
 
 def test_after_damage_a_header_counts_only_when_another_follows_its_message(tmp_path: Path) -> None:
@@ -286,3 +305,25 @@ def test_an_fmt_record_with_damaged_column_names_keeps_its_messages(tmp_path: Pa
     assert len(ev) == len(true) and info["dropped_events"] == 0
     (s,) = info["skipped"]
     assert (s["offset"], s["length"], s["kind"]) == (at + 26, 1, "format") and "damaged column names" in s["reason"]
+
+
+@pytest.mark.parametrize("base", [PLANE, COPTER])
+@pytest.mark.parametrize("shift_us", [-65_280, -51_200, 51_200, 65_280])  # bits of the time stamp's second byte flipped
+def test_an_event_some_tens_of_ms_off_in_time_is_dropped_and_reported(tmp_path: Path, base: Path, shift_us: int) -> None:
+    data, true = truth(base)
+    damaged = bytearray(data)
+    with DataFlashLog(base) as log:
+        offs = log.message_offsets("CAM")
+    picked = list(range(10, len(true) - 10, len(true) // 8))
+    for i in picked:
+        at = int(offs[i])
+        (t,) = struct.unpack_from("<Q", damaged, at + 3)
+        struct.pack_into("<Q", damaged, at + 3, t + shift_us)
+    path = tmp_path / "late.bin"
+    path.write_bytes(bytes(damaged))
+    ev, info = read_events(path)
+    times = {round(t * 1e6) for t in ev.time_s.tolist()}
+    assert len(ev) == len(true) - len(picked)
+    assert not times & {round(true[i][1] * 1e6) + shift_us for i in picked}
+    dropped = [s for s in info["skipped"] if s["kind"] == "event"]
+    assert sorted(s["offset"] for s in dropped) == [int(offs[i]) for i in picked]

@@ -95,3 +95,33 @@ def test_plane_example_flown_in_sitl(tmp_path):
     manifest = json.loads((plan / "manifest.json").read_text())
     assert [r["station"] for r in rows] == [s["id"] for s in manifest["stations"]]
     assert rep["coverage"]["uncovered_share"] == 0.0 and rep["realized"]["forward_overlap_min"] >= 0.79
+
+
+def test_a_log_that_lost_more_than_its_share_fails_with_the_counts(tmp_path):
+    # 5 % of the log overwritten by zeros in the middle: the bytes are lost, outputs still written, exit 1
+    data = bytearray(LOG.read_bytes())
+    a = len(data) // 2
+    data[a:a + len(data) // 20] = bytes(len(data) // 20)
+    bad = tmp_path / "zeros.bin"
+    bad.write_bytes(bytes(data))
+    res = CliRunner().invoke(main, ["log", "ingest", str(bad), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 1, res.output
+    rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
+    lost = rep["read"]["lost_bytes"]
+    assert lost >= len(data) // 25 and f"{lost} of {len(data)} bytes skipped as damage" in res.output
+    assert f"{rep['events']} camera events (CAM)" in res.output
+
+
+def test_a_copied_chunk_loses_nothing_and_passes(tmp_path):
+    # a tenth of the log copied again before itself: every event once, nothing lost, exit 0
+    data = LOG.read_bytes()
+    a, b = len(data) // 2, len(data) // 2 + len(data) // 10
+    dup = tmp_path / "dup.bin"
+    dup.write_bytes(data[:a // 2] + data[a:b] + data[a // 2:])
+    res = CliRunner().invoke(main, ["log", "ingest", str(dup), "-o", str(tmp_path / "log")])
+    assert res.exit_code == 0, res.output
+    rep = json.loads((tmp_path / "log" / "log_report.json").read_text())
+    assert rep["events"] == 152 and rep["read"]["implausible_events"] == 0
+    kinds = [s["kind"] for s in rep["read"]["skipped"]]
+    assert kinds.count("repeat") == 1 and set(kinds) <= {"repeat", "damage"}  # the splices cut a message each
+    assert rep["read"]["lost_bytes"] < 0.01 * rep["read"]["bytes"]

@@ -46,7 +46,8 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
            geotag_in_place: bool, outdir: Path) -> None:
     """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json)."""
     # the flight modules pull in rasterio, scipy and the rule engine: imported when the command runs
-    from aerosurvey.flight.ingest import geotag_destination, ingest, write_ingest
+    from aerosurvey.errors import CheckFailed
+    from aerosurvey.flight.ingest import geotag_destination, ingest, losses_beyond_share, write_ingest
     from aerosurvey.rules.planview import PlanView
 
     geotag_dir = geotag_destination(images_dir, geotag_dir, geotag_in_place)
@@ -57,12 +58,16 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
     report = write_ingest(result, outdir, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, fixed_camera=fixed_camera,
                           geotag_dir=geotag_dir, geotag_in_place=geotag_in_place)
     _echo(report)
+    lost = losses_beyond_share(flight_log.name, report["read"], report["events"])
+    if lost is not None:
+        raise CheckFailed(lost)
 
 
 def _echo(report: dict[str, Any]) -> None:
     read = report["read"]
     click.echo(f"{report['events']} camera events ({report['source']}); {read['skipped_bytes']} bytes skipped in "
-               f"{len(read['skipped'])} place(s)")
+               f"{read.get('skipped_places', len(read['skipped']))} place(s), {read.get('dropped_events', 0)} event(s) "
+               "dropped")
     img = report.get("images")
     if img is not None:
         off = img["clock_offset_s"]

@@ -49,6 +49,7 @@ class Format:
     columns: list[str]
     dtype: np.dtype | None = None
     scale: dict[str, float] = field(default_factory=dict)
+    undecoded: frozenset[str] = frozenset()  # columns whose format character was damaged (`_repair_format`)
 
 
 def _dtype(fmt: str, columns: list[str]) -> tuple[np.dtype, dict[str, float]] | None:
@@ -106,6 +107,26 @@ def check_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) ->
     return None
 
 
+#: a format character of each size, standing in for a damaged one of that size
+_OF_SIZE = {1: "B", 2: "H", 4: "I", 8: "Q", 16: "N", 64: "Z"}
+
+
+def _repair_format(typ: int, length: int, name: bytes, fmt: bytes, cols: bytes) -> tuple[bytes, int] | None:
+    """(the format with its one damaged character replaced, that character's index) when an FMT
+    record holds together but for one format character that is not a DataFlash one: its length,
+    its column names (one per character) and its other characters give that character's size, so
+    the record still frames its messages and decodes every other column; None otherwise."""
+    f, c = _cstr(fmt), _cstr(cols)
+    bad = [i for i, b in enumerate(f) if chr(b) not in _SIZES]
+    if len(bad) != 1 or len(c.split(b",")) != len(f):
+        return None
+    size = length - 3 - sum(_SIZES[chr(b)] for i, b in enumerate(f) if i != bad[0])
+    if size not in _OF_SIZE:
+        return None
+    fixed = f[:bad[0]] + _OF_SIZE[size].encode() + f[bad[0] + 1:]
+    return (fixed, bad[0]) if check_format(typ, length, name, fixed, cols) is None else None
+
+
 @dataclass
 class Skip:
     """Bytes the reader did not take as messages, and why.
@@ -155,9 +176,17 @@ class DataFlashLog:
             self._reject = "FMT record cut off at the end of the file"
             return False
         why = check_format(typ, length, name, fmt, cols)
+        undecoded: frozenset[str] = frozenset()
         if why is not None:
-            self._reject = why
-            return False
+            repaired = _repair_format(typ, length, name, fmt, cols)
+            if repaired is None:
+                self._reject = why
+                return False
+            fmt, at = repaired
+            col = _cstr(cols).split(b",")[at].decode("ascii", "replace")
+            undecoded = frozenset([col])
+            self._skip(o + 3 + 6 + at, 1, f"{why}: character {at + 1} damaged; the record's length and other characters "
+                       f"still frame its messages, column {col} is not decoded", "format")
         name_s, fmt_s, cols_s = (_cstr(x).decode("ascii", "replace") for x in (name, fmt, cols))
         bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
         if bad:
@@ -166,6 +195,8 @@ class DataFlashLog:
         columns = cols_s.split(",") if cols_s else []
         old = self.formats.get(typ)
         if old is not None:
+            if (old.length, old.name, old.fmt, old.columns) == (length, name_s, fmt_s, columns) and not undecoded:
+                old.undecoded = frozenset()  # an intact copy of a repaired record: every column decodes
             if (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns):
                 self._skip(o, FMT_LEN, f"FMT record redefines type {typ} ({old.name}, {old.fmt}, {old.length} bytes) as "
                                        f"{name_s}, {fmt_s}, {length} bytes: ignored, the first definition is kept", "format")
@@ -178,7 +209,7 @@ class DataFlashLog:
         # FMT-for-FMT names four columns for "BBnNZ"; some EKF5 records list 10 names for 13
         # fields) and records with no fields at all (STRT). Their length still frames the
         # messages, so the type is kept; it just cannot be decoded into named columns.
-        f = Format(typ, length, name_s, fmt_s, columns)
+        f = Format(typ, length, name_s, fmt_s, columns, undecoded=undecoded)
         dt = _dtype(fmt_s, columns) if fmt_s and len(columns) == len(fmt_s) else None
         if dt is not None and dt[0].itemsize == length - 3:
             f.dtype, f.scale = dt
@@ -194,6 +225,7 @@ class DataFlashLog:
         o = 0
         find = buf.find
         resync = False  # True after damage: the next header must be confirmed by the one after it
+        last = -1  # offset of the last message taken
         while o + 3 <= n:
             if buf[o] == 0xA3 and buf[o + 1] == 0x95:
                 t = buf[o + 2]
@@ -222,11 +254,22 @@ class DataFlashLog:
                     if a is None:
                         a = offsets[t] = array("Q")
                     a.append(o)
+                    last = o
                     o += ln
                     continue
                 reason = "message cut off at the end of the file" if ln else f"unknown message type {t}"
             else:
                 reason = "bytes outside any message"
+            # damage right after a message taken as it stood: damage may have cut that one short
+            # (a message after it starts inside it), then it is damage and the scan goes on there
+            lt = buf[last + 2] if last >= 0 else FMT_TYPE
+            if not resync and lt != FMT_TYPE and last + lengths[lt] == o:
+                cut = self._cut_at(last, o, lengths)
+                if cut is not None:
+                    offsets[lt].pop()
+                    self._skip(last, cut - last, "message cut off by damage")
+                    o, last = cut, -1
+                    continue
             nxt = find(HEAD, o + 1)
             end = nxt if nxt >= 0 else n
             self._skip(o, end - o, reason)
@@ -234,6 +277,22 @@ class DataFlashLog:
             resync = True
         if o < n:
             self._skip(o, n - o, "message cut off at the end of the file")
+
+    def _cut_at(self, o: int, e: int, lengths: list[int]) -> int | None:
+        """Where a message that seems to span [o, e) really ends, when damage cut it short: it is
+        not followed by a header (nor the end of the file), and a header inside it frames a
+        message that is (the first such one). None when the message stands as it is."""
+        buf, n = self._buf, self.size
+        if e >= n - 1 or buf[e:e + 2] == HEAD:
+            return None
+        h = buf.find(HEAD, o + 1, e + 1)  # a header may start on the message's last byte
+        while h >= 0:
+            ln = lengths[buf[h + 2]] if h + 2 < n else 0
+            f = h + ln
+            if ln and f <= n and (f >= n - 1 or buf[f:f + 2] == HEAD):
+                return h
+            h = buf.find(HEAD, h + 1, e + 1)
+        return None
 
     def _skip(self, offset: int, length: int, reason: str, kind: str = "damage") -> None:
         last = self.skipped[-1] if self.skipped else None
@@ -301,6 +360,8 @@ class DataFlashLog:
         rec = self._rows(f, self.message_offsets(name), f.dtype.itemsize).view(f.dtype).reshape(-1)
         out: dict[str, np.ndarray] = {}
         for col in f.dtype.names or ():
+            if col in f.undecoded:
+                continue
             v = rec[col]
             if scaled and col in f.scale:
                 v = v.astype(np.float64) * f.scale[col]

@@ -53,6 +53,8 @@ class ReadInfo(TypedDict):
     skipped: list[SkipInfo]  # the first MAX_SKIPS places, in file order
     skipped_places: int  # all places
     dropped_events: int  # camera events the log holds but the checks dropped (repeats, implausible)
+    implausible_events: int  # of those, events whose fields disagree with the log (kind "event"), each once
+    lost_bytes: int  # bytes skipped as damage or a rejected FMT record (kinds "damage", "format")
     checks: str  # what the events were checked against
 
 
@@ -65,12 +67,28 @@ EVENT_TRACK_M = 30.0
 EVENT_WINDOW_S = 1.0
 #: without a GPS fix in the window, the bracketing fixes, with this much more per second away
 EVENT_GAP_MS = 60.0
+#: an event's own fields against the track: projected on the GPS track (the fixes within
+#: EVENT_WINDOW_S of its time), its position gives the time the track passed there and its
+#: distance from the track. Every event of a log shares one GPS lag, so the event's time minus
+#: that track time is one constant and its distance one small figure, within a spread the log
+#: shows itself; an event whose time or place lies more than EVENT_SPREAD robust standard
+#: deviations (1.4826 median absolute deviations) off, and more than the floors below, is not
+#: the event the autopilot logged. Measured on the SITL logs of tests/data (the track's times from
+#: the fixes' own GPS time, `_on_track`): the time offsets lie within 7.5 ms of their median
+#: (plane at 16 m/s, copter at 10 m/s), the distances within 0.04 m of the track. Events slower than TRACK_MIN_SPEED_MS along the
+#: track are not checked for time (the place says little about the time when the vehicle hovers).
+EVENT_SPREAD = 4.0
+EVENT_TIME_FLOOR_S = 0.02
+EVENT_CROSS_FLOOR_M = 2.0
+TRACK_MIN_SPEED_MS = 2.0
 
 
 def _info(size: int, messages: int, skips: list[SkipInfo], dropped: int, checks: str) -> ReadInfo:
     skips = sorted(skips, key=lambda s: s["offset"])
     return {"bytes": size, "messages": messages, "skipped_bytes": sum(s["length"] for s in skips),
-            "skipped": skips[:MAX_SKIPS], "skipped_places": len(skips), "dropped_events": dropped, "checks": checks}
+            "skipped": skips[:MAX_SKIPS], "skipped_places": len(skips), "dropped_events": dropped,
+            "implausible_events": sum(s["kind"] == "event" for s in skips),
+            "lost_bytes": sum(s["length"] for s in skips if s["kind"] in ("damage", "format")), "checks": checks}
 
 
 def _longest_increasing(t: np.ndarray) -> np.ndarray:
@@ -103,9 +121,20 @@ def _local_m(lat: np.ndarray, lon: np.ndarray, lat0: float, lon0: float) -> tupl
     return (lon - lon0) * k * math.cos(math.radians(lat0)), (lat - lat0) * k
 
 
-def _gps_track(log: DataFlashLog) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(time_s or NaN, lat, lon) of the log's GPS fixes that can be fixes: 3D fix where the layout
-    logs its status, a position on the globe and not 0/0."""
+@dataclass(frozen=True)
+class _Track:
+    """The log's GPS fixes in time order, each once (a copied chunk repeats some)."""
+
+    t: np.ndarray  # seconds since boot, or NaN
+    lat: np.ndarray
+    lon: np.ndarray
+    week: np.ndarray | None  # GPS week and milliseconds of the week of each fix, when logged
+    ms: np.ndarray | None
+
+
+def _gps_track(log: DataFlashLog) -> _Track | None:
+    """The log's GPS fixes that can be fixes: 3D fix where the layout logs its status, a
+    position on the globe and not 0/0."""
     g = log.messages("GPS")
     if not g or "Lat" not in g or "Lng" not in g:
         return None
@@ -113,19 +142,76 @@ def _gps_track(log: DataFlashLog) -> tuple[np.ndarray, np.ndarray, np.ndarray] |
     ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0))
     if "Status" in g:
         ok &= np.asarray(g["Status"]) >= 3
+    if "I" in g:  # the first receiver's fixes (a second one has a clock and a lag of its own)
+        ok &= np.asarray(g["I"]) == 0
     t = np.asarray(g["TimeUS"], float) / 1e6 if "TimeUS" in g else np.full(len(lat), np.nan)
     if not ok.any():
         return None
-    order = np.argsort(t[ok], kind="stable")
-    return t[ok][order], lat[ok][order], lon[ok][order]
+    clock = "GWk" in g and "GMS" in g
+    week = np.asarray(g["GWk"], float) if clock else np.zeros(len(lat))
+    ms = np.asarray(g["GMS"], float) if clock else np.zeros(len(lat))
+    rows = np.unique(np.column_stack([t, lat, lon, week, ms])[ok], axis=0)  # in time order, repeats once
+    rows = rows[~_damaged_fixes(rows, clock)]
+    return _Track(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] if clock else None, rows[:, 4] if clock else None)
 
 
-def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray,
-                    track: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+#: a GPS fix is damaged, and left out of the track the events are checked against, when its
+#: GPS clock minus boot clock lies more than FIX_CLOCK_S from its neighbours' (the median of
+#: five fixes), when its GPS time falls off the receiver's fix grid (the commonest step between
+#: fixes) on both sides, or when its place lies off the line between the fixes either side by
+#: more than the fixes around it do (a turn bends every fix alike), by FIX_PLACE_M and
+#: EVENT_SPREAD robust standard deviations of the log's own fixes. Measured on the SITL logs of tests/data: the clocks
+#: agree within 20 ms (the logging delay), the places within centimetres on straight legs.
+FIX_CLOCK_S = 0.05
+FIX_PLACE_M = 0.2
+#: the logging delay of a GPS message after its fix varies by a loop or two (about 20 ms)
+GPS_CLOCK_SLACK_S = 0.05
+
+
+def _damaged_fixes(rows: np.ndarray, clock: bool) -> np.ndarray:
+    """Mask of the fixes (rows of time, lat, lon, week, ms in time order) that disagree with
+    their neighbours: a flipped bit in a GPS message would otherwise move the track."""
+    n = len(rows)
+    bad = np.zeros(n, bool)
+    if n < 5 or not np.isfinite(rows[:, 0]).all():
+        return bad
+    t = rows[:, 0]
+    if clock:
+        gps_s = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0
+        r = gps_s - t
+        near = np.median(np.lib.stride_tricks.sliding_window_view(np.pad(r, 2, mode="edge"), 5), axis=1)
+        bad |= np.abs(r - near) > FIX_CLOCK_S
+        step_ms = np.round(np.diff(gps_s) * 1000.0)
+        steps, counts = np.unique(step_ms[step_ms > 0], return_counts=True)
+        if len(steps):
+            off = (step_ms % steps[np.argmax(counts)]) != 0
+            bad |= np.r_[off[0], off[1:] & off[:-1], off[-1]]
+    keep = np.flatnonzero(~bad)  # the places are judged among the fixes whose clocks hold
+    if len(keep) < 5:
+        return bad
+    rows, t = rows[keep], t[keep]
+    n = len(rows)
+    x, y = _local_m(rows[:, 1], rows[:, 2], float(np.median(rows[:, 1])), float(np.median(rows[:, 2])))
+    when = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0 if clock else t  # the fixes' own time: no logging jitter
+    span = when[2:] - when[:-2]
+    f = np.where(span > 0, (when[1:-1] - when[:-2]) / np.where(span > 0, span, 1.0), 0.5)
+    dev = np.zeros(n)
+    dev[1:-1] = np.hypot(x[:-2] + f * (x[2:] - x[:-2]) - x[1:-1], y[:-2] + f * (y[2:] - y[:-2]) - y[1:-1])
+    # a turn bends the track at every fix alike, a damaged fix bends it at itself (and half as much
+    # at its neighbours): its deviation stands out from the median of the five around it
+    excess = dev - np.median(np.lib.stride_tricks.sliding_window_view(np.pad(dev, 2, mode="edge"), 5), axis=1)
+    limit = max(FIX_PLACE_M, EVENT_SPREAD * 1.4826 * float(np.median(np.abs(excess[1:-1]))))
+    peak = np.zeros(n, bool)
+    peak[1:-1] = (excess[1:-1] > limit) & (dev[1:-1] >= dev[:-2]) & (dev[1:-1] >= dev[2:])
+    bad[keep[peak]] = True
+    return bad
+
+
+def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> np.ndarray:
     """Distance (m) from each event to the GPS track: to the nearest fix within EVENT_WINDOW_S of
     its time, less the allowance for the bracketing fixes when none is that near (events
     without a time: to the nearest fix of the whole track)."""
-    gt, glat, glon = track
+    gt, glat, glon = track.t, track.lat, track.lon
     gx, gy = _local_m(glat, glon, float(np.median(glat)), float(np.median(glon)))
     ex, ey = _local_m(lat, lon, float(np.median(glat)), float(np.median(glon)))
     timed = np.isfinite(gt).all() and len(gt) > 0
@@ -146,16 +232,105 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray,
     return out
 
 
+def _fix_times(track: _Track) -> np.ndarray:
+    """The fixes' times on the boot clock, from their own GPS time where the log has it: a GPS
+    message is logged up to a loop or two after its fix (tens of ms of jitter, and a damaged
+    time stamp), the fix times are exact; the two clocks' offset is the median over the nearest
+    51 fixes (it drifts slowly over a flight)."""
+    gt = track.t
+    if track.week is None or track.ms is None or len(gt) < 5:
+        return gt
+    gps_s = track.week * 604_800.0 + track.ms / 1000.0
+    w = min(51, len(gt) - (len(gt) + 1) % 2)
+    core = np.median(np.lib.stride_tricks.sliding_window_view(gt - gps_s, w), axis=1)
+    return np.asarray(gps_s + np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])])  # ends: first, last w
+
+
+def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the event's time minus the time the GPS track passed its place, its distance from the
+    track (m), the track's speed there (m/s)) of each event: its position projected on the
+    nearest segment between two fixes within EVENT_WINDOW_S of its time; NaN where there is none,
+    where the nearest point is a segment's end (the event lies beyond it: the track's end, a
+    gap), or where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
+    damage took the fixes between)."""
+    gt = track.t
+    n = len(t)
+    dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    if not (len(gt) > 1 and np.isfinite(gt).all()):
+        return dt_out, d_out, v_out
+    gt = _fix_times(track)
+    lat0, lon0 = float(np.median(track.lat)), float(np.median(track.lon))
+    gx, gy = _local_m(track.lat, track.lon, lat0, lon0)
+    ex, ey = _local_m(lat, lon, lat0, lon0)
+    gap = 2.5 * float(np.median(np.diff(gt)))
+    for i in np.flatnonzero(np.isfinite(t) & np.isfinite(ex) & np.isfinite(ey)).tolist():
+        a = max(int(np.searchsorted(gt, t[i] - EVENT_WINDOW_S)) - 1, 0)
+        b = min(int(np.searchsorted(gt, t[i] + EVENT_WINDOW_S, "right")), len(gt) - 1)
+        if b <= a:
+            continue
+        ax, ay, dx, dy = gx[a:b], gy[a:b], gx[a + 1:b + 1] - gx[a:b], gy[a + 1:b + 1] - gy[a:b]
+        dur = gt[a + 1:b + 1] - gt[a:b]
+        length2 = dx * dx + dy * dy
+        ok = (length2 > 0) & (dur > 0) & (dur <= gap)
+        if not ok.any():
+            continue
+        u = np.clip(((ex[i] - ax) * dx + (ey[i] - ay) * dy) / np.where(ok, length2, 1.0), 0.0, 1.0)
+        d = np.where(ok, np.hypot(ax + u * dx - ex[i], ay + u * dy - ey[i]), np.inf)
+        k = int(np.argmin(d))
+        if not np.isfinite(d[k]) or u[k] in (0.0, 1.0):  # beyond the segment: a gap, or the track's end
+            continue
+        dt_out[i] = t[i] - (gt[a + k] + u[k] * dur[k])
+        d_out[i] = d[k]
+        v_out[i] = math.sqrt(length2[k]) / dur[k]
+    return dt_out, d_out, v_out
+
+
+def _off_spread(v: np.ndarray, floor: float, one_sided: bool = False) -> tuple[np.ndarray, float, float]:
+    """(mask of the values farther from their median than the limit, the median, the limit):
+    the limit is EVENT_SPREAD robust standard deviations of the values, and at least `floor`."""
+    fin = v[np.isfinite(v)]
+    if len(fin) < 5:  # too few to know the log's own spread
+        return np.zeros(len(v), bool), math.nan, math.nan
+    med = float(np.median(fin))
+    limit = max(floor, EVENT_SPREAD * 1.4826 * float(np.median(np.abs(fin - med))))
+    off = (v - med) if one_sided else np.abs(v - med)
+    return np.isfinite(v) & (off > limit), med, limit
+
+
+def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: _Track) -> np.ndarray:
+    """Events whose boot time lies outside the span from the GPS fix their own GPS time names
+    to the next fix, by more than GPS_CLOCK_SLACK_S: ArduPilot writes the time of the last fix
+    into a CAM message, so it was logged after that fix and before the next one. The fixes'
+    times are `_fix_times` (logging jitter and damaged GPS time stamps aside). Events whose fix
+    is not in the log (or was left out as damaged) are not checked."""
+    bad = np.zeros(len(time_s), bool)
+    if track.week is None or track.ms is None or not np.isfinite(track.t).all():
+        return bad
+    keys = track.week * 604_800_000.0 + track.ms
+    order = np.argsort(keys, kind="stable")
+    ev = week * 604_800_000.0 + ms
+    at = np.clip(np.searchsorted(keys[order], ev), 0, len(keys) - 1)
+    fix = order[at]
+    named = np.isfinite(ev) & (keys[fix] == ev) & np.isfinite(time_s)
+    ft = _fix_times(track)
+    t_next = np.append(ft[1:], np.inf)[fix]
+    return np.asarray(named & ((time_s < ft[fix] - GPS_CLOCK_SLACK_S) | (time_s > t_next + GPS_CLOCK_SLACK_S)), bool)
+
+
 def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     """CAM messages (or TRIG when no CAM was logged) of an ArduPilot DataFlash log, checked.
 
-    Dropped, each with its place and reason in the report: messages that repeat an earlier
-    one byte for byte (a copied chunk: every message carries a time stamp, so no two real
-    ones are equal); events with no position on the globe; events farther than EVENT_TRACK_M
-    from every GPS fix logged within EVENT_WINDOW_S of them (the log's own track: damaged or
-    invented positions and times); events whose time breaks the order of the others (the
-    fewest are dropped that leave the times strictly increasing in file order). One log is
-    one boot of the autopilot (ArduPilot starts a new file at each), so its times increase.
+    Kept: one copy of every event. A copied chunk of the log repeats messages byte for byte
+    (every message carries a time stamp, so no two real ones are equal), before, after or
+    overlapping its source; of the copies, the one that fits the time order of the others is
+    kept and the rest are reported as repeats. Dropped, each with its place and reason in the
+    report, events whose own fields disagree with the log: no position on the globe; a time
+    outside the span of the log's GPS messages; farther than EVENT_TRACK_M from every GPS fix
+    logged within EVENT_WINDOW_S; a boot time outside the span of the GPS fix its own GPS time
+    names; a time or a place off the GPS track beyond the log's own spread (`_on_track`); a time
+    that breaks the order of the others (the fewest are dropped that leave the times strictly
+    increasing in file order). One log is one boot of the autopilot (ArduPilot starts a new
+    file at each), so its times increase.
     """
     with DataFlashLog(path) as log:
         source = "CAM"
@@ -186,32 +361,25 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     # logs GPSTime,GPSWeek,Lat,Lng,Alt,Roll,Pitch,Yaw (no boot time, no RelAlt), 3.2 adds RelAlt,
     # later versions add TimeUS (and GPSAlt), and ArduCopter 4.6 names the attitude R,P,Y.
     time_s = get("TimeUS") / 1e6 if "TimeUS" in cam else get("TimeMS") / 1e3
-    utc = gps_to_utc(get("GPSWeek"), get("GPSTime")) if "GPSWeek" in cam and "GPSTime" in cam else None
+    has_clock = "GPSWeek" in cam and "GPSTime" in cam
+    utc = gps_to_utc(get("GPSWeek"), get("GPSTime")) if has_clock else None
     lat, lon = get("Lat"), get("Lng")
+    original = np.where(rep >= 0, rep, np.arange(n))  # the first copy of each message
 
     keep = np.ones(n, bool)
 
     def drop(mask: np.ndarray, kind: str, why: str | Callable[[int], str]) -> None:
-        for i in np.flatnonzero(mask & keep).tolist():
+        for i in np.flatnonzero(mask & keep & (original == np.arange(n))).tolist():
             skips.append({"offset": int(offs[i]), "length": rec_len, "kind": kind,
                           "reason": f"{source} event at {_when(time_s, utc, i)}: " + (why(i) if callable(why) else why)})
         keep[mask] = False
 
-    # a run of repeats (each the message after the one the previous repeats) is one place
-    runs = np.flatnonzero(rep >= 0)
-    for run in np.split(runs, np.flatnonzero(np.diff(rep[runs]) != 1) + 1) if len(runs) else []:
-        first, last = int(run[0]), int(run[-1])
-        skips.append({"offset": int(offs[first]), "length": int(offs[last] - offs[first]) + rec_len, "kind": "repeat",
-                      "reason": f"{len(run)} {source} event(s) from {_when(time_s, utc, first)} to {_when(time_s, utc, last)} "
-                                f"repeat the messages from offset {int(offs[rep[first]])} on byte for byte (a copied "
-                                "chunk of the log); dropped"})
-    keep[runs] = False
     bad_pos = ~(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0)))
     drop(bad_pos, "event", lambda i: f"position {lat[i]:.7f}, {lon[i]:.7f} is not a place on the globe; dropped")
     if track is not None:
-        checks = f"GPS track ({len(track[0])} fixes), time order"
+        checks = f"GPS track ({len(track.t)} fixes), time order"
         tcheck = time_s if np.isfinite(time_s).all() else np.full(n, np.nan)
-        gt = track[0]
+        gt = track.t
         if np.isfinite(gt).all() and np.isfinite(tcheck).all():
             lo, hi = float(gt[0]) - EVENT_WINDOW_S, float(gt[-1]) + EVENT_WINDOW_S
             drop((tcheck < lo) | (tcheck > hi), "event",
@@ -220,16 +388,50 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
         dist[keep] = _far_from_track(tcheck[keep], lat[keep], lon[keep], track)
         drop(dist > EVENT_TRACK_M, "event", lambda i: f"{lat[i]:.7f}, {lon[i]:.7f} lies {dist[i]:.0f} m from the "
              f"log's GPS track within {EVENT_WINDOW_S:g} s of its time (allowed {EVENT_TRACK_M:g} m); dropped")
+        if has_clock:
+            checks += ", GPS clock"
+            week, ms = get("GPSWeek"), get("GPSTime")
+            drop(_off_gps_clock(tcheck, week, ms, track), "event",
+                 lambda i: f"its boot time lies outside the span of the GPS fix its GPS time ({week[i]:.0f}, "
+                           f"{ms[i]:.0f} ms) names; dropped")
+        lag, cross, speed = (np.full(n, np.nan) for _ in range(3))
+        lag[keep], cross[keep], speed[keep] = _on_track(tcheck[keep], lat[keep], lon[keep], track)
+        if np.isfinite(cross).any():
+            checks += ", place and time on the GPS track"
+        far, _, far_limit = _off_spread(cross, EVENT_CROSS_FLOOR_M, one_sided=True)
+        drop(far, "event", lambda i: f"{lat[i]:.7f}, {lon[i]:.7f} lies {cross[i]:.2f} m off the log's GPS track, "
+             f"more than the log's own spread allows ({far_limit:.2f} m); dropped")
+        lag[speed < TRACK_MIN_SPEED_MS] = np.nan
+        late, lag_med, lag_limit = _off_spread(lag, EVENT_TIME_FLOOR_S)
+        drop(late, "event", lambda i: f"the GPS track passed its place at {time_s[i] - lag[i]:.3f} s, "
+             f"{1e3 * (lag[i] - lag_med):+.0f} ms off the log's own lag ({1e3 * lag_med:.0f} ms, allowed "
+             f"{1e3 * lag_limit:.0f} ms): its time or place is not the logged one; dropped")
     else:
         checks = "time order (no GPS fixes in the log)"
     key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else None
     if key is not None:
+        # copies of one message have one time, so an increasing sequence takes at most one of them
         idx = np.flatnonzero(keep)
-        order_ok = np.zeros(n, bool)
-        order_ok[idx[_longest_increasing(key[idx])]] = True
-        drop(~order_ok, "event", "its time breaks the order of the log's other events; dropped")
+        in_order = np.zeros(n, bool)
+        in_order[idx[_longest_increasing(key[idx])]] = True
+        kept_copy = np.zeros(n, bool)
+        kept_copy[original[in_order]] = True
+        repeat = keep & ~in_order & kept_copy[original]
     else:
         checks += " (events have no time)"
+        in_order = keep.copy()
+        repeat = keep & (rep >= 0)
+        in_order[repeat] = False
+    # a run of copies dropped (each the message after the previous one in the file) is one place
+    runs = np.flatnonzero(repeat)
+    for run in np.split(runs, np.flatnonzero(np.diff(runs) != 1) + 1) if len(runs) else []:
+        first, last = int(run[0]), int(run[-1])
+        skips.append({"offset": int(offs[first]), "length": int(offs[last] - offs[first]) + rec_len, "kind": "repeat",
+                      "reason": f"{len(run)} {source} event(s) from {_when(time_s, utc, first)} to {_when(time_s, utc, last)} "
+                                "repeat other messages of the log byte for byte (a copied chunk of the log); the copy "
+                                "that fits the time order of the others is kept, these are dropped"})
+    keep[repeat] = False
+    drop(keep & ~in_order, "event", "its time breaks the order of the log's other events; dropped")
     info = _info(path.stat().st_size, messages, skips, int(n - keep.sum()), checks)
     if not keep.any():
         raise InputError(f"{path.name}: none of the {n} {source} events in the log is plausible "
@@ -294,7 +496,7 @@ def from_tlog(path: Path) -> tuple[Events, ReadInfo]:
     rows = [(m.time_usec, m.lat * 1e-7, m.lng * 1e-7, m.alt_msl, m.alt_rel, m.roll, m.pitch, m.yaw)
             for m in msgs if m.get_type() == "CAMERA_FEEDBACK"]
     info = _info(len(data), len(msgs), [], 0, "none")
-    info["skipped_bytes"] = skipped  # the walker counts bytes, not places
+    info["skipped_bytes"] = info["lost_bytes"] = skipped  # the walker counts bytes, not places
     if not rows:
         raise InputError(f"{path.name}: no CAMERA_FEEDBACK messages in the telemetry log ({len(msgs)} messages read)")
     a = np.asarray(rows, float)

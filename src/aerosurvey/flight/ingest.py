@@ -41,6 +41,22 @@ from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import apply_overrides, select_profiles
 
 _EARTH_M = 6_371_000.0
+#: `log ingest` fails (exit 1, outputs written) when reading lost more than this share of the
+#: log's bytes to damage, or dropped more than this share of its camera events as implausible
+MAX_LOST_SHARE = 0.01
+
+
+def losses_beyond_share(log_name: str, read: dict[str, Any], events: int) -> str | None:
+    """What reading the log lost, when it is more than MAX_LOST_SHARE of its bytes or of its
+    camera events (copies of a chunk are not lost: each of their events is kept once)."""
+    implausible, lost = int(read["implausible_events"]), int(read["lost_bytes"])
+    logged = events + implausible
+    if implausible <= MAX_LOST_SHARE * logged and lost <= MAX_LOST_SHARE * read["bytes"]:
+        return None
+    return (f"flight log {log_name!r}: {implausible} of {logged} camera events dropped as implausible "
+            f"({100 * implausible / max(logged, 1):.1f} %) and {lost} of {read['bytes']} bytes skipped as damage "
+            f"({100 * lost / max(read['bytes'], 1):.1f} %), more than the {100 * MAX_LOST_SHARE:g} % allowed; the outputs "
+            "are written: see log_report.json's read.skipped for where and why")
 
 
 @dataclass(frozen=True)

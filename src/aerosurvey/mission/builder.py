@@ -3,9 +3,15 @@
 Per photo run: a lead-in waypoint (straight approach), the first station with the camera
 switched on (DO_SET_CAM_TRIGG_DIST with 'trigger once now'), terrain waypoints where the
 `follow` mode needs them, a line-end waypoint half a photo base past the last station
-(ArduPilot does not take the picture that falls exactly on the waypoint,
-as seen in ArduPilot SITL), and the camera switched off again so no photos are taken in
-turns.
+(ArduPilot does not take the picture that falls exactly on the waypoint, as seen in its
+SITL), and the camera switched off again so no photos are taken in turns.
+
+The DO commands after a waypoint run when the vehicle reaches it (ArduPilot's AP_Mission
+starts them with the next navigation item), so the camera switches on at the first station
+with a picture at once, and off at the line end. Between, ArduPilot checks the distance at
+50 Hz and takes a picture at the first check that lies the trigger distance or more from the
+last one (AP_Camera_Backend::update): pictures land a whole number of check steps apart,
+the spacing the stations are laid at (plan/photogrammetry.py, distance_trigger).
 
 Dialects: ArduCopter (takeoff, optional CONDITION_YAW for one fixed heading, RTL or LAND
 at the launch point), ArduPlane (takeoff with 15° pitch, then RTL, or DO_LAND_START, an

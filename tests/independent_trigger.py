@@ -1,0 +1,158 @@
+"""An independent model of ArduPilot's camera triggering, replayed on an exported mission file.
+
+It shares no code with the planner or the mission writers: it reads `mission.waypoints` (QGC
+WPL 110) line by line as ArduPilot's mission library takes the items, flies the vehicle along
+straight legs between the navigation waypoints at the DO_CHANGE_SPEED speed, and runs the
+camera library's rules at its 50 Hz update, as ArduPilot's source has them (AP_Mission.cpp,
+AP_Camera.cpp, AP_Camera_Backend.cpp):
+
+- the DO commands between two navigation items run when the vehicle reaches the first of them
+  (AP_Mission::advance_current_nav_cmd starts them together with the next navigation item);
+- DO_SET_CAM_TRIGG_DIST sets the trigger distance (param1); param3 = 1 takes a picture at once,
+  and every picture remembers the place it was taken (AP_Camera_Backend::take_picture);
+- at each 50 Hz update: with no positive distance the remembered place is forgotten; with one and
+  no remembered place, the current place is remembered (no picture); otherwise a picture is taken
+  when the straight distance from the remembered place is the trigger distance or more
+  (AP_Camera_Backend::update), measured as ArduPilot's Location::get_distance does (flat earth,
+  longitudes scaled by the cosine of the mean latitude);
+- DO_SET_CAM_TRIGG_INTERVAL (param1 ms > 0) is a camera clock: a picture at once, then one each
+  interval of flight time (at the set speed), until the interval is set to 0.
+
+Each picture carries the index of its trigger-on block (`block`): the photos between one
+"camera on" and the next "camera off", which are one planned run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+NAV_WAYPOINT, NAV_TAKEOFF, NAV_LAND, NAV_RTL = 16, 22, 21, 20
+DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL = 178, 206, 214
+UPDATE_HZ = 50.0
+#: ArduPilot's LOCATION_SCALING_FACTOR: metres per 1e-7 degree of latitude
+_M_PER_DEG = 0.011131884502145034 * 1e7
+
+
+@dataclass(frozen=True)
+class Item:
+    seq: int
+    frame: int
+    command: int
+    params: tuple[float, float, float, float]
+    lat: float
+    lon: float
+    alt: float
+
+
+def read_waypoints(path: Path) -> tuple[Item, list[Item]]:
+    """Home and the mission items of a QGC WPL 110 file."""
+    lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
+    assert lines[0].split() == ["QGC", "WPL", "110"], lines[0]
+    items = []
+    for ln in lines[1:]:
+        f = ln.split("\t")
+        assert len(f) == 12, ln
+        items.append(Item(int(f[0]), int(f[2]), int(f[3]), (float(f[4]), float(f[5]), float(f[6]), float(f[7])),
+                          float(f[8]), float(f[9]), float(f[10])))
+    return items[0], items[1:]
+
+
+def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """ArduPilot's Location::get_distance: flat earth, longitude scaled at the mean latitude."""
+    scale = math.cos(math.radians((lat1 + lat2) / 2.0))
+    return math.hypot(lat2 - lat1, (lon2 - lon1) * scale) * _M_PER_DEG
+
+
+@dataclass
+class Photo:
+    lat: float
+    lon: float
+    block: int  # trigger-on block: 0 for the first "camera on" of the mission, 1 for the next …
+
+
+@dataclass
+class _Camera:
+    dist: float = 0.0
+    interval_m: float = 0.0  # camera clock as metres of flight at the set speed
+    last: tuple[float, float] | None = None
+    flown: float = 0.0  # metres flown since the camera clock's last picture
+    block: int = -1
+    photos: list[Photo] = field(default_factory=list)
+
+    def picture(self, lat: float, lon: float) -> None:
+        self.photos.append(Photo(lat, lon, self.block))
+        self.last = (lat, lon)
+        self.flown = 0.0
+
+    def update(self, lat: float, lon: float) -> None:
+        """AP_Camera_Backend::update's distance trigger at one 50 Hz tick."""
+        if self.interval_m > 0:
+            if self.flown >= self.interval_m:
+                self.picture(lat, lon)
+            return
+        if self.dist <= 0:
+            self.last = None
+            return
+        if self.last is None:
+            self.last = (lat, lon)
+            return
+        if self.last == (lat, lon):
+            return
+        if distance_m(self.last[0], self.last[1], lat, lon) >= self.dist:
+            self.picture(lat, lon)
+
+
+def replay(path: Path) -> list[Photo]:
+    """The pictures ArduPilot takes flying the mission file, in order."""
+    home, items = read_waypoints(path)
+    cam = _Camera()
+    here = (home.lat, home.lon)
+    speed = 0.0
+    tick = 0.0  # metres to the next 50 Hz update
+    pending: list[Item] = []  # DO commands waiting for the vehicle to reach the previous navigation item
+
+    def run_do(it: Item) -> None:
+        nonlocal speed
+        if it.command == DO_CHANGE_SPEED and it.params[1] > 0:
+            speed = it.params[1]
+        elif it.command == DO_SET_CAM_TRIGG_DIST:
+            cam.dist = it.params[0]
+            if cam.dist > 0:
+                cam.block += 1
+            if it.params[2] == 1:
+                cam.picture(*here)
+        elif it.command == DO_SET_CAM_TRIGG_INTERVAL:
+            cam.interval_m = speed * it.params[0] / 1000.0 if it.params[0] > 0 else 0.0
+            if cam.interval_m > 0:
+                cam.block += 1
+                cam.picture(*here)
+
+    for it in items:
+        if it.command not in (NAV_WAYPOINT, NAV_TAKEOFF, NAV_LAND, NAV_RTL):
+            pending.append(it)
+            continue
+        for do in pending:  # reached the previous navigation item: its DO commands run
+            run_do(do)
+        pending = []
+        if it.command == NAV_RTL:
+            target = (home.lat, home.lon)
+        elif it.lat == 0 and it.lon == 0 or it.command == NAV_TAKEOFF:
+            target = here
+        else:
+            target = (it.lat, it.lon)
+        length = distance_m(here[0], here[1], target[0], target[1])
+        step = speed / UPDATE_HZ if speed > 0 else 0.1
+        s = 0.0
+        while length > 0 and s + tick <= length:
+            s += tick
+            cam.flown += tick
+            f = s / length
+            cam.update(here[0] + (target[0] - here[0]) * f, here[1] + (target[1] - here[1]) * f)
+            tick = step
+        if length > 0:
+            tick -= length - s
+            cam.flown += length - s
+        here = target
+    return cam.photos
