@@ -415,8 +415,9 @@ def test_flight_results_drawn_against_the_plan(tmp_path):
 def test_static_page_is_served(obratan):
     with client(obratan) as c:
         r = c.get("/")
-        assert r.status_code == 200 and '<svg id="map"' in r.text
-        assert c.get("/static/app.js").status_code == 200 and c.get("/static/style.css").status_code == 200
+        assert r.status_code == 200 and '<div id="map"' in r.text
+        for path in ("/static/app.js", "/static/style.css", "/static/vendor/olb.js", "/static/vendor/ol.css"):
+            assert c.get(path).status_code == 200, path
 
 
 def test_serve_refuses_bad_options(tmp_path):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from webutil import REPO, copy_mission
+from webutil import REPO, copy_mission, tile_png
 
 from aerosurvey.cli import main
 from conftest import random_polygon, write_geojson
@@ -127,6 +127,11 @@ def _count(pg, selector: str) -> int:
     return pg.eval_on_selector_all(selector, "els => els.length")
 
 
+def _features(pg, layer: str) -> int:
+    """Features on one of the map's vector layers (the page's OpenLayers layers, window.aerosurvey.layers)."""
+    return pg.evaluate("n => window.aerosurvey.layers[n].getSource().getFeatures().length", layer)
+
+
 def _replan_and_wait(pg, action) -> None:
     """Do something that re-plans, then wait until the page has drawn a new plan."""
     before = pg.evaluate("window.aerosurvey.stats.plans")
@@ -134,110 +139,131 @@ def _replan_and_wait(pg, action) -> None:
     pg.wait_for_function(f"window.aerosurvey.stats.plans > {before}", timeout=60000)
 
 
+def _tab(pg, name: str) -> None:
+    pg.click(f"#tabs button[data-tab='{name}']")
+
+
+def _only_our_server(pg, site_url: str) -> None:
+    assert all(u.startswith(site_url) or u.startswith("data:") or u.startswith("blob:") for u in pg.requests), \
+        [u for u in pg.requests if not u.startswith(site_url)]
+
+
 def test_page_draws_the_plan_of_the_manifest(page, site):
     manifest = json.loads((site["cli"] / "manifest.json").read_text())
     features = json.loads((site["cli"] / "plan.geojson").read_text())["features"]
     lines = [f for f in features if f["properties"]["role"] == "line"]
-    assert _count(page, "#layer-lines line") == len(lines) == 34
-    assert _count(page, "#layer-stations circle") == len(manifest["stations"]) == 1756
-    assert _count(page, "#layer-gcps circle") >= 4 and _count(page, "#layer-checks circle") >= 24
+    assert _features(page, "lines") == len(lines) == 34
+    assert _features(page, "stations") == len(manifest["stations"]) == 1756
+    assert _features(page, "gcps") >= 4 and _features(page, "checks") >= 24
     assert _count(page, "#sortie-legend span") == len(manifest["sorties"]) == 6
     assert page.text_content("[data-summary='photos']").startswith("1756")
-    # the cursor readout: WGS84 and the plan's CRS
+    # the cursor readout: WGS84 and the plan's CRS (proj4 with the server's definition)
     box = page.locator("#map").bounding_box()
     page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
     text = page.text_content("#cursor")
     assert "WGS84" in text and "EPSG:5514" in text and "N" in text
-    assert page.text_content("#scale-label").endswith("m")
+    x, y = (float(v) for v in text.split(" x ")[1].split(" y "))
+    assert -800_000 < x < -600_000 and -1_200_000 < y < -1_000_000  # Krovak East North over Bohemia
+    assert page.text_content(".ol-scale-line-inner").endswith("m")
     page.screenshot(path=str(SHOTS / "01-obratan-plan.png"))
     # no tile server, no other host: everything came from our server
-    assert all(u.startswith(site["server"].url) or u.startswith("data:") for u in page.requests), page.requests
+    _only_our_server(page, site["server"].url)
 
 
 def test_side_overlap_changes_the_line_count(page):
-    lines_before = _count(page, "#layer-lines line")
+    lines_before = _features(page, "lines")
+    _tab(page, "setup")
     _replan_and_wait(page, lambda: page.fill("[data-key='targets.side_overlap']", "0.75"))
-    lines_after = _count(page, "#layer-lines line")
+    lines_after = _features(page, "lines")
     assert lines_after > lines_before
     assert page.text_content("[data-summary='lines']").startswith(f"{lines_after} ")
     page.screenshot(path=str(SHOTS / "02-side-overlap-75.png"))
 
 
-def test_rule_failure_listed_and_highlighted(page):
+def test_rule_failure_listed_highlighted_and_cleared_on_replan(page):
+    _tab(page, "setup")
     _replan_and_wait(page, lambda: page.fill("[data-key='targets.forward_overlap']", "0.70"))
+    assert "fail" in page.text_content("[data-summary='rules']")  # in the summary bar, whatever the tab
+    _tab(page, "rules")
     fail = page.locator("#rule-list li.fail[data-rule='cz-forward-overlap']")
     assert fail.count() == 1
     assert "70." in fail.text_content()
-    assert _count(page, "#layer-highlight line") == 0
+    assert _features(page, "highlight") == 0
     fail.click()
-    n = _count(page, "#layer-highlight line")
-    assert n > 0
+    assert _features(page, "highlight") > 0
     assert "selected" in fail.get_attribute("class")
     page.screenshot(path=str(SHOTS / "03-rule-failure-highlighted.png"))
+    _tab(page, "setup")
+    _replan_and_wait(page, lambda: page.fill("[data-key='targets.forward_overlap']", "0.71"))
+    assert _features(page, "highlight") == 0
 
 
 def test_bad_value_shown_next_to_its_field_and_kept(page):
-    lines = _count(page, "#layer-lines line")
+    lines = _features(page, "lines")
+    _tab(page, "setup")
     field = "[data-key='targets.side_overlap']"
     page.fill(field, "1.2")
     box = page.locator(".err[data-for='targets.side_overlap']")
     box.wait_for(state="visible", timeout=30000)
     assert "targets.side_overlap = 1.2 is not allowed" in box.text_content()
     assert page.input_value(field) == "1.2"  # what the user typed stays
-    assert _count(page, "#layer-lines line") == lines  # the previous plan stays on the map
+    assert _features(page, "lines") == lines  # the previous plan stays on the map
     page.screenshot(path=str(SHOTS / "04-bad-value.png"))
     _replan_and_wait(page, lambda: page.fill(field, "0.6"))
     assert box.text_content() == ""
 
 
-def test_downloaded_waypoints_equal_the_cli(page, site):
-    link = page.locator("#file-list a", has_text="mission.waypoints").first
+def test_fly_blocks_in_flight_order_and_downloads_equal_the_cli(page, site):
+    manifest = json.loads((site["cli"] / "manifest.json").read_text())
+    blocks = page.locator("#fly-blocks .fly")
+    assert blocks.count() == 6
+    for k, s in enumerate(manifest["sorties"]):
+        block = blocks.nth(k)
+        assert block.get_attribute("data-sortie") == s["id"]
+        text = block.text_content()
+        assert f"{s['usable_used_pct']:.1f} % of the usable charge" in text  # the battery figure in text, not a tooltip
+        assert f"launch point {s['launch']['index']}" in text
     with page.expect_download() as d:
-        link.click()
-    path = d.value.path()
-    assert Path(path).read_bytes() == (site["cli"] / "mission.waypoints").read_bytes()
-    sortie = page.locator("#file-list a", has_text="sortie-03.waypoints").first
+        page.locator("#file-groups a[data-file='mission.waypoints']").click()
+    assert Path(d.value.path()).read_bytes() == (site["cli"] / "mission.waypoints").read_bytes()
     with page.expect_download() as d:
-        sortie.click()
+        blocks.nth(2).locator("a[data-file='sortie-03.waypoints']").click()
     assert Path(d.value.path()).read_bytes() == (site["cli"] / "sortie-03.waypoints").read_bytes()
 
 
 def test_layers_toggle(page):
+    page.click("#layer-box summary")
     page.uncheck("#layer-toggles input[data-layer='stations']")
-    assert page.locator("#layer-stations").evaluate("g => getComputedStyle(g).display") == "none"
+    assert page.evaluate("window.aerosurvey.layers.stations.getVisible()") is False
     page.check("#layer-toggles input[data-layer='stations']")
-    assert page.locator("#layer-stations").evaluate("g => getComputedStyle(g).display") != "none"
+    assert page.evaluate("window.aerosurvey.layers.stations.getVisible()") is True
 
 
 def test_dropped_area_starts_a_new_plan(page, site):
     gj = write_geojson(site["tmp"] / "new-field.geojson", random_polygon("concave", 4, 350))
+    _tab(page, "setup")
     _replan_and_wait(page, lambda: page.set_input_files("#area-file", str(gj)))
     assert page.input_value("[data-key='mission.name']") == "new-field"
     assert "EPSG:326" in page.text_content("[data-summary='area']")
-    assert _count(page, "#layer-stations circle") == int(page.text_content("[data-summary='photos']").split(",")[0])
+    assert _features(page, "stations") == int(page.text_content("[data-summary='photos']"))
+    assert _features(page, "area") == 1  # the uploaded outline, editable
     page.screenshot(path=str(SHOTS / "05-new-area.png"))
 
 
 def test_basemap_only_when_configured(page, site):
-    import io
-
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.new("RGB", (256, 256), (200, 200, 200)).save(buf, format="PNG")
-    _Tiles.png, _Tiles.asked = buf.getvalue(), []
+    _Tiles.png, _Tiles.asked = tile_png((200, 200, 200)), []
     port = _free_port()
     httpd = http.server.ThreadingHTTPServer(("127.0.0.1", port), _Tiles)
     t = threading.Thread(target=httpd.serve_forever, daemon=True)
     t.start()
     try:
-        assert _count(page, "#layer-tiles image") == 0
+        assert page.evaluate("window.aerosurvey.layers.basemap.getSource()") is None
+        _tab(page, "setup")
         page.fill("#tile-url", f"http://127.0.0.1:{port}/{{z}}/{{x}}/{{y}}.png")
         page.dispatch_event("#tile-url", "change")
-        page.wait_for_function("document.querySelectorAll('#layer-tiles image').length > 0")
         end = time.monotonic() + 10
         while not _Tiles.asked and time.monotonic() < end:
-            time.sleep(0.05)
+            page.wait_for_timeout(50)
         assert _Tiles.asked and all(p.endswith(".png") and p.count("/") == 3 for p in _Tiles.asked)
         page.screenshot(path=str(SHOTS / "06-basemap.png"))
     finally:
@@ -262,10 +288,11 @@ def test_flight_results_on_the_map(site):
         pg = ctx.new_page()
         pg.goto(server.url)
         pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        _tab(pg, "flight")
         pg.set_input_files("#flight-files", str(tmp / "log"))  # the folder, as a user picks it
-        pg.wait_for_function("document.querySelectorAll('#layer-flown circle').length > 0", timeout=30000)
-        assert _count(pg, "#layer-flown circle") == 152
-        assert _count(pg, "#layer-coverage image") == 1
+        pg.wait_for_function("window.aerosurvey.layers.flown.getSource().getFeatures().length > 0", timeout=30000)
+        assert _features(pg, "flown") == 152
+        assert pg.evaluate("window.aerosurvey.layers.coverage.getSource() !== null")
         assert "152 of 152 stations matched" in pg.text_content("#flight-summary")
         pg.screenshot(path=str(SHOTS / "07-flown.png"))
     finally:
@@ -289,14 +316,14 @@ def test_long_plan_shows_progress_and_cancels(site):
         pg.locator("#progress").wait_for(state="visible", timeout=30000)
         pg.wait_for_function("document.querySelector('#progress-bar').value > 0.05", timeout=30000)
         box = pg.locator("#progress").bounding_box()  # in sight, over the map
-        assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 900 and box["x"] > 360
+        assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 900 and box["x"] > 340
         assert pg.locator("#cancel").is_visible()
         pg.screenshot(path=str(SHOTS / "08-progress.png"))
         pg.click("#cancel")
         pg.wait_for_function("document.querySelector('#status').textContent.startsWith('cancelled')", timeout=15000)
         assert pg.evaluate("window.aerosurvey.view") is None
         assert pg.locator("#progress").is_hidden()
-        assert pg.input_value("[data-key='targets.side_overlap']") == "0.7"
+        assert pg.locator("[data-key='targets.side_overlap']").input_value() == "0.7"
     finally:
         ctx.close()
         server.stop()

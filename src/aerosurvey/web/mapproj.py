@@ -9,6 +9,7 @@ PROJ); the fit's largest error over the frame is reported with it.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -46,6 +47,7 @@ class MapFrame:
     cx: list[float]  # cubic coefficients: plan CRS x and y from (u, v) = relative mercator / half
     cy: list[float]
     fit_error_m: float
+    proj4: str  # the plan CRS as a PROJ string, for the page's cursor readout (proj4js)
 
     @classmethod
     def around(cls, area_wgs84: BaseGeometry, planar: Planar) -> MapFrame:
@@ -67,7 +69,10 @@ class MapFrame:
         tx, ty = planar.xy(lon, lat)
         at = _terms(ut, vt)
         err = float(np.max(np.hypot(at @ cx - tx, at @ cy - ty)))
-        return cls(float(ox[0]), float(oy[0]), half, planar.name, cx.tolist(), cy.tolist(), err)
+        with warnings.catch_warnings():  # PROJ warns that a PROJ string may lose details; the page only reads a cursor position
+            warnings.simplefilter("ignore", UserWarning)
+            proj4 = planar.crs.to_proj4()
+        return cls(float(ox[0]), float(oy[0]), half, planar.name, cx.tolist(), cy.tolist(), err, proj4)
 
     def from_lonlat(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, y = mercator(lon, lat)
@@ -83,4 +88,5 @@ class MapFrame:
 
     def as_dict(self) -> dict[str, Any]:
         return {"origin": [self.ox, self.oy], "half": self.half, "crs": self.crs, "cx": self.cx, "cy": self.cy,
-                "fit_error_m": self.fit_error_m, "lat0": math.degrees(2 * math.atan(math.exp(self.oy / R)) - math.pi / 2)}
+                "fit_error_m": self.fit_error_m, "proj4": self.proj4,
+                "lat0": math.degrees(2 * math.atan(math.exp(self.oy / R)) - math.pi / 2)}

@@ -1,6 +1,6 @@
 """Plans as jobs and a plan's files:
 
-  POST   /api/plan                   {"spec": {...}} → 202 {"job": id}
+  POST   /api/plan                   {"spec": {...}, "zones": [WKT, ...]?} → 202 {"job": id}
   GET    /api/jobs/{id}?wait=S       the job's state and progress; when done, the plan's view
   DELETE /api/jobs/{id}              cancel a running plan
   GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
@@ -21,7 +21,7 @@ from starlette.responses import JSONResponse, Response
 from aerosurvey.errors import InputError
 from aerosurvey.web import service
 from aerosurvey.web.jobs import Progress
-from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body
+from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body, zones_body
 
 MAX_WAIT_S = 10.0
 _POLL_S = 0.02
@@ -33,11 +33,12 @@ async def submit_plan(request: Request) -> Response:
     state = server(request)
     try:
         spec = await spec_body(request)
+        zones = await zones_body(request)
     except InputError as exc:
         return error(exc)
 
     def work(progress: Progress) -> dict[str, Any]:
-        bundle = service.plan_bundle(spec, state.workspace, progress)
+        bundle = service.plan_bundle(spec, state.workspace, progress, zones)
         return {"plan_id": state.remember(bundle), "files": sorted(bundle.files), **bundle.view}
 
     job = state.runner.submit(work)

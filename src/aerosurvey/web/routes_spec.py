@@ -1,10 +1,11 @@
 """The page's start and the spec it edits:
 
   GET    /                 the page
-  GET    /api/state        the starting spec, cameras, rule profiles, settings
+  GET    /api/state        the starting spec, its geometry (WKT), cameras, rule profiles, settings
   POST   /api/area         multipart `file`: an area file, read in memory → a spec over it (area as WKT)
   POST   /api/spec/toml    {"spec": {...}} → the spec as TOML (attachment)
-  POST   /api/spec/save    {"spec": {...}} → written over the spec file the server was started with
+  POST   /api/spec/save    {"spec": {...}, "zones"?} → written over the spec file the server was started with;
+                           a drawn area and drawn zones go to GeoJSON files beside it
 """
 
 from __future__ import annotations
@@ -19,10 +20,9 @@ from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 
 from aerosurvey.errors import AerosurveyError, InputError
-from aerosurvey.fileio import atomic_write_text
 from aerosurvey.web import service
-from aerosurvey.web.specfile import validated_toml
-from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body
+from aerosurvey.web.specfile import geometry_preview, save_with_geometry, validated_toml
+from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body, zones_body
 
 
 async def index(request: Request) -> Response:
@@ -43,7 +43,9 @@ def _state(state: ServerState) -> dict[str, Any]:
             for c in sorted(database().values(), key=lambda c: c.id)]
     profiles = [{"id": p.id, "name": p.name, "rules": len(p.rules)} for p in available_profiles().values()]
     return {"spec": state.spec, "spec_path": str(state.spec_path) if state.spec_path else None, "cameras": cams,
-            "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit}
+            "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit,
+            "preview": geometry_preview(state.workspace, state.spec),
+            "basemap": state.basemap.info.as_dict() if state.basemap else None}
 
 
 async def upload_area(request: Request) -> Response:
@@ -72,6 +74,10 @@ async def spec_toml(request: Request) -> Response:
     state = server(request)
     try:
         spec = await spec_body(request)
+        zones = await zones_body(request)
+        if zones:
+            raise InputError("zones: the drawn exclusion zones do not fit in a TOML file alone: save the spec (they go to "
+                             "a GeoJSON file beside it) or download the drawn geometry", key="zones")
         text = await blocking(validated_toml, state.workspace, spec)
     except AerosurveyError as exc:
         return error(exc)
@@ -87,15 +93,16 @@ async def spec_save(request: Request) -> Response:
                             status_code=409)
     try:
         spec = await spec_body(request)
-        text = await blocking(_save, state, spec)
+        zones = await zones_body(request)
+        saved, geometry = await blocking(_save, state, spec, zones)
     except AerosurveyError as exc:
         return error(exc)
-    return JSONResponse({"saved": str(state.spec_path), "bytes": len(text.encode("utf-8"))})
+    preview = await blocking(geometry_preview, state.workspace, saved)
+    return JSONResponse({"saved": str(state.spec_path), "geometry": geometry, "spec": saved, "preview": preview})
 
 
-def _save(state: ServerState, spec: dict[str, Any]) -> str:
+def _save(state: ServerState, spec: dict[str, Any], zones: list[str] | None) -> tuple[dict[str, Any], list[str]]:
     assert state.spec_path is not None
-    text = validated_toml(state.workspace, spec)
-    atomic_write_text(state.spec_path, text)
-    state.spec = service.spec_to_json(spec)
-    return text
+    saved, geometry = save_with_geometry(state.workspace, state.spec_path, spec, zones)
+    state.spec = service.spec_to_json(saved)
+    return state.spec, geometry

@@ -23,6 +23,7 @@ from starlette.responses import JSONResponse
 
 from aerosurvey.errors import InputError
 from aerosurvey.web import service
+from aerosurvey.web.basemap import Basemap
 from aerosurvey.web.jobs import JobRunner
 
 P = ParamSpec("P")
@@ -37,6 +38,7 @@ class ServerState:
     tile_url: str
     runner: JobRunner
     upload_limit: int
+    basemap: Basemap | None = None  # the offline basemap file (--basemap), served as tiles
     plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
     serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
     keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB
@@ -95,6 +97,19 @@ async def spec_body(request: Request) -> dict[str, Any]:
         raise InputError('request body: expected {"spec": {...}} with the mission spec\'s tables', key="spec")
     spec: dict[str, Any] = body["spec"]
     return spec
+
+
+async def zones_body(request: Request) -> list[str] | None:
+    """The request's drawn exclusion zones, {"zones": [WKT, ...]} beside the spec, or None (the spec's zone files).
+
+    Call after `spec_body` (Starlette keeps the parsed body)."""
+    zones = (await request.json()).get("zones")
+    if zones is None:
+        return None
+    if not isinstance(zones, list) or not all(isinstance(z, str) for z in zones):
+        raise InputError("zones: expected a list of WKT polygons in longitude/latitude (the zones drawn on the page)",
+                         key="zones")
+    return zones
 
 
 async def form_in_memory(request: Request, limit: int, what: str, key: str, max_files: int, max_fields: int) -> FormData:

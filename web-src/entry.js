@@ -1,0 +1,37 @@
+// What the planner's page uses of OpenLayers and proj4, gathered into one global `olb`.
+// Built by build.mjs into src/aerosurvey/web/static/vendor/olb.js (see web-src/README.md).
+export { default as Map } from "ol/Map.js";
+export { default as View } from "ol/View.js";
+export { default as Feature } from "ol/Feature.js";
+export { default as Overlay } from "ol/Overlay.js";
+export { default as Collection } from "ol/Collection.js";
+export { default as TileLayer } from "ol/layer/Tile.js";
+export { default as VectorLayer } from "ol/layer/Vector.js";
+export { default as ImageLayer } from "ol/layer/Image.js";
+export { default as XYZ } from "ol/source/XYZ.js";
+export { default as VectorSource } from "ol/source/Vector.js";
+export { default as ImageStatic } from "ol/source/ImageStatic.js";
+export { default as Point } from "ol/geom/Point.js";
+export { default as LineString } from "ol/geom/LineString.js";
+export { default as Polygon } from "ol/geom/Polygon.js";
+export { default as MultiPoint } from "ol/geom/MultiPoint.js";
+export { default as MultiPolygon } from "ol/geom/MultiPolygon.js";
+export { default as GeoJSON } from "ol/format/GeoJSON.js";
+export { default as WKT } from "ol/format/WKT.js";
+export { Style, Stroke, Fill, Circle as CircleStyle, Text, RegularShape } from "ol/style.js";
+export { default as Draw } from "ol/interaction/Draw.js";
+export { default as Modify } from "ol/interaction/Modify.js";
+export { default as Snap } from "ol/interaction/Snap.js";
+export { default as Select } from "ol/interaction/Select.js";
+export { default as Translate } from "ol/interaction/Translate.js";
+export { defaults as defaultInteractions } from "ol/interaction/defaults.js";
+export { default as ScaleLine } from "ol/control/ScaleLine.js";
+export { default as Zoom } from "ol/control/Zoom.js";
+export { default as ZoomToExtent } from "ol/control/ZoomToExtent.js";
+export { default as Attribution } from "ol/control/Attribution.js";
+export { fromLonLat, toLonLat, transform } from "ol/proj.js";
+export { register as registerProj4 } from "ol/proj/proj4.js";
+export { getLength, getArea } from "ol/sphere.js";
+export { createEmpty as emptyExtent, extend as extendExtent, isEmpty as extentIsEmpty, buffer as bufferExtent } from "ol/extent.js";
+export { unByKey } from "ol/Observable.js";
+export { default as proj4 } from "proj4";
