@@ -9,16 +9,19 @@ from __future__ import annotations
 
 import http.server
 import json
+import math
 import os
 import shutil
 import socket
 import threading
 import time
+import tomllib
 from pathlib import Path
 
 import pytest
+import shapely
 from click.testing import CliRunner
-from webutil import REPO, copy_mission, tile_png
+from webutil import REPO, copy_mission, tile_png, tiles_around, write_mbtiles, write_pmtiles
 
 from aerosurvey.cli import main
 from conftest import random_polygon, write_geojson
@@ -47,14 +50,15 @@ def _free_port() -> int:
 class _Server:
     """The real app under uvicorn on a free loopback port, in a thread of the test process."""
 
-    def __init__(self, spec: Path):
+    def __init__(self, spec: Path | None, basemap: Path | None = None):
         import uvicorn
 
         from aerosurvey.web.app import create_app
 
         self.port = _free_port()
         hosts = [f"127.0.0.1:{self.port}", f"localhost:{self.port}"]
-        config = uvicorn.Config(create_app(spec, allowed_hosts=hosts), host="127.0.0.1", port=self.port, log_level="warning")
+        app = create_app(spec, allowed_hosts=hosts, basemap=basemap)
+        config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
         self.server = uvicorn.Server(config)
         self.thread = threading.Thread(target=self.server.run, daemon=True)
         self.thread.start()
@@ -298,6 +302,209 @@ def test_flight_results_on_the_map(site):
     finally:
         ctx.close()
         server.stop()
+
+
+def _page_px(pg, lon: float, lat: float) -> tuple[float, float]:
+    """Where a place is on the page (CSS pixels), through the map's own view."""
+    return tuple(pg.evaluate("""([lon, lat]) => {
+        const p = window.aerosurvey.map.getPixelFromCoordinate(olb.fromLonLat([lon, lat]));
+        const r = document.querySelector('#map').getBoundingClientRect();
+        return [p[0] + r.left, p[1] + r.top]; }""", [lon, lat]))
+
+
+def _drawn(pg, role: str) -> list[list[list[float]]]:
+    """The drawn features of a role as lon/lat coordinates (rings of polygons, or [lon, lat] of points)."""
+    return pg.evaluate("""role => window.aerosurvey.layers.area.getSource().getFeatures()
+        .filter(f => f.get('role') === role)
+        .map(f => f.getGeometry().clone().transform('EPSG:3857', 'EPSG:4326').getCoordinates())""", role)
+
+
+def _click_polygon(pg, pts) -> None:
+    """Click the corners, then the first one again to close the ring (as a user draws)."""
+    for x, y in pts:
+        pg.mouse.click(x, y)
+        pg.wait_for_timeout(300)  # not a double click
+    pg.mouse.click(*pts[0])
+
+
+def _zone_square(pg, half_px: float) -> list[tuple[float, float]]:
+    box = pg.locator("#map").bounding_box()
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    return [(cx - half_px, cy - half_px), (cx + half_px, cy - half_px), (cx + half_px, cy + half_px), (cx - half_px, cy + half_px)]
+
+
+def test_draw_an_area_by_clicks_and_see_its_plan(site):
+    server = _Server(None)
+    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
+    try:
+        pg = ctx.new_page()
+        pg.requests = []
+        pg.on("request", lambda r: pg.requests.append(r.url))
+        pg.goto(server.url)
+        pg.wait_for_function("document.querySelector('#status').textContent.startsWith('draw')", timeout=30000)
+        res = pg.evaluate("""() => { const v = window.aerosurvey.map.getView();
+            v.setCenter(olb.fromLonLat([14.95, 49.43])); v.setZoom(16); return v.getResolution(); }""")
+        pg.click("#tools [data-tool='area']")
+        box = pg.locator("#map").bounding_box()
+        cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        pts = [(cx - 150, cy - 100), (cx + 150, cy - 120), (cx + 170, cy + 110), (cx - 140, cy + 100)]
+        _replan_and_wait(pg, lambda: _click_polygon(pg, pts))
+        assert _features(pg, "lines") > 0 and _features(pg, "stations") > 0
+        assert pg.evaluate("window.aerosurvey.spec.area.wkt").startswith("POLYGON")
+        # the planned area is the clicked one: shoelace in pixels × (Web Mercator metres per pixel × cos latitude)²
+        px = sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(pts, pts[1:] + pts[:1])) / 2
+        ground = abs(px) * (res * math.cos(math.radians(49.43))) ** 2
+        planned_ha = float(pg.text_content("[data-summary='area']").split(" ha")[0])
+        assert planned_ha == pytest.approx(ground / 1e4, rel=0.02)
+        pg.screenshot(path=str(SHOTS / "09-drawn-area.png"))
+        _only_our_server(pg, server.url)
+    finally:
+        ctx.close()
+        server.stop()
+
+
+def test_drag_a_vertex_changes_the_line_count(page):
+    lines0 = _features(page, "lines")
+    area0 = float(page.text_content("[data-summary='area']").split(" ha")[0])
+    ring = _drawn(page, "area")[0][0]
+    lon, lat = min(ring, key=lambda c: c[0])  # the westmost corner, pulled further west
+    x, y = _page_px(page, lon, lat)
+    page.mouse.move(x, y)
+    page.wait_for_timeout(200)
+
+    def drag():
+        page.mouse.down()
+        page.mouse.move(x - 160, y + 20, steps=10)
+        page.mouse.up()
+
+    _replan_and_wait(page, drag)
+    assert float(page.text_content("[data-summary='area']").split(" ha")[0]) > area0 * 1.05
+    assert _features(page, "lines") != lines0
+    assert min(c[0] for c in _drawn(page, "area")[0][0]) < lon
+    page.screenshot(path=str(SHOTS / "10-dragged-vertex.png"))
+
+
+def test_drawn_zone_is_avoided_and_undone(page, site):
+    from independent_legs import Local, legs_inside_zones
+
+    runs0 = page.evaluate("window.aerosurvey.view.summary.runs")
+    page.click("#tools [data-tool='zone']")
+    _replan_and_wait(page, lambda: _click_polygon(page, _zone_square(page, 60)))
+    assert page.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
+    assert page.evaluate("window.aerosurvey.view.summary.runs") > runs0  # lines cut at the zone
+    zone = shapely.Polygon(_drawn(page, "zone")[0][0])
+    # the exported route, rebuilt by the independent checker, flies no metre inside the zone
+    pid = page.evaluate("window.aerosurvey.view.plan_id")
+    wpl = site["tmp"] / "drawn-zone.waypoints"
+    wpl.write_text(page.evaluate(f"fetch('/api/plans/{pid}/files/mission.waypoints').then(r => r.text())"))
+    c = zone.centroid
+    report = legs_inside_zones(wpl, [zone], Local(c.x, c.y), "copter")
+    assert report.legs and report.violations == []
+    page.screenshot(path=str(SHOTS / "11-drawn-zone.png"))
+    _replan_and_wait(page, lambda: page.click("#undo"))
+    assert page.evaluate("window.aerosurvey.view.layers.exclusions.length") == 0
+    assert page.evaluate("window.aerosurvey.view.summary.runs") == runs0
+    _replan_and_wait(page, lambda: page.click("#redo"))
+    assert page.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
+
+
+def test_save_the_drawn_zone_with_the_spec_and_reload(site):
+    tmp = site["tmp"] / "save"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    server = _Server(spec)
+    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
+    try:
+        pg = ctx.new_page()
+        pg.goto(server.url)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        pg.click("#tools [data-tool='zone']")
+        _replan_and_wait(pg, lambda: _click_polygon(pg, _zone_square(pg, 50)))
+        drawn = _drawn(pg, "zone")[0][0]
+        page_wpl = pg.evaluate(f"fetch('/api/plans/{pg.evaluate('window.aerosurvey.view.plan_id')}/files/mission.waypoints')"
+                               ".then(r => r.text())")
+        _tab(pg, "setup")
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        saved = tomllib.loads(spec.read_text())
+        assert saved["area"]["exclusions"] == ["obratan-72ha.zones.geojson"]
+        assert saved["area"]["file"] == "areas/obratan-72ha.geojson"  # the area was not edited: its file stays
+        zones = json.loads((tmp / "obratan-72ha.zones.geojson").read_text())["features"]
+        assert len(zones) == 1
+        assert shapely.Polygon(zones[0]["geometry"]["coordinates"][0]).hausdorff_distance(shapely.Polygon(drawn)) < 1e-9
+        # the saved spec plans, with `aerosurvey plan`, the mission the page planned
+        res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+        assert res.exit_code == 0, res.output
+        assert (tmp / "cli" / "mission.waypoints").read_text() == page_wpl
+        with pg.expect_download() as d:
+            pg.click("#download-drawn")
+        feats = json.loads(Path(d.value.path()).read_text())["features"]
+        assert sorted(f["properties"]["role"] for f in feats) == ["area", "zone"]
+        pg.reload()
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        assert len(_drawn(pg, "zone")) == 1 and pg.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
+    finally:
+        ctx.close()
+        server.stop()
+
+
+@pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
+def test_offline_basemap_from_a_local_file(site, kind):
+    tmp = site["tmp"] / f"basemap-{kind}"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    tiles = tiles_around(14.951, 49.431, range(14, 19))
+    path = (write_mbtiles if kind == "mbtiles" else write_pmtiles)(tmp / f"base.{kind}", tiles)
+    server = _Server(spec, basemap=path)
+    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
+    try:
+        pg = ctx.new_page()
+        pg.requests, served = [], []
+        pg.on("request", lambda r: pg.requests.append(r.url))
+        pg.on("response", lambda r: served.append((r.url, r.status)) if "/api/basemap/" in r.url else None)
+        pg.goto(server.url)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        pg.wait_for_function("new Promise(ok => window.aerosurvey.map.once('rendercomplete', () => ok(true)))", timeout=30000)
+        ok = [u for u, status in served if status == 200]
+        assert ok, served
+        for u in ok:
+            z, x, y = (int(v) for v in u.rsplit("/", 3)[1:])
+            assert (z, x, y) in tiles
+        assert kind in pg.text_content("#basemap-note") or "offline basemap" in pg.text_content("#basemap-note")
+        pg.screenshot(path=str(SHOTS / f"12-basemap-{kind}.png"))
+        _only_our_server(pg, server.url)
+    finally:
+        ctx.close()
+        server.stop()
+
+
+@pytest.mark.parametrize("size", [(1366, 768), (1024, 768)])
+def test_layout_in_the_field(site, size):
+    """On a laptop and a tablet the summary, the first sortie's fly block and the drawing tools are in view."""
+    w, h = size
+    ctx = site["browser"].new_context(viewport={"width": w, "height": h})
+    try:
+        pg = ctx.new_page()
+        pg.goto(site["server"].url)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        pg.wait_for_timeout(300)
+
+        def inside(sel: str) -> dict:
+            b = pg.locator(sel).first.bounding_box()
+            assert b is not None and b["x"] >= 0 and b["y"] >= 0 and b["x"] + b["width"] <= w and b["y"] + b["height"] <= h, (sel, b)
+            return b
+
+        for key in ("height AGL", "GSD", "photos", "time", "sorties", "rules"):
+            inside(f"#summary dd[data-summary='{key}']")
+        first = inside("#fly-blocks .fly")
+        assert "battery:" in pg.locator("#fly-blocks .fly").first.text_content()
+        tools, layers = inside("#tools"), inside("#layer-box")
+        assert tools["x"] + tools["width"] <= layers["x"] or tools["y"] + tools["height"] <= layers["y"]  # no overlap
+        assert first["x"] + first["width"] <= pg.locator("#map").bounding_box()["x"] + 1  # beside the map, not over it
+        assert pg.evaluate("document.scrollingElement.scrollHeight") <= h
+        pg.screenshot(path=str(SHOTS / f"layout-{w}x{h}.png"))
+    finally:
+        ctx.close()
 
 
 def test_long_plan_shows_progress_and_cancels(site):

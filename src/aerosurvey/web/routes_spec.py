@@ -45,6 +45,8 @@ def _state(state: ServerState) -> dict[str, Any]:
     return {"spec": state.spec, "spec_path": str(state.spec_path) if state.spec_path else None, "cameras": cams,
             "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit,
             "preview": geometry_preview(state.workspace, state.spec),
+            # a page without a spec: the settings an area drawn on it starts from
+            "defaults": {k: v for k, v in service.default_spec({}, "drawn-area").items() if k != "area"},
             "basemap": state.basemap.info.as_dict() if state.basemap else None}
 
 

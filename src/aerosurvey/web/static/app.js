@@ -549,6 +549,7 @@ function launchPoints() {
 function writeArea() {
   const polys = editFeatures("area").map((f) => f.getGeometry());
   if (!polys.length) { delete S.spec.area; return; }
+  if (!S.spec.camera && S.defaults) { S.spec = { ...structuredClone(S.defaults), ...S.spec }; fillForm(); }  // a page started without a spec
   const launch = (S.spec.area || {}).launch;
   S.spec.area = { wkt: toWkt(polys) };
   if (launch) S.spec.area.launch = launch;
@@ -804,6 +805,7 @@ async function start() {
   S.specPath = st.spec_path;
   S.preview = st.preview;
   S.basemap = st.basemap;
+  S.defaults = st.defaults;
   const saved = localStorage.getItem("aerosurvey.tileUrl");
   S.tileUrl = st.tile_url || saved || "";
   $("#tile-url").value = S.tileUrl;
