@@ -286,6 +286,8 @@ def test_flight_results_on_the_map(site):
     assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
     log = REPO / "tests" / "data" / "sitl_copter_survey.bin"
     assert CliRunner().invoke(main, ["log", "ingest", str(log), "--plan", str(plan), "-o", str(tmp / "log")]).exit_code == 0
+    CliRunner().invoke(main, ["check", str(tmp / "log"), "--profile", "cz-land-consolidation"])  # failing_places.geojson
+    places = json.loads((tmp / "log" / "failing_places.geojson").read_text())["features"]
     server = _Server(spec)
     ctx = site["browser"].new_context(viewport={"width": 1400, "height": 900})
     try:
@@ -298,6 +300,12 @@ def test_flight_results_on_the_map(site):
         assert _features(pg, "flown") == 152
         assert pg.evaluate("window.aerosurvey.layers.coverage.getSource() !== null")
         assert "152 of 152 stations matched" in pg.text_content("#flight-summary")
+        assert _features(pg, "failing") == len([f for f in places if f["geometry"]])
+        assert pg.locator("#flown-rules li").count() >= 1
+        pg.click("#make-refly")  # one button: `aerosurvey refly` on the loaded folder
+        pg.wait_for_function("document.querySelector('#refly-files p') !== null", timeout=60000)
+        text = pg.text_content("#refly-files")
+        assert "gap(s)" in text or "nothing to re-fly" in text
         pg.screenshot(path=str(SHOTS / "07-flown.png"))
     finally:
         ctx.close()

@@ -50,6 +50,7 @@ ROUTES: list[BaseRoute] = [
     Route("/api/plans/{plan_id}/files/{name}", routes_plan.plan_file),
     Route("/api/plans/{plan_id}/archive.zip", routes_plan.plan_archive),
     Route("/api/plans/{plan_id}/flight", routes_flight.flight_results, methods=["POST"]),
+    Route("/api/plans/{plan_id}/refly", routes_flight.refly, methods=["POST"]),
     Route("/api/basemap/{z}/{x}/{y}", routes_basemap.tile),
 ]
 

@@ -1,10 +1,12 @@
-"""Flight results over a plan:
+"""Flight results over a plan, and the re-fly they lead to:
 
   POST   /api/plans/{pid}/flight     multipart files of a `log ingest` folder → flown layers
+  POST   /api/plans/{pid}/refly      the same files → the re-fly mission (`aerosurvey refly`) and its files
 """
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 from typing import Any
@@ -13,12 +15,20 @@ from starlette.datastructures import UploadFile
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 
-from aerosurvey.errors import AerosurveyError
+from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.web import service
-from aerosurvey.web.state import blocking, error, plan_gone, save_upload, server
+from aerosurvey.web.flown import MIN_GAP_M2
+from aerosurvey.web.state import ServerState, blocking, error, plan_gone, save_upload, server
 
-#: The files of a `log ingest` folder the page draws; others in the folder are ignored.
-FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json")
+#: The files of a `log ingest` folder the page reads (failing_places.geojson: `aerosurvey check FOLDER`); others are ignored.
+FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json", "failing_places.geojson")
+
+
+async def _flight_files(request: Request, folder: Path) -> dict[str, Path]:
+    form = await request.form(max_files=20, max_fields=5)
+    uploads = [v for _, v in form.multi_items()
+               if isinstance(v, UploadFile) and v.filename and Path(v.filename).name in FLIGHT_FILES]
+    return await blocking(lambda: {Path(u.filename or "").name: save_upload(u, folder) for u in uploads})
 
 
 async def flight_results(request: Request) -> Response:
@@ -28,10 +38,8 @@ async def flight_results(request: Request) -> Response:
         return plan_gone(request)
     folder = state.workspace.uploads / f"flight-{state.next_serial()}"
     try:
-        form = await request.form(max_files=20, max_fields=5)
-        uploads = [v for _, v in form.multi_items()
-                   if isinstance(v, UploadFile) and v.filename and Path(v.filename).name in FLIGHT_FILES]
-        layers = await blocking(_layers, uploads, folder, bundle)
+        files = await _flight_files(request, folder)
+        layers = await blocking(_layers, files, bundle)
     except AerosurveyError as exc:
         return error(exc)
     finally:
@@ -39,9 +47,55 @@ async def flight_results(request: Request) -> Response:
     return JSONResponse(layers)
 
 
-def _layers(uploads: list[UploadFile], folder: Path, bundle: service.PlanBundle) -> dict[str, Any]:
+def _layers(files: dict[str, Path], bundle: service.PlanBundle) -> dict[str, Any]:
     from aerosurvey.web.flown import flown_layers
 
-    files = {Path(u.filename or "").name: save_upload(u, folder) for u in uploads}
     # the plan's manifest: results of another plan are refused by distance and mission name
-    return flown_layers(files, bundle.frame, bundle.files["manifest.json"])
+    return flown_layers(files, bundle.frame, bundle.files["manifest.json"], bundle.files["plan.geojson"])
+
+
+async def refly(request: Request) -> Response:
+    state = server(request)
+    bundle = state.plan(request.path_params["plan_id"])
+    if bundle is None:
+        return plan_gone(request)
+    folder = state.workspace.uploads / f"refly-{state.next_serial()}"
+    try:
+        files = await _flight_files(request, folder)
+        out = await blocking(_refly, state, bundle, folder, files)
+    except AerosurveyError as exc:
+        return error(exc)
+    finally:
+        await blocking(shutil.rmtree, folder, ignore_errors=True)
+    return JSONResponse(out)
+
+
+def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
+    """`aerosurvey refly` over the uploaded folder, with the saved spec file the page's plan was made from."""
+    from aerosurvey import manifest as mf
+    from aerosurvey.flight.refly import plan_refly
+    from aerosurvey.rules.planview import PlanView
+
+    if state.spec_path is None or bundle.zones is not None or service.spec_to_json(bundle.spec) != state.spec:
+        raise InputError("refly: the re-fly is planned from the saved spec file, as `aerosurvey refly --spec` does, and the "
+                         "plan on the page is not that of a saved spec: save the spec, let the page plan, then make the re-fly",
+                         key="refly")
+    for name in ("events.csv", "coverage.tif"):
+        if name not in files:
+            raise InputError(f"refly: {name} is missing among the loaded files; load the folder `aerosurvey log ingest "
+                             "--plan` wrote", key="refly")
+    doc = mf.loads(bundle.files["manifest.json"], "the page's plan")
+    view = PlanView.from_manifest(doc, json.loads(bundle.files["plan.geojson"]), "the page's plan")
+    r = plan_refly(folder, view, state.spec_path, MIN_GAP_M2)
+    if r.plan is None:
+        return {"plan_id": None, "files": [], "notes": list(r.notes),
+                "summary": f"no gaps: every cell of the area is seen by at least {r.need} flown photos; nothing to re-fly"}
+    import shapely
+
+    name = r.plan.spec.name
+    pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame))
+    plan = r.plan
+    return {"plan_id": pid, "files": sorted(r.files), "notes": list(r.notes),
+            "summary": f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than "
+                       f"{r.need} photos; re-fly {name}: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
+                       f"{plan.estimates['total_time_s'] / 60:.1f} min"}

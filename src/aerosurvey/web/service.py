@@ -261,6 +261,8 @@ class PlanBundle:
     view: dict[str, Any]
     files: dict[str, str]
     frame: MapFrame
+    spec: dict[str, Any] = field(default_factory=dict)  # what was planned: the page's spec and drawn zones
+    zones: list[str] | None = None
 
 
 def drawn_zones(zones: list[str]) -> tuple[BaseGeometry, ...]:
@@ -304,7 +306,7 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     frame = MapFrame.around(plan.area_wgs84, plan.planar)
     view = _view(plan, frame, manifest, features, points, rendered)
     progress("done", 1.0)
-    return PlanBundle(view, files, frame)
+    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones)
 
 
 def _control_points(rendered: Rendered, manifest: mf.Manifest, features: dict[str, Any]) -> tuple[Any, dict[str, str]]:

@@ -296,6 +296,7 @@ const L = {
   lines: vector("lines", lineStyle, 4),
   stations: vector("stations", stationStyle, 5),
   area: vector("area", editStyle, 6),
+  gaps: vector("gaps", st.uncovered, 7),
   flown: vector("flown", st.flown, 7),
   failing: vector("failing", st.failing, 8),
   sites: vector("sites", siteStyle, 9),
@@ -710,7 +711,7 @@ async function uploadArea(file) {
 
 function clearFlown() {
   S.flown = null;
-  for (const l of [L.flown, L.failing]) l.getSource().clear();
+  for (const l of [L.flown, L.failing, L.gaps]) l.getSource().clear();
   L.coverage.setSource(null);
   $("#flight-summary").textContent = ""; $("#flown-rules").textContent = "";
   $("#refly-box").hidden = true; $("#refly-files").textContent = "";
@@ -728,7 +729,7 @@ async function loadFlight(files) {
     drawFlown();
   } catch (e) { box.textContent = e.message; }
 }
-const FLIGHT_FILES = ["events.csv", "coverage.tif", "log_report.json", "failing_places.geojson", "check.json"];
+const FLIGHT_FILES = ["events.csv", "coverage.tif", "log_report.json", "failing_places.geojson"];
 
 function drawFlown() {
   const f = S.flown;
@@ -739,14 +740,22 @@ function drawFlown() {
     const [ox, oy] = S.view.frame.origin;
     L.coverage.setSource(new olb.ImageStatic({ url: f.coverage.png, imageExtent: [x0 + ox, y0 + oy, x1 + ox, y1 + oy] }));
   }
-  if (f.failing) L.failing.getSource().addFeatures(geojson.readFeatures(f.failing, { dataProjection: WGS84, featureProjection: WEB }));
+  const read = (fc) => geojson.readFeatures(fc, { dataProjection: WGS84, featureProjection: WEB });
+  if (f.failing) L.failing.getSource().addFeatures(read(f.failing));
+  if (f.gaps) L.gaps.getSource().addFeatures(read(f.gaps));
   const rep = f.report || {};
   const parts = [`${f.events.x.length} camera events`];
   if (rep.planned !== undefined) parts.push(`${rep.matched} of ${rep.planned} stations matched, ${(rep.missed_stations || []).length} missed`);
   if (rep.coverage) parts.push(`at least ${rep.coverage.min_images_in_area} photos per cell, ${(100 * rep.coverage.uncovered_share).toFixed(2)} % uncovered`);
+  if (f.gaps) {
+    const m2 = f.gaps.features.reduce((a, g) => a + g.properties.area_m2, 0);
+    parts.push(m2 ? `${(m2 / 1e4).toFixed(3)} ha seen by fewer photos than planned (orange)` : "no unphotographed ground");
+  }
+  if (!f.rules) parts.push("no failing_places.geojson: run `aerosurvey check` on the folder to see the rules as flown");
   $("#flight-summary").textContent = parts.join("; ");
   const ul = $("#flown-rules"); ul.textContent = "";
   for (const r of f.rules || []) ul.appendChild(ruleItem(r, null));
+  if (f.rules && !f.rules.length) { const li = document.createElement("li"); li.className = "pass"; li.textContent = "every rule passes as flown"; ul.appendChild(li); }
   $("#refly-box").hidden = false;
 }
 
@@ -758,7 +767,7 @@ async function makeRefly() {
   try {
     const r = await api("POST", `/api/plans/${S.view.plan_id}/refly`, fd);
     const out = $("#refly-files"); out.textContent = "";
-    const p = document.createElement("p"); p.textContent = r.summary; out.appendChild(p);
+    for (const text of [r.summary, ...r.notes]) { const p = document.createElement("p"); p.textContent = text; out.appendChild(p); }
     for (const name of r.files) {
       const a = document.createElement("a");
       a.href = `/api/plans/${r.plan_id}/files/${encodeURIComponent(name)}`; a.textContent = name; a.setAttribute("download", name);
@@ -788,7 +797,8 @@ async function saveSpec() {
   try {
     const r = await api("POST", "/api/spec/save", planBody());
     $("#save-status").textContent = `saved to ${r.saved}` + (r.geometry.length ? ` with ${r.geometry.join(", ")}` : "");
-    S.spec = r.spec; S.zones = null; S.preview = r.preview;
+    S.spec = r.spec; S.zones = null; S.preview = r.preview; S.touched.clear();
+    schedule();  // the plan of the saved file (the same mission), which a re-fly starts from
   } catch (e) { showError(e.key, e.message); $("#save-status").textContent = ""; }
 }
 
