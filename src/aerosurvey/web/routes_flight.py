@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,57 +18,47 @@ from starlette.responses import JSONResponse, Response
 
 from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.web import service
-from aerosurvey.web.flown import MIN_GAP_M2
+from aerosurvey.web.flown import MIN_GAP_M2, flown_layers
 from aerosurvey.web.state import ServerState, blocking, error, plan_gone, save_upload, server
 
 #: The files of a `log ingest` folder the page reads (failing_places.geojson: `aerosurvey check FOLDER`); others are ignored.
 FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json", "failing_places.geojson")
 
 
-async def _flight_files(request: Request, folder: Path) -> dict[str, Path]:
-    form = await request.form(max_files=20, max_fields=5)
-    uploads = [v for _, v in form.multi_items()
-               if isinstance(v, UploadFile) and v.filename and Path(v.filename).name in FLIGHT_FILES]
-    return await blocking(lambda: {Path(u.filename or "").name: save_upload(u, folder) for u in uploads})
-
-
-async def flight_results(request: Request) -> Response:
+async def _on_flight_files(request: Request, work: Callable[[service.PlanBundle, Path, dict[str, Path]], dict[str, Any]]
+                          ) -> Response:
+    """Save the uploaded files of a `log ingest` folder in a scratch folder, run `work(plan, folder, files)`
+    on a worker thread, answer its JSON, remove the folder."""
     state = server(request)
     bundle = state.plan(request.path_params["plan_id"])
     if bundle is None:
         return plan_gone(request)
     folder = state.workspace.uploads / f"flight-{state.next_serial()}"
     try:
-        files = await _flight_files(request, folder)
-        layers = await blocking(_layers, files, bundle)
-    except AerosurveyError as exc:
-        return error(exc)
-    finally:
-        await blocking(shutil.rmtree, folder, ignore_errors=True)
-    return JSONResponse(layers)
-
-
-def _layers(files: dict[str, Path], bundle: service.PlanBundle) -> dict[str, Any]:
-    from aerosurvey.web.flown import flown_layers
-
-    # the plan's manifest: results of another plan are refused by distance and mission name
-    return flown_layers(files, bundle.frame, bundle.files["manifest.json"], bundle.files["plan.geojson"])
-
-
-async def refly(request: Request) -> Response:
-    state = server(request)
-    bundle = state.plan(request.path_params["plan_id"])
-    if bundle is None:
-        return plan_gone(request)
-    folder = state.workspace.uploads / f"refly-{state.next_serial()}"
-    try:
-        files = await _flight_files(request, folder)
-        out = await blocking(_refly, state, bundle, folder, files)
+        form = await request.form(max_files=20, max_fields=5)
+        uploads = [v for _, v in form.multi_items()
+                   if isinstance(v, UploadFile) and v.filename and Path(v.filename).name in FLIGHT_FILES]
+        files = await blocking(lambda: {Path(u.filename or "").name: save_upload(u, folder) for u in uploads})
+        out = await blocking(work, bundle, folder, files)
     except AerosurveyError as exc:
         return error(exc)
     finally:
         await blocking(shutil.rmtree, folder, ignore_errors=True)
     return JSONResponse(out)
+
+
+async def flight_results(request: Request) -> Response:
+    return await _on_flight_files(request, _layers)
+
+
+async def refly(request: Request) -> Response:
+    state = server(request)
+    return await _on_flight_files(request, lambda bundle, folder, files: _refly(state, bundle, folder, files))
+
+
+def _layers(bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
+    # the plan's manifest: results of another plan are refused by distance and mission name
+    return flown_layers(files, bundle.frame, bundle.files["manifest.json"], bundle.files["plan.geojson"])
 
 
 def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
