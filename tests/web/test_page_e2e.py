@@ -416,6 +416,40 @@ def test_drawn_zone_is_avoided_and_undone(page, site):
     assert page.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
 
 
+def test_hole_launch_point_delete_and_measure(page):
+    photos0 = page.evaluate("window.aerosurvey.view.summary.photos")
+    page.click("#tools [data-tool='hole']")
+    _replan_and_wait(page, lambda: _click_polygon(page, _zone_square(page, 50)))
+    assert len(_drawn(page, "area")[0]) == 2  # the outline and its hole
+    assert page.evaluate("window.aerosurvey.spec.area.wkt").count("(") == 3  # POLYGON ((outline), (hole))
+    assert page.evaluate("window.aerosurvey.view.layers.area[0].length") == 2
+    # a launch point: the sorties now start from it (the spec has a battery: battery.launch_points)
+    box = page.locator("#map").bounding_box()
+    page.click("#tools [data-tool='launch']")
+    _replan_and_wait(page, lambda: page.mouse.click(box["x"] + 60, box["y"] + box["height"] - 80))
+    (lon, lat), = _drawn(page, "launch")
+    assert page.evaluate("window.aerosurvey.spec.battery.launch_points") == [[lon, lat]]
+    first = page.locator("#fly-blocks .fly").first.text_content()
+    assert f"{lat:.6f}° N {lon:.6f}° E" in first
+    # delete: a click in the hole takes the hole out
+    page.click("#tools [data-tool='delete']")
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    _replan_and_wait(page, lambda: page.mouse.click(cx, cy))
+    assert len(_drawn(page, "area")[0]) == 1
+    assert page.evaluate("window.aerosurvey.view.summary.photos") >= photos0
+    # measure a distance: two clicks and a double click to end
+    page.click("#tools [data-tool='measure']")
+    res = page.evaluate("window.aerosurvey.map.getView().getResolution()")
+    page.mouse.click(cx - 100, cy)
+    page.wait_for_timeout(300)
+    page.mouse.dblclick(cx + 100, cy)
+    text = page.text_content("#measure-out")
+    metres = float(text.split()[0]) * (1000 if text.split()[1] == "km" else 1)
+    lat0 = _drawn(page, "area")[0][0][0][1]
+    assert metres == pytest.approx(200 * res * math.cos(math.radians(lat0)), rel=0.01)
+    page.screenshot(path=str(SHOTS / "13-hole-launch-measure.png"))
+
+
 def test_save_the_drawn_zone_with_the_spec_and_reload(site):
     tmp = site["tmp"] / "save"
     tmp.mkdir()

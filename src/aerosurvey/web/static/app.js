@@ -880,7 +880,11 @@ async function start() {
   if (S.spec.area) {
     loadEditable(); fitAll(); noteFirstMap();  // the area is on the map before its first plan arrives
     replan();
-  } else setStatus("draw an area or drop an area file to start");
+  } else {
+    setStatus("draw an area or drop an area file to start");
+    const b = S.basemap && S.basemap.bounds;  // a page without a spec opens over its offline basemap
+    if (b) map.getView().fit([...olb.fromLonLat([b[0], b[1]]), ...olb.fromLonLat([b[2], b[3]])], { maxZoom: S.basemap.maxzoom });
+  }
 }
 
 start().catch((e) => { setStatus("could not start"); showError(null, e.message); });
