@@ -506,7 +506,8 @@ def test_offline_basemap_from_a_local_file(site, kind):
         pg.on("response", lambda r: served.append((r.url, r.status)) if "/api/basemap/" in r.url else None)
         pg.goto(server.url)
         pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
-        pg.wait_for_function("new Promise(ok => window.aerosurvey.map.once('rendercomplete', () => ok(true)))", timeout=30000)
+        pg.wait_for_function("new Promise(ok => { const m = window.aerosurvey.map; m.once('rendercomplete', () => ok(true)); "
+                             "m.render(); })", timeout=30000)
         ok = [u for u, status in served if status == 200]
         assert ok, served
         for u in ok:
