@@ -18,6 +18,7 @@ import time
 import tomllib
 from pathlib import Path
 
+import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
@@ -168,6 +169,13 @@ def test_page_draws_the_plan_of_the_manifest(page, site):
     assert "WGS84" in text and "EPSG:5514" in text and "N" in text
     x, y = (float(v) for v in text.split(" x ")[1].split(" y "))
     assert -800_000 < x < -600_000 and -1_200_000 < y < -1_000_000  # Krovak East North over Bohemia
+    # proj4js in the page converts the stations as PROJ does with the server's string (and so as the planner, test_api)
+    stations = [(s["lon"], s["lat"]) for s in manifest["stations"][::50]]
+    got = page.evaluate("pts => pts.map(p => olb.proj4(window.aerosurvey.view.frame.crs, p))", stations)
+    t = pyproj.Transformer.from_crs("EPSG:4326", pyproj.CRS.from_proj4(page.evaluate("window.aerosurvey.view.frame.proj4")),
+                                    always_xy=True)
+    want = [t.transform(lon, lat) for lon, lat in stations]
+    assert max(math.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(got, want)) < 0.01
     assert page.text_content(".ol-scale-line-inner").endswith("m")
     page.screenshot(path=str(SHOTS / "01-obratan-plan.png"))
     # no tile server, no other host: everything came from our server
