@@ -458,6 +458,32 @@ def test_hole_launch_point_delete_and_measure(page):
     page.screenshot(path=str(SHOTS / "13-hole-launch-measure.png"))
 
 
+def test_move_a_zone_and_read_labels(page):
+    page.click("#tools [data-tool='zone']")
+    square = _zone_square(page, 40)
+    _replan_and_wait(page, lambda: _click_polygon(page, square))
+    before = shapely.Polygon(_drawn(page, "zone")[0][0]).centroid
+    page.click("#tools [data-tool='move']")
+    cx, cy = square[0][0] + 40, square[0][1] + 40
+    page.mouse.move(cx, cy)
+    page.wait_for_timeout(200)
+
+    def drag():
+        page.mouse.down()
+        page.mouse.move(cx + 120, cy, steps=8)
+        page.mouse.up()
+
+    _replan_and_wait(page, drag)
+    after = shapely.Polygon(_drawn(page, "zone")[0][0]).centroid
+    assert after.x > before.x and abs(after.y - before.y) < 1e-6
+    zone = shapely.from_wkt(page.evaluate("window.aerosurvey.zones[0]"))
+    assert zone.centroid.distance(after) < 1e-9  # what is planned is what was moved
+    # zoomed in, the control points carry their ids
+    page.evaluate("window.aerosurvey.map.getView().setResolution(0.5)")
+    page.wait_for_timeout(300)
+    page.screenshot(path=str(SHOTS / "14-moved-zone-labels.png"))
+
+
 def test_save_the_drawn_zone_with_the_spec_and_reload(site):
     tmp = site["tmp"] / "save"
     tmp.mkdir()

@@ -256,6 +256,8 @@ const st = {
     image: new olb.CircleStyle({ radius: 7, fill: new olb.Fill({ color: "rgba(255,23,68,0.8)" }), stroke: new olb.Stroke({ color: "#fff", width: 1.5 }) }) }),
   gcp: new olb.Style({ image: new olb.CircleStyle({ radius: 6, fill: new olb.Fill({ color: "#fff" }), stroke: new olb.Stroke({ color: "#d81b60", width: 3 }) }) }),
   check: new olb.Style({ image: new olb.CircleStyle({ radius: 4.5, fill: new olb.Fill({ color: "#1565c0" }), stroke: new olb.Stroke({ color: "#fff", width: 1.5 }) }) }),
+  label: new olb.Style({ text: new olb.Text({ font: "11px system-ui, sans-serif", offsetY: -12, fill: new olb.Fill({ color: "#1d2630" }),
+    stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) }),
   flown: new olb.Style({ image: new olb.CircleStyle({ radius: 2.4, fill: new olb.Fill({ color: "#111" }), stroke: new olb.Stroke({ color: "#fff", width: 0.8 }) }) }),
   highlight: new olb.Style({ stroke: new olb.Stroke({ color: "rgba(255,23,68,0.8)", width: 6 }), fill: new olb.Fill({ color: "rgba(255,23,68,0.45)" }),
     image: new olb.CircleStyle({ radius: 10, stroke: new olb.Stroke({ color: "#ff1744", width: 3 }) }) }),
@@ -284,6 +286,15 @@ const launchStyle = new olb.Style({
 });
 function editStyle(f) { return f.get("role") === "zone" ? st.zone : f.get("role") === "launch" ? launchStyle : st.area; }
 
+/** A point style with the feature's id written above it once the map is zoomed in (under 0.8 m a pixel). */
+function labelled(style) {
+  return (f, resolution) => {
+    if (resolution > 0.8) return style;
+    st.label.getText().setText(f.get("id"));
+    return [style, st.label];
+  };
+}
+
 function vector(name, style, z) {
   const layer = new olb.VectorLayer({ source: new olb.VectorSource(), style, zIndex: z });
   layer.set("name", name);
@@ -300,8 +311,8 @@ const L = {
   flown: vector("flown", st.flown, 7),
   failing: vector("failing", st.failing, 8),
   sites: vector("sites", siteStyle, 9),
-  gcps: vector("gcps", st.gcp, 10),
-  checks: vector("checks", st.check, 11),
+  gcps: vector("gcps", labelled(st.gcp), 10),
+  checks: vector("checks", labelled(st.check), 11),
   highlight: vector("highlight", st.highlight, 12),
   measure: vector("measure", st.measure, 13),
 };
@@ -598,6 +609,9 @@ function updateUndo() { $("#undo").disabled = S.pos <= 0; $("#redo").disabled = 
 const modify = new olb.Modify({ source: edit, pixelTolerance: 12 });
 modify.on("modifyend", (e) => geometryChanged(new Set(e.features.getArray().map((f) => f.get("role")))));
 map.addInteraction(modify);
+const translate = new olb.Translate({ layers: [L.area] });
+translate.on("translateend", (e) => geometryChanged(new Set(e.features.getArray().map((f) => f.get("role")))));
+map.addInteraction(translate);
 let draw = null;
 const snap = new olb.Snap({ source: edit, pixelTolerance: 12 });
 
@@ -607,6 +621,7 @@ function setTool(tool) {
   if (draw) { map.removeInteraction(draw); draw = null; }
   map.removeInteraction(snap);
   modify.setActive(tool === "edit");
+  translate.setActive(tool === "move");
   $("#measure-out").hidden = !tool.startsWith("measure");
   if (!tool.startsWith("measure")) L.measure.getSource().clear();
   const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", measure: "LineString", "measure-area": "Polygon" }[tool];
