@@ -310,6 +310,8 @@ def test_flight_results_on_the_map(site):
         assert "152 of 152 stations matched" in pg.text_content("#flight-summary")
         assert _features(pg, "failing") == len([f for f in places if f["geometry"]])
         assert pg.locator("#flown-rules li").count() >= 1
+        pg.locator("#flown-rules li.fail").first.click()  # its places drawn in red
+        assert 0 < _features(pg, "highlight") <= _features(pg, "failing")
         pg.click("#make-refly")  # one button: `aerosurvey refly` on the loaded folder
         pg.wait_for_function("document.querySelector('#refly-files p') !== null", timeout=60000)
         text = pg.text_content("#refly-files")
@@ -519,6 +521,20 @@ def test_save_the_drawn_zone_with_the_spec_and_reload(site):
         pg.reload()
         pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
         assert len(_drawn(pg, "zone")) == 1 and pg.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
+        # the area edited after the reload: the zone file stays in the spec
+        ring = _drawn(pg, "area")[0][0]
+        x, y = _page_px(pg, *min(ring, key=lambda c: c[0]))
+        pg.mouse.move(x, y)
+        pg.wait_for_timeout(200)
+
+        def drag():
+            pg.mouse.down()
+            pg.mouse.move(x - 60, y, steps=6)
+            pg.mouse.up()
+
+        _replan_and_wait(pg, drag)
+        assert pg.evaluate("window.aerosurvey.spec.area.exclusions") == ["obratan-72ha.zones.geojson"]
+        assert pg.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
     finally:
         ctx.close()
         server.stop()

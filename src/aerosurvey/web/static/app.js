@@ -563,9 +563,8 @@ function writeArea() {
   const polys = editFeatures("area").map((f) => f.getGeometry());
   if (!polys.length) { delete S.spec.area; return; }
   if (!S.spec.camera && S.defaults) { S.spec = { ...structuredClone(S.defaults), ...S.spec }; fillForm(); }  // a page started without a spec
-  const launch = (S.spec.area || {}).launch;
-  S.spec.area = { wkt: toWkt(polys) };
-  if (launch) S.spec.area.launch = launch;
+  const { file, wkt, wkt_crs, ...rest } = S.spec.area || {};  // the zone files and the launch point stay
+  S.spec.area = { ...rest, wkt: toWkt(polys) };
 }
 function writeZones() {
   S.zones = editFeatures("zone").map((f) => toWkt([f.getGeometry()]));
@@ -770,9 +769,18 @@ function drawFlown() {
   if (!f.rules) parts.push("no failing_places.geojson: run `aerosurvey check` on the folder to see the rules as flown");
   $("#flight-summary").textContent = parts.join("; ");
   const ul = $("#flown-rules"); ul.textContent = "";
-  for (const r of f.rules || []) ul.appendChild(ruleItem(r, null));
+  for (const r of f.rules || []) ul.appendChild(ruleItem(r, showFlownFailure));
   if (f.rules && !f.rules.length) { const li = document.createElement("li"); li.className = "pass"; li.textContent = "every rule passes as flown"; ul.appendChild(li); }
   $("#refly-box").hidden = false;
+}
+
+/** A rule that fails as flown, clicked: its places in red (the others hidden) and the map on them. */
+function showFlownFailure(rule, li) {
+  for (const x of $$("#flown-rules li.selected")) x.classList.remove("selected");
+  li.classList.add("selected");
+  const src = L.highlight.getSource(); src.clear();
+  for (const f of L.failing.getSource().getFeatures()) if (f.get("rule") === rule.rule) src.addFeature(new olb.Feature(f.getGeometry().clone()));
+  if (src.getFeatures().length) map.getView().fit(olb.bufferExtent(src.getExtent(), 40), { padding: [60, 40, 40, 40], maxZoom: 19, duration: 200 });
 }
 
 async function makeRefly() {
