@@ -486,6 +486,27 @@ def test_move_a_zone_and_read_labels(page):
     page.screenshot(path=str(SHOTS / "14-moved-zone-labels.png"))
 
 
+def test_spec_with_a_bad_value_gets_its_area_on_the_map_once_fixed(site):
+    tmp = site["tmp"] / "bad-start"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    spec.write_text(spec.read_text().replace("side_overlap = 0.60", "side_overlap = 1.2"))
+    server = _Server(spec)
+    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
+    try:
+        pg = ctx.new_page()
+        pg.goto(server.url)
+        pg.locator("#general-error").wait_for(state="visible", timeout=30000)
+        assert "targets.side_overlap = 1.2" in pg.text_content("#general-error")  # seen from the Fly tab too
+        assert _features(pg, "area") == 0  # the spec could not be read: nothing to draw yet
+        _tab(pg, "setup")
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='targets.side_overlap']", "0.6"))
+        assert _features(pg, "area") == 1 and _features(pg, "lines") == 34
+    finally:
+        ctx.close()
+        server.stop()
+
+
 def test_save_the_drawn_zone_with_the_spec_and_reload(site):
     tmp = site["tmp"] / "save"
     tmp.mkdir()

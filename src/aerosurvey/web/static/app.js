@@ -543,10 +543,14 @@ function loadEditable() {
   edit.clear(true);
   const add = (geom, role) => edit.addFeature(new olb.Feature({ geometry: geom, role }));
   const area = S.spec.area || {};
+  // the spec's WKT, else the server's reading of its files; else (a spec that could not be read at the start) the plan's
+  const planned = (key) => (S.view ? S.view.layers[key] : []).map(polygonOf);
   if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) readWkt(area.wkt).forEach((g) => add(g, "area"));
   else if (S.preview && S.preview.area) readWkt(S.preview.area).forEach((g) => add(g, "area"));
-  const zones = S.zones !== null ? S.zones : ((S.preview && S.preview.zones) || []);
-  for (const z of zones) readWkt(z).forEach((g) => add(g, "zone"));
+  else planned("area").forEach((g) => add(g, "area"));
+  if (S.zones !== null) S.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
+  else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
+  else planned("exclusions").forEach((g) => add(g, "zone"));
   for (const p of launchPoints()) add(new olb.Point(olb.fromLonLat(p)), "launch");
   S.history = [snapshot()]; S.pos = 0; S.touched.clear();
   updateUndo();
@@ -716,7 +720,7 @@ async function uploadArea(file) {
   try {
     const r = await api("POST", "/api/area", fd);
     S.spec = r.spec;
-    S.zones = null; S.preview = null; S.fitted = false;
+    S.zones = null; S.preview = { area: null, zones: [] }; S.fitted = false;  // the new place has no zones
     fillForm();
     loadEditable(); fitAll();
     setStatus(`area ${r.file_name} loaded`);
