@@ -69,6 +69,9 @@ def test_flight_layers_and_the_refly_of_the_cli(tmp_path):
         for name in ("mission.waypoints", "mission.plan", "gaps.geojson"):
             got = c.get(f"/api/plans/{out['plan_id']}/files/{name}")
             assert got.status_code == 200 and got.text == (tmp_path / "refly" / name).read_text(), name
+        cli_lines = [f for f in json.loads((tmp_path / "refly" / "plan.geojson").read_text())["features"]
+                     if f["properties"]["role"] == "line"]
+        assert out["lines"]["features"] == cli_lines and cli_lines  # drawn on the map
         assert "gap(s)" in out["summary"] and math.isfinite(float(out["summary"].split(" ha")[0]))
 
 

@@ -86,7 +86,9 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
     name = r.plan.spec.name
     pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame))
     plan = r.plan
+    lines = [f for f in json.loads(r.files["plan.geojson"])["features"] if f["properties"]["role"] == "line"]
     return {"plan_id": pid, "files": sorted(r.files), "notes": list(r.notes),
+            "lines": {"type": "FeatureCollection", "features": lines}, "gaps": json.loads(r.files["gaps.geojson"]),
             "summary": f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than "
                        f"{r.need} photos; re-fly {name}: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
                        f"{plan.estimates['total_time_s'] / 60:.1f} min"}

@@ -261,6 +261,7 @@ const st = {
   flown: new olb.Style({ image: new olb.CircleStyle({ radius: 2.4, fill: new olb.Fill({ color: "#111" }), stroke: new olb.Stroke({ color: "#fff", width: 0.8 }) }) }),
   highlight: new olb.Style({ stroke: new olb.Stroke({ color: "rgba(255,23,68,0.8)", width: 6 }), fill: new olb.Fill({ color: "rgba(255,23,68,0.45)" }),
     image: new olb.CircleStyle({ radius: 10, stroke: new olb.Stroke({ color: "#ff1744", width: 3 }) }) }),
+  refly: new olb.Style({ stroke: new olb.Stroke({ color: "#00c853", width: 3, lineDash: [8, 5] }) }),
   measure: new olb.Style({ stroke: new olb.Stroke({ color: "#0d47a1", width: 2, lineDash: [6, 4] }), fill: new olb.Fill({ color: "rgba(13,71,161,0.12)" }),
     image: new olb.CircleStyle({ radius: 4, fill: new olb.Fill({ color: "#0d47a1" }) }) }),
 };
@@ -310,6 +311,7 @@ const L = {
   gaps: vector("gaps", st.uncovered, 7),
   flown: vector("flown", st.flown, 7),
   failing: vector("failing", st.failing, 8),
+  refly: vector("refly", st.refly, 8),
   sites: vector("sites", siteStyle, 9),
   gcps: vector("gcps", labelled(st.gcp), 10),
   checks: vector("checks", labelled(st.check), 11),
@@ -730,7 +732,7 @@ async function uploadArea(file) {
 
 function clearFlown() {
   S.flown = null;
-  for (const l of [L.flown, L.failing, L.gaps]) l.getSource().clear();
+  for (const l of [L.flown, L.failing, L.gaps, L.refly]) l.getSource().clear();
   L.coverage.setSource(null);
   $("#flight-summary").textContent = ""; $("#flown-rules").textContent = "";
   $("#refly-box").hidden = true; $("#refly-files").textContent = "";
@@ -796,6 +798,7 @@ async function makeRefly() {
     const r = await api("POST", `/api/plans/${S.view.plan_id}/refly`, fd);
     const out = $("#refly-files"); out.textContent = "";
     for (const text of [r.summary, ...r.notes]) { const p = document.createElement("p"); p.textContent = text; out.appendChild(p); }
+    if (r.lines) L.refly.getSource().addFeatures(geojson.readFeatures(r.lines, { dataProjection: WGS84, featureProjection: WEB }));
     for (const name of r.files) {
       const a = document.createElement("a");
       a.href = `/api/plans/${r.plan_id}/files/${encodeURIComponent(name)}`; a.textContent = name; a.setAttribute("download", name);
