@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import io
+import shutil
 import tomllib
+import zipfile
 
 import numpy as np
 import shapely
+from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from webutil import client, copy_mission, run_plan
 
 from aerosurvey.area import read_area
+from aerosurvey.cli import main
 from aerosurvey.inputs import load_geometry
 from aerosurvey.spec import load_spec
 from aerosurvey.web import service
@@ -79,6 +84,15 @@ def test_drawn_zones_reach_the_plan(tmp_path):
         assert st_both["state"] == "error" and st_both["error"]["key"] == "zones"
         r = c.post("/api/plan", json={"spec": state["spec"], "zones": "POLYGON"})
         assert r.status_code == 400 and r.json()["key"] == "zones"
+        assert c.post("/api/spec/toml", json={"spec": state["spec"], "zones": []}).headers["content-type"] == "application/toml"
+        # Spec as TOML with drawn zones: a zip of the TOML and the zones' GeoJSON, which plans the page's mission
         r = c.post("/api/spec/toml", json={"spec": state["spec"], "zones": [zone.wkt]})
-        assert r.status_code == 400 and r.json()["key"] == "zones"
-        assert c.post("/api/spec/toml", json={"spec": state["spec"], "zones": []}).status_code == 200
+        assert r.status_code == 200 and r.headers["content-type"] == "application/zip"
+        with zipfile.ZipFile(io.BytesIO(r.content)) as zf:
+            assert sorted(zf.namelist()) == ["obratan-72ha.toml", "obratan-72ha.zones.geojson"]
+            zf.extractall(tmp_path / "download")
+        shutil.copytree(spec_path.parent / "areas", tmp_path / "download" / "areas")
+        res = CliRunner().invoke(main, ["plan", str(tmp_path / "download" / "obratan-72ha.toml"), "-o", str(tmp_path / "cli")])
+        assert res.exit_code == 0, res.output
+        page = c.get(f"/api/plans/{done['result']['plan_id']}/files/mission.waypoints").text
+        assert (tmp_path / "cli" / "mission.waypoints").read_text() == page

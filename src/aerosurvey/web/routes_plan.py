@@ -10,9 +10,7 @@
 from __future__ import annotations
 
 import asyncio
-import io
 import time
-import zipfile
 from typing import Any
 
 from starlette.requests import Request
@@ -21,7 +19,7 @@ from starlette.responses import JSONResponse, Response
 from aerosurvey.errors import InputError
 from aerosurvey.web import service
 from aerosurvey.web.jobs import Progress
-from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body, zones_body
+from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body, zip_texts, zones_body
 
 MAX_WAIT_S = 10.0
 _POLL_S = 0.02
@@ -87,14 +85,6 @@ async def plan_archive(request: Request) -> Response:
     bundle = server(request).plan(request.path_params["plan_id"])
     if bundle is None:
         return plan_gone(request)
-    data = await blocking(_zip, bundle.files)
+    data = await blocking(zip_texts, bundle.files)
     stem = bundle.view["name"] or "mission"
     return Response(data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{stem}.zip"'})
-
-
-def _zip(files: dict[str, str]) -> bytes:
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name, text in sorted(files.items()):
-            zf.writestr(name, text)
-    return buf.getvalue()

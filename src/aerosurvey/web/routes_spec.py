@@ -21,8 +21,8 @@ from starlette.responses import FileResponse, JSONResponse, Response
 
 from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.web import service
-from aerosurvey.web.specfile import geometry_preview, save_with_geometry, validated_toml
-from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body, zones_body
+from aerosurvey.web.specfile import geometry_preview, save_with_geometry, spec_download
+from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body, zip_texts, zones_body
 
 
 async def index(request: Request) -> Response:
@@ -73,19 +73,20 @@ async def upload_area(request: Request) -> Response:
 
 
 async def spec_toml(request: Request) -> Response:
+    """The spec as a TOML file; with drawn zones, a zip of it and the zones' GeoJSON file it names."""
     state = server(request)
     try:
         spec = await spec_body(request)
         zones = await zones_body(request)
-        if zones:
-            raise InputError("zones: the drawn exclusion zones do not fit in a TOML file alone: save the spec (they go to "
-                             "a GeoJSON file beside it) or download the drawn geometry", key="zones")
-        text = await blocking(validated_toml, state.workspace, spec)
+        name = Path(str((spec.get("mission") or {}).get("name") or "mission")).name or "mission"
+        files = await blocking(spec_download, state.workspace, spec, zones, name)
     except AerosurveyError as exc:
         return error(exc)
-    name = str((spec.get("mission") or {}).get("name") or "mission")
-    return Response(text.encode("utf-8"), media_type="application/toml",
-                    headers={"Content-Disposition": f'attachment; filename="{name}.toml"'})
+    if len(files) == 1:
+        return Response(files[f"{name}.toml"].encode("utf-8"), media_type="application/toml",
+                        headers={"Content-Disposition": f'attachment; filename="{name}.toml"'})
+    return Response(await blocking(zip_texts, files), media_type="application/zip",
+                    headers={"Content-Disposition": f'attachment; filename="{name}.zip"'})
 
 
 async def spec_save(request: Request) -> Response:

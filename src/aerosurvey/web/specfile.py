@@ -64,22 +64,16 @@ def geometry_preview(ws: service.Workspace, spec_data: dict[str, Any]) -> dict[s
     return {"area": service.exact_wkt(area), "zones": [service.exact_wkt(z) for z in zones]}
 
 
-def save_with_geometry(ws: service.Workspace, spec_path: Path, spec: dict[str, Any],
-                       zones: list[str] | None) -> tuple[dict[str, Any], list[str]]:
-    """Write the spec over `spec_path`, with an inline (drawn or uploaded) area and drawn zones as
-    GeoJSON files beside it (`STEM.area.geojson`, `STEM.zones.geojson`), each written atomically,
-    the spec last. Returns the spec as written (paths to those files) and the files' names.
-
-    Everything is checked before anything is written.
-    """
+def with_geometry_files(spec: dict[str, Any], zones: list[str] | None, stem: str,
+                        area_too: bool) -> tuple[dict[str, Any], dict[str, str]]:
+    """The spec pointing at GeoJSON files of its drawn zones (`STEM.zones.geojson`) and, with
+    `area_too`, of its inline area (`STEM.area.geojson`), and those files' texts by name."""
     from aerosurvey.area import read_area
 
-    validated_toml(ws, spec, zones)
     out = copy.deepcopy(spec)
     area = out.setdefault("area", {})
     files: dict[str, str] = {}
-    stem = spec_path.stem
-    if isinstance(area.get("wkt"), str):
+    if area_too and isinstance(area.get("wkt"), str):
         geom = read_area(None, area.pop("wkt"), area.pop("wkt_crs", "EPSG:4326"), "area")
         area["file"] = f"{stem}.area.geojson"
         files[area["file"]] = _feature_collection([geom], "area")
@@ -88,10 +82,31 @@ def save_with_geometry(ws: service.Workspace, spec_path: Path, spec: dict[str, A
         if zones:
             area["exclusions"] = [f"{stem}.zones.geojson"]
             files[area["exclusions"][0]] = _feature_collection(list(service.drawn_zones(zones)), "exclusion")
+    return out, files
+
+
+def save_with_geometry(ws: service.Workspace, spec_path: Path, spec: dict[str, Any],
+                       zones: list[str] | None) -> tuple[dict[str, Any], list[str]]:
+    """Write the spec over `spec_path`, with an inline (drawn or uploaded) area and drawn zones as
+    GeoJSON files beside it (`STEM.area.geojson`, `STEM.zones.geojson`), each written atomically,
+    the spec last. Returns the spec as written (paths to those files) and the files' names.
+
+    Everything is checked before anything is written.
+    """
+    validated_toml(ws, spec, zones)
+    out, files = with_geometry_files(spec, zones, spec_path.stem, area_too=True)
     for name, text in files.items():
         atomic_write_text(spec_path.parent / name, text)
     atomic_write_text(spec_path, validated_toml(ws, out))
     return out, sorted(files)
+
+
+def spec_download(ws: service.Workspace, spec: dict[str, Any], zones: list[str] | None, name: str) -> dict[str, str]:
+    """The files of *Spec as TOML*: `NAME.toml` (the area inline), and `NAME.zones.geojson` beside it when
+    zones are drawn. Checked as a plan checks them."""
+    validated_toml(ws, spec, zones)
+    out, files = with_geometry_files(spec, zones or None, name, area_too=False)
+    return {f"{name}.toml": service.spec_to_toml(relative_paths(ws, out)), **files}
 
 
 def _feature_collection(geoms: list[BaseGeometry], role: str) -> str:

@@ -6,9 +6,11 @@ computes for long, goes through `blocking` (a worker thread).
 
 from __future__ import annotations
 
+import io
 import itertools
 import shutil
 import threading
+import zipfile
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -141,3 +143,12 @@ def save_upload(upload: UploadFile, folder: Path) -> Path:
     with open(target, "wb") as fh:
         shutil.copyfileobj(upload.file, fh, 1 << 20)
     return target
+
+
+def zip_texts(files: dict[str, str]) -> bytes:
+    """Text files by name as a zip archive's bytes."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name, text in sorted(files.items()):
+            zf.writestr(name, text)
+    return buf.getvalue()

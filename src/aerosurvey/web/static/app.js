@@ -816,8 +816,8 @@ function downloadBlob(blob, name) {
 }
 async function downloadToml() {
   try {
-    const blob = await api("POST", "/api/spec/toml", planBody());
-    downloadBlob(blob, `${(S.spec.mission || {}).name || "mission"}.toml`);
+    const blob = await api("POST", "/api/spec/toml", planBody());  // with drawn zones: a zip of the TOML and their GeoJSON
+    downloadBlob(blob, `${(S.spec.mission || {}).name || "mission"}.${blob.type === "application/zip" ? "zip" : "toml"}`);
   } catch (e) { showError(e.key, e.message); }
 }
 function downloadDrawn() {
