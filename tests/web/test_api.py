@@ -424,7 +424,9 @@ def test_serve_refuses_bad_options(tmp_path):
     res = CliRunner().invoke(main, ["serve", str(tmp_path / "missing.toml")])
     assert res.exit_code == 2 and "does not exist" in res.output
     res = CliRunner().invoke(main, ["serve", "--tiles", "https://tile.example/{z}/{x}.png"])
-    assert res.exit_code == 2 and "{y}" in res.output
+    assert res.exit_code == 2 and "{y}" in res.output and "{TileRow}" in res.output
+    res = CliRunner().invoke(main, ["serve", "--tiles", "https://tile.example/{TileMatrix}/{TileCol}.png"])
+    assert res.exit_code == 2
 
 
 def test_serve_binds_loopback_and_warns_when_exposed(monkeypatch, obratan):

@@ -28,8 +28,9 @@ def _loopback(host: str) -> bool:
               help="Address to listen on. Anything but a loopback address exposes the page (and your files) to the network.")
 @click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True, help="TCP port (0: any free port).")
 @click.option("--tiles", "tile_url", default="",
-              help="XYZ basemap URL template, e.g. https://tile.example.org/{z}/{x}/{y}.png; none by default (no tile "
-                   "server is contacted unless set here or on the page).")
+              help="XYZ basemap URL template, e.g. https://tile.example.org/{z}/{x}/{y}.png, or a WMTS REST one with "
+                   "{TileMatrix}/{TileCol}/{TileRow} (Web Mercator); none by default (no tile server is contacted unless "
+                   "set here or on the page).")
 @click.option("--basemap", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="A local .mbtiles or .pmtiles file of raster tiles, served by the page itself as its basemap (no network).")
 @click.option("--max-upload-mb", type=click.IntRange(1, 2048), default=50, show_default=True, help="Largest upload accepted.")
@@ -43,8 +44,10 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, basemap: Path 
 
     if spec is not None and not spec.is_file():
         raise InputError(f"mission spec {str(spec)!r} does not exist")
-    if tile_url and not all(k in tile_url for k in ("{z}", "{x}", "{y}")):
-        raise InputError(f"--tiles = {tile_url!r} is not allowed: an XYZ URL template with {{z}}, {{x}} and {{y}}")
+    if tile_url and not any(all(k in tile_url for k in keys) for keys in (("{z}", "{x}", "{y}"),
+                                                                             ("{TileMatrix}", "{TileCol}", "{TileRow}"))):
+        raise InputError(f"--tiles = {tile_url!r} is not allowed: an XYZ URL template with {{z}}, {{x}} and {{y}}, or a WMTS "
+                         "REST template (Web Mercator) with {TileMatrix}, {TileCol} and {TileRow}")
     if port == 0:
         with socket.socket() as s:
             s.bind((host, 0))

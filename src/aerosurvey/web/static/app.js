@@ -695,8 +695,16 @@ function onPointer(e) {
   $("#cursor").textContent = text;
 }
 
+// An XYZ template, or a WMTS REST template of the Web Mercator tile matrix set (GoogleMapsCompatible),
+// whose {TileMatrix}/{TileCol}/{TileRow} are XYZ's z/x/y; the empty string for anything else.
+const WMTS_KEYS = { "{TileMatrix}": "{z}", "{TileCol}": "{x}", "{TileRow}": "{y}" };
+function xyzTemplate(url) {
+  const xyz = Object.entries(WMTS_KEYS).reduce((u, [w, k]) => u.replaceAll(w, k), url || "");
+  return ["{z}", "{x}", "{y}"].every((k) => xyz.includes(k)) ? xyz : "";
+}
+
 function basemapSource() {
-  const url = S.tileUrl || (S.basemap && S.basemap.url);
+  const url = xyzTemplate(S.tileUrl) || (S.basemap && S.basemap.url);
   if (!url) return null;
   const own = !S.tileUrl;
   return new olb.XYZ({
@@ -892,7 +900,7 @@ async function start() {
   $("#tile-url").addEventListener("change", () => {
     const v = $("#tile-url").value.trim();
     const box = $(".err[data-for='tiles']"); box.textContent = "";
-    if (v && !["{z}", "{x}", "{y}"].every((k) => v.includes(k))) { box.textContent = `${v} is not an XYZ template: it needs {z}, {x} and {y}`; return; }
+    if (v && !xyzTemplate(v)) { box.textContent = `${v} is not a tile URL template: it needs {z}, {x} and {y} (XYZ) or {TileMatrix}, {TileCol} and {TileRow} (WMTS REST)`; return; }
     S.tileUrl = v; localStorage.setItem("aerosurvey.tileUrl", v); updateBasemap();
   });
   for (const cb of $$("#layer-toggles input[data-layer]")) cb.addEventListener("change", () => L[cb.dataset.layer === "area" ? "area" : cb.dataset.layer].setVisible(cb.checked));
