@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from webutil import client, copy_mission, tile_png, tiles_around, write_mbtiles, write_pmtiles
+from webutil import client, copy_mission, tile_png, tiles_around, write_mbtiles, write_pmtiles, write_vector_tiles
 
 from aerosurvey.errors import InputError
 from aerosurvey.web.basemap import open_basemap
@@ -48,9 +48,35 @@ def test_bad_basemap_files_are_refused(tmp_path):
     (tmp_path / "bad.pmtiles").write_bytes(b"")
     with pytest.raises(InputError, match="not a readable PMTiles"):
         open_basemap(tmp_path / "bad.pmtiles")
-    vec = write_mbtiles(tmp_path / "vector.mbtiles", {(0, 0, 0): b"\x1a\x00"}, fmt="pbf")
-    with pytest.raises(InputError, match="holds pbf tiles; the page draws raster tiles"):
-        open_basemap(vec)
+    tif = write_mbtiles(tmp_path / "tiff.mbtiles", {(0, 0, 0): b"II*\x00"}, fmt="tiff")
+    with pytest.raises(InputError, match="holds tiff tiles; the page draws jpg, pbf, png, webp tiles"):
+        open_basemap(tif)
+
+
+@pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
+def test_vector_tiles_are_served_unpacked(tmp_path, kind):
+    """GDAL's vector tile sets hold gzipped tiles: the page gets them plain, each as GDAL wrote it."""
+    import gzip
+    import sqlite3
+
+    path = write_vector_tiles(tmp_path / f"v.{kind}")
+    if kind == "mbtiles":
+        with sqlite3.connect(path) as db:
+            stored = {(z, x, (1 << z) - 1 - row): bytes(d) for z, x, row, d in db.execute("SELECT * FROM tiles")}
+    else:
+        from pmtiles.reader import MmapSource, all_tiles
+
+        with open(path, "rb") as fh:
+            stored = {zxy: bytes(d) for zxy, d in all_tiles(MmapSource(fh))}
+    assert stored and all(d[:2] == b"\x1f\x8b" for d in stored.values())
+    with client(copy_mission(tmp_path), basemap=path) as c:
+        info = c.get("/api/state").json()["basemap"]
+        assert info["format"] == "pbf" and info["vector"] is True and (info["minzoom"], info["maxzoom"]) == (12, 14)
+        for (z, x, y), data in stored.items():
+            r = c.get(f"/api/basemap/{z}/{x}/{y}")
+            assert r.status_code == 200 and r.content == gzip.decompress(data)
+            assert r.headers["content-type"] == "application/vnd.mapbox-vector-tile"
+            assert b"Pond" in r.content or b"Main road" in r.content or b"Obratan" in r.content
 
 
 def test_serve_takes_a_basemap_file(tmp_path, monkeypatch):

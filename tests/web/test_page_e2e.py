@@ -22,7 +22,7 @@ import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
-from webutil import REPO, copy_mission, tile_png, tiles_around, write_mbtiles, write_pmtiles
+from webutil import REPO, copy_mission, tile_png, tiles_around, write_mbtiles, write_pmtiles, write_vector_tiles
 
 from aerosurvey.cli import main
 from conftest import random_polygon, write_geojson
@@ -596,6 +596,36 @@ def test_offline_basemap_from_a_local_file(site, kind):
             assert (z, x, y) in tiles
         assert kind in pg.text_content("#basemap-note") or "offline basemap" in pg.text_content("#basemap-note")
         pg.screenshot(path=str(SHOTS / f"12-basemap-{kind}.png"))
+        _only_our_server(pg, server.url)
+    finally:
+        ctx.close()
+        server.stop()
+
+
+@pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
+def test_offline_vector_basemap(site, kind):
+    """A vector tile set made by GDAL: the pond is drawn where it is, its name written, nothing asked elsewhere."""
+    tmp = site["tmp"] / f"vector-{kind}"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    server = _Server(spec, basemap=write_vector_tiles(tmp / f"base.{kind}"))
+    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
+    try:
+        pg = ctx.new_page()
+        pg.requests = []
+        pg.on("request", lambda r: pg.requests.append(r.url))
+        pg.goto(server.url)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        pg.evaluate("window.aerosurvey.map.getView().setZoom(14)")
+        pg.wait_for_function("new Promise(ok => { const m = window.aerosurvey.map; m.once('rendercomplete', () => ok(true)); "
+                             "m.render(); })", timeout=30000)
+        x, y = _page_px(pg, 14.9505, 49.430)  # inside the pond
+        box = pg.locator("#map").bounding_box()
+        found = pg.evaluate("""async ([x, y]) => (await window.aerosurvey.layers.vbasemap.getFeatures([x, y]))
+            .map(f => f.get('class'))""", [x - box["x"], y - box["y"]])
+        assert "water" in found
+        assert pg.evaluate("window.aerosurvey.layers.basemap.getSource()") is None
+        pg.screenshot(path=str(SHOTS / f"15-vector-basemap-{kind}.png"))
         _only_our_server(pg, server.url)
     finally:
         ctx.close()

@@ -102,3 +102,23 @@ def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes]) -> Path:
                     "max_lat_e7": 850000000, "center_zoom": min(zs), "center_lon_e7": 0, "center_lat_e7": 0},
                    {"name": "test basemap", "attribution": "test tiles"})
     return path
+
+
+#: What the vector basemap of the tests holds (lon/lat near the Obrataň example): class, name, geometry.
+VECTOR_FEATURES = [("road", "Main road", "LINESTRING (14.94 49.425, 14.96 49.435)"),
+                   ("water", "Pond", "POLYGON ((14.9485 49.4285, 14.9525 49.4285, 14.9525 49.4315, 14.9485 49.4315, 14.9485 49.4285))"),
+                   ("place", "Obratan", "POINT (14.952 49.432)")]
+
+
+def write_vector_tiles(path: Path) -> Path:
+    """A vector tile set (Mapbox Vector Tiles, zooms 12..14) written by GDAL's MBTiles or PMTiles driver."""
+    import numpy as np
+    import pyogrio
+    import shapely
+
+    wkb = np.array([shapely.to_wkb(shapely.from_wkt(w)) for _, _, w in VECTOR_FEATURES], dtype=object)
+    fields = [np.array([c for c, _, _ in VECTOR_FEATURES], dtype=object), np.array([n for _, n, _ in VECTOR_FEATURES], dtype=object)]
+    pyogrio.raw.write(str(path), geometry=wkb, field_data=fields, fields=["class", "name"], crs="EPSG:4326",
+                      geometry_type="Unknown", driver="MBTiles" if path.suffix == ".mbtiles" else "PMTiles", layer="basemap",
+                      dataset_options={"MINZOOM": "12", "MAXZOOM": "14"})
+    return path

@@ -32,7 +32,8 @@ def _loopback(host: str) -> bool:
                    "{TileMatrix}/{TileCol}/{TileRow} (Web Mercator); none by default (no tile server is contacted unless "
                    "set here or on the page).")
 @click.option("--basemap", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="A local .mbtiles or .pmtiles file of raster tiles, served by the page itself as its basemap (no network).")
+              help="A local .mbtiles or .pmtiles file of raster or vector tiles, served by the page itself as its basemap "
+                   "(no network).")
 @click.option("--max-upload-mb", type=click.IntRange(1, 2048), default=50, show_default=True, help="Largest upload accepted.")
 def serve(spec: Path | None, host: str, port: int, tile_url: str, basemap: Path | None, max_upload_mb: int) -> None:
     """Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."""

@@ -58,7 +58,7 @@ ROUTES: list[BaseRoute] = [
 def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts: list[str] | None = None,
                upload_limit: int = UPLOAD_LIMIT, workers: int = 2, basemap: Path | None = None) -> Starlette:
     """The app; `allowed_hosts` None accepts any Host header (tests), else only those (DNS rebinding).
-    `basemap`: a local .mbtiles or .pmtiles file of raster tiles the page draws under the plan."""
+    `basemap`: a local .mbtiles or .pmtiles file of raster or vector tiles the page draws under the plan."""
     spec = {}
     if spec_path is not None:
         spec_path = spec_path.resolve()

@@ -4,14 +4,16 @@ the office plans in the field without a network.
 
 MBTiles is SQLite (read with Python's sqlite3, read-only; its rows are TMS, y counted from the
 south); PMTiles is read by the PMTiles project's own reader (`pmtiles` on PyPI). Only raster tiles
-(PNG, JPEG, WebP) are served: the page draws them as an XYZ layer. Vector tile sets are refused
-with the reason.
+(PNG, JPEG, WebP) and vector tiles (Mapbox Vector Tiles, `pbf`) are served, the latter
+uncompressed (files hold them gzipped): the page draws the first as an XYZ layer, the second
+as a vector tile layer with a generic style by layer and class names.
 """
 
 from __future__ import annotations
 
 import sqlite3
 import threading
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,20 +21,22 @@ from typing import Any
 from aerosurvey.errors import InputError
 
 #: Tile formats the page can draw, by the name MBTiles' metadata uses, and their media types.
-MEDIA = {"png": "image/png", "jpg": "image/jpeg", "jpeg": "image/jpeg", "webp": "image/webp"}
+MEDIA = {"png": "image/png", "jpg": "image/jpeg", "webp": "image/webp",
+         "pbf": "application/vnd.mapbox-vector-tile"}
 
 
 @dataclass(frozen=True)
 class BasemapInfo:
     name: str
-    format: str  # png, jpg or webp
+    format: str  # png, jpg, webp or pbf (vector tiles)
     minzoom: int
     maxzoom: int
     bounds: tuple[float, float, float, float] | None  # lon/lat
     attribution: str
 
     def as_dict(self) -> dict[str, Any]:
-        return {"url": "/api/basemap/{z}/{x}/{y}", "name": self.name, "format": self.format, "minzoom": self.minzoom,
+        return {"url": "/api/basemap/{z}/{x}/{y}", "name": self.name, "format": self.format, "vector": self.format == "pbf",
+                "minzoom": self.minzoom,
                 "maxzoom": self.maxzoom, "bounds": list(self.bounds) if self.bounds else None,
                 "attribution": self.attribution}
 
@@ -62,11 +66,25 @@ def open_basemap(path: Path) -> Basemap:
 
 
 def _format(path: Path, fmt: str) -> str:
-    fmt = fmt.lower()
+    fmt = {"jpeg": "jpg", "mvt": "pbf"}.get(fmt.lower(), fmt.lower())
     if fmt not in MEDIA:
-        raise InputError(f"--basemap {path.name!r} holds {fmt or 'unnamed'} tiles; the page draws raster tiles "
-                         f"({', '.join(sorted(MEDIA))}): make a raster tile set")
-    return "jpg" if fmt == "jpeg" else fmt
+        raise InputError(f"--basemap {path.name!r} holds {fmt or 'unnamed'} tiles; the page draws "
+                         f"{', '.join(sorted(MEDIA))} tiles")
+    return fmt
+
+
+#: The most a gzipped tile may unpack to (a vector tile is a few hundred kB at most).
+MAX_TILE = 16 * 1024 * 1024
+
+
+def _plain(data: bytes) -> bytes | None:
+    """A tile as the page reads it: vector tiles are stored gzipped (MBTiles by custom, PMTiles by its
+    header). None (not served) for a tile that would unpack to more than MAX_TILE."""
+    if data[:2] != b"\x1f\x8b":
+        return data
+    d = zlib.decompressobj(16 + zlib.MAX_WBITS)
+    out = d.decompress(data, MAX_TILE)
+    return None if d.unconsumed_tail else out
 
 
 class _MBTiles(Basemap):
@@ -95,7 +113,7 @@ class _MBTiles(Basemap):
         with self._lock:
             row = self._db.execute("SELECT tile_data FROM tiles WHERE zoom_level = ? AND tile_column = ? AND tile_row = ?",
                                    (z, x, (1 << z) - 1 - y)).fetchone()
-        return None if row is None else bytes(row[0])
+        return None if row is None else _plain(bytes(row[0]))
 
     def close(self) -> None:
         self._db.close()
@@ -116,7 +134,7 @@ class _PMTiles(Basemap):
         except (MagicNumberNotFound, SpecVersionUnsupported, ValueError, OSError) as exc:  # ValueError: an empty file
             self._fh.close()
             raise InputError(f"--basemap {path.name!r} is not a readable PMTiles (version 3) file: {exc!r}") from None
-        names = {TileType.PNG: "png", TileType.JPEG: "jpg", TileType.WEBP: "webp"}
+        names = {TileType.PNG: "png", TileType.JPEG: "jpg", TileType.WEBP: "webp", TileType.MVT: "pbf"}
         fmt = names.get(header["tile_type"], header["tile_type"].name.lower())
         self._lock = threading.Lock()
         e7 = 1e-7
@@ -127,7 +145,7 @@ class _PMTiles(Basemap):
     def tile(self, z: int, x: int, y: int) -> bytes | None:
         with self._lock:
             data = self._reader.get(z, x, y)
-        return None if data is None else bytes(data)
+        return None if data is None else _plain(bytes(data))
 
     def close(self) -> None:
         self._fh.close()

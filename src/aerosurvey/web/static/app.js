@@ -301,8 +301,34 @@ function vector(name, style, z) {
   layer.set("name", name);
   return layer;
 }
+// a vector basemap (--basemap FILE of Mapbox Vector Tiles): a generic style by the layer's and feature's names
+const VT = {
+  water: new olb.Style({ fill: new olb.Fill({ color: "#aad3df" }), stroke: new olb.Stroke({ color: "#7fb5c9", width: 1 }) }),
+  green: new olb.Style({ fill: new olb.Fill({ color: "#d6eccb" }), stroke: new olb.Stroke({ color: "#b9d9a6", width: 1 }) }),
+  building: new olb.Style({ fill: new olb.Fill({ color: "#e3d9cc" }), stroke: new olb.Stroke({ color: "#c9bba9", width: 1 }) }),
+  road: new olb.Style({ stroke: new olb.Stroke({ color: "#a0a0a0", width: 3 }) }),
+  boundary: new olb.Style({ stroke: new olb.Stroke({ color: "#9c6fb6", width: 1, lineDash: [6, 4] }) }),
+  other: new olb.Style({ fill: new olb.Fill({ color: "rgba(120,120,120,0.08)" }), stroke: new olb.Stroke({ color: "#c0c0c0", width: 1 }) }),
+  label: new olb.Style({ text: new olb.Text({ font: "12px system-ui, sans-serif", fill: new olb.Fill({ color: "#333" }),
+    stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) }),
+};
+const VT_KINDS = [["water", /water|ocean|river|lake|pond|sea/], ["green", /park|wood|forest|grass|landcover|landuse|green|farm|meadow/],
+  ["building", /building/], ["road", /road|transport|street|highway|path|track|rail/], ["boundary", /boundary|admin/]];
+function vectorBasemapStyle(f) {
+  const type = f.getType();
+  if (type === "Point" || type === "MultiPoint") {
+    if (!f.get("name")) return null;
+    VT.label.getText().setText(String(f.get("name")));
+    return VT.label;
+  }
+  const words = `${f.get("layer") || ""} ${f.get("class") || ""} ${f.get("kind") || ""} ${f.get("type") || ""}`.toLowerCase();
+  const kind = VT_KINDS.find(([, re]) => re.test(words));
+  return VT[kind ? kind[0] : "other"];
+}
+
 const L = {
   basemap: new olb.TileLayer({ zIndex: 0 }),
+  vbasemap: new olb.VectorTileLayer({ zIndex: 0, style: vectorBasemapStyle, declutter: true }),
   coverage: new olb.ImageLayer({ zIndex: 1 }),
   uncovered: vector("uncovered", st.uncovered, 3),
   lines: vector("lines", lineStyle, 4),
@@ -713,7 +739,12 @@ function basemapSource() {
   });
 }
 function updateBasemap() {
-  L.basemap.setSource(basemapSource());
+  const vector = !S.tileUrl && S.basemap && S.basemap.vector;
+  L.basemap.setSource(vector ? null : basemapSource());
+  L.vbasemap.setSource(vector ? new olb.VectorTileSource({
+    format: new olb.MVT(), url: S.basemap.url, minZoom: S.basemap.minzoom, maxZoom: S.basemap.maxzoom,
+    attributions: S.basemap.attribution || S.basemap.name,
+  }) : null);
   $("#basemap-note").textContent = S.tileUrl ? `tiles from ${S.tileUrl}`
     : S.basemap ? `offline basemap ${S.basemap.name} (${S.basemap.format}, zoom ${S.basemap.minzoom}–${S.basemap.maxzoom}), served by this page`
       : "No tile server is contacted unless a URL is set.";
@@ -903,7 +934,10 @@ async function start() {
     if (v && !xyzTemplate(v)) { box.textContent = `${v} is not a tile URL template: it needs {z}, {x} and {y} (XYZ) or {TileMatrix}, {TileCol} and {TileRow} (WMTS REST)`; return; }
     S.tileUrl = v; localStorage.setItem("aerosurvey.tileUrl", v); updateBasemap();
   });
-  for (const cb of $$("#layer-toggles input[data-layer]")) cb.addEventListener("change", () => L[cb.dataset.layer === "area" ? "area" : cb.dataset.layer].setVisible(cb.checked));
+  for (const cb of $$("#layer-toggles input[data-layer]")) {
+    const layers = cb.dataset.layer === "basemap" ? [L.basemap, L.vbasemap] : [L[cb.dataset.layer]];
+    cb.addEventListener("change", () => layers.forEach((l) => l.setVisible(cb.checked)));
+  }
   for (const b of $$("#tools [data-tool]")) b.addEventListener("click", () => setTool(b.dataset.tool));
   $("#undo").addEventListener("click", undo);
   $("#redo").addEventListener("click", redo);
