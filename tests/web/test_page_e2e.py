@@ -7,6 +7,7 @@ Screenshots of the main states go to out/test-screenshots/.
 
 from __future__ import annotations
 
+import contextlib
 import http.server
 import json
 import math
@@ -361,15 +362,33 @@ def _zone_square(pg, half_px: float) -> list[tuple[float, float]]:
     return [(cx - half_px, cy - half_px), (cx + half_px, cy - half_px), (cx + half_px, cy + half_px), (cx - half_px, cy + half_px)]
 
 
-def test_draw_an_area_by_clicks_and_see_its_plan(site):
-    server = _Server(None)
-    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
+@contextlib.contextmanager
+def _own_server_page(site, spec: Path | None, ready: str = "window.aerosurvey.view !== null", basemap: Path | None = None):
+    """A server of the test's own and a 1366×768 page on it, once `ready` holds; `pg.requests` lists
+    every URL asked, `pg.served` the (URL, status) of the basemap's tiles."""
+    server = _Server(spec, basemap=basemap)
+    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
     try:
         pg = ctx.new_page()
-        pg.requests = []
+        pg.requests, pg.served = [], []
         pg.on("request", lambda r: pg.requests.append(r.url))
+        pg.on("response", lambda r: pg.served.append((r.url, r.status)) if "/api/basemap/" in r.url else None)
         pg.goto(server.url)
-        pg.wait_for_function("document.querySelector('#status').textContent.startsWith('draw')", timeout=30000)
+        pg.wait_for_function(ready, timeout=60000)
+        yield pg, server
+    finally:
+        ctx.close()
+        server.stop()
+
+
+def _rendered(pg) -> None:
+    """Wait until the map has drawn everything it has (tiles included)."""
+    pg.wait_for_function("new Promise(ok => { const m = window.aerosurvey.map; m.once('rendercomplete', () => ok(true)); "
+                         "m.render(); })", timeout=30000)
+
+
+def test_draw_an_area_by_clicks_and_see_its_plan(site):
+    with _own_server_page(site, None, "document.querySelector('#status').textContent.startsWith('draw')") as (pg, server):
         res = pg.evaluate("""() => { const v = window.aerosurvey.map.getView();
             v.setCenter(olb.fromLonLat([14.95, 49.43])); v.setZoom(16); return v.getResolution(); }""")
         pg.click("#tools [data-tool='area']")
@@ -386,9 +405,6 @@ def test_draw_an_area_by_clicks_and_see_its_plan(site):
         assert planned_ha == pytest.approx(ground / 1e4, rel=0.02)
         pg.screenshot(path=str(SHOTS / "09-drawn-area.png"))
         _only_our_server(pg, server.url)
-    finally:
-        ctx.close()
-        server.stop()
 
 
 def test_drag_a_vertex_changes_the_line_count(page):
@@ -501,32 +517,19 @@ def test_spec_with_a_bad_value_gets_its_area_on_the_map_once_fixed(site):
     tmp.mkdir()
     spec = copy_mission(tmp)
     spec.write_text(spec.read_text().replace("side_overlap = 0.60", "side_overlap = 1.2"))
-    server = _Server(spec)
-    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
-    try:
-        pg = ctx.new_page()
-        pg.goto(server.url)
-        pg.locator("#general-error").wait_for(state="visible", timeout=30000)
+    with _own_server_page(site, spec, "document.querySelector('#general-error').textContent !== ''") as (pg, _):
         assert "targets.side_overlap = 1.2" in pg.text_content("#general-error")  # seen from the Fly tab too
         assert _features(pg, "area") == 0  # the spec could not be read: nothing to draw yet
         _tab(pg, "setup")
         _replan_and_wait(pg, lambda: pg.fill("[data-key='targets.side_overlap']", "0.6"))
         assert _features(pg, "area") == 1 and _features(pg, "lines") == 34
-    finally:
-        ctx.close()
-        server.stop()
 
 
 def test_save_the_drawn_zone_with_the_spec_and_reload(site):
     tmp = site["tmp"] / "save"
     tmp.mkdir()
     spec = copy_mission(tmp)
-    server = _Server(spec)
-    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
-    try:
-        pg = ctx.new_page()
-        pg.goto(server.url)
-        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+    with _own_server_page(site, spec) as (pg, _):
         pg.click("#tools [data-tool='zone']")
         _replan_and_wait(pg, lambda: _click_polygon(pg, _zone_square(pg, 50)))
         drawn = _drawn(pg, "zone")[0][0]
@@ -566,9 +569,6 @@ def test_save_the_drawn_zone_with_the_spec_and_reload(site):
         _replan_and_wait(pg, drag)
         assert pg.evaluate("window.aerosurvey.spec.area.exclusions") == ["obratan-72ha.zones.geojson"]
         assert pg.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
-    finally:
-        ctx.close()
-        server.stop()
 
 
 @pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
@@ -578,28 +578,16 @@ def test_offline_basemap_from_a_local_file(site, kind):
     spec = copy_mission(tmp)
     tiles = tiles_around(14.951, 49.431, range(14, 19))
     path = (write_mbtiles if kind == "mbtiles" else write_pmtiles)(tmp / f"base.{kind}", tiles)
-    server = _Server(spec, basemap=path)
-    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
-    try:
-        pg = ctx.new_page()
-        pg.requests, served = [], []
-        pg.on("request", lambda r: pg.requests.append(r.url))
-        pg.on("response", lambda r: served.append((r.url, r.status)) if "/api/basemap/" in r.url else None)
-        pg.goto(server.url)
-        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
-        pg.wait_for_function("new Promise(ok => { const m = window.aerosurvey.map; m.once('rendercomplete', () => ok(true)); "
-                             "m.render(); })", timeout=30000)
-        ok = [u for u, status in served if status == 200]
-        assert ok, served
+    with _own_server_page(site, spec, basemap=path) as (pg, server):
+        _rendered(pg)
+        ok = [u for u, status in pg.served if status == 200]
+        assert ok, pg.served
         for u in ok:
             z, x, y = (int(v) for v in u.rsplit("/", 3)[1:])
             assert (z, x, y) in tiles
         assert kind in pg.text_content("#basemap-note") or "offline basemap" in pg.text_content("#basemap-note")
         pg.screenshot(path=str(SHOTS / f"12-basemap-{kind}.png"))
         _only_our_server(pg, server.url)
-    finally:
-        ctx.close()
-        server.stop()
 
 
 @pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
@@ -608,17 +596,9 @@ def test_offline_vector_basemap(site, kind):
     tmp = site["tmp"] / f"vector-{kind}"
     tmp.mkdir()
     spec = copy_mission(tmp)
-    server = _Server(spec, basemap=write_vector_tiles(tmp / f"base.{kind}"))
-    ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768})
-    try:
-        pg = ctx.new_page()
-        pg.requests = []
-        pg.on("request", lambda r: pg.requests.append(r.url))
-        pg.goto(server.url)
-        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+    with _own_server_page(site, spec, basemap=write_vector_tiles(tmp / f"base.{kind}")) as (pg, server):
         pg.evaluate("window.aerosurvey.map.getView().setZoom(14)")
-        pg.wait_for_function("new Promise(ok => { const m = window.aerosurvey.map; m.once('rendercomplete', () => ok(true)); "
-                             "m.render(); })", timeout=30000)
+        _rendered(pg)
         x, y = _page_px(pg, 14.9505, 49.430)  # inside the pond
         box = pg.locator("#map").bounding_box()
         found = pg.evaluate("""async ([x, y]) => (await window.aerosurvey.layers.vbasemap.getFeatures([x, y]))
@@ -627,9 +607,6 @@ def test_offline_vector_basemap(site, kind):
         assert pg.evaluate("window.aerosurvey.layers.basemap.getSource()") is None
         pg.screenshot(path=str(SHOTS / f"15-vector-basemap-{kind}.png"))
         _only_our_server(pg, server.url)
-    finally:
-        ctx.close()
-        server.stop()
 
 
 @pytest.mark.parametrize("size", [(1366, 768), (1024, 768)])
