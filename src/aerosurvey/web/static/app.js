@@ -416,7 +416,9 @@ function fmtRange(r, unit) { return r[0] === r[1] ? `${r[0]} ${unit}` : `${r[0]}
 function renderSummary(view) {
   const s = view.summary;
   const failing = view.rules.filter((r) => r.status === "fail");
-  const rules = view.rules.length ? (failing.length ? `${failing.length} of ${view.rules.length} fail` : `${view.rules.length} pass`) : "none chosen";
+  // the summary's own rules line when the server gives one (the text `plan` and `check` print)
+  const rules = s.rules && s.rules.text ? s.rules.text
+    : view.rules.length ? (failing.length ? `${failing.length} of ${view.rules.length} fail` : `${view.rules.length} pass`) : "none chosen";
   const rows = [
     ["area", `${s.area_ha} ha (${s.crs})`],
     ["height AGL", s.height_range_m[0] === s.height_range_m[1] ? `${s.height_agl_m} m` : fmtRange(s.height_range_m, "m")],
