@@ -404,6 +404,8 @@ def test_draw_an_area_by_clicks_and_see_its_plan(site):
         planned_ha = float(pg.text_content("[data-summary='area']").split(" ha")[0])
         assert planned_ha == pytest.approx(ground / 1e4, rel=0.02)
         pg.screenshot(path=str(SHOTS / "09-drawn-area.png"))
+        pg.click("#undo")  # the first drawing undone: nothing to plan
+        assert _features(pg, "area") == 0 and "draw an area" in pg.text_content("#status")
         _only_our_server(pg, server.url)
 
 

@@ -956,6 +956,7 @@ async function start() {
     loadEditable(); fitAll(); noteFirstMap();  // the area is on the map before its first plan arrives
     replan();
   } else {
+    loadEditable();  // nothing yet: the first drawing can be undone
     setStatus("draw an area or drop an area file to start");
     const b = S.basemap && S.basemap.bounds;  // a page without a spec opens over its offline basemap
     if (b) map.getView().fit([...olb.fromLonLat([b[0], b[1]]), ...olb.fromLonLat([b[2], b[3]])], { maxZoom: S.basemap.maxzoom });
