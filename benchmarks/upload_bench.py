@@ -1,17 +1,23 @@
-"""Upload-and-verify speed of a 700-item mission over MAVLink, clean and through a lossy link.
+"""Upload-and-verify speed of a 704-item mission over MAVLink with `aerosurvey upload`'s defaults.
 
-    python benchmarks/upload_bench.py                  # 700 items, 10 % loss, seed 1
+    python benchmarks/upload_bench.py                  # 704 items, clean and 10 % loss, seed 1
     python benchmarks/upload_bench.py --items 300 --drop 0.2 --seed 4
     python benchmarks/upload_bench.py --sitl           # ArduPilot SITL instead of the fake vehicle
     python benchmarks/upload_bench.py --sitl /path/to/arducopter --sitl-defaults copter.parm
-    python benchmarks/upload_bench.py --share            # verified share: 200 simulated uploads at 10 % and 30 % loss
-    python benchmarks/upload_bench.py --share --runs 50 --losses 0.3 --jobs 2
+    python benchmarks/upload_bench.py --share          # 200 simulated runs at 10 % and 30 % loss, 2 ms and 100 ms each way
+    python benchmarks/upload_bench.py --share --runs 50 --losses 0.3 --latencies 0.1 --jobs 2
+
+Every case runs exactly what `aerosurvey upload` runs after its checks, with the command's
+defaults: `upload_mission(link, mission, Policy())` (the command's --timeout and --retries
+defaults are `Policy()`'s own fields), no policy tuned here. `--items` counts the items on
+the wire, home included.
 
 Without --sitl both cases talk to the in-process fake vehicle of the link tests
 (tests/link/fake_vehicle.py) on loopback UDP, through aerosurvey's own pymavlink connection
 and protocol code: (a) directly, (b) through our UDP relay that drops `--drop` of the
 datagrams each way (seeded). The vehicle re-requests a missing item after
-`--vehicle-resend` s (ArduPilot: 1 s), so a lost request costs that long.
+`--vehicle-resend` s (ArduPilot: 1 s). Times are wall-clock seconds on this machine in this
+run; compare the ratio, not the numbers.
 
 With --sitl the vehicle is ArduPilot's SITL binary (default: arducopter in AEROSURVEY_SITL_BIN),
 started in a temporary folder at the mission's home: (a) on its TCP port 5760 + 10·I for the
@@ -19,19 +25,19 @@ first instance I ≥ 5 whose ports are free (so that a SITL on the usual 5760, e
 `aerosurvey sitl` harness, is not disturbed), (b) with SERIAL0 sent as UDP to our lossy relay.
 A small warm-up upload first absorbs the NO_SPACE that ArduPilot answers right after boot;
 the timed run follows. ArduCopter SITL stores at most 650 mission items, home included (it
-says "Only 650 items are supported"), so --sitl uses 649 unless --items says otherwise.
+says "Only 650 items are supported"), so --sitl uses 650 unless --items says otherwise.
 
-Each case must upload, read back and match; the run fails otherwise. Times are wall-clock
-seconds on this machine in this run; compare the ratio, not the numbers.
-
-With --share: `--runs` uploads (default 200) of the 700-item mission at each loss rate of
-`--losses` (default 10 % and 30 %, each way), with the command's default settings
-(`mp.Policy()`: resend after 1 s, 5 retries) on a simulated clock (tests/link/fake_vehicle.py's
-SimLink, real MAVLink bytes through aerosurvey's codec) to the fake vehicle with ArduPilot's
-timers (re-request after 1 s, cancel after 8 s). Run k uses seed k for both the link and the
-mission. It prints the share that ended verified, how the others ended, and the simulated
-time an upload and read-back took; a run that returned "verified" while the vehicle's own
-store differs from the plan is counted separately and fails the benchmark.
+With --share: `--runs` uploads and read-backs (default 200) at each loss rate of `--losses`
+(default 10 % and 30 %, each way) and each one-way latency of `--latencies` (default 2 ms,
+loopback, and 100 ms) on a simulated clock (tests/link/fake_vehicle.py's SimLink, real
+MAVLink bytes through aerosurvey's codec) to the fake vehicle with ArduPilot's timers
+(re-request after 1 s, cancel after 8 s). Run k uses seed k for both the link and the
+mission. It prints a table: the share that ended verified, how the others ended, the
+simulated time of an upload and read-back (median, worst), that median against the
+protocol's floor (one round trip per item, upload and read-back, and one for MISSION_COUNT
+and MISSION_REQUEST_LIST), and the vehicle's error acks (median per run). A run that
+returned "verified" while the vehicle's own store differs from the plan is counted
+separately and fails the benchmark.
 """
 
 from __future__ import annotations
@@ -65,7 +71,7 @@ SITL_DEFAULTS = str(Path(os.environ.get("AEROSURVEY_SITL_DEFAULTS", ".")) / "cop
 def _timed(url: str, mission: Mission, policy: mp.Policy, warm_up: bool) -> tuple[float, object]:
     with open_link(url, 60.0) as link:
         if warm_up:
-            upload_mission(link, survey_mission(2), mp.Policy(timeout=0.5, retries=10, restarts=10, busy_wait=2.0))
+            upload_mission(link, survey_mission(2), policy)
         t0 = time.perf_counter()
         report = upload_mission(link, mission, policy)
         return time.perf_counter() - t0, report
@@ -85,12 +91,12 @@ def _summary(name: str, n_items: int, total: float, report, extra: dict) -> dict
 
 
 def run_fake(name: str, n_items: int, policy: mp.Policy, vehicle_resend: float, drop: float | None, seed: int) -> dict:
-    mission = survey_mission(n_items - 5, seed=seed)  # 5 fixed items around the waypoints
+    mission = survey_mission(n_items - 6, seed=seed)  # 5 fixed items around the waypoints, and home
     model = VehicleModel(request_resend=vehicle_resend, upload_timeout=8.0)
     with FakeVehicle(model, "udp") as fv, contextlib.ExitStack() as stack:
         relay = stack.enter_context(LossyRelay(fv.port, drop, seed)) if drop is not None else None
         total, report = _timed(relay.url if relay is not None else fv.url, mission, policy, warm_up=False)
-    if len(model.stored[0]) != n_items + 1:
+    if len(model.stored[0]) != n_items:
         raise SystemExit(f"{name}: the vehicle holds {len(model.stored[0])} items")
     return _summary(name, n_items, total, report, {
         "vehicle_rerequests": model.log.get("request resend", 0),
@@ -145,7 +151,7 @@ def sitl(binary: str, defaults: str | None, home: tuple[float, float, float], se
 
 def run_sitl(name: str, n_items: int, policy: mp.Policy, drop: float | None, seed: int, binary: str,
              defaults: str | None) -> dict:
-    mission = survey_mission(n_items - 5, seed=seed)
+    mission = survey_mission(n_items - 6, seed=seed)
     if drop is None:
         with sitl(binary, defaults, mission.home, None) as port:
             total, report = _timed(f"tcp:127.0.0.1:{port}", mission, policy, warm_up=True)
@@ -164,12 +170,12 @@ def _holds_plan(model: VehicleModel, mission: Mission) -> bool:
         (s.command, s.frame, s.x, s.y) == (w.command, w.frame, w.x, w.y) for s, w in zip(stored, wire))
 
 
-def share_run(args: tuple[int, float, int]) -> tuple[str, float, bool]:
-    """One simulated upload and read-back; (how it ended, simulated seconds, vehicle holds the plan)."""
-    n_items, drop, seed = args
-    mission = survey_mission(n_items - 5, seed=seed)
+def share_run(args: tuple[int, float, float, int]) -> tuple[str, float, bool, int]:
+    """One simulated upload and read-back: (how it ended, simulated seconds, the vehicle holds the plan, error acks)."""
+    n_items, drop, latency, seed = args
+    mission = survey_mission(n_items - 6, seed=seed)
     model = VehicleModel(request_resend=1.0, upload_timeout=8.0)  # ArduPilot's MissionItemProtocol timers
-    link = SimLink(model, Faults(drop=drop, seed=seed))
+    link = SimLink(model, Faults(drop=drop, seed=seed), latency=latency)
     try:
         report = upload_mission(link, mission, mp.Policy())  # `aerosurvey upload`'s defaults
         how = "verified" if report.mission.verified else "returned unverified"
@@ -178,69 +184,74 @@ def share_run(args: tuple[int, float, int]) -> tuple[str, float, bool]:
     except LinkError as exc:
         text = str(exc)
         how = ("read-back failed" if "not verified" in text or "download" in text else "upload failed")
-    return how, link.t, _holds_plan(model, mission)
+    acks = sum(k for what, k in model.log.items() if what.startswith("ack ") and "ACCEPTED" not in what)
+    return how, link.t, _holds_plan(model, mission), acks
 
 
-def run_share(n_items: int, drops: list[float], runs: int, jobs: int) -> None:
+def run_share(n_items: int, drops: list[float], latencies: list[float], runs: int, jobs: int) -> None:
     import concurrent.futures
+    import statistics
 
-    print(f"verified share: {runs} simulated uploads of a {n_items}-item mission (+ home) per loss rate, default "
-          f"policy {mp.Policy()}, fake vehicle re-requesting after 1 s and cancelling after 8 s")
+    print(f"{runs} simulated uploads and read-backs of a {n_items}-item mission (home included) per row, "
+          f"`aerosurvey upload`'s defaults ({mp.Policy()}), fake vehicle re-requesting after 1 s and cancelling after 8 s")
+    print("| latency each way | loss each way | verified | vehicle holds the plan | median s | worst s | "
+          "median / floor | error acks (median) | other ends |")
+    print("|---|---|---|---|---|---|---|---|---|")
     bad = 0
-    for drop in drops:
-        t0 = time.perf_counter()
-        tasks = [(n_items, drop, seed) for seed in range(runs)]
-        if jobs > 1:
-            with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
-                results = list(pool.map(share_run, tasks, chunksize=4))
-        else:
-            results = [share_run(t) for t in tasks]
-        ends: dict[str, int] = {}
-        for how, _, holds in results:
-            ends[how] = ends.get(how, 0) + 1
-            if how == "verified" and not holds:
-                bad += 1
-        held = sum(1 for _, _, holds in results if holds)
-        verified = ends.get("verified", 0)
-        times = sorted(t for _, t, _ in results)
-        print(f"loss {drop:.0%} each way: verified {verified}/{runs} = {verified / runs:.1%}; "
-              f"vehicle held the plan after {held}/{runs}; ends: {dict(sorted(ends.items()))}; simulated time per "
-              f"run median {times[len(times) // 2]:.0f} s, max {times[-1]:.0f} s; wall {time.perf_counter() - t0:.0f} s")
+    for latency in latencies:
+        floor = (2 * n_items + 2) * 2 * latency  # one round trip per item, both ways, and per first step
+        for drop in drops:
+            tasks = [(n_items, drop, latency, seed) for seed in range(runs)]
+            if jobs > 1:
+                with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
+                    results = list(pool.map(share_run, tasks, chunksize=4))
+            else:
+                results = [share_run(t) for t in tasks]
+            ends: dict[str, int] = {}
+            for how, _, holds, _ in results:
+                ends[how] = ends.get(how, 0) + 1
+                if how == "verified" and not holds:
+                    bad += 1
+            held = sum(1 for _, _, holds, _ in results if holds)
+            verified = ends.pop("verified", 0)
+            times = sorted(t for _, t, _, _ in results)
+            median = statistics.median(times)
+            print(f"| {latency * 1000:g} ms | {drop:.0%} | {verified}/{runs} | {held}/{runs} | {median:.1f} | {times[-1]:.1f} | "
+                  f"{median / floor:.2f} | {statistics.median(a for *_, a in results):g} | {dict(sorted(ends.items())) or '-'} |",
+                  flush=True)
     if bad:
         raise SystemExit(f"{bad} run(s) reported verified while the vehicle's store differs from the plan")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--items", type=int, default=None, help="mission items, home not counted (default 700; 649 with --sitl)")
+    ap.add_argument("--items", type=int, default=None, help="items on the wire, home included (default 704; 650 with --sitl)")
     ap.add_argument("--drop", type=float, default=0.10, help="share of datagrams the relay drops, each way")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--timeout", type=float, default=0.2, help="our resend interval (s)")
-    ap.add_argument("--retries", type=int, default=10,
-                    help="unanswered resends in a row before giving up; at 10 %% loss each way an exchange fails "
-                         "19 %% of the time, so 700 x 0.19^(retries+1) is the chance a transfer gives up")
     ap.add_argument("--vehicle-resend", type=float, default=1.0, help="the fake vehicle's re-request interval (s)")
     ap.add_argument("--sitl", nargs="?", const=SITL_BIN, default=None, metavar="ARDUCOPTER",
                     help=f"use ArduPilot SITL (default binary {SITL_BIN})")
     ap.add_argument("--sitl-defaults", default=SITL_DEFAULTS if Path(SITL_DEFAULTS).is_file() else None,
                     help="ArduPilot default parameter file for SITL")
-    ap.add_argument("--share", action="store_true", help="the verified share of --runs simulated uploads per loss rate")
-    ap.add_argument("--runs", type=int, default=200, help="simulated uploads per loss rate for --share")
+    ap.add_argument("--share", action="store_true", help="the table of --runs simulated runs per loss rate and latency")
+    ap.add_argument("--runs", type=int, default=200, help="simulated runs per row for --share")
     ap.add_argument("--losses", default="0.1,0.3", help="loss rates (each way) for --share, comma-separated")
+    ap.add_argument("--latencies", default="0.002,0.1", help="one-way latencies (s) for --share, comma-separated")
     ap.add_argument("--jobs", type=int, default=1, help="processes for --share")
     args = ap.parse_args()
     if args.share:
-        run_share(args.items or 700, [float(x) for x in args.losses.split(",")], args.runs, args.jobs)
+        run_share(args.items or 704, [float(x) for x in args.losses.split(",")],
+                  [float(x) for x in args.latencies.split(",")], args.runs, args.jobs)
         return
-    n_items = args.items if args.items is not None else (649 if args.sitl else 700)
-    if n_items < 6:
-        ap.error("--items must be at least 6")
+    n_items = args.items if args.items is not None else (650 if args.sitl else 704)
+    if n_items < 7:
+        ap.error("--items must be at least 7")
     if args.sitl and not Path(args.sitl).is_file():
         ap.error(f"--sitl {args.sitl}: no such binary")
-    policy = mp.Policy(timeout=args.timeout, retries=args.retries, restarts=5, busy_wait=1.0)
+    policy = mp.Policy()
     who = (f"ArduPilot SITL {args.sitl} (defaults {args.sitl_defaults})" if args.sitl else
            f"the fake vehicle, re-requesting after {args.vehicle_resend} s")
-    print(f"policy: resend after {policy.timeout} s, {policy.retries} retries, {policy.restarts} restarts; vehicle: {who}")
+    print(f"`aerosurvey upload`'s defaults: {policy}; vehicle: {who}")
     try:
         if args.sitl:
             rows = [run_sitl("clean", n_items, policy, None, args.seed, args.sitl, args.sitl_defaults),

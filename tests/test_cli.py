@@ -11,6 +11,7 @@ import json
 import logging
 import os
 import pty
+import re
 import select
 import subprocess
 import sys
@@ -304,3 +305,24 @@ def test_plan_shows_progress_on_a_terminal_and_not_in_a_pipe(tmp_path):
     assert piped.returncode == 0 and piped.stderr == ""
     code, seen = _run_on_a_terminal(["-q", "plan", str(EXAMPLE), "-o", str(tmp_path / "q")], tmp_path)
     assert code == 0 and seen == ""
+
+
+def test_help_pages_name_only_their_own_arguments_and_options():
+    """What a help page names as an argument (an upper-case name another command uses) or an
+    option (--name) is one of that command's own: `plan` once named an OUTDIR it did not have."""
+    ctx = click.Context(main, info_name="aerosurvey", terminal_width=200)
+    commands = list(_all_commands(main, ctx, []))
+    arguments = {p.human_readable_name for _, cmd in commands for p in cmd.params if isinstance(p, click.Argument)}
+    checked = 0
+    for path, cmd in commands:
+        text = CliRunner().invoke(main, [*path, "--help"], prog_name="aerosurvey", terminal_width=1000,
+                                  max_content_width=1000).output  # no line wrapped inside a name
+        text = text.split("\nCommands:\n")[0]  # a group lists its subcommands with their own short help
+        own_args = {p.human_readable_name for p in cmd.params if isinstance(p, click.Argument)}
+        own_opts = {o for p in cmd.params for o in p.opts + p.secondary_opts} | {"--help"}
+        named_args = {w for w in re.findall(r"\b[A-Z][A-Z_]+\b", text) if w in arguments}
+        named_opts = set(re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", text))
+        assert named_args <= own_args, (path, named_args - own_args)
+        assert named_opts <= own_opts, (path, named_opts - own_opts)
+        checked += 1
+    assert checked >= 18

@@ -1,5 +1,6 @@
-"""plan_features pauses the cyclic garbage collector while it builds (a measured speed-up) and
-leaves it as it found it, on or off, also when building fails."""
+"""plan_features: the stations, footprints and lines of a plan as GeoJSON features, and the
+cyclic garbage collector left alone while they are made (it is one switch for the whole
+process: `serve` plans on worker threads)."""
 
 from __future__ import annotations
 
@@ -20,29 +21,24 @@ def plan():
     return plan_from_files(load_spec(ROOT / "missions" / "obratan-72ha.toml"))
 
 
-@pytest.mark.parametrize("was_on", [True, False])
-def test_collector_left_as_found(plan, was_on: bool) -> None:
-    gc.enable() if was_on else gc.disable()
-    try:
-        fc = plan_features(plan)
-        assert gc.isenabled() is was_on
-        roles = [f["properties"]["role"] for f in fc["features"]]
-        assert roles.count("station") == roles.count("footprint") == len(plan.stations.ids)
-    finally:
-        gc.enable()
+def test_planning_and_rendering_leave_the_collector_on(monkeypatch) -> None:
+    from aerosurvey.outputs import render_outputs
+    from aerosurvey.report import features
 
-
-def test_collector_back_on_after_an_error(plan, monkeypatch) -> None:
     seen = []
+    corners = features.footprint_corners
 
-    def boom(*args, **kwargs):
+    def record(*args, **kwargs):
         seen.append(gc.isenabled())
-        raise RuntimeError("boom")
+        return corners(*args, **kwargs)
 
-    monkeypatch.setattr("aerosurvey.report.features.footprint_corners", boom)
-    with pytest.raises(RuntimeError):
-        plan_features(plan)
-    assert seen == [False] and gc.isenabled()
+    monkeypatch.setattr(features, "footprint_corners", record)
+    assert gc.isenabled()
+    fc = plan_features(plan_from_files(load_spec(ROOT / "missions" / "obratan-72ha.toml")))
+    roles = [f["properties"]["role"] for f in fc["features"]]
+    assert roles.count("station") == roles.count("footprint") > 0
+    render_outputs(plan_from_files(load_spec(ROOT / "missions" / "kubad-abad-fixed-wing.toml")))
+    assert seen == [True, True] and gc.isenabled()
 
 
 def test_each_line_names_its_first_and_last_station_and_counts_its_photos(plan) -> None:

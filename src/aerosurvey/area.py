@@ -14,7 +14,7 @@ import itertools
 import json
 import re
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -91,7 +91,7 @@ def validate_polygons(geom: BaseGeometry, name: str, geographic: bool) -> BaseGe
             hint = (" — longitude and latitude look swapped (GeoJSON and KML put longitude first)"
                     if looks_swapped else "")
             raise InputError(
-                f"{name}: coordinate ({lon[worst]!r}, {lat[worst]!r}) is outside longitude [-180, 180] / "
+                f"{name}: coordinate ({float(lon[worst])!r}, {float(lat[worst])!r}) is outside longitude [-180, 180] / "
                 f"latitude [-90, 90]{hint}"
             )
     if not shapely.is_valid(geom):
@@ -319,6 +319,34 @@ def utm_epsg(lon: float, lat: float) -> int:
     """EPSG code of the WGS84 UTM zone holding (lon, lat)."""
     zone = int(np.floor((lon + 180.0) / 6.0)) % 60 + 1
     return (32600 if lat >= 0 else 32700) + zone
+
+
+def _within(west: float, east: float, south: float, north: float, lon: np.ndarray, lat: np.ndarray) -> bool:
+    """Whether every point lies in the bounds (west > east: the bounds cross the antimeridian)."""
+    in_lon = (lon >= west) & (lon <= east) if west <= east else (lon >= west) | (lon <= east)
+    return bool(np.all(in_lon & (lat >= south) & (lat <= north)))
+
+
+def check_area_of_use(crs: pyproj.CRS, option: str, places: Sequence[tuple[str, BaseGeometry]]) -> None:
+    """Refuse an area, zone or launch point (WGS84 longitude/latitude) outside the area of use
+    pyproj gives for `crs` (the CRS the spec names in `option`): planned there, distances and
+    areas come out wrong without a word. Says so when the place with its axes swapped would fit."""
+    aou = crs.area_of_use
+    if aou is None:
+        return
+    w, s, e, n = aou.west, aou.south, aou.east, aou.north
+    auth = crs.to_authority()
+    shown = f"{auth[0]}:{auth[1]}" if auth else crs.name
+    where = f"{crs.name}; {aou.name.rstrip('.')}" if len(aou.name) <= 60 else crs.name
+    for name, geom in places:
+        xy = shapely.get_coordinates(geom)
+        if _within(w, e, s, n, xy[:, 0], xy[:, 1]):
+            continue
+        x0, y0, x1, y1 = geom.bounds
+        swapped = _within(w, e, s, n, xy[:, 1], xy[:, 0])
+        hint = ": longitude and latitude look swapped (GeoJSON and KML put longitude first)" if swapped else ""
+        raise InputError(f"{name} at longitude {x0:.5f}..{x1:.5f}, latitude {y0:.5f}..{y1:.5f} is outside the area of "
+                         f"use of {option} = {shown!r} ({where}: longitude {w:g}..{e:g}, latitude {s:g}..{n:g}){hint}")
 
 
 def planning_crs(spec_crs: str, area_wgs84: BaseGeometry) -> Planar:

@@ -43,9 +43,12 @@ COMMANDS: Mapping[str, Lazy] = {
     "check": Lazy("aerosurvey.commands.check:check", "Check a mission spec or a plan folder against rule profiles."),
     "gcp": Lazy("aerosurvey.commands.gcp:gcp", "Propose GCPs (an envelope outside the perimeter) and check points (inside)."),
     "log": Lazy("aerosurvey.commands.log:log", "Flight logs: camera events, their match to the plan."),
-    "plan": Lazy("aerosurvey.commands.plan:plan", "Plan a survey mission from a mission spec (TOML) and write its files into OUTDIR."),
+    "plan": Lazy("aerosurvey.commands.plan:plan",
+                 "Plan a survey mission from a mission spec (TOML) and write its files into the -o folder."),
     "qa": Lazy("aerosurvey.commands.qa:qa", "Quality assessment of finished products (accuracy, reproducibility, time series)."),
     "refly": Lazy("aerosurvey.commands.refly:refly", "Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."),
+    "resume": Lazy("aerosurvey.commands.resume:resume",
+                   "Missions for the rest of a flight of PLAN_DIR cut short, from the station after its last photo."),
     "serve": Lazy("aerosurvey.commands.serve:serve",
                   "Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."),
     "sitl": Lazy("aerosurvey.commands.sitl:sitl", "ArduPilot SITL: fly the planned missions in simulation (needs a SITL binary you have)."),
@@ -104,7 +107,8 @@ class _Main(LazyGroup):
 @click.group(cls=_Main)
 @click.version_option(__version__, prog_name="aerosurvey")
 @click.option("-v", "--verbose", count=True, help="More log messages on stderr: -v informative, -vv debugging.")
-@click.option("-q", "--quiet", count=True, help="Fewer: -q errors only and no progress bars, -qq critical only.")
+@click.option("-q", "--quiet", count=True,
+              help="Fewer: -q errors only (no progress bars, warnings or reports such as plan's summary), -qq critical only.")
 def main(verbose: int, quiet: int) -> None:
     """Plan UAV photogrammetric surveys, check rules, export and fly MAVLink missions, QA the products."""
     configure_logging(verbose - quiet)

@@ -3,7 +3,8 @@
 Logging: `configure_logging(verbosity)` (called by the `aerosurvey` group from its `-v`/`-q`
 options) sends every log record at or above the chosen level to stderr as one line,
 ``warning: …``. Commands and library modules log through `logging.getLogger(__name__)`;
-results go to stdout with `click.echo`.
+results go to stdout with `click.echo`, a command's report of what it did (a summary) with
+`echo`, which -q silences.
 
 Progress: `progress(label)` is a context manager that yields a report callable with the
 planner's `Progress` signature, ``report(stage: str, done: float)``. On a terminal it draws
@@ -74,6 +75,13 @@ def configure_logging(verbosity: int = 0) -> None:
 def quiet() -> bool:
     """Whether the user asked for quiet (-q): no progress is drawn then."""
     return _state["verbosity"] < 0
+
+
+def echo(text: str) -> None:
+    """A line of a command's report on stdout (what `plan` planned, what `check` found): left
+    out with -q, which leaves errors only. The exit code still tells how it went."""
+    if not quiet():
+        click.echo(text)
 
 
 def part(report: Report, start: float, end: float) -> Report:

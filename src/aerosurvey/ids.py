@@ -71,6 +71,11 @@ def sortie_file_stem(number: int) -> str:
     return f"sortie-{number:02d}"
 
 
+def resume_file_stem(number: int) -> str:
+    """The mission files of a resumed flight's sorties (`aerosurvey resume`)."""
+    return f"resume-{number:02d}"
+
+
 def event_id(number: int) -> str:
     """``E00007``: a flown photo of a log (camera events in the log's order), in place of a station;
     `number` counts from 1."""

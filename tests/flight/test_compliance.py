@@ -252,8 +252,9 @@ def _without_photos(log: Path, out: Path, drop) -> Path:
 def test_a_line_flown_without_photos_leaves_a_gap_where_it_was(copter):
     """Events removed: the camera took no photo on the fourth line, and only every other one on the second.
 
-    The side overlap rule measures each strip against its nearest parallel strip, so the
-    strips on either side of the missing one still pass it; the coverage rule finds the gap."""
+    The side overlap rule measures each strip against its nearest parallel strip on each side, so the
+    strips on either side of the missing one fail it (their neighbour there is two spacings away);
+    the coverage rule finds the gap's ground."""
     manifest = json.loads((copter["plan"] / "manifest.json").read_text())
     runs = list(dict.fromkeys(s["line"] for s in manifest["stations"]))
     run_of_photo = [s["line"] for s in manifest["stations"]]  # the whole log: one photo per station, in order
@@ -265,9 +266,14 @@ def test_a_line_flown_without_photos_leaves_a_gap_where_it_was(copter):
     assert report["events"] == 152 - run_of_photo.count(runs[3]) - len(second) // 2
     code, res, text = _check(copter, folder)
     assert code == 1, text
-    assert {"fwd", "cover"} <= set(res["failed"]), text
+    assert {"fwd", "side", "cover"} <= set(res["failed"]), text
     places = _layer(folder)
     assert {f["properties"]["run"] for f in places if f["properties"]["rule"] == "fwd"} == {runs[1]}
+    beside = {r for f in places if f["properties"]["rule"] == "side" for r in f["properties"]["runs"]}
+    assert {runs[2], runs[4]} <= beside and runs[3] not in beside
+    # two spacings of a 60 % side overlap: about 1 - 2 x (1 - 0.6)
+    side = next(r for r in res["results"] if r["rule"] == "side")
+    assert float(side["measured"].split(" %")[0]) == pytest.approx(100 * (1 - 2 * (1 - 0.6)), abs=1.5)
     # 2 of the planned forward overlap's 4 photos per point: about 1 - 2 x (1 - 0.751)
     fwd = next(r for r in res["results"] if r["rule"] == "fwd")
     assert float(fwd["measured"].split(" %")[0]) == pytest.approx(100 * (1 - 2 * (1 - 0.751)), abs=1.5)
@@ -300,6 +306,15 @@ def test_check_agrees_with_the_rules_log_ingest_ran(copter, fixed):
     assert ("camera fixed to the body" in res["heights"]) == fixed and "the report does not say" not in res["heights"]
 
 
+def _positions(coords):
+    """The [x, y] positions of a GeoJSON geometry's coordinates, however deeply nested."""
+    if coords and isinstance(coords[0], (int, float)):
+        yield coords[:2]
+        return
+    for c in coords:
+        yield from _positions(c)
+
+
 def test_plane_flight_every_failing_rule_has_its_places(tmp_path):
     plan = tmp_path / "plan"
     assert _run("plan", REPO / "missions" / "kubad-abad-fixed-wing.toml", "-o", plan)[0] == 0
@@ -318,7 +333,7 @@ def test_plane_flight_every_failing_rule_has_its_places(tmp_path):
         g = f["geometry"]
         if g is None:
             continue
-        pts = np.array(g["coordinates"], float).reshape(-1, 2)
+        pts = np.array(list(_positions(g["coordinates"])), float)
         # every place lies by the flown plan (GCPs 10 m outside the outline; photos beside their stations)
         assert (pts[:, 0] > min(lon) - 0.01).all() and (pts[:, 0] < max(lon) + 0.01).all()
         assert (pts[:, 1] > min(lat) - 0.01).all() and (pts[:, 1] < max(lat) + 0.01).all()

@@ -4,6 +4,7 @@ driven through a stand-in for the process harness (the real one is tested in tes
 from __future__ import annotations
 
 import json
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -56,9 +57,11 @@ def test_missing_sortie_file_is_bad_input(split_plan, tmp_path):
 
 class _FakeVehicle:
     started: list[str] = []
+    folders: list[Path] = []
 
-    def __init__(self, binary, vehicle, home, speedup, defaults, work):
+    def __init__(self, binary, vehicle, home, speedup, defaults, work, boot_timeout):
         self.work = work
+        _FakeVehicle.folders.append(work)
 
     def start(self) -> None:
         _FakeVehicle.started.append("start")
@@ -72,7 +75,6 @@ class _FakeVehicle:
 def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path, monkeypatch):
     doc = mf.read_manifest(split_plan)
     routes = {r.name: r for r in sitl_run.sortie_routes(doc, split_plan)}
-    counter = iter(range(100))
 
     def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload):
         f = harness.Flight(name)
@@ -86,7 +88,9 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
     monkeypatch.setattr(harness, "prepare", lambda sv: None)
     monkeypatch.setattr(harness, "fly", fake_fly)
-    monkeypatch.setattr(harness, "workdir", lambda: tmp_path / f"work{next(counter)}")
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
     settings = sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0)
     seen = []
     rows = sitl_run.fly_sorties(doc, split_plan, settings, tmp_path / "report", seen.append)
@@ -97,7 +101,8 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     report = json.loads((tmp_path / "report" / "sitl_report.json").read_text())
     assert [r["photos_planned"] for r in report["sorties"]] == [len(r.stations) for r in routes.values()]
     assert sorted(p.name for p in (tmp_path / "report").glob("*.BIN")) == sorted(f"{n}.BIN" for n in routes)
-    assert not any((tmp_path / f"work{i}").exists() for i in range(len(routes)))  # work folders removed
+    assert len(_FakeVehicle.folders) == len(routes) and all(f.parent == temp for f in _FakeVehicle.folders)
+    assert list(temp.iterdir()) == []  # SITL's work folders removed
 
 
 def test_sitl_fly_without_a_manifest_is_one_line(tmp_path):

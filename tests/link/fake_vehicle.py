@@ -4,8 +4,15 @@
 (libraries/GCS_MAVLink/MissionItemProtocol.cpp): it requests items one by one, re-requests
 after its own timeout, cancels a stalled upload with OPERATION_CANCELLED, answers a late or
 duplicated item with INVALID_SEQUENCE and an item outside an upload with ERROR, and writes
-mission items in place as they arrive. It reads and writes pymavlink messages with its own
-field handling, independent of aerosurvey's codec.
+mission items in place as they arrive. With `px4=True` it answers as PX4's MavlinkMissionManager
+(src/modules/mavlink/mavlink_mission.cpp): it identifies as PX4, re-requests every 250 ms,
+drops an item it did not ask for without an answer, answers a repeat of the last item after
+the upload with ACCEPTED, refuses a MISSION_COUNT in the middle of an upload with ERROR, gives
+up silently after 5 s without an item, stores the mission only when it is complete, and during
+a download answers only the next item or the one before (anything else: ERROR, transfer over).
+Both answer MAV_CMD_REQUEST_MESSAGE for GLOBAL_POSITION_INT and HOME_POSITION at `home`
+(COMMAND_ACK MAV_RESULT_FAILED without `fix`). It reads and writes pymavlink messages with its
+own field handling, independent of aerosurvey's codec.
 
 `FakeVehicle` runs a model on a loopback UDP or TCP socket, or on a pseudo-terminal that
 stands for a serial port (`url` is then its device, e.g. /dev/pts/3), in a thread and can
@@ -109,13 +116,18 @@ class VehicleModel:
                  capacity: int = 2000, answer_missions: bool = True, alter: dict[int, dict[str, float]] | None = None,
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
                  early_accept_after: int | None = None, fail_item: int | None = None,
-                 silent_after_request: int | None = None) -> None:
+                 silent_after_request: int | None = None, px4: bool = False, fix: bool = True,
+                 mav_type: int | None = None) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
         self.plane = plane
-        self.autopilot = 3 if storage == "ardupilot" else 0
-        self.mav_type = 1 if plane else 2
+        self.px4 = px4
+        self.fix = fix
+        self.autopilot = 12 if px4 else 3 if storage == "ardupilot" else 0
+        self.mav_type = mav_type if mav_type is not None else 1 if plane else 2
+        if px4:  # MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT and MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT
+            request_resend, upload_timeout = 0.25, 5.0
         self.home = home
         self.no_space_left = no_space_first
         self.capacity = capacity
@@ -137,6 +149,8 @@ class VehicleModel:
         self._last_request = 0.0
         self.log: dict[str, int] = {}
         self.completed_uploads = 0
+        self._last_done: tuple[int, int] | None = None  # PX4: (mission type, count) of the last completed upload
+        self._send_seq: int | None = None  # PX4: the next item its download expects to be asked for
 
     def _note(self, what: str) -> None:
         self.log[what] = self.log.get(what, 0) + 1
@@ -189,8 +203,19 @@ class VehicleModel:
         return self.mav.mission_item_int_encode(*self._gcs, seq, s.frame, s.command, 0, 1, *s.params,
                                                 s.x, s.y, s.z, mission_type=mtype)
 
+    def _position(self, msg_id: float) -> list[Any]:
+        lat, lon, alt = (round(self.home[0] * 1e7), round(self.home[1] * 1e7), round(self.home[2] * 1000))
+        answer = {33: lambda: self.mav.global_position_int_encode(0, lat, lon, alt, 0, 0, 0, 0, 0),
+                  242: lambda: self.mav.home_position_encode(lat, lon, alt, 0, 0, 0, [1, 0, 0, 0], 0, 0, 0)}.get(int(msg_id))
+        if answer is None or not self.fix:
+            return [self.mav.command_ack_encode(512, 4)]  # MAV_RESULT_FAILED
+        return [self.mav.command_ack_encode(512, 0), answer()]
+
     def handle(self, m: Any, now: float) -> list[Any]:
         kind = m.get_type()
+        if kind == "COMMAND_LONG" and m.command == 512:  # MAV_CMD_REQUEST_MESSAGE
+            self._note("got REQUEST_MESSAGE")
+            return self._position(m.param1)
         if kind == "HEARTBEAT" or not kind.startswith("MISSION_"):
             return []
         self._note(f"got {kind}")
@@ -202,6 +227,11 @@ class VehicleModel:
         if mtype not in self.stored:
             return [self._ack(mp.UNSUPPORTED, mtype)]
         if kind == "MISSION_COUNT":
+            if self.px4 and self.receiving is not None:
+                self._last_receive = now
+                if self._next == 0:  # "looks like our MISSION_REQUEST was lost, try again"
+                    return [self._request(0, mtype)]
+                return [self._ack(mp.ERROR, mtype)]  # busy, already receiving
             if self.no_space_left > 0:
                 self.no_space_left -= 1
                 return [self._ack(mp.NO_SPACE, mtype)]
@@ -211,23 +241,29 @@ class VehicleModel:
             self.receiving = mtype
             self._count, self._next = int(m.count), 0
             self._staging = []
-            if mtype == 0:
-                del self.stored[0][self._count:]  # ArduPilot truncates, then writes items in place
+            if mtype == 0 and not self.px4:  # ArduPilot truncates, then writes items in place
+                del self.stored[0][self._count:]
             self._last_receive = self._last_request = now
             if self._count == 0:
                 return self._complete(mtype)
             return [self._request(0, mtype)]
         if kind in ("MISSION_ITEM_INT", "MISSION_ITEM"):
             if self.receiving is None or self.receiving != mtype:
+                if self.px4 and self._last_done == (mtype, int(m.seq) + 1):
+                    return [self._ack(mp.ACCEPTED, mtype)]  # a repeat of the last item: its ACK was lost
                 return [self._ack(mp.ERROR, mtype)]
             if m.seq != self._next:
+                if self.px4:
+                    self._last_receive = now
+                    self._note("item dropped")
+                    return []
                 return [self._ack(mp.INVALID_SEQUENCE, mtype)]
             try:
                 s = self._store(m, mtype)
             except Unsupported as exc:
                 self.receiving = None
                 return [self._ack(exc.result, mtype)]
-            if mtype == 0:
+            if mtype == 0 and not self.px4:
                 if m.seq < len(self.stored[0]):
                     self.stored[0][m.seq] = s
                 else:
@@ -243,19 +279,29 @@ class VehicleModel:
             return [self._request(self._next, mtype)]
         if kind == "MISSION_REQUEST_LIST":
             if self.receiving is not None:
-                return [self._ack(mp.DENIED, mtype)]
+                return [] if self.px4 else [self._ack(mp.DENIED, mtype)]  # PX4: "ignored, already active"
+            self._send_seq = 0
             return [self.mav.mission_count_encode(*self._gcs, len(self.stored[mtype]), mission_type=mtype)]
         if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
             if self.receiving is not None:
-                return [self._ack(mp.DENIED, mtype)]
+                return [] if self.px4 else [self._ack(mp.DENIED, mtype)]
+            if self.px4:
+                if self._send_seq is None:
+                    return []  # no transfer: ignored
+                if m.seq == self._send_seq and m.seq < len(self.stored[mtype]):
+                    self._send_seq += 1
+                elif m.seq != self._send_seq - 1:
+                    self._send_seq = None
+                    return [self._ack(mp.ERROR, mtype)]
             if m.seq >= len(self.stored[mtype]):
                 return [self._ack(mp.INVALID_SEQUENCE, mtype)]
             return [self._item_out(int(m.seq), mtype, kind == "MISSION_REQUEST")]
         return []
 
     def _complete(self, mtype: int) -> list[Any]:
-        if mtype != 0:
+        if mtype != 0 or self.px4:
             self.stored[mtype] = list(self._staging)
+        self._last_done = (mtype, self._count)
         self.receiving = None
         self.completed_uploads += 1
         return [self._ack(mp.ACCEPTED, mtype)]
@@ -265,7 +311,7 @@ class VehicleModel:
             return []
         if now - self._last_receive > self.upload_timeout:
             mtype, self.receiving = self.receiving, None
-            return [self._ack(mp.OPERATION_CANCELLED, mtype)]
+            return [] if self.px4 else [self._ack(mp.OPERATION_CANCELLED, mtype)]  # PX4: "Operation timeout" only
         if now - self._last_request > self.request_resend:
             self._last_request = now
             self._note("request resend")
@@ -427,10 +473,10 @@ class SimLink:
     so only the sockets and the clock are simulated.
     """
 
-    latency = 0.002
-
-    def __init__(self, model: VehicleModel, faults: Faults | None = None, drop_packets: frozenset[int] = frozenset()) -> None:
+    def __init__(self, model: VehicleModel, faults: Faults | None = None, drop_packets: frozenset[int] = frozenset(),
+                 latency: float = 0.002) -> None:
         self.model = model
+        self.latency = latency  # seconds each way
         self.faults = faults or Faults()
         self.drop_packets = drop_packets  # numbers (1, 2, …, both ways) of packets to lose on purpose
         self.rng = random.Random(self.faults.seed)

@@ -44,7 +44,7 @@ def test_upload_waypoints_file_without_verify(tmp_path: Path) -> None:
     wp.write_text(dumps_wpl(survey_mission(6)))
     model = VehicleModel()
     with FakeVehicle(model, "udp") as fv:
-        res = run(str(wp), "--connect", fv.url, "--timeout", "0.5", "--no-verify")
+        res = run(str(wp), "--connect", fv.url, "--timeout", "0.5", "--no-verify", "--vehicle", "copter")
     assert res.exit_code == 0, res.output
     assert "not verified (--no-verify)" in res.output
     assert "fence: none in the plan" in res.output
@@ -160,4 +160,4 @@ def test_a_long_failing_upload_in_a_pipe_prints_only_the_error(tmp_path: Path) -
     assert res.exit_code == 1
     assert res.stdout == ""
     assert res.stderr.splitlines() == [res.stderr.strip()]  # 1.5 s of silence: still only the error line
-    assert res.stderr.startswith("Error: mission upload failed: no answer to MISSION_COUNT after 4 resend(s)")
+    assert res.stderr.startswith("Error: mission upload failed: no answer to MISSION_COUNT for 1.6 s (5 resend(s) in all)")

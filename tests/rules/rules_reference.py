@@ -4,47 +4,13 @@
 from __future__ import annotations
 
 import math
-import statistics
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.rules.control_points import ControlPoint, _outline
-from aerosurvey.rules.footprints import Footprints, runs
-from aerosurvey.rules.planview import PlanView
-
-
-def reference_side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]]:
-    """(run, nearest parallel run beside it, overlap of their strips) for every run."""
-    rs = runs(view)
-    info: dict[str, tuple[float, float, float, float, float]] = {}
-    for rid, idx in rs.items():
-        # statistics.median, not np.median: numpy imports numpy.ma for the latter's NaN check (12-17 ms on
-        # every `aerosurvey plan`); the headings are finite numbers (the manifest schema) and the value is the same
-        h = float(statistics.median(fp.heading_rad[idx].tolist()))
-        s, c = math.sin(h), math.cos(h)
-        u = fp.x[idx] * s + fp.y[idx] * c
-        v = fp.x[idx] * c - fp.y[idx] * s
-        info[rid] = (h, float(u.min()), float(u.max()), float(v.mean()), float(fp.across[idx].min()))
-    out = []
-    for rid, (h, umin, umax, v_mean, w) in info.items():
-        s, c = math.sin(h), math.cos(h)
-        best: tuple[float, str, float] | None = None
-        for q, (hq, _, _, _, wq) in info.items():
-            if q == rid or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
-                continue
-            idx = rs[q]
-            uq = fp.x[idx] * s + fp.y[idx] * c
-            vq = float(np.mean(fp.x[idx] * c - fp.y[idx] * s))
-            if uq.max() < umin or uq.min() > umax:
-                continue
-            d = abs(vq - v_mean)
-            if d > 1e-6 and (best is None or d < best[0]):
-                best = (d, q, min(w, wq))
-        if best is not None:
-            out.append((rid, best[1], 1 - best[0] / best[2]))
-    return out
+from aerosurvey.rules.footprints import Footprints
 
 
 def reference_propose_gcps(area: BaseGeometry, fp: Footprints, count: int, min_images: int, offset: float,

@@ -32,7 +32,7 @@ def _variant(tmp_path: Path, replace: dict[str, str]) -> Path:
 def _check(target: Path, *args: str) -> tuple[int, dict]:
     res = CliRunner().invoke(main, ["check", str(target), "--json", *args])
     assert res.exit_code in (0, 1), res.output
-    return res.exit_code, {r["rule"]: r for r in json.loads(res.output)["results"]}
+    return res.exit_code, {r["rule"]: r for r in json.loads(res.stdout)["results"]}
 
 
 def test_obratan_passes_cz_land_consolidation():
@@ -161,10 +161,13 @@ def test_override_from_the_spec(tmp_path):
     assert code == 1 and res["cz-gsd"]["status"] == "fail" and "overridden" in res["cz-gsd"]["source"]
 
 
-def test_no_profile_is_bad_input(tmp_path):
+def test_no_profile_checks_the_planners_rules_and_lists_the_profiles(tmp_path):
     p = _variant(tmp_path, {'profiles = ["cz-land-consolidation"]': "profiles = []"})
     res = CliRunner().invoke(main, ["check", str(p)])
-    assert res.exit_code == 2 and "no rule profile chosen" in res.output
+    assert res.exit_code == 0, res.output
+    assert "PASS uncovered-ground" in res.stdout and "rules           1 evaluated: 1 passed, 0 failing" in res.stdout
+    warning = [ln for ln in res.stderr.splitlines() if "no rule profile chosen" in ln]
+    assert len(warning) == 1 and "asprs-2014, asprs-2023, cz-land-consolidation, eu-open, us-part107" in warning[0]
 
 
 def test_formula_is_restricted():

@@ -7,6 +7,7 @@ import json
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -21,7 +22,7 @@ from aerosurvey.rules.profile import select_profiles
 from aerosurvey.spec import load_spec
 from conftest import REPO, make_spec, random_polygon
 from rules.rectangles import rect_footprints
-from rules.rules_reference import reference_propose_gcps, reference_side_overlaps
+from rules.rules_reference import reference_propose_gcps
 
 
 def _runs_of_lines(rng: np.random.Generator, n_runs: int, headings: list[float], interleave: bool):
@@ -45,11 +46,31 @@ def _runs_of_lines(rng: np.random.Generator, n_runs: int, headings: list[float],
 
 
 @settings(max_examples=150, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n_runs=st.integers(0, 25), n_headings=st.integers(1, 3), interleave=st.booleans())
-def test_side_overlaps_are_the_references(seed, n_runs, n_headings, interleave):
+@given(seed=st.integers(0, 2**32 - 1), n_runs=st.integers(1, 12), heading=st.floats(0, 2 * np.pi), width=st.floats(30, 90),
+       missing=st.integers(0, 11))
+def test_side_overlap_is_the_farther_of_the_nearest_runs_either_side(seed, n_runs, heading, width, missing):
+    """Parallel runs at random offsets, one left out (a line flown without photos): each run's
+    overlap is 1 - d / width with d the larger of its gaps to the nearest run on either side."""
     rng = np.random.default_rng(seed)
-    view, fp = _runs_of_lines(rng, n_runs, list(rng.uniform(0, np.pi, n_headings)), interleave)
-    assert repr(side_overlaps(view, fp)) == repr(reference_side_overlaps(view, fp))
+    offsets = np.sort(rng.uniform(0, 40 * n_runs, n_runs + 1))
+    offsets = np.delete(offsets, missing % len(offsets))
+    s, c = np.sin(heading), np.cos(heading)
+    run_ids, xs, ys = [], [], []
+    for r, off in enumerate(offsets):
+        along = np.linspace(-300, 300, 7) + rng.uniform(-5, 5)
+        xs += list(along * s + off * c)
+        ys += list(along * c - off * s)
+        run_ids += [f"L{r}"] * len(along)
+    n = len(run_ids)
+    fp = rect_footprints(np.array(xs), np.array(ys), np.full(n, heading), np.full(n, width), np.full(n, 40.0))
+    got = {run: overlap for run, _, overlap in side_overlaps(SimpleNamespace(run_ids=run_ids), fp)}
+    for r, off in enumerate(offsets):
+        gaps = [abs(off - o) for o in (offsets[r - 1] if r else None, offsets[r + 1] if r + 1 < len(offsets) else None)
+                if o is not None and abs(off - o) > 1e-6]
+        if gaps:
+            assert got[f"L{r}"] == pytest.approx(1 - max(gaps) / width, abs=1e-6)
+        else:
+            assert f"L{r}" not in got
 
 
 @settings(max_examples=120, deadline=None)
@@ -75,12 +96,13 @@ def test_gcps_are_the_references(seed, kind, reach, min_images, count, offset, n
     assert got
 
 
-def test_obratan_side_overlaps_and_gcps_are_the_references():
+def test_obratan_side_overlaps_hold_and_gcps_are_the_references():
     manifest, features = plan_documents(plan_from_files(load_spec(REPO / "missions" / "obratan-72ha.toml")))
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
     pairs = side_overlaps(view, ev.footprints)
-    assert len(pairs) == len(set(view.run_ids)) and pairs == reference_side_overlaps(view, ev.footprints)
+    # every run has a parallel neighbour, and the planned spacing gives at least the asked 60 %
+    assert len(pairs) == len(set(view.run_ids)) and min(p[2] for p in pairs) >= 0.6 - 1e-6
     s = ev.settings
     got = propose_gcps(view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
     assert len(got) >= 18
@@ -91,14 +113,13 @@ def test_obratan_side_overlaps_and_gcps_are_the_references():
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 450),
        cross=st.booleans(), margin=st.sampled_from([0.0, 12.0]))
-def test_planned_side_overlaps_and_gcps_are_the_references(tmp_path_factory, kind, seed, size, cross, margin):
+def test_planned_gcps_are_the_references(tmp_path_factory, kind, seed, size, cross, margin):
     tmp = tmp_path_factory.mktemp("exact")
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 2, "coverage_margin_m": margin}, "flight": {"cross_hatch": cross}},
                      rings=random_polygon(kind, seed, size))
     manifest, features = plan_documents(plan_from_files(load_spec(spec)))
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
-    assert side_overlaps(view, ev.footprints) == reference_side_overlaps(view, ev.footprints)
     s = ev.settings
     args = (view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
     assert repr(propose_gcps(*args)) == repr(reference_propose_gcps(*args))

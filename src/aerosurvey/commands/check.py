@@ -3,22 +3,28 @@
 from __future__ import annotations
 
 import json
+import logging
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from aerosurvey.errors import InputError
+from aerosurvey import console
+from aerosurvey.errors import CheckFailed, InputError
 
 if TYPE_CHECKING:
     from aerosurvey.rules.engine import Evidence, RuleResult
     from aerosurvey.rules.load import Target
 
+log = logging.getLogger(__name__)
+
 _MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "info": "INFO", "not-checkable": "N/A "}
 
 
 def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) -> tuple[list[RuleResult], Evidence]:
-    """Results of the chosen profiles on a target, with the control point layout used."""
+    """Results of the chosen profiles (default: those the plan was checked with) on a target,
+    with the control point layout used."""
     # the rule engine loads numpy, shapely and pyproj: imported when rules run, not when help lists this command
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
     from aerosurvey.rules.profile import apply_overrides, select_profiles
@@ -38,34 +44,54 @@ def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) 
     return evaluate(profiles, ev), ev
 
 
-def format_results(results: list[RuleResult]) -> list[str]:
+def plan_records(target: Target, profile_ids: list[str], profile_dirs: list[Path]) -> list[dict[str, Any]]:
+    """Every rule result of a plan, as manifest.json records and as `plan` counts them: the
+    chosen profiles' and the planner's own (uncovered-ground). Without a profile (none given,
+    none in the plan) the planner's own only, and a one-line warning lists the profiles there are."""
+    if profile_ids or target.profiles:
+        results, _ = run_rules(target, profile_ids, profile_dirs)
+        return [dict(r.as_dict()) for r in results] + list(target.planner_rules)
+    from aerosurvey.rules.profile import available_profiles
+
+    log.warning("no rule profile chosen (none given, none in the plan's spec): only the planner's own rules are "
+                "checked; add --profile ID, one of: %s", ", ".join(available_profiles(profile_dirs)))
+    return list(target.planner_rules)
+
+
+def format_results(records: Sequence[Mapping[str, Any]]) -> list[str]:
     lines = []
-    for r in results:
-        lines.append(f"{_MARK[r.status]} {r.rule}: {r.statement}")
-        lines.append(f"     measured {r.outcome.measured}; required {r.outcome.required}")
-        lines.extend(f"     - {e}" for e in r.outcome.evidence)
+    for r in records:
+        lines.append(f"{_MARK[r['status']]} {r['rule']}: {r['statement']}")
+        lines.append(f"     measured {r['measured']}; required {r['required']}")
+        lines.extend(f"     - {e}" for e in r["evidence"])
     return lines
 
 
 @click.command()
 @click.argument("target", required=False, type=click.Path(path_type=Path))
-@click.option("--profile", "profiles", multiple=True, help="Rule profile id (repeatable); default: the spec's [rules] profiles.")
+@click.option("--profile", "profiles", multiple=True,
+              help="Rule profile id (repeatable); default: the profiles the plan was checked with (the spec's [rules] profiles).")
 @click.option("--profile-dir", "profile_dirs", multiple=True, type=click.Path(file_okay=False, path_type=Path),
               help="A folder of your own rule profiles (*.toml); also AEROSURVEY_PROFILES.")
 @click.option("--list", "list_profiles", is_flag=True, help="List the rule profiles there are (no TARGET needed).")
-@click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print the results (and a plan's summary) as JSON.")
 @click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="With a flight folder: the plan folder it flew (default: the one its log_report.json names).")
 def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], list_profiles: bool,
           as_json: bool, plan_dir: Path | None) -> None:
     """Check a mission spec or a plan folder against rule profiles.
 
+    Prints each rule's result and the plan's summary, whose rule count is the one `plan`
+    printed (the planner's own rule, uncovered-ground, included). Without a profile (none
+    given, none in the plan) only the planner's own rules are checked, and a warning lists
+    the available profiles. With -q (and no --json), nothing but the error of a failing check.
+
     A flight folder (`log ingest --plan` output) is checked planned vs flown; the places a rule
     fails on the flown photos go to its failing_places.geojson.
 
-    Exit code 0 when every error-level rule passes, 1 when one fails, 2 for bad input.
+    Exit code 0 when every error-level rule passes, 1 when one fails (named on stderr), 2 for bad input.
     """
-    from aerosurvey.rules.engine import failed_errors
+    from aerosurvey.report.summary import plan_summary, summary_json, summary_text
     from aerosurvey.rules.load import open_target
 
     if list_profiles:
@@ -83,14 +109,14 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
         return
     if plan_dir is not None:
         raise InputError(f"--plan {str(plan_dir)!r} is for a flight folder (`aerosurvey log ingest` output); {str(target)!r} is none")
-    results, _ = run_rules(open_target(target), list(profiles), list(profile_dirs))
+    plan = open_target(target)
+    records = plan_records(plan, list(profiles), list(profile_dirs))
+    summary = plan_summary(plan.view.manifest, records)
     if as_json:
-        click.echo(json.dumps({"results": [r.as_dict() for r in results],
-                               "failed": [r.rule for r in failed_errors(results)]}, indent=1))
+        click.echo(json.dumps({"results": records, "failed": list(summary.rules.failed), "summary": summary_json(summary)},
+                              indent=1))
     else:
-        for line in format_results(results):
-            click.echo(line)
-        bad = failed_errors(results)
-        click.echo(f"{len(results)} rules: {sum(r.status == 'pass' for r in results)} passed, {len(bad)} failed")
-    if failed_errors(results):
-        raise SystemExit(1)
+        for line in format_results(records) + summary_text(summary):
+            console.echo(line)
+    if summary.rules.failed:
+        raise CheckFailed(f"{target}: rules failing at error level: {', '.join(summary.rules.failed)}")

@@ -7,6 +7,8 @@ from typing import Any
 
 import click
 
+from aerosurvey import console
+
 
 @click.group()
 def sitl() -> None:
@@ -23,11 +25,17 @@ def sitl() -> None:
                    "default: copter.parm / plane.parm in AEROSURVEY_SITL_DEFAULTS when that folder is set.")
 @click.option("--timeout-factor", type=click.FloatRange(1.5, 20), default=3.0, show_default=True,
               help="Give up on a sortie after this many times its estimated time (in simulated time).")
+@click.option("--boot-timeout", type=click.FloatRange(0.5, 600), default=60.0, show_default=True,
+              help="Seconds SITL may take to start and send its first heartbeat.")
 @click.option("-o", "--output", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Folder for the report and logs (default: OUTDIR/sitl).")
 def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None, defaults: tuple[Path, ...],
-        timeout_factor: float, report_dir: Path | None) -> None:
-    """Upload, verify and fly every sortie of OUTDIR in SITL; exit 1 when a sortie does not match its plan."""
+        timeout_factor: float, boot_timeout: float, report_dir: Path | None) -> None:
+    """Upload, verify and fly every sortie of OUTDIR in SITL; exit 1 when a sortie does not match its plan.
+
+    SITL runs in a temporary folder, removed afterwards; paths given here are taken from the
+    current folder. When SITL fails, the error quotes the last lines it printed.
+    """
     # the SITL harness and pymavlink load only when the command runs
     from aerosurvey.flight.sitl_run import SitlSettings, fly_sorties
     from aerosurvey.link import sitl as harness
@@ -36,7 +44,7 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None,
     doc = read_manifest(outdir, "OUTDIR")
     vehicle = vehicle or doc.mission.vehicle
     settings = SitlSettings(vehicle, harness.find_binary(vehicle, sitl_bin), tuple(defaults) or harness.default_params(vehicle),
-                            speedup, timeout_factor)
+                            speedup, timeout_factor, boot_timeout)
     report_dir = report_dir or outdir / "sitl"
     results = fly_sorties(doc, outdir, settings, report_dir, _echo_row)
     bad = [r["sortie"] for r in results if not r["completed"] or r["triggers_match"] is False]
@@ -45,6 +53,6 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None,
 
 
 def _echo_row(row: dict[str, Any]) -> None:
-    click.echo(f"{row['sortie']}: completed={row['completed']} triggers {row['triggers_flown']}/{row['photos_planned']}, "
+    console.echo(f"{row['sortie']}: completed={row['completed']} triggers {row['triggers_flown']}/{row['photos_planned']}, "
                f"max trigger offset {row['max_trigger_offset_m']} m, max cross-track {row['max_cross_track_m']} m, "
                f"time {row['flown_time_s']} s flown vs {row['estimated_time_s']} s estimated ({row['time_ratio']})")

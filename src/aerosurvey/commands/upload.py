@@ -1,12 +1,14 @@
-"""`aerosurvey upload`: send a plan to a vehicle over MAVLink, read it back and compare.
+"""`aerosurvey upload`: check that a plan fits the vehicle, send it over MAVLink, read it back and compare.
 
 Exit codes: 0 uploaded and verified (or uploaded with --no-verify), 1 the link failed or the
-vehicle stores something else, 2 bad input (unreadable plan, bad option, wrong firmware).
-Nothing is reported as uploaded unless the vehicle acknowledged every item.
+vehicle stores something else, 2 bad input (unreadable plan, bad option), 3 refused before
+anything was sent: the plan does not fit the vehicle (autopilot, vehicle type, launch point,
+battery, item count). Nothing is reported as uploaded unless the vehicle acknowledged every item.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -18,12 +20,23 @@ import click
 from aerosurvey.errors import InputError
 from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.connection import open_link
-from aerosurvey.link.upload import UploadReport, VerificationFailed, upload_mission
+from aerosurvey.link.upload import (
+    LAUNCH_DISTANCE_M,
+    MissionFacts,
+    UploadReport,
+    VerificationFailed,
+    check_vehicle,
+    mission_wire_items,
+    upload_mission,
+)
 from aerosurvey.mission.items import Mission
 
+_DEFAULTS = mp.Policy()  # the command's defaults are the protocol's: one place for both
 
-def read_mission(path: Path) -> Mission:
-    """A QGroundControl .plan or a QGC WPL 110 waypoint file, told apart by its first line."""
+
+def read_mission(path: Path) -> tuple[Mission, bool]:
+    """A QGroundControl .plan or a QGC WPL 110 waypoint file, told apart by its first line;
+    True when it is a waypoint file (it says nothing of the vehicle type)."""
     from aerosurvey.mission.formats.qgc_plan import loads_plan
     from aerosurvey.mission.formats.wpl import loads_wpl
 
@@ -31,10 +44,75 @@ def read_mission(path: Path) -> Mission:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read the plan: {getattr(exc, 'strerror', None) or exc}") from None
-    m = loads_wpl(text, str(path)) if text.lstrip().startswith("QGC WPL") else loads_plan(text, str(path))
+    waypoints = text.lstrip().startswith("QGC WPL")
+    m = loads_wpl(text, str(path)) if waypoints else loads_plan(text, str(path))
     if not m.items:
         raise InputError(f"{path}: the plan has no mission items; there is nothing to upload")
-    return m
+    return m, waypoints
+
+
+def _battery_words(battery: dict[str, Any]) -> str:
+    """One battery of the spec, as its [battery] table says it (manifest.json's `battery`)."""
+    if not battery:
+        return "less than the mission needs"
+    reserve = f"{battery['reserve']:.0%} kept in reserve"
+    if battery.get("usable_min") is not None:
+        return f"{battery['usable_min']:g} min ({reserve})"
+    return f"{battery['capacity_wh']:g} Wh at {battery['cruise_power_w']:g} W cruise ({reserve})"
+
+
+def mission_facts(path: Path, mission: Mission, waypoints: bool, vehicle: str | None) -> tuple[MissionFacts, str]:
+    """What the checks compare with the vehicle, and the words saying where it came from.
+
+    From the file itself (a .plan says its vehicle type, firmware and home; a `waypoints` file
+    only its home, so `vehicle` must name the type), and from the manifest.json beside it when it
+    lists this very file (same name and sha256): the vehicle type, the estimated time, the
+    battery, the sorties and the spec's item limit. A file the manifest does not list, or lists
+    with another sha256 (changed since planning), is checked on its own fields only.
+    """
+    from aerosurvey import manifest as mf
+
+    own = vehicle if waypoints else mission.vehicle
+    doc_path = path.parent / mf.FILE_NAME
+    doc = mf.read_manifest(doc_path, "the manifest beside the plan") if doc_path.is_file() else None
+    if doc is not None and doc.outputs.get(path.name) != mf.sha256_file(path):
+        doc = None
+    said = doc.mission.vehicle if doc is not None else own
+    if said is None:
+        raise InputError(f"{path.name} does not say which vehicle it is for (a .waypoints file has no vehicle type and no "
+                         "manifest.json beside it lists it): give --vehicle copter or --vehicle plane, or upload the .plan",
+                         key="--vehicle")
+    if vehicle is not None and vehicle != said:
+        raise InputError(f"--vehicle {vehicle}: {path.name} is a {said} mission", key="--vehicle")
+    launch, items = (mission.home[0], mission.home[1]), len(mission_wire_items(mission))
+    if doc is None:
+        why = "no manifest.json beside it" if not doc_path.is_file() else f"{mf.FILE_NAME} does not list this file as it is"
+        return (MissionFacts(path.name, said, mission.firmware, launch, items),
+                f"checked on its own fields ({why}): battery and sorties not compared")
+    battery = doc.raw.get("battery") or {}
+    sortie = next((s for s in doc.sorties if path.name in s.files), None)
+    if sortie is None:  # the whole mission
+        est = doc.estimates.get("total_time_s")
+        sorties = tuple(f for s in doc.sorties for f in s.files if f.endswith(path.suffix)) if len(doc.sorties) > 1 else ()
+    else:
+        est, sorties = sortie.time_s, ()
+    return (MissionFacts(path.name, said, mission.firmware, launch, items, battery.get("max_mission_items"),
+                         None if est is None else est / 60.0, _battery_words(battery), sorties),
+            f"checked against {mf.FILE_NAME} ({'the whole mission' if sortie is None else 'sortie ' + sortie.id})")
+
+
+def _launch_distance(value: str) -> float | None:
+    if value.strip().lower() == "off":
+        return None
+    try:
+        d = float(value)
+    except ValueError:
+        d = math.nan
+    if not (d >= 0 and math.isfinite(d)):
+        from aerosurvey.errors import bad_value
+
+        raise bad_value("--launch-distance", value, "a distance in metres (0 or more), or off")
+    return d
 
 
 class TransferProgress:
@@ -112,23 +190,37 @@ def format_report(r: UploadReport, verified: bool) -> list[str]:
 @click.argument("plan_file", type=click.Path(path_type=Path))
 @click.option("--connect", "url", required=True,
               help="pymavlink connection string, e.g. tcp:127.0.0.1:5760, udpin:0.0.0.0:14550, /dev/ttyACM0.")
-@click.option("--timeout", type=click.FloatRange(min=0.01), default=1.0, show_default=True,
-              help="Seconds to wait for an answer before a resend. Silence for timeout x (retries + 1) "
-                   "ends the wait for the heartbeat or for a protocol step.")
-@click.option("--retries", type=click.IntRange(min=0), default=5, show_default=True,
-              help="Resends of one protocol step before the transaction is restarted or given up.")
+@click.option("--timeout", type=click.FloatRange(min=_DEFAULTS.min_timeout), default=_DEFAULTS.timeout, show_default=True,
+              help="The longest wait for an answer before a resend; below it the wait follows the round trips "
+                   "measured on the link. Silence for timeout x (retries + 1) ends the wait for the heartbeat or "
+                   "restarts a transfer.")
+@click.option("--retries", type=click.IntRange(min=0), default=_DEFAULTS.retries, show_default=True,
+              help="See --timeout: how many timeouts of silence end a step.")
+@click.option("--vehicle", type=click.Choice(["copter", "plane"]), default=None,
+              help="The vehicle type a .waypoints file without its manifest.json is for (a .plan says it itself).")
+@click.option("--launch-distance", "launch_distance", default=f"{LAUNCH_DISTANCE_M:g}", show_default=True,
+              help="The farthest (m) the vehicle may be from the planned launch point; a larger value confirms "
+                   "that it is that far. 'off': do not compare (e.g. no GPS fix on the bench).")
 @click.option("--no-verify", is_flag=True, help="Do not read the mission back and compare it.")
-def upload(plan_file: Path, url: str, timeout: float, retries: int, no_verify: bool) -> None:
+def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str | None, launch_distance: str,
+           no_verify: bool) -> None:
     """Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare.
 
-    Exit code 0 when uploaded and verified, 1 when the link fails or the vehicle stores
-    something else (the differing item, field and values are named; a partial mission is
-    "the vehicle holds N of M mission items: do not fly it"), 2 for bad input. Progress goes
-    to stderr when it is a terminal and the upload takes more than a second.
+    Before sending anything it compares the vehicle with the mission (autopilot, vehicle type,
+    distance from the planned launch point, battery, item count) and refuses with exit code 3
+    when they do not fit. Exit code 0 when uploaded and verified, 1 when the link fails or the
+    vehicle stores something else (the differing item, field and values are named; a partial
+    mission is "the vehicle holds N of M mission items: do not fly it"), 2 for bad input.
+    Progress goes to stderr when it is a terminal and the upload takes more than a second.
     """
-    mission = read_mission(plan_file)
+    mission, waypoints = read_mission(plan_file)
+    limit = _launch_distance(launch_distance)
+    facts, source = mission_facts(plan_file, mission, waypoints, vehicle)
     policy = mp.Policy(timeout=timeout, retries=retries)
-    with open_link(url, timeout * (retries + 1)) as link:
+    with open_link(url, policy.silence) as link:
+        assert link.vehicle is not None
+        position = link.vehicle_position(policy.silence) if limit is not None else None
+        where = check_vehicle(facts, link.vehicle, position, limit)
         try:
             with TransferProgress(sys.stderr) as progress:
                 report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress)
@@ -138,5 +230,7 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, no_verify: b
             if len(exc.mismatches) > 20:
                 click.echo(f"  ... {len(exc.mismatches) - 20} more", err=True)
             raise
+    click.echo(f"{facts.file}: {facts.vehicle} mission for {facts.firmware}, {source}")
+    click.echo(where)
     for line in format_report(report, not no_verify):
         click.echo(line)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -64,6 +65,7 @@ class SitlSettings:
     defaults: tuple[Path, ...]
     speedup: float
     timeout_factor: float
+    boot_timeout: float = 60.0  # seconds for SITL to listen and send its first heartbeat
 
 
 def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
@@ -80,29 +82,30 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     for route in sortie_routes(doc, plan_dir):
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
         lat, lon, alt = mission.home
-        work = harness.workdir()
-        sv = harness.SitlVehicle(settings.binary, settings.vehicle, (lat, lon, alt), settings.speedup,
-                                 list(settings.defaults), work)
-        try:
-            sv.start()
-            harness.prepare(sv)
+        # SITL's working folder (its logs, eeprom, output): removed however the sortie ends
+        with tempfile.TemporaryDirectory(prefix="aerosurvey-sitl-") as tmp:
+            work = Path(tmp)
+            sv = harness.SitlVehicle(settings.binary, settings.vehicle, (lat, lon, alt), settings.speedup,
+                                     list(settings.defaults), work, settings.boot_timeout)
+            try:
+                sv.start()
+                harness.prepare(sv)
 
-            def upload(m: Any) -> str:
-                with open_link("tcp:127.0.0.1:5762", 30.0) as link:
-                    rep = upload_mission(link, m, Policy())
-                return f"{rep.mission.items} items uploaded and verified"
+                def upload(m: Any) -> str:
+                    with open_link("tcp:127.0.0.1:5762", 30.0) as link:
+                        rep = upload_mission(link, m, Policy())
+                    return f"{rep.mission.items} items uploaded and verified"
 
-            flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items), settings.timeout_factor,
-                                 upload)
-        finally:
-            sv.stop()
-        logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []
-        if logs:
-            report_dir.mkdir(parents=True, exist_ok=True)
-            dest = report_dir / f"{route.name}.BIN"
-            shutil.copyfile(logs[-1], dest)
-            flight.log = dest.name
-        shutil.rmtree(work, ignore_errors=True)
+                flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items),
+                                     settings.timeout_factor, upload)
+            finally:
+                sv.stop()
+            logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []
+            if logs:
+                report_dir.mkdir(parents=True, exist_ok=True)
+                dest = report_dir / f"{route.name}.BIN"
+                shutil.copyfile(logs[-1], dest)
+                flight.log = dest.name
         row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
         if doc.camera.trigger == "camera":
             row["triggers_match"] = None  # the camera's own intervalometer is not simulated

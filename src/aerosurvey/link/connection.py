@@ -25,6 +25,9 @@ GCS_SYSTEM = 255
 GCS_COMPONENT = 190  # MAV_COMP_ID_MISSIONPLANNER
 _MAV_TYPE_GCS = 6
 _MAV_AUTOPILOT_INVALID = 8
+_MAV_CMD_REQUEST_MESSAGE = 512
+_GLOBAL_POSITION_INT = 33
+_HOME_POSITION = 242
 AUTOPILOT_NAMES = {0: "generic", 3: "ArduPilot", 12: "PX4"}
 
 
@@ -184,6 +187,34 @@ class MavLink:
             return self.vehicle
         raise LinkError(f"{self.url}: no heartbeat from a vehicle within {timeout:g} s "
                         "(is it powered and is this the right connection string?)")
+
+    def vehicle_position(self, wait: float) -> tuple[float, float] | None:
+        """Where the vehicle is (latitude, longitude): its GLOBAL_POSITION_INT, else its HOME_POSITION.
+
+        Both are asked for with MAV_CMD_REQUEST_MESSAGE (again every 0.5 s) and taken from the
+        stream too; None when neither came within `wait` seconds with a position other than 0, 0
+        (no GPS fix), or the vehicle refused both requests.
+        """
+        if self.vehicle is None:
+            raise RuntimeError("wait_heartbeat() first: the target ids come from the vehicle's heartbeat")
+        end, asked, home, refused = self.now() + wait, -1.0, None, 0
+        while self.now() < end and refused < 2:
+            if self.now() - asked >= 0.5:
+                for msg_id in (_GLOBAL_POSITION_INT, _HOME_POSITION):
+                    self._write(self.conn.mav.command_long_encode(self.vehicle.system, self.vehicle.component,
+                                                                  _MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0))
+                asked = self.now()
+            m = self._recv_raw(min(end, asked + 0.5))
+            if m is None or m.get_srcSystem() != self.vehicle.system:
+                continue
+            kind = m.get_type()
+            if kind == "GLOBAL_POSITION_INT" and (m.lat, m.lon) != (0, 0):
+                return (m.lat * 1e-7, m.lon * 1e-7)
+            if kind == "HOME_POSITION" and (m.latitude, m.longitude) != (0, 0):
+                home = (m.latitude * 1e-7, m.longitude * 1e-7)
+            elif kind == "COMMAND_ACK" and m.command == _MAV_CMD_REQUEST_MESSAGE and m.result != 0:
+                refused += 1  # MAV_RESULT_FAILED: e.g. no position yet
+        return home
 
     def send(self, msg: mp.Message) -> None:
         if self.vehicle is None:

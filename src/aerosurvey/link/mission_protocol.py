@@ -9,9 +9,11 @@ MISSION_REQUEST_INT (or legacy MISSION_REQUEST) → we answer MISSION_ITEM_INT �
 ends with MISSION_ACK. Download: MISSION_REQUEST_LIST → MISSION_COUNT → MISSION_REQUEST_INT
 per item → MISSION_ITEM_INT → we end with MISSION_ACK.
 
-Both sides follow the same rules: a step is resent after `Policy.timeout`, `Policy.retries`
-unanswered resends in a row restart the transaction, restarts are bounded, and every
-transfer ends within `Policy.limit(n)` seconds whatever the vehicle does.
+Both sides follow the same rules: a step is resent when its answer is late by the resend
+timer (`ResendTimer`: it adapts to the round trips measured on the link as TCP's
+retransmission timer does, RFC 6298), silence from the vehicle for `Policy.silence` restarts
+the transaction, restarts are bounded, and every transfer ends within `Policy.limit(n)`
+seconds whatever the vehicle does.
 
 Numbers follow MAVLink common.xml (MAV_MISSION_RESULT, MAV_MISSION_TYPE); they are plain
 integers here so this module stays free of pymavlink.
@@ -54,12 +56,14 @@ TYPE_NAMES = {MISSION: "mission", FENCE: "fence", RALLY: "rally"}
 # Answers that mean "the vehicle may have lost or already finished this transaction". ArduPilot
 # (MissionItemProtocol.cpp) sends ERROR for an item that arrives when it is not receiving (e.g. a
 # duplicate of the last item after its ACK) and OPERATION_CANCELLED when its own upload timer
-# expired. Neither alone proves the transfer failed (it may be a late copy), so the machine waits
-# one step timeout for a request and restarts the transaction when none comes.
+# expired; PX4 (mavlink_mission.cpp) sends ERROR for a MISSION_COUNT while it is receiving. None
+# of them alone proves the transfer failed (it may be a late copy), so the machine keeps resending
+# for `Policy.timeout` and restarts the transaction when no request comes by then.
 # INVALID_SEQUENCE is different: ArduPilot sends it for a duplicated or late item while it keeps
-# receiving and re-requesting the item it wants (also when our resend crosses its lost request),
-# so it is counted but needs no action; a vehicle that answers it and never asks again is caught
-# by the stall rule, which restarts the transaction.
+# receiving and re-requesting the item it wants (also for the item of a resent pair it did not
+# want, see Uploader), so it is counted but needs no action; a vehicle that answers it and never
+# asks again is caught by the stall rule, which restarts the transaction. PX4 answers neither:
+# it drops an item it did not ask for and asks again after 250 ms.
 _SUSPECT = frozenset({ERROR, OPERATION_CANCELLED})
 
 
@@ -132,18 +136,19 @@ Message = Count | RequestList | Request | Item | Ack
 class Policy:
     """How long to wait and how often to try again; all bounded so a transfer always ends.
 
-    `timeout`: seconds without an answer before a step is resent. `retries`: resends in a row
-    that the vehicle does not answer at all before the transaction is restarted (or, for an
-    upload's first step, given up). `stall`: seconds an upload may go without the vehicle
-    asking for a new item while it still answers (it may be re-requesting at its own pace:
-    ArduPilot asks again after 1 s and cancels after 8 s) before it is restarted. `restarts`:
-    an upload's whole-transaction restarts (each sends every item again); a download keeps the
-    items it has and may restart any number of times as long as each restart follows a new
-    item, but no more than `restarts` times in a row without one. `busy_wait`: pause before
-    restarting after MAV_MISSION_NO_SPACE (ArduPilot sends it right after boot) or
-    MAV_MISSION_DENIED (the vehicle is still busy with another transfer), so that 3 restarts
-    span ArduPilot's 8 s upload timeout. `item_time`: the average seconds per item a whole
-    transfer may take (None: the larger of 5 s and 5 timeouts); see `limit`.
+    `timeout`: the resend timer's ceiling; below it the timer follows the round trips
+    measured (`ResendTimer`), never shorter than `min_timeout`. `retries`: silence from the
+    vehicle for `timeout` × (`retries` + 1) seconds (`silence`) restarts the transaction (or,
+    for an upload's first step, gives up). `stall`: seconds an upload may go without the vehicle asking for a new item while it
+    still answers (it may be re-requesting at its own pace: ArduPilot asks again after 1 s and
+    cancels after 8 s) before it is restarted. `restarts`: an upload's whole-transaction
+    restarts (each sends every item again); a download keeps the items it has and may restart
+    any number of times as long as each restart follows a new item, but no more than
+    `restarts` times in a row without one. `busy_wait`: pause before restarting after
+    MAV_MISSION_NO_SPACE (ArduPilot sends it right after boot) or MAV_MISSION_DENIED (the
+    vehicle is still busy with another transfer), so that 3 restarts span ArduPilot's 8 s
+    upload timeout. `item_time`: the average seconds per item a whole transfer may take
+    (None: the larger of 5 s and 5 timeouts); see `limit`.
     """
 
     timeout: float = 1.0
@@ -152,14 +157,22 @@ class Policy:
     busy_wait: float = 3.0
     stall: float = 10.0
     item_time: float | None = None
+    min_timeout: float = 0.01
 
     def __post_init__(self) -> None:
         if not (self.timeout > 0 and math.isfinite(self.timeout)):
             raise ValueError(f"timeout must be a positive number of seconds, got {self.timeout!r}")
+        if not 0 < self.min_timeout <= self.timeout:
+            raise ValueError(f"min_timeout must be positive and at most timeout ({self.timeout!r}), got {self.min_timeout!r}")
         if self.retries < 0 or self.restarts < 0 or self.busy_wait < 0 or not self.stall > 0:
             raise ValueError("retries, restarts and busy_wait must not be negative, stall must be positive")
         if self.item_time is not None and not (self.item_time > 0 and math.isfinite(self.item_time)):
             raise ValueError(f"item_time must be a positive number of seconds, got {self.item_time!r}")
+
+    @property
+    def silence(self) -> float:
+        """Seconds without a word from the vehicle that end a step: `timeout` × (`retries` + 1)."""
+        return self.timeout * (self.retries + 1)
 
     @property
     def per_item(self) -> float:
@@ -169,17 +182,76 @@ class Policy:
     @property
     def setup(self) -> float:
         """The part of `limit` that does not grow with the items: each allowed restart may wait
-        `busy_wait`, go `retries` + 1 timeouts unanswered and stall for `stall`."""
-        return (self.restarts + 1) * (self.busy_wait + (self.retries + 1) * self.timeout + self.stall)
+        `busy_wait`, stay silent for `silence` and stall for `stall`, one timeout more."""
+        return (self.restarts + 1) * (self.busy_wait + self.silence + self.timeout + self.stall)
 
     def limit(self, n: int) -> float:
         """Seconds a transfer of `n` items may take in all: `setup` + n × `per_item`.
 
         The machines fail a transfer that has not ended by then, whatever the vehicle does
         (one that answers just often enough never to trip the other rules included); the
-        resend, retry and restart rules decide long before it on any link that is merely lossy.
+        resend, silence and restart rules decide long before it on any link that is merely lossy.
         """
         return self.setup + n * self.per_item
+
+
+#: Resends of one step that wait one timer each before the waits double (see ResendTimer)
+FLAT_RESENDS = 3
+#: The timer before any round trip was measured: the MAVLink mission protocol's recommended
+#: timeout for mission items (within Policy.min_timeout and Policy.timeout)
+FIRST_TIMEOUT = 0.25
+
+
+class ResendTimer:
+    """When to resend: RFC 6298's retransmission timer, fed with the times the machines are given.
+
+    Each round trip measured updates the smoothed round trip SRTT and its variation RTTVAR
+    (α = 1/8, β = 1/4); the timer is SRTT + max(G, 4·RTTVAR) with G = `policy.min_timeout`, kept
+    between `min_timeout` and `timeout`, and `FIRST_TIMEOUT` before the first measurement (RFC
+    6298 starts at 1 s; the mission protocol recommends 250 ms for items, and the vehicle
+    answers MISSION_COUNT as fast as an item: at 30 % loss each way the first step then gets
+    about ten tries, not six, before `Policy.silence` gives it up). A round
+    trip is measured on a step sent once; on a step sent again (Karn's rule: which copy was
+    answered is not known) only when the answer came a whole timer or more after the last
+    copy, which proves the round trip is at least that long (so a link that got slower is
+    followed). Backing off: the first `FLAT_RESENDS` resends of a step wait one timer each (on
+    a lossy radio a lost packet is most often just lost: at 30 % loss each way half the
+    exchanges fail, and doubling from the first resend costs as much again as the losses), each
+    further one twice the one before, up to `timeout`. One timer is shared by the transfers on one link.
+    """
+
+    def __init__(self, policy: Policy) -> None:
+        self.policy = policy
+        self.srtt: float | None = None
+        self.rttvar = 0.0
+        self.samples = 0
+
+    def measured(self, rtt: float) -> None:
+        rtt = max(rtt, 0.0)
+        if self.srtt is None:
+            self.srtt, self.rttvar = rtt, rtt / 2
+        else:
+            self.rttvar = 0.75 * self.rttvar + 0.25 * abs(self.srtt - rtt)
+            self.srtt = 0.875 * self.srtt + 0.125 * rtt
+        self.samples += 1
+
+    @property
+    def base(self) -> float:
+        """The timer of a step's first wait."""
+        p = self.policy
+        wanted = FIRST_TIMEOUT if self.srtt is None else self.srtt + max(p.min_timeout, 4.0 * self.rttvar)
+        return min(p.timeout, max(p.min_timeout, wanted))
+
+    def value(self, resends: int) -> float:
+        """The wait after a step's `resends`-th resend (0: after sending it the first time)."""
+        return min(self.policy.timeout, self.base * 2.0 ** max(0, resends - FLAT_RESENDS))
+
+    def answered(self, resends: int, first_sent: float, last_sent: float, now: float) -> None:
+        """A step sent 1 + `resends` times (first and last at the times given) was answered `now`."""
+        if resends == 0:
+            self.measured(now - first_sent)
+        elif now - last_sent >= self.base:
+            self.measured(now - last_sent)
 
 
 @dataclass
@@ -201,7 +273,7 @@ class TransferFailed(Exception):
 
 
 class _Machine:
-    """Shared bookkeeping: state, deadlines and outcome of one transfer."""
+    """Shared bookkeeping: state, deadlines, the resend timer and outcome of one transfer."""
 
     kind = "transfer"
 
@@ -210,15 +282,19 @@ class _Machine:
         """E.g. "fence upload": the start of every error message."""
         return f"{TYPE_NAMES.get(self.mission_type, self.mission_type)} {self.kind}"
 
-    def __init__(self, mission_type: int, policy: Policy) -> None:
+    def __init__(self, mission_type: int, policy: Policy, timer: ResendTimer | None) -> None:
         self.mission_type = mission_type
         self.policy = policy
+        self.timer = timer if timer is not None else ResendTimer(policy)
         self.stats = Stats()
         self.done = False
         self.error: str | None = None
         self._step_deadline = math.inf  # when the current step is resent (or the wait ends)
         self._started = 0.0
         self._end = math.inf  # `_started` + `policy.limit(n)`: the transfer fails then
+        self._heard = 0.0  # when the vehicle last said something about this transfer (or the step began)
+        self._probe: tuple[int, float, float] | None = None  # (step, first sent, last sent) of the step the timer runs for
+        self._resends = 0  # of that step
 
     @property
     def finished(self) -> bool:
@@ -253,36 +329,79 @@ class _Machine:
         self.stats.sent += len(msgs)
         return msgs
 
-    def _ours(self, msg: Message) -> bool:
+    def _ours(self, msg: Message, now: float) -> bool:
         if self.finished or isinstance(msg, RequestList) or msg_type(msg) != self.mission_type:
             self.stats.ignored += 1
             return False
+        self._heard = now
         return True
+
+    def _step(self, step: int, now: float) -> None:
+        """A new step is sent: arm the timer and remember it for a round-trip measurement."""
+        self._probe = (step, now, now)
+        self._resends = 0
+        self._step_deadline = now + self.timer.value(0)
+
+    def _answered(self, step: int, now: float) -> None:
+        """The answer to `step` came: a round trip for the timer, if it tells one."""
+        if self._probe is not None and self._probe[0] == step:
+            self.timer.answered(self._resends, self._probe[1], self._probe[2], now)
+        self._probe = None
+
+    def _resent(self, now: float) -> None:
+        self._resends += 1
+        if self._probe is not None:
+            self._probe = (self._probe[0], self._probe[1], now)
+        self.stats.resends += 1
+        self._step_deadline = now + self.timer.value(self._resends)
+
+    def _silent(self, now: float) -> bool:
+        return now - self._heard >= self.policy.silence
+
+    def _silence_why(self, now: float, step: str) -> str:
+        return f"no answer to {step} for {now - self._heard:.1f} s ({self.stats.resends} resend(s) in all)"
 
 
 def msg_type(msg: Message) -> int:
     return msg.item.mission_type if isinstance(msg, Item) else msg.mission_type
 
 
+#: Items an upload resends at most when the vehicle's next request is late (see Uploader)
+RESEND_WINDOW = 4
+
+
 class Uploader(_Machine):
     """Ground-station side of an upload of `items` (seq 0…n-1, in order) of one mission type.
 
-    Success needs a MISSION_ACK(ACCEPTED) after the vehicle has asked for every item of the
-    current attempt; an ACCEPTED before that is stale (from an earlier transaction) and is
-    ignored, so a partial upload is never reported as done.
+    The vehicle drives the upload with its requests; each is answered with the item asked for.
+    When the next request is late by the resend timer, the item the vehicle last asked for is
+    sent again, followed by the ones after it up to one past the highest sent so far (at most
+    `RESEND_WINDOW` items): if the item was lost the vehicle takes it and then the next; if its
+    request for the next one was lost (or for the next two: a resend already sent the next
+    one) it takes the one it wants. It answers the others with an error ack (ArduPilot:
+    MAV_MISSION_INVALID_SEQUENCE; PX4 drops them without a word), which is expected and changes
+    nothing. The vehicle stores only the item it wants, in order, so nothing it stores can be
+    out of place.
 
-    One exception, only with `confirm_by_download`: the vehicle asked for every item, then
-    stopped answering or answered our resent last item with ERROR or OPERATION_CANCELLED (it
-    is no longer receiving: its ACCEPTED was lost, or it failed on the last item). The machine
-    then ends with `stats.ack_lost` set instead of sending all items again, and the caller
-    must read the mission back and compare it before calling it uploaded.
+    Success needs a MISSION_ACK(ACCEPTED) once every item of the current attempt has been sent
+    (the last one only after the vehicle asked for the one before it); an ACCEPTED before that
+    is stale (from an earlier transaction) and is ignored, so a partial upload is never reported
+    as done.
+
+    One exception, only with `confirm_by_download`: every item was sent, and then the vehicle
+    stopped answering or answered our resent items with ERROR or OPERATION_CANCELLED (it is no
+    longer receiving: its ACCEPTED was lost, or it failed on the last item). A resent window may
+    have carried the last items before the vehicle asked for them, so the vehicle may also hold
+    less; the read-back that must follow counts and compares every item either way. The machine then
+    ends with `stats.ack_lost` set instead of sending all items again, and the caller must read
+    the mission back and compare it before calling it uploaded.
     """
 
     kind = "upload"
 
     def __init__(self, items: Sequence[WireItem], mission_type: int, policy: Policy,
-                 confirm_by_download: bool = False) -> None:
-        super().__init__(mission_type, policy)
+                 confirm_by_download: bool = False, timer: ResendTimer | None = None) -> None:
+        super().__init__(mission_type, policy, timer)
         self.confirm_by_download = confirm_by_download
         for i, it in enumerate(items):
             if it.seq != i or it.mission_type != mission_type:
@@ -290,11 +409,10 @@ class Uploader(_Machine):
                                  f"expected seq {i} and mission type {mission_type}")
         self.items = tuple(items)
         self._phase = "idle"
-        self._requested: set[int] = set()
-        self._last_seq = -1
-        self._step_tries = 0
+        self._asked = -1  # the highest item the vehicle asked for in this attempt
+        self._sent_top = -1  # the highest item sent in this attempt
         self._last_progress = 0.0
-        self._suspect: int | None = None
+        self._suspect: tuple[int, float] | None = None  # (error ack, when) that may mean the vehicle left the transfer
 
     @property
     def confirmed(self) -> int:
@@ -306,6 +424,10 @@ class Uploader(_Machine):
     def progress(self) -> tuple[int, int]:
         return (self.confirmed, len(self.items))
 
+    @property
+    def _all_sent(self) -> bool:
+        return self._phase == "items" and self._sent_top == len(self.items) - 1
+
     def start(self, now: float) -> list[Message]:
         self.stats.restarts = -1
         self._started = now
@@ -315,13 +437,11 @@ class Uploader(_Machine):
     def _restart(self, now: float) -> list[Message]:
         self.stats.restarts += 1
         self._phase = "count"
-        self._requested.clear()
         self.stats.confirmed = 0
-        self._last_seq = -1
-        self._step_tries = 0
+        self._asked = self._sent_top = -1
         self._suspect = None
-        self._last_progress = now
-        self._step_deadline = now + self.policy.timeout
+        self._last_progress = self._heard = now
+        self._step(-1, now)
         return self._out([Count(len(self.items), self.mission_type)])
 
     def _restart_or_fail(self, now: float, why: str) -> list[Message]:
@@ -329,8 +449,12 @@ class Uploader(_Machine):
             return self._fail(f"{self.what} failed: {why}; gave up after {self.stats.restarts} restart(s) of the transaction")
         return self._restart(now)
 
+    def _send(self, seqs: Sequence[int] | range) -> list[Message]:
+        self._sent_top = max(self._sent_top, *seqs)
+        return self._out([Item(self.items[s]) for s in seqs])
+
     def handle(self, msg: Message, now: float) -> list[Message]:
-        if not self._ours(msg):
+        if not self._ours(msg, now):
             return []
         if isinstance(msg, Request):
             return self._on_request(msg.seq, now)
@@ -345,23 +469,21 @@ class Uploader(_Machine):
             return []
         self._phase = "items"
         self._suspect = None
-        self._step_tries = 0
-        if seq in self._requested:
-            # answered again, but the step timer keeps running: a vehicle that keeps asking for
-            # items we already sent (ours get lost) must still end in a restart, not a loop
+        if seq <= self._asked:
+            # asked again (its re-request timer, or a copy): answered, but the step timer keeps
+            # running, so a vehicle that keeps asking for items we already sent still ends in a restart
             self.stats.duplicate_requests += 1
-        else:
-            self._requested.add(seq)
-            self.stats.confirmed = max(self.stats.confirmed, seq)
-            self._last_progress = now
-            self._step_deadline = now + self.policy.timeout
-        self._last_seq = seq
-        return self._out([Item(self.items[seq])])
+            return self._send([seq])
+        self._answered(seq - 1, now)
+        self._asked = seq
+        self.stats.confirmed = max(self.stats.confirmed, seq)
+        self._last_progress = now
+        self._step(seq, now)
+        return self._send([seq])
 
     def _on_ack(self, result: int, now: float) -> list[Message]:
         if result == ACCEPTED:
-            complete = len(self._requested) == len(self.items)
-            if (self._phase == "items" and complete) or (self._phase == "count" and not self.items):
+            if self._all_sent or (self._phase == "count" and not self.items):
                 self.done = True
                 self.stats.confirmed = len(self.items)
             else:
@@ -386,13 +508,12 @@ class Uploader(_Machine):
             return []
         if result in _SUSPECT:
             # before the first request a resent MISSION_COUNT is already a restart
-            if self._phase == "items":
-                self._suspect = result
+            if self._phase == "items" and self._suspect is None:
+                self._suspect = (result, now)
             return []
         if result == INVALID_SEQUENCE:
-            self._step_tries = 0  # the vehicle is still in the transfer and will ask again
-            return []
-        where = f" at item {self._last_seq}" if self._last_seq >= 0 else ""
+            return []  # the answer to an item the vehicle did not want (see the class): expected
+        where = f" at item {self._asked}" if self._asked >= 0 else ""
         return self._fail(f"{self.what} rejected by the vehicle{where}: {result_name(result)}")
 
     def poll(self, now: float) -> list[Message]:
@@ -401,63 +522,61 @@ class Uploader(_Machine):
         if self._phase == "wait":
             return self._restart(now)
         stalled = now - self._last_progress >= self.policy.stall
-        self._step_tries += 1
-        all_asked = self._phase == "items" and len(self._requested) == len(self.items)
-        if all_asked and self.confirm_by_download and (
-                self._suspect is not None or stalled or self._step_tries > self.policy.retries):
+        silent = self._silent(now)
+        if self._all_sent and self.confirm_by_download and (self._suspect is not None or stalled or silent):
             self.stats.ack_lost = True
             self.done = True
             return []
-        if self._suspect is not None:
-            return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect)} and stopped asking for items")
+        if self._suspect is not None and now - self._suspect[1] >= self.policy.timeout:
+            return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect[0])} and stopped asking for items")
         if self._phase == "count":
-            if self._step_tries > self.policy.retries:
-                return self._fail(f"{self.what} failed: no answer to MISSION_COUNT after {self.policy.retries} "
-                                  f"resend(s), {self.policy.timeout:g} s each")
-            self.stats.resends += 1
-            self._step_deadline = now + self.policy.timeout
+            if silent:
+                return self._fail(f"{self.what} failed: {self._silence_why(now, 'MISSION_COUNT')}")
+            self._resent(now)
             return self._out([Count(len(self.items), self.mission_type)])
         if stalled:
-            return self._restart_or_fail(now, f"the vehicle asked for nothing new after item {self._last_seq} of "
+            return self._restart_or_fail(now, f"the vehicle asked for nothing new after item {self._asked} of "
                                               f"{len(self.items)} for {now - self._last_progress:.1f} s")
-        if self._step_tries > self.policy.retries:
-            return self._restart_or_fail(now, f"no answer after item {self._last_seq} of {len(self.items)} "
-                                              f"to {self.policy.retries} resend(s), {self.policy.timeout:g} s each")
-        self.stats.resends += 1
-        self._step_deadline = now + self.policy.timeout
-        return self._out([Item(self.items[self._last_seq])])
+        if silent:
+            return self._restart_or_fail(now, self._silence_why(now, f"item {self._asked} of {len(self.items)}"))
+        self._resent(now)
+        last = min(len(self.items) - 1, self._sent_top + 1, self._asked + RESEND_WINDOW - 1)
+        return self._send(range(self._asked, last + 1))
 
 
 class Downloader(_Machine):
     """Ground-station side of a download: asks for every item in order, then acknowledges.
 
-    It restarts like the Uploader: when `retries` resends of one step (MISSION_REQUEST_LIST or
-    the request for the next item) go unanswered, or the vehicle answers with an error and
-    nothing follows within one timeout, the transaction starts again with MISSION_REQUEST_LIST.
-    Unlike an upload it keeps what it has: when the vehicle reports the same count again the
-    requests go on from the first missing item (a different count starts from item 0). Any
-    number of restarts may follow new items; `policy.restarts` in a row without a new item end
-    the download. `expected` (the number of items uploaded) sizes the time limit; without it
-    the vehicle's count does.
+    A request whose item is late by the resend timer is sent again. The transaction restarts
+    (MISSION_REQUEST_LIST again) when the vehicle says nothing for `policy.silence`, or answers
+    with an error and nothing follows within one timer. With `resume` (ArduPilot answers any
+    request) it keeps what it has: when the vehicle reports the same count again the requests go
+    on from the first missing item (a different count starts from item 0); without it (PX4
+    answers only the next item of a transfer, or the one before) every restart asks again from
+    item 0. Any number of restarts may follow new items; `policy.restarts` in a row without a
+    new item end the download. `expected` (the number of items uploaded) sizes the time limit;
+    without it the vehicle's count does.
     """
 
     kind = "download"
 
-    def __init__(self, mission_type: int, policy: Policy, expected: int | None = None) -> None:
-        super().__init__(mission_type, policy)
+    def __init__(self, mission_type: int, policy: Policy, expected: int | None = None, timer: ResendTimer | None = None,
+                 resume: bool = True) -> None:
+        super().__init__(mission_type, policy, timer)
         self.expected = expected
+        self.resume = resume
         self.count: int | None = None  # the vehicle's count, once it has said it
         self.items: list[WireItem | None] = []
         self._phase = "idle"
         self._next = 0
-        self._step_tries = 0
-        self._suspect: int | None = None
+        self._got = 0  # items held (the first `_got` of them)
+        self._suspect: tuple[int, float] | None = None  # (error ack, when): restart if nothing follows
         self._mark = 0  # the most items held at any restart: a restart that adds none to it is idle
         self._idle_restarts = 0
 
     @property
     def progress(self) -> tuple[int, int]:
-        return (self._next, self.count or 0)
+        return (self._got, self.count or 0)
 
     def result(self) -> list[WireItem]:
         if not self.done:
@@ -473,16 +592,16 @@ class Downloader(_Machine):
     def _restart(self, now: float) -> list[Message]:
         self.stats.restarts += 1
         self._phase = "count"
-        self._step_tries = 0
         self._suspect = None
-        self._step_deadline = now + self.policy.timeout
+        self._heard = now
+        self._step(-1, now)
         return self._out([RequestList(self.mission_type)])
 
     def _may_restart(self) -> bool:
         """Count a restart against the budget unless items came in since the last one."""
-        if self._next > self._mark:
+        if self._got > self._mark:
             self._idle_restarts = 0
-            self._mark = self._next
+            self._mark = self._got
         else:
             self._idle_restarts += 1
         return self._idle_restarts <= self.policy.restarts
@@ -490,33 +609,36 @@ class Downloader(_Machine):
     def _restart_or_fail(self, now: float, why: str) -> list[Message]:
         if not self._may_restart():
             return self._fail(f"{self.what} failed: {why}; gave up after {self.policy.restarts} restart(s) in a row "
-                              f"that brought no new item ({self._next} of {self.count if self.count is not None else '?'} "
+                              f"that brought no new item ({self._got} of {self.count if self.count is not None else '?'} "
                               "items read)")
         return self._restart(now)
 
     def _request_next(self, now: float) -> list[Message]:
-        self._step_tries = 0
         self._suspect = None
-        self._step_deadline = now + self.policy.timeout
+        self._step(self._next, now)
         return self._out([Request(self._next, self.mission_type)])
 
     def handle(self, msg: Message, now: float) -> list[Message]:
-        if not self._ours(msg):
+        if not self._ours(msg, now):
             return []
         if isinstance(msg, Count) and self._phase == "count":
+            self._answered(-1, now)
             if msg.count != self.count:  # first answer, or the vehicle's mission changed: from item 0
                 self.count = msg.count
                 self.items = [None] * msg.count
-                self._next = 0
+                self._got = 0
                 if self.expected is None:
                     self._limit(msg.count)
+            self._next = self._got if self.resume else 0
             self._phase = "items"
-            if self._next == msg.count:
+            if self._got == msg.count:
                 return self._finish()
             return self._request_next(now)
         if isinstance(msg, Item) and self._phase == "items" and msg.item.seq == self._next:
+            self._answered(self._next, now)
             self.items[self._next] = msg.item
             self._next += 1
+            self._got = max(self._got, self._next)
             if self._next == len(self.items):
                 return self._finish()
             return self._request_next(now)
@@ -533,7 +655,8 @@ class Downloader(_Machine):
         if isinstance(msg, Ack) and msg.result != ACCEPTED and self._phase in ("count", "items"):
             # may be a late answer to an earlier transfer: act on it only if nothing follows
             self.stats.error_acks.append(msg.result)
-            self._suspect = msg.result
+            if self._suspect is None:
+                self._suspect = (msg.result, now)
             return []
         self.stats.ignored += 1
         return []
@@ -549,15 +672,12 @@ class Downloader(_Machine):
             return []
         if self._phase == "wait":
             return self._restart(now)
-        if self._suspect is not None:
-            return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect)}")
-        self._step_tries += 1
-        if self._step_tries > self.policy.retries:
-            step = "MISSION_REQUEST_LIST" if self._phase == "count" else f"MISSION_REQUEST_INT for item {self._next}"
-            return self._restart_or_fail(now, f"no answer to {step} after {self.policy.retries} resend(s), "
-                                              f"{self.policy.timeout:g} s each")
-        self.stats.resends += 1
-        self._step_deadline = now + self.policy.timeout
+        if self._suspect is not None and now - self._suspect[1] >= self.policy.timeout:
+            return self._restart_or_fail(now, f"the vehicle answered {result_name(self._suspect[0])}")
+        step = "MISSION_REQUEST_LIST" if self._phase == "count" else f"MISSION_REQUEST_INT for item {self._next}"
+        if self._silent(now):
+            return self._restart_or_fail(now, self._silence_why(now, step))
+        self._resent(now)
         if self._phase == "count":
             return self._out([RequestList(self.mission_type)])
         return self._out([Request(self._next, self.mission_type)])

@@ -16,12 +16,11 @@ import math
 import os
 import shutil
 import subprocess
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from aerosurvey.errors import CheckFailed, InputError
 from aerosurvey.mission.items import Mission
@@ -29,6 +28,8 @@ from aerosurvey.mission.items import Mission
 PARAMS_FILE = Path(__file__).resolve().parents[3] / "sitl" / "aerosurvey-sitl.parm"
 COPTER_MODES = {"AUTO": 3, "RTL": 6, "LAND": 9}
 PLANE_MODES = {"MANUAL": 0, "AUTO": 10, "RTL": 11}
+#: lines of SITL's own output an error quotes
+OUTPUT_LINES = 5
 
 
 class SitlError(CheckFailed):
@@ -87,12 +88,23 @@ class SitlVehicle:
 
     def __init__(self, binary: Path, vehicle: str, home: tuple[float, float, float], speedup: float,
                  defaults: list[Path], workdir: Path, boot_timeout: float = 60.0):
-        self.binary, self.vehicle, self.home, self.speedup = binary, vehicle, home, speedup
-        self.defaults = defaults
+        # SITL runs in `workdir`: paths the caller gave relative to its own folder are made absolute first
+        self.binary, self.vehicle, self.home, self.speedup = binary.absolute(), vehicle, home, speedup
+        self.defaults = [p.absolute() for p in defaults]
         self.workdir = workdir
         self.boot_timeout = boot_timeout
         self.proc: subprocess.Popen[bytes] | None = None
         self.conn: Any = None
+        self.log: IO[bytes] | None = None
+
+    def error(self, message: str) -> SitlError:
+        """A SitlError that quotes the last lines SITL printed (where it says why it failed)."""
+        try:
+            lines = [ln.strip() for ln in (self.workdir / "sitl.out").read_text(errors="replace").splitlines() if ln.strip()]
+        except OSError:
+            lines = []
+        said = " | ".join(lines[-OUTPUT_LINES:]) if lines else "nothing"
+        return SitlError(f"{message}; SITL's last output: {said}")
 
     def start(self) -> None:
         from pymavlink import mavutil
@@ -108,8 +120,7 @@ class SitlVehicle:
         deadline = time.monotonic() + self.boot_timeout
         last_exc: Exception | None = None
         while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise SitlError(f"SITL exited with code {self.proc.returncode} at start; see {self.workdir / 'sitl.out'}")
+            self.check_running("at start")
             try:
                 self.conn = mavutil.mavlink_connection("tcp:127.0.0.1:5760", source_system=255, retries=0,
                                                        autoreconnect=True)
@@ -118,9 +129,16 @@ class SitlVehicle:
                 last_exc = exc
                 time.sleep(0.5)
         else:
-            raise SitlError(f"SITL did not listen on tcp:127.0.0.1:5760 within {self.boot_timeout:g} s ({last_exc})")
-        if self.conn.wait_heartbeat(timeout=self.boot_timeout) is None:
-            raise SitlError("no heartbeat from SITL")
+            raise self.error(f"SITL ({self.binary.name}) did not listen on tcp:127.0.0.1:5760 within "
+                             f"{self.boot_timeout:g} s ({last_exc})")
+        if self.conn.wait_heartbeat(timeout=max(0.1, deadline - time.monotonic())) is None:
+            self.check_running("at start")
+            raise self.error(f"no heartbeat from SITL ({self.binary.name}) within {self.boot_timeout:g} s")
+
+    def check_running(self, when: str) -> None:
+        """A SitlError quoting its output if the SITL process has ended."""
+        if self.proc is not None and self.proc.poll() is not None:
+            raise self.error(f"SITL ({self.binary.name}) exited with code {self.proc.returncode} {when}")
 
     def stop(self) -> None:
         if self.conn is not None:
@@ -137,8 +155,9 @@ class SitlVehicle:
                 self.proc.kill()
                 self.proc.wait(timeout=10)
         self.proc = None
-        if getattr(self, "log", None):
+        if self.log is not None:
             self.log.close()
+            self.log = None
 
     # --- parameters and commands -------------------------------------------------------
     def set_param(self, name: str, value: float, timeout: float = 10.0) -> None:
@@ -153,7 +172,7 @@ class SitlVehicle:
                 if m.param_id == name and abs(m.param_value - value) < 1e-4:
                     return
                 m = self.conn.recv_match(type="PARAM_VALUE", blocking=False)
-        raise SitlError(f"SITL did not accept parameter {name} = {value}")
+        raise self.error(f"SITL did not accept parameter {name} = {value}")
 
     def command(self, cmd: int, *params: float, timeout: float = 5.0) -> int:
         p = list(params) + [0.0] * (7 - len(params))
@@ -171,7 +190,7 @@ class SitlVehicle:
         self.command(mavutil.mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1)
         time.sleep(2.0)
         if self.conn.wait_heartbeat(timeout=self.boot_timeout) is None:
-            raise SitlError("no heartbeat after the reboot")
+            raise self.error("no heartbeat from SITL after the reboot")
 
     def request_messages(self) -> None:
         """Ask for the track, mission progress and camera feedback at fixed rates (stream
@@ -200,7 +219,7 @@ class SitlVehicle:
                 m = self.conn.recv_match(type="STATUSTEXT", blocking=True, timeout=0.2)
                 if m is not None and m.text not in said:
                     said.append(m.text)
-        raise SitlError(f"SITL did not arm within {timeout:g} s; it said: {' | '.join(said[-4:]) or 'nothing'}")
+        raise self.error(f"SITL did not arm within {timeout:g} s; it said: {' | '.join(said[-4:]) or 'nothing'}")
 
 
 def prepare(sv: SitlVehicle) -> None:
@@ -245,6 +264,7 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
             break
         m = sv.conn.recv_match(blocking=True, timeout=1.0)
         if m is None:
+            sv.check_running(f"while flying {name}")
             continue
         t = m.get_type()
         if t == "CAMERA_FEEDBACK":
@@ -342,6 +362,3 @@ def _cross_track(lat: float, lon: float, a: tuple[float, float], b: tuple[float,
     cx, cy = ax + t * bx, ay + t * by
     return math.hypot(px - cx, py - cy)
 
-
-def workdir() -> Path:
-    return Path(tempfile.mkdtemp(prefix="aerosurvey-sitl-"))

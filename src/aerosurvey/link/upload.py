@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from aerosurvey.errors import CheckFailed, InputError
+from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
 from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.connection import LinkError, Vehicle
 from aerosurvey.mission import mavlink_ids as mav
@@ -23,7 +23,8 @@ from aerosurvey.mission.items import Mission, MissionItem
 
 AUTOPILOT_ARDUPILOT = 3
 AUTOPILOT_PX4 = 12
-_PLANE_TYPES = frozenset({1, *range(19, 26)})  # MAV_TYPE fixed wing and VTOLs: ArduPlane builds
+PLANE_TYPES = frozenset({1, *range(19, 26)})  # MAV_TYPE fixed wing and VTOLs: ArduPlane builds
+COPTER_TYPES = frozenset({2, 3, 4, 13, 14, 15})  # MAV_TYPE multirotors and helicopters: ArduCopter builds
 
 _COMMAND_NAMES = {v: k for k, v in vars(mav).items() if k.isupper() and not k.startswith(("FRAME_", "AUTOPILOT_", "TYPE_"))}
 
@@ -271,14 +272,15 @@ def run_transfer(link: Link, machine: mp.Uploader | mp.Downloader, progress: Pro
 
 
 def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, policy: mp.Policy,
-                 confirm_by_download: bool = False, progress: Progress | None = None) -> mp.Stats:
+                 confirm_by_download: bool = False, progress: Progress | None = None,
+                 timer: mp.ResendTimer | None = None) -> mp.Stats:
     """Upload one mission type's items; returns what the link cost (resends, restarts).
 
     With `confirm_by_download` the upload may end without the vehicle's final ACCEPTED
     (`stats.ack_lost`); the caller must then read the items back and compare them.
     Raises UploadFailed when the upload does not finish.
     """
-    machine = mp.Uploader(items, mission_type, policy, confirm_by_download)
+    machine = mp.Uploader(items, mission_type, policy, confirm_by_download, timer)
     try:
         run_transfer(link, machine, progress)
     except LinkError as exc:
@@ -287,12 +289,14 @@ def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, po
 
 
 def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: int | None = None,
-                   progress: Progress | None = None) -> tuple[list[mp.WireItem], mp.Stats]:
-    """Every item of one mission type as the vehicle stores it; `expected` sizes the time limit.
+                   progress: Progress | None = None, timer: mp.ResendTimer | None = None,
+                   resume: bool = True) -> tuple[list[mp.WireItem], mp.Stats]:
+    """Every item of one mission type as the vehicle stores it; `expected` sizes the time limit,
+    `resume` (see mission_protocol.Downloader) is False for PX4.
 
     Raises DownloadFailed (with the vehicle's count, when it gave one) when the read-back does not finish.
     """
-    machine = mp.Downloader(mission_type, policy, expected)
+    machine = mp.Downloader(mission_type, policy, expected, timer, resume)
     try:
         run_transfer(link, machine, progress)
     except LinkError as exc:
@@ -333,10 +337,11 @@ def _stats_said(mission: TransferReport, fence: TransferReport | None, kind: int
             "although it acknowledged the upload") + "; the read-back shows it"
 
 
-def _distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    k = math.pi / 180.0
-    x = (lon2 - lon1) * k * math.cos((lat1 + lat2) * k / 2)
-    return 6_371_000.0 * math.hypot(x, (lat2 - lat1) * k)
+def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """Great-circle distance in metres (haversine on a 6371 km sphere: within 0.5 % at any range)."""
+    p1, p2, dlat, dlon = (math.radians(v) for v in (lat1, lat2, lat2 - lat1, lon2 - lon1))
+    h = math.sin(dlat / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dlon / 2) ** 2
+    return 2 * 6_371_000.0 * math.asin(min(1.0, math.sqrt(h)))
 
 
 def _vehicle_said(link: Link, since: float) -> str:
@@ -345,12 +350,78 @@ def _vehicle_said(link: Link, since: float) -> str:
     return f" (the vehicle said: {'; '.join(dict.fromkeys(texts))})" if texts else ""
 
 
-def check_firmware(m: Mission, vehicle: Vehicle) -> None:
-    """Refuse a plan made for the other autopilot: item numbering and commands differ."""
+class Refused(AerosurveyError):
+    """The mission does not fit the vehicle; nothing was sent (exit code 3)."""
+
+    exit_code = 3
+
+
+#: How far (m) the vehicle may be from the planned launch point unless the pilot names a larger distance
+LAUNCH_DISTANCE_M = 200.0
+#: The most items a MISSION_COUNT can announce (uint16)
+MAVLINK_MAX_ITEMS = 65535
+
+
+@dataclass(frozen=True)
+class MissionFacts:
+    """What the checks before an upload compare with the vehicle: from the plan file and, when
+    it lies in the plan folder that `aerosurvey plan` wrote, from that folder's manifest."""
+
+    file: str  # the file's name, as messages show it
+    vehicle: str  # "copter" or "plane"
+    firmware: str  # "ardupilot" or "px4"
+    launch: tuple[float, float]  # the planned launch point (home): latitude, longitude
+    items: int  # items on the wire (home included for ArduPilot)
+    max_items: int | None = None  # the spec's battery.max_mission_items
+    estimated_min: float | None = None  # the file's estimated flight time
+    battery: str | None = None  # what one battery of the spec gives, in words
+    sorties: tuple[str, ...] = ()  # the sortie files, when this file is the whole mission and it needs several
+
+
+def check_firmware(firmware: str, vehicle: Vehicle) -> None:
+    """Refuse a plan made for the other autopilot: item numbering and commands differ. An
+    autopilot that is neither ArduPilot nor PX4 (a generic MAVLink vehicle) is not refused."""
     said = {AUTOPILOT_ARDUPILOT: "ardupilot", AUTOPILOT_PX4: "px4"}.get(vehicle.autopilot)
-    if said is not None and said != m.firmware:
-        raise InputError(f"the plan is for {m.firmware} but the vehicle reports {vehicle.autopilot_name}: "
-                         f"plan the mission for {said} and upload that")
+    if said is not None and said != firmware:
+        raise Refused(f"the plan is for {firmware} but the vehicle reports {vehicle.autopilot_name}: "
+                      f"plan the mission for {said} and upload that")
+
+
+def check_vehicle(facts: MissionFacts, vehicle: Vehicle, position: tuple[float, float] | None,
+                  launch_distance: float | None = LAUNCH_DISTANCE_M) -> str:
+    """Refuse (Refused, one line with the figures) a mission that does not fit the vehicle:
+    another autopilot or vehicle type, more items than the vehicle takes, a whole mission that
+    needs several batteries, a vehicle farther than `launch_distance` metres from the planned
+    launch point or without a position (`launch_distance` None: not compared). Returns the
+    line that says where the vehicle is."""
+    check_firmware(facts.firmware, vehicle)
+    types = COPTER_TYPES if facts.vehicle == "copter" else PLANE_TYPES
+    if vehicle.mav_type not in types:
+        said = ("a copter" if vehicle.mav_type in COPTER_TYPES else "a plane" if vehicle.mav_type in PLANE_TYPES
+                else "neither a copter nor a plane")
+        raise Refused(f"{facts.file} is a {facts.vehicle} mission but the vehicle reports MAV_TYPE {vehicle.mav_type} "
+                      f"({said}): upload a mission planned for this vehicle")
+    most = min(MAVLINK_MAX_ITEMS, facts.max_items or MAVLINK_MAX_ITEMS)
+    if facts.items > most:
+        whose = "MAVLink counts at most" if most == MAVLINK_MAX_ITEMS else "the spec's battery.max_mission_items allows"
+        raise Refused(f"{facts.file} has {facts.items} mission items (home included) but {whose} {most}: "
+                      "plan it with smaller sorties")
+    if facts.sorties:
+        est = f"an estimated {facts.estimated_min:.1f} min of flight" if facts.estimated_min is not None else "more"
+        raise Refused(f"{facts.file} is the whole mission, {est}, but one battery gives {facts.battery}: upload its "
+                      f"{len(facts.sorties)} sorties one at a time ({', '.join(facts.sorties)})")
+    lat, lon = facts.launch
+    where = f"the planned launch point {lat:.6f}, {lon:.6f}"
+    if launch_distance is None:
+        return f"launch point: not compared (--launch-distance off); {where}"
+    if position is None:
+        raise Refused(f"the vehicle reported no position and no home (no GPS fix?), so it cannot be compared with "
+                      f"{where}: wait for a fix, or give --launch-distance off")
+    d = distance_m(lat, lon, *position)
+    if d > launch_distance:
+        raise Refused(f"the vehicle is at {position[0]:.6f}, {position[1]:.6f}, {d:,.0f} m from {where} (limit "
+                      f"{launch_distance:,.0f} m): move it there, or confirm with --launch-distance {math.ceil(d)}")
+    return f"launch point: the vehicle is {d:,.0f} m from {where} (limit {launch_distance:,.0f} m)"
 
 
 _ITEMS = {mp.MISSION: "mission items", mp.FENCE: "fence vertices", mp.RALLY: "rally points"}
@@ -361,11 +432,12 @@ def _holds(held: object, total: int, kind: int) -> str:
 
 
 def _verify(link: Link, rep: TransferReport, expected: list[mp.WireItem], policy: mp.Policy, storage: str, plane: bool,
-            skip: frozenset[int], progress: Progress | None) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
+            skip: frozenset[int], progress: Progress | None, timer: mp.ResendTimer,
+            resume: bool) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
     """Read one mission type back and compare; a failed read-back is a LinkError that says what the vehicle holds."""
     kind, n = rep.mission_type, len(expected)
     try:
-        actual, stats = download_items(link, kind, policy, n, progress)
+        actual, stats = download_items(link, kind, policy, n, progress, timer, resume)
     except DownloadFailed as exc:
         if exc.count is not None and exc.count != n:
             raise LinkError(f"{_holds(exc.count, n, kind)} (it says so; the read-back then failed: {exc})") from None
@@ -391,16 +463,17 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     vehicle = link.vehicle
     if vehicle is None:
         raise RuntimeError("the link has no vehicle yet: wait for its heartbeat first")
-    check_firmware(m, vehicle)
+    check_firmware(m.firmware, vehicle)
     items = mission_wire_items(m)
     fence = fence_wire_items(m)
     storage = "ardupilot" if vehicle.autopilot == AUTOPILOT_ARDUPILOT else "verbatim"
-    plane = vehicle.mav_type in _PLANE_TYPES
+    plane = vehicle.mav_type in PLANE_TYPES
+    timer = mp.ResendTimer(policy)  # the link's round trips, measured by every transfer on it
 
     t0 = time.monotonic()
     started = link.now()
     try:
-        stats = upload_items(link, items, mp.MISSION, policy, verify, progress)
+        stats = upload_items(link, items, mp.MISSION, policy, verify, progress, timer)
     except UploadFailed as exc:
         raise LinkError(f"{exc}{_vehicle_said(link, started)}; the vehicle's mission is incomplete or unchanged "
                         f"(it confirmed {exc.confirmed} of {len(items)} items): do not fly it") from None
@@ -410,7 +483,7 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
         t0 = time.monotonic()
         started = link.now()
         try:
-            fstats = upload_items(link, fence, mp.FENCE, policy, verify, progress)
+            fstats = upload_items(link, fence, mp.FENCE, policy, verify, progress, timer)
         except UploadFailed as exc:
             raise LinkError(f"the mission was uploaded but the {exc}{_vehicle_said(link, started)}; the vehicle's "
                             "fence is not the plan's") from None
@@ -430,7 +503,8 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
             continue
         t0 = time.monotonic()
         actual, dstats, found = _verify(link, rep, expected, policy, storage, plane,
-                                        skip if rep.mission_type == mp.MISSION else frozenset(), progress)
+                                        skip if rep.mission_type == mp.MISSION else frozenset(), progress, timer,
+                                        resume=vehicle.autopilot != AUTOPILOT_PX4)
         rep.verify_seconds = time.monotonic() - t0
         rep.download_stats = dstats
         mismatches += found
@@ -438,7 +512,7 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
             h = actual[0]
             where = "has no home yet (0, 0)" if h.x == 0 and h.y == 0 else (
                 f"home is {h.x * 1e-7:.7f}, {h.y * 1e-7:.7f}, "
-                f"{_distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7):.0f} m from the planned home")
+                f"{distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7):.0f} m from the planned home")
             report.home_note = f"item 0 (home) not compared: ArduPilot replaces it with its own home; the vehicle {where}"
     if mismatches:
         first = mismatches[0]

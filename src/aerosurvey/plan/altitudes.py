@@ -1,5 +1,13 @@
 """Altitudes: station and waypoint heights for the terrain mode (`follow` adds waypoints
-where the ground needs them), in the mission's altitude frame."""
+where the ground needs them), in the mission's altitude frame.
+
+Following the ground, the vehicle climbs and descends at most at its rates
+(`vehicle.climb_rate_ms`, `vehicle.descent_rate_ms`) at the survey speed, as QGroundControl's
+TerrainAdjustMaxClimbRate and TerrainAdjustMaxDescentRate limit its survey: where the ground
+rises or falls faster, the run climbs earlier and descends later (the lowest profile at or
+above the wanted one whose slopes the vehicle can fly), and every run where that takes the
+photos more than the terrain tolerance above their height is reported with the figures.
+"""
 
 from __future__ import annotations
 
@@ -10,8 +18,9 @@ import numpy as np
 
 from aerosurvey import ids
 from aerosurvey.area import Planar
+from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Route
+from aerosurvey.plan.route import Route, Run
 from aerosurvey.plan.terrain import Dem, thin_profile
 
 
@@ -20,11 +29,36 @@ class Altitudes:
     stations: Stations
     waypoints: tuple[RouteWaypoint, ...]
     frame: str  # "relative" (above home) or "terrain"
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Slopes:
+    """The steepest climb and descent the vehicle flies along a run, in metres a metre flown."""
+
+    climb: float
+    descent: float
+
+    @classmethod
+    def of(cls, climb_rate_ms: float, descent_rate_ms: float, speed_ms: float) -> Slopes:
+        return cls(climb_rate_ms / speed_ms, descent_rate_ms / speed_ms)
+
+
+def flyable_profile(s: np.ndarray, wanted: np.ndarray, slopes: Slopes) -> np.ndarray:
+    """The lowest altitudes at or above `wanted` (at distances `s` along a run, increasing)
+    whose slope between any two points stays within +climb and -descent: each point is at
+    least as high as every later one less the climb there, and as every earlier one less the
+    descent from it (two running maxima; the second pass keeps what the first made)."""
+    h = np.maximum.accumulate(wanted + slopes.descent * s) - slopes.descent * s
+    out: np.ndarray = np.maximum.accumulate((h - slopes.climb * s)[::-1])[::-1] + slopes.climb * s
+    return out
 
 
 def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_ground: float, planar: Planar,
-                     tolerance_m: float) -> Altitudes:
-    """Stations with ids and altitudes, and the route's waypoints with theirs."""
+                     tolerance_m: float, slopes: Slopes | None = None, cap_agl_m: float = math.inf) -> Altitudes:
+    """Stations with ids and altitudes, and the route's waypoints with theirs; in follow mode
+    each run's profile within `slopes` (None: as steep as the ground), refused (InputError)
+    where that takes a photo above `cap_agl_m`."""
     runs = route.runs
     sid = ids.station_ids_of_lines((r.pass_index, r.line, np.asarray(r.station_index, int).tolist()) for r in runs)
     counts = [len(r.station_index) for r in runs]
@@ -34,6 +68,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     hd = np.repeat(np.asarray([r.heading_deg for r in runs], float), counts)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
+    warnings: tuple[str, ...] = ()
     if mode == "fixed":
         assert heights.fixed_alt_amsl_m is not None
         alt_rel = np.full(len(x), heights.fixed_alt_amsl_m - home_ground)
@@ -41,6 +76,9 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     elif mode == "follow":
         alt_rel = ground + heights.nominal_agl_m - home_ground
         agl = np.full(len(x), heights.nominal_agl_m)
+        if slopes is not None:
+            alt_rel, agl, warnings = _within_slopes(runs, run_idx, x, y, alt_rel, ground, home_ground, slopes, tolerance_m)
+            _under_cap(runs, run_idx, agl, cap_agl_m, slopes)
     else:  # terrain-frame (above terrain) or none
         alt_rel = np.full(len(x), heights.nominal_agl_m)
         agl = np.full(len(x), heights.nominal_agl_m)
@@ -90,4 +128,45 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd)
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
-    return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative")
+    return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", warnings)
+
+
+def _under_cap(runs: tuple[Run, ...], run_idx: np.ndarray, agl: np.ndarray, cap_agl_m: float, slopes: Slopes) -> None:
+    if not len(agl) or agl.max() <= cap_agl_m + 1e-6:
+        return
+    i = int(np.argmax(agl))
+    r = runs[int(run_idx[i])]
+    raise InputError(
+        f"terrain: along run {ids.run_id(r.pass_index, r.line, r.part)} the ground rises or falls faster than the vehicle "
+        f"climbs ({slopes.climb:.3f} m/m) or descends ({slopes.descent:.3f} m/m) at the survey speed, and following it "
+        f"would take the photos to {agl[i]:.1f} m above ground, over the {cap_agl_m:g} m cap (vehicle.max_height_agl_m): "
+        "raise vehicle.climb_rate_ms or descent_rate_ms if the vehicle can, lower vehicle.cruise_speed_ms, or leave "
+        "this ground out of the area", key="vehicle.climb_rate_ms")
+
+
+def _within_slopes(runs: tuple[Run, ...], run_idx: np.ndarray, x: np.ndarray, y: np.ndarray, wanted: np.ndarray,
+                   ground: np.ndarray, home_ground: float, slopes: Slopes,
+                   tolerance_m: float) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """Each run's station altitudes made flyable (`flyable_profile`), their heights above ground,
+    and a warning naming the runs flown more than `tolerance_m` above the wanted height."""
+    alt = wanted.copy()
+    bounds = np.searchsorted(run_idx, np.arange(len(runs) + 1))
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a > 1:
+            s = np.r_[0.0, np.cumsum(np.hypot(np.diff(x[a:b]), np.diff(y[a:b])))]
+            alt[a:b] = flyable_profile(s, wanted[a:b], slopes)
+    excess = alt - wanted
+    agl = alt + home_ground - ground
+    over = np.flatnonzero(excess > tolerance_m)
+    if not len(over):
+        return alt, agl, ()
+    bad_runs = sorted({int(run_idx[i]) for i in over})
+    names = [ids.run_id(runs[r].pass_index, runs[r].line, runs[r].part) for r in bad_runs]
+    worst = int(over[np.argmax(excess[over])])
+    return alt, agl, (
+        f"terrain: the ground along {len(bad_runs)} run(s) rises or falls faster than the vehicle climbs "
+        f"({slopes.climb:.3f} m/m) or descends ({slopes.descent:.3f} m/m) at the survey speed: their photos are "
+        f"taken up to {excess[worst]:.1f} m above the wanted height ({agl[worst]:.1f} m above ground), more than the "
+        f"terrain tolerance of {tolerance_m:g} m; runs "
+        f"{', '.join(names[:8])}{' …' if len(names) > 8 else ''} (raise vehicle.climb_rate_ms or descent_rate_ms if the "
+        "vehicle can, or slow down)",)

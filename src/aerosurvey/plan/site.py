@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.area import Planar, planning_crs
+from aerosurvey.area import Planar, check_area_of_use, planning_crs
 from aerosurvey.errors import InputError
 from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.spec import MissionSpec
@@ -32,9 +32,22 @@ class Site:
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
 
 
+def _places(spec: MissionSpec, inputs: PlanInputs) -> list[tuple[str, BaseGeometry]]:
+    """The area, the exclusion zones and the launch points, each with its name in the spec."""
+    out: list[tuple[str, BaseGeometry]] = [("area", inputs.area_wgs84)]
+    out += [(f"exclusion zone {p.name}", z) for p, z in zip(spec.area.exclusions, inputs.exclusions_wgs84)]
+    if spec.area.launch is not None:
+        out.append(("area.launch", shapely.Point(spec.area.launch)))
+    if spec.battery is not None:
+        out += [(f"battery.launch_points[{i}]", shapely.Point(p)) for i, p in enumerate(spec.battery.launch_points)]
+    return out
+
+
 def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
     """Project the inputs; refuse zones that leave nothing to survey."""
     planar = planning_crs(spec.crs, inputs.area_wgs84)
+    if spec.crs != "auto":  # "auto" is the UTM zone of the area's centre
+        check_area_of_use(planar.crs, "mission.crs", _places(spec, inputs))
     area = shapely.normalize(planar.forward(inputs.area_wgs84))
     excl = inputs.exclusions_wgs84
     zones = shapely.union_all([planar.forward(e) for e in excl]) if excl else None

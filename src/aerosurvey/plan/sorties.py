@@ -542,12 +542,13 @@ class Splitter:
         used, *_, items = self.cost(a, b)
         return used <= budget and items <= self.budget.max_items
 
-    def greedy(self, budget: float, most: int | None = None) -> list[tuple[int, int]]:
-        """Sorties as long as `budget` allows, by binary search for each sortie's last station; none
-        when a station does not fit alone, or when more than `most` sorties would be needed (the
-        search stops there: the budget bisection needs to know no more)."""
+    def greedy(self, budget: float, most: int | None = None, start: int = 0) -> list[tuple[int, int]]:
+        """Sorties over the stations from `start` as long as `budget` allows, by binary search for
+        each sortie's last station; none when a station does not fit alone, or when more than
+        `most` sorties would be needed (the search stops there: the budget bisection needs to know
+        no more)."""
         out: list[tuple[int, int]] = []
-        a = 0
+        a = start
         while a < self.n:
             if most is not None and len(out) == most:
                 return []
@@ -569,10 +570,11 @@ class Splitter:
 
 
 def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
-          fixed_launch: int | None) -> list[Sortie]:
-    """Fewest sorties, then as balanced as they can be."""
+          fixed_launch: int | None, start: int = 0) -> list[Sortie]:
+    """Fewest sorties over the stations from `start` (0: the whole route; later: the rest of a
+    flight cut short), then as balanced as they can be."""
     sp = Splitter(plan, sites, budget, kin, detours, fixed_launch)
-    used, li, horiz, vert, items = sp.cost(0, 0)
+    used, li, horiz, vert, items = sp.cost(start, start)
     if used > budget.usable or items > budget.max_items:
         unit = "Wh" if budget.usable_j is not None else "min"
         scale = 3600.0 if budget.usable_j is not None else 60.0
@@ -581,7 +583,7 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
             f"flying to the first station, photographing it and coming back takes {used / scale:.1f} {unit} "
             f"({horiz / 60:.1f} min level flight, {vert / 60:.1f} min climb and descent)"
         )
-    first = sp.greedy(budget.usable)
+    first = sp.greedy(budget.usable, start=start)
     if not first:
         raise InputError("battery too small: a station farther out cannot be reached and photographed on one battery "
                          "from any launch point; add a launch point nearer to the area")
@@ -589,9 +591,9 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
     total = sum(sp.cost(a, b)[0] for a, b in first)
     lo, hi = total / n, budget.usable
     best = first
-    for _ in range(12):
+    for _ in range(12 if math.isfinite(hi) else 0):
         mid = (lo + hi) / 2
-        trial = sp.greedy(mid, n)  # more than n sorties fail the trial as none do
+        trial = sp.greedy(mid, n, start)  # more than n sorties fail the trial as none do
         if trial:
             best, hi = trial, mid
         else:

@@ -14,7 +14,6 @@ import numpy as np
 import shapely
 
 from aerosurvey import ids
-from aerosurvey.gcpause import collector_paused
 from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
@@ -45,14 +44,13 @@ def _finite(what: str, *arrays: np.ndarray) -> None:
 
 def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     """The plan's FeatureCollection as JSON data (with every footprint as a feature if asked)."""
-    with collector_paused():
-        table = station_table(plan)
-        fc, stations, at = _features(plan, table)
-        more = stations.features()
-        if with_footprints:
-            more += json.loads("[" + _footprints_text(plan, table) + "]")
-        fc["features"][at:at] = more
-        return fc
+    table = station_table(plan)
+    fc, stations, at = _features(plan, table)
+    more = stations.features()
+    if with_footprints:
+        more += json.loads("[" + _footprints_text(plan, table) + "]")
+    fc["features"][at:at] = more
+    return fc
 
 
 def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[str, Any], PointLayer, str]:
@@ -65,9 +63,8 @@ def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[st
     1,000 ha benchmark (7,309 photos): making and encoding the footprints as data ~35 ms, this
     way ~10 ms. `table`, the manifest's stations if the caller has them, gives the columns
     they share (ids, positions, heights), so that their texts are made once for all the files."""
-    with collector_paused():
-        table = table or station_table(plan)
-        fc, stations, at = _features(plan, table)
+    table = table or station_table(plan)
+    fc, stations, at = _features(plan, table)
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
     parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table), dumps_compact(feats[at:])[1:-1]]

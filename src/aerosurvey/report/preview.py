@@ -16,10 +16,10 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.jsontext import float_texts, join_rows
 from aerosurvey.plan.planner import Plan
+from aerosurvey.report.summary import Summary
 
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
-    from aerosurvey.rules.engine import RuleResult
 
 _W, _H, _PAD, _HEAD, _FOOT = 1000, 800, 40, 70, 30
 
@@ -83,8 +83,9 @@ def _scale_bar(view: _View) -> str:
             f'<text x="{x + px + 6:.1f}" y="{y}" font-size="13">{label}</text></g>')
 
 
-def render_svg(plan: Plan, rules: list[RuleResult] | None = None, points: list[ControlPoint] | None = None) -> str:
-    """The preview as SVG text (deterministic), with rule results and control points when given."""
+def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None = None) -> str:
+    """The preview as SVG text (deterministic): the plan's geometry, its head from the plan's
+    summary (the figures `plan` prints, the rule count included), control points when given."""
     st = plan.stations
     wp = np.asarray([(w.x, w.y) for w in plan.waypoints])
     geoms = [plan.area, shapely.MultiPoint(wp)]
@@ -94,13 +95,17 @@ def render_svg(plan: Plan, rules: list[RuleResult] | None = None, points: list[C
     view = _View((x0, y0, x1, y1))
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{_W}" height="{_H}" viewBox="0 0 {_W} {_H}" font-family="sans-serif">',
              f'<rect width="{_W}" height="{_H}" fill="#fafaf7"/>']
-    e = plan.estimates
-    title = escape(f"{plan.spec.name}: {plan.heights.nominal_agl_m:.0f} m AGL, GSD {plan.gsd_max_m * 100:.2f} cm, "
-                   f"{len(plan.route.runs)} runs, {len(st.ids)} photos, {e['total_distance_m'] / 1000:.2f} km, "
-                   f"{e['total_time_s'] / 60:.1f} min")
+    s = summary
+    gsd = f"{s.gsd_cm[1]:.2f}" if s.gsd_cm[0] == s.gsd_cm[1] else f"{s.gsd_cm[0]:.2f}..{s.gsd_cm[1]:.2f}"
+    n = len(s.sorties)
+    sorties = "" if not n else f", {n} sortie" if n == 1 else f", {n} sorties"
+    title = escape(f"{s.name}: {s.height_agl_m:.1f} m AGL, GSD {gsd} cm, {s.runs} runs, {s.photos} photos, "
+                   f"{s.distance_km:.2f} km, {s.time_min:.1f} min{sorties}")
     parts.append(f'<text x="{_PAD}" y="30" font-size="18" font-weight="bold">{title}</text>')
-    parts.append(f'<text x="{_PAD}" y="52" font-size="13">heading {plan.heading_deg:.1f}° ({escape(plan.heading_chosen)}), '
-                 f'spacing {plan.spacing_m:.1f} m, photo base {plan.base_m:.1f} m, CRS {escape(plan.planar.name)}</text>')
+    parts.append(f'<text x="{_PAD}" y="52" font-size="13">heading {s.heading_deg:.1f}° ({escape(s.heading_chosen)}), '
+                 f'spacing {s.spacing_m:.1f} m, photo base {s.photo_base_m:.2f} m, CRS {escape(s.crs)}</text>')
+    colour = "#b00" if s.rules.failing else "#070"
+    parts.append(f'<text x="{_PAD}" y="{_HEAD - 2}" font-size="13" fill="{colour}">{escape("rules: " + s.rules.text())}</text>')
     parts.append(f'<path d="{view.path(plan.area)}" fill="#cfe8c4" fill-rule="evenodd" stroke="#3a7d2c" '
                  'stroke-width="2"><title>area</title></path>')
     if plan.exclusions is not None:
@@ -134,11 +139,6 @@ def render_svg(plan: Plan, rules: list[RuleResult] | None = None, points: list[C
         else:
             parts.append(f'<circle cx="{px:.1f}" cy="{py:.1f}" r="5" fill="#08f" stroke="#000">'
                          f'<title>{escape(p.id)}: check point, {p.images} photos</title></circle>')
-    if rules:
-        bad = [r for r in rules if r.status in ("fail", "warning")]
-        colour = "#b00" if bad else "#070"
-        text = f"rules: {len(rules)} evaluated, {len(bad)} failing" + (": " + ", ".join(r.rule for r in bad[:4]) if bad else "")
-        parts.append(f'<text x="{_PAD}" y="{_HEAD - 2}" font-size="13" fill="{colour}">{escape(text)}</text>')
     parts.append(_scale_bar(view))
     nx, ny = _W - 50, _HEAD + 30
     parts.append(f'<g><polygon points="{nx},{ny - 20} {nx + 8},{ny + 6} {nx},{ny} {nx - 8},{ny + 6}" fill="#222"/>'

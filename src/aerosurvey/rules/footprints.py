@@ -137,7 +137,10 @@ def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
 
 
 def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]]:
-    """(run, nearest parallel run beside it, overlap of their strips) for every run.
+    """(run, neighbour, overlap of their strips) for every run that has a parallel run beside it:
+    the nearest parallel run on each side where there is one, and of the two the farther (the
+    smaller overlap). A run whose neighbour on one side was not flown is measured against the
+    next run on that side, so a missing line fails the rule on both runs beside it.
 
     Each run's stations are measured across and along the lines of its heading; runs of the same
     heading (all the runs of one direction of a pass: 4 headings for the 34 runs of the Obrataň
@@ -176,17 +179,20 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
     for k, (rid, h) in enumerate(zip(ids, heads)):
         umins, umaxs, _ = frame(h)
         umin, umax, v_mean, w = umins[k], umaxs[k], across(h, k), widths[k]
-        best: tuple[float, str, float] | None = None
+        nearest: dict[bool, tuple[float, str, float]] = {}  # per side (right of the heading or not)
         for q, hq in enumerate(heads):
             if q == k or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
                 continue
             if umaxs[q] < umin or umins[q] > umax:
                 continue
-            d = abs(across(h, q) - v_mean)
-            if d > 1e-6 and (best is None or d < best[0]):
-                best = (d, ids[q], min(w, widths[q]))
-        if best is not None:
-            out.append((rid, best[1], 1 - best[0] / best[2]))
+            signed = across(h, q) - v_mean
+            d = abs(signed)
+            side = signed > 0
+            if d > 1e-6 and (side not in nearest or d < nearest[side][0]):
+                nearest[side] = (d, ids[q], min(w, widths[q]))
+        if nearest:
+            d, neighbour, width = max(nearest.values())
+            out.append((rid, neighbour, 1 - d / width))
     return out
 
 

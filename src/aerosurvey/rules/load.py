@@ -17,9 +17,11 @@ if TYPE_CHECKING:
 @dataclass(frozen=True)
 class Target:
     view: PlanView
-    profiles: list[str]
+    profiles: list[str]  # the profiles the plan was checked with (the spec's [rules] profiles)
     overrides: dict[str, Any]
     outdir: Path | None
+    # the rules the planner evaluated itself (uncovered-ground), as records; none known for a view made otherwise
+    planner_rules: tuple[dict[str, Any], ...] = ()
 
 
 def plan_documents(plan: Plan) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -33,18 +35,22 @@ def plan_documents(plan: Plan) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 def open_target(path: Path) -> Target:
+    from aerosurvey.outputs import PLANNER_PROFILE, uncovered_rule
+
     if path.is_dir():
         view = PlanView.from_outdir(path)
         doc = view.document
-        return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path)
+        planner = [dict(r) for r in doc.rules if r["profile"] == PLANNER_PROFILE]  # made with the plan's own data
+        return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path, tuple(planner))
     if path.suffix.lower() == ".toml":
         from aerosurvey.inputs import plan_from_files
         from aerosurvey.spec import load_spec
 
         spec = load_spec(path)
-        manifest, features = plan_documents(plan_from_files(spec))
+        plan = plan_from_files(spec)
+        manifest, features = plan_documents(plan)
         view = PlanView.from_documents(manifest, features, str(path), check=False)  # made here, by the writer
-        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None)
+        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan),))
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")
     raise InputError(f"{str(path)!r} is neither a mission spec (.toml) nor a folder written by `aerosurvey plan`")

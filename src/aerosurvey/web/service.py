@@ -26,6 +26,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey import manifest as mf
 from aerosurvey.errors import InputError
+from aerosurvey.report.summary import summary_json
 from aerosurvey.web.mapproj import MapFrame
 
 if TYPE_CHECKING:
@@ -384,7 +385,7 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
             "home": {"x": _m(hx[0]), "y": _m(hy[0])},
             "control_points": cps,
         },
-        "summary": _summary(plan, manifest),
+        "summary": summary_json(rendered.summary),  # the figures `plan` and `check` print
         "sorties": manifest.raw["sorties"],
         "rules": rules,
         "warnings": rendered.warnings,
@@ -403,28 +404,3 @@ def _polygons(feats: list[dict[str, Any]]) -> list[Any]:
 
 def _m(v: float) -> float:
     return round(float(v), 2)
-
-
-def _summary(plan: Plan, manifest: mf.Manifest) -> dict[str, Any]:
-    e = plan.estimates
-    h = plan.heights
-    return {
-        "area_ha": round(plan.area.area / 1e4, 2),
-        "crs": plan.planar.name,
-        "camera": plan.spec.camera.camera.name,
-        "height_agl_m": round(h.nominal_agl_m, 1),
-        "height_range_m": [round(h.spacing_agl_m, 1), round(h.max_agl_m, 1)],
-        "gsd_cm": [round(plan.gsd_min_m * 100, 2), round(plan.gsd_max_m * 100, 2)],
-        "heading_deg": round(plan.heading_deg, 1),
-        "lines": len({(r.pass_index, r.line) for r in plan.route.runs}),
-        "runs": len(plan.route.runs),
-        "photos": len(plan.stations.ids),
-        "spacing_m": round(plan.spacing_m, 1),
-        "photo_base_m": round(plan.base_m, 2),
-        "speed_ms": round(plan.speed.speed_ms, 1),
-        "speed_limited_by": plan.speed.reason,
-        "distance_km": round(e["total_distance_m"] / 1000, 2),
-        "time_min": round(e["total_time_s"] / 60, 1),
-        "sorties": len(plan.sorties),
-        "mission_items": manifest.mission_items,
-    }

@@ -1,0 +1,164 @@
+"""The plan's summary: the one set of figures `plan`, `check`, the preview and the web page show.
+
+`plan_summary(manifest, rules)` makes it from the plan's manifest data (what `plan` writes,
+what a plan folder holds, what `check` makes in memory from a spec) and the rule results
+shown with it, rounded once to the digits it is shown with. `summary_text` writes it for a
+terminal, `summary_json` for the web page; the preview draws its head from the same record.
+Every count of rules is `RuleCount`'s, the planner's own rule (uncovered-ground) included.
+
+Light on purpose (no numpy): `check` and `plan` import it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+#: failing rules named in a rules line (the rest are counted)
+NAMED_FAILURES = 4
+
+
+@dataclass(frozen=True)
+class RuleCount:
+    """Rule results by outcome. `failing`: the rules that fail or warn; `failed`: those that
+    fail at error level (a `check` of the plan exits 1)."""
+
+    evaluated: int
+    passed: int
+    failing: tuple[str, ...]
+    failed: tuple[str, ...]
+
+    @classmethod
+    def of(cls, rules: Sequence[Mapping[str, Any]]) -> RuleCount:
+        return cls(len(rules), sum(r["status"] == "pass" for r in rules),
+                   tuple(r["rule"] for r in rules if r["status"] in ("fail", "warning")),
+                   tuple(r["rule"] for r in rules if r["status"] == "fail"))
+
+    def text(self) -> str:
+        """"14 evaluated: 11 passed, 1 failing (cz-gsd)"."""
+        names = ""
+        if self.failing:
+            more = len(self.failing) - NAMED_FAILURES
+            names = f" ({', '.join(self.failing[:NAMED_FAILURES])}{f' and {more} more' if more > 0 else ''})"
+        return f"{self.evaluated} evaluated: {self.passed} passed, {len(self.failing)} failing{names}"
+
+
+@dataclass(frozen=True)
+class SortieFigures:
+    id: str
+    photos: int
+    time_min: float
+    distance_km: float
+    battery_pct: float  # of the whole battery, the reserve included
+    first_station: str
+    last_station: str
+
+
+@dataclass(frozen=True)
+class Summary:
+    """The plan's main figures, each rounded to the digits every view shows."""
+
+    name: str
+    area_ha: float
+    crs: str
+    camera: str
+    height_agl_m: float
+    terrain_mode: str  # "none": flat ground
+    height_range_m: tuple[float, float]  # lowest and highest above the ground
+    gsd_cm: tuple[float, float]  # finest and coarsest
+    gsd_target_cm: float
+    footprint_m: tuple[float, float]  # across and along the line
+    spacing_m: float
+    photo_base_m: float
+    trigger_distance_m: float | None
+    trigger_interval_s: float | None
+    speed_ms: float
+    speed_limited_by: str
+    speed_limits_ms: tuple[float, float, float]  # cruise, camera cycle, motion blur
+    heading_deg: float
+    heading_chosen: str
+    cross_hatch: bool
+    lines: int
+    runs: int
+    photos: int
+    route: tuple[str, ...]  # per pass, how its lines are ordered
+    distance_km: float
+    time_min: float
+    sorties: tuple[SortieFigures, ...]
+    sun_elevation_deg: tuple[float, float] | None
+    mission_items: int
+    rules: RuleCount
+
+
+def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]) -> Summary:
+    """The summary of a plan from its manifest data (JSON as `manifest.json` holds it; stations
+    not needed) and the rule results shown with it (manifest "rules" records)."""
+    d, e = manifest["derived"], manifest["estimates"]
+    sun = manifest.get("conditions")
+    limits = d["speed_limits_ms"]
+    return Summary(
+        name=manifest["mission"]["name"], area_ha=round(d["area_ha"], 2), crs=manifest["crs"]["planning"],
+        camera=manifest["camera"]["name"], height_agl_m=round(d["height_agl_m"], 1), terrain_mode=d["terrain"]["mode"],
+        height_range_m=(round(d["lowest_agl_m"], 1), round(d["highest_agl_m"], 1)),
+        gsd_cm=(round(d["gsd_min_cm"], 2), round(d["gsd_max_cm"], 2)), gsd_target_cm=round(manifest["targets"]["gsd_cm"], 2),
+        footprint_m=(round(d["footprint_across_m"], 1), round(d["footprint_along_m"], 1)),
+        spacing_m=round(d["line_spacing_m"], 1), photo_base_m=round(d["photo_base_m"], 2),
+        trigger_distance_m=None if d["trigger_distance_m"] is None else round(d["trigger_distance_m"], 2),
+        trigger_interval_s=None if not d["trigger_interval_s"] else round(d["trigger_interval_s"], 2),
+        speed_ms=round(d["speed_ms"], 1), speed_limited_by=d["speed_reason"],
+        speed_limits_ms=(round(limits["cruise"], 1), round(limits["camera_cycle"], 1), round(limits["motion_blur"], 1)),
+        heading_deg=round(d["heading_deg"], 1), heading_chosen=d["heading_chosen"], cross_hatch=bool(d["cross_hatch"]),
+        lines=len({r["line"] for r in manifest["lines"]}), runs=len(manifest["lines"]), photos=int(e["photos"]),
+        route=tuple(d["route_strategy"]),
+        distance_km=round(e["total_distance_m"] / 1000, 2), time_min=round(e["total_time_s"] / 60, 1),
+        sorties=tuple(SortieFigures(s["id"], s["photos"], round(s["time_s"] / 60, 1), round(s["distance_m"] / 1000, 2),
+                                    round(s["battery_used_pct"], 1), s["first_station"], s["last_station"])
+                      for s in manifest["sorties"]),
+        sun_elevation_deg=None if sun is None else (round(sun["min_elevation_deg"], 2), round(sun["max_elevation_deg"], 2)),
+        mission_items=int(manifest["mission_items"]), rules=RuleCount.of(rules),
+    )
+
+
+def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
+    """The summary as terminal lines; `check_command`, the command that shows the rules' evidence."""
+    height = ("flat ground, no DEM" if s.terrain_mode == "none"
+              else f"terrain mode {s.terrain_mode}; {s.height_range_m[0]:.1f}..{s.height_range_m[1]:.1f} m above the ground")
+    cruise, cycle, blur = s.speed_limits_ms
+    lines = [
+        f"mission {s.name}: {s.area_ha:.2f} ha in {s.crs}, camera {s.camera}",
+        f"  height AGL      {s.height_agl_m:.1f} m ({height})",
+        f"  GSD             {s.gsd_cm[0]:.2f}..{s.gsd_cm[1]:.2f} cm (target {s.gsd_target_cm:.2f} cm)",
+        f"  footprint       {s.footprint_m[0]:.1f} m across x {s.footprint_m[1]:.1f} m along",
+        f"  line spacing    {s.spacing_m:.1f} m, photo base {s.photo_base_m:.2f} m"
+        + (f", trigger distance {s.trigger_distance_m:.2f} m" if s.trigger_distance_m is not None else "")
+        + (f", interval {s.trigger_interval_s:.2f} s" if s.trigger_interval_s else ""),
+        f"  max speed       {s.speed_ms:.1f} m/s, limited by {s.speed_limited_by} (cruise {cruise:.1f}, "
+        f"camera cycle {cycle:.1f}, motion blur {blur:.1f} m/s)",
+        f"  heading         {s.heading_deg:.1f} deg ({s.heading_chosen})" + (", cross-hatch at +90 deg" if s.cross_hatch else ""),
+        f"  lines           {s.lines} lines in {s.runs} runs, {s.photos} photos",
+        "  route           " + "; ".join(f"pass {i}: {how}" for i, how in enumerate(s.route, start=1)),
+        f"  flight          {s.distance_km:.2f} km, {s.time_min:.1f} min estimated",
+    ]
+    if s.sorties:
+        lines.append("  sorties         id   photos  time min  dist km  battery %  first station -> last station")
+        lines += [f"                  {x.id} {x.photos:7d} {x.time_min:9.1f} {x.distance_km:8.2f} {x.battery_pct:10.1f}  "
+                  f"{x.first_station} -> {x.last_station}" for x in s.sorties]
+    if s.sun_elevation_deg is not None:
+        lines.append(f"  sun elevation   {s.sun_elevation_deg[0]:.2f}..{s.sun_elevation_deg[1]:.2f} deg over the planned window")
+    hint = f" (`{check_command}` for the evidence)" if check_command else ""
+    lines.append(f"  rules           {s.rules.text()}{hint}")
+    return lines
+
+
+def summary_json(s: Summary) -> dict[str, Any]:
+    """The summary as the web page's JSON (its keys are the page's)."""
+    return {
+        "area_ha": s.area_ha, "crs": s.crs, "camera": s.camera, "height_agl_m": s.height_agl_m,
+        "height_range_m": list(s.height_range_m), "gsd_cm": list(s.gsd_cm), "heading_deg": s.heading_deg,
+        "lines": s.lines, "runs": s.runs, "photos": s.photos, "spacing_m": s.spacing_m, "photo_base_m": s.photo_base_m,
+        "speed_ms": s.speed_ms, "speed_limited_by": s.speed_limited_by, "distance_km": s.distance_km,
+        "time_min": s.time_min, "sorties": len(s.sorties), "mission_items": s.mission_items,
+        "rules": {"evaluated": s.rules.evaluated, "passed": s.rules.passed, "failing": list(s.rules.failing),
+                  "text": s.rules.text()},
+    }

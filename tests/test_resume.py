@@ -1,0 +1,118 @@
+"""`aerosurvey resume`: the exported missions photograph exactly the stations after the last one
+taken, each once, with the plan's ids; refusals name what is wrong (exit 2, nothing written)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import independent_coverage as ic
+from aerosurvey.cli import main
+from conftest import make_spec
+
+CENTRE = (15.003, 49.4017)
+
+
+def _plan(tmp: Path, overrides: dict | None = None) -> tuple[Path, Path, dict]:
+    spec = make_spec(tmp, {"flight": {"heading": 0.0}, **(overrides or {})})
+    out = tmp / "plan"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    return spec, out, json.loads((out / "manifest.json").read_text())
+
+
+def _photos(folder: Path, stem: str) -> np.ndarray:
+    files = sorted(folder.glob(f"{stem}-*.waypoints"))
+    parts = []
+    for f in files:
+        home, rows = ic.read_wpl(f)
+        p = ic.replay_triggers(rows, ic.local_projection(*CENTRE), None, home[2])
+        parts.append(np.column_stack([p.x, p.y]))
+    return np.concatenate(parts) if parts else np.zeros((0, 2))
+
+
+def _stations(manifest: dict) -> tuple[list[str], np.ndarray]:
+    st = manifest["stations"]
+    x, y = ic.local_projection(*CENTRE).transform([s["lon"] for s in st], [s["lat"] for s in st])
+    return [s["id"] for s in st], np.column_stack([x, y])
+
+
+@pytest.mark.parametrize("overrides, cut", [
+    ({}, 0.37),  # one mission, cut mid-line
+    ({"battery": {"usable_min": 6.0}}, 0.52),  # the rest in several sorties
+    ({"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}}, 0.61),
+])
+def test_the_resumed_missions_photograph_exactly_the_stations_left(tmp_path: Path, overrides: dict, cut: float) -> None:
+    spec, out, manifest = _plan(tmp_path, overrides)
+    ids, xy = _stations(manifest)
+    k = int(len(ids) * cut)
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--after", ids[k], "-o", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    photos = _photos(tmp_path / "r", "resume")
+    left = xy[k + 1:]
+    assert len(photos) == len(left)  # as many photos as stations left, as ArduPilot's trigger takes them
+    d = np.hypot(photos[:, None, 0] - xy[None, :, 0], photos[:, None, 1] - xy[None, :, 1])
+    nearest = d.argmin(axis=1)
+    assert sorted(nearest.tolist()) == list(range(k + 1, len(ids)))  # each station left once, none taken before
+    step = manifest["derived"]["speed_ms"] / 50.0  # the 50 Hz trigger check's overshoot
+    assert d.min(axis=1).max() < step + 0.05
+    doc = json.loads((tmp_path / "r" / "resume.json").read_text())
+    assert doc["after_station"] == ids[k] and doc["stations_left"] == len(left)
+    assert doc["sorties"][0]["first_station"] == ids[k + 1] and doc["sorties"][-1]["last_station"] == ids[-1]
+
+
+def test_resume_after_the_last_photo_of_a_flight_cut_short(tmp_path: Path) -> None:
+    """The SITL copter log of tests/data (the default area at heading 0), cut half way: `log
+    ingest` matches its photos to stations, and the resumed missions take the rest."""
+    spec, out, manifest = _plan(tmp_path)
+    data = (Path(__file__).parent / "data" / "sitl_copter_survey.bin").read_bytes()
+    cut = tmp_path / "cut.bin"
+    cut.write_bytes(data[: len(data) // 2])
+    flight = tmp_path / "flight"
+    res = CliRunner().invoke(main, ["log", "ingest", str(cut), "--plan", str(out), "-o", str(flight)])
+    assert res.exit_code == 0, res.output
+    lines = (flight / "events.csv").read_text().splitlines()
+    taken = [r["station"] for r in csv.DictReader(ln for ln in lines if not ln.startswith("#")) if r["station"]]
+    ids, xy = _stations(manifest)
+    assert 0 < len(taken) < len(ids)
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--log", str(flight), "-o", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    assert json.loads((tmp_path / "r" / "resume.json").read_text())["after_station"] == taken[-1]
+    k = ids.index(taken[-1])
+    photos = _photos(tmp_path / "r", "resume")
+    assert len(photos) == len(ids) - k - 1
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--after", "P9-L001-S0001"], "station 'P9-L001-S0001' is not a station of this plan"),
+    ([], "give one of --after STATION_ID or --log FLIGHT_FOLDER"),
+])
+def test_refusals_name_what_is_wrong(tmp_path: Path, args: list[str], message: str) -> None:
+    spec, out, _ = _plan(tmp_path)
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), *args, "-o", str(tmp_path / "r")])
+    assert res.exit_code == 2 and message in res.output, res.output
+    assert not (tmp_path / "r").exists()
+
+
+def test_the_last_station_leaves_nothing_to_fly(tmp_path: Path) -> None:
+    spec, out, manifest = _plan(tmp_path)
+    last = manifest["stations"][-1]["id"]
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--after", last, "-o", str(tmp_path / "r")])
+    assert res.exit_code == 2 and "nothing is left to fly" in res.output
+
+
+def test_a_spec_that_now_plans_otherwise_is_refused(tmp_path: Path) -> None:
+    spec, out, manifest = _plan(tmp_path)
+    changed = tmp_path / "changed"
+    changed.mkdir()
+    shutil.copy(tmp_path / "area.geojson", changed / "area.geojson")
+    (changed / "spec.toml").write_text(spec.read_text().replace("gsd_cm = 2.5", "gsd_cm = 2.4"))
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(changed / "spec.toml"), "--after",
+                                    manifest["stations"][5]["id"], "-o", str(tmp_path / "r")])
+    assert res.exit_code == 2 and "resume needs the same plan" in res.output, res.output
