@@ -87,3 +87,37 @@ def test_refly_needs_the_plan_of_the_saved_spec(tmp_path):
         st = run_plan(c, data | {"area": {"wkt": shapely.box(14.95, 49.43, 14.952, 49.431).wkt}})
         r = c.post(f"/api/plans/{st['result']['plan_id']}/refly", files=_upload(log))
         assert r.status_code == 400 and r.json()["key"] == "refly"
+
+
+def test_resume_of_a_flight_cut_short_is_the_commands(tmp_path):
+    """The SITL copter log cut half way: the page's Resume gives `aerosurvey resume --log`'s missions."""
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
+    plan = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
+    data = (REPO / "tests" / "data" / "sitl_copter_survey.bin").read_bytes()
+    (tmp_path / "cut.bin").write_bytes(data[: len(data) // 2])
+    log = tmp_path / "log"
+    res = CliRunner().invoke(main, ["log", "ingest", str(tmp_path / "cut.bin"), "--plan", str(plan), "-o", str(log)])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["resume", str(plan), "--spec", str(spec), "--log", str(log), "-o", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    names = ("events.csv", "log_report.json")
+    with client(spec) as c:
+        st = run_plan(c, c.get("/api/state").json()["spec"])
+        pid = st["result"]["plan_id"]
+        r = c.post(f"/api/plans/{pid}/resume", files=[("files", (n, (log / n).read_bytes())) for n in names])
+        assert r.status_code == 200, r.text
+        out = r.json()
+        assert out["summary"] in res.output  # the command's own line
+        cli = sorted(p.name for p in (tmp_path / "r").iterdir() if not p.name.startswith("."))
+        assert sorted(out["files"]) == cli
+        for name in cli:
+            got = c.get(f"/api/plans/{out['plan_id']}/files/{name}").text
+            want = (tmp_path / "r" / name).read_text()
+            if name == "resume.json":  # names the plan: a folder for the command, the page's plan here
+                got, want = json.loads(got), json.loads(want)
+                assert got.pop("plan") == "the page's plan" and want.pop("plan") == str(plan)
+            assert got == want, name
+        # without a log's matched photo: one line, about the loaded folder
+        r = c.post(f"/api/plans/{pid}/resume", files=[("files", ("events.csv", (log / "events.csv").read_bytes()))])
+        assert r.status_code == 400 and r.json()["key"] == "resume" and "the loaded folder" in r.json()["error"]

@@ -327,6 +327,9 @@ def test_flight_results_on_the_map(site):
         pg.wait_for_function("document.querySelector('#refly-files p') !== null", timeout=60000)
         text = pg.text_content("#refly-files")
         assert "gap(s)" in text or "nothing to re-fly" in text
+        pg.click("#make-resume")  # one button: `aerosurvey resume --log`; this flight took every photo
+        pg.locator(".err[data-for='refly resume']").wait_for(state="visible", timeout=60000)
+        assert "nothing" in pg.text_content(".err[data-for='refly resume']")
         pg.screenshot(path=str(SHOTS / "07-flown.png"))
     finally:
         ctx.close()

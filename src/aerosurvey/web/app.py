@@ -12,6 +12,7 @@ Endpoints (all JSON unless said otherwise), each a small handler in a module of 
   GET    /api/plans/{pid}/files/{n}  a mission file (attachment); /archive.zip for all of them
   POST   /api/plans/{pid}/flight     multipart files of a `log ingest` folder → flown layers  (routes_flight)
   POST   /api/plans/{pid}/refly      the same files → the re-fly mission of what was not photographed
+  POST   /api/plans/{pid}/resume     the same files → the rest of a flight cut short
   GET    /api/basemap/{z}/{x}/{y}    a tile of the offline basemap file (--basemap)            (routes_basemap)
 Errors are {"error": message, "key": spec key or null} with 400 (bad input), 404, 409, 413 or 500.
 Handlers run on the event loop; file I/O and computing run on worker threads.
@@ -51,6 +52,7 @@ ROUTES: list[BaseRoute] = [
     Route("/api/plans/{plan_id}/archive.zip", routes_plan.plan_archive),
     Route("/api/plans/{plan_id}/flight", routes_flight.flight_results, methods=["POST"]),
     Route("/api/plans/{plan_id}/refly", routes_flight.refly, methods=["POST"]),
+    Route("/api/plans/{plan_id}/resume", routes_flight.resume, methods=["POST"]),
     Route("/api/basemap/{z}/{x}/{y}", routes_basemap.tile),
 ]
 

@@ -2,6 +2,7 @@
 
   POST   /api/plans/{pid}/flight     multipart files of a `log ingest` folder → flown layers
   POST   /api/plans/{pid}/refly      the same files → the re-fly mission (`aerosurvey refly`) and its files
+  POST   /api/plans/{pid}/resume     the same files → the rest of the flight (`aerosurvey resume --log`) and its files
 """
 
 from __future__ import annotations
@@ -56,6 +57,11 @@ async def refly(request: Request) -> Response:
     return await _on_flight_files(request, lambda bundle, folder, files: _refly(state, bundle, folder, files))
 
 
+async def resume(request: Request) -> Response:
+    state = server(request)
+    return await _on_flight_files(request, lambda bundle, folder, files: _resume(state, bundle, folder, files))
+
+
 def _layers(bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     # the plan's manifest: results of another plan are refused by distance and mission name
     return flown_layers(files, bundle.frame, bundle.files["manifest.json"], bundle.files["plan.geojson"])
@@ -92,3 +98,24 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
             "summary": f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than "
                        f"{r.need} photos; re-fly {name}: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
                        f"{plan.estimates['total_time_s'] / 60:.1f} min"}
+
+
+def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
+    """`aerosurvey resume --log` over the uploaded folder: the page's plan (its spec and drawn zones, in
+    memory) flown on from the station after the flight's last matched photo."""
+    from aerosurvey import manifest as mf
+    from aerosurvey.commands.resume import last_photographed, resumed_text, same_plan
+    from aerosurvey.outputs import render_resume
+    from aerosurvey.plan.planner import resume_mission
+
+    doc = mf.loads(bundle.files["manifest.json"], "the page's plan")
+    try:
+        station = last_photographed(folder, doc)
+        spec, inputs = service.spec_and_inputs(bundle.spec, state.workspace, bundle.zones)
+        plan = resume_mission(spec, inputs, station)
+        same_plan(plan, doc)
+        out = render_resume(plan, station, "the page's plan")
+    except InputError as exc:  # the command's message, about the folder the page loaded
+        raise InputError(str(exc).replace(f"--log {str(folder)!r}", "the loaded folder"), key="resume") from None
+    pid = state.remember(service.PlanBundle({"name": f"{spec.name}-resume"}, out, bundle.frame))
+    return {"plan_id": pid, "files": sorted(out), "notes": [], "summary": resumed_text(plan, station)}

@@ -31,7 +31,9 @@ from aerosurvey.web.mapproj import MapFrame
 
 if TYPE_CHECKING:
     from aerosurvey.outputs import Rendered
+    from aerosurvey.plan.inputs import PlanInputs
     from aerosurvey.plan.planner import Plan
+    from aerosurvey.spec import MissionSpec
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
 PATH_KEYS = (("area", "file"), ("terrain", "dem"))
@@ -276,12 +278,10 @@ def drawn_zones(zones: list[str]) -> tuple[BaseGeometry, ...]:
         raise InputError(str(exc), key="zones") from None
 
 
-def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zones: list[str] | None = None) -> PlanBundle:
-    """Plan the page's spec; `zones` (WKT in WGS84), when given, are the exclusion zones drawn on the
-    page, handed to the planner in its PlanInputs in place of the spec's zone files."""
+def spec_and_inputs(spec_data: dict[str, Any], ws: Workspace, zones: list[str] | None) -> tuple[MissionSpec, PlanInputs]:
+    """The page's spec checked, and what planning reads: `zones` (WKT in WGS84), when given, are the
+    exclusion zones drawn on the page, in place of the spec's zone files."""
     from aerosurvey.inputs import load_inputs
-    from aerosurvey.outputs import render_outputs
-    from aerosurvey.plan.planner import plan_mission
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
@@ -295,6 +295,16 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     inputs = load_inputs(spec)
     if zones is not None:
         inputs = dataclasses.replace(inputs, exclusions_wgs84=drawn_zones(zones))
+    return spec, inputs
+
+
+def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zones: list[str] | None = None) -> PlanBundle:
+    """Plan the page's spec; `zones` (WKT in WGS84), when given, are the exclusion zones drawn on the
+    page, handed to the planner in its PlanInputs in place of the spec's zone files."""
+    from aerosurvey.outputs import render_outputs
+    from aerosurvey.plan.planner import plan_mission
+
+    spec, inputs = spec_and_inputs(spec_data, ws, zones)
     plan = plan_mission(spec, inputs, progress)
     progress("mission files and rules", 0.92)
     rendered = render_outputs(plan)

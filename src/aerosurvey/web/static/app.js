@@ -169,7 +169,7 @@ function clearError(key) {
   $("#general-error").textContent = "";
 }
 function clearAllErrors() {
-  for (const e of $$(".err")) if (!["flight", "tiles", "refly"].includes(e.dataset.for)) e.textContent = "";
+  for (const e of $$(".err")) if (!["flight", "tiles", "refly resume"].includes(e.dataset.for)) e.textContent = "";
   for (const e of $$(".bad")) e.classList.remove("bad");
 }
 
@@ -830,13 +830,15 @@ function showFlownFailure(rule, li) {
   if (src.getFeatures().length) map.getView().fit(olb.bufferExtent(src.getExtent(), 40), { padding: [60, 40, 40, 40], maxZoom: 19, duration: 200 });
 }
 
-async function makeRefly() {
-  const box = $(".err[data-for='refly']"); box.textContent = "";
+/** The next flight from the loaded folder: `kind` refly (the gaps) or resume (the rest of a flight cut short). */
+async function nextFlight(kind) {
+  const box = $(".err[data-for~='refly']"); box.textContent = "";
   const fd = new FormData();
   for (const f of S.flown.files) if (FLIGHT_FILES.includes(f.name)) fd.append("files", f, f.name);
-  setStatus("making the re-fly mission…");
+  setStatus(kind === "refly" ? "making the re-fly mission…" : "planning the rest of the flight…");
+  L.refly.getSource().clear();
   try {
-    const r = await api("POST", `/api/plans/${S.view.plan_id}/refly`, fd);
+    const r = await api("POST", `/api/plans/${S.view.plan_id}/${kind}`, fd);
     const out = $("#refly-files"); out.textContent = "";
     for (const text of [r.summary, ...r.notes]) { const p = document.createElement("p"); p.textContent = text; out.appendChild(p); }
     if (r.lines) L.refly.getSource().addFeatures(geojson.readFeatures(r.lines, { dataProjection: WGS84, featureProjection: WEB }));
@@ -845,8 +847,8 @@ async function makeRefly() {
       a.href = `/api/plans/${r.plan_id}/files/${encodeURIComponent(name)}`; a.textContent = name; a.setAttribute("download", name);
       a.dataset.file = name; out.append(a, " ");
     }
-    setStatus("re-fly mission ready");
-  } catch (e) { box.textContent = e.message; setStatus("the re-fly mission could not be made"); }
+    setStatus(kind === "refly" ? "re-fly mission ready" : "the rest of the flight is ready");
+  } catch (e) { box.textContent = e.message; setStatus(`the ${kind === "refly" ? "re-fly" : "resumed"} mission could not be made`); }
 }
 
 // ---- spec files ------------------------------------------------------------------------------
@@ -922,7 +924,8 @@ async function start() {
   $("#download-toml").addEventListener("click", downloadToml);
   $("#download-drawn").addEventListener("click", downloadDrawn);
   $("#save-spec").addEventListener("click", saveSpec);
-  $("#make-refly").addEventListener("click", makeRefly);
+  $("#make-refly").addEventListener("click", () => nextFlight("refly"));
+  $("#make-resume").addEventListener("click", () => nextFlight("resume"));
   for (const b of $$("#tabs button")) b.addEventListener("click", () => showTab(b.dataset.tab));
   $("#area-file").addEventListener("change", (e) => { if (e.target.files[0]) uploadArea(e.target.files[0]); e.target.value = ""; });
   $("#flight-files").addEventListener("change", (e) => { loadFlight(Array.from(e.target.files)); e.target.value = ""; });
