@@ -409,6 +409,7 @@ def test_draw_an_area_by_clicks_and_see_its_plan(site):
         pg.screenshot(path=str(SHOTS / "09-drawn-area.png"))
         pg.click("#undo")  # the first drawing undone: nothing to plan
         assert _features(pg, "area") == 0 and "draw an area" in pg.text_content("#status")
+        assert _features(pg, "lines") == _features(pg, "stations") == 0  # no plan of an area that is gone
         _only_our_server(pg, server.url)
 
 

@@ -623,7 +623,12 @@ function writeGeometry() {
   if (S.touched.has("launch")) writeLaunch();
   updateUndo();
   clearError("area");
-  if (!S.spec.area) { S.seq++; setStatus("draw an area to plan"); return; }
+  if (!S.spec.area) {  // nothing left to plan: the last plan's layers go too
+    S.seq++;
+    for (const l of [L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
+    setStatus("draw an area to plan");
+    return;
+  }
   schedule();
 }
 
