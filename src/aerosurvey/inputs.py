@@ -21,13 +21,20 @@ from aerosurvey.spec import MissionSpec
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from shapely.geometry.base import BaseGeometry
+
     from aerosurvey.plan.planner import Plan, Progress
+
+
+def load_geometry(spec: MissionSpec) -> tuple[BaseGeometry, tuple[BaseGeometry, ...]]:
+    """The area and the exclusion zones of the spec, in WGS84 (what the web page shows before it plans)."""
+    area = read_area(spec.area.file, spec.area.wkt, spec.area.wkt_crs, "area")
+    return area, tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)
 
 
 def load_inputs(spec: MissionSpec) -> PlanInputs:
     """Read the area, the exclusion zones and the part of the DEM the plan can reach."""
-    area = read_area(spec.area.file, spec.area.wkt, spec.area.wkt_crs, "area")
-    zones = tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)
+    area, zones = load_geometry(spec)
     dem = None
     if spec.terrain.dem is not None:
         from aerosurvey.plan.sensor import reach_beyond_area_m

@@ -97,8 +97,9 @@ def test_layers_match_the_manifest(planned):
     assert len(layers["control_points"]) == len(cp_file["features"]) and len(gcps) >= 4
 
 
-def test_map_frame_positions_and_cursor_fit(planned):
-    """Frame coordinates go back to the stations' lon/lat, and the page's cubic gives the plan CRS."""
+def test_map_frame_positions_and_cursor_crs(planned):
+    """Frame coordinates go back to the stations' lon/lat, and the frame's PROJ string gives the plan CRS
+    as the planner's transformation does (to a decimetre: the cursor readout)."""
     from aerosurvey.web.mapproj import inverse_mercator
 
     _, result, _, _, out = planned
@@ -108,12 +109,11 @@ def test_map_frame_positions_and_cursor_fit(planned):
     lon, lat = inverse_mercator(np.array(st["x"]) + f["origin"][0], np.array(st["y"]) + f["origin"][1])
     assert np.allclose(lon, [s["lon"] for s in manifest["stations"]], atol=1e-7)
     assert np.allclose(lat, [s["lat"] for s in manifest["stations"]], atol=1e-7)
-    u, v = np.array(st["x"]) / f["half"], np.array(st["y"]) / f["half"]
-    terms = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v, u ** 3, u * u * v, u * v * v, v ** 3], axis=-1)
-    t = pyproj.Transformer.from_crs("EPSG:4326", f["crs"], always_xy=True)
-    px, py = t.transform(lon, lat)
-    err = np.hypot(terms @ np.array(f["cx"]) - px, terms @ np.array(f["cy"]) - py)
-    assert f["crs"] == "EPSG:5514" and err.max() < 0.01 and f["fit_error_m"] < 0.01
+    px, py = pyproj.Transformer.from_crs("EPSG:4326", f["crs"], always_xy=True).transform(lon, lat)
+    qx, qy = pyproj.Transformer.from_crs("EPSG:4326", pyproj.CRS.from_proj4(f["proj4"]), always_xy=True).transform(lon, lat)
+    err = np.hypot(qx - px, qy - py)
+    assert f["crs"] == "EPSG:5514" and "+towgs84=" in f["proj4"]  # S-JTSK: the datum shift is in the string
+    assert err.max() < 0.1 and f["proj4_error_m"] < 0.1
 
 
 def _plan_changed(spec_file: Path, table: str, key: str, value) -> dict:
@@ -415,15 +415,18 @@ def test_flight_results_drawn_against_the_plan(tmp_path):
 def test_static_page_is_served(obratan):
     with client(obratan) as c:
         r = c.get("/")
-        assert r.status_code == 200 and '<svg id="map"' in r.text
-        assert c.get("/static/app.js").status_code == 200 and c.get("/static/style.css").status_code == 200
+        assert r.status_code == 200 and '<div id="map"' in r.text
+        for path in ("/static/app.js", "/static/style.css", "/static/vendor/olb.js", "/static/vendor/ol.css"):
+            assert c.get(path).status_code == 200, path
 
 
 def test_serve_refuses_bad_options(tmp_path):
     res = CliRunner().invoke(main, ["serve", str(tmp_path / "missing.toml")])
     assert res.exit_code == 2 and "does not exist" in res.output
     res = CliRunner().invoke(main, ["serve", "--tiles", "https://tile.example/{z}/{x}.png"])
-    assert res.exit_code == 2 and "{y}" in res.output
+    assert res.exit_code == 2 and "{y}" in res.output and "{TileRow}" in res.output
+    res = CliRunner().invoke(main, ["serve", "--tiles", "https://tile.example/{TileMatrix}/{TileCol}.png"])
+    assert res.exit_code == 2
 
 
 def test_serve_binds_loopback_and_warns_when_exposed(monkeypatch, obratan):

@@ -45,3 +45,80 @@ def run_plan(c: TestClient, spec: dict[str, Any], timeout: float = 120.0) -> dic
         if st["state"] not in ("queued", "running"):
             return st
     raise AssertionError(f"job {job} did not finish in {timeout} s")
+
+
+def tile_png(colour: tuple[int, int, int]) -> bytes:
+    """A 256 px PNG tile of one colour."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("RGB", (256, 256), colour).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def tiles_around(lon: float, lat: float, zooms: range) -> dict[tuple[int, int, int], bytes]:
+    """XYZ tiles (y from the north) over a place, 3 × 3 a zoom, each of its own colour."""
+    import math
+
+    out = {}
+    for z in zooms:
+        n = 2 ** z
+        cx = int((lon + 180) / 360 * n)
+        cy = int((1 - math.asinh(math.tan(math.radians(lat))) / math.pi) / 2 * n)
+        for x in range(max(cx - 1, 0), min(cx + 2, n)):
+            for y in range(max(cy - 1, 0), min(cy + 2, n)):
+                out[(z, x, y)] = tile_png(((x * 37) % 256, (y * 53) % 256, (z * 19) % 256))
+    return out
+
+
+def write_mbtiles(path: Path, tiles: dict[tuple[int, int, int], bytes], fmt: str = "png") -> Path:
+    """An MBTiles file as its specification lays it out (rows in TMS order: y from the south)."""
+    import sqlite3
+
+    with sqlite3.connect(path) as db:
+        db.execute("CREATE TABLE metadata (name TEXT, value TEXT)")
+        db.execute("CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER, tile_data BLOB)")
+        zs = [z for z, _, _ in tiles]
+        db.executemany("INSERT INTO metadata VALUES (?, ?)", [("name", "test basemap"), ("format", fmt),
+                                                               ("minzoom", str(min(zs))), ("maxzoom", str(max(zs)))])
+        db.executemany("INSERT INTO tiles VALUES (?, ?, ?, ?)", [(z, x, (1 << z) - 1 - y, d) for (z, x, y), d in tiles.items()])
+    return path
+
+
+def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes]) -> Path:
+    """A PMTiles (version 3) file of PNG tiles, written by the PMTiles project's writer."""
+    from pmtiles.tile import Compression, TileType, zxy_to_tileid
+    from pmtiles.writer import Writer
+
+    zs = [z for z, _, _ in tiles]
+    with open(path, "wb") as fh:
+        w = Writer(fh)
+        for tid, data in sorted((zxy_to_tileid(z, x, y), d) for (z, x, y), d in tiles.items()):
+            w.write_tile(tid, data)
+        w.finalize({"tile_type": TileType.PNG, "tile_compression": Compression.NONE, "min_zoom": min(zs),
+                    "max_zoom": max(zs), "min_lon_e7": -1800000000, "min_lat_e7": -850000000, "max_lon_e7": 1800000000,
+                    "max_lat_e7": 850000000, "center_zoom": min(zs), "center_lon_e7": 0, "center_lat_e7": 0},
+                   {"name": "test basemap", "attribution": "test tiles"})
+    return path
+
+
+#: What the vector basemap of the tests holds (lon/lat near the Obrataň example): class, name, geometry.
+VECTOR_FEATURES = [("road", "Main road", "LINESTRING (14.94 49.425, 14.96 49.435)"),
+                   ("water", "Pond", "POLYGON ((14.9485 49.4285, 14.9525 49.4285, 14.9525 49.4315, 14.9485 49.4315, 14.9485 49.4285))"),
+                   ("place", "Obratan", "POINT (14.952 49.432)")]
+
+
+def write_vector_tiles(path: Path) -> Path:
+    """A vector tile set (Mapbox Vector Tiles, zooms 12..14) written by GDAL's MBTiles or PMTiles driver."""
+    import numpy as np
+    import pyogrio
+    import shapely
+
+    wkb = np.array([shapely.to_wkb(shapely.from_wkt(w)) for _, _, w in VECTOR_FEATURES], dtype=object)
+    fields = [np.array([c for c, _, _ in VECTOR_FEATURES], dtype=object), np.array([n for _, n, _ in VECTOR_FEATURES], dtype=object)]
+    pyogrio.raw.write(str(path), geometry=wkb, field_data=fields, fields=["class", "name"], crs="EPSG:4326",
+                      geometry_type="Unknown", driver="MBTiles" if path.suffix == ".mbtiles" else "PMTiles", layer="basemap",
+                      dataset_options={"MINZOOM": "12", "MAXZOOM": "14"})
+    return path

@@ -59,6 +59,13 @@ def same_plan(plan: Plan, doc: Manifest) -> None:
                          "aerosurvey version)")
 
 
+def resumed_text(plan: Plan, station: str) -> str:
+    """One line: the station resumed after, the photos left and the sorties they take."""
+    left = sum(s.last - s.first + 1 for s, _ in plan.sorties)
+    return (f"resume after {station}: {left} of {len(plan.stations.ids)} photos left, from "
+            f"{plan.stations.ids[plan.sorties[0].sortie.first]}, in {len(plan.sorties)} sortie(s)")
+
+
 @click.command()
 @click.argument("plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
 @click.option("--spec", "spec_path", required=True, type=click.Path(dir_okay=False, exists=True, path_type=Path),
@@ -99,9 +106,7 @@ def resume(plan_dir: Path, spec_path: Path, after: str | None, log_dir: Path | N
         for name, text in files.items():
             atomic_write_text(stage / name, text)
     st = plan.stations
-    left = sum(s.last - s.first + 1 for s, _ in plan.sorties)
-    console.echo(f"resume after {station}: {left} of {len(st.ids)} photos left, from {st.ids[plan.sorties[0].sortie.first]}, "
-               f"in {len(plan.sorties)} sortie(s)")
+    console.echo(resumed_text(plan, station))
     for k, (s, _) in enumerate(plan.sorties, start=1):
         console.echo(f"  resume-{k:02d}  {s.last - s.first + 1:5d} photos  {(s.horizontal_s + s.vertical_s) / 60:6.1f} min  "
                    f"{st.ids[s.first]} -> {st.ids[s.last]}")

@@ -28,10 +28,14 @@ def _loopback(host: str) -> bool:
               help="Address to listen on. Anything but a loopback address exposes the page (and your files) to the network.")
 @click.option("--port", type=click.IntRange(0, 65535), default=8765, show_default=True, help="TCP port (0: any free port).")
 @click.option("--tiles", "tile_url", default="",
-              help="XYZ basemap URL template, e.g. https://tile.example.org/{z}/{x}/{y}.png; none by default (no tile "
-                   "server is contacted unless set here or on the page).")
+              help="XYZ basemap URL template, e.g. https://tile.example.org/{z}/{x}/{y}.png, or a WMTS REST one with "
+                   "{TileMatrix}/{TileCol}/{TileRow} (Web Mercator); none by default (no tile server is contacted unless "
+                   "set here or on the page).")
+@click.option("--basemap", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="A local .mbtiles or .pmtiles file of raster or vector tiles, served by the page itself as its basemap "
+                   "(no network).")
 @click.option("--max-upload-mb", type=click.IntRange(1, 2048), default=50, show_default=True, help="Largest upload accepted.")
-def serve(spec: Path | None, host: str, port: int, tile_url: str, max_upload_mb: int) -> None:
+def serve(spec: Path | None, host: str, port: int, tile_url: str, basemap: Path | None, max_upload_mb: int) -> None:
     """Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."""
     import socket
 
@@ -41,8 +45,10 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, max_upload_mb:
 
     if spec is not None and not spec.is_file():
         raise InputError(f"mission spec {str(spec)!r} does not exist")
-    if tile_url and not all(k in tile_url for k in ("{z}", "{x}", "{y}")):
-        raise InputError(f"--tiles = {tile_url!r} is not allowed: an XYZ URL template with {{z}}, {{x}} and {{y}}")
+    if tile_url and not any(all(k in tile_url for k in keys) for keys in (("{z}", "{x}", "{y}"),
+                                                                             ("{TileMatrix}", "{TileCol}", "{TileRow}"))):
+        raise InputError(f"--tiles = {tile_url!r} is not allowed: an XYZ URL template with {{z}}, {{x}} and {{y}}, or a WMTS "
+                         "REST template (Web Mercator) with {TileMatrix}, {TileCol} and {TileRow}")
     if port == 0:
         with socket.socket() as s:
             s.bind((host, 0))
@@ -53,7 +59,8 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, max_upload_mb:
         log.warning("listening on %s: anyone who can reach this address can plan with the files in the mission's folder "
                     "and upload files to this machine", host)
         allowed = None
-    app = create_app(spec, tile_url=tile_url, allowed_hosts=allowed, upload_limit=max_upload_mb * 1024 * 1024)
+    app = create_app(spec, tile_url=tile_url, allowed_hosts=allowed, upload_limit=max_upload_mb * 1024 * 1024,
+                     basemap=basemap)
     shown = "127.0.0.1" if _loopback(host) else host
     click.echo(f"aerosurvey: open http://{shown}:{port}/ (Ctrl+C to stop)")
     uvicorn.run(app, host=host, port=port, log_level="warning")

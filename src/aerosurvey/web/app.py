@@ -11,6 +11,9 @@ Endpoints (all JSON unless said otherwise), each a small handler in a module of 
   DELETE /api/jobs/{id}              cancel a running plan
   GET    /api/plans/{pid}/files/{n}  a mission file (attachment); /archive.zip for all of them
   POST   /api/plans/{pid}/flight     multipart files of a `log ingest` folder → flown layers  (routes_flight)
+  POST   /api/plans/{pid}/refly      the same files → the re-fly mission of what was not photographed
+  POST   /api/plans/{pid}/resume     the same files → the rest of a flight cut short
+  GET    /api/basemap/{z}/{x}/{y}    a tile of the offline basemap file (--basemap)            (routes_basemap)
 Errors are {"error": message, "key": spec key or null} with 400 (bad input), 404, 409, 413 or 500.
 Handlers run on the event loop; file I/O and computing run on worker threads.
 """
@@ -28,7 +31,8 @@ from starlette.applications import Starlette
 from starlette.routing import BaseRoute, Mount, Route
 from starlette.staticfiles import StaticFiles
 
-from aerosurvey.web import routes_flight, routes_plan, routes_spec, service
+from aerosurvey.web import routes_basemap, routes_flight, routes_plan, routes_spec, service
+from aerosurvey.web.basemap import open_basemap
 from aerosurvey.web.jobs import JobRunner
 from aerosurvey.web.limits import BodyLimit, HostCheck
 from aerosurvey.web.state import ServerState, blocking
@@ -47,20 +51,25 @@ ROUTES: list[BaseRoute] = [
     Route("/api/plans/{plan_id}/files/{name}", routes_plan.plan_file),
     Route("/api/plans/{plan_id}/archive.zip", routes_plan.plan_archive),
     Route("/api/plans/{plan_id}/flight", routes_flight.flight_results, methods=["POST"]),
+    Route("/api/plans/{plan_id}/refly", routes_flight.refly, methods=["POST"]),
+    Route("/api/plans/{plan_id}/resume", routes_flight.resume, methods=["POST"]),
+    Route("/api/basemap/{z}/{x}/{y}", routes_basemap.tile),
 ]
 
 
 def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts: list[str] | None = None,
-               upload_limit: int = UPLOAD_LIMIT, workers: int = 2) -> Starlette:
-    """The app; `allowed_hosts` None accepts any Host header (tests), else only those (DNS rebinding)."""
+               upload_limit: int = UPLOAD_LIMIT, workers: int = 2, basemap: Path | None = None) -> Starlette:
+    """The app; `allowed_hosts` None accepts any Host header (tests), else only those (DNS rebinding).
+    `basemap`: a local .mbtiles or .pmtiles file of raster or vector tiles the page draws under the plan."""
     spec = {}
     if spec_path is not None:
         spec_path = spec_path.resolve()
         spec = service.read_spec_file(spec_path)
+    tiles = open_basemap(basemap) if basemap is not None else None
     uploads = Path(tempfile.mkdtemp(prefix="aerosurvey-serve-"))
     base = spec_path.parent if spec_path is not None else uploads
     ws = service.Workspace(base=base, uploads=uploads, roots=[base])
-    state = ServerState(spec_path, spec, ws, tile_url, JobRunner(workers=workers), upload_limit)
+    state = ServerState(spec_path, spec, ws, tile_url, JobRunner(workers=workers), upload_limit, tiles)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
@@ -69,6 +78,8 @@ def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts:
         finally:  # waiting for running jobs and deleting the uploads block: worker threads
             await blocking(state.runner.shutdown)
             await blocking(shutil.rmtree, uploads, ignore_errors=True)
+            if tiles is not None:
+                tiles.close()
 
     static = StaticFiles(directory=str(resources.files("aerosurvey.web").joinpath("static")))
     app = Starlette(routes=[*ROUTES, Mount("/static", static)], lifespan=lifespan)

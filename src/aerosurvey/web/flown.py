@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import io
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -18,13 +19,20 @@ from aerosurvey.flight.ingest import distance_text, far_from_plan
 from aerosurvey.manifest import Manifest
 from aerosurvey.web.mapproj import MapFrame
 
+#: Gaps smaller than this are left out (`aerosurvey refly --min-gap-m2`'s default), on the map and in the page's re-fly.
+MIN_GAP_M2 = 25.0
+
 #: Colours for photo counts 1, 2, 3 … (0 stays transparent); the last repeats beyond.
 _RAMP = np.array([[215, 48, 39], [244, 109, 67], [253, 174, 97], [254, 224, 139], [217, 239, 139],
                   [166, 217, 106], [102, 189, 99], [26, 152, 80], [0, 104, 55]], dtype=np.uint8)
 
 
-def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str | None = None) -> dict[str, Any]:
-    """Layers from the uploaded files: events.csv (required), coverage.tif and log_report.json (optional).
+def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str | None = None,
+                 plan_features: str | None = None) -> dict[str, Any]:
+    """Layers from the uploaded files: events.csv (required), coverage.tif, log_report.json and
+    failing_places.geojson (`aerosurvey check FOLDER`: where the rules fail on what was flown), optional.
+    With the plan's manifest and plan.geojson (`plan_features`), `gaps` is the ground of the area
+    fewer flown photos see than the plan needs (what `aerosurvey refly` would re-fly), in WGS84.
 
     Results of another mission are refused as `log ingest` refuses a log of another plan:
     with the page's plan (`plan`: its manifest, or manifest.json's text) when the events lie a
@@ -44,6 +52,10 @@ def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str |
     out: dict[str, Any] = {"events": _events(rows, frame)}
     if "coverage.tif" in files:
         out["coverage"] = _coverage(files["coverage.tif"], frame)
+    if "failing_places.geojson" in files:
+        out["failing"], out["rules"] = _failing_places(files["failing_places.geojson"])
+    if "coverage.tif" in files and isinstance(doc, Manifest) and plan_features is not None:
+        out["gaps"] = _gaps(files["coverage.tif"], doc, plan_features)
     if report is not None:
         out["report"] = {k: report.get(k) for k in ("log", "events", "planned", "matched", "missed_stations", "extra_triggers",
                                                   "far_triggers", "coverage", "realized") if k in report}
@@ -111,3 +123,42 @@ def _coverage(path: Path, frame: MapFrame) -> dict[str, Any]:
             "bounds": [round(x0 - frame.ox, 2), round(y0 - frame.oy, 2), round(x1 - frame.ox, 2), round(y1 - frame.oy, 2)],
             "max_count": int(dst.max()) if dst.size else 0}
 
+
+
+def _failing_places(path: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """failing_places.geojson's features with a geometry (WGS84), and one line per rule that fails as flown."""
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        feats = [f for f in doc["features"] if f["properties"].get("role") == "failing-place"]
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(f"flight results: failing_places.geojson is not what `aerosurvey check FOLDER` writes: {exc}",
+                         key="flight") from None
+    rules: dict[str, dict[str, Any]] = {}
+    for f in feats:
+        p = f["properties"]
+        r = rules.setdefault(p.get("rule", "?"), {"rule": p.get("rule", "?"), "status": p.get("status", "fail"),
+                                                  "statement": p.get("statement", ""), "places": 0, "evidence": [],
+                                                  "measured": f"planned {p.get('planned')} / flown {p.get('flown')}",
+                                                  "required": p.get("required")})
+        r["places"] += 1
+    for r in rules.values():
+        r["evidence"] = [f"{r['places']} failing place(s) on the map"]
+    drawn = [f for f in feats if f.get("geometry")]
+    return {"type": "FeatureCollection", "features": drawn}, list(rules.values())
+
+
+def _gaps(coverage: Path, doc: Manifest, plan_features: str) -> dict[str, Any]:
+    """The area's ground seen by fewer flown photos than the plan needs, as `aerosurvey refly` finds it, in WGS84."""
+    import shapely
+    import shapely.geometry
+
+    from aerosurvey.flight.refly import gap_area
+    from aerosurvey.rules.planview import PlanView
+
+    view = PlanView.from_manifest(doc, json.loads(plan_features), "the page's plan")
+    gaps = gap_area(coverage, doc.derived.images_per_point, view.area, MIN_GAP_M2)
+    ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
+    return {"type": "FeatureCollection", "features": [] if ll.is_empty else [
+        {"type": "Feature", "properties": {"role": "gap", "needed_images": doc.derived.images_per_point,
+                                           "area_m2": round(float(shapely.area(gaps)), 1)},
+         "geometry": shapely.geometry.mapping(ll)}]}

@@ -1,11 +1,15 @@
-"""Flight results over a plan:
+"""Flight results over a plan, and the re-fly they lead to:
 
   POST   /api/plans/{pid}/flight     multipart files of a `log ingest` folder → flown layers
+  POST   /api/plans/{pid}/refly      the same files → the re-fly mission (`aerosurvey refly`) and its files
+  POST   /api/plans/{pid}/resume     the same files → the rest of the flight (`aerosurvey resume --log`) and its files
 """
 
 from __future__ import annotations
 
+import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,15 +17,19 @@ from starlette.datastructures import UploadFile
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 
-from aerosurvey.errors import AerosurveyError
+from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.web import service
-from aerosurvey.web.state import blocking, error, plan_gone, save_upload, server
+from aerosurvey.web.flown import MIN_GAP_M2, flown_layers
+from aerosurvey.web.state import ServerState, blocking, error, plan_gone, save_upload, server
 
-#: The files of a `log ingest` folder the page draws; others in the folder are ignored.
-FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json")
+#: The files of a `log ingest` folder the page reads (failing_places.geojson: `aerosurvey check FOLDER`); others are ignored.
+FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json", "failing_places.geojson")
 
 
-async def flight_results(request: Request) -> Response:
+async def _on_flight_files(request: Request, work: Callable[[service.PlanBundle, Path, dict[str, Path]], dict[str, Any]]
+                          ) -> Response:
+    """Save the uploaded files of a `log ingest` folder in a scratch folder, run `work(plan, folder, files)`
+    on a worker thread, answer its JSON, remove the folder."""
     state = server(request)
     bundle = state.plan(request.path_params["plan_id"])
     if bundle is None:
@@ -31,17 +39,83 @@ async def flight_results(request: Request) -> Response:
         form = await request.form(max_files=20, max_fields=5)
         uploads = [v for _, v in form.multi_items()
                    if isinstance(v, UploadFile) and v.filename and Path(v.filename).name in FLIGHT_FILES]
-        layers = await blocking(_layers, uploads, folder, bundle)
+        files = await blocking(lambda: {Path(u.filename or "").name: save_upload(u, folder) for u in uploads})
+        out = await blocking(work, bundle, folder, files)
     except AerosurveyError as exc:
         return error(exc)
     finally:
         await blocking(shutil.rmtree, folder, ignore_errors=True)
-    return JSONResponse(layers)
+    return JSONResponse(out)
 
 
-def _layers(uploads: list[UploadFile], folder: Path, bundle: service.PlanBundle) -> dict[str, Any]:
-    from aerosurvey.web.flown import flown_layers
+async def flight_results(request: Request) -> Response:
+    return await _on_flight_files(request, _layers)
 
-    files = {Path(u.filename or "").name: save_upload(u, folder) for u in uploads}
+
+async def refly(request: Request) -> Response:
+    state = server(request)
+    return await _on_flight_files(request, lambda bundle, folder, files: _refly(state, bundle, folder, files))
+
+
+async def resume(request: Request) -> Response:
+    state = server(request)
+    return await _on_flight_files(request, lambda bundle, folder, files: _resume(state, bundle, folder, files))
+
+
+def _layers(bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     # the plan's manifest: results of another plan are refused by distance and mission name
-    return flown_layers(files, bundle.frame, bundle.files["manifest.json"])
+    return flown_layers(files, bundle.frame, bundle.files["manifest.json"], bundle.files["plan.geojson"])
+
+
+def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
+    """`aerosurvey refly` over the uploaded folder, with the saved spec file the page's plan was made from."""
+    from aerosurvey import manifest as mf
+    from aerosurvey.flight.refly import plan_refly
+    from aerosurvey.rules.planview import PlanView
+
+    if state.spec_path is None or bundle.zones is not None or service.spec_to_json(bundle.spec) != state.spec:
+        raise InputError("refly: the re-fly is planned from the saved spec file, as `aerosurvey refly --spec` does, and the "
+                         "plan on the page is not that of a saved spec: save the spec, let the page plan, then make the re-fly",
+                         key="refly")
+    for name in ("events.csv", "coverage.tif"):
+        if name not in files:
+            raise InputError(f"refly: {name} is missing among the loaded files; load the folder `aerosurvey log ingest "
+                             "--plan` wrote", key="refly")
+    doc = mf.loads(bundle.files["manifest.json"], "the page's plan")
+    view = PlanView.from_manifest(doc, json.loads(bundle.files["plan.geojson"]), "the page's plan")
+    r = plan_refly(folder, view, state.spec_path, MIN_GAP_M2)
+    if r.plan is None:
+        return {"plan_id": None, "files": [], "notes": list(r.notes),
+                "summary": f"no gaps: every cell of the area is seen by at least {r.need} flown photos; nothing to re-fly"}
+    import shapely
+
+    name = r.plan.spec.name
+    pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame))
+    plan = r.plan
+    lines = [f for f in json.loads(r.files["plan.geojson"])["features"] if f["properties"]["role"] == "line"]
+    return {"plan_id": pid, "files": sorted(r.files), "notes": list(r.notes),
+            "lines": {"type": "FeatureCollection", "features": lines}, "gaps": json.loads(r.files["gaps.geojson"]),
+            "summary": f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than "
+                       f"{r.need} photos; re-fly {name}: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
+                       f"{plan.estimates['total_time_s'] / 60:.1f} min"}
+
+
+def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
+    """`aerosurvey resume --log` over the uploaded folder: the page's plan (its spec and drawn zones, in
+    memory) flown on from the station after the flight's last matched photo."""
+    from aerosurvey import manifest as mf
+    from aerosurvey.commands.resume import last_photographed, resumed_text, same_plan
+    from aerosurvey.outputs import render_resume
+    from aerosurvey.plan.planner import resume_mission
+
+    doc = mf.loads(bundle.files["manifest.json"], "the page's plan")
+    try:
+        station = last_photographed(folder, doc)
+        spec, inputs = service.spec_and_inputs(bundle.spec, state.workspace, bundle.zones)
+        plan = resume_mission(spec, inputs, station)
+        same_plan(plan, doc)
+        out = render_resume(plan, station, "the page's plan")
+    except InputError as exc:  # the command's message, about the folder the page loaded
+        raise InputError(str(exc).replace(f"--log {str(folder)!r}", "the loaded folder"), key="resume") from None
+    pid = state.remember(service.PlanBundle({"name": f"{spec.name}-resume"}, out, bundle.frame))
+    return {"plan_id": pid, "files": sorted(out), "notes": [], "summary": resumed_text(plan, station)}

@@ -1,6 +1,6 @@
 """Plans as jobs and a plan's files:
 
-  POST   /api/plan                   {"spec": {...}} → 202 {"job": id}
+  POST   /api/plan                   {"spec": {...}, "zones": [WKT, ...]?} → 202 {"job": id}
   GET    /api/jobs/{id}?wait=S       the job's state and progress; when done, the plan's view
   DELETE /api/jobs/{id}              cancel a running plan
   GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
@@ -10,9 +10,7 @@
 from __future__ import annotations
 
 import asyncio
-import io
 import time
-import zipfile
 from typing import Any
 
 from starlette.requests import Request
@@ -21,7 +19,7 @@ from starlette.responses import JSONResponse, Response
 from aerosurvey.errors import InputError
 from aerosurvey.web import service
 from aerosurvey.web.jobs import Progress
-from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body
+from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body, zip_texts, zones_body
 
 MAX_WAIT_S = 10.0
 _POLL_S = 0.02
@@ -33,11 +31,12 @@ async def submit_plan(request: Request) -> Response:
     state = server(request)
     try:
         spec = await spec_body(request)
+        zones = await zones_body(request)
     except InputError as exc:
         return error(exc)
 
     def work(progress: Progress) -> dict[str, Any]:
-        bundle = service.plan_bundle(spec, state.workspace, progress)
+        bundle = service.plan_bundle(spec, state.workspace, progress, zones)
         return {"plan_id": state.remember(bundle), "files": sorted(bundle.files), **bundle.view}
 
     job = state.runner.submit(work)
@@ -86,14 +85,6 @@ async def plan_archive(request: Request) -> Response:
     bundle = server(request).plan(request.path_params["plan_id"])
     if bundle is None:
         return plan_gone(request)
-    data = await blocking(_zip, bundle.files)
+    data = await blocking(zip_texts, bundle.files)
     stem = bundle.view["name"] or "mission"
     return Response(data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{stem}.zip"'})
-
-
-def _zip(files: dict[str, str]) -> bytes:
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name, text in sorted(files.items()):
-            zf.writestr(name, text)
-    return buf.getvalue()

@@ -1,10 +1,11 @@
 """The page's start and the spec it edits:
 
   GET    /                 the page
-  GET    /api/state        the starting spec, cameras, rule profiles, settings
+  GET    /api/state        the starting spec, its geometry (WKT), cameras, rule profiles, settings
   POST   /api/area         multipart `file`: an area file, read in memory → a spec over it (area as WKT)
   POST   /api/spec/toml    {"spec": {...}} → the spec as TOML (attachment)
-  POST   /api/spec/save    {"spec": {...}} → written over the spec file the server was started with
+  POST   /api/spec/save    {"spec": {...}, "zones"?} → written over the spec file the server was started with;
+                           a drawn area and drawn zones go to GeoJSON files beside it
 """
 
 from __future__ import annotations
@@ -19,10 +20,9 @@ from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 
 from aerosurvey.errors import AerosurveyError, InputError
-from aerosurvey.fileio import atomic_write_text
 from aerosurvey.web import service
-from aerosurvey.web.specfile import validated_toml
-from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body
+from aerosurvey.web.specfile import geometry_preview, save_with_geometry, spec_download
+from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body, zip_texts, zones_body
 
 
 async def index(request: Request) -> Response:
@@ -43,7 +43,11 @@ def _state(state: ServerState) -> dict[str, Any]:
             for c in sorted(database().values(), key=lambda c: c.id)]
     profiles = [{"id": p.id, "name": p.name, "rules": len(p.rules)} for p in available_profiles().values()]
     return {"spec": state.spec, "spec_path": str(state.spec_path) if state.spec_path else None, "cameras": cams,
-            "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit}
+            "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit,
+            "preview": geometry_preview(state.workspace, state.spec),
+            # a page without a spec: the settings an area drawn on it starts from
+            "defaults": {k: v for k, v in service.default_spec({}, "drawn-area").items() if k != "area"},
+            "basemap": state.basemap.info.as_dict() if state.basemap else None}
 
 
 async def upload_area(request: Request) -> Response:
@@ -69,15 +73,20 @@ async def upload_area(request: Request) -> Response:
 
 
 async def spec_toml(request: Request) -> Response:
+    """The spec as a TOML file; with drawn zones, a zip of it and the zones' GeoJSON file it names."""
     state = server(request)
     try:
         spec = await spec_body(request)
-        text = await blocking(validated_toml, state.workspace, spec)
+        zones = await zones_body(request)
+        name = Path(str((spec.get("mission") or {}).get("name") or "mission")).name or "mission"
+        files = await blocking(spec_download, state.workspace, spec, zones, name)
     except AerosurveyError as exc:
         return error(exc)
-    name = str((spec.get("mission") or {}).get("name") or "mission")
-    return Response(text.encode("utf-8"), media_type="application/toml",
-                    headers={"Content-Disposition": f'attachment; filename="{name}.toml"'})
+    if len(files) == 1:
+        return Response(files[f"{name}.toml"].encode("utf-8"), media_type="application/toml",
+                        headers={"Content-Disposition": f'attachment; filename="{name}.toml"'})
+    return Response(await blocking(zip_texts, files), media_type="application/zip",
+                    headers={"Content-Disposition": f'attachment; filename="{name}.zip"'})
 
 
 async def spec_save(request: Request) -> Response:
@@ -87,15 +96,16 @@ async def spec_save(request: Request) -> Response:
                             status_code=409)
     try:
         spec = await spec_body(request)
-        text = await blocking(_save, state, spec)
+        zones = await zones_body(request)
+        saved, geometry = await blocking(_save, state, spec, zones)
     except AerosurveyError as exc:
         return error(exc)
-    return JSONResponse({"saved": str(state.spec_path), "bytes": len(text.encode("utf-8"))})
+    preview = await blocking(geometry_preview, state.workspace, saved)
+    return JSONResponse({"saved": str(state.spec_path), "geometry": geometry, "spec": saved, "preview": preview})
 
 
-def _save(state: ServerState, spec: dict[str, Any]) -> str:
+def _save(state: ServerState, spec: dict[str, Any], zones: list[str] | None) -> tuple[dict[str, Any], list[str]]:
     assert state.spec_path is not None
-    text = validated_toml(state.workspace, spec)
-    atomic_write_text(state.spec_path, text)
-    state.spec = service.spec_to_json(spec)
-    return text
+    saved, geometry = save_with_geometry(state.workspace, state.spec_path, spec, zones)
+    state.spec = service.spec_to_json(saved)
+    return state.spec, geometry

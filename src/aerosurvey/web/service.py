@@ -9,6 +9,7 @@ downloaded from the page is byte for byte the one `aerosurvey plan` writes.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import datetime as dt
 import io
 import json
@@ -30,7 +31,9 @@ from aerosurvey.web.mapproj import MapFrame
 
 if TYPE_CHECKING:
     from aerosurvey.outputs import Rendered
+    from aerosurvey.plan.inputs import PlanInputs
     from aerosurvey.plan.planner import Plan
+    from aerosurvey.spec import MissionSpec
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
 PATH_KEYS = (("area", "file"), ("terrain", "dem"))
@@ -261,20 +264,48 @@ class PlanBundle:
     view: dict[str, Any]
     files: dict[str, str]
     frame: MapFrame
+    spec: dict[str, Any] = field(default_factory=dict)  # what was planned: the page's spec and drawn zones
+    zones: list[str] | None = None
 
 
-def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) -> PlanBundle:
-    from aerosurvey.inputs import plan_from_files
-    from aerosurvey.outputs import render_outputs
+def drawn_zones(zones: list[str]) -> tuple[BaseGeometry, ...]:
+    """Exclusion zones drawn on the page (WKT in WGS84), checked by the loader's own reader."""
+    from aerosurvey.area import read_area
+
+    try:
+        return tuple(read_area(None, z, "EPSG:4326", f"exclusion zone {i} (drawn)") for i, z in enumerate(zones, start=1))
+    except InputError as exc:
+        raise InputError(str(exc), key="zones") from None
+
+
+def spec_and_inputs(spec_data: dict[str, Any], ws: Workspace, zones: list[str] | None) -> tuple[MissionSpec, PlanInputs]:
+    """The page's spec checked, and what planning reads: `zones` (WKT in WGS84), when given, are the
+    exclusion zones drawn on the page, in place of the spec's zone files."""
+    from aerosurvey.inputs import load_inputs
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
     spec = parse_spec(spec_data, base=ws.base, path=None)
-    # an uploaded area is inline WKT: the loader parses it in memory and reads files only for
-    # what the spec's folder holds (exclusion zones, a DEM)
-    plan = plan_from_files(spec, progress)
+    if zones is not None and spec.area.exclusions:
+        raise InputError("zones: drawn exclusion zones replace area.exclusions; send one or the other", key="zones")
+    # an uploaded or drawn area is inline WKT: the loader parses it in memory and reads files only
+    # for what the spec's folder holds (exclusion zone files, a DEM)
+    inputs = load_inputs(spec)
+    if zones is not None:
+        inputs = dataclasses.replace(inputs, exclusions_wgs84=drawn_zones(zones))
+    return spec, inputs
+
+
+def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zones: list[str] | None = None) -> PlanBundle:
+    """Plan the page's spec; `zones` (WKT in WGS84), when given, are the exclusion zones drawn on the
+    page, handed to the planner in its PlanInputs in place of the spec's zone files."""
+    from aerosurvey.outputs import render_outputs
+    from aerosurvey.plan.planner import plan_mission
+
+    spec, inputs = spec_and_inputs(spec_data, ws, zones)
+    plan = plan_mission(spec, inputs, progress)
     progress("mission files and rules", 0.92)
     rendered = render_outputs(plan)
     progress("control points", 0.97)
@@ -286,7 +317,7 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress) ->
     frame = MapFrame.around(plan.area_wgs84, plan.planar)
     view = _view(plan, frame, manifest, features, points, rendered)
     progress("done", 1.0)
-    return PlanBundle(view, files, frame)
+    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones)
 
 
 def _control_points(rendered: Rendered, manifest: mf.Manifest, features: dict[str, Any]) -> tuple[Any, dict[str, str]]:

@@ -6,9 +6,11 @@ computes for long, goes through `blocking` (a worker thread).
 
 from __future__ import annotations
 
+import io
 import itertools
 import shutil
 import threading
+import zipfile
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -23,6 +25,7 @@ from starlette.responses import JSONResponse
 
 from aerosurvey.errors import InputError
 from aerosurvey.web import service
+from aerosurvey.web.basemap import Basemap
 from aerosurvey.web.jobs import JobRunner
 
 P = ParamSpec("P")
@@ -37,6 +40,7 @@ class ServerState:
     tile_url: str
     runner: JobRunner
     upload_limit: int
+    basemap: Basemap | None = None  # the offline basemap file (--basemap), served as tiles
     plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
     serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
     keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB
@@ -97,6 +101,19 @@ async def spec_body(request: Request) -> dict[str, Any]:
     return spec
 
 
+async def zones_body(request: Request) -> list[str] | None:
+    """The request's drawn exclusion zones, {"zones": [WKT, ...]} beside the spec, or None (the spec's zone files).
+
+    Call after `spec_body` (Starlette keeps the parsed body)."""
+    zones = (await request.json()).get("zones")
+    if zones is None:
+        return None
+    if not isinstance(zones, list) or not all(isinstance(z, str) for z in zones):
+        raise InputError("zones: expected a list of WKT polygons in longitude/latitude (the zones drawn on the page)",
+                         key="zones")
+    return zones
+
+
 async def form_in_memory(request: Request, limit: int, what: str, key: str, max_files: int, max_fields: int) -> FormData:
     """The request's multipart form with its files held in memory, not spooled to a temporary
     file as `request.form()` does above 1 MB; `BodyLimit` bounds the whole body to `limit`.
@@ -126,3 +143,12 @@ def save_upload(upload: UploadFile, folder: Path) -> Path:
     with open(target, "wb") as fh:
         shutil.copyfileobj(upload.file, fh, 1 << 20)
     return target
+
+
+def zip_texts(files: dict[str, str]) -> bytes:
+    """Text files by name as a zip archive's bytes."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name, text in sorted(files.items()):
+            zf.writestr(name, text)
+    return buf.getvalue()

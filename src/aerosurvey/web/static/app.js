@@ -1,29 +1,33 @@
-// aerosurvey planner page: edits the spec, asks the server to plan, draws what it returns.
-// No planning happens here; every number shown comes from the server's plan.
+// aerosurvey planner page: edits the spec and the area on an OpenLayers map, asks the server to
+// plan, draws what it returns. No planning happens here; every number shown comes from the server.
+// The map library is the bundle in /static/vendor/olb.js (OpenLayers and proj4, see web-src/).
 "use strict";
 
-const R = 6378137.0;
-const SVGNS = "http://www.w3.org/2000/svg";
 const SORTIE_COLOURS = ["#1565c0", "#ef6c00", "#6a1b9a", "#00897b", "#c2185b", "#5d4037", "#3949ab", "#7cb342",
   "#f9a825", "#00838f", "#8e24aa", "#d84315"];
+const WEB = "EPSG:3857", WGS84 = "EPSG:4326";
 
 const S = {
   spec: {},            // the spec being edited: the source of truth for the form
   specPath: null,
+  zones: null,         // drawn exclusion zones as WKT (WGS84); null: the spec's zone files
   view: null,          // the last plan's result
   job: null,           // the running plan job's id
   seq: 0,              // plan request counter: stale results are dropped
   timer: null,
-  cam: { cx: 0, cy: 0, u: 1 },  // map centre (frame metres) and metres per screen pixel
-  fittedFor: null,
   tileUrl: "",
+  basemap: null,       // the server's own basemap (--basemap FILE), or null
   flown: null,
-  stats: { plans: 0, lastMs: 0 },
+  tool: "edit",
+  history: [], pos: -1, // undo stack of the drawn geometry
+  touched: new Set(),  // roles the user has edited (area, zone, launch): only those are written into the spec
+  stats: { plans: 0, lastMs: 0, firstMapMs: null },
 };
 window.aerosurvey = S;  // for tests and the curious
 
 const $ = (sel) => document.querySelector(sel);
 const $$ = (sel) => Array.from(document.querySelectorAll(sel));
+const wkt = new olb.WKT();
 
 // ---- spec access -------------------------------------------------------------------------
 function getKey(spec, key) {
@@ -119,7 +123,7 @@ function onBattery() {
   const on = $("#battery-on").checked;
   for (const el of $$("[data-key^='battery.']")) el.disabled = !on;
   if (on) {
-    S.spec.battery = S.spec.battery || {};
+    S.spec.battery = S.spec.battery || S.savedBattery || {};
     for (const el of $$("[data-key^='battery.']")) {
       const p = parseField(el);
       if (!p.error && p.value !== undefined) S.spec.battery[el.dataset.key.split(".")[1]] = p.value;
@@ -132,6 +136,7 @@ function onBattery() {
     S.savedBattery = S.spec.battery;
     delete S.spec.battery;
   }
+  if (S.touched.has("launch")) writeLaunch();
   schedule();
 }
 
@@ -155,6 +160,8 @@ function showError(key, message) {
   box.dataset.key = key || "";
   const field = key ? $(`[data-key='${key}']`) : null;
   if (field) field.classList.add("bad");
+  // a field's error inside a hidden tab: the general line says where to look
+  if (box.closest(".tab") && box.closest(".tab").hidden) $("#general-error").textContent = message;
 }
 function clearError(key) {
   const box = errorBox(key);
@@ -162,7 +169,7 @@ function clearError(key) {
   $("#general-error").textContent = "";
 }
 function clearAllErrors() {
-  for (const e of $$(".err")) if (e.dataset.for !== "flight" && e.dataset.for !== "tiles") e.textContent = "";
+  for (const e of $$(".err")) if (!["flight", "tiles", "refly resume"].includes(e.dataset.for)) e.textContent = "";
   for (const e of $$(".bad")) e.classList.remove("bad");
 }
 
@@ -189,14 +196,21 @@ async function api(method, url, body) {
   return data;
 }
 
+function planBody() {
+  const body = { spec: S.spec };
+  if (S.zones !== null) body.zones = S.zones;
+  return body;
+}
+
 async function replan() {
   const seq = ++S.seq;
   if (S.job) { api("DELETE", `/api/jobs/${S.job}`).catch(() => {}); S.job = null; }
+  if (!S.spec.area) { setStatus("draw an area or drop an area file to start"); return; }
   const started = performance.now();
   setStatus("planning…");
   let job;
   try {
-    job = (await api("POST", "/api/plan", { spec: S.spec })).job;
+    job = (await api("POST", "/api/plan", planBody())).job;
   } catch (e) { if (seq === S.seq) { showError(e.key, e.message); setStatus("error"); } return; }
   S.job = job;
   const progressTimer = setTimeout(() => { if (seq === S.seq) $("#progress").hidden = false; }, 400);
@@ -232,273 +246,515 @@ async function replan() {
 
 function setStatus(text) { $("#status").textContent = text; }
 
-// ---- map ------------------------------------------------------------------------------------
-function svgEl(tag, attrs, parent) {
-  const el = document.createElementNS(SVGNS, tag);
-  for (const [k, v] of Object.entries(attrs || {})) el.setAttribute(k, v);
-  if (parent) parent.appendChild(el);
-  return el;
+// ---- map: layers and styles --------------------------------------------------------------------
+function colour(sortie) { return sortie ? SORTIE_COLOURS[(sortie - 1) % SORTIE_COLOURS.length] : SORTIE_COLOURS[0]; }
+const st = {
+  area: new olb.Style({ stroke: new olb.Stroke({ color: "#2e7d32", width: 2 }), fill: new olb.Fill({ color: "rgba(46,125,50,0.10)" }) }),
+  zone: new olb.Style({ stroke: new olb.Stroke({ color: "#c62828", width: 1.5, lineDash: [5, 3] }), fill: new olb.Fill({ color: "rgba(198,40,40,0.22)" }) }),
+  uncovered: new olb.Style({ stroke: new olb.Stroke({ color: "#e65100", width: 1.5 }), fill: new olb.Fill({ color: "rgba(255,128,0,0.55)" }) }),
+  failing: new olb.Style({ stroke: new olb.Stroke({ color: "#b71c1c", width: 2 }), fill: new olb.Fill({ color: "rgba(255,23,68,0.40)" }),
+    image: new olb.CircleStyle({ radius: 7, fill: new olb.Fill({ color: "rgba(255,23,68,0.8)" }), stroke: new olb.Stroke({ color: "#fff", width: 1.5 }) }) }),
+  gcp: new olb.Style({ image: new olb.CircleStyle({ radius: 6, fill: new olb.Fill({ color: "#fff" }), stroke: new olb.Stroke({ color: "#d81b60", width: 3 }) }) }),
+  check: new olb.Style({ image: new olb.CircleStyle({ radius: 4.5, fill: new olb.Fill({ color: "#1565c0" }), stroke: new olb.Stroke({ color: "#fff", width: 1.5 }) }) }),
+  label: new olb.Style({ text: new olb.Text({ font: "11px system-ui, sans-serif", offsetY: -12, fill: new olb.Fill({ color: "#1d2630" }),
+    stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) }),
+  flown: new olb.Style({ image: new olb.CircleStyle({ radius: 2.4, fill: new olb.Fill({ color: "#111" }), stroke: new olb.Stroke({ color: "#fff", width: 0.8 }) }) }),
+  highlight: new olb.Style({ stroke: new olb.Stroke({ color: "rgba(255,23,68,0.8)", width: 6 }), fill: new olb.Fill({ color: "rgba(255,23,68,0.45)" }),
+    image: new olb.CircleStyle({ radius: 10, stroke: new olb.Stroke({ color: "#ff1744", width: 3 }) }) }),
+  refly: new olb.Style({ stroke: new olb.Stroke({ color: "#00c853", width: 3, lineDash: [8, 5] }) }),
+  measure: new olb.Style({ stroke: new olb.Stroke({ color: "#0d47a1", width: 2, lineDash: [6, 4] }), fill: new olb.Fill({ color: "rgba(13,71,161,0.12)" }),
+    image: new olb.CircleStyle({ radius: 4, fill: new olb.Fill({ color: "#0d47a1" }) }) }),
+};
+const lineStyles = new Map(), stationStyles = new Map();
+function lineStyle(f) {
+  const s = f.get("sortie");
+  if (!lineStyles.has(s)) lineStyles.set(s, new olb.Style({ stroke: new olb.Stroke({ color: colour(s), width: 1.8 }) }));
+  return lineStyles.get(s);
 }
-function clear(g) { while (g.firstChild) g.removeChild(g.firstChild); }
-function ringPath(rings) {
-  return rings.map((r) => "M" + r.map(([x, y]) => `${x},${-y}`).join("L") + "Z").join("");
+function stationStyle(f) {
+  const s = f.get("sortie");
+  if (!stationStyles.has(s)) stationStyles.set(s, new olb.Style({ image: new olb.CircleStyle({ radius: 2.2, fill: new olb.Fill({ color: colour(s) }) }) }));
+  return stationStyles.get(s);
 }
+function siteStyle(f) {
+  return new olb.Style({
+    image: new olb.CircleStyle({ radius: 8, fill: new olb.Fill({ color: "#1d2630" }), stroke: new olb.Stroke({ color: "#fff", width: 1.5 }) }),
+    text: new olb.Text({ text: f.get("label"), fill: new olb.Fill({ color: "#fff" }), font: "bold 10px system-ui, sans-serif" }),
+  });
+}
+const launchStyle = new olb.Style({
+  image: new olb.RegularShape({ points: 3, radius: 9, fill: new olb.Fill({ color: "#ffb300" }), stroke: new olb.Stroke({ color: "#1d2630", width: 1.5 }) }),
+});
+function editStyle(f) { return f.get("role") === "zone" ? st.zone : f.get("role") === "launch" ? launchStyle : st.area; }
+
+/** A point style with the feature's id written above it once the map is zoomed in (under 0.8 m a pixel). */
+function labelled(style) {
+  return (f, resolution) => {
+    if (resolution > 0.8) return style;
+    st.label.getText().setText(f.get("id"));
+    return [style, st.label];
+  };
+}
+
+function vector(name, style, z) {
+  const layer = new olb.VectorLayer({ source: new olb.VectorSource(), style, zIndex: z });
+  layer.set("name", name);
+  return layer;
+}
+// a vector basemap (--basemap FILE of Mapbox Vector Tiles): a generic style by the layer's and feature's names
+const VT = {
+  water: new olb.Style({ fill: new olb.Fill({ color: "#aad3df" }), stroke: new olb.Stroke({ color: "#7fb5c9", width: 1 }) }),
+  green: new olb.Style({ fill: new olb.Fill({ color: "#d6eccb" }), stroke: new olb.Stroke({ color: "#b9d9a6", width: 1 }) }),
+  building: new olb.Style({ fill: new olb.Fill({ color: "#e3d9cc" }), stroke: new olb.Stroke({ color: "#c9bba9", width: 1 }) }),
+  road: new olb.Style({ stroke: new olb.Stroke({ color: "#a0a0a0", width: 3 }) }),
+  boundary: new olb.Style({ stroke: new olb.Stroke({ color: "#9c6fb6", width: 1, lineDash: [6, 4] }) }),
+  other: new olb.Style({ fill: new olb.Fill({ color: "rgba(120,120,120,0.08)" }), stroke: new olb.Stroke({ color: "#c0c0c0", width: 1 }) }),
+  label: new olb.Style({ text: new olb.Text({ font: "12px system-ui, sans-serif", fill: new olb.Fill({ color: "#333" }),
+    stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) }),
+};
+const VT_KINDS = [["water", /water|ocean|river|lake|pond|sea/], ["green", /park|wood|forest|grass|landcover|landuse|green|farm|meadow/],
+  ["building", /building/], ["road", /road|transport|street|highway|path|track|rail/], ["boundary", /boundary|admin/]];
+function vectorBasemapStyle(f) {
+  const type = f.getType();
+  if (type === "Point" || type === "MultiPoint") {
+    if (!f.get("name")) return null;
+    VT.label.getText().setText(String(f.get("name")));
+    return VT.label;
+  }
+  const words = `${f.get("layer") || ""} ${f.get("class") || ""} ${f.get("kind") || ""} ${f.get("type") || ""}`.toLowerCase();
+  const kind = VT_KINDS.find(([, re]) => re.test(words));
+  return VT[kind ? kind[0] : "other"];
+}
+
+const L = {
+  basemap: new olb.TileLayer({ zIndex: 0 }),
+  vbasemap: new olb.VectorTileLayer({ zIndex: 0, style: vectorBasemapStyle, declutter: true }),
+  coverage: new olb.ImageLayer({ zIndex: 1 }),
+  uncovered: vector("uncovered", st.uncovered, 3),
+  lines: vector("lines", lineStyle, 4),
+  stations: vector("stations", stationStyle, 5),
+  area: vector("area", editStyle, 6),
+  gaps: vector("gaps", st.uncovered, 7),
+  flown: vector("flown", st.flown, 7),
+  failing: vector("failing", st.failing, 8),
+  refly: vector("refly", st.refly, 8),
+  sites: vector("sites", siteStyle, 9),
+  gcps: vector("gcps", labelled(st.gcp), 10),
+  checks: vector("checks", labelled(st.check), 11),
+  highlight: vector("highlight", st.highlight, 12),
+  measure: vector("measure", st.measure, 13),
+};
+const edit = L.area.getSource();  // the drawn geometry: features with role area, zone or launch
+const map = new olb.Map({
+  target: "map",
+  layers: Object.values(L),
+  view: new olb.View({ center: [0, 0], zoom: 2, maxZoom: 22 }),
+  controls: [new olb.Zoom(), new olb.ScaleLine({ units: "metric" }), new olb.Attribution({ collapsible: true })],
+});
+S.map = map;
+S.layers = L;
+
+// ---- the plan on the map ------------------------------------------------------------------------
+function frameXY(xy) { const [ox, oy] = S.view.frame.origin; return [xy[0] + ox, xy[1] + oy]; }
+function polygonOf(rings) { return new olb.Polygon(rings.map((r) => r.map(frameXY))); }
+function pointFeature(x, y, props) { const f = new olb.Feature({ geometry: new olb.Point(frameXY([x, y])), ...props }); return f; }
 
 function render(view) {
   S.view = view;
-  const L = view.layers;
-  const area = $("#layer-area"); clear(area);
-  for (const p of L.area) svgEl("path", { d: ringPath(p) }, area);
-  const ex = $("#layer-exclusions"); clear(ex);
-  for (const p of L.exclusions) svgEl("path", { d: ringPath(p) }, ex);
-  const un = $("#layer-uncovered"); clear(un);
-  for (const p of L.uncovered || []) svgEl("path", { d: ringPath(p) }, un);
-  const lines = $("#layer-lines"); clear(lines);
-  for (const l of L.lines) {
-    svgEl("line", { "data-id": l.id, x1: l.xy[0][0], y1: -l.xy[0][1], x2: l.xy[1][0], y2: -l.xy[1][1],
-      stroke: colour(l.sortie), "data-sortie": l.sortie }, lines);
-  }
-  const st = $("#layer-stations"); clear(st);
-  const frag = document.createDocumentFragment();
-  for (let i = 0; i < L.stations.ids.length; i++) {
-    svgEl("circle", { "data-id": L.stations.ids[i], cx: L.stations.x[i], cy: -L.stations.y[i],
-      fill: colour(L.stations.sortie[i]) }, frag);
-  }
-  st.appendChild(frag);
-  const la = $("#layer-launch"); clear(la);
-  const sites = L.launch.length ? L.launch : [{ id: "home", ...L.home }];
-  sites.forEach((s, i) => {
-    svgEl("circle", { "data-id": s.id, cx: s.x, cy: -s.y }, la);
-    const t = svgEl("text", { x: s.x, y: -s.y }, la);
-    t.textContent = sites.length > 1 ? String(i + 1) : "H";
-  });
-  const g = $("#layer-gcps"); clear(g);
-  const c = $("#layer-checks"); clear(c);
-  for (const p of L.control_points) {
-    const el = svgEl("circle", { "data-id": p.id, cx: p.x, cy: -p.y }, p.role === "gcp" ? g : c);
-    const tip = svgEl("title", {}, el);
-    tip.textContent = `${p.id} (${p.role}): on ${p.images} planned photos${p.note ? "; " + p.note : ""}`;
-  }
-  clear($("#layer-highlight"));
+  registerPlanCrs(view.frame);
+  const V = view.layers;
+  const put = (layer, feats) => { const s = layer.getSource(); s.clear(true); s.addFeatures(feats); };
+  put(L.uncovered, (V.uncovered || []).map((p) => new olb.Feature(polygonOf(p))));
+  put(L.lines, V.lines.map((l) => new olb.Feature({ geometry: new olb.LineString(l.xy.map(frameXY)), id: l.id, sortie: l.sortie })));
+  put(L.stations, V.stations.ids.map((id, i) => pointFeature(V.stations.x[i], V.stations.y[i], { id, sortie: V.stations.sortie[i] })));
+  const sites = V.launch.length ? V.launch : [{ id: "home", ...V.home }];
+  put(L.sites, sites.map((s, i) => pointFeature(s.x, s.y, { id: s.id, label: sites.length > 1 ? String(i + 1) : "H" })));
+  put(L.gcps, V.control_points.filter((p) => p.role === "gcp").map((p) => pointFeature(p.x, p.y, { id: p.id, note: p.note, images: p.images })));
+  put(L.checks, V.control_points.filter((p) => p.role !== "gcp").map((p) => pointFeature(p.x, p.y, { id: p.id, note: p.note, images: p.images })));
+  L.highlight.getSource().clear();
+  for (const x of $$("#rule-list li.selected")) x.classList.remove("selected");
+  if (!edit.getFeatures().length) loadEditable();
+  if (!S.fitted) { S.fitted = true; fitAll(); }  // the first plan's lines reach beyond the area
   renderLegend(view);
   renderSummary(view);
   renderRules(view);
-  renderFiles(view);
-  const key = JSON.stringify(L.area);
-  if (S.fittedFor !== key) { S.fittedFor = key; fit(); } else applyView();
-  if (S.flown && S.flown.plan_id !== view.plan_id) { S.flown = null; clear($("#layer-flown")); clear($("#layer-coverage")); $("#flight-summary").textContent = ""; }
+  renderFly(view);
+  if (S.flown && S.flown.plan_id !== view.plan_id) clearFlown();
+  noteFirstMap();
 }
 
-function colour(sortie) { return sortie ? SORTIE_COLOURS[(sortie - 1) % SORTIE_COLOURS.length] : "#1565c0"; }
+function registerPlanCrs(frame) {
+  if (!frame.proj4 || olb.proj4.defs(frame.crs)) return;
+  olb.proj4.defs(frame.crs, frame.proj4);
+}
+
+function fitAll() {
+  const ext = olb.emptyExtent();
+  for (const s of [edit, L.lines.getSource(), L.gcps.getSource()]) if (s.getFeatures().length) olb.extendExtent(ext, s.getExtent());
+  if (!olb.extentIsEmpty(ext)) map.getView().fit(olb.bufferExtent(ext, 30), { padding: [48, 20, 40, 20], maxZoom: 19 });
+}
+
+function noteFirstMap() {
+  if (S.stats.firstMapMs !== null) return;
+  // from the navigation's start (performance.now()'s origin): what the user waits for
+  map.once("rendercomplete", () => { if (S.stats.firstMapMs === null) S.stats.firstMapMs = Math.round(performance.now()); });
+  map.render();
+}
 
 function renderLegend(view) {
   const box = $("#sortie-legend"); box.textContent = "";
-  if (!view.sorties.length) return;
   for (const [i, s] of view.sorties.entries()) {
     const span = document.createElement("span");
     span.style.background = colour(i + 1);
     span.textContent = s.id;
-    span.title = `${s.photos} photos, ${(s.time_s / 60).toFixed(1)} min, ${s.usable_used_pct} % of the usable battery`;
     box.appendChild(span);
   }
 }
 
+function fmtRange(r, unit) { return r[0] === r[1] ? `${r[0]} ${unit}` : `${r[0]}…${r[1]} ${unit}`; }
+
 function renderSummary(view) {
   const s = view.summary;
+  const failing = view.rules.filter((r) => r.status === "fail");
+  // the summary's own rules line when the server gives one (the text `plan` and `check` print)
+  const rules = s.rules && s.rules.text ? s.rules.text
+    : view.rules.length ? (failing.length ? `${failing.length} of ${view.rules.length} fail` : `${view.rules.length} pass`) : "none chosen";
   const rows = [
     ["area", `${s.area_ha} ha (${s.crs})`],
-    ["camera", s.camera],
-    ["height AGL", s.height_range_m[0] === s.height_range_m[1] ? `${s.height_agl_m} m` : `${s.height_range_m[0]}…${s.height_range_m[1]} m`],
-    ["GSD", s.gsd_cm[0] === s.gsd_cm[1] ? `${s.gsd_cm[0]} cm` : `${s.gsd_cm[0]}…${s.gsd_cm[1]} cm`],
-    ["heading", `${s.heading_deg}°`],
-    ["lines", `${s.lines} (${s.runs} runs), spacing ${s.spacing_m} m`],
-    ["photos", `${s.photos}, base ${s.photo_base_m} m`],
-    ["speed", `${s.speed_ms} m/s (${s.speed_limited_by})`],
-    ["distance", `${s.distance_km} km`],
+    ["height AGL", s.height_range_m[0] === s.height_range_m[1] ? `${s.height_agl_m} m` : fmtRange(s.height_range_m, "m")],
+    ["GSD", fmtRange(s.gsd_cm, "cm")],
+    ["photos", `${s.photos}`],
+    ["lines", `${s.lines} (${s.runs} runs)`],
     ["time", `${s.time_min} min`],
-    ["sorties", s.sorties ? String(s.sorties) : "one flight (no battery set)"],
-    ["mission items", String(s.mission_items)],
-    ["rules", s.rules.text],
+    ["distance", `${s.distance_km} km`],
+    ["sorties", s.sorties ? String(s.sorties) : "1 (no battery set)"],
+    ["rules", rules],
   ];
   const dl = $("#summary"); dl.textContent = "";
   for (const [k, v] of rows) {
     const dt = document.createElement("dt"); dt.textContent = k;
     const dd = document.createElement("dd"); dd.textContent = v; dd.dataset.summary = k;
+    if (k === "rules" && view.rules.length) dd.className = failing.length ? "fail" : "pass";
     dl.append(dt, dd);
   }
+  dl.title = `camera ${s.camera}; heading ${s.heading_deg}°; spacing ${s.spacing_m} m; photo base ${s.photo_base_m} m; `
+    + `speed ${s.speed_ms} m/s (${s.speed_limited_by}); ${s.mission_items} mission items`;
+  const badge = $("#rules-badge");
+  badge.textContent = failing.length ? `(${failing.length} ✗)` : view.rules.length ? "✓" : "";
+  badge.className = failing.length ? "fail" : "";
   const w = $("#warnings"); w.textContent = "";
   for (const text of view.warnings) { const li = document.createElement("li"); li.textContent = text; w.appendChild(li); }
+}
+
+function ruleItem(r, onClick) {
+  const li = document.createElement("li");
+  li.className = r.status;
+  li.dataset.rule = r.rule;
+  const status = document.createElement("span"); status.className = "status"; status.textContent = r.status;
+  const name = document.createElement("b"); name.textContent = r.rule;
+  const detail = document.createElement("div"); detail.className = "detail";
+  detail.textContent = `measured ${r.measured}; required ${r.required}` + ((r.evidence || []).length ? "\n" + r.evidence.slice(0, 6).join("\n") : "");
+  li.append(status, name, detail);
+  li.title = r.statement || "";
+  if (onClick) li.addEventListener("click", () => onClick(r, li));
+  return li;
 }
 
 function renderRules(view) {
   const ul = $("#rule-list"); ul.textContent = "";
   if (!view.rules.length) { const li = document.createElement("li"); li.textContent = "no rule profile chosen"; ul.appendChild(li); }
-  for (const r of view.rules) {
-    const li = document.createElement("li");
-    li.className = r.status;
-    li.dataset.rule = r.rule;
-    const status = document.createElement("span"); status.className = "status"; status.textContent = r.status;
-    const name = document.createElement("b"); name.textContent = r.rule;
-    const detail = document.createElement("div"); detail.className = "detail";
-    detail.textContent = `measured ${r.measured}; required ${r.required}` + (r.evidence.length ? "\n" + r.evidence.slice(0, 6).join("\n") : "");
-    detail.style.whiteSpace = "pre-wrap";
-    li.append(status, name, detail);
-    li.title = r.statement;
-    if (r.where.length) li.addEventListener("click", () => highlight(r, li));
-    ul.appendChild(li);
-  }
+  // failing rules first: they are what the pilot has to act on
+  const order = { fail: 0, warning: 1 };
+  const rules = [...view.rules].sort((a, b) => (order[a.status] ?? 2) - (order[b.status] ?? 2));
+  for (const r of rules) ul.appendChild(ruleItem(r, r.where.length ? highlight : null));
 }
 
 function highlight(rule, li) {
   for (const x of $$("#rule-list li.selected")) x.classList.remove("selected");
   li.classList.add("selected");
-  const g = $("#layer-highlight"); clear(g);
-  const L = S.view.layers;
-  const lineById = new Map(L.lines.map((l) => [l.id, l]));
-  const stIndex = new Map(L.stations.ids.map((id, i) => [id, i]));
-  const cpById = new Map(L.control_points.map((p) => [p.id, p]));
-  const pts = [];
-  const addLine = (id) => {
-    const l = lineById.get(id);
-    if (!l) return;
-    svgEl("line", { "data-id": id, x1: l.xy[0][0], y1: -l.xy[0][1], x2: l.xy[1][0], y2: -l.xy[1][1] }, g);
-    pts.push(l.xy[0], l.xy[1]);
-  };
+  const src = L.highlight.getSource(); src.clear();
+  const byId = (layer) => new Map(layer.getSource().getFeatures().map((f) => [f.get("id"), f]));
+  const lines = byId(L.lines), stations = byId(L.stations), cps = new Map([...byId(L.gcps), ...byId(L.checks)]);
+  const add = (f) => { if (f) src.addFeature(new olb.Feature({ geometry: f.getGeometry().clone(), id: f.get("id") })); };
   for (const w of rule.where) {
-    if (w.run) addLine(w.run);
-    if (w.runs) w.runs.forEach(addLine);
-    if (w.station && stIndex.has(w.station)) {
-      const i = stIndex.get(w.station);
-      svgEl("circle", { cx: L.stations.x[i], cy: -L.stations.y[i] }, g);
-      pts.push([L.stations.x[i], L.stations.y[i]]);
-    }
-    if (w.point && cpById.has(w.point)) {
-      const p = cpById.get(w.point);
-      svgEl("circle", { cx: p.x, cy: -p.y }, g);
-      pts.push([p.x, p.y]);
-    }
-    if (w.xy) {
-      svgEl("rect", { x: w.xy[0] - 3, y: -w.xy[1] - 3, width: 6, height: 6 }, g);
-      pts.push(w.xy);
-    }
+    if (w.run) add(lines.get(w.run));
+    if (w.runs) w.runs.forEach((id) => add(lines.get(id)));
+    if (w.station) add(stations.get(w.station));
+    if (w.point) add(cps.get(w.point));
+    if (w.xy) src.addFeature(new olb.Feature(new olb.Point(frameXY(w.xy))));
   }
-  if (pts.length) fitTo(pts, 0.25);
+  if (src.getFeatures().length) map.getView().fit(olb.bufferExtent(src.getExtent(), 40), { padding: [60, 40, 40, 40], maxZoom: 19, duration: 200 });
+}
+
+// ---- fly blocks and downloads ---------------------------------------------------------------
+function fileLink(name, label) {
+  const a = document.createElement("a");
+  a.href = `/api/plans/${S.view.plan_id}/files/${encodeURIComponent(name)}`;
+  a.textContent = label || name; a.setAttribute("download", name); a.dataset.file = name;
+  return a;
+}
+
+function lonlatText(lon, lat) {
+  return `${Math.abs(lat).toFixed(6)}° ${lat >= 0 ? "N" : "S"} ${Math.abs(lon).toFixed(6)}° ${lon >= 0 ? "E" : "W"}`;
+}
+
+function renderFly(view) {
+  const box = $("#fly-blocks"); box.textContent = "";
+  const s = view.summary;
+  const blocks = view.sorties.length ? view.sorties.map((x, i) => ({ ...x, n: i + 1 })) : [{
+    id: "mission", n: 0, files: ["mission.plan", "mission.waypoints"], photos: s.photos, time_s: s.time_min * 60,
+    distance_m: s.distance_km * 1000, launch: null,
+  }];
+  for (const b of blocks) {
+    const div = document.createElement("div"); div.className = "fly"; div.dataset.sortie = b.id;
+    div.style.setProperty("--c", colour(b.n || 1));
+    const h = document.createElement("h4");
+    const title = document.createElement("span");
+    title.textContent = b.n ? `${b.n}. sortie ${b.id}` : "One flight (no battery split)";
+    const time = document.createElement("span"); time.textContent = `${(b.time_s / 60).toFixed(1)} min`;
+    h.append(title, time);
+    const facts = document.createElement("div"); facts.className = "facts";
+    facts.textContent = `${b.photos} photos · ${(b.distance_m / 1000).toFixed(2)} km`;
+    const launch = document.createElement("div"); launch.className = "launch";
+    if (b.launch) launch.textContent = `launch point ${b.launch.index}: ${lonlatText(b.launch.lon, b.launch.lat)}, ground ${b.launch.ground_amsl_m} m AMSL`;
+    else { const H = view.layers.home; const [lon, lat] = olb.toLonLat(frameXY([H.x, H.y])); launch.textContent = `take-off (home): ${lonlatText(lon, lat)}`; }
+    const parts = [facts, launch];
+    if (b.usable_used_pct !== undefined) {
+      const bat = document.createElement("div"); bat.className = "battery";
+      bat.textContent = `battery: ${b.usable_used_pct.toFixed(1)} % of the usable charge (${b.battery_used_pct.toFixed(1)} % of the pack), `
+        + `${(b.time_with_wind_allowance_s / 60).toFixed(1)} min with the wind allowance`;
+      parts.push(bat);
+    }
+    const files = document.createElement("div"); files.className = "files";
+    for (const f of b.files) files.appendChild(fileLink(f));
+    parts.push(files);
+    div.append(h, ...parts);
+    box.appendChild(div);
+  }
+  renderFiles(view);
 }
 
 function renderFiles(view) {
-  const ul = $("#file-list"); ul.textContent = "";
-  const add = (name, href) => {
-    const li = document.createElement("li");
-    const a = document.createElement("a"); a.href = href; a.textContent = name; a.setAttribute("download", name);
-    li.appendChild(a); ul.appendChild(li);
-  };
-  add("all files (.zip)", `/api/plans/${view.plan_id}/archive.zip`);
-  for (const f of view.files) add(f, `/api/plans/${view.plan_id}/files/${encodeURIComponent(f)}`);
-}
-
-// ---- view transform ---------------------------------------------------------------------------
-function size() { const r = $("#map").getBoundingClientRect(); return [Math.max(r.width, 1), Math.max(r.height, 1)]; }
-
-function applyView() {
-  const [w, h] = size();
-  const { cx, cy, u } = S.cam;
-  const svg = $("#map");
-  svg.setAttribute("viewBox", `${cx - (w / 2) * u} ${-cy - (h / 2) * u} ${w * u} ${h * u}`);
-  svg.style.setProperty("--u", String(u));
-  updateScale();
-  drawTiles();
-}
-
-function fitTo(points, pad) {
-  if (!points.length) return;
-  let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
-  for (const [x, y] of points) { x0 = Math.min(x0, x); y0 = Math.min(y0, y); x1 = Math.max(x1, x); y1 = Math.max(y1, y); }
-  const [w, h] = size();
-  const dx = Math.max(x1 - x0, 50), dy = Math.max(y1 - y0, 50);
-  S.cam = { cx: (x0 + x1) / 2, cy: (y0 + y1) / 2, u: Math.max(dx / w, dy / h) * (1 + 2 * pad) };
-  applyView();
-}
-
-function fit() {
-  if (!S.view) return;
-  const pts = [];
-  for (const p of S.view.layers.area) for (const ring of p) for (const xy of ring) pts.push(xy);
-  for (const p of S.view.layers.control_points) pts.push([p.x, p.y]);
-  for (const l of S.view.layers.lines) pts.push(l.xy[0], l.xy[1]);
-  fitTo(pts, 0.04);
-}
-
-function zoomAt(factor, sx, sy) {
-  const [w, h] = size();
-  const { cx, cy, u } = S.cam;
-  const mx = cx + (sx - w / 2) * u, my = cy - (sy - h / 2) * u;
-  const nu = Math.min(Math.max(u * factor, 0.01), 20000);
-  S.cam = { cx: mx - (sx - w / 2) * nu, cy: my + (sy - h / 2) * nu, u: nu };
-  applyView();
-}
-
-function updateScale() {
-  if (!S.view) return;
-  $("#scale-bar").hidden = false;
-  const lat = latOf(S.cam.cy);
-  const groundPerPx = S.cam.u * Math.cos(lat * Math.PI / 180);
-  const target = groundPerPx * 120;
-  const p = Math.pow(10, Math.floor(Math.log10(target)));
-  const nice = [5, 2, 1].map((m) => m * p).find((v) => v <= target) || p;
-  $("#scale-line").style.width = `${nice / groundPerPx}px`;
-  $("#scale-label").textContent = nice >= 1000 ? `${nice / 1000} km` : `${nice} m`;
-}
-
-function latOf(fy) {
-  const y = fy + S.view.frame.origin[1];
-  return (2 * Math.atan(Math.exp(y / R)) - Math.PI / 2) * 180 / Math.PI;
-}
-function lonOf(fx) { return (fx + S.view.frame.origin[0]) / R * 180 / Math.PI; }
-
-function planXY(fx, fy) {
-  const f = S.view.frame;
-  const u = fx / f.half, v = fy / f.half;
-  const t = [1, u, v, u * u, u * v, v * v, u * u * u, u * u * v, u * v * v, v * v * v];
-  let x = 0, y = 0;
-  for (let i = 0; i < t.length; i++) { x += f.cx[i] * t[i]; y += f.cy[i] * t[i]; }
-  return [x, y];
-}
-
-function onMove(ev) {
-  if (!S.view) return;
-  const r = $("#map").getBoundingClientRect();
-  const [w, h] = size();
-  const fx = S.cam.cx + (ev.clientX - r.left - w / 2) * S.cam.u;
-  const fy = S.cam.cy - (ev.clientY - r.top - h / 2) * S.cam.u;
-  const lat = latOf(fy), lon = lonOf(fx);
-  const [px, py] = planXY(fx, fy);
-  $("#cursor").textContent = `WGS84 ${Math.abs(lat).toFixed(6)}° ${lat >= 0 ? "N" : "S"} ${Math.abs(lon).toFixed(6)}° ${lon >= 0 ? "E" : "W"}`
-    + `   ·   ${S.view.frame.crs} x ${px.toFixed(2)} y ${py.toFixed(2)}`;
-}
-
-// ---- basemap tiles (only when a URL is set) ----------------------------------------------------
-function drawTiles() {
-  const g = $("#layer-tiles");
-  if (!S.tileUrl || !S.view) { clear(g); return; }
-  const [w, h] = size();
-  const { cx, cy, u } = S.cam;
-  const [ox, oy] = S.view.frame.origin;
-  const world = 2 * Math.PI * R;
-  const z = Math.max(0, Math.min(19, Math.round(Math.log2(world / (256 * u)))));
-  const n = 2 ** z, ts = world / n;
-  const X0 = cx + ox - (w / 2) * u, X1 = cx + ox + (w / 2) * u;
-  const Y0 = cy + oy - (h / 2) * u, Y1 = cy + oy + (h / 2) * u;
-  const tx0 = Math.max(0, Math.floor((X0 + world / 2) / ts)), tx1 = Math.min(n - 1, Math.floor((X1 + world / 2) / ts));
-  const ty0 = Math.max(0, Math.floor((world / 2 - Y1) / ts)), ty1 = Math.min(n - 1, Math.floor((world / 2 - Y0) / ts));
-  clear(g);
-  if ((tx1 - tx0 + 1) * (ty1 - ty0 + 1) > 100) return;
-  for (let tx = tx0; tx <= tx1; tx++) {
-    for (let ty = ty0; ty <= ty1; ty++) {
-      const url = S.tileUrl.replace("{z}", z).replace("{x}", tx).replace("{y}", ty);
-      const left = tx * ts - world / 2 - ox, top = world / 2 - ty * ts - oy;
-      svgEl("image", { href: url, x: left, y: -top, width: ts + u * 0.5, height: ts + u * 0.5, preserveAspectRatio: "none" }, g);
-    }
+  const groups = [
+    ["Whole mission", (f) => f.startsWith("mission.") || f.endsWith(".kml")],
+    ["Control points", (f) => f.startsWith("control_points") || f === "gcp_list.txt"],
+    ["Sorties", (f) => f.startsWith("sortie-")],
+    ["Records and preview", () => true],
+  ];
+  const box = $("#file-groups"); box.textContent = "";
+  const left = new Set(view.files);
+  const zip = document.createElement("a");
+  zip.href = `/api/plans/${view.plan_id}/archive.zip`; zip.textContent = "all files (.zip)"; zip.setAttribute("download", "");
+  box.appendChild(zip);
+  for (const [title, test] of groups) {
+    const names = [...left].filter(test);
+    if (!names.length) continue;
+    names.forEach((n) => left.delete(n));
+    const h = document.createElement("h4"); h.textContent = title;
+    const ul = document.createElement("ul");
+    for (const n of names) { const li = document.createElement("li"); li.appendChild(fileLink(n)); ul.appendChild(li); }
+    box.append(h, ul);
   }
+}
+
+// ---- the drawn geometry: area polygons (with holes), exclusion zones, launch points ------------
+function editFeatures(role) { return edit.getFeatures().filter((f) => f.get("role") === role); }
+function toWkt(geoms) {
+  const g = geoms.length === 1 ? geoms[0] : new olb.MultiPolygon(geoms.map((p) => p.getCoordinates()));
+  return wkt.writeGeometry(g.clone().transform(WEB, WGS84));
+}
+function readWkt(text) {
+  const g = wkt.readGeometry(text, { dataProjection: WGS84, featureProjection: WEB });
+  return g.getType() === "MultiPolygon" ? g.getPolygons() : [g];
+}
+
+/** The editable features from the spec (area WKT, launch points) and the zones (drawn WKT or the server's preview of the files). */
+function loadEditable() {
+  edit.clear(true);
+  const add = (geom, role) => edit.addFeature(new olb.Feature({ geometry: geom, role }));
+  const area = S.spec.area || {};
+  // the spec's WKT, else the server's reading of its files; else (a spec that could not be read at the start) the plan's
+  const planned = (key) => (S.view ? S.view.layers[key] : []).map(polygonOf);
+  if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) readWkt(area.wkt).forEach((g) => add(g, "area"));
+  else if (S.preview && S.preview.area) readWkt(S.preview.area).forEach((g) => add(g, "area"));
+  else planned("area").forEach((g) => add(g, "area"));
+  if (S.zones !== null) S.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
+  else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
+  else planned("exclusions").forEach((g) => add(g, "zone"));
+  for (const p of launchPoints()) add(new olb.Point(olb.fromLonLat(p)), "launch");
+  S.history = [snapshot()]; S.pos = 0; S.touched.clear();
+  updateUndo();
+}
+
+function launchPoints() {
+  const b = S.spec.battery && S.spec.battery.launch_points;
+  if (Array.isArray(b) && b.length) return b;
+  const a = S.spec.area && S.spec.area.launch;
+  return Array.isArray(a) ? [a] : [];
+}
+
+function writeArea() {
+  const polys = editFeatures("area").map((f) => f.getGeometry());
+  if (!polys.length) { delete S.spec.area; return; }
+  if (!S.spec.camera && S.defaults) { S.spec = { ...structuredClone(S.defaults), ...S.spec }; fillForm(); }  // a page started without a spec
+  const { file, wkt, wkt_crs, ...rest } = S.spec.area || {};  // the zone files and the launch point stay
+  S.spec.area = { ...rest, wkt: toWkt(polys) };
+}
+function writeZones() {
+  S.zones = editFeatures("zone").map((f) => toWkt([f.getGeometry()]));
+  if (S.spec.area) delete S.spec.area.exclusions;
+}
+function writeLaunch() {
+  const pts = editFeatures("launch").map((f) => olb.toLonLat(f.getGeometry().getCoordinates()));
+  if (S.spec.area) delete S.spec.area.launch;
+  if (S.spec.battery) { S.spec.battery.launch_points = pts; if (!pts.length) delete S.spec.battery.launch_points; }
+  else if (pts.length && S.spec.area) S.spec.area.launch = pts[pts.length - 1];
+}
+
+/** The user changed the drawn geometry of these roles: into the spec, onto the undo stack, re-plan. */
+function geometryChanged(roles) {
+  for (const r of roles) S.touched.add(r);
+  S.history = S.history.slice(0, S.pos + 1); S.history.push(snapshot()); S.pos = S.history.length - 1;
+  writeGeometry();
+}
+function writeGeometry() {
+  if (S.touched.has("area")) writeArea();
+  if (S.touched.has("zone")) writeZones();
+  if (S.touched.has("launch")) writeLaunch();
+  updateUndo();
+  clearError("area");
+  if (!S.spec.area) {  // nothing left to plan: the last plan's layers go too
+    S.seq++;
+    for (const l of [L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
+    setStatus("draw an area to plan");
+    return;
+  }
+  schedule();
+}
+
+const geojson = new olb.GeoJSON();
+function snapshot() { return { touched: [...S.touched], features: geojson.writeFeaturesObject(edit.getFeatures()) }; }
+function restore(snap) {
+  edit.clear(true);
+  edit.addFeatures(geojson.readFeatures(snap.features));
+  for (const r of snap.touched) S.touched.add(r);
+}
+function undo() { if (S.pos > 0) { S.pos--; restore(S.history[S.pos]); writeGeometry(); } }
+function redo() { if (S.pos < S.history.length - 1) { S.pos++; restore(S.history[S.pos]); writeGeometry(); } }
+function updateUndo() { $("#undo").disabled = S.pos <= 0; $("#redo").disabled = S.pos >= S.history.length - 1; }
+
+// interactions: modify and snap on the drawn geometry, one drawing tool at a time
+const modify = new olb.Modify({ source: edit, pixelTolerance: 12 });
+modify.on("modifyend", (e) => geometryChanged(new Set(e.features.getArray().map((f) => f.get("role")))));
+map.addInteraction(modify);
+const translate = new olb.Translate({ layers: [L.area] });
+translate.on("translateend", (e) => geometryChanged(new Set(e.features.getArray().map((f) => f.get("role")))));
+map.addInteraction(translate);
+let draw = null;
+const snap = new olb.Snap({ source: edit, pixelTolerance: 12 });
+
+function setTool(tool) {
+  S.tool = tool;
+  for (const b of $$("#tools [data-tool]")) b.classList.toggle("on", b.dataset.tool === tool);
+  if (draw) { map.removeInteraction(draw); draw = null; }
+  map.removeInteraction(snap);
+  modify.setActive(tool === "edit");
+  translate.setActive(tool === "move");
+  $("#measure-out").hidden = !tool.startsWith("measure");
+  if (!tool.startsWith("measure")) L.measure.getSource().clear();
+  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", measure: "LineString", "measure-area": "Polygon" }[tool];
+  if (type) {
+    draw = new olb.Draw({ type, source: tool.startsWith("measure") ? L.measure.getSource() : undefined, stopClick: true });
+    draw.on("drawstart", (e) => { if (tool.startsWith("measure")) { L.measure.getSource().clear(); measureLive(e.feature); } });
+    draw.on("drawend", (e) => onDrawn(tool, e.feature));
+    map.addInteraction(draw);
+  }
+  map.addInteraction(snap);  // after the others, as OpenLayers asks
+}
+
+function onDrawn(tool, feature) {
+  const geom = feature.getGeometry();
+  if (tool === "area" || tool === "zone" || tool === "launch") {
+    const role = tool;
+    edit.addFeature(new olb.Feature({ geometry: geom, role }));
+    geometryChanged([role]);
+  } else if (tool === "hole") {
+    const inside = editFeatures("area").find((f) => f.getGeometry().intersectsCoordinate(geom.getInteriorPoint().getCoordinates()));
+    if (!inside) { showError("area", "a hole must be drawn inside an area polygon"); return; }
+    const poly = inside.getGeometry();
+    poly.setCoordinates([...poly.getCoordinates(), geom.getCoordinates()[0]]);
+    geometryChanged(["area"]);
+  }
+}
+
+function measureLive(feature) {
+  const out = $("#measure-out");
+  const show = () => {
+    const g = feature.getGeometry();
+    if (g.getType() === "LineString") {
+      const m = olb.getLength(g);
+      out.textContent = m >= 1000 ? `${(m / 1000).toFixed(3)} km` : `${m.toFixed(1)} m`;
+    } else {
+      const a = olb.getArea(g);
+      out.textContent = `${(a / 1e4).toFixed(3)} ha (${Math.round(a)} m²), perimeter ${olb.getLength(new olb.LineString(g.getCoordinates()[0])).toFixed(1)} m`;
+    }
+  };
+  feature.getGeometry().on("change", show);
+}
+
+function deleteAt(pixel) {
+  const hits = map.getFeaturesAtPixel(pixel, { layerFilter: (l) => l === L.area, hitTolerance: 6 });
+  const coord = map.getCoordinateFromPixel(pixel);
+  // a hole under the click is taken out of its polygon; else the topmost launch point, zone or area polygon goes
+  for (const f of editFeatures("area")) {
+    const rings = f.getGeometry().getCoordinates();
+    const k = rings.findIndex((r, i) => i > 0 && new olb.Polygon([r]).intersectsCoordinate(coord));
+    if (k > 0) { rings.splice(k, 1); f.getGeometry().setCoordinates(rings); geometryChanged(["area"]); return; }
+  }
+  const rank = { launch: 0, zone: 1, area: 2 };
+  const f = hits.sort((a, b) => rank[a.get("role")] - rank[b.get("role")])[0];
+  if (f) { edit.removeFeature(f); geometryChanged([f.get("role")]); }
+}
+
+// ---- cursor readout, layer toggles, basemap ----------------------------------------------------
+function onPointer(e) {
+  const [lon, lat] = olb.toLonLat(e.coordinate);
+  let text = `WGS84 ${lonlatText(lon, lat)}`;
+  const crs = S.view && S.view.frame.crs;
+  if (crs && olb.proj4.defs(crs)) {
+    const [x, y] = olb.proj4(crs, [lon, lat]);
+    text += `   ·   ${crs} x ${x.toFixed(2)} y ${y.toFixed(2)}`;
+  }
+  $("#cursor").textContent = text;
+}
+
+// An XYZ template, or a WMTS REST template of the Web Mercator tile matrix set (GoogleMapsCompatible),
+// whose {TileMatrix}/{TileCol}/{TileRow} are XYZ's z/x/y; the empty string for anything else.
+const WMTS_KEYS = { "{TileMatrix}": "{z}", "{TileCol}": "{x}", "{TileRow}": "{y}" };
+function xyzTemplate(url) {
+  const xyz = Object.entries(WMTS_KEYS).reduce((u, [w, k]) => u.replaceAll(w, k), url || "");
+  return ["{z}", "{x}", "{y}"].every((k) => xyz.includes(k)) ? xyz : "";
+}
+
+function basemapSource() {
+  const url = xyzTemplate(S.tileUrl) || (S.basemap && S.basemap.url);
+  if (!url) return null;
+  const own = !S.tileUrl;
+  return new olb.XYZ({
+    url, crossOrigin: own ? undefined : "anonymous", maxZoom: own ? S.basemap.maxzoom : 19, minZoom: own ? S.basemap.minzoom : 0,
+    attributions: own ? S.basemap.attribution || S.basemap.name : undefined,
+  });
+}
+function updateBasemap() {
+  const vector = !S.tileUrl && S.basemap && S.basemap.vector;
+  L.basemap.setSource(vector ? null : basemapSource());
+  L.vbasemap.setSource(vector ? new olb.VectorTileSource({
+    format: new olb.MVT(), url: S.basemap.url, minZoom: S.basemap.minzoom, maxZoom: S.basemap.maxzoom,
+    attributions: S.basemap.attribution || S.basemap.name,
+  }) : null);
+  $("#basemap-note").textContent = S.tileUrl ? `tiles from ${S.tileUrl}`
+    : S.basemap ? `offline basemap ${S.basemap.name} (${S.basemap.format}, zoom ${S.basemap.minzoom}–${S.basemap.maxzoom}), served by this page`
+      : "No tile server is contacted unless a URL is set.";
 }
 
 // ---- uploads -----------------------------------------------------------------------------------
@@ -512,61 +768,123 @@ async function uploadArea(file) {
   try {
     const r = await api("POST", "/api/area", fd);
     S.spec = r.spec;
+    S.zones = null; S.preview = { area: null, zones: [] }; S.fitted = false;  // the new place has no zones
     fillForm();
+    loadEditable(); fitAll();
     setStatus(`area ${r.file_name} loaded`);
     replan();
   } catch (e) { showError(e.key || "area.file", e.message); setStatus("the area file could not be used"); }
+}
+
+function clearFlown() {
+  S.flown = null;
+  for (const l of [L.flown, L.failing, L.gaps, L.refly]) l.getSource().clear();
+  L.coverage.setSource(null);
+  $("#flight-summary").textContent = ""; $("#flown-rules").textContent = "";
+  $("#refly-box").hidden = true; $("#refly-files").textContent = "";
 }
 
 async function loadFlight(files) {
   const box = $(".err[data-for='flight']"); box.textContent = "";
   if (!S.view) { box.textContent = "plan first: the flight is drawn against the plan"; return; }
   const fd = new FormData();
-  for (const f of files) if (["events.csv", "coverage.tif", "log_report.json"].includes(f.name)) fd.append("files", f, f.name);
+  for (const f of files) if (FLIGHT_FILES.includes(f.name)) fd.append("files", f, f.name);
   try {
     const r = await api("POST", `/api/plans/${S.view.plan_id}/flight`, fd);
-    S.flown = { ...r, plan_id: S.view.plan_id };
+    clearFlown();
+    S.flown = { ...r, plan_id: S.view.plan_id, files };
     drawFlown();
   } catch (e) { box.textContent = e.message; }
 }
+const FLIGHT_FILES = ["events.csv", "coverage.tif", "log_report.json", "failing_places.geojson"];
 
 function drawFlown() {
-  const g = $("#layer-flown"); clear(g);
-  const c = $("#layer-coverage"); clear(c);
   const f = S.flown;
-  if (!f) return;
-  for (let i = 0; i < f.events.x.length; i++) {
-    const el = svgEl("circle", { cx: f.events.x[i], cy: -f.events.y[i], "data-event": f.events.event[i] }, g);
-    svgEl("title", {}, el).textContent = `event ${f.events.event[i]}${f.events.station[i] ? " → " + f.events.station[i] : " (no station)"}`;
-  }
+  const src = L.flown.getSource();
+  src.addFeatures(f.events.x.map((x, i) => pointFeature(x, f.events.y[i], { event: f.events.event[i], station: f.events.station[i] })));
   if (f.coverage) {
     const [x0, y0, x1, y1] = f.coverage.bounds;
-    svgEl("image", { href: f.coverage.png, x: x0, y: -y1, width: x1 - x0, height: y1 - y0, preserveAspectRatio: "none" }, c);
+    const [ox, oy] = S.view.frame.origin;
+    L.coverage.setSource(new olb.ImageStatic({ url: f.coverage.png, imageExtent: [x0 + ox, y0 + oy, x1 + ox, y1 + oy] }));
   }
+  const read = (fc) => geojson.readFeatures(fc, { dataProjection: WGS84, featureProjection: WEB });
+  if (f.failing) L.failing.getSource().addFeatures(read(f.failing));
+  if (f.gaps) L.gaps.getSource().addFeatures(read(f.gaps));
   const rep = f.report || {};
   const parts = [`${f.events.x.length} camera events`];
   if (rep.planned !== undefined) parts.push(`${rep.matched} of ${rep.planned} stations matched, ${(rep.missed_stations || []).length} missed`);
   if (rep.coverage) parts.push(`at least ${rep.coverage.min_images_in_area} photos per cell, ${(100 * rep.coverage.uncovered_share).toFixed(2)} % uncovered`);
+  if (f.gaps) {
+    const m2 = f.gaps.features.reduce((a, g) => a + g.properties.area_m2, 0);
+    parts.push(m2 ? `${(m2 / 1e4).toFixed(3)} ha seen by fewer photos than planned (orange)` : "no unphotographed ground");
+  }
+  if (!f.rules) parts.push("no failing_places.geojson: run `aerosurvey check` on the folder to see the rules as flown");
   $("#flight-summary").textContent = parts.join("; ");
+  const ul = $("#flown-rules"); ul.textContent = "";
+  for (const r of f.rules || []) ul.appendChild(ruleItem(r, showFlownFailure));
+  if (f.rules && !f.rules.length) { const li = document.createElement("li"); li.className = "pass"; li.textContent = "every rule passes as flown"; ul.appendChild(li); }
+  $("#refly-box").hidden = false;
+}
+
+/** A rule that fails as flown, clicked: its places in red (the others hidden) and the map on them. */
+function showFlownFailure(rule, li) {
+  for (const x of $$("#flown-rules li.selected")) x.classList.remove("selected");
+  li.classList.add("selected");
+  const src = L.highlight.getSource(); src.clear();
+  for (const f of L.failing.getSource().getFeatures()) if (f.get("rule") === rule.rule) src.addFeature(new olb.Feature(f.getGeometry().clone()));
+  if (src.getFeatures().length) map.getView().fit(olb.bufferExtent(src.getExtent(), 40), { padding: [60, 40, 40, 40], maxZoom: 19, duration: 200 });
+}
+
+/** The next flight from the loaded folder: `kind` refly (the gaps) or resume (the rest of a flight cut short). */
+async function nextFlight(kind) {
+  const box = $(".err[data-for~='refly']"); box.textContent = "";
+  const fd = new FormData();
+  for (const f of S.flown.files) if (FLIGHT_FILES.includes(f.name)) fd.append("files", f, f.name);
+  setStatus(kind === "refly" ? "making the re-fly mission…" : "planning the rest of the flight…");
+  L.refly.getSource().clear();
+  try {
+    const r = await api("POST", `/api/plans/${S.view.plan_id}/${kind}`, fd);
+    const out = $("#refly-files"); out.textContent = "";
+    for (const text of [r.summary, ...r.notes]) { const p = document.createElement("p"); p.textContent = text; out.appendChild(p); }
+    if (r.lines) L.refly.getSource().addFeatures(geojson.readFeatures(r.lines, { dataProjection: WGS84, featureProjection: WEB }));
+    for (const name of r.files) {
+      const a = document.createElement("a");
+      a.href = `/api/plans/${r.plan_id}/files/${encodeURIComponent(name)}`; a.textContent = name; a.setAttribute("download", name);
+      a.dataset.file = name; out.append(a, " ");
+    }
+    setStatus(kind === "refly" ? "re-fly mission ready" : "the rest of the flight is ready");
+  } catch (e) { box.textContent = e.message; setStatus(`the ${kind === "refly" ? "re-fly" : "resumed"} mission could not be made`); }
 }
 
 // ---- spec files ------------------------------------------------------------------------------
+function downloadBlob(blob, name) {
+  const a = document.createElement("a");
+  a.href = URL.createObjectURL(blob); a.download = name; a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+}
 async function downloadToml() {
   try {
-    const blob = await api("POST", "/api/spec/toml", { spec: S.spec });
-    const a = document.createElement("a");
-    a.href = URL.createObjectURL(blob);
-    a.download = `${(S.spec.mission || {}).name || "mission"}.toml`;
-    a.click();
-    setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+    const blob = await api("POST", "/api/spec/toml", planBody());  // with drawn zones: a zip of the TOML and their GeoJSON
+    downloadBlob(blob, `${(S.spec.mission || {}).name || "mission"}.${blob.type === "application/zip" ? "zip" : "toml"}`);
   } catch (e) { showError(e.key, e.message); }
 }
-
+function downloadDrawn() {
+  const text = geojson.writeFeatures(edit.getFeatures(), { dataProjection: WGS84, featureProjection: WEB });
+  downloadBlob(new Blob([text], { type: "application/geo+json" }), `${(S.spec.mission || {}).name || "mission"}-drawn.geojson`);
+}
 async function saveSpec() {
   try {
-    const r = await api("POST", "/api/spec/save", { spec: S.spec });
-    $("#save-status").textContent = `saved to ${r.saved}`;
+    const r = await api("POST", "/api/spec/save", planBody());
+    $("#save-status").textContent = `saved to ${r.saved}` + (r.geometry.length ? ` with ${r.geometry.join(", ")}` : "");
+    S.spec = r.spec; S.zones = null; S.preview = r.preview; S.touched.clear();
+    schedule();  // the plan of the saved file (the same mission), which a re-fly starts from
   } catch (e) { showError(e.key, e.message); $("#save-status").textContent = ""; }
+}
+
+// ---- tabs ----------------------------------------------------------------------------------------
+function showTab(name) {
+  for (const b of $$("#tabs button")) b.classList.toggle("on", b.dataset.tab === name);
+  for (const t of $$(".tab")) t.hidden = t.dataset.tab !== name;
 }
 
 // ---- start -----------------------------------------------------------------------------------
@@ -574,9 +892,13 @@ async function start() {
   const st = await api("GET", "/api/state");
   S.spec = st.spec || {};
   S.specPath = st.spec_path;
+  S.preview = st.preview;
+  S.basemap = st.basemap;
+  S.defaults = st.defaults;
   const saved = localStorage.getItem("aerosurvey.tileUrl");
   S.tileUrl = st.tile_url || saved || "";
   $("#tile-url").value = S.tileUrl;
+  updateBasemap();
   const sel = $("#camera-select");
   for (const c of st.cameras) {
     const o = document.createElement("option");
@@ -594,6 +916,7 @@ async function start() {
   }
   if (S.specPath) { $("#save-spec").hidden = false; $("#save-spec").textContent = `Save to ${S.specPath.split("/").pop()}`; $("#save-spec").title = S.specPath; }
   fillForm();
+  showTab(S.spec.area ? "fly" : "setup");
 
   for (const el of $$("[data-key]")) el.addEventListener(el.tagName === "SELECT" || el.dataset.type === "bool" ? "change" : "input", () => onField(el));
   for (const r of $$("input[name=target-mode]")) r.addEventListener("change", onTarget);
@@ -604,7 +927,11 @@ async function start() {
   $("#profiles").addEventListener("change", onProfiles);
   $("#cancel").addEventListener("click", () => { if (S.job) api("DELETE", `/api/jobs/${S.job}`).catch(() => {}); });
   $("#download-toml").addEventListener("click", downloadToml);
+  $("#download-drawn").addEventListener("click", downloadDrawn);
   $("#save-spec").addEventListener("click", saveSpec);
+  $("#make-refly").addEventListener("click", () => nextFlight("refly"));
+  $("#make-resume").addEventListener("click", () => nextFlight("resume"));
+  for (const b of $$("#tabs button")) b.addEventListener("click", () => showTab(b.dataset.tab));
   $("#area-file").addEventListener("change", (e) => { if (e.target.files[0]) uploadArea(e.target.files[0]); e.target.value = ""; });
   $("#flight-files").addEventListener("change", (e) => { loadFlight(Array.from(e.target.files)); e.target.value = ""; });
   const drop = $("#drop");
@@ -614,36 +941,34 @@ async function start() {
   $("#tile-url").addEventListener("change", () => {
     const v = $("#tile-url").value.trim();
     const box = $(".err[data-for='tiles']"); box.textContent = "";
-    if (v && !["{z}", "{x}", "{y}"].every((k) => v.includes(k))) { box.textContent = `${v} is not an XYZ template: it needs {z}, {x} and {y}`; return; }
-    S.tileUrl = v; localStorage.setItem("aerosurvey.tileUrl", v); drawTiles();
+    if (v && !xyzTemplate(v)) { box.textContent = `${v} is not a tile URL template: it needs {z}, {x} and {y} (XYZ) or {TileMatrix}, {TileCol} and {TileRow} (WMTS REST)`; return; }
+    S.tileUrl = v; localStorage.setItem("aerosurvey.tileUrl", v); updateBasemap();
   });
   for (const cb of $$("#layer-toggles input[data-layer]")) {
-    cb.addEventListener("change", () => { $(`#layer-${cb.dataset.layer}`).style.display = cb.checked ? "" : "none"; });
+    const layers = cb.dataset.layer === "basemap" ? [L.basemap, L.vbasemap] : [L[cb.dataset.layer]];
+    cb.addEventListener("change", () => layers.forEach((l) => l.setVisible(cb.checked)));
   }
-
-  const svg = $("#map");
-  let drag = null;
-  svg.addEventListener("pointerdown", (e) => { drag = { x: e.clientX, y: e.clientY, cx: S.cam.cx, cy: S.cam.cy }; svg.setPointerCapture(e.pointerId); svg.classList.add("dragging"); });
-  svg.addEventListener("pointermove", (e) => {
-    onMove(e);
-    if (!drag) return;
-    S.cam.cx = drag.cx - (e.clientX - drag.x) * S.cam.u;
-    S.cam.cy = drag.cy + (e.clientY - drag.y) * S.cam.u;
-    applyView();
+  for (const b of $$("#tools [data-tool]")) b.addEventListener("click", () => setTool(b.dataset.tool));
+  $("#undo").addEventListener("click", undo);
+  $("#redo").addEventListener("click", redo);
+  document.addEventListener("keydown", (e) => {
+    if (!(e.ctrlKey || e.metaKey) || ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement.tagName)) return;
+    if (e.key === "z" && !e.shiftKey) { e.preventDefault(); undo(); }
+    if (e.key === "y" || (e.key === "z" && e.shiftKey)) { e.preventDefault(); redo(); }
   });
-  svg.addEventListener("pointerup", () => { drag = null; svg.classList.remove("dragging"); });
-  svg.addEventListener("wheel", (e) => {
-    e.preventDefault();
-    const r = svg.getBoundingClientRect();
-    zoomAt(Math.exp(e.deltaY * 0.0015), e.clientX - r.left, e.clientY - r.top);
-  }, { passive: false });
-  $("#zoom-in").addEventListener("click", () => { const [w, h] = size(); zoomAt(1 / 1.5, w / 2, h / 2); });
-  $("#zoom-out").addEventListener("click", () => { const [w, h] = size(); zoomAt(1.5, w / 2, h / 2); });
-  $("#zoom-fit").addEventListener("click", fit);
-  window.addEventListener("resize", applyView);
+  map.on("pointermove", onPointer);
+  map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); });
+  setTool("edit");
 
-  if (S.spec.area) replan();
-  else setStatus("drop an area file to start");
+  if (S.spec.area) {
+    loadEditable(); fitAll(); noteFirstMap();  // the area is on the map before its first plan arrives
+    replan();
+  } else {
+    loadEditable();  // nothing yet: the first drawing can be undone
+    setStatus("draw an area or drop an area file to start");
+    const b = S.basemap && S.basemap.bounds;  // a page without a spec opens over its offline basemap
+    if (b) map.getView().fit([...olb.fromLonLat([b[0], b[1]]), ...olb.fromLonLat([b[2], b[3]])], { maxZoom: S.basemap.maxzoom });
+  }
 }
 
 start().catch((e) => { setStatus("could not start"); showError(null, e.message); });

@@ -1,0 +1,81 @@
+"""The screenshots of docs/web.md, made in Debian's headless Chromium:
+
+    python tests/web/docs_screenshots.py        # writes docs/img/serve-1366.png and serve-1024.png
+
+1366×768 (a laptop): the Obrataň example with an exclusion zone drawn on the map, the Fly tab.
+1024×768 (a tablet): the same mission with the forward overlap lowered to 70 %, the failing rule
+clicked (its runs in red). Not a test: run it when the page's look changes, and look at the images.
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from webutil import REPO, copy_mission  # noqa: E402
+
+OUT = REPO / "docs" / "img"
+
+
+def main() -> None:
+    import uvicorn
+    from playwright.sync_api import sync_playwright
+
+    from aerosurvey.web.app import create_app
+
+    tmp = Path(tempfile.mkdtemp())
+    spec = copy_mission(tmp)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(create_app(spec), host="127.0.0.1", port=port, log_level="warning"))
+    threading.Thread(target=server.run, daemon=True).start()
+    while not server.started:
+        time.sleep(0.05)
+    url = f"http://127.0.0.1:{port}/"
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=shutil.which("chromium"), args=["--no-sandbox", "--disable-gpu"])
+            pg = browser.new_page(viewport={"width": 1366, "height": 768})
+            pg.goto(url)
+            pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+            box = pg.locator("#map").bounding_box()
+            cx, cy = box["x"] + box["width"] / 2 + 40, box["y"] + box["height"] / 2
+            pg.click("#tools [data-tool='zone']")
+            n = pg.evaluate("window.aerosurvey.stats.plans")
+            for x, y in [(cx - 50, cy - 40), (cx + 60, cy - 55), (cx + 45, cy + 50), (cx - 55, cy + 40), (cx - 50, cy - 40)]:
+                pg.mouse.click(x, y)
+                pg.wait_for_timeout(300)
+            pg.wait_for_function(f"window.aerosurvey.stats.plans > {n}", timeout=60000)
+            pg.click("#tools [data-tool='edit']")
+            pg.mouse.move(cx, cy + 150)
+            pg.wait_for_timeout(300)
+            pg.screenshot(path=str(OUT / "serve-1366.png"))
+            pg.close()
+            pg = browser.new_page(viewport={"width": 1024, "height": 768})
+            pg.goto(url)
+            pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+            pg.click("#tabs button[data-tab='setup']")
+            n = pg.evaluate("window.aerosurvey.stats.plans")
+            pg.fill("[data-key='targets.forward_overlap']", "0.70")
+            pg.wait_for_function(f"window.aerosurvey.stats.plans > {n}", timeout=60000)
+            pg.click("#tabs button[data-tab='rules']")
+            pg.click("#rule-list li.fail")
+            pg.wait_for_timeout(600)
+            pg.screenshot(path=str(OUT / "serve-1024.png"))
+            browser.close()
+    finally:
+        server.should_exit = True
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"wrote {OUT / 'serve-1366.png'} and {OUT / 'serve-1024.png'}")
+
+
+if __name__ == "__main__":
+    main()
