@@ -109,3 +109,20 @@ def test_count_at_counts_a_footprint_s_corners_and_edges() -> None:
     mids = (corners + np.roll(corners, -1, axis=0)) / 2
     pts = np.concatenate([corners, mids, corners * 1.001])
     assert fp.count_at(pts[:, 0], pts[:, 1]).tolist() == [1] * 8 + [0] * 4
+
+
+def test_the_layout_keeps_out_of_the_plan_s_exclusion_zones(tmp_path) -> None:
+    """The control point layout's no-go ground holds the plan's exclusion zones, and any `nogo` given too."""
+    from conftest import write_geojson
+
+    zone = [[15.0024, 49.4013], [15.0036, 49.4013], [15.0036, 49.4022], [15.0024, 49.4022], [15.0024, 49.4013]]
+    write_geojson(tmp_path / "zone.geojson", [zone])
+    spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]}})
+    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
+    view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
+    assert view.exclusions is not None
+    nogo = layout_settings(view, []).nogo
+    assert nogo is not None and nogo.covers(view.exclusions)
+    extra = shapely.box(*view.area.bounds).centroid.buffer(5.0)
+    both = layout_settings(view, [], nogo=extra).nogo
+    assert both is not None and both.covers(view.exclusions) and both.covers(extra)

@@ -35,7 +35,10 @@ class LayoutSettings:
 
 def layout_settings(view: PlanView, profiles: list[Profile], nogo: BaseGeometry | None = None,
                     gcp_offset_m: float | None = None) -> LayoutSettings:
-    """Counts and visibility the chosen profiles ask for (the strictest of them)."""
+    """Counts and visibility the chosen profiles ask for (the strictest of them); no point goes
+    into the plan's exclusion zones nor into `nogo`."""
+    if view.exclusions is not None and not view.exclusions.is_empty:
+        nogo = view.exclusions if nogo is None else shapely.union(nogo, view.exclusions)
     base = LayoutSettings()
     gcp_count, gcp_min_images = base.gcp_count, base.gcp_min_images
     cp_ha_per_point, cp_minimum = base.cp_ha_per_point, base.cp_minimum
