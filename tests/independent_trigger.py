@@ -28,35 +28,13 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from independent_legs import Item, parse_wpl
+
 NAV_WAYPOINT, NAV_TAKEOFF, NAV_LAND, NAV_RTL = 16, 22, 21, 20
 DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL = 178, 206, 214
 UPDATE_HZ = 50.0
 #: ArduPilot's LOCATION_SCALING_FACTOR: metres per 1e-7 degree of latitude
 _M_PER_DEG = 0.011131884502145034 * 1e7
-
-
-@dataclass(frozen=True)
-class Item:
-    seq: int
-    frame: int
-    command: int
-    params: tuple[float, float, float, float]
-    lat: float
-    lon: float
-    alt: float
-
-
-def read_waypoints(path: Path) -> tuple[Item, list[Item]]:
-    """Home and the mission items of a QGC WPL 110 file."""
-    lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
-    assert lines[0].split() == ["QGC", "WPL", "110"], lines[0]
-    items = []
-    for ln in lines[1:]:
-        f = ln.split("\t")
-        assert len(f) == 12, ln
-        items.append(Item(int(f[0]), int(f[2]), int(f[3]), (float(f[4]), float(f[5]), float(f[6]), float(f[7])),
-                          float(f[8]), float(f[9]), float(f[10])))
-    return items[0], items[1:]
 
 
 def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
@@ -106,7 +84,7 @@ class _Camera:
 
 def replay(path: Path) -> list[Photo]:
     """The pictures ArduPilot takes flying the mission file, in order."""
-    home, items = read_waypoints(path)
+    home, items = parse_wpl(path.read_text(), str(path))
     cam = _Camera()
     here = (home.lat, home.lon)
     speed = 0.0
