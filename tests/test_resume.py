@@ -116,3 +116,19 @@ def test_a_spec_that_now_plans_otherwise_is_refused(tmp_path: Path) -> None:
     res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(changed / "spec.toml"), "--after",
                                     manifest["stations"][5]["id"], "-o", str(tmp_path / "r")])
     assert res.exit_code == 2 and "resume needs the same plan" in res.output, res.output
+
+
+def test_resume_json_is_read_back_and_a_bad_one_refused(tmp_path: Path) -> None:
+    from aerosurvey import resumefile
+    from aerosurvey.errors import InputError
+
+    text = resumefile.dumps("m", "plan", "P1-L001-S0003", [{"files": ["resume-01.plan", "resume-01.waypoints"],
+                                                          "first_station": "P1-L001-S0004", "last_station": "P1-L002-S0009",
+                                                          "photos": 20, "time_s": 61.5}])
+    doc = resumefile.loads(text)
+    assert doc.after_station == "P1-L001-S0003" and doc.sorties[0].photos == 20 and doc.sorties[0].files[0] == "resume-01.plan"
+    for bad, message in (("{", "not valid JSON"), ('{"schema": "x"}', "is not a resume.json"),
+                         (text.replace('"schema_version": 1', '"schema_version": 9'), "schema_version = 9"),
+                         (text.replace('"photos": 20', '"photos": "many"'), "wrong type")):
+        with pytest.raises(InputError, match=message):
+            resumefile.loads(bad)

@@ -50,6 +50,32 @@ def test_example_flies_as_planned(name, vehicle, tmp_path):
         assert (out / "sitl" / row["log"]).exists()
 
 
+@pytest.mark.sitl
+def test_a_resumed_flight_flies_as_planned(tmp_path):
+    """The default 17 ha area cut after its 40th photo: `resume` writes the rest, and SITL takes
+    exactly the stations left, each within the report's quarter base, in the estimated time."""
+    from conftest import make_spec
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
+    out = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    after = json.loads((out / "manifest.json").read_text())["stations"][39]["id"]
+    resumed = tmp_path / "resume"
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--after", after, "-o", str(resumed)])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--resume", str(resumed), "--sitl-bin", binary, "--speedup", "20"])
+    report = json.loads((resumed / "sitl" / "sitl_report.json").read_text())
+    assert res.exit_code == 0, res.output
+    planned = json.loads((resumed / "resume.json").read_text())["stations_left"]
+    assert sum(row["photos_planned"] for row in report["sorties"]) == planned
+    for row in report["sorties"]:
+        assert row["completed"] and row["triggers_flown"] == row["photos_planned"], row
+        assert abs(row["time_ratio"] - 1.0) <= 0.10, row
+
+
 # ---- a fake SITL (a script): paths, failures and the temporary folder, without ArduPilot ------------
 
 FAKE = """#!{python}

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import hashlib
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aerosurvey import ids
+from aerosurvey import ids, resumefile
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
@@ -166,10 +165,6 @@ def _mission_files(missions: dict[str, Mission]) -> dict[str, str]:
             for name, text in ((f"{stem}.plan", dumps_plan(m)), (f"{stem}.waypoints", dumps_wpl(m)))}
 
 
-#: resume.json: what `aerosurvey resume` wrote (its one writer is `render_resume`)
-RESUME_SCHEMA, RESUME_VERSION = "aerosurvey-resume", 1
-
-
 def render_resume(plan: Plan, after_station: str, plan_folder: str) -> dict[str, str]:
     """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
     .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
@@ -187,9 +182,7 @@ def render_resume(plan: Plan, after_station: str, plan_folder: str) -> dict[str,
                         "time_s": round(s.horizontal_s + s.vertical_s, 1), "distance_m": round(s.distance_m, 1),
                         "mission_items": len(m.items) + 1,
                         "launch": {"index": s.launch + 1, "lon": round(site.lon, 8), "lat": round(site.lat, 8)}})
-    doc = {"schema": RESUME_SCHEMA, "schema_version": RESUME_VERSION, "mission": plan.spec.name, "plan": plan_folder,
-           "after_station": after_station, "stations_left": sum(int(d["photos"]) for d in sorties), "sorties": sorties}
-    files["resume.json"] = json.dumps(doc, indent=1, ensure_ascii=False) + "\n"
+    files[resumefile.FILE] = resumefile.dumps(plan.spec.name, plan_folder, after_station, sorties)
     return files
 
 

@@ -28,9 +28,11 @@ def sitl() -> None:
 @click.option("--boot-timeout", type=click.FloatRange(0.5, 600), default=60.0, show_default=True,
               help="Seconds SITL may take to start and send its first heartbeat.")
 @click.option("-o", "--output", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Folder for the report and logs (default: OUTDIR/sitl).")
+              help="Folder for the report and logs (default: OUTDIR/sitl, or RESUME/sitl with --resume).")
+@click.option("--resume", "resume_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="Fly the sorties `aerosurvey resume` wrote into this folder instead of OUTDIR's own.")
 def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None, defaults: tuple[Path, ...],
-        timeout_factor: float, boot_timeout: float, report_dir: Path | None) -> None:
+        timeout_factor: float, boot_timeout: float, report_dir: Path | None, resume_dir: Path | None) -> None:
     """Upload, verify and fly every sortie of OUTDIR in SITL; exit 1 when a sortie does not match its plan.
 
     SITL runs in a temporary folder, removed afterwards; paths given here are taken from the
@@ -45,8 +47,8 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None,
     vehicle = vehicle or doc.mission.vehicle
     settings = SitlSettings(vehicle, harness.find_binary(vehicle, sitl_bin), tuple(defaults) or harness.default_params(vehicle),
                             speedup, timeout_factor, boot_timeout)
-    report_dir = report_dir or outdir / "sitl"
-    results = fly_sorties(doc, outdir, settings, report_dir, _echo_row)
+    report_dir = report_dir or (resume_dir or outdir) / "sitl"
+    results = fly_sorties(doc, outdir, settings, report_dir, _echo_row, resume_dir)
     bad = [r["sortie"] for r in results if not r["completed"] or r["triggers_match"] is False]
     if bad:
         raise harness.SitlError(f"sorties that did not fly as planned: {', '.join(bad)} (see {report_dir / 'sitl_report.txt'})")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from aerosurvey import resumefile
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text
 from aerosurvey.link import sitl as harness
@@ -42,14 +43,24 @@ def _runs(run_of: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
     return tuple(out)
 
 
-def sortie_routes(doc: Manifest, plan_dir: Path) -> list[SortieRoute]:
-    """Every sortie of the plan (the whole mission when it is not split)."""
+def sortie_routes(doc: Manifest, plan_dir: Path, resume_dir: Path | None = None) -> list[SortieRoute]:
+    """Every sortie of the plan (the whole mission when it is not split), or with `resume_dir`
+    every sortie `aerosurvey resume` wrote there, with the plan's stations each flies."""
     out = []
     parts = [(s.id, s.files[0], doc.sortie_stations(s.id), s.time_s) for s in doc.sorties]
     if not parts:
         parts = [("mission", "mission.plan", doc.stations, doc.estimates.get("total_time_s"))]
+    folder = plan_dir
+    if resume_dir is not None:
+        resumed = resumefile.read(resume_dir)
+        if resumed.mission != doc.mission.name:
+            raise InputError(f"--resume {str(resume_dir)!r} resumes mission {resumed.mission!r}, not {doc.mission.name!r}")
+        folder = resume_dir
+        st = doc.stations
+        parts = [(Path(s.files[0]).stem, s.files[0], st.select(st.index(s.first_station), st.index(s.last_station)), s.time_s)
+                 for s in resumed.sorties]
     for name, file, st, est in parts:
-        path = plan_dir / file
+        path = folder / file
         if not path.is_file():
             raise InputError(f"{str(plan_dir)!r}: {file} is missing (the manifest lists it); plan again with `aerosurvey plan`")
         if est is None:
@@ -69,9 +80,11 @@ class SitlSettings:
 
 
 def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
-                on_sortie: Callable[[dict[str, Any]], None] = lambda row: None) -> list[dict[str, Any]]:
-    """Upload, verify and fly every sortie in SITL; copy each DataFlash log into `report_dir`
-    and write sitl_report.json / .txt there. Returns one comparison row per sortie."""
+                on_sortie: Callable[[dict[str, Any]], None] = lambda row: None,
+                resume_dir: Path | None = None) -> list[dict[str, Any]]:
+    """Upload, verify and fly every sortie in SITL (those of `resume_dir` when given); copy each
+    DataFlash log into `report_dir` and write sitl_report.json / .txt there. Returns one
+    comparison row per sortie."""
     # the MAVLink link layer and the mission reader are needed only here
     from aerosurvey.link.connection import open_link
     from aerosurvey.link.mission_protocol import Policy
@@ -79,7 +92,7 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     from aerosurvey.mission.formats.qgc_plan import loads_plan
 
     results = []
-    for route in sortie_routes(doc, plan_dir):
+    for route in sortie_routes(doc, plan_dir, resume_dir):
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
         lat, lon, alt = mission.home
         # SITL's working folder (its logs, eeprom, output): removed however the sortie ends
