@@ -20,6 +20,7 @@ from typing import Any
 VERSION_FIELDS = ("schema_version", "aerosurvey_version")
 ADDED_KEYS = ("coverage", "checks")  # schema 2: required ground and its shortfall; the final gate's results
 ADDED_RULES = ("uncovered-ground",)  # schema 2: a rule result the planner adds itself
+ADDED_DERIVED = ("simplification",)  # how the boundaries were simplified (the examples' are not: their vertex counts)
 
 
 #: schema 2 adds a KML style for the role of ground the plan cannot photograph
@@ -33,6 +34,7 @@ def normalized_kml(text: bytes) -> bytes:
 def normalized_manifest(doc: dict[str, Any]) -> bytes:
     doc = {k: v for k, v in doc.items() if k not in VERSION_FIELDS and k not in ADDED_KEYS}
     doc["rules"] = [r for r in doc.get("rules", []) if r.get("rule") not in ADDED_RULES]
+    doc["derived"] = {k: v for k, v in doc["derived"].items() if k not in ADDED_DERIVED}
     # plan.kml is compared on its own (normalized_kml); its hash in the manifest follows the style it gained
     doc["outputs"] = {k: v for k, v in doc.get("outputs", {}).items() if k != "plan.kml"}
     return json.dumps(doc, sort_keys=True, ensure_ascii=False).encode("utf-8")

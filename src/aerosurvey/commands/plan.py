@@ -81,3 +81,9 @@ def plan(spec: Path, outdir: Path) -> None:
     for line in summary(result, rendered.warnings, rendered.rules):
         click.echo(line)
     click.echo(f"wrote {', '.join(sorted(rendered.files))} to {outdir}")
+    failing = [r["rule"] for r in rendered.rules if r["status"] == "fail" and r["severity"] == "error"]
+    if failing:  # written so that it can be inspected, but not a plan to fly as it is
+        from aerosurvey.errors import CheckFailed
+
+        raise CheckFailed(f"{len(failing)} error-severity rule(s) fail ({', '.join(failing)}): the plan is written to "
+                          f"{outdir} for inspection only (`aerosurvey check` for the evidence)")

@@ -98,7 +98,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress) -> Plan:
         grid_scale=site.grid_scale, trigger_distance_m=sensor.trigger_distance_m, estimates=est, sun=sun,
         warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + sun_warnings + _zone_warnings(spec, site),
         fence_inclusion=fence.inclusion, fence_exclusion=fence.exclusion, launch_sites=sites, sorties=sorties,
-        battery=budget, coverage=coverage,
+        battery=budget, coverage=coverage, simplification=site.simplification,
     )
 
 
