@@ -11,6 +11,7 @@ before and after go into the manifest (`Simplification`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -33,6 +34,10 @@ if TYPE_CHECKING:
 #: target height (1 m for a 100 m footprint), and at most this share of the exclusion margin
 SIMPLIFY_SHARE_OF_FOOTPRINT = 0.01
 SIMPLIFY_SHARE_OF_MARGIN = 0.1
+#: one plan lays every length with the grid scale at the area's centroid: the scale anywhere
+#: over the area may differ from it by this share at most (UTM's own spread across a zone's
+#: width at the equator, 0.9996 to 1.0010; 1 m over a 1 km line)
+MAX_GRID_SCALE_SPREAD = 0.001
 
 
 @dataclass(frozen=True)
@@ -69,18 +74,41 @@ def simplify_tolerance_m(spec: MissionSpec) -> float:
     return min(tol, SIMPLIFY_SHARE_OF_MARGIN * margin) if margin > 0 else tol
 
 
+def check_scale_spread(planar: Planar, area: BaseGeometry, k: float) -> None:
+    """Refuse an area over which the planning CRS's scale strays from `k` (its value at the
+    centroid) by more than MAX_GRID_SCALE_SPREAD, measured at the corners of the area's convex
+    hull (a conformal projection's scale is furthest from the centre's on its rim)."""
+    hull = shapely.get_coordinates(shapely.convex_hull(area))
+    lon, lat = planar.lonlat(hull[:, 0], hull[:, 1])
+    scales = planar.scale_factors(lon, lat)
+    worst = float(np.max(np.abs(scales / k - 1.0)))
+    if worst <= MAX_GRID_SCALE_SPREAD:
+        return
+    parts = len(shapely.get_parts(area))
+    x0, y0, x1, y1 = area.bounds
+    what = f"its {parts} parts span" if parts > 1 else "it spans"
+    raise InputError(
+        f"area: {what} {math.hypot(x1 - x0, y1 - y0) / k / 1000:,.0f} km, over which the planning CRS {planar.name} scales "
+        f"ground lengths by {float(scales.min()):.5f} to {float(scales.max()):.5f} against {k:.5f} at the centre "
+        f"({100 * worst:.2f} %, more than the {100 * MAX_GRID_SCALE_SPREAD:g} % one plan allows): plan each part or block "
+        "as its own mission, or give mission.crs a projection centred on the area", key="mission.crs")
+
+
 def grown_simplification(geom: BaseGeometry, tolerance: float) -> BaseGeometry:
     """A polygon with fewer vertices that covers `geom` and lies within `tolerance` of it, or
-    `geom` itself when simplifying removes no vertex.
+    `geom` itself when that removes no vertex (or, never seen, when the result would not cover it).
 
-    Douglas-Peucker at s = tolerance/3 (topology-preserving where the plain one crosses an
-    edge or drops a ring) keeps a subset of the vertices,
-    every removed one within s of the segment that replaces it, so each piece of the original
-    between two kept vertices lies in the s-wide stadium around that segment, and so does
-    everything between the two: original and simplified differ by less than s. Grown by s with
-    mitred corners (cut at 2 s), the simplified polygon covers the original and lies within
-    s + 2 s of it. Time and memory are linear in the vertices (GEOS's simplifier and buffer)."""
-    s = tolerance / 3.0
+    Douglas-Peucker at s = tolerance/6 (topology-preserving where the plain one crosses an
+    edge or drops a ring) keeps a subset of the vertices, every removed one within s of the
+    segment that replaces it; GEOS may then drop a ring's first vertex when it lies within s
+    of its neighbours' new segment, which leaves the vertices around it within 2 s. Each piece
+    of the original between two kept vertices lies in the 2s-wide stadium around the segment
+    that replaces it, and so does everything between the two: original and simplified differ
+    by at most 2 s. Grown by 2 s with mitred corners (cut at twice that, beyond the 2s-disc
+    about the corner), the simplified polygon covers the original and lies within 2 s + 4 s
+    of it. Time and memory are linear in the vertices (GEOS's simplifier, buffer and
+    an indexed `covers` that checks the result)."""
+    s = tolerance / 6.0
     simple = shapely.simplify(geom, s, preserve_topology=False)
     if not (shapely.is_valid(simple) and _rings(simple) == _rings(geom)):
         # plain Douglas-Peucker (20x faster: 40 ms against 0.7 s on 400,000 vertices) made a
@@ -88,7 +116,9 @@ def grown_simplification(geom: BaseGeometry, tolerance: float) -> BaseGeometry:
         simple = shapely.simplify(geom, s, preserve_topology=True)
     if shapely.get_num_coordinates(simple) >= shapely.get_num_coordinates(geom):
         return geom
-    return shapely.normalize(shapely.buffer(simple, s, join_style="mitre", mitre_limit=2.0))
+    grown = shapely.normalize(shapely.buffer(simple, 2.0 * s, join_style="mitre", mitre_limit=2.0))
+    fewer = shapely.get_num_coordinates(grown) < shapely.get_num_coordinates(geom)
+    return grown if fewer and shapely.covers(grown, geom) else geom
 
 
 def _rings(geom: BaseGeometry) -> int:
@@ -114,6 +144,7 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
         tol / k, (int(vertices(given)), int(vertices(area))),
         (int(np.sum(vertices(given_zones))), int(np.sum(vertices(simple_zones)))))
     margin = spec.flight.exclusion_margin_m
+    check_scale_spread(planar, area, k)
     zones_buf = shapely.buffer(zones, margin) if zones is not None else None
     if zones_buf is not None:
         remaining = shapely.difference(area, zones_buf)
