@@ -61,13 +61,13 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress) -> Plan:
     limit_warnings = check_limits(spec, site, sensor)
     layout = pattern_for(spec).layout(site, sensor, report)
     report("route", 0.72)
-    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout)
+    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.72, 0.84))
     extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
     if extra:
         # lines along the zones' margins where the cut lines leave ground unphotographed
         report("lines along the zones", 0.85)
         layout = replace(layout, passes=layout.passes + extra)
-        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout)
+        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.85, 0.88))
     waypoints = _with_transits(alts.waypoints, routed, site)
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
@@ -102,10 +102,15 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress) -> Plan:
     )
 
 
-def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution,
-         layout: Layout) -> tuple[RoutePlan, float, Altitudes, Coverage]:
+def _share(report: Progress, start: float, end: float) -> Progress:
+    """`report` for a step that runs from `start` to `end` of the plan: its 0..1 passed on scaled."""
+    return lambda stage, done: report(stage, start + (end - start) * done)
+
+
+def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
+         report: Progress = no_progress) -> tuple[RoutePlan, float, Altitudes, Coverage]:
     """Route, altitudes and the coverage check of a layout."""
-    routed = plan_route(spec, site, sensor, layout)
+    routed = plan_route(spec, site, sensor, layout, report)
     home_ground = _ground(site, routed.home_xy, "launch point")
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m)
     return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations)
