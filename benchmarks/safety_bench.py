@@ -19,7 +19,8 @@ unreported gaps must all be 0.
 
 Stress cases (issue: detailed boundaries and limits), four kinds in turn, random sizes: slivers
 (1-5 m wide, 5-3,000 km long), multi-part areas with parts 1-6,000 km apart, detailed
-boundaries (a 50-500 ha wobbly circle of 10,000-400,000 vertices, with a zone of 20,000) and
+boundaries (a 50-500 ha circle of 10,000-400,000 vertices with up to 0.3 m of digitising noise, and a
+zone of 20,000 vertices) and
 many zones (50-300 small zones over 20-80 ha). Each runs `aerosurvey -q plan` in a fresh
 process (timeout 300 s) and is judged from outside: the exit code (0 planned, 1 a failing
 error rule, 2 refused), a traceback on stderr, a refusal in more than one line, peak memory
