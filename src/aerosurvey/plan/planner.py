@@ -81,7 +81,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress) -> Plan:
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                           tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites),
                           climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale)
-        budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours)
+        budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, _share(report, 0.88, 0.98))
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
@@ -171,7 +171,8 @@ def launch_sites(spec: MissionSpec, site: Site, home_xy: tuple[float, float],
 
 
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],
-                    sensor: SensorSolution, detours: Detours) -> tuple[Budget, tuple[SortiePlan, ...]]:
+                    sensor: SensorSolution, detours: Detours,
+                    report: Progress = no_progress) -> tuple[Budget, tuple[SortiePlan, ...]]:
     """Split the route into sorties that each fit one battery."""
     b = spec.battery
     assert b is not None
@@ -192,7 +193,7 @@ def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tupl
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
     out = []
     try:
-        raw = split(path, sites, budget, sensor.kinematics, detours, fixed)
+        raw = split(path, sites, budget, sensor.kinematics, detours, fixed, report)
     except ValueError as exc:
         raise InputError(f"battery sorties: {exc}") from None
     for s in raw:

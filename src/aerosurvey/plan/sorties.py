@@ -22,6 +22,7 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import (
     KEPT,
     CopterTime,
@@ -569,8 +570,8 @@ class Splitter:
 
 
 def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
-          fixed_launch: int | None) -> list[Sortie]:
-    """Fewest sorties, then as balanced as they can be."""
+          fixed_launch: int | None, report: Progress = no_progress) -> list[Sortie]:
+    """Fewest sorties, then as balanced as they can be (`report` hears of each balancing round)."""
     sp = Splitter(plan, sites, budget, kin, detours, fixed_launch)
     used, li, horiz, vert, items = sp.cost(0, 0)
     if used > budget.usable or items > budget.max_items:
@@ -589,7 +590,8 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
     total = sum(sp.cost(a, b)[0] for a, b in first)
     lo, hi = total / n, budget.usable
     best = first
-    for _ in range(12):
+    for rounds in range(12):
+        report("battery sorties: balancing", rounds / 12)
         mid = (lo + hi) / 2
         trial = sp.greedy(mid, n)  # more than n sorties fail the trial as none do
         if trial:
