@@ -193,7 +193,7 @@ def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tupl
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
     out = []
     try:
-        raw = split(path, sites, budget, sensor.kinematics, detours, fixed, report)
+        raw = split(path, sites, budget, sensor.kinematics, detours, fixed, report=report)
     except ValueError as exc:
         raise InputError(f"battery sorties: {exc}") from None
     for s in raw:
