@@ -11,7 +11,6 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame
 
-
 #: hull edges whose directions are candidates: the longest ones (a detailed, rounded outline has
 #: hundreds of hull edges a degree or less apart, each costing a layout of the whole area)
 MAX_HULL_DIRECTIONS = 64
