@@ -14,15 +14,30 @@ message, plans with a leg inside a zone (legs, files, metres), launch points in 
 plans whose .plan fence lacks a zone, plans with unreported ground seen by fewer than two
 photos, and reported areas grossly above the measured one. Crashes, zone violations and
 unreported gaps must all be 0.
+
+    python benchmarks/safety_bench.py --stress 40     # 40 hard geometries through `aerosurvey plan`
+
+Stress cases (issue: detailed boundaries and limits), four kinds in turn, random sizes: slivers
+(1-5 m wide, 5-3,000 km long), multi-part areas with parts 1-6,000 km apart, detailed
+boundaries (a 50-500 ha circle of 10,000-400,000 vertices with up to 0.3 m of digitising noise, and a
+zone of 20,000 vertices) and
+many zones (50-300 small zones over 20-80 ha). Each runs `aerosurvey -q plan` in a fresh
+process (timeout 300 s) and is judged from outside: the exit code (0 planned, 1 a failing
+error rule, 2 refused), a traceback on stderr, a refusal in more than one line, peak memory
+(max RSS from wait4) over 2 GB. Crashes, tracebacks, multi-line refusals and runs over 2 GB
+must all be 0.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import shutil
+import subprocess
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from collections import Counter
@@ -144,6 +159,143 @@ def report(results: list[dict[str, Any]], seconds: float, workers: int) -> list[
     return out
 
 
+STRESS_KINDS = ("sliver", "far-parts", "detailed", "many-zones")
+STRESS_TIMEOUT_S = 300
+STRESS_SPEC = """[mission]
+name = "stress"
+[area]
+file = "area.geojson"
+exclusions = {zones}
+[camera]
+model = "sony-a6000-16mm"
+[targets]
+gsd_cm = {gsd}
+forward_overlap = 0.75
+side_overlap = 0.6
+[vehicle]
+type = "{vehicle}"
+cruise_speed_ms = {speed}
+"""
+
+
+def _stress_geometry(kind: str, rng: np.random.Generator) -> tuple[list[list[list[list[float]]]], list[list[list[float]]], str]:
+    """(area polygons, zone rings, description) in lon/lat for one stress case."""
+    lat0 = float(rng.uniform(-60.0, 60.0))
+    lon0 = float(rng.uniform(-170.0, 150.0))
+    kx, ky = 111_320.0 * max(0.05, np.cos(np.radians(lat0))), 110_574.0
+
+    def ring(x: np.ndarray, y: np.ndarray, lon: float = lon0, lat: float = lat0) -> list[list[float]]:
+        pts = np.c_[lon + x / kx, np.clip(lat + y / ky, -89.0, 89.0)].round(9).tolist()
+        return pts + [pts[0]]
+
+    def circle(r: float, n: int, wobble: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        a = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+        rr = r + wobble * rng.uniform(-1.0, 1.0, n)
+        return rr * np.cos(a), rr * np.sin(a)
+
+    if kind == "sliver":
+        w, length = float(rng.uniform(1.0, 5.0)), float(10 ** rng.uniform(np.log10(5e3), np.log10(3e6)))
+        ang = rng.uniform(0, np.pi)
+        c, s_ = np.cos(ang), np.sin(ang)
+        length = min(length, 0.9 * 110_574.0 * (89.0 - abs(lat0)) / max(abs(s_), 1e-3))  # stay off the poles
+        x, y = np.array([0.0, length, length, 0.0]), np.array([0.0, 0.0, w, w])
+        return [[ring(x * c - y * s_, x * s_ + y * c)]], [], f"sliver {w:.1f} m x {length / 1000:,.0f} km"
+    if kind == "far-parts":
+        parts = int(rng.integers(2, 5))
+        apart = float(10 ** rng.uniform(3.0, np.log10(6e6)))
+        polys = []
+        for i in range(parts):
+            x, y = circle(float(rng.uniform(80.0, 300.0)), 32)
+            dlon = i * apart / kx
+            polys.append([ring(x, y, ((lon0 + dlon + 180.0) % 360.0) - 180.0, lat0)])
+        return polys, [], f"{parts} parts {apart / 1000:,.0f} km apart"
+    if kind == "detailed":
+        n = int(10 ** rng.uniform(4.0, np.log10(4e5)))
+        r = float(np.sqrt(rng.uniform(50e4, 500e4) / np.pi))
+        x, y = circle(r, n, wobble=float(rng.uniform(0.0, 0.3)))  # digitising noise of centimetres
+        zx, zy = circle(r * 0.1, 20_000)
+        return [[ring(x, y)]], [ring(zx + r * 0.3, zy)], f"circle of {n:,} vertices, {np.pi * r * r / 1e4:.0f} ha, a zone of 20,000"
+    side = float(np.sqrt(rng.uniform(20e4, 80e4)))
+    zones = []
+    for _ in range(int(rng.integers(50, 301))):
+        zx, zy = circle(float(rng.uniform(1.0, 8.0)), 16)
+        zones.append(ring(zx + rng.uniform(10.0, side - 10.0), zy + rng.uniform(10.0, side - 10.0)))
+    sq = np.array([0.0, side, side, 0.0]), np.array([0.0, 0.0, side, side])
+    return [[ring(*sq)]], zones, f"{len(zones)} zones over {side * side / 1e4:.0f} ha"
+
+
+def run_stress(seed: int, index: int) -> dict[str, Any]:
+    """One stress case through `aerosurvey -q plan` in its own process: exit code, stderr, seconds, peak MB."""
+    import json
+
+    rng = np.random.default_rng([seed, index, 22])
+    kind = STRESS_KINDS[index % len(STRESS_KINDS)]
+    polys, zones, describe = _stress_geometry(kind, rng)
+    folder = Path(tempfile.mkdtemp(prefix="stress-"))
+    try:
+        area = {"type": "MultiPolygon", "coordinates": polys} if len(polys) > 1 else {"type": "Polygon", "coordinates": polys[0]}
+        (folder / "area.geojson").write_text(json.dumps(area))
+        names = []
+        for i, z in enumerate(zones):
+            (folder / f"zone{i}.geojson").write_text(json.dumps({"type": "Polygon", "coordinates": [z]}))
+            names.append(f"zone{i}.geojson")
+        vehicle = str(rng.choice(["copter", "plane"]))
+        (folder / "spec.toml").write_text(STRESS_SPEC.format(
+            zones=json.dumps(names), gsd=round(float(rng.uniform(1.5, 2.8)), 2), vehicle=vehicle,
+            speed=12.0 if vehicle == "copter" else 20.0))
+        cmd = [sys.executable, "-c", "from aerosurvey.cli import main; main()", "-q", "plan", str(folder / "spec.toml"),
+               "-o", str(folder / "out")]
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        timer = threading.Timer(STRESS_TIMEOUT_S, proc.kill)
+        timer.start()
+        assert proc.stderr is not None
+        err = proc.stderr.read()  # until the process ends (or is killed at the timeout)
+        _, status, usage = os.wait4(proc.pid, 0)
+        timer.cancel()
+        seconds = time.perf_counter() - t0
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    code = os.waitstatus_to_exitcode(status)
+    return {"id": f"{seed}:{index}", "kind": kind, "describe": describe, "exit": code,
+            "timed_out": seconds >= STRESS_TIMEOUT_S and code < 0, "stderr": err.decode(errors="replace").strip(),
+            "seconds": seconds, "rss_mb": usage.ru_maxrss / 1024.0}
+
+
+def stress_report(results: list[dict[str, Any]], seconds: float, workers: int) -> list[str]:
+    out = [f"stress cases {len(results)}, {seconds:.0f} s wall on {workers} worker(s)"]
+    bad: dict[str, list[dict[str, Any]]] = {"CRASHES (exit not 0/1/2)": [], "TRACEBACKS": [], "MULTI-LINE REFUSALS": [],
+                                            "OVER 2 GB": [], "TIMED OUT": []}
+    for r in results:
+        lines = r["stderr"].splitlines()
+        if r["exit"] not in (0, 1, 2) and not r["timed_out"]:
+            bad["CRASHES (exit not 0/1/2)"].append(r)
+        if "Traceback" in r["stderr"]:
+            bad["TRACEBACKS"].append(r)
+        if r["exit"] == 2 and len(lines) != 1:
+            bad["MULTI-LINE REFUSALS"].append(r)
+        if r["rss_mb"] > 2048:
+            bad["OVER 2 GB"].append(r)
+        if r["timed_out"]:
+            bad["TIMED OUT"].append(r)
+    for kind in STRESS_KINDS:
+        rows = [r for r in results if r["kind"] == kind]
+        if rows:
+            out.append(f"  {kind:11s} {len(rows):3d} cases: planned {sum(r['exit'] == 0 for r in rows)}, rule failing (exit 1) "
+                       f"{sum(r['exit'] == 1 for r in rows)}, refused {sum(r['exit'] == 2 for r in rows)}; "
+                       f"seconds max {max(r['seconds'] for r in rows):.1f}, peak MB max {max(r['rss_mb'] for r in rows):.0f}")
+    refusals = Counter(_shape(r["stderr"]) for r in results if r["exit"] == 2)
+    out.append("refusals by message:")
+    out += [f"    {n:4d}  {msg}" for msg, n in refusals.most_common(12)]
+    for title, rows in bad.items():
+        out.append(f"{title:28s} {len(rows)}")
+        for r in rows[:3]:
+            out.append(f"  e.g. --stress case {r['id']} ({r['describe']}): exit {r['exit']}, {r['seconds']:.0f} s, "
+                       f"{r['rss_mb']:.0f} MB, {r['stderr'][-300:]!r}")
+    out.append("verdict: " + ("PASS" if not any(bad.values()) else "FAIL"))
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=1000, help="number of cases (default 1000)")
@@ -151,7 +303,18 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     ap.add_argument("--case", help="run one case, SEED:INDEX, and print all its problems")
     ap.add_argument("--keep", type=Path, help="with --case: write the case's spec and plan files here")
+    ap.add_argument("--stress", type=int, metavar="N", help="run N stress cases (slivers, far parts, detailed boundaries, "
+                    "many zones) through `aerosurvey plan` instead")
     args = ap.parse_args()
+    if args.stress:
+        t0 = time.perf_counter()
+        if args.workers > 1:
+            with ProcessPoolExecutor(args.workers) as pool:
+                stress = list(pool.map(run_stress, [args.seed] * args.stress, range(args.stress)))
+        else:
+            stress = [run_stress(args.seed, i) for i in range(args.stress)]
+        print("\n".join(stress_report(stress, time.perf_counter() - t0, args.workers)))
+        return 0
     if args.case:
         seed, index = (int(v) for v in args.case.split(":"))
         r = run_one(seed, index, args.keep)

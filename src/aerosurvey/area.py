@@ -60,8 +60,13 @@ class Planar:
         laid out in the grid, so that the stations lie as far apart on the ground as the
         autopilot's distance trigger measures.
         """
-        f = pyproj.Proj(self.crs).get_factors(lon, lat)
-        return float(np.sqrt(f.meridional_scale * f.parallel_scale))
+        return float(self.scale_factors(np.array([lon]), np.array([lat]))[0])
+
+    def scale_factors(self, lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
+        """`scale_factor` at many places at once."""
+        f = pyproj.Proj(self.crs).get_factors(np.asarray(lon, float), np.asarray(lat, float))
+        scale: np.ndarray = np.sqrt(np.asarray(f.meridional_scale) * np.asarray(f.parallel_scale))
+        return scale
 
     def xy(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, y = self.to_plan.transform(np.asarray(lon, float), np.asarray(lat, float))

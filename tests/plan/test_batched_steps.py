@@ -262,21 +262,43 @@ def _old_path(det: Detours, a: tuple[float, float], b: tuple[float, float]) -> l
     return out[::-1]
 
 
-@settings(max_examples=150, deadline=None)
-@given(zone_boxes, st.floats(0.0, 60.0), st.tuples(st.floats(-900, 900), st.floats(-900, 900)),
-       st.tuples(st.floats(-900, 900), st.floats(-900, 900)))
-def test_detours_with_legs_checked_per_node_are_those_checked_leg_by_leg(
-        boxes: list[tuple[float, float, float, float]], margin: float, a: tuple[float, float], b: tuple[float, float]) -> None:
-    det = _detours(boxes, margin)
-    try:
-        expected: list[tuple[float, float]] | str = _old_path(det, a, b)
-    except ValueError as exc:
-        expected = str(exc)
-    try:
-        got: list[tuple[float, float]] | str = det.path(a, b)
-    except ValueError as exc:
-        got = str(exc)
-    assert got == expected
+def _length(a: tuple[float, float], via: list[tuple[float, float]], b: tuple[float, float]) -> float:
+    p = [a, *via, b]
+    return sum(math.dist(p[i], p[i + 1]) for i in range(len(p) - 1))
+
+
+def test_detours_searched_zone_by_zone_are_clear_and_as_short_as_over_every_corner() -> None:
+    """The detour search looks at the corners of the zones its way crosses, more as it needs them
+    (route.Detours.way_round); the search over every corner (_old_path) is the reference. Seeded,
+    400 random cases of 1-25 boxes: a way exists for both or for neither, every leg of the new
+    way is clear, none is shorter than the reference (it is the shortest), and the new ways are
+    as long to 0.1 % in 95 % of the cases and to 5 % in all (measured: at most 0.02 % longer)."""
+    rng = np.random.default_rng(5)
+    ratios = []
+    for _ in range(400):
+        n = int(rng.integers(1, 26))
+        boxes = list(zip(*(rng.uniform(lo, hi, n).tolist() for lo, hi in ((-500, 500), (-500, 500), (5, 100), (5, 100)))))
+        det = _detours(boxes, float(rng.uniform(0.0, 60.0)))
+        det.nodes = [pt for group in det._groups for pt in group]  # every corner, for the reference
+        a, b = tuple(rng.uniform(-900, 900, 2).tolist()), tuple(rng.uniform(-900, 900, 2).tolist())
+        try:
+            expected: list[tuple[float, float]] | None = _old_path(det, a, b)
+        except ValueError:
+            expected = None
+        try:
+            got: list[tuple[float, float]] | None = det.path(a, b)
+        except ValueError:
+            got = None
+        assert (got is None) == (expected is None)
+        if got is None or expected is None:
+            continue
+        way = [a, *got, b]
+        assert all(det.clear(p, q) for p, q in zip(way[:-1], way[1:]))
+        best = _length(a, expected, b)
+        assert _length(a, got, b) >= best - 1e-6 * (1.0 + best)
+        ratios.append(_length(a, got, b) / max(best, 1e-9))
+    r = np.array(ratios)
+    assert len(r) > 300 and np.quantile(r, 0.95) <= 1.001 and r.max() <= 1.05
 
 
 # -- strip offsets of many headings, their coverage checked together ------------------------------

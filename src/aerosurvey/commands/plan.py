@@ -46,3 +46,9 @@ def plan(spec: Path, outdir: Path, gpkg: bool) -> None:
     for w in rendered.warnings:
         console.echo(f"  warning: {w}")
     console.echo(f"wrote {', '.join(sorted([*rendered.files, *rendered.binary]))} to {outdir}")
+    failing = [r["rule"] for r in rendered.rules if r["status"] == "fail" and r["severity"] == "error"]
+    if failing:  # written so that it can be inspected, but not a plan to fly as it is
+        from aerosurvey.errors import CheckFailed
+
+        raise CheckFailed(f"{len(failing)} error-severity rule(s) fail ({', '.join(failing)}): the plan is written to "
+                          f"{outdir} for inspection only (`aerosurvey check {shlex.quote(str(outdir))}` for the evidence)")

@@ -11,15 +11,20 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame
 
+#: hull edges whose directions are candidates: the longest ones (a detailed, rounded outline has
+#: hundreds of hull edges a degree or less apart, each costing a layout of the whole area)
+MAX_HULL_DIRECTIONS = 64
+
 
 def candidate_headings(area: BaseGeometry, step_deg: float = 10.0) -> list[float]:
     """A coarse sweep plus the directions of the convex hull's edges (the narrowest width
-    of a convex area is always across one of them)."""
+    of a convex area is always across one of them), the MAX_HULL_DIRECTIONS longest."""
     cands = set(np.round(np.arange(0.0, 180.0, step_deg), 6).tolist())
     hull = np.asarray(shapely.convex_hull(area).exterior.coords)
     d = np.diff(hull, axis=0)
     length = np.hypot(d[:, 0], d[:, 1])
-    for (dx, dy), ln in zip(d, length):
+    longest = np.argsort(-length, kind="stable")[:MAX_HULL_DIRECTIONS]
+    for (dx, dy), ln in zip(d[longest], length[longest]):
         if ln > 0:
             cands.add(round(float(np.degrees(np.arctan2(dx, dy)) % 180.0), 6))
     return sorted(cands)

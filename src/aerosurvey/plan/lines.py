@@ -317,7 +317,8 @@ class Outline:
         same = ring_of[1:] == ring_of[:-1]  # consecutive points of one ring make an edge
         start = np.flatnonzero(same)
         shells = np.r_[True, poly_of_ring[1:] != poly_of_ring[:-1]] if len(rings) else np.zeros(0, bool)
-        convex = np.array([_convex(xy[ring_of == r]) for r in np.flatnonzero(shells).tolist()], bool)
+        ring_xy = np.split(xy, np.flatnonzero(np.diff(ring_of)) + 1) if len(xy) else []
+        convex = np.array([_convex(ring_xy[r]) for r in np.flatnonzero(shells).tolist()], bool)
         centre, zone_radius = np.zeros((0, 2)), np.zeros(0)
         if zones is not None and not zones.is_empty:
             parts = shapely.get_parts(zones)
@@ -442,10 +443,10 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     # one run: the strip meets one polygon, convex, none of whose holes reaches into the strip
     single = np.zeros(n, bool)
     if single_runs:
-        rings = np.arange(len(outline.shells))
-        of_ring = outline.ring_of_edge[None, :] == rings[:, None]
-        ring_lo = np.array([ylo[:, e].min(axis=1) for e in of_ring]).T[hid]  # (lines, rings)
-        ring_hi = np.array([yhi[:, e].max(axis=1) for e in of_ring]).T[hid]
+        # every ring has edges, in ring order: each ring's lowest and highest edge end per frame
+        first_edge = np.flatnonzero(np.r_[True, np.diff(outline.ring_of_edge) != 0])
+        ring_lo = np.minimum.reduceat(ylo, first_edge, axis=1)[hid]  # (lines, rings)
+        ring_hi = np.maximum.reduceat(yhi, first_edge, axis=1)[hid]
         reach = (ring_lo <= (vs + half + tol)[:, None]) & (ring_hi >= (vs - half - tol)[:, None])
         polys_met = reach[:, outline.shells]  # one exterior per polygon, in polygon order
         single = (met & (polys_met.sum(axis=1) == 1) & (polys_met & outline.convex).any(axis=1)

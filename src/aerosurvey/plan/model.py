@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from aerosurvey.plan.coverage import Coverage
     from aerosurvey.plan.photogrammetry import SpeedLimit
     from aerosurvey.plan.route import Pass, Route
+    from aerosurvey.plan.site import Simplification
     from aerosurvey.plan.sorties import Budget, LaunchSite, Sortie
     from aerosurvey.spec import MissionSpec
 
@@ -123,3 +124,4 @@ class Plan:
     sorties: tuple[SortiePlan, ...]
     battery: Budget | None  # the sortie budget when a battery is given
     coverage: Coverage  # the required ground fewer than two photos see (next to zones), exactly
+    simplification: Simplification  # how the area's and the zones' boundaries were simplified

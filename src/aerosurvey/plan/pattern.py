@@ -25,6 +25,9 @@ from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec
 
+#: frames × (edges + rings + zones) a batch of the heading search's bounds may hold (a few MB a numpy array)
+BOUND_BATCH_ELEMENTS = 200_000
+
 
 @dataclass(frozen=True, eq=False)
 class Layout:
@@ -91,9 +94,15 @@ class AreaGrid:
             outline = Outline.of(covered, site.zones_buffered)
             plane = sensor.kinematics.vehicle != "copter"  # only the plane's bound asks which lines have one run
 
+            # line_bounds holds (frames, edges) arrays: frames a batch at a time keeps them small
+            per_batch = max(1, BOUND_BATCH_ELEMENTS // (len(outline.start) + len(outline.shells) + len(outline.zone_radius)))
+
             def bound(frames: list[LineFrame]) -> list[float]:
-                lb = line_bounds(outline, frames, g, single_runs=plane)
-                return [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics)]
+                out: list[float] = []
+                for i in range(0, len(frames), per_batch):
+                    lb = line_bounds(outline, frames[i:i + per_batch], g, single_runs=plane)
+                    out += [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics)]
+                return out
 
             heading, _ = best_heading(covered, cost, bound=bound)
             chosen = "auto: the shortest estimated flight time"

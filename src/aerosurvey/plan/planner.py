@@ -64,13 +64,13 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     limit_warnings = check_limits(spec, site, sensor)
     layout = pattern_for(spec).layout(site, sensor, report)
     report("route", 0.72)
-    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout)
+    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.72, 0.84))
     extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
     if extra:
         # lines along the zones' margins where the cut lines leave ground unphotographed
         report("lines along the zones", 0.85)
         layout = replace(layout, passes=layout.passes + extra)
-        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout)
+        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.85, 0.88))
     waypoints = _with_transits(alts.waypoints, routed, site)
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
@@ -85,7 +85,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                           tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites),
                           climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale)
-        budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start)
+        budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
@@ -102,14 +102,19 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         grid_scale=site.grid_scale, trigger_distance_m=sensor.trigger_distance_m, estimates=est, sun=sun,
         warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings + _zone_warnings(spec, site),
         fence_inclusion=fence.inclusion, fence_exclusion=fence.exclusion, launch_sites=sites, sorties=sorties,
-        battery=budget, coverage=coverage,
+        battery=budget, coverage=coverage, simplification=site.simplification,
     )
 
 
-def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution,
-         layout: Layout) -> tuple[RoutePlan, float, Altitudes, Coverage]:
+def _share(report: Progress, start: float, end: float) -> Progress:
+    """`report` for a step that runs from `start` to `end` of the plan: its 0..1 passed on scaled."""
+    return lambda stage, done: report(stage, start + (end - start) * done)
+
+
+def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
+         report: Progress = no_progress) -> tuple[RoutePlan, float, Altitudes, Coverage]:
     """Route, altitudes and the coverage check of a layout."""
-    routed = plan_route(spec, site, sensor, layout)
+    routed = plan_route(spec, site, sensor, layout, report)
     home_ground = _ground(site, routed.home_xy, "launch point")
     slopes = Slopes.of(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms, sensor.speed.speed_ms)
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes,
@@ -184,16 +189,18 @@ def _station_after(stations: Stations, station_id: str) -> int:
 
 
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],
-                    sensor: SensorSolution, detours: Detours, start: int = 0) -> tuple[Budget, tuple[SortiePlan, ...]]:
+                    sensor: SensorSolution, detours: Detours, start: int = 0,
+                    report: Progress = no_progress) -> tuple[Budget, tuple[SortiePlan, ...]]:
     """Split the route from station `start` into sorties that each fit one battery (without a
-    [battery] table: as few as the autopilot's mission storage allows)."""
+    [battery] table: as few as the autopilot's mission storage allows); `report` hears of the
+    balancing rounds."""
     b = spec.battery
     if b is None:
         from aerosurvey.spec import MAX_ITEMS
 
         budget = Budget(usable_s=math.inf, usable_j=None, cruise_w=None, climb_w=None, wind_factor=1.0,
                         max_items=MAX_ITEMS[spec.vehicle.firmware])
-        return budget, _sortie_plans(site, split(path, sites, budget, sensor.kinematics, detours, None, start))
+        return budget, _sortie_plans(site, split(path, sites, budget, sensor.kinematics, detours, None, start, report=report))
     v = sensor.speed.speed_ms
     if b.wind_ms >= v:
         raise InputError(
@@ -210,7 +217,7 @@ def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tupl
     )
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
     try:
-        raw = split(path, sites, budget, sensor.kinematics, detours, fixed, start)
+        raw = split(path, sites, budget, sensor.kinematics, detours, fixed, start, report=report)
     except ValueError as exc:
         raise InputError(f"battery sorties: {exc}") from None
     return budget, _sortie_plans(site, raw)

@@ -18,6 +18,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineBounds, LineSegment
+from aerosurvey.plan.progress import Progress, no_progress
 
 
 @dataclass(frozen=True)
@@ -610,22 +611,36 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
 
 
 class Detours:
-    """Shortest detours around exclusion zones on a visibility graph of their corners."""
+    """Shortest detours around exclusion zones on a visibility graph of their corners.
+
+    A detour looks among the corners of the zones (margins merged where they touch) that the
+    straight leg crosses first, and adds the zones its way then crosses until it crosses none:
+    with 200 small zones over an area, one search over every corner checked each leg against
+    all of them (profiled: 200 zones, 49 ha, over 10 minutes in `way_round`).
+    """
 
     def __init__(self, zones: BaseGeometry | None, margin: float):
         self.blocked = None
-        self.nodes: list[tuple[float, float]] = []
+        self._groups: list[list[tuple[float, float]]] = []  # the corners of each part of the outline flown round
         if zones is None or zones.is_empty:
             return
         # fly around a slightly larger outline than the one that must not be crossed
         # eight segments a quarter circle: GEOS rounds the segment count of a corner down, so two
         # (one chord across up to 90°) let legs cut up to 29 % of the margin at a zone's corners
         self.blocked = shapely.buffer(zones, margin, quad_segs=8)
-        around = shapely.buffer(zones, margin + max(1.0, 0.02 * margin) + 1.0, quad_segs=2, join_style="mitre")
+        around = shapely.get_parts(shapely.buffer(zones, margin + max(1.0, 0.02 * margin) + 1.0, quad_segs=2, join_style="mitre"))
         shapely.prepare(self.blocked)
-        for poly in shapely.get_parts(around):
+        for poly in around:
+            group: list[tuple[float, float]] = []
             for ring in [poly.exterior, *poly.interiors]:
-                self.nodes.extend(map(tuple, np.asarray(ring.coords)[:-1]))
+                group.extend(map(tuple, np.asarray(ring.coords)[:-1]))
+            self._groups.append(group)
+        # each margin's part lies within one part of the outline flown round
+        self._parts = shapely.get_parts(self.blocked)
+        owner_part, owner = shapely.STRtree(around).query(shapely.point_on_surface(self._parts), predicate="within")
+        self._group_of_part = np.zeros(len(self._parts), np.int64)
+        self._group_of_part[owner_part] = owner
+        self._part_tree = shapely.STRtree(self._parts)
 
     def clear(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
         if self.blocked is None:
@@ -657,15 +672,42 @@ class Detours:
         crossed: list[bool] = self._hits(starts, np.broadcast_to(np.asarray(b, float), starts.shape)).tolist()
         return crossed
 
+    def _groups_crossed(self, points: list[tuple[float, float]]) -> set[int]:
+        """The outline parts whose margins the polyline through `points` enters."""
+        legs = shapely.linestrings(np.stack([np.asarray(points[:-1], float), np.asarray(points[1:], float)], axis=1))
+        _, parts = self._part_tree.query(legs, predicate="intersects")
+        return set(self._group_of_part[parts].tolist())
+
     def way_round(self, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
-        """`path` of a leg already known to cross the zones: the search on the corners' graph."""
-        nodes = [a, b, *self.nodes]
+        """`path` of a leg already known to cross the zones: the search on the corners of the
+        zones crossed, more of them while its way crosses others (all of them if that fails)."""
+        chosen = self._groups_crossed([a, b])
+        while True:
+            groups = sorted(chosen)
+            walls = shapely.multipolygons(self._parts[np.isin(self._group_of_part, groups)])
+            shapely.prepare(walls)
+            out = self._search([a, b, *(pt for g in groups for pt in self._groups[g])], walls)
+            if out is None:
+                if len(chosen) == len(self._groups):
+                    raise ValueError("no way around the exclusion zones between two waypoints")
+                chosen = set(range(len(self._groups)))
+                continue
+            more = self._groups_crossed([a, *out, b]) - chosen
+            if not more:
+                return out
+            chosen |= more
+
+    def _search(self, nodes: list[tuple[float, float]], walls: BaseGeometry) -> list[tuple[float, float]] | None:
+        """The shortest way from nodes[0] to nodes[1] through the others whose legs clear `walls`, some of the
+        zones' margins (None: no way). A*: nodes in order of their way from nodes[0] plus the straight line on to
+        nodes[1] (never longer than the way on), so the first time nodes[1] comes it comes by its shortest way."""
+        goal = nodes[1]
         dist = {0: 0.0}
         prev: dict[int, int] = {}
-        heap = [(0.0, 0)]
+        heap = [(math.dist(nodes[0], goal), 0.0, 0)]
         done = set()
         while heap:
-            d, i = heapq.heappop(heap)
+            _, d, i = heapq.heappop(heap)
             if i in done:
                 continue
             done.add(i)
@@ -677,13 +719,14 @@ class Detours:
             if not better:
                 continue
             ends = np.array([nodes[j] for j, _ in better], float)
-            for (j, nd), hit in zip(better, self._hits(np.broadcast_to(nodes[i], ends.shape), ends).tolist()):
+            legs = shapely.linestrings(np.stack([np.broadcast_to(nodes[i], ends.shape), ends], axis=1))
+            for (j, nd), hit in zip(better, shapely.intersects(walls, legs).tolist()):
                 if not hit:
                     dist[j] = nd
                     prev[j] = i
-                    heapq.heappush(heap, (nd, j))
+                    heapq.heappush(heap, (nd + math.dist(nodes[j], goal), nd, j))
         if 1 not in prev:
-            raise ValueError("no way around the exclusion zones between two waypoints")
+            return None
         out = []
         j = prev[1]
         while j != 0:
@@ -742,8 +785,9 @@ def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb:
 
 
 def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],
-                start_near: tuple[float, float] | None, detours: Detours) -> Route:
-    """Order every pass, join them, and insert detours wherever a leg would enter a zone."""
+                start_near: tuple[float, float] | None, detours: Detours, report: Progress = no_progress) -> Route:
+    """Order every pass, join them, and insert detours wherever a leg would enter a zone
+    (`report` hears how many of the legs that need one have theirs)."""
     runs: list[Run] = []
     how: list[str] = []
     here = start_near
@@ -761,8 +805,11 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
     # which legs cross a zone's margin, in one call: only those look for a way round
     clear = detours.clear_legs(np.array([pt for _, _, pt in stops], float).reshape(-1, 2)).tolist()
     wps: list[Waypoint] = []
+    crossing, found = clear.count(False), 0
     for m, (i, kind, pt) in enumerate(stops):
         if m and not clear[m - 1]:
+            report("detours round the exclusion zones", found / crossing)
+            found += 1
             for d in detours.way_round(stops[m - 1][2], pt):
                 wps.append(Waypoint(d[0], d[1], "detour", -1))
         wps.append(Waypoint(pt[0], pt[1], kind, i))

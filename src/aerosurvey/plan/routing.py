@@ -18,6 +18,7 @@ from aerosurvey.plan.landing import (
     lands_with_approach,
 )
 from aerosurvey.plan.pattern import Layout
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours, Route, build_route, climb_out_path
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
@@ -105,7 +106,8 @@ def check_launch(spec: MissionSpec, site: Site, home: tuple[float, float], what:
                      f"[{float(lon[0]):.6f}, {float(lat[0]):.6f}]", key=key)
 
 
-def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> RoutePlan:
+def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
+               report: Progress = no_progress) -> RoutePlan:
     k = site.grid_scale
     launch_xy = None
     if spec.area.launch is not None:
@@ -115,7 +117,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     detours = Detours(site.zones, spec.flight.exclusion_margin_m)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, sensor.kinematics,
-                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours)
+                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours, report)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc}") from None
     first = (route.waypoints[0].x, route.waypoints[0].y)

@@ -1,22 +1,53 @@
 """The site: the area and the exclusion zones in the planning CRS, the grid scale, and the
 terrain under the area. The pipeline's first look at the inputs.
+
+Boundaries exported from a cadastre or a GIS may have thousands of vertices closer together
+than anything a photo resolves. Before any other step they are simplified to a tolerance
+derived from the plan (`simplify_tolerance_m`), and only ever outwards: the area and each
+zone become a simpler polygon that covers the original and lies within the tolerance of it,
+so the ground to photograph may only grow and the zones may only grow. The vertex counts
+before and after go into the manifest (`Simplification`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar, check_area_of_use, planning_crs
 from aerosurvey.errors import InputError
+from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.inputs import PlanInputs
+from aerosurvey.plan.sensor import target_height
 from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
     from aerosurvey.plan.terrain import Dem
+
+
+#: the simplification tolerance: this share of the photo footprint's shorter side at the
+#: target height (1 m for a 100 m footprint), and at most this share of the exclusion margin
+SIMPLIFY_SHARE_OF_FOOTPRINT = 0.01
+SIMPLIFY_SHARE_OF_MARGIN = 0.1
+#: one plan lays every length with the grid scale at the area's centroid: the scale anywhere
+#: over the area may differ from it by this share at most (UTM's own spread across a zone's
+#: width at the equator, 0.9996 to 1.0010; 1 m over a 1 km line)
+MAX_GRID_SCALE_SPREAD = 0.001
+
+
+@dataclass(frozen=True)
+class Simplification:
+    """How the boundaries were simplified: the tolerance (ground metres) and the vertex counts
+    of the area and of the zones before and after."""
+
+    tolerance_m: float
+    area_vertices: tuple[int, int]
+    zone_vertices: tuple[int, int]
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,6 +61,68 @@ class Site:
     grid_scale: float  # planning-CRS metres per ground metre at the area's centroid
     dem: Dem | None
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
+    simplification: Simplification
+
+
+def simplify_tolerance_m(spec: MissionSpec) -> float:
+    """How far (ground metres) a simplified boundary may lie outside the given one: a share of
+    the photo footprint at the target height, and of the exclusion margin when there is one."""
+    height, _, _ = target_height(spec)
+    across, along = pg.footprint(height, spec.camera.camera, spec.camera.mount)
+    tol = SIMPLIFY_SHARE_OF_FOOTPRINT * min(float(across), float(along))
+    margin = spec.flight.exclusion_margin_m
+    return min(tol, SIMPLIFY_SHARE_OF_MARGIN * margin) if margin > 0 else tol
+
+
+def check_scale_spread(planar: Planar, area: BaseGeometry, k: float) -> None:
+    """Refuse an area over which the planning CRS's scale strays from `k` (its value at the
+    centroid) by more than MAX_GRID_SCALE_SPREAD, measured at the corners of the area's convex
+    hull (a conformal projection's scale is furthest from the centre's on its rim)."""
+    hull = shapely.get_coordinates(shapely.convex_hull(area))
+    lon, lat = planar.lonlat(hull[:, 0], hull[:, 1])
+    scales = planar.scale_factors(lon, lat)
+    worst = float(np.max(np.abs(scales / k - 1.0)))
+    if worst <= MAX_GRID_SCALE_SPREAD:
+        return
+    parts = len(shapely.get_parts(area))
+    x0, y0, x1, y1 = area.bounds
+    what = f"its {parts} parts span" if parts > 1 else "it spans"
+    raise InputError(
+        f"area: {what} {math.hypot(x1 - x0, y1 - y0) / k / 1000:,.0f} km, over which the planning CRS {planar.name} scales "
+        f"ground lengths by {float(scales.min()):.5f} to {float(scales.max()):.5f} against {k:.5f} at the centre "
+        f"({100 * worst:.2f} %, more than the {100 * MAX_GRID_SCALE_SPREAD:g} % one plan allows): plan each part or block "
+        "as its own mission, or give mission.crs a projection centred on the area", key="mission.crs")
+
+
+def grown_simplification(geom: BaseGeometry, tolerance: float) -> BaseGeometry:
+    """A polygon with fewer vertices that covers `geom` and lies within `tolerance` of it, or
+    `geom` itself when that removes no vertex (or, never seen, when the result would not cover it).
+
+    Douglas-Peucker at s = tolerance/6 (topology-preserving where the plain one crosses an
+    edge or drops a ring) keeps a subset of the vertices, every removed one within s of the
+    segment that replaces it; GEOS may then drop a ring's first vertex when it lies within s
+    of its neighbours' new segment, which leaves the vertices around it within 2 s. Each piece
+    of the original between two kept vertices lies in the 2s-wide stadium around the segment
+    that replaces it, and so does everything between the two: original and simplified differ
+    by at most 2 s. Grown by 2 s with mitred corners (cut at twice that, beyond the 2s-disc
+    about the corner), the simplified polygon covers the original and lies within 2 s + 4 s
+    of it. Time and memory are linear in the vertices (GEOS's simplifier, buffer and
+    an indexed `covers` that checks the result)."""
+    s = tolerance / 6.0
+    simple = shapely.simplify(geom, s, preserve_topology=False)
+    if not (shapely.is_valid(simple) and _rings(simple) == _rings(geom)):
+        # plain Douglas-Peucker (20x faster: 40 ms against 0.7 s on 400,000 vertices) made a
+        # crossing or dropped a ring: GEOS's topology-preserving variant never does
+        simple = shapely.simplify(geom, s, preserve_topology=True)
+    if shapely.get_num_coordinates(simple) >= shapely.get_num_coordinates(geom):
+        return geom
+    grown = shapely.normalize(shapely.buffer(simple, 2.0 * s, join_style="mitre", mitre_limit=2.0))
+    fewer = shapely.get_num_coordinates(grown) < shapely.get_num_coordinates(geom)
+    return grown if fewer and shapely.covers(grown, geom) else geom
+
+
+def _rings(geom: BaseGeometry) -> int:
+    return len(shapely.get_rings(shapely.get_parts(geom)))
 
 
 def _places(spec: MissionSpec, inputs: PlanInputs) -> list[tuple[str, BaseGeometry]]:
@@ -48,10 +141,23 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
     planar = planning_crs(spec.crs, inputs.area_wgs84)
     if spec.crs != "auto":  # "auto" is the UTM zone of the area's centre
         check_area_of_use(planar.crs, "mission.crs", _places(spec, inputs))
-    area = shapely.normalize(planar.forward(inputs.area_wgs84))
-    excl = inputs.exclusions_wgs84
-    zones = shapely.union_all([planar.forward(e) for e in excl]) if excl else None
+    c = inputs.area_wgs84.centroid
+    k = planar.scale_factor(c.x, c.y)
+    tol = simplify_tolerance_m(spec) * k
+    given = shapely.normalize(planar.forward(inputs.area_wgs84))
+    area = grown_simplification(given, tol)
+    area_wgs84 = inputs.area_wgs84 if area is given else planar.inverse(area)
+    given_zones = [planar.forward(e) for e in inputs.exclusions_wgs84]
+    simple_zones = [grown_simplification(z, tol) for z in given_zones]
+    excl = tuple(e if z is g else planar.inverse(z)
+                 for e, z, g in zip(inputs.exclusions_wgs84, simple_zones, given_zones))
+    zones = shapely.union_all(simple_zones) if simple_zones else None
+    vertices = shapely.get_num_coordinates
+    simplification = Simplification(
+        tol / k, (int(vertices(given)), int(vertices(area))),
+        (int(np.sum(vertices(given_zones))), int(np.sum(vertices(simple_zones)))))
     margin = spec.flight.exclusion_margin_m
+    check_scale_spread(planar, area, k)
     zones_buf = shapely.buffer(zones, margin) if zones is not None else None
     if zones_buf is not None:
         remaining = shapely.difference(area, zones_buf)
@@ -61,7 +167,6 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
                 f"{100 * (1 - remaining.area / area.area):.1f} % of the area: nothing is left to survey",
                 key="area.exclusions",
             )
-    c = inputs.area_wgs84.centroid
     dem = None
     ground = None
     if inputs.dem is not None:
@@ -70,4 +175,4 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
         dem = Dem(inputs.dem, planar)
         if spec.terrain.mode != "none":
             ground = dem.range_over(area, "area")
-    return Site(planar, inputs.area_wgs84, tuple(excl), area, zones, zones_buf, planar.scale_factor(c.x, c.y), dem, ground)
+    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification)

@@ -22,6 +22,7 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import (
     KEPT,
     CopterTime,
@@ -570,9 +571,9 @@ class Splitter:
 
 
 def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
-          fixed_launch: int | None, start: int = 0) -> list[Sortie]:
+          fixed_launch: int | None, start: int = 0, report: Progress = no_progress) -> list[Sortie]:
     """Fewest sorties over the stations from `start` (0: the whole route; later: the rest of a
-    flight cut short), then as balanced as they can be."""
+    flight cut short), then as balanced as they can be (`report` hears of each balancing round)."""
     sp = Splitter(plan, sites, budget, kin, detours, fixed_launch)
     used, li, horiz, vert, items = sp.cost(start, start)
     if used > budget.usable or items > budget.max_items:
@@ -591,7 +592,8 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
     total = sum(sp.cost(a, b)[0] for a, b in first)
     lo, hi = total / n, budget.usable
     best = first
-    for _ in range(12 if math.isfinite(hi) else 0):
+    for rounds in range(12 if math.isfinite(hi) else 0):
+        report("battery sorties: balancing", rounds / 12)
         mid = (lo + hi) / 2
         trial = sp.greedy(mid, n, start)  # more than n sorties fail the trial as none do
         if trial:
