@@ -71,3 +71,9 @@ def random_polygon(kind: str, seed: int, size_m: float) -> list[list[float]]:
     k_lat, k_lon = 1 / 111_320.0, 1 / (111_320.0 * math.cos(math.radians(lat0)))
     rings = [[[lon0 + x * k_lon, lat0 + y * k_lat] for x, y in r.coords] for r in [g.exterior, *g.interiors]]
     return rings
+
+
+def planned(exit_code: int, output: str) -> bool:
+    """Whether `aerosurvey plan` wrote its plan: exit 0, or 1 when an error-severity rule fails
+    (the plan is written for inspection only, and its last line says so)."""
+    return exit_code == 0 or (exit_code == 1 and "for inspection only" in output)
