@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 import io
 import itertools
-import json
 import re
 import zipfile
 from collections.abc import Mapping, Sequence
@@ -20,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import orjson
 import pyproj
 import shapely
 from shapely.geometry.base import BaseGeometry
@@ -123,10 +123,11 @@ def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
     return _parse_vector(path, str(path), path.name, name)
 
 
-#: above this size a GeoJSON area goes to GDAL: Python's parser and shapely's constructor take
-#: ~3.5x GDAL's time on a 61 MB ring of 1.5 million points (12.8 against 3.7 s); below it the
-#: time saved by not loading GDAL (~150 ms) is more than the parse costs
-PLAIN_GEOJSON_MAX_BYTES = 2_000_000
+#: above this size a GeoJSON area goes to GDAL, whose json-c tree holds ~16 bytes a byte of the
+#: file (orjson's lists ~4). Below it orjson and polygons built from numpy arrays are the faster:
+#: a 12 MB ring of 400,000 points took 0.26 s and ~+30 MB here against GDAL's 0.88 s and +188 MB
+#: (benchmarks/vertices_bench.py), and not loading GDAL saves ~150 ms of start-up
+PLAIN_GEOJSON_MAX_BYTES = 64_000_000
 
 _GEOMETRY_TYPES = frozenset({"Point", "MultiPoint", "LineString", "MultiLineString", "Polygon", "MultiPolygon"})
 _DEPTH = {"Point": 1, "MultiPoint": 2, "LineString": 2, "MultiLineString": 3, "Polygon": 3, "MultiPolygon": 4}
@@ -160,8 +161,8 @@ def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
     are parsed by Python's correctly rounded float parser, as GDAL's are; a test compares both
     readers on the repository's areas and on random polygons."""
     try:
-        doc = json.loads(data)
-    except (ValueError, UnicodeDecodeError, RecursionError):  # RecursionError: nested too deep (GDAL says so)
+        doc = orjson.loads(data)
+    except (orjson.JSONDecodeError, RecursionError):  # integers beyond 64 bits, nesting too deep …: GDAL says what
         return None
     if not isinstance(doc, dict) or "crs" in doc:
         return None
@@ -185,10 +186,25 @@ def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
         if not _rings_closed(g):  # shapely would close them quietly; GDAL refuses them
             return None
         try:
-            out.append(shapely.force_2d(shapely.geometry.shape(g)))
+            out.append(shapely.force_2d(_shape(g)))
         except (ValueError, TypeError, IndexError, AttributeError, shapely.errors.ShapelyError):
             return None
     return out
+
+
+def _shape(g: dict[str, Any]) -> BaseGeometry:
+    """The geometry of a checked GeoJSON geometry object; polygons from numpy arrays of their
+    rings (shapely's `shape` walks the coordinate lists in Python: 0.28 against 0.07 s for a
+    ring of 400,000 points)."""
+    def polygon(rings: list[Any]) -> BaseGeometry:
+        shell, *holes = (np.asarray(r, float) for r in rings)
+        return shapely.Polygon(shell, holes)
+
+    if g["type"] == "Polygon" and g["coordinates"]:
+        return polygon(g["coordinates"])
+    if g["type"] == "MultiPolygon" and all(g["coordinates"]):
+        return shapely.MultiPolygon([polygon(p) for p in g["coordinates"]])
+    return shapely.geometry.shape(g)
 
 
 #: pyogrio's name for bytes it hands GDAL (/vsimem/pyogrio_<hex>, under /vsizip/ for a zip)
