@@ -17,13 +17,15 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import socket
 import statistics
-import threading
+import sys
 import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests" / "web"))
+
+from webutil import Server  # noqa: E402
 
 
 def _direct(spec_path: Path) -> float:
@@ -42,23 +44,15 @@ def main() -> None:
     ap.add_argument("--mission", default="obratan-72ha")
     ap.add_argument("--size", default="1366x768")
     args = ap.parse_args()
-    import uvicorn
     from playwright.sync_api import sync_playwright
 
-    from aerosurvey.web.app import create_app
 
     chromium = os.environ.get("AEROSURVEY_CHROMIUM") or shutil.which("chromium")
     if chromium is None:
         raise SystemExit("no Chromium: install Debian's chromium or set AEROSURVEY_CHROMIUM")
     spec = REPO / "missions" / f"{args.mission}.toml"
     w, h = (int(v) for v in args.size.split("x"))
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = uvicorn.Server(uvicorn.Config(create_app(spec), host="127.0.0.1", port=port, log_level="warning"))
-    threading.Thread(target=server.run, daemon=True).start()
-    while not server.started:
-        time.sleep(0.05)
+    server = Server(spec)
     first_map, first_plan = [], []
     try:
         with sync_playwright() as p:
@@ -66,7 +60,7 @@ def main() -> None:
             for _ in range(args.repeat):
                 ctx = browser.new_context(viewport={"width": w, "height": h})
                 pg = ctx.new_page()
-                pg.goto(f"http://127.0.0.1:{port}/")
+                pg.goto(server.url)
                 pg.wait_for_function("window.aerosurvey.view !== null && window.aerosurvey.stats.firstMapMs !== null",
                                      timeout=120000)
                 pg.wait_for_function("new Promise(ok => { const m = window.aerosurvey.map; "
@@ -77,7 +71,7 @@ def main() -> None:
                 ctx.close()
             browser.close()
     finally:
-        server.should_exit = True
+        server.stop()
     direct = [_direct(spec) for _ in range(args.repeat)]
     fm, fp, d = statistics.median(first_map), statistics.median(first_plan), statistics.median(direct)
     print(f"{args.mission} at {args.size}, median of {args.repeat} page loads")

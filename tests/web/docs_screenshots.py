@@ -10,36 +10,23 @@ clicked (its runs in red). Not a test: run it when the page's look changes, and 
 from __future__ import annotations
 
 import shutil
-import socket
 import sys
 import tempfile
-import threading
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from webutil import REPO, copy_mission  # noqa: E402
+from webutil import REPO, Server, copy_mission  # noqa: E402
 
 OUT = REPO / "docs" / "img"
 
 
 def main() -> None:
-    import uvicorn
     from playwright.sync_api import sync_playwright
 
-    from aerosurvey.web.app import create_app
-
     tmp = Path(tempfile.mkdtemp())
-    spec = copy_mission(tmp)
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = uvicorn.Server(uvicorn.Config(create_app(spec), host="127.0.0.1", port=port, log_level="warning"))
-    threading.Thread(target=server.run, daemon=True).start()
-    while not server.started:
-        time.sleep(0.05)
-    url = f"http://127.0.0.1:{port}/"
+    server = Server(copy_mission(tmp))
+    url = server.url
     try:
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=shutil.which("chromium"), args=["--no-sandbox", "--disable-gpu"])
@@ -72,7 +59,7 @@ def main() -> None:
             pg.screenshot(path=str(OUT / "serve-1024.png"))
             browser.close()
     finally:
-        server.should_exit = True
+        server.stop()
         shutil.rmtree(tmp, ignore_errors=True)
     print(f"wrote {OUT / 'serve-1366.png'} and {OUT / 'serve-1024.png'}")
 

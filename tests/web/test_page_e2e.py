@@ -13,7 +13,6 @@ import json
 import math
 import os
 import shutil
-import socket
 import threading
 import time
 import tomllib
@@ -23,7 +22,7 @@ import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
-from webutil import REPO, copy_mission, tile_png, tiles_around, write_mbtiles, write_pmtiles, write_vector_tiles
+from webutil import REPO, Server, copy_mission, free_port, tile_png, tiles_around, write_mbtiles, write_pmtiles, write_vector_tiles
 
 from aerosurvey.cli import main
 from conftest import planned, random_polygon, write_geojson
@@ -41,38 +40,6 @@ def _need_browser() -> None:
         if os.environ.get("AEROSURVEY_REQUIRE_BROWSER"):
             pytest.fail("AEROSURVEY_REQUIRE_BROWSER is set but no chromium binary was found (install Debian's chromium)")
         pytest.skip("no Chromium found (set AEROSURVEY_CHROMIUM or install Debian's chromium package)")
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class _Server:
-    """The real app under uvicorn on a free loopback port, in a thread of the test process."""
-
-    def __init__(self, spec: Path | None, basemap: Path | None = None):
-        import uvicorn
-
-        from aerosurvey.web.app import create_app
-
-        self.port = _free_port()
-        hosts = [f"127.0.0.1:{self.port}", f"localhost:{self.port}"]
-        app = create_app(spec, allowed_hosts=hosts, basemap=basemap)
-        config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
-        self.server = uvicorn.Server(config)
-        self.thread = threading.Thread(target=self.server.run, daemon=True)
-        self.thread.start()
-        end = time.monotonic() + 20
-        while not self.server.started and time.monotonic() < end:
-            time.sleep(0.05)
-        assert self.server.started, "uvicorn did not start"
-        self.url = f"http://127.0.0.1:{self.port}/"
-
-    def stop(self) -> None:
-        self.server.should_exit = True
-        self.thread.join(timeout=10)
 
 
 class _Tiles(http.server.BaseHTTPRequestHandler):
@@ -103,7 +70,7 @@ def site(tmp_path_factory):
     cli = tmp / "cli"
     res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(cli)])
     assert res.exit_code == 0, res.output
-    server = _Server(spec)
+    server = Server(spec)
     SHOTS.mkdir(parents=True, exist_ok=True)
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
@@ -265,7 +232,7 @@ def test_dropped_area_starts_a_new_plan(page, site):
 
 def test_basemap_only_when_configured(page, site):
     _Tiles.png, _Tiles.asked = tile_png((200, 200, 200)), []
-    port = _free_port()
+    port = free_port()
     httpd = http.server.ThreadingHTTPServer(("127.0.0.1", port), _Tiles)
     t = threading.Thread(target=httpd.serve_forever, daemon=True)
     t.start()
@@ -307,7 +274,7 @@ def test_flight_results_on_the_map(site):
     assert CliRunner().invoke(main, ["log", "ingest", str(log), "--plan", str(plan), "-o", str(tmp / "log")]).exit_code == 0
     CliRunner().invoke(main, ["check", str(tmp / "log"), "--profile", "cz-land-consolidation"])  # failing_places.geojson
     places = json.loads((tmp / "log" / "failing_places.geojson").read_text())["features"]
-    server = _Server(spec)
+    server = Server(spec)
     ctx = site["browser"].new_context(viewport={"width": 1400, "height": 900})
     try:
         pg = ctx.new_page()
@@ -369,7 +336,7 @@ def _zone_square(pg, half_px: float) -> list[tuple[float, float]]:
 def _own_server_page(site, spec: Path | None, ready: str = "window.aerosurvey.view !== null", basemap: Path | None = None):
     """A server of the test's own and a 1366×768 page on it, once `ready` holds; `pg.requests` lists
     every URL asked, `pg.served` the (URL, status) of the basemap's tiles."""
-    server = _Server(spec, basemap=basemap)
+    server = Server(spec, basemap=basemap)
     ctx = site["browser"].new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
     try:
         pg = ctx.new_page()
@@ -652,7 +619,7 @@ def test_long_plan_shows_progress_and_cancels(site):
                                   '[targets]\ngsd_cm = 1.2\nforward_overlap = 0.8\nside_overlap = 0.7\n'
                                   # a job this large on purpose (a long plan to cancel): above the default limits
                                   '[limits]\nmax_photos = 10000000\nmax_flight_hours = 10000\n')
-    server = _Server(tmp / "big.toml")
+    server = Server(tmp / "big.toml")
     ctx = site["browser"].new_context(viewport={"width": 1400, "height": 900})
     try:
         pg = ctx.new_page()

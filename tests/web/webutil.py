@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import shutil
+import socket
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -122,3 +124,34 @@ def write_vector_tiles(path: Path) -> Path:
                       geometry_type="Unknown", driver="MBTiles" if path.suffix == ".mbtiles" else "PMTiles", layer="basemap",
                       dataset_options={"MINZOOM": "12", "MAXZOOM": "14"})
     return path
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class Server:
+    """The real app under uvicorn on a free loopback port, in a thread of this process."""
+
+    def __init__(self, spec: Path | None, basemap: Path | None = None):
+        import uvicorn
+
+        from aerosurvey.web.app import create_app
+
+        self.port = free_port()
+        hosts = [f"127.0.0.1:{self.port}", f"localhost:{self.port}"]
+        app = create_app(spec, allowed_hosts=hosts, basemap=basemap)
+        self.server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning"))
+        self.thread = threading.Thread(target=self.server.run, daemon=True)
+        self.thread.start()
+        end = time.monotonic() + 20
+        while not self.server.started and time.monotonic() < end:
+            time.sleep(0.05)
+        assert self.server.started, "uvicorn did not start"
+        self.url = f"http://127.0.0.1:{self.port}/"
+
+    def stop(self) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout=10)
