@@ -6,6 +6,9 @@ from pathlib import Path
 
 import click
 
+#: gaps smaller than this (m²) are not re-flown unless --min-gap-m2 says otherwise (the page uses it too)
+MIN_GAP_DEFAULT_M2 = 25.0
+
 
 @click.command()
 @click.argument("log_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
@@ -13,7 +16,8 @@ import click
               help="The plan folder the flight flew.")
 @click.option("--spec", "spec_path", required=True, type=click.Path(dir_okay=False, exists=True, path_type=Path),
               help="The mission spec of that plan (camera, vehicle, targets are reused).")
-@click.option("--min-gap-m2", type=click.FloatRange(min=0), default=25.0, show_default=True, help="Ignore smaller gaps.")
+@click.option("--min-gap-m2", type=click.FloatRange(min=0), default=MIN_GAP_DEFAULT_M2, show_default=True,
+              help="Ignore smaller gaps.")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
 def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, outdir: Path) -> None:
     """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."""

@@ -107,11 +107,18 @@ def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float
     data = refly_spec(spec_path, gaps, view.crs)
     plan = plan_from_files(parse_spec(data, base=spec_path.parent, path=None))
     files = dict(render_outputs(plan).files)
-    gaps_ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
-    files["gaps.geojson"] = json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"role": "gap", "needed_images": need},
-         "geometry": shapely.geometry.mapping(gaps_ll)}]}) + "\n"
+    files["gaps.geojson"] = json.dumps(gaps_layer(gaps, view, need)) + "\n"
     return Refly(gaps, need, plan, files, tuple(notes))
+
+
+def gaps_layer(gaps: shapely.Geometry, view: PlanView, need: int) -> dict[str, Any]:
+    """gaps.geojson: the gaps (planning CRS) in WGS84, with the photos each point needs and their area."""
+    if gaps.is_empty:
+        return {"type": "FeatureCollection", "features": []}
+    ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
+    return {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"role": "gap", "needed_images": need, "area_m2": round(float(shapely.area(gaps)), 1)},
+         "geometry": shapely.geometry.mapping(ll)}]}
 
 
 def write_refly(r: Refly, outdir: Path) -> None:

@@ -3,12 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 from aerosurvey.mission import mavlink_ids as mav
-
-if TYPE_CHECKING:
-    pass
 
 #: the commands whose x/y/z are a place the vehicle flies to
 POSITION_COMMANDS = (mav.NAV_WAYPOINT, mav.NAV_TAKEOFF, mav.NAV_LAND, mav.NAV_VTOL_TAKEOFF, mav.NAV_VTOL_LAND)

@@ -12,6 +12,7 @@ is counted again on the flown photos: a GCP the flight left short of photos fail
 from __future__ import annotations
 
 import dataclasses
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from aerosurvey.errors import InputError
 from aerosurvey.rules import footprints as fpm
 from aerosurvey.rules.checks import Where
 from aerosurvey.rules.cp_files import read_layout, seen_by
@@ -26,8 +28,10 @@ from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, layout_setti
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import Profile
 
-#: The layer of failing places `aerosurvey check FLIGHT_FOLDER` writes into the flight folder.
+#: The layer of failing places `aerosurvey check FLIGHT_FOLDER` writes into the flight folder
+#: (`failing_places` makes it, `read_places` reads it), and the role of its features.
 PLACES_FILE = "failing_places.geojson"
+PLACE_ROLE = "failing-place"
 
 
 def plan_evidence(view: PlanView, profiles: list[Profile], folder: Path | None) -> Evidence:
@@ -135,10 +139,47 @@ def failing_places(judged: list[Judged], flown: Evidence) -> dict[str, Any]:
         r = j.flown
         if r.outcome.status != "fail":
             continue
-        props = {"role": "failing-place", "profile": r.profile, "rule": r.rule, "status": r.status,
+        props = {"role": PLACE_ROLE, "profile": r.profile, "rule": r.rule, "status": r.status,
                  "severity": r.severity, "statement": r.statement, "planned": j.planned.outcome.measured,
                  "flown": r.outcome.measured, "required": r.outcome.required}
         for w in r.outcome.where or [Where()]:
             geom, where = place(w) if w else (None, {"place": "none"})
             features.append({"type": "Feature", "properties": {**props, **where}, "geometry": geom})
     return {"type": "FeatureCollection", "name": "failing_places", "features": features}
+
+
+@dataclass(frozen=True)
+class FailingRule:
+    """One rule of a failing-places layer: what it says, its measures and how many places it fails at."""
+
+    rule: str
+    status: str
+    statement: str
+    planned: str
+    flown: str
+    required: str
+    places: int
+
+
+@dataclass(frozen=True)
+class Places:
+    drawn: list[dict[str, Any]]  # the features that have a geometry (WGS84)
+    rules: tuple[FailingRule, ...]
+
+
+def read_places(path: Path) -> Places:
+    """A failing-places layer as `failing_places` writes it; InputError in one line otherwise."""
+    try:
+        feats = [f for f in json.loads(path.read_text(encoding="utf-8"))["features"]
+                 if f["properties"].get("role") == PLACE_ROLE]
+        counts: dict[str, int] = {}
+        first: dict[str, dict[str, Any]] = {}
+        for f in feats:
+            p = f["properties"]
+            counts[p["rule"]] = counts.get(p["rule"], 0) + 1
+            first.setdefault(p["rule"], p)
+        rules = tuple(FailingRule(r, str(p["status"]), str(p["statement"]), str(p["planned"]), str(p["flown"]),
+                                  str(p["required"]), counts[r]) for r, p in first.items())
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(f"{path.name} is not what `aerosurvey check FLIGHT_FOLDER` writes: {exc!r}") from None
+    return Places([f for f in feats if f.get("geometry")], rules)

@@ -13,14 +13,16 @@ from typing import Any
 import numpy as np
 
 from aerosurvey import manifest as mf
+from aerosurvey.commands.refly import MIN_GAP_DEFAULT_M2
 from aerosurvey.errors import InputError
 from aerosurvey.flight import records
 from aerosurvey.flight.ingest import distance_text, far_from_plan
 from aerosurvey.manifest import Manifest
+from aerosurvey.rules.flown import PLACES_FILE
 from aerosurvey.web.mapproj import MapFrame
 
-#: Gaps smaller than this are left out (`aerosurvey refly --min-gap-m2`'s default), on the map and in the page's re-fly.
-MIN_GAP_M2 = 25.0
+#: Gaps smaller than this are left out, on the map and in the page's re-fly (as `aerosurvey refly` by default).
+MIN_GAP_M2 = MIN_GAP_DEFAULT_M2
 
 #: Colours for photo counts 1, 2, 3 … (0 stays transparent); the last repeats beyond.
 _RAMP = np.array([[215, 48, 39], [244, 109, 67], [253, 174, 97], [254, 224, 139], [217, 239, 139],
@@ -52,8 +54,8 @@ def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str |
     out: dict[str, Any] = {"events": _events(rows, frame)}
     if "coverage.tif" in files:
         out["coverage"] = _coverage(files["coverage.tif"], frame)
-    if "failing_places.geojson" in files:
-        out["failing"], out["rules"] = _failing_places(files["failing_places.geojson"])
+    if PLACES_FILE in files:
+        out["failing"], out["rules"] = _failing_places(files[PLACES_FILE])
     if "coverage.tif" in files and isinstance(doc, Manifest) and plan_features is not None:
         out["gaps"] = _gaps(files["coverage.tif"], doc, plan_features)
     if report is not None:
@@ -127,38 +129,20 @@ def _coverage(path: Path, frame: MapFrame) -> dict[str, Any]:
 
 def _failing_places(path: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """failing_places.geojson's features with a geometry (WGS84), and one line per rule that fails as flown."""
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-        feats = [f for f in doc["features"] if f["properties"].get("role") == "failing-place"]
-    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise InputError(f"flight results: failing_places.geojson is not what `aerosurvey check FOLDER` writes: {exc}",
-                         key="flight") from None
-    rules: dict[str, dict[str, Any]] = {}
-    for f in feats:
-        p = f["properties"]
-        r = rules.setdefault(p.get("rule", "?"), {"rule": p.get("rule", "?"), "status": p.get("status", "fail"),
-                                                  "statement": p.get("statement", ""), "places": 0, "evidence": [],
-                                                  "measured": f"planned {p.get('planned')} / flown {p.get('flown')}",
-                                                  "required": p.get("required")})
-        r["places"] += 1
-    for r in rules.values():
-        r["evidence"] = [f"{r['places']} failing place(s) on the map"]
-    drawn = [f for f in feats if f.get("geometry")]
-    return {"type": "FeatureCollection", "features": drawn}, list(rules.values())
+    from aerosurvey.rules.flown import read_places
+
+    places = read_places(path)
+    rules = [{"rule": r.rule, "status": r.status, "statement": r.statement, "places": r.places,
+              "evidence": [f"{r.places} failing place(s) on the map"], "measured": f"planned {r.planned} / flown {r.flown}",
+              "required": r.required} for r in places.rules]
+    return {"type": "FeatureCollection", "features": places.drawn}, rules
 
 
 def _gaps(coverage: Path, doc: Manifest, plan_features: str) -> dict[str, Any]:
     """The area's ground seen by fewer flown photos than the plan needs, as `aerosurvey refly` finds it, in WGS84."""
-    import shapely
-    import shapely.geometry
-
-    from aerosurvey.flight.refly import gap_area
+    from aerosurvey.flight.refly import gap_area, gaps_layer
     from aerosurvey.rules.planview import PlanView
 
     view = PlanView.from_manifest(doc, json.loads(plan_features), "the page's plan")
-    gaps = gap_area(coverage, doc.derived.images_per_point, view.area, MIN_GAP_M2)
-    ll = shapely.transform(gaps, lambda xy: np.column_stack(view.to_wgs84.transform(xy[:, 0], xy[:, 1])))
-    return {"type": "FeatureCollection", "features": [] if ll.is_empty else [
-        {"type": "Feature", "properties": {"role": "gap", "needed_images": doc.derived.images_per_point,
-                                           "area_m2": round(float(shapely.area(gaps)), 1)},
-         "geometry": shapely.geometry.mapping(ll)}]}
+    need = doc.derived.images_per_point
+    return gaps_layer(gap_area(coverage, need, view.area, MIN_GAP_M2), view, need)

@@ -18,12 +18,13 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 
 from aerosurvey.errors import AerosurveyError, InputError
+from aerosurvey.rules.flown import PLACES_FILE
 from aerosurvey.web import service
 from aerosurvey.web.flown import MIN_GAP_M2, flown_layers
 from aerosurvey.web.state import ServerState, blocking, error, plan_gone, save_upload, server
 
 #: The files of a `log ingest` folder the page reads (failing_places.geojson: `aerosurvey check FOLDER`); others are ignored.
-FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json", "failing_places.geojson")
+FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json", PLACES_FILE)
 
 
 async def _on_flight_files(request: Request, work: Callable[[service.PlanBundle, Path, dict[str, Path]], dict[str, Any]]
