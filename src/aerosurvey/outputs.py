@@ -18,7 +18,7 @@ from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, mission_legs
 from aerosurvey.mission.items import Mission
-from aerosurvey.plan.coverage import MIN_IMAGES
+from aerosurvey.plan.coverage import uncovered_rule
 from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 from aerosurvey.plan.planner import Plan
 
@@ -38,10 +38,6 @@ class Rendered:
     summary: Summary
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
     binary: dict[str, bytes] = field(default_factory=dict)  # file name → bytes of the binary outputs (plan.gpkg when asked)
-
-
-#: the profile name of the rules the planner evaluates itself (uncovered-ground)
-PLANNER_PROFILE = "plan"
 
 
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
@@ -72,21 +68,6 @@ def final_gate(plan: Plan, missions: dict[str, Mission]) -> None:
     if bad:
         more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""
         raise CheckFailed("the plan is not written: " + "; ".join(v.message() for v in bad[:3]) + more)
-
-
-def uncovered_rule(plan: Plan) -> dict[str, Any]:
-    """The planner's own rule result: required ground fewer than two photos see (next to the zones)."""
-    c = plan.coverage
-    where = []
-    for part in c.polygons()[:50]:
-        p = part.representative_point()
-        where.append({"xy": [round(p.x, 2), round(p.y, 2)]})
-    return {"profile": PLANNER_PROFILE, "rule": "uncovered-ground", "status": "fail" if c.uncovered_m2 > 0 else "pass",
-            "severity": "error",
-            "statement": "every point of the area outside the exclusion zones and their margins is seen by at least two photos",
-            "measured": f"{c.uncovered_m2:.2f} m² in {c.parts} part(s) seen by fewer than {MIN_IMAGES} photos",
-            "required": "0 m²", "evidence": ["the layer 'uncovered' of plan.geojson"] if c.parts else [],
-            "where": where, "source": "aerosurvey planner (plan/coverage.py)"}
 
 
 def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
@@ -133,7 +114,7 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
-    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan)]
+    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
     binary = {}

@@ -123,7 +123,7 @@ def test_images_seeing_counts_overlapping_footprints() -> None:
     a = np.array
     ph = Photos(a([0.0, 50.0]), a([0.0, 0.0]), a([100.0, 100.0]), Attitudes.nadir(a([0.0, 0.0])))
     fps = footprint_polygons(ph, Optics.of(CAM, "landscape"), 0.0)
-    counts = images_seeing(a([25.0, -60.0, 110.0, 200.0]), a([0.0, 0.0, 0.0, 0.0]), fps)
+    counts = images_seeing(a([25.0, -60.0, 110.0, 200.0]), a([0.0, 0.0, 0.0, 0.0]), shapely.STRtree(fps))
     assert counts.tolist() == [2, 1, 1, 0]
 
 

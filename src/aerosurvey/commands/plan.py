@@ -46,7 +46,7 @@ def plan(spec: Path, outdir: Path, gpkg: bool) -> None:
     for w in rendered.warnings:
         console.echo(f"  warning: {w}")
     console.echo(f"wrote {', '.join(sorted([*rendered.files, *rendered.binary]))} to {outdir}")
-    failing = [r["rule"] for r in rendered.rules if r["status"] == "fail" and r["severity"] == "error"]
+    failing = rendered.summary.rules.failed
     if failing:  # written so that it can be inspected, but not a plan to fly as it is
         from aerosurvey.errors import CheckFailed
 

@@ -33,6 +33,8 @@ import numpy.typing as npt
 import shapely
 
 from aerosurvey.camera import Camera
+from aerosurvey.plan import photogrammetry as pg
+from aerosurvey.spec import MOUNTS
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -45,7 +47,6 @@ MIN_DEPRESSION_DEG = 5.0
 #: previous meeting point).
 DEM_REFINEMENTS = 6
 
-MOUNTS = ("landscape", "portrait")
 
 
 class Ground(Protocol):
@@ -67,14 +68,14 @@ class Optics:
 
     @classmethod
     def of(cls, camera: Camera, mount: str) -> Optics:
+        """The camera in its mount; the imaging area is the footprint `photogrammetry.footprint_m`
+        gives at a height equal to the focal length (its sides in mm)."""
         if mount not in MOUNTS:
             raise ValueError(f"mount must be one of {', '.join(MOUNTS)}, not {mount!r}")
-        p = camera.sensor_width_mm / camera.image_width_px
-        long_side = min(camera.image_width_px * p, camera.sensor_width_mm)
-        short_side = min(camera.image_height_px * p, camera.sensor_height_mm)
-        if mount == "landscape":
-            return cls(long_side, short_side, camera.focal_mm, p, camera.image_width_px, camera.image_height_px)
-        return cls(short_side, long_side, camera.focal_mm, p, camera.image_height_px, camera.image_width_px)
+        across, along = pg.footprint(camera.focal_mm, camera, mount)
+        px = (camera.image_width_px, camera.image_height_px)
+        width_px, height_px = px if mount == "landscape" else px[::-1]
+        return cls(float(across), float(along), camera.focal_mm, camera.pixel_pitch_mm, width_px, height_px)
 
 
 @dataclass(frozen=True)
@@ -262,10 +263,9 @@ def image_points(photos: Photos, optics: Optics, gx: FloatArray, gy: FloatArray,
     return ImagePoints(optics.width_px / 2 + u_mm / optics.pixel_mm, optics.height_px / 2 - v_mm / optics.pixel_mm, seen)
 
 
-def images_seeing(px: FloatArray, py: FloatArray, footprints: npt.NDArray[np.object_]) -> IntArray:
-    """How many of the footprints (shapely polygons) contain each ground point (their edges included)."""
-    pts = shapely.points(np.asarray(px, float), np.asarray(py, float))
-    tree = shapely.STRtree(footprints)
-    pairs = tree.query(pts, predicate="intersects")
-    counts: IntArray = np.bincount(pairs[0], minlength=len(pts)).astype(np.intp)
+def images_seeing(px: FloatArray, py: FloatArray, footprints: shapely.STRtree) -> IntArray:
+    """How many footprints (an STRtree of their polygons, built once for many questions) contain
+    each ground point, their edges included."""
+    pairs = footprints.query(shapely.points(np.asarray(px, float), np.asarray(py, float)), predicate="intersects")
+    counts: IntArray = np.bincount(pairs[0], minlength=len(px)).astype(np.intp)
     return counts

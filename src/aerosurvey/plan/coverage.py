@@ -15,6 +15,7 @@ computation runs where lines are cut: within a few footprints of a zone.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -29,6 +30,8 @@ from aerosurvey.spec import MissionSpec
 
 #: photos that must see a point for it to be reconstructed (a stereo pair)
 MIN_IMAGES = 2
+#: the profile name of the planner's own rule result (`uncovered_rule`) among the manifest's rules
+PLANNER_PROFILE = "plan"
 #: parts of the shortfall smaller than this are rounding slivers of the polygon operations
 SLIVER_M2 = 0.01
 #: ground counts as seen by a photo only this far inside its footprint: where a photo is
@@ -119,3 +122,15 @@ def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, st
     parts = [p for p in shapely.get_parts(short) if p.geom_type == "Polygon" and p.area / k2 >= SLIVER_M2]
     uncovered = shapely.union_all(parts) if parts else shapely.Polygon()
     return Coverage(required.area / k2, near.area / k2, uncovered, uncovered.area / k2)
+
+
+def uncovered_rule(c: Coverage) -> dict[str, Any]:
+    """The planner's own rule result, as the manifest records rule results: required ground fewer
+    than two photos see (next to the zones)."""
+    where = [{"xy": [round(p.x, 2), round(p.y, 2)]} for p in (part.representative_point() for part in c.polygons()[:50])]
+    return {"profile": PLANNER_PROFILE, "rule": "uncovered-ground", "status": "fail" if c.uncovered_m2 > 0 else "pass",
+            "severity": "error",
+            "statement": "every point of the area outside the exclusion zones and their margins is seen by at least two photos",
+            "measured": f"{c.uncovered_m2:.2f} m² in {c.parts} part(s) seen by fewer than {MIN_IMAGES} photos",
+            "required": "0 m²", "evidence": ["the layer 'uncovered' of plan.geojson"] if c.parts else [],
+            "where": where, "source": "aerosurvey planner (plan/coverage.py)"}

@@ -88,12 +88,17 @@ class Footprints:
         polygons: npt.NDArray[np.object_] = shapely.polygons(self.corners)
         return polygons
 
+    @cached_property
+    def tree(self) -> shapely.STRtree:
+        """The polygons' STRtree, built once for every count (the GCP search asks many times)."""
+        return shapely.STRtree(self.polygons)
+
     def count_at(self, px: FloatArray, py: FloatArray) -> IntArray:
         """How many footprints contain each point (their edges included)."""
         px, py = np.asarray(px, float), np.asarray(py, float)
         if not len(px) or not len(self.x):
             return np.zeros(len(px), np.intp)
-        return capture.images_seeing(px, py, self.polygons)
+        return capture.images_seeing(px, py, self.tree)
 
 
 def footprints(view: PlanView) -> Footprints:

@@ -35,7 +35,7 @@ def plan_documents(plan: Plan) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 def open_target(path: Path) -> Target:
-    from aerosurvey.outputs import PLANNER_PROFILE, uncovered_rule
+    from aerosurvey.plan.coverage import PLANNER_PROFILE, uncovered_rule
 
     if path.is_dir():
         view = PlanView.from_outdir(path)
@@ -50,7 +50,7 @@ def open_target(path: Path) -> Target:
         plan = plan_from_files(spec)
         manifest, features = plan_documents(plan)
         view = PlanView.from_documents(manifest, features, str(path), check=False)  # made here, by the writer
-        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan),))
+        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan.coverage),))
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")
     raise InputError(f"{str(path)!r} is neither a mission spec (.toml) nor a folder written by `aerosurvey plan`")
