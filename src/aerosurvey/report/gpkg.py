@@ -185,9 +185,7 @@ def _route_layer(plan: Plan, with_z: bool) -> Layer:
         flights.append(("mission", (plan.home[0], plan.home[1], home_ground), plan.waypoints))
     lines, names, counts = [], [], []
     for name, (lon, lat, ground), wps in flights:
-        wlon, wlat = plan.planar.lonlat(np.array([w.x for w in wps], float), np.array([w.y for w in wps], float))
-        coords = [(lon, lat, ground), *zip(np.atleast_1d(wlon), np.atleast_1d(wlat), [home_ground + w.alt_m for w in wps]),
-                  (lon, lat, ground)]
+        coords = [(lon, lat, ground), *((w.lon, w.lat, home_ground + w.alt_m) for w in wps), (lon, lat, ground)]
         lines.append(shapely.LineString([c if with_z else c[:2] for c in coords]))
         names.append(name)
         counts.append(len(wps))
