@@ -10,6 +10,7 @@ import click
 
 from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.qa import choices
 from aerosurvey.qa.choices import STANDARDS, UNITS  # names only: the statistics (scipy) load in the commands
 
 _POS = click.FloatRange(min=0, min_open=True)
@@ -58,13 +59,13 @@ def _dumps(data: object) -> str:
               help="Snooping: a-priori sigma0 of one horizontal coordinate, m (Baarda's w-test and the global test; "
                    "without it Pope's tau-test).")
 @click.option("--sigma0-v", type=_POS, default=None, help="Snooping: a-priori sigma0 of heights, m (as --sigma0-h).")
-@click.option("--alpha0", type=click.FloatRange(0, 0.5, min_open=True), default=0.001, show_default=True,
+@click.option("--alpha0", type=click.FloatRange(0, 0.5, min_open=True), default=choices.SNOOPING_ALPHA0, show_default=True,
               help="Snooping: probability that one blunder-free value is rejected (0.001: Baarda's k = 3.29).")
-@click.option("--power", type=click.FloatRange(0.5, 1, max_open=True), default=0.80, show_default=True,
+@click.option("--power", type=click.FloatRange(0.5, 1, max_open=True), default=choices.SNOOPING_POWER, show_default=True,
               help="Snooping: power at which the minimal detectable bias is stated.")
-@click.option("--max-mdb", type=_POS, default=8.0, show_default=True,
+@click.option("--max-mdb", type=_POS, default=choices.SNOOPING_MAX_MDB, show_default=True,
               help="Snooping: decide only when the minimal detectable bias is at most this many sigma.")
-@click.option("--max-rejected", type=click.FloatRange(0, 1), default=0.05, show_default=True,
+@click.option("--max-rejected", type=click.FloatRange(0, 1), default=choices.SNOOPING_MAX_SHARE, show_default=True,
               help="Snooping: largest share of rejected points before the set fails.")
 @click.option("--alpha", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
               help="Snooping: significance level of the global chi-square test.")

@@ -1,4 +1,4 @@
-"""What the accuracy QA offers: the standards and the length units (names only).
+"""What the accuracy QA offers: the standards, the length units and the snooping defaults.
 
 A light module (no numpy or scipy): `aerosurvey qa accuracy --help` lists these choices
 without loading the statistics. `assessment` and `accuracy_input` use them from here.
@@ -17,3 +17,12 @@ STANDARDS = {
 
 #: Length unit -> metres.
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048}
+
+#: Data snooping's defaults (qa/snooping.py, and the `qa accuracy` options that change them):
+#: the per-value false-alarm probability (Baarda's customary choice, k = 3.29), the power at
+#: which the minimal detectable bias is stated, the largest MDB (in σ) a decision is made with,
+#: and the Hellenic Cadastre's limit on the share of rejected points.
+SNOOPING_ALPHA0 = 0.001
+SNOOPING_POWER = 0.80
+SNOOPING_MAX_MDB = 8.0
+SNOOPING_MAX_SHARE = 0.05

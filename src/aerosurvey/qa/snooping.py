@@ -50,10 +50,12 @@ from typing import Any
 import numpy as np
 from scipy import integrate, optimize, special, stats
 
-ALPHA0 = 0.001  # per value: Baarda's customary choice, k = 3.29
-POWER = 0.80
-MAX_SHARE = 0.05  # the Hellenic Cadastre's limit on the share of rejected points (source 002)
-MAX_MDB = 8.0  # a decision needs blunders of 8 σ found with the stated power
+from aerosurvey.qa import choices
+
+#: the defaults, as the command shows them (qa/choices.py)
+ALPHA0, POWER, MAX_MDB, MAX_SHARE = (choices.SNOOPING_ALPHA0, choices.SNOOPING_POWER, choices.SNOOPING_MAX_MDB,
+                                     choices.SNOOPING_MAX_SHARE)
+
 W_TEST, TAU_TEST = "w", "tau"
 METHOD_NAMES = {W_TEST: "Baarda's w-test (sigma0 known a priori)",
                 TAU_TEST: "Pope's tau-test (sigma estimated from the same points)"}
