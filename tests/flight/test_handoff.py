@@ -34,7 +34,7 @@ from aerosurvey.plan import capture
 from aerosurvey.reproject import planar
 
 CRS = "EPSG:32633"
-OPTICS = capture.Optics(23.5, 15.6, 16.0, 0.0039, 6000, 4000)
+OPTICS = capture.Optics(23.4, 15.6, 16.0, 0.0039, 6000, 4000)  # the imaging area is the pixel grid: 6000 x 4000 px of 3.9 µm
 
 
 def odm_geo_entries(text: str) -> dict[str, tuple]:

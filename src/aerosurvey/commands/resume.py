@@ -26,15 +26,13 @@ SAME_ALT_M = 0.01
 def last_photographed(log_dir: Path, doc: Manifest) -> str:
     """The station of the last photo of a `log ingest` folder of this plan (log order)."""
     from aerosurvey.flight import records
+    from aerosurvey.flight.refly import read_log_of_plan
 
-    report_path, events_path = log_dir / "log_report.json", log_dir / "events.csv"
-    if not report_path.is_file() or not events_path.is_file():
-        raise InputError(f"--log {str(log_dir)!r} has no log_report.json and events.csv: give the folder "
+    read_log_of_plan(log_dir, doc)
+    events_path = log_dir / "events.csv"
+    if not events_path.is_file():
+        raise InputError(f"--log {str(log_dir)!r} has no events.csv: give the folder "
                          "`aerosurvey log ingest LOG --plan PLAN -o FOLDER` wrote", key="--log")
-    flown = (records.read_report(report_path).get("plan") or {}).get("mission")
-    if flown != doc.mission.name:
-        raise InputError(f"--log {str(log_dir)!r} is a flight of mission {flown!r}, not of {doc.mission.name!r} "
-                         "(ingest the log with --plan of this plan folder)", key="--log")
     matched = [s for s in records.read_events_csv(events_path).station if s]
     if not matched:
         raise InputError(f"--log {str(log_dir)!r}: no camera event was matched to a station of the plan; "

@@ -21,7 +21,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
 from aerosurvey.flight.coverage import flown_view, recorded_photos
-from aerosurvey.flight.refly import check_log_of_plan
+from aerosurvey.flight.refly import check_report_of_plan
 from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, failed_errors
 from aerosurvey.rules.flown import PLACES_FILE, Judged, failing_places, judge, on_view, part
 from aerosurvey.rules.load import Target
@@ -83,7 +83,7 @@ def open_flight(folder: Path, plan_dir: Path | None = None) -> Flight:
                          f"`aerosurvey log ingest LOG --plan PLAN -o {folder}`")
     plan_folder = _plan_folder(folder, info["folder"], plan_dir)
     view = PlanView.from_outdir(plan_folder, "--plan")
-    check_log_of_plan(folder, view)
+    check_report_of_plan(report, folder, view.document)
     events = folder / "events.csv"
     if not events.is_file():
         raise InputError(f"{str(folder)!r} has no events.csv: give the folder `aerosurvey log ingest` wrote")

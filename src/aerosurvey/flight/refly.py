@@ -19,7 +19,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
 from aerosurvey.inputs import plan_from_files
-from aerosurvey.manifest import sha256_file
+from aerosurvey.manifest import Manifest, sha256_file
 from aerosurvey.outputs import render_outputs
 from aerosurvey.plan.planner import Plan
 from aerosurvey.rules.planview import PlanView
@@ -71,18 +71,23 @@ class Refly:
     notes: tuple[str, ...]
 
 
-def check_log_of_plan(log_dir: Path, view: PlanView) -> None:
-    """The log folder's report must name the plan's mission (a coverage of another plan is refused)."""
-    report = records.read_report(log_dir / "log_report.json") if (log_dir / "log_report.json").is_file() else None
-    if report is None:
-        raise InputError(f"{str(log_dir)!r} has no log_report.json: give the folder `aerosurvey log ingest LOG --plan PLAN` wrote")
+def check_report_of_plan(report: dict[str, Any], log_dir: Path, doc: Manifest) -> None:
+    """A log folder's report must name the plan's mission (a coverage of another plan is refused)."""
     flown = (report.get("plan") or {}).get("mission")
     if flown is None:
         raise InputError(f"{str(log_dir)!r} was ingested without --plan: run `aerosurvey log ingest LOG --plan PLAN -o {log_dir}`")
-    doc = view.document
     if flown != doc.mission.name:
         raise InputError(f"{str(log_dir)!r} is the coverage of mission {flown!r}, but --plan {doc.where!r} is mission "
                          f"{doc.mission.name!r}: give the plan the log was ingested against")
+
+
+def read_log_of_plan(log_dir: Path, doc: Manifest) -> dict[str, Any]:
+    """The log folder's report (log_report.json), refused unless it is a flight of the plan's mission."""
+    if not (log_dir / "log_report.json").is_file():
+        raise InputError(f"{str(log_dir)!r} has no log_report.json: give the folder `aerosurvey log ingest LOG --plan PLAN` wrote")
+    report = records.read_report(log_dir / "log_report.json")
+    check_report_of_plan(report, log_dir, doc)
+    return report
 
 
 def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float) -> Refly:
@@ -96,7 +101,7 @@ def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float
     planned = (doc.raw.get("inputs") or {}).get("spec") or {}
     if planned.get("sha256") and planned["sha256"] != sha256_file(spec_path):
         notes.append(f"--spec {str(spec_path)!r} has changed since the plan was made; the re-fly uses it as it is now")
-    check_log_of_plan(log_dir, view)
+    read_log_of_plan(log_dir, doc)
     cov = log_dir / "coverage.tif"
     if not cov.is_file():
         raise InputError(f"{log_dir}: coverage.tif is missing; run `aerosurvey log ingest LOG --plan PLAN -o {log_dir}` first")

@@ -117,6 +117,7 @@ def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files:
         same_plan(plan, doc)
         out = render_resume(plan, station, "the page's plan")
     except InputError as exc:  # the command's message, about the folder the page loaded
-        raise InputError(str(exc).replace(f"--log {str(folder)!r}", "the loaded folder"), key="resume") from None
+        text = str(exc).replace(f"--log {str(folder)!r}", "the loaded folder").replace(repr(str(folder)), "the loaded folder")
+        raise InputError(text, key="resume") from None
     pid = state.remember(service.PlanBundle({"name": f"{spec.name}-resume"}, out, bundle.frame))
     return {"plan_id": pid, "files": sorted(out), "notes": [], "summary": resumed_text(plan, station)}
