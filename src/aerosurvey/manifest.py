@@ -60,27 +60,28 @@ def _lonlats(plan: Plan, xys: list[tuple[float, float]]) -> list[list[float | No
     return [[_f(a, 8), _f(b, 8)] for a, b in zip(lon.tolist(), lat.tolist())]
 
 
-def _sorties(plan: Plan) -> list[dict[str, Any]]:
-    st = plan.stations
-    out: list[dict[str, Any]] = []
-    if not plan.sorties:
-        return out
-    budget = cast(Any, plan.battery)  # the sortie Budget (typed `object` on the plan)
-    assert plan.spec.battery is not None, "sorties are split only with a [battery] table"
-    reserve = plan.spec.battery.reserve
-    for k, (s, _wps) in enumerate(plan.sorties, start=1):
-        site = plan.launch_sites[s.launch]
-        out.append({
-            "id": ids.sortie_id(k), "files": [f"{ids.sortie_file_stem(k)}.plan", f"{ids.sortie_file_stem(k)}.waypoints"],
-            "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
-            "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
-            "time_s": _f(s.horizontal_s + s.vertical_s, 1),
-            "time_with_wind_allowance_s": _f(s.horizontal_s * budget.wind_factor + s.vertical_s, 1),
-            "distance_m": _f(s.distance_m, 1),
-            "battery_used_pct": _f(100 * s.battery_used * (1 - reserve), 1),
-            "usable_used_pct": _f(100 * s.battery_used, 1), "mission_items": s.items + 1,
-        })
+def sortie_record(plan: Plan, k: int, stem: str) -> dict[str, Any]:
+    """Sortie k (from 1) as the manifest and resume.json record it, its files named `stem`.plan and
+    .waypoints; with a [battery] table, also its wind allowance and battery use."""
+    s, _wps = plan.sorties[k - 1]
+    st, site = plan.stations, plan.launch_sites[s.launch]
+    out: dict[str, Any] = {
+        "id": ids.sortie_id(k), "files": [f"{stem}.plan", f"{stem}.waypoints"],
+        "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
+        "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
+        "time_s": _f(s.horizontal_s + s.vertical_s, 1), "distance_m": _f(s.distance_m, 1), "mission_items": s.items + 1,
+    }
+    if plan.spec.battery is not None:
+        budget = cast(Any, plan.battery)  # the sortie Budget (typed `object` on the plan)
+        out["time_with_wind_allowance_s"] = _f(s.horizontal_s * budget.wind_factor + s.vertical_s, 1)
+        out["battery_used_pct"] = _f(100 * s.battery_used * (1 - plan.spec.battery.reserve), 1)
+        out["usable_used_pct"] = _f(100 * s.battery_used, 1)
     return out
+
+
+def _sorties(plan: Plan) -> list[dict[str, Any]]:
+    assert not plan.sorties or plan.spec.battery is not None, "a plan's sorties are split only with a [battery] table"
+    return [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
 
 
 def _input(path: Path | None, base: Path) -> dict[str, Any] | None:

@@ -153,16 +153,7 @@ def render_resume(plan: Plan, after_station: str, plan_folder: str) -> dict[str,
     missions = _sortie_missions(plan, ids.resume_file_stem)
     final_gate(plan, missions)
     files = _mission_files(missions)
-    st = plan.stations
-    sorties: list[dict[str, Any]] = []
-    for k, ((s, _wps), m) in enumerate(zip(plan.sorties, missions.values()), start=1):
-        site = plan.launch_sites[s.launch]
-        stem = ids.resume_file_stem(k)
-        sorties.append({"files": [f"{stem}.plan", f"{stem}.waypoints"], "first_station": st.ids[s.first],
-                        "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
-                        "time_s": round(s.horizontal_s + s.vertical_s, 1), "distance_m": round(s.distance_m, 1),
-                        "mission_items": len(m.items) + 1,
-                        "launch": {"index": s.launch + 1, "lon": round(site.lon, 8), "lat": round(site.lat, 8)}})
+    sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
     files[resumefile.FILE] = resumefile.dumps(plan.spec.name, plan_folder, after_station, sorties)
     return files
 
