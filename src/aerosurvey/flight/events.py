@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -131,6 +132,26 @@ class _Track:
     week: np.ndarray | None  # GPS week and milliseconds of the week of each fix, when logged
     ms: np.ndarray | None
 
+    @functools.cached_property
+    def fix_times(self) -> np.ndarray:
+        """The fixes' times on the boot clock, from their own GPS time where the log has it: a GPS
+        message is logged up to a loop or two after its fix (tens of ms of jitter, and a damaged
+        time stamp), the fix times are exact; the two clocks' offset is the median over the nearest
+        51 fixes (it drifts slowly over a flight)."""
+        gt = self.t
+        if self.week is None or self.ms is None or len(gt) < 5:
+            return gt
+        gps_s = gps_seconds(self.week, self.ms)
+        w = min(51, len(gt) - (len(gt) + 1) % 2)
+        core = np.median(np.lib.stride_tricks.sliding_window_view(gt - gps_s, w), axis=1)
+        return np.asarray(gps_s + np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])])  # ends: first, last w
+
+
+def gps_seconds(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
+    """Seconds of GPS time since the GPS epoch, from the week and the milliseconds of the week."""
+    out: np.ndarray = week * 604_800.0 + ms_of_week / 1000.0
+    return out
+
 
 def _gps_track(log: DataFlashLog) -> _Track | None:
     """The log's GPS fixes that can be fixes: 3D fix where the layout logs its status, a
@@ -177,7 +198,7 @@ def _damaged_fixes(rows: np.ndarray, clock: bool) -> np.ndarray:
         return bad
     t = rows[:, 0]
     if clock:
-        gps_s = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0
+        gps_s = gps_seconds(rows[:, 3], rows[:, 4])
         r = gps_s - t
         near = np.median(np.lib.stride_tricks.sliding_window_view(np.pad(r, 2, mode="edge"), 5), axis=1)
         bad |= np.abs(r - near) > FIX_CLOCK_S
@@ -192,7 +213,7 @@ def _damaged_fixes(rows: np.ndarray, clock: bool) -> np.ndarray:
     rows, t = rows[keep], t[keep]
     n = len(rows)
     x, y = _local_m(rows[:, 1], rows[:, 2], float(np.median(rows[:, 1])), float(np.median(rows[:, 2])))
-    when = rows[:, 3] * 604_800.0 + rows[:, 4] / 1000.0 if clock else t  # the fixes' own time: no logging jitter
+    when = gps_seconds(rows[:, 3], rows[:, 4]) if clock else t  # the fixes' own time: no logging jitter
     span = when[2:] - when[:-2]
     f = np.where(span > 0, (when[1:-1] - when[:-2]) / np.where(span > 0, span, 1.0), 0.5)
     dev = np.zeros(n)
@@ -232,20 +253,6 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Tra
     return out
 
 
-def _fix_times(track: _Track) -> np.ndarray:
-    """The fixes' times on the boot clock, from their own GPS time where the log has it: a GPS
-    message is logged up to a loop or two after its fix (tens of ms of jitter, and a damaged
-    time stamp), the fix times are exact; the two clocks' offset is the median over the nearest
-    51 fixes (it drifts slowly over a flight)."""
-    gt = track.t
-    if track.week is None or track.ms is None or len(gt) < 5:
-        return gt
-    gps_s = track.week * 604_800.0 + track.ms / 1000.0
-    w = min(51, len(gt) - (len(gt) + 1) % 2)
-    core = np.median(np.lib.stride_tricks.sliding_window_view(gt - gps_s, w), axis=1)
-    return np.asarray(gps_s + np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])])  # ends: first, last w
-
-
 def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
@@ -258,7 +265,7 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     if not (len(gt) > 1 and np.isfinite(gt).all()):
         return dt_out, d_out, v_out
-    gt = _fix_times(track)
+    gt = track.fix_times
     lat0, lon0 = float(np.median(track.lat)), float(np.median(track.lon))
     gx, gy = _local_m(track.lat, track.lon, lat0, lon0)
     ex, ey = _local_m(lat, lon, lat0, lon0)
@@ -301,7 +308,7 @@ def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: 
     """Events whose boot time lies outside the span from the GPS fix their own GPS time names
     to the next fix, by more than GPS_CLOCK_SLACK_S: ArduPilot writes the time of the last fix
     into a CAM message, so it was logged after that fix and before the next one. The fixes'
-    times are `_fix_times` (logging jitter and damaged GPS time stamps aside). Events whose fix
+    times are `_Track.fix_times` (logging jitter and damaged GPS time stamps aside). Events whose fix
     is not in the log (or was left out as damaged) are not checked."""
     bad = np.zeros(len(time_s), bool)
     if track.week is None or track.ms is None or not np.isfinite(track.t).all():
@@ -312,7 +319,7 @@ def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: 
     at = np.clip(np.searchsorted(keys[order], ev), 0, len(keys) - 1)
     fix = order[at]
     named = np.isfinite(ev) & (keys[fix] == ev) & np.isfinite(time_s)
-    ft = _fix_times(track)
+    ft = track.fix_times
     t_next = np.append(ft[1:], np.inf)[fix]
     return np.asarray(named & ((time_s < ft[fix] - GPS_CLOCK_SLACK_S) | (time_s > t_next + GPS_CLOCK_SLACK_S)), bool)
 
@@ -457,7 +464,7 @@ GPS_EPOCH_UNIX, LEAP_SECONDS = 315_964_800, 18
 
 
 def gps_to_utc(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
-    return GPS_EPOCH_UNIX + week * 604_800.0 + ms_of_week / 1000.0 - LEAP_SECONDS
+    return GPS_EPOCH_UNIX + gps_seconds(week, ms_of_week) - LEAP_SECONDS
 
 
 def _tlog_packets(data: bytes, mav: Any) -> tuple[list[Any], int]:
