@@ -26,7 +26,8 @@ def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) 
     """Results of the chosen profiles (default: those the plan was checked with) on a target,
     with the control point layout used."""
     # the rule engine loads numpy, shapely and pyproj: imported when rules run, not when help lists this command
-    from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
+    from aerosurvey.rules.engine import evaluate
+    from aerosurvey.rules.flown import plan_evidence
     from aerosurvey.rules.profile import apply_overrides, select_profiles
 
     ids = profile_ids or target.profiles
@@ -34,13 +35,7 @@ def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) 
         raise InputError("no rule profile chosen: give --profile ID (see `aerosurvey check --list`) "
                          "or name them in the spec's [rules] profiles")
     profiles = apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
-    layout = None
-    if target.outdir is not None and (target.outdir / "control_points.geojson").exists():
-        from aerosurvey.rules.cp_files import read_layout
-
-        f = target.outdir / "control_points.geojson"
-        layout = read_layout(f.read_text(), target.view, str(f))
-    ev = Evidence(target.view, layout_settings(target.view, profiles), layout)
+    ev = plan_evidence(target.view, profiles, target.outdir)
     return evaluate(profiles, ev), ev
 
 
