@@ -295,7 +295,7 @@ def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
         "max_mdb_sigma": s.max_mdb, "fewest_points": fewest, "iterations": iterations, "rejected": rejected,
         "rejected_share": res.rejected_share, "max_share": res.max_share, "share_ok": res.share_ok,
         "global_test_all": res.global_all, "global_test_kept": res.global_kept, "passed": res.passed,
-        **{f"mdb_{c.axis}_m": _finite(c.mdb_m) for c in res.last.tests},
+        **{f"mdb_{c.axis}_m": st.finite_or_none(c.mdb_m) for c in res.last.tests},
         **{f"redundancy_{c.axis}": c.values for c in res.last.tests}}
     sentences = [
         "Data snooping, one point rejected per iteration: " + "; ".join(
@@ -333,9 +333,6 @@ def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
                          "(Pope's tau-test) and the global test was not run")
     return run
 
-
-def _finite(v: float | None) -> float | None:
-    return v if v is not None and math.isfinite(v) else None
 
 
 def _num(v: float | None) -> str:

@@ -17,9 +17,10 @@ import numpy as np
 
 from aerosurvey.qa import statistics as st
 from aerosurvey.qa.asprs import nssda_horizontal_95, record_verdicts, within
+from aerosurvey.qa.choices import STANDARDS
 
 MIN_CHECK_POINTS = 20
-NAME = "NSSDA (FGDC-STD-007.3-1998)"
+NAME = STANDARDS["nssda"]
 
 
 def evaluate(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, max_h95_cm: float | None = None,

@@ -51,6 +51,7 @@ import numpy as np
 from scipy import integrate, optimize, special, stats
 
 from aerosurvey.qa import choices
+from aerosurvey.qa import statistics as st
 
 #: the defaults, as the command shows them (qa/choices.py)
 ALPHA0, POWER, MAX_MDB, MAX_SHARE = (choices.SNOOPING_ALPHA0, choices.SNOOPING_POWER, choices.SNOOPING_MAX_MDB,
@@ -158,12 +159,9 @@ class ComponentTest:
 
     def as_dict(self, alpha0: float) -> dict[str, Any]:
         return {"axis": self.axis, "method": self.method, "redundancy": self.values, "sigma_m": self.sigma_m,
-                "critical_value": _finite(self.critical), "threshold_m": _finite(self.threshold_m),
-                "mdb_m": _finite(self.mdb_m), "largest_statistic": self.largest, "alpha0": alpha0}
+                "critical_value": st.finite_or_none(self.critical), "threshold_m": st.finite_or_none(self.threshold_m),
+                "mdb_m": st.finite_or_none(self.mdb_m), "largest_statistic": self.largest, "alpha0": alpha0}
 
-
-def _finite(v: float) -> float | None:
-    return v if math.isfinite(v) else None
 
 
 @dataclass(frozen=True)

@@ -66,19 +66,20 @@ def axis_stats(e: np.ndarray) -> dict[str, Any]:
         skew = float(stats.skew(e, bias=False)) if tests else None
         kurt = float(stats.kurtosis(e, bias=False)) if tests and n > 3 else None
         sw = stats.shapiro(e) if tests else None
-    t_stat, t_p = (_finite(float(t.statistic)), _finite(float(t.pvalue))) if t is not None else (None, None)
+    t_stat, t_p = (finite_or_none(float(t.statistic)), finite_or_none(float(t.pvalue))) if t is not None else (None, None)
     out["bias_t"] = t_stat
     out["bias_p_value"] = t_p
     out["bias_significant"] = bool(t_p < BIAS_ALPHA) if t_p is not None else None
-    out["skew"] = _finite(skew)
-    out["kurtosis"] = _finite(kurt)
-    sw_p = _finite(float(sw.pvalue)) if sw is not None else None
+    out["skew"] = finite_or_none(skew)
+    out["kurtosis"] = finite_or_none(kurt)
+    sw_p = finite_or_none(float(sw.pvalue)) if sw is not None else None
     out["normality_p_value"] = sw_p
     out["normal"] = bool(sw_p >= 0.05) if sw_p is not None else None
     return out
 
 
-def _finite(v: float | None) -> float | None:
+def finite_or_none(v: float | None) -> float | None:
+    """The value, or None for a value that is not a finite number (JSON has no infinity)."""
     return v if v is not None and math.isfinite(v) else None
 
 
