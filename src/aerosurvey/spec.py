@@ -18,7 +18,9 @@ from aerosurvey.camera import Camera, camera_from_mapping, get_camera
 from aerosurvey.errors import InputError, bad_value
 
 MOUNTS = ("landscape", "portrait")
-TRIGGERS = ("distance", "time", "camera")
+TRIGGERS = ("distance", "time", "camera", "hover")
+PATTERNS = ("area", "corridor", "oblique")
+OBLIQUE_SCHEMES = ("double-grid", "five-direction")
 VEHICLES = ("copter", "plane")
 FIRMWARES = ("ardupilot", "px4")
 TERRAIN_MODES = ("none", "fixed", "follow", "terrain-frame")
@@ -42,8 +44,11 @@ class CameraSpec:
 
     camera: Camera
     mount: str
-    trigger: str  # distance: autopilot by distance; time: autopilot by interval; camera: own intervalometer
+    # distance: autopilot by distance; time: autopilot by interval; camera: own intervalometer;
+    # hover: stop and shoot at each station
+    trigger: str
     interval_s: float | None
+    settle_s: float  # hover: seconds held still at a station before the shot
     max_blur_px: float
     min_cycle_s: float
     exposure_s: float
@@ -60,6 +65,23 @@ class Targets:
     images_beyond_boundary: int
     coverage_margin_m: float  # plan coverage for the area grown by this much (GCPs outside the outline)
     plan_at_cap: bool
+
+
+@dataclass(frozen=True)
+class PatternSpec:
+    """The spec's [pattern] table: how photo runs are laid.
+
+    area: parallel lines over the area (with [flight] heading and cross_hatch); corridor: strips
+    along a centreline, `left_m` and `right_m` of ground each side of it; oblique: the area grid
+    flown again with the camera tilted to `pitch_deg` (gimbal convention, −90 is straight down),
+    as a double grid (two headings, the camera looking along the flight) or five directions
+    (nadir plus four obliques looking north, east, south and west)."""
+
+    kind: str
+    left_m: float | None = None  # corridor
+    right_m: float | None = None
+    scheme: str = "double-grid"  # oblique
+    pitch_deg: float = -45.0  # oblique
 
 
 @dataclass(frozen=True)
@@ -153,6 +175,7 @@ class MissionSpec:
     battery: BatterySpec | None
     path: Path | None
     limits: LimitsSpec = LimitsSpec()
+    pattern: PatternSpec = PatternSpec("area")
 
 
 class _Table:
@@ -305,6 +328,34 @@ def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
     return spec
 
 
+def _pattern(top: _Table, flight: FlightSpec) -> PatternSpec:
+    p = top.table("pattern")
+    kind = p.choice("kind", "area", PATTERNS)
+    if kind == "corridor":
+        width = p.number("width_m", None, lo=0.0, lo_open=True, hi=20000.0)
+        left = p.number("left_m", None, lo=0.0, hi=10000.0)
+        right = p.number("right_m", None, lo=0.0, hi=10000.0)
+        if width is not None and (left is not None or right is not None):
+            raise InputError("[pattern] corridor takes either width_m or left_m and right_m, not both")
+        if width is None and (left is None or right is None):
+            raise InputError("[pattern] kind = 'corridor' needs width_m (centred on the centreline) or both left_m and right_m")
+        if width is not None:
+            left = right = width / 2.0
+        assert left is not None and right is not None
+        if left + right <= 0:
+            raise bad_value("pattern.left_m + pattern.right_m", left + right, "a corridor wider than 0 m")
+        if flight.cross_hatch:
+            raise InputError("flight.cross_hatch is for area grids: a corridor is flown along its centreline")
+        out = PatternSpec(kind, left_m=left, right_m=right)
+    elif kind == "oblique":
+        out = PatternSpec(kind, scheme=p.choice("scheme", "double-grid", OBLIQUE_SCHEMES),
+                          pitch_deg=p.number("pitch_deg", -45.0, lo=-80.0, hi=-20.0) or -45.0)
+    else:
+        out = PatternSpec(kind)
+    p.done()
+    return out
+
+
 def load_spec(path: str | Path) -> MissionSpec:
     """Read and validate a mission spec file."""
     path = Path(path)
@@ -371,6 +422,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         mount=c.choice("mount", "landscape", MOUNTS),
         trigger=trigger,
         interval_s=interval,
+        settle_s=c.number("settle_s", 1.0, lo=0.0, hi=30.0) or 0.0,
         max_blur_px=c.number("max_blur_px", 0.5, lo=0.05, hi=5.0) or 0.5,
         min_cycle_s=c.number("min_cycle_s", cam.min_cycle_s, lo=0.0, lo_open=True) or cam.min_cycle_s,
         exposure_s=c.number("exposure_s", cam.exposure_s, lo=0.0, lo_open=True) or cam.exposure_s,
@@ -464,6 +516,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     co.done()
 
     battery = _battery(top, vehicle) if top.has("battery") else None
+    pattern = _pattern(top, flight)
 
     lt = top.table("limits")
     limits = LimitsSpec(
@@ -486,5 +539,5 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     return MissionSpec(
         name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
         flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles),
-        rule_overrides=dict(overrides), battery=battery, path=path, limits=limits,
+        rule_overrides=dict(overrides), battery=battery, path=path, limits=limits, pattern=pattern,
     )

@@ -125,7 +125,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     # the stations' and the waypoints' longitudes and latitudes in one transform (point by point alike)
     lon, lat = planar.lonlat(np.concatenate([x, [p[0] for p in pts]]), np.concatenate([y, [p[1] for p in pts]]))
     lon, lat, wlon, wlat = lon[:len(x)].copy(), lat[:len(x)].copy(), lon[len(x):], lat[len(x):]
-    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd)
+    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd, np.full(len(x), -90.0), hd.copy())
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
     return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", warnings)

@@ -48,7 +48,9 @@ class Stations:
     ground_m: np.ndarray  # NaN without a DEM
     alt_rel_m: np.ndarray  # above home, as flown (terrain-frame: above terrain)
     agl_m: np.ndarray
-    heading_deg: np.ndarray
+    heading_deg: np.ndarray  # direction of flight (compass bearing)
+    pitch_deg: np.ndarray  # the camera's pitch (gimbal convention: −90 looks straight down)
+    camera_yaw_deg: np.ndarray  # the compass bearing the camera looks towards (its top edge faces)
 
 
 @dataclass(frozen=True)

@@ -121,6 +121,8 @@ class AreaGrid:
 
 def pattern_for(spec: MissionSpec) -> Pattern:
     """The pattern a spec asks for."""
+    if spec.pattern.kind != "area" or spec.camera.trigger == "hover":
+        raise InputError(f"pattern.kind = {spec.pattern.kind!r} with camera.trigger = {spec.camera.trigger!r} is not planned yet")
     return AreaGrid(spec.flight.heading_deg, spec.flight.cross_hatch, spec.targets.images_beyond_boundary,
                     spec.targets.coverage_margin_m)
 
