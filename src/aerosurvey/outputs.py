@@ -13,12 +13,14 @@ from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
+from aerosurvey.mission.formats import wpml
 from aerosurvey.mission.formats.kml import feature_collection_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
 from aerosurvey.mission.program import FlightProgram, flight_program
+from aerosurvey.mission.targets import mavlink_item_limit
 from aerosurvey.plan.coverage import uncovered_rule
 from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 from aerosurvey.plan.planner import Plan
@@ -44,11 +46,7 @@ class Rendered:
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
     """A mission longer than the autopilot holds is flagged with what to do about it."""
 
-    limit = plan.spec.battery.max_mission_items if plan.spec.battery is not None else None
-    if limit is None:
-        from aerosurvey.spec import MAX_ITEMS
-
-        limit = MAX_ITEMS[plan.spec.vehicle.firmware]
+    limit = mavlink_item_limit(plan.spec)
     n = len(mission.items) + 1
     if n > limit:
         msg = (f"the whole mission has {n} items, more than the {limit} a {plan.spec.vehicle.firmware} autopilot holds "
@@ -115,7 +113,8 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
-    binary = {}
+    binary, dji_warnings = dji_kmz_files(programs)
+    warnings += dji_warnings
     if gpkg:
         from aerosurvey.report.gpkg import gpkg_bytes
 
@@ -128,6 +127,24 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     manifest["warnings"] = warnings
     files["manifest.json"] = mf.dumps(manifest, stations_table)
     return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
+
+
+def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes], list[str]]:
+    """A DJI WPML .kmz next to each flight's .plan and .waypoints when the camera is one a DJI
+    aircraft flies waylines with (mission/formats/wpml.py), and a warning for each flight that
+    cannot be one (with why)."""
+    files: dict[str, bytes] = {}
+    warnings: list[str] = []
+    for stem, p in programs.items():
+        aircraft = wpml.aircraft_for(p.camera_id)
+        if aircraft is None:
+            return {}, []
+        why = wpml.refusal(p)
+        if why is None:
+            files[f"{stem}.kmz"] = wpml.kmz_bytes(p, aircraft)
+        else:
+            warnings.append(f"{stem}.kmz (DJI waylines for the {aircraft.name}) is not written: {why}")
+    return files, warnings
 
 
 def _sortie_programs(plan: Plan, stem: Callable[[int], str]) -> dict[str, FlightProgram]:
