@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymavlink import mavutil, mavwp
 
 from aerosurvey.inputs import plan_from_files
@@ -226,3 +228,54 @@ def test_a_bend_keeps_the_camera_on(tmp_path: Path) -> None:
     assert items[k - 1].command == M.MAV_CMD_DO_SET_CAM_TRIGG_DIST and items[k - 1].param1 > 0
     assert items[k + 1].command == M.MAV_CMD_NAV_WAYPOINT and items[k + 2].param1 == 0
     assert items[k].param2 == 2.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(turns=st.lists(st.floats(-80.0, 80.0), min_size=0, max_size=4),
+       lengths=st.lists(st.floats(20.0, 200.0), min_size=5, max_size=5),
+       fractions=st.lists(st.floats(0.01, 0.99), min_size=1, max_size=30, unique=True))
+def test_hover_stations_fall_between_the_bends_in_flight_order(turns: list[float], lengths: list[float],
+                                                               fractions: list[float]) -> None:
+    """A strip with bends (turns up to 80°) and stations along it: the hover route keeps the
+    line's waypoints and puts every station between them in the order they lie along the strip."""
+    from types import SimpleNamespace
+
+    from aerosurvey.mission.program import _with_hover_stations
+
+    # the strip's corners, turning by `turns` (degrees) after each leg
+    heading, pts = 0.0, [np.zeros(2)]
+    for k in range(len(turns) + 1):
+        d = np.array([np.sin(np.radians(heading)), np.cos(np.radians(heading))])
+        pts.append(pts[-1] + lengths[k] * d)
+        if k < len(turns):
+            heading += turns[k]
+    pts_a = np.array(pts)
+    seg = np.hypot(*np.diff(pts_a, axis=0).T)
+    total = seg.sum()
+    along = np.sort(np.array(fractions)) * total
+    xy = []
+    for s in along:
+        k = int(np.searchsorted(np.cumsum(seg), s, side="right"))
+        k = min(k, len(seg) - 1)
+        t = (s - (np.cumsum(seg)[k] - seg[k])) / seg[k]
+        xy.append(pts_a[k] + t * (pts_a[k + 1] - pts_a[k]))
+    xy_a = np.array(xy)
+    ids = [f"P1-L001-S{i + 1:04d}" for i in range(len(xy))]
+    stations = SimpleNamespace(ids=ids, run=np.zeros(len(xy), int), x=xy_a[:, 0], y=xy_a[:, 1], lon=xy_a[:, 0],
+                               lat=xy_a[:, 1], alt_rel_m=np.full(len(xy), 50.0))
+    # the line starts on the first station, bends at the corners, ends past the last station
+    kinds = ["bend"] * (len(pts) - 2)
+    wps = ([RouteWaypoint(-10.0, 0.0, -10.0, 0.0, 50.0, "lead_in", 0, ""),
+            RouteWaypoint(*xy_a[0], *xy_a[0], 50.0, "line_start", 0, ids[0])]
+           + [RouteWaypoint(*p, *p, 50.0, kd, 0, "") for p, kd in zip(pts[1:-1], kinds)]
+           + [RouteWaypoint(*pts[-1], *pts[-1], 50.0, "line_end", 0, "")])
+    out = _with_hover_stations(SimpleNamespace(stations=stations), tuple(wps), 0, len(ids) - 1)  # type: ignore[arg-type]
+    assert [w.station for w in out if w.station] == ids
+    # every waypoint of the line kept, in its order
+    assert [w for w in out if w.kind != "station"] == wps
+    # the stations between two consecutive line waypoints are those whose distance along the strip lies between theirs
+    corner_at = np.concatenate([[0.0], np.cumsum(seg)])
+    bends = [corner_at[k + 1] for k in range(len(pts) - 2)]
+    got = [w.kind for w in out if w.kind in ("bend", "station")]
+    want = [kd for _, kd in sorted([(d, "bend") for d in bends] + [(s, "station") for s in along[1:]])]
+    assert got == want

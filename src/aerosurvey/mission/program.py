@@ -115,8 +115,9 @@ class FlightProgram:
     rally: tuple[tuple[float, float, float], ...]  # latitude, longitude, altitude above the launch point
 
     @property
-    def photos_by_hover(self) -> int:
-        return sum(isinstance(a, HoverShoot) for w in self.waypoints for a in w.actions)
+    def yaw_mode(self) -> str:
+        """"along_track" (the nose along the route) or "fixed" (`fixed_yaw_deg` for the whole flight)."""
+        return "along_track" if self.fixed_yaw_deg is None else "fixed"
 
 
 def run_id(plan: Plan, run: int) -> str:
