@@ -480,6 +480,8 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         approach_alt_m=f.number("approach_alt_m", 30.0, lo=5.0, hi=500.0) or 30.0,
     )
     f.done()
+    if camera.trigger == "hover" and vtype == "plane":
+        raise InputError("camera.trigger = 'hover' is for copters: a plane cannot stop at a station")
     if flight.fixed_yaw_deg is not None and vtype == "plane":
         raise InputError("flight.fixed_yaw_deg is for copters: a plane always points along its track")
     if vtype == "plane" and flight.end == "land" and flight.wind_from_deg is None:

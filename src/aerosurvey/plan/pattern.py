@@ -28,8 +28,8 @@ PATTERNS: dict[str, Callable[[MissionSpec], Pattern]] = {
 def pattern_for(spec: MissionSpec) -> Pattern:
     """The pattern a spec asks for."""
     make = PATTERNS.get(spec.pattern.kind)
-    if make is None or spec.camera.trigger == "hover":  # oblique and hover land next
-        raise InputError(f"pattern.kind = {spec.pattern.kind!r} with camera.trigger = {spec.camera.trigger!r} is not planned yet")
+    if make is None:  # oblique lands next
+        raise InputError(f"pattern.kind = {spec.pattern.kind!r} is not planned yet")
     return make(spec)
 
 

@@ -35,6 +35,7 @@ class SensorSolution:
     forward_images_per_point: int
     kinematics: Kinematics
     warnings: tuple[str, ...]
+    hover_s: float | None = None  # hover-and-capture: seconds at rest at each station (settling, the shot)
 
 
 def target_height(spec: MissionSpec) -> tuple[float, float, tuple[str, ...]]:
@@ -126,6 +127,12 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         v = min(speed.speed_ms, base / interval)
         speed = pg.SpeedLimit(v, speed.reason if v == speed.speed_ms else f"trigger interval {interval:g} s",
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
+    hover = None
+    if spec.camera.trigger == "hover":
+        # photos taken at rest: neither motion blur nor the camera's cycle limits the speed between them
+        speed = pg.SpeedLimit(spec.vehicle.cruise_speed_ms, "vehicle cruise speed (hover-and-capture: photos at rest)",
+                              speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
+        hover = spec.camera.settle_s + spec.camera.min_cycle_s
     trigger_cmd = None
     if spec.camera.trigger == "distance":
         try:
@@ -141,7 +148,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         side_images_per_point=pg.images_per_point(spec.targets.side_overlap),
         forward_images_per_point=pg.images_per_point(spec.targets.forward_overlap),
         kinematics=Kinematics(spec.vehicle.type, speed.speed_ms, spec.vehicle.acceleration_ms2, radius),
-        warnings=warnings,
+        warnings=warnings, hover_s=hover,
     )
 
 
