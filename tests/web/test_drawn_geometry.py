@@ -40,7 +40,7 @@ def test_saved_geometry_reads_back_bit_for_bit(tmp_path_factory, kind, seed, dx,
     spec = service.read_spec_file(spec_path)
     spec["area"] = {"wkt": service.exact_wkt(area)}
     ws = service.Workspace(base=tmp, uploads=tmp, roots=[tmp])
-    saved, files = save_with_geometry(ws, spec_path, spec, [service.exact_wkt(z) for z in drawn])
+    saved, files, preview = save_with_geometry(ws, spec_path, spec, [service.exact_wkt(z) for z in drawn])
     assert files == sorted(["obratan-72ha.area.geojson"] + (["obratan-72ha.zones.geojson"] if zones else []))
     read_area_back, read_zones = load_geometry(load_spec(spec_path))
     want = read_area(None, service.exact_wkt(area), "EPSG:4326", "area")  # as the page's plan read it
@@ -50,6 +50,9 @@ def test_saved_geometry_reads_back_bit_for_bit(tmp_path_factory, kind, seed, dx,
     on_disk = tomllib.loads(spec_path.read_text())["area"]
     assert "wkt" not in on_disk and on_disk["file"] == "obratan-72ha.area.geojson"
     assert saved["area"] == on_disk
+    # the preview the page gets back is the saved files' geometry, read back
+    assert shapely.equals_exact(shapely.from_wkt(preview["area"]), read_area_back, tolerance=0.0)
+    assert sorted(shapely.normalize(shapely.from_wkt(z)).wkb for z in preview["zones"]) == got
 
 
 def test_drawn_zones_reach_the_plan(tmp_path):

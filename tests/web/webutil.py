@@ -89,8 +89,9 @@ def write_mbtiles(path: Path, tiles: dict[tuple[int, int, int], bytes], fmt: str
     return path
 
 
-def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes]) -> Path:
-    """A PMTiles (version 3) file of PNG tiles, written by the PMTiles project's writer."""
+def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes], compression: str = "NONE") -> Path:
+    """A PMTiles (version 3) file of PNG tiles, written by the PMTiles project's writer; `compression` names
+    the tile compression its header declares."""
     from pmtiles.tile import Compression, TileType, zxy_to_tileid
     from pmtiles.writer import Writer
 
@@ -99,7 +100,7 @@ def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes]) -> Path:
         w = Writer(fh)
         for tid, data in sorted((zxy_to_tileid(z, x, y), d) for (z, x, y), d in tiles.items()):
             w.write_tile(tid, data)
-        w.finalize({"tile_type": TileType.PNG, "tile_compression": Compression.NONE, "min_zoom": min(zs),
+        w.finalize({"tile_type": TileType.PNG, "tile_compression": Compression[compression], "min_zoom": min(zs),
                     "max_zoom": max(zs), "min_lon_e7": -1800000000, "min_lat_e7": -850000000, "max_lon_e7": 1800000000,
                     "max_lat_e7": 850000000, "center_zoom": min(zs), "center_lon_e7": 0, "center_lat_e7": 0},
                    {"name": "test basemap", "attribution": "test tiles"})

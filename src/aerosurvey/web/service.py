@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from aerosurvey.outputs import Rendered
     from aerosurvey.plan.inputs import PlanInputs
     from aerosurvey.plan.planner import Plan
+    from aerosurvey.rules.planview import PlanView
     from aerosurvey.spec import MissionSpec
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
@@ -231,7 +232,7 @@ def _dataset_files(name: str, data: bytes) -> dict[str, bytes]:
 
 
 def exact_wkt(geom: BaseGeometry) -> str:
-    """A polygon or multipolygon as WKT that reads back to the same coordinates, bit for bit.
+    """A polygon, a line or one of their multi forms as WKT that reads back to the same coordinates, bit for bit.
 
     GEOS's writer (shapely.to_wkt) keeps 16 significant digits (17 or 18 with
     rounding_precision): 1137 (126, 14) of 400 000 random longitudes and latitudes came back
@@ -249,7 +250,85 @@ def exact_wkt(geom: BaseGeometry) -> str:
         return "POLYGON " + polygon(geom)
     if geom.geom_type == "MultiPolygon":
         return "MULTIPOLYGON (" + ", ".join(polygon(p) for p in geom.geoms) + ")"
-    raise ValueError(f"exact_wkt: a {geom.geom_type} is not an area")
+    if geom.geom_type == "LineString":
+        return "LINESTRING " + ring(geom)
+    if geom.geom_type == "MultiLineString":
+        return "MULTILINESTRING (" + ", ".join(ring(p) for p in geom.geoms) + ")"
+    raise ValueError(f"exact_wkt: a {geom.geom_type} is not an area or a centreline")
+
+
+# ---- the spec's geometry as the page draws it ------------------------------------------------
+
+def is_line(geom: BaseGeometry) -> bool:
+    return geom.geom_type in ("LineString", "MultiLineString")
+
+
+def spec_geometry(spec: MissionSpec) -> tuple[BaseGeometry, tuple[BaseGeometry, ...]]:
+    """The spec's area (a corridor's centreline) and its exclusion zone files, in WGS84."""
+    from aerosurvey.area import read_area
+    from aerosurvey.inputs import load_geometry
+
+    if spec.pattern.kind != "corridor":
+        return load_geometry(spec)
+    zones = tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)
+    return read_centreline(spec.area.file, spec.area.wkt, spec.area.wkt_crs), zones
+
+
+def read_centreline(path: Path | None, wkt: str | None, wkt_crs: str) -> BaseGeometry:
+    """A corridor's centreline (`[pattern] kind = "corridor"`: the spec's area is a line) in WGS84, from the
+    spec's WKT or a GeoJSON file (the one the page saves), checked: a LineString or MultiLineString whose
+    parts have two distinct points or more, within longitude/latitude ranges.
+
+    The page's own reader until the loader reads centrelines (the planner's corridor pattern)."""
+    import pyproj
+
+    from aerosurvey.area import transformer
+
+    name = "area (the corridor's centreline)"
+    if path is not None:
+        if path.suffix.lower() not in (".geojson", ".json"):
+            raise InputError(f"{name}: the page reads a centreline from GeoJSON or WKT, not {path.name!r}", key="area.file")
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise InputError(f"{name}: {str(path)!r} cannot be read as GeoJSON: {exc}", key="area.file") from None
+        feats = doc.get("features", [doc]) if isinstance(doc, dict) else []
+        try:
+            parts = [p for f in feats if isinstance(f, dict) and f.get("geometry")
+                     for p in shapely.get_parts(shapely.geometry.shape(f["geometry"]))]
+        except (KeyError, TypeError, ValueError, AttributeError, shapely.errors.ShapelyError) as exc:
+            raise InputError(f"{name}: {str(path)!r} holds a geometry that is not valid GeoJSON: {exc}", key="area.file") from None
+        if not all(is_line(p) for p in parts):
+            raise InputError(f"{name}: {str(path)!r} holds other geometries than lines", key="area.file")
+        geom: BaseGeometry = parts[0] if len(parts) == 1 else shapely.MultiLineString(parts)
+    else:
+        assert wkt is not None
+        try:
+            geom = shapely.from_wkt(wkt.strip())
+        except shapely.errors.GEOSException as exc:
+            raise InputError(f"{name}: not valid WKT: {exc}", key="area.wkt") from None
+        if wkt_crs != "EPSG:4326":
+            try:
+                t = transformer(wkt_crs, "EPSG:4326")
+            except pyproj.exceptions.CRSError:
+                raise InputError(f"area.wkt_crs = {wkt_crs!r} is not a CRS pyproj knows; give e.g. EPSG:5514",
+                                 key="area.wkt_crs") from None
+            geom = shapely.transform(geom, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
+    return checked_centreline(geom, name)
+
+
+def checked_centreline(geom: BaseGeometry, name: str) -> BaseGeometry:
+    """`geom` when it is a centreline in longitude/latitude; else InputError naming what is wrong."""
+    if geom.is_empty or not is_line(geom):
+        raise InputError(f"{name}: a {geom.geom_type if not geom.is_empty else 'empty geometry'} is not a centreline; "
+                         "give a LineString or MultiLineString", key="area")
+    xy = shapely.get_coordinates(geom)
+    if not np.all(np.isfinite(xy)) or np.any(np.abs(xy[:, 0]) > 180) or np.any(np.abs(xy[:, 1]) > 90):
+        raise InputError(f"{name}: a coordinate is outside longitude [-180, 180] / latitude [-90, 90]", key="area")
+    for i, part in enumerate(shapely.get_parts(geom), start=1):
+        if len(np.unique(shapely.get_coordinates(part), axis=0)) < 2:
+            raise InputError(f"{name}: line {i} has fewer than two distinct points", key="area")
+    return geom
 
 
 # ---- plans ---------------------------------------------------------------------------------
@@ -259,13 +338,19 @@ Progress = Callable[[str, float], None]
 
 @dataclass
 class PlanBundle:
-    """A plan as the page shows it, and the files it offers for download."""
+    """A plan as the page shows it, and the files it offers for download.
+
+    `manifest` and `plan_view` are its manifest.json and plan.geojson as read once when it was made,
+    for the flight results, re-fly and resume asked of it later (None: a resumed flight, which has no
+    manifest)."""
 
     view: dict[str, Any]
     files: dict[str, str]
     frame: MapFrame
     spec: dict[str, Any] = field(default_factory=dict)  # what was planned: the page's spec and drawn zones
     zones: list[str] | None = None
+    manifest: mf.Manifest | None = None
+    plan_view: PlanView | None = None
 
 
 def drawn_zones(zones: list[str]) -> tuple[BaseGeometry, ...]:
@@ -282,12 +367,14 @@ def spec_and_inputs(spec_data: dict[str, Any], ws: Workspace, zones: list[str] |
     """The page's spec checked, and what planning reads: `zones` (WKT in WGS84), when given, are the
     exclusion zones drawn on the page, in place of the spec's zone files."""
     from aerosurvey.inputs import load_inputs
+    from aerosurvey.plan.pattern import pattern_for
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
     spec = parse_spec(spec_data, base=ws.base, path=None)
+    pattern_for(spec)  # a pattern the planner cannot plan yet is refused by its own message before any file is read
     if zones is not None and spec.area.exclusions:
         raise InputError("zones: drawn exclusion zones replace area.exclusions; send one or the other", key="zones")
     # an uploaded or drawn area is inline WKT: the loader parses it in memory and reads files only
@@ -310,25 +397,32 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     rendered = render_outputs(plan)
     progress("control points", 0.97)
     files = dict(rendered.files)
-    manifest = mf.loads(files["manifest.json"], "the plan's manifest")
-    features = json.loads(files["plan.geojson"])
-    points, cp_files = _control_points(rendered, manifest, features)
+    manifest, features, plan_view = plan_documents(files, "the page's plan")
+    points, cp_files = _control_points(rendered, plan_view)
     files.update(cp_files)
     frame = MapFrame.around(plan.area_wgs84, plan.planar)
     view = _view(plan, frame, manifest, features, points, rendered)
     progress("done", 1.0)
-    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones)
+    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view)
 
 
-def _control_points(rendered: Rendered, manifest: mf.Manifest, features: dict[str, Any]) -> tuple[Any, dict[str, str]]:
+def plan_documents(files: dict[str, str], where: str) -> tuple[mf.Manifest, dict[str, Any], PlanView]:
+    """A plan's manifest.json and plan.geojson (texts by name) read once: the typed manifest, the GeoJSON
+    and the plan as the rules see it."""
+    from aerosurvey.rules.planview import PlanView
+
+    manifest = mf.loads(files["manifest.json"], where)
+    features = json.loads(files["plan.geojson"])
+    return manifest, features, PlanView.from_manifest(manifest, features, where)
+
+
+def _control_points(rendered: Rendered, plan_view: PlanView) -> tuple[Any, dict[str, str]]:
     from aerosurvey.rules.cp_files import control_point_files
     from aerosurvey.rules.engine import Evidence, layout_settings
-    from aerosurvey.rules.planview import PlanView
 
     ev = rendered.evidence
     if ev is None:
-        view = PlanView.from_manifest(manifest, features, "the plan")
-        ev = Evidence(view, layout_settings(view, []))
+        ev = Evidence(plan_view, layout_settings(plan_view, []))
     return ev.points, control_point_files(ev.view, ev.points)
 
 
