@@ -573,10 +573,25 @@ def test_offline_vector_basemap(site, kind):
         pg.evaluate("window.aerosurvey.map.getView().setZoom(14)")
         _rendered(pg)
         x, y = _page_px(pg, 14.9505, 49.430)  # inside the pond
+        px, py = _page_px(pg, 14.945, 49.4275)  # on the road, away from the pond
         box = pg.locator("#map").bounding_box()
         found = pg.evaluate("""async ([x, y]) => (await window.aerosurvey.layers.vbasemap.getFeatures([x, y]))
             .map(f => f.get('class'))""", [x - box["x"], y - box["y"]])
         assert "water" in found
+        # the default style: the pond filled blue and named, the road cased and named along its line
+        styled = pg.evaluate("""async (pts) => {
+            const layer = window.aerosurvey.layers.vbasemap, style = layer.getStyleFunction();
+            const res = window.aerosurvey.map.getView().getResolution(), out = {};
+            for (const [x, y] of pts) for (const f of await layer.getFeatures([x, y])) {
+              const s = [style(f, res)].flat().filter(Boolean);
+              out[f.get('class')] = { fills: s.filter(t => t.getFill()).map(t => t.getFill().getColor()),
+                strokes: s.filter(t => t.getStroke()).length, texts: s.filter(t => t.getText()).map(t => t.getText().getText()),
+                placement: s.filter(t => t.getText()).map(t => t.getText().getPlacement()) };
+            }
+            return out; }""", [[x - box["x"], y - box["y"]], [px - box["x"], py - box["y"]]])
+        assert styled["water"]["fills"] == ["#aad3df"] and styled["water"]["texts"] == ["Pond"]
+        assert styled["road"]["strokes"] == 2 and styled["road"]["texts"] == ["Main road"]  # casing and fill
+        assert styled["road"]["placement"] == ["line"]
         assert pg.evaluate("window.aerosurvey.layers.basemap.getSource()") is None
         pg.screenshot(path=str(SHOTS / f"15-vector-basemap-{kind}.png"))
         _only_our_server(pg, server.url)

@@ -301,29 +301,71 @@ function vector(name, style, z) {
   layer.set("name", name);
   return layer;
 }
-// a vector basemap (--basemap FILE of Mapbox Vector Tiles): a generic style by the layer's and feature's names
+// a vector basemap (--basemap FILE of Mapbox Vector Tiles): a default style by the layer's and feature's names, read
+// the same way for the common schemas (OpenMapTiles, Shortbread, Protomaps, GDAL's own layers with a class field):
+// water, green, land use, buildings (zoomed in), roads by rank with casings, paths, railways, boundaries; names along
+// roads and rivers, on water and parks, and at places
+const VT_KINDS = [["water", /water|ocean|river|lake|pond|sea|reservoir|canal|stream|ditch/],
+  ["building", /building/], ["rail", /rail|train|tram|subway|funicular/],
+  ["major", /motorway|trunk|primary|highway|major/], ["medium", /secondary|tertiary|medium/],
+  ["path", /path|track|footway|cycleway|steps|bridleway|pedestrian/],
+  ["road", /road|street|minor|service|residential_road|unclassified|living|transport/],
+  ["green", /park|wood|forest|grass|landcover|green|farm|meadow|orchard|vineyard|scrub|wetland|cemetery/],
+  ["boundary", /boundary|admin/], ["landuse", /landuse|residential|industrial|commercial|retail/]];
+const vtStroke = (color, width, lineDash) => new olb.Stroke({ color, width, lineDash });
+const vtText = (font, color, placement) => new olb.Text({ font, placement, fill: new olb.Fill({ color }), overflow: false,
+  stroke: new olb.Stroke({ color: "rgba(255,255,255,0.9)", width: 3 }) });
+/** Road styles by rank: a casing under the fill, both widening as the map zooms in (`w`: pixels a line). */
+const VT_ROADS = { major: ["#e39b54", "#fcd6a4", 1.6], medium: ["#c5c28a", "#f7fabf", 1.25], road: ["#b8b8b8", "#ffffff", 1] };
 const VT = {
-  water: new olb.Style({ fill: new olb.Fill({ color: "#aad3df" }), stroke: new olb.Stroke({ color: "#7fb5c9", width: 1 }) }),
-  green: new olb.Style({ fill: new olb.Fill({ color: "#d6eccb" }), stroke: new olb.Stroke({ color: "#b9d9a6", width: 1 }) }),
-  building: new olb.Style({ fill: new olb.Fill({ color: "#e3d9cc" }), stroke: new olb.Stroke({ color: "#c9bba9", width: 1 }) }),
-  road: new olb.Style({ stroke: new olb.Stroke({ color: "#a0a0a0", width: 3 }) }),
-  boundary: new olb.Style({ stroke: new olb.Stroke({ color: "#9c6fb6", width: 1, lineDash: [6, 4] }) }),
-  other: new olb.Style({ fill: new olb.Fill({ color: "rgba(120,120,120,0.08)" }), stroke: new olb.Stroke({ color: "#c0c0c0", width: 1 }) }),
-  label: new olb.Style({ text: new olb.Text({ font: "12px system-ui, sans-serif", fill: new olb.Fill({ color: "#333" }),
-    stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) }),
+  water: new olb.Style({ fill: new olb.Fill({ color: "#aad3df" }), stroke: vtStroke("#7fb5c9", 1.5), zIndex: 1 }),
+  green: new olb.Style({ fill: new olb.Fill({ color: "#d6eccb" }), zIndex: 0 }),
+  landuse: new olb.Style({ fill: new olb.Fill({ color: "rgba(224,218,208,0.5)" }), zIndex: 0 }),
+  building: new olb.Style({ fill: new olb.Fill({ color: "#e3d9cc" }), stroke: vtStroke("#c9bba9", 1), zIndex: 2 }),
+  path: new olb.Style({ stroke: vtStroke("#a0522d", 1, [4, 3]), zIndex: 3 }),
+  rail: new olb.Style({ stroke: vtStroke("#707070", 1.5, [8, 4]), zIndex: 6 }),
+  boundary: new olb.Style({ stroke: vtStroke("#9c6fb6", 1, [6, 4]), zIndex: 7 }),
+  other: new olb.Style({ fill: new olb.Fill({ color: "rgba(120,120,120,0.06)" }), stroke: vtStroke("#c8c8c8", 1), zIndex: 0 }),
+  place: new olb.Style({ text: vtText("bold 12px system-ui, sans-serif", "#222", "point"), zIndex: 10 }),
+  poi: new olb.Style({ text: vtText("11px system-ui, sans-serif", "#444", "point"), zIndex: 9 }),
+  roadName: new olb.Style({ text: vtText("11px system-ui, sans-serif", "#333", "line"), zIndex: 9 }),
+  waterName: new olb.Style({ text: vtText("italic 11px system-ui, sans-serif", "#2a6f97", "point"), zIndex: 9 }),
+  riverName: new olb.Style({ text: vtText("italic 11px system-ui, sans-serif", "#2a6f97", "line"), zIndex: 9 }),
+  greenName: new olb.Style({ text: vtText("italic 11px system-ui, sans-serif", "#3b7a2a", "point"), zIndex: 9 }),
 };
-const VT_KINDS = [["water", /water|ocean|river|lake|pond|sea/], ["green", /park|wood|forest|grass|landcover|landuse|green|farm|meadow/],
-  ["building", /building/], ["road", /road|transport|street|highway|path|track|rail/], ["boundary", /boundary|admin/]];
-function vectorBasemapStyle(f) {
-  const type = f.getType();
-  if (type === "Point" || type === "MultiPoint") {
-    if (!f.get("name")) return null;
-    VT.label.getText().setText(String(f.get("name")));
-    return VT.label;
+const vtRoadStyles = new Map();
+function vtRoad(kind, resolution) {
+  const [casing, fill, rank] = VT_ROADS[kind];
+  const w = Math.round(2 * rank * Math.min(4, Math.max(1, 8 / Math.sqrt(resolution)))) / 2;  // 1 px at zoom 12, 4 at 17
+  const key = `${kind}${w}`;
+  if (!vtRoadStyles.has(key)) {
+    vtRoadStyles.set(key, [new olb.Style({ stroke: vtStroke(casing, w + 2), zIndex: 4 }), new olb.Style({ stroke: vtStroke(fill, w), zIndex: 5 })]);
   }
-  const words = `${f.get("layer") || ""} ${f.get("class") || ""} ${f.get("kind") || ""} ${f.get("type") || ""}`.toLowerCase();
-  const kind = VT_KINDS.find(([, re]) => re.test(words));
-  return VT[kind ? kind[0] : "other"];
+  return vtRoadStyles.get(key);
+}
+/** The name a feature carries in the common schemas, or "". */
+function vtName(f) { return String(f.get("name") || f.get("name:latin") || f.get("name_en") || f.get("name_int") || ""); }
+function vectorBasemapStyle(f, resolution) {
+  const type = f.getType();
+  const words = `${f.get("layer") || ""} ${f.get("class") || ""} ${f.get("subclass") || ""} ${f.get("kind") || ""} ${f.get("type") || ""}`.toLowerCase();
+  const found = VT_KINDS.find(([, re]) => re.test(words));
+  const kind = found ? found[0] : "other";
+  const name = vtName(f);
+  const label = (style) => { style.getText().setText(name); return style; };
+  if (type === "Point" || type === "MultiPoint") {
+    if (!name) return null;
+    return label(/place|city|town|village|hamlet|suburb|locality/.test(words) ? VT.place : kind === "water" ? VT.waterName : VT.poi);
+  }
+  const line = type === "LineString" || type === "MultiLineString";
+  if (kind === "building" && resolution > 4) return null;  // buildings from zoom 15: below it they are only noise
+  let styles;
+  if (line && VT_ROADS[kind]) styles = vtRoad(kind, resolution);
+  else styles = [VT[kind] || VT.other];
+  if (!name) return styles;
+  if (line && (VT_ROADS[kind] || kind === "path")) return [...styles, label(VT.roadName)];
+  if (kind === "water") return [...styles, label(line ? VT.riverName : VT.waterName)];
+  if (kind === "green" && !line) return [...styles, label(VT.greenName)];
+  return styles;
 }
 
 const L = {
