@@ -99,3 +99,54 @@ def test_drawn_zones_reach_the_plan(tmp_path):
         assert planned(res.exit_code, res.output), res.output
         page = c.get(f"/api/plans/{done['result']['plan_id']}/files/mission.waypoints").text
         assert (tmp_path / "cli" / "mission.waypoints").read_text() == page
+
+
+_lonlat = st.tuples(st.floats(14.9, 15.0), st.floats(49.4, 49.5))
+
+
+@settings(max_examples=25, deadline=None)
+@given(lines=st.lists(st.lists(_lonlat, min_size=2, max_size=8, unique=True), min_size=1, max_size=3))
+def test_saved_centreline_reads_back_bit_for_bit(tmp_path_factory, lines):
+    """A corridor's drawn centreline (WKT in the spec) saved as GeoJSON beside the spec, with [pattern]: the file
+    holds the same numbers, the spec names it, and the preview the page gets back is that line."""
+    import json
+
+    tmp = tmp_path_factory.mktemp("corridor")
+    spec_path = copy_mission(tmp)
+    geom = shapely.LineString(lines[0]) if len(lines) == 1 else shapely.MultiLineString(lines)
+    spec = service.read_spec_file(spec_path)
+    spec["area"] = {"wkt": service.exact_wkt(geom)}
+    spec["pattern"] = {"kind": "corridor", "width_m": 60.0}
+    spec["flight"].pop("cross_hatch", None)
+    ws = service.Workspace(base=tmp, uploads=tmp, roots=[tmp])
+    saved, files, preview = save_with_geometry(ws, spec_path, spec, None)
+    assert files == ["obratan-72ha.centreline.geojson"]
+    on_disk = tomllib.loads(spec_path.read_text())
+    assert on_disk["pattern"] == {"kind": "corridor", "width_m": 60.0}
+    assert on_disk["area"]["file"] == "obratan-72ha.centreline.geojson" and "wkt" not in on_disk["area"]
+    feats = json.loads((tmp / "obratan-72ha.centreline.geojson").read_text())["features"]
+    back = [shapely.geometry.shape(f["geometry"]) for f in feats]
+    assert len(back) == 1 and shapely.equals_exact(back[0], geom, tolerance=0.0)
+    assert shapely.equals_exact(shapely.from_wkt(preview["area"]), geom, tolerance=0.0)
+    assert load_spec(spec_path).pattern.kind == "corridor"
+
+
+def test_bad_centrelines_are_refused_before_anything_is_written(tmp_path):
+    import pytest
+
+    from aerosurvey.errors import InputError
+
+    spec_path = copy_mission(tmp_path)
+    before = spec_path.read_text()
+    ws = service.Workspace(base=tmp_path, uploads=tmp_path, roots=[tmp_path])
+    spec = service.read_spec_file(spec_path)
+    spec["pattern"] = {"kind": "corridor", "width_m": 60.0}
+    spec["flight"].pop("cross_hatch", None)
+    for wkt, message in [("POLYGON ((14.9 49.4, 14.91 49.4, 14.91 49.41, 14.9 49.4))", "a Polygon is not a centreline"),
+                         ("LINESTRING (14.9 49.4, 14.9 49.4)", "line 1 has fewer than two distinct points"),
+                         ("LINESTRING (14.9 49.4, 14.9 95.0)", "outside longitude"),
+                         ("LINESTRING (14.9 49.4", "not valid WKT")]:
+        with pytest.raises(InputError, match=message) as exc:
+            save_with_geometry(ws, spec_path, {**spec, "area": {"wkt": wkt}}, None)
+        assert "\n" not in str(exc.value) and exc.value.key is not None
+    assert spec_path.read_text() == before and not list(tmp_path.glob("*.centreline.geojson"))

@@ -544,6 +544,88 @@ def test_save_the_drawn_zone_with_the_spec_and_reload(site):
         assert pg.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
 
 
+def _lonlat(pg, x: float, y: float) -> list[float]:
+    """The place under a page pixel, through the map's own view."""
+    return pg.evaluate("""([x, y]) => { const r = document.querySelector('#map').getBoundingClientRect();
+        return olb.toLonLat(window.aerosurvey.map.getCoordinateFromPixel([x - r.left, y - r.top])); }""", [x, y])
+
+
+def test_draw_a_corridor_centreline_edit_and_save(site):
+    """A centreline drawn by clicks (snapped to a vertex it starts near) makes the spec a corridor along it; its
+    width is set, a vertex dragged, undone and redone; saved, the spec has [pattern] kind = "corridor" and the
+    centreline as GeoJSON beside it, which reloads onto the map and can be deleted."""
+    tmp = site["tmp"] / "corridor"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    with _own_server_page(site, spec) as (pg, server):
+        corner = min(_drawn(pg, "area")[0][0], key=lambda c: c[0])  # the area's westmost vertex
+        x0, y0 = _page_px(pg, *corner)
+        pts = [(x0 + 5, y0 - 4), (x0 + 160, y0 - 90), (x0 + 330, y0 + 30)]
+        clicked = [_lonlat(pg, x, y) for x, y in pts]  # before an error line above the map moves it
+        pg.click("#tools [data-tool='centreline']")
+        for x, y in [*pts, pts[-1]]:  # a click on the last point again finishes the line
+            pg.mouse.click(x, y)
+            pg.wait_for_timeout(300)  # not a double click
+        pg.wait_for_function("(window.aerosurvey.spec.area.wkt || '').startsWith('LINESTRING')", timeout=30000)
+        (line,) = _drawn(pg, "centreline")
+        assert len(line) == 3
+        assert line[0] == pytest.approx(corner, abs=1e-12)  # snapped onto the area's vertex
+        for (lon, lat), want in zip(line[1:], clicked[1:]):
+            assert (lon, lat) == pytest.approx(want, abs=1e-6)
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 50}
+        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
+        # the planner refuses a corridor until its pattern lands: its own message, the last plan kept
+        pg.wait_for_function("document.querySelector('#general-error').textContent.includes('corridor')", timeout=60000)
+        assert "not planned yet" in pg.text_content("#general-error")
+        _tab(pg, "setup")
+        assert pg.input_value("#pattern-kind") == "corridor" and pg.is_visible("[data-key='pattern.width_m']")
+        assert pg.input_value("[data-key='pattern.width_m']") == "50"
+        pg.fill("[data-key='pattern.width_m']", "80")
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 80}
+        # a vertex dragged; undo and redo
+        pg.click("#tools [data-tool='edit']")
+        mx, my = _page_px(pg, *line[1])
+        pg.mouse.move(mx, my)
+        pg.wait_for_timeout(200)
+        pg.mouse.down()
+        pg.mouse.move(mx, my + 70, steps=8)
+        pg.mouse.up()
+        pg.wait_for_function("window.aerosurvey.pos === 2", timeout=30000)  # the drawing, then the drag
+        moved = _drawn(pg, "centreline")[0]
+        assert moved[1][1] < line[1][1] and moved[0] == line[0] and moved[2] == line[2]  # dragged south
+        pg.click("#undo")
+        assert _drawn(pg, "centreline")[0] == line
+        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
+        pg.click("#redo")
+        assert _drawn(pg, "centreline")[0] == moved
+        pg.screenshot(path=str(SHOTS / "16-corridor-centreline.png"))
+        # saved: [pattern] and the centreline's GeoJSON beside the spec, written whole
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        saved = tomllib.loads(spec.read_text())
+        assert saved["pattern"] == {"kind": "corridor", "width_m": 80}
+        assert saved["area"]["file"] == "obratan-72ha.centreline.geojson" and "wkt" not in saved["area"]
+        (feat,) = json.loads((tmp / "obratan-72ha.centreline.geojson").read_text())["features"]
+        assert feat["properties"]["role"] == "centreline" and feat["geometry"]["type"] == "LineString"
+        assert shapely.LineString(feat["geometry"]["coordinates"]).equals_exact(shapely.LineString(moved), 1e-12)
+        assert not list(tmp.glob("*.tmp*")) and not list(tmp.glob(".*"))  # no temporary file left
+        # reloaded: the centreline on the map from the saved file, the form a corridor of 80 m
+        pg.reload()
+        pg.wait_for_function("window.aerosurvey.layers.area.getSource().getFeatures().some(f => f.get('role') === 'centreline')",
+                             timeout=60000)
+        assert shapely.LineString(_drawn(pg, "centreline")[0]).equals_exact(shapely.LineString(moved), 1e-12)
+        _tab(pg, "setup")
+        assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "80"
+        # deleted: nothing left to plan
+        pg.click("#tools [data-tool='delete']")
+        dx, dy = _page_px(pg, *moved[0])
+        ex, ey = _page_px(pg, *moved[1])
+        pg.mouse.click((dx + ex) / 2, (dy + ey) / 2)
+        pg.wait_for_function("window.aerosurvey.spec.area === undefined", timeout=30000)
+        assert _drawn(pg, "centreline") == []
+        _only_our_server(pg, server.url)
+
+
 @pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
 def test_offline_basemap_from_a_local_file(site, kind):
     tmp = site["tmp"] / f"basemap-{kind}"

@@ -72,7 +72,7 @@ def spec_to_toml(data: dict[str, Any]) -> str:
     """The spec as TOML text, tables in the documented order."""
     import tomli_w
 
-    order = ["mission", "area", "camera", "targets", "vehicle", "flight", "terrain", "battery", "conditions", "rules"]
+    order = ["mission", "area", "pattern", "camera", "targets", "vehicle", "flight", "terrain", "battery", "conditions", "rules"]
     ordered = {k: data[k] for k in order if k in data}
     ordered.update({k: v for k, v in data.items() if k not in ordered})
     return tomli_w.dumps(_drop_none(ordered))
@@ -143,6 +143,8 @@ def with_new_area(spec: dict[str, Any], area: dict[str, Any], name: str) -> dict
     out["mission"]["crs"] = "auto"
     out["area"] = dict(area)
     out.pop("terrain", None)
+    if (out.get("pattern") or {}).get("kind") == "corridor":  # an area file holds polygons, not a centreline
+        out.pop("pattern")
     if "battery" in out:
         out["battery"].pop("launch_points", None)
         out["battery"].pop("launch", None)

@@ -6,6 +6,7 @@
 const SORTIE_COLOURS = ["#1565c0", "#ef6c00", "#6a1b9a", "#00897b", "#c2185b", "#5d4037", "#3949ab", "#7cb342",
   "#f9a825", "#00838f", "#8e24aa", "#d84315"];
 const WEB = "EPSG:3857", WGS84 = "EPSG:4326";
+const DEFAULT_CORRIDOR_WIDTH_M = 50;  // a first centreline's corridor, until the pilot sets its width
 
 const S = {
   spec: {},            // the spec being edited: the source of truth for the form
@@ -64,6 +65,40 @@ function fillForm() {
   for (const el of $$("[data-key^='battery.']")) el.disabled = !$("#battery-on").checked;
   const profiles = ((S.spec.rules || {}).profiles) || [];
   for (const cb of $$("#profiles input")) cb.checked = profiles.includes(cb.value);
+  showPatternFields();
+}
+
+// ---- the pattern: area grid, corridor along a drawn centreline, oblique ------------------------------
+function patternKind() { return (S.spec.pattern && S.spec.pattern.kind) || "area"; }
+/** The [pattern] keys each kind reads (the spec refuses the others). */
+const PATTERN_KEYS = { area: [], corridor: ["width_m", "left_m", "right_m"], oblique: ["scheme", "pitch_deg"] };
+function showPatternFields() {
+  const kind = patternKind();
+  for (const el of $$("[data-pattern]")) el.hidden = el.dataset.pattern !== kind;
+}
+/** The pattern's kind changed: keys of other kinds go, a corridor is not cross-hatched, and the spec's area
+ * follows the kind when its geometry was drawn (a corridor's area is its centreline). */
+function onKind() {
+  const kind = patternKind();
+  for (const k of Object.keys(S.spec.pattern || {})) if (k !== "kind" && !PATTERN_KEYS[kind].includes(k)) delete S.spec.pattern[k];
+  if (kind === "corridor" && S.spec.flight) delete S.spec.flight.cross_hatch;
+  const drawn = editFeatures(kind === "corridor" ? "centreline" : "area").length;
+  const inline = S.spec.area && typeof S.spec.area.wkt === "string";
+  if (drawn || (inline && S.touched.has("area"))) { S.touched.add("area"); writeArea(); }
+  fillForm();
+}
+/** A pattern field changed: keys of another kind go, a width replaces left and right (and back). */
+function onPatternField(key) {
+  const p = S.spec.pattern;
+  if (!p) return;
+  if (key === "pattern.kind") onKind();
+  else {  // the other way of giving the width is emptied (the field being typed in is left alone)
+    const others = key === "pattern.width_m" ? ["left_m", "right_m"] : ["width_m"];
+    if (p[key.split(".")[1]] !== undefined) {
+      for (const k of others) { delete p[k]; $(`[data-key='pattern.${k}']`).value = ""; }
+    }
+  }
+  if (!Object.keys(p).length) delete S.spec.pattern;
 }
 
 function parseField(el) {
@@ -86,6 +121,7 @@ function onField(el) {
   if (p.error) { el.classList.add("bad"); showError(el.dataset.key, p.error); return; }
   el.classList.remove("bad");
   setKey(S.spec, el.dataset.key, p.value);
+  if (el.dataset.key.startsWith("pattern.")) onPatternField(el.dataset.key);
   schedule();
 }
 
@@ -285,7 +321,10 @@ function siteStyle(f) {
 const launchStyle = new olb.Style({
   image: new olb.RegularShape({ points: 3, radius: 9, fill: new olb.Fill({ color: "#ffb300" }), stroke: new olb.Stroke({ color: "#1d2630", width: 1.5 }) }),
 });
-function editStyle(f) { return f.get("role") === "zone" ? st.zone : f.get("role") === "launch" ? launchStyle : st.area; }
+const centrelineStyle = [new olb.Style({ stroke: new olb.Stroke({ color: "#fff", width: 6 }) }),
+  new olb.Style({ stroke: new olb.Stroke({ color: "#6a1b9a", width: 3 }) })];
+const EDIT_STYLES = { zone: st.zone, launch: launchStyle, centreline: centrelineStyle };
+function editStyle(f) { return EDIT_STYLES[f.get("role")] || st.area; }
 
 /** A point style with the feature's id written above it once the map is zoomed in (under 0.8 m a pixel). */
 function labelled(style) {
@@ -601,13 +640,19 @@ function renderFiles(view) {
 
 // ---- the drawn geometry: area polygons (with holes), exclusion zones, launch points ------------
 function editFeatures(role) { return edit.getFeatures().filter((f) => f.get("role") === role); }
+/** Polygons (or lines: a corridor's centreline) as one WKT geometry in WGS84. */
 function toWkt(geoms) {
-  const g = geoms.length === 1 ? geoms[0] : new olb.MultiPolygon(geoms.map((p) => p.getCoordinates()));
+  const multi = geoms[0].getType() === "LineString" ? "MultiLineString" : "MultiPolygon";
+  const g = geoms.length === 1 ? geoms[0] : geojson.readGeometry({ type: multi, coordinates: geoms.map((p) => p.getCoordinates()) });
   return wkt.writeGeometry(g.clone().transform(WEB, WGS84));
 }
 function readWkt(text) {
   const g = wkt.readGeometry(text, { dataProjection: WGS84, featureProjection: WEB });
-  return g.getType() === "MultiPolygon" ? g.getPolygons() : [g];
+  return g.getType() === "MultiPolygon" ? g.getPolygons() : g.getType() === "MultiLineString" ? g.getLineStrings() : [g];
+}
+/** The spec's area geometry drawn with its role: polygons are the area, lines a corridor's centreline. */
+function addArea(text, add) {
+  readWkt(text).forEach((g) => add(g, g.getType() === "LineString" ? "centreline" : "area"));
 }
 
 /** The editable features from the spec (area WKT, launch points) and the zones (drawn WKT or the server's preview of the files). */
@@ -617,8 +662,8 @@ function loadEditable() {
   const area = S.spec.area || {};
   // the spec's WKT, else the server's reading of its files; else (a spec that could not be read at the start) the plan's
   const planned = (key) => (S.view ? S.view.layers[key] : []).map(polygonOf);
-  if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) readWkt(area.wkt).forEach((g) => add(g, "area"));
-  else if (S.preview && S.preview.area) readWkt(S.preview.area).forEach((g) => add(g, "area"));
+  if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) addArea(area.wkt, add);
+  else if (S.preview && S.preview.area) addArea(S.preview.area, add);
   else planned("area").forEach((g) => add(g, "area"));
   if (S.zones !== null) S.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
@@ -635,8 +680,9 @@ function launchPoints() {
   return Array.isArray(a) ? [a] : [];
 }
 
+/** The area into the spec: a corridor's centreline (pattern.kind = "corridor"), else the area polygons. */
 function writeArea() {
-  const polys = editFeatures("area").map((f) => f.getGeometry());
+  const polys = editFeatures(patternKind() === "corridor" ? "centreline" : "area").map((f) => f.getGeometry());
   if (!polys.length) { delete S.spec.area; return; }
   if (!S.spec.camera && S.defaults) { S.spec = { ...structuredClone(S.defaults), ...S.spec }; fillForm(); }  // a page started without a spec
   const { file, wkt, wkt_crs, ...rest } = S.spec.area || {};  // the zone files and the launch point stay
@@ -660,7 +706,7 @@ function geometryChanged(roles) {
   writeGeometry();
 }
 function writeGeometry() {
-  if (S.touched.has("area")) writeArea();
+  if (S.touched.has("area") || S.touched.has("centreline")) writeArea();
   if (S.touched.has("zone")) writeZones();
   if (S.touched.has("launch")) writeLaunch();
   updateUndo();
@@ -704,7 +750,8 @@ function setTool(tool) {
   translate.setActive(tool === "move");
   $("#measure-out").hidden = !tool.startsWith("measure");
   if (!tool.startsWith("measure")) L.measure.getSource().clear();
-  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", measure: "LineString", "measure-area": "Polygon" }[tool];
+  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", centreline: "LineString", measure: "LineString",
+    "measure-area": "Polygon" }[tool];
   if (type) {
     draw = new olb.Draw({ type, source: tool.startsWith("measure") ? L.measure.getSource() : undefined, stopClick: true });
     draw.on("drawstart", (e) => { if (tool.startsWith("measure")) { L.measure.getSource().clear(); measureLive(e.feature); } });
@@ -716,9 +763,13 @@ function setTool(tool) {
 
 function onDrawn(tool, feature) {
   const geom = feature.getGeometry();
-  if (tool === "area" || tool === "zone" || tool === "launch") {
+  if (tool === "area" || tool === "zone" || tool === "launch" || tool === "centreline") {
     const role = tool;
     edit.addFeature(new olb.Feature({ geometry: geom, role }));
+    if (role === "centreline" && patternKind() !== "corridor") {  // a centreline makes the plan a corridor along it
+      S.spec.pattern = { kind: "corridor", width_m: DEFAULT_CORRIDOR_WIDTH_M };
+      onKind();
+    }
     geometryChanged([role]);
   } else if (tool === "hole") {
     const inside = editFeatures("area").find((f) => f.getGeometry().intersectsCoordinate(geom.getInteriorPoint().getCoordinates()));
@@ -753,7 +804,7 @@ function deleteAt(pixel) {
     const k = rings.findIndex((r, i) => i > 0 && new olb.Polygon([r]).intersectsCoordinate(coord));
     if (k > 0) { rings.splice(k, 1); f.getGeometry().setCoordinates(rings); geometryChanged(["area"]); return; }
   }
-  const rank = { launch: 0, zone: 1, area: 2 };
+  const rank = { launch: 0, centreline: 1, zone: 2, area: 3 };
   const f = hits.sort((a, b) => rank[a.get("role")] - rank[b.get("role")])[0];
   if (f) { edit.removeFeature(f); geometryChanged([f.get("role")]); }
 }
