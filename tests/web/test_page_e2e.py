@@ -626,6 +626,42 @@ def test_draw_a_corridor_centreline_edit_and_save(site):
         _only_our_server(pg, server.url)
 
 
+def test_oblique_and_hover_fields_saved_into_the_spec(site):
+    """Oblique (scheme, pitch) and hover (settle time) chosen in the form reach the spec and the saved file; the
+    planner's refusal is shown until those patterns land; back to an area grid, the oblique keys go."""
+    tmp = site["tmp"] / "oblique"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    with _own_server_page(site, spec) as (pg, server):
+        _tab(pg, "setup")
+        assert not pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='camera.settle_s']")
+        pg.select_option("#pattern-kind", "oblique")
+        assert pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='pattern.width_m']")
+        pg.select_option("[data-key='pattern.scheme']", "five-direction")
+        pg.fill("[data-key='pattern.pitch_deg']", "-30")
+        pg.select_option("[data-key='camera.trigger']", "hover")
+        assert pg.is_visible("[data-key='camera.settle_s']")
+        pg.fill("[data-key='camera.settle_s']", "2.5")
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "oblique", "scheme": "five-direction", "pitch_deg": -30}
+        camera = pg.evaluate("window.aerosurvey.spec.camera")
+        assert camera["trigger"] == "hover" and camera["settle_s"] == 2.5
+        pg.wait_for_function("document.querySelector('#general-error').textContent.includes('oblique')", timeout=60000)
+        assert "not planned yet" in pg.text_content("#general-error")
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        saved = tomllib.loads(spec.read_text())
+        assert saved["pattern"] == {"kind": "oblique", "scheme": "five-direction", "pitch_deg": -30}
+        assert saved["camera"]["trigger"] == "hover" and saved["camera"]["settle_s"] == 2.5
+        assert saved["area"]["file"] == "areas/obratan-72ha.geojson"  # the area was not edited: its file stays
+        # an area grid again: the oblique keys go, the spec plans
+        pg.select_option("[data-key='camera.trigger']", "distance")
+        _replan_and_wait(pg, lambda: pg.select_option("#pattern-kind", "area"))
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "area"}
+        assert not pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='camera.settle_s']")
+        assert _features(pg, "lines") == 34
+        _only_our_server(pg, server.url)
+
+
 @pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
 def test_offline_basemap_from_a_local_file(site, kind):
     tmp = site["tmp"] / f"basemap-{kind}"

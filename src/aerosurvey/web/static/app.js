@@ -65,26 +65,28 @@ function fillForm() {
   for (const el of $$("[data-key^='battery.']")) el.disabled = !$("#battery-on").checked;
   const profiles = ((S.spec.rules || {}).profiles) || [];
   for (const cb of $$("#profiles input")) cb.checked = profiles.includes(cb.value);
-  showPatternFields();
+  showChosenFields();
 }
 
 // ---- the pattern: area grid, corridor along a drawn centreline, oblique ------------------------------
 function patternKind() { return (S.spec.pattern && S.spec.pattern.kind) || "area"; }
 /** The [pattern] keys each kind reads (the spec refuses the others). */
 const PATTERN_KEYS = { area: [], corridor: ["width_m", "left_m", "right_m"], oblique: ["scheme", "pitch_deg"] };
-function showPatternFields() {
-  const kind = patternKind();
+/** Only the fields of the chosen pattern and trigger are shown. */
+function showChosenFields() {
+  const kind = patternKind(), trigger = (S.spec.camera && S.spec.camera.trigger) || "distance";
   for (const el of $$("[data-pattern]")) el.hidden = el.dataset.pattern !== kind;
+  for (const el of $$("[data-trigger]")) el.hidden = el.dataset.trigger !== trigger;
 }
 /** The pattern's kind changed: keys of other kinds go, a corridor is not cross-hatched, and the spec's area
- * follows the kind when its geometry was drawn (a corridor's area is its centreline). */
+ * follows the kind when the other geometry is drawn (a corridor's area is its centreline, other kinds' polygons). */
 function onKind() {
   const kind = patternKind();
   for (const k of Object.keys(S.spec.pattern || {})) if (k !== "kind" && !PATTERN_KEYS[kind].includes(k)) delete S.spec.pattern[k];
   if (kind === "corridor" && S.spec.flight) delete S.spec.flight.cross_hatch;
-  const drawn = editFeatures(kind === "corridor" ? "centreline" : "area").length;
-  const inline = S.spec.area && typeof S.spec.area.wkt === "string";
-  if (drawn || (inline && S.touched.has("area"))) { S.touched.add("area"); writeArea(); }
+  const role = kind === "corridor" ? "centreline" : "area";
+  const holds = /^\s*(MULTI)?LINESTRING/i.test((S.spec.area && S.spec.area.wkt) || "") ? "centreline" : "area";
+  if (holds !== role && editFeatures(role).length) { S.touched.add(role); writeArea(); }
   fillForm();
 }
 /** A pattern field changed: keys of another kind go, a width replaces left and right (and back). */
@@ -122,6 +124,7 @@ function onField(el) {
   el.classList.remove("bad");
   setKey(S.spec, el.dataset.key, p.value);
   if (el.dataset.key.startsWith("pattern.")) onPatternField(el.dataset.key);
+  if (el.dataset.key === "camera.trigger") showChosenFields();
   schedule();
 }
 
