@@ -45,7 +45,8 @@ PLANE_LINE_ACCEPTANCE_M = 2.0
 
 def _wp(plan: Plan, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
     alt = w.alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
-    accept = PLANE_LINE_ACCEPTANCE_M if plan.spec.vehicle.type == "plane" and w.kind in ("line_start", "terrain", "line_end") else 0.0
+    on_line = w.kind in ("line_start", "terrain", "bend", "line_end")
+    accept = PLANE_LINE_ACCEPTANCE_M if plan.spec.vehicle.type == "plane" and on_line else 0.0
     return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, accept, 0.0, _yaw_param4(plan),
                        round(w.lat, 8), round(w.lon, 8), round(alt, 2), True, tag)
 
@@ -120,6 +121,8 @@ def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name
             items.extend(_camera_on(plan, f"{run_id(plan, w.run)}:camera-on"))
         elif w.kind == "terrain":
             items.append(_wp(plan, w, w.station, alt_shift))
+        elif w.kind == "bend":
+            items.append(_wp(plan, w, f"{run_id(plan, w.run)}:bend", alt_shift))
         elif w.kind == "line_end":
             rid = run_id(plan, w.run)
             items.append(_wp(plan, w, f"{rid}:end", alt_shift))

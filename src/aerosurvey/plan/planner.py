@@ -119,7 +119,7 @@ def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
     slopes = Slopes.of(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms, sensor.speed.speed_ms)
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes,
                             spec.vehicle.max_height_agl_m)
-    return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations)
+    return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations, layout.check_exactly)
 
 
 def _with_transits(survey: tuple[RouteWaypoint, ...], routed: RoutePlan, site: Site) -> tuple[RouteWaypoint, ...]:

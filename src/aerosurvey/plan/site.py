@@ -62,6 +62,7 @@ class Site:
     dem: Dem | None
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
     simplification: Simplification
+    centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
 
 
 def simplify_tolerance_m(spec: MissionSpec) -> float:
@@ -144,9 +145,19 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
     c = inputs.area_wgs84.centroid
     k = planar.scale_factor(c.x, c.y)
     tol = simplify_tolerance_m(spec) * k
-    given = shapely.normalize(planar.forward(inputs.area_wgs84))
-    area = grown_simplification(given, tol)
-    area_wgs84 = inputs.area_wgs84 if area is given else planar.inverse(area)
+    centreline = None
+    if spec.pattern.kind == "corridor":
+        assert spec.pattern.left_m is not None and spec.pattern.right_m is not None
+        # the corridor round a simpler centreline (within `tol` of the given one), each side wider
+        # by the tolerance: it covers the corridor round the given centreline
+        given = shapely.line_merge(planar.forward(inputs.area_wgs84))
+        centreline = shapely.simplify(given, tol, preserve_topology=False)
+        area = corridor_polygon(centreline, spec.pattern.left_m * k + tol, spec.pattern.right_m * k + tol)
+        area_wgs84 = planar.inverse(area)
+    else:
+        given = shapely.normalize(planar.forward(inputs.area_wgs84))
+        area = grown_simplification(given, tol)
+        area_wgs84 = inputs.area_wgs84 if area is given else planar.inverse(area)
     given_zones = [planar.forward(e) for e in inputs.exclusions_wgs84]
     simple_zones = [grown_simplification(z, tol) for z in given_zones]
     excl = tuple(e if z is g else planar.inverse(z)
@@ -154,7 +165,7 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
     zones = shapely.union_all(simple_zones) if simple_zones else None
     vertices = shapely.get_num_coordinates
     simplification = Simplification(
-        tol / k, (int(vertices(given)), int(vertices(area))),
+        tol / k, (int(vertices(given)), int(vertices(centreline if centreline is not None else area))),
         (int(np.sum(vertices(given_zones))), int(np.sum(vertices(simple_zones)))))
     margin = spec.flight.exclusion_margin_m
     check_scale_spread(planar, area, k)
@@ -175,4 +186,13 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
         dem = Dem(inputs.dem, planar)
         if spec.terrain.mode != "none":
             ground = dem.range_over(area, "area")
-    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification)
+    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline)
+
+
+def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> BaseGeometry:
+    """The ground `left` to the left of a centreline and `right` to its right (looking along it),
+    ending square at its ends: the union of the two one-sided buffers."""
+    # piece by piece: GEOS's one-sided buffer of pieces that cross each other fails to node them
+    sides = [shapely.make_valid(shapely.buffer(part, d, single_sided=True))
+             for part in shapely.get_parts(centreline) for d, w in ((left, left), (-right, right)) if w > 0]
+    return shapely.normalize(shapely.union_all(sides))
