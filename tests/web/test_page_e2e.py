@@ -550,23 +550,50 @@ def _lonlat(pg, x: float, y: float) -> list[float]:
         return olb.toLonLat(window.aerosurvey.map.getCoordinateFromPixel([x - r.left, y - r.top])); }""", [x, y])
 
 
-def test_draw_a_corridor_centreline_edit_and_save(site):
-    """A centreline drawn by clicks (snapped to a vertex it starts near) makes the spec a corridor along it; its
-    width is set, a vertex dragged, undone and redone; saved, the spec has [pattern] kind = "corridor" and the
-    centreline as GeoJSON beside it, which reloads onto the map and can be deleted."""
+def _corridor_lines(pg, centreline: list[list[float]]) -> int:
+    """The page's plan's lines (its plan.geojson) run along the centreline: each bends where it bends, and beside the
+    centreline, from one end of it to the other, it keeps its distance from it (within the stretch of a mitred corner)."""
+    pid = pg.evaluate("window.aerosurvey.view.plan_id")
+    fc = json.loads(pg.evaluate(f"fetch('/api/plans/{pid}/files/plan.geojson').then(r => r.text())"))
+    utm = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32633", always_xy=True)  # metres, independent of the plan's CRS
+
+    def metres(g):
+        return shapely.transform(g, lambda xy: list(zip(*utm.transform(xy[:, 0], xy[:, 1]), strict=True)))
+
+    c = metres(shapely.LineString(centreline))
+    lines = [metres(shapely.geometry.shape(f["geometry"])) for f in fc["features"] if f["properties"]["role"] == "line"]
+    assert lines
+    for ln in lines:
+        assert len(ln.coords) >= len(c.coords), ln  # it bends with the centreline
+        pts = [ln.interpolate(k / 200, normalized=True) for k in range(201)]
+        along = [(c.project(p), c.distance(p)) for p in pts]
+        beside = [d for t, d in along if 1.0 < t < c.length - 1.0]  # not past the centreline's ends
+        assert min(t for t, _ in along) < 0.02 * c.length and max(t for t, _ in along) > 0.98 * c.length
+        assert max(beside) - min(beside) <= 0.06 * max(beside) + 1.0, (min(beside), max(beside))
+    assert _features(pg, "lines") == len(lines)
+    band = [shapely.geometry.shape(f["geometry"]) for f in fc["features"] if f["properties"]["role"] == "area"]
+    assert _features(pg, "corridor") == len(band) == 1  # the planned band drawn around the centreline
+    return len(lines)
+
+
+def test_draw_a_corridor_centreline_plan_edit_and_save(site):
+    """A centreline drawn by clicks (snapped to a vertex it starts near) makes the plan a corridor along it: its lines
+    bend with it and lie in it; its width is set, a vertex dragged, undone and redone, each re-planned; saved, the spec
+    has [pattern] kind = "corridor" and the centreline as GeoJSON beside it, which `aerosurvey plan` plans into the
+    page's mission, which reloads onto the map and can be deleted."""
     tmp = site["tmp"] / "corridor"
     tmp.mkdir()
     spec = copy_mission(tmp)
     with _own_server_page(site, spec) as (pg, server):
         corner = min(_drawn(pg, "area")[0][0], key=lambda c: c[0])  # the area's westmost vertex
         x0, y0 = _page_px(pg, *corner)
-        pts = [(x0 + 5, y0 - 4), (x0 + 160, y0 - 90), (x0 + 330, y0 + 30)]
-        clicked = [_lonlat(pg, x, y) for x, y in pts]  # before an error line above the map moves it
+        pts = [(x0 + 5, y0 - 4), (x0 + 170, y0 - 40), (x0 + 340, y0 - 30)]  # a bend gentle enough to be flown through
+        clicked = [_lonlat(pg, x, y) for x, y in pts]
         pg.click("#tools [data-tool='centreline']")
-        for x, y in [*pts, pts[-1]]:  # a click on the last point again finishes the line
+        for x, y in pts:
             pg.mouse.click(x, y)
             pg.wait_for_timeout(300)  # not a double click
-        pg.wait_for_function("(window.aerosurvey.spec.area.wkt || '').startsWith('LINESTRING')", timeout=30000)
+        _replan_and_wait(pg, lambda: pg.mouse.click(*pts[-1]))  # a click on the last point again finishes the line
         (line,) = _drawn(pg, "centreline")
         assert len(line) == 3
         assert line[0] == pytest.approx(corner, abs=1e-12)  # snapped onto the area's vertex
@@ -574,55 +601,65 @@ def test_draw_a_corridor_centreline_edit_and_save(site):
             assert (lon, lat) == pytest.approx(want, abs=1e-6)
         assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 50}
         assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
-        # the planner refuses a corridor until its pattern lands: its own message, the last plan kept
-        pg.wait_for_function("document.querySelector('#general-error').textContent.includes('corridor')", timeout=60000)
-        assert "not planned yet" in pg.text_content("#general-error")
+        assert pg.text_content("#general-error") == ""
+        _corridor_lines(pg, line)
         _tab(pg, "setup")
-        assert pg.input_value("#pattern-kind") == "corridor" and pg.is_visible("[data-key='pattern.width_m']")
-        assert pg.input_value("[data-key='pattern.width_m']") == "50"
-        pg.fill("[data-key='pattern.width_m']", "80")
-        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 80}
-        # a vertex dragged; undo and redo
+        assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "50"
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='pattern.width_m']", "200"))
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 200}
+        assert _corridor_lines(pg, line) >= 2  # a wider corridor: more strips
+        # a vertex dragged, re-planned along the moved line; undo and redo
         pg.click("#tools [data-tool='edit']")
         mx, my = _page_px(pg, *line[1])
         pg.mouse.move(mx, my)
         pg.wait_for_timeout(200)
-        pg.mouse.down()
-        pg.mouse.move(mx, my + 70, steps=8)
-        pg.mouse.up()
-        pg.wait_for_function("window.aerosurvey.pos === 2", timeout=30000)  # the drawing, then the drag
+
+        def drag():
+            pg.mouse.down()
+            pg.mouse.move(mx, my + 70, steps=8)
+            pg.mouse.up()
+
+        _replan_and_wait(pg, drag)
         moved = _drawn(pg, "centreline")[0]
         assert moved[1][1] < line[1][1] and moved[0] == line[0] and moved[2] == line[2]  # dragged south
-        pg.click("#undo")
+        _corridor_lines(pg, moved)
+        _replan_and_wait(pg, lambda: pg.click("#undo"))
         assert _drawn(pg, "centreline")[0] == line
         assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
-        pg.click("#redo")
+        _corridor_lines(pg, line)
+        _replan_and_wait(pg, lambda: pg.click("#redo"))
         assert _drawn(pg, "centreline")[0] == moved
         pg.screenshot(path=str(SHOTS / "16-corridor-centreline.png"))
+        page_wpl = pg.evaluate(f"fetch('/api/plans/{pg.evaluate('window.aerosurvey.view.plan_id')}/files/mission.waypoints')"
+                               ".then(r => r.text())")
         # saved: [pattern] and the centreline's GeoJSON beside the spec, written whole
         pg.click("#save-spec")
         pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
         saved = tomllib.loads(spec.read_text())
-        assert saved["pattern"] == {"kind": "corridor", "width_m": 80}
+        assert saved["pattern"] == {"kind": "corridor", "width_m": 200}
         assert saved["area"]["file"] == "obratan-72ha.centreline.geojson" and "wkt" not in saved["area"]
         (feat,) = json.loads((tmp / "obratan-72ha.centreline.geojson").read_text())["features"]
         assert feat["properties"]["role"] == "centreline" and feat["geometry"]["type"] == "LineString"
         assert shapely.LineString(feat["geometry"]["coordinates"]).equals_exact(shapely.LineString(moved), 1e-12)
-        assert not list(tmp.glob("*.tmp*")) and not list(tmp.glob(".*"))  # no temporary file left
-        # reloaded: the centreline on the map from the saved file, the form a corridor of 80 m
+        assert not list(tmp.glob(".*.tmp"))  # no temporary file left
+        # the saved spec plans, with `aerosurvey plan`, the mission the page planned
+        res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+        assert planned(res.exit_code, res.output), res.output
+        assert (tmp / "cli" / "mission.waypoints").read_text() == page_wpl
+        # reloaded: the centreline on the map from the saved file, the form a corridor of 200 m
         pg.reload()
-        pg.wait_for_function("window.aerosurvey.layers.area.getSource().getFeatures().some(f => f.get('role') === 'centreline')",
-                             timeout=60000)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
         assert shapely.LineString(_drawn(pg, "centreline")[0]).equals_exact(shapely.LineString(moved), 1e-12)
+        _corridor_lines(pg, moved)
         _tab(pg, "setup")
-        assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "80"
+        assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "200"
         # deleted: nothing left to plan
         pg.click("#tools [data-tool='delete']")
         dx, dy = _page_px(pg, *moved[0])
         ex, ey = _page_px(pg, *moved[1])
         pg.mouse.click((dx + ex) / 2, (dy + ey) / 2)
         pg.wait_for_function("window.aerosurvey.spec.area === undefined", timeout=30000)
-        assert _drawn(pg, "centreline") == []
+        assert _drawn(pg, "centreline") == [] and _features(pg, "lines") == 0
         _only_our_server(pg, server.url)
 
 

@@ -259,80 +259,6 @@ def exact_wkt(geom: BaseGeometry) -> str:
     raise ValueError(f"exact_wkt: a {geom.geom_type} is not an area or a centreline")
 
 
-# ---- the spec's geometry as the page draws it ------------------------------------------------
-
-def is_line(geom: BaseGeometry) -> bool:
-    return geom.geom_type in ("LineString", "MultiLineString")
-
-
-def spec_geometry(spec: MissionSpec) -> tuple[BaseGeometry, tuple[BaseGeometry, ...]]:
-    """The spec's area (a corridor's centreline) and its exclusion zone files, in WGS84."""
-    from aerosurvey.area import read_area
-    from aerosurvey.inputs import load_geometry
-
-    if spec.pattern.kind != "corridor":
-        return load_geometry(spec)
-    zones = tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)
-    return read_centreline(spec.area.file, spec.area.wkt, spec.area.wkt_crs), zones
-
-
-def read_centreline(path: Path | None, wkt: str | None, wkt_crs: str) -> BaseGeometry:
-    """A corridor's centreline (`[pattern] kind = "corridor"`: the spec's area is a line) in WGS84, from the
-    spec's WKT or a GeoJSON file (the one the page saves), checked: a LineString or MultiLineString whose
-    parts have two distinct points or more, within longitude/latitude ranges.
-
-    The page's own reader until the loader reads centrelines (the planner's corridor pattern)."""
-    import pyproj
-
-    from aerosurvey.area import transformer
-
-    name = "area (the corridor's centreline)"
-    if path is not None:
-        if path.suffix.lower() not in (".geojson", ".json"):
-            raise InputError(f"{name}: the page reads a centreline from GeoJSON or WKT, not {path.name!r}", key="area.file")
-        try:
-            doc = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, ValueError) as exc:
-            raise InputError(f"{name}: {str(path)!r} cannot be read as GeoJSON: {exc}", key="area.file") from None
-        feats = doc.get("features", [doc]) if isinstance(doc, dict) else []
-        try:
-            parts = [p for f in feats if isinstance(f, dict) and f.get("geometry")
-                     for p in shapely.get_parts(shapely.geometry.shape(f["geometry"]))]
-        except (KeyError, TypeError, ValueError, AttributeError, shapely.errors.ShapelyError) as exc:
-            raise InputError(f"{name}: {str(path)!r} holds a geometry that is not valid GeoJSON: {exc}", key="area.file") from None
-        if not all(is_line(p) for p in parts):
-            raise InputError(f"{name}: {str(path)!r} holds other geometries than lines", key="area.file")
-        geom: BaseGeometry = parts[0] if len(parts) == 1 else shapely.MultiLineString(parts)
-    else:
-        assert wkt is not None
-        try:
-            geom = shapely.from_wkt(wkt.strip())
-        except shapely.errors.GEOSException as exc:
-            raise InputError(f"{name}: not valid WKT: {exc}", key="area.wkt") from None
-        if wkt_crs != "EPSG:4326":
-            try:
-                t = transformer(wkt_crs, "EPSG:4326")
-            except pyproj.exceptions.CRSError:
-                raise InputError(f"area.wkt_crs = {wkt_crs!r} is not a CRS pyproj knows; give e.g. EPSG:5514",
-                                 key="area.wkt_crs") from None
-            geom = shapely.transform(geom, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
-    return checked_centreline(geom, name)
-
-
-def checked_centreline(geom: BaseGeometry, name: str) -> BaseGeometry:
-    """`geom` when it is a centreline in longitude/latitude; else InputError naming what is wrong."""
-    if geom.is_empty or not is_line(geom):
-        raise InputError(f"{name}: a {geom.geom_type if not geom.is_empty else 'empty geometry'} is not a centreline; "
-                         "give a LineString or MultiLineString", key="area")
-    xy = shapely.get_coordinates(geom)
-    if not np.all(np.isfinite(xy)) or np.any(np.abs(xy[:, 0]) > 180) or np.any(np.abs(xy[:, 1]) > 90):
-        raise InputError(f"{name}: a coordinate is outside longitude [-180, 180] / latitude [-90, 90]", key="area")
-    for i, part in enumerate(shapely.get_parts(geom), start=1):
-        if len(np.unique(shapely.get_coordinates(part), axis=0)) < 2:
-            raise InputError(f"{name}: line {i} has fewer than two distinct points", key="area")
-    return geom
-
-
 # ---- plans ---------------------------------------------------------------------------------
 
 Progress = Callable[[str, float], None]
@@ -449,13 +375,13 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
     sx, sy = frame.from_lonlat(st.lon, st.lat)
     station_index = {sid: i for i, sid in enumerate(st.ids)}
     lines = []
-    for f in by_role.get("line", []):
-        (lo0, la0), (lo1, la1) = f["geometry"]["coordinates"]
-        x, y = frame.from_lonlat(np.array([lo0, lo1]), np.array([la0, la1]))
+    for f in by_role.get("line", []):  # a corridor's lines bend: every vertex of each
+        lonlat = np.asarray(f["geometry"]["coordinates"], dtype=float)
+        x, y = frame.from_lonlat(lonlat[:, 0], lonlat[:, 1])
         p = f["properties"]
         lines.append({"id": p["id"], "pass": p["pass"], "photos": p["photos"],
                       "sortie": sortie[station_index[p["first_station"]]],
-                      "xy": [[_m(x[0]), _m(y[0])], [_m(x[1]), _m(y[1])]]})
+                      "xy": [[_m(a), _m(b)] for a, b in zip(x, y, strict=True)]})
     launch = []
     for i, site in enumerate(plan.launch_sites, start=1):
         x, y = frame.from_lonlat(np.array([site.lon]), np.array([site.lat]))
@@ -479,6 +405,7 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         rules.append({**r, "where": where})
     return {
         "name": plan.spec.name,
+        "pattern": plan.spec.pattern.kind,  # a corridor's "area" is its band around the centreline
         "frame": frame.as_dict(),
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],

@@ -13,6 +13,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import AerosurveyError
 from aerosurvey.fileio import atomic_write_text
+from aerosurvey.inputs import load_geometry
 from aerosurvey.web import service
 
 if TYPE_CHECKING:
@@ -58,7 +59,7 @@ def geometry_preview(ws: service.Workspace, spec_data: dict[str, Any]) -> dict[s
         return None
     try:
         parsed, _ = checked_spec(ws, spec_data)
-        return _preview(*service.spec_geometry(parsed))
+        return _preview(*load_geometry(parsed))
     except AerosurveyError:
         return None
 
@@ -76,7 +77,7 @@ def with_geometry_files(spec: dict[str, Any], area: BaseGeometry | None, zones: 
     table = out.setdefault("area", {})
     files: dict[str, str] = {}
     if area is not None:
-        role = "centreline" if service.is_line(area) else "area"
+        role = "centreline" if area.geom_type in ("LineString", "MultiLineString") else "area"
         for key in ("wkt", "wkt_crs"):
             table.pop(key, None)
         table["file"] = f"{stem}.{role}.geojson"
@@ -99,7 +100,7 @@ def save_with_geometry(ws: service.Workspace, spec_path: Path, spec: dict[str, A
     Everything is checked (the spec parsed and its geometry read once) before anything is written.
     """
     parsed, drawn = checked_spec(ws, spec, zones)
-    area, spec_zones = service.spec_geometry(parsed)
+    area, spec_zones = load_geometry(parsed)
     out, files = with_geometry_files(spec, area if parsed.area.wkt is not None else None, drawn, spec_path.stem)
     preview = _preview(area, drawn if drawn is not None else spec_zones)
     for name, text in files.items():

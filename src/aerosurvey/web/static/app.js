@@ -82,6 +82,7 @@ function showChosenFields() {
  * follows the kind when the other geometry is drawn (a corridor's area is its centreline, other kinds' polygons). */
 function onKind() {
   const kind = patternKind();
+  L.area.changed();  // area polygons are drawn faint under a corridor
   for (const k of Object.keys(S.spec.pattern || {})) if (k !== "kind" && !PATTERN_KEYS[kind].includes(k)) delete S.spec.pattern[k];
   if (kind === "corridor" && S.spec.flight) delete S.spec.flight.cross_hatch;
   const role = kind === "corridor" ? "centreline" : "area";
@@ -301,6 +302,7 @@ const st = {
   highlight: new olb.Style({ stroke: new olb.Stroke({ color: "rgba(255,23,68,0.8)", width: 6 }), fill: new olb.Fill({ color: "rgba(255,23,68,0.45)" }),
     image: new olb.CircleStyle({ radius: 10, stroke: new olb.Stroke({ color: "#ff1744", width: 3 }) }) }),
   refly: new olb.Style({ stroke: new olb.Stroke({ color: "#00c853", width: 3, lineDash: [8, 5] }) }),
+  corridor: new olb.Style({ stroke: new olb.Stroke({ color: "#6a1b9a", width: 1.5, lineDash: [8, 4] }), fill: new olb.Fill({ color: "rgba(106,27,154,0.08)" }) }),
   measure: new olb.Style({ stroke: new olb.Stroke({ color: "#0d47a1", width: 2, lineDash: [6, 4] }), fill: new olb.Fill({ color: "rgba(13,71,161,0.12)" }),
     image: new olb.CircleStyle({ radius: 4, fill: new olb.Fill({ color: "#0d47a1" }) }) }),
 };
@@ -327,7 +329,12 @@ const launchStyle = new olb.Style({
 const centrelineStyle = [new olb.Style({ stroke: new olb.Stroke({ color: "#fff", width: 6 }) }),
   new olb.Style({ stroke: new olb.Stroke({ color: "#6a1b9a", width: 3 }) })];
 const EDIT_STYLES = { zone: st.zone, launch: launchStyle, centreline: centrelineStyle };
-function editStyle(f) { return EDIT_STYLES[f.get("role")] || st.area; }
+const unusedAreaStyle = new olb.Style({ stroke: new olb.Stroke({ color: "rgba(46,125,50,0.45)", width: 1.5, lineDash: [4, 4] }) });
+/** The drawn geometry by role; area polygons a corridor does not use are drawn faint. */
+function editStyle(f) {
+  if (f.get("role") === "area" && patternKind() === "corridor") return unusedAreaStyle;
+  return EDIT_STYLES[f.get("role")] || st.area;
+}
 
 /** A point style with the feature's id written above it once the map is zoomed in (under 0.8 m a pixel). */
 function labelled(style) {
@@ -414,6 +421,7 @@ const L = {
   basemap: new olb.TileLayer({ zIndex: 0 }),
   vbasemap: new olb.VectorTileLayer({ zIndex: 0, style: vectorBasemapStyle, declutter: true }),
   coverage: new olb.ImageLayer({ zIndex: 1 }),
+  corridor: vector("corridor", st.corridor, 2),
   uncovered: vector("uncovered", st.uncovered, 3),
   lines: vector("lines", lineStyle, 4),
   stations: vector("stations", stationStyle, 5),
@@ -449,6 +457,7 @@ function render(view) {
   const V = view.layers;
   const put = (layer, feats) => { const s = layer.getSource(); s.clear(true); s.addFeatures(feats); };
   put(L.uncovered, (V.uncovered || []).map((p) => new olb.Feature(polygonOf(p))));
+  put(L.corridor, view.pattern === "corridor" ? V.area.map((p) => new olb.Feature(polygonOf(p))) : []);  // the planned band
   put(L.lines, V.lines.map((l) => new olb.Feature({ geometry: new olb.LineString(l.xy.map(frameXY)), id: l.id, sortie: l.sortie })));
   put(L.stations, V.stations.ids.map((id, i) => pointFeature(V.stations.x[i], V.stations.y[i], { id, sortie: V.stations.sortie[i] })));
   const sites = V.launch.length ? V.launch : [{ id: "home", ...V.home }];
@@ -667,7 +676,7 @@ function loadEditable() {
   const planned = (key) => (S.view ? S.view.layers[key] : []).map(polygonOf);
   if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) addArea(area.wkt, add);
   else if (S.preview && S.preview.area) addArea(S.preview.area, add);
-  else planned("area").forEach((g) => add(g, "area"));
+  else if (!S.view || S.view.pattern !== "corridor") planned("area").forEach((g) => add(g, "area"));  // not a corridor's band
   if (S.zones !== null) S.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else planned("exclusions").forEach((g) => add(g, "zone"));
@@ -716,7 +725,7 @@ function writeGeometry() {
   clearError("area");
   if (!S.spec.area) {  // nothing left to plan: the last plan's layers go too
     S.seq++;
-    for (const l of [L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
+    for (const l of [L.corridor, L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
     setStatus("draw an area to plan");
     return;
   }
