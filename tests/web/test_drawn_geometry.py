@@ -150,3 +150,25 @@ def test_bad_centrelines_are_refused_before_anything_is_written(tmp_path):
             save_with_geometry(ws, spec_path, {**spec, "area": {"wkt": wkt}}, None)
         assert "\n" not in str(exc.value)
     assert spec_path.read_text() == before and not list(tmp_path.glob("*.centreline.geojson"))
+
+
+def test_a_corridor_spec_on_the_page(tmp_path):
+    """The corridor example: its centreline is the page's editable geometry before the first plan, and the plan's
+    lines reach the page with every bend, as plan.geojson has them."""
+    spec_path = copy_mission(tmp_path, "road-corridor")
+    with client(spec_path) as c:
+        state = c.get("/api/state").json()
+        line = shapely.from_wkt(state["preview"]["area"])
+        assert line.geom_type in ("LineString", "MultiLineString")
+        want = read_area(spec_path.parent / "areas" / "road-corridor.geojson", None, "EPSG:4326", "centreline", lines=True)
+        assert shapely.equals_exact(line, want, tolerance=0.0)
+        done = run_plan(c, state["spec"])
+        assert done["state"] == "done", done
+        view = done["result"]
+        assert view["pattern"] == "corridor"
+        fc = c.get(f"/api/plans/{view['plan_id']}/files/plan.geojson").json()
+        bends = {f["properties"]["id"]: len(f["geometry"]["coordinates"]) for f in fc["features"]
+                 if f["properties"]["role"] == "line"}
+        assert {ln["id"]: len(ln["xy"]) for ln in view["layers"]["lines"]} == bends
+        assert max(bends.values()) > 2  # the example's strips bend
+        assert len(view["layers"]["area"]) >= 1  # the band the strips photograph, which the page draws

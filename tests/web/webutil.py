@@ -6,6 +6,7 @@ import shutil
 import socket
 import threading
 import time
+import tomllib
 import warnings
 from pathlib import Path
 from typing import Any
@@ -21,12 +22,9 @@ def copy_mission(tmp: Path, name: str = "obratan-72ha") -> Path:
     """The example mission and its area in a folder of the test's own (the page may write the spec)."""
     (tmp / "areas").mkdir(parents=True, exist_ok=True)
     spec = REPO / "missions" / f"{name}.toml"
-    text = spec.read_text(encoding="utf-8")
     shutil.copy(spec, tmp / spec.name)
-    for line in text.splitlines():
-        if line.startswith("file = "):
-            rel = line.split("=", 1)[1].strip().strip('"')
-            shutil.copy(REPO / "missions" / rel, tmp / rel)
+    rel = tomllib.loads(spec.read_text(encoding="utf-8"))["area"]["file"]
+    shutil.copy(REPO / "missions" / rel, tmp / rel)
     return tmp / spec.name
 
 
