@@ -172,3 +172,13 @@ def test_a_corridor_spec_on_the_page(tmp_path):
         assert {ln["id"]: len(ln["xy"]) for ln in view["layers"]["lines"]} == bends
         assert max(bends.values()) > 2  # the example's strips bend
         assert len(view["layers"]["area"]) >= 1  # the band the strips photograph, which the page draws
+
+
+def test_an_uploaded_area_replaces_a_corridor_but_not_an_oblique_pattern():
+    area = {"wkt": "POLYGON ((14.9 49.4, 14.91 49.4, 14.91 49.41, 14.9 49.4))"}
+    corridor = {"mission": {"name": "c"}, "area": {"wkt": "LINESTRING (14.9 49.4, 14.91 49.41)"},
+                "pattern": {"kind": "corridor", "width_m": 80.0}}
+    out = service.with_new_area(corridor, area, "field")
+    assert "pattern" not in out and out["area"] == area and corridor["pattern"]["kind"] == "corridor"  # the input kept
+    oblique = {**corridor, "pattern": {"kind": "oblique", "scheme": "five-direction"}}
+    assert service.with_new_area(oblique, area, "field")["pattern"] == oblique["pattern"]
