@@ -59,24 +59,25 @@ class Coverage:
 
 
 def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base: float) -> BaseGeometry:
-    """Ground that two photos of one run are sure to see: with a photo base of at most half the
-    footprint, every point from the first station less (L/2 − B) to the last plus (L/2 − B) lies in
-    two consecutive footprints (L, W the smallest footprint of the run). Empty below 50 % forward overlap.
+    """Ground that two photos of one straight stretch of a run are sure to see: with a photo base
+    of at most half the footprint, every point from the first station less (L/2 − B) to the last
+    plus (L/2 − B) lies in two consecutive footprints (L, W the smallest footprint of the stretch).
+    Empty below 50 % forward overlap.
 
     Every run's strip is made in one numpy step (the same operations, element by element, as
     one run at a time; sine and cosine once per heading, as numpy scalars)."""
     runs = stations.run
     if not len(runs):
         return shapely.Polygon()
-    starts = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
+    # a straight stretch: consecutive photos of one run with one heading (a bent run has several)
+    heading = np.asarray(stations.heading_deg, float)
+    starts = np.flatnonzero(np.r_[True, (runs[1:] != runs[:-1]) | (heading[1:] != heading[:-1])])
     ends = np.r_[starts[1:], len(runs)] - 1
     L = np.minimum.reduceat(np.asarray(along, float), starts)
     W = np.minimum.reduceat(np.asarray(across, float), starts)
     reach = L / 2.0 - base
-    heading = np.asarray(stations.heading_deg, float)
-    straight = np.minimum.reduceat(heading, starts) == np.maximum.reduceat(heading, starts)  # a bent run is checked exactly
-    tilted = np.maximum.reduceat(np.asarray(stations.pitch_deg, float), starts) > -90.0  # so is an oblique one
-    keep = (ends > starts) & ~(reach <= 0) & straight & ~tilted  # one photo sees its ground once; below 50 % no two
+    tilted = np.maximum.reduceat(np.asarray(stations.pitch_deg, float), starts) > -90.0  # an oblique run is checked exactly
+    keep = (ends > starts) & ~(reach <= 0) & ~tilted  # one photo sees its ground once; below 50 % no two
     if not keep.any():
         return shapely.Polygon()
     a, b, reach, W = starts[keep], ends[keep], reach[keep], W[keep]

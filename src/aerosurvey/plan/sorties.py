@@ -183,6 +183,10 @@ def _kept(lengths: list[float], angles: list[float]) -> Segments:
     return [x for x, y in zip(lengths, keep) if y], [x for x, y in zip(angles, keep) if y]
 
 
+#: a sortie is costed from this many launch sites at most, the nearest to its first and last stations
+NEAREST_SITES = 6
+
+
 class Splitter:
     """Builds and costs candidate sorties over a planned route.
 
@@ -226,6 +230,7 @@ class Splitter:
                 pending = []
             self.by_run.setdefault(w.run, []).append(w)
         self.station_index = {sid: i for i, sid in enumerate(st.ids)}
+        self.site_xy = np.array([(s.x, s.y) for s in sites], float).reshape(-1, 2)
         # each run's waypoints between its ends, by where they lie: a terrain waypoint at its
         # station's index, a bend half a station after the station it follows
         self.inner: dict[int, list[tuple[float, RouteWaypoint]]] = {}
@@ -507,7 +512,7 @@ class Splitter:
         else:  # the highest survey waypoint: max() over them all is the first of the highest, as here
             climb = max(p0.alt_max, *self._highest(i, j), alt1)
         per_trigger = 0 if self.plan.trigger == "camera" else 2
-        candidates = [self.fixed_launch] if self.fixed_launch is not None else range(len(self.sites))
+        candidates = [self.fixed_launch] if self.fixed_launch is not None else self._nearest_sites(a, b)
         best: tuple[float, int, float, float, int] | None = None
         v = self.plan.vehicle
         gs = self.plan.grid_scale
@@ -535,6 +540,16 @@ class Splitter:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts)
         assert best is not None
         return best
+
+    def _nearest_sites(self, a: int, b: int) -> list[int]:
+        """The launch sites a sortie of stations a..b is costed from: the NEAREST_SITES with the
+        shortest straight way to station a and back from station b (a farther site only adds
+        transit; with 110 sites along a 220 km corridor, costing every one took 20 s of 28)."""
+        if len(self.sites) <= NEAREST_SITES:
+            return list(range(len(self.sites)))
+        d = (np.hypot(self.site_xy[:, 0] - self.station_x[a], self.site_xy[:, 1] - self.station_y[a])
+             + np.hypot(self.site_xy[:, 0] - self.station_x[b], self.site_xy[:, 1] - self.station_y[b]))
+        return sorted(np.argsort(d, kind="stable")[:NEAREST_SITES].tolist())
 
     def evaluate(self, a: int, b: int) -> tuple[float, int, float, float, float, list[SortieWaypoint], int]:
         """(battery used, launch index, horizontal s, vertical s, distance m, waypoints, items)."""
