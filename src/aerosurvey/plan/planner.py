@@ -84,10 +84,10 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                           tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites),
-                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale)
+                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
         budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
-                   sensor.heights, sensor.base_m, site.grid_scale)
+                   sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
     return Plan(

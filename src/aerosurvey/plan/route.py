@@ -331,6 +331,14 @@ def _straight_time(d: float, k: Kinematics) -> float:
     return 2.0 * math.sqrt(d / a) + ramp
 
 
+def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics) -> float:
+    """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
+    `stations` photos it stops (braking and accelerating again over the `base` between two
+    stations of a run, `_straight_time` against cruising it) and rests `hold_s`."""
+    stops = max(stations - runs, 0)
+    return stations * hold_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+
+
 #: path_time drops segments this short or shorter (planning-grid units / grid scale)
 KEPT = 1e-9
 

@@ -190,9 +190,31 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
 
 
 def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> BaseGeometry:
-    """The ground `left` to the left of a centreline and `right` to its right (looking along it),
-    ending square at its ends: the union of the two one-sided buffers."""
-    # piece by piece: GEOS's one-sided buffer of pieces that cross each other fails to node them
-    sides = [shapely.make_valid(shapely.buffer(part, d, single_sided=True))
-             for part in shapely.get_parts(centreline) for d, w in ((left, left), (-right, right)) if w > 0]
-    return shapely.normalize(shapely.union_all(sides))
+    """The ground `left` to the left and `right` to the right of a centreline (looking along it),
+    ending square at its ends, with round corners outside its bends: a rectangle along each
+    segment and a fan outside each bend, united. (GEOS's one-sided buffer drops ground where a
+    centreline winds back close to itself.)"""
+    parts: list[BaseGeometry] = []
+    for piece in shapely.get_parts(centreline):
+        xy = np.asarray(shapely.get_coordinates(piece), float)
+        d = np.diff(xy, axis=0)
+        keep = np.hypot(d[:, 0], d[:, 1]) > 0
+        xy = np.vstack([xy[:1], xy[1:][keep]])
+        d = d[keep]
+        if not len(d):
+            continue
+        u = d / np.hypot(d[:, 0], d[:, 1])[:, None]
+        n = np.column_stack([-u[:, 1], u[:, 0]])  # to the left
+        a, b = xy[:-1], xy[1:]
+        rings = np.stack([a + n * left, b + n * left, b - n * right, a - n * right], axis=1)
+        parts += shapely.polygons(rings).tolist()
+        for k in range(1, len(xy) - 1):
+            turn = u[k - 1, 0] * u[k, 1] - u[k - 1, 1] * u[k, 0]  # > 0: turning left, the outside is on the right
+            r, n0, n1 = (right, -n[k - 1], -n[k]) if turn > 0 else (left, n[k - 1], n[k])
+            if r <= 0:
+                continue
+            t0, t1 = math.atan2(n0[1], n0[0]), math.atan2(n1[1], n1[0])
+            sweep = (t1 - t0 + math.pi) % (2 * math.pi) - math.pi
+            t = t0 + sweep * np.linspace(0.0, 1.0, 33)
+            parts.append(shapely.Polygon(np.vstack([xy[k], xy[k] + r * np.column_stack([np.cos(t), np.sin(t)])])))
+    return shapely.normalize(shapely.union_all(parts))

@@ -35,6 +35,7 @@ from aerosurvey.plan.route import (
     climb_out_path,
     clip_approach,
     descent_time,
+    hover_time,
     kept_segments,
     path_time,
 )
@@ -59,6 +60,7 @@ class FlightPath:
     vehicle: VehicleSpec
     ends: tuple[tuple[float, float], ...]  # per launch site: where the way home ends (a landing plane's approach, else the site)
     climb: float = 0.0  # planning-grid metres a plane climbs straight ahead after take-off
+    hover_s: float | None = None  # hover-and-capture: seconds at rest at each station
 
 
 @dataclass(frozen=True)
@@ -511,7 +513,9 @@ class Splitter:
             climb = p0.alt_max
         else:  # the highest survey waypoint: max() over them all is the first of the highest, as here
             climb = max(p0.alt_max, *self._highest(i, j), alt1)
-        per_trigger = 0 if self.plan.trigger == "camera" else 2
+        per_trigger = 0 if self.plan.trigger in ("camera", "hover") else 2
+        # hover-and-capture: a waypoint and a shot at every station (at most, where a waypoint is one already)
+        shots = 2 * (b - a + 1) if self.plan.trigger == "hover" else 0
         candidates = [self.fixed_launch] if self.fixed_launch is not None else self._nearest_sites(a, b)
         best: tuple[float, int, float, float, int] | None = None
         v = self.plan.vehicle
@@ -535,9 +539,11 @@ class Splitter:
                 t_out = path_time(np.asarray([*out_leg, p0.first]) / gs, self.kin)
                 t_back = path_time(np.asarray([p1.last, *back_leg]) / gs, self.kin)
                 vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
+            if self.plan.hover_s is not None:
+                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin)
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
-                best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts)
+                best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
         assert best is not None
         return best
 
