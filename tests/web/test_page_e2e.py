@@ -663,39 +663,59 @@ def test_draw_a_corridor_centreline_plan_edit_and_save(site):
         _only_our_server(pg, server.url)
 
 
-def test_oblique_and_hover_fields_saved_into_the_spec(site):
-    """Oblique (scheme, pitch) and hover (settle time) chosen in the form reach the spec and the saved file; the
-    planner's refusal is shown until those patterns land; back to an area grid, the oblique keys go."""
+def test_oblique_and_hover_planned_from_the_form_and_saved(site):
+    """Oblique (scheme, pitch, far-edge GSD limit) and hover (settle time) chosen in the form reach the spec and are
+    planned: a pitch whose image reaches the horizon is refused with the planner's message, a double grid flies two
+    passes, hovering takes longer than flying through; saved, `aerosurvey plan` plans the page's mission; back to an
+    area grid, the oblique keys go."""
     tmp = site["tmp"] / "oblique"
     tmp.mkdir()
     spec = copy_mission(tmp)
     with _own_server_page(site, spec) as (pg, server):
         _tab(pg, "setup")
+        grid = pg.evaluate("window.aerosurvey.view.summary")
         assert not pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='camera.settle_s']")
-        pg.select_option("#pattern-kind", "oblique")
+        _replan_and_wait(pg, lambda: pg.select_option("#pattern-kind", "oblique"))
         assert pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='pattern.width_m']")
-        pg.select_option("[data-key='pattern.scheme']", "five-direction")
-        pg.fill("[data-key='pattern.pitch_deg']", "-30")
-        pg.select_option("[data-key='camera.trigger']", "hover")
+        assert pg.evaluate("window.aerosurvey.view.pattern") == "oblique"
+        pg.fill("[data-key='pattern.pitch_deg']", "-25")  # the image's far corners above the horizon
+        pg.wait_for_function("document.querySelector(\".err[data-for~='pattern.pitch_deg']\").textContent.includes('horizon')",
+                             timeout=60000)  # next to its field
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='pattern.pitch_deg']", "-40"))
+        assert pg.evaluate("[...document.querySelectorAll('.err')].map(e => e.textContent).join('')") == ""
+        oblique = pg.evaluate("window.aerosurvey.view.summary")
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "oblique", "pitch_deg": -40}
+        _replan_and_wait(pg, lambda: pg.select_option("[data-key='camera.trigger']", "hover"))
         assert pg.is_visible("[data-key='camera.settle_s']")
-        pg.fill("[data-key='camera.settle_s']", "2.5")
-        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "oblique", "scheme": "five-direction", "pitch_deg": -30}
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='camera.settle_s']", "2.5"))
+        hover = pg.evaluate("window.aerosurvey.view.summary")
         camera = pg.evaluate("window.aerosurvey.spec.camera")
         assert camera["trigger"] == "hover" and camera["settle_s"] == 2.5
-        pg.wait_for_function("document.querySelector('#general-error').textContent.includes('oblique')", timeout=60000)
-        assert "not planned yet" in pg.text_content("#general-error")
+        assert hover["photos"] == pytest.approx(oblique["photos"], abs=2) and hover["time_min"] > 1.5 * oblique["time_min"]
+        assert oblique["lines"] != grid["lines"]
+        page_wpl = pg.evaluate(f"fetch('/api/plans/{pg.evaluate('window.aerosurvey.view.plan_id')}/files/mission.waypoints')"
+                               ".then(r => r.text())")
         pg.click("#save-spec")
         pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
         saved = tomllib.loads(spec.read_text())
-        assert saved["pattern"] == {"kind": "oblique", "scheme": "five-direction", "pitch_deg": -30}
+        assert saved["pattern"] == {"kind": "oblique", "pitch_deg": -40}
         assert saved["camera"]["trigger"] == "hover" and saved["camera"]["settle_s"] == 2.5
         assert saved["area"]["file"] == "areas/obratan-72ha.geojson"  # the area was not edited: its file stays
-        # an area grid again: the oblique keys go, the spec plans
+        res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+        assert planned(res.exit_code, res.output), res.output
+        assert (tmp / "cli" / "mission.waypoints").read_text() == page_wpl
+        # five directions and a far-edge GSD limit: the form's keys reach the spec
+        pg.select_option("[data-key='pattern.scheme']", "five-direction")
+        pg.fill("[data-key='pattern.max_far_gsd_cm']", "9")
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "oblique", "pitch_deg": -40, "scheme": "five-direction",
+                                                                  "max_far_gsd_cm": 9}
+        # an area grid again: the oblique keys go, the spec plans the grid
         pg.select_option("[data-key='camera.trigger']", "distance")
         _replan_and_wait(pg, lambda: pg.select_option("#pattern-kind", "area"))
         assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "area"}
         assert not pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='camera.settle_s']")
-        assert _features(pg, "lines") == 34
+        pg.wait_for_function(f"window.aerosurvey.view.summary.lines === {grid['lines']} && "
+                             f"window.aerosurvey.view.pattern === 'area'", timeout=60000)
         _only_our_server(pg, server.url)
 
 

@@ -71,7 +71,7 @@ function fillForm() {
 // ---- the pattern: area grid, corridor along a drawn centreline, oblique ------------------------------
 function patternKind() { return (S.spec.pattern && S.spec.pattern.kind) || "area"; }
 /** The [pattern] keys each kind reads (the spec refuses the others). */
-const PATTERN_KEYS = { area: [], corridor: ["width_m", "left_m", "right_m"], oblique: ["scheme", "pitch_deg"] };
+const PATTERN_KEYS = { area: [], corridor: ["width_m", "left_m", "right_m"], oblique: ["scheme", "pitch_deg", "max_far_gsd_cm"] };
 /** Only the fields of the chosen pattern and trigger are shown. */
 function showChosenFields() {
   const kind = patternKind(), trigger = (S.spec.camera && S.spec.camera.trigger) || "distance";
