@@ -211,6 +211,26 @@ def test_fly_blocks_in_flight_order_and_downloads_equal_the_cli(page, site):
     assert Path(d.value.path()).read_bytes() == (site["cli"] / "sortie-03.waypoints").read_bytes()
 
 
+def test_fly_blocks_offer_dji_waylines(site):
+    """With a DJI camera each sortie's block offers its .kmz waylines beside its .plan and .waypoints: `aerosurvey plan`'s bytes."""
+    tmp = site["tmp"] / "dji"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    spec.write_text(spec.read_text().replace('model = "sony-a6000-16mm"', 'model = "dji-mavic-3-enterprise"'))
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+    assert planned(res.exit_code, res.output), res.output
+    with _own_server_page(site, spec) as (pg, server):
+        _tab(pg, "fly")
+        first = pg.locator("#fly-blocks .fly").first
+        assert [a.get_attribute("data-file") for a in first.locator("a").all()] == \
+            ["sortie-01.kmz", "sortie-01.plan", "sortie-01.waypoints"]
+        with pg.expect_download() as d:
+            first.locator("a[data-file='sortie-01.kmz']").click()
+        assert Path(d.value.path()).read_bytes() == (tmp / "cli" / "sortie-01.kmz").read_bytes()
+        assert pg.locator("#file-groups a[data-file='mission.kmz']").count() == 1
+        _only_our_server(pg, server.url)
+
+
 def test_layers_toggle(page):
     page.click("#layer-box summary")
     page.uncheck("#layer-toggles input[data-layer='stations']")

@@ -268,9 +268,9 @@ Progress = Callable[[str, float], None]
 class PlanBundle:
     """A plan as the page shows it, and the files it offers for download.
 
-    `manifest` and `plan_view` are its manifest.json and plan.geojson as read once when it was made,
-    for the flight results, re-fly and resume asked of it later (None: a resumed flight, which has no
-    manifest)."""
+    `files` are the text files, `binary` the others (a DJI camera's .kmz waylines). `manifest` and
+    `plan_view` are its manifest.json and plan.geojson as read once when it was made, for the flight
+    results, re-fly and resume asked of it later (None: a resumed flight, which has no manifest)."""
 
     view: dict[str, Any]
     files: dict[str, str]
@@ -279,6 +279,17 @@ class PlanBundle:
     zones: list[str] | None = None
     manifest: mf.Manifest | None = None
     plan_view: PlanView | None = None
+    binary: dict[str, bytes] = field(default_factory=dict)
+
+    def names(self) -> list[str]:
+        """Every file's name, sorted."""
+        return sorted({*self.files, *self.binary})
+
+    def data(self, name: str) -> bytes | None:
+        """A file's bytes (text as UTF-8), or None when the plan has no such file."""
+        if name in self.files:
+            return self.files[name].encode("utf-8")
+        return self.binary.get(name)
 
 
 def drawn_zones(zones: list[str]) -> tuple[BaseGeometry, ...]:
@@ -331,7 +342,7 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     frame = MapFrame.around(plan.area_wgs84, plan.planar)
     view = _view(plan, frame, manifest, features, points, rendered)
     progress("done", 1.0)
-    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view)
+    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view, dict(rendered.binary))
 
 
 def plan_documents(files: dict[str, str], where: str) -> tuple[mf.Manifest, dict[str, Any], PlanView]:

@@ -619,7 +619,10 @@ function renderFly(view) {
       parts.push(bat);
     }
     const files = document.createElement("div"); files.className = "files";
-    for (const f of b.files) files.appendChild(fileLink(f));
+    // the sortie's files for every fleet the plan exports (.plan, .waypoints, a DJI camera's .kmz): those of its stems
+    const stem = (f) => f.replace(/\.[^.]+$/, "");
+    const stems = new Set(b.files.map(stem));
+    for (const f of view.files.filter((n) => stems.has(stem(n)))) files.appendChild(fileLink(f));
     parts.push(files);
     div.append(h, ...parts);
     box.appendChild(div);
