@@ -306,14 +306,12 @@ def spec_and_inputs(spec_data: dict[str, Any], ws: Workspace, zones: list[str] |
     """The page's spec checked, and what planning reads: `zones` (WKT in WGS84), when given, are the
     exclusion zones drawn on the page, in place of the spec's zone files."""
     from aerosurvey.inputs import load_inputs
-    from aerosurvey.plan.pattern import pattern_for
     from aerosurvey.spec import parse_spec
 
     if not isinstance(spec_data, dict):
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
     spec = parse_spec(spec_data, base=ws.base, path=None)
-    pattern_for(spec)  # a pattern the planner cannot plan yet is refused by its own message before any file is read
     if zones is not None and spec.area.exclusions:
         raise InputError("zones: drawn exclusion zones replace area.exclusions; send one or the other", key="zones")
     # an uploaded or drawn area is inline WKT: the loader parses it in memory and reads files only
