@@ -103,6 +103,8 @@ class MavsdkTransfers:
     checks saw (`vehicle`, from its heartbeat). MAVSDK speaks as aerosurvey's GCS (system 255,
     component 190), and waits `timeout` seconds for each answer before it resends."""
 
+    via = "MAVSDK's mission_raw plugin"
+
     def __init__(self, url: str, vehicle: Vehicle, timeout: float, wait: float) -> None:
         self.vehicle = vehicle
         self.url = url

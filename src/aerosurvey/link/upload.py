@@ -383,6 +383,9 @@ def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: i
 
 # --- the whole job -----------------------------------------------------------------------
 
+#: `UploadReport.via` for transfers through aerosurvey's own mission protocol
+VIA_PROTOCOL = "aerosurvey's mission protocol"
+
 @dataclass
 class TransferReport:
     """One mission type's upload and its check."""
@@ -407,7 +410,7 @@ class UploadReport:
     home_note: str = ""
     notes: list[str] = field(default_factory=list)
     rally: TransferReport | None = None
-    via: str = "aerosurvey's mission protocol"
+    via: str = VIA_PROTOCOL
 
     @property
     def transfers(self) -> list[TransferReport]:
@@ -419,6 +422,7 @@ class Transfers(Protocol):
     `ProtocolTransfers` (aerosurvey's own mission protocol) or link.px4's MAVSDK transfers."""
 
     vehicle: Vehicle
+    via: str  # what carries them, in words
 
     def upload(self, kind: int, items: Sequence[mp.WireItem]) -> mp.Stats:
         """Raises UploadFailed; may end with `stats.ack_lost` only when a read-back follows."""
@@ -437,6 +441,8 @@ class Transfers(Protocol):
 
 class ProtocolTransfers:
     """aerosurvey's own mission protocol (mission_protocol's machines) over a Link; one resend timer for all."""
+
+    via = VIA_PROTOCOL
 
     def __init__(self, link: Link, policy: mp.Policy, verify: bool = True, progress: Progress | None = None) -> None:
         if link.vehicle is None:
@@ -641,7 +647,8 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
             raise _failed_upload(kind, exc, len(items), transfers.said(started), done) from None
         done.append(TransferReport(kind, len(items), time.monotonic() - t0, stats))
     reps = {r.mission_type: r for r in done}
-    report = UploadReport(vehicle, reps[mp.MISSION], reps.get(mp.FENCE), _COMPARED_AS[storage], rally=reps.get(mp.RALLY))
+    report = UploadReport(vehicle, reps[mp.MISSION], reps.get(mp.FENCE), _COMPARED_AS[storage], rally=reps.get(mp.RALLY),
+                          via=transfers.via)
     if not verify:
         return report
 
