@@ -124,7 +124,8 @@ def px4_parse(command: int, frame: int, p: tuple[float, float, float, float], x:
     if frame in (0, 3, 5, 6):
         if command not in PX4_WITH_POSITION:
             raise Unsupported(mp.UNSUPPORTED)
-        yaw = _f32(math.radians(p[3])) if math.isfinite(p[3]) else p[3]
+        # math::radians in float: degrees * (float(M_PI) / 180.f)
+        yaw = _f32(_f32(p[3]) * _f32(_f32(math.pi) / 180.0)) if math.isfinite(p[3]) else p[3]
         kept = {16: (p[0], p[1], 0.0, yaw), 21: (0.0, p[1], 0.0, yaw), 22: (0.0, 0.0, 0.0, yaw), 84: (0.0, 0.0, 0.0, yaw),
                 85: (0.0, 0.0, 0.0, yaw), 5001: (float(int(p[0] + 0.5)), 0.0, 0.0, 0.0),
                 5002: (float(int(p[0] + 0.5)), 0.0, 0.0, 0.0), 5100: (0.0, 0.0, 0.0, 0.0)}.get(command, p)
@@ -142,9 +143,11 @@ def px4_format(s: Stored, mtype: int) -> Stored:
     if s.frame == 2:
         return s
     yaw = s.params[3]
-    if math.isfinite(yaw):
+    if math.isfinite(yaw):  # matrix::wrap_2pi (float: x - range * floor(x * (1 / range)) outside [0, range)), math::degrees
         two_pi = _f32(2 * math.pi)
-        yaw = _f32(math.degrees(_f32(yaw - two_pi * math.floor(yaw / two_pi))))
+        if not 0.0 <= yaw < two_pi:
+            yaw = _f32(yaw - _f32(two_pi * math.floor(_f32(yaw * _f32(1.0 / two_pi)))))
+        yaw = _f32(yaw * _f32(180.0 / _f32(math.pi)))
     relative = s.frame in (3, 6) and mtype != 1
     return Stored(s.command, 6 if relative else 5, (*s.params[:3], yaw), s.x, s.y, s.z)
 
@@ -158,7 +161,7 @@ class VehicleModel:
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
                  early_accept_after: int | None = None, fail_item: int | None = None,
                  silent_after_request: int | None = None, px4: bool = False, fix: bool = True,
-                 mav_type: int | None = None) -> None:
+                 mav_type: int | None = None, lose_final_acks: int = 0) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
@@ -180,6 +183,7 @@ class VehicleModel:
         self.early_accept_after = early_accept_after  # a faulty vehicle: ACCEPTED before the last item
         self.fail_item = fail_item  # a mission item whose storage fails (ERROR, upload ends)
         self.silent_after_request = silent_after_request  # asks for this mission item, then never answers again
+        self.lose_final_acks = lose_final_acks  # the final ACCEPTED of this many uploads never leaves the vehicle
         self.stored: dict[int, list[Stored]] = {0: [], 1: [], 2: []}
         self.receiving: int | None = None  # mission type being uploaded
         self._staging: list[Stored] = []
@@ -359,6 +363,10 @@ class VehicleModel:
         self._last_done = (mtype, self._count)
         self.receiving = None
         self.completed_uploads += 1
+        if self.lose_final_acks > 0:
+            self.lose_final_acks -= 1
+            self._note("final ack lost")
+            return []
         return [self._ack(mp.ACCEPTED, mtype)]
 
     def poll(self, now: float) -> list[Any]:

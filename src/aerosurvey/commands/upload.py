@@ -183,7 +183,11 @@ def format_report(r: UploadReport, verified: bool, rally_asked: bool = False) ->
         lines.append(f"transfers: through {r.via}")
 
     def cost(t: TransferReport) -> str:
-        return _stats(t.stats) if r.via == VIA_PROTOCOL else "MAVSDK does not report resends"
+        if r.via == VIA_PROTOCOL:
+            return _stats(t.stats)
+        lost = ("; MAVSDK timed out waiting for the vehicle's final MISSION_ACK, the read-back below proves the upload"
+                if t.stats.ack_lost else "")
+        return "MAVSDK does not report resends" + lost
 
     m = r.mission
     lines.append(f"mission: {m.items} items uploaded in {m.seconds:.2f} s ({cost(m)})")
@@ -259,7 +263,7 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
         if mission.firmware == "px4":  # the checks' link is closed: MAVSDK opens the same connection
             from aerosurvey.link.px4 import MavsdkTransfers
 
-            with MavsdkTransfers(url, link.vehicle, policy.timeout, policy.silence) as transfers:
+            with MavsdkTransfers(url, link.vehicle, policy.timeout, policy.silence, not no_verify) as transfers:
                 report = upload_plan(transfers, mission, verify=not no_verify, rally=rally)
     except VerificationFailed as exc:
         for mm in exc.mismatches[:20]:

@@ -101,12 +101,14 @@ def _words(exc: Exception) -> str:
 class MavsdkTransfers:
     """MAVSDK's mission_raw plugin on `url` (a pymavlink connection string) for the vehicle the
     checks saw (`vehicle`, from its heartbeat). MAVSDK speaks as aerosurvey's GCS (system 255,
-    component 190), and waits `timeout` seconds for each answer before it resends."""
+    component 190), and waits `timeout` seconds for each answer before it resends; `wait` bounds
+    the wait for the vehicle; `verify`: a read-back follows every upload (see `upload`)."""
 
     via = "MAVSDK's mission_raw plugin"
 
-    def __init__(self, url: str, vehicle: Vehicle, timeout: float, wait: float) -> None:
+    def __init__(self, url: str, vehicle: Vehicle, timeout: float, wait: float, verify: bool = True) -> None:
         self.vehicle = vehicle
+        self.verify = verify
         self.url = url
         self._address = mavsdk_url(url)
         self._timeout = timeout
@@ -174,6 +176,13 @@ class MavsdkTransfers:
         return ""
 
     def upload(self, kind: int, items: Sequence[mp.WireItem]) -> mp.Stats:
+        """One upload; with `verify`, MAVSDK's TIMEOUT ends it with `ack_lost` for the read-back to settle.
+
+        MAVSDK (MavlinkMissionTransferClient) does not send the last item again when the vehicle's
+        final MISSION_ACK is lost: it waits for the vehicle to ask again, which PX4 does not do once
+        it holds every item, and ends in TIMEOUT although the vehicle may hold the whole mission.
+        The read-back then counts and compares every item, as after aerosurvey's own protocol lost
+        that ACK; a vehicle that holds anything else is reported as such."""
         from mavsdk import MavsdkError
 
         call = {mp.MISSION: self._plugin.upload_mission, mp.FENCE: self._plugin.upload_geofence,
@@ -181,6 +190,8 @@ class MavsdkTransfers:
         try:
             call([to_mavsdk(it) for it in items])
         except MavsdkError as exc:
+            if self.verify and getattr(getattr(exc, "result", None), "name", "") == "TIMEOUT":
+                return mp.Stats(ack_lost=True)
             raise UploadFailed(f"{mp.TYPE_NAMES[kind]} upload through MAVSDK failed: {_words(exc)}", None) from None
         return mp.Stats(confirmed=len(items))
 

@@ -231,11 +231,15 @@ def px4_refusal(it: mp.WireItem) -> str | None:
 
 
 def _px4_yaw(deg: float) -> float:
-    """A yaw in degrees as PX4 gives it back: radians (float32) wrapped to [0, 2π), in degrees."""
+    """A yaw in degrees as PX4 gives it back, step by step in float32 as PX4 computes it:
+    math::radians, matrix::wrap_2pi (into [0, 2π)), math::degrees."""
     if not math.isfinite(deg):
         return deg
-    rad = f32(math.radians(deg))
-    return f32(math.degrees(rad - math.tau * math.floor(rad / math.tau)))
+    rad = f32(f32(deg) * f32(f32(math.pi) / f32(180.0)))
+    two_pi = f32(2.0 * math.pi)
+    if not 0.0 <= rad < two_pi:
+        rad = f32(rad - f32(two_pi * math.floor(f32(rad * f32(1.0 / two_pi)))))
+    return f32(rad * f32(f32(180.0) / f32(math.pi)))
 
 
 def px4_stored(it: mp.WireItem) -> mp.WireItem:
@@ -465,9 +469,9 @@ class ProtocolTransfers:
         return self.link.now()
 
 
-def _stats_said(rep: TransferReport) -> str:
-    return ("its final MISSION_ACK never came" if rep.stats.ack_lost else
-            "although it acknowledged the upload") + "; the read-back shows it"
+def _stats_said(rep: TransferReport, via: str) -> str:
+    lost = "its final MISSION_ACK never came" if via == VIA_PROTOCOL else f"the upload through {via} timed out"
+    return (lost if rep.stats.ack_lost else "although it acknowledged the upload") + "; the read-back shows it"
 
 
 def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
@@ -593,9 +597,12 @@ def _verify(transfers: Transfers, rep: TransferReport, expected: list[mp.WireIte
     except DownloadFailed as exc:
         if exc.count is not None and exc.count != n:
             raise LinkError(f"{_holds(exc.count, n, kind)} (it says so; the read-back then failed: {exc})") from None
-        if rep.stats.ack_lost:
+        if rep.stats.ack_lost and transfers.via == VIA_PROTOCOL:
             raise LinkError(f"{_holds(rep.stats.confirmed, n, kind)} (it asked for every item but never acknowledged the "
                             f"last one, and the read-back failed: {exc})") from None
+        if rep.stats.ack_lost:
+            raise LinkError(f"the {mp.TYPE_NAMES[kind]} upload through {transfers.via} timed out and the read-back failed "
+                            f"({exc}): what the vehicle holds is not known: do not fly it") from None
         raise LinkError(f"upload acknowledged by the vehicle but not verified: {exc}") from None
     model = {"ardupilot": lambda it: ardupilot_stored(it, plane), "px4": px4_stored}.get(storage)
     wanted = [model(it) for it in expected] if model is not None else expected
@@ -673,7 +680,7 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
         if first.seq is None:  # the item count differs: the vehicle holds part of the mission (or more)
             n = len(wanted[first.mission_type])
             raise VerificationFailed(f"verification failed: {_holds(first.actual, n, first.mission_type)} "
-                                     f"({_stats_said(reps[first.mission_type])})", mismatches)
+                                     f"({_stats_said(reps[first.mission_type], transfers.via)})", mismatches)
         more = f" (and {len(mismatches) - 1} more difference(s))" if len(mismatches) > 1 else ""
         raise VerificationFailed(f"verification failed: {first}{more}; the vehicle stores something other than "
                                  "the plan: do not fly it", mismatches)
