@@ -9,7 +9,12 @@ mission items in place as they arrive. With `px4=True` it answers as PX4's Mavli
 drops an item it did not ask for without an answer, answers a repeat of the last item after
 the upload with ACCEPTED, refuses a MISSION_COUNT in the middle of an upload with ERROR, gives
 up silently after 5 s without an item, stores the mission only when it is complete, and during
-a download answers only the next item or the one before (anything else: ERROR, transfer over).
+a download answers only the next item or the one before (anything else: ERROR, transfer over);
+it keeps what PX4's mission_item_s keeps of an item (`px4_parse`), answers in the _INT frames with
+the yaw wrapped to [0, 360) (`px4_format`), refuses the commands and frames PX4 does not take
+(MAV_MISSION_UNSUPPORTED, _UNSUPPORTED_FRAME) and counts more than its dataman holds per mission
+type (`PX4_ROOM`) as MAV_MISSION_NO_SPACE. Both keep rally points (MAV_MISSION_TYPE_RALLY;
+ArduPilot in whole metres) and answer whichever system asked.
 Both answer MAV_CMD_REQUEST_MESSAGE for GLOBAL_POSITION_INT and HOME_POSITION at `home`
 (COMMAND_ACK MAV_RESULT_FAILED without `fix`). It reads and writes pymavlink messages with its
 own field handling, independent of aerosurvey's codec.

@@ -232,8 +232,9 @@ def format_report(r: UploadReport, verified: bool, rally_asked: bool = False) ->
 @click.option("--rally", is_flag=True, help="Upload the plan's rally points too (MAV_MISSION_TYPE_RALLY), and verify them.")
 def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str | None, launch_distance: str,
            no_verify: bool, autopilot: str | None, rally: bool) -> None:
-    """Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence (and rally points with
-    --rally), then read it back and compare.
+    """Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare.
+
+    With --rally its rally points go too. PX4 missions go through MAVSDK's mission_raw plugin.
 
     Before sending anything it compares the vehicle with the mission (autopilot, vehicle type,
     distance from the planned launch point, battery, item count; for PX4 also its storage and the
