@@ -46,7 +46,7 @@ _RESULT_WORDS = {
     "BUSY": "MAVSDK is busy with another transfer",
     "NO_SYSTEM": "MAVSDK lost the vehicle",
     "INVALID_SEQUENCE": "the vehicle answered MAV_MISSION_INVALID_SEQUENCE",
-    "PROTOCOL_ERROR": "the vehicle broke the mission protocol",
+    "PROTOCOL_ERROR": "the vehicle answered MAV_MISSION_ERROR, or an ACK came that MAVSDK did not expect",
     "INT_MESSAGES_NOT_SUPPORTED": "the vehicle asked with the legacy MISSION_REQUEST, which MAVSDK does not serve",
     "ERROR": "the vehicle answered MAV_MISSION_ERROR",
 }
@@ -92,9 +92,7 @@ def from_mavsdk(it: Any) -> mp.WireItem:
                        int(it.mission_type))
 
 
-def _words(exc: Exception) -> str:
-    result = getattr(exc, "result", None)
-    name = getattr(result, "name", None) or str(exc)
+def _words(name: str) -> str:
     return _RESULT_WORDS.get(name, f"MAVSDK answered {name}")
 
 
@@ -102,13 +100,16 @@ class MavsdkTransfers:
     """MAVSDK's mission_raw plugin on `url` (a pymavlink connection string) for the vehicle the
     checks saw (`vehicle`, from its heartbeat). MAVSDK speaks as aerosurvey's GCS (system 255,
     component 190), and waits `timeout` seconds for each answer before it resends; `wait` bounds
-    the wait for the vehicle; `verify`: a read-back follows every upload (see `upload`)."""
+    the wait for the vehicle; `verify`: a read-back follows every upload (see `upload`);
+    `restarts`: how often one transfer may be started again (see `upload`, `download`)."""
 
     via = "MAVSDK's mission_raw plugin"
 
-    def __init__(self, url: str, vehicle: Vehicle, timeout: float, wait: float, verify: bool = True) -> None:
+    def __init__(self, url: str, vehicle: Vehicle, timeout: float, wait: float, verify: bool = True,
+                 restarts: int = mp.Policy().restarts) -> None:
         self.vehicle = vehicle
         self.verify = verify
+        self.restarts = restarts
         self.url = url
         self._address = mavsdk_url(url)
         self._timeout = timeout
@@ -176,32 +177,56 @@ class MavsdkTransfers:
         return ""
 
     def upload(self, kind: int, items: Sequence[mp.WireItem]) -> mp.Stats:
-        """One upload; with `verify`, MAVSDK's TIMEOUT ends it with `ack_lost` for the read-back to settle.
+        """One upload, restarted (up to `restarts` times) after MAVSDK's PROTOCOL_ERROR; with
+        `verify`, MAVSDK's TIMEOUT ends it with `ack_lost` for the read-back to settle.
 
-        MAVSDK (MavlinkMissionTransferClient) does not send the last item again when the vehicle's
-        final MISSION_ACK is lost: it waits for the vehicle to ask again, which PX4 does not do once
-        it holds every item, and ends in TIMEOUT although the vehicle may hold the whole mission.
-        The read-back then counts and compares every item, as after aerosurvey's own protocol lost
-        that ACK; a vehicle that holds anything else is reported as such."""
-        from mavsdk import MavsdkError
-
+        PROTOCOL_ERROR: MAVSDK takes any MISSION_ACK as the answer to its transfer, so a late or
+        duplicated ACCEPTED of the transfer before (measured on a link that duplicates packets)
+        ends the next one at once; PX4 stores a mission type only once every item has arrived,
+        so sending it again is safe. TIMEOUT: MAVSDK (MavlinkMissionTransferClient) does not send
+        the last item again when the vehicle's final MISSION_ACK is lost: it waits for the
+        vehicle to ask again, which PX4 does not do once it holds every item, and ends in TIMEOUT
+        although the vehicle may hold the whole mission. The read-back then counts and compares
+        every item, as after aerosurvey's own protocol lost that ACK."""
         call = {mp.MISSION: self._plugin.upload_mission, mp.FENCE: self._plugin.upload_geofence,
                 mp.RALLY: self._plugin.upload_rally_points}[kind]
-        try:
-            call([to_mavsdk(it) for it in items])
-        except MavsdkError as exc:
-            if self.verify and getattr(getattr(exc, "result", None), "name", "") == "TIMEOUT":
-                return mp.Stats(ack_lost=True)
-            raise UploadFailed(f"{mp.TYPE_NAMES[kind]} upload through MAVSDK failed: {_words(exc)}", None) from None
-        return mp.Stats(confirmed=len(items))
+        stats = mp.Stats(confirmed=len(items))
+        outcome = self._call(lambda: call([to_mavsdk(it) for it in items]), stats)
+        if outcome == "TIMEOUT" and self.verify:
+            return mp.Stats(ack_lost=True, restarts=stats.restarts)
+        if outcome is not None:
+            raise UploadFailed(f"{mp.TYPE_NAMES[kind]} upload through MAVSDK failed: {_words(outcome)}"
+                               + _after(stats), None)
+        return stats
 
     def download(self, kind: int, expected: int) -> tuple[list[mp.WireItem], mp.Stats]:
-        from mavsdk import MavsdkError
-
+        """One download, restarted (up to `restarts` times) after PROTOCOL_ERROR or TIMEOUT."""
         call = {mp.MISSION: self._plugin.download_mission, mp.FENCE: self._plugin.download_geofence,
                 mp.RALLY: self._plugin.download_rallypoints}[kind]
-        try:
-            items = call()
-        except MavsdkError as exc:
-            raise DownloadFailed(f"{mp.TYPE_NAMES[kind]} download through MAVSDK failed: {_words(exc)}", None) from None
-        return [from_mavsdk(it) for it in items], mp.Stats()
+        stats = mp.Stats()
+        got: list[Any] = []
+        outcome = self._call(lambda: got.extend(call()), stats, also=("TIMEOUT",))
+        if outcome is not None:
+            raise DownloadFailed(f"{mp.TYPE_NAMES[kind]} download through MAVSDK failed: {_words(outcome)}"
+                                 + _after(stats), None)
+        return [from_mavsdk(it) for it in got], stats
+
+    def _call(self, call: Any, stats: mp.Stats, also: tuple[str, ...] = ()) -> str | None:
+        """Run a MAVSDK transfer, again after PROTOCOL_ERROR (and `also`) while restarts are left;
+        None when it succeeded, else the name of MAVSDK's last result."""
+        from mavsdk import MavsdkError
+
+        while True:
+            try:
+                call()
+                return None
+            except MavsdkError as exc:
+                name = getattr(getattr(exc, "result", None), "name", None) or str(exc)
+            if name not in ("PROTOCOL_ERROR", *also) or stats.restarts >= self.restarts:
+                return name
+            stats.restarts += 1
+            log.debug("MAVSDK answered %s: transfer restarted (%d)", name, stats.restarts)
+
+
+def _after(stats: mp.Stats) -> str:
+    return f" (after {stats.restarts} restart(s))" if stats.restarts else ""
