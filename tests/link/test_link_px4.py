@@ -140,6 +140,10 @@ def test_the_other_checks_hold_for_px4_too(tmp_path: Path) -> None:
     assert res.exit_code == 2
     assert "--autopilot ardupilot: survey.plan is a mission for px4" in res.output
 
+    res = run(write(tmp_path, m), "udpbcast:127.0.0.1:9")  # pymavlink opens it, MAVSDK does not: said before anything
+    assert res.exit_code == 2
+    assert "a PX4 upload goes through MAVSDK, which opens udpin:, udpout:, tcp:, tcpin: and serial devices" in res.output
+
 
 def test_what_the_vehicle_refuses_during_a_mavsdk_upload_is_an_error_that_says_do_not_fly(tmp_path: Path) -> None:
     """Past the checks: the vehicle's own answers (no room, an item it does not take) reach the pilot."""

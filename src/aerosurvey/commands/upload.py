@@ -251,6 +251,10 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
     limit = _launch_distance(launch_distance)
     facts, source = mission_facts(plan_file, mission, waypoints, vehicle)
     policy = mp.Policy(timeout=timeout, retries=retries)
+    if mission.firmware == "px4":
+        from aerosurvey.link.px4 import MavsdkTransfers, mavsdk_url
+
+        mavsdk_url(url)  # a connection MAVSDK cannot open is bad input before anything else
     try:
         with open_link(url, policy.silence) as link:
             assert link.vehicle is not None
@@ -262,8 +266,6 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
                 with TransferProgress(sys.stderr) as progress:
                     report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress, rally=rally)
         if mission.firmware == "px4":  # the checks' link is closed: MAVSDK opens the same connection
-            from aerosurvey.link.px4 import MavsdkTransfers
-
             with MavsdkTransfers(url, link.vehicle, policy.timeout, policy.silence, not no_verify) as transfers:
                 report = upload_plan(transfers, mission, verify=not no_verify, rally=rally)
     except VerificationFailed as exc:
