@@ -238,3 +238,20 @@ def test_mavsdk_urls() -> None:
     assert mavsdk_url("/dev/ttyUSB0,57600") == "serial:///dev/ttyUSB0:57600"
     with pytest.raises(InputError, match="MAVSDK"):
         mavsdk_url("mcast:")
+
+
+def test_a_planned_px4_plane_landing_is_one_px4_takes(tmp_path: Path) -> None:
+    """The landing sequence's DO_LAND_START goes to PX4 in MAV_FRAME_MISSION (the frame PX4's mission
+    rules take it in); every item of the planned mission passes the PX4 check."""
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.link.upload import check_px4
+    from aerosurvey.mission.builder import build_mission
+    from aerosurvey.spec import load_spec
+    from conftest import make_spec
+
+    spec = make_spec(tmp_path, {"vehicle": {"type": "plane", "firmware": "px4", "cruise_speed_ms": 18.0},
+                                "flight": {"end": "land", "wind_from_deg": 270.0}})
+    m = build_mission(plan_from_files(load_spec(spec)))
+    land = [it for it in m.items if it.command == mav.DO_LAND_START]
+    assert land and all(it.frame == mav.FRAME_MISSION for it in land)
+    check_px4(m, "mission.plan", rally=True)
