@@ -151,7 +151,7 @@ class StationTable:
 
 def station_table(plan: Plan) -> StationTable:
     """The plan's stations as the manifest records them (rounded; None where a value is not
-    finite). Its columns are `jsontext.Column`s: plan.geojson and plan.kml write the ids,
+    finite). Its columns are `jsontext.Column`s: plan.geojson writes the ids,
     positions and heights from them too (`report.features.plan_geojson`), their texts made once."""
     st = plan.stations
 

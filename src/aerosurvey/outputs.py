@@ -13,7 +13,7 @@ from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import build_mission
-from aerosurvey.mission.formats.kml import feature_collection_to_kml
+from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, mission_legs
@@ -25,7 +25,8 @@ from aerosurvey.plan.planner import Plan
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
     from aerosurvey.rules.engine import Evidence, RuleResult
-from aerosurvey.report.features import plan_geojson
+from aerosurvey.report.features import footprint_lonlat, plan_geojson
+from aerosurvey.report.gpkg import footprints_layer, gpkg_bytes, plan_layers
 from aerosurvey.report.preview import render_svg
 from aerosurvey.report.summary import Summary, plan_summary
 
@@ -92,17 +93,16 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
     is made when asked)."""
     mission = build_mission(plan, name=plan.spec.name)
-    # the station table's columns are written into the manifest, plan.geojson and plan.kml
-    # (their texts made once), and the rules make its rows
+    # the station table's columns are written into the manifest and plan.geojson, and the
+    # rules make its rows; the footprints' corners go into plan.geojson and plan.gpkg
     stations_table = mf.station_table(plan)
-    fc, stations, geojson = plan_geojson(plan, stations_table)
+    corners = footprint_lonlat(plan)
+    fc, _, geojson = plan_geojson(plan, stations_table, corners)
     missions = {"mission": mission}
     files = {
         "mission.plan": dumps_plan(mission),
         "mission.waypoints": dumps_wpl(mission),
         "plan.geojson": geojson,
-        # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
-        "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }
     sortie_missions = _sortie_missions(plan, ids.sortie_file_stem)
     missions.update(sortie_missions)
@@ -117,11 +117,11 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
-    binary = {}
-    if gpkg:
-        from aerosurvey.report.gpkg import gpkg_bytes
-
-        binary["plan.gpkg"] = gpkg_bytes(plan, points)
+    # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
+    # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
+    layers = plan_layers(plan, points)
+    files["plan.kml"] = layers_to_kml(layers, plan.spec.name)
+    binary = {"plan.gpkg": gpkg_bytes([*layers, footprints_layer(plan, corners)])} if gpkg else {}
     hashes = {name: _sha256(text.encode("utf-8")) for name, text in files.items()}
     hashes |= {name: _sha256(data) for name, data in binary.items()}
     manifest["outputs"] = dict(sorted(hashes.items()))
