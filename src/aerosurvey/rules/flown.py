@@ -23,7 +23,7 @@ import numpy as np
 from aerosurvey.errors import InputError
 from aerosurvey.rules import footprints as fpm
 from aerosurvey.rules.checks import Where
-from aerosurvey.rules.cp_files import read_layout, seen_by
+from aerosurvey.rules.cp_files import read_layout
 from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, layout_settings
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import Profile
@@ -46,8 +46,9 @@ def plan_evidence(view: PlanView, profiles: list[Profile], folder: Path | None) 
 
 def on_view(base: Evidence, view: PlanView) -> Evidence:
     """The evidence of another view of the same plan (the flown photos, one sortie's stations):
-    the base's control points where they are, each counted again on the view's photos."""
-    return Evidence(view, base.settings, seen_by(view, base.points))
+    the base's control points where they are, each counted again on the view's photos (with
+    the footprints the view's evidence measures once for every check)."""
+    return Evidence(view, base.settings, base.points, count_layout=True)
 
 
 def part(view: PlanView, station_ids: Sequence[str]) -> PlanView:
