@@ -102,7 +102,12 @@ def _layout_point(f: object, i: int, where: str) -> tuple[str, Role, float, floa
 
 
 def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
-    """Control points from a control_points.geojson; images per point are measured again."""
+    """Control points from a control_points.geojson; images per point are measured again on the view's photos."""
+    return seen_by(footprints(view), layout_points(text, view, where))
+
+
+def layout_points(text: str, view: PlanView, where: str) -> list[ControlPoint]:
+    """Control points from a control_points.geojson, in the view's CRS, their images not counted (0)."""
     try:
         feats = json.loads(text)["features"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
@@ -114,4 +119,4 @@ def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
         pid, role, lon, lat, note = _layout_point(f, i, where)
         x, y = planar(view.crs).xy(np.array([lon], float), np.array([lat], float))
         pts.append(ControlPoint(pid, role, float(x[0]), float(y[0]), 0, note))
-    return seen_by(footprints(view), pts)
+    return pts
