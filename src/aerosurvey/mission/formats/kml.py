@@ -116,35 +116,48 @@ def _styles() -> list[str]:
     return out
 
 
-def _coordinates(coords: np.ndarray) -> str:
-    """`lon,lat[,z]` of each row, space-separated."""
+def _positions(coords: np.ndarray) -> list[str]:
+    """`lon,lat[,z]` of each row (longitude and latitude to LONLAT_DECIMALS, z to Z_DECIMALS)."""
     columns = [_numbers(coords[:, 0], LONLAT_DECIMALS), _numbers(coords[:, 1], LONLAT_DECIMALS)]
     if coords.shape[1] == 3:
         columns.append(_numbers(coords[:, 2], Z_DECIMALS))
-    return " ".join(",".join(row) for row in zip(*columns))
+    return [",".join(row) for row in zip(*columns)]
 
 
 def _mode(has_z: bool) -> str:
     return "<altitudeMode>absolute</altitudeMode>" if has_z else ""
 
 
-def _polygon(p: shapely.Polygon, has_z: bool) -> str:
-    rings = [("outerBoundaryIs", p.exterior), *(("innerBoundaryIs", r) for r in p.interiors)]
-    body = "".join(f"<{tag}><LinearRing><coordinates>{_coordinates(shapely.get_coordinates(r, include_z=has_z))}"
-                   f"</coordinates></LinearRing></{tag}>" for tag, r in rings)
-    return f"<Polygon>{_mode(has_z)}{body}</Polygon>"
+def _geometries(geoms: np.ndarray, has_z: bool) -> list[str]:
+    """KML of each point, line, polygon or multi-polygon; the positions of them all made in one
+    go (a layer's geometries give them in order: each polygon's outer ring, then its holes)."""
+    positions = _positions(shapely.get_coordinates(geoms, include_z=has_z))
+    if (shapely.get_type_id(geoms) == shapely.GeometryType.POINT).all():  # thousands of stations: no loop
+        return [f"<Point>{_mode(has_z)}<coordinates>{p}</coordinates></Point>" for p in positions]
+    taken = 0
 
+    def coordinates(n: int) -> str:  # the next n positions
+        nonlocal taken
+        taken += n
+        return f"<coordinates>{' '.join(positions[taken - n:taken])}</coordinates>"
 
-def _geometry(g: shapely.Geometry, has_z: bool) -> str:
-    """KML of one line, polygon or multi-polygon (points are written a column at a time)."""
-    if g.geom_type == "LineString":
-        follow = _mode(True) if has_z else "<tessellate>1</tessellate>"
-        return f"<LineString>{follow}<coordinates>{_coordinates(shapely.get_coordinates(g, include_z=has_z))}</coordinates></LineString>"
-    if g.geom_type == "Polygon":
-        return _polygon(g, has_z)
-    if g.geom_type == "MultiPolygon":
-        return "<MultiGeometry>" + "".join(_polygon(p, has_z) for p in g.geoms) + "</MultiGeometry>"
-    raise ValueError(f"plan.kml: a {g.geom_type} is not one of the plan's layer geometries")
+    def polygon(p: shapely.Polygon) -> str:
+        rings = [("outerBoundaryIs", p.exterior), *(("innerBoundaryIs", r) for r in p.interiors)]
+        body = "".join(f"<{tag}><LinearRing>{coordinates(len(r.coords))}</LinearRing></{tag}>" for tag, r in rings)
+        return f"<Polygon>{_mode(has_z)}{body}</Polygon>"
+
+    out = []
+    for g in geoms:
+        if g.geom_type == "LineString":
+            follow = _mode(True) if has_z else "<tessellate>1</tessellate>"
+            out.append(f"<LineString>{follow}{coordinates(len(g.coords))}</LineString>")
+        elif g.geom_type == "Polygon":
+            out.append(polygon(g))
+        elif g.geom_type == "MultiPolygon":
+            out.append("<MultiGeometry>" + "".join(polygon(p) for p in g.geoms) + "</MultiGeometry>")
+        else:
+            raise ValueError(f"plan.kml: a {g.geom_type} is not one of the plan's layer geometries")
+    return out
 
 
 def _placemarks(layer: Layer) -> str:
@@ -158,17 +171,9 @@ def _placemarks(layer: Layer) -> str:
     data: list[str | list[str]] = []
     for k in order:
         data += [f'<Data name="{escape(k, _QUOTES)}"><value>', texts[k], "</value></Data>"]
-    geoms = np.asarray(layer.geometries, dtype=object)
-    if layer.geometry_type.startswith("Point"):
-        xyz = shapely.get_coordinates(geoms, include_z=layer.has_z)
-        coords: list[str | list[str]] = [_numbers(xyz[:, 0], LONLAT_DECIMALS), ",", _numbers(xyz[:, 1], LONLAT_DECIMALS)]
-        if layer.has_z:
-            coords += [",", _numbers(xyz[:, 2], Z_DECIMALS)]
-        geometry: list[str | list[str]] = [f"<Point>{_mode(layer.has_z)}<coordinates>", *coords, "</coordinates></Point>"]
-    else:
-        geometry = [[_geometry(g, layer.has_z) for g in geoms]]
+    geometries = _geometries(np.asarray(layer.geometries, dtype=object), layer.has_z)
     return join_rows(["<Placemark><name>", names, "</name><styleUrl>", style, "</styleUrl><ExtendedData>", *data,
-                      "</ExtendedData>", *geometry, "</Placemark>"], n, "\n")
+                      "</ExtendedData>", geometries, "</Placemark>"], n, "\n")
 
 
 def layers_to_kml(layers: Sequence[Layer], name: str) -> str:
