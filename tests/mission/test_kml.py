@@ -14,8 +14,12 @@ import pytest
 import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.inputs import plan_from_files
 from aerosurvey.mission.formats.kml import layers_to_kml
+from aerosurvey.outputs import write_outputs
 from aerosurvey.report.gpkg import STYLES, Layer
+from aerosurvey.spec import load_spec
+from conftest import make_spec, random_polygon, write_geojson
 
 ROOT = Path(__file__).resolve().parents[2]
 K = "{http://www.opengis.net/kml/2.2}"
@@ -37,10 +41,11 @@ def test_the_kml_has_the_packages_layers_but_the_footprints(written) -> None:
         assert info["features"] == pyogrio.read_info(gpkg, layer=layer)["features"], layer
 
 
-def test_every_feature_has_the_packages_name_fields_and_geometry(written) -> None:
-    """Names and fields as text, positions to 1e-8°, heights to 1 cm; the forest plan (terrain
-    following) in 3-D, the flat one 2-D."""
-    name, _, out = written
+def _same_features_as_the_package(out: Path, three_d: frozenset[str]) -> int:
+    """Every KML layer's features: names and fields as the GeoPackage's (as text), each geometry of
+    the package layer's type, equal to its feature's to 1e-8°, heights to 5 mm, z only in the
+    layers of `three_d`. Returns how many features were compared."""
+    compared = 0
     for layer in [n for n, _ in pyogrio.list_layers(out / "plan.kml")]:
         kml_geoms, kml_fields = _read(out / "plan.kml", layer)
         gpkg_geoms, gpkg_fields = _read(out / "plan.gpkg", layer)
@@ -52,14 +57,37 @@ def test_every_feature_has_the_packages_name_fields_and_geometry(written) -> Non
                     np.testing.assert_allclose(got.astype(float), values, rtol=1e-12, err_msg=f"{layer}.{field}")
                 else:
                     assert [str(v) for v in got] == [str(v) for v in values], f"{layer}.{field}"
-        for a, b in zip(kml_geoms, gpkg_geoms):
-            assert a.has_z == b.has_z == (name == "forest-dem" and layer in ("strips", "route", "stations", "launch_points"))
-            assert shapely.equals_exact(shapely.force_2d(a), shapely.force_2d(b), tolerance=1e-8) or \
-                shapely.equals_exact(shapely.force_2d(a), shapely.force_2d(shapely.MultiPolygon([b]) if b.geom_type == "Polygon" else b),
-                                     tolerance=1e-8), layer
+        kind = pyogrio.read_info(out / "plan.gpkg", layer=layer)["geometry_type"]
+        for a, b in zip(kml_geoms, gpkg_geoms, strict=True):
+            assert a.geom_type + (" Z" if a.has_z else "") == kind, layer
+            assert a.has_z == b.has_z == (layer in three_d)
+            assert shapely.equals_exact(shapely.force_2d(a), shapely.force_2d(b), tolerance=1e-8), layer
             if b.has_z:
                 np.testing.assert_allclose(shapely.get_coordinates(a, include_z=True)[:, 2],
                                            shapely.get_coordinates(b, include_z=True)[:, 2], atol=0.005)
+            compared += 1
+    return compared
+
+
+def test_every_feature_has_the_packages_name_fields_and_geometry(written) -> None:
+    """The forest plan (terrain following) in 3-D, the flat one 2-D."""
+    name, plan, out = written
+    three_d = frozenset({"strips", "route", "stations", "launch_points"} if name == "forest-dem" else ())
+    assert _same_features_as_the_package(out, three_d) > len(plan.stations.ids)
+
+
+def test_an_area_with_holes_and_a_zone(tmp_path) -> None:
+    """Polygons with holes and a zone, as the package has them."""
+    zone = [[15.0020, 49.4012], [15.0040, 49.4012], [15.0040, 49.4024], [15.0020, 49.4024], [15.0020, 49.4012]]
+    write_geojson(tmp_path / "zone.geojson", [zone])
+    spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]}, "flight": {"exclusion_margin_m": 30.0}},
+                     rings=random_polygon("holed", 7, 400.0))
+    write_outputs(plan_from_files(load_spec(spec)), tmp_path / "o", gpkg=True)
+    counts = {n: pyogrio.read_info(tmp_path / "o" / "plan.kml", layer=n)["features"]
+              for n, _ in pyogrio.list_layers(tmp_path / "o" / "plan.kml")}
+    assert counts["zones"] == 1, counts
+    assert len(shapely.from_wkb(pyogrio.raw.read(tmp_path / "o" / "plan.kml", layer="area")[2][0]).geoms[0].interiors) >= 1
+    assert _same_features_as_the_package(tmp_path / "o", frozenset()) > 0
 
 
 def test_heights_are_absolute_in_3d_and_clamped_in_2d(written) -> None:
