@@ -116,24 +116,29 @@ def _styles() -> list[str]:
     return out
 
 
-def _positions(coords: np.ndarray) -> list[str]:
-    """`lon,lat[,z]` of each row (longitude and latitude to LONLAT_DECIMALS, z to Z_DECIMALS)."""
+def _position_columns(coords: np.ndarray) -> list[list[str]]:
+    """The texts of the rows' longitudes and latitudes (to LONLAT_DECIMALS) and heights (to Z_DECIMALS)."""
     columns = [_numbers(coords[:, 0], LONLAT_DECIMALS), _numbers(coords[:, 1], LONLAT_DECIMALS)]
     if coords.shape[1] == 3:
         columns.append(_numbers(coords[:, 2], Z_DECIMALS))
-    return [",".join(row) for row in zip(*columns)]
+    return columns
 
 
 def _mode(has_z: bool) -> str:
     return "<altitudeMode>absolute</altitudeMode>" if has_z else ""
 
 
-def _geometries(geoms: np.ndarray, has_z: bool) -> list[str]:
-    """KML of each point, line, polygon or multi-polygon; the positions of them all made in one
-    go (a layer's geometries give them in order: each polygon's outer ring, then its holes)."""
-    positions = _positions(shapely.get_coordinates(geoms, include_z=has_z))
-    if (shapely.get_type_id(geoms) == shapely.GeometryType.POINT).all():  # thousands of stations: no loop
-        return [f"<Point>{_mode(has_z)}<coordinates>{p}</coordinates></Point>" for p in positions]
+def _geometries(geoms: np.ndarray, has_z: bool) -> list[str | list[str]]:
+    """`join_rows` parts of the KML of each point, line, polygon or multi-polygon: the positions of
+    them all made in one go (a layer's geometries give them in order: each polygon's outer ring,
+    then its holes); points (thousands of stations) as the columns of their numbers."""
+    columns = _position_columns(shapely.get_coordinates(geoms, include_z=has_z))
+    if (shapely.get_type_id(geoms) == shapely.GeometryType.POINT).all():
+        numbers: list[str | list[str]] = [columns[0]]
+        for c in columns[1:]:
+            numbers += [",", c]
+        return [f"<Point>{_mode(has_z)}<coordinates>", *numbers, "</coordinates></Point>"]
+    positions = [",".join(row) for row in zip(*columns)]
     taken = 0
 
     def coordinates(n: int) -> str:  # the next n positions
@@ -157,7 +162,7 @@ def _geometries(geoms: np.ndarray, has_z: bool) -> list[str]:
             out.append("<MultiGeometry>" + "".join(polygon(p) for p in g.geoms) + "</MultiGeometry>")
         else:
             raise ValueError(f"plan.kml: a {g.geom_type} is not one of the plan's layer geometries")
-    return out
+    return [out]
 
 
 def _placemarks(layer: Layer) -> str:
@@ -173,7 +178,7 @@ def _placemarks(layer: Layer) -> str:
         data += [f'<Data name="{escape(k, _QUOTES)}"><value>', texts[k], "</value></Data>"]
     geometries = _geometries(np.asarray(layer.geometries, dtype=object), layer.has_z)
     return join_rows(["<Placemark><name>", names, "</name><styleUrl>", style, "</styleUrl><ExtendedData>", *data,
-                      "</ExtendedData>", geometries, "</Placemark>"], n, "\n")
+                      "</ExtendedData>", *geometries, "</Placemark>"], n, "\n")
 
 
 def layers_to_kml(layers: Sequence[Layer], name: str) -> str:
