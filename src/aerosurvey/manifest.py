@@ -25,7 +25,7 @@ import numpy as np
 from aerosurvey import __version__, ids, schemas
 from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import Column, rows_text, table_text
+from aerosurvey.jsontext import Column, rows_text, string_texts, table_text
 from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
@@ -152,7 +152,7 @@ class StationTable:
 
 def station_table(plan: Plan) -> StationTable:
     """The plan's stations as the manifest records them (rounded; None where a value is not
-    finite). Its columns are `jsontext.Column`s: plan.geojson and plan.kml write the ids,
+    finite). Its columns are `jsontext.Column`s: plan.geojson writes the ids,
     positions and heights from them too (`report.features.plan_geojson`), their texts made once."""
     st = plan.stations
 
@@ -167,7 +167,9 @@ def station_table(plan: Plan) -> StationTable:
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
     gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
-    return StationTable((Column(st.ids), Column.of_array(np.arange(1, len(st.ids) + 1)), Column.of_codes(run_ids, st.run),
+    # the ids' JSON texts made here, once: plan.geojson writes them twice (feature id, property) and the manifest once
+    return StationTable((Column(st.ids, string_texts(st.ids)), Column.of_array(np.arange(1, len(st.ids) + 1)),
+                         Column.of_codes(run_ids, st.run),
                          col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
                          col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3),
                          col(st.pitch_deg, 2), col(st.camera_yaw_deg, 3)))

@@ -26,7 +26,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.flight.records import EventRows
 from aerosurvey.manifest import Home
-from aerosurvey.rules.footprints import footprints
+from aerosurvey.rules.footprints import Footprints
 from aerosurvey.rules.planview import PlanView
 
 if TYPE_CHECKING:
@@ -309,9 +309,9 @@ class CountRaster:
     summary: dict[str, Any]
 
 
-def count_raster(view: PlanView, cell_m: float) -> CountRaster:
-    """Counts of the view's photo footprints on cells over the area's bounds."""
-    polys = footprints(view).polygons
+def count_raster(view: PlanView, fp: Footprints, cell_m: float) -> CountRaster:
+    """Counts of the view's photo footprints (`fp`, its `rules.footprints.footprints`) on cells over the area's bounds."""
+    polys = fp.polygons
     x0, y0, x1, y1 = view.area.bounds
     pad = cell_m * 2
     width = int(math.ceil((x1 - x0 + 2 * pad) / cell_m))

@@ -23,7 +23,6 @@ from aerosurvey.area import Planar, check_area_of_use, planning_crs
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.inputs import PlanInputs
-from aerosurvey.plan.sensor import target_height
 from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
@@ -65,11 +64,11 @@ class Site:
     centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
 
 
-def simplify_tolerance_m(spec: MissionSpec) -> float:
+def simplify_tolerance_m(spec: MissionSpec, height_agl_m: float) -> float:
     """How far (ground metres) a simplified boundary may lie outside the given one: a share of
-    the photo footprint at the target height, and of the exclusion margin when there is one."""
-    height, _, _ = target_height(spec)
-    across, along = pg.footprint(height, spec.camera.camera, spec.camera.mount)
+    the photo footprint at the target height (`sensor.target_height`), and of the exclusion
+    margin when there is one."""
+    across, along = pg.footprint(height_agl_m, spec.camera.camera, spec.camera.mount)
     tol = SIMPLIFY_SHARE_OF_FOOTPRINT * min(float(across), float(along))
     margin = spec.flight.exclusion_margin_m
     return min(tol, SIMPLIFY_SHARE_OF_MARGIN * margin) if margin > 0 else tol
@@ -137,14 +136,15 @@ def _places(spec: MissionSpec, inputs: PlanInputs) -> list[tuple[str, BaseGeomet
     return out
 
 
-def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
-    """Project the inputs; refuse zones that leave nothing to survey."""
+def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> Site:
+    """Project the inputs; refuse zones that leave nothing to survey. `height_agl_m` is the
+    target height (`sensor.target_height`), which sets how far outlines may be simplified."""
     planar = planning_crs(spec.crs, inputs.area_wgs84)
     if spec.crs != "auto":  # "auto" is the UTM zone of the area's centre
         check_area_of_use(planar.crs, "mission.crs", _places(spec, inputs))
     c = inputs.area_wgs84.centroid
     k = planar.scale_factor(c.x, c.y)
-    tol = simplify_tolerance_m(spec) * k
+    tol = simplify_tolerance_m(spec, height_agl_m) * k
     centreline = None
     if spec.pattern.kind == "corridor":
         assert spec.pattern.left_m is not None and spec.pattern.right_m is not None
