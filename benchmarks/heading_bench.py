@@ -50,7 +50,7 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
     k = site.grid_scale
     margin = spec.targets.coverage_margin_m * k
     covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
-    g = strip_geometry(sensor, spec.targets.images_beyond_boundary, k)
+    g = strip_geometry(sensor, spec.targets.images_beyond_boundary, k, k)
     lead = sensor.lead_in_m * k
 
     def run(bounded: bool) -> tuple[float, float, int]:

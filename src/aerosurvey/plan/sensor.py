@@ -5,7 +5,7 @@ trigger, from the spec and the relief under the area. The first step of the pipe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
@@ -128,6 +128,9 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
     trigger_cmd = None
     if spec.camera.trigger == "distance":
+        # whole centimetres a second, rounded down: the mission commands the speed to 1 cm/s, and
+        # the trigger's check steps (speed / 50 Hz) must be those the autopilot flies
+        speed = replace(speed, speed_ms=math.floor(speed.speed_ms * 100.0 + 1e-6) / 100.0)
         try:
             trigger_cmd, base = pg.distance_trigger(base, speed.speed_ms)
         except ValueError as exc:

@@ -63,6 +63,20 @@ class Site:
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
     simplification: Simplification
 
+    def autopilot_scale(self, heading_deg: float) -> float:
+        """Planning-grid metres per metre of ArduPilot's distance along a line heading (a grid
+        bearing), at the area's centroid: a kilometre of the line there, measured as the
+        autopilot measures it (`photogrammetry.ardupilot_distance_m`). Stations laid the photo
+        base times this apart are where its distance trigger fires: the ground's metres and the
+        autopilot's differ by up to 0.7 % with the direction and the latitude (`grid_scale`
+        turns ground metres into grid metres)."""
+        c = self.area.centroid
+        half = 500.0 * self.grid_scale
+        h = math.radians(heading_deg)
+        dx, dy = half * math.sin(h), half * math.cos(h)
+        lon, lat = self.planar.lonlat(np.array([c.x - dx, c.x + dx]), np.array([c.y - dy, c.y + dy]))
+        return 2.0 * half / float(pg.ardupilot_distance_m(lon[0], lat[0], lon[1], lat[1]))
+
 
 def simplify_tolerance_m(spec: MissionSpec) -> float:
     """How far (ground metres) a simplified boundary may lie outside the given one: a share of
