@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from csvrows import event_rows
 
 from aerosurvey.cli import main
-from conftest import REPO, make_spec
+from conftest import make_spec
 
 LOG = Path(__file__).resolve().parents[1] / "data" / "sitl_copter_survey.bin"
 
