@@ -36,6 +36,10 @@ EXAMPLES = int(os.environ.get("AEROSURVEY_SAFETY_EXAMPLES", "40"))
 @example(params=zc.CaseParams(kind="convex", size_ha=0.5, lat=50.0, lon=0.0, vehicle="plane",
                               zones=("crossing", "crossing", "crossing"), battery_min=None, launch="default", end="rtl",
                               margin_m=30.0, height_m=80.0, heading=None, seed=0))
+# a copter sortie ending nearer another launch site: RTL flew to that site's rally point, through a zone
+@example(params=zc.CaseParams(kind="corridor", size_ha=40.0, lat=-35.0, lon=0.0, vehicle="copter",
+                              zones=("crossing", "inside", "crossing"), battery_min=12.8, launch="points", end="rtl",
+                              margin_m=10.0, height_m=100.0, heading=None, seed=80))
 def test_zones_are_never_entered_and_gaps_are_reported(tmp_path_factory: pytest.TempPathFactory, params: zc.CaseParams) -> None:
     case = zc.make_case(params)
     folder = tmp_path_factory.mktemp("zone-case")

@@ -18,7 +18,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar
-from aerosurvey.mission.program import FlightProgram
+from aerosurvey.mission.program import FlightProgram, rtl_target
 
 #: the margin is checked a little inside its outline: the route keeps out of a polygon of it
 #: (eight segments a quarter circle, whose chords lie up to 2 % of the margin inside the circle)
@@ -61,7 +61,12 @@ def program_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter
     pts = [("takeoff", lat0, lon0)] + [(w.tag, w.lat, w.lon) for w in program.waypoints]
     if program.approach is not None:
         pts.append(("approach", program.approach.lat, program.approach.lon))
-    pts.append(("land" if program.end == "land" else "rtl", lat0, lon0))
+    if program.end == "land":
+        pts.append(("land", lat0, lon0))
+    else:  # straight to the nearest rally point (or home) from the last place flown to
+        last = (pts[-1][1], pts[-1][2])
+        to = rtl_target(program.vehicle, (lat0, lon0), [(r[0], r[1]) for r in program.rally], last)
+        pts.append(("rtl", to[0], to[1]))
     x, y = planar.xy(np.array([lon0] + [p[2] for p in pts]), np.array([lat0] + [p[1] for p in pts]))
     home = (float(x[0]), float(y[0]))
     climb = 0.0

@@ -30,6 +30,7 @@ the camera stays on through it, as through a "terrain" waypoint.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -159,6 +160,15 @@ def flight_program(plan: Plan, sortie: int | None = None, name: str | None = Non
     home_detour = bool(wps) and wps[-1].kind == "transit"
     land = f.end == "land" or (home_detour and spec.vehicle.type == "copter")
     h = plan.heights.nominal_agl_m
+    rally = tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2)) for st in plan.launch_sites)
+    if not land and waypoints:
+        # RTL goes to the nearest rally point (and home, for a copter) from where it starts: when that is
+        # another launch site, the flight first comes home (its way home is clear of the zones: the
+        # route's transit), so that the nearest is this one
+        last = waypoints[-1]
+        to = rtl_target(spec.vehicle.type, (round(lat, 8), round(lon, 8)), [(r[0], r[1]) for r in rally], (last.lat, last.lon))
+        if _metres(to, (lat, lon)) > 1.0:
+            waypoints = (*waypoints, Waypoint(round(lat, 8), round(lon, 8), last.alt_m, "transit", -1, "transit", "", 0.0))
     return FlightProgram(
         name=name or spec.name,
         vehicle=spec.vehicle.type,
@@ -177,8 +187,22 @@ def flight_program(plan: Plan, sortie: int | None = None, name: str | None = Non
         fence_inclusion=plan.fence_inclusion,
         fence_exclusion=plan.fence_exclusion,
         # every launch site a rally point, at the survey's height above its ground, as an altitude above this launch point
-        rally=tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2)) for st in plan.launch_sites),
+        rally=rally,
     )
+
+
+def rtl_target(vehicle: str, home: tuple[float, float], rally: list[tuple[float, float]],
+               start: tuple[float, float]) -> tuple[float, float]:
+    """(lat, lon) where RTL from `start` flies to: the nearest rally point, home among them for a
+    copter (ArduCopter's RALLY_INCL_HOME = 1; ArduPlane's 0: a rally point whenever there is one)."""
+    targets = rally if rally and vehicle == "plane" else [home, *rally]
+    return min(targets, key=lambda t: _metres(t, start))
+
+
+def _metres(a: tuple[float, float], b: tuple[float, float]) -> float:
+    """Roughly the metres between two (lat, lon) places (enough to tell near from far)."""
+    k = math.pi / 180.0 * 6_371_000.0
+    return math.hypot((a[0] - b[0]) * k, (a[1] - b[1]) * k * math.cos(math.radians((a[0] + b[0]) / 2.0)))
 
 
 def _tag(plan: Plan, w: RouteWaypoint) -> str:
