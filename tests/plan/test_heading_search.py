@@ -24,6 +24,7 @@ from aerosurvey.plan.lines import (
     build_lines,
     cut_by_zones,
     line_bounds,
+    line_crossings,
     segments_for_line,
     strip_offsets,
 )
@@ -215,7 +216,8 @@ def laid_one_by_one(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: Strip
             else:
                 merged.append((a, b))
         if merged:
-            segs.extend(segments_for_line(i, float(v), merged, g.along, g.base, g.fwd_per_point, g.beyond, g.along))
+            _, xs = line_crossings(area_f, np.array([float(v)]))
+            segs.extend(segments_for_line(i, float(v), merged, g.along, g.base, g.fwd_per_point, g.beyond, g.along, xs))
     segs = cut_by_zones(segs, zones_f, g.clearance)
     index = {old: new for new, old in enumerate(sorted({s.line for s in segs}))}
     return [LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
