@@ -206,8 +206,12 @@ def laid_one_by_one(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: Strip
     minx, _, maxx, _ = area_f.bounds
     vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
     segs: list[LineSegment] = []
+    k, half = g.side_per_point, g.across / 2.0
     for i, v in enumerate(vs):
-        clip = shapely.clip_by_rect(area_f, minx - 1.0, float(v) - g.across / 2.0, maxx + 1.0, float(v) + g.across / 2.0)
+        # a line photographs the ground it is one of the k nearest lines of (within its strip)
+        below = half if i < k else min(half, k * g.spacing / 2.0)
+        above = half if i >= len(vs) - k else min(half, k * g.spacing / 2.0)
+        clip = shapely.clip_by_rect(area_f, minx - 1.0, float(v) - below, maxx + 1.0, float(v) + above)
         pieces = sorted(p.bounds[0::2] for p in shapely.get_parts(clip) if not p.is_empty and p.area > 0)
         merged: list[tuple[float, float]] = []
         for a, b in pieces:
