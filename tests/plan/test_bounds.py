@@ -59,3 +59,18 @@ def test_no_heading_lays_fewer_lines_than_the_strip_bound(seed, size, heading, k
     along_edges = [LineFrame(math.degrees(math.atan2(dx, dy)) % 180.0).geom_to_frame(poly).bounds for dx, dy in d]
     assert min(len(strip_offsets(b[1], b[3], across, spacing, k)) for b in along_edges) == bound.strips
     assert bound.photos == math.ceil(poly.area / (10.0 * spacing) - 1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(width=st.floats(1.0, 3000.0), ratio=st.floats(1.01, 5.0), spacing=st.floats(5.0, 200.0), lo=st.floats(-1e4, 1e4))
+def test_strip_offsets_put_every_point_in_k_strips_at_the_spacing_or_closer(width, ratio, spacing, lo):
+    k = max(1, math.floor(ratio + 1e-9))
+    across = spacing * ratio
+    vs = strip_offsets(lo, lo + width, across, spacing, k)
+    gaps = np.diff(vs)
+    assert (gaps <= spacing * (1 + 1e-9)).all() and (gaps > 0).all()
+    probe = np.linspace(lo, lo + width, 2001)
+    assert (np.abs(probe[:, None] - vs[None, :]) <= across / 2 + 1e-6).sum(axis=1).min() >= k
+    # as few lines as the strip bound of a band that wide
+    band = shapely.box(0.0, lo, 1e5, lo + width)  # its minimum width is `width`
+    assert len(vs) == grid_bounds(band, 1.0, across, spacing, 1.0, k, 1).strips

@@ -6,7 +6,8 @@ it is from the floor.
   narrowest width of a convex set is across one of them) and the side rule, every point in
   k = `side_images_per_point` strips of width A, at the outer edges too. Lines at spacing S
   covering an ordinate range W that way number at least ⌈(W − A)/S⌉ + 2k − 1 (the k-th line
-  from each end must still reach its edge), and at least k. No heading gives a smaller range
+  from each end must still reach its edge), and at least k; a width under A takes k lines
+  (closer than S, so that all k strips hold it). No heading gives a smaller range
   than W, so for a convex area no parallel-line plan at spacing S has fewer strips; a
   concave area may need fewer where whole lines fall in a notch.
 - Photos: the area over base × spacing (each photo accounts for at most one base × spacing
@@ -53,7 +54,7 @@ def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_
     per ground metre) for strips of width `across_m` at `spacing_m`, photos every `base_m`."""
     width = minimum_width(area) / grid_scale
     k = side_per_point
-    strips = max(k, math.ceil((width - across_m) / spacing_m - 1e-9) + 2 * k - 1)
+    strips = k if width < across_m else max(k, math.ceil((width - across_m) / spacing_m - 1e-9) + 2 * k - 1)
     photos = math.ceil(area.area / grid_scale**2 / (base_m * spacing_m) - 1e-9)
     return GridBounds(width, passes * strips, passes * photos)
 

@@ -47,10 +47,17 @@ class LineSegment:
 
 def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_point: int) -> np.ndarray:
     """Line ordinates, centred on the area, so that every v in [vmin, vmax] lies in
-    `per_point` strips or more (a strip covers ±across/2 around its line)."""
+    `per_point` strips or more (a strip covers ±across/2 around its line).
+
+    A range narrower than a strip lies in all of k = `per_point` strips whose lines are
+    (across − width)/(k − 1) apart or closer: where that asks fewer lines than the spacing does,
+    k lines are laid that close (more side overlap than asked, fewer lines)."""
     half = across / 2.0
     need = vmax - vmin - across + 2.0 * (per_point - 1) * spacing
     n = max(per_point, math.ceil(need / spacing - _EPS) + 1, 1)
+    close = _narrow_spacing(vmax - vmin, across, spacing, per_point, n)
+    if close is not None:
+        return (vmin + vmax) / 2.0 + close * (np.arange(per_point) - (per_point - 1) / 2.0)
     probe = np.linspace(vmin, vmax, 257)
     reach = half + _EPS
     # a probe lies in the strips of the lines within `reach` only: those are in a window of
@@ -71,6 +78,15 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
         if counts.min() >= per_point:
             return vs
         n += 1
+
+
+def _narrow_spacing(width: float, across: float, spacing: float, per_point: int, n: int) -> float | None:
+    """The spacing of `per_point` lines putting a range `width` wide in all their strips, when
+    the range is narrower than a strip and the spacing would lay more lines (else None): the
+    farthest line from a point then lies (width + (k − 1)·s)/2 ≤ across/2 from it."""
+    if per_point < 2 or n <= per_point or width >= across * (1.0 - 1e-6):
+        return None
+    return min(spacing, (across - width) / (per_point - 1)) * (1.0 - 1e-6)
 
 
 def strip_offsets_many(vmins: np.ndarray, vmaxs: np.ndarray, across: float, spacing: float,
@@ -109,8 +125,9 @@ def strip_offsets_many(vmins: np.ndarray, vmaxs: np.ndarray, across: float, spac
         sure = ((np.abs(a - np.round(a)) > eta) & (np.abs(b - np.round(b)) > eta)).all(axis=0)
         count = np.minimum(np.floor(b), n - 1) - np.maximum(np.ceil(a), 0) + 1
         enough = (count.min(axis=0) >= per_point) & ((step != 0) | (hi == lo))  # linspace's zero-step branch aside
+        narrow = (per_point > 1) & (n > per_point) & (hi - lo < across * (1.0 - 1e-6))  # _narrow_spacing's: left to strip_offsets
     out = []
-    for f, (k, m, done) in enumerate(zip(n.tolist(), mid.tolist(), (ok & sure & enough).tolist())):
+    for f, (k, m, done) in enumerate(zip(n.tolist(), mid.tolist(), (ok & sure & enough & ~narrow).tolist())):
         out.append(m + spacing * (np.arange(k) - (k - 1) / 2.0) if done
                    else strip_offsets(float(lo[f]), float(hi[f]), across, spacing, per_point))
     return out
@@ -453,6 +470,8 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     hid = np.repeat(np.arange(len(frames)), counts)
     vs = np.concatenate(per_frame)
     v0 = np.array([vs[0] for vs in per_frame])
+    # the lines' spacing per frame (strip_offsets lays a narrow range's lines closer)
+    sp = np.array([vs[1] - vs[0] if len(vs) > 1 else g.spacing for vs in per_frame])[:, None]
     half = g.across / 2.0
     tol = 1e-7 * (1.0 + outline.radius) + 1e-6 * (g.base + g.across + g.clearance)
     s0 = outline.start
@@ -471,8 +490,8 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     strips, xs = [], []
     for k, w in enumerate(widths):
         for sign in (-1.0, 1.0):  # crossings of the strips' lower and upper sides
-            first = np.maximum(np.ceil((ylo - sign * w - v0[:, None]) / g.spacing), 0)
-            last = np.minimum(np.floor((yhi - sign * w - v0[:, None]) / g.spacing), n_of - 1)
+            first = np.maximum(np.ceil((ylo - sign * w - v0[:, None]) / sp), 0)
+            last = np.minimum(np.floor((yhi - sign * w - v0[:, None]) / sp), n_of - 1)
             sloped = (y1 != y0).ravel()
             owner, line = _ranges(np.where(sloped, first.ravel(), 0).astype(np.int64),
                                   np.where(sloped, last.ravel() + 1, 0).astype(np.int64))
@@ -485,8 +504,8 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
         # vertices (the outer strip's widened by another tol: a crossing of its side that rounding
         # misses is then near a vertex it takes in)
         wv = w + tol if k else w
-        first = np.maximum(np.ceil((y0 - wv - v0[:, None]) / g.spacing), 0)
-        last = np.minimum(np.floor((y0 + wv - v0[:, None]) / g.spacing), n_of - 1)
+        first = np.maximum(np.ceil((y0 - wv - v0[:, None]) / sp), 0)
+        last = np.minimum(np.floor((y0 + wv - v0[:, None]) / sp), n_of - 1)
         owner, line = _ranges(first.ravel().astype(np.int64), last.ravel().astype(np.int64) + 1)
         strips.append(k * n + offset[owner // len(s0)] + line)
         xs.append(x0.ravel()[owner])
