@@ -448,7 +448,9 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
       [a, b], and that of the closed strip (h) contains it;
     - `station_span` stretches every interval [a', b'] to [s, e] with a' + c_lo ≤ s ≤ a' + c and
       b' − c ≤ e ≤ b' − c_lo, c = L/2 − (k−1)B, c_lo = min(c, −(beyond − 1 + BEYOND_MARGIN)·B)
-      (c without `beyond`): the line's own crossings lie in [a', b']; merging only joins spans;
+      (c without `beyond`): the line's own crossings lie in [a', b'], and with `beyond` the
+      first station lies `beyond` − 1 + BEYOND_MARGIN bases before the line's first crossing of
+      the boundary or earlier (the last as far after its last); merging only joins spans;
       a run of n = max(k, ⌈(e − s)/B − ε⌉ + 1) stations
       centred on its span [s, e] starts at s + εB/2 or before and ends at e − εB/2 or after,
       and at most max(B, (k−1)B)/2 + max(0, c) beyond; and has n ≥ k stations;
@@ -521,6 +523,22 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     c = g.along / 2.0 - (k - 1) * base  # station_span: the latest start after a (and end before b)
     c_lo = min(c, -(g.beyond - 1 + BEYOND_MARGIN) * base) if g.beyond else c  # the earliest (the line enters at a)
     lo, hi = a_in + c, b_in - c
+    if g.beyond:
+        # the line's own crossings of the edges that surely cross it (ends more than tol either
+        # side): the line enters the area at the first of them or before and leaves at the last
+        # or after, and station_span puts `beyond` stations before and after those
+        first = np.maximum(np.floor((ylo + tol - v0[:, None]) / sp) + 1, 0)
+        last = np.minimum(np.ceil((yhi - tol - v0[:, None]) / sp) - 1, n_of - 1)
+        owner, line = _ranges(first.ravel().astype(np.int64), last.ravel().astype(np.int64) + 1)
+        at = offset[owner // len(s0)] + line
+        ex0, ey0, ex1, ey1 = (a.ravel()[owner] for a in (x0, y0, x1, y1))
+        cross = ex0 + (vs[at] - ey0) / (ey1 - ey0) * (ex1 - ex0)
+        line_in, line_out = np.full(n, np.inf), np.full(n, -np.inf)
+        np.minimum.at(line_in, at, cross)
+        np.maximum.at(line_out, at, cross)
+        out = (g.beyond - 1 + BEYOND_MARGIN) * base
+        lo = np.where(met, np.minimum(lo, line_in + tol - out), lo)
+        hi = np.where(met, np.maximum(hi, line_out - tol + out), hi)
     slack = max(base, (k - 1) * base) / 2.0 + max(0.0, c) + tol
     exists = met.copy()
     extent = np.where(met, np.maximum(hi - lo, (k - 1) * base) - tol, 0.0)
