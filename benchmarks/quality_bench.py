@@ -3,6 +3,7 @@ against the plan's own lower bounds (issue 27).
 
     python benchmarks/quality_bench.py                 # every area, both scenarios
     python benchmarks/quality_bench.py --area block-72ha --scenario gsd4.5
+    PYTHONPATH=OTHER/src python benchmarks/quality_bench.py   # another version's planner (e.g. main's sources)
 
 The peer is installed by this script into its own virtual environment under the user's cache
 folder ($XDG_CACHE_HOME or ~/.cache, aerosurvey-bench/peer-opencoverage-0.2.0; created on the
@@ -192,7 +193,7 @@ def ours(area: shapely.Polygon, scenario: dict, to_ll, to_xy, gx, gy, tmp: Path)
     last = len(kinds) - 1 - kinds[::-1].index("line_end")
     xy = np.array([(w.x, w.y) for w in plan.waypoints[first:last + 1]])
     path = float(np.hypot(*np.diff(xy, axis=0).T).sum()) / plan.grid_scale
-    b = manifest["derived"]["bounds"]
+    b = manifest["derived"].get("bounds") or {"strips": math.nan, "photos": math.nan}  # none before issue 27's
     return {"photos": photos, "share": share, "path_m": path, "strips": len({r["line"] for r in manifest["lines"]}),
             "strip_bound": b["strips"], "photo_bound": b["photos"], "planned": int(manifest["estimates"]["photos"])}
 
