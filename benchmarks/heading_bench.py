@@ -44,8 +44,8 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
     """A function running the heading search of the spec's main pass (bounded or not) from
     scratch: (heading, cost, candidates costed)."""
     spec = load_spec(spec_path)
-    site = prepare_site(spec, load_inputs(spec))
     h, gsd, warnings = target_height(spec)
+    site = prepare_site(spec, load_inputs(spec), h)
     sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), warnings)
     k = site.grid_scale
     margin = spec.targets.coverage_margin_m * k

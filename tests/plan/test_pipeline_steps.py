@@ -45,10 +45,10 @@ def spec_of(**tables: dict[str, Any]):
 
 def test_steps_one_by_one_with_plain_data():
     spec = spec_of(flight={"heading": 0.0})
-    site = prepare_site(spec, PlanInputs(AREA))
+    h, gsd, warnings = target_height(spec)
+    site = prepare_site(spec, PlanInputs(AREA), h)
     assert site.zones is None and site.dem is None and site.ground is None
     assert 0.99 < site.grid_scale < 1.01
-    h, gsd, warnings = target_height(spec)
     assert gsd == pytest.approx(0.025) and warnings == ()
     sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, None))
     # a6000 16 mm: landscape footprint 6000 px × 2.5 cm across, spacing 40 % of it (less the safety)

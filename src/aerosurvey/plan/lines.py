@@ -19,6 +19,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame, to_frames
+from aerosurvey.plan.photogrammetry import FloatOrArray
 
 _EPS = 1e-6
 
@@ -197,9 +198,9 @@ def line_crossings(area_f: BaseGeometry, vs: np.ndarray) -> tuple[np.ndarray, np
     return line[order], x[order]
 
 
-def station_span(a: np.ndarray, b: np.ndarray, enter: np.ndarray, leave: np.ndarray, along: float, base: float,
-                 per_point: int, beyond: int) -> tuple[np.ndarray, np.ndarray]:
-    """First and last station abscissa needed to photograph each [a, b] (arrays).
+def station_span(a: FloatOrArray, b: FloatOrArray, enter: FloatOrArray, leave: FloatOrArray, along: float, base: float,
+                 per_point: int, beyond: int) -> tuple[FloatOrArray, FloatOrArray]:
+    """First and last station abscissa needed to photograph each [a, b] (numbers or arrays).
 
     Forward coverage needs the first station at a + L/2 − (k−1)·B or before (k photos
     per point). The boundary rule counts photos on the line itself: where the line enters the
@@ -208,11 +209,10 @@ def station_span(a: np.ndarray, b: np.ndarray, enter: np.ndarray, leave: np.ndar
     `leave` at the other end.
     """
     reach = along / 2.0 - (per_point - 1) * base
-    start, end = a + reach, b - reach
-    if beyond:
-        out = (beyond - 1 + BEYOND_MARGIN) * base
-        start, end = np.minimum(start, enter - out), np.maximum(end, leave + out)
-    return start, end
+    if not beyond:
+        return a + reach, b - reach
+    out = (beyond - 1 + BEYOND_MARGIN) * base
+    return np.minimum(a + reach, enter - out), np.maximum(b - reach, leave + out)
 
 
 def interval_crossings(intervals: list[tuple[float, float]], xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -19,6 +19,7 @@ from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan.capture import Optics, Photos, footprint_corners
 from aerosurvey.plan.planner import Plan
+from aerosurvey.plan.route import Run
 
 
 def _r(v: float, nd: int = 8) -> float:
@@ -53,21 +54,23 @@ def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     return fc
 
 
-def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[str, Any], PointLayer, str]:
+def plan_geojson(plan: Plan, table: StationTable | None = None,
+                 corners: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[dict[str, Any], PointLayer, str]:
     """The FeatureCollection without stations and footprints, the stations as a PointLayer
-    (what the KML writer and the rules read), and the text of plan.geojson: `plan_features`
+    (what the rules read), and the text of plan.geojson: `plan_features`
     as `jsontext.dumps_compact` writes it, and a newline (a test checks it).
 
     The stations and footprints, one of each per photo, are most of the file: they are
     written straight from their columns and arrays, never made into JSON data. Measured on the
     1,000 ha benchmark (7,309 photos): making and encoding the footprints as data ~35 ms, this
     way ~10 ms. `table`, the manifest's stations if the caller has them, gives the columns
-    they share (ids, positions, heights), so that their texts are made once for all the files."""
+    they share (ids, positions, heights); `corners`, `footprint_lonlat(plan)` if the caller
+    has them (plan.gpkg's footprints are made from them too)."""
     table = table or station_table(plan)
     fc, stations, at = _features(plan, table)
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
-    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table), dumps_compact(feats[at:])[1:-1]]
+    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table, corners), dumps_compact(feats[at:])[1:-1]]
     return fc, stations, "".join([head, ',"features":[', ",".join([p for p in parts if p]), "]}\n"])
 
 
@@ -76,18 +79,18 @@ def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     latitude arrays (not checked: `plan_geojson` says which is not finite): each on flat ground at
     the station's height above ground."""
     st = plan.stations
-    photos = Photos.nadir(st.x, st.y, st.agl_m, st.heading_deg)
+    photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
     corners = footprint_corners(photos, Optics.of(plan.spec.camera.camera, plan.spec.camera.mount), 0.0, plan.grid_scale)
     return plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
 
 
-def _footprints_text(plan: Plan, table: StationTable) -> str:
+def _footprints_text(plan: Plan, table: StationTable, corners: tuple[np.ndarray, np.ndarray] | None = None) -> str:
     """The GeoJSON Features of the photos' footprints (`footprint_lonlat`), comma-separated, in
     WGS84, corners rounded to 8 decimals, the ring closed."""
     st = plan.stations
     if not len(st.ids):
         return ""
-    clon, clat = footprint_lonlat(plan)
+    clon, clat = corners if corners is not None else footprint_lonlat(plan)
     _finite("footprint", clon, clat)
     # "x,y" of each corner, four a footprint in order; the ring closes on its first corner
     pairs = pair_texts(np.round(clon, 8), np.round(clat, 8))
@@ -101,6 +104,14 @@ def _footprints_text(plan: Plan, table: StationTable) -> str:
     fids = string_texts([f"{sid}-fp" for sid in sids])
     return join_rows(['{"type":"Feature","id":', fids, ',"properties":{"role":"footprint","id":', fids, ',"station":',
                       string_texts(table.column("id")), *ring], len(sids), ",")
+
+
+def _line_coords(plan: Plan, run: Run, first: int, last: int) -> list[list[float]]:
+    """A run's line as flown with the camera on: its first station, its bends, its last station."""
+    st = plan.stations
+    lon, lat = plan.planar.lonlat(run.bends_xy[:, 0], run.bends_xy[:, 1])
+    return [[_r(st.lon[first]), _r(st.lat[first])], *([_r(lo), _r(la)] for lo, la in zip(lon.tolist(), lat.tolist())),
+            [_r(st.lon[last]), _r(st.lat[last])]]
 
 
 def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLayer, int]:
@@ -122,7 +133,7 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
             "role": "line", "id": rid, "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
             "heading_deg": round(r.heading_deg, 3), "photos": photos,
             "first_station": st.ids[first], "last_station": st.ids[last]},
-            "geometry": {"type": "LineString", "coordinates": [[_r(st.lon[j]), _r(st.lat[j])] for j in (first, last)]}})
+            "geometry": {"type": "LineString", "coordinates": _line_coords(plan, r, first, last)}})
     _finite("station", st.lon, st.lat, st.alt_rel_m, st.agl_m, st.heading_deg)  # the GeoJSON writer writes NaN as null
     n = len(st.ids)
     line_of_run = [ids.line_id(r.pass_index, r.line) for r in plan.route.runs]
