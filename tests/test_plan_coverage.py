@@ -141,3 +141,18 @@ def test_random_areas_are_covered(tmp_path_factory, kind, seed, heading, size, b
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": beyond},
                            "flight": {"heading": heading, "cross_hatch": cross}}, rings=random_polygon(kind, seed, size))
     check_mission(spec, tmp / "out", samples=40)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(width=st.floats(30, 145), length=st.floats(200, 700), turn=st.floats(0, 180), side=st.sampled_from([0.6, 0.7]),
+       beyond=st.integers(0, 3))
+def test_areas_narrower_than_a_strip_are_covered(tmp_path_factory, width, length, turn, side, beyond):
+    """Narrower than the 150 m footprint: k lines closer than the spacing (plan/lines.py strip_offsets)."""
+    tmp = tmp_path_factory.mktemp("narrow")
+    rect = shapely.affinity.rotate(shapely.box(-length / 2, -width / 2, length / 2, width / 2), turn)
+    k_lat, k_lon = 1 / 111_320.0, 1 / (111_320.0 * math.cos(math.radians(49.4)))
+    ring = [[15.0 + x * k_lon, 49.4 + y * k_lat] for x, y in rect.exterior.coords]
+    spec = make_spec(tmp, {"targets": {"side_overlap": side, "images_beyond_boundary": beyond}}, area=ring)
+    res = check_mission(spec, tmp / "out", samples=40)
+    k_side = math.floor(1 / (1 - side) + 1e-9)
+    assert len({r["line"] for r in res["manifest"]["lines"]}) == k_side

@@ -193,6 +193,19 @@ def _pattern(plan: Plan) -> dict[str, Any]:
     return {"kind": p.kind, "parameters": params, "hover_s": _f(hover) if hover is not None else None, "passes": passes}
 
 
+def _bounds(plan: Plan) -> dict[str, Any]:
+    """The grid's lower bounds (plan/bounds.py) for the area the lines photograph (grown by the margin)."""
+    import shapely
+
+    from aerosurvey.plan.bounds import grid_bounds
+
+    margin = plan.spec.targets.coverage_margin_m * plan.grid_scale
+    covered = shapely.buffer(plan.area, margin, quad_segs=4) if margin > 0 else plan.area
+    b = grid_bounds(covered, plan.grid_scale, plan.across_m, plan.spacing_m, plan.base_m, plan.side_images_per_point,
+                    2 if plan.spec.flight.cross_hatch else 1)
+    return {"min_width_m": _f(b.min_width_m), "strips": b.strips, "photos": b.photos}
+
+
 def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with_stations: bool = True) -> dict[str, Any]:
     """The manifest as plain JSON data. `outputs` maps each written file name to its sha256.
     Without `with_stations`, `stations` is left empty, for `dumps` to write from a StationTable."""
@@ -268,6 +281,7 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
             "simplification": {"tolerance_m": _f(plan.simplification.tolerance_m, 4),
                                "area_vertices": list(plan.simplification.area_vertices),
                                "zone_vertices": list(plan.simplification.zone_vertices)},
+            "bounds": _bounds(plan),
         },
         "home": {"lon": _f(plan.home[0], 8), "lat": _f(plan.home[1], 8), "ground_amsl_m": _f(plan.home[2], 2)},
         "estimates": {k: (_f(v, 1) if k != "photos" else int(v)) for k, v in plan.estimates.items()},

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from pymavlink import mavutil, mavwp
 
@@ -253,6 +253,8 @@ def test_hover_stations_fall_between_the_bends_in_flight_order(turns: list[float
     seg = np.hypot(*np.diff(pts_a, axis=0).T)
     total = seg.sum()
     along = np.r_[0.0, np.sort(np.array(fractions))] * total  # a strip starts at its first station
+    # a station exactly on a corner lies both before and after it: no order to check
+    assume(np.min(np.abs(along[:, None] - np.cumsum(seg)[None, :-1]), initial=np.inf) > 1e-6)
     xy = []
     for s in along:
         k = int(np.searchsorted(np.cumsum(seg), s, side="right"))

@@ -24,6 +24,7 @@ from aerosurvey.plan.lines import (
     build_lines,
     cut_by_zones,
     line_bounds,
+    line_crossings,
     segments_for_line,
     strip_offsets,
 )
@@ -205,8 +206,12 @@ def laid_one_by_one(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: Strip
     minx, _, maxx, _ = area_f.bounds
     vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
     segs: list[LineSegment] = []
+    k, half = g.side_per_point, g.across / 2.0
     for i, v in enumerate(vs):
-        clip = shapely.clip_by_rect(area_f, minx - 1.0, float(v) - g.across / 2.0, maxx + 1.0, float(v) + g.across / 2.0)
+        # a line photographs the ground it is one of the k nearest lines of (within its strip)
+        below = half if i < k else min(half, k * g.spacing / 2.0)
+        above = half if i >= len(vs) - k else min(half, k * g.spacing / 2.0)
+        clip = shapely.clip_by_rect(area_f, minx - 1.0, float(v) - below, maxx + 1.0, float(v) + above)
         pieces = sorted(p.bounds[0::2] for p in shapely.get_parts(clip) if not p.is_empty and p.area > 0)
         merged: list[tuple[float, float]] = []
         for a, b in pieces:
@@ -215,7 +220,8 @@ def laid_one_by_one(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: Strip
             else:
                 merged.append((a, b))
         if merged:
-            segs.extend(segments_for_line(i, float(v), merged, g.along, g.base, g.fwd_per_point, g.beyond, g.along))
+            _, xs = line_crossings(area_f, np.array([float(v)]))
+            segs.extend(segments_for_line(i, float(v), merged, g.along, g.base, g.fwd_per_point, g.beyond, g.along, xs))
     segs = cut_by_zones(segs, zones_f, g.clearance)
     index = {old: new for new, old in enumerate(sorted({s.line for s in segs}))}
     return [LineSegment(index[s.line], s.part, s.v, s.x0, s.n, s.base) for s in segs]
@@ -265,8 +271,14 @@ def test_strip_offsets_are_those_comparing_every_line(vmin: float, frac: float, 
     spacing = across * (1.0 - side)  # side overlap `side`, and as many strips a point as it allows, or fewer
     per_point = max(1, math.floor(1.0 / (1.0 - side) + 1e-9) - fewer)
     vmax = vmin + frac * lines * spacing
-    assert np.array_equal(strip_offsets(vmin, vmax, across, spacing, per_point),
-                          offsets_comparing_every_line(vmin, vmax, across, spacing, per_point))
+    got, every = strip_offsets(vmin, vmax, across, spacing, per_point), offsets_comparing_every_line(vmin, vmax, across, spacing, per_point)
+    if len(every) > per_point > 1 and vmax - vmin < across * (1.0 - 1e-6):
+        # a range narrower than a strip: k lines closer than the spacing, all of whose strips hold it
+        probe = np.linspace(vmin, vmax, 257)
+        assert len(got) == per_point and (np.diff(got) <= spacing).all()
+        assert (np.abs(probe[:, None] - got[None, :]) <= across / 2.0 + 1e-6).all()
+    else:
+        assert np.array_equal(got, every)
 
 
 @pytest.mark.parametrize("vehicle", ["plane", "copter"])

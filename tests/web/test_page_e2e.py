@@ -126,10 +126,10 @@ def test_page_draws_the_plan_of_the_manifest(page, site):
     features = json.loads((site["cli"] / "plan.geojson").read_text())["features"]
     lines = [f for f in features if f["properties"]["role"] == "line"]
     assert _features(page, "lines") == len(lines) == 34
-    assert _features(page, "stations") == len(manifest["stations"]) == 1757
+    assert _features(page, "stations") == len(manifest["stations"]) == 1592
     assert _features(page, "gcps") >= 4 and _features(page, "checks") >= 24
-    assert _count(page, "#sortie-legend span") == len(manifest["sorties"]) == 6
-    assert page.text_content("[data-summary='photos']").startswith("1757")
+    assert _count(page, "#sortie-legend span") == len(manifest["sorties"]) == 5
+    assert page.text_content("[data-summary='photos']").startswith("1592")
     # the cursor readout: WGS84 and the plan's CRS (proj4 with the server's definition)
     box = page.locator("#map").bounding_box()
     page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
@@ -196,7 +196,7 @@ def test_bad_value_shown_next_to_its_field_and_kept(page):
 def test_fly_blocks_in_flight_order_and_downloads_equal_the_cli(page, site):
     manifest = json.loads((site["cli"] / "manifest.json").read_text())
     blocks = page.locator("#fly-blocks .fly")
-    assert blocks.count() == 6
+    assert blocks.count() == 5
     for k, s in enumerate(manifest["sorties"]):
         block = blocks.nth(k)
         assert block.get_attribute("data-sortie") == s["id"]
@@ -711,7 +711,8 @@ def test_oblique_and_hover_planned_from_the_form_and_saved(site):
         hover = pg.evaluate("window.aerosurvey.view.summary")
         camera = pg.evaluate("window.aerosurvey.spec.camera")
         assert camera["trigger"] == "hover" and camera["settle_s"] == 2.5
-        assert hover["photos"] == pytest.approx(oblique["photos"], abs=2) and hover["time_min"] > 1.5 * oblique["time_min"]
+        # the same lines: photos within 2 % (hover lays its base unrounded, a distance trigger in whole check steps)
+        assert hover["photos"] == pytest.approx(oblique["photos"], rel=0.02) and hover["time_min"] > 1.5 * oblique["time_min"]
         assert oblique["lines"] != grid["lines"]
         page_wpl = pg.evaluate(f"fetch('/api/plans/{pg.evaluate('window.aerosurvey.view.plan_id')}/files/mission.waypoints')"
                                ".then(r => r.text())")

@@ -110,7 +110,7 @@ def test_plan_check_preview_and_web_show_the_same_figures(obratan):
     for name, figures in views.items():
         assert figures == expected, name
     _agree_with_the_manifest(expected, json.loads((out / "manifest.json").read_text()))
-    assert expected["rules"][0] == 14 and expected["sorties"] == 6
+    assert expected["rules"][0] == 14 and expected["sorties"] == 5
 
 
 @pytest.mark.parametrize("example", ["forest-dem", "kubad-abad-fixed-wing"])

@@ -102,7 +102,9 @@ class Corridor:
                     # at a sharp bend the corridor's outside reaches its width past the bend (a round corner)
                     a = -max(left, right) if j > 0 else 0.0
                     b = float(arc[-1]) + (max(left, right) if j < len(stretches) - 1 else 0.0)
-                    first, last = station_span(a, b, along, base, sensor.forward_images_per_point, self.images_beyond_boundary)
+                    # the strip enters the corridor at a and leaves it at b
+                    first, last = station_span(a, b, a, b, along, base, sensor.forward_images_per_point,
+                                               self.images_beyond_boundary)
                     ext = _extend(path, -first, last - float(arc[-1]) + 2.0 * base)
                     at = _stations(ext, autopilot_m, sensor.base_m, last - first, sensor.trigger_distance_m if chord else None,
                                    sensor.speed.speed_ms / TRIGGER_CHECK_HZ)

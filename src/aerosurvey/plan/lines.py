@@ -19,6 +19,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame, to_frames
+from aerosurvey.plan.photogrammetry import FloatOrArray
 
 _EPS = 1e-6
 
@@ -47,10 +48,17 @@ class LineSegment:
 
 def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_point: int) -> np.ndarray:
     """Line ordinates, centred on the area, so that every v in [vmin, vmax] lies in
-    `per_point` strips or more (a strip covers ±across/2 around its line)."""
+    `per_point` strips or more (a strip covers ±across/2 around its line).
+
+    A range narrower than a strip lies in all of k = `per_point` strips whose lines are
+    (across − width)/(k − 1) apart or closer: where that asks fewer lines than the spacing does,
+    k lines are laid that close (more side overlap than asked, fewer lines)."""
     half = across / 2.0
     need = vmax - vmin - across + 2.0 * (per_point - 1) * spacing
     n = max(per_point, math.ceil(need / spacing - _EPS) + 1, 1)
+    close = _narrow_spacing(vmax - vmin, across, spacing, per_point, n)
+    if close is not None:
+        return (vmin + vmax) / 2.0 + close * (np.arange(per_point) - (per_point - 1) / 2.0)
     probe = np.linspace(vmin, vmax, 257)
     reach = half + _EPS
     # a probe lies in the strips of the lines within `reach` only: those are in a window of
@@ -71,6 +79,15 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
         if counts.min() >= per_point:
             return vs
         n += 1
+
+
+def _narrow_spacing(width: float, across: float, spacing: float, per_point: int, n: int) -> float | None:
+    """The spacing of `per_point` lines putting a range `width` wide in all their strips, when
+    the range is narrower than a strip and the spacing would lay more lines (else None): the
+    farthest line from a point then lies (width + (k − 1)·s)/2 ≤ across/2 from it."""
+    if per_point < 2 or n <= per_point or width >= across * (1.0 - 1e-6):
+        return None
+    return min(spacing, (across - width) / (per_point - 1)) * (1.0 - 1e-6)
 
 
 def strip_offsets_many(vmins: np.ndarray, vmaxs: np.ndarray, across: float, spacing: float,
@@ -109,24 +126,38 @@ def strip_offsets_many(vmins: np.ndarray, vmaxs: np.ndarray, across: float, spac
         sure = ((np.abs(a - np.round(a)) > eta) & (np.abs(b - np.round(b)) > eta)).all(axis=0)
         count = np.minimum(np.floor(b), n - 1) - np.maximum(np.ceil(a), 0) + 1
         enough = (count.min(axis=0) >= per_point) & ((step != 0) | (hi == lo))  # linspace's zero-step branch aside
+        narrow = (per_point > 1) & (n > per_point) & (hi - lo < across * (1.0 - 1e-6))  # _narrow_spacing's: left to strip_offsets
     out = []
-    for f, (k, m, done) in enumerate(zip(n.tolist(), mid.tolist(), (ok & sure & enough).tolist())):
+    for f, (k, m, done) in enumerate(zip(n.tolist(), mid.tolist(), (ok & sure & enough & ~narrow).tolist())):
         out.append(m + spacing * (np.arange(k) - (k - 1) / 2.0) if done
                    else strip_offsets(float(lo[f]), float(hi[f]), across, spacing, per_point))
     return out
 
 
-def band_intervals(area_f: BaseGeometry, vs: np.ndarray, half_width: float) -> list[list[tuple[float, float]]]:
-    """For each line ordinate, the merged x-intervals where its strip (±half_width) meets the area."""
+def line_slabs(vs: np.ndarray, g: StripGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) ordinates of the ground each line must photograph: the points whose
+    `side_per_point` nearest lines it is among. Lines are S apart, so that is within k·S/2 of an
+    inner line, and as far as its strip reaches (across/2) on the outer side of the first and
+    last k lines (no line lies beyond them). Every point of the area lies in k strips
+    (`strip_offsets`), so its k nearest lines all see it: k·S/2 ≤ across/2, and each of those
+    lines photographs it, k·k_fwd photos in all; the rest of a strip is not flown for."""
+    k, n = g.side_per_point, len(vs)
+    half = g.across / 2.0
+    inner = min(half, k * g.spacing / 2.0)
+    i = np.arange(n)
+    return vs - np.where(i < k, half, inner), vs + np.where(i >= n - k, half, inner)
+
+
+def band_intervals(area_f: BaseGeometry, low: np.ndarray, high: np.ndarray) -> list[list[tuple[float, float]]]:
+    """For each band [low[i], high[i]] across the lines, the merged x-intervals where it meets the area."""
     minx, _, maxx, _ = area_f.bounds
     # clipping by a rectangle is 3x faster than a general intersection (measured: 149 strips of a
     # 1,000 ha area with holes, 7 ms against 21 ms) and gives the same pieces. shapely's ufunc
     # clips by every strip in one call (its wrapper takes one rectangle a call): the same GEOS
     # clip per strip, without the per-call overhead (measured: 75 strips, 1.1 ms against 0.4 ms)
-    inter = shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), vs - half_width, np.double(maxx + 1.0),
-                                     vs + half_width)
+    inter = shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), low, np.double(maxx + 1.0), high)
     parts, idx = shapely.get_parts(inter, return_index=True)
-    out: list[list[tuple[float, float]]] = [[] for _ in vs]
+    out: list[list[tuple[float, float]]] = [[] for _ in low]
     if len(parts):
         keep = ~shapely.is_empty(parts) & (shapely.area(parts) > 0)
         b = shapely.bounds(parts[keep])
@@ -145,27 +176,70 @@ def _merge(intervals: list[tuple[float, float]], gap: float = 0.0) -> list[tuple
     return merged
 
 
-def station_span(a: float, b: float, along: float, base: float, per_point: int, beyond: int) -> tuple[float, float]:
-    """First and last station abscissa needed to photograph [a, b].
+#: A station counted beyond the boundary lies this fraction of a base or more outside it (the
+#: photos flown land within centimetres of the stations; this keeps rounding off the count)
+BEYOND_MARGIN = 0.05
+
+
+def line_crossings(area_f: BaseGeometry, vs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(line index, x) of every point where a line y = vs[i] meets the area's boundary, sorted
+    by line then x (an edge along a line gives its ends). `vs` ascending."""
+    rings = shapely.get_rings(shapely.get_parts(area_f))
+    xy, ring_of = shapely.get_coordinates(rings, return_index=True)
+    start = np.flatnonzero(ring_of[1:] == ring_of[:-1])  # consecutive points of one ring make an edge
+    (x0, y0), (x1, y1) = xy[start].T, xy[start + 1].T
+    first = np.searchsorted(vs, np.minimum(y0, y1), "left")
+    last = np.searchsorted(vs, np.maximum(y0, y1), "right")
+    edge, line = _ranges(first, last)
+    dy = (y1 - y0)[edge]
+    t = np.divide(vs[line] - y0[edge], dy, out=np.zeros(len(edge)), where=dy != 0)
+    x = x0[edge] + t * (x1 - x0)[edge]
+    order = np.lexsort((x, line))
+    return line[order], x[order]
+
+
+def station_span(a: FloatOrArray, b: FloatOrArray, enter: FloatOrArray, leave: FloatOrArray, along: float, base: float,
+                 per_point: int, beyond: int) -> tuple[FloatOrArray, FloatOrArray]:
+    """First and last station abscissa needed to photograph each [a, b] (numbers or arrays).
 
     Forward coverage needs the first station at a + L/2 − (k−1)·B or before (k photos
-    per point); the boundary rule needs `beyond` stations strictly before a.
+    per point). The boundary rule counts photos on the line itself: where the line enters the
+    area at `enter` (+inf: it does not within [a, b]), `beyond` stations lie before it, so the
+    first at enter − (beyond − 1)·B, less BEYOND_MARGIN of a base, or before; the same after
+    `leave` at the other end.
     """
     reach = along / 2.0 - (per_point - 1) * base
-    start = min(a + reach, a - beyond * base)
-    end = max(b - reach, b + beyond * base)
-    return start, end
+    if not beyond:
+        return a + reach, b - reach
+    out = (beyond - 1 + BEYOND_MARGIN) * base
+    return np.minimum(a + reach, enter - out), np.maximum(b - reach, leave + out)
+
+
+def interval_crossings(intervals: list[tuple[float, float]], xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(enter, leave) per interval: the first and last of a line's sorted crossings `xs` within
+    it (+inf and −inf where the line itself does not meet the area there)."""
+    ab = np.asarray(intervals, float).reshape(-1, 2)
+    tol = 1e-9 * (1.0 + np.abs(ab).max(initial=0.0))
+    i0 = np.searchsorted(xs, ab[:, 0] - tol, "left")
+    i1 = np.searchsorted(xs, ab[:, 1] + tol, "right")
+    met = i1 > i0
+    xs_ = np.r_[xs, 0.0]
+    return np.where(met, xs_[i0], np.inf), np.where(met, xs_[np.maximum(i1 - 1, 0)], -np.inf)
 
 
 def segments_for_line(line: int, v: float, intervals: list[tuple[float, float]], along: float,
-                      base: float, per_point: int, beyond: int, merge_gap: float) -> list[LineSegment]:
-    """Photo runs on one line: each interval extended, runs closer than `merge_gap` joined."""
-    spans = [station_span(a, b, along, base, per_point, beyond) for a, b in intervals]
-    spans = _merge(spans, gap=merge_gap)
+                      base: float, per_point: int, beyond: int, merge_gap: float,
+                      crossings: np.ndarray | None = None) -> list[LineSegment]:
+    """Photo runs on one line: each interval extended, runs closer than `merge_gap` joined.
+    `crossings`: the sorted x where the line meets the area's boundary (needed with `beyond`)."""
+    ab = np.asarray(intervals, float).reshape(-1, 2)
+    enter, leave = interval_crossings(intervals, np.zeros(0) if crossings is None else crossings)
+    s, e = station_span(ab[:, 0], ab[:, 1], enter, leave, along, base, per_point, beyond)
+    spans = _merge(list(zip(s.tolist(), e.tolist())), gap=merge_gap)
     segs = []
-    for part, (s, e) in enumerate(spans):
-        n = max(per_point, math.ceil((e - s) / base - _EPS) + 1)
-        mid = (s + e) / 2.0
+    for part, (s0, e0) in enumerate(spans):
+        n = max(per_point, math.ceil((e0 - s0) / base - _EPS) + 1)
+        mid = (s0 + e0) / 2.0
         segs.append(LineSegment(line=line, part=part, v=v, x0=mid - (n - 1) * base / 2.0, n=n, base=base))
     return segs
 
@@ -233,18 +307,17 @@ class StripGeometry:
     clearance: float  # flight along the line before/after a station that must stay out of zones
 
 
-def _lone_runs(intervals: list[list[tuple[float, float]]], g: StripGeometry) -> dict[int, tuple[float, int]]:
+def _lone_runs(intervals: list[list[tuple[float, float]]], enter: np.ndarray, leave: np.ndarray,
+               g: StripGeometry) -> dict[int, tuple[float, int]]:
     """(x0, n) of the one run of every line with one interval, as `segments_for_line` lays it
-    (the same operations in the same order, on arrays: most lines have one interval, and the
-    heading search lays dozens of passes; measured: 75 lines, 0.6 ms one by one, 0.1 ms so)."""
+    (the same operations, on arrays: most lines have one interval, and the heading search lays
+    dozens of passes; measured: 75 lines, 0.6 ms one by one, 0.1 ms so). `enter`, `leave`:
+    each line's first and last crossing of the boundary (±inf: none)."""
     lines = [i for i, iv in enumerate(intervals) if len(iv) == 1]
     if not lines:
         return {}
     ab = np.array([intervals[i][0] for i in lines])
-    a, b = ab[:, 0], ab[:, 1]
-    reach = g.along / 2.0 - (g.fwd_per_point - 1) * g.base
-    s = np.minimum(a + reach, a - g.beyond * g.base)  # station_span
-    e = np.maximum(b - reach, b + g.beyond * g.base)
+    s, e = station_span(ab[:, 0], ab[:, 1], enter[lines], leave[lines], g.along, g.base, g.fwd_per_point, g.beyond)
     n = np.maximum(g.fwd_per_point, np.ceil((e - s) / g.base - _EPS).astype(np.int64) + 1)
     x0 = (s + e) / 2.0 - (n - 1) * g.base / 2.0
     return dict(zip(lines, zip(x0.tolist(), n.tolist())))
@@ -254,15 +327,21 @@ def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeom
     """All photo runs of one pass over the area (in the line frame)."""
     _, vmin, _, vmax = area_f.bounds
     vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
-    intervals = band_intervals(area_f, vs, g.across / 2.0)
-    lone = _lone_runs(intervals, g)
+    intervals = band_intervals(area_f, *line_slabs(vs, g))
+    owner, xs = line_crossings(area_f, vs) if g.beyond else (np.zeros(0, np.int64), np.zeros(0))
+    enter, leave = np.full(len(vs), np.inf), np.full(len(vs), -np.inf)
+    np.minimum.at(enter, owner, xs)
+    np.maximum.at(leave, owner, xs)
+    lone = _lone_runs(intervals, enter, leave, g)
+    bounds = np.searchsorted(owner, np.arange(len(vs) + 1))
     segs: list[LineSegment] = []
     for i, (v, iv) in enumerate(zip(vs.tolist(), intervals)):
         if i in lone:
             x0, n = lone[i]
             segs.append(LineSegment(line=i, part=0, v=v, x0=x0, n=n, base=g.base))
         elif iv:
-            segs.extend(segments_for_line(i, v, iv, g.along, g.base, g.fwd_per_point, g.beyond, merge_gap=g.along))
+            segs.extend(segments_for_line(i, v, iv, g.along, g.base, g.fwd_per_point, g.beyond, merge_gap=g.along,
+                                          crossings=xs[bounds[i]:bounds[i + 1]]))
     segs = cut_by_zones(segs, zones_f, g.clearance)
     lines_used = sorted({s.line for s in segs})
     index = {old: new for new, old in enumerate(lines_used)}
@@ -361,13 +440,18 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
 
     Why they hold (`build_lines` step by step, h = across/2, B = base, tol covers rounding):
     - the lines are `strip_offsets` of the same bounds, so the same ordinates;
-    - a point of the area's boundary strictly inside a strip is the limit of interior points
-      of area ∩ strip, so it lies within the bounds of a piece of positive area, i.e. within
+    - a point of the area's boundary strictly inside a line's slab (`line_slabs`: within
+      min(h, k_side·S/2) of the line at least, within h at most) is the limit of interior points
+      of area ∩ slab, so it lies within the bounds of a piece of positive area, i.e. within
       the line's merged band intervals; the x-range of the area's vertices and edge crossings
-      in the slightly narrowed strip is therefore inside the intervals' hull [a, b], and that of
-      the closed strip contains it;
-    - `station_span` stretches every interval to [a' + c, b' − c] with c = min(L/2 − (k−1)B,
-      −beyond·B); merging only joins spans; a run of n = max(k, ⌈(e − s)/B − ε⌉ + 1) stations
+      in the slightly narrowed min(h, k_side·S/2) strip is therefore inside the intervals' hull
+      [a, b], and that of the closed strip (h) contains it;
+    - `station_span` stretches every interval [a', b'] to [s, e] with a' + c_lo ≤ s ≤ a' + c and
+      b' − c ≤ e ≤ b' − c_lo, c = L/2 − (k−1)B, c_lo = min(c, −(beyond − 1 + BEYOND_MARGIN)·B)
+      (c without `beyond`): the line's own crossings lie in [a', b'], and with `beyond` the
+      first station lies `beyond` − 1 + BEYOND_MARGIN bases before the line's first crossing of
+      the boundary or earlier (the last as far after its last); merging only joins spans;
+      a run of n = max(k, ⌈(e − s)/B − ε⌉ + 1) stations
       centred on its span [s, e] starts at s + εB/2 or before and ends at e − εB/2 or after,
       and at most max(B, (k−1)B)/2 + max(0, c) beyond; and has n ≥ k stations;
     - the zone cut removes only stations within `clearance` of the zones' pieces on the line,
@@ -388,6 +472,8 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     hid = np.repeat(np.arange(len(frames)), counts)
     vs = np.concatenate(per_frame)
     v0 = np.array([vs[0] for vs in per_frame])
+    # the lines' spacing per frame (strip_offsets lays a narrow range's lines closer)
+    sp = np.array([vs[1] - vs[0] if len(vs) > 1 else g.spacing for vs in per_frame])[:, None]
     half = g.across / 2.0
     tol = 1e-7 * (1.0 + outline.radius) + 1e-6 * (g.base + g.across + g.clearance)
     s0 = outline.start
@@ -399,15 +485,15 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     # strips' sides. Which lines a vertex or an edge meets comes from the lines' even spacing;
     # rounding may add one whose side is a hair away, which only moves a point a hair off the
     # narrowed strip (still well inside the strip) or adds to the outer hull.
-    narrow = half * (1.0 - 1e-6)
+    narrow = min(half, g.side_per_point * g.spacing / 2.0) * (1.0 - 1e-6)  # line_slabs: every line's reaches that far
     widths = (narrow, half + tol)
     xmin, xmax = np.full(len(widths) * n, np.inf), np.full(len(widths) * n, -np.inf)
     n_of = counts[:, None]
     strips, xs = [], []
     for k, w in enumerate(widths):
         for sign in (-1.0, 1.0):  # crossings of the strips' lower and upper sides
-            first = np.maximum(np.ceil((ylo - sign * w - v0[:, None]) / g.spacing), 0)
-            last = np.minimum(np.floor((yhi - sign * w - v0[:, None]) / g.spacing), n_of - 1)
+            first = np.maximum(np.ceil((ylo - sign * w - v0[:, None]) / sp), 0)
+            last = np.minimum(np.floor((yhi - sign * w - v0[:, None]) / sp), n_of - 1)
             sloped = (y1 != y0).ravel()
             owner, line = _ranges(np.where(sloped, first.ravel(), 0).astype(np.int64),
                                   np.where(sloped, last.ravel() + 1, 0).astype(np.int64))
@@ -420,8 +506,8 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
         # vertices (the outer strip's widened by another tol: a crossing of its side that rounding
         # misses is then near a vertex it takes in)
         wv = w + tol if k else w
-        first = np.maximum(np.ceil((y0 - wv - v0[:, None]) / g.spacing), 0)
-        last = np.minimum(np.floor((y0 + wv - v0[:, None]) / g.spacing), n_of - 1)
+        first = np.maximum(np.ceil((y0 - wv - v0[:, None]) / sp), 0)
+        last = np.minimum(np.floor((y0 + wv - v0[:, None]) / sp), n_of - 1)
         owner, line = _ranges(first.ravel().astype(np.int64), last.ravel().astype(np.int64) + 1)
         strips.append(k * n + offset[owner // len(s0)] + line)
         xs.append(x0.ravel()[owner])
@@ -434,8 +520,25 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
     a_in, b_in = a_in + tol, b_in - tol
 
     k, base = g.fwd_per_point, g.base
-    c = min(g.along / 2.0 - (k - 1) * base, -g.beyond * base)
+    c = g.along / 2.0 - (k - 1) * base  # station_span: the latest start after a (and end before b)
+    c_lo = min(c, -(g.beyond - 1 + BEYOND_MARGIN) * base) if g.beyond else c  # the earliest (the line enters at a)
     lo, hi = a_in + c, b_in - c
+    if g.beyond:
+        # the line's own crossings of the edges that surely cross it (ends more than tol either
+        # side): the line enters the area at the first of them or before and leaves at the last
+        # or after, and station_span puts `beyond` stations before and after those
+        first = np.maximum(np.floor((ylo + tol - v0[:, None]) / sp) + 1, 0)
+        last = np.minimum(np.ceil((yhi - tol - v0[:, None]) / sp) - 1, n_of - 1)
+        owner, line = _ranges(first.ravel().astype(np.int64), last.ravel().astype(np.int64) + 1)
+        at = offset[owner // len(s0)] + line
+        ex0, ey0, ex1, ey1 = (a.ravel()[owner] for a in (x0, y0, x1, y1))
+        cross = ex0 + (vs[at] - ey0) / (ey1 - ey0) * (ex1 - ex0)
+        line_in, line_out = np.full(n, np.inf), np.full(n, -np.inf)
+        np.minimum.at(line_in, at, cross)
+        np.maximum.at(line_out, at, cross)
+        out = (g.beyond - 1 + BEYOND_MARGIN) * base
+        lo = np.where(met, np.minimum(lo, line_in + tol - out), lo)
+        hi = np.where(met, np.maximum(hi, line_out - tol + out), hi)
     slack = max(base, (k - 1) * base) / 2.0 + max(0.0, c) + tol
     exists = met.copy()
     extent = np.where(met, np.maximum(hi - lo, (k - 1) * base) - tol, 0.0)
@@ -465,5 +568,5 @@ def line_bounds(outline: Outline, frames: list[LineFrame], g: StripGeometry, sin
         single &= ~touched
         extent = np.where(exists, extent, 0.0)
     absent = ~np.isfinite(a_out)
-    return LineBounds(hid, vs, exists, absent, extent, single & exists, a_out + c - slack, lo + tol, hi - tol,
-                      b_out - c + slack)
+    return LineBounds(hid, vs, exists, absent, extent, single & exists, a_out + c_lo - slack, lo + tol, hi - tol,
+                      b_out - c_lo + slack)

@@ -693,7 +693,9 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
         cost = path_time(ends, k)
         if start_near is not None:
             cost += math.dist(start_near, (float(ends[0, 0]), float(ends[0, 1]))) / k.speed_ms
-        if best is None or cost < best[0] - 1e-9:
+        # a later candidate wins by a microsecond a second or more: orders that tie up to the
+        # rounding of the runs' ends (a millimetre) keep the first, whichever way the rounding falls
+        if best is None or cost < best[0] * (1.0 - 1e-6) - 1e-9:
             best = (cost, legs, how)
 
     for order in line_orders(n_lines, spacing, k.turn_radius_m, k.vehicle):

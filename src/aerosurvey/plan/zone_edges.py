@@ -66,7 +66,7 @@ def _edge_line(fr: LineFrame, zones: BaseGeometry, target: BaseGeometry, u0: flo
         want = shapely.intersection(fr.geom_to_frame(target), window)
         if want.is_empty:
             return None
-        intervals = band_intervals(want, np.array([v]), g.across / 2.0)[0]
+        intervals = band_intervals(want, np.array([v - g.across / 2.0]), np.array([v + g.across / 2.0]))[0]
         if not intervals:
             return None
         segs = segments_for_line(0, v, intervals, g.along, g.base, g.fwd_per_point, 0, merge_gap=g.along)

@@ -82,6 +82,7 @@ class Summary:
     lines: int
     runs: int
     photos: int
+    bounds: tuple[int, int] | None  # the fewest strips and photos for the guarantee (derived.bounds), None in older manifests
     route: tuple[str, ...]  # per pass, how its lines are ordered
     distance_km: float
     time_min: float
@@ -110,6 +111,7 @@ def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]
         speed_limits_ms=(round(limits["cruise"], 1), round(limits["camera_cycle"], 1), round(limits["motion_blur"], 1)),
         heading_deg=round(d["heading_deg"], 1), heading_chosen=d["heading_chosen"], cross_hatch=bool(d["cross_hatch"]),
         lines=len({r["line"] for r in manifest["lines"]}), runs=len(manifest["lines"]), photos=int(e["photos"]),
+        bounds=(int(d["bounds"]["strips"]), int(d["bounds"]["photos"])) if "bounds" in d else None,
         route=tuple(d["route_strategy"]),
         distance_km=round(e["total_distance_m"] / 1000, 2), time_min=round(e["total_time_s"] / 60, 1),
         sorties=tuple(SortieFigures(s["id"], s["photos"], round(s["time_s"] / 60, 1), round(s["distance_m"] / 1000, 2),
@@ -137,6 +139,10 @@ def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
         f"camera cycle {cycle:.1f}, motion blur {blur:.1f} m/s)",
         f"  heading         {s.heading_deg:.1f} deg ({s.heading_chosen})" + (", cross-hatch at +90 deg" if s.cross_hatch else ""),
         f"  lines           {s.lines} lines in {s.runs} runs, {s.photos} photos",
+    ]
+    if s.bounds is not None:
+        lines.append(f"  lower bounds    strips {s.lines} (bound {s.bounds[0]}), photos {s.photos} (bound {s.bounds[1]})")
+    lines += [
         "  route           " + "; ".join(f"pass {i}: {how}" for i, how in enumerate(s.route, start=1)),
         f"  flight          {s.distance_km:.2f} km, {s.time_min:.1f} min estimated",
     ]

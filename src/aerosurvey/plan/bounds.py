@@ -1,0 +1,62 @@
+"""Lower bounds of an area grid: the fewest strips and photos any plan of parallel strips at
+the plan's spacing and photo base can fly for the same guarantee, so every plan shows how far
+it is from the floor.
+
+- Strips: the area's minimum width W (rotating calipers over its convex hull's edges: the
+  narrowest width of a convex set is across one of them) and the side rule, every point in
+  k = `side_images_per_point` strips of width A, at the outer edges too. Lines at spacing S
+  covering an ordinate range W that way number at least ⌈(W − A)/S⌉ + 2k − 1 (the k-th line
+  from each end must still reach its edge), and at least k; a width under A takes k lines
+  (closer than S, so that all k strips hold it). No heading gives a smaller range
+  than W, so for a convex area no parallel-line plan at spacing S has fewer strips; a
+  concave area may need fewer where whole lines fall in a notch.
+- Photos: the area over base × spacing (each photo accounts for at most one base × spacing
+  cell of new ground), a floor that ignores the forward rule's photos beyond the ends.
+
+Both are per pass, times the passes (a cross-hatch flies two).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+
+@dataclass(frozen=True)
+class GridBounds:
+    min_width_m: float  # the area's minimum width (ground metres)
+    strips: int
+    photos: int
+
+
+def minimum_width(geom: BaseGeometry) -> float:
+    """The smallest distance between two parallel lines enclosing `geom` (rotating calipers:
+    the width across each edge of its convex hull, the smallest of them)."""
+    hull = shapely.convex_hull(geom)
+    if hull.geom_type != "Polygon":
+        return 0.0  # a point or a segment: no width
+    xy = np.asarray(hull.exterior.coords)
+    d = np.diff(xy, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    keep = length > 0
+    normal = np.column_stack([-d[keep, 1], d[keep, 0]]) / length[keep, None]
+    proj = xy @ normal.T  # every vertex on every edge's normal
+    return float((proj.max(axis=0) - proj.min(axis=0)).min())
+
+
+def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_m: float, base_m: float,
+                side_per_point: int, passes: int) -> GridBounds:
+    """The strip and photo bounds of `area` (planning-grid coordinates, `grid_scale` grid metres
+    per ground metre) for strips of width `across_m` at `spacing_m`, photos every `base_m`."""
+    width = minimum_width(area) / grid_scale
+    k = side_per_point
+    strips = k if width < across_m else max(k, math.ceil((width - across_m) / spacing_m - 1e-9) + 2 * k - 1)
+    photos = math.ceil(area.area / grid_scale**2 / (base_m * spacing_m) - 1e-9)
+    return GridBounds(width, passes * strips, passes * photos)
+
+
+__all__ = ["GridBounds", "grid_bounds", "minimum_width"]

@@ -1,0 +1,76 @@
+"""The grid's lower bounds (plan/bounds.py): the minimum width against a sweep of directions,
+the strip bound against the lines laid at every heading of a convex area."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aerosurvey.plan.bounds import grid_bounds, minimum_width
+from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.lines import strip_offsets
+
+
+def _convex(seed: int, size: float) -> shapely.Polygon:
+    rng = np.random.default_rng(seed)
+    return shapely.convex_hull(shapely.MultiPoint(rng.uniform(-size, size, (10, 2)) * [1.0, rng.uniform(0.1, 1.0)]))
+
+
+def _width_at(poly: shapely.Polygon, deg: float) -> float:
+    xy = np.asarray(poly.exterior.coords)
+    t = math.radians(deg)
+    p = xy @ np.array([math.cos(t), math.sin(t)])
+    return float(p.max() - p.min())
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), size=st.floats(50, 2000))
+def test_minimum_width_is_the_narrowest_of_all_directions(seed, size):
+    poly = _convex(seed, size)
+    sweep = min(_width_at(poly, d) for d in np.arange(0.0, 180.0, 0.05))
+    w = minimum_width(poly)
+    assert w <= sweep + 1e-9 * size
+    # a 0.05° sweep misses the narrowest direction by at most that much: cos-like error, tiny
+    assert w >= sweep - size * 2 * math.radians(0.05)
+
+
+def test_minimum_width_of_a_rectangle_is_its_short_side():
+    rect = shapely.affinity.rotate(shapely.box(0, 0, 300, 120), 33.0)
+    assert math.isclose(minimum_width(rect), 120.0, rel_tol=1e-9)
+    assert minimum_width(shapely.LineString([(0, 0), (5, 5)])) == 0.0
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), size=st.floats(80, 1500), heading=st.floats(0, 180), k=st.integers(1, 3),
+       ratio=st.floats(1.05, 1.9))
+def test_no_heading_lays_fewer_lines_than_the_strip_bound(seed, size, heading, k, ratio):
+    poly = _convex(seed, size)
+    spacing = 40.0
+    across = spacing * (k + ratio - 1.0)  # k strips per point: across between k and k+1 spacings
+    bound = grid_bounds(poly, 1.0, across, spacing, 10.0, k, 1)
+    _, vmin, _, vmax = LineFrame(heading).geom_to_frame(poly).bounds
+    assert len(strip_offsets(vmin, vmax, across, spacing, k)) >= bound.strips
+    # lines along a hull edge (the narrowest width is across one of them) reach the bound
+    d = np.diff(np.asarray(poly.exterior.coords), axis=0)
+    along_edges = [LineFrame(math.degrees(math.atan2(dx, dy)) % 180.0).geom_to_frame(poly).bounds for dx, dy in d]
+    assert min(len(strip_offsets(b[1], b[3], across, spacing, k)) for b in along_edges) == bound.strips
+    assert bound.photos == math.ceil(poly.area / (10.0 * spacing) - 1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(width=st.floats(1.0, 3000.0), ratio=st.floats(1.01, 5.0), spacing=st.floats(5.0, 200.0), lo=st.floats(-1e4, 1e4))
+def test_strip_offsets_put_every_point_in_k_strips_at_the_spacing_or_closer(width, ratio, spacing, lo):
+    k = max(1, math.floor(ratio + 1e-9))
+    across = spacing * ratio
+    vs = strip_offsets(lo, lo + width, across, spacing, k)
+    gaps = np.diff(vs)
+    assert (gaps <= spacing * (1 + 1e-9)).all() and (gaps > 0).all()
+    probe = np.linspace(lo, lo + width, 2001)
+    assert (np.abs(probe[:, None] - vs[None, :]) <= across / 2 + 1e-6).sum(axis=1).min() >= k
+    # as few lines as the strip bound of a band that wide
+    band = shapely.box(0.0, lo, 1e5, lo + width)  # its minimum width is `width`
+    assert len(vs) == grid_bounds(band, 1.0, across, spacing, 1.0, k, 1).strips
