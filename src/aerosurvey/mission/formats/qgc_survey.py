@@ -36,10 +36,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import shapely
 from pyproj import Transformer
-from shapely.geometry import Polygon
-from shapely.geometry.base import BaseGeometry
 
 from aerosurvey import ids
 from aerosurvey.mission import mavlink_ids as mav
@@ -54,9 +51,8 @@ DISTANCE_TERRAIN_FRAME = 4
 QGC_SPHERE_M = 6378137.0
 #: QGroundControl lengthens its lines by this much beyond the polygon's bounding box
 QGC_LINE_MARGIN_M = 2000.0
-#: rounds of growing the polygon: each one corrects the last (the buffer's round corners make
-#: the box grow by a little less than the buffer distance); three leave well under a millimetre
-_ROUNDS = 3
+#: rounds of moving the polygon's outer margins to put QGroundControl's line grid on ours
+_ROUNDS = 6
 
 
 @dataclass(frozen=True)
@@ -83,7 +79,6 @@ class QgcSurvey:
     last: int
     pass_index: int
     polygon: tuple[tuple[float, float], ...]  # (latitude, longitude), open ring, vertex 0 the projection's origin
-    grown_m: float  # how far the polygon lies outside the area
     angle_deg: float
     entry_location: int
     fly_alternate: bool
@@ -125,13 +120,6 @@ def _to_tangent(lat0: float, lon0: float) -> Transformer:
                                 "+units=m +no_defs", always_xy=True)
 
 
-def _outline(area: BaseGeometry) -> Polygon:
-    """The area as one ring: its exterior, or the convex hull of its parts (QGroundControl's polygon has no holes)."""
-    if isinstance(area, Polygon):
-        return Polygon(area.exterior)
-    return Polygon(shapely.convex_hull(area).exterior)
-
-
 def _clamp90(a: float) -> float:
     """A line's bearing as QGroundControl keeps it, in [-90, 90) (a line has two directions)."""
     return (a + 90.0) % 180.0 - 90.0
@@ -143,101 +131,128 @@ def _fold(v: float, s: float) -> float:
 
 
 @dataclass(frozen=True)
-class _Lines:
-    """A pass's stations on the tangent plane: per line, its stations' east/north."""
+class _PassLines:
+    """A pass's lines as flown: per line (by line number), the lon/lat where the camera is
+    switched on and off on each of its runs; and how the pass starts."""
 
-    lines: list[np.ndarray]  # per line of the pass (by line number), (n, 2)
-    first_line: int  # position in `lines` of the line flown first
-    first_dir: np.ndarray  # direction of the first run (unit east/north)
-
-
-def _pass_lines(plan: Plan, pass_index: int, tr: Transformer) -> _Lines:
-    st, runs = plan.stations, plan.route.runs
-    run_pass = np.array([r.pass_index for r in runs])
-    run_line = np.array([r.line for r in runs])
-    mine = run_pass[st.run] == pass_index
-    e, n = tr.transform(st.lon[mine], st.lat[mine])
-    xy = np.column_stack([e, n])
-    line_of = run_line[st.run[mine]]
-    numbers = sorted(set(line_of.tolist()))
-    lines = [xy[line_of == k] for k in numbers]
-    first_run = next(k for k, r in enumerate(runs) if r.pass_index == pass_index)
-    pts = xy[st.run[mine] == first_run]
-    d = pts[-1] - pts[0] if len(pts) > 1 else np.array([math.sin(math.radians(runs[first_run].heading_deg)),
-                                                         math.cos(math.radians(runs[first_run].heading_deg))])
-    return _Lines(lines, numbers.index(runs[first_run].line), d / np.hypot(*d))
+    numbers: np.ndarray  # line numbers, ascending
+    points: list[np.ndarray]  # per line, (n, 2) lon/lat of its runs' starts and ends
+    first_run: tuple[np.ndarray, np.ndarray]  # lon/lat of the first run's start and end
+    first_line: int  # position in `numbers` of the line flown first
 
 
-def _bearing(lines: list[np.ndarray]) -> float:
-    """The compass bearing of the pass's lines, from its longest line's end stations."""
-    longest = max(lines, key=lambda p: float(np.hypot(*(p[-1] - p[0]))) if len(p) > 1 else 0.0)
-    d = longest[-1] - longest[0]
-    return math.degrees(math.atan2(d[0], d[1]))
-
-
-def _ring_from_left(ring_lonlat: np.ndarray, angle: float, tr: Transformer) -> np.ndarray:
-    """The open ring counter-clockwise (on the map), starting at its vertex furthest to the left of lines at `angle`."""
-    e, n = tr.transform(ring_lonlat[:, 0], ring_lonlat[:, 1])
-    if not shapely.is_ccw(shapely.linearrings(np.column_stack([e, n]))):
-        ring_lonlat, e, n = ring_lonlat[::-1], e[::-1], n[::-1]
-    a = math.radians(angle)
-    across = e * math.cos(a) - n * math.sin(a)  # towards the bearing angle + 90°: to the right of the lines
-    k = int(np.argmin(across))
-    return np.roll(ring_lonlat, -k, axis=0)
+def _pass_lines(plan: Plan, pass_index: int) -> _PassLines:
+    runs = plan.route.runs
+    ends: dict[int, list[tuple[float, float]]] = {}
+    first: dict[int, tuple[float, float]] = {}
+    first_run = -1
+    for w in plan.waypoints:
+        if w.kind in ("line_start", "line_end") and runs[w.run].pass_index == pass_index:
+            ends.setdefault(runs[w.run].line, []).append((w.lon, w.lat))
+            if first_run < 0:
+                first_run = w.run
+            if w.run == first_run:
+                first[0 if w.kind == "line_start" else 1] = (w.lon, w.lat)
+    numbers = np.array(sorted(ends))
+    return _PassLines(numbers, [np.array(ends[k]) for k in numbers], (np.array(first[0]), np.array(first[1])),
+                      int(np.searchsorted(numbers, runs[first_run].line)))
 
 
 @dataclass(frozen=True)
 class _Fit:
-    """Our lines on QGroundControl's plane for one polygon: what its generator would be given and how far off its grid lies."""
+    """The polygon written for a pass and how QGroundControl's lines would lie on it."""
 
-    ring: np.ndarray  # lon/lat, open, counter-clockwise from the vertex furthest left of the lines
+    ring: np.ndarray  # lon/lat, open; vertex 0 is the origin of QGroundControl's plane
     angle: float
     spacing: float
-    offsets: np.ndarray  # each line's distance from the polygon box's centre towards the bearing angle + 90°
-    error: float  # how far QGroundControl's grid lies from our lines, across them, folded into ±spacing/2
-    lines: _Lines
+    offsets: np.ndarray  # each line's distance across the lines (towards the bearing angle + 90°)
+    error: float  # where QGroundControl's grid lies from our lines, across them, folded into ±spacing/2
+    reverse_points: bool  # our first run flies against the bearing `angle`
+    reverse_lines: bool  # our first line is the last of QGroundControl's (furthest towards angle + 90°)
 
 
-def _fit(plan: Plan, pass_index: int, ring: np.ndarray) -> _Fit:
-    tr = _to_tangent(ring[0, 1], ring[0, 0])
-    ring = _ring_from_left(ring, _clamp90(_bearing(_pass_lines(plan, pass_index, tr).lines)), tr)
-    tr = _to_tangent(ring[0, 1], ring[0, 0])  # the plane QGroundControl projects on: tangent at vertex 0
-    lines = _pass_lines(plan, pass_index, tr)
-    angle = _clamp90(_bearing(lines.lines))
+def _fit(plan: Plan, lines: _PassLines, origin: tuple[float, float], margins: tuple[float, float]) -> _Fit:
+    """The strips polygon on QGroundControl's plane at `origin` (lon, lat): each line's strip
+    reaches half-way to its neighbours and `margins` (metres) beyond the outer lines, from
+    where its runs start to where they end."""
+    tr = _to_tangent(origin[1], origin[0])
+    pts = [np.column_stack(tr.transform(p[:, 0], p[:, 1])) for p in lines.points]
+    start, end = (np.array(tr.transform(*q)) for q in lines.first_run)
+    longest = max(pts, key=lambda p: float(np.ptp(p[:, 0]) ** 2 + np.ptp(p[:, 1]) ** 2))
+    d = longest[np.argmax(longest @ (end - start))] - longest[np.argmin(longest @ (end - start))]
+    angle = _clamp90(math.degrees(math.atan2(d[0], d[1])))
     a = math.radians(angle)
-    across = np.array([math.cos(a), -math.sin(a)])
-    e, n = tr.transform(ring[:, 0], ring[:, 1])
-    centre = np.array([(e.min() + e.max()) / 2.0, (n.min() + n.max()) / 2.0])
-    offsets = np.array([float(np.mean(p @ across)) for p in lines.lines]) - centre @ across
-    # the spacing the lines lie at on this plane: a least-squares line through their offsets
-    spacing = abs(float(np.polyfit(np.arange(len(offsets)), offsets, 1)[0])) if len(offsets) > 1 else plan.spacing_m
-    half = (max(float(np.ptp(e)), float(np.ptp(n))) + QGC_LINE_MARGIN_M) / 2.0
-    # QGroundControl's line k lies at -half + k·spacing
-    error = _fold(float(np.mean([_fold(o + half, spacing) for o in offsets])), spacing)
-    return _Fit(ring, angle, spacing, offsets, error, lines)
+    along = np.array([math.sin(a), math.cos(a)])
+    across = np.array([math.cos(a), -math.sin(a)])  # towards the bearing angle + 90°: QGroundControl's line order
+    v = np.array([float(np.mean(p @ across)) for p in pts])
+    lo = np.array([float((p @ along).min()) for p in pts])
+    hi = np.array([float((p @ along).max()) for p in pts])
+    order = np.argsort(v)
+    v, lo, hi = v[order], lo[order], hi[order]
+    numbers = lines.numbers[order]
+    # the spacing the lines lie at on this plane: a least-squares line through their offsets by line number
+    spacing = abs(float(np.polyfit(numbers, v, 1)[0])) if len(v) > 1 else plan.spacing_m
+    mid = (v[1:] + v[:-1]) / 2.0
+    below = np.concatenate([[v[0] - margins[0]], mid])
+    above = np.concatenate([mid, [v[-1] + margins[1]]])
+    # back side (where runs start, along the bearing) from the first line to the last, then the front side back
+    uv = []
+    for k in range(len(v)):
+        uv += [(lo[k], below[k]), (lo[k], above[k])]
+    for k in reversed(range(len(v))):
+        uv += [(hi[k], above[k]), (hi[k], below[k])]
+    en = np.array([u * along + w * across for u, w in uv])
+    lon, lat = tr.transform(en[:, 0], en[:, 1], direction="INVERSE")
+    ring = np.column_stack([lon, lat])
+    centre = (en.min(axis=0) + en.max(axis=0)) / 2.0
+    half = (float(np.ptp(en, axis=0).max()) + QGC_LINE_MARGIN_M) / 2.0
+    # QGroundControl's line k lies at -half + k·spacing from the box's centre, across the lines
+    error = _fold(float(np.mean([_fold(o - centre @ across + half, spacing) for o in v])), spacing)
+    first_pos = int(np.flatnonzero(order == lines.first_line)[0])
+    return _Fit(ring, angle, spacing, v, error, float((end - start) @ along) < 0.0, first_pos == len(v) - 1 and len(v) > 1)
 
 
-def survey_geometry(plan: Plan, pass_index: int) -> tuple[_Fit, float, int, bool]:
-    """The polygon, angle and spacing QGroundControl regenerates a pass from, how far the
-    polygon is grown beyond the area, the entry location and whether lines are flown alternately."""
-    outline = _outline(plan.area_wgs84)
-    c = outline.centroid
-    local = _to_tangent(c.y, c.x)
-    back = Transformer.from_crs(local.target_crs, "EPSG:4326", always_xy=True)
-    area_local = shapely.transform(outline, lambda xy: np.column_stack(local.transform(xy[:, 0], xy[:, 1])))
-    grown = 0.0
-    fit = _fit(plan, pass_index, np.asarray(outline.exterior.coords)[:-1])
+def survey_geometry(plan: Plan, pass_index: int) -> _Fit:
+    """The polygon, angle and spacing QGroundControl regenerates a pass from.
+
+    The polygon is the ground the pass's lines are flown over: one strip per line, from where
+    its runs switch the camera on to where they switch it off, reaching half-way to the
+    neighbouring lines. Each of QGroundControl's lines then crosses its own strip's two ends,
+    where ours start and end. QGroundControl's first line crosses the back end first (the
+    ring's first edge), so its lines run along the bearing `angle`. The strips' margins beyond
+    the outer lines (under one spacing, so no extra line fits) are chosen so that QGroundControl's
+    line grid falls on ours (they move the polygon's bounding box)."""
+    lines = _pass_lines(plan, pass_index)
+    half = plan.spacing_m / 2.0
+    origin = (float(lines.points[0][0, 0]), float(lines.points[0][0, 1]))
+    fit = _fit(plan, lines, origin, (half, half))
+    for _ in range(2):  # the plane's origin is the ring's vertex 0
+        fit = _fit(plan, lines, (float(fit.ring[0, 0]), float(fit.ring[0, 1])), (half, half))
+    s = fit.spacing
+    # moving the margins by (+t, -t) shifts the polygon's box across the lines, and QGroundControl's
+    # grid with it (by about t/2); t within ±0.48 spacing keeps every margin inside (0, spacing)
+    t, limit = 0.0, 0.48 * s
+
+    def at(t: float, fit: _Fit) -> _Fit:
+        origin = (float(fit.ring[0, 0]), float(fit.ring[0, 1]))
+        return _fit(plan, lines, origin, (s / 2.0 + t, s / 2.0 - t))
+
     for _ in range(_ROUNDS):
         if abs(fit.error) < 1e-4:
             break
-        grown = (grown - fit.error) % fit.spacing  # growing by b moves QGroundControl's grid by -b
-        coords = np.asarray(_outline(shapely.buffer(area_local, grown, quad_segs=16)).exterior.coords)[:-1]
-        fit = _fit(plan, pass_index, np.column_stack(back.transform(coords[:, 0], coords[:, 1])))
-    a = math.radians(fit.angle)
-    reverse_points = float(fit.lines.first_dir @ np.array([math.sin(a), math.cos(a)])) < 0.0
-    reverse_lines = fit.offsets[fit.lines.first_line] > fit.offsets.min() + fit.spacing / 2.0
-    entry = (2 if reverse_points else 0) + (1 if reverse_lines else 0)
-    return fit, grown, entry, _alternate(plan, pass_index)
+        h = 0.01 * s
+        slope = _fold(at(t + h, fit).error - fit.error, s) / h
+        if abs(slope) < 1e-6:
+            break
+        # the root nearest to t of error + slope·dt ≡ 0 (mod spacing) that keeps t within its limit
+        roots = [t + (-fit.error + j * s) / slope for j in range(-3, 4)]
+        inside = [r for r in roots if abs(r) <= limit]
+        step = min(inside, key=lambda r: abs(r - t)) if inside else max(-limit, min(limit, roots[3]))
+        trial = at(step, at(step, fit))
+        if abs(trial.error) >= abs(fit.error):
+            break
+        t, fit = step, trial
+    return fit
 
 
 def _alternate(plan: Plan, pass_index: int) -> bool:
@@ -271,11 +286,11 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
     else:
         mode = DISTANCE_RELATIVE
     out = []
-    geometry: dict[int, tuple[_Fit, float, int, bool]] = {}
+    geometry: dict[int, _Fit] = {}
     for p, a, b in survey_blocks(m):
         if p not in geometry:
             geometry[p] = survey_geometry(plan, p)
-        fit, grown, entry, alternate = geometry[p]
+        fit = geometry[p]
         spacing = fit.spacing
         items = m.items[a:b + 1]
         tags = {it.tag.split(":")[0] for it in items}
@@ -292,8 +307,9 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
                            100.0 * (1.0 - trigger / (front_px * gsd_cm / 100.0)),
                            100.0 * (1.0 - spacing / (side_px * gsd_cm / 100.0)))
         out.append(QgcSurvey(
-            first=a, last=b, pass_index=p, polygon=tuple((float(lat), float(lon)) for lon, lat in fit.ring), grown_m=grown,
-            angle_deg=fit.angle, entry_location=entry, fly_alternate=alternate, spacing_m=spacing, trigger_m=trigger,
+            first=a, last=b, pass_index=p, polygon=tuple((float(lat), float(lon)) for lon, lat in fit.ring),
+            angle_deg=fit.angle, entry_location=2 * fit.reverse_points + fit.reverse_lines,
+            fly_alternate=_alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
             turnaround_m=plan.lead_in_m, distance_m=distance, distance_mode=mode, hover=spec.camera.trigger == "hover",
             camera_shots=shots, camera=camera, terrain_tolerance_m=spec.terrain.tolerance_m if mode == DISTANCE_CALC_ABOVE_TERRAIN else 0.0,
             max_climb_ms=spec.vehicle.climb_rate_ms, max_descent_ms=spec.vehicle.descent_rate_ms,
