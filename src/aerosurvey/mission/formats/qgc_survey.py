@@ -51,8 +51,8 @@ DISTANCE_TERRAIN_FRAME = 4
 QGC_SPHERE_M = 6378137.0
 #: QGroundControl lengthens its lines by this much beyond the polygon's bounding box
 QGC_LINE_MARGIN_M = 2000.0
-#: rounds of moving the polygon's outer margins to put QGroundControl's line grid on ours
-_ROUNDS = 6
+#: Newton steps refining the polygon's outer margins after a grid search (they put QGroundControl's line grid on ours)
+_ROUNDS = 4
 
 
 @dataclass(frozen=True)
@@ -159,100 +159,126 @@ def _pass_lines(plan: Plan, pass_index: int) -> _PassLines:
 
 
 @dataclass(frozen=True)
-class _Fit:
-    """The polygon written for a pass and how QGroundControl's lines would lie on it."""
+class _Strips:
+    """A pass's lines on QGroundControl's plane: what the strips polygon is drawn from."""
 
-    ring: np.ndarray  # lon/lat, open; vertex 0 is the origin of QGroundControl's plane
-    angle: float
+    angle: float  # compass bearing of the lines, in [-90, 90)
+    along: np.ndarray  # unit vector (east, north) along the bearing
+    across: np.ndarray  # unit vector towards the bearing + 90°: the order QGroundControl lays its lines in
+    v: np.ndarray  # each line's offset across, ascending
+    lo: np.ndarray  # where its runs start and end, along
+    hi: np.ndarray
     spacing: float
-    offsets: np.ndarray  # each line's distance across the lines (towards the bearing angle + 90°)
-    error: float  # where QGroundControl's grid lies from our lines, across them, folded into ±spacing/2
-    reverse_points: bool  # our first run flies against the bearing `angle`
-    reverse_lines: bool  # our first line is the last of QGroundControl's (furthest towards angle + 90°)
+    reverse_points: bool  # our first run flies along the bearing (QGroundControl's lines run against it here)
+    reverse_lines: bool  # our first line is the last of QGroundControl's
 
 
-def _fit(plan: Plan, lines: _PassLines, origin: tuple[float, float], margins: tuple[float, float]) -> _Fit:
-    """The strips polygon on QGroundControl's plane at `origin` (lon, lat): each line's strip
-    reaches half-way to its neighbours and `margins` (metres) beyond the outer lines, from
-    where its runs start to where they end."""
-    tr = _to_tangent(origin[1], origin[0])
+def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
     pts = [np.column_stack(tr.transform(p[:, 0], p[:, 1])) for p in lines.points]
     start, end = (np.array(tr.transform(*q)) for q in lines.first_run)
     longest = max(pts, key=lambda p: float(np.ptp(p[:, 0]) ** 2 + np.ptp(p[:, 1]) ** 2))
     d = longest[np.argmax(longest @ (end - start))] - longest[np.argmin(longest @ (end - start))]
     angle = _clamp90(math.degrees(math.atan2(d[0], d[1])))
     a = math.radians(angle)
-    along = np.array([math.sin(a), math.cos(a)])
-    across = np.array([math.cos(a), -math.sin(a)])  # towards the bearing angle + 90°: QGroundControl's line order
+    along, across = np.array([math.sin(a), math.cos(a)]), np.array([math.cos(a), -math.sin(a)])
     v = np.array([float(np.mean(p @ across)) for p in pts])
-    lo = np.array([float((p @ along).min()) for p in pts])
-    hi = np.array([float((p @ along).max()) for p in pts])
     order = np.argsort(v)
-    v, lo, hi = v[order], lo[order], hi[order]
-    numbers = lines.numbers[order]
+    lo = np.array([float((pts[k] @ along).min()) for k in order])
+    hi = np.array([float((pts[k] @ along).max()) for k in order])
     # the spacing the lines lie at on this plane: a least-squares line through their offsets by line number
-    spacing = abs(float(np.polyfit(numbers, v, 1)[0])) if len(v) > 1 else plan.spacing_m
-    mid = (v[1:] + v[:-1]) / 2.0
-    below = np.concatenate([[v[0] - margins[0]], mid])
-    above = np.concatenate([mid, [v[-1] + margins[1]]])
-    # back side (where runs start, along the bearing) from the first line to the last, then the front side back
-    uv = []
-    for k in range(len(v)):
-        uv += [(lo[k], below[k]), (lo[k], above[k])]
-    for k in reversed(range(len(v))):
-        uv += [(hi[k], above[k]), (hi[k], below[k])]
-    en = np.array([u * along + w * across for u, w in uv])
-    lon, lat = tr.transform(en[:, 0], en[:, 1], direction="INVERSE")
-    ring = np.column_stack([lon, lat])
-    centre = (en.min(axis=0) + en.max(axis=0)) / 2.0
-    half = (float(np.ptp(en, axis=0).max()) + QGC_LINE_MARGIN_M) / 2.0
-    # QGroundControl's line k lies at -half + k·spacing from the box's centre, across the lines
-    error = _fold(float(np.mean([_fold(o - centre @ across + half, spacing) for o in v])), spacing)
+    spacing = abs(float(np.polyfit(lines.numbers[order], v[order], 1)[0])) if len(v) > 1 else plan.spacing_m
     first_pos = int(np.flatnonzero(order == lines.first_line)[0])
-    return _Fit(ring, angle, spacing, v, error, float((end - start) @ along) < 0.0, first_pos == len(v) - 1 and len(v) > 1)
+    return _Strips(angle, along, across, v[order], lo, hi, spacing, float((end - start) @ along) > 0.0,
+                   len(v) > 1 and first_pos == len(v) - 1)
 
 
-def survey_geometry(plan: Plan, pass_index: int) -> _Fit:
-    """The polygon, angle and spacing QGroundControl regenerates a pass from.
+def _ring(st: _Strips, margins: tuple[float, float]) -> np.ndarray:
+    """The strips polygon (east, north), open. Each line's strip reaches half-way to its
+    neighbours (`margins` beyond the outer lines) and runs from where its runs start to where
+    they end. Vertex 0 is the first line's strip's corner towards the second line (where its
+    runs start): it does not move with the margins, and the ring's first edge leads away from
+    the first line, so QGroundControl meets the first line's front end (the ring's second last
+    edge) before its back end (the closing edge) and runs its lines against the bearing."""
+    mid = (st.v[1:] + st.v[:-1]) / 2.0
+    below = np.concatenate([[st.v[0] - margins[0]], mid])
+    above = np.concatenate([mid, [st.v[-1] + margins[1]]])
+    n = len(st.v)
+    uv = [(st.lo[0], above[0])]
+    for k in range(1, n):
+        uv += [(st.lo[k], below[k]), (st.lo[k], above[k])]
+    for k in reversed(range(n)):
+        uv += [(st.hi[k], above[k]), (st.hi[k], below[k])]
+    uv.append((st.lo[0], below[0]))
+    return np.array([u * st.along + w * st.across for u, w in uv])
 
-    The polygon is the ground the pass's lines are flown over: one strip per line, from where
-    its runs switch the camera on to where they switch it off, reaching half-way to the
-    neighbouring lines. Each of QGroundControl's lines then crosses its own strip's two ends,
-    where ours start and end. QGroundControl's first line crosses the back end first (the
-    ring's first edge), so its lines run along the bearing `angle`. The strips' margins beyond
-    the outer lines (under one spacing, so no extra line fits) are chosen so that QGroundControl's
-    line grid falls on ours (they move the polygon's bounding box)."""
+
+def _grid_errors(st: _Strips, m0: np.ndarray, m1: np.ndarray) -> np.ndarray:
+    """How far QGroundControl's grid lies from our lines, across them, folded into ±spacing/2, for
+    strips polygons with outer margins `m0`, `m1` (arrays of one shape): its line k lies at
+    -h + k·spacing from the centre of the polygon's east-north box, h = (the box's larger side
+    + 2000 m) / 2. Only the outer line's corners move with the margins."""
+    fixed = _ring(st, (0.0, 0.0))
+    m0, m1 = np.asarray(m0, float)[..., None], np.asarray(m1, float)[..., None]
+    # the corners (east, north) on the margins: the first line's two, at v0 - m0; the last line's two, at v_last + m1
+    corners = [st.lo[0] * st.along + (st.v[0] - m0) * st.across[None], st.hi[0] * st.along + (st.v[0] - m0) * st.across[None],
+               st.lo[-1] * st.along + (st.v[-1] + m1) * st.across[None], st.hi[-1] * st.along + (st.v[-1] + m1) * st.across[None]]
+    pts = np.stack(np.broadcast_arrays(*corners), axis=-2)  # (..., 4, 2)
+    lo = np.minimum(pts.min(axis=-2), fixed.min(axis=0))
+    hi = np.maximum(pts.max(axis=-2), fixed.max(axis=0))
+    centre = (lo + hi) / 2.0
+    half = ((hi - lo).max(axis=-1) + QGC_LINE_MARGIN_M) / 2.0
+    off = st.v - (centre @ st.across)[..., None] + half[..., None]
+    s = st.spacing
+    each = (off + s / 2.0) % s - s / 2.0
+    return np.asarray((each.mean(axis=-1) + s / 2.0) % s - s / 2.0, float)
+
+
+def _grid_error(st: _Strips, margins: tuple[float, float]) -> float:
+    """`_grid_errors` for one polygon."""
+    return float(_grid_errors(st, np.array([margins[0]]), np.array([margins[1]]))[0])
+
+
+@lru_cache(maxsize=16)
+def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
+    """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
+    lines QGroundControl regenerates a pass from.
+
+    The polygon is the ground the pass's lines are flown over, one strip per line (`_ring`):
+    each of QGroundControl's lines then crosses its own strip's two ends, where our runs start
+    and end. The margins beyond the outer lines (under one spacing, so no extra line fits) are
+    chosen so that QGroundControl's line grid falls on our lines: they move and widen the
+    polygon's east-north box, which QGroundControl starts its grid from. One line stays in the
+    middle of its strip (QGroundControl lays a single line through the box's centre)."""
     lines = _pass_lines(plan, pass_index)
-    half = plan.spacing_m / 2.0
-    origin = (float(lines.points[0][0, 0]), float(lines.points[0][0, 1]))
-    fit = _fit(plan, lines, origin, (half, half))
-    for _ in range(2):  # the plane's origin is the ring's vertex 0
-        fit = _fit(plan, lines, (float(fit.ring[0, 0]), float(fit.ring[0, 1])), (half, half))
-    s = fit.spacing
-    # moving the margins by (+t, -t) shifts the polygon's box across the lines, and QGroundControl's
-    # grid with it (by about t/2); t within ±0.48 spacing keeps every margin inside (0, spacing)
-    t, limit = 0.0, 0.48 * s
-
-    def at(t: float, fit: _Fit) -> _Fit:
-        origin = (float(fit.ring[0, 0]), float(fit.ring[0, 1]))
-        return _fit(plan, lines, origin, (s / 2.0 + t, s / 2.0 - t))
-
-    for _ in range(_ROUNDS):
-        if abs(fit.error) < 1e-4:
-            break
-        h = 0.01 * s
-        slope = _fold(at(t + h, fit).error - fit.error, s) / h
-        if abs(slope) < 1e-6:
-            break
-        # the root nearest to t of error + slope·dt ≡ 0 (mod spacing) that keeps t within its limit
-        roots = [t + (-fit.error + j * s) / slope for j in range(-3, 4)]
-        inside = [r for r in roots if abs(r) <= limit]
-        step = min(inside, key=lambda r: abs(r - t)) if inside else max(-limit, min(limit, roots[3]))
-        trial = at(step, at(step, fit))
-        if abs(trial.error) >= abs(fit.error):
-            break
-        t, fit = step, trial
-    return fit
+    origin = lines.points[0][0]
+    for _ in range(3):  # the plane's origin is vertex 0, which depends a little on the bearing measured on it
+        tr = _to_tangent(float(origin[1]), float(origin[0]))
+        st = _strips(plan, lines, tr)
+        e, n = _ring(st, (0.45 * st.spacing, 0.45 * st.spacing))[0]
+        origin = np.array(tr.transform(e, n, direction="INVERSE"))
+    s = st.spacing
+    margins = (0.45 * s, 0.45 * s)
+    if len(st.v) > 1:
+        grid = np.linspace(0.02 * s, 0.98 * s, 97)
+        g0, g1 = np.meshgrid(grid, grid, indexing="ij")
+        err = np.abs(_grid_errors(st, g0, g1))
+        i, j = np.unravel_index(int(np.argmin(err)), err.shape)
+        margins = (float(grid[i]), float(grid[j]))
+        for _ in range(_ROUNDS):  # Newton steps on the margin the error moves most with
+            e = _grid_error(st, margins)
+            h = 1e-3 * s
+            slopes = [(_grid_error(st, (margins[0] + h, margins[1])) - e) / h, (_grid_error(st, (margins[0], margins[1] + h)) - e) / h]
+            k = int(np.argmax(np.abs(slopes)))
+            if abs(e) < 1e-6 or abs(slopes[k]) < 1e-6:
+                break
+            m = list(margins)
+            m[k] = min(max(m[k] - e / slopes[k], 0.02 * s), 0.98 * s)
+            if abs(_grid_error(st, (m[0], m[1]))) >= abs(e):
+                break
+            margins = (m[0], m[1])
+    ring = _ring(st, margins)
+    lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
+    return np.column_stack([lon, lat]), st
 
 
 def _alternate(plan: Plan, pass_index: int) -> bool:
@@ -286,11 +312,8 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
     else:
         mode = DISTANCE_RELATIVE
     out = []
-    geometry: dict[int, _Fit] = {}
     for p, a, b in survey_blocks(m):
-        if p not in geometry:
-            geometry[p] = survey_geometry(plan, p)
-        fit = geometry[p]
+        ring, fit = survey_geometry(plan, p)
         spacing = fit.spacing
         items = m.items[a:b + 1]
         tags = {it.tag.split(":")[0] for it in items}
@@ -307,7 +330,7 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
                            100.0 * (1.0 - trigger / (front_px * gsd_cm / 100.0)),
                            100.0 * (1.0 - spacing / (side_px * gsd_cm / 100.0)))
         out.append(QgcSurvey(
-            first=a, last=b, pass_index=p, polygon=tuple((float(lat), float(lon)) for lon, lat in fit.ring),
+            first=a, last=b, pass_index=p, polygon=tuple((float(lat), float(lon)) for lon, lat in ring),
             angle_deg=fit.angle, entry_location=2 * fit.reverse_points + fit.reverse_lines,
             fly_alternate=_alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
             turnaround_m=plan.lead_in_m, distance_m=distance, distance_mode=mode, hover=spec.camera.trigger == "hover",
