@@ -51,8 +51,6 @@ DISTANCE_TERRAIN_FRAME = 4
 QGC_SPHERE_M = 6378137.0
 #: QGroundControl lengthens its lines by this much beyond the polygon's bounding box
 QGC_LINE_MARGIN_M = 2000.0
-#: Newton steps refining the polygon's outer margins after a grid search (they put QGroundControl's line grid on ours)
-_ROUNDS = 4
 
 
 @dataclass(frozen=True)
@@ -120,11 +118,6 @@ def _to_tangent(lat0: float, lon0: float) -> Transformer:
                                 "+units=m +no_defs", always_xy=True)
 
 
-def _clamp90(a: float) -> float:
-    """A line's bearing as QGroundControl keeps it, in [-90, 90) (a line has two directions)."""
-    return (a + 90.0) % 180.0 - 90.0
-
-
 def _fold(v: float, s: float) -> float:
     """`v` modulo `s`, in [-s/2, s/2)."""
     return (v + s / 2.0) % s - s / 2.0
@@ -160,17 +153,25 @@ def _pass_lines(plan: Plan, pass_index: int) -> _PassLines:
 
 @dataclass(frozen=True)
 class _Strips:
-    """A pass's lines on QGroundControl's plane: what the strips polygon is drawn from."""
+    """A pass's lines on QGroundControl's plane, along and across the direction our first run
+    flies: what the strips polygon is drawn from."""
 
-    angle: float  # compass bearing of the lines, in [-90, 90)
-    along: np.ndarray  # unit vector (east, north) along the bearing
-    across: np.ndarray  # unit vector towards the bearing + 90°: the order QGroundControl lays its lines in
+    angle: float  # the bearing written: our first run's, in -90..90 as QGroundControl keeps it
+    sign: float  # +1 when that is our first run's bearing, -1 when it is the opposite one
+    along: np.ndarray  # unit vector (east, north) our first run flies along
+    across: np.ndarray  # unit vector 90° to its right
     v: np.ndarray  # each line's offset across, ascending
     lo: np.ndarray  # where its runs start and end, along
     hi: np.ndarray
     spacing: float
-    reverse_points: bool  # our first run flies along the bearing (QGroundControl's lines run against it here)
-    reverse_lines: bool  # our first line is the last of QGroundControl's
+    reverse_lines: bool  # our first line is the last of QGroundControl's (it lays them along sign·across)
+
+    @property
+    def reverse_points(self) -> bool:
+        """QGroundControl's lines run against our first run (see `_ring`): it meets the first line's
+        front end first when its first line is ours (sign +1, or a single line); our last line's
+        back end first otherwise."""
+        return self.sign > 0 or len(self.v) == 1
 
 
 def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
@@ -178,8 +179,10 @@ def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
     start, end = (np.array(tr.transform(*q)) for q in lines.first_run)
     longest = max(pts, key=lambda p: float(np.ptp(p[:, 0]) ** 2 + np.ptp(p[:, 1]) ** 2))
     d = longest[np.argmax(longest @ (end - start))] - longest[np.argmin(longest @ (end - start))]
-    angle = _clamp90(math.degrees(math.atan2(d[0], d[1])))
-    a = math.radians(angle)
+    bearing = math.degrees(math.atan2(d[0], d[1]))
+    # SurveyComplexItem::_clampGridAngle90 keeps -90..90 and turns the rest by 180°
+    angle = bearing - 180.0 if bearing > 90.0 else bearing + 180.0 if bearing < -90.0 else bearing
+    a = math.radians(bearing)
     along, across = np.array([math.sin(a), math.cos(a)]), np.array([math.cos(a), -math.sin(a)])
     v = np.array([float(np.mean(p @ across)) for p in pts])
     order = np.argsort(v)
@@ -187,55 +190,69 @@ def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
     hi = np.array([float((pts[k] @ along).max()) for k in order])
     # the spacing the lines lie at on this plane: a least-squares line through their offsets by line number
     spacing = abs(float(np.polyfit(lines.numbers[order], v[order], 1)[0])) if len(v) > 1 else plan.spacing_m
+    sign = 1.0 if angle == bearing else -1.0
     first_pos = int(np.flatnonzero(order == lines.first_line)[0])
-    return _Strips(angle, along, across, v[order], lo, hi, spacing, float((end - start) @ along) > 0.0,
-                   len(v) > 1 and first_pos == len(v) - 1)
+    last = len(v) - 1 if sign > 0 else 0
+    return _Strips(angle, sign, along, across, v[order], lo, hi, spacing, len(v) > 1 and first_pos == last)
 
 
-def _ring(st: _Strips, margins: tuple[float, float]) -> np.ndarray:
-    """The strips polygon (east, north), open. Each line's strip reaches half-way to its
-    neighbours (`margins` beyond the outer lines) and runs from where its runs start to where
-    they end. Vertex 0 is the first line's strip's corner towards the second line (where its
-    runs start): it does not move with the margins, and the ring's first edge leads away from
-    the first line, so QGroundControl meets the first line's front end (the ring's second last
-    edge) before its back end (the closing edge) and runs its lines against the bearing."""
+#: a rail is this share of its margin wide; the outer line's strip fills the rest
+_RAIL = 0.1
+#: the margins stay within this share of a spacing from 0 and from a whole spacing
+_MARGIN_MIN = 0.01
+
+
+def _ring(st: _Strips, margins: tuple[float, float], tail: float = 0.0) -> np.ndarray:
+    """The strips polygon (east, north), open.
+
+    Each line's strip reaches half-way to its neighbours and runs from where its runs start
+    to where they end. Beyond each outer line, `margins` away (less than a spacing, so no
+    other line of QGroundControl's fits), a thin rail runs the whole length of the pass; the
+    outer line's strip reaches to the rail. The rails' outer corners bound the polygon: its
+    east-north box, which QGroundControl starts its line grid from, is theirs. The first rail
+    reaches `tail` further back than the pass.
+
+    Vertex 0 is the first line's strip's back corner towards the second line (it does not move
+    with the margins). The first line's front end is an edge before its back end (the closing
+    edge), and the last line's back end one before its front end: QGroundControl, which turns
+    every line the way its first one runs, runs them against our first run when its first line
+    is our first line, along it when it is our last."""
+    m0, m1 = margins
+    u_lo, u_hi = float(st.lo.min()), float(st.hi.max())
     mid = (st.v[1:] + st.v[:-1]) / 2.0
-    below = np.concatenate([[st.v[0] - margins[0]], mid])
-    above = np.concatenate([mid, [st.v[-1] + margins[1]]])
-    n = len(st.v)
+    below = np.concatenate([[st.v[0] - (1.0 - _RAIL) * m0], mid])
+    above = np.concatenate([mid, [st.v[-1] + (1.0 - _RAIL) * m1]])
+    bottom, top = st.v[0] - m0, st.v[-1] + m1
     uv = [(st.lo[0], above[0])]
-    for k in range(1, n):
+    for k in range(1, len(st.v)):
         uv += [(st.lo[k], below[k]), (st.lo[k], above[k])]
-    for k in reversed(range(n)):
+    uv += [(u_lo, above[-1]), (u_lo, top), (u_hi, top), (u_hi, above[-1])]
+    for k in reversed(range(len(st.v))):
         uv += [(st.hi[k], above[k]), (st.hi[k], below[k])]
-    uv.append((st.lo[0], below[0]))
-    return np.array([u * st.along + w * st.across for u, w in uv])
+    uv += [(u_hi, below[0]), (u_hi, bottom), (u_lo - tail, bottom), (u_lo - tail, below[0]), (st.lo[0], below[0])]
+    pts = np.array(uv)
+    pts = pts[np.concatenate([[True], np.abs(np.diff(pts, axis=0)).max(axis=1) > 1e-6])]  # no repeated vertex
+    return np.asarray(pts[:, :1] * st.along + pts[:, 1:] * st.across, float)
 
 
-def _grid_errors(st: _Strips, m0: np.ndarray, m1: np.ndarray) -> np.ndarray:
-    """How far QGroundControl's grid lies from our lines, across them, folded into ±spacing/2, for
-    strips polygons with outer margins `m0`, `m1` (arrays of one shape): its line k lies at
-    -h + k·spacing from the centre of the polygon's east-north box, h = (the box's larger side
-    + 2000 m) / 2. Only the outer line's corners move with the margins."""
-    fixed = _ring(st, (0.0, 0.0))
-    m0, m1 = np.asarray(m0, float)[..., None], np.asarray(m1, float)[..., None]
-    # the corners (east, north) on the margins: the first line's two, at v0 - m0; the last line's two, at v_last + m1
-    corners = [st.lo[0] * st.along + (st.v[0] - m0) * st.across[None], st.hi[0] * st.along + (st.v[0] - m0) * st.across[None],
-               st.lo[-1] * st.along + (st.v[-1] + m1) * st.across[None], st.hi[-1] * st.along + (st.v[-1] + m1) * st.across[None]]
-    pts = np.stack(np.broadcast_arrays(*corners), axis=-2)  # (..., 4, 2)
-    lo = np.minimum(pts.min(axis=-2), fixed.min(axis=0))
-    hi = np.maximum(pts.max(axis=-2), fixed.max(axis=0))
-    centre = (lo + hi) / 2.0
-    half = ((hi - lo).max(axis=-1) + QGC_LINE_MARGIN_M) / 2.0
-    off = st.v - (centre @ st.across)[..., None] + half[..., None]
+def _grid_offsets(st: _Strips, m0: np.ndarray, m1: np.ndarray, tail: np.ndarray) -> np.ndarray:
+    """Where QGroundControl's nearest line lies from our first line, across the lines (+ towards
+    the bearing + 90°), folded into ±spacing/2, for margins `m0`, `m1` and a first rail's `tail`
+    (arrays of one shape): its line k lies at -h + k·spacing from the centre of the polygon's
+    east-north box, h = (the box's larger side + 2000 m) / 2; the box is that of the rails'
+    four outer corners and the first rail's tail (every other vertex lies between them)."""
+    u_lo, u_hi = float(st.lo.min()), float(st.hi.max())
+    bottom, top = st.v[0] - np.asarray(m0, float), st.v[-1] + np.asarray(m1, float)
+    back = u_lo - np.asarray(tail, float)
+    uv = [(back, bottom), (back, st.v[0] - (1.0 - _RAIL) * np.asarray(m0, float)), (u_hi, bottom), (u_lo, top), (u_hi, top)]
+    east = np.stack(np.broadcast_arrays(*[u * st.along[0] + w * st.across[0] for u, w in uv]), axis=-1)
+    north = np.stack(np.broadcast_arrays(*[u * st.along[1] + w * st.across[1] for u, w in uv]), axis=-1)
+    centre_across = (east.min(axis=-1) + east.max(axis=-1)) / 2.0 * st.across[0] + \
+        (north.min(axis=-1) + north.max(axis=-1)) / 2.0 * st.across[1]
+    half = (np.maximum(np.ptp(east, axis=-1), np.ptp(north, axis=-1)) + QGC_LINE_MARGIN_M) / 2.0
     s = st.spacing
-    each = (off + s / 2.0) % s - s / 2.0
-    return np.asarray((each.mean(axis=-1) + s / 2.0) % s - s / 2.0, float)
-
-
-def _grid_error(st: _Strips, margins: tuple[float, float]) -> float:
-    """`_grid_errors` for one polygon."""
-    return float(_grid_errors(st, np.array([margins[0]]), np.array([margins[1]]))[0])
+    # QGroundControl lays its lines along sign·across from the box's centre: line k at sign·(-h + k·spacing)
+    return np.asarray((centre_across - st.sign * half - st.v[0] + s / 2.0) % s - s / 2.0, float)
 
 
 @lru_cache(maxsize=16)
@@ -243,40 +260,52 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
     """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
     lines QGroundControl regenerates a pass from.
 
-    The polygon is the ground the pass's lines are flown over, one strip per line (`_ring`):
-    each of QGroundControl's lines then crosses its own strip's two ends, where our runs start
-    and end. The margins beyond the outer lines (under one spacing, so no extra line fits) are
-    chosen so that QGroundControl's line grid falls on our lines: they move and widen the
-    polygon's east-north box, which QGroundControl starts its grid from. One line stays in the
-    middle of its strip (QGroundControl lays a single line through the box's centre)."""
+    The polygon is the ground the pass's lines are flown over, one strip per line, with a rail
+    beyond each outer line (`_ring`): each of QGroundControl's lines crosses its own strip's
+    two ends, where our runs start and end. The margins to the rails place QGroundControl's
+    line grid on our lines: widening one and narrowing the other by t moves the polygon's box,
+    and the grid, by t; widening both, or a tail on the first rail, moves it when the box's
+    larger side runs across, or along, the lines. They stay between 1 % and 99 % of a spacing,
+    and the lines clear of the rails.
+    Where no margins put the grid on our lines, it is left as near as they put it."""
     lines = _pass_lines(plan, pass_index)
     origin = lines.points[0][0]
     for _ in range(3):  # the plane's origin is vertex 0, which depends a little on the bearing measured on it
         tr = _to_tangent(float(origin[1]), float(origin[0]))
         st = _strips(plan, lines, tr)
-        e, n = _ring(st, (0.45 * st.spacing, 0.45 * st.spacing))[0]
+        e, n = _ring(st, (st.spacing / 2.0, st.spacing / 2.0))[0]
         origin = np.array(tr.transform(e, n, direction="INVERSE"))
     s = st.spacing
-    margins = (0.45 * s, 0.45 * s)
-    if len(st.v) > 1:
-        grid = np.linspace(0.02 * s, 0.98 * s, 97)
-        g0, g1 = np.meshgrid(grid, grid, indexing="ij")
-        err = np.abs(_grid_errors(st, g0, g1))
-        i, j = np.unravel_index(int(np.argmin(err)), err.shape)
-        margins = (float(grid[i]), float(grid[j]))
-        for _ in range(_ROUNDS):  # Newton steps on the margin the error moves most with
-            e = _grid_error(st, margins)
-            h = 1e-3 * s
-            slopes = [(_grid_error(st, (margins[0] + h, margins[1])) - e) / h, (_grid_error(st, (margins[0], margins[1] + h)) - e) / h]
-            k = int(np.argmax(np.abs(slopes)))
-            if abs(e) < 1e-6 or abs(slopes[k]) < 1e-6:
-                break
-            m = list(margins)
-            m[k] = min(max(m[k] - e / slopes[k], 0.02 * s), 0.98 * s)
-            if abs(_grid_error(st, (m[0], m[1]))) >= abs(e):
-                break
-            margins = (m[0], m[1])
-    ring = _ring(st, margins)
+    m0, m1, tail = np.array([s / 2.0]), np.array([s / 2.0]), np.array([0.0])
+    if len(st.v) > 1:  # one line: QGroundControl lays it through the box's centre, the middle of its strip
+        # margins m ± t move the grid by -t; a wider m, or a tail on the first rail, widen the box,
+        # which moves the grid when its larger side runs across, or along, the lines
+        lo, hi = _MARGIN_MIN * s, (1.0 - _MARGIN_MIN) * s
+        m = np.repeat(np.linspace(lo, hi, 25), 5)[:, None]
+        tail = np.tile(np.array([0.0, 0.125, 0.25, 0.5, 1.0]) * s, 25)[:, None]
+        r0 = _grid_offsets(st, m, m, tail)
+        reach = np.minimum(m - lo, hi - m)
+        t = np.concatenate([r0 + k * s for k in (-1, 0, 1)] + [np.linspace(-1.0, 1.0, 201)[None, :] * reach], axis=1)
+        t = np.where(np.abs(t) <= reach, t, 0.0)
+        m0, m1, tail = (m + t).ravel(), (m - t).ravel(), np.broadcast_to(tail, t.shape).ravel()
+    r = _grid_offsets(st, m0, m1, tail)
+    clear = (r > -(1.0 - _RAIL) * m0 + 0.002 * s) & (r < (1.0 - _RAIL) * m1 - 0.002 * s)
+    # the grid nearest our lines, then the smallest tail and the most even margins
+    best = int(np.argmin(np.where(clear, np.abs(r), np.abs(r) + s) + 1e-9 * (np.abs(m0 - m1) + tail)))
+    a, b, c = float(m0[best]), float(m1[best]), float(tail[best])
+    for _ in range(3 if len(st.v) > 1 else 0):  # Newton steps on t: a tail's corner can make the grid move by a little less than t
+        e = float(_grid_offsets(st, np.array(a), np.array(b), np.array(c)))
+        slope = (float(_grid_offsets(st, np.array(a + 1e-3), np.array(b - 1e-3), np.array(c))) - e) / 1e-3
+        if abs(e) < 1e-6 or abs(slope) < 0.1:
+            break
+        step = -e / slope
+        na, nb = a + step, b - step
+        ne = float(_grid_offsets(st, np.array(na), np.array(nb), np.array(c)))
+        if not (_MARGIN_MIN * s <= min(na, nb) and max(na, nb) <= (1.0 - _MARGIN_MIN) * s and abs(ne) < abs(e)
+                and -(1.0 - _RAIL) * na + 0.002 * s < ne < (1.0 - _RAIL) * nb - 0.002 * s):
+            break
+        a, b = na, nb
+    ring = _ring(st, (a, b), c)
     lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
     return np.column_stack([lon, lat]), st
 
