@@ -45,9 +45,9 @@ from typing import Any
 import numpy as np
 import pyproj
 import shapely
-from independent_qgc import uploaded_items
 
 import independent_coverage as ic
+from independent_qgc import uploaded_items
 
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19
 NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT = 20, 21, 22, 31, 82

@@ -22,7 +22,6 @@ from mission_strategies import canon
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import independent_qgc as qgc  # noqa: E402
-
 from aerosurvey import ids  # noqa: E402
 from aerosurvey.cli import main  # noqa: E402
 from aerosurvey.mission import mavlink_ids as mav  # noqa: E402
