@@ -255,6 +255,14 @@ def _grid_offsets(st: _Strips, m0: np.ndarray, m1: np.ndarray, tail: np.ndarray)
     return np.asarray((centre_across - st.sign * half - st.v[0] + s / 2.0) % s - s / 2.0, float)
 
 
+def _clear(r: np.ndarray, m0: np.ndarray, m1: np.ndarray, s: float) -> np.ndarray:
+    """True where QGroundControl's lines, `r` off ours, cross our outer lines' strips and not
+    the rails, and its next lines out miss the polygon (a 0.2 %-of-a-spacing safety each)."""
+    safe = 0.002 * s
+    return np.asarray((r > -(1.0 - _RAIL) * m0 + safe) & (r < (1.0 - _RAIL) * m1 - safe)
+                      & (r < s - m0 - safe) & (r > m1 - s + safe), bool)
+
+
 @lru_cache(maxsize=16)
 def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
     """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
@@ -281,15 +289,24 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
         # margins m ± t move the grid by -t; a wider m, or a tail on the first rail, widen the box,
         # which moves the grid when its larger side runs across, or along, the lines
         lo, hi = _MARGIN_MIN * s, (1.0 - _MARGIN_MIN) * s
-        m = np.repeat(np.linspace(lo, hi, 25), 5)[:, None]
-        tail = np.tile(np.array([0.0, 0.125, 0.25, 0.5, 1.0]) * s, 25)[:, None]
+        # a box whose larger side runs across the lines starts the grid at its across edge: a rail
+        # edge, whatever the margins, when the lines run north-south or east-west; tails that
+        # make the along side the larger one free it
+        ring = _ring(st, (s / 2.0, s / 2.0))
+        a = math.radians(st.angle)
+        along_side = float(np.ptp(ring @ st.along)) * max(abs(math.sin(a)), abs(math.cos(a)))
+        longer = max(float(np.ptp(ring[:, 0])), float(np.ptp(ring[:, 1])))
+        tails = np.concatenate([[0.0, 0.125, 0.25, 0.5, 1.0],
+                                max(longer - along_side, 0.0) / s + np.array([0.25, 0.5, 1.0, 1.5, 2.0])]) * s
+        m = np.repeat(np.linspace(lo, hi, 25), len(tails))[:, None]
+        tail = np.tile(tails, 25)[:, None]
         r0 = _grid_offsets(st, m, m, tail)
         reach = np.minimum(m - lo, hi - m)
         t = np.concatenate([r0 + k * s for k in (-1, 0, 1)] + [np.linspace(-1.0, 1.0, 201)[None, :] * reach], axis=1)
         t = np.where(np.abs(t) <= reach, t, 0.0)
         m0, m1, tail = (m + t).ravel(), (m - t).ravel(), np.broadcast_to(tail, t.shape).ravel()
     r = _grid_offsets(st, m0, m1, tail)
-    clear = (r > -(1.0 - _RAIL) * m0 + 0.002 * s) & (r < (1.0 - _RAIL) * m1 - 0.002 * s)
+    clear = _clear(r, m0, m1, s)
     # the grid nearest our lines, then the smallest tail and the most even margins
     best = int(np.argmin(np.where(clear, np.abs(r), np.abs(r) + s) + 1e-9 * (np.abs(m0 - m1) + tail)))
     a, b, c = float(m0[best]), float(m1[best]), float(tail[best])
@@ -302,7 +319,7 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
         na, nb = a + step, b - step
         ne = float(_grid_offsets(st, np.array(na), np.array(nb), np.array(c)))
         if not (_MARGIN_MIN * s <= min(na, nb) and max(na, nb) <= (1.0 - _MARGIN_MIN) * s and abs(ne) < abs(e)
-                and -(1.0 - _RAIL) * na + 0.002 * s < ne < (1.0 - _RAIL) * nb - 0.002 * s):
+                and bool(_clear(np.array(ne), np.array(na), np.array(nb), s))):
             break
         a, b = na, nb
     ring = _ring(st, (a, b), c)
