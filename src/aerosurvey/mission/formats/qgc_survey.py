@@ -6,27 +6,26 @@ QGroundControl's sources) stores two things: the mission items QGroundControl up
 are while the plan is loaded unedited (`Items`), and the settings its own generator rebuilds
 the lines from once anything of the item is edited (polygon, angle, spacing, turnaround,
 camera). `survey_blocks` picks the items (each run of items of one pass, with the detours
-between its lines); `survey_settings` chooses the settings so that QGroundControl's lines fall
-on ours (docs/clients/qgroundcontrol.md has the measured differences).
+between its lines); `survey_geometry` chooses the polygon, angle and spacing so that
+QGroundControl's generator lays our lines again (docs/clients/qgroundcontrol.md has the
+measured differences; tests/independent_qgc.py ports the generator).
 
-How QGroundControl lays its lines (SurveyComplexItem::_rebuildTransectsPhase1), which the
-choices below follow:
+How QGroundControl lays its lines (SurveyComplexItem::_rebuildTransectsPhase1WorkerSinglePolygon),
+which the choices below follow:
 - the polygon is projected onto a plane tangent at its first vertex (an azimuthal equidistant
   projection on a sphere of the WGS84 equatorial radius, x east, y north);
-- lines run at the compass bearing `angle` (clamped to -90..90); line k lies at
-  -h + k·s from the centre of the polygon's east-north bounding box, measured towards the
-  bearing angle + 90°, with s the spacing (CameraCalc's AdjustedFootprintSide) and
+- lines run at the compass bearing `angle`, which it clamps to -90..90 by turning it by 180°;
+  line k lies at -h + k·s from the centre of the polygon's east-north bounding box, measured
+  towards the bearing angle + 90°, with s the spacing (CameraCalc's AdjustedFootprintSide) and
   h = (max(box width, box height) + 2000 m) / 2;
 - each line is cut to the two farthest crossings with the polygon's edges, directed from the
   crossing on the edge listed first; all lines take the first line's direction;
 - `entryLocation` reverses the points of every line (2, 3) and/or the order of the lines (1, 3),
   then every second line is reversed (a lawnmower).
 
-So the polygon written is the area grown by less than one spacing, by the amount that puts
-QGroundControl's line grid on ours (growing the area by b grows h by b and leaves the box's
-centre in place), listed counter-clockwise from its vertex furthest to the left of the lines:
-QGroundControl's first line then runs in the direction of `angle`, and `entryLocation` says
-whether our first run flies with or against it and starts at the left or the right line.
+So the polygon written is the ground our lines are flown over, one strip per line from where
+its runs start to where they end, with thin rails beyond the outer lines whose distance from
+them puts QGroundControl's grid on our lines (`_ring`, `survey_geometry`).
 """
 
 from __future__ import annotations
@@ -116,11 +115,6 @@ def _to_tangent(lat0: float, lon0: float) -> Transformer:
     """lon/lat -> metres east/north on QGroundControl's tangent plane at (lat0, lon0)."""
     return Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={float(lat0)!r} +lon_0={float(lon0)!r} +R={QGC_SPHERE_M} "
                                 "+units=m +no_defs", always_xy=True)
-
-
-def _fold(v: float, s: float) -> float:
-    """`v` modulo `s`, in [-s/2, s/2)."""
-    return (v + s / 2.0) % s - s / 2.0
 
 
 @dataclass(frozen=True)
@@ -263,7 +257,7 @@ def _clear(r: np.ndarray, m0: np.ndarray, m1: np.ndarray, s: float) -> np.ndarra
                       & (r < s - m0 - safe) & (r > m1 - s + safe), bool)
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=4)  # per plan (a Plan hashes by identity): a mission and its sorties' files share a pass's polygon
 def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
     """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
     lines QGroundControl regenerates a pass from.
@@ -283,6 +277,14 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
         st = _strips(plan, lines, tr)
         e, n = _ring(st, (st.spacing / 2.0, st.spacing / 2.0))[0]
         origin = np.array(tr.transform(e, n, direction="INVERSE"))
+    ring = _ring(st, *_rails(st))
+    lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
+    return np.column_stack([lon, lat]), st
+
+
+def _rails(st: _Strips) -> tuple[tuple[float, float], float]:
+    """The margins to the rails and the first rail's tail that put QGroundControl's grid on our
+    lines (`survey_geometry`): a search over a grid of them, then Newton steps on the margins."""
     s = st.spacing
     m0, m1, tail = np.array([s / 2.0]), np.array([s / 2.0]), np.array([0.0])
     if len(st.v) > 1:  # one line: QGroundControl lays it through the box's centre, the middle of its strip
@@ -322,9 +324,7 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
                 and bool(_clear(np.array(ne), np.array(na), np.array(nb), s))):
             break
         a, b = na, nb
-    ring = _ring(st, (a, b), c)
-    lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
-    return np.column_stack([lon, lat]), st
+    return (a, b), c
 
 
 def _alternate(plan: Plan, pass_index: int) -> bool:
