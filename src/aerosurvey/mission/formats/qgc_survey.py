@@ -304,7 +304,7 @@ def _rails(st: _Strips) -> tuple[tuple[float, float], float]:
         tail = np.tile(tails, 25)[:, None]
         r0 = _grid_offsets(st, m, m, tail)
         reach = np.minimum(m - lo, hi - m)
-        t = np.concatenate([r0 + k * s for k in (-1, 0, 1)] + [np.linspace(-1.0, 1.0, 201)[None, :] * reach], axis=1)
+        t = np.concatenate([r0 + k * s for k in (-1, 0, 1)] + [np.linspace(-1.0, 1.0, 41)[None, :] * reach], axis=1)
         t = np.where(np.abs(t) <= reach, t, 0.0)
         m0, m1, tail = (m + t).ravel(), (m - t).ravel(), np.broadcast_to(tail, t.shape).ravel()
     r = _grid_offsets(st, m0, m1, tail)
