@@ -45,6 +45,7 @@ bench: install
 	$(BIN)/python benchmarks/inprocess_bench.py
 	$(BIN)/python benchmarks/manifest_bench.py
 	$(BIN)/python benchmarks/safety_bench.py
+	$(BIN)/python benchmarks/program_bench.py
 
 clean:
 	rm -rf out build dist src/*.egg-info .pytest_cache .hypothesis

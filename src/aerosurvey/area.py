@@ -109,7 +109,26 @@ def validate_polygons(geom: BaseGeometry, name: str, geographic: bool) -> BaseGe
     return geom
 
 
-def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
+def validate_lines(geom: BaseGeometry, name: str, geographic: bool) -> BaseGeometry:
+    """Check a centreline: a (Multi)LineString of finite length whose coordinates are in range."""
+    if geom.is_empty:
+        raise InputError(f"{name}: no line in it (empty geometry)")
+    if geom.geom_type not in ("LineString", "MultiLineString"):
+        raise InputError(f"{name}: a {geom.geom_type} is not a centreline; give a LineString or MultiLineString "
+                         "(pattern.kind = 'corridor')")
+    xy = shapely.get_coordinates(geom)
+    if not np.isfinite(xy).all():
+        raise InputError(f"{name}: a coordinate is not a finite number")
+    if geographic and (np.any(np.abs(xy[:, 1]) > 90) or np.any(np.abs(xy[:, 0]) > 180)):
+        worst = int(np.argmax(np.maximum(np.abs(xy[:, 1]) - 90, np.abs(xy[:, 0]) - 180)))
+        raise InputError(f"{name}: coordinate ({float(xy[worst, 0])!r}, {float(xy[worst, 1])!r}) is outside "
+                         "longitude [-180, 180] / latitude [-90, 90]")
+    if shapely.length(geom) <= 0:
+        raise InputError(f"{name}: the centreline has zero length")
+    return geom
+
+
+def _read_vector(path: Path, name: str, lines: bool = False) -> tuple[BaseGeometry, pyproj.CRS]:
     if not path.exists():
         raise InputError(f"{name}: file {str(path)!r} does not exist")
     if path.suffix.lower() not in _VECTOR_SUFFIXES | {".wkt"}:
@@ -119,8 +138,8 @@ def _read_vector(path: Path, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
     if path.suffix.lower() in (".geojson", ".json") and path.stat().st_size <= PLAIN_GEOJSON_MAX_BYTES:
         geoms = _plain_geojson(path.read_bytes())
         if geoms is not None:
-            return _polygons(geoms, _WGS84, str(path), path.name, name), _WGS84
-    return _parse_vector(path, str(path), path.name, name)
+            return _kept(geoms, _WGS84, str(path), path.name, name, lines), _WGS84
+    return _parse_vector(path, str(path), path.name, name, lines)
 
 
 #: above this size a GeoJSON area goes to GDAL, whose json-c tree holds ~16 bytes a byte of the
@@ -211,9 +230,10 @@ def _shape(g: dict[str, Any]) -> BaseGeometry:
 _VSIMEM = re.compile(r"((/vsizip/)?/vsimem/)?pyogrio_[0-9a-f]{32}(\.zip)?")
 
 
-def _parse_vector(source: Path | bytes, where: str, short: str, name: str) -> tuple[BaseGeometry, pyproj.CRS]:
-    """The polygons of every layer of a vector dataset (a file, or a zip held in memory), unioned,
-    and its CRS. `where` and `short` name the source in messages."""
+def _parse_vector(source: Path | bytes, where: str, short: str, name: str,
+                  lines: bool = False) -> tuple[BaseGeometry, pyproj.CRS]:
+    """The polygons (`lines`: the lines) of every layer of a vector dataset (a file, or a zip held
+    in memory), unioned, and its CRS. `where` and `short` name the source in messages."""
     import pyogrio
 
     def why(exc: Exception) -> str:  # GDAL's message, naming the upload rather than pyogrio's memory file
@@ -246,19 +266,24 @@ def _parse_vector(source: Path | bytes, where: str, short: str, name: str) -> tu
             if g is None or g.is_empty:
                 continue
             for part in shapely.get_parts(g):
-                if part.geom_type in ("Polygon", "MultiPolygon"):
+                if part.geom_type in ("Polygon", "MultiPolygon", "LineString", "MultiLineString"):
                     parts.append(part)
-                elif part.geom_type not in ("Point", "LineString", "MultiPoint", "MultiLineString"):
+                elif part.geom_type not in ("Point", "MultiPoint"):
                     raise InputError(f"{name}: feature {i} of layer {layer!r} is a {part.geom_type}; only polygons are areas")
-    return _polygons(parts, crs or _WGS84, where, short, name), crs or _WGS84
+    return _kept(parts, crs or _WGS84, where, short, name, lines), crs or _WGS84
 
 
-def _polygons(geoms: list[BaseGeometry | None], crs: pyproj.CRS, where: str, short: str, name: str) -> BaseGeometry:
-    """The polygons among a dataset's geometries (points and lines left out), each checked, unioned."""
-    parts = [p for g in geoms if g is not None and not g.is_empty for p in shapely.get_parts(g)
-             if p.geom_type in ("Polygon", "MultiPolygon")]
+def _kept(geoms: list[BaseGeometry | None], crs: pyproj.CRS, where: str, short: str, name: str,
+          lines: bool = False) -> BaseGeometry:
+    """The polygons (`lines`: the lines) among a dataset's geometries, the rest left out, each
+    checked; polygons unioned, lines gathered into one (Multi)LineString."""
+    kinds = ("LineString", "MultiLineString") if lines else ("Polygon", "MultiPolygon")
+    parts = [p for g in geoms if g is not None and not g.is_empty for p in shapely.get_parts(g) if p.geom_type in kinds]
     if not parts:
-        raise InputError(f"{name}: {where!r} holds no polygon")
+        raise InputError(f"{name}: {where!r} holds no {'line' if lines else 'polygon'}")
+    if lines:
+        return validate_lines(shapely.line_merge(shapely.multilinestrings(parts)) if len(parts) > 1 else parts[0],
+                              f"{name} ({short})", crs.is_geographic)
     for i, p in enumerate(parts):
         validate_polygons(p, f"{name} ({short}, polygon {i + 1})", crs.is_geographic)
     return shapely.union_all(parts) if len(parts) > 1 else parts[0]
@@ -271,15 +296,16 @@ def _from_wkt(text: str, name: str) -> BaseGeometry:
         raise InputError(f"{name}: not valid WKT: {exc}") from None
 
 
-def read_area(path: Path | None, wkt: str | None, wkt_crs: str, name: str) -> BaseGeometry:
-    """The area (or an exclusion zone) as a valid polygon geometry in WGS84 longitude/latitude."""
+def read_area(path: Path | None, wkt: str | None, wkt_crs: str, name: str, lines: bool = False) -> BaseGeometry:
+    """The area (or an exclusion zone) as a valid polygon geometry in WGS84 longitude/latitude;
+    `lines`: a corridor's centreline, a (Multi)LineString."""
     if path is not None:
-        geom, crs = _read_vector(path, name)
+        geom, crs = _read_vector(path, name, lines)
     else:
         assert wkt is not None
         geom = _from_wkt(wkt, name)
         crs = _crs(wkt_crs, f"{name} wkt_crs")
-    return _in_wgs84(geom, crs, name)
+    return _in_wgs84(geom, crs, name, lines)
 
 
 def read_area_data(shown: str, files: Mapping[str, bytes], name: str) -> BaseGeometry:
@@ -308,13 +334,14 @@ def read_area_data(shown: str, files: Mapping[str, bytes], name: str) -> BaseGeo
     return _in_wgs84(geom, crs, name)
 
 
-def _in_wgs84(geom: BaseGeometry, crs: pyproj.CRS, name: str) -> BaseGeometry:
-    """A parsed area checked in its own CRS, then in WGS84 longitude/latitude."""
-    geom = validate_polygons(geom, name, crs.is_geographic)
+def _in_wgs84(geom: BaseGeometry, crs: pyproj.CRS, name: str, lines: bool = False) -> BaseGeometry:
+    """A parsed area (`lines`: centreline) checked in its own CRS, then in WGS84 longitude/latitude."""
+    validate = validate_lines if lines else validate_polygons
+    geom = validate(geom, name, crs.is_geographic)
     if not crs.equals(_WGS84):
         t = pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True)
         geom = shapely.transform(geom, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
-        geom = validate_polygons(geom, f"{name} (in WGS84)", True)
+        geom = validate(geom, f"{name} (in WGS84)", True)
     return geom
 
 

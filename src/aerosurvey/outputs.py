@@ -12,14 +12,16 @@ from aerosurvey import ids, resumefile
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
-from aerosurvey.mission.builder import build_mission
-from aerosurvey.mission.formats import QGC_LAYOUTS
+from aerosurvey.mission.builder import mavlink_mission
+from aerosurvey.mission.formats import QGC_LAYOUTS, wpml
 from aerosurvey.mission.formats.kml import feature_collection_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.qgc_survey import survey_items
 from aerosurvey.mission.formats.wpl import dumps_wpl
-from aerosurvey.mission.gate import check_legs, mission_legs
+from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
+from aerosurvey.mission.program import FlightProgram, flight_program
+from aerosurvey.mission.targets import mavlink_item_limit
 from aerosurvey.plan.coverage import uncovered_rule
 from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 from aerosurvey.plan.planner import Plan
@@ -45,11 +47,7 @@ class Rendered:
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
     """A mission longer than the autopilot holds is flagged with what to do about it."""
 
-    limit = plan.spec.battery.max_mission_items if plan.spec.battery is not None else None
-    if limit is None:
-        from aerosurvey.spec import MAX_ITEMS
-
-        limit = MAX_ITEMS[plan.spec.vehicle.firmware]
+    limit = mavlink_item_limit(plan.spec)
     n = len(mission.items) + 1
     if n > limit:
         msg = (f"the whole mission has {n} items, more than the {limit} a {plan.spec.vehicle.firmware} autopilot holds "
@@ -61,11 +59,11 @@ def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
     return []
 
 
-def final_gate(plan: Plan, missions: dict[str, Mission]) -> None:
-    """Every leg of every mission file outside the zones and their margins, or nothing is written."""
+def final_gate(plan: Plan, programs: dict[str, FlightProgram]) -> None:
+    """Every leg of every flight outside the zones and their margins, or nothing is written."""
     bad = []
-    for stem, m in missions.items():
-        legs = mission_legs(m, f"{stem}.waypoints", plan.planar, PLANE_RTL_LOITER_M * plan.grid_scale, plan.grid_scale)
+    for stem, p in programs.items():
+        legs = program_legs(p, stem, plan.planar, PLANE_RTL_LOITER_M * plan.grid_scale, plan.grid_scale)
         bad += check_legs(legs, plan.exclusions, plan.spec.flight.exclusion_margin_m, plan.grid_scale, plan.planar)
     if bad:
         more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""
@@ -103,23 +101,21 @@ def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) ->
     """File name → text of every output (the manifest last: it lists the others' hashes);
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
     is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`)."""
-    mission = build_mission(plan, name=plan.spec.name)
+    # one flight program per file stem (the whole mission and each sortie), checked once, then emitted
+    programs = {"mission": flight_program(plan, name=plan.spec.name)} | _sortie_programs(plan, ids.sortie_file_stem)
+    final_gate(plan, programs)
+    mission = mavlink_mission(programs["mission"])
     # the station table's columns are written into the manifest, plan.geojson and plan.kml
     # (their texts made once), and the rules make its rows
     stations_table = mf.station_table(plan)
     fc, stations, geojson = plan_geojson(plan, stations_table)
-    missions = {"mission": mission}
     files = {
-        "mission.plan": plan_text(plan, mission, qgc),
-        "mission.waypoints": dumps_wpl(mission),
         "plan.geojson": geojson,
         # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
         "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }
-    sortie_missions = _sortie_missions(plan, ids.sortie_file_stem)
-    missions.update(sortie_missions)
-    files.update(_mission_files(plan, sortie_missions, qgc))
-    final_gate(plan, missions)
+    files.update(_mission_files(plan, {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()},
+                                qgc))
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=False)
     results, points, evidence = _rules(plan, manifest, stations_table, fc)
@@ -129,7 +125,8 @@ def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) ->
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
-    binary = {}
+    binary, dji_warnings = dji_kmz_files(programs)
+    warnings += dji_warnings
     if gpkg:
         from aerosurvey.report.gpkg import gpkg_bytes
 
@@ -144,20 +141,40 @@ def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) ->
     return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
 
 
-def _sortie_missions(plan: Plan, stem: Callable[[int], str]) -> dict[str, Mission]:
-    """Each sortie's mission from its launch site, by file stem."""
-    out = {}
-    for k, (sortie, wps) in enumerate(plan.sorties, start=1):
-        site = plan.launch_sites[sortie.launch]
-        out[stem(k)] = build_mission(plan, list(wps), name=f"{plan.spec.name}-{stem(k)}", home=(site.lon, site.lat, site.ground_m))
-    return out
+def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes], list[str]]:
+    """A DJI WPML .kmz next to each flight's .plan and .waypoints when the camera is one a DJI
+    aircraft flies waylines with (mission/formats/wpml.py), and a warning for each flight that
+    cannot be one (with why)."""
+    files: dict[str, bytes] = {}
+    warnings: list[str] = []
+    for stem, p in programs.items():
+        aircraft = wpml.aircraft_for(p.camera_id)
+        if aircraft is None:
+            return {}, []
+        why = wpml.refusal(p)
+        if why is None:
+            files[f"{stem}.kmz"] = wpml.kmz_bytes(p, aircraft)
+        else:
+            warnings.append(f"{stem}.kmz (DJI waylines for the {aircraft.name}) is not written: {why}")
+    return files, warnings
+
+
+def _sortie_programs(plan: Plan, stem: Callable[[int], str]) -> dict[str, FlightProgram]:
+    """Each sortie's flight program from its launch site, by file stem."""
+    return {stem(k): flight_program(plan, k - 1, name=f"{plan.spec.name}-{stem(k)}") for k in range(1, len(plan.sorties) + 1)}
 
 
 def _mission_files(plan: Plan, missions: dict[str, Mission], qgc: str) -> dict[str, str]:
-    """Each sortie's .plan and .waypoints (`missions` in the order of plan.sorties)."""
+    """Each flight's .plan and .waypoints: the whole mission's ("mission", all stations) and
+    the sorties' (the other stems, in the order of plan.sorties, each flying its stations)."""
+    sorties = iter(plan.sorties)
     out = {}
-    for (stem, m), (sortie, _) in zip(missions.items(), plan.sorties, strict=True):
-        out[f"{stem}.plan"] = plan_text(plan, m, qgc, (sortie.first, sortie.last))
+    for stem, m in missions.items():
+        stations = None
+        if stem != "mission":
+            sortie = next(sorties).sortie
+            stations = (sortie.first, sortie.last)
+        out[f"{stem}.plan"] = plan_text(plan, m, qgc, stations)
         out[f"{stem}.waypoints"] = dumps_wpl(m)
     return out
 
@@ -166,9 +183,9 @@ def render_resume(plan: Plan, after_station: str, plan_folder: str, qgc: str = Q
     """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
     .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
     station the flight resumes after and what each sortie flies."""
-    missions = _sortie_missions(plan, ids.resume_file_stem)
-    final_gate(plan, missions)
-    files = _mission_files(plan, missions, qgc)
+    programs = _sortie_programs(plan, ids.resume_file_stem)
+    final_gate(plan, programs)
+    files = _mission_files(plan, {stem: mavlink_mission(p) for stem, p in programs.items()}, qgc)
     sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
     files[resumefile.FILE] = resumefile.dumps(plan.spec.name, plan_folder, after_station, sorties)
     return files

@@ -82,6 +82,7 @@ class PatternSpec:
     right_m: float | None = None
     scheme: str = "double-grid"  # oblique
     pitch_deg: float = -45.0  # oblique
+    max_far_gsd_m: float | None = None  # oblique: the coarsest GSD allowed at a photo's far edge
 
 
 @dataclass(frozen=True)
@@ -348,8 +349,10 @@ def _pattern(top: _Table, flight: FlightSpec) -> PatternSpec:
             raise InputError("flight.cross_hatch is for area grids: a corridor is flown along its centreline")
         out = PatternSpec(kind, left_m=left, right_m=right)
     elif kind == "oblique":
+        far = p.number("max_far_gsd_cm", None, lo=0.0, lo_open=True, hi=1000.0)
         out = PatternSpec(kind, scheme=p.choice("scheme", "double-grid", OBLIQUE_SCHEMES),
-                          pitch_deg=p.number("pitch_deg", -45.0, lo=-80.0, hi=-20.0) or -45.0)
+                          pitch_deg=p.number("pitch_deg", -45.0, lo=-80.0, hi=-20.0) or -45.0,
+                          max_far_gsd_m=far / 100.0 if far is not None else None)
     else:
         out = PatternSpec(kind)
     p.done()
@@ -480,6 +483,8 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         approach_alt_m=f.number("approach_alt_m", 30.0, lo=5.0, hi=500.0) or 30.0,
     )
     f.done()
+    if camera.trigger == "hover" and vtype == "plane":
+        raise InputError("camera.trigger = 'hover' is for copters: a plane cannot stop at a station")
     if flight.fixed_yaw_deg is not None and vtype == "plane":
         raise InputError("flight.fixed_yaw_deg is for copters: a plane always points along its track")
     if vtype == "plane" and flight.end == "land" and flight.wind_from_deg is None:

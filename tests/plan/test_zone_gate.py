@@ -14,9 +14,8 @@ from click.testing import CliRunner
 
 from aerosurvey.area import planning_crs
 from aerosurvey.cli import main
-from aerosurvey.mission import mavlink_ids as mav
-from aerosurvey.mission.gate import check_legs, mission_legs
-from aerosurvey.mission.items import Mission, MissionItem
+from aerosurvey.mission.gate import check_legs, program_legs
+from aerosurvey.mission.program import FlightProgram, Waypoint
 
 LON0, LAT0 = 15.0, 49.4
 LOCAL = pyproj.Transformer.from_crs(f"+proj=aeqd +lat_0={LAT0} +lon_0={LON0} +datum=WGS84", "EPSG:4326", always_xy=True)
@@ -42,18 +41,16 @@ def test_gate_finds_a_leg_through_a_zone():
     zone = planar.forward(shapely.Polygon(box_ring(100, -50, 200, 50)))
     home = lonlat(0, 0)
     far = lonlat(300, 0)
-    m = Mission("copter", "ardupilot", (home[1], home[0], 0.0), (
-        MissionItem(mav.NAV_TAKEOFF, x=0.0, y=0.0, z=30.0, tag="takeoff"),
-        MissionItem(mav.NAV_WAYPOINT, x=far[1], y=far[0], z=30.0, tag="P1-L001-R1:lead-in"),
-        MissionItem(mav.NAV_RETURN_TO_LAUNCH, tag="rtl"),
-    ), 10.0, 5.0, "t")
-    legs = mission_legs(m, "mission.waypoints", planar)
+    p = FlightProgram("t", "copter", "ardupilot", "ricoh-gr", (home[1], home[0], 0.0), "relative", 30.0, 0.0, 5.0, 10.0,
+                      None, (Waypoint(far[1], far[0], 30.0, "lead_in", 0, "P1-L001-R1:lead-in", "P1-L001-R1", 90.0),),
+                      "rtl", None, (), (), ())
+    legs = program_legs(p, "mission", planar)
     assert [leg.seq for leg in legs] == [1, 2, 3]
     bad = check_legs(legs, zone, 10.0, 1.0, planar)
     # out through the zone (100 m inside) and back home through it again
     assert [v.leg.seq for v in bad] == [2, 3]
     assert all(v.zone and v.inside_m == pytest.approx(100.0, abs=0.5) for v in bad)
-    assert "mission.waypoints: the leg to item 2 (P1-L001-R1:lead-in) flies 100.0 m inside an exclusion zone" in bad[0].message()
+    assert "mission: the leg to point 2 (P1-L001-R1:lead-in) flies 100.0 m inside an exclusion zone" in bad[0].message()
 
 
 def _landing_case(tmp_path: Path) -> Path:
@@ -88,7 +85,7 @@ def test_the_final_gate_stops_what_planning_let_through(tmp_path: Path, monkeypa
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["plan", str(_landing_case(tmp_path)), "-o", str(out)])
     assert res.exit_code == 1, res.output
-    assert "the plan is not written: mission.waypoints: the leg to item" in res.output
+    assert "the plan is not written: mission: the leg to point" in res.output
     assert "(approach) flies" in res.output and "inside an exclusion zone" in res.output
     assert not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out")]

@@ -142,9 +142,16 @@ def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tup
 
 
 def flown_view(view: PlanView, photos: FlownPhotos) -> PlanView:
-    """The plan as the rules see it, with the flown photos in place of the planned stations."""
+    """The plan as the rules see it, with the flown photos in place of the planned stations: each
+    with its planned station's camera pitch and look relative to the flight (nadir where none matched)."""
+    at = {sid: i for i, sid in enumerate(view.station_ids)}
+    idx = np.array([at.get(sid, -1) for sid in photos.ids], np.intp)
+    matched = idx >= 0
+    pitch = np.where(matched, view.pitch_deg[idx], -90.0)
+    relative = np.where(matched, view.camera_yaw_deg[idx] - view.heading_deg[idx], 0.0)
     return dataclasses.replace(view, station_ids=list(photos.ids), run_ids=list(photos.run), x=photos.x, y=photos.y,
-                               agl=photos.agl_m, heading_deg=photos.heading_deg)
+                               agl=photos.agl_m, heading_deg=photos.heading_deg, pitch_deg=pitch,
+                               camera_yaw_deg=(np.asarray(photos.heading_deg, float) + relative) % 360.0)
 
 
 class DemGround:

@@ -1,10 +1,10 @@
-"""Turn a plan (or one sortie of it) into the MAVLink items of one flight, per autopilot.
+"""The MAVLink emitter: a flight program (mission/program.py) as the mission items of one flight, per autopilot.
 
 Per photo run: a lead-in waypoint (straight approach), the first station with the camera
-switched on (DO_SET_CAM_TRIGG_DIST with 'trigger once now'), terrain waypoints where the
-`follow` mode needs them, a line-end waypoint half a photo base past the last station
-(ArduPilot does not take the picture that falls exactly on the waypoint, as seen in its
-SITL), and the camera switched off again so no photos are taken in turns.
+switched on (DO_SET_CAM_TRIGG_DIST with 'trigger once now'), terrain and bend waypoints where
+the route has them, a line-end waypoint half a photo base past the last station (ArduPilot
+does not take the picture that falls exactly on the waypoint, as seen in its SITL), and the
+camera switched off again so no photos are taken in turns.
 
 The DO commands after a waypoint run when the vehicle reaches it (ArduPilot's AP_Mission
 starts them with the next navigation item), so the camera switches on at the first station
@@ -12,6 +12,20 @@ with a picture at once, and off at the line end. Between, ArduPilot checks the d
 50 Hz and takes a picture at the first check that lies the trigger distance or more from the
 last one (AP_Camera_Backend::update): pictures land a whole number of check steps apart,
 the spacing the stations are laid at (plan/photogrammetry.py, distance_trigger).
+
+The program's other actions (MAVLink common.xml for the parameters):
+
+- gimbal: ArduPilot MAV_CMD_DO_MOUNT_CONTROL (param1 pitch, param2 roll, param3 yaw relative
+  to the vehicle, param7 MAV_MOUNT_MODE_MAVLINK_TARGETING); PX4
+  MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW (param1 pitch, param2 yaw, param3/4 rates NaN (not
+  set), param5 flags ROLL_LOCK|PITCH_LOCK: pitch against the horizon, yaw relative to the
+  vehicle; param7 0: every gimbal).
+- hover and shoot: NAV_WAYPOINT with param1 = the hold time, then one photo: ArduPilot
+  MAV_CMD_DO_DIGICAM_CONTROL with param5 (shoot) 1 (every ArduPilot version takes it in a
+  mission; IMAGE_START_CAPTURE only from 4.4); PX4 MAV_CMD_IMAGE_START_CAPTURE (param1 0: all
+  cameras, param2 0 s, param3 1 image, param4 the capture's sequence number from 1).
+  ArduPilot starts the DO command when the hold ends, as the vehicle turns to the next
+  waypoint; PX4 runs it as the next item after the hold.
 
 Dialects: ArduCopter (takeoff, optional CONDITION_YAW for one fixed heading, RTL or LAND
 at the launch point), ArduPlane (takeoff with 15° pitch, then RTL, or DO_LAND_START, an
@@ -21,144 +35,127 @@ CONDITION_YAW: a fixed heading goes into each waypoint's param4, as PX4 reads it
 
 from __future__ import annotations
 
-from aerosurvey import ids
+import math
+
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
-from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG, approach_lonlat
-from aerosurvey.plan.planner import Plan, RouteWaypoint
+from aerosurvey.mission.program import (
+    CameraStart,
+    CameraStop,
+    FlightProgram,
+    Gimbal,
+    HoverShoot,
+    Waypoint,
+    flight_program,
+    run_id,
+)
+from aerosurvey.plan.model import Plan
 
-
-def _frame(plan: Plan) -> int:
-    return mav.FRAME_GLOBAL_TERRAIN_ALT if plan.altitude_frame == "terrain" else mav.FRAME_GLOBAL_RELATIVE_ALT
-
-
-def _yaw_param4(plan: Plan) -> float:
-    yaw = plan.spec.flight.fixed_yaw_deg
-    return float(yaw) if yaw is not None and plan.spec.vehicle.firmware == "px4" else 0.0
-
+__all__ = ["PLANE_LINE_ACCEPTANCE_M", "build_mission", "mavlink_mission", "run_id"]
 
 #: ArduPlane counts a waypoint as reached up to its turn distance early (WP_RADIUS, 90 m by
 #: default): the camera would switch on and off that far from the line's ends. A waypoint's
 #: own acceptance radius (param2) overrides it, so line waypoints of planes carry a small one.
 PLANE_LINE_ACCEPTANCE_M = 2.0
+_PLANE_LINE_KINDS = ("line_start", "terrain", "bend", "line_end")
+#: DO_GIMBAL_MANAGER_PITCHYAW flags: roll and pitch against the horizon, yaw relative to the vehicle
+GIMBAL_FLAGS = mav.GIMBAL_MANAGER_FLAGS_ROLL_LOCK | mav.GIMBAL_MANAGER_FLAGS_PITCH_LOCK
 
 
-def _wp(plan: Plan, w: RouteWaypoint, tag: str, alt_shift: float) -> MissionItem:
-    alt = w.alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
-    accept = PLANE_LINE_ACCEPTANCE_M if plan.spec.vehicle.type == "plane" and w.kind in ("line_start", "terrain", "line_end") else 0.0
-    return MissionItem(mav.NAV_WAYPOINT, _frame(plan), 0.0, accept, 0.0, _yaw_param4(plan),
-                       round(w.lat, 8), round(w.lon, 8), round(alt, 2), True, tag)
+def build_mission(plan: Plan, sortie: int | None = None, name: str | None = None) -> Mission:
+    """The MAVLink mission of the whole plan (or of sortie `sortie`, 0-based)."""
+    return mavlink_mission(flight_program(plan, sortie, name))
 
 
-def _camera_on(plan: Plan, tag: str) -> list[MissionItem]:
-    trig = plan.spec.camera.trigger
-    if trig == "distance":
-        assert plan.trigger_distance_m is not None
-        return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, plan.trigger_distance_m, 0.0, 1.0, tag=tag)]
-    if trig == "time":
-        assert plan.trigger_interval_s is not None
-        return [MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, round(plan.trigger_interval_s * 1000.0, 1), -1.0, tag=tag)]
-    return []
+def _frame(p: FlightProgram) -> int:
+    return mav.FRAME_GLOBAL_TERRAIN_ALT if p.altitude_frame == "terrain" else mav.FRAME_GLOBAL_RELATIVE_ALT
 
 
-def _camera_off(plan: Plan, tag: str) -> list[MissionItem]:
-    trig = plan.spec.camera.trigger
-    if trig == "distance":
-        assert plan.trigger_distance_m is not None
-        return [MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0, tag=tag)]
-    if trig == "time":
-        return [MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, 0.0, -1.0, tag=tag)]
-    return []
+def _wp(p: FlightProgram, w: Waypoint, hold_s: float) -> MissionItem:
+    accept = PLANE_LINE_ACCEPTANCE_M if p.vehicle == "plane" and w.kind in _PLANE_LINE_KINDS else 0.0
+    yaw = p.fixed_yaw_deg if p.fixed_yaw_deg is not None and p.firmware == "px4" else 0.0
+    return MissionItem(mav.NAV_WAYPOINT, _frame(p), hold_s, accept, 0.0, yaw, w.lat, w.lon, w.alt_m, True, w.tag)
 
 
-def run_id(plan: Plan, run: int) -> str:
-    r = plan.route.runs[run]
-    return ids.run_id(r.pass_index, r.line, r.part)
+def _gimbal(p: FlightProgram, g: Gimbal, tag: str) -> MissionItem:
+    if p.firmware == "px4":
+        return MissionItem(mav.DO_GIMBAL_MANAGER_PITCHYAW, mav.FRAME_MISSION, g.pitch_deg, round(g.yaw_deg, 2), math.nan, math.nan,
+                           float(GIMBAL_FLAGS), 0.0, 0.0, tag=tag)
+    return MissionItem(mav.DO_MOUNT_CONTROL, mav.FRAME_MISSION, g.pitch_deg, 0.0, round(g.yaw_deg, 2), 0.0, 0.0, 0.0,
+                       float(mav.MOUNT_MODE_MAVLINK_TARGETING), tag=tag)
 
 
-def _landing(plan: Plan, lat: float, lon: float) -> list[MissionItem]:
-    """DO_LAND_START, an approach waypoint downwind of the launch point, NAV_LAND into the wind."""
-    f = plan.spec.flight
-    # the plane lands heading into the wind: the approach starts downwind of the touchdown point
-    alon, alat = approach_lonlat(plan.spec, lon, lat)
-    return [
-        MissionItem(mav.DO_LAND_START, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(alat, 8), round(alon, 8), 0.0, tag="land-start"),
-        MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(alat, 8), round(alon, 8),
-                    round(f.approach_alt_m, 2), tag="approach"),
-        MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"),
-    ]
+def _shoot(p: FlightProgram, sequence: int, tag: str) -> MissionItem:
+    if p.firmware == "px4":
+        return MissionItem(mav.IMAGE_START_CAPTURE, mav.FRAME_MISSION, 0.0, 0.0, 1.0, float(sequence), 0.0, 0.0, math.nan, tag=tag)
+    return MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, tag=tag)
 
 
-def build_mission(plan: Plan, waypoints: list[RouteWaypoint] | None = None, name: str = "mission",
-                  home: tuple[float, float, float] | None = None) -> Mission:
-    """The mission for one flight: takeoff, survey runs in order, then RTL or land.
+def _camera(a: CameraStart | CameraStop, tag: str) -> MissionItem:
+    if isinstance(a, CameraStart):
+        if a.distance_m is not None:
+            return MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, a.distance_m, 0.0, 1.0, tag=tag)
+        assert a.interval_s is not None
+        return MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, round(a.interval_s * 1000.0, 1), -1.0, tag=tag)
+    if a.distance:
+        return MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0, tag=tag)
+    return MissionItem(mav.DO_SET_CAM_TRIGG_INTERVAL, mav.FRAME_MISSION, 0.0, -1.0, tag=tag)
 
-    `home` (lon, lat, ground AMSL) is the launch point of a sortie; relative altitudes are
-    shifted by the difference between its ground and the plan's home ground.
-    """
-    spec = plan.spec
-    wps = plan.waypoints if waypoints is None else waypoints
-    lon, lat, ground = plan.home if home is None else home
-    alt_shift = plan.home[2] - ground
-    items: list[MissionItem] = []
-    first_alt = wps[0].alt_m + (alt_shift if plan.altitude_frame == "relative" else 0.0)
-    takeoff_alt = round(first_alt if plan.altitude_frame == "relative" else plan.heights.nominal_agl_m, 2)
-    pitch = PLANE_TAKEOFF_PITCH_DEG if spec.vehicle.type == "plane" else 0.0
-    items.append(MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, pitch, 0, 0, 0, round(lat, 8), round(lon, 8),
-                             takeoff_alt, tag="takeoff"))
+
+def _end(p: FlightProgram) -> list[MissionItem]:
+    lat, lon, _ = p.home
+    if p.approach is not None:  # DO_LAND_START, the approach waypoint downwind, NAV_LAND into the wind
+        a = p.approach
+        return [
+            # a place on the way to land: ArduPilot takes it in a global frame, PX4 only in MAV_FRAME_MISSION
+            # (anything else it answers MAV_MISSION_UNSUPPORTED_FRAME; seen against PX4's mission rules)
+            MissionItem(mav.DO_LAND_START, mav.FRAME_MISSION if p.firmware == "px4" else mav.FRAME_GLOBAL_RELATIVE_ALT,
+                        0, 0, 0, 0, a.lat, a.lon, 0.0, tag="land-start"),
+            MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, a.lat, a.lon, a.alt_m, tag="approach"),
+            MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, lat, lon, 0.0, tag="land"),
+        ]
+    if p.end == "land":
+        return [MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, lat, lon, 0.0, tag="land")]
+    return [MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl")]
+
+
+def mavlink_mission(p: FlightProgram) -> Mission:
+    """The mission for one flight: takeoff, speed, the program's waypoints and actions in order, then RTL or land."""
+    lat, lon, ground = p.home
+    items = [MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, p.takeoff_pitch_deg, 0, 0, 0, lat, lon,
+                         p.takeoff_alt_m, tag="takeoff")]
     # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies
     # its cruise airspeed, so planes get the speed as airspeed (type 0; equal to ground speed in still air)
-    speed_type = 0.0 if spec.vehicle.type == "plane" else 1.0
-    items.append(MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION, speed_type, round(plan.speed.speed_ms, 2), -1.0, tag="speed"))
-    if spec.flight.fixed_yaw_deg is not None and spec.vehicle.firmware == "ardupilot":
-        items.append(MissionItem(mav.CONDITION_YAW, mav.FRAME_MISSION, float(spec.flight.fixed_yaw_deg), 0.0, 1.0, 0.0, tag="fixed-yaw"))
-    for w in wps:
-        if w.kind == "lead_in":
-            items.append(_wp(plan, w, f"{run_id(plan, w.run)}:lead-in", alt_shift))
-        elif w.kind == "line_start":
-            items.append(_wp(plan, w, w.station, alt_shift))
-            items.extend(_camera_on(plan, f"{run_id(plan, w.run)}:camera-on"))
-        elif w.kind == "terrain":
-            items.append(_wp(plan, w, w.station, alt_shift))
-        elif w.kind == "line_end":
-            rid = run_id(plan, w.run)
-            items.append(_wp(plan, w, f"{rid}:end", alt_shift))
-            items.extend(_camera_off(plan, f"{rid}:camera-off"))
-        elif w.kind == "transit":
-            items.append(_wp(plan, w, "transit", alt_shift))
-        else:
-            items.append(_wp(plan, w, "detour", alt_shift))
-    # the straight way home crosses a zone: the transit waypoints fly round it and a copter
-    # lands at the launch point (NAV_LAND) rather than leaving the way home to RTL
-    home_detour = bool(wps) and wps[-1].kind == "transit"
-    if spec.flight.end == "land" and spec.vehicle.type == "plane":
-        items.extend(_landing(plan, lat, lon))
-    elif spec.flight.end == "land" or (home_detour and spec.vehicle.type == "copter"):
-        items.append(MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, round(lat, 8), round(lon, 8), 0.0, tag="land"))
-    else:
-        items.append(MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl"))
+    speed_type = 0.0 if p.vehicle == "plane" else 1.0
+    items.append(MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION, speed_type, round(p.speed_ms, 2), -1.0, tag="speed"))
+    if p.fixed_yaw_deg is not None and p.firmware == "ardupilot":
+        items.append(MissionItem(mav.CONDITION_YAW, mav.FRAME_MISSION, p.fixed_yaw_deg, 0.0, 1.0, 0.0, tag="fixed-yaw"))
+    shots = 0
+    for w in p.waypoints:
+        hover = next((a for a in w.actions if isinstance(a, HoverShoot)), None)
+        items.append(_wp(p, w, hover.hold_s if hover is not None else 0.0))
+        rid = w.run_id
+        for a in w.actions:
+            if isinstance(a, Gimbal):
+                items.append(_gimbal(p, a, f"{rid}:gimbal"))
+            elif isinstance(a, HoverShoot):
+                shots += 1
+                items.append(_shoot(p, shots, f"{w.tag}:photo"))
+            else:
+                items.append(_camera(a, f"{rid}:camera-{'on' if isinstance(a, CameraStart) else 'off'}"))
+    items.extend(_end(p))
     return Mission(
-        vehicle=spec.vehicle.type,
-        firmware=spec.vehicle.firmware,
-        home=(round(lat, 8), round(lon, 8), round(ground, 2)),
+        vehicle=p.vehicle,
+        firmware=p.firmware,
+        home=p.home,
         items=tuple(items),
         # whole m/s: Mission Planner reads a .plan's cruiseSpeed and hoverSpeed into ints
         # (MissionFile.cs); QGroundControl uses them only for time estimates, the vehicle flies
         # the DO_CHANGE_SPEED above
-        cruise_speed=float(max(1, round(spec.vehicle.cruise_speed_ms))),
-        hover_speed=float(max(1, round(plan.speed.speed_ms))),
-        name=name,
-        fence_inclusion=plan.fence_inclusion,
-        fence_exclusion=plan.fence_exclusion,
-        rally=rally_points(plan, ground),
+        cruise_speed=float(max(1, round(p.cruise_speed_ms))),
+        hover_speed=float(max(1, round(p.speed_ms))),
+        name=p.name,
+        fence_inclusion=p.fence_inclusion,
+        fence_exclusion=p.fence_exclusion,
+        rally=p.rally,
     )
-
-
-def rally_points(plan: Plan, home_ground_m: float) -> tuple[tuple[float, float, float], ...]:
-    """Every launch site of the plan as a rally point, at the survey's height above that site's
-    ground, as an altitude above the home of the mission (ground `home_ground_m`). An autopilot
-    returns to the nearest of its rally points and home (ArduPilot with RALLY_INCL_HOME), so a
-    sortie launched away from where it was armed, or that must turn back, lands at a planned
-    site. None when the plan has no launch site."""
-    h = plan.heights.nominal_agl_m
-    return tuple((round(s.lat, 8), round(s.lon, 8), round(s.ground_m - home_ground_m + h, 2)) for s in plan.launch_sites)

@@ -65,7 +65,10 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     xy = np.concatenate([np.asarray(r.station_xy, float).reshape(-1, 2) for r in runs]) if runs else np.zeros((0, 2))
     x, y = xy[:, 0].copy(), xy[:, 1].copy()
     run_idx = np.repeat(np.arange(len(runs)), counts)
-    hd = np.repeat(np.asarray([r.heading_deg for r in runs], float), counts)
+    hd = np.concatenate([r.headings() for r in runs]) if runs else np.zeros(0)
+    pitch = np.repeat(np.asarray([r.pitch_deg for r in runs], float), counts)
+    look = np.concatenate([np.full(len(r.station_xy), r.look_deg) if r.look_deg is not None else r.headings() for r in runs]) \
+        if runs else np.zeros(0)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
     warnings: tuple[str, ...] = ()
@@ -100,13 +103,22 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
         if w.kind == "line_start":
             a, b = start_of_run[w.run], end_of_run[w.run]
             pts.append((w.x, w.y, float(alt_rel[a]), "line_start", w.run, sid[a]))
+            # terrain waypoints on stations and the run's bends (between two stations), in flight order
+            inner: list[tuple[float, tuple[float, float, float, str, int, str]]] = []
             if mode == "follow" and b - a > 2:
-                s = np.hypot(x[a:b] - x[a], y[a:b] - y[a])
+                s = np.r_[0.0, np.cumsum(np.hypot(np.diff(x[a:b]), np.diff(y[a:b])))]
                 keep = thin_profile(s, alt_rel[a:b], tolerance_m)
-                for k in keep[1:-1]:
-                    pts.append((float(x[a + k]), float(y[a + k]), float(alt_rel[a + k]), "terrain", w.run, sid[a + k]))
+                inner += [(float(k), (float(x[a + k]), float(y[a + k]), float(alt_rel[a + k]), "terrain", w.run, sid[a + k]))
+                          for k in keep[1:-1]]
             if mode == "follow" and b - a > 1:
-                pts.append((float(x[b - 1]), float(y[b - 1]), float(alt_rel[b - 1]), "terrain", w.run, sid[b - 1]))
+                inner.append((float(b - 1 - a), (float(x[b - 1]), float(y[b - 1]), float(alt_rel[b - 1]), "terrain", w.run, sid[b - 1])))
+            r = runs[w.run]
+            for (bx, by), k in zip(r.bends_xy.tolist(), r.bend_after.tolist()):
+                i = a + int(k)
+                inner.append((k + 0.5, (bx, by, float(max(alt_rel[i], alt_rel[min(i + 1, b - 1)])), "bend", w.run, "")))
+            pts += [p for _, p in sorted(inner, key=lambda t: t[0])]
+        elif w.kind == "bend":
+            continue  # placed with its run's line start
         elif w.kind == "line_end":
             b = end_of_run[w.run]
             pts.append((w.x, w.y, float(alt_rel[b - 1]) if mode == "follow" else alt_at(w.x, w.y, "line ends"), "line_end", w.run, ""))
@@ -125,7 +137,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     # the stations' and the waypoints' longitudes and latitudes in one transform (point by point alike)
     lon, lat = planar.lonlat(np.concatenate([x, [p[0] for p in pts]]), np.concatenate([y, [p[1] for p in pts]]))
     lon, lat, wlon, wlat = lon[:len(x)].copy(), lat[:len(x)].copy(), lon[len(x):], lat[len(x):]
-    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd, np.full(len(x), -90.0), hd.copy())
+    stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd, pitch, look)
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
     return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", warnings)

@@ -130,6 +130,14 @@ class Photos:
         """Photos looking straight down from `agl_m` above flat ground at height 0, the image's top towards `yaw_deg`."""
         return cls(np.asarray(x, float), np.asarray(y, float), np.asarray(agl_m, float), Attitudes.nadir(yaw_deg))
 
+    @classmethod
+    def looking(cls, x: FloatArray, y: FloatArray, agl_m: FloatArray, yaw_deg: FloatArray, pitch_deg: FloatArray) -> Photos:
+        """Photos from `agl_m` above flat ground at height 0, the camera looking towards `yaw_deg`
+        at `pitch_deg` (−90 straight down, the image's top towards `yaw_deg`), level (no roll)."""
+        yaw = np.asarray(yaw_deg, float)
+        att = Attitudes(yaw, np.broadcast_to(np.asarray(pitch_deg, float), yaw.shape).copy(), np.zeros(yaw.shape))
+        return cls(np.asarray(x, float), np.asarray(y, float), np.asarray(agl_m, float), att)
+
 
 #: Image points (u, v) in units of the imaging area's half sides: the four corners, in the
 #: order top-right, top-left, bottom-left, bottom-right (top = the image's top edge): on the

@@ -59,25 +59,29 @@ class Coverage:
 
 
 def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base: float) -> BaseGeometry:
-    """Ground that two photos of one run are sure to see: with a photo base of at most half the
-    footprint, every point from the first station less (L/2 − B) to the last plus (L/2 − B) lies in
-    two consecutive footprints (L, W the smallest footprint of the run). Empty below 50 % forward overlap.
+    """Ground that two photos of one straight stretch of a run are sure to see: with a photo base
+    of at most half the footprint, every point from the first station less (L/2 − B) to the last
+    plus (L/2 − B) lies in two consecutive footprints (L, W the smallest footprint of the stretch).
+    Empty below 50 % forward overlap.
 
     Every run's strip is made in one numpy step (the same operations, element by element, as
     one run at a time; sine and cosine once per heading, as numpy scalars)."""
     runs = stations.run
     if not len(runs):
         return shapely.Polygon()
-    starts = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
+    # a straight stretch: consecutive photos of one run with one heading (a bent run has several)
+    heading = np.asarray(stations.heading_deg, float)
+    starts = np.flatnonzero(np.r_[True, (runs[1:] != runs[:-1]) | (heading[1:] != heading[:-1])])
     ends = np.r_[starts[1:], len(runs)] - 1
     L = np.minimum.reduceat(np.asarray(along, float), starts)
     W = np.minimum.reduceat(np.asarray(across, float), starts)
     reach = L / 2.0 - base
-    keep = (ends > starts) & ~(reach <= 0)  # one photo sees its ground once; below 50 % no two
+    tilted = np.maximum.reduceat(np.asarray(stations.pitch_deg, float), starts) > -90.0  # an oblique run is checked exactly
+    keep = (ends > starts) & ~(reach <= 0) & ~tilted  # one photo sees its ground once; below 50 % no two
     if not keep.any():
         return shapely.Polygon()
     a, b, reach, W = starts[keep], ends[keep], reach[keep], W[keep]
-    heading = np.asarray(stations.heading_deg, float)[a]
+    heading = heading[a]
     trig = {h: (np.sin(np.radians(np.float64(h))), np.cos(np.radians(np.float64(h)))) for h in set(heading.tolist())}
     ux, uy = (np.array(c, float) for c in zip(*(trig[h] for h in heading.tolist())))
     vx, vy = uy, -ux
@@ -90,14 +94,19 @@ def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base:
     return shapely.union_all(shapely.polygons(ring))
 
 
-def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, stations: Stations) -> Coverage:
+def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, stations: Stations,
+                       check_exactly: BaseGeometry | None = None) -> Coverage:
+    """The shortfall next to the zones and on `check_exactly` (where the pattern's own rule does
+    not prove the overlaps, e.g. a corridor's bends)."""
     k = site.grid_scale
     k2 = k * k
-    if site.zones_buffered is None:
+    if site.zones_buffered is None and check_exactly is None:
         return Coverage(site.area.area / k2, 0.0, shapely.Polygon(), 0.0)
-    required = shapely.difference(site.area, site.zones_buffered)
+    required = site.area if site.zones_buffered is None else shapely.difference(site.area, site.zones_buffered)
     reach = (max(sensor.across_m, sensor.along_m) + sensor.lead_in_m + sensor.base_m) * k
-    near = shapely.intersection(required, shapely.buffer(site.zones_buffered, reach, quad_segs=4))
+    around = [g for g in (shapely.buffer(site.zones_buffered, reach, quad_segs=4) if site.zones_buffered is not None else None,
+                          check_exactly) if g is not None]
+    near = shapely.intersection(required, shapely.union_all(around))
     if near.is_empty:
         return Coverage(required.area / k2, 0.0, shapely.Polygon(), 0.0)
     if not len(stations.ids):
@@ -109,7 +118,7 @@ def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, st
     rest = shapely.difference(near, _run_strips(stations, across, along, sensor.base_m * k))
     if rest.is_empty:
         return Coverage(required.area / k2, near.area / k2, shapely.Polygon(), 0.0)
-    photos = Photos.nadir(stations.x, stations.y, stations.agl_m, stations.heading_deg)
+    photos = Photos.looking(stations.x, stations.y, stations.agl_m, stations.camera_yaw_deg, stations.pitch_deg)
     corners = footprint_corners(photos, Optics.of(spec.camera.camera, spec.camera.mount), 0.0, k)
     lo, hi = corners.min(axis=1), corners.max(axis=1)
     meet = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])).query(rest, predicate="intersects")

@@ -7,14 +7,15 @@ from typing import Any
 import numpy as np
 
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Kinematics, Route, descent_time, path_time
+from aerosurvey.plan.route import Kinematics, Route, descent_time, hover_time, path_time
 from aerosurvey.plan.sun import elevation_over_window
 from aerosurvey.spec import MissionSpec
 
 
 def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], stations: Stations, kin: Kinematics,
-             home_xy: tuple[float, float], heights: Heights, base: float, k: float) -> dict[str, float]:
-    """Distances and times on the ground (grid lengths divided by the scale factor k)."""
+             home_xy: tuple[float, float], heights: Heights, base: float, k: float, hover_s: float | None = None) -> dict[str, float]:
+    """Distances and times on the ground (grid lengths divided by the scale factor k); with
+    hover-and-capture (`hover_s` at rest at each station) the stops at the stations too."""
     home = (home_xy[0] / k, home_xy[1] / k)
     # the detours from home and back home fly at transit speed, like the straight legs
     n_out = next((i for i, w in enumerate(wps) if w.kind != "transit"), len(wps))
@@ -25,6 +26,8 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     leg_back = np.vstack([xy[len(xy) - n_back - 1:], [home]])
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
+    if hover_s is not None:
+        survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin)
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
     transit_kin = Kinematics(kin.vehicle, spec.vehicle.cruise_speed_ms, kin.accel_ms2, kin.turn_radius_m)

@@ -52,6 +52,8 @@ def estimate_cost(spec: MissionSpec, site: Site, sensor: SensorSolution) -> Cost
     pass the same way along the short side. The flight adds a turn per line and the shortest
     tree joining the parts (no tour between them is shorter)."""
     k = site.grid_scale
+    if site.centreline is not None:
+        return _corridor_cost(spec, site, sensor)
     passes = 2 if spec.flight.cross_hatch else 1
     parts = shapely.get_parts(site.area)
     rects = shapely.oriented_envelope(parts)
@@ -73,6 +75,27 @@ def estimate_cost(spec: MissionSpec, site: Site, sensor: SensorSolution) -> Cost
     hours = (path / sensor.speed.speed_ms + lines * 30.0) / 3600.0
     n_photos = int(min(photos, 1e15))
     return CostEstimate(n_photos, int(lines), hours, n_photos * BYTES_PER_PHOTO_FILES / 1e6,
+                        n_photos * BYTES_PER_PHOTO_MEMORY / 1e6, path / 1000.0, transit / 1000.0)
+
+
+def _corridor_cost(spec: MissionSpec, site: Site, sensor: SensorSolution) -> CostEstimate:
+    """A corridor's: each piece of the centreline flown once per strip (as many as `strip_offsets`
+    lays over its width), as long as the piece with the photos beyond both ends."""
+    assert site.centreline is not None and spec.pattern.left_m is not None and spec.pattern.right_m is not None
+    k = site.grid_scale
+    pieces = shapely.get_parts(shapely.line_merge(site.centreline))
+    width = spec.pattern.left_m + spec.pattern.right_m + 2.0 * spec.targets.coverage_margin_m
+    strips = 1 if width <= sensor.across_m else len(strip_offsets_many(
+        np.zeros(1), np.array([width]), sensor.across_m, sensor.spacing_m, sensor.side_images_per_point)[0])
+    extension = 2 * (spec.targets.images_beyond_boundary + sensor.forward_images_per_point)
+    lengths = shapely.length(pieces) / k
+    photos = float(np.sum(strips * (lengths / sensor.base_m + extension)))
+    lines = strips * len(pieces)
+    transit = _joining_tree_m(pieces) / k
+    path = photos * sensor.base_m + transit
+    hours = (path / sensor.speed.speed_ms + lines * 30.0) / 3600.0
+    n_photos = int(min(photos, 1e15))
+    return CostEstimate(n_photos, lines, hours, n_photos * BYTES_PER_PHOTO_FILES / 1e6,
                         n_photos * BYTES_PER_PHOTO_MEMORY / 1e6, path / 1000.0, transit / 1000.0)
 
 

@@ -84,10 +84,10 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                           tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites),
-                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale)
+                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
         budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
-                   sensor.heights, sensor.base_m, site.grid_scale)
+                   sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
     return Plan(
@@ -119,7 +119,7 @@ def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
     slopes = Slopes.of(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms, sensor.speed.speed_ms)
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes,
                             spec.vehicle.max_height_agl_m)
-    return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations)
+    return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations, layout.check_exactly)
 
 
 def _with_transits(survey: tuple[RouteWaypoint, ...], routed: RoutePlan, site: Site) -> tuple[RouteWaypoint, ...]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import bisect
 import heapq
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
@@ -21,33 +21,73 @@ from aerosurvey.plan.lines import LineBounds, LineSegment
 from aerosurvey.plan.progress import Progress, no_progress
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
+class Strip:
+    """A photo strip in world geometry (planning CRS), in line order: the polyline the camera
+    flies along from its first station to its last, and the stations on it. A corridor's strips
+    bend where its centreline does."""
+
+    line: int  # index of the strip in its pass
+    part: int  # index of the piece of the line (cut by exclusion zones)
+    path: np.ndarray  # (m ≥ 2, 2): the first station, the bends, the last station
+    stations: np.ndarray  # (n, 2)
+    station_index: np.ndarray  # (n,) index of each station along its line, for ids
+    heading_deg: np.ndarray  # (n,) the strip's direction at each station (compass bearing), in line order
+    bend_after: np.ndarray  # (m − 2,) for each bend, the station (index into `stations`) it follows
+
+
+@dataclass(frozen=True, eq=False)
 class Pass:
-    index: int  # 1 for the main pass, 2 for the cross-hatch
-    frame: LineFrame
-    segments: tuple[LineSegment, ...]
+    """A group of strips flown one after another, with the camera held at one attitude, and the
+    hint the route step needs to order them.
+
+    An area grid's pass is parallel lines in a frame (`frame` and `segments`): the route searches
+    the line order and cells. Any other pattern gives `strips`, flown in their order, back and
+    forth (each line the other way from the one before)."""
+
+    index: int  # 1 for the main pass, 2 for the cross-hatch, …
+    frame: LineFrame | None = None
+    segments: tuple[LineSegment, ...] = ()
+    strips: tuple[Strip, ...] = ()
+    pitch_deg: float = -90.0  # the camera's pitch (gimbal convention: −90 straight down)
+    look_deg: float | None = None  # the bearing the camera looks to; None: along the flight
+
+    @property
+    def empty(self) -> bool:
+        return not self.segments and not self.strips
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Run:
     """One photo run as flown: stations in flight order, in the planning CRS."""
 
     pass_index: int
     line: int
     part: int
-    direction: int  # +1 along the frame's +x, −1 against it
-    heading_deg: float  # direction of flight (compass bearing)
+    direction: int  # +1 along the line (the frame's +x, a strip's order), −1 against it
+    heading_deg: float  # direction of flight at the first station (compass bearing)
     station_xy: np.ndarray  # (n, 2), flight order
     station_index: np.ndarray  # index of each station along its line (by +x), for ids
     lead_in_xy: tuple[float, float]
     end_xy: tuple[float, float]  # past the last station by half a photo base
+    bends_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (k, 2) flight order
+    bend_after: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # the station (flight order) each follows
+    station_heading_deg: np.ndarray | None = None  # (n,) where the run bends; None: heading_deg throughout
+    pitch_deg: float = -90.0
+    look_deg: float | None = None  # the camera's bearing; None: along the flight
+
+    def headings(self) -> np.ndarray:
+        """The direction of flight at each station."""
+        if self.station_heading_deg is not None:
+            return self.station_heading_deg
+        return np.full(len(self.station_xy), self.heading_deg)
 
 
 @dataclass(frozen=True)
 class Waypoint:
     x: float
     y: float
-    kind: str  # lead_in, line_start, line_end, detour
+    kind: str  # lead_in, line_start, bend, line_end, detour
     run: int  # index into Route.runs, −1 for detours
 
 
@@ -67,6 +107,12 @@ class Kinematics:
     accel_ms2: float
     turn_radius_m: float
     jerk_ms3: float = 1.0  # copters: ArduCopter's WPNAV_JERK default
+
+
+def _grid(p: Pass) -> LineFrame:
+    """The frame of an area grid's pass."""
+    assert p.frame is not None, "an area grid's pass has a frame"
+    return p.frame
 
 
 def _offsets(p: Pass) -> dict[tuple[int, int], int]:
@@ -114,7 +160,7 @@ def _run_ends(p: Pass, legs: list[Leg], lead_in: float) -> np.ndarray:
     first = x0 + base * np.where(d > 0, 0.0, n - 1.0)
     last = x0 + base * np.where(d > 0, n - 1.0, 0.0)
     u = np.column_stack([first - d * lead_in, first, last + d * base / 2.0]).ravel()
-    X, Y = p.frame.from_frame(u, np.repeat(v, 3))
+    X, Y = _grid(p).from_frame(u, np.repeat(v, 3))
     return np.column_stack([X, Y])
 
 
@@ -125,7 +171,7 @@ def _build_runs(p: Pass, legs: list[Leg], lead_in: float, offsets: dict[tuple[in
     of the line frame in one numpy step."""
     if not legs:
         return []
-    fr = p.frame
+    fr = _grid(p)
     leg, j = _leg_stations(legs)
     x0, _, base, v, _ = _leg_arrays(legs)
     X, Y = fr.from_frame(x0[leg] + base[leg] * j, v[leg])
@@ -140,7 +186,7 @@ def _build_runs(p: Pass, legs: list[Leg], lead_in: float, offsets: dict[tuple[in
     for i, ((s, direction), a, b) in enumerate(zip(legs, first_at.tolist(), last_at.tolist())):
         heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
         runs.append(Run(p.index, s.line, s.part, direction, heading, xy[a:b + 1].copy(), idx[a:b + 1].copy(),
-                        (lead_x[i], lead_y[i]), (end_x[i], end_y[i])))
+                        (lead_x[i], lead_y[i]), (end_x[i], end_y[i]), pitch_deg=p.pitch_deg, look_deg=p.look_deg))
     return runs
 
 
@@ -196,7 +242,7 @@ def _cell_ends(p: Pass, cell: list[LineSegment], lead_in: float, reverse: bool,
     last_dir = first_dir if (len(segs) - 1) % 2 == 0 else -first_dir
     u0 = (a.x0 if first_dir > 0 else a.x1) - first_dir * lead_in
     u1 = (b.x1 if last_dir > 0 else b.x0) + last_dir * b.base / 2.0
-    X, Y = p.frame.from_frame(np.array([u0, u1]), np.array([a.v, b.v]))
+    X, Y = _grid(p).from_frame(np.array([u0, u1]), np.array([a.v, b.v]))
     return (float(X[0]), float(Y[0])), (float(X[1]), float(Y[1]))
 
 
@@ -283,6 +329,14 @@ def _straight_time(d: float, k: Kinematics) -> float:
     if d >= v * (v / a + ramp):
         return d / v + v / a + ramp
     return 2.0 * math.sqrt(d / a) + ramp
+
+
+def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics) -> float:
+    """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
+    `stations` photos it stops (braking and accelerating again over the `base` between two
+    stations of a run, `_straight_time` against cruising it) and rests `hold_s`."""
+    stops = max(stations - runs, 0)
+    return stations * hold_s + stops * (_straight_time(base, k) - base / k.speed_ms)
 
 
 #: path_time drops segments this short or shorter (planning-grid units / grid scale)
@@ -578,6 +632,50 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     return length / speed * (1.0 - 1e-7)
 
 
+def _unit(bearing_deg: float) -> tuple[float, float]:
+    h = math.radians(bearing_deg)
+    return math.sin(h), math.cos(h)
+
+
+def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: float) -> Run:
+    """A strip flown one way: its stations, bends and headings in flight order, the lead-in
+    `lead_in` before the first station along its direction there, the end `half_base` past the last."""
+    n = len(s.stations)
+    if direction > 0:
+        xy, idx, heads = s.stations, s.station_index, np.asarray(s.heading_deg, float)
+        bends, after = s.path[1:-1], s.bend_after
+    else:
+        xy, idx, heads = s.stations[::-1], s.station_index[::-1], (np.asarray(s.heading_deg, float)[::-1] + 180.0) % 360.0
+        bends, after = s.path[1:-1][::-1], (n - 2 - s.bend_after)[::-1]
+    ux, uy = _unit(float(heads[0]))
+    vx, vy = _unit(float(heads[-1]))
+    first, last = xy[0], xy[-1]
+    return Run(p.index, s.line, s.part, direction, float(heads[0]), np.array(xy, float), np.array(idx),
+               (float(first[0] - ux * lead_in), float(first[1] - uy * lead_in)),
+               (float(last[0] + vx * half_base), float(last[1] + vy * half_base)),
+               np.array(bends, float).reshape(-1, 2), np.array(after, np.int64), np.array(heads),
+               p.pitch_deg, p.look_deg)
+
+
+def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, float] | None) -> list[Run]:
+    """A pass of strips flown in their order, back and forth: each line the other way from the
+    one before (its parts in order along that way), the first line the way whose first station
+    is nearer `start_near`."""
+    by_line: dict[int, list[Strip]] = {}
+    for s in p.strips:
+        by_line.setdefault(s.line, []).append(s)
+    lines = [sorted(v, key=lambda s: s.part) for _, v in sorted(by_line.items())]
+    first = 1
+    if start_near is not None:
+        a, b = lines[0][0].stations[0], lines[0][-1].stations[-1]
+        first = 1 if math.dist(start_near, (a[0], a[1])) <= math.dist(start_near, (b[0], b[1])) else -1
+    runs: list[Run] = []
+    for k, parts in enumerate(lines):
+        d = first if k % 2 == 0 else -first
+        runs.extend(_strip_run(p, s, d, lead_in, base / 2.0) for s in (parts if d > 0 else parts[::-1]))
+    return runs
+
+
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
                start_near: tuple[float, float] | None) -> tuple[list[Run], str]:
     """The fastest way through a pass: every line across the whole area (camera off over
@@ -785,23 +883,27 @@ def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb:
 
 
 def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],
-                start_near: tuple[float, float] | None, detours: Detours, report: Progress = no_progress) -> Route:
+                start_near: tuple[float, float] | None, detours: Detours, report: Progress = no_progress,
+                base: float = 0.0) -> Route:
     """Order every pass, join them, and insert detours wherever a leg would enter a zone
     (`report` hears how many of the legs that need one have theirs)."""
     runs: list[Run] = []
     how: list[str] = []
     here = start_near
     for p, spacing in zip(passes, spacing_by_pass):
-        if not p.segments:
+        if p.empty:
             continue
-        pr, chosen = order_pass(p, lead_in, k, spacing, here)
+        if p.frame is not None:
+            pr, chosen = order_pass(p, lead_in, k, spacing, here)
+        else:
+            pr, chosen = strip_runs(p, lead_in, base, here), "strips in order, back and forth"
         runs.extend(pr)
         how.append(chosen)
         here = pr[-1].end_xy
     runs = [clip_lead_in(r, detours) for r in runs]
     stops = [(i, kind, pt) for i, r in enumerate(runs)
              for kind, pt in (("lead_in", r.lead_in_xy), ("line_start", (float(r.station_xy[0, 0]), float(r.station_xy[0, 1]))),
-                              ("line_end", r.end_xy))]
+                              *(("bend", (float(x), float(y))) for x, y in r.bends_xy), ("line_end", r.end_xy))]
     # which legs cross a zone's margin, in one call: only those look for a way round
     clear = detours.clear_legs(np.array([pt for _, _, pt in stops], float).reshape(-1, 2)).tolist()
     wps: list[Waypoint] = []

@@ -117,7 +117,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     detours = Detours(site.zones, spec.flight.exclusion_margin_m)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, sensor.kinematics,
-                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours, report)
+                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours, report, sensor.base_m * k)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc}") from None
     first = (route.waypoints[0].x, route.waypoints[0].y)

@@ -5,8 +5,12 @@ trigger, from the spec and the relief under the area. The first step of the pipe
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
+from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.model import Heights
@@ -35,6 +39,7 @@ class SensorSolution:
     forward_images_per_point: int
     kinematics: Kinematics
     warnings: tuple[str, ...]
+    hover_s: float | None = None  # hover-and-capture: seconds at rest at each station (settling, the shot)
 
 
 def target_height(spec: MissionSpec) -> tuple[float, float, tuple[str, ...]]:
@@ -109,12 +114,21 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         raise InputError(f"the plan would fly {heights.max_agl_m:.1f} m above ground, above "
                          f"vehicle.max_height_agl_m = {spec.vehicle.max_height_agl_m:g} m")
     across, along = pg.footprint(heights.spacing_agl_m, cam, spec.camera.mount)
+    gsd_far = None
+    if spec.pattern.kind == "oblique":
+        across, along, gsd_far = oblique_footprint(spec, heights.spacing_agl_m, heights.max_agl_m)
+        limit = spec.pattern.max_far_gsd_m
+        if limit is not None and gsd_far > limit:
+            raise InputError(f"pattern.max_far_gsd_cm = {limit * 100:g}: the oblique photos' far edge has a GSD of "
+                             f"{gsd_far * 100:.2f} cm from {heights.max_agl_m:.1f} m above ground at pitch {spec.pattern.pitch_deg:g}°; "
+                             f"fly at most {heights.max_agl_m * limit / gsd_far:.1f} m high, or pitch the camera further down",
+                             key="pattern.max_far_gsd_cm")
     spacing = pg.line_spacing(across, spec.targets.side_overlap)
     # whole centimetres, rounded down: the mission carries the trigger distance to 1 cm, and
     # the stations must lie exactly where the autopilot's distance trigger will fire
     base = math.floor(pg.trigger_distance(along, spec.targets.forward_overlap) * 100.0) / 100.0
     gsd_min = pg.gsd_from_height(heights.spacing_agl_m, cam)
-    gsd_max = pg.gsd_from_height(heights.max_agl_m, cam)
+    gsd_max = pg.gsd_from_height(heights.max_agl_m, cam) if gsd_far is None else gsd_far
     speed = pg.survey_speed(spec.vehicle.cruise_speed_ms, base, gsd_min, cam, spec.camera.max_blur_px,
                             spec.camera.min_cycle_s, spec.camera.exposure_s)
     interval = None
@@ -126,6 +140,12 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         v = min(speed.speed_ms, base / interval)
         speed = pg.SpeedLimit(v, speed.reason if v == speed.speed_ms else f"trigger interval {interval:g} s",
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
+    hover = None
+    if spec.camera.trigger == "hover":
+        # photos taken at rest: neither motion blur nor the camera's cycle limits the speed between them
+        speed = pg.SpeedLimit(spec.vehicle.cruise_speed_ms, "vehicle cruise speed (hover-and-capture: photos at rest)",
+                              speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
+        hover = spec.camera.settle_s + spec.camera.min_cycle_s
     trigger_cmd = None
     if spec.camera.trigger == "distance":
         try:
@@ -141,8 +161,61 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         side_images_per_point=pg.images_per_point(spec.targets.side_overlap),
         forward_images_per_point=pg.images_per_point(spec.targets.forward_overlap),
         kinematics=Kinematics(spec.vehicle.type, speed.speed_ms, spec.vehicle.acceleration_ms2, radius),
-        warnings=warnings,
+        warnings=warnings, hover_s=hover,
     )
+
+
+def oblique_footprint(spec: MissionSpec, low_agl_m: float, high_agl_m: float) -> tuple[float, float, float]:
+    """(across, along, far-edge GSD) of the oblique scheme's photos: the rectangle every one of
+    them holds whichever way it looks relative to the flight (along the line or across it, and
+    the nadir photos of the five-direction scheme), at the lowest height; and the coarsest GSD,
+    at the far edge of an oblique photo from the highest. From the capture model: the tilted
+    photo's trapezoid is `depth` deep from its near to its far edge and `near` wide at its near
+    edge, which bound the rectangle inside it."""
+    from aerosurvey.plan.capture import Optics, Photos, edge_gsd, footprint_corners
+
+    optics = Optics.of(spec.camera.camera, spec.camera.mount)
+    zero = np.zeros(1)
+
+    def corners(pitch: float) -> np.ndarray:  # top-right, top-left, bottom-left, bottom-right; looking north
+        c: np.ndarray = footprint_corners(Photos.looking(zero, zero, np.array([low_agl_m]), zero, np.array([pitch])), optics, 0.0)[0]
+        return c
+
+    try:
+        c = corners(spec.pattern.pitch_deg)
+    except ValueError:  # the image's far edge reaches the horizon
+        steepest = next(p for p in np.arange(math.floor(spec.pattern.pitch_deg), -89.0, -1.0) if _sees_ground(corners, float(p)))
+        raise InputError(f"pattern.pitch_deg = {spec.pattern.pitch_deg:g} tilts {spec.camera.camera.name}'s image up to the "
+                         f"horizon: its far corners see no ground; allowed with this camera and mount: {steepest:g} or lower",
+                         key="pattern.pitch_deg") from None
+    depth = float(min(c[0, 1], c[1, 1]) - max(c[2, 1], c[3, 1]))
+    near = float(c[3, 0] - c[2, 0])
+    sides = [depth, near]
+    if spec.pattern.scheme == "five-direction":
+        sides += [float(v) for v in pg.footprint(low_agl_m, spec.camera.camera, spec.camera.mount)]
+    high = Photos.looking(zero, zero, np.array([high_agl_m]), zero, np.array([spec.pattern.pitch_deg]))
+    far_gsd = float(edge_gsd(high, optics, 0.0).far_m[0])
+    if spec.pattern.scheme == "double-grid":  # a photo looks along its line: its depth along, its near edge across
+        return near, depth, far_gsd
+    return min(sides), min(sides), far_gsd
+
+
+def _sees_ground(corners: Callable[[float], np.ndarray], pitch: float) -> bool:
+    try:
+        corners(pitch)
+    except ValueError:
+        return False
+    return True
+
+
+def oblique_centre_m(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> float:
+    """How far ahead of the camera (on flat ground) the middle of an oblique photo's depth lies."""
+    from aerosurvey.plan.capture import Optics, Photos, footprint_corners
+
+    zero = np.zeros(1)
+    c = footprint_corners(Photos.looking(zero, zero, np.array([agl_m]), zero, np.array([pitch_deg])),
+                          Optics.of(camera, mount), 0.0)[0]
+    return float((min(c[0, 1], c[1, 1]) + max(c[2, 1], c[3, 1])) / 2.0)
 
 
 def reach_beyond_area_m(spec: MissionSpec) -> float:

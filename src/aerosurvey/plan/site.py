@@ -62,6 +62,7 @@ class Site:
     dem: Dem | None
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
     simplification: Simplification
+    centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
 
 
 def simplify_tolerance_m(spec: MissionSpec) -> float:
@@ -144,9 +145,19 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
     c = inputs.area_wgs84.centroid
     k = planar.scale_factor(c.x, c.y)
     tol = simplify_tolerance_m(spec) * k
-    given = shapely.normalize(planar.forward(inputs.area_wgs84))
-    area = grown_simplification(given, tol)
-    area_wgs84 = inputs.area_wgs84 if area is given else planar.inverse(area)
+    centreline = None
+    if spec.pattern.kind == "corridor":
+        assert spec.pattern.left_m is not None and spec.pattern.right_m is not None
+        # the corridor round a simpler centreline (within `tol` of the given one), each side wider
+        # by the tolerance: it covers the corridor round the given centreline
+        given = shapely.line_merge(planar.forward(inputs.area_wgs84))
+        centreline = shapely.simplify(given, tol, preserve_topology=False)
+        area = corridor_polygon(centreline, spec.pattern.left_m * k + tol, spec.pattern.right_m * k + tol)
+        area_wgs84 = planar.inverse(area)
+    else:
+        given = shapely.normalize(planar.forward(inputs.area_wgs84))
+        area = grown_simplification(given, tol)
+        area_wgs84 = inputs.area_wgs84 if area is given else planar.inverse(area)
     given_zones = [planar.forward(e) for e in inputs.exclusions_wgs84]
     simple_zones = [grown_simplification(z, tol) for z in given_zones]
     excl = tuple(e if z is g else planar.inverse(z)
@@ -154,7 +165,7 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
     zones = shapely.union_all(simple_zones) if simple_zones else None
     vertices = shapely.get_num_coordinates
     simplification = Simplification(
-        tol / k, (int(vertices(given)), int(vertices(area))),
+        tol / k, (int(vertices(given)), int(vertices(centreline if centreline is not None else area))),
         (int(np.sum(vertices(given_zones))), int(np.sum(vertices(simple_zones)))))
     margin = spec.flight.exclusion_margin_m
     check_scale_spread(planar, area, k)
@@ -175,4 +186,35 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
         dem = Dem(inputs.dem, planar)
         if spec.terrain.mode != "none":
             ground = dem.range_over(area, "area")
-    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification)
+    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline)
+
+
+def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> BaseGeometry:
+    """The ground `left` to the left and `right` to the right of a centreline (looking along it),
+    ending square at its ends, with round corners outside its bends: a rectangle along each
+    segment and a fan outside each bend, united. (GEOS's one-sided buffer drops ground where a
+    centreline winds back close to itself.)"""
+    parts: list[BaseGeometry] = []
+    for piece in shapely.get_parts(centreline):
+        xy = np.asarray(shapely.get_coordinates(piece), float)
+        d = np.diff(xy, axis=0)
+        keep = np.hypot(d[:, 0], d[:, 1]) > 0
+        xy = np.vstack([xy[:1], xy[1:][keep]])
+        d = d[keep]
+        if not len(d):
+            continue
+        u = d / np.hypot(d[:, 0], d[:, 1])[:, None]
+        n = np.column_stack([-u[:, 1], u[:, 0]])  # to the left
+        a, b = xy[:-1], xy[1:]
+        rings = np.stack([a + n * left, b + n * left, b - n * right, a - n * right], axis=1)
+        parts += shapely.polygons(rings).tolist()
+        for k in range(1, len(xy) - 1):
+            turn = u[k - 1, 0] * u[k, 1] - u[k - 1, 1] * u[k, 0]  # > 0: turning left, the outside is on the right
+            r, n0, n1 = (right, -n[k - 1], -n[k]) if turn > 0 else (left, n[k - 1], n[k])
+            if r <= 0:
+                continue
+            t0, t1 = math.atan2(n0[1], n0[0]), math.atan2(n1[1], n1[0])
+            sweep = (t1 - t0 + math.pi) % (2 * math.pi) - math.pi
+            t = t0 + sweep * np.linspace(0.0, 1.0, 33)
+            parts.append(shapely.Polygon(np.vstack([xy[k], xy[k] + r * np.column_stack([np.cos(t), np.sin(t)])])))
+    return shapely.normalize(shapely.union_all(parts))

@@ -19,6 +19,7 @@ from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan.capture import Optics, Photos, footprint_corners
 from aerosurvey.plan.planner import Plan
+from aerosurvey.plan.route import Run
 
 
 def _r(v: float, nd: int = 8) -> float:
@@ -76,7 +77,7 @@ def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     latitude arrays (not checked: `plan_geojson` says which is not finite): each on flat ground at
     the station's height above ground."""
     st = plan.stations
-    photos = Photos.nadir(st.x, st.y, st.agl_m, st.heading_deg)
+    photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
     corners = footprint_corners(photos, Optics.of(plan.spec.camera.camera, plan.spec.camera.mount), 0.0, plan.grid_scale)
     return plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
 
@@ -103,6 +104,14 @@ def _footprints_text(plan: Plan, table: StationTable) -> str:
                       string_texts(table.column("id")), *ring], len(sids), ",")
 
 
+def _line_coords(plan: Plan, run: Run, first: int, last: int) -> list[list[float]]:
+    """A run's line as flown with the camera on: its first station, its bends, its last station."""
+    st = plan.stations
+    lon, lat = plan.planar.lonlat(run.bends_xy[:, 0], run.bends_xy[:, 1])
+    return [[_r(st.lon[first]), _r(st.lat[first])], *([_r(lo), _r(la)] for lo, la in zip(lon.tolist(), lat.tolist())),
+            [_r(st.lon[last]), _r(st.lat[last])]]
+
+
 def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLayer, int]:
     """Every feature but the stations and footprints, the stations as columns (those the
     manifest's `table` also has taken from it), and the index of the features where the
@@ -122,7 +131,7 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
             "role": "line", "id": rid, "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
             "heading_deg": round(r.heading_deg, 3), "photos": photos,
             "first_station": st.ids[first], "last_station": st.ids[last]},
-            "geometry": {"type": "LineString", "coordinates": [[_r(st.lon[j]), _r(st.lat[j])] for j in (first, last)]}})
+            "geometry": {"type": "LineString", "coordinates": _line_coords(plan, r, first, last)}})
     _finite("station", st.lon, st.lat, st.alt_rel_m, st.agl_m, st.heading_deg)  # the GeoJSON writer writes NaN as null
     n = len(st.ids)
     line_of_run = [ids.line_id(r.pass_index, r.line) for r in plan.route.runs]

@@ -117,10 +117,12 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
                  + join_rows([tenths(wx), ",", tenths(wy)], len(wx), " ") + '"><title>route</title></polyline>')
     colours = {1: "#1f5fbf", 2: "#c0601a"}
     for i, r in enumerate(plan.route.runs):
-        a = view.pt(*r.station_xy[0])
-        b = view.pt(*r.station_xy[-1])
-        parts.append(f'<line x1="{a[0]:.1f}" y1="{a[1]:.1f}" x2="{b[0]:.1f}" y2="{b[1]:.1f}" stroke="{colours.get(r.pass_index, "#555")}" '
-                     f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></line>')
+        # the line as flown with the camera on: first station, bends, last station
+        line = np.vstack([r.station_xy[:1], r.bends_xy, r.station_xy[-1:]])
+        lx, ly = view.pts(line[:, 0], line[:, 1])
+        drawn = " ".join(f"{x:.1f},{y:.1f}" for x, y in zip(lx, ly))
+        parts.append(f'<polyline fill="none" points="{drawn}" stroke="{colours.get(r.pass_index, "#555")}" '
+                     f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></polyline>')
     if len(st.ids) <= 20000:
         dx, dy = view.pts(st.x, st.y)
         dots = join_rows(["M", tenths(dx), ",", tenths(dy), "h0.01"], len(dx), "")

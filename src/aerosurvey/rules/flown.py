@@ -56,7 +56,8 @@ def part(view: PlanView, station_ids: Sequence[str]) -> PlanView:
     idx = np.array([i for i, s in enumerate(view.station_ids) if s in keep], np.intp)
     return dataclasses.replace(view, station_ids=[view.station_ids[i] for i in idx],
                                run_ids=[view.run_ids[i] for i in idx], x=view.x[idx], y=view.y[idx],
-                               agl=view.agl[idx], heading_deg=view.heading_deg[idx])
+                               agl=view.agl[idx], heading_deg=view.heading_deg[idx], pitch_deg=view.pitch_deg[idx],
+                               camera_yaw_deg=view.camera_yaw_deg[idx])
 
 
 @dataclass(frozen=True)

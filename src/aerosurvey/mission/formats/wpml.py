@@ -1,0 +1,301 @@
+"""DJI WPML waylines: a flight program as a .kmz that DJI Pilot 2 imports (M3E, M30, M350 RTK with P1).
+
+The layout follows DJI's published WPML reference (DJI Cloud API documentation, "DJI WPML":
+overview, template.kml, waylines.wpml, common elements; namespace wpmz/1.0.2 as in its
+samples): a ZIP archive holding `wpmz/template.kml` (the editable template, templateType
+"waypoint") and `wpmz/waylines.wpml` (what the aircraft executes), both KML 2.2 documents
+with a `wpml:missionConfig` and one `Folder` of `Placemark` waypoints.
+
+What is written:
+
+- missionConfig: flyToWaylineMode "safely" (climb at the launch point, then fly level to the
+  first waypoint), finishAction "goHome", exitOnRCLost "goContinue" (the route and the way
+  home were checked against the zones; a straight return from where the link is lost was
+  not), takeOffSecurityHeight the take-off altitude, globalTransitionalSpeed the cruise speed,
+  globalRTHHeight the highest waypoint, droneInfo and payloadInfo of the aircraft.
+- heights: heightMode / executeHeightMode "relativeToStartPoint", the program's altitudes
+  above the launch point. A program in the terrain frame has no DJI counterpart for waypoint
+  routes (aboveGroundLevel is FlightHub 2's, realTimeFollowSurface the M3E's mapping
+  templates'): `refusal` says so and no .kmz is written.
+- heading: waypointHeadingMode "followWayline", or "smoothTransition" at one angle for a fixed yaw.
+- every waypoint "toPointAndStopWithDiscontinuityCurvature": straight legs, the ones the
+  final gate checked, and a stop at each waypoint.
+- actions (wpml:actionGroup, ids from 0 across the file): at the first waypoint a gimbalRotate
+  to −90° (straight down, the program's starting pitch); the program's gimbal changes as
+  gimbalRotate (pitch, and the yaw as a compass bearing when it is not along the nose); a
+  distance or time trigger as takePhoto in a group from the run's first station to its line
+  end with actionTrigger multipleDistance or multipleTiming; hover-and-shoot as a reachPoint
+  group of hover (hoverTime, when above 0) and takePhoto. takePhoto's fileSuffix is the
+  station id (hover) or the run id, so photos name where they were taken.
+
+The budget (mission/targets.py): at most 65535 waypoints and 65536 action groups per
+wayline, at least 2 waypoints, speeds up to 15 m/s; a program beyond it is refused with its numbers.
+"""
+
+from __future__ import annotations
+
+import io
+import zipfile
+from dataclasses import dataclass
+
+from lxml import etree
+
+from aerosurvey.mission.formats.wpl import format_number
+from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot
+from aerosurvey.mission.targets import DJI_MAX_ACTION_GROUPS, DJI_MAX_SPEED_MS, DJI_MAX_WAYPOINTS, DJI_MIN_WAYPOINTS
+
+KML_NS = "http://www.opengis.net/kml/2.2"
+WPML_NS = "http://www.dji.com/wpmz/1.0.2"
+NSMAP = {None: KML_NS, "wpml": WPML_NS}
+TEMPLATE = "wpmz/template.kml"
+WAYLINES = "wpmz/waylines.wpml"
+#: the payload's mount: position 1 (the main gimbal; an M350's front left)
+PAYLOAD_POSITION = 0
+
+
+@dataclass(frozen=True)
+class DjiAircraft:
+    name: str
+    drone_enum: int  # wpml:droneEnumValue
+    drone_sub_enum: int  # wpml:droneSubEnumValue
+    payload_enum: int  # wpml:payloadEnumValue
+    image_format: str  # wpml:imageFormat: which lens' photos are stored
+
+
+#: DJI WPML reference, common elements (droneEnumValue, payloadEnumValue) and the Cloud API's
+#: product list: M3E 77/0 with the Mavic 3E camera 66; M30 67/0 with its camera 52; M350 RTK 89/0
+#: with the Zenmuse P1 50 (payloadEnumValue 50 as the reference listed it up to its 2023 versions).
+M3E = DjiAircraft("DJI Mavic 3 Enterprise (M3E)", 77, 0, 66, "wide")
+M30 = DjiAircraft("DJI Matrice 30 (M30)", 67, 0, 52, "wide")
+M350_P1 = DjiAircraft("DJI Matrice 350 RTK with Zenmuse P1", 89, 0, 50, "visible")
+#: aerosurvey's camera ids (data/cameras.toml) flown by an aircraft DJI Pilot 2 flies WPML with.
+#: The M30's camera is not in cameras.toml: M30 is ready for when it is.
+AIRCRAFT_BY_CAMERA = {
+    "dji-mavic-3-enterprise": M3E,
+    "dji-zenmuse-p1-24mm": M350_P1,
+    "dji-zenmuse-p1-35mm": M350_P1,
+    "dji-zenmuse-p1-50mm": M350_P1,
+}
+
+
+def aircraft_for(camera_id: str) -> DjiAircraft | None:
+    """The DJI aircraft that carries this camera, or None when it is not one DJI Pilot 2 flies WPML with."""
+    return AIRCRAFT_BY_CAMERA.get(camera_id)
+
+
+def _groups(p: FlightProgram) -> int:
+    """Action groups the waylines hold: the first waypoint's gimbal, and one per program action but camera stops."""
+    return 1 + sum(not isinstance(a, CameraStop) for w in p.waypoints for a in w.actions)
+
+
+def refusal(p: FlightProgram) -> str | None:
+    """Why `p` cannot be written as DJI waylines (with the numbers), or None."""
+    n = len(p.waypoints)
+    if p.vehicle != "copter":
+        return f"vehicle.type = {p.vehicle!r}: the DJI aircraft that fly WPML waylines are copters"
+    if p.altitude_frame != "relative":
+        return ("terrain.mode = 'terrain-frame' has no DJI waypoint-route height mode (waylines take heights relative to "
+                "the take-off point or ellipsoid heights); use terrain.mode = 'follow'")
+    if n > DJI_MAX_WAYPOINTS:
+        return f"{n} waypoints, more than the {DJI_MAX_WAYPOINTS} a DJI wayline holds; fly the sortie files"
+    if n < DJI_MIN_WAYPOINTS:
+        return f"{n} waypoint(s); a DJI wayline needs at least {DJI_MIN_WAYPOINTS}"
+    groups = _groups(p)
+    if groups > DJI_MAX_ACTION_GROUPS:
+        return f"{groups} action groups, more than the {DJI_MAX_ACTION_GROUPS} a DJI wayline numbers; fly the sortie files"
+    if p.speed_ms > DJI_MAX_SPEED_MS:
+        return f"the survey speed {p.speed_ms:.2f} m/s is above the {DJI_MAX_SPEED_MS:g} m/s of DJI waylines"
+    return None
+
+
+def _num(v: float) -> str:
+    return format_number(round(float(v), 8))
+
+
+def _w(parent: etree._Element, tag: str, text: str | float | int | None = None) -> etree._Element:
+    el = etree.SubElement(parent, f"{{{WPML_NS}}}{tag}")
+    if text is not None:
+        el.text = text if isinstance(text, str) else _num(text)
+    return el
+
+
+def _wrap180(deg: float) -> float:
+    return (deg + 180.0) % 360.0 - 180.0
+
+
+def _mission_config(doc: etree._Element, p: FlightProgram, a: DjiAircraft) -> None:
+    c = _w(doc, "missionConfig")
+    _w(c, "flyToWaylineMode", "safely")
+    _w(c, "finishAction", "goHome")
+    _w(c, "exitOnRCLost", "goContinue")
+    _w(c, "executeRCLostAction", "hover")
+    _w(c, "takeOffSecurityHeight", min(max(p.takeoff_alt_m, 1.2), 1500.0))
+    _w(c, "globalTransitionalSpeed", min(p.cruise_speed_ms, DJI_MAX_SPEED_MS))
+    _w(c, "globalRTHHeight", max(w.alt_m for w in p.waypoints))
+    drone = _w(c, "droneInfo")
+    _w(drone, "droneEnumValue", a.drone_enum)
+    _w(drone, "droneSubEnumValue", a.drone_sub_enum)
+    payload = _w(c, "payloadInfo")
+    _w(payload, "payloadEnumValue", a.payload_enum)
+    _w(payload, "payloadPositionIndex", PAYLOAD_POSITION)
+
+
+def _heading(parent: etree._Element, p: FlightProgram, tag: str) -> None:
+    h = _w(parent, tag)
+    if p.fixed_yaw_deg is None:
+        _w(h, "waypointHeadingMode", "followWayline")
+    else:
+        _w(h, "waypointHeadingMode", "smoothTransition")
+        _w(h, "waypointHeadingAngle", _wrap180(p.fixed_yaw_deg))
+    _w(h, "waypointHeadingPathMode", "followBadArc")
+
+
+def _group(pm: etree._Element, gid: int, start: int, end: int, trigger: str, param: float | None = None) -> etree._Element:
+    g = _w(pm, "actionGroup")
+    _w(g, "actionGroupId", gid)
+    _w(g, "actionGroupStartIndex", start)
+    _w(g, "actionGroupEndIndex", end)
+    _w(g, "actionGroupMode", "sequence")
+    t = _w(g, "actionTrigger")
+    _w(t, "actionTriggerType", trigger)
+    if param is not None:
+        _w(t, "actionTriggerParam", param)
+    return g
+
+
+def _action(g: etree._Element, func: str) -> etree._Element:
+    k = len(g.findall(f"{{{WPML_NS}}}action"))
+    act = _w(g, "action")
+    _w(act, "actionId", k)
+    _w(act, "actionActuatorFunc", func)
+    return _w(act, "actionActuatorFuncParam")
+
+
+def _gimbal_rotate(g: etree._Element, pitch: float, bearing: float | None) -> None:
+    prm = _action(g, "gimbalRotate")
+    _w(prm, "gimbalHeadingYawBase", "north")
+    _w(prm, "gimbalRotateMode", "absoluteAngle")
+    _w(prm, "gimbalPitchRotateEnable", 1)
+    _w(prm, "gimbalPitchRotateAngle", pitch)
+    _w(prm, "gimbalRollRotateEnable", 0)
+    _w(prm, "gimbalRollRotateAngle", 0)
+    _w(prm, "gimbalYawRotateEnable", 0 if bearing is None else 1)
+    _w(prm, "gimbalYawRotateAngle", 0 if bearing is None else _wrap180(bearing))
+    _w(prm, "gimbalRotateTimeEnable", 0)
+    _w(prm, "gimbalRotateTime", 0)
+    _w(prm, "payloadPositionIndex", PAYLOAD_POSITION)
+
+
+def _take_photo(g: etree._Element, suffix: str) -> None:
+    prm = _action(g, "takePhoto")
+    _w(prm, "fileSuffix", suffix)
+    _w(prm, "payloadPositionIndex", PAYLOAD_POSITION)
+    _w(prm, "useGlobalPayloadLensIndex", 1)
+
+
+def _actions(pm: etree._Element, p: FlightProgram, i: int, ends: dict[int, int], gid: int) -> int:
+    """The action groups of waypoint `i` into placemark `pm`; returns the next group id."""
+    w = p.waypoints[i]
+    if i == 0:  # the program starts with the camera straight down
+        _gimbal_rotate(_group(pm, gid, 0, 0, "reachPoint"), -90.0, None)
+        gid += 1
+    for a in w.actions:
+        if isinstance(a, Gimbal):
+            _gimbal_rotate(_group(pm, gid, i, i, "reachPoint"), a.pitch_deg, a.bearing_deg if a.yaw_deg != 0 else None)
+        elif isinstance(a, HoverShoot):
+            g = _group(pm, gid, i, i, "reachPoint")
+            if a.hold_s > 0:
+                _w(_action(g, "hover"), "hoverTime", a.hold_s)
+            _take_photo(g, w.tag)
+        elif isinstance(a, CameraStart):
+            trigger, param = ("multipleDistance", a.distance_m) if a.distance_m is not None else ("multipleTiming", a.interval_s)
+            _take_photo(_group(pm, gid, i, ends[i], trigger, param), w.run_id)
+        else:
+            continue  # a camera stop is the end index of its start's group
+        gid += 1
+    return gid
+
+
+def _capture_ends(p: FlightProgram) -> dict[int, int]:
+    """Waypoint index of each camera start → the index of the stop after it (the last waypoint if none)."""
+    ends: dict[int, int] = {}
+    open_at: int | None = None
+    for i, w in enumerate(p.waypoints):
+        for a in w.actions:
+            if isinstance(a, CameraStart):
+                open_at = i
+            elif isinstance(a, CameraStop) and open_at is not None:
+                ends[open_at] = i
+                open_at = None
+    if open_at is not None:
+        ends[open_at] = len(p.waypoints) - 1
+    return ends
+
+
+def _document(p: FlightProgram, a: DjiAircraft, template: bool) -> etree._Element:
+    root = etree.Element(f"{{{KML_NS}}}kml", nsmap=NSMAP)
+    doc = etree.SubElement(root, f"{{{KML_NS}}}Document")
+    if template:
+        _w(doc, "author", "aerosurvey")
+    _mission_config(doc, p, a)
+    folder = etree.SubElement(doc, f"{{{KML_NS}}}Folder")
+    if template:
+        _w(folder, "templateType", "waypoint")
+    _w(folder, "templateId", 0)
+    if template:
+        sys = _w(folder, "waylineCoordinateSysParam")
+        _w(sys, "coordinateMode", "WGS84")
+        _w(sys, "heightMode", "relativeToStartPoint")
+        _w(folder, "autoFlightSpeed", p.speed_ms)
+        _w(folder, "globalWaypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
+        _w(folder, "gimbalPitchMode", "manual")
+        _w(folder, "globalHeight", p.takeoff_alt_m)
+        _heading(folder, p, "globalWaypointHeadingParam")
+        payload = _w(folder, "payloadParam")
+        _w(payload, "payloadPositionIndex", PAYLOAD_POSITION)
+        _w(payload, "imageFormat", a.image_format)
+    else:
+        _w(folder, "executeHeightMode", "relativeToStartPoint")
+        _w(folder, "waylineId", 0)
+        _w(folder, "autoFlightSpeed", p.speed_ms)
+    ends = _capture_ends(p)
+    gid = 0
+    for i, w in enumerate(p.waypoints):
+        pm = etree.SubElement(folder, f"{{{KML_NS}}}Placemark")
+        pt = etree.SubElement(pm, f"{{{KML_NS}}}Point")
+        etree.SubElement(pt, f"{{{KML_NS}}}coordinates").text = f"{_num(w.lon)},{_num(w.lat)}"
+        _w(pm, "index", i)
+        if template:
+            _w(pm, "useGlobalHeight", 0)
+            # heights relative to the take-off point; the reference pairs an ellipsoid height
+            # with every height, which a relative plan does not know: the same value is written
+            _w(pm, "ellipsoidHeight", w.alt_m)
+            _w(pm, "height", w.alt_m)
+            _w(pm, "useGlobalSpeed", 1)
+            _w(pm, "useGlobalHeadingParam", 1)
+            _w(pm, "useGlobalTurnParam", 1)
+        else:
+            _w(pm, "executeHeight", w.alt_m)
+            _w(pm, "waypointSpeed", p.speed_ms)
+            _heading(pm, p, "waypointHeadingParam")
+            turn = _w(pm, "waypointTurnParam")
+            _w(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
+            _w(turn, "waypointTurnDampingDist", 0)
+        gid = _actions(pm, p, i, ends, gid)
+    return root
+
+
+def _xml(root: etree._Element) -> bytes:
+    return bytes(etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True))
+
+
+def kmz_bytes(p: FlightProgram, aircraft: DjiAircraft) -> bytes:
+    """The .kmz (a ZIP archive) of `p` for `aircraft`; equal programs give equal bytes. The
+    caller checks `refusal(p)` first."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, template in ((TEMPLATE, True), (WAYLINES, False)):
+            info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            z.writestr(info, _xml(_document(p, aircraft, template)))
+    return buf.getvalue()

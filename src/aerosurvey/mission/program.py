@@ -1,0 +1,285 @@
+"""The flight program: what one flight does, in order, in no file format's terms.
+
+`flight_program(plan, sortie)` builds it once from the plan, for one sortie (or for the whole
+mission), and every emitter reads it: the MAVLink items (mission/builder.py, for ArduPilot and
+PX4), DJI's WPML waylines (mission/formats/wpml.py). The final gate (mission/gate.py) checks
+its legs against the zones before any emitter runs.
+
+A program is: the home (launch point), the take-off, the survey speed and the yaw mode, the
+waypoints in flight order with their altitude frame ("relative": metres above the launch
+point; "terrain": metres above the terrain under the waypoint) and the actions each one
+starts when it is reached, then the end (return to launch, or land at the launch point, a
+plane after its approach waypoint).
+
+Actions, done in their order when the vehicle reaches their waypoint:
+
+- `Gimbal`: the camera's pitch (gimbal convention, −90 looks straight down) and its yaw
+  relative to the vehicle's nose, at the first waypoint of a run whose pitch (or, tilted,
+  whose yaw) differs from the run before. The mount is taken to point straight down at
+  take-off, so a nadir-only plan has no gimbal action at all.
+- `CameraStart` / `CameraStop`: photos every `distance_m` metres or every `interval_s`
+  seconds from a run's first station to its line end (camera.trigger "distance" or "time";
+  the camera's own intervalometer, "camera", has none).
+- `HoverShoot`: camera.trigger "hover": stop at the station, hold `hold_s` seconds
+  (camera.settle_s), take one photo. Every station of a run is then a waypoint.
+
+Waypoint kinds are the route's (lead_in, line_start, terrain, bend, line_end, transit,
+detour) and "station" for a hover station between them. A "bend" is a corner of a strip:
+the camera stays on through it, as through a "terrain" waypoint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from aerosurvey import ids
+from aerosurvey.errors import InputError
+from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG, approach_lonlat
+from aerosurvey.plan.model import Plan, RouteWaypoint
+
+#: the gimbal's pitch before the first action: straight down, as a survey mount is set
+NADIR_PITCH_DEG = -90.0
+#: waypoint kinds on a photo run between its first station and its line end (the camera is on)
+ON_LINE = ("line_start", "terrain", "bend", "station", "line_end")
+
+
+@dataclass(frozen=True)
+class Gimbal:
+    pitch_deg: float  # gimbal convention: −90 straight down, 0 level
+    yaw_deg: float  # relative to the vehicle's nose, positive to the right, −180..180
+    bearing_deg: float  # the compass bearing the camera looks to (0..360)
+
+
+@dataclass(frozen=True)
+class CameraStart:
+    distance_m: float | None  # one of the two is set
+    interval_s: float | None
+
+
+@dataclass(frozen=True)
+class CameraStop:
+    distance: bool  # True: the distance trigger is stopped; False: the time trigger
+
+
+@dataclass(frozen=True)
+class HoverShoot:
+    hold_s: float  # held still before the one photo
+
+
+Action = Gimbal | CameraStart | CameraStop | HoverShoot
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    lat: float  # degrees, to 1e-8 (about a millimetre)
+    lon: float
+    alt_m: float  # in the program's altitude frame, to a centimetre
+    kind: str
+    run: int  # index into plan.route.runs; -1 for transit
+    tag: str  # the station id, or the run's id and what the waypoint is ("P1-L002-R1:lead-in"), "transit", "detour"
+    run_id: str  # "P1-L002-R1"; "" off the runs
+    heading_deg: float  # the direction of flight on its run (0 off the runs)
+    actions: tuple[Action, ...] = ()
+
+
+@dataclass(frozen=True)
+class Approach:
+    """A plane's landing approach: a waypoint downwind of the launch point, landing into the wind."""
+
+    lat: float
+    lon: float
+    alt_m: float  # above the launch point
+
+
+@dataclass(frozen=True)
+class FlightProgram:
+    name: str
+    vehicle: str  # "copter" or "plane"
+    firmware: str  # "ardupilot" or "px4" (the MAVLink dialect)
+    camera_id: str
+    home: tuple[float, float, float]  # latitude, longitude, ground AMSL of the launch point
+    altitude_frame: str  # "relative" (above the launch point) or "terrain" (above the terrain under each waypoint)
+    takeoff_alt_m: float  # above the launch point
+    takeoff_pitch_deg: float  # a plane's climb pitch; 0 for a copter
+    speed_ms: float  # the survey speed (ground speed; a plane's airspeed in still air)
+    cruise_speed_ms: float  # the vehicle's cruise speed, for transits
+    fixed_yaw_deg: float | None  # None: the nose along the track; else one compass heading for the whole flight
+    waypoints: tuple[Waypoint, ...]
+    end: str  # "rtl" or "land" (at the launch point)
+    approach: Approach | None  # a plane landing: its approach waypoint
+    fence_inclusion: tuple[tuple[tuple[float, float], ...], ...]
+    fence_exclusion: tuple[tuple[tuple[float, float], ...], ...]
+    rally: tuple[tuple[float, float, float], ...]  # latitude, longitude, altitude above the launch point
+
+    @property
+    def yaw_mode(self) -> str:
+        """"along_track" (the nose along the route) or "fixed" (`fixed_yaw_deg` for the whole flight)."""
+        return "along_track" if self.fixed_yaw_deg is None else "fixed"
+
+
+def run_id(plan: Plan, run: int) -> str:
+    r = plan.route.runs[run]
+    return ids.run_id(r.pass_index, r.line, r.part)
+
+
+def _wrap180(deg: float) -> float:
+    return (deg + 180.0) % 360.0 - 180.0
+
+
+def flight_program(plan: Plan, sortie: int | None = None, name: str | None = None) -> FlightProgram:
+    """The program of sortie `sortie` (0-based index into plan.sorties) from its launch site, or
+    of the whole mission from the plan's home when None."""
+    spec = plan.spec
+    if sortie is None:
+        wps: tuple[RouteWaypoint, ...] = plan.waypoints
+        lon, lat, ground = plan.home
+        first_station, last_station = 0, len(plan.stations.ids) - 1
+    else:
+        s, wps = plan.sorties[sortie]
+        site = plan.launch_sites[s.launch]
+        lon, lat, ground = site.lon, site.lat, site.ground_m
+        first_station, last_station = s.first, s.last
+    if spec.camera.trigger == "hover" and spec.vehicle.type == "plane":
+        raise InputError("camera.trigger = 'hover' is not allowed for vehicle.type = 'plane': a plane cannot stop at a station")
+    relative = plan.altitude_frame == "relative"
+    # relative altitudes are above the plan's home; a sortie's launch site is higher or lower
+    shift = plan.home[2] - ground if relative else 0.0
+    waypoints = _waypoints(plan, wps, shift, first_station, last_station)
+    takeoff = waypoints[0].alt_m if relative and waypoints else round(plan.heights.nominal_agl_m, 2)
+    f = spec.flight
+    approach = None
+    if f.end == "land" and spec.vehicle.type == "plane":
+        alon, alat = approach_lonlat(spec, lon, lat)
+        approach = Approach(round(alat, 8), round(alon, 8), round(f.approach_alt_m, 2))
+    # the straight way home crosses a zone: the transit waypoints fly round it and a copter
+    # lands at the launch point rather than leaving the way home to RTL
+    home_detour = bool(wps) and wps[-1].kind == "transit"
+    land = f.end == "land" or (home_detour and spec.vehicle.type == "copter")
+    h = plan.heights.nominal_agl_m
+    return FlightProgram(
+        name=name or spec.name,
+        vehicle=spec.vehicle.type,
+        firmware=spec.vehicle.firmware,
+        camera_id=spec.camera.camera.id,
+        home=(round(lat, 8), round(lon, 8), round(ground, 2)),
+        altitude_frame=plan.altitude_frame,
+        takeoff_alt_m=takeoff,
+        takeoff_pitch_deg=PLANE_TAKEOFF_PITCH_DEG if spec.vehicle.type == "plane" else 0.0,
+        speed_ms=plan.speed.speed_ms,
+        cruise_speed_ms=spec.vehicle.cruise_speed_ms,
+        fixed_yaw_deg=None if f.fixed_yaw_deg is None else float(f.fixed_yaw_deg),
+        waypoints=waypoints,
+        end="land" if land else "rtl",
+        approach=approach,
+        fence_inclusion=plan.fence_inclusion,
+        fence_exclusion=plan.fence_exclusion,
+        # every launch site a rally point, at the survey's height above its ground, as an altitude above this launch point
+        rally=tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2)) for st in plan.launch_sites),
+    )
+
+
+def _tag(plan: Plan, w: RouteWaypoint) -> str:
+    if w.kind in ("transit", "detour"):
+        return w.kind
+    if w.station and w.kind != "line_end":
+        return w.station
+    what = {"lead_in": "lead-in", "line_end": "end"}.get(w.kind, w.kind)
+    return f"{run_id(plan, w.run)}:{what}"
+
+
+def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: int, last: int) -> tuple[Waypoint, ...]:
+    """The route's waypoints with their actions (hover: every station of the sortie's runs too)."""
+    spec = plan.spec
+    st = plan.stations
+    hover = spec.camera.trigger == "hover"
+    if hover:
+        wps = _with_hover_stations(plan, wps, first, last)
+    start, stop = _camera_actions(plan)
+    yaw_fixed = spec.flight.fixed_yaw_deg
+    gimbal = Gimbal(NADIR_PITCH_DEG, 0.0, 0.0)
+    first_of_run = {}
+    for i, w in enumerate(wps):
+        if w.run >= 0 and w.kind in ("lead_in", "line_start", "station") and w.run not in first_of_run:
+            first_of_run[w.run] = i
+    station_of_run = {int(r): int(i) for r, i in zip(*np.unique(st.run, return_index=True))}
+    heading_of_run = {r: float(st.heading_deg[i]) for r, i in station_of_run.items()}
+    out = []
+    relative = plan.altitude_frame == "relative"
+    for i, w in enumerate(wps):
+        actions: list[Action] = []
+        heading = heading_of_run.get(w.run, 0.0) if w.run >= 0 else 0.0
+        if first_of_run.get(w.run) == i and w.run in station_of_run:
+            k = station_of_run[w.run]
+            pitch, bearing = float(st.pitch_deg[k]), float(st.camera_yaw_deg[k]) % 360.0
+            nose = heading if yaw_fixed is None else float(yaw_fixed)
+            want = Gimbal(pitch, _wrap180(bearing - nose), bearing)
+            # a yaw alone matters only to a tilted camera: a nadir-only plan has no gimbal action
+            if want.pitch_deg != gimbal.pitch_deg or (pitch != NADIR_PITCH_DEG and want.yaw_deg != gimbal.yaw_deg):
+                actions.append(want)
+            gimbal = want
+        if hover and w.station and w.kind in ("line_start", "terrain", "bend", "station"):
+            actions.append(HoverShoot(spec.camera.settle_s))
+        elif w.kind == "line_start" and start is not None:
+            actions.append(start)
+        elif w.kind == "line_end" and stop is not None:
+            actions.append(stop)
+        alt = w.alt_m + (shift if relative else 0.0)
+        out.append(Waypoint(round(w.lat, 8), round(w.lon, 8), round(alt, 2), w.kind, w.run, _tag(plan, w),
+                            run_id(plan, w.run) if w.run >= 0 else "", heading, tuple(actions)))
+    return tuple(out)
+
+
+def _camera_actions(plan: Plan) -> tuple[CameraStart | None, CameraStop | None]:
+    trig = plan.spec.camera.trigger
+    if trig == "distance":
+        assert plan.trigger_distance_m is not None
+        return CameraStart(plan.trigger_distance_m, None), CameraStop(distance=True)
+    if trig == "time":
+        assert plan.trigger_interval_s is not None
+        return CameraStart(None, plan.trigger_interval_s), CameraStop(distance=False)
+    return None, None
+
+
+def _station_waypoint(plan: Plan, n: int) -> RouteWaypoint:
+    st = plan.stations
+    return RouteWaypoint(float(st.x[n]), float(st.y[n]), float(st.lon[n]), float(st.lat[n]), float(st.alt_rel_m[n]),
+                         "station", int(st.run[n]), st.ids[n])
+
+
+def _with_hover_stations(plan: Plan, wps: tuple[RouteWaypoint, ...], first: int, last: int) -> tuple[RouteWaypoint, ...]:
+    """The route with every station of the flight (stations first..last) on its run's line, in the
+    order they lie along it: a waypoint already on a station stays (and shoots there), the
+    others ("station") are inserted between the line's waypoints."""
+    st = plan.stations
+    out: list[RouteWaypoint] = []
+    i = 0
+    while i < len(wps):
+        w = wps[i]
+        if w.kind != "line_start":
+            out.append(w)
+            i += 1
+            continue
+        j = i
+        while j < len(wps) and wps[j].run == w.run and wps[j].kind in ON_LINE:
+            j += 1
+        line = list(wps[i:j])
+        on_line = {p.station for p in line if p.station}
+        k = np.flatnonzero(st.run == w.run)
+        k = k[(k >= first) & (k <= last)]
+        extra = [int(n) for n in k if st.ids[n] not in on_line]
+        if len(line) > 1 and extra:
+            path = shapely.LineString([(p.x, p.y) for p in line])
+            at_vertex = [path.project(shapely.Point(p.x, p.y)) for p in line]
+            at_station = shapely.line_locate_point(path, shapely.points(st.x[extra], st.y[extra]))
+            # by the distance along the line; a station never lies on a line waypoint it is not tagged with
+            merged = sorted([(d, 0, p) for d, p in zip(at_vertex, line)]
+                            + [(float(d), 1, _station_waypoint(plan, n)) for n, d in zip(extra, at_station)],
+                            key=lambda t: (t[0], t[1]))
+            out.extend(p for _, _, p in merged)
+        else:
+            out.extend(line)
+        i = j
+    return tuple(out)
