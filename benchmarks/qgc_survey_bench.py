@@ -40,7 +40,7 @@ from click.testing import CliRunner  # noqa: E402
 import independent_qgc as qgc  # noqa: E402
 from aerosurvey.cli import main  # noqa: E402
 
-EXAMPLES = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem"]
+EXAMPLES = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem", "oblique-block"]  # road-corridor: no Survey item
 
 
 def area_outline(folder: Path) -> list[list[float]]:

@@ -345,8 +345,8 @@ def _alternate(plan: Plan, pass_index: int) -> bool:
 
 
 def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
-    """A Survey item for each of the mission's pass blocks; the mission flies stations
-    `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
+    """A Survey item for each of the mission's pass blocks (none for a corridor); the mission
+    flies stations `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
     last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
     spec, cam = plan.spec, plan.spec.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
@@ -357,7 +357,12 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
         mode = DISTANCE_CALC_ABOVE_TERRAIN
     else:
         mode = DISTANCE_RELATIVE
-    out = []
+    out: list[QgcSurvey] = []
+    if plan.spec.pattern.kind == "corridor":
+        # a corridor's strips bend, and are split at sharp bends: a Survey item would regenerate
+        # straight lines (the road example: 4 for our 12 runs, their ends up to 2.6 km from ours),
+        # and QGroundControl's Corridor Scan flies through every bend; its passes stay plain items
+        return ()
     for p, a, b in survey_blocks(m):
         ring, fit = survey_geometry(plan, p)
         spacing = fit.spacing
