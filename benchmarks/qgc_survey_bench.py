@@ -40,7 +40,7 @@ from click.testing import CliRunner  # noqa: E402
 import independent_qgc as qgc  # noqa: E402
 from aerosurvey.cli import main  # noqa: E402
 
-EXAMPLES = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem", "oblique-block"]  # road-corridor: no Survey item
+EXAMPLES = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem", "oblique-block", "road-corridor"]
 
 
 def area_outline(folder: Path) -> list[list[float]]:
@@ -83,10 +83,11 @@ def main_() -> None:
                 raise SystemExit(f"{ex}: plan failed: {res.output}")
             outline = area_outline(out)
             mission_doc = json.loads((out / "mission.plan").read_text(encoding="utf-8"))
-            whole = {}
+            whole, whole_paths = {}, {}
             for it in (it for it in mission_doc["mission"]["items"] if it["type"] == "ComplexItem"):
                 stored = it["TransectStyleComplexItem"]["Items"]
                 whole[stored[0]["aerosurveyTag"][:2]] = qgc.flown_lines(stored)
+                whole_paths[stored[0]["aerosurveyTag"][:2]] = (qgc.flown_paths(stored), len({i["aerosurveyTag"][:7] for i in stored}))
             for path in sorted(out.glob("*.plan")):
                 doc = json.loads(path.read_text(encoding="utf-8"))
                 problems = qgc.plan_problems(doc)
@@ -94,6 +95,13 @@ def main_() -> None:
                     raise SystemExit(f"{path.name}: QGroundControl would refuse it: {problems[:3]}")
                 for item in (it for it in doc["mission"]["items"] if it["type"] == "ComplexItem"):
                     items = item["TransectStyleComplexItem"]["Items"]
+                    if item["complexItemType"] == "CorridorScan":  # against the whole pass, as for a survey
+                        c = qgc.compare_corridor(item, *whole_paths[items[0]["aerosurveyTag"][:2]])
+                        print(f"{ex:24} {path.name:16} corridor: QGC transects {c['qgc_transects']} for our {c['our_lines']} "
+                              f"lines ({c['our_runs']} runs); QGC's vertices within {c['max_qgc_vertex_from_ours_m']:.3f} m of "
+                              f"our runs, our runs' points within {c['max_ours_from_qgc_m']:.3f} m of its transects; "
+                              f"photos {c['qgc_shots']}/{c['written_shots']}")
+                        continue
                     p = items[0]["aerosurveyTag"][:2]
                     variants = [("strips", item)] + ([("area", {**item, "polygon": outline})] if args.area else [])
                     for name, survey in variants:

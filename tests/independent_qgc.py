@@ -102,6 +102,22 @@ def camera_calc_problems(c: Any, where: str) -> list[str]:
     return out
 
 
+def corridor_problems(it: dict[str, Any], where: str) -> list[str]:
+    """CorridorScanComplexItem::_loadWorker (version 2), QGCMapPolyline::loadFromJson, then the
+    TransectStyleComplexItem as for a Survey."""
+    out = validate_keys(it, [("version", NUMBER, True), ("type", STRING, True), ("complexItemType", STRING, True),
+                             ("CorridorWidth", NUMBER, True), ("EntryPoint", NUMBER, True), ("polyline", ARRAY, True),
+                             ("TransectStyleComplexItem", OBJECT, True)], where)
+    if it.get("version") != 2:
+        out.append(f"{where}: CorridorScan version {it.get('version')!r}, 2 expected")
+    if it.get("EntryPoint") not in (0, 1, 2, 3):
+        out.append(f"{where}: EntryPoint {it.get('EntryPoint')!r} is not 0-3")
+    out += _coords(it.get("polyline", []), f"{where} polyline", altitude=False)
+    if len(it.get("polyline", [])) < 2:
+        out.append(f"{where}: polyline has fewer than 2 vertices")
+    return out + transect_problems(it.get("TransectStyleComplexItem", {}), f"{where} TransectStyleComplexItem")
+
+
 def survey_problems(it: dict[str, Any], where: str) -> list[str]:
     """SurveyComplexItem::load -> _loadV4V5 (version 5), QGCMapPolygon::loadFromJson,
     TransectStyleComplexItem::_load (version 2), CameraCalc::load, MissionItem::load of each Items entry."""
@@ -117,10 +133,14 @@ def survey_problems(it: dict[str, Any], where: str) -> list[str]:
     out += _coords(it.get("polygon", []), f"{where} polygon", altitude=False)
     if len(it.get("polygon", [])) < 3:
         out.append(f"{where}: polygon has fewer than 3 vertices (QGroundControl draws nothing)")
-    inner = it.get("TransectStyleComplexItem", {})
-    w = f"{where} TransectStyleComplexItem"
+    return out + transect_problems(it.get("TransectStyleComplexItem", {}), f"{where} TransectStyleComplexItem")
+
+
+def transect_problems(inner: Any, w: str) -> list[str]:
+    """TransectStyleComplexItem::_load (version 2), CameraCalc::load, MissionItem::load of each Items entry."""
+    out: list[str] = []
     if not isinstance(inner, dict):
-        return out
+        return [f"{w}: not an object"]
     if inner.get("version") != 2:
         out.append(f"{w}: version {inner.get('version')!r}, 2 expected")
     out += validate_keys(inner, [("version", NUMBER, True), ("TurnAroundDistance", NUMBER, True),
@@ -158,6 +178,8 @@ def plan_problems(doc: Any) -> list[str]:
             out += mission_item_problems(it, where)
         elif it["type"] == "ComplexItem" and it.get("complexItemType") == "survey":
             out += survey_problems(it, where)
+        elif it["type"] == "ComplexItem" and it.get("complexItemType") == "CorridorScan":
+            out += corridor_problems(it, where)
         else:
             out.append(f"{where}: {it.get('type')!r}/{it.get('complexItemType')!r} is not written by aerosurvey")
     return out
@@ -311,6 +333,48 @@ def sphere_distance(a: tuple[float, float], b: tuple[float, float]) -> float:
     return 2 * R_QGEO * math.asin(math.sqrt(h))
 
 
+def offset_polyline(pts: np.ndarray, d: float) -> np.ndarray:
+    """QGCMapPolyline::offsetPolyline on the plane: each edge moved `d` to its left, the first and
+    last vertices so moved, the inner ones where consecutive moved edges meet (mitred)."""
+    edges = []
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
+        t = (b - a) / float(np.hypot(*(b - a)))
+        left = np.array([-t[1], t[0]])
+        edges.append((a + d * left, b + d * left))
+    out = [edges[0][0]]
+    for (a0, a1), (b0, b1) in zip(edges[:-1], edges[1:], strict=True):
+        da, db = a1 - a0, b1 - b0
+        den = da[0] * db[1] - da[1] * db[0]
+        out.append(a1 if den == 0 else a0 + ((b0[0] - a0[0]) * db[1] - (b0[1] - a0[1]) * db[0]) / den * da)
+    out.append(edges[-1][1])
+    return np.array(out)
+
+
+def regenerate_corridor(item: dict[str, Any]) -> tuple[list[np.ndarray], int, tuple[float, float]]:
+    """CorridorScanComplexItem::_rebuildTransectsPhase1: the transects (on the plane at the
+    polyline's first vertex, flight order), the camera shots (_recalcCameraShots, no trigger in
+    turns: ⌈polyline length / trigger⌉ per transect) and the plane's origin."""
+    line = item["polyline"]
+    lat0, lon0 = line[0]
+    pts = to_plane(np.array([p[0] for p in line]), np.array([p[1] for p in line]), lat0, lon0)
+    pts[0] = (0.0, 0.0)
+    cam = item["TransectStyleComplexItem"]["CameraCalc"]
+    spacing = float(cam["AdjustedFootprintSide"])
+    spacing = FORCED_SPACING if spacing < MIN_SPACING else spacing
+    width = float(item["CorridorWidth"])
+    count = math.ceil(width / spacing) if width > 0 else 1
+    transects = [offset_polyline(pts, 0.0 if count == 1 else width / 2.0 - spacing / 2.0 - k * spacing) for k in range(count)]
+    entry = int(item["EntryPoint"])
+    if entry in (1, 3):
+        transects = transects[::-1]
+    if entry in (2, 3):
+        transects = [t[::-1] for t in transects]
+    transects = [t[::-1] if i % 2 else t for i, t in enumerate(transects)]
+    length = sum(sphere_distance(tuple(a), tuple(b)) for a, b in zip(line[:-1], line[1:], strict=True))
+    trigger = float(cam["AdjustedFootprintFrontal"])
+    return transects, (math.ceil(length / trigger) * count if trigger > 0 else 0), (lat0, lon0)
+
+
 # ------------------------------------------------------------------ our lines, read from the items
 
 
@@ -329,6 +393,49 @@ def flown_lines(items: list[dict[str, Any]]) -> list[list[tuple[float, float]]]:
             start = None
         after_lead_in = tag.endswith(":lead-in")
     return out
+
+
+def flown_paths(items: list[dict[str, Any]]) -> list[list[tuple[float, float]]]:
+    """Each photo run's path, by the items' aerosurveyTag: its first station, its bends, its end."""
+    out: list[list[tuple[float, float]]] = []
+    path: list[tuple[float, float]] | None = None
+    after_lead_in = False
+    for it in items:
+        if it["command"] != 16:
+            continue
+        tag, pos = it.get("aerosurveyTag", ""), (it["params"][4], it["params"][5])
+        if after_lead_in:
+            path = [pos]
+        elif path is not None and tag.endswith(":bend"):
+            path.append(pos)
+        elif path is not None and tag.endswith(":end"):
+            out.append(path + [pos])
+            path = None
+        after_lead_in = tag.endswith(":lead-in")
+    return out
+
+
+def compare_corridor(item: dict[str, Any], ours: list[list[tuple[float, float]]], lines: int) -> dict[str, float]:
+    """How QGroundControl's regenerated corridor transects differ from our runs (each line's
+    runs flown one after another): transects against lines, and the largest distance of our
+    runs' points from the QGC transect of the same rank (and back)."""
+    import shapely
+
+    transects, shots, origin = regenerate_corridor(item)
+    per_line = len(ours) // lines if lines else 0
+    worst, worst_back = 0.0, 0.0
+    for k, t in enumerate(transects[:lines]):
+        runs = ours[k * per_line:(k + 1) * per_line]
+        pts = np.array([p for r in runs for p in r], float)
+        xy = to_plane(pts[:, 0], pts[:, 1], *origin)
+        qgc_line = shapely.LineString(t)
+        worst = max(worst, float(max(qgc_line.distance(shapely.Point(p)) for p in xy)))
+        ours_lines = shapely.MultiLineString([to_plane(np.array([p[0] for p in r]), np.array([p[1] for p in r]), *origin)
+                                              for r in runs])
+        worst_back = max(worst_back, float(max(ours_lines.distance(shapely.Point(p)) for p in t)))
+    return {"qgc_transects": len(transects), "our_lines": lines, "our_runs": len(ours),
+            "max_ours_from_qgc_m": worst, "max_qgc_vertex_from_ours_m": worst_back,
+            "qgc_shots": shots, "written_shots": int(item["TransectStyleComplexItem"]["CameraShots"])}
 
 
 def compare(survey: dict[str, Any], ours: list[list[tuple[float, float]]]) -> dict[str, float]:

@@ -30,7 +30,9 @@ writes every whole float as an integer.
 
 Survey items (`surveys`, from mission/formats/qgc_survey.py): a run of items that flies one
 photo pass is written as one QGroundControl Survey complex item (complexItemType "survey",
-version 5) holding a TransectStyleComplexItem (version 2) with those items as `Items`, which
+version 5; a corridor's pass as a Corridor Scan, "CorridorScan", version 2, with a polyline
+and a width in place of the polygon and angle) holding a TransectStyleComplexItem (version 2)
+with those items as `Items`, which
 QGroundControl uploads as they are while the plan is not edited, and the polygon, angle,
 spacing, turnaround and CameraCalc (version 2) its own generator rebuilds the pass from when
 it is (docs/clients/qgroundcontrol.md). The items keep their doJumpId (their sequence number)
@@ -60,6 +62,7 @@ if TYPE_CHECKING:
 
 PLAN_FILE_VERSION = 1
 SURVEY_VERSION = 5
+CORRIDOR_VERSION = 2
 TRANSECT_STYLE_VERSION = 2
 CAMERA_CALC_VERSION = 2
 #: complex items whose stored `Items` the reader takes (TransectStyleComplexItem's children)
@@ -151,7 +154,8 @@ def _fence_polygons(m: Mission) -> list[dict[str, Any]]:
 
 
 def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
-    """A Survey complex item as QGroundControl saves it (SurveyComplexItem::_saveCommon,
+    """A Survey (or, for a corridor, a Corridor Scan) complex item as QGroundControl saves it
+    (SurveyComplexItem::_saveCommon, CorridorScanComplexItem::_saveCommon,
     TransectStyleComplexItem::_save, CameraCalc::save, CameraSpec::save)."""
     where = f"survey item of pass {s.pass_index}"
     c = s.camera
@@ -196,6 +200,18 @@ def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
                      "TerrainAdjustMaxDescentRate": num(s.max_descent_ms, "descent rate"),
                      "TerrainAdjustTolerance": num(s.terrain_tolerance_m, "terrain tolerance"),
                      "TerrainFlightSpeed": num(s.flight_speed_ms, "flight speed")}
+    if s.corridor_polyline:  # CorridorScanComplexItem::_saveCommon
+        if len(s.corridor_polyline) < 2:
+            raise InputError(f"{where} polyline has {len(s.corridor_polyline)} vertices; a corridor needs at least 2")
+        return {
+            "CorridorWidth": num(s.corridor_width_m, "corridor width"),
+            "EntryPoint": s.entry_location,
+            "TransectStyleComplexItem": transect,
+            "complexItemType": "CorridorScan",
+            "polyline": [[num(lat, "polyline latitude"), num(lon, "polyline longitude")] for lat, lon in s.corridor_polyline],
+            "type": "ComplexItem",
+            "version": CORRIDOR_VERSION,
+        }
     if len(s.polygon) < 3:
         raise InputError(f"{where} polygon has {len(s.polygon)} vertices; a survey polygon needs at least 3")
     return {

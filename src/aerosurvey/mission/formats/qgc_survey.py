@@ -75,7 +75,7 @@ class QgcSurvey:
     first: int
     last: int
     pass_index: int
-    polygon: tuple[tuple[float, float], ...]  # (latitude, longitude), open ring, vertex 0 the projection's origin
+    polygon: tuple[tuple[float, float], ...]  # (latitude, longitude), open ring, vertex 0 the projection's origin; () for a corridor
     angle_deg: float
     entry_location: int
     fly_alternate: bool
@@ -92,6 +92,9 @@ class QgcSurvey:
     max_descent_ms: float
     flight_speed_ms: float
     visual_points: tuple[tuple[float, float], ...]  # (latitude, longitude) of the items' positions, in order
+    # a corridor's pass: a Corridor Scan item (its polyline and width; polygon, angle and alternate unused)
+    corridor_polyline: tuple[tuple[float, float], ...] = ()  # (latitude, longitude)
+    corridor_width_m: float = 0.0
 
 
 def survey_blocks(m: Mission) -> list[tuple[int, int, int]]:
@@ -344,9 +347,83 @@ def _alternate(plan: Plan, pass_index: int) -> bool:
     return k == want
 
 
+def _run_paths(plan: Plan, pass_index: int) -> dict[tuple[int, int], np.ndarray]:
+    """(line, part) → lon/lat of each run's waypoints from where its camera is switched on
+    to where it is switched off (its start, bends, end)."""
+    runs = plan.route.runs
+    paths: dict[tuple[int, int], list[tuple[float, float]]] = {}
+    for w in plan.waypoints:
+        r = runs[w.run] if w.run >= 0 else None
+        if r is not None and r.pass_index == pass_index and w.kind in ("line_start", "bend", "line_end"):
+            paths.setdefault((r.line, r.part), []).append((w.lon, w.lat))
+    return {k: np.array(v) for k, v in paths.items()}
+
+
+def _cross_point(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Where the line through a0, a1 meets the line through b0, b1 (their mid-point when parallel)."""
+    da, db = a1 - a0, b1 - b0
+    den = da[0] * db[1] - da[1] * db[0]
+    if abs(den) < 1e-9 * float(np.hypot(*da) * np.hypot(*db)):
+        return np.asarray((a1 + b0) / 2.0, float)
+    t = ((b0[0] - a0[0]) * db[1] - (b0[1] - a0[1]) * db[0]) / den
+    return np.asarray(a0 + t * da, float)
+
+
+def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, float, int] | None:
+    """(polyline lon/lat, corridor width, spacing, entry point) of a Corridor Scan item for a
+    corridor's pass, or None when its strips are not the offsets of one polyline.
+
+    QGroundControl (CorridorScanComplexItem::_rebuildTransectsPhase1) flies ⌈width / spacing⌉
+    transects, the polyline offset to the left by width/2 - spacing/2 - k·spacing (k = 0 … ;
+    QGCMapPolyline::offsetPolyline, mitred), each through every vertex, every second one
+    reversed; `EntryPoint` 1 starts at the right, 2 at the polyline's end. Our strips are the
+    centreline offset to a line's ordinate, mitred too, each split into parts at sharp bends
+    (each part runs on past the bend). The polyline written is the middle of our strips: per
+    part, the mean of the lines' paths (vertex for vertex), the parts joined where their
+    middles' end segments meet; the width is the lines' count times their spacing."""
+    paths = _run_paths(plan, pass_index)
+    lines = sorted({ln for ln, _ in paths})
+    parts = sorted({pt for _, pt in paths})
+    if any((ln, pt) not in paths for ln in lines for pt in parts):
+        return None
+    origin = paths[(lines[0], parts[0])][0]
+    tr = _to_tangent(float(origin[1]), float(origin[0]))
+    en = {k: np.column_stack(tr.transform(v[:, 0], v[:, 1])) for k, v in paths.items()}
+    pieces = []
+    for pt in parts:
+        ref = en[(lines[0], pt)]
+        same_way = [v if float((v[-1] - v[0]) @ (ref[-1] - ref[0])) > 0 else v[::-1] for v in (en[(ln, pt)] for ln in lines)]
+        if len({len(v) for v in same_way}) != 1:
+            return None
+        pieces.append(np.mean(same_way, axis=0))
+    # the parts in the order the first line flies them
+    first = plan.route.runs[next(k for k, r in enumerate(plan.route.runs) if r.pass_index == pass_index)]
+    if first.part != parts[0]:
+        pieces = [p[::-1] for p in reversed(pieces)]
+    poly = [pieces[0][:-1]]
+    for a, b in zip(pieces[:-1], pieces[1:], strict=True):
+        poly.append(_cross_point(a[-2], a[-1], b[0], b[1])[None, :])
+        poly.append(b[1:-1])
+    poly.append(pieces[-1][-1:])
+    line = np.concatenate([p for p in poly if len(p)])
+    start = en[(first.line, first.part)]
+    if float((start[-1] - start[0]) @ (line[1] - line[0])) < 0:  # the polyline runs the way our first run flies
+        line = line[::-1]
+    d = (line[1] - line[0]) / float(np.hypot(*(line[1] - line[0])))
+    left = np.array([-d[1], d[0]])
+    offsets = np.array([float((en[(ln, parts[0])].mean(axis=0) - pieces[0].mean(axis=0)) @ left) for ln in lines])
+    spacing = float(np.median(np.abs(np.diff(offsets)))) if len(lines) > 1 else plan.spacing_m
+    # QGroundControl's first transect is its leftmost; ours starts on the first line flown
+    entry = 0 if offsets[lines.index(first.line)] >= offsets.max() - spacing / 2.0 else 1
+    lon, lat = tr.transform(line[:, 0], line[:, 1], direction="INVERSE")
+    # QGroundControl flies ⌈width / spacing⌉ transects: a hair under our lines' count times the spacing
+    return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
+
+
 def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
-    """A Survey item for each of the mission's pass blocks (none for a corridor); the mission
-    flies stations `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
+    """A Survey item for each of the mission's pass blocks (a Corridor Scan item for a corridor's,
+    where its strips are the offsets of one polyline); the mission flies stations
+    `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
     last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
     spec, cam = plan.spec, plan.spec.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
@@ -358,14 +435,23 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
     else:
         mode = DISTANCE_RELATIVE
     out: list[QgcSurvey] = []
-    if plan.spec.pattern.kind == "corridor":
-        # a corridor's strips bend, and are split at sharp bends: a Survey item would regenerate
-        # straight lines (the road example: 4 for our 12 runs, their ends up to 2.6 km from ours),
-        # and QGroundControl's Corridor Scan flies through every bend; its passes stay plain items
-        return ()
     for p, a, b in survey_blocks(m):
-        ring, fit = survey_geometry(plan, p)
-        spacing = fit.spacing
+        polygon: tuple[tuple[float, float], ...] = ()
+        polyline: tuple[tuple[float, float], ...] = ()
+        width, angle = 0.0, 0.0
+        if spec.pattern.kind == "corridor":
+            # a corridor's strips bend: a Survey item would regenerate straight lines (the road
+            # example: 4 for our 12 runs, their ends up to 2.6 km from ours); a Corridor Scan item
+            # offsets one polyline instead
+            found = corridor_geometry(plan, p)
+            if found is None:  # the pass stays plain items
+                continue
+            line, width, spacing, entry = found
+            polyline = tuple((float(lat), float(lon)) for lon, lat in line)
+        else:
+            ring, fit = survey_geometry(plan, p)
+            polygon = tuple((float(lat), float(lon)) for lon, lat in ring)
+            spacing, angle, entry = fit.spacing, fit.angle, 2 * fit.reverse_points + fit.reverse_lines
         items = m.items[a:b + 1]
         tags = {it.tag.split(":")[0] for it in items}
         runs = [k for k, rid in enumerate(run_ids) if rid in tags]
@@ -381,13 +467,13 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
                            100.0 * (1.0 - trigger / (front_px * gsd_cm / 100.0)),
                            100.0 * (1.0 - spacing / (side_px * gsd_cm / 100.0)))
         out.append(QgcSurvey(
-            first=a, last=b, pass_index=p, polygon=tuple((float(lat), float(lon)) for lon, lat in ring),
-            angle_deg=fit.angle, entry_location=2 * fit.reverse_points + fit.reverse_lines,
-            fly_alternate=_alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
+            first=a, last=b, pass_index=p, polygon=polygon, angle_deg=angle, entry_location=entry,
+            fly_alternate=not polyline and _alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
             turnaround_m=plan.lead_in_m, distance_m=distance, distance_mode=mode, hover=spec.camera.trigger == "hover",
             camera_shots=shots, camera=camera, terrain_tolerance_m=spec.terrain.tolerance_m if mode == DISTANCE_CALC_ABOVE_TERRAIN else 0.0,
             max_climb_ms=spec.vehicle.climb_rate_ms, max_descent_ms=spec.vehicle.descent_rate_ms,
             flight_speed_ms=plan.speed.speed_ms,
             visual_points=tuple((it.x, it.y) for it in items if it.has_position),
+            corridor_polyline=polyline, corridor_width_m=width,
         ))
     return tuple(out)
