@@ -389,33 +389,32 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     origin = paths[(lines[0], parts[0])][0]
     tr = _to_tangent(float(origin[1]), float(origin[0]))
     en = {k: np.column_stack(tr.transform(v[:, 0], v[:, 1])) for k, v in paths.items()}
-    pieces = []
+    pieces = []  # per part, the middle of the lines' paths, each the way the first line's path of that part runs
     for pt in parts:
         ref = en[(lines[0], pt)]
         same_way = [v if float((v[-1] - v[0]) @ (ref[-1] - ref[0])) > 0 else v[::-1] for v in (en[(ln, pt)] for ln in lines)]
         if len({len(v) for v in same_way}) != 1:
             return None
         pieces.append(np.mean(same_way, axis=0))
-    # the parts in the order the first line flies them
-    first = plan.route.runs[next(k for k, r in enumerate(plan.route.runs) if r.pass_index == pass_index)]
-    if first.part != parts[0]:
-        pieces = [p[::-1] for p in reversed(pieces)]
-    poly = [pieces[0][:-1]]
-    for a, b in zip(pieces[:-1], pieces[1:], strict=True):
-        poly.append(_cross_point(a[-2], a[-1], b[0], b[1])[None, :])
-        poly.append(b[1:-1])
-    poly.append(pieces[-1][-1:])
-    line = np.concatenate([p for p in poly if len(p)])
-    start = en[(first.line, first.part)]
-    if float((start[-1] - start[0]) @ (line[1] - line[0])) < 0:  # the polyline runs the way our first run flies
-        line = line[::-1]
-    d = (line[1] - line[0]) / float(np.hypot(*(line[1] - line[0])))
-    left = np.array([-d[1], d[0]])
+    # each line's offset to the left of the first part's middle (by its chord)
+    chord = pieces[0][-1] - pieces[0][0]
+    left = np.array([-chord[1], chord[0]]) / float(np.hypot(*chord))
     offsets = np.array([float((en[(ln, parts[0])].mean(axis=0) - pieces[0].mean(axis=0)) @ left) for ln in lines])
+    # joined in the order the first line flies its parts (each piece runs its way)
+    flight = [pieces[parts.index(r.part)] for r in plan.route.runs if r.pass_index == pass_index and r.line == lines[0]]
+    line = [flight[0][:-1]]
+    for a, b in zip(flight[:-1], flight[1:], strict=True):
+        line += [_cross_point(a[-2], a[-1], b[0], b[1])[None, :], b[1:-1]]
+    polyline = np.concatenate([*line, flight[-1][-1:]])
+    first = plan.route.runs[next(k for k, r in enumerate(plan.route.runs) if r.pass_index == pass_index)]
+    flown = en[(first.line, first.part)]
+    piece = pieces[parts.index(first.part)]
+    if float((flown[-1] - flown[0]) @ (piece[-1] - piece[0])) < 0:  # the polyline runs the way our first run flies
+        polyline, offsets = polyline[::-1], -offsets
     spacing = float(np.median(np.abs(np.diff(offsets)))) if len(lines) > 1 else plan.spacing_m
-    # QGroundControl's first transect is its leftmost; ours starts on the first line flown
+    # QGroundControl's first transect is its leftmost (EntryPoint 0); ours starts on the first line flown
     entry = 0 if offsets[lines.index(first.line)] >= offsets.max() - spacing / 2.0 else 1
-    lon, lat = tr.transform(line[:, 0], line[:, 1], direction="INVERSE")
+    lon, lat = tr.transform(polyline[:, 0], polyline[:, 1], direction="INVERSE")
     # QGroundControl flies ⌈width / spacing⌉ transects: a hair under our lines' count times the spacing
     return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
 
