@@ -47,6 +47,7 @@ import pyproj
 import shapely
 
 import independent_coverage as ic
+from independent_qgc import uploaded_items
 
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19
 NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_LOITER_TO_ALT, NAV_SPLINE_WAYPOINT = 20, 21, 22, 31, 82
@@ -240,9 +241,10 @@ def plan_items_differ(doc: dict[str, Any], home: Item, items: list[Item]) -> str
     ph = m.get("plannedHomePosition") or [0.0, 0.0, 0.0]
     if abs(ph[0] - home.lat) > 1e-7 or abs(ph[1] - home.lon) > 1e-7:
         return f"home {ph[:2]} in the .plan, {[home.lat, home.lon]} in the .waypoints"
-    simple = [it for it in m.get("items", []) if it.get("type") == "SimpleItem"]
-    if len(simple) != len(m.get("items", [])) or len(simple) != len(items):
-        return f"{len(m.get('items', []))} items in the .plan, {len(items)} in the .waypoints"
+    # what QGroundControl uploads: SimpleItems, and a Survey item's stored Items
+    simple = uploaded_items(doc) if "items" in m else []
+    if any(it.get("type") != "SimpleItem" for it in simple) or len(simple) != len(items):
+        return f"{len(simple)} items in the .plan, {len(items)} in the .waypoints"
     for k, (a, b) in enumerate(zip(simple, items), start=1):
         lat, lon = (a["params"][4] or 0.0), (a["params"][5] or 0.0)
         if a["command"] != b.command or abs(lat - b.lat) > 1e-7 or abs(lon - b.lon) > 1e-7:

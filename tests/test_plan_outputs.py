@@ -59,7 +59,9 @@ def test_outputs_load_and_join(tmp_path):
     assert doc["fileType"] == "Plan" and doc["version"] == 1 and doc["mission"]["version"] == 2
     assert doc["mission"]["firmwareType"] == 3 and doc["mission"]["vehicleType"] == 2
     assert len(doc["mission"]["plannedHomePosition"]) == 3
-    assert all(len(i["params"]) == 7 and i["type"] == "SimpleItem" for i in doc["mission"]["items"])
+    # each photo pass is a QGroundControl Survey item (tests/mission/test_qgc_survey.py checks them)
+    assert {i["type"] for i in doc["mission"]["items"]} == {"SimpleItem", "ComplexItem"}
+    assert all(len(i["params"]) == 7 for i in doc["mission"]["items"] if i["type"] == "SimpleItem")
     # GeoJSON roles and ids join the manifest
     fc = json.loads((out / "plan.geojson").read_text())
     roles = {f["properties"]["role"] for f in fc["features"]}

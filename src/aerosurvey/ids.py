@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from typing import NamedTuple
 
 _STATION = re.compile(r"^P(\d+)-L(\d{3,})-S(\d{4,})$")
+_PASS = re.compile(r"^P(\d+)-L\d{3,}(?:$|-)")
 
 
 class StationRef(NamedTuple):
@@ -60,6 +61,13 @@ def parse_station_id(text: str) -> StationRef:
     if m is None:
         raise ValueError(f"{text!r} is not a station id (P<pass>-L<line>-S<station>, e.g. P1-L003-S0042)")
     return StationRef(int(m.group(1)), int(m.group(2)) - 1, int(m.group(3)) - 1)
+
+
+def pass_of(text: str) -> int | None:
+    """The pass of a line, run or station id, or of a mission item's tag that starts with one
+    (``P1-L003-R2:lead-in``); None for any other text (``takeoff``, ``detour`` …)."""
+    m = _PASS.match(text)
+    return int(m.group(1)) if m else None
 
 
 def sortie_id(number: int) -> str:

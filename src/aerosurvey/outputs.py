@@ -13,9 +13,10 @@ from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
-from aerosurvey.mission.formats import wpml
+from aerosurvey.mission.formats import QGC_LAYOUTS, wpml
 from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
+from aerosurvey.mission.formats.qgc_survey import survey_items
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
@@ -87,10 +88,20 @@ def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
     return evaluate(profiles, ev), ev.points, ev
 
 
-def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
+def plan_text(plan: Plan, m: Mission, qgc: str, stations: tuple[int, int] | None = None) -> str:
+    """A mission's .plan: with `qgc` "survey" each photo pass in a QGroundControl Survey item,
+    with "items" every item plain; the mission flies `stations` (first, last in flight order; all
+    when None)."""
+    if qgc not in QGC_LAYOUTS:
+        raise ValueError(f"qgc = {qgc!r}: one of {', '.join(QGC_LAYOUTS)}")
+    surveys = survey_items(plan, m, *(stations or (0, None))) if qgc == "survey" else ()
+    return dumps_plan(m, surveys)
+
+
+def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) -> Rendered:
     """File name → text of every output (the manifest last: it lists the others' hashes);
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
-    is made when asked)."""
+    is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`)."""
     # one flight program per file stem (the whole mission and each sortie), checked once, then emitted
     programs = {"mission": flight_program(plan, name=plan.spec.name)} | _sortie_programs(plan, ids.sortie_file_stem)
     final_gate(plan, programs)
@@ -103,7 +114,8 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     files = {
         "plan.geojson": geojson,
     }
-    files.update(_mission_files({stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()}))
+    files.update(_mission_files(plan, {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()},
+                                qgc))
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=False)
     results, points, evidence = _rules(plan, manifest, stations_table, fc)
@@ -154,18 +166,28 @@ def _sortie_programs(plan: Plan, stem: Callable[[int], str]) -> dict[str, Flight
     return {stem(k): flight_program(plan, k - 1, name=f"{plan.spec.name}-{stem(k)}") for k in range(1, len(plan.sorties) + 1)}
 
 
-def _mission_files(missions: dict[str, Mission]) -> dict[str, str]:
-    return {name: text for stem, m in missions.items()
-            for name, text in ((f"{stem}.plan", dumps_plan(m)), (f"{stem}.waypoints", dumps_wpl(m)))}
+def _mission_files(plan: Plan, missions: dict[str, Mission], qgc: str) -> dict[str, str]:
+    """Each flight's .plan and .waypoints: the whole mission's ("mission", all stations) and
+    the sorties' (the other stems, in the order of plan.sorties, each flying its stations)."""
+    sorties = iter(plan.sorties)
+    out = {}
+    for stem, m in missions.items():
+        stations = None
+        if stem != "mission":
+            sortie = next(sorties).sortie
+            stations = (sortie.first, sortie.last)
+        out[f"{stem}.plan"] = plan_text(plan, m, qgc, stations)
+        out[f"{stem}.waypoints"] = dumps_wpl(m)
+    return out
 
 
-def render_resume(plan: Plan, after_station: str, plan_folder: str) -> dict[str, str]:
+def render_resume(plan: Plan, after_station: str, plan_folder: str, qgc: str = QGC_LAYOUTS[0]) -> dict[str, str]:
     """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
     .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
     station the flight resumes after and what each sortie flies."""
     programs = _sortie_programs(plan, ids.resume_file_stem)
     final_gate(plan, programs)
-    files = _mission_files({stem: mavlink_mission(p) for stem, p in programs.items()})
+    files = _mission_files(plan, {stem: mavlink_mission(p) for stem, p in programs.items()}, qgc)
     sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
     files[resumefile.FILE] = resumefile.dumps(plan.spec.name, plan_folder, after_station, sorties)
     return files
@@ -175,9 +197,9 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def write_outputs(plan: Plan, outdir: Path, gpkg: bool = False) -> Rendered:
+def write_outputs(plan: Plan, outdir: Path, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
-    rendered = render_outputs(plan, gpkg)
+    rendered = render_outputs(plan, gpkg, qgc)
     with staged_directory(outdir) as stage:
         for name, text in rendered.files.items():
             atomic_write_text(stage / name, text)

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from aerosurvey import console
+from aerosurvey.mission.formats import QGC_LAYOUTS
 
 log = logging.getLogger(__name__)
 
@@ -20,7 +21,10 @@ log = logging.getLogger(__name__)
               help="Folder for the mission files, manifest and preview (created if missing).")
 @click.option("--gpkg", is_flag=True, help="Also write plan.gpkg: the plan as a GeoPackage, one styled layer per kind "
                                            "(docs/clients/qgis.md).")
-def plan(spec: Path, outdir: Path, gpkg: bool) -> None:
+@click.option("--qgc", type=click.Choice(QGC_LAYOUTS), default=QGC_LAYOUTS[0], show_default=True,
+              help="How the .plan files hold each photo pass: a QGroundControl Survey item the pilot can edit "
+                   "(flown as planned until edited), or plain waypoint items (docs/clients/qgroundcontrol.md).")
+def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into the -o folder.
 
     Prints the plan's summary and the `aerosurvey check` command that shows the evidence of
@@ -39,7 +43,7 @@ def plan(spec: Path, outdir: Path, gpkg: bool) -> None:
         result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()
         report("mission files, rules and preview", 0.85)
-        rendered = write_outputs(result, outdir, gpkg)
+        rendered = write_outputs(result, outdir, gpkg, qgc)
     log.info("planned in %.2f s, files written in %.2f s", t1 - t0, time.perf_counter() - t1)
     for line in summary_text(rendered.summary, f"aerosurvey check {shlex.quote(str(outdir))}"):
         console.echo(line)

@@ -1,0 +1,5 @@
+"""Mission file formats. A light module: the command line lists the choices below without loading a writer."""
+
+#: How mission.plan holds the photo passes (`aerosurvey plan --qgc`): each pass as a QGroundControl
+#: Survey item the pilot can edit, or every waypoint as a plain item (the first is the default).
+QGC_LAYOUTS = ("survey", "items")

@@ -28,8 +28,19 @@ Mission Planner reads a .plan through MissionFile.cs, whose `cruiseSpeed`, `hove
 `params` a list of doubles: the builder makes the speeds whole numbers, and this writer
 writes every whole float as an integer.
 
-Reading: our own files and QGroundControl-written plans of SimpleItems. ComplexItems
-(survey, corridor and structure scans, landing patterns) and circular fences have no place
+Survey items (`surveys`, from mission/formats/qgc_survey.py): a run of items that flies one
+photo pass is written as one QGroundControl Survey complex item (complexItemType "survey",
+version 5; a corridor's pass as a Corridor Scan, "CorridorScan", version 2, with a polyline
+and a width in place of the polygon and angle) holding a TransectStyleComplexItem (version 2)
+with those items as `Items`, which
+QGroundControl uploads as they are while the plan is not edited, and the polygon, angle,
+spacing, turnaround and CameraCalc (version 2) its own generator rebuilds the pass from when
+it is (docs/clients/qgroundcontrol.md). The items keep their doJumpId (their sequence number)
+and tag.
+
+Reading: our own files and QGroundControl-written plans of SimpleItems, and Survey and
+Corridor Scan items, read as the `Items` they hold (what QGroundControl uploads for them).
+Other ComplexItems (structure scans, landing patterns) and circular fences have no place
 in aerosurvey's mission model and are refused with what to do.
 `mission.cruiseSpeed`/`hoverSpeed` are optional in QGroundControl and read as 0.0 when
 absent; a missing `vehicleType` reads as a copter (QGroundControl's multirotor default).
@@ -39,14 +50,23 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aerosurvey.errors import InputError
 from aerosurvey.jsontext import dumps_indented
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 
+if TYPE_CHECKING:
+    from aerosurvey.mission.formats.qgc_survey import QgcSurvey
+
 PLAN_FILE_VERSION = 1
+SURVEY_VERSION = 5
+CORRIDOR_VERSION = 2
+TRANSECT_STYLE_VERSION = 2
+CAMERA_CALC_VERSION = 2
+#: complex items whose stored `Items` the reader takes (TransectStyleComplexItem's children)
+_TRANSECT_ITEMS = ("survey", "CorridorScan")
 MISSION_VERSION = 2
 GEOFENCE_VERSION = 2
 FENCE_POLYGON_VERSION = 1
@@ -133,15 +153,95 @@ def _fence_polygons(m: Mission) -> list[dict[str, Any]]:
     return out
 
 
-def mission_to_plan_dict(m: Mission) -> dict[str, Any]:
-    """The plan as the JSON object QGroundControl reads (see the module docstring for the keys)."""
+def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
+    """A Survey (or, for a corridor, a Corridor Scan) complex item as QGroundControl saves it
+    (SurveyComplexItem::_saveCommon, CorridorScanComplexItem::_saveCommon,
+    TransectStyleComplexItem::_save, CameraCalc::save, CameraSpec::save)."""
+    where = f"survey item of pass {s.pass_index}"
+    c = s.camera
+
+    def num(v: float, name: str) -> float | int:
+        return _finite(v, f"{where} {name}")
+
+    camera_calc = {
+        "AdjustedFootprintFrontal": num(s.trigger_m, "trigger distance"),
+        "AdjustedFootprintSide": num(s.spacing_m, "spacing"),
+        "CameraName": "Custom Camera",
+        "DistanceMode": s.distance_mode,
+        "DistanceToSurface": num(s.distance_m, "distance to surface"),
+        "FixedOrientation": False,
+        "FocalLength": num(c.focal_mm, "focal length"),
+        "FrontalOverlap": num(c.frontal_overlap, "frontal overlap"),
+        "ImageDensity": num(c.image_density_cm, "image density"),
+        "ImageHeight": c.image_height_px,
+        "ImageWidth": c.image_width_px,
+        "Landscape": c.landscape,
+        "MinTriggerInterval": num(c.min_trigger_interval_s, "minimum trigger interval"),
+        "SensorHeight": num(c.sensor_height_mm, "sensor height"),
+        "SensorWidth": num(c.sensor_width_mm, "sensor width"),
+        "SideOverlap": num(c.side_overlap, "side overlap"),
+        "ValueSetIsDistance": True,
+        "version": CAMERA_CALC_VERSION,
+    }
+    transect: dict[str, Any] = {
+        "CameraCalc": camera_calc,
+        "CameraShots": s.camera_shots,
+        "CameraTriggerInTurnAround": False,
+        "HoverAndCapture": s.hover,
+        "Items": items,
+        "Refly90Degrees": False,
+        "TurnAroundDistance": num(s.turnaround_m, "turnaround distance"),
+        "VisualTransectPoints": [[num(lat, "visual point latitude"), num(lon, "visual point longitude")]
+                                 for lat, lon in s.visual_points],
+        "version": TRANSECT_STYLE_VERSION,
+    }
+    if s.distance_mode == 3:  # QGroundControl's own terrain following: it reads these only then
+        transect |= {"TerrainAdjustMaxClimbRate": num(s.max_climb_ms, "climb rate"),
+                     "TerrainAdjustMaxDescentRate": num(s.max_descent_ms, "descent rate"),
+                     "TerrainAdjustTolerance": num(s.terrain_tolerance_m, "terrain tolerance"),
+                     "TerrainFlightSpeed": num(s.flight_speed_ms, "flight speed")}
+    if s.corridor_polyline:  # CorridorScanComplexItem::_saveCommon
+        if len(s.corridor_polyline) < 2:
+            raise InputError(f"{where} polyline has {len(s.corridor_polyline)} vertices; a corridor needs at least 2")
+        return {
+            "CorridorWidth": num(s.corridor_width_m, "corridor width"),
+            "EntryPoint": s.entry_location,
+            "TransectStyleComplexItem": transect,
+            "complexItemType": "CorridorScan",
+            "polyline": [[num(lat, "polyline latitude"), num(lon, "polyline longitude")] for lat, lon in s.corridor_polyline],
+            "type": "ComplexItem",
+            "version": CORRIDOR_VERSION,
+        }
+    if len(s.polygon) < 3:
+        raise InputError(f"{where} polygon has {len(s.polygon)} vertices; a survey polygon needs at least 3")
+    return {
+        "TransectStyleComplexItem": transect,
+        "angle": num(s.angle_deg, "angle"),
+        "complexItemType": "survey",
+        "entryLocation": s.entry_location,
+        "flyAlternateTransects": s.fly_alternate,
+        "polygon": [[num(lat, "polygon latitude"), num(lon, "polygon longitude")] for lat, lon in s.polygon],
+        "splitConcavePolygons": False,
+        "type": "ComplexItem",
+        "version": SURVEY_VERSION,
+    }
+
+
+def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dict[str, Any]:
+    """The plan as the JSON object QGroundControl reads (see the module docstring for the keys);
+    the items of each of `surveys` go into one Survey complex item."""
     if m.firmware not in _FIRMWARE:
         raise InputError(f"mission firmware = {m.firmware!r} is not allowed: one of {', '.join(_FIRMWARE)}")
     if m.vehicle not in _VEHICLE:
         raise InputError(f"mission vehicle = {m.vehicle!r} is not allowed: one of {', '.join(_VEHICLE)}")
     if len(m.home) != 3:
         raise InputError(f"mission home = {m.home!r} is not allowed: (latitude, longitude, altitude AMSL)")
-    items = [_item_dict(it, seq) for seq, it in enumerate(m.items, start=1)]
+    items: list[dict[str, Any]] = [_item_dict(it, seq) for seq, it in enumerate(m.items, start=1)]
+    for s in sorted(surveys, key=lambda s: s.first, reverse=True):  # from the end: earlier indices stay valid
+        if not 0 <= s.first <= s.last < len(m.items):
+            raise InputError(f"survey item of pass {s.pass_index} holds items {s.first + 1}-{s.last + 1}, "
+                             f"not items of this mission (1-{len(m.items)})")
+        items[s.first:s.last + 1] = [_survey_dict(s, items[s.first:s.last + 1])]
     for seq, it in enumerate(m.items, start=1):
         if it.command == _DO_JUMP and not (float(it.param1).is_integer() and 1 <= it.param1 <= len(m.items)):
             raise InputError(f"mission item {seq} DO_JUMP param1 = {it.param1!r} is not allowed: "
@@ -172,11 +272,11 @@ def mission_to_plan_dict(m: Mission) -> dict[str, Any]:
     }
 
 
-def dumps_plan(m: Mission) -> str:
+def dumps_plan(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> str:
     """The plan as JSON text: sorted keys, indent 4, newline at the end, so equal missions give
     equal bytes. Every float in `mission_to_plan_dict` has passed `_finite_or_nan` or `_finite`
     (NaN is None there, infinity refused), as `dumps_indented` requires."""
-    return dumps_indented(mission_to_plan_dict(m)) + "\n"
+    return dumps_indented(mission_to_plan_dict(m, surveys)) + "\n"
 
 
 def _number(v: Any, where: str, *, nullable: bool = False) -> float:
@@ -222,16 +322,30 @@ def _list(v: Any, where: str) -> list[Any]:
     return v
 
 
-def _read_item(d: Any, i: int, source: str) -> tuple[MissionItem, int | None]:
-    """One SimpleItem and its doJumpId (None when the file has none)."""
+def _read_items(d: Any, i: int, source: str) -> list[tuple[MissionItem, int | None]]:
+    """The items one entry of `items` stands for: a SimpleItem, or the stored `Items` of a
+    Survey or Corridor Scan item (what QGroundControl uploads for it while it is not edited)."""
     where = f"{source}: mission item {i}"
     d = _object(d, where)
     kind = _get(d, "type", where)
+    if kind == "ComplexItem" and d.get("complexItemType") in _TRANSECT_ITEMS and "TransectStyleComplexItem" in d:
+        inner = _object(d["TransectStyleComplexItem"], f"{where} field 'TransectStyleComplexItem'")
+        stored = _list(_get(inner, "Items", f"{where} field 'TransectStyleComplexItem'"),
+                       f"{where} field 'TransectStyleComplexItem' field 'Items'")
+        return [_read_item(e, f"{where} ({d['complexItemType']}) item {k}") for k, e in enumerate(stored, start=1)]
     if kind == "ComplexItem":
         raise InputError(
-            f"{where} is a ComplexItem ({d.get('complexItemType', 'unknown kind')!r}); aerosurvey reads SimpleItems only. "
+            f"{where} is a ComplexItem ({d.get('complexItemType', 'unknown kind')!r}) without stored items; aerosurvey "
+            "reads SimpleItems and the stored Items of Survey and Corridor Scan items only. "
             "Convert it to simple items in QGroundControl first: upload the plan to the vehicle (or SITL), "
             "download it again and save; QGroundControl then writes every waypoint as a SimpleItem")
+    return [_read_item(d, where)]
+
+
+def _read_item(d: Any, where: str) -> tuple[MissionItem, int | None]:
+    """One SimpleItem and its doJumpId (None when the file has none)."""
+    d = _object(d, where)
+    kind = _get(d, "type", where)
     if kind != "SimpleItem":
         raise InputError(f"{where} field 'type' = {kind!r} is not allowed: 'SimpleItem'")
     command = _whole(_get(d, "command", where), f"{where} field 'command'", 0, 65535, "a MAV_CMD number")
@@ -345,7 +459,8 @@ def loads_plan(text: str, source: str = "<string>") -> Mission:
         raise InputError(f"{where} field 'plannedHomePosition' = {home!r} is not allowed: [latitude, longitude, altitude AMSL]")
     h_lat, h_lon, h_alt = (_number(v, f"{where} field 'plannedHomePosition' {name}") for name, v in zip(_HOME_NAMES, home))
     speeds = {key: _number(mis[key], f"{where} field '{key}'") if key in mis else 0.0 for key in ("cruiseSpeed", "hoverSpeed")}
-    read = [_read_item(d, i, source) for i, d in enumerate(_list(_get(mis, "items", where), f"{where} field 'items'"), start=1)]
+    read = [r for i, d in enumerate(_list(_get(mis, "items", where), f"{where} field 'items'"), start=1)
+            for r in _read_items(d, i, source)]
     items = _resolve_jumps([it for it, _ in read], [jid for _, jid in read], source)
     rally = _read_rally(doc, source)
     inc, excl = _read_fence(doc, source)

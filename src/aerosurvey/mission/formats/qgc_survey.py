@@ -1,0 +1,478 @@
+"""QGroundControl Survey items for a mission's photo passes: which items each one holds and
+the settings QGroundControl regenerates the pass from when the pilot edits it.
+
+A Survey complex item (SurveyComplexItem, its TransectStyleComplexItem and CameraCalc in
+QGroundControl's sources) stores two things: the mission items QGroundControl uploads as they
+are while the plan is loaded unedited (`Items`), and the settings its own generator rebuilds
+the lines from once anything of the item is edited (polygon, angle, spacing, turnaround,
+camera). `survey_blocks` picks the items (each run of items of one pass, with the detours
+between its lines); `survey_geometry` chooses the polygon, angle and spacing so that
+QGroundControl's generator lays our lines again (docs/clients/qgroundcontrol.md has the
+measured differences; tests/independent_qgc.py ports the generator).
+
+How QGroundControl lays its lines (SurveyComplexItem::_rebuildTransectsPhase1WorkerSinglePolygon),
+which the choices below follow:
+- the polygon is projected onto a plane tangent at its first vertex (an azimuthal equidistant
+  projection on a sphere of the WGS84 equatorial radius, x east, y north);
+- lines run at the compass bearing `angle`, which it clamps to -90..90 by turning it by 180°;
+  line k lies at -h + k·s from the centre of the polygon's east-north bounding box, measured
+  towards the bearing angle + 90°, with s the spacing (CameraCalc's AdjustedFootprintSide) and
+  h = (max(box width, box height) + 2000 m) / 2;
+- each line is cut to the two farthest crossings with the polygon's edges, directed from the
+  crossing on the edge listed first; all lines take the first line's direction;
+- `entryLocation` reverses the points of every line (2, 3) and/or the order of the lines (1, 3),
+  then every second line is reversed (a lawnmower).
+
+So the polygon written is the ground our lines are flown over, one strip per line from where
+its runs start to where they end, with thin rails beyond the outer lines whose distance from
+them puts QGroundControl's grid on our lines (`_ring`, `survey_geometry`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from pyproj import Transformer
+
+from aerosurvey import ids
+from aerosurvey.mission import mavlink_ids as mav
+from aerosurvey.mission.items import Mission
+from aerosurvey.plan.planner import Plan
+
+#: QGroundControl's CameraCalc distance modes (QGroundControlQmlGlobal::AltMode)
+DISTANCE_RELATIVE = 1
+DISTANCE_CALC_ABOVE_TERRAIN = 3
+DISTANCE_TERRAIN_FRAME = 4
+#: the sphere QGroundControl projects on (QGCGeo::convertGeoToNed: GeographicLib's WGS84_a)
+QGC_SPHERE_M = 6378137.0
+#: QGroundControl lengthens its lines by this much beyond the polygon's bounding box
+QGC_LINE_MARGIN_M = 2000.0
+
+
+@dataclass(frozen=True)
+class QgcCamera:
+    """CameraCalc's camera and overlaps (a "Custom Camera": QGroundControl knows cameras by its own names)."""
+
+    sensor_width_mm: float
+    sensor_height_mm: float
+    image_width_px: int
+    image_height_px: int
+    focal_mm: float
+    landscape: bool
+    min_trigger_interval_s: float
+    image_density_cm: float  # GSD at the distance to surface, by QGroundControl's formula
+    frontal_overlap: float  # percent: QGroundControl's footprint x (1 - overlap) = our photo base
+    side_overlap: float  # percent: ... = our line spacing
+
+
+@dataclass(frozen=True)
+class QgcSurvey:
+    """One Survey complex item: mission items `first`..`last` (indices into Mission.items) and its settings."""
+
+    first: int
+    last: int
+    pass_index: int
+    polygon: tuple[tuple[float, float], ...]  # (latitude, longitude), open ring, vertex 0 the projection's origin; () for a corridor
+    angle_deg: float
+    entry_location: int
+    fly_alternate: bool
+    spacing_m: float  # AdjustedFootprintSide
+    trigger_m: float  # AdjustedFootprintFrontal
+    turnaround_m: float
+    distance_m: float  # DistanceToSurface
+    distance_mode: int
+    hover: bool
+    camera_shots: int
+    camera: QgcCamera
+    terrain_tolerance_m: float
+    max_climb_ms: float
+    max_descent_ms: float
+    flight_speed_ms: float
+    visual_points: tuple[tuple[float, float], ...]  # (latitude, longitude) of the items' positions, in order
+    # a corridor's pass: a Corridor Scan item (its polyline and width; polygon, angle and alternate unused)
+    corridor_polyline: tuple[tuple[float, float], ...] = ()  # (latitude, longitude)
+    corridor_width_m: float = 0.0
+
+
+def survey_blocks(m: Mission) -> list[tuple[int, int, int]]:
+    """(pass, first, last) for each stretch of items that fly one pass: from a run's first item
+    to its pass's last run's last item, with the detours between its lines; takeoff, transits,
+    detours before or after a pass, landing and RTL stay outside."""
+    blocks: list[list[int]] = []
+    for i, it in enumerate(m.items):
+        p = ids.pass_of(it.tag)
+        if p is None:
+            continue
+        if blocks and blocks[-1][0] == p and all(m.items[j].tag == "detour" for j in range(blocks[-1][2] + 1, i)):
+            blocks[-1][2] = i
+        else:
+            blocks.append([p, i, i])
+    return [(p, a, b) for p, a, b in blocks]
+
+
+@lru_cache(maxsize=64)
+def _to_tangent(lat0: float, lon0: float) -> Transformer:
+    """lon/lat -> metres east/north on QGroundControl's tangent plane at (lat0, lon0)."""
+    return Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={float(lat0)!r} +lon_0={float(lon0)!r} +R={QGC_SPHERE_M} "
+                                "+units=m +no_defs", always_xy=True)
+
+
+@dataclass(frozen=True)
+class _PassLines:
+    """A pass's lines as flown: per line (by line number), the lon/lat where the camera is
+    switched on and off on each of its runs; and how the pass starts."""
+
+    numbers: np.ndarray  # line numbers, ascending
+    points: list[np.ndarray]  # per line, (n, 2) lon/lat of its runs' starts and ends
+    first_run: tuple[np.ndarray, np.ndarray]  # lon/lat of the first run's start and end
+    first_line: int  # position in `numbers` of the line flown first
+
+
+def _pass_lines(plan: Plan, pass_index: int) -> _PassLines:
+    runs = plan.route.runs
+    ends: dict[int, list[tuple[float, float]]] = {}
+    first: dict[int, tuple[float, float]] = {}
+    first_run = -1
+    for w in plan.waypoints:
+        if w.kind in ("line_start", "line_end") and runs[w.run].pass_index == pass_index:
+            ends.setdefault(runs[w.run].line, []).append((w.lon, w.lat))
+            if first_run < 0:
+                first_run = w.run
+            if w.run == first_run:
+                first[0 if w.kind == "line_start" else 1] = (w.lon, w.lat)
+    numbers = np.array(sorted(ends))
+    return _PassLines(numbers, [np.array(ends[k]) for k in numbers], (np.array(first[0]), np.array(first[1])),
+                      int(np.searchsorted(numbers, runs[first_run].line)))
+
+
+@dataclass(frozen=True)
+class _Strips:
+    """A pass's lines on QGroundControl's plane, along and across the direction our first run
+    flies: what the strips polygon is drawn from."""
+
+    angle: float  # the bearing written: our first run's, in -90..90 as QGroundControl keeps it
+    sign: float  # +1 when that is our first run's bearing, -1 when it is the opposite one
+    along: np.ndarray  # unit vector (east, north) our first run flies along
+    across: np.ndarray  # unit vector 90° to its right
+    v: np.ndarray  # each line's offset across, ascending
+    lo: np.ndarray  # where its runs start and end, along
+    hi: np.ndarray
+    spacing: float
+    reverse_lines: bool  # our first line is the last of QGroundControl's (it lays them along sign·across)
+
+    @property
+    def reverse_points(self) -> bool:
+        """QGroundControl's lines run against our first run (see `_ring`): it meets the first line's
+        front end first when its first line is ours (sign +1, or a single line); our last line's
+        back end first otherwise."""
+        return self.sign > 0 or len(self.v) == 1
+
+
+def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
+    pts = [np.column_stack(tr.transform(p[:, 0], p[:, 1])) for p in lines.points]
+    start, end = (np.array(tr.transform(*q)) for q in lines.first_run)
+    longest = max(pts, key=lambda p: float(np.ptp(p[:, 0]) ** 2 + np.ptp(p[:, 1]) ** 2))
+    d = longest[np.argmax(longest @ (end - start))] - longest[np.argmin(longest @ (end - start))]
+    bearing = math.degrees(math.atan2(d[0], d[1]))
+    # SurveyComplexItem::_clampGridAngle90 keeps -90..90 and turns the rest by 180°
+    angle = bearing - 180.0 if bearing > 90.0 else bearing + 180.0 if bearing < -90.0 else bearing
+    a = math.radians(bearing)
+    along, across = np.array([math.sin(a), math.cos(a)]), np.array([math.cos(a), -math.sin(a)])
+    v = np.array([float(np.mean(p @ across)) for p in pts])
+    order = np.argsort(v)
+    lo = np.array([float((pts[k] @ along).min()) for k in order])
+    hi = np.array([float((pts[k] @ along).max()) for k in order])
+    # the spacing the lines lie at on this plane: a least-squares line through their offsets by line number
+    spacing = abs(float(np.polyfit(lines.numbers[order], v[order], 1)[0])) if len(v) > 1 else plan.spacing_m
+    sign = 1.0 if angle == bearing else -1.0
+    first_pos = int(np.flatnonzero(order == lines.first_line)[0])
+    last = len(v) - 1 if sign > 0 else 0
+    return _Strips(angle, sign, along, across, v[order], lo, hi, spacing, len(v) > 1 and first_pos == last)
+
+
+#: a rail is this share of its margin wide; the outer line's strip fills the rest
+_RAIL = 0.1
+#: the margins stay within this share of a spacing from 0 and from a whole spacing
+_MARGIN_MIN = 0.01
+
+
+def _ring(st: _Strips, margins: tuple[float, float], tail: float = 0.0) -> np.ndarray:
+    """The strips polygon (east, north), open.
+
+    Each line's strip reaches half-way to its neighbours and runs from where its runs start
+    to where they end. Beyond each outer line, `margins` away (less than a spacing, so no
+    other line of QGroundControl's fits), a thin rail runs the whole length of the pass; the
+    outer line's strip reaches to the rail. The rails' outer corners bound the polygon: its
+    east-north box, which QGroundControl starts its line grid from, is theirs. The first rail
+    reaches `tail` further back than the pass.
+
+    Vertex 0 is the first line's strip's back corner towards the second line (it does not move
+    with the margins). The first line's front end is an edge before its back end (the closing
+    edge), and the last line's back end one before its front end: QGroundControl, which turns
+    every line the way its first one runs, runs them against our first run when its first line
+    is our first line, along it when it is our last."""
+    m0, m1 = margins
+    u_lo, u_hi = float(st.lo.min()), float(st.hi.max())
+    mid = (st.v[1:] + st.v[:-1]) / 2.0
+    below = np.concatenate([[st.v[0] - (1.0 - _RAIL) * m0], mid])
+    above = np.concatenate([mid, [st.v[-1] + (1.0 - _RAIL) * m1]])
+    bottom, top = st.v[0] - m0, st.v[-1] + m1
+    uv = [(st.lo[0], above[0])]
+    for k in range(1, len(st.v)):
+        uv += [(st.lo[k], below[k]), (st.lo[k], above[k])]
+    uv += [(u_lo, above[-1]), (u_lo, top), (u_hi, top), (u_hi, above[-1])]
+    for k in reversed(range(len(st.v))):
+        uv += [(st.hi[k], above[k]), (st.hi[k], below[k])]
+    uv += [(u_hi, below[0]), (u_hi, bottom), (u_lo - tail, bottom), (u_lo - tail, below[0]), (st.lo[0], below[0])]
+    pts = np.array(uv)
+    pts = pts[np.concatenate([[True], np.abs(np.diff(pts, axis=0)).max(axis=1) > 1e-6])]  # no repeated vertex
+    return np.asarray(pts[:, :1] * st.along + pts[:, 1:] * st.across, float)
+
+
+def _grid_offsets(st: _Strips, m0: np.ndarray, m1: np.ndarray, tail: np.ndarray) -> np.ndarray:
+    """Where QGroundControl's nearest line lies from our first line, across the lines (+ towards
+    the bearing + 90°), folded into ±spacing/2, for margins `m0`, `m1` and a first rail's `tail`
+    (arrays of one shape): its line k lies at -h + k·spacing from the centre of the polygon's
+    east-north box, h = (the box's larger side + 2000 m) / 2; the box is that of the rails'
+    four outer corners and the first rail's tail (every other vertex lies between them)."""
+    u_lo, u_hi = float(st.lo.min()), float(st.hi.max())
+    bottom, top = st.v[0] - np.asarray(m0, float), st.v[-1] + np.asarray(m1, float)
+    back = u_lo - np.asarray(tail, float)
+    uv = [(back, bottom), (back, st.v[0] - (1.0 - _RAIL) * np.asarray(m0, float)), (u_hi, bottom), (u_lo, top), (u_hi, top)]
+    east = np.stack(np.broadcast_arrays(*[u * st.along[0] + w * st.across[0] for u, w in uv]), axis=-1)
+    north = np.stack(np.broadcast_arrays(*[u * st.along[1] + w * st.across[1] for u, w in uv]), axis=-1)
+    centre_across = (east.min(axis=-1) + east.max(axis=-1)) / 2.0 * st.across[0] + \
+        (north.min(axis=-1) + north.max(axis=-1)) / 2.0 * st.across[1]
+    half = (np.maximum(np.ptp(east, axis=-1), np.ptp(north, axis=-1)) + QGC_LINE_MARGIN_M) / 2.0
+    s = st.spacing
+    # QGroundControl lays its lines along sign·across from the box's centre: line k at sign·(-h + k·spacing)
+    return np.asarray((centre_across - st.sign * half - st.v[0] + s / 2.0) % s - s / 2.0, float)
+
+
+def _clear(r: np.ndarray, m0: np.ndarray, m1: np.ndarray, s: float) -> np.ndarray:
+    """True where QGroundControl's lines, `r` off ours, cross our outer lines' strips and not
+    the rails, and its next lines out miss the polygon (a 0.2 %-of-a-spacing safety each)."""
+    safe = 0.002 * s
+    return np.asarray((r > -(1.0 - _RAIL) * m0 + safe) & (r < (1.0 - _RAIL) * m1 - safe)
+                      & (r < s - m0 - safe) & (r > m1 - s + safe), bool)
+
+
+@lru_cache(maxsize=4)  # per plan (a Plan hashes by identity): a mission and its sorties' files share a pass's polygon
+def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
+    """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
+    lines QGroundControl regenerates a pass from.
+
+    The polygon is the ground the pass's lines are flown over, one strip per line, with a rail
+    beyond each outer line (`_ring`): each of QGroundControl's lines crosses its own strip's
+    two ends, where our runs start and end. The margins to the rails place QGroundControl's
+    line grid on our lines: widening one and narrowing the other by t moves the polygon's box,
+    and the grid, by t; widening both, or a tail on the first rail, moves it when the box's
+    larger side runs across, or along, the lines. They stay between 1 % and 99 % of a spacing,
+    and the lines clear of the rails.
+    Where no margins put the grid on our lines, it is left as near as they put it."""
+    lines = _pass_lines(plan, pass_index)
+    origin = lines.points[0][0]
+    for _ in range(3):  # the plane's origin is vertex 0, which depends a little on the bearing measured on it
+        tr = _to_tangent(float(origin[1]), float(origin[0]))
+        st = _strips(plan, lines, tr)
+        e, n = _ring(st, (st.spacing / 2.0, st.spacing / 2.0))[0]
+        origin = np.array(tr.transform(e, n, direction="INVERSE"))
+    ring = _ring(st, *_rails(st))
+    lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
+    return np.column_stack([lon, lat]), st
+
+
+def _rails(st: _Strips) -> tuple[tuple[float, float], float]:
+    """The margins to the rails and the first rail's tail that put QGroundControl's grid on our
+    lines (`survey_geometry`): a search over a grid of them, then Newton steps on the margins."""
+    s = st.spacing
+    m0, m1, tail = np.array([s / 2.0]), np.array([s / 2.0]), np.array([0.0])
+    if len(st.v) > 1:  # one line: QGroundControl lays it through the box's centre, the middle of its strip
+        # margins m ± t move the grid by -t; a wider m, or a tail on the first rail, widen the box,
+        # which moves the grid when its larger side runs across, or along, the lines
+        lo, hi = _MARGIN_MIN * s, (1.0 - _MARGIN_MIN) * s
+        # a box whose larger side runs across the lines starts the grid at its across edge: a rail
+        # edge, whatever the margins, when the lines run north-south or east-west; tails that
+        # make the along side the larger one free it
+        ring = _ring(st, (s / 2.0, s / 2.0))
+        a = math.radians(st.angle)
+        along_side = float(np.ptp(ring @ st.along)) * max(abs(math.sin(a)), abs(math.cos(a)))
+        longer = max(float(np.ptp(ring[:, 0])), float(np.ptp(ring[:, 1])))
+        tails = np.concatenate([[0.0, 0.125, 0.25, 0.5, 1.0],
+                                max(longer - along_side, 0.0) / s + np.array([0.25, 0.5, 1.0, 1.5, 2.0])]) * s
+        m = np.repeat(np.linspace(lo, hi, 25), len(tails))[:, None]
+        tail = np.tile(tails, 25)[:, None]
+        r0 = _grid_offsets(st, m, m, tail)
+        reach = np.minimum(m - lo, hi - m)
+        t = np.concatenate([r0 + k * s for k in (-1, 0, 1)] + [np.linspace(-1.0, 1.0, 41)[None, :] * reach], axis=1)
+        t = np.where(np.abs(t) <= reach, t, 0.0)
+        m0, m1, tail = (m + t).ravel(), (m - t).ravel(), np.broadcast_to(tail, t.shape).ravel()
+    r = _grid_offsets(st, m0, m1, tail)
+    clear = _clear(r, m0, m1, s)
+    # the grid nearest our lines, then the smallest tail and the most even margins
+    best = int(np.argmin(np.where(clear, np.abs(r), np.abs(r) + s) + 1e-9 * (np.abs(m0 - m1) + tail)))
+    a, b, c = float(m0[best]), float(m1[best]), float(tail[best])
+    for _ in range(3 if len(st.v) > 1 else 0):  # Newton steps on t: a tail's corner can make the grid move by a little less than t
+        e = float(_grid_offsets(st, np.array(a), np.array(b), np.array(c)))
+        slope = (float(_grid_offsets(st, np.array(a + 1e-3), np.array(b - 1e-3), np.array(c))) - e) / 1e-3
+        if abs(e) < 1e-6 or abs(slope) < 0.1:
+            break
+        step = -e / slope
+        na, nb = a + step, b - step
+        ne = float(_grid_offsets(st, np.array(na), np.array(nb), np.array(c)))
+        if not (_MARGIN_MIN * s <= min(na, nb) and max(na, nb) <= (1.0 - _MARGIN_MIN) * s and abs(ne) < abs(e)
+                and bool(_clear(np.array(ne), np.array(na), np.array(nb), s))):
+            break
+        a, b = na, nb
+    return (a, b), c
+
+
+def _alternate(plan: Plan, pass_index: int) -> bool:
+    """True when our lines are flown in QGroundControl's alternate order: every second line
+    one way, then the skipped ones on the way back."""
+    order: list[int] = []
+    for r in plan.route.runs:
+        if r.pass_index == pass_index and (not order or order[-1] != r.line):
+            order.append(r.line)
+    n = len(order)
+    if n < 3 or sorted(order) != list(range(min(order), min(order) + n)):
+        return False
+    k = [x - min(order) for x in order]
+    if k[0] != 0:
+        k = [n - 1 - x for x in k]
+    want = list(range(0, n, 2)) + [i for i in range(n - 1, 0, -1) if i % 2]
+    return k == want
+
+
+def _run_paths(plan: Plan, pass_index: int) -> dict[tuple[int, int], np.ndarray]:
+    """(line, part) → lon/lat of each run's waypoints from where its camera is switched on
+    to where it is switched off (its start, bends, end)."""
+    runs = plan.route.runs
+    paths: dict[tuple[int, int], list[tuple[float, float]]] = {}
+    for w in plan.waypoints:
+        r = runs[w.run] if w.run >= 0 else None
+        if r is not None and r.pass_index == pass_index and w.kind in ("line_start", "bend", "line_end"):
+            paths.setdefault((r.line, r.part), []).append((w.lon, w.lat))
+    return {k: np.array(v) for k, v in paths.items()}
+
+
+def _cross_point(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Where the line through a0, a1 meets the line through b0, b1 (their mid-point when parallel)."""
+    da, db = a1 - a0, b1 - b0
+    den = da[0] * db[1] - da[1] * db[0]
+    if abs(den) < 1e-9 * float(np.hypot(*da) * np.hypot(*db)):
+        return np.asarray((a1 + b0) / 2.0, float)
+    t = ((b0[0] - a0[0]) * db[1] - (b0[1] - a0[1]) * db[0]) / den
+    return np.asarray(a0 + t * da, float)
+
+
+def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, float, int] | None:
+    """(polyline lon/lat, corridor width, spacing, entry point) of a Corridor Scan item for a
+    corridor's pass, or None when its strips are not the offsets of one polyline.
+
+    QGroundControl (CorridorScanComplexItem::_rebuildTransectsPhase1) flies ⌈width / spacing⌉
+    transects, the polyline offset to the left by width/2 - spacing/2 - k·spacing (k = 0 … ;
+    QGCMapPolyline::offsetPolyline, mitred), each through every vertex, every second one
+    reversed; `EntryPoint` 1 starts at the right, 2 at the polyline's end. Our strips are the
+    centreline offset to a line's ordinate, mitred too, each split into parts at sharp bends
+    (each part runs on past the bend). The polyline written is the middle of our strips: per
+    part, the mean of the lines' paths (vertex for vertex), the parts joined where their
+    middles' end segments meet; the width is the lines' count times their spacing."""
+    paths = _run_paths(plan, pass_index)
+    lines = sorted({ln for ln, _ in paths})
+    parts = sorted({pt for _, pt in paths})
+    if any((ln, pt) not in paths for ln in lines for pt in parts):
+        return None
+    origin = paths[(lines[0], parts[0])][0]
+    tr = _to_tangent(float(origin[1]), float(origin[0]))
+    en = {k: np.column_stack(tr.transform(v[:, 0], v[:, 1])) for k, v in paths.items()}
+    pieces = []  # per part, the middle of the lines' paths, each the way the first line's path of that part runs
+    for pt in parts:
+        ref = en[(lines[0], pt)]
+        same_way = [v if float((v[-1] - v[0]) @ (ref[-1] - ref[0])) > 0 else v[::-1] for v in (en[(ln, pt)] for ln in lines)]
+        if len({len(v) for v in same_way}) != 1:
+            return None
+        pieces.append(np.mean(same_way, axis=0))
+    # each line's offset to the left of the first part's middle (by its chord)
+    chord = pieces[0][-1] - pieces[0][0]
+    left = np.array([-chord[1], chord[0]]) / float(np.hypot(*chord))
+    offsets = np.array([float((en[(ln, parts[0])].mean(axis=0) - pieces[0].mean(axis=0)) @ left) for ln in lines])
+    # joined in the order the first line flies its parts (each piece runs its way)
+    flight = [pieces[parts.index(r.part)] for r in plan.route.runs if r.pass_index == pass_index and r.line == lines[0]]
+    line = [flight[0][:-1]]
+    for a, b in zip(flight[:-1], flight[1:], strict=True):
+        line += [_cross_point(a[-2], a[-1], b[0], b[1])[None, :], b[1:-1]]
+    polyline = np.concatenate([*line, flight[-1][-1:]])
+    first = plan.route.runs[next(k for k, r in enumerate(plan.route.runs) if r.pass_index == pass_index)]
+    flown = en[(first.line, first.part)]
+    piece = pieces[parts.index(first.part)]
+    if float((flown[-1] - flown[0]) @ (piece[-1] - piece[0])) < 0:  # the polyline runs the way our first run flies
+        polyline, offsets = polyline[::-1], -offsets
+    spacing = float(np.median(np.abs(np.diff(offsets)))) if len(lines) > 1 else plan.spacing_m
+    # QGroundControl's first transect is its leftmost (EntryPoint 0); ours starts on the first line flown
+    entry = 0 if offsets[lines.index(first.line)] >= offsets.max() - spacing / 2.0 else 1
+    lon, lat = tr.transform(polyline[:, 0], polyline[:, 1], direction="INVERSE")
+    # QGroundControl flies ⌈width / spacing⌉ transects: a hair under our lines' count times the spacing
+    return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
+
+
+def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
+    """A Survey item for each of the mission's pass blocks (a Corridor Scan item for a corridor's,
+    where its strips are the offsets of one polyline); the mission flies stations
+    `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
+    last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
+    spec, cam = plan.spec, plan.spec.camera.camera
+    run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
+    station_run = np.asarray(plan.stations.run)[first_station:last_station + 1]
+    if plan.altitude_frame == "terrain":
+        mode = DISTANCE_TERRAIN_FRAME
+    elif plan.heights.mode == "follow":
+        mode = DISTANCE_CALC_ABOVE_TERRAIN
+    else:
+        mode = DISTANCE_RELATIVE
+    out: list[QgcSurvey] = []
+    for p, a, b in survey_blocks(m):
+        polygon: tuple[tuple[float, float], ...] = ()
+        polyline: tuple[tuple[float, float], ...] = ()
+        width, angle = 0.0, 0.0
+        if spec.pattern.kind == "corridor":
+            # a corridor's strips bend: a Survey item would regenerate straight lines (the road
+            # example: 4 for our 12 runs, their ends up to 2.6 km from ours); a Corridor Scan item
+            # offsets one polyline instead
+            found = corridor_geometry(plan, p)
+            if found is None:  # the pass stays plain items
+                continue
+            line, width, spacing, entry = found
+            polyline = tuple((float(lat), float(lon)) for lon, lat in line)
+        else:
+            ring, fit = survey_geometry(plan, p)
+            polygon = tuple((float(lat), float(lon)) for lon, lat in ring)
+            spacing, angle, entry = fit.spacing, fit.angle, 2 * fit.reverse_points + fit.reverse_lines
+        items = m.items[a:b + 1]
+        tags = {it.tag.split(":")[0] for it in items}
+        runs = [k for k, rid in enumerate(run_ids) if rid in tags]
+        shots = int(np.isin(station_run, runs).sum())
+        line_alts = [it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None]
+        distance = line_alts[0] if mode == DISTANCE_RELATIVE else plan.heights.nominal_agl_m
+        gsd_cm = distance * cam.sensor_width_mm * 100.0 / (cam.image_width_px * cam.focal_mm)
+        landscape = spec.camera.mount == "landscape"
+        side_px, front_px = (cam.image_width_px, cam.image_height_px) if landscape else (cam.image_height_px, cam.image_width_px)
+        trigger = plan.trigger_distance_m if plan.trigger_distance_m is not None else plan.base_m
+        camera = QgcCamera(cam.sensor_width_mm, cam.sensor_height_mm, cam.image_width_px, cam.image_height_px, cam.focal_mm,
+                           landscape, cam.min_cycle_s, gsd_cm,
+                           100.0 * (1.0 - trigger / (front_px * gsd_cm / 100.0)),
+                           100.0 * (1.0 - spacing / (side_px * gsd_cm / 100.0)))
+        out.append(QgcSurvey(
+            first=a, last=b, pass_index=p, polygon=polygon, angle_deg=angle, entry_location=entry,
+            fly_alternate=not polyline and _alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
+            turnaround_m=plan.lead_in_m, distance_m=distance, distance_mode=mode, hover=spec.camera.trigger == "hover",
+            camera_shots=shots, camera=camera, terrain_tolerance_m=spec.terrain.tolerance_m if mode == DISTANCE_CALC_ABOVE_TERRAIN else 0.0,
+            max_climb_ms=spec.vehicle.climb_rate_ms, max_descent_ms=spec.vehicle.descent_rate_ms,
+            flight_speed_ms=plan.speed.speed_ms,
+            visual_points=tuple((it.x, it.y) for it in items if it.has_position),
+            corridor_polyline=polyline, corridor_width_m=width,
+        ))
+    return tuple(out)
