@@ -20,6 +20,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text
 from aerosurvey.link import sitl as harness
 from aerosurvey.manifest import Manifest
+from aerosurvey.mission import mavlink_ids as mav
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     results = []
     for route in sortie_routes(doc, plan_dir, resume_dir):
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
+        # a mission that points a gimbal flies with a mount, whose angles the log then records
+        mount = any(item.command == mav.DO_MOUNT_CONTROL for item in mission.items)
         lat, lon, alt = mission.home
         # SITL's working folder (its logs, eeprom, output): removed however the sortie ends
         with tempfile.TemporaryDirectory(prefix="aerosurvey-sitl-") as tmp:
@@ -102,7 +105,7 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                                      list(settings.defaults), work, settings.boot_timeout)
             try:
                 sv.start()
-                harness.prepare(sv)
+                harness.prepare(sv, mount)
 
                 def upload(m: Any) -> str:
                     with open_link("tcp:127.0.0.1:5762", 30.0) as link:
@@ -120,6 +123,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                 shutil.copyfile(logs[-1], dest)
                 flight.log = dest.name
         row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
+        if mount:
+            row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else None
         if doc.camera.trigger == "camera":
             row["triggers_match"] = None  # the camera's own intervalometer is not simulated
         results.append(row)
@@ -131,3 +136,21 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     text = "\n".join(f"{r['sortie']}: " + ", ".join(f"{k}={v}" for k, v in r.items() if k != "sortie") for r in results)
     atomic_write_text(report_dir / "sitl_report.txt", text + "\n")
     return results
+
+
+def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
+    """The mount's pitch (degrees, -90 = nadir) at each picture of a DataFlash log: the MNT
+    message (AP_Mount's log: the Pitch it holds) last written at or before each CAM message;
+    None for a picture taken before the mount's first message."""
+    import numpy as np
+
+    from aerosurvey.flight.dataflash import DataFlashLog
+
+    with DataFlashLog(log_path) as log:
+        cam, mnt = log.messages("CAM"), log.messages("MNT")
+    if not cam:
+        return []
+    if not mnt:
+        return [None] * len(cam["TimeUS"])
+    at = np.searchsorted(mnt["TimeUS"], cam["TimeUS"], side="right") - 1
+    return [round(float(mnt["Pitch"][k]), 2) if k >= 0 else None for k in at]
