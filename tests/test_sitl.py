@@ -139,23 +139,32 @@ def test_the_corridor_example_flies_its_stations(tmp_path):
 @pytest.mark.sitl
 def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
     """missions/oblique-block.toml, a double grid at -45°: SITL flies with a servo mount (the
-    harness adds one when a mission points a gimbal) and the mount's pitch logged (MNT) at
-    every picture (CAM) is the planned -45° within 2°; the report's column says the same."""
+    harness adds one when a mission points a gimbal). At every picture (CAM) the mount's target
+    (MNT DPitch) is the planned -45°, and the camera's pitch against the horizon, the vehicle's
+    attitude (CAM R, P, Y) turned by the servo angles relative to the body (MNT Roll, Pitch,
+    YawB), is -45° within 2°; the report's column says the same."""
+    from scipy.spatial.transform import Rotation
+
     binary = _binary("copter")
     if binary is None:
         pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
     out = tmp_path / "oblique"
     manifest, report = _plan_and_fly(REPO / "missions" / "oblique-block.toml", out, binary)
     for row in _assert_flown_as_planned(manifest, report, out, manifest["derived"]["photo_base_m"] / 4):
-        pitch_at = []
+        mount, targets, pitches = None, [], []
         for m in _log(out / "sitl" / row["log"], ["MNT", "CAM"]):
             if m.get_type() == "MNT":
-                pitch = m.Pitch
-            else:
-                pitch_at.append(pitch)  # a picture before any mount message fails here, as it should
-        assert len(pitch_at) == row["photos_planned"]
-        assert max(abs(p - (-45.0)) for p in pitch_at) <= 2.0, (row["sortie"], min(pitch_at), max(pitch_at))
-        assert row["mount_pitch_deg"] == pytest.approx(pitch_at, abs=0.01)
+                mount = m
+                continue
+            assert mount is not None, f"{row['sortie']}: a picture before the mount's first message"
+            body = Rotation.from_euler("ZYX", [m.Y, m.P, m.R], degrees=True)
+            turn = Rotation.from_euler("ZYX", [mount.YawB, mount.Pitch, mount.Roll], degrees=True)
+            pitches.append((body * turn).as_euler("ZYX", degrees=True)[1])
+            targets.append(mount.DPitch)
+        assert len(pitches) == row["photos_planned"]
+        assert targets == pytest.approx([-45.0] * len(targets), abs=0.01), row["sortie"]
+        assert max(abs(p + 45.0) for p in pitches) <= 2.0, (row["sortie"], min(pitches), max(pitches))
+        assert row["mount_pitch_deg"] == pytest.approx(pitches, abs=0.01)
 
 
 @pytest.mark.sitl

@@ -139,9 +139,14 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
 
 
 def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
-    """The mount's pitch (degrees, -90 = nadir) at each picture of a DataFlash log: the MNT
-    message (AP_Mount's log: the Pitch it holds) last written at or before each CAM message;
-    None for a picture taken before the mount's first message."""
+    """The camera's pitch against the horizon (degrees, -90 = nadir) at each picture of a SITL
+    DataFlash log with the harness's servo mount, None before the mount's first message.
+
+    A servo mount has no attitude feedback: its MNT log message gives, as Roll/Pitch/YawB, the
+    angles it drives its servos to, relative to the vehicle's body (seen in ArduCopter 4.7 SITL:
+    MNT Pitch = the target -45° minus the vehicle's pitch). The camera's attitude is then the
+    vehicle's (the CAM message's R, P, Y at the picture) turned by those angles (both ZYX Euler).
+    """
     import numpy as np
 
     from aerosurvey.flight.dataflash import DataFlashLog
@@ -153,4 +158,22 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     if not mnt:
         return [None] * len(cam["TimeUS"])
     at = np.searchsorted(mnt["TimeUS"], cam["TimeUS"], side="right") - 1
-    return [round(float(mnt["Pitch"][k]), 2) if k >= 0 else None for k in at]
+    k = np.maximum(at, 0)
+    body = _zyx(cam["R"], cam["P"], cam["Y"])
+    mount = _zyx(mnt["Roll"][k], mnt["Pitch"][k], mnt["YawB"][k])
+    camera = body @ mount
+    pitch = np.degrees(np.arcsin(np.clip(-camera[:, 2, 0], -1.0, 1.0)))
+    return [round(float(p), 2) if a >= 0 else None for p, a in zip(pitch, at)]
+
+
+def _zyx(roll: Any, pitch: Any, yaw: Any) -> Any:
+    """Rotation matrices (n, 3, 3) of ZYX Euler angles in degrees (yaw, then pitch, then roll)."""
+    import numpy as np
+
+    r, p, y = (np.radians(np.asarray(v, dtype=np.float64)) for v in (roll, pitch, yaw))
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
+        np.stack([-sp, cp * sr, cp * cr], -1),
+    ], -2)
