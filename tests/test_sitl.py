@@ -151,12 +151,14 @@ def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
     out = tmp_path / "oblique"
     manifest, report = _plan_and_fly(REPO / "missions" / "oblique-block.toml", out, binary)
     for row in _assert_flown_as_planned(manifest, report, out, manifest["derived"]["photo_base_m"] / 4):
-        mount, targets, pitches = None, [], []
-        for m in _log(out / "sitl" / row["log"], ["MNT", "CAM"]):
-            if m.get_type() == "MNT":
-                mount = m
-                continue
-            assert mount is not None, f"{row['sortie']}: a picture before the mount's first message"
+        log = out / "sitl" / row["log"]
+        mounts = _log(log, ["MNT"])
+        targets, pitches = [], []
+        for m in _log(log, ["CAM"]):
+            # the mount's last message at or before the picture's time (it logs one with each picture)
+            before = [x for x in mounts if x.TimeUS <= m.TimeUS]
+            assert before, f"{row['sortie']}: a picture before the mount's first message"
+            mount = before[-1]
             body = Rotation.from_euler("ZYX", [m.Y, m.P, m.R], degrees=True)
             turn = Rotation.from_euler("ZYX", [mount.YawB, mount.Pitch, mount.Roll], degrees=True)
             pitches.append((body * turn).as_euler("ZYX", degrees=True)[1])
