@@ -29,7 +29,7 @@ import inprocess_bench  # noqa: E402  (the benchmark next to this one: its cases
 from aerosurvey.inputs import load_inputs  # noqa: E402
 from aerosurvey.plan.frame import LineFrame  # noqa: E402
 from aerosurvey.plan.heading import best_heading  # noqa: E402
-from aerosurvey.plan.lines import Outline, build_lines, line_bounds  # noqa: E402
+from aerosurvey.plan.lines import Outline, StripGeometry, build_lines, line_bounds  # noqa: E402
 from aerosurvey.plan.pattern import strip_geometry  # noqa: E402
 from aerosurvey.plan.route import quick_cost, quick_cost_lower_bounds  # noqa: E402
 from aerosurvey.plan.sensor import solve_heights, solve_sensor, target_height  # noqa: E402
@@ -44,13 +44,16 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
     """A function running the heading search of the spec's main pass (bounded or not) from
     scratch: (heading, cost, candidates costed)."""
     spec = load_spec(spec_path)
-    site = prepare_site(spec, load_inputs(spec))
     h, gsd, warnings = target_height(spec)
+    site = prepare_site(spec, load_inputs(spec), h)
     sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), warnings)
     k = site.grid_scale
     margin = spec.targets.coverage_margin_m * k
     covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
-    g = strip_geometry(sensor, spec.targets.images_beyond_boundary, k)
+    def strips(h: float) -> StripGeometry:  # as AreaGrid.layout lays each heading's stations
+        return strip_geometry(sensor, spec.targets.images_beyond_boundary, k, site.autopilot_scale(h))
+
+    g = max((strips(h) for h in (0.0, 90.0)), key=lambda s: s.base)  # its bounds' base
     lead = sensor.lead_in_m * k
 
     def run(bounded: bool) -> tuple[float, float, int]:
@@ -60,7 +63,7 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
             nonlocal costed
             costed += 1
             zf = fr.geom_to_frame(site.zones_buffered) if site.zones_buffered is not None else None
-            segs = build_lines(fr.geom_to_frame(covered), zf, g)
+            segs = build_lines(fr.geom_to_frame(covered), zf, strips(fr.heading_deg))
             return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
 
         if not bounded:

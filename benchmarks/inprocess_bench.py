@@ -3,6 +3,10 @@
     python benchmarks/inprocess_bench.py                 # every case, one subprocess each
     python benchmarks/inprocess_bench.py --case 1000ha-2h1z [--runs 5] [--gpkg]
 
+`kml_ms` is the median time of making plan.kml alone (its layers, `report.gpkg.plan_layers`, and
+`mission.formats.kml.layers_to_kml`: the KML's share of `render_ms`), `x_kml_ref` its ratio to the
+reference workload below.
+
 `--gpkg` renders plan.gpkg too (`aerosurvey plan --gpkg`); `gpkg_ms` is then the median time of
 making it alone (the GeoPackage's share of `render_ms`).
 
@@ -97,7 +101,10 @@ def run_case(name: str, runs: int, gpkg: bool = False) -> dict[str, object]:
     spec = load_spec(make_case(name, Path(td.name)))
     inputs = load_inputs(spec)
     rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    times, cpu, plan_times, refs, cpu_refs, gpkg_times = [], [], [], [], [], []
+    from aerosurvey.mission.formats.kml import layers_to_kml
+    from aerosurvey.report.gpkg import plan_layers
+
+    times, cpu, plan_times, refs, cpu_refs, gpkg_times, kml_times = [], [], [], [], [], [], []
     photos = out_mb = 0.0
     for k in range(runs + 1):
         ref, cpu_ref = reference_work()
@@ -108,11 +115,14 @@ def run_case(name: str, runs: int, gpkg: bool = False) -> dict[str, object]:
         files = rendered.files
         t2, c2 = time.perf_counter(), time.process_time()
         if gpkg:
-            from aerosurvey.report.gpkg import gpkg_bytes
+            from aerosurvey.report.gpkg import footprints_layer, gpkg_bytes, plan_layers
 
             t3 = time.perf_counter()
-            gpkg_bytes(plan)
+            gpkg_bytes([*plan_layers(plan), footprints_layer(plan)])
             gpkg_times.append(time.perf_counter() - t3)
+        t4 = time.perf_counter()
+        layers_to_kml(plan_layers(plan), plan.spec.name)
+        kml_times.append(time.perf_counter() - t4)
         if k == 0:  # warm-up: imports inside functions, caches
             photos = len(plan.stations.ids)
             out_mb = (sum(len(v.encode()) for v in files.values()) + sum(len(b) for b in rendered.binary.values())) / 1e6
@@ -135,7 +145,9 @@ def run_case(name: str, runs: int, gpkg: bool = False) -> dict[str, object]:
             "x_cpu_ref": round(cpu_ms / cpu_ref_ms, 2), "target_ms": TARGET_MS.get(name),
             "rss_loaded_mb": round(rss_loaded, 1),
             "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
-            "gpkg_ms": round(statistics.median(gpkg_times[1:] or [math.nan]) * 1000, 1)}
+            "gpkg_ms": round(statistics.median(gpkg_times[1:] or [math.nan]) * 1000, 1),
+            "kml_ms": round(statistics.median(kml_times[1:]) * 1000, 1),
+            "x_kml_ref": round(statistics.median(kml_times[1:]) * 1000 / ref_ms, 3)}
 
 
 def main() -> None:
@@ -148,7 +160,7 @@ def main() -> None:
         print(json.dumps(run_case(a.case, a.runs, a.gpkg)))
         return
     cols = ["case", "photos", "plan_ms", "render_ms", "total_ms", "min_ms", "ref_ms", "x_ref", "cpu_ms",
-            "cpu_ref_ms", "x_cpu_ref", "target_ms", "rss_loaded_mb", "peak_rss_mb", "output_mb", "gpkg_ms"]
+            "cpu_ref_ms", "x_cpu_ref", "target_ms", "rss_loaded_mb", "peak_rss_mb", "output_mb", "gpkg_ms", "kml_ms"]
     print("  ".join(f"{c:>11}" for c in cols))
     for case in CASES:
         out = subprocess.run([sys.executable, __file__, "--case", case, "--runs", str(a.runs)] + (["--gpkg"] if a.gpkg else []),

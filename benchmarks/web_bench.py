@@ -20,7 +20,7 @@ import warnings
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-MISSIONS = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem"]
+MISSIONS = ["obratan-72ha", "kubad-abad-fixed-wing", "forest-dem", "road-corridor"]
 
 
 def _direct(spec_path: Path) -> float:

@@ -53,6 +53,20 @@ def spec_factory(tmp_path: Path):
     return factory
 
 
+@pytest.fixture(scope="module", params=["obratan-72ha", "forest-dem"])
+def written(request, tmp_path_factory):
+    """(example name, its plan, the folder `plan --gpkg` wrote it into): the 72 ha example
+    (flat, 2-D layers) and the forest one (terrain following, 3-D layers)."""
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import write_outputs
+    from aerosurvey.spec import load_spec
+
+    plan = plan_from_files(load_spec(Path(__file__).resolve().parents[1] / "missions" / f"{request.param}.toml"))
+    out = tmp_path_factory.mktemp(request.param)
+    write_outputs(plan, out, gpkg=True)
+    return request.param, plan, out
+
+
 def random_polygon(kind: str, seed: int, size_m: float) -> list[list[float]]:
     """Lon/lat rings of a random convex, concave (star) or holed polygon near 49.4 N 15 E."""
     rng = np.random.default_rng(seed)

@@ -7,6 +7,9 @@ DO_CHANGE_SPEED ground speed, where the vehicle has moved the trigger distance f
 last picture, as AP_Camera does; none after the distance is set to 0), builds each
 photo's footprint from the camera's sensor and the height above ground, in a local
 azimuthal equidistant projection centred on the area, and measures coverage on a grid.
+The trigger distance and the speed are ArduPilot's metres (its flat earth,
+`ardupilot_location`): along each leg they are turned into ground metres by the
+leg's own ratio of the two.
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import pyproj
 import shapely
+
+from ardupilot_location import metres_per_ground_metre
 
 NAV_WAYPOINT, DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL = 16, 178, 206, 214
 FRAME_RELATIVE, FRAME_TERRAIN = 3, 10
@@ -58,6 +63,7 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
     """
     xs, ys, hs, zs, runs = [], [], [], [], []
     pos = None
+    lat_lon = (0.0, 0.0)
     alt_prev = None
     frame_prev = FRAME_RELATIVE
     dist = 0.0
@@ -111,20 +117,24 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
                 length = float(np.hypot(*leg))
                 if length > 0:
                     u = leg / length
+                    # ArduPilot's metres per ground metre along this leg
+                    scale = metres_per_ground_metre(lat_lon[0], lat_lon[1], r[8], r[9], length)
                     if time_trigger:
-                        ts = _crossings(pos, u, length, last, dist)
+                        ts = _crossings(pos, u, length, last, dist / scale)
                     else:
-                        # ArduPilot checks the distance at 50 Hz: samples every v/50 m along the path
+                        # ArduPilot checks the distance at 50 Hz: samples every v/50 of its metres along the path
                         step = speed / 50.0 if speed > 0 else 0.1
+                        length_ap = length * scale
                         first = (step - phase) % step
-                        samples = first + step * np.arange(int(max(length - first, 0) // step) + 1)
-                        samples = samples[samples <= length + 1e-9]
-                        phase = (length - (samples[-1] if len(samples) else -phase)) % step if len(samples) else (phase + length) % step
+                        samples = first + step * np.arange(int(max(length_ap - first, 0) // step) + 1)
+                        samples = samples[samples <= length_ap + 1e-9]
+                        phase = ((length_ap - (samples[-1] if len(samples) else -phase)) % step if len(samples)
+                                 else (phase + length_ap) % step)
                         ts = []
                         lx, ly = last
-                        for t in samples:
+                        for t in samples / scale:
                             p = pos + u * t
-                            if math.hypot(p[0] - lx, p[1] - ly) >= dist:
+                            if math.hypot(p[0] - lx, p[1] - ly) * scale >= dist:
                                 ts.append(float(t))
                                 lx, ly = p
                     for t in ts:
@@ -139,6 +149,7 @@ def replay_triggers(rows: list[list[float]], to_xy: pyproj.Transformer,
             alt_prev = r[10]
             frame_prev = frame
             pos = new
+            lat_lon = (r[8], r[9])
         elif cmd == DO_SET_CAM_TRIGG_DIST:
             dist = r[4]
             if dist > 0:

@@ -13,8 +13,9 @@ AP_Camera.cpp, AP_Camera_Backend.cpp):
 - at each 50 Hz update: with no positive distance the remembered place is forgotten; with one and
   no remembered place, the current place is remembered (no picture); otherwise a picture is taken
   when the straight distance from the remembered place is the trigger distance or more
-  (AP_Camera_Backend::update), measured as ArduPilot's Location::get_distance does (flat earth,
-  longitudes scaled by the cosine of the mean latitude);
+  (AP_Camera_Backend::update), measured as ArduPilot's Location::get_distance does, on places
+  held as whole 1e-7 degrees (`ardupilot_location`: its flat earth). The vehicle flies its
+  speed in these metres too (its navigation turns places into metres the same way);
 - DO_SET_CAM_TRIGG_INTERVAL (param1 ms > 0) is a camera clock: a picture at once, then one each
   interval of flight time (at the set speed), until the interval is set to 0.
 
@@ -24,23 +25,17 @@ Each picture carries the index of its trigger-on block (`block`): the photos bet
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ardupilot_location import LOCATION_SCALING_FACTOR, distance_e7, distance_m, e7
 from independent_legs import Item, parse_wpl
 
 NAV_WAYPOINT, NAV_TAKEOFF, NAV_LAND, NAV_RTL = 16, 22, 21, 20
 DO_CHANGE_SPEED, DO_SET_CAM_TRIGG_DIST, DO_SET_CAM_TRIGG_INTERVAL = 178, 206, 214
 UPDATE_HZ = 50.0
-#: ArduPilot's LOCATION_SCALING_FACTOR: metres per 1e-7 degree of latitude
-_M_PER_DEG = 0.011131884502145034 * 1e7
-
-
-def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    """ArduPilot's Location::get_distance: flat earth, longitude scaled at the mean latitude."""
-    scale = math.cos(math.radians((lat1 + lat2) / 2.0))
-    return math.hypot(lat2 - lat1, (lon2 - lon1) * scale) * _M_PER_DEG
+#: ArduPilot's metres per degree of latitude
+_M_PER_DEG = LOCATION_SCALING_FACTOR * 1e7
 
 
 @dataclass
@@ -54,14 +49,14 @@ class Photo:
 class _Camera:
     dist: float = 0.0
     interval_m: float = 0.0  # camera clock as metres of flight at the set speed
-    last: tuple[float, float] | None = None
+    last: tuple[int, int] | None = None  # the last picture's place, in 1e-7 degrees
     flown: float = 0.0  # metres flown since the camera clock's last picture
     block: int = -1
     photos: list[Photo] = field(default_factory=list)
 
     def picture(self, lat: float, lon: float) -> None:
-        self.photos.append(Photo(lat, lon, self.block))
-        self.last = (lat, lon)
+        self.last = (e7(lat), e7(lon))
+        self.photos.append(Photo(self.last[0] / 1e7, self.last[1] / 1e7, self.block))
         self.flown = 0.0
 
     def update(self, lat: float, lon: float) -> None:
@@ -73,12 +68,13 @@ class _Camera:
         if self.dist <= 0:
             self.last = None
             return
+        here = (e7(lat), e7(lon))
         if self.last is None:
-            self.last = (lat, lon)
+            self.last = here
             return
-        if self.last == (lat, lon):
+        if self.last == here:
             return
-        if distance_m(self.last[0], self.last[1], lat, lon) >= self.dist:
+        if distance_e7(*self.last, *here) >= self.dist:
             self.picture(lat, lon)
 
 

@@ -20,8 +20,8 @@ from aerosurvey.errors import InputError
 REPO = Path(__file__).resolve().parents[1]
 
 
-def by_gdal(path: Path) -> shapely.Geometry:
-    geom, crs = area._parse_vector(path, str(path), path.name, "area")
+def by_gdal(path: Path, lines: bool = False) -> shapely.Geometry:
+    geom, crs = area._parse_vector(path, str(path), path.name, "area", lines)
     return geom
 
 
@@ -32,9 +32,10 @@ def same(a: shapely.Geometry, b: shapely.Geometry) -> bool:
 
 @pytest.mark.parametrize("path", sorted((REPO / "missions" / "areas").glob("*.geojson")), ids=lambda p: p.name)
 def test_repository_areas_read_as_gdal_reads_them(path: Path) -> None:
-    assert area._plain_geojson(path.read_bytes()) is not None  # the fast path is taken
-    fast, crs = area._read_vector(path, "area")
-    assert same(fast, by_gdal(path))
+    assert area._plain_geojson(path) is not None  # the fast path is taken
+    lines = "LineString" in path.read_text()  # a corridor's centreline
+    fast, crs = area._read_vector(path, "area", lines)
+    assert same(fast, by_gdal(path, lines))
 
 
 digits = st.integers(0, 17)
@@ -81,15 +82,45 @@ def test_random_documents_read_as_gdal_reads_them(tmp_path_factory, doc: dict) -
     assert same(fast, want)
 
 
+SQ = [[14.0, 49.0], [14.01, 49.0], [14.01, 49.01], [14.0, 49.01], [14.0, 49.0]]
+
+
+@pytest.mark.parametrize("coords", [
+    [[[x, y, 300.0] if k % 2 else [x, y] for k, (x, y) in enumerate(SQ)]],  # 2-D and 3-D positions mixed
+    [[[x, y, 300.0, 7.0] for x, y in SQ]],  # four numbers a position
+    [[[x, [y, y]] for x, y in SQ]],  # nested deeper
+    [[[x, y] for x, y in SQ], [[14.002, 49.002], [14.003, 49.002], [14.003, 49.003], [14.002, 49.002]]],  # a hole
+    [[[14, 49], [2**63 + 5, 49], [14, 50], [14, 49]]],  # an integer beyond int64 that uint64 holds
+    [[[14.0, 49.0], [14.01, 49.0], [14.0, 49.0]]],  # a ring of three positions
+    [[14.0, 49.0]],  # too shallow
+], ids=["mixed-dims", "4d", "nested", "hole", "uint64", "short-ring", "shallow"])
+@pytest.mark.parametrize("kind", ["Polygon", "MultiPolygon"])
+def test_odd_polygons_read_as_gdal_reads_them(tmp_path: Path, coords: list, kind: str) -> None:
+    path = tmp_path / "a.geojson"
+    path.write_text(json.dumps({"type": kind, "coordinates": coords if kind == "Polygon" else [coords]}))
+    try:
+        want = by_gdal(path)
+    except InputError as exc:
+        with pytest.raises(InputError) as got:
+            area._read_vector(path, "area")
+        assert str(got.value) == str(exc)
+        return
+    fast, _ = area._read_vector(path, "area")
+    assert same(fast, want)
+
+
 @pytest.mark.parametrize("doc", [
     {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "EPSG:5514"}}, "features": []},
     {"type": "GeometryCollection", "geometries": []},
     {"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": {"type": "Polygon", "coordinates": "x"}}]},
     [1, 2],
 ])
-def test_anything_unusual_goes_to_gdal(doc: object) -> None:
-    assert area._plain_geojson(json.dumps(doc).encode()) is None
-    assert area._plain_geojson(b"{not json") is None
+def test_anything_unusual_goes_to_gdal(tmp_path: Path, doc: object) -> None:
+    path = tmp_path / "a.geojson"
+    path.write_text(json.dumps(doc))
+    assert area._plain_geojson(path) is None
+    path.write_text("{not json")
+    assert area._plain_geojson(path) is None
 
 
 def test_a_plain_geojson_plan_loads_no_gdal(tmp_path: Path) -> None:
@@ -126,7 +157,7 @@ def test_odd_coordinates_give_gdals_answer(tmp_path: Path, text: str) -> None:
 def test_an_unclosed_ring_is_one_line_error_on_both_paths(tmp_path: Path) -> None:
     path = tmp_path / "open.geojson"
     path.write_text(json.dumps({"type": "Polygon", "coordinates": [[[14.0, 49.0], [14.01, 49.0], [14.01, 49.01], [14.0, 49.01]]]}))
-    assert area._plain_geojson(path.read_bytes()) is None  # shapely would close it quietly: GDAL's path decides
+    assert area._plain_geojson(path) is None  # shapely would close it quietly: GDAL's path decides
     with pytest.raises(InputError, match=r"^area: layer .* holds a geometry that is not valid: .*closed.*close every ring"):
         area._read_vector(path, "area")
 
@@ -136,7 +167,7 @@ def test_a_large_geojson_goes_to_gdal(tmp_path: Path, monkeypatch: pytest.Monkey
     src = REPO / "missions" / "areas" / "obratan-72ha.geojson"
     calls: list[int] = []
     real = area._plain_geojson
-    monkeypatch.setattr(area, "_plain_geojson", lambda data: calls.append(len(data)) or real(data))
+    monkeypatch.setattr(area, "_plain_geojson", lambda path: calls.append(path.stat().st_size) or real(path))
     small, _ = area._read_vector(src, "area")
     monkeypatch.setattr(area, "PLAIN_GEOJSON_MAX_BYTES", src.stat().st_size - 1)
     large, _ = area._read_vector(src, "area")

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pyogrio
-import pytest
 import shapely
 
 from aerosurvey.inputs import plan_from_files
@@ -23,14 +22,6 @@ LAYERS = {"area": "MultiPolygon", "zones": "MultiPolygon", "strips": "LineString
           "check_points": "Point", "unphotographed": "Polygon"}
 THREE_D = {"strips", "route", "stations", "launch_points"}
 SYMBOL = {"Polygon": "fill", "MultiPolygon": "fill", "LineString": "line", "Point": "marker"}
-
-
-@pytest.fixture(scope="module", params=["obratan-72ha", "forest-dem"])
-def written(request, tmp_path_factory):
-    plan = plan_from_files(load_spec(ROOT / "missions" / f"{request.param}.toml"))
-    out = tmp_path_factory.mktemp(request.param)
-    write_outputs(plan, out, gpkg=True)
-    return request.param, plan, out
 
 
 def _wpl_rows(path: Path) -> list[list[str]]:

@@ -43,7 +43,7 @@ def small_plan(tmp_path_factory) -> Path:
 def test_shipped_schemas_are_valid_json_schemas():
     for name in ("manifest", "events", "log_report"):
         jsonschema.Draft202012Validator.check_schema(schemas.schema(name))
-    assert schemas.schema("manifest")["properties"]["schema_version"]["const"] == mf.SCHEMA_VERSION == 2
+    assert schemas.schema("manifest")["properties"]["schema_version"]["const"] == mf.SCHEMA_VERSION == 3
     assert schemas.schema("manifest")["additionalProperties"] is False
 
 
@@ -57,7 +57,7 @@ def test_every_example_manifest_validates_and_reads(name, tmp_path):
     errors = list(_full_validator().iter_errors(raw))
     assert errors == [], [e.message for e in errors[:3]]
     doc = mf.read_manifest(out)
-    assert doc.schema_version == 2 and doc.mission.name == raw["mission"]["name"] and doc.crs == raw["crs"]["planning"]
+    assert doc.schema_version == 3 and doc.mission.name == raw["mission"]["name"] and doc.crs == raw["crs"]["planning"]
     assert list(doc.stations.ids) == [s["id"] for s in raw["stations"]]
     assert np.allclose(doc.stations.x, [s["x"] for s in raw["stations"]])
     assert [s.id for s in doc.sorties] == [s["id"] for s in raw["sorties"]]
@@ -114,7 +114,7 @@ def _one_line(exc: pytest.ExceptionInfo) -> str:
 
 def test_future_and_older_versions_are_refused_with_what_to_do(small_plan, tmp_path):
     raw = json.loads((small_plan / "manifest.json").read_text())
-    newer = _write(tmp_path / "newer", {**raw, "schema_version": 3, "aerosurvey_version": "9.0"})
+    newer = _write(tmp_path / "newer", {**raw, "schema_version": 4, "aerosurvey_version": "9.0"})
     with pytest.raises(InputError) as exc:
         mf.read_manifest(newer)
     msg = _one_line(exc)

@@ -2,8 +2,9 @@
 
 import math
 
+import pyproj
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.camera import Camera, get_camera
@@ -73,3 +74,17 @@ def test_images_per_point_is_what_the_spacing_gives(side, fwd):
         assert k * (1 - o) <= 1 + 1e-9
         assert (k + 1) * (1 - o) > 1 - 1e-9
         assert math.floor(1 / (1 - o) + 1e-9) == k
+
+
+@settings(max_examples=200, deadline=None)
+@given(lat=st.floats(-85, 85), lon=st.floats(-180, 180), bearing=st.floats(0, 360), dist=st.floats(1, 5000))
+def test_ardupilot_distance_is_ardupilots_flat_earth(lat: float, lon: float, bearing: float, dist: float) -> None:
+    """pg.ardupilot_distance_m against the independent transcription of Location::get_distance
+    (tests/ardupilot_location.py, on unrounded degrees), across the antimeridian too."""
+    from ardupilot_location import metres_per_ground_metre
+
+    lon2, lat2, _ = pyproj.Geod(ellps="WGS84").fwd(lon, lat, bearing, dist)
+    want = metres_per_ground_metre(lat, lon, lat2, lon2, 1.0)
+    assert float(pg.ardupilot_distance_m(lon, lat, lon2, lat2)) == pytest.approx(want, rel=1e-9, abs=1e-9)
+    # and it differs from the ground's by at most what the docs say (0.67 % north-south at the equator)
+    assert abs(want / dist - 1.0) < 0.0068

@@ -71,7 +71,7 @@ def test_outputs_load_and_join(tmp_path):
     # KML and the SVG preview are well-formed XML
     kml = ET.parse(out / "plan.kml").getroot()
     folders = [f.find("{http://www.opengis.net/kml/2.2}name").text for f in kml.iter("{http://www.opengis.net/kml/2.2}Folder")]
-    assert folders[:3] == ["area", "line", "station"] and "footprint" not in folders
+    assert folders[:5] == ["area", "zones", "strips", "route", "stations"] and "footprints" not in folders
     svg = ET.parse(out / "preview.svg").getroot()
     assert svg.tag.endswith("svg")
     # inputs are recorded with their hashes, outputs too

@@ -19,9 +19,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import orjson
 import pyproj
 import shapely
+import simdjson
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
@@ -44,10 +44,10 @@ class Planar:
         return f"{auth[0]}:{auth[1]}" if auth else self.crs.to_string()
 
     def forward(self, geom: BaseGeometry) -> BaseGeometry:
-        return shapely.transform(geom, lambda xy: np.column_stack(self.to_plan.transform(xy[:, 0], xy[:, 1])))
+        return transformed(self.to_plan, geom)
 
     def inverse(self, geom: BaseGeometry) -> BaseGeometry:
-        return shapely.transform(geom, lambda xy: np.column_stack(self.to_wgs84.transform(xy[:, 0], xy[:, 1])))
+        return transformed(self.to_wgs84, geom)
 
     def lonlat(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lon, lat = self.to_wgs84.transform(np.asarray(x, float), np.asarray(y, float))
@@ -73,6 +73,15 @@ class Planar:
         return np.asarray(x), np.asarray(y)
 
 
+def transformed(t: pyproj.Transformer, geom: BaseGeometry) -> BaseGeometry:
+    """The geometry with its x and y transformed, its coordinates held once (shapely.transform
+    with a stacking function holds them four times at its peak: +6 MB on 400,000 vertices)."""
+    xy = shapely.get_coordinates(geom)
+    xy[:, 0], xy[:, 1] = t.transform(xy[:, 0], xy[:, 1])
+    out: BaseGeometry = shapely.set_coordinates(np.array(geom, dtype=object), xy).item()
+    return out
+
+
 def _location(reason: str, geographic: bool) -> str:
     m = re.search(r"\[([-\d.eE+]+) ([-\d.eE+]+)\]", reason)
     if not m:
@@ -87,7 +96,8 @@ def validate_polygons(geom: BaseGeometry, name: str, geographic: bool) -> BaseGe
         raise InputError(f"{name}: no polygon in it (empty geometry)")
     if geom.geom_type not in ("Polygon", "MultiPolygon"):
         raise InputError(f"{name}: a {geom.geom_type} is not an area; give a Polygon or MultiPolygon")
-    if geographic:
+    west, south, east, north = geom.bounds
+    if geographic and not (-180 <= west and east <= 180 and -90 <= south and north <= 90):
         xy = shapely.get_coordinates(geom)
         lon, lat = xy[:, 0], xy[:, 1]
         if np.any(np.abs(lat) > 90) or np.any(np.abs(lon) > 180):
@@ -136,16 +146,14 @@ def _read_vector(path: Path, name: str, lines: bool = False) -> tuple[BaseGeomet
     if path.suffix.lower() == ".wkt":
         return _from_wkt(path.read_text(encoding="utf-8"), name), _WGS84
     if path.suffix.lower() in (".geojson", ".json") and path.stat().st_size <= PLAIN_GEOJSON_MAX_BYTES:
-        geoms = _plain_geojson(path.read_bytes())
+        geoms = _plain_geojson(path)
         if geoms is not None:
             return _kept(geoms, _WGS84, str(path), path.name, name, lines), _WGS84
     return _parse_vector(path, str(path), path.name, name, lines)
 
 
-#: above this size a GeoJSON area goes to GDAL, whose json-c tree holds ~16 bytes a byte of the
-#: file (orjson's lists ~4). Below it orjson and polygons built from numpy arrays are the faster:
-#: a 12 MB ring of 400,000 points took 0.26 s and ~+30 MB here against GDAL's 0.88 s and +188 MB
-#: (benchmarks/vertices_bench.py), and not loading GDAL saves ~150 ms of start-up
+#: above this size a GeoJSON area goes to GDAL (its json-c tree holds ~16 bytes a byte of the
+#: file; simdjson's tape ~3)
 PLAIN_GEOJSON_MAX_BYTES = 64_000_000
 
 _GEOMETRY_TYPES = frozenset({"Point", "MultiPoint", "LineString", "MultiLineString", "Polygon", "MultiPolygon"})
@@ -170,60 +178,127 @@ def _rings_closed(g: dict[str, Any]) -> bool:
     return all(ring and ring[0] == ring[-1] for poly in polys for ring in poly)
 
 
-def _plain_geojson(data: bytes) -> list[BaseGeometry | None] | None:
-    """The geometries of a plain RFC 7946 GeoJSON document, read without GDAL; None for
-    anything else (GDAL reads it then, and says what is wrong).
+def _plain_geojson(path: Path) -> list[BaseGeometry | None] | None:
+    """The geometries of a plain RFC 7946 GeoJSON file, read without GDAL; None for anything
+    else (GDAL reads it then, and says what is wrong).
 
     Plain: a FeatureCollection, a Feature or a geometry of the six simple types, in WGS84 (no
     legacy `crs` member). Why: loading pyogrio and GDAL for it took ~105 ms of each `aerosurvey
-    plan` start-up and ~40 ms more on the first read (-X importtime, cProfile). The numbers
-    are parsed by Python's correctly rounded float parser, as GDAL's are; a test compares both
-    readers on the repository's areas and on random polygons."""
-    try:
-        doc = orjson.loads(data)
-    except (orjson.JSONDecodeError, RecursionError):  # integers beyond 64 bits, nesting too deep …: GDAL says what
+    plan` start-up and ~40 ms more on the first read (-X importtime, cProfile). simdjson parses
+    the file into its tape (numbers correctly rounded, as GDAL's), and a polygon's rings go from
+    it straight into numpy arrays: a boundary of 400,000 vertices never becomes Python objects
+    (Python lists of it took 0.35 s and ~90 MB more at their peak; benchmarks/vertices_bench.py).
+    The polygons are made once the parser's tape is freed. A test compares both readers on the
+    repository's areas and on random documents."""
+    parts = _plain_parts(path)
+    if parts is None:
         return None
-    if not isinstance(doc, dict) or "crs" in doc:
+    out: list[BaseGeometry | None] = []
+    for part in parts:
+        if isinstance(part, _Rings):
+            try:
+                polys = [shapely.Polygon(shell, holes) for shell, *holes in part.polygons]
+            except (ValueError, shapely.errors.ShapelyError):  # a ring of fewer than 4 positions
+                return None
+            part = shapely.MultiPolygon(polys) if part.multi else polys[0]
+        out.append(part)
+    return out
+
+
+@dataclass(frozen=True)
+class _Rings:
+    """A (Multi)Polygon read from a GeoJSON file: each polygon's [shell, *holes], (n, 2) arrays."""
+
+    polygons: list[list[np.ndarray]]
+    multi: bool
+
+
+def _plain_parts(path: Path) -> list[BaseGeometry | _Rings | None] | None:
+    """The geometries of a plain GeoJSON file (polygons as their rings), or None (see `_plain_geojson`)."""
+    parser = simdjson.Parser()
+    try:
+        doc = parser.load(str(path))
+    except (ValueError, RuntimeError):  # not JSON, integers beyond 64 bits, nesting too deep …: GDAL says what
+        return None
+    if not isinstance(doc, simdjson.Object) or "crs" in doc:
         return None
     kind = doc.get("type")
     if kind == "FeatureCollection":
         feats = doc.get("features")
-        if not isinstance(feats, list) or not all(isinstance(f, dict) and f.get("type") == "Feature" for f in feats):
+        if not isinstance(feats, simdjson.Array):
             return None
-        raw = [f.get("geometry") for f in feats]
+        features = [f for f in feats if isinstance(f, simdjson.Object) and f.get("type") == "Feature"]
+        if len(features) != len(feats):
+            return None
+        raw = [f.get("geometry") for f in features]
     elif kind == "Feature":
         raw = [doc.get("geometry")]
     else:
         raw = [doc]
-    out: list[BaseGeometry | None] = []
+    out: list[BaseGeometry | _Rings | None] = []
     for g in raw:
         if g is None:
             out.append(None)
             continue
-        if not isinstance(g, dict) or g.get("type") not in _GEOMETRY_TYPES or not _numbers(g.get("coordinates"), _DEPTH[g["type"]]):
+        if not isinstance(g, simdjson.Object) or g.get("type") not in _GEOMETRY_TYPES:
             return None
-        if not _rings_closed(g):  # shapely would close them quietly; GDAL refuses them
+        part = _polygon_rings(g) if g.get("type") in ("Polygon", "MultiPolygon") else _small_geometry(g.as_dict())
+        if part is None:
             return None
-        try:
-            out.append(shapely.force_2d(_shape(g)))
-        except (ValueError, TypeError, IndexError, AttributeError, shapely.errors.ShapelyError):
-            return None
+        out.append(part)
     return out
 
 
-def _shape(g: dict[str, Any]) -> BaseGeometry:
-    """The geometry of a checked GeoJSON geometry object; polygons from numpy arrays of their
-    rings (shapely's `shape` walks the coordinate lists in Python: 0.28 against 0.07 s for a
-    ring of 400,000 points)."""
-    def polygon(rings: list[Any]) -> BaseGeometry:
-        shell, *holes = (np.asarray(r, float) for r in rings)
-        return shapely.Polygon(shell, holes)
+def _polygon_rings(g: Any) -> BaseGeometry | _Rings | None:
+    """A (Multi)Polygon's rings as numpy arrays; None when a ring is not a closed list of
+    equally long positions of 2 or 3 numbers (GDAL decides then). An empty one is made by
+    shapely, as any small geometry."""
+    coords = g.get("coordinates")
+    if not isinstance(coords, simdjson.Array):
+        return None
+    multi = g.get("type") == "MultiPolygon"
+    polys: list[Any] = list(coords) if multi else [coords]
+    if not polys or not all(isinstance(p, simdjson.Array) and len(p) > 0 for p in polys):
+        return _small_geometry(g.as_dict())
+    rings = [[_positions(r) for r in poly] for poly in polys]
+    if any(r is None for poly in rings for r in poly):
+        return None
+    return _Rings(rings, multi)  # type: ignore[arg-type]  # no None left
 
-    if g["type"] == "Polygon" and g["coordinates"]:
-        return polygon(g["coordinates"])
-    if g["type"] == "MultiPolygon" and all(g["coordinates"]):
-        return shapely.MultiPolygon([polygon(p) for p in g["coordinates"]])
-    return shapely.geometry.shape(g)
+
+def _positions(ring: Any) -> np.ndarray | None:
+    """A ring's (n, 2) longitudes and latitudes (heights dropped), or None (see _polygon_geometry)."""
+    if not isinstance(ring, simdjson.Array) or len(ring) == 0:
+        return None
+    dims = {len(p) if isinstance(p, simdjson.Array) else -1 for p in ring}
+    if len(dims) != 1 or (d := dims.pop()) not in (2, 3):
+        return None
+    try:
+        flat = np.frombuffer(ring.as_buffer(of_type="d"), float)
+    except TypeError:  # strings, booleans, null: shapely would take "14.5" and true as numbers, GDAL reads no polygon
+        return None
+    # every position d numbers: a position holding an array of more or fewer numbers is refused
+    # here; one holding an array of one number ([x, [y]], which GDAL refuses) is read as that
+    # number (telling it apart would visit every number from Python: +0.2 s on 400,000 vertices)
+    if flat.size != len(ring) * d:
+        return None
+    if not (-(2.0**63) <= flat.min() and flat.max() < 2.0**63):  # integers beyond int64 (held as uint64; GDAL clamps)
+        return None
+    xy = flat.reshape(-1, d)
+    if not np.array_equal(xy[0], xy[-1]):  # shapely would close it quietly; GDAL refuses it
+        return None
+    return xy[:, :2]
+
+
+def _small_geometry(g: dict[str, Any]) -> BaseGeometry | None:
+    """A geometry other than a polygon (points and lines, left out of the area) from its Python
+    objects, or None when GDAL would read its coordinates otherwise."""
+    if not _numbers(g.get("coordinates"), _DEPTH[g["type"]]) or not _rings_closed(g):
+        return None
+    try:
+        return shapely.force_2d(shapely.geometry.shape(g))
+    except (ValueError, TypeError, IndexError, AttributeError, shapely.errors.ShapelyError):
+        return None
 
 
 #: pyogrio's name for bytes it hands GDAL (/vsimem/pyogrio_<hex>, under /vsizip/ for a zip)
@@ -339,8 +414,7 @@ def _in_wgs84(geom: BaseGeometry, crs: pyproj.CRS, name: str, lines: bool = Fals
     validate = validate_lines if lines else validate_polygons
     geom = validate(geom, name, crs.is_geographic)
     if not crs.equals(_WGS84):
-        t = pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True)
-        geom = shapely.transform(geom, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))
+        geom = transformed(pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True), geom)
         geom = validate(geom, f"{name} (in WGS84)", True)
     return geom
 

@@ -1,14 +1,14 @@
 """JSON text fast: compact documents, flat rows and numbers, written by orjson's encoder.
 
 Why: a 1,000 ha plan writes about 200,000 numbers (footprint corners, station positions and
-heights) into plan.geojson, plan.kml and manifest.json. CPython's `repr(float)` (which json's
+heights) into plan.geojson and manifest.json. CPython's `repr(float)` (which json's
 C encoder calls) costs about 450 ns a number on our 2-core machine, so the numbers alone took
 about 100 ms; orjson, a well-kept library, writes the same shortest round-trip digits about
 ten times faster (measured in the commit that added this module).
 
 What is the same and what is not:
 - `float_texts` gives exactly `repr(v)` for every finite float (the exponent forms, which
-  orjson spells differently, are made by `repr` itself), so KML and the manifest keep their
+  orjson spells differently, are made by `repr` itself), so the manifest keeps its
   bytes.
 - `dumps_compact` is exactly `json.dumps(obj, separators=(",", ":"), ensure_ascii=False,
   allow_nan=False)`: orjson's text is kept unless it holds a number orjson spells its own
@@ -21,8 +21,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Sequence
-from functools import cached_property
+from collections.abc import Iterable, Sequence
 from operator import itemgetter
 from typing import Any
 
@@ -106,24 +105,35 @@ def _array_as_list(o: Any) -> Any:
 
 
 class Column(tuple[Any, ...]):
-    """A column of plain JSON values (a tuple) whose texts are made once, however many
-    writers ask: a plan's stations go into plan.geojson, plan.kml and manifest.json, the
-    same rounded positions and heights each time. `value_texts`, `float_texts` and
-    `string_texts` of a Column return (a copy of) its texts. Measured on the 1,000 ha
-    benchmark (7,309 stations): the texts of its seven shared columns took ~10 ms a writer."""
+    """A column of plain JSON values (a tuple), the types of its values (`kinds`) and, for a
+    column made from an array or from codes, the JSON text of each value (`texts`, made by
+    one orjson call when the column is made; None otherwise, when a writer makes them). A
+    plan's stations go into plan.geojson and manifest.json, the same rounded positions and
+    heights each time. `one` is the name of a column of one name repeated (the role)."""
+
+    kinds: frozenset[type]
+    texts: tuple[str, ...] | None
+    one: str | None
+
+    def __new__(cls, values: Iterable[Any] = (), texts: Sequence[str] | None = None, one: str | None = None) -> Column:
+        col = super().__new__(cls, values)
+        col.kinds = frozenset(map(type, col))
+        col.texts = None if texts is None else tuple(texts)
+        col.one = one
+        return col
 
     @classmethod
     def of_array(cls, a: np.ndarray) -> Column:
         """The values of a 1-D array of finite floats or of integers (ValueError otherwise), its
-        texts made from the array by one orjson call: no type read a value, no array made again.
-        Measured on the 1,000 ha benchmark's station columns: ~1.2 ms a column → ~0.4 ms."""
+        texts made from the array by one orjson call. Measured on the 1,000 ha benchmark's
+        station columns: ~1.2 ms a column → ~0.4 ms."""
         if a.ndim != 1 or a.dtype.kind not in "fi" or (a.dtype.kind == "f" and not np.isfinite(a).all()):
             raise ValueError(f"Column.of_array: a 1-D array of finite floats or of integers, not {a.dtype} {a.shape}")
-        col = cls(a.tolist())
-        # what cached_property would compute, known from the array
-        col.__dict__["kinds"] = frozenset({float if a.dtype.kind == "f" else int}) if len(a) else frozenset()
-        col.__dict__["_array"] = a
-        return col
+        if a.dtype.kind == "f":
+            texts = _float_texts(a)
+        else:
+            texts = orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[1:-1].split(",") if len(a) else []
+        return cls(a.tolist(), texts)
 
     @classmethod
     def of_codes(cls, names: Sequence[str], codes: np.ndarray) -> Column:
@@ -135,51 +145,24 @@ class Column(tuple[Any, ...]):
         values, texts = np.empty(len(names), dtype=object), np.empty(len(names), dtype=object)
         values[:], texts[:] = list(names), list(map(_encode_str, names))
         codes = np.asarray(codes, dtype=np.intp)
-        col = cls(values[codes].tolist())
-        col.__dict__["kinds"] = frozenset({str}) if len(codes) else frozenset()
-        col.__dict__["texts"] = tuple(texts[codes].tolist())
-        if len(names) == 1:
-            col.__dict__["_one"] = names[0]
-        return col
-
-    @cached_property
-    def kinds(self) -> frozenset[type]:
-        """The types of its values."""
-        return frozenset(map(type, self))
-
-    @cached_property
-    def texts(self) -> tuple[str, ...]:
-        """`value_texts` of the values (ValueError for a float that is not finite)."""
-        a = self.__dict__.get("_array")
-        if a is None or not len(a):
-            return tuple(_value_texts(self, self.kinds))
-        if a.dtype.kind == "f":
-            return tuple(_float_texts(a))
-        return tuple(orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[1:-1].split(","))
+        return cls(values[codes].tolist(), texts[codes].tolist(), names[0] if len(names) == 1 else None)
 
 
 def one_value(values: Sequence[Any]) -> Any:
     """The value of a column made of one name (`Column.of_codes`), else None: a writer may write its text once."""
-    return values.__dict__.get("_one") if type(values) is Column and len(values) else None
+    return values.one if type(values) is Column and len(values) else None
 
 
-def kinds_of(values: Sequence[Any]) -> frozenset[type]:
-    """The types of the values (a Column's known once)."""
-    return values.kinds if type(values) is Column else frozenset(map(type, values))
-
-
-def float_array(values: Sequence[float]) -> np.ndarray:
-    """The values as a float array: a Column's own (`Column.of_array`), else made."""
-    a = values.__dict__.get("_array") if type(values) is Column else None
-    return a if a is not None and a.dtype.kind == "f" else np.asarray(values, float)
+def _known_texts(values: Sequence[Any] | np.ndarray, kind: type) -> tuple[str, ...] | None:
+    """A Column's own texts if its values are all of `kind`, else None."""
+    return values.texts if type(values) is Column and values.kinds == {kind} else None
 
 
 def float_texts(values: Sequence[float] | np.ndarray) -> list[str]:
     """`repr(v)` of every value, which must all be finite floats; ValueError names the first
     that is not."""
-    if type(values) is Column and values.kinds == {float}:
-        return list(values.texts)
-    return _float_texts(values)
+    known = _known_texts(values, float)
+    return list(known) if known is not None else _float_texts(values)
 
 
 def exponent_form(a: np.ndarray) -> np.ndarray:
@@ -240,16 +223,15 @@ def quoted_as_is(values: Sequence[str]) -> bool:
 
 def string_texts(values: Sequence[str]) -> list[str]:
     """Each string as a JSON string literal, exactly as json.dumps(ensure_ascii=False) writes it."""
-    if type(values) is Column and values.kinds == {str}:
-        return list(values.texts)
-    return list(map(_encode_str, values))
+    known = _known_texts(values, str)
+    return list(known) if known is not None else list(map(_encode_str, values))
 
 
 def value_texts(values: Sequence[Any]) -> list[str]:
     """JSON text of each value of one column, as json writes it: floats through `float_texts`
     (in one call), None as null; a column of one plain type is made in one pass."""
     if type(values) is Column:
-        return list(values.texts)
+        return list(values.texts) if values.texts is not None else _value_texts(values, values.kinds)
     return _value_texts(values, frozenset(map(type, values)))
 
 

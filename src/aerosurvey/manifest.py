@@ -25,14 +25,14 @@ import numpy as np
 from aerosurvey import __version__, ids, schemas
 from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import Column, rows_text, table_text
+from aerosurvey.jsontext import Column, rows_text, string_texts, table_text
 from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
     from aerosurvey.plan.planner import Plan
 
 SCHEMA = "aerosurvey-manifest"
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 #: The file name `aerosurvey plan` writes the manifest under.
 FILE_NAME = "manifest.json"
 
@@ -127,7 +127,8 @@ def run_stations(plan: Plan) -> list[tuple[int, int, int]]:
     return [(order[s], order[e - 1], e - s) for s, e in zip(starts[:n_runs], ends[:n_runs])]
 
 
-STATION_KEYS = ("id", "seq", "line", "x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg")
+STATION_KEYS = ("id", "seq", "line", "x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg",
+                "pitch_deg", "camera_yaw_deg")
 
 
 @dataclass(frozen=True)
@@ -151,7 +152,7 @@ class StationTable:
 
 def station_table(plan: Plan) -> StationTable:
     """The plan's stations as the manifest records them (rounded; None where a value is not
-    finite). Its columns are `jsontext.Column`s: plan.geojson and plan.kml write the ids,
+    finite). Its columns are `jsontext.Column`s: plan.geojson writes the ids,
     positions and heights from them too (`report.features.plan_geojson`), their texts made once."""
     st = plan.stations
 
@@ -166,9 +167,30 @@ def station_table(plan: Plan) -> StationTable:
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
     gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
-    return StationTable((Column(st.ids), Column.of_array(np.arange(1, len(st.ids) + 1)), Column.of_codes(run_ids, st.run),
+    # the ids' JSON texts made here, once: plan.geojson writes them twice (feature id, property) and the manifest once
+    return StationTable((Column(st.ids, string_texts(st.ids)), Column.of_array(np.arange(1, len(st.ids) + 1)),
+                         Column.of_codes(run_ids, st.run),
                          col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
-                         col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3)))
+                         col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3),
+                         col(st.pitch_deg, 2), col(st.camera_yaw_deg, 3)))
+
+
+def _pattern(plan: Plan) -> dict[str, Any]:
+    """The pattern and its parameters, and each pass's camera attitude and sensor solution."""
+    p = plan.spec.pattern
+    params: dict[str, Any] = {}
+    if p.kind == "corridor":
+        params = {"left_m": p.left_m, "right_m": p.right_m}
+    elif p.kind == "oblique":
+        params = {"scheme": p.scheme, "pitch_deg": p.pitch_deg,
+                  "max_far_gsd_cm": _f(p.max_far_gsd_m * 100, 4) if p.max_far_gsd_m is not None else None}
+    trigger = _f(plan.trigger_distance_m) if plan.trigger_distance_m is not None else None
+    passes = [{"pass": ps.index, "pitch_deg": ps.pitch_deg, "look_deg": _f(ps.look_deg) if ps.look_deg is not None else None,
+               "footprint_across_m": _f(plan.across_m), "footprint_along_m": _f(plan.along_m),
+               "line_spacing_m": _f(plan.spacing_m), "photo_base_m": _f(plan.base_m), "trigger_distance_m": trigger}
+              for ps in plan.passes if not ps.empty]
+    hover = plan.spec.camera.settle_s + plan.spec.camera.min_cycle_s if plan.spec.camera.trigger == "hover" else None
+    return {"kind": p.kind, "parameters": params, "hover_s": _f(hover) if hover is not None else None, "passes": passes}
 
 
 def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with_stations: bool = True) -> dict[str, Any]:
@@ -181,6 +203,8 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
     h = plan.heights
     lines = []
     ends = _lonlats(plan, [xy for r in plan.route.runs for xy in (r.lead_in_xy, r.end_xy)])
+    bends = _lonlats(plan, [(float(x), float(y)) for r in plan.route.runs for x, y in r.bends_xy])
+    bend_at = np.cumsum([0, *(len(r.bends_xy) for r in plan.route.runs)]).tolist()
     for i, (r, (first, last, photos)) in enumerate(zip(plan.route.runs, run_stations(plan))):
         lines.append({
             "id": _run_id(plan, i), "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
@@ -188,6 +212,7 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
             "first_station": st.ids[first], "last_station": st.ids[last],
             "lead_in": ends[2 * i],
             "end": ends[2 * i + 1],
+            "bends": bends[bend_at[i]:bend_at[i + 1]],
         })
     stations = station_table(plan).rows() if with_stations else []
     inputs = {
@@ -215,6 +240,7 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
                     "images_beyond_boundary": spec.targets.images_beyond_boundary,
                     "coverage_margin_m": spec.targets.coverage_margin_m,
                     "max_height_agl_m": spec.vehicle.max_height_agl_m},
+        "pattern": _pattern(plan),
         "derived": {
             "height_agl_m": _f(h.nominal_agl_m), "height_for_gsd_m": _f(h.target_agl_m),
             "lowest_agl_m": _f(h.spacing_agl_m), "highest_agl_m": _f(h.max_agl_m),
@@ -398,6 +424,8 @@ class Stations:
     agl_m: np.ndarray
     gsd_cm: np.ndarray
     heading_deg: np.ndarray
+    pitch_deg: np.ndarray  # the camera's (−90 straight down)
+    camera_yaw_deg: np.ndarray  # the bearing the camera looks to
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -407,7 +435,8 @@ class Stations:
         seq = np.array([r["seq"] for r in rows], int)
         seq.setflags(write=False)
         return cls(tuple(r["id"] for r in rows), seq, tuple(r["line"] for r in rows),
-                   *(_col(rows, k) for k in ("x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg")))
+                   *(_col(rows, k) for k in ("x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m", "gsd_cm", "heading_deg",
+                                             "pitch_deg", "camera_yaw_deg")))
 
     def index(self, station: str) -> int:
         try:
@@ -419,7 +448,8 @@ class Stations:
         """Stations first..last (indices, both included)."""
         sl = slice(first, last + 1)
         return Stations(self.ids[sl], self.seq[sl], self.run[sl], self.x[sl], self.y[sl], self.lon[sl], self.lat[sl],
-                        self.ground_m[sl], self.alt_rel_m[sl], self.agl_m[sl], self.gsd_cm[sl], self.heading_deg[sl])
+                        self.ground_m[sl], self.alt_rel_m[sl], self.agl_m[sl], self.gsd_cm[sl], self.heading_deg[sl],
+                        self.pitch_deg[sl], self.camera_yaw_deg[sl])
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
 from aerosurvey.mission.formats import wpml
-from aerosurvey.mission.formats.kml import feature_collection_to_kml
+from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, program_legs
@@ -28,7 +28,8 @@ from aerosurvey.plan.planner import Plan
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
     from aerosurvey.rules.engine import Evidence, RuleResult
-from aerosurvey.report.features import plan_geojson
+from aerosurvey.report.features import footprint_lonlat, plan_geojson
+from aerosurvey.report.gpkg import footprints_layer, gpkg_bytes, plan_layers
 from aerosurvey.report.preview import render_svg
 from aerosurvey.report.summary import Summary, plan_summary
 
@@ -94,14 +95,13 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     programs = {"mission": flight_program(plan, name=plan.spec.name)} | _sortie_programs(plan, ids.sortie_file_stem)
     final_gate(plan, programs)
     mission = mavlink_mission(programs["mission"])
-    # the station table's columns are written into the manifest, plan.geojson and plan.kml
-    # (their texts made once), and the rules make its rows
+    # the station table's columns are written into the manifest and plan.geojson, and the
+    # rules make its rows; the footprints' corners go into plan.geojson and plan.gpkg
     stations_table = mf.station_table(plan)
-    fc, stations, geojson = plan_geojson(plan, stations_table)
+    corners = footprint_lonlat(plan)
+    fc, _, geojson = plan_geojson(plan, stations_table, corners)
     files = {
         "plan.geojson": geojson,
-        # footprints only in the GeoJSON: thousands of rectangles only clutter a pilot's Google Earth
-        "plan.kml": feature_collection_to_kml(fc, plan.spec.name, [stations]),
     }
     files.update(_mission_files({stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()}))
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
@@ -115,10 +115,12 @@ def render_outputs(plan: Plan, gpkg: bool = False) -> Rendered:
     files["preview.svg"] = render_svg(plan, summary, points)
     binary, dji_warnings = dji_kmz_files(programs)
     warnings += dji_warnings
+    # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
+    # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
+    layers = plan_layers(plan, points)
+    files["plan.kml"] = layers_to_kml(layers, plan.spec.name)
     if gpkg:
-        from aerosurvey.report.gpkg import gpkg_bytes
-
-        binary["plan.gpkg"] = gpkg_bytes(plan, points)
+        binary["plan.gpkg"] = gpkg_bytes([*layers, footprints_layer(plan, corners)])
     hashes = {name: _sha256(text.encode("utf-8")) for name, text in files.items()}
     hashes |= {name: _sha256(data) for name, data in binary.items()}
     manifest["outputs"] = dict(sorted(hashes.items()))

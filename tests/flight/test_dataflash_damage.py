@@ -136,6 +136,7 @@ def test_duplicated_chunks(tmp_path: Path, base: Path, a: float, size: int, afte
 @SETTINGS
 @example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(150, 328, 1)])  # an event 16.8 s late, after the last one
 @example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(150, 329, 1)])  # an event 4295 s late, after the GPS messages
+@example(base=PLANE, flips=[(0.0, 1)], cam_flips=[(1008, 235, 40)])  # found by a run on 2026-11-25
 @given(base=bases, flips=st.lists(st.tuples(st.floats(0, 1), st.integers(1, 255)), min_size=1, max_size=30),
        cam_flips=st.lists(st.tuples(st.integers(0, 10**6), st.integers(0, 10**6), st.integers(1, 255)), max_size=10))
 def test_flipped_bytes(tmp_path: Path, base: Path, flips: list[tuple[float, int]],

@@ -181,7 +181,7 @@ def test_web_page_refuses_results_of_another_plan(plans, tmp_path):
         flown_layers(files, frame, doc)
     own = {n: p for n, p in files.items() if n == "events.csv"}
     with pytest.raises(InputError, match=r"not of this plan, mission 'home-field': their camera events lie a median [0-9,.]+ km"):
-        flown_layers(own, frame, (home / "manifest.json").read_text())
+        flown_layers(own, frame, mf.loads((home / "manifest.json").read_text(), "the home plan"))
 
 
 def _area(plan: Path):

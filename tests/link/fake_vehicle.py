@@ -9,7 +9,12 @@ mission items in place as they arrive. With `px4=True` it answers as PX4's Mavli
 drops an item it did not ask for without an answer, answers a repeat of the last item after
 the upload with ACCEPTED, refuses a MISSION_COUNT in the middle of an upload with ERROR, gives
 up silently after 5 s without an item, stores the mission only when it is complete, and during
-a download answers only the next item or the one before (anything else: ERROR, transfer over).
+a download answers only the next item or the one before (anything else: ERROR, transfer over);
+it keeps what PX4's mission_item_s keeps of an item (`px4_parse`), answers in the _INT frames with
+the yaw wrapped to [0, 360) (`px4_format`), refuses the commands and frames PX4 does not take
+(MAV_MISSION_UNSUPPORTED, _UNSUPPORTED_FRAME) and counts more than its dataman holds per mission
+type (`PX4_ROOM`) as MAV_MISSION_NO_SPACE. Both keep rally points (MAV_MISSION_TYPE_RALLY;
+ArduPilot in whole metres) and answer whichever system asked.
 Both answer MAV_CMD_REQUEST_MESSAGE for GLOBAL_POSITION_INT and HOME_POSITION at `home`
 (COMMAND_ACK MAV_RESULT_FAILED without `fix`). It reads and writes pymavlink messages with its
 own field handling, independent of aerosurvey's codec.
@@ -108,6 +113,50 @@ def ardupilot_pack(command: int, frame: int, p: tuple[float, float, float, float
     return Stored(command, frame_back, params, x, y, _f32(alt_cm * _f32(0.01)))
 
 
+# What PX4's MavlinkMissionManager takes (mavlink_mission.cpp, parse_mavlink_mission_item), written
+# out here from its source, apart from aerosurvey's own table: commands with a position ...
+PX4_WITH_POSITION = {16, 17, 19, 21, 22, 31, 80, 84, 85, 195, 201, 212, 400, 4501, 5000, 5001, 5002, 5003, 5004, 5100}
+# ... and commands in MAV_FRAME_MISSION (2)
+PX4_WITHOUT_POSITION = {20, 80, 93, 112, 114, 177, 178, 179, 187, 189, 197, 200, 201, 203, 204, 205, 206, 211, 212, 213,
+                        214, 260, 400, 530, 532, 534, 1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000, 42600}
+# dataman's room per mission type: CONFIG_NUM_MISSION_ITMES_SUPPORTED (2000 on a flight controller),
+# DM_KEY_FENCE_POINTS_MAX, DM_KEY_SAFE_POINTS_MAX
+PX4_ROOM = {0: 2000, 1: 64, 2: 32}
+
+
+def px4_parse(command: int, frame: int, p: tuple[float, float, float, float], x: int, y: int, z: float) -> Stored:
+    """Store an item as PX4 does: the fields its mission_item_s has, yaw in radians (float32)."""
+    if frame in (0, 3, 5, 6):
+        if command not in PX4_WITH_POSITION:
+            raise Unsupported(mp.UNSUPPORTED)
+        # math::radians in float: degrees * (float(M_PI) / 180.f)
+        yaw = _f32(_f32(p[3]) * _f32(_f32(math.pi) / 180.0)) if math.isfinite(p[3]) else p[3]
+        kept = {16: (p[0], p[1], 0.0, yaw), 21: (0.0, p[1], 0.0, yaw), 22: (0.0, 0.0, 0.0, yaw), 84: (0.0, 0.0, 0.0, yaw),
+                85: (0.0, 0.0, 0.0, yaw), 5001: (float(int(p[0] + 0.5)), 0.0, 0.0, 0.0),
+                5002: (float(int(p[0] + 0.5)), 0.0, 0.0, 0.0), 5100: (0.0, 0.0, 0.0, 0.0)}.get(command, p)
+        return Stored(command, frame, tuple(_f32(v) for v in kept), x, y, _f32(z))  # type: ignore[arg-type]
+    if frame == 2:
+        if command not in PX4_WITHOUT_POSITION:
+            raise Unsupported(mp.UNSUPPORTED)
+        return Stored(command, 2, tuple(_f32(v) for v in p), int(_f32(x)), int(_f32(y)), _f32(z))  # type: ignore[arg-type]
+    raise Unsupported(mp.UNSUPPORTED_FRAME)
+
+
+def px4_format(s: Stored, mtype: int) -> Stored:
+    """The item PX4 sends back for what it stored (format_mavlink_mission_item, MISSION_ITEM_INT): positions in
+    the _INT frames (a fence vertex always in MAV_FRAME_GLOBAL_INT), the yaw in degrees wrapped to [0, 360)."""
+    if s.frame == 2:
+        return s
+    yaw = s.params[3]
+    if math.isfinite(yaw):  # matrix::wrap_2pi (float: x - range * floor(x * (1 / range)) outside [0, range)), math::degrees
+        two_pi = _f32(2 * math.pi)
+        if not 0.0 <= yaw < two_pi:
+            yaw = _f32(yaw - _f32(two_pi * math.floor(_f32(yaw * _f32(1.0 / two_pi)))))
+        yaw = _f32(yaw * _f32(180.0 / _f32(math.pi)))
+    relative = s.frame in (3, 6) and mtype != 1
+    return Stored(s.command, 6 if relative else 5, (*s.params[:3], yaw), s.x, s.y, s.z)
+
+
 class VehicleModel:
     """The vehicle side of the mission protocol, driven by messages and a clock it is given."""
 
@@ -117,7 +166,7 @@ class VehicleModel:
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
                  early_accept_after: int | None = None, fail_item: int | None = None,
                  silent_after_request: int | None = None, px4: bool = False, fix: bool = True,
-                 mav_type: int | None = None) -> None:
+                 mav_type: int | None = None, lose_final_acks: int = 0) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
@@ -139,7 +188,8 @@ class VehicleModel:
         self.early_accept_after = early_accept_after  # a faulty vehicle: ACCEPTED before the last item
         self.fail_item = fail_item  # a mission item whose storage fails (ERROR, upload ends)
         self.silent_after_request = silent_after_request  # asks for this mission item, then never answers again
-        self.stored: dict[int, list[Stored]] = {0: [], 1: []}
+        self.lose_final_acks = lose_final_acks  # the final ACCEPTED of this many uploads never leaves the vehicle
+        self.stored: dict[int, list[Stored]] = {0: [], 1: [], 2: []}
         self.receiving: int | None = None  # mission type being uploaded
         self._staging: list[Stored] = []
         self._count = 0
@@ -174,11 +224,19 @@ class VehicleModel:
         x, y = int(m.x), int(m.y)
         if m.get_type() == "MISSION_ITEM":
             x, y = int(m.x * 1e7), int(m.y * 1e7)
-        if mtype == 1:
+        if self.px4:
+            s = px4_parse(int(m.command), int(m.frame), params, x, y, float(m.z))
+        elif mtype == 1:
             if m.command not in (5001, 5002):
                 raise Unsupported(mp.UNSUPPORTED)
             return Stored(int(m.command), 0, (float(int(m.param1) & 0xFF), 0.0, 0.0, 0.0), x, y, 0.0)
-        if self.storage == "ardupilot":
+        elif mtype == 2 and self.storage == "ardupilot":  # ArduPilot's RallyLocation: relative altitude in whole metres (int16)
+            if m.command != 5100:
+                raise Unsupported(mp.UNSUPPORTED)
+            if m.frame not in (3, 6):
+                raise Unsupported(mp.UNSUPPORTED_FRAME)
+            return Stored(5100, 6, (0.0, 0.0, 0.0, 0.0), x, y, float(int(m.z)))
+        elif self.storage == "ardupilot":
             s = ardupilot_pack(int(m.command), int(m.frame), params, x, y, float(m.z), self.plane)
         else:
             s = Stored(int(m.command), int(m.frame), tuple(_f32(p) for p in params), x, y, _f32(float(m.z)))  # type: ignore[arg-type]
@@ -197,6 +255,8 @@ class VehicleModel:
             s = Stored(16, 0, (0.0, 0.0, 0.0, 0.0), round(lat * 1e7), round(lon * 1e7), alt)
         else:
             s = self.stored[mtype][seq]
+        if self.px4:
+            s = px4_format(s, mtype)
         if legacy:
             return self.mav.mission_item_encode(*self._gcs, seq, s.frame, s.command, 0, 1, *s.params,
                                                 s.x * 1e-7, s.y * 1e-7, s.z, mission_type=mtype)
@@ -221,6 +281,7 @@ class VehicleModel:
         self._note(f"got {kind}")
         if not self.answer_missions:
             return []
+        self._gcs = (m.get_srcSystem(), m.get_srcComponent())  # answers go to whoever asked (PX4: its transfer partner)
         if getattr(m, "target_system", self.system) not in (0, self.system):
             return []
         mtype = int(getattr(m, "mission_type", 0))
@@ -235,8 +296,11 @@ class VehicleModel:
             if self.no_space_left > 0:
                 self.no_space_left -= 1
                 return [self._ack(mp.NO_SPACE, mtype)]
-            if m.count > self.capacity:  # ArduPilot says why in a STATUSTEXT
-                text = f"Only {self.capacity} items are supported".encode()
+            room = min(self.capacity, PX4_ROOM[mtype]) if self.px4 else self.capacity
+            if m.count > room:
+                if self.px4:  # PX4 says nothing more (a PX4_DEBUG line only)
+                    return [self._ack(mp.NO_SPACE, mtype)]
+                text = f"Only {self.capacity} items are supported".encode()  # ArduPilot says why in a STATUSTEXT
                 return [self._ack(mp.NO_SPACE, mtype), self.mav.statustext_encode(4, text)]
             self.receiving = mtype
             self._count, self._next = int(m.count), 0
@@ -304,6 +368,10 @@ class VehicleModel:
         self._last_done = (mtype, self._count)
         self.receiving = None
         self.completed_uploads += 1
+        if self.lose_final_acks > 0:
+            self.lose_final_acks -= 1
+            self._note("final ack lost")
+            return []
         return [self._ack(mp.ACCEPTED, mtype)]
 
     def poll(self, now: float) -> list[Any]:

@@ -1,5 +1,6 @@
-"""`aerosurvey upload` reads a plan's rally points (one per launch site) and, after uploading the
-mission, says they were not sent: they are not dropped silently."""
+"""`aerosurvey upload` reads a plan's rally points (one per launch site): without --rally it says
+after uploading the mission that they were not sent (they are not dropped silently); with
+--rally it uploads them as MAV_MISSION_TYPE_RALLY and verifies them."""
 
 from __future__ import annotations
 
@@ -27,3 +28,11 @@ def test_rally_points_are_read_and_named_after_the_upload(tmp_path: Path) -> Non
         res = CliRunner().invoke(main, ["upload", str(sortie), "--connect", fv.url])
     assert res.exit_code == 0, res.output
     assert res.output.strip().splitlines()[-1].startswith(f"note: the plan's {len(m.rally)} rally point(s) were not uploaded")
+
+    model = VehicleModel(storage="ardupilot", home=m.home)
+    with FakeVehicle(model, "udp") as fv:
+        res = CliRunner().invoke(main, ["upload", str(sortie), "--connect", fv.url, "--rally"])
+    assert res.exit_code == 0, res.output
+    assert f"rally: {len(m.rally)} points uploaded" in res.output and "note:" not in res.output
+    assert [(s.x, s.y) for s in model.stored[2]] == [(round(lat * 1e7), round(lon * 1e7)) for lat, lon, _ in m.rally]
+    assert [s.z for s in model.stored[2]] == [float(int(alt)) for _, _, alt in m.rally]  # ArduPilot: whole metres

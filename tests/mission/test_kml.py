@@ -1,188 +1,153 @@
-"""KML export: folders and styles per role, geometry, ExtendedData, escaping, determinism, errors."""
+"""plan.kml read back by GDAL (pyogrio, its LIBKML driver): the layers of plan.gpkg but the
+footprints, each feature with its name, fields and geometry (3-D where the plan follows the
+terrain, altitudeMode absolute); a style for every placemark, one colour per sortie; text
+escaped, and a character XML cannot hold refused naming where it is."""
 
 from __future__ import annotations
 
-import copy
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
+import numpy as np
+import pyogrio
 import pytest
+import shapely
 
 from aerosurvey.errors import InputError
-from aerosurvey.mission.formats.kml import ROLE_ORDER, STYLES, feature_collection_to_kml
+from aerosurvey.inputs import plan_from_files
+from aerosurvey.mission.formats.kml import layers_to_kml
+from aerosurvey.outputs import write_outputs
+from aerosurvey.report.gpkg import STYLES, Layer
+from aerosurvey.spec import load_spec
+from conftest import make_spec, random_polygon, write_geojson
 
-NS = {"k": "http://www.opengis.net/kml/2.2"}
-SQUARE = [[15.0, 49.4], [15.01, 49.4], [15.01, 49.41], [15.0, 49.41], [15.0, 49.4]]
-HOLE = [[15.002, 49.402], [15.004, 49.402], [15.004, 49.404], [15.002, 49.402]]
-
-
-def feature(role: str | None, geometry: dict | None, fid: str | None = None, **props) -> dict:
-    p = dict(props)
-    if role is not None:
-        p["role"] = role
-    f = {"type": "Feature", "properties": p, "geometry": geometry}
-    if fid is not None:
-        f["id"] = fid
-    return f
+ROOT = Path(__file__).resolve().parents[2]
+K = "{http://www.opengis.net/kml/2.2}"
 
 
-def collection() -> dict:
-    return {"type": "FeatureCollection", "features": [
-        feature("station", {"type": "Point", "coordinates": [15.001, 49.401, 80.5]}, "P1-L001-0001", id="P1-L001-0001",
-                seq=1, agl_m=80.5, line="P1-L001"),
-        feature("area", {"type": "Polygon", "coordinates": [SQUARE, HOLE]}, "area", id="area", area_ha=72.1),
-        feature("line", {"type": "LineString", "coordinates": [[15.001, 49.401], [15.009, 49.401]]}, "P1-L001",
-                id="P1-L001", photos=12, ok=True, tags=["a", "b"], note=None),
-        feature("exclusion", {"type": "MultiPolygon", "coordinates": [[SQUARE], [SQUARE, HOLE]]}, "exclusion-1"),
-        feature("station", {"type": "Point", "coordinates": [15.002, 49.401]}, "P1-L001-0002", id="P1-L001-0002"),
-        feature("gcp", {"type": "Point", "coordinates": [15.005, 49.405]}, "GCP-1", id="GCP-1"),
-        feature("check", {"type": "MultiPoint", "coordinates": [[15.006, 49.406, 2.0], [15.007, 49.407]]}, "CHK-1"),
-        feature("sortie", {"type": "MultiLineString", "coordinates": [[[15.0, 49.4], [15.01, 49.41]]]}, "sortie-01"),
-        feature("footprint", {"type": "Polygon", "coordinates": [SQUARE]}, "P1-L001-0001-fp"),
-        feature("balloon", {"type": "GeometryCollection", "geometries": [
-            {"type": "Point", "coordinates": [15.0, 49.4]}, {"type": "LineString", "coordinates": SQUARE[:2]}]}, "odd-1"),
-        feature(None, None, "nothing-1", comment="no geometry"),
-    ]}
+def _read(path: Path, layer: str) -> tuple[list[shapely.Geometry], dict[str, np.ndarray]]:
+    meta, _, geoms, fields = pyogrio.raw.read(path, layer=layer)
+    return [shapely.from_wkb(g) for g in geoms], dict(zip(meta["fields"], fields))
 
 
-def parse(text: str) -> ET.Element:
-    return ET.fromstring(text.encode("utf-8"))
+def test_the_kml_has_the_packages_layers_but_the_footprints(written) -> None:
+    _, _, out = written
+    kml, gpkg = out / "plan.kml", out / "plan.gpkg"
+    package = [n for n, _ in pyogrio.list_layers(gpkg) if n not in ("layer_styles", "footprints")]
+    assert [n for n, _ in pyogrio.list_layers(kml)] == package
+    for layer in package:
+        info = pyogrio.read_info(kml, layer=layer)
+        assert info["crs"] == "EPSG:4326"
+        assert info["features"] == pyogrio.read_info(gpkg, layer=layer)["features"], layer
 
 
-def folders(root: ET.Element) -> dict[str, list[ET.Element]]:
-    return {f.find("k:name", NS).text: f.findall("k:Placemark", NS) for f in root.iter(f"{{{NS['k']}}}Folder")}
+def _same_features_as_the_package(out: Path, three_d: frozenset[str]) -> int:
+    """Every KML layer's features: names and fields as the GeoPackage's (as text), each geometry of
+    the package layer's type, equal to its feature's to 1e-8°, heights to 5 mm, z only in the
+    layers of `three_d`. Returns how many features were compared."""
+    compared = 0
+    for layer in [n for n, _ in pyogrio.list_layers(out / "plan.kml")]:
+        kml_geoms, kml_fields = _read(out / "plan.kml", layer)
+        gpkg_geoms, gpkg_fields = _read(out / "plan.gpkg", layer)
+        assert list(kml_fields["Name"]) == [str(v) for v in gpkg_fields["id"]], layer
+        for field, values in gpkg_fields.items():
+            if field != "id" and len(values):  # (an empty Folder has no fields to read)
+                got = kml_fields[field]
+                if values.dtype.kind == "f":
+                    np.testing.assert_allclose(got.astype(float), values, rtol=1e-12, err_msg=f"{layer}.{field}")
+                else:
+                    assert [str(v) for v in got] == [str(v) for v in values], f"{layer}.{field}"
+        kind = pyogrio.read_info(out / "plan.gpkg", layer=layer)["geometry_type"]
+        for a, b in zip(kml_geoms, gpkg_geoms, strict=True):
+            assert a.geom_type + (" Z" if a.has_z else "") == kind, layer
+            assert a.has_z == b.has_z == (layer in three_d)
+            assert shapely.equals_exact(shapely.force_2d(a), shapely.force_2d(b), tolerance=1e-8), layer
+            if b.has_z:
+                np.testing.assert_allclose(shapely.get_coordinates(a, include_z=True)[:, 2],
+                                           shapely.get_coordinates(b, include_z=True)[:, 2], atol=0.005)
+            compared += 1
+    return compared
 
 
-def data(pm: ET.Element) -> dict[str, str]:
-    return {d.get("name"): (d.find("k:value", NS).text or "") for d in pm.findall("k:ExtendedData/k:Data", NS)}
+def test_every_feature_has_the_packages_name_fields_and_geometry(written) -> None:
+    """The forest plan (terrain following) in 3-D, the flat one 2-D."""
+    name, plan, out = written
+    three_d = frozenset({"strips", "route", "stations", "launch_points"} if name == "forest-dem" else ())
+    assert _same_features_as_the_package(out, three_d) > len(plan.stations.ids)
 
 
-def test_one_folder_per_role_in_fixed_order_with_its_placemarks() -> None:
-    root = parse(feature_collection_to_kml(collection(), "Obratan 72 ha"))
-    assert root.tag == f"{{{NS['k']}}}kml"
-    assert root.find("k:Document/k:name", NS).text == "Obratan 72 ha"
-    f = folders(root)
-    assert list(f) == ["area", "exclusion", "line", "station", "footprint", "gcp", "check", "sortie", "other"]
-    assert [pm.find("k:name", NS).text for pm in f["station"]] == ["P1-L001-0001", "P1-L001-0002"]
-    assert [pm.find("k:name", NS).text for pm in f["other"]] == ["odd-1", "nothing-1"]
-    for role, marks in f.items():
-        assert all(pm.find("k:styleUrl", NS).text == f"#{role}" for pm in marks)
+def test_an_area_with_holes_and_a_zone(tmp_path) -> None:
+    """Polygons with holes and a zone, as the package has them."""
+    zone = [[15.0020, 49.4012], [15.0040, 49.4012], [15.0040, 49.4024], [15.0020, 49.4024], [15.0020, 49.4012]]
+    write_geojson(tmp_path / "zone.geojson", [zone])
+    spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]}, "flight": {"exclusion_margin_m": 30.0}},
+                     rings=random_polygon("holed", 7, 400.0))
+    write_outputs(plan_from_files(load_spec(spec)), tmp_path / "o", gpkg=True)
+    counts = {n: pyogrio.read_info(tmp_path / "o" / "plan.kml", layer=n)["features"]
+              for n, _ in pyogrio.list_layers(tmp_path / "o" / "plan.kml")}
+    assert counts["zones"] == 1, counts
+    assert len(shapely.from_wkb(pyogrio.raw.read(tmp_path / "o" / "plan.kml", layer="area")[2][0]).geoms[0].interiors) >= 1
+    assert _same_features_as_the_package(tmp_path / "o", frozenset()) > 0
 
 
-def test_a_distinct_style_for_every_role() -> None:
-    root = parse(feature_collection_to_kml(collection(), "x"))
-    styles = {s.get("id"): s for s in root.findall("k:Document/k:Style", NS)}
-    assert list(styles) == list(ROLE_ORDER) and set(STYLES) == set(ROLE_ORDER)
-    looks = {(s.find("k:LineStyle/k:color", NS).text, s.find("k:PolyStyle/k:color", NS).text,
-              s.find("k:IconStyle/k:color", NS).text) for s in styles.values()}
-    assert len(looks) == len(styles)
-
-
-def test_geometry_altitude_modes_holes_and_multi_parts() -> None:
-    f = folders(parse(feature_collection_to_kml(collection(), "x")))
-    high, ground = (pm.find("k:Point", NS) for pm in f["station"])
-    assert high.find("k:altitudeMode", NS).text == "relativeToGround"
-    assert high.find("k:coordinates", NS).text == "15.001,49.401,80.5"
-    assert ground.find("k:altitudeMode", NS) is None and ground.find("k:coordinates", NS).text == "15.002,49.401"
-    poly = f["area"][0].find("k:Polygon", NS)
-    outer = poly.find("k:outerBoundaryIs/k:LinearRing/k:coordinates", NS).text.split()
-    assert outer[0] == "15,49.4" and outer[0] == outer[-1] and len(outer) == 5
-    inner = poly.findall("k:innerBoundaryIs/k:LinearRing/k:coordinates", NS)
-    assert len(inner) == 1 and inner[0].text.split() == ["15.002,49.402", "15.004,49.402", "15.004,49.404", "15.002,49.402"]
-    multi = f["exclusion"][0].find("k:MultiGeometry", NS)
-    assert [len(p.findall("k:innerBoundaryIs", NS)) for p in multi.findall("k:Polygon", NS)] == [0, 1]
-    points = f["check"][0].findall("k:MultiGeometry/k:Point", NS)
-    assert [p.find("k:altitudeMode", NS) is not None for p in points] == [True, False]
-    line = f["line"][0].find("k:LineString", NS)
-    assert line.find("k:coordinates", NS).text == "15.001,49.401 15.009,49.401"
-    assert f["sortie"][0].find("k:MultiGeometry/k:LineString", NS) is not None
-    mixed = f["other"][0].find("k:MultiGeometry", NS)
-    assert [c.tag.split("}")[1] for c in mixed] == ["Point", "LineString"]
-    assert f["other"][1].find("k:Point", NS) is None  # a feature without geometry keeps its data
-
-
-def test_unclosed_ring_is_closed() -> None:
-    fc = {"type": "FeatureCollection", "features": [feature("area", {"type": "Polygon", "coordinates": [SQUARE[:4]]})]}
-    ring = folders(parse(feature_collection_to_kml(fc, "x")))["area"][0].find(".//k:coordinates", NS).text.split()
-    assert ring == ["15,49.4", "15.01,49.4", "15.01,49.41", "15,49.41", "15,49.4"]
-
-
-def test_feature_id_and_properties_in_extended_data() -> None:
-    f = folders(parse(feature_collection_to_kml(collection(), "x")))
-    line = data(f["line"][0])
-    assert list(line) == ["id", "note", "ok", "photos", "role", "tags"]
-    assert line == {"id": "P1-L001", "note": "", "ok": "true", "photos": "12", "role": "line", "tags": '["a","b"]'}
-    assert data(f["exclusion"][0]) == {"id": "exclusion-1", "role": "exclusion"}  # the feature id when no property has one
-    assert data(f["other"][0])["role"] == "balloon"  # unknown role: kept in the data, placed in "other"
-    assert data(f["station"][0])["agl_m"] == "80.5"
-
-
-def test_text_is_escaped_and_reads_back_unchanged() -> None:
-    nasty = 'A&B <c> "d" \'e\' ž'
-    fc = {"type": "FeatureCollection", "features": [
-        feature("gcp", {"type": "Point", "coordinates": [15.0, 49.4]}, nasty, note=nasty, **{"odd <key>": "x"})]}
-    text = feature_collection_to_kml(fc, nasty)
-    assert "&amp;" in text and "&lt;c&gt;" in text
-    root = parse(text)
-    assert root.find("k:Document/k:name", NS).text == nasty
-    pm = folders(root)["gcp"][0]
-    assert pm.find("k:name", NS).text == nasty
-    assert data(pm) == {"id": nasty, "note": nasty, "odd <key>": "x", "role": "gcp"}
-
-
-def test_deterministic_and_independent_of_property_order() -> None:
-    fc = collection()
-    reordered = copy.deepcopy(fc)
-    for f in reordered["features"]:
-        f["properties"] = dict(reversed(list(f["properties"].items())))
-    text = feature_collection_to_kml(fc, "x")
-    assert text == feature_collection_to_kml(copy.deepcopy(fc), "x") == feature_collection_to_kml(reordered, "x")
-    assert text.startswith('<?xml version="1.0" encoding="UTF-8"?>\n') and text.endswith("</kml>\n")
-
-
-def test_empty_collection_has_styles_and_no_folders() -> None:
-    root = parse(feature_collection_to_kml({"type": "FeatureCollection", "features": []}, "empty"))
-    assert folders(root) == {} and len(root.findall("k:Document/k:Style", NS)) == len(ROLE_ORDER)
-
-
-@pytest.mark.parametrize("fc, message", [
-    ({"type": "Feature"}, r"not a GeoJSON FeatureCollection with a 'features' list"),
-    ({"features": [feature("area", {"type": "Circle", "coordinates": [15.0, 49.4]}, "c1")]},
-     r"feature 1 \(id 'c1'\) geometry type = 'Circle' is not allowed: Point, LineString, Polygon"),
-    ({"features": [feature("station", {"type": "Point", "coordinates": [15.0, float("nan")]}, "s1")]},
-     r"feature 1 \(id 's1'\) Point = nan is not allowed: a finite number"),
-    ({"features": [feature("station", {"type": "Point", "coordinates": [15.0]}, "s1")]},
-     r"feature 1 \(id 's1'\) Point = \[15.0\] is not allowed: \[longitude, latitude\]"),
-    ({"features": [feature("line", {"type": "LineString", "coordinates": [[15.0, 49.4]]}, "l1")]},
-     r"LineString = \[\[15.0, 49.4\]\] is not allowed: at least 2 positions"),
-    ({"features": [feature("area", {"type": "Polygon", "coordinates": [[[15.0, 49.4], [15.1, 49.4], [15.0, 49.4]]]}, "a1")]},
-     r"Polygon outer ring has 2 distinct positions; a polygon ring needs at least 3"),
-    ({"features": [feature("area", {"type": "Polygon"}, "a1")]}, r"feature 1 \(id 'a1'\) geometry Polygon has no 'coordinates'"),
-    ({"features": [feature("gcp", {"type": "Point", "coordinates": [15.0, 49.4]}, "g1", note="bell\x07")]},
-     r"feature 1 \(id 'g1'\) property 'note' = 'bell\\x07' is not allowed: text without control characters \(found U\+0007\)"),
-    ({"features": ["not a feature"]}, r"feature 1 = 'not a feature' is not allowed: a GeoJSON Feature object"),
-    ({"features": [feature("exclusion", {"type": "MultiPolygon", "coordinates": [[SQUARE], [SQUARE[:2]]]}, "e1")]},
-     r"feature 1 \(id 'e1'\) MultiPolygon part 2 \(Polygon\) outer ring = .* is not allowed: at least 3 positions"),
-])
-def test_bad_input_is_refused_naming_the_feature(fc: dict, message: str) -> None:
-    with pytest.raises(InputError, match=message):
-        feature_collection_to_kml(fc, "x")
-
-
-@pytest.mark.parametrize("where, bad", [("note", "\x00"), ("note", "\ud800"), ("note", "\ufffe"), ("note", "\uffff"),
-                                        ("tags", ["ok", "\udfff"]), ("id", "s\x1f"), ("key", "\x0b")])
-def test_a_character_xml_cannot_hold_is_found_anywhere_after_many_good_features(where: str, bad: object) -> None:
-    """The document is checked once as a whole; the error still names the feature and the text."""
-    good = [feature("station", {"type": "Point", "coordinates": [15.0 + k * 1e-5, 49.4, 80.0]}, f"s{k}", id=f"s{k}",
-                    note="ž \ufffd ok", seq=k) for k in range(1, 200)]
-    odd = feature("station", {"type": "Point", "coordinates": [15.0, 49.4]}, "odd")
-    if where == "key":
-        odd["properties"][f"k{bad}"] = 1
+def test_heights_are_absolute_in_3d_and_clamped_in_2d(written) -> None:
+    name, _, out = written
+    root = ET.parse(out / "plan.kml").getroot()
+    modes = {f.find(f"{K}name").text: {m.text for m in f.iter(f"{K}altitudeMode")} for f in root.iter(f"{K}Folder")}
+    if name == "forest-dem":
+        assert modes["stations"] == modes["strips"] == {"absolute"}
     else:
-        odd["properties"][where] = bad
-    fc = {"type": "FeatureCollection", "features": [*good[:150], odd, *good[150:]]}
-    with pytest.raises(InputError, match=r"feature 151 .*is not allowed: text without control characters \(found U\+"):
-        feature_collection_to_kml(fc, "x")
-    fc["features"].pop(150)
-    assert "ž \ufffd ok" in feature_collection_to_kml(fc, "x")
-    with pytest.raises(InputError, match=r"document name = .* \(found U\+FFFF\)"):
-        feature_collection_to_kml(fc, "name\uffff")
+        assert all(not m for m in modes.values())
+        assert all(t.text == "1" for t in root.iter(f"{K}tessellate"))
+
+
+def test_every_placemark_has_a_style_and_each_sortie_its_colour(written) -> None:
+    _, plan, out = written
+    root = ET.parse(out / "plan.kml").getroot()
+    styles = {s.get("id"): s for s in root.iter(f"{K}Style")}
+    for pm in root.iter(f"{K}Placemark"):
+        assert pm.find(f"{K}styleUrl").text[1:] in styles
+    route = next(f for f in root.iter(f"{K}Folder") if f.find(f"{K}name").text == "route")
+    colours = [styles[pm.find(f"{K}styleUrl").text[1:]].find(f"{K}LineStyle/{K}color").text
+               for pm in route.iter(f"{K}Placemark")]
+    assert len(colours) == max(1, len(plan.sorties))
+    assert len(set(colours)) == min(len(colours), 7)
+    # the stations' icon colour is the package's marker colour, in KML's aabbggrr order
+    r, g, b, a = (int(v) for v in STYLES["stations"].color.split(","))
+    assert styles["stations"].find(f"{K}IconStyle/{K}color").text == f"{a:02x}{b:02x}{g:02x}{r:02x}"
+
+
+def _layer(ids: list[str], note: list[str]) -> Layer:
+    pts = shapely.points(np.column_stack([np.linspace(15.0, 15.001, len(ids)), np.full(len(ids), 49.4)]))
+    return Layer("gcps", "Point", pts, (("id", np.array(ids, dtype=object)), ("note", np.array(note, dtype=object)),
+                                       ("images", np.arange(len(ids), dtype=np.int64))), STYLES["gcps"])
+
+
+def test_text_is_escaped_and_reads_back_unchanged(tmp_path) -> None:
+    nasty = 'A&B <c> "d" \'e\' ž'
+    path = tmp_path / "x.kml"
+    path.write_text(layers_to_kml([_layer(["g1", nasty], [nasty, "ok"])], nasty), encoding="utf-8")
+    root = ET.parse(path).getroot()
+    assert root.find(f"{K}Document/{K}name").text == nasty
+    _, fields = _read(path, "gcps")
+    assert list(fields["Name"]) == ["g1", nasty] and list(fields["note"]) == [nasty, "ok"]
+    assert list(fields["images"]) == ["0", "1"]
+
+
+@pytest.mark.parametrize("bad", ["\x00", "bell\x07", "\ud800", "\ufffe", "\uffff"])
+def test_a_character_xml_cannot_hold_is_refused_naming_where(bad: str) -> None:
+    notes = ["ok"] * 300
+    notes[201] = bad
+    with pytest.raises(InputError, match=r"plan.kml: layer gcps field note = .* is not allowed: text without control "
+                                         r"characters \(found U\+"):
+        layers_to_kml([_layer([f"g{k}" for k in range(300)], notes)], "x")
+    with pytest.raises(InputError, match=r"plan.kml: document name = .* is not allowed"):
+        layers_to_kml([], f"name{bad}")
+
+
+def test_a_near_zero_coordinate_is_written_without_an_exponent() -> None:
+    pts = shapely.points([[0.00001, -0.000002], [1e-9, 0.0]])
+    text = layers_to_kml([Layer("gcps", "Point", pts, (("id", np.array(["a", "b"], dtype=object)),), STYLES["gcps"])], "x")
+    coords = [c.text for c in ET.fromstring(text).iter(f"{K}coordinates")]
+    assert coords[0] == "0.00001,-0.000002" and "e" not in coords[1]
+    assert [float(v) for v in coords[1].split(",")] == [0.0, 0.0]  # 1e-9 rounded to 8 decimals

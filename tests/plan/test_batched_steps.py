@@ -1,5 +1,7 @@
-"""Planning steps done in one numpy/shapely call for many items give, bit for bit, what the
-former one-at-a-time code gave (kept here, as it was, as the reference)."""
+"""Planning steps done in one numpy/shapely call for many items: checked against their
+definitions (runs read back by a rotation of the test's own, stations left by a zone cut tested
+one by one, detours against scipy's shortest path over every corner) or, where the batch is an
+element-wise form of a single-item function, against that function item by item."""
 
 from __future__ import annotations
 
@@ -18,34 +20,9 @@ from aerosurvey.plan import lines as lines_module
 from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame, to_frames
 from aerosurvey.plan.lines import LineSegment, cut_by_zones, strip_offsets, strip_offsets_many
-from aerosurvey.plan.route import Detours, Pass, Run, _build_runs, _run_ends, clip_approach
+from aerosurvey.plan.route import Detours, Pass, _build_runs, _run_ends, clip_approach
 
-# -- the former one-run-at-a-time route code (reference) ------------------------------------
-
-
-def _old_run(p: Pass, seg: LineSegment, direction: int, lead_in: float, offset: int) -> Run:
-    fr = p.frame
-    xs = seg.xs()
-    idx = offset + np.arange(seg.n)
-    if direction < 0:
-        xs, idx = xs[::-1], idx[::-1]
-    u_lead = xs[0] - direction * lead_in
-    u_end = xs[-1] + direction * seg.base / 2.0
-    us = np.concatenate([[u_lead], xs, [u_end]])
-    X, Y = fr.from_frame(us, np.full(len(us), seg.v))
-    heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
-    return Run(p.index, seg.line, seg.part, direction, heading, np.column_stack([X[1:-1], Y[1:-1]]),
-               idx.astype(int), (float(X[0]), float(Y[0])), (float(X[-1]), float(Y[-1])))
-
-
-def _old_route_points(runs: list[Run]) -> np.ndarray:
-    pts = []
-    for r in runs:
-        pts.append(r.lead_in_xy)
-        pts.extend(map(tuple, r.station_xy[:1]))
-        pts.append(r.end_xy)
-    return np.asarray(pts, float)
-
+# -- runs of many legs made in one step ------------------------------------------------------
 
 def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     a, b = np.asarray(a), np.asarray(b)
@@ -61,23 +38,42 @@ legs_strategy = st.lists(
 
 @settings(max_examples=200, deadline=None)
 @given(st.floats(0.0, 180.0, exclude_max=True), legs_strategy, st.floats(0.0, 300.0), st.integers(1, 3))
-def test_runs_made_together_are_those_made_one_by_one(heading: float, raw: list[tuple[int, float, float, int, float, int, int]],
-                                                       lead_in: float, index: int) -> None:
+def test_runs_made_together_keep_their_legs(heading: float, raw: list[tuple[int, float, float, int, float, int, int]],
+                                            lead_in: float, index: int) -> None:
+    """Each leg's run, in order: its stations x0 + j·base along the line (flown the leg's way), at
+    its offset v across, read back here by a rotation of our own (compass heading h: along
+    (sin h, cos h), across (-cos h, sin h)); the lead-in `lead_in` before the first station, the
+    end half a base after the last; its heading and station numbers; and the route's ends
+    (`_run_ends`, made without the runs) those of the runs, bit for bit."""
     legs = [(LineSegment(line, part, v, x0, n, base), d) for part, (line, v, x0, n, base, d, _) in enumerate(raw)]
     offsets = {(s.line, s.part): off for (s, _), (*_, off) in zip(legs, raw)}
     p = Pass(index, LineFrame(heading), tuple(s for s, _ in legs))
-    new = _build_runs(p, legs, lead_in, offsets)
-    old = [_old_run(p, s, d, lead_in, offsets[(s.line, s.part)]) for s, d in legs]
-    assert len(new) == len(old)
-    for a, b in zip(new, old):
-        assert (a.pass_index, a.line, a.part, a.direction) == (b.pass_index, b.line, b.part, b.direction)
-        assert math.copysign(1.0, a.heading_deg) == math.copysign(1.0, b.heading_deg) and a.heading_deg == b.heading_deg
-        assert _same_bits(a.station_xy, b.station_xy)
-        assert _same_bits(a.station_index, b.station_index)
-        assert np.array([a.lead_in_xy, a.end_xy]).tobytes() == np.array([b.lead_in_xy, b.end_xy]).tobytes()
+    runs = _build_runs(p, legs, lead_in, offsets)
+    assert len(runs) == len(legs)
+    h = math.radians(heading)
+
+    def along_across(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xy = np.asarray(xy, float).reshape(-1, 2)
+        return xy[:, 0] * math.sin(h) + xy[:, 1] * math.cos(h), -xy[:, 0] * math.cos(h) + xy[:, 1] * math.sin(h)
+
+    for r, (seg, d) in zip(runs, legs):
+        assert (r.pass_index, r.line, r.part, r.direction) == (index, seg.line, seg.part, d)
+        assert r.heading_deg == (heading + (0.0 if d > 0 else 180.0)) % 360.0
+        xs = seg.x0 + seg.base * np.arange(seg.n)
+        want = np.arange(seg.n) + offsets[(seg.line, seg.part)]
+        if d < 0:
+            xs, want = xs[::-1], want[::-1]
+        assert r.station_index.tolist() == want.tolist()
+        along, across = along_across(r.station_xy)
+        tol = 1e-9 * (4e6 + abs(seg.x0) + seg.n * seg.base)
+        np.testing.assert_allclose(along, xs, rtol=0, atol=tol)
+        np.testing.assert_allclose(across, seg.v, rtol=0, atol=tol)
+        along, across = along_across(np.array([r.lead_in_xy, r.end_xy]))
+        np.testing.assert_allclose(along, [xs[0] - d * lead_in, xs[-1] + d * seg.base / 2], rtol=0, atol=tol)
+        np.testing.assert_allclose(across, seg.v, rtol=0, atol=tol)
     # the ends the route is timed by, without making the runs
-    assert _same_bits(_run_ends(p, legs, lead_in), _old_route_points(old))
-    assert _same_bits(_run_ends(p, legs, lead_in), _old_route_points(new))
+    ends = np.array([pt for r in runs for pt in (r.lead_in_xy, tuple(r.station_xy[0]), r.end_xy)], float).reshape(-1, 2)
+    assert _same_bits(_run_ends(p, legs, lead_in), ends)
 
 
 def test_no_legs_no_runs() -> None:
@@ -176,46 +172,39 @@ def test_the_fence_hull_of_an_array_is_that_of_the_points_one_by_one(raw: list[t
 # -- lines cut by the zones: pieces found together, only the lines cut renumbered -----------------
 
 
-def _old_cut_by_zones(segs: list[LineSegment], zones_f: BaseGeometry | None, clearance: float) -> list[LineSegment]:
-    if zones_f is None or zones_f.is_empty or not segs:
-        return segs
-    out: list[LineSegment] = []
-    ends = np.array([[s.x0 - clearance - 1.0, s.v, s.x1 + clearance + 1.0, s.v] for s in segs])
-    zx0, zy0, zx1, zy1 = zones_f.bounds
-    near = np.flatnonzero((ends[:, 1] >= zy0) & (ends[:, 1] <= zy1) & (ends[:, 2] >= zx0) & (ends[:, 0] <= zx1))
-    hits: list[BaseGeometry | None] = [None] * len(segs)
-    if len(near):
-        for i, hit in zip(near.tolist(), shapely.intersection(shapely.linestrings(ends[near].reshape(-1, 2, 2)), zones_f)):
-            hits[i] = None if hit.is_empty else hit
-    for seg, hit in zip(segs, hits):
-        if hit is None:
-            out.append(seg)
-            continue
-        xs = seg.xs()
-        blocked = np.zeros(len(xs), bool)
-        for piece in shapely.get_parts(hit):
-            px0, _, px1, _ = piece.bounds
-            blocked |= (xs >= px0 - clearance) & (xs <= px1 + clearance)
-        part = len(out)
-        padded = np.diff(np.concatenate([[False], ~blocked, [False]]).astype(np.int8))
-        for i0, i1 in zip(np.flatnonzero(padded == 1).tolist(), np.flatnonzero(padded == -1).tolist()):
-            out.append(LineSegment(seg.line, part, seg.v, float(xs[i0]), i1 - i0, seg.base))
-            part += 1
-    renum: list[LineSegment] = []
-    counts: dict[int, int] = {}
-    for s in sorted(out, key=lambda s: (s.line, s.x0)):
-        k = counts.get(s.line, 0)
-        counts[s.line] = k + 1
-        renum.append(s if s.part == k else LineSegment(s.line, k, s.v, s.x0, s.n, s.base))
-    return renum
+def _pieces_left(segs: list[LineSegment], zones: BaseGeometry | None, clearance: float) -> list[tuple[int, float, float, int, float]]:
+    """(line, v, x0, n, base) of the runs of stations left on each line, by cut_by_zones' definition
+    checked here station by station: a station goes when its flight along the line, ±clearance,
+    meets a zone; those left keep their places, and each unbroken run of them is one piece."""
+    out = []
+    for seg in segs:
+        xs = seg.x0 + seg.base * np.arange(seg.n)
+        gone = np.array([zones is not None and not zones.is_empty
+                         and shapely.intersects(shapely.LineString([(x - clearance, seg.v), (x + clearance, seg.v)]), zones)
+                         if clearance > 0 else zones is not None and shapely.intersects(shapely.Point(x, seg.v), zones)
+                         for x in xs.tolist()], bool)
+        k = 0
+        while k < seg.n:
+            if gone[k]:
+                k += 1
+                continue
+            j = k
+            while j < seg.n and not gone[j]:
+                j += 1
+            out.append((seg.line, seg.v, float(xs[k]), j - k, seg.base))
+            k = j
+    return out
 
 
 @settings(max_examples=250, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 6), st.floats(-400, 400), st.integers(1, 40)), min_size=0, max_size=30),
        st.booleans(), zone_boxes, st.floats(0.0, 40.0), st.floats(5.0, 30.0), st.floats(0.0, 40.0))
-def test_runs_cut_together_are_those_cut_one_by_one(raw: list[tuple[int, float, int]], laid: bool,
-                                                   boxes: list[tuple[float, float, float, float]], margin: float,
-                                                   base: float, clearance: float) -> None:
+def test_runs_cut_by_the_zones_lose_the_stations_whose_flight_meets_one(raw: list[tuple[int, float, int]], laid: bool,
+                                                                        boxes: list[tuple[float, float, float, float]],
+                                                                        margin: float, base: float, clearance: float) -> None:
+    """The stations left are those of `_pieces_left` (the pieces' places to 1e-9 m: x0 + j·base
+    taken from a later station), the lines cut numbered again from 0 in order along the line;
+    without zones the runs are returned as they are."""
     if laid:  # as build_lines lays them: by line, then by x, numbered on each line
         raw = sorted(raw)
     parts: dict[int, int] = {}
@@ -224,42 +213,38 @@ def test_runs_cut_together_are_those_cut_one_by_one(raw: list[tuple[int, float, 
         segs.append(LineSegment(line, parts.get(line, 0) if laid else len(segs) % 3, line * 60.0 - 200.0, x0, n, base))
         parts[line] = parts.get(line, 0) + 1
     zones = shapely.buffer(shapely.union_all([shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]), margin) if boxes else None
-    assert cut_by_zones(list(segs), zones, clearance) == _old_cut_by_zones(list(segs), zones, clearance)
+    got = cut_by_zones(list(segs), zones, clearance)
+    if zones is None:
+        assert got == segs
+        return
+    want = _pieces_left(segs, zones, clearance)
+    assert sorted((g.line, g.v, g.n, g.base) for g in got) == sorted((w[0], w[1], w[3], w[4]) for w in want)
+    np.testing.assert_allclose(sorted(g.x0 for g in got), sorted(w[2] for w in want), rtol=0, atol=1e-9)
+    for line in {g.line for g in got}:
+        on = [g for g in got if g.line == line]
+        cut = any(not any(g == s for g in got) for s in segs if s.line == line)
+        if cut:  # renumbered along the line
+            assert sorted(g.part for g in on) == list(range(len(on)))
+            assert [g.part for g in sorted(on, key=lambda g: g.x0)] == list(range(len(on)))
 
 
-def _old_path(det: Detours, a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
-    import heapq
+def _shortest_over_every_corner(det: Detours, a: tuple[float, float], b: tuple[float, float]) -> float | None:
+    """The length of the shortest clear way from a to b over the zones' corners (det.nodes), by
+    scipy's Dijkstra on the graph of clear legs between a, b and every corner; None if there is none."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
 
-    if det.clear(a, b):
-        return []
     nodes = [a, b, *det.nodes]
-    dist = {0: 0.0}
-    prev: dict[int, int] = {}
-    heap = [(0.0, 0)]
-    done = set()
-    while heap:
-        d, i = heapq.heappop(heap)
-        if i in done:
-            continue
-        done.add(i)
-        if i == 1:
-            break
-        for j in range(1, len(nodes)):
-            if j in done:
-                continue
-            nd = d + math.dist(nodes[i], nodes[j])
-            if nd < dist.get(j, math.inf) and det.clear(nodes[i], nodes[j]):
-                dist[j] = nd
-                prev[j] = i
-                heapq.heappush(heap, (nd, j))
-    if 1 not in prev:
-        raise ValueError("no way around the exclusion zones between two waypoints")
-    out = []
-    j = prev[1]
-    while j != 0:
-        out.append(nodes[j])
-        j = prev[j]
-    return out[::-1]
+    n = len(nodes)
+    rows, cols, lengths = [], [], []
+    for i in range(n):
+        for j in range(i + 1, n):
+            if det.clear(nodes[i], nodes[j]):
+                rows.append(i)
+                cols.append(j)
+                lengths.append(max(math.dist(nodes[i], nodes[j]), 1e-12))  # a zero would be no edge
+    dist = dijkstra(csr_matrix((lengths, (rows, cols)), shape=(n, n)), directed=False, indices=0)
+    return None if not math.isfinite(dist[1]) else float(dist[1])
 
 
 def _length(a: tuple[float, float], via: list[tuple[float, float]], b: tuple[float, float]) -> float:
@@ -269,7 +254,7 @@ def _length(a: tuple[float, float], via: list[tuple[float, float]], b: tuple[flo
 
 def test_detours_searched_zone_by_zone_are_clear_and_as_short_as_over_every_corner() -> None:
     """The detour search looks at the corners of the zones its way crosses, more as it needs them
-    (route.Detours.way_round); the search over every corner (_old_path) is the reference. Seeded,
+    (route.Detours.way_round); the shortest way over every corner (scipy's Dijkstra) is the reference. Seeded,
     400 random cases of 1-25 boxes: a way exists for both or for neither, every leg of the new
     way is clear, none is shorter than the reference (it is the shortest), and the new ways are
     as long to 0.1 % in 95 % of the cases and to 5 % in all (measured: at most 0.02 % longer)."""
@@ -281,20 +266,17 @@ def test_detours_searched_zone_by_zone_are_clear_and_as_short_as_over_every_corn
         det = _detours(boxes, float(rng.uniform(0.0, 60.0)))
         det.nodes = [pt for group in det._groups for pt in group]  # every corner, for the reference
         a, b = tuple(rng.uniform(-900, 900, 2).tolist()), tuple(rng.uniform(-900, 900, 2).tolist())
-        try:
-            expected: list[tuple[float, float]] | None = _old_path(det, a, b)
-        except ValueError:
-            expected = None
+        best = 0.0 if det.clear(a, b) else _shortest_over_every_corner(det, a, b)
         try:
             got: list[tuple[float, float]] | None = det.path(a, b)
         except ValueError:
             got = None
-        assert (got is None) == (expected is None)
-        if got is None or expected is None:
+        assert (got is None) == (best is None)
+        if got is None or best is None:
             continue
         way = [a, *got, b]
         assert all(det.clear(p, q) for p, q in zip(way[:-1], way[1:]))
-        best = _length(a, expected, b)
+        best = best or math.dist(a, b)
         assert _length(a, got, b) >= best - 1e-6 * (1.0 + best)
         ratios.append(_length(a, got, b) / max(best, 1e-9))
     r = np.array(ratios)

@@ -37,8 +37,8 @@ def _square(lon: float, lat: float, side_m: float) -> shapely.Polygon:
 
 
 def _estimate(spec, area):
-    site = prepare_site(spec, PlanInputs(area))
     h, gsd, w = target_height(spec)
+    site = prepare_site(spec, PlanInputs(area), h)
     sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), w)
     return estimate_cost(spec, site, sensor), sensor
 

@@ -45,10 +45,10 @@ def spec_of(**tables: dict[str, Any]):
 
 def test_steps_one_by_one_with_plain_data():
     spec = spec_of(flight={"heading": 0.0})
-    site = prepare_site(spec, PlanInputs(AREA))
+    h, gsd, warnings = target_height(spec)
+    site = prepare_site(spec, PlanInputs(AREA), h)
     assert site.zones is None and site.dem is None and site.ground is None
     assert 0.99 < site.grid_scale < 1.01
-    h, gsd, warnings = target_height(spec)
     assert gsd == pytest.approx(0.025) and warnings == ()
     sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, None))
     # a6000 16 mm: landscape footprint 6000 px × 2.5 cm across, spacing 40 % of it (less the safety)
@@ -128,11 +128,12 @@ def test_overlaps_without_stereo_warn():
 @pytest.mark.parametrize("above", [0.0, 0.5, None])
 def test_wind_at_or_above_the_survey_speed_is_refused(above: float | None):
     """At the survey speed, above it, and above it but below cruise (9 m/s; cruise 10): all refused."""
-    # motion blur limits this camera's survey speed to 3.125 m/s at 2.5 cm (exposure 1/250 s, half a pixel)
+    # motion blur limits this camera's survey speed to 3.125 m/s at 2.5 cm (exposure 1/250 s, half a
+    # pixel), flown in whole cm/s (the mission's DO_CHANGE_SPEED): 3.12 m/s
     probe = spec_of(camera={"exposure_s": 0.004})
     h, gsd, _ = target_height(probe)
     speed = solve_sensor(probe, h, gsd, solve_heights(probe, h, None)).speed.speed_ms
-    assert speed == pytest.approx(3.125)
+    assert speed == pytest.approx(3.12)
     wind = 9.0 if above is None else speed + above
     spec = spec_of(battery={"usable_min": 27.7, "wind_ms": wind}, camera={"exposure_s": 0.004})
     with pytest.raises(InputError) as e:

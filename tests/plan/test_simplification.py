@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.plan.planner import plan_mission
+from aerosurvey.plan.sensor import target_height
 from aerosurvey.plan.site import grown_simplification, prepare_site
 from aerosurvey.spec import parse_spec
 
@@ -82,7 +83,7 @@ def test_a_detailed_circle_is_simplified_and_reported():
     zone = shapely.Polygon(np.c_[lon0 + 60 * np.cos(a) / kx, lat0 + 60 * np.sin(a) / ky])
     spec = parse_spec({"area": {"wkt": "POLYGON((0 0, 1 0, 1 1, 0 0))"}, "camera": {"model": "sony-a6000-16mm"},
                        "targets": {"gsd_cm": 2.5}, "vehicle": {"type": "copter", "cruise_speed_ms": 10.0}}, base=Path("."))
-    site = prepare_site(spec, PlanInputs(area, (zone,)))
+    site = prepare_site(spec, PlanInputs(area, (zone,)), target_height(spec)[0])
     s = site.simplification
     assert s.area_vertices[0] == 20_001 and s.area_vertices[1] < 1000
     assert s.zone_vertices[0] == 20_001 and s.zone_vertices[1] < 200

@@ -1,9 +1,14 @@
-"""Side overlaps measured per heading and GCPs counted together: the same results as the code
-before (tests/rules/rules_reference.py), on random footprints and on planned missions."""
+"""Side overlaps measured per heading, and the GCPs the rules propose, checked against their
+definitions on random footprints and on planned missions: each GCP outside the outline and the
+no-go zones, within the envelope's offset of the outline, seen by as many photos as it says
+(counted here on the rectangles as polygons), its note saying whether it stayed on the
+envelope, moved towards the outline or is seen by too few photos."""
 
 from __future__ import annotations
 
 import json
+import math
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -22,7 +27,40 @@ from aerosurvey.rules.profile import select_profiles
 from aerosurvey.spec import load_spec
 from conftest import REPO, make_spec, random_polygon
 from rules.rectangles import rect_footprints
-from rules.rules_reference import reference_propose_gcps
+
+
+def _check_gcps(gcps, area, fp, count: int, min_images: int, offset: float, max_spacing: float, nogo) -> None:
+    """The GCPs as propose_gcps defines them: GCP01 … in order; at least `count` (and 3 a part of
+    the envelope, one every `max_spacing` of its length); each outside the outline (the area's
+    parts without their holes) and the no-go zones, at most `offset` from the outline: on the
+    envelope (`offset`, less the buffer's chords) when enough photos see it there, else moved
+    towards the outline (the note says how far and by how many photos), or seen by too few."""
+    outline = shapely.union_all([shapely.Polygon(p.exterior) for p in shapely.get_parts(area)])
+    envelope = shapely.get_parts(shapely.buffer(outline, offset, quad_segs=8))
+    assert [g.id for g in gcps] == [f"GCP{k:02d}" for k in range(1, len(gcps) + 1)]
+    assert all(g.role == "gcp" for g in gcps)
+    assert len(gcps) >= max(count, 3 * len(envelope), sum(math.ceil(e.exterior.length / max_spacing) for e in envelope))
+    rects = shapely.polygons(fp.corners)
+    # quad_segs=8: the envelope's chords are at most 11.25° of arc, their middles at least this share of
+    # the offset out (above the first place moved in, 19/20 of the way)
+    chord = math.cos(math.radians(90 / 8))
+    for g in gcps:
+        seen = int(shapely.intersects_xy(rects, g.x, g.y).sum())
+        if g.note.startswith("no place"):
+            assert g.images == 0
+            continue
+        assert g.images == seen, g
+        assert not shapely.contains_xy(outline, g.x, g.y) and (nogo is None or not shapely.contains_xy(nogo, g.x, g.y))
+        d = shapely.distance(outline, shapely.Point(g.x, g.y))
+        assert 0 < d <= offset * (1 + 1e-9) + 1e-9, g
+        moved = re.fullmatch(r"moved to ([\d.]+) m outside the outline to be seen by (\d+) photos", g.note)
+        short = re.match(r"seen by only (\d+) photos even at ([\d.]+) m from the outline", g.note)
+        if g.note == "":
+            assert g.images >= min_images and d >= offset * chord - 1e-6, g
+        elif moved:
+            assert int(moved[2]) == g.images >= min_images and d <= float(moved[1]) + 0.05 + 1e-6 <= offset + 0.1, g
+        else:
+            assert short and int(short[1]) == g.images < min_images and d <= float(short[2]) + 0.05 + 1e-6, g
 
 
 def _runs_of_lines(rng: np.random.Generator, n_runs: int, headings: list[float], interleave: bool):
@@ -77,9 +115,9 @@ def test_side_overlap_is_the_farther_of_the_nearest_runs_either_side(seed, n_run
 @given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(["convex", "concave", "holed", "two"]),
        reach=st.floats(10, 140), min_images=st.integers(1, 12), count=st.integers(3, 12), offset=st.floats(2, 40),
        nogo=st.booleans())
-def test_gcps_are_the_references(seed, kind, reach, min_images, count, offset, nogo):
+def test_gcps_keep_their_definition(seed, kind, reach, min_images, count, offset, nogo):
     """Random photo rectangles over random areas (some reaching past the GCP ring, some not), with
-    and without a no-go zone: the same GCPs, places, counts and notes."""
+    and without a no-go zone."""
     rng = np.random.default_rng(seed)
     if kind == "two":
         area = shapely.union(shapely.box(0, 0, 300, 200), shapely.box(500, 0, 700, 250))
@@ -92,11 +130,11 @@ def test_gcps_are_the_references(seed, kind, reach, min_images, count, offset, n
                     rng.uniform(reach / 2, reach, n), rng.uniform(reach / 2, reach, n))
     zone = shapely.buffer(shapely.Point(x0, y1), 0.3 * (x1 - x0)) if nogo else None
     got = propose_gcps(area, fp, count, min_images, offset, 400.0, zone)
-    assert repr(got) == repr(reference_propose_gcps(area, fp, count, min_images, offset, 400.0, zone))
     assert got
+    _check_gcps(got, area, fp, count, min_images, offset, 400.0, zone)
 
 
-def test_obratan_side_overlaps_hold_and_gcps_are_the_references():
+def test_obratan_side_overlaps_hold_and_gcps_keep_their_definition():
     manifest, features = plan_documents(plan_from_files(load_spec(REPO / "missions" / "obratan-72ha.toml")))
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
@@ -106,14 +144,14 @@ def test_obratan_side_overlaps_hold_and_gcps_are_the_references():
     s = ev.settings
     got = propose_gcps(view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
     assert len(got) >= 18
-    assert got == reference_propose_gcps(view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m,
-                                         s.gcp_max_spacing_m, s.nogo)
+    _check_gcps(got, view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
+    assert all(g.images >= s.gcp_min_images for g in got)  # the plan extends past the GCPs' envelope
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 450),
        cross=st.booleans(), margin=st.sampled_from([0.0, 12.0]))
-def test_planned_gcps_are_the_references(tmp_path_factory, kind, seed, size, cross, margin):
+def test_planned_gcps_keep_their_definition(tmp_path_factory, kind, seed, size, cross, margin):
     tmp = tmp_path_factory.mktemp("exact")
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 2, "coverage_margin_m": margin}, "flight": {"cross_hatch": cross}},
                      rings=random_polygon(kind, seed, size))
@@ -122,4 +160,4 @@ def test_planned_gcps_are_the_references(tmp_path_factory, kind, seed, size, cro
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
     s = ev.settings
     args = (view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
-    assert repr(propose_gcps(*args)) == repr(reference_propose_gcps(*args))
+    _check_gcps(propose_gcps(*args), *args)

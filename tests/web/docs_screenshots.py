@@ -1,10 +1,11 @@
 """The screenshots of docs/web.md, made in Debian's headless Chromium:
 
-    python tests/web/docs_screenshots.py        # writes docs/img/serve-1366.png and serve-1024.png
+    python tests/web/docs_screenshots.py   # writes docs/img/serve-1366.png, serve-1024.png, serve-corridor-1366.png
 
 1366×768 (a laptop): the Obrataň example with an exclusion zone drawn on the map, the Fly tab.
 1024×768 (a tablet): the same mission with the forward overlap lowered to 70 %, the failing rule
-clicked (its runs in red). Not a test: run it when the page's look changes, and look at the images.
+clicked (its runs in red). 1366×768 again: the road corridor example (its centreline, the planned
+band, the strips bending with it). Not a test: run it when the page's look changes, and look at the images.
 """
 
 from __future__ import annotations
@@ -57,11 +58,22 @@ def main() -> None:
             pg.click("#rule-list li.fail")
             pg.wait_for_timeout(600)
             pg.screenshot(path=str(OUT / "serve-1024.png"))
+            pg.close()
+            corridor = Server(copy_mission(tmp / "corridor", "road-corridor"))
+            try:
+                pg = browser.new_page(viewport={"width": 1366, "height": 768})
+                pg.goto(corridor.url)
+                pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+                pg.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+                pg.wait_for_timeout(300)
+                pg.screenshot(path=str(OUT / "serve-corridor-1366.png"))
+            finally:
+                corridor.stop()
             browser.close()
     finally:
         server.stop()
         shutil.rmtree(tmp, ignore_errors=True)
-    print(f"wrote {OUT / 'serve-1366.png'} and {OUT / 'serve-1024.png'}")
+    print(f"wrote serve-1366.png, serve-1024.png and serve-corridor-1366.png in {OUT}")
 
 
 if __name__ == "__main__":

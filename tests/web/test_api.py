@@ -85,7 +85,7 @@ def test_layers_match_the_manifest(planned):
     assert layers["stations"]["ids"] == [s["id"] for s in manifest["stations"]]
     features = json.loads((out / "plan.geojson").read_text())["features"]
     assert [f["id"] for f in features if f["properties"]["role"] == "line"] == [ln["id"] for ln in layers["lines"]]
-    assert result["summary"]["photos"] == len(manifest["stations"]) == 1756
+    assert result["summary"]["photos"] == len(manifest["stations"]) == 1757
     assert result["summary"]["lines"] == 34 and result["summary"]["sorties"] == len(manifest["sorties"]) == 6
     # every station carries the sortie that photographs it, in the manifest's ranges
     ids = layers["stations"]["ids"]
@@ -464,3 +464,26 @@ def test_unphotographed_ground_is_a_map_layer(tmp_path):
     assert len(st["result"]["layers"]["uncovered"]) == len(parts)
     rule = next(r for r in st["result"]["rules"] if r["rule"] == "uncovered-ground")
     assert rule["status"] == "fail" and rule["where"]
+
+
+def test_dji_waylines_are_offered_with_the_other_files(tmp_path):
+    """With a camera a DJI aircraft flies waylines with, the plan's .kmz files (binary) are the page's downloads too,
+    each the bytes `aerosurvey plan` writes, and in the archive."""
+    spec_path = copy_mission(tmp_path)
+    spec_path.write_text(spec_path.read_text().replace('model = "sony-a6000-16mm"', 'model = "dji-mavic-3-enterprise"'))
+    assert "dji-mavic-3-enterprise" in spec_path.read_text()
+    res = CliRunner().invoke(main, ["plan", str(spec_path), "-o", str(tmp_path / "cli")])
+    assert res.exit_code in (0, 1), res.output  # 1: a rule fails; the files are written
+    kmz = sorted(p.name for p in (tmp_path / "cli").glob("*.kmz"))
+    assert "mission.kmz" in kmz and "sortie-01.kmz" in kmz
+    with client(spec_path) as c:
+        st = run_plan(c, c.get("/api/state").json()["spec"])
+        assert st["state"] == "done", st
+        pid, files = st["result"]["plan_id"], st["result"]["files"]
+        assert set(kmz) <= set(files)
+        for name in kmz:
+            r = c.get(f"/api/plans/{pid}/files/{name}")
+            assert r.status_code == 200 and r.headers["content-type"] == "application/vnd.google-earth.kmz"
+            assert r.content == (tmp_path / "cli" / name).read_bytes()
+        with zipfile.ZipFile(io.BytesIO(c.get(f"/api/plans/{pid}/archive.zip").content)) as zf:
+            assert zf.read("sortie-01.kmz") == (tmp_path / "cli" / "sortie-01.kmz").read_bytes()

@@ -51,11 +51,15 @@ def test_bad_basemap_files_are_refused(tmp_path):
     tif = write_mbtiles(tmp_path / "tiff.mbtiles", {(0, 0, 0): b"II*\x00"}, fmt="tiff")
     with pytest.raises(InputError, match="holds tiff tiles; the page draws jpg, pbf, png, webp tiles"):
         open_basemap(tif)
+    brotli = write_pmtiles(tmp_path / "br.pmtiles", {(0, 0, 0): b"x"}, compression="BROTLI")
+    with pytest.raises(InputError, match="holds brotli-compressed tiles; the page serves uncompressed or gzipped"):
+        open_basemap(brotli)
 
 
 @pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
-def test_vector_tiles_are_served_unpacked(tmp_path, kind):
-    """GDAL's vector tile sets hold gzipped tiles: the page gets them plain, each as GDAL wrote it."""
+def test_vector_tiles_are_served_gzipped_as_stored(tmp_path, kind):
+    """GDAL's vector tile sets hold gzipped tiles: they go as stored with Content-Encoding: gzip (the
+    browser unpacks them); a client that does not take gzip gets them unpacked."""
     import gzip
     import sqlite3
 
@@ -73,10 +77,30 @@ def test_vector_tiles_are_served_unpacked(tmp_path, kind):
         info = c.get("/api/state").json()["basemap"]
         assert info["format"] == "pbf" and info["vector"] is True and (info["minzoom"], info["maxzoom"]) == (12, 14)
         for (z, x, y), data in stored.items():
-            r = c.get(f"/api/basemap/{z}/{x}/{y}")
-            assert r.status_code == 200 and r.content == gzip.decompress(data)
+            with c.stream("GET", f"/api/basemap/{z}/{x}/{y}", headers={"accept-encoding": "gzip"}) as r:
+                sent = b"".join(r.iter_raw())  # the bytes on the wire, before the client unpacks them
+            assert r.status_code == 200 and r.headers["content-encoding"] == "gzip" and sent == data
             assert r.headers["content-type"] == "application/vnd.mapbox-vector-tile"
-            assert b"Pond" in r.content or b"Main road" in r.content or b"Obratan" in r.content
+            plain = c.get(f"/api/basemap/{z}/{x}/{y}", headers={"accept-encoding": "identity"})
+            assert plain.status_code == 200 and "content-encoding" not in plain.headers
+            assert plain.content == gzip.decompress(data)
+            assert b"Pond" in plain.content or b"Main road" in plain.content or b"Obratan" in plain.content
+
+
+def test_a_tile_too_large_unpacked_is_not_unpacked(tmp_path):
+    """A gzipped tile that unpacks beyond MAX_TILE: sent as stored to a browser, refused to a client
+    that would have the server unpack it."""
+    import gzip
+
+    from aerosurvey.web.basemap import MAX_TILE
+
+    bomb = gzip.compress(b"\0" * (MAX_TILE + 1))
+    path = write_mbtiles(tmp_path / "bomb.mbtiles", {(1, 0, 0): bomb}, fmt="pbf")
+    with client(copy_mission(tmp_path), basemap=path) as c:
+        with c.stream("GET", "/api/basemap/1/0/0", headers={"accept-encoding": "gzip"}) as r:
+            assert r.status_code == 200 and b"".join(r.iter_raw()) == bomb
+        r = c.get("/api/basemap/1/0/0", headers={"accept-encoding": "identity"})
+        assert r.status_code == 404 and "unpacks to more than" in r.json()["error"]
 
 
 def test_serve_takes_a_basemap_file(tmp_path, monkeypatch):

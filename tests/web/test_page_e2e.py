@@ -126,10 +126,10 @@ def test_page_draws_the_plan_of_the_manifest(page, site):
     features = json.loads((site["cli"] / "plan.geojson").read_text())["features"]
     lines = [f for f in features if f["properties"]["role"] == "line"]
     assert _features(page, "lines") == len(lines) == 34
-    assert _features(page, "stations") == len(manifest["stations"]) == 1756
+    assert _features(page, "stations") == len(manifest["stations"]) == 1757
     assert _features(page, "gcps") >= 4 and _features(page, "checks") >= 24
     assert _count(page, "#sortie-legend span") == len(manifest["sorties"]) == 6
-    assert page.text_content("[data-summary='photos']").startswith("1756")
+    assert page.text_content("[data-summary='photos']").startswith("1757")
     # the cursor readout: WGS84 and the plan's CRS (proj4 with the server's definition)
     box = page.locator("#map").bounding_box()
     page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
@@ -209,6 +209,26 @@ def test_fly_blocks_in_flight_order_and_downloads_equal_the_cli(page, site):
     with page.expect_download() as d:
         blocks.nth(2).locator("a[data-file='sortie-03.waypoints']").click()
     assert Path(d.value.path()).read_bytes() == (site["cli"] / "sortie-03.waypoints").read_bytes()
+
+
+def test_fly_blocks_offer_dji_waylines(site):
+    """With a DJI camera each sortie's block offers its .kmz waylines beside its .plan and .waypoints: `aerosurvey plan`'s bytes."""
+    tmp = site["tmp"] / "dji"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    spec.write_text(spec.read_text().replace('model = "sony-a6000-16mm"', 'model = "dji-mavic-3-enterprise"'))
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+    assert planned(res.exit_code, res.output), res.output
+    with _own_server_page(site, spec) as (pg, server):
+        _tab(pg, "fly")
+        first = pg.locator("#fly-blocks .fly").first
+        assert [a.get_attribute("data-file") for a in first.locator("a").all()] == \
+            ["sortie-01.kmz", "sortie-01.plan", "sortie-01.waypoints"]
+        with pg.expect_download() as d:
+            first.locator("a[data-file='sortie-01.kmz']").click()
+        assert Path(d.value.path()).read_bytes() == (tmp / "cli" / "sortie-01.kmz").read_bytes()
+        assert pg.locator("#file-groups a[data-file='mission.kmz']").count() == 1
+        _only_our_server(pg, server.url)
 
 
 def test_layers_toggle(page):
@@ -544,6 +564,181 @@ def test_save_the_drawn_zone_with_the_spec_and_reload(site):
         assert pg.evaluate("window.aerosurvey.view.layers.exclusions.length") == 1
 
 
+def _lonlat(pg, x: float, y: float) -> list[float]:
+    """The place under a page pixel, through the map's own view."""
+    return pg.evaluate("""([x, y]) => { const r = document.querySelector('#map').getBoundingClientRect();
+        return olb.toLonLat(window.aerosurvey.map.getCoordinateFromPixel([x - r.left, y - r.top])); }""", [x, y])
+
+
+def _corridor_lines(pg, centreline: list[list[float]]) -> int:
+    """The page's plan's lines (its plan.geojson) run along the centreline: each bends where it bends, and beside the
+    centreline, from one end of it to the other, it keeps its distance from it (within the stretch of a mitred corner)."""
+    pid = pg.evaluate("window.aerosurvey.view.plan_id")
+    fc = json.loads(pg.evaluate(f"fetch('/api/plans/{pid}/files/plan.geojson').then(r => r.text())"))
+    utm = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32633", always_xy=True)  # metres, independent of the plan's CRS
+
+    def metres(g):
+        return shapely.transform(g, lambda xy: list(zip(*utm.transform(xy[:, 0], xy[:, 1]), strict=True)))
+
+    c = metres(shapely.LineString(centreline))
+    lines = [metres(shapely.geometry.shape(f["geometry"])) for f in fc["features"] if f["properties"]["role"] == "line"]
+    assert lines
+    for ln in lines:
+        assert len(ln.coords) >= len(c.coords), ln  # it bends with the centreline
+        pts = [ln.interpolate(k / 200, normalized=True) for k in range(201)]
+        along = [(c.project(p), c.distance(p)) for p in pts]
+        beside = [d for t, d in along if 1.0 < t < c.length - 1.0]  # not past the centreline's ends
+        assert min(t for t, _ in along) < 0.02 * c.length and max(t for t, _ in along) > 0.98 * c.length
+        assert max(beside) - min(beside) <= 0.06 * max(beside) + 1.0, (min(beside), max(beside))
+    assert _features(pg, "lines") == len(lines)
+    band = [shapely.geometry.shape(f["geometry"]) for f in fc["features"] if f["properties"]["role"] == "area"]
+    assert _features(pg, "corridor") == len(band) == 1  # the planned band drawn around the centreline
+    return len(lines)
+
+
+def test_draw_a_corridor_centreline_plan_edit_and_save(site):
+    """A centreline drawn by clicks (snapped to a vertex it starts near) makes the plan a corridor along it: its lines
+    bend with it and lie in it; its width is set, a vertex dragged, undone and redone, each re-planned; saved, the spec
+    has [pattern] kind = "corridor" and the centreline as GeoJSON beside it, which `aerosurvey plan` plans into the
+    page's mission, which reloads onto the map and can be deleted."""
+    tmp = site["tmp"] / "corridor"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    with _own_server_page(site, spec) as (pg, server):
+        corner = min(_drawn(pg, "area")[0][0], key=lambda c: c[0])  # the area's westmost vertex
+        x0, y0 = _page_px(pg, *corner)
+        pts = [(x0 + 5, y0 - 4), (x0 + 170, y0 - 40), (x0 + 340, y0 - 30)]  # a bend gentle enough to be flown through
+        clicked = [_lonlat(pg, x, y) for x, y in pts]
+        pg.click("#tools [data-tool='centreline']")
+        for x, y in pts:
+            pg.mouse.click(x, y)
+            pg.wait_for_timeout(300)  # not a double click
+        _replan_and_wait(pg, lambda: pg.mouse.click(*pts[-1]))  # a click on the last point again finishes the line
+        (line,) = _drawn(pg, "centreline")
+        assert len(line) == 3
+        assert line[0] == pytest.approx(corner, abs=1e-12)  # snapped onto the area's vertex
+        for (lon, lat), want in zip(line[1:], clicked[1:]):
+            assert (lon, lat) == pytest.approx(want, abs=1e-6)
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 50}
+        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
+        assert pg.text_content("#general-error") == ""
+        _corridor_lines(pg, line)
+        _tab(pg, "setup")
+        assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "50"
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='pattern.width_m']", "200"))
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 200}
+        assert _corridor_lines(pg, line) >= 2  # a wider corridor: more strips
+        # a vertex dragged, re-planned along the moved line; undo and redo
+        pg.click("#tools [data-tool='edit']")
+        mx, my = _page_px(pg, *line[1])
+        pg.mouse.move(mx, my)
+        pg.wait_for_timeout(200)
+
+        def drag():
+            pg.mouse.down()
+            pg.mouse.move(mx, my + 70, steps=8)
+            pg.mouse.up()
+
+        _replan_and_wait(pg, drag)
+        moved = _drawn(pg, "centreline")[0]
+        assert moved[1][1] < line[1][1] and moved[0] == line[0] and moved[2] == line[2]  # dragged south
+        _corridor_lines(pg, moved)
+        _replan_and_wait(pg, lambda: pg.click("#undo"))
+        assert _drawn(pg, "centreline")[0] == line
+        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
+        _corridor_lines(pg, line)
+        _replan_and_wait(pg, lambda: pg.click("#redo"))
+        assert _drawn(pg, "centreline")[0] == moved
+        pg.screenshot(path=str(SHOTS / "16-corridor-centreline.png"))
+        page_wpl = pg.evaluate(f"fetch('/api/plans/{pg.evaluate('window.aerosurvey.view.plan_id')}/files/mission.waypoints')"
+                               ".then(r => r.text())")
+        # saved: [pattern] and the centreline's GeoJSON beside the spec, written whole
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        saved = tomllib.loads(spec.read_text())
+        assert saved["pattern"] == {"kind": "corridor", "width_m": 200}
+        assert saved["area"]["file"] == "obratan-72ha.centreline.geojson" and "wkt" not in saved["area"]
+        (feat,) = json.loads((tmp / "obratan-72ha.centreline.geojson").read_text())["features"]
+        assert feat["properties"]["role"] == "centreline" and feat["geometry"]["type"] == "LineString"
+        assert shapely.LineString(feat["geometry"]["coordinates"]).equals_exact(shapely.LineString(moved), 1e-12)
+        assert not list(tmp.glob(".*.tmp"))  # no temporary file left
+        # the saved spec plans, with `aerosurvey plan`, the mission the page planned
+        res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+        assert planned(res.exit_code, res.output), res.output
+        assert (tmp / "cli" / "mission.waypoints").read_text() == page_wpl
+        # reloaded: the centreline on the map from the saved file, the form a corridor of 200 m
+        pg.reload()
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        assert shapely.LineString(_drawn(pg, "centreline")[0]).equals_exact(shapely.LineString(moved), 1e-12)
+        _corridor_lines(pg, moved)
+        _tab(pg, "setup")
+        assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "200"
+        # deleted: nothing left to plan
+        pg.click("#tools [data-tool='delete']")
+        dx, dy = _page_px(pg, *moved[0])
+        ex, ey = _page_px(pg, *moved[1])
+        pg.mouse.click((dx + ex) / 2, (dy + ey) / 2)
+        pg.wait_for_function("window.aerosurvey.spec.area === undefined", timeout=30000)
+        assert _drawn(pg, "centreline") == [] and _features(pg, "lines") == 0
+        _only_our_server(pg, server.url)
+
+
+def test_oblique_and_hover_planned_from_the_form_and_saved(site):
+    """Oblique (scheme, pitch, far-edge GSD limit) and hover (settle time) chosen in the form reach the spec and are
+    planned: a pitch whose image reaches the horizon is refused with the planner's message, a double grid flies two
+    passes, hovering takes longer than flying through; saved, `aerosurvey plan` plans the page's mission; back to an
+    area grid, the oblique keys go."""
+    tmp = site["tmp"] / "oblique"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    with _own_server_page(site, spec) as (pg, server):
+        _tab(pg, "setup")
+        grid = pg.evaluate("window.aerosurvey.view.summary")
+        assert not pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='camera.settle_s']")
+        _replan_and_wait(pg, lambda: pg.select_option("#pattern-kind", "oblique"))
+        assert pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='pattern.width_m']")
+        assert pg.evaluate("window.aerosurvey.view.pattern") == "oblique"
+        pg.fill("[data-key='pattern.pitch_deg']", "-25")  # the image's far corners above the horizon
+        pg.wait_for_function("document.querySelector(\".err[data-for~='pattern.pitch_deg']\").textContent.includes('horizon')",
+                             timeout=60000)  # next to its field
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='pattern.pitch_deg']", "-40"))
+        assert pg.evaluate("[...document.querySelectorAll('.err')].map(e => e.textContent).join('')") == ""
+        oblique = pg.evaluate("window.aerosurvey.view.summary")
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "oblique", "pitch_deg": -40}
+        _replan_and_wait(pg, lambda: pg.select_option("[data-key='camera.trigger']", "hover"))
+        assert pg.is_visible("[data-key='camera.settle_s']")
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='camera.settle_s']", "2.5"))
+        hover = pg.evaluate("window.aerosurvey.view.summary")
+        camera = pg.evaluate("window.aerosurvey.spec.camera")
+        assert camera["trigger"] == "hover" and camera["settle_s"] == 2.5
+        assert hover["photos"] == pytest.approx(oblique["photos"], abs=2) and hover["time_min"] > 1.5 * oblique["time_min"]
+        assert oblique["lines"] != grid["lines"]
+        page_wpl = pg.evaluate(f"fetch('/api/plans/{pg.evaluate('window.aerosurvey.view.plan_id')}/files/mission.waypoints')"
+                               ".then(r => r.text())")
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        saved = tomllib.loads(spec.read_text())
+        assert saved["pattern"] == {"kind": "oblique", "pitch_deg": -40}
+        assert saved["camera"]["trigger"] == "hover" and saved["camera"]["settle_s"] == 2.5
+        assert saved["area"]["file"] == "areas/obratan-72ha.geojson"  # the area was not edited: its file stays
+        res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
+        assert planned(res.exit_code, res.output), res.output
+        assert (tmp / "cli" / "mission.waypoints").read_text() == page_wpl
+        # five directions and a far-edge GSD limit: the form's keys reach the spec
+        pg.select_option("[data-key='pattern.scheme']", "five-direction")
+        pg.fill("[data-key='pattern.max_far_gsd_cm']", "9")
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "oblique", "pitch_deg": -40, "scheme": "five-direction",
+                                                                  "max_far_gsd_cm": 9}
+        # an area grid again: the oblique keys go, the spec plans the grid
+        pg.select_option("[data-key='camera.trigger']", "distance")
+        _replan_and_wait(pg, lambda: pg.select_option("#pattern-kind", "area"))
+        assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "area"}
+        assert not pg.is_visible("[data-key='pattern.pitch_deg']") and not pg.is_visible("[data-key='camera.settle_s']")
+        pg.wait_for_function(f"window.aerosurvey.view.summary.lines === {grid['lines']} && "
+                             f"window.aerosurvey.view.pattern === 'area'", timeout=60000)
+        _only_our_server(pg, server.url)
+
+
 @pytest.mark.parametrize("kind", ["mbtiles", "pmtiles"])
 def test_offline_basemap_from_a_local_file(site, kind):
     tmp = site["tmp"] / f"basemap-{kind}"
@@ -573,10 +768,25 @@ def test_offline_vector_basemap(site, kind):
         pg.evaluate("window.aerosurvey.map.getView().setZoom(14)")
         _rendered(pg)
         x, y = _page_px(pg, 14.9505, 49.430)  # inside the pond
+        px, py = _page_px(pg, 14.945, 49.4275)  # on the road, away from the pond
         box = pg.locator("#map").bounding_box()
         found = pg.evaluate("""async ([x, y]) => (await window.aerosurvey.layers.vbasemap.getFeatures([x, y]))
             .map(f => f.get('class'))""", [x - box["x"], y - box["y"]])
         assert "water" in found
+        # the default style: the pond filled blue and named, the road cased and named along its line
+        styled = pg.evaluate("""async (pts) => {
+            const layer = window.aerosurvey.layers.vbasemap, style = layer.getStyleFunction();
+            const res = window.aerosurvey.map.getView().getResolution(), out = {};
+            for (const [x, y] of pts) for (const f of await layer.getFeatures([x, y])) {
+              const s = [style(f, res)].flat().filter(Boolean);
+              out[f.get('class')] = { fills: s.filter(t => t.getFill()).map(t => t.getFill().getColor()),
+                strokes: s.filter(t => t.getStroke()).length, texts: s.filter(t => t.getText()).map(t => t.getText().getText()),
+                placement: s.filter(t => t.getText()).map(t => t.getText().getPlacement()) };
+            }
+            return out; }""", [[x - box["x"], y - box["y"]], [px - box["x"], py - box["y"]]])
+        assert styled["water"]["fills"] == ["#aad3df"] and styled["water"]["texts"] == ["Pond"]
+        assert styled["road"]["strokes"] == 2 and styled["road"]["texts"] == ["Main road"]  # casing and fill
+        assert styled["road"]["placement"] == ["line"]
         assert pg.evaluate("window.aerosurvey.layers.basemap.getSource()") is None
         pg.screenshot(path=str(SHOTS / f"15-vector-basemap-{kind}.png"))
         _only_our_server(pg, server.url)

@@ -6,6 +6,7 @@ import shutil
 import socket
 import threading
 import time
+import tomllib
 import warnings
 from pathlib import Path
 from typing import Any
@@ -21,12 +22,9 @@ def copy_mission(tmp: Path, name: str = "obratan-72ha") -> Path:
     """The example mission and its area in a folder of the test's own (the page may write the spec)."""
     (tmp / "areas").mkdir(parents=True, exist_ok=True)
     spec = REPO / "missions" / f"{name}.toml"
-    text = spec.read_text(encoding="utf-8")
     shutil.copy(spec, tmp / spec.name)
-    for line in text.splitlines():
-        if line.startswith("file = "):
-            rel = line.split("=", 1)[1].strip().strip('"')
-            shutil.copy(REPO / "missions" / rel, tmp / rel)
+    rel = tomllib.loads(spec.read_text(encoding="utf-8"))["area"]["file"]
+    shutil.copy(REPO / "missions" / rel, tmp / rel)
     return tmp / spec.name
 
 
@@ -89,8 +87,9 @@ def write_mbtiles(path: Path, tiles: dict[tuple[int, int, int], bytes], fmt: str
     return path
 
 
-def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes]) -> Path:
-    """A PMTiles (version 3) file of PNG tiles, written by the PMTiles project's writer."""
+def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes], compression: str = "NONE") -> Path:
+    """A PMTiles (version 3) file of PNG tiles, written by the PMTiles project's writer; `compression` names
+    the tile compression its header declares."""
     from pmtiles.tile import Compression, TileType, zxy_to_tileid
     from pmtiles.writer import Writer
 
@@ -99,7 +98,7 @@ def write_pmtiles(path: Path, tiles: dict[tuple[int, int, int], bytes]) -> Path:
         w = Writer(fh)
         for tid, data in sorted((zxy_to_tileid(z, x, y), d) for (z, x, y), d in tiles.items()):
             w.write_tile(tid, data)
-        w.finalize({"tile_type": TileType.PNG, "tile_compression": Compression.NONE, "min_zoom": min(zs),
+        w.finalize({"tile_type": TileType.PNG, "tile_compression": Compression[compression], "min_zoom": min(zs),
                     "max_zoom": max(zs), "min_lon_e7": -1800000000, "min_lat_e7": -850000000, "max_lon_e7": 1800000000,
                     "max_lat_e7": 850000000, "center_zoom": min(zs), "center_lon_e7": 0, "center_lat_e7": 0},
                    {"name": "test basemap", "attribution": "test tiles"})

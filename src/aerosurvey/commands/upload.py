@@ -3,7 +3,9 @@
 Exit codes: 0 uploaded and verified (or uploaded with --no-verify), 1 the link failed or the
 vehicle stores something else, 2 bad input (unreadable plan, bad option), 3 refused before
 anything was sent: the plan does not fit the vehicle (autopilot, vehicle type, launch point,
-battery, item count). Nothing is reported as uploaded unless the vehicle acknowledged every item.
+battery, item count; for PX4 its storage and the commands and frames it takes). PX4 missions
+go through MAVSDK (link/px4.py), ArduPilot missions through aerosurvey's own protocol. Nothing
+is reported as uploaded unless the vehicle acknowledged every item.
 """
 
 from __future__ import annotations
@@ -22,12 +24,16 @@ from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.connection import open_link
 from aerosurvey.link.upload import (
     LAUNCH_DISTANCE_M,
+    VIA_PROTOCOL,
     MissionFacts,
+    TransferReport,
     UploadReport,
     VerificationFailed,
+    check_px4,
     check_vehicle,
     mission_wire_items,
     upload_mission,
+    upload_plan,
 )
 from aerosurvey.mission.items import Mission
 
@@ -162,24 +168,42 @@ class TransferProgress:
             self._bars = None
 
 
+_ITEM_WORDS = {mp.MISSION: "mission items", mp.FENCE: "fence vertices", mp.RALLY: "rally points"}
+
+
 def _stats(s: mp.Stats) -> str:
     lost = "; the vehicle's final MISSION_ACK was lost, the read-back below proves the upload" if s.ack_lost else ""
     return f"{s.resends} resend(s), {s.restarts} restart(s), {s.duplicate_requests} repeated request(s){lost}"
 
 
-def format_report(r: UploadReport, verified: bool) -> list[str]:
+def format_report(r: UploadReport, verified: bool, rally_asked: bool = False) -> list[str]:
     v = r.vehicle
     lines = [f"vehicle: system {v.system}, component {v.component}, {v.autopilot_name}, MAV_TYPE {v.mav_type}"]
+    if r.via != VIA_PROTOCOL:
+        lines.append(f"transfers: through {r.via}")
+
+    def cost(t: TransferReport) -> str:
+        if r.via == VIA_PROTOCOL:
+            return _stats(t.stats)
+        lost = ("; MAVSDK timed out waiting for the vehicle's final MISSION_ACK, the read-back below proves the upload"
+                if t.stats.ack_lost else "")
+        return "MAVSDK does not report resends" + lost
+
     m = r.mission
-    lines.append(f"mission: {m.items} items uploaded in {m.seconds:.2f} s ({_stats(m.stats)})")
+    lines.append(f"mission: {m.items} items uploaded in {m.seconds:.2f} s ({cost(m)})")
     if r.fence is not None:
-        lines.append(f"fence: {r.fence.items} vertices uploaded in {r.fence.seconds:.2f} s ({_stats(r.fence.stats)})")
+        lines.append(f"fence: {r.fence.items} vertices uploaded in {r.fence.seconds:.2f} s ({cost(r.fence)})")
     else:
         lines.append("fence: none in the plan; the vehicle's fence was left as it was")
+    if r.rally is not None:
+        lines.append(f"rally: {r.rally.items} points uploaded in {r.rally.seconds:.2f} s ({cost(r.rally)})")
+    elif rally_asked:
+        lines.append("rally: none in the plan; the vehicle's rally points were left as they were")
     if not verified:
         lines.append("not verified (--no-verify): the vehicle acknowledged every item, nothing was read back")
         return lines
-    what = f"{m.items} mission items" + (f" and {r.fence.items} fence vertices" if r.fence is not None else "")
+    counts = [f"{t.items} {_ITEM_WORDS[t.mission_type]}" for t in r.transfers]
+    what = ", ".join(counts[:-1]) + (" and " if len(counts) > 1 else "") + counts[-1]
     lines.append(f"verified: {what} read back and compared {r.compared_as}; all match")
     if r.home_note:
         lines.append(r.home_note)
@@ -202,38 +226,57 @@ def format_report(r: UploadReport, verified: bool) -> list[str]:
               help="The farthest (m) the vehicle may be from the planned launch point; a larger value confirms "
                    "that it is that far. 'off': do not compare (e.g. no GPS fix on the bench).")
 @click.option("--no-verify", is_flag=True, help="Do not read the mission back and compare it.")
+@click.option("--autopilot", type=click.Choice(["ardupilot", "px4"]), default=None,
+              help="The autopilot the vehicle runs (default: the one the plan is for). ArduPilot missions go through "
+                   "aerosurvey's mission protocol, PX4 missions through MAVSDK's mission_raw plugin.")
+@click.option("--rally", is_flag=True, help="Upload the plan's rally points too (MAV_MISSION_TYPE_RALLY), and verify them.")
 def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str | None, launch_distance: str,
-           no_verify: bool) -> None:
+           no_verify: bool, autopilot: str | None, rally: bool) -> None:
     """Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare.
 
+    With --rally its rally points go too. PX4 missions go through MAVSDK's mission_raw plugin.
+
     Before sending anything it compares the vehicle with the mission (autopilot, vehicle type,
-    distance from the planned launch point, battery, item count) and refuses with exit code 3
-    when they do not fit. Exit code 0 when uploaded and verified, 1 when the link fails or the
-    vehicle stores something else (the differing item, field and values are named; a partial
-    mission is "the vehicle holds N of M mission items: do not fly it"), 2 for bad input.
-    Progress goes to stderr when it is a terminal and the upload takes more than a second.
+    distance from the planned launch point, battery, item count; for PX4 also its storage and the
+    commands and frames it takes) and refuses with exit code 3 when they do not fit. Exit code 0
+    when uploaded and verified, 1 when the link fails or the vehicle stores something else (the
+    differing item, field and values are named; a partial mission is "the vehicle holds N of M
+    mission items: do not fly it"), 2 for bad input. Progress goes to stderr when it is a
+    terminal and the upload takes more than a second.
     """
     mission, waypoints = read_mission(plan_file)
+    if autopilot is not None and autopilot != mission.firmware:
+        raise InputError(f"--autopilot {autopilot}: {plan_file.name} is a mission for {mission.firmware}; plan it for "
+                         f"{autopilot} and upload that", key="--autopilot")
     limit = _launch_distance(launch_distance)
     facts, source = mission_facts(plan_file, mission, waypoints, vehicle)
     policy = mp.Policy(timeout=timeout, retries=retries)
-    with open_link(url, policy.silence) as link:
-        assert link.vehicle is not None
-        position = link.vehicle_position(policy.silence) if limit is not None else None
-        where = check_vehicle(facts, link.vehicle, position, limit)
-        try:
-            with TransferProgress(sys.stderr) as progress:
-                report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress)
-        except VerificationFailed as exc:
-            for mm in exc.mismatches[:20]:
-                click.echo(f"  differs: {mm}", err=True)
-            if len(exc.mismatches) > 20:
-                click.echo(f"  ... {len(exc.mismatches) - 20} more", err=True)
-            raise
+    if mission.firmware == "px4":
+        from aerosurvey.link.px4 import MavsdkTransfers, mavsdk_url
+
+        mavsdk_url(url)  # a connection MAVSDK cannot open is bad input before anything else
+    try:
+        with open_link(url, policy.silence) as link:
+            assert link.vehicle is not None
+            position = link.vehicle_position(policy.silence) if limit is not None else None
+            where = check_vehicle(facts, link.vehicle, position, limit)
+            if mission.firmware == "px4":
+                check_px4(mission, facts.file, rally)
+            else:
+                with TransferProgress(sys.stderr) as progress:
+                    report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress, rally=rally)
+        if mission.firmware == "px4":  # the checks' link is closed: MAVSDK opens the same connection
+            with MavsdkTransfers(url, link.vehicle, policy.timeout, policy.silence, not no_verify) as transfers:
+                report = upload_plan(transfers, mission, verify=not no_verify, rally=rally)
+    except VerificationFailed as exc:
+        for mm in exc.mismatches[:20]:
+            click.echo(f"  differs: {mm}", err=True)
+        if len(exc.mismatches) > 20:
+            click.echo(f"  ... {len(exc.mismatches) - 20} more", err=True)
+        raise
     click.echo(f"{facts.file}: {facts.vehicle} mission for {facts.firmware}, {source}")
     click.echo(where)
-    for line in format_report(report, not no_verify):
+    for line in format_report(report, not no_verify, rally):
         click.echo(line)
-    if mission.rally:
-        click.echo(f"note: the plan's {len(mission.rally)} rally point(s) were not uploaded (aerosurvey uploads the "
-                   "mission and the fence); upload them with QGroundControl or Mission Planner")
+    if mission.rally and not rally:
+        click.echo(f"note: the plan's {len(mission.rally)} rally point(s) were not uploaded; give --rally to upload them")

@@ -26,7 +26,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.flight.records import EventRows
 from aerosurvey.manifest import Home
-from aerosurvey.rules.footprints import footprints
+from aerosurvey.rules.footprints import Footprints
 from aerosurvey.rules.planview import PlanView
 
 if TYPE_CHECKING:
@@ -142,9 +142,16 @@ def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tup
 
 
 def flown_view(view: PlanView, photos: FlownPhotos) -> PlanView:
-    """The plan as the rules see it, with the flown photos in place of the planned stations."""
+    """The plan as the rules see it, with the flown photos in place of the planned stations: each
+    with its planned station's camera pitch and look relative to the flight (nadir where none matched)."""
+    at = {sid: i for i, sid in enumerate(view.station_ids)}
+    idx = np.array([at.get(sid, -1) for sid in photos.ids], np.intp)
+    matched = idx >= 0
+    pitch = np.where(matched, view.pitch_deg[idx], -90.0)
+    relative = np.where(matched, view.camera_yaw_deg[idx] - view.heading_deg[idx], 0.0)
     return dataclasses.replace(view, station_ids=list(photos.ids), run_ids=list(photos.run), x=photos.x, y=photos.y,
-                               agl=photos.agl_m, heading_deg=photos.heading_deg)
+                               agl=photos.agl_m, heading_deg=photos.heading_deg, pitch_deg=pitch,
+                               camera_yaw_deg=(np.asarray(photos.heading_deg, float) + relative) % 360.0)
 
 
 class DemGround:
@@ -302,9 +309,9 @@ class CountRaster:
     summary: dict[str, Any]
 
 
-def count_raster(view: PlanView, cell_m: float) -> CountRaster:
-    """Counts of the view's photo footprints on cells over the area's bounds."""
-    polys = footprints(view).polygons
+def count_raster(view: PlanView, fp: Footprints, cell_m: float) -> CountRaster:
+    """Counts of the view's photo footprints (`fp`, its `rules.footprints.footprints`) on cells over the area's bounds."""
+    polys = fp.polygons
     x0, y0, x1, y1 = view.area.bounds
     pad = cell_m * 2
     width = int(math.ceil((x1 - x0 + 2 * pad) / cell_m))

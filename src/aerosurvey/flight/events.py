@@ -78,6 +78,11 @@ EVENT_GAP_MS = 60.0
 #: the fixes' own GPS time, `_on_track`): the time offsets lie within 7.5 ms of their median
 #: (plane at 16 m/s, copter at 10 m/s), the distances within 0.04 m of the track. Events slower than TRACK_MIN_SPEED_MS along the
 #: track are not checked for time (the place says little about the time when the vehicle hovers).
+#: The track is searched LAG_WINDOW_S either side of the event's time: an event whose time is off
+#: by more than EVENT_WINDOW_S but whose place is still near the track (a flipped bit in its time
+#: stamp, seen: +1.57 s at 16 m/s, 25 m along the line) must still find where the track passed
+#: it, or it goes unchecked.
+LAG_WINDOW_S = 10.0
 EVENT_SPREAD = 4.0
 EVENT_TIME_FLOOR_S = 0.02
 EVENT_CROSS_FLOOR_M = 2.0
@@ -256,7 +261,7 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Tra
 def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
-    nearest segment between two fixes within EVENT_WINDOW_S of its time; NaN where there is none,
+    nearest segment between two fixes within LAG_WINDOW_S of its time; NaN where there is none,
     where the nearest point is a segment's end (the event lies beyond it: the track's end, a
     gap), or where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
     damage took the fixes between)."""
@@ -271,8 +276,8 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     ex, ey = _local_m(lat, lon, lat0, lon0)
     gap = 2.5 * float(np.median(np.diff(gt)))
     for i in np.flatnonzero(np.isfinite(t) & np.isfinite(ex) & np.isfinite(ey)).tolist():
-        a = max(int(np.searchsorted(gt, t[i] - EVENT_WINDOW_S)) - 1, 0)
-        b = min(int(np.searchsorted(gt, t[i] + EVENT_WINDOW_S, "right")), len(gt) - 1)
+        a = max(int(np.searchsorted(gt, t[i] - LAG_WINDOW_S)) - 1, 0)
+        b = min(int(np.searchsorted(gt, t[i] + LAG_WINDOW_S, "right")), len(gt) - 1)
         if b <= a:
             continue
         ax, ay, dx, dy = gx[a:b], gy[a:b], gx[a + 1:b + 1] - gx[a:b], gy[a + 1:b + 1] - gy[a:b]

@@ -34,8 +34,7 @@ from aerosurvey.flight.handoff import camera_poses, geo_txt, metashape_csv, pix4
 from aerosurvey.flight.images import ImageMatch, geotag_images, list_images, match_images
 from aerosurvey.manifest import Manifest, Stations
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.rules import footprints as fpm
-from aerosurvey.rules.engine import evaluate
+from aerosurvey.rules.engine import Evidence, LayoutSettings, evaluate
 from aerosurvey.rules.flown import on_view, plan_evidence
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import apply_overrides, select_profiles
@@ -190,9 +189,14 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         if dem is not None:
             dem.close()
     flown = flown_view(view, photos)
-    fp = fpm.footprints(flown)
-    fwd = fpm.forward_overlaps(flown, fp)
-    side = fpm.side_overlaps(flown, fp)
+    profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides)) \
+        if doc.mission.profiles else []
+    # the flown photos' footprints and overlaps, measured once for the figures, the rules and the coverage;
+    # the plan's control points seen by the flown photos
+    evidence = on_view(plan_evidence(view, profiles, Path(doc.where).parent), flown) if profiles \
+        else Evidence(flown, LayoutSettings())
+    fwd = evidence.forward_overlaps
+    side = evidence.side_overlaps
     gsd = doc.camera.gsd_cm(photos.agl_m)
     report["realized"] = {
         "forward_overlap_min": min((v for _, v in fwd), default=None),
@@ -201,13 +205,11 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         "gsd_cm_max": float(np.nanmax(gsd)) if np.isfinite(gsd).any() else None,
     }
     rules: list[dict[str, Any]] = []
-    if doc.mission.profiles:
-        profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides))
-        base = plan_evidence(view, profiles, Path(doc.where).parent)  # the plan's control points, seen by the flown photos
-        rules = [dict(r.as_dict()) for r in evaluate(profiles, on_view(base, flown))]
+    if profiles:
+        rules = [dict(r.as_dict()) for r in evaluate(profiles, evidence)]
         report["rules_on_flown_data"] = rules
     report_progress("flown coverage", 0.8)
-    coverage = count_raster(flown, max(doc.derived.photo_base_m / 5, 0.5))
+    coverage = count_raster(flown, evidence.footprints, max(doc.derived.photo_base_m / 5, 0.5))
     report["coverage"] = coverage.summary
     report_progress("done", 1.0)
     records.report_document(report)  # a report that does not match its schema is a bug: found before writing

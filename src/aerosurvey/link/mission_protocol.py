@@ -476,7 +476,7 @@ class Uploader(_Machine):
             return self._send([seq])
         self._answered(seq - 1, now)
         self._asked = seq
-        self.stats.confirmed = max(self.stats.confirmed, seq)
+        self.stats.confirmed = seq  # above every seq asked before in this attempt
         self._last_progress = now
         self._step(seq, now)
         return self._send([seq])

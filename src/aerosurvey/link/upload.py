@@ -62,9 +62,10 @@ class DownloadFailed(LinkError):
 
 
 class UploadFailed(LinkError):
-    """An upload did not finish; `confirmed` items were confirmed by the vehicle in its last attempt."""
+    """An upload did not finish; `confirmed` items were confirmed by the vehicle in its last attempt
+    (None: the transport does not tell)."""
 
-    def __init__(self, message: str, confirmed: int) -> None:
+    def __init__(self, message: str, confirmed: int | None) -> None:
         super().__init__(message)
         self.confirmed = confirmed
 
@@ -143,6 +144,17 @@ def fence_wire_items(m: Mission) -> list[mp.WireItem]:
     return out
 
 
+#: MAV_CMD_NAV_RALLY_POINT: one rally point (MAV_MISSION_TYPE_RALLY)
+NAV_RALLY_POINT = 5100
+
+
+def rally_wire_items(m: Mission) -> list[mp.WireItem]:
+    """Rally points as MAV_MISSION_TYPE_RALLY items: NAV_RALLY_POINT, altitude above home (frame 3)."""
+    return [mp.WireItem(k, NAV_RALLY_POINT, mav.FRAME_GLOBAL_RELATIVE_ALT, x=deg_e7(lat, f"rally point {k + 1} latitude"),
+                        y=deg_e7(lon, f"rally point {k + 1} longitude"), z=alt, mission_type=mp.RALLY)
+            for k, (lat, lon, alt) in enumerate(m.rally)]
+
+
 # --- what ArduPilot keeps of an item ------------------------------------------------------
 # ArduPilot packs each item into 15 bytes (AP_Mission::mavlink_int_to_mission_cmd) and rebuilds
 # the MAVLink item on download (AP_Mission::mission_cmd_to_mavlink_int): parameters it has no
@@ -194,7 +206,12 @@ def _ardupilot_params(it: mp.WireItem, plane: bool) -> tuple[float, float, float
 
 
 def ardupilot_stored(it: mp.WireItem, plane: bool) -> mp.WireItem:
-    """The item as ArduPilot returns it after storing it; unknown commands are left as they are."""
+    """The item as ArduPilot returns it after storing it; unknown commands are left as they are.
+
+    A rally point (MissionItemProtocol_Rally, AP_Rally's RallyLocation) keeps its position and
+    its altitude as a whole number of metres (int16), nothing else."""
+    if it.mission_type == mp.RALLY:
+        return mp.WireItem(it.seq, it.command, it.frame, x=it.x, y=it.y, z=_trunc(f32(it.z)), mission_type=it.mission_type)
     params = _ardupilot_params(it, plane)
     if params is None:
         return it
@@ -209,6 +226,64 @@ def ardupilot_stored(it: mp.WireItem, plane: bool) -> mp.WireItem:
     x, y = (it.x & 0xFF, it.y & 0xFF) if it.command == mav.DO_DIGICAM_CONTROL else (0, 0)
     z = _trunc(it.z) if it.command == mav.DO_MOUNT_CONTROL else 0.0
     return mp.WireItem(it.seq, it.command, 0, *params, x, y, z, 1, 0, it.mission_type)
+
+
+# --- what PX4 keeps of an item -----------------------------------------------------------
+# PX4's MavlinkMissionManager (src/modules/mavlink/mavlink_mission.cpp) parses each item into a
+# mission_item_s (parse_mavlink_mission_item) and rebuilds the MAVLink item on download
+# (format_mavlink_mission_item). An item with a position keeps only the parameters PX4 has a field
+# for, the yaw (param4) as radians wrapped to [0, 2π) and back; an item without one (frame 2)
+# keeps its seven parameters as float32. Positions come back in the _INT frames (5, 6): the same
+# frames (see `_SAME_FRAME`). Anything else PX4 refuses: MAV_MISSION_UNSUPPORTED for a command,
+# MAV_MISSION_UNSUPPORTED_FRAME for a frame (terrain frames included).
+
+#: Commands PX4 takes with a position (frames 0, 3, 5, 6) and without one (frame 2, MAV_FRAME_MISSION)
+PX4_POSITION_COMMANDS = frozenset({16, 17, 19, 21, 22, 31, 80, 84, 85, 195, 201, 212, 400, 4501, 5000, 5001, 5002, 5003, 5004,
+                                   NAV_RALLY_POINT})
+PX4_MISSION_FRAME_COMMANDS = frozenset({20, 80, 93, 112, 114, 177, 178, 179, 187, 189, 197, 200, 201, 203, 204, 205, 206, 211,
+                                        212, 213, 214, 260, 400, 530, 532, 534, 1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000,
+                                        42600})
+_POSITION_FRAMES = frozenset({0, 3, 5, 6})
+#: Items each mission type holds on PX4 (dataman: CONFIG_NUM_MISSION_ITMES_SUPPORTED, 2000 on flight
+#: controllers; DM_KEY_FENCE_POINTS_MAX; DM_KEY_SAFE_POINTS_MAX)
+PX4_MAX_ITEMS = {mp.MISSION: 2000, mp.FENCE: 64, mp.RALLY: 32}
+
+
+def px4_refusal(it: mp.WireItem) -> str | None:
+    """The MAV_MISSION_RESULT name PX4 answers `it` with when it does not take it, else None."""
+    if it.frame in _POSITION_FRAMES:
+        return None if it.command in PX4_POSITION_COMMANDS else mp.result_name(mp.UNSUPPORTED)
+    if it.frame == mav.FRAME_MISSION:
+        return None if it.command in PX4_MISSION_FRAME_COMMANDS else mp.result_name(mp.UNSUPPORTED)
+    return mp.result_name(mp.UNSUPPORTED_FRAME)
+
+
+def _px4_yaw(deg: float) -> float:
+    """A yaw in degrees as PX4 gives it back, step by step in float32 as PX4 computes it:
+    math::radians, matrix::wrap_2pi (into [0, 2π)), math::degrees."""
+    if not math.isfinite(deg):
+        return deg
+    rad = f32(f32(deg) * f32(f32(math.pi) / f32(180.0)))
+    two_pi = f32(2.0 * math.pi)
+    if not 0.0 <= rad < two_pi:
+        rad = f32(rad - f32(two_pi * math.floor(f32(rad * f32(1.0 / two_pi)))))
+    return f32(rad * f32(f32(180.0) / f32(math.pi)))
+
+
+def px4_stored(it: mp.WireItem) -> mp.WireItem:
+    """The item as PX4 returns it after storing it (commands it has no rule for are left as they are)."""
+    p1, p2, p4 = f32(it.param1), f32(it.param2), _px4_yaw(it.param4)
+    if it.frame == mav.FRAME_MISSION:
+        return mp.WireItem(it.seq, it.command, it.frame, p1, p2, f32(it.param3), f32(it.param4), round(f32(it.x)),
+                           round(f32(it.y)), f32(it.z), it.autocontinue, 0, it.mission_type)
+    params = {mav.NAV_WAYPOINT: (p1, p2, 0.0, p4), mav.NAV_LAND: (0.0, p2, 0.0, p4), mav.NAV_TAKEOFF: (0.0, 0.0, 0.0, p4),
+              mav.NAV_VTOL_TAKEOFF: (0.0, 0.0, 0.0, p4), mav.NAV_VTOL_LAND: (0.0, 0.0, 0.0, p4),
+              mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION: (float(int(p1 + 0.5)), 0.0, 0.0, 0.0),
+              mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION: (float(int(p1 + 0.5)), 0.0, 0.0, 0.0),
+              NAV_RALLY_POINT: (0.0, 0.0, 0.0, 0.0)}.get(it.command)
+    if params is None:
+        return it
+    return mp.WireItem(it.seq, it.command, it.frame, *params, it.x, it.y, f32(it.z), it.autocontinue, 0, it.mission_type)
 
 
 # --- comparison --------------------------------------------------------------------------
@@ -237,6 +312,11 @@ def _show(v: object) -> str:
     return f"{v:.7g}" if isinstance(v, float) else str(v)
 
 
+#: MAV_FRAME_GLOBAL_INT, _RELATIVE_ALT_INT and _TERRAIN_ALT_INT mean what frames 0, 3 and 10 mean
+#: (their x and y were int32 in MISSION_ITEM, as they always are in MISSION_ITEM_INT); PX4 answers with them
+_SAME_FRAME = {5: 0, 6: 3, 11: 10}
+
+
 def _same_f32(a: float, b: float) -> bool:
     a, b = f32(a), f32(b)
     if math.isnan(a) or math.isnan(b):
@@ -246,7 +326,8 @@ def _same_f32(a: float, b: float) -> bool:
 
 def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem], skip: frozenset[int] = frozenset(),
                   mission_type: int = mp.MISSION) -> list[Mismatch]:
-    """Every differing field: command and frame exactly, params and z as float32, x/y as int32 1e-7 degrees."""
+    """Every differing field: command exactly, frame by meaning (`_SAME_FRAME`), params and z as float32,
+    x/y as int32 1e-7 degrees."""
     out: list[Mismatch] = []
     if len(expected) != len(actual):
         out.append(Mismatch(None, "count", len(expected), len(actual), mission_type=mission_type))
@@ -260,7 +341,7 @@ def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem]
         if e.command != a.command:
             miss("command", e.command, a.command)
             continue
-        if e.frame != a.frame:
+        if _SAME_FRAME.get(e.frame, e.frame) != _SAME_FRAME.get(a.frame, a.frame):
             miss("frame", e.frame, a.frame)
         for k, (ev, av) in enumerate(zip((e.param1, e.param2, e.param3, e.param4), (a.param1, a.param2, a.param3, a.param4)), 1):
             if not _same_f32(ev, av):
@@ -334,6 +415,9 @@ def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: i
 
 # --- the whole job -----------------------------------------------------------------------
 
+#: `UploadReport.via` for transfers through aerosurvey's own mission protocol
+VIA_PROTOCOL = "aerosurvey's mission protocol"
+
 @dataclass
 class TransferReport:
     """One mission type's upload and its check."""
@@ -357,12 +441,65 @@ class UploadReport:
     compared_as: str
     home_note: str = ""
     notes: list[str] = field(default_factory=list)
+    rally: TransferReport | None = None
+    via: str = VIA_PROTOCOL
+
+    @property
+    def transfers(self) -> list[TransferReport]:
+        return [r for r in (self.mission, self.fence, self.rally) if r is not None]
 
 
-def _stats_said(mission: TransferReport, fence: TransferReport | None, kind: int) -> str:
-    rep = mission if kind == mp.MISSION or fence is None else fence
-    return ("its final MISSION_ACK never came" if rep.stats.ack_lost else
-            "although it acknowledged the upload") + "; the read-back shows it"
+class Transfers(Protocol):
+    """Uploads and downloads of one mission type at a time, by whatever speaks to the vehicle:
+    `ProtocolTransfers` (aerosurvey's own mission protocol) or link.px4's MAVSDK transfers."""
+
+    vehicle: Vehicle
+    via: str  # what carries them, in words
+
+    def upload(self, kind: int, items: Sequence[mp.WireItem]) -> mp.Stats:
+        """Raises UploadFailed; may end with `stats.ack_lost` only when a read-back follows."""
+        ...
+
+    def download(self, kind: int, expected: int) -> tuple[list[mp.WireItem], mp.Stats]:
+        """Raises DownloadFailed."""
+        ...
+
+    def said(self, since: float) -> str:
+        """The vehicle's warnings since `since` (see `now`), as words to append to an error, or ""."""
+        ...
+
+    def now(self) -> float: ...
+
+
+class ProtocolTransfers:
+    """aerosurvey's own mission protocol (mission_protocol's machines) over a Link; one resend timer for all."""
+
+    via = VIA_PROTOCOL
+
+    def __init__(self, link: Link, policy: mp.Policy, verify: bool = True, progress: Progress | None = None) -> None:
+        if link.vehicle is None:
+            raise RuntimeError("the link has no vehicle yet: wait for its heartbeat first")
+        self.link, self.policy, self.verify, self.progress = link, policy, verify, progress
+        self.vehicle = link.vehicle
+        self.timer = mp.ResendTimer(policy)  # the link's round trips, measured by every transfer on it
+
+    def upload(self, kind: int, items: Sequence[mp.WireItem]) -> mp.Stats:
+        return upload_items(self.link, items, kind, self.policy, self.verify, self.progress, self.timer)
+
+    def download(self, kind: int, expected: int) -> tuple[list[mp.WireItem], mp.Stats]:
+        return download_items(self.link, kind, self.policy, expected, self.progress, self.timer,
+                              resume=self.vehicle.autopilot != AUTOPILOT_PX4)
+
+    def said(self, since: float) -> str:
+        return _vehicle_said(self.link, since)
+
+    def now(self) -> float:
+        return self.link.now()
+
+
+def _stats_said(rep: TransferReport, via: str) -> str:
+    lost = "its final MISSION_ACK never came" if via == VIA_PROTOCOL else f"the upload through {via} timed out"
+    return (lost if rep.stats.ack_lost else "although it acknowledged the upload") + "; the read-back shows it"
 
 
 def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
@@ -452,6 +589,26 @@ def check_vehicle(facts: MissionFacts, vehicle: Vehicle, position: tuple[float, 
     return f"launch point: the vehicle is {d:,.0f} m from {where} (limit {launch_distance:,.0f} m)"
 
 
+def check_px4(m: Mission, file: str, rally: bool) -> None:
+    """Refuse (Refused) what PX4 would refuse or has no room for: more items of a mission type than
+    its storage holds (`PX4_MAX_ITEMS`), or an item whose command or frame PX4 does not take
+    (`px4_refusal`: it would answer MAV_MISSION_UNSUPPORTED(_FRAME) in the middle of the upload)."""
+    kinds = [(mp.MISSION, mission_wire_items(m)), (mp.FENCE, fence_wire_items(m))] + (
+        [(mp.RALLY, rally_wire_items(m))] if rally else [])
+    for kind, items in kinds:
+        if len(items) > PX4_MAX_ITEMS[kind]:
+            raise Refused(f"{file} has {len(items)} {_ITEMS[kind]} but PX4 stores at most {PX4_MAX_ITEMS[kind]}: "
+                          "plan it with smaller sorties" + (" or a simpler fence" if kind == mp.FENCE else ""))
+        for it in items:
+            answer = px4_refusal(it)
+            if answer is not None:
+                name = _COMMAND_NAMES.get(it.command, f"MAV_CMD {it.command}")
+                raise Refused(f"{file}: {mp.TYPE_NAMES[kind]} item {it.seq} ({name}, frame {it.frame}) is not one PX4 takes "
+                              f"(it answers {answer}"
+                              + ("; PX4 has no terrain frame: plan it with relative altitudes" if it.frame in (10, 11) else "")
+                              + ")")
+
+
 _ITEMS = {mp.MISSION: "mission items", mp.FENCE: "fence vertices", mp.RALLY: "rally points"}
 
 
@@ -459,80 +616,84 @@ def _holds(held: object, total: int, kind: int) -> str:
     return f"the vehicle holds {held} of {total} {_ITEMS.get(kind, 'items')}: do not fly it"
 
 
-def _verify(link: Link, rep: TransferReport, expected: list[mp.WireItem], policy: mp.Policy, storage: str, plane: bool,
-            skip: frozenset[int], progress: Progress | None, timer: mp.ResendTimer,
-            resume: bool) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
+def _verify(transfers: Transfers, rep: TransferReport, expected: list[mp.WireItem], storage: str, plane: bool,
+            skip: frozenset[int]) -> tuple[list[mp.WireItem], mp.Stats, list[Mismatch]]:
     """Read one mission type back and compare; a failed read-back is a LinkError that says what the vehicle holds."""
     kind, n = rep.mission_type, len(expected)
     try:
-        actual, stats = download_items(link, kind, policy, n, progress, timer, resume)
+        actual, stats = transfers.download(kind, n)
     except DownloadFailed as exc:
         if exc.count is not None and exc.count != n:
             raise LinkError(f"{_holds(exc.count, n, kind)} (it says so; the read-back then failed: {exc})") from None
-        if rep.stats.ack_lost:
+        if rep.stats.ack_lost and transfers.via == VIA_PROTOCOL:
             raise LinkError(f"{_holds(rep.stats.confirmed, n, kind)} (it asked for every item but never acknowledged the "
                             f"last one, and the read-back failed: {exc})") from None
+        if rep.stats.ack_lost:
+            raise LinkError(f"the {mp.TYPE_NAMES[kind]} upload through {transfers.via} timed out and the read-back failed "
+                            f"({exc}): what the vehicle holds is not known: do not fly it") from None
         raise LinkError(f"upload acknowledged by the vehicle but not verified: {exc}") from None
-    wanted = [ardupilot_stored(it, plane) for it in expected] if storage == "ardupilot" else expected
+    model = {"ardupilot": lambda it: ardupilot_stored(it, plane), "px4": px4_stored}.get(storage)
+    wanted = [model(it) for it in expected] if model is not None else expected
     return actual, stats, compare_items(wanted, actual, skip, kind)
 
 
-def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = True,
-                   progress: Progress | None = None) -> UploadReport:
-    """Upload the mission (and its fence when it has one), then read both back and compare.
+_COMPARED_AS = {"ardupilot": "as ArduPilot stores items (fields it does not keep are not compared)",
+                "px4": "as PX4 stores items (fields it does not keep are not compared)",
+                "verbatim": "field by field as uploaded"}
+
+
+def _failed_upload(kind: int, exc: UploadFailed, n: int, said: str, done: list[TransferReport]) -> LinkError:
+    """The one-line error for an upload that did not finish, saying what the vehicle is left with."""
+    if kind == mp.MISSION:
+        held = "" if exc.confirmed is None else f" (it confirmed {exc.confirmed} of {n} items)"
+        return LinkError(f"{exc}{said}; the vehicle's mission is incomplete or unchanged{held}: do not fly it")
+    before = " and ".join(mp.TYPE_NAMES[r.mission_type] for r in done)
+    whose = "fence is" if kind == mp.FENCE else "rally points are"
+    return LinkError(f"the {before} {'was' if len(done) == 1 else 'were'} uploaded but the {exc}{said}; the vehicle's "
+                     f"{whose} not the plan's")
+
+
+def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False) -> UploadReport:
+    """Upload the mission (its fence when it has one, its rally points when `rally` and it has
+    some), then read each back and compare, through `transfers`.
 
     Raises LinkError when a transfer fails, VerificationFailed when the vehicle stores
     something else; returns a report only when everything asked for succeeded. With
     `verify`, an upload whose final ACCEPTED was lost (`stats.ack_lost`) is settled by the
-    read-back instead of being sent again; without it, such an upload is restarted. A
-    vehicle that holds only part of the mission is reported as "the vehicle holds N of M
-    mission items: do not fly it". `progress` is called while each transfer runs.
+    read-back instead of being sent again. A vehicle that holds only part of a mission type is
+    reported as "the vehicle holds N of M mission items: do not fly it".
     """
-    vehicle = link.vehicle
-    if vehicle is None:
-        raise RuntimeError("the link has no vehicle yet: wait for its heartbeat first")
+    vehicle = transfers.vehicle
     check_firmware(m.firmware, vehicle)
-    items = mission_wire_items(m)
-    fence = fence_wire_items(m)
-    storage = "ardupilot" if vehicle.autopilot == AUTOPILOT_ARDUPILOT else "verbatim"
+    storage = {AUTOPILOT_ARDUPILOT: "ardupilot", AUTOPILOT_PX4: "px4"}.get(vehicle.autopilot, "verbatim")
     plane = vehicle.mav_type in PLANE_TYPES
-    timer = mp.ResendTimer(policy)  # the link's round trips, measured by every transfer on it
+    kinds = [(mp.MISSION, mission_wire_items(m)), (mp.FENCE, fence_wire_items(m))]
+    if rally:
+        kinds.append((mp.RALLY, rally_wire_items(m)))
+    wanted = {kind: items for kind, items in kinds if items or kind == mp.MISSION}
 
-    t0 = time.monotonic()
-    started = link.now()
-    try:
-        stats = upload_items(link, items, mp.MISSION, policy, verify, progress, timer)
-    except UploadFailed as exc:
-        raise LinkError(f"{exc}{_vehicle_said(link, started)}; the vehicle's mission is incomplete or unchanged "
-                        f"(it confirmed {exc.confirmed} of {len(items)} items): do not fly it") from None
-    mission_rep = TransferReport(mp.MISSION, len(items), time.monotonic() - t0, stats)
-    fence_rep = None
-    if fence:
+    done: list[TransferReport] = []
+    for kind, items in wanted.items():
         t0 = time.monotonic()
-        started = link.now()
+        started = transfers.now()
         try:
-            fstats = upload_items(link, fence, mp.FENCE, policy, verify, progress, timer)
+            stats = transfers.upload(kind, items)
         except UploadFailed as exc:
-            raise LinkError(f"the mission was uploaded but the {exc}{_vehicle_said(link, started)}; the vehicle's "
-                            "fence is not the plan's") from None
-        fence_rep = TransferReport(mp.FENCE, len(fence), time.monotonic() - t0, fstats)
-
-    compared_as = ("as ArduPilot stores items (fields it does not keep are not compared)" if storage == "ardupilot"
-                   else "field by field as uploaded")
-    report = UploadReport(vehicle, mission_rep, fence_rep, compared_as)
+            raise _failed_upload(kind, exc, len(items), transfers.said(started), done) from None
+        done.append(TransferReport(kind, len(items), time.monotonic() - t0, stats))
+    reps = {r.mission_type: r for r in done}
+    report = UploadReport(vehicle, reps[mp.MISSION], reps.get(mp.FENCE), _COMPARED_AS[storage], rally=reps.get(mp.RALLY),
+                          via=transfers.via)
     if not verify:
         return report
 
     # ArduPilot overwrites item 0 with its own home; another autopilot given home as item 0 keeps it
     skip = frozenset({0}) if home_on_wire(m) and storage == "ardupilot" else frozenset()
     mismatches: list[Mismatch] = []
-    for rep, expected in ((mission_rep, items), (fence_rep, fence)):
-        if rep is None:
-            continue
+    for rep in done:
         t0 = time.monotonic()
-        actual, dstats, found = _verify(link, rep, expected, policy, storage, plane,
-                                        skip if rep.mission_type == mp.MISSION else frozenset(), progress, timer,
-                                        resume=vehicle.autopilot != AUTOPILOT_PX4)
+        actual, dstats, found = _verify(transfers, rep, wanted[rep.mission_type], storage, plane,
+                                        skip if rep.mission_type == mp.MISSION else frozenset())
         rep.verify_seconds = time.monotonic() - t0
         rep.download_stats = dstats
         mismatches += found
@@ -545,13 +706,19 @@ def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = Tru
     if mismatches:
         first = mismatches[0]
         if first.seq is None:  # the item count differs: the vehicle holds part of the mission (or more)
-            n = len(items) if first.mission_type == mp.MISSION else len(fence)
+            n = len(wanted[first.mission_type])
             raise VerificationFailed(f"verification failed: {_holds(first.actual, n, first.mission_type)} "
-                                     f"({_stats_said(mission_rep, fence_rep, first.mission_type)})", mismatches)
+                                     f"({_stats_said(reps[first.mission_type], transfers.via)})", mismatches)
         more = f" (and {len(mismatches) - 1} more difference(s))" if len(mismatches) > 1 else ""
         raise VerificationFailed(f"verification failed: {first}{more}; the vehicle stores something other than "
                                  "the plan: do not fly it", mismatches)
-    mission_rep.verified = True
-    if fence_rep is not None:
-        fence_rep.verified = True
+    for rep in done:
+        rep.verified = True
     return report
+
+
+def upload_mission(link: Link, m: Mission, policy: mp.Policy, verify: bool = True,
+                   progress: Progress | None = None, rally: bool = False) -> UploadReport:
+    """`upload_plan` through aerosurvey's own mission protocol on `link`. Without `verify`, an
+    upload whose final ACCEPTED was lost is restarted. `progress` is called while each transfer runs."""
+    return upload_plan(ProtocolTransfers(link, policy, verify, progress), m, verify, rally)

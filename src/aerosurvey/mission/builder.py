@@ -107,7 +107,10 @@ def _end(p: FlightProgram) -> list[MissionItem]:
     if p.approach is not None:  # DO_LAND_START, the approach waypoint downwind, NAV_LAND into the wind
         a = p.approach
         return [
-            MissionItem(mav.DO_LAND_START, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, a.lat, a.lon, 0.0, tag="land-start"),
+            # a place on the way to land: ArduPilot takes it in a global frame, PX4 only in MAV_FRAME_MISSION
+            # (anything else it answers MAV_MISSION_UNSUPPORTED_FRAME; seen against PX4's mission rules)
+            MissionItem(mav.DO_LAND_START, mav.FRAME_MISSION if p.firmware == "px4" else mav.FRAME_GLOBAL_RELATIVE_ALT,
+                        0, 0, 0, 0, a.lat, a.lon, 0.0, tag="land-start"),
             MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, a.lat, a.lon, a.alt_m, tag="approach"),
             MissionItem(mav.NAV_LAND, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, lat, lon, 0.0, tag="land"),
         ]

@@ -25,14 +25,15 @@ from aerosurvey.spec import MissionSpec
 BOUND_BATCH_ELEMENTS = 200_000
 
 
-def strip_geometry(sensor: SensorSolution, beyond: int, k: float) -> StripGeometry:
-    """The sensor solution in planning-grid metres (ground metres × the grid scale k).
+def strip_geometry(sensor: SensorSolution, beyond: int, k: float, base_k: float) -> StripGeometry:
+    """The sensor solution in planning-grid metres (ground metres × the grid scale k; the photo
+    base, in the autopilot's metres, × `base_k`, the line heading's `Site.autopilot_scale`).
 
     Stations stay as close to a zone's margin as the flight past them allows: the line ends
     half a base after its last station (and a plane needs its turn radius there); the
     lead-in before a run is shortened by the route where a zone is in its way."""
     clearance = sensor.base_m / 2.0 + sensor.turn_radius_m + 1.0
-    return StripGeometry(sensor.across_m * k, sensor.along_m * k, sensor.spacing_m * k, sensor.base_m * k,
+    return StripGeometry(sensor.across_m * k, sensor.along_m * k, sensor.spacing_m * k, sensor.base_m * base_k,
                          sensor.side_images_per_point, sensor.forward_images_per_point, beyond, clearance * k)
 
 
@@ -54,7 +55,11 @@ class AreaGrid:
         k = site.grid_scale
         margin = self.coverage_margin_m * k
         covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
-        g = strip_geometry(sensor, self.images_beyond_boundary, k)
+        def strips(h: float) -> StripGeometry:
+            return strip_geometry(sensor, self.images_beyond_boundary, k, site.autopilot_scale(h))
+
+        # the heading search's lower bounds take the longest base of any heading (the fewest photos)
+        g = max((strips(h) for h in (0.0, 90.0)), key=lambda s: s.base)
         lead = sensor.lead_in_m * k
 
         laid: dict[float, tuple[LineFrame, list[LineSegment]]] = {}
@@ -64,7 +69,7 @@ class AreaGrid:
             if h not in laid:
                 fr = LineFrame(h)
                 zf = fr.geom_to_frame(site.zones_buffered) if site.zones_buffered is not None else None
-                laid[h] = (fr, build_lines(fr.geom_to_frame(covered), zf, g))
+                laid[h] = (fr, build_lines(fr.geom_to_frame(covered), zf, strips(h)))
             return laid[h]
 
         if self.heading_deg is None:

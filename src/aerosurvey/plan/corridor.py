@@ -13,7 +13,8 @@ takes one at the first 50 Hz check that lies the trigger distance or more from t
 in a straight line (AP_Camera_Backend::update, Location::get_distance), so on a straight
 stretch they are a base apart and through a bend a whole number of check steps further along
 the strip, until the chord reaches the trigger distance. With time triggering they are a base
-apart along the strip.
+apart along the strip. All these lengths are ArduPilot's metres (`ardupilot_distance_m`), which
+differ from the ground's by up to 0.7 % with the direction and the latitude.
 
 Each piece of the centreline is a pass; its strips are flown in order, back and forth. Next to
 an exclusion zone (and its margin, and the clearance a turn needs) stations are left out and
@@ -24,6 +25,7 @@ footprints exactly (`Layout.check_exactly`): there the straight-line rule does n
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,7 +35,7 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey.errors import InputError
 from aerosurvey.plan.layout import Layout
 from aerosurvey.plan.lines import station_span, strip_offsets
-from aerosurvey.plan.photogrammetry import TRIGGER_CHECK_HZ
+from aerosurvey.plan.photogrammetry import TRIGGER_CHECK_HZ, ardupilot_distance_m
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.route import Pass, Strip
 from aerosurvey.plan.sensor import SensorSolution
@@ -77,8 +79,14 @@ class Corridor:
         base = sensor.base_m * k
         offsets = (np.array([(left - right) / 2.0]) if left + right <= across
                    else strip_offsets(-right, left, across, sensor.spacing_m * k, sensor.side_images_per_point))
-        chord = sensor.trigger_distance_m * k if self.distance_trigger and sensor.trigger_distance_m is not None else None
-        step = sensor.speed.speed_ms / TRIGGER_CHECK_HZ * k
+        chord = self.distance_trigger and sensor.trigger_distance_m is not None
+
+        def autopilot_m(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            """ArduPilot's distance between the points a and b (planning CRS, (n, 2) each)."""
+            lon, lat = site.planar.lonlat(np.r_[a[:, 0], b[:, 0]], np.r_[a[:, 1], b[:, 1]])
+            n = len(a)
+            return np.asarray(ardupilot_distance_m(lon[:n], lat[:n], lon[n:], lat[n:]), float)
+
         clearance = (sensor.base_m / 2.0 + sensor.turn_radius_m + 1.0) * k
         pieces = shapely.get_parts(shapely.line_merge(site.centreline))
         passes = []
@@ -96,7 +104,8 @@ class Corridor:
                     b = float(arc[-1]) + (max(left, right) if j < len(stretches) - 1 else 0.0)
                     first, last = station_span(a, b, along, base, sensor.forward_images_per_point, self.images_beyond_boundary)
                     ext = _extend(path, -first, last - float(arc[-1]) + 2.0 * base)
-                    at = _stations(ext, base, last - first, chord, step)
+                    at = _stations(ext, autopilot_m, sensor.base_m, last - first, sensor.trigger_distance_m if chord else None,
+                                   sensor.speed.speed_ms / TRIGGER_CHECK_HZ)
                     strips += _cut(line, len([s for s in strips if s.line == line]), numbered, ext, at,
                                    site.zones_buffered, clearance)
                     numbered += len(at)
@@ -149,24 +158,30 @@ def _at(path: np.ndarray, arc: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(s, arc, path[:, 0]), np.interp(s, arc, path[:, 1])])
 
 
-def _stations(path: np.ndarray, base: float, span: float, chord: float | None, step: float) -> np.ndarray:
-    """Distances along `path` of the stations from its start until `span` is reached: a base
-    apart, and with a distance trigger (`chord` commanded, checks `step` apart) through a bend
+def _stations(path: np.ndarray, autopilot_m: Callable[[np.ndarray, np.ndarray], np.ndarray], base: float, span: float,
+              chord: float | None, step: float) -> np.ndarray:
+    """Distances along `path` (grid metres) of the stations from its start until `span` is
+    reached. The autopilot measures in its own metres (`autopilot_m(a, b)`: between the points
+    a and b, (n, 2) each): `base`, `chord` (the trigger distance) and `step` (between its 50 Hz
+    checks) are in them. A base apart along the strip; with a distance trigger through a bend,
     at the first check whose straight distance from the last station reaches `chord`."""
     arc = _arc(path)
-    inner = arc[1:-1]
+    own = np.r_[0.0, np.cumsum(autopilot_m(path[:-1], path[1:]))]  # the autopilot's metres along the strip
+    inner = own[1:-1]
     out = [0.0]
-    while out[-1] < span - 1e-6:
+    end = float(np.interp(span, arc, own))
+    while out[-1] < end - 1e-6:
         s = out[-1]
         nxt = s + base
         if chord is not None and np.any((inner > s) & (inner < nxt + base)):
             # a bend within reach: ArduPilot's straight-line distance from s, check by check
-            m = np.arange(1, int(math.ceil(2.0 * base / step)) + 2)
-            cand = s + m * step
-            far = np.hypot(*(_at(path, arc, cand) - _at(path, arc, np.array([s]))).T) >= chord
+            cand = s + step * np.arange(1, int(math.ceil(2.0 * base / step)) + 2)
+            here = _at(path, own, np.array([s]))
+            far = autopilot_m(np.repeat(here, len(cand), axis=0), _at(path, own, cand)) >= chord
             nxt = float(cand[int(np.argmax(far))]) if far.any() else float(cand[-1])
         out.append(nxt)
-    return np.asarray(out)
+    at: np.ndarray = np.interp(np.asarray(out), own, arc)
+    return at
 
 
 def _cut(line: int, part0: int, index0: int, path: np.ndarray, at: np.ndarray, zones: BaseGeometry | None,

@@ -116,8 +116,31 @@ def survey_speed(
 TRIGGER_CHECK_HZ = 50.0
 
 
+#: ArduPilot's flat earth (AP_Common/Location.cpp, Location::get_distance): metres per degree
+#: of latitude on its sphere of 6,378,100 m (LOCATION_SCALING_FACTOR is the metres of 1e-7°)
+ARDUPILOT_M_PER_DEG = 0.011131884502145034 * 1e7
+
+
+def ardupilot_distance_m(lon1: FloatOrArray, lat1: FloatOrArray, lon2: FloatOrArray, lat2: FloatOrArray) -> FloatOrArray:
+    """The distance ArduPilot measures between two places (Location::get_distance): flat earth,
+    the longitude difference scaled by the cosine of the mean latitude (at least 0.01).
+
+    The autopilot's distance trigger counts these metres, and its navigation flies its speed in
+    them (positions become metres north and east of its origin the same way). They differ from
+    the ground's: along a meridian the sphere's metre is longer than the ellipsoid's, along a
+    parallel shorter (ArduPilot measures 0.09 % more north-south and 0.19 % less east-west
+    at 49° N, 0.67 % more north-south at the equator, 0.34 % less near the poles), so stations
+    are laid in these metres
+    (`Site.autopilot_scale`), where the autopilot will fire."""
+    dlon = (lon2 - lon1 + 180.0) % 360.0 - 180.0
+    scale = np.maximum(np.cos(np.radians((lat1 + lat2) / 2.0)), 0.01)
+    d: FloatOrArray = np.hypot(lat2 - lat1, dlon * scale) * ARDUPILOT_M_PER_DEG
+    return d
+
+
 def distance_trigger(base_m: float, speed_ms: float) -> tuple[float, float]:
-    """(distance to command, spacing the autopilot then flies).
+    """(distance to command, spacing the autopilot then flies), in the autopilot's metres
+    (`ardupilot_distance_m`: it measures the distance and flies the speed in them).
 
     At a steady speed v the checks fall every v/f metres and each picture is taken on the
     first check past the distance, so pictures land a whole number of check steps apart:

@@ -57,8 +57,8 @@ def resume_mission(spec: MissionSpec, inputs: PlanInputs, after_station: str, pr
 
 def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after: str | None = None) -> Plan:
     report("the site", 0.0)
-    site = prepare_site(spec, inputs)
     h_target, gsd_target, cap_warnings = target_height(spec)
+    site = prepare_site(spec, inputs, h_target)
     report("heights over the ground", 0.03)
     sensor = solve_sensor(spec, h_target, gsd_target, solve_heights(spec, h_target, site.ground), cap_warnings)
     limit_warnings = check_limits(spec, site, sensor)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -148,6 +148,9 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         hover = spec.camera.settle_s + spec.camera.min_cycle_s
     trigger_cmd = None
     if spec.camera.trigger == "distance":
+        # whole centimetres a second, rounded down: the mission commands the speed to 1 cm/s, and
+        # the trigger's check steps (speed / 50 Hz) must be those the autopilot flies
+        speed = replace(speed, speed_ms=math.floor(speed.speed_ms * 100.0 + 1e-6) / 100.0)
         try:
             trigger_cmd, base = pg.distance_trigger(base, speed.speed_ms)
         except ValueError as exc:

@@ -23,7 +23,6 @@ from aerosurvey.area import Planar, check_area_of_use, planning_crs
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.inputs import PlanInputs
-from aerosurvey.plan.sensor import target_height
 from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
@@ -64,12 +63,26 @@ class Site:
     simplification: Simplification
     centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
 
+    def autopilot_scale(self, heading_deg: float) -> float:
+        """Planning-grid metres per metre of ArduPilot's distance along a line heading (a grid
+        bearing), at the area's centroid: a kilometre of the line there, measured as the
+        autopilot measures it (`photogrammetry.ardupilot_distance_m`). Stations laid the photo
+        base times this apart are where its distance trigger fires: the ground's metres and the
+        autopilot's differ by up to 0.7 % with the direction and the latitude (`grid_scale`
+        turns ground metres into grid metres)."""
+        c = self.area.centroid
+        half = 500.0 * self.grid_scale
+        h = math.radians(heading_deg)
+        dx, dy = half * math.sin(h), half * math.cos(h)
+        lon, lat = self.planar.lonlat(np.array([c.x - dx, c.x + dx]), np.array([c.y - dy, c.y + dy]))
+        return 2.0 * half / float(pg.ardupilot_distance_m(lon[0], lat[0], lon[1], lat[1]))
 
-def simplify_tolerance_m(spec: MissionSpec) -> float:
+
+def simplify_tolerance_m(spec: MissionSpec, height_agl_m: float) -> float:
     """How far (ground metres) a simplified boundary may lie outside the given one: a share of
-    the photo footprint at the target height, and of the exclusion margin when there is one."""
-    height, _, _ = target_height(spec)
-    across, along = pg.footprint(height, spec.camera.camera, spec.camera.mount)
+    the photo footprint at the target height (`sensor.target_height`), and of the exclusion
+    margin when there is one."""
+    across, along = pg.footprint(height_agl_m, spec.camera.camera, spec.camera.mount)
     tol = SIMPLIFY_SHARE_OF_FOOTPRINT * min(float(across), float(along))
     margin = spec.flight.exclusion_margin_m
     return min(tol, SIMPLIFY_SHARE_OF_MARGIN * margin) if margin > 0 else tol
@@ -137,14 +150,15 @@ def _places(spec: MissionSpec, inputs: PlanInputs) -> list[tuple[str, BaseGeomet
     return out
 
 
-def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
-    """Project the inputs; refuse zones that leave nothing to survey."""
+def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> Site:
+    """Project the inputs; refuse zones that leave nothing to survey. `height_agl_m` is the
+    target height (`sensor.target_height`), which sets how far outlines may be simplified."""
     planar = planning_crs(spec.crs, inputs.area_wgs84)
     if spec.crs != "auto":  # "auto" is the UTM zone of the area's centre
         check_area_of_use(planar.crs, "mission.crs", _places(spec, inputs))
     c = inputs.area_wgs84.centroid
     k = planar.scale_factor(c.x, c.y)
-    tol = simplify_tolerance_m(spec) * k
+    tol = simplify_tolerance_m(spec, height_agl_m) * k
     centreline = None
     if spec.pattern.kind == "corridor":
         assert spec.pattern.left_m is not None and spec.pattern.right_m is not None
@@ -155,9 +169,11 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs) -> Site:
         area = corridor_polygon(centreline, spec.pattern.left_m * k + tol, spec.pattern.right_m * k + tol)
         area_wgs84 = planar.inverse(area)
     else:
-        given = shapely.normalize(planar.forward(inputs.area_wgs84))
-        area = grown_simplification(given, tol)
+        given = planar.forward(inputs.area_wgs84)
+        area = grown_simplification(given, tol)  # normalised when simplified
         area_wgs84 = inputs.area_wgs84 if area is given else planar.inverse(area)
+        if area is given:  # normalised once it is the one planned (a copy: +19 MB on 400,000 vertices)
+            area = shapely.normalize(area)
     given_zones = [planar.forward(e) for e in inputs.exclusions_wgs84]
     simple_zones = [grown_simplification(z, tol) for z in given_zones]
     excl = tuple(e if z is g else planar.inverse(z)

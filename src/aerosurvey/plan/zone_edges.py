@@ -27,7 +27,7 @@ def edge_passes(site: Site, sensor: SensorSolution, uncovered: BaseGeometry, fir
     if site.zones_buffered is None or uncovered.is_empty:
         return ()
     k = site.grid_scale
-    g = strip_geometry(sensor, 0, k)
+    g = strip_geometry(sensor, 0, k, k)
     tol = g.across / 8.0
     # the margin's outline, simplified to edges of about a footprint (the line keeps `tol` more away)
     outline = shapely.simplify(site.zones_buffered, tol, preserve_topology=True)
@@ -46,7 +46,7 @@ def edge_passes(site: Site, sensor: SensorSolution, uncovered: BaseGeometry, fir
             fr = LineFrame(heading)
             (u0, u1), (v0, _) = fr.to_frame(np.array([p0[0], p1[0]]), np.array([p0[1], p1[1]]))
             seg = _edge_line(fr, site.zones_buffered, target, float(min(u0, u1)), float(max(u0, u1)), float(v0),
-                             g.across / 2.0 + tol, g, index)
+                             g.across / 2.0 + tol, strip_geometry(sensor, 0, k, site.autopilot_scale(heading)), index)
             if seg is not None:
                 passes.append(seg)
                 index += 1

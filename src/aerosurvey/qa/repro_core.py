@@ -33,6 +33,7 @@ import numpy as np
 from scipy import ndimage, stats
 
 NODATA = 255
+RGB_BANDS = 3  # the bands compared (red, green, blue; a fourth, alpha, is a mask)
 _FLAT = 1e-9  # relative variance below which a window is flat
 STATISTICS = ("pixel", "window")
 
@@ -200,9 +201,9 @@ def chance_level(threshold: float, values: int) -> float:
     return float(stats.beta.sf((threshold + 1) / 2, a, a))
 
 
-def statistic_values(statistic: str, bands: int, window: int) -> int:
-    """How many pairs of values one r is computed from: the bands (pixel), or the bands over a w × w window."""
-    return bands if statistic == "pixel" else bands * window * window
+def statistic_values(statistic: str, window: int) -> int:
+    """How many pairs of values one r is computed from: the RGB bands (pixel), or the bands over a w × w window."""
+    return RGB_BANDS if statistic == "pixel" else RGB_BANDS * window * window
 
 
 def pairs(x: int) -> list[tuple[int, int]]:

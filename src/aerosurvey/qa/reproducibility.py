@@ -33,7 +33,7 @@ from rasterio.windows import Window
 from scipy import ndimage
 
 from aerosurvey.errors import InputError
-from aerosurvey.qa.repro_core import NODATA, STATISTICS, chance_level, pairs, reproducible, statistic_values
+from aerosurvey.qa.repro_core import NODATA, RGB_BANDS, STATISTICS, chance_level, pairs, reproducible, statistic_values
 
 DASK_CONNECT_TIMEOUT_S = 5.0
 
@@ -101,8 +101,8 @@ def inspect(paths: list[Path], resample: bool = False) -> Grid:
     counts = {i[5] for i in infos}
     if len(counts) > 1:
         raise InputError("mismatched band counts: " + ", ".join(f"{i[0].name} has {i[5]}" for i in infos))
-    if min(counts) < 3:
-        raise InputError(f"{infos[0][0].name}: {min(counts)} band(s); an RGB orthomosaic has 3 (or 4 with alpha)")
+    if min(counts) < RGB_BANDS:
+        raise InputError(f"{infos[0][0].name}: {min(counts)} band(s); an RGB orthomosaic has {RGB_BANDS} (or {RGB_BANDS + 1} with alpha)")
     with_crs = [i for i in infos if i[1] is not None]
     if with_crs and len(with_crs) != len(infos):
         missing = [i[0].name for i in infos if i[1] is None]
@@ -160,7 +160,7 @@ def compute_block(paths: list[str], grid: Grid, win: tuple[int, int, int, int], 
     for p in paths:
         src, base = _open(Path(p), grid)
         try:
-            data.append(src.read([1, 2, 3], window=big))
+            data.append(src.read(list(range(1, RGB_BANDS + 1)), window=big))
             valid.append(src.dataset_mask(window=big) > 0)
         finally:
             if src is not base:
@@ -314,7 +314,7 @@ DEFINITIONS = {
 
 def _chance(s: Settings) -> dict[str, Any]:
     """The share of unrelated pixel pairs that pass the rule by chance, for the statistic's number of values."""
-    n = statistic_values(s.statistic, 3, s.window)
+    n = statistic_values(s.statistic, s.window)
     return {"probability": chance_level(s.threshold, n), "values": n,
             "meaning": f"P(r > {s.threshold:g}) for two unrelated pixels (independent normal values): the null "
                        f"distribution of Pearson's r for n = {n} values; a pair's share near it says nothing"}

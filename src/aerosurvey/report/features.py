@@ -54,21 +54,23 @@ def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     return fc
 
 
-def plan_geojson(plan: Plan, table: StationTable | None = None) -> tuple[dict[str, Any], PointLayer, str]:
+def plan_geojson(plan: Plan, table: StationTable | None = None,
+                 corners: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[dict[str, Any], PointLayer, str]:
     """The FeatureCollection without stations and footprints, the stations as a PointLayer
-    (what the KML writer and the rules read), and the text of plan.geojson: `plan_features`
+    (what the rules read), and the text of plan.geojson: `plan_features`
     as `jsontext.dumps_compact` writes it, and a newline (a test checks it).
 
     The stations and footprints, one of each per photo, are most of the file: they are
     written straight from their columns and arrays, never made into JSON data. Measured on the
     1,000 ha benchmark (7,309 photos): making and encoding the footprints as data ~35 ms, this
     way ~10 ms. `table`, the manifest's stations if the caller has them, gives the columns
-    they share (ids, positions, heights), so that their texts are made once for all the files."""
+    they share (ids, positions, heights); `corners`, `footprint_lonlat(plan)` if the caller
+    has them (plan.gpkg's footprints are made from them too)."""
     table = table or station_table(plan)
     fc, stations, at = _features(plan, table)
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
-    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table), dumps_compact(feats[at:])[1:-1]]
+    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table, corners), dumps_compact(feats[at:])[1:-1]]
     return fc, stations, "".join([head, ',"features":[', ",".join([p for p in parts if p]), "]}\n"])
 
 
@@ -82,13 +84,13 @@ def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     return plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
 
 
-def _footprints_text(plan: Plan, table: StationTable) -> str:
+def _footprints_text(plan: Plan, table: StationTable, corners: tuple[np.ndarray, np.ndarray] | None = None) -> str:
     """The GeoJSON Features of the photos' footprints (`footprint_lonlat`), comma-separated, in
     WGS84, corners rounded to 8 decimals, the ring closed."""
     st = plan.stations
     if not len(st.ids):
         return ""
-    clon, clat = footprint_lonlat(plan)
+    clon, clat = corners if corners is not None else footprint_lonlat(plan)
     _finite("footprint", clon, clat)
     # "x,y" of each corner, four a footprint in order; the ring closes on its first corner
     pairs = pair_texts(np.round(clon, 8), np.round(clat, 8))

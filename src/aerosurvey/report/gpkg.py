@@ -102,12 +102,11 @@ def _text(values: Sequence[Any]) -> np.ndarray:
 
 
 def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
-    """Every layer of plan.gpkg (see the module docstring); `control_points` are the rules'
-    proposed points (rules.control_points.ControlPoint, planning CRS)."""
+    """Every layer of plan.gpkg (see the module docstring) but the footprints
+    (`footprints_layer`): what plan.kml holds; `control_points` are the rules' proposed points
+    (rules.control_points.ControlPoint, planning CRS)."""
     from aerosurvey.manifest import run_stations
     from aerosurvey.mission.builder import run_id
-    from aerosurvey.report.features import footprint_lonlat
-
     st = plan.stations
     z3 = plan.heights.mode in THREE_D_MODES
     home_ground = float(plan.home[2])
@@ -145,11 +144,6 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
         ("id", _text(st.ids)), ("seq", np.arange(1, len(st.ids) + 1, dtype=np.int64)),
         ("alt_rel_m", np.round(st.alt_rel_m, 2)), ("agl_m", np.round(st.agl_m, 2)),
         ("heading_deg", np.round(st.heading_deg, 3))), STYLES["stations"]))
-    clon, clat = footprint_lonlat(plan)
-    rings = np.stack([clon.reshape(-1, 4), clat.reshape(-1, 4)], axis=-1)
-    rings = np.concatenate([rings, rings[:, :1]], axis=1) if len(rings) else rings
-    layers.append(Layer("footprints", "Polygon", shapely.polygons(rings) if len(rings) else np.array([], dtype=object),
-                        (("station", _text(st.ids)),), STYLES["footprints"]))
     sites = plan.launch_sites or ()
     if sites:
         lon, lat, g = (np.array([getattr(s, k) for s in sites], float) for k in ("lon", "lat", "ground_m"))
@@ -170,6 +164,18 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
         ("id", _text([f"uncovered-{i}" for i in range(1, len(parts) + 1)])),
         ("area_m2", np.array([round(p.area / plan.grid_scale ** 2, 2) for p in parts], float))), STYLES["unphotographed"]))
     return layers
+
+
+def footprints_layer(plan: Plan, corners: tuple[np.ndarray, np.ndarray] | None = None) -> Layer:
+    """The photos' footprints on flat ground (plan.geojson's); `corners`, their
+    `report.features.footprint_lonlat`, if the caller has them."""
+    from aerosurvey.report.features import footprint_lonlat
+
+    clon, clat = corners if corners is not None else footprint_lonlat(plan)
+    rings = np.stack([clon.reshape(-1, 4), clat.reshape(-1, 4)], axis=-1)
+    rings = np.concatenate([rings, rings[:, :1]], axis=1) if len(rings) else rings
+    return Layer("footprints", "Polygon", shapely.polygons(rings) if len(rings) else np.array([], dtype=object),
+                 (("station", _text(plan.stations.ids)),), STYLES["footprints"])
 
 
 def _route_layer(plan: Plan, with_z: bool) -> Layer:
@@ -255,11 +261,11 @@ def _write_styles(path: Path, layers: Sequence[Layer]) -> None:
                       geometry_type=None, append=True, layer_options={"FID": "id"})
 
 
-def gpkg_bytes(plan: Plan, control_points: Sequence[Any] = ()) -> bytes:
-    """The bytes of plan.gpkg (written in a temporary folder: GDAL writes a GeoPackage to a file)."""
+def gpkg_bytes(layers: Sequence[Layer]) -> bytes:
+    """The bytes of plan.gpkg of these layers (`plan_layers`), written in a temporary folder: GDAL writes a GeoPackage to a file."""
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="aerosurvey-gpkg-") as tmp:
         path = Path(tmp) / "plan.gpkg"
-        write_gpkg(path, plan_layers(plan, control_points))
+        write_gpkg(path, layers)
         return path.read_bytes()

@@ -9,6 +9,7 @@ edge and from the GCPs, densified until the count is reached.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -103,6 +104,14 @@ def _settle(pid: str, p: shapely.Point, near: shapely.Point, xs: FloatArray, ys:
     return ControlPoint(pid, "gcp", best[0], best[1], best[2],
                         f"seen by only {best[2]} photos even at {dist * best[3]:.1f} m from the outline: extend the plan "
                         f"(set targets.coverage_margin_m to at least {dist + 2:.0f} m) or place this GCP by hand")
+
+
+def seen_by(fp: Footprints, points: list[ControlPoint]) -> list[ControlPoint]:
+    """The points where they are, each with the number of the footprints (a view's photos) that see it."""
+    if not points:
+        return []
+    counts = fp.count_at(np.array([p.x for p in points], float), np.array([p.y for p in points], float))
+    return [dataclasses.replace(p, images=int(n)) for p, n in zip(points, counts)]
 
 
 def ring_order(points: list[ControlPoint], area: BaseGeometry) -> list[ControlPoint]:

@@ -11,7 +11,6 @@ after the flight from image marks (flight/handoff.py), never from planned statio
 from __future__ import annotations
 
 import csv
-import dataclasses
 import io
 import json
 from html import escape
@@ -21,7 +20,7 @@ import pyproj
 
 from aerosurvey.errors import InputError
 from aerosurvey.reproject import planar
-from aerosurvey.rules.control_points import ControlPoint, Role
+from aerosurvey.rules.control_points import ControlPoint, Role, seen_by
 from aerosurvey.rules.footprints import FloatArray, ViewCamera, footprints
 from aerosurvey.rules.planview import PlanView
 
@@ -103,7 +102,12 @@ def _layout_point(f: object, i: int, where: str) -> tuple[str, Role, float, floa
 
 
 def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
-    """Control points from a control_points.geojson; images per point are measured again."""
+    """Control points from a control_points.geojson; images per point are measured again on the view's photos."""
+    return seen_by(footprints(view), layout_points(text, view, where))
+
+
+def layout_points(text: str, view: PlanView, where: str) -> list[ControlPoint]:
+    """Control points from a control_points.geojson, in the view's CRS, their images not counted (0)."""
     try:
         feats = json.loads(text)["features"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
@@ -115,12 +119,4 @@ def read_layout(text: str, view: PlanView, where: str) -> list[ControlPoint]:
         pid, role, lon, lat, note = _layout_point(f, i, where)
         x, y = planar(view.crs).xy(np.array([lon], float), np.array([lat], float))
         pts.append(ControlPoint(pid, role, float(x[0]), float(y[0]), 0, note))
-    return seen_by(view, pts)
-
-
-def seen_by(view: PlanView, pts: list[ControlPoint]) -> list[ControlPoint]:
-    """The points where they are, each with the number of the view's photos that see it."""
-    if not pts:
-        return []
-    counts = footprints(view).count_at(np.array([p.x for p in pts]), np.array([p.y for p in pts]))
-    return [dataclasses.replace(p, images=int(n)) for p, n in zip(pts, counts)]
+    return pts

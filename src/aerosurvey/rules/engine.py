@@ -13,7 +13,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.rules import footprints as fpm
 from aerosurvey.rules.checks import CHECKS, Outcome, Params, Where, asprs_required, evaluate_formula
-from aerosurvey.rules.control_points import ControlPoint, Role, propose_check_points, propose_gcps, ring_order
+from aerosurvey.rules.control_points import ControlPoint, Role, propose_check_points, propose_gcps, ring_order, seen_by
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import Profile
 
@@ -68,6 +68,8 @@ class Evidence:
     view: PlanView
     settings: LayoutSettings
     layout: list[ControlPoint] | None = None
+    #: the layout's points were placed on another view of the plan: their photos are counted on this one
+    count_layout: bool = False
     _crossings: dict[int, list[fpm.Crossing]] = field(default_factory=dict)
 
     @cached_property
@@ -101,7 +103,7 @@ class Evidence:
     @cached_property
     def points(self) -> list[ControlPoint]:
         if self.layout is not None:
-            return self.layout
+            return seen_by(self.footprints, self.layout) if self.count_layout else self.layout
         s = self.settings
         gcps = propose_gcps(self.view.area, self.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m,
                             s.gcp_max_spacing_m, s.nogo)

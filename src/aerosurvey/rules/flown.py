@@ -23,7 +23,7 @@ import numpy as np
 from aerosurvey.errors import InputError
 from aerosurvey.rules import footprints as fpm
 from aerosurvey.rules.checks import Where
-from aerosurvey.rules.cp_files import read_layout, seen_by
+from aerosurvey.rules.cp_files import layout_points
 from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, layout_settings
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import Profile
@@ -36,18 +36,20 @@ PLACE_ROLE = "failing-place"
 
 def plan_evidence(view: PlanView, profiles: list[Profile], folder: Path | None) -> Evidence:
     """The evidence `check` builds for a plan: the control points of the plan folder's
-    control_points.geojson when it has one, else those proposed on the planned photos."""
-    layout = None
+    control_points.geojson when it has one (each counted on the planned photos with the
+    footprints the evidence measures once for every check), else those proposed on the planned photos."""
     f = folder / "control_points.geojson" if folder is not None else None
     if f is not None and f.is_file():
-        layout = read_layout(f.read_text(encoding="utf-8"), view, str(f))
-    return Evidence(view, layout_settings(view, profiles), layout)
+        layout = layout_points(f.read_text(encoding="utf-8"), view, str(f))
+        return Evidence(view, layout_settings(view, profiles), layout, count_layout=True)
+    return Evidence(view, layout_settings(view, profiles))
 
 
 def on_view(base: Evidence, view: PlanView) -> Evidence:
     """The evidence of another view of the same plan (the flown photos, one sortie's stations):
-    the base's control points where they are, each counted again on the view's photos."""
-    return Evidence(view, base.settings, seen_by(view, base.points))
+    the base's control points where they are, each counted again on the view's photos (with
+    the footprints the view's evidence measures once for every check)."""
+    return Evidence(view, base.settings, base.points, count_layout=True)
 
 
 def part(view: PlanView, station_ids: Sequence[str]) -> PlanView:
@@ -56,7 +58,8 @@ def part(view: PlanView, station_ids: Sequence[str]) -> PlanView:
     idx = np.array([i for i, s in enumerate(view.station_ids) if s in keep], np.intp)
     return dataclasses.replace(view, station_ids=[view.station_ids[i] for i in idx],
                                run_ids=[view.run_ids[i] for i in idx], x=view.x[idx], y=view.y[idx],
-                               agl=view.agl[idx], heading_deg=view.heading_deg[idx])
+                               agl=view.agl[idx], heading_deg=view.heading_deg[idx], pitch_deg=view.pitch_deg[idx],
+                               camera_yaw_deg=view.camera_yaw_deg[idx])
 
 
 @dataclass(frozen=True)

@@ -102,11 +102,11 @@ class Footprints:
 
 
 def footprints(view: PlanView) -> Footprints:
-    """The footprint of every station of the view (nadir, over flat ground at its height above
-    ground), from the capture model, in grid metres."""
+    """The footprint of every station of the view (its camera attitude, over flat ground at its
+    height above ground), from the capture model, in grid metres."""
     k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))  # ground metres to grid metres
     cam = ViewCamera.of(view)
-    photos = capture.Photos.nadir(view.x, view.y, np.asarray(view.agl, float), view.heading_deg)
+    photos = capture.Photos.looking(view.x, view.y, np.asarray(view.agl, float), view.camera_yaw_deg, view.pitch_deg)
     corners = capture.footprint_corners(photos, cam.optics, 0.0, k)
     return Footprints(np.asarray(view.x, float), np.asarray(view.y, float), np.radians(view.heading_deg), corners)
 

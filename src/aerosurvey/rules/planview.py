@@ -24,7 +24,7 @@ from aerosurvey.errors import InputError
 @dataclass(frozen=True, eq=False)
 class PlanView:
     """A plan as the rules read it, from its manifest and plan.geojson: the area and zones in the planning CRS,
-    and each station's position, height above ground and heading. Compared by identity: it holds arrays."""
+    and each station's position, height above ground, heading and camera attitude. Compared by identity: it holds arrays."""
 
     manifest: dict[str, Any]
     crs: str
@@ -36,6 +36,8 @@ class PlanView:
     y: np.ndarray
     agl: np.ndarray
     heading_deg: np.ndarray
+    pitch_deg: np.ndarray  # the camera's (−90 straight down)
+    camera_yaw_deg: np.ndarray  # the bearing the camera looks to
     to_plan: pyproj.Transformer
     to_wgs84: pyproj.Transformer
     document: mf.Manifest  # the typed manifest; `manifest` is its JSON data, which the checks read
@@ -80,7 +82,8 @@ class PlanView:
             manifest=dict(doc.raw), crs=crs, area=shapely.union_all(areas),
             exclusions=shapely.union_all(zones) if zones else None,
             station_ids=list(st.ids), run_ids=list(st.run), x=np.array(st.x), y=np.array(st.y), agl=np.array(st.agl_m),
-            heading_deg=np.array(st.heading_deg), to_plan=to_plan, to_wgs84=to_wgs84, document=doc,
+            heading_deg=np.array(st.heading_deg), pitch_deg=np.array(st.pitch_deg), camera_yaw_deg=np.array(st.camera_yaw_deg),
+            to_plan=to_plan, to_wgs84=to_wgs84, document=doc,
         )
 
     @classmethod

@@ -4,9 +4,10 @@ the office plans in the field without a network.
 
 MBTiles is SQLite (read with Python's sqlite3, read-only; its rows are TMS, y counted from the
 south); PMTiles is read by the PMTiles project's own reader (`pmtiles` on PyPI). Only raster tiles
-(PNG, JPEG, WebP) and vector tiles (Mapbox Vector Tiles, `pbf`) are served, the latter
-uncompressed (files hold them gzipped): the page draws the first as an XYZ layer, the second
-as a vector tile layer with a generic style by layer and class names.
+(PNG, JPEG, WebP) and vector tiles (Mapbox Vector Tiles, `pbf`) are served: the page draws the
+first as an XYZ layer, the second as a vector tile layer with a default style by layer and class
+names. Files hold vector tiles gzipped; they are served as stored, with `Content-Encoding: gzip`
+(the browser unpacks them), as tile servers serve them.
 """
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ class BasemapInfo:
 
 
 class Basemap:
-    """A tile file opened read-only; `tile(z, x, y)` (XYZ, y from the north) is safe from any thread."""
+    """A tile file opened read-only; `tile(z, x, y)` (XYZ, y from the north; the bytes as stored) is safe
+    from any thread."""
 
     info: BasemapInfo
 
@@ -77,13 +79,19 @@ def _format(path: Path, fmt: str) -> str:
 MAX_TILE = 16 * 1024 * 1024
 
 
-def _plain(data: bytes) -> bytes | None:
-    """A tile as the page reads it: vector tiles are stored gzipped (MBTiles by custom, PMTiles by its
-    header). None (not served) for a tile that would unpack to more than MAX_TILE."""
-    if data[:2] != b"\x1f\x8b":
-        return data
+def is_gzipped(data: bytes) -> bool:
+    """Whether a stored tile is gzipped (vector tiles are: MBTiles by custom, PMTiles by its header)."""
+    return data[:2] == b"\x1f\x8b"
+
+
+def gunzipped(data: bytes) -> bytes | None:
+    """A gzipped tile unpacked, for a client that does not take gzip; None for one that would unpack to
+    more than MAX_TILE."""
     d = zlib.decompressobj(16 + zlib.MAX_WBITS)
-    out = d.decompress(data, MAX_TILE)
+    try:
+        out = d.decompress(data, MAX_TILE)
+    except zlib.error:
+        return None
     return None if d.unconsumed_tail else out
 
 
@@ -113,7 +121,7 @@ class _MBTiles(Basemap):
         with self._lock:
             row = self._db.execute("SELECT tile_data FROM tiles WHERE zoom_level = ? AND tile_column = ? AND tile_row = ?",
                                    (z, x, (1 << z) - 1 - y)).fetchone()
-        return None if row is None else _plain(bytes(row[0]))
+        return None if row is None else bytes(row[0])
 
     def close(self) -> None:
         self._db.close()
@@ -122,7 +130,7 @@ class _MBTiles(Basemap):
 class _PMTiles(Basemap):
     def __init__(self, path: Path):
         import pmtiles.reader
-        from pmtiles.tile import MagicNumberNotFound, SpecVersionUnsupported, TileType
+        from pmtiles.tile import Compression, MagicNumberNotFound, SpecVersionUnsupported, TileType
 
         pm: Any = pmtiles.reader  # the package has no complete type hints
 
@@ -134,6 +142,10 @@ class _PMTiles(Basemap):
         except (MagicNumberNotFound, SpecVersionUnsupported, ValueError, OSError) as exc:  # ValueError: an empty file
             self._fh.close()
             raise InputError(f"--basemap {path.name!r} is not a readable PMTiles (version 3) file: {exc!r}") from None
+        if header["tile_compression"] not in (Compression.NONE, Compression.GZIP, Compression.UNKNOWN):
+            self._fh.close()
+            raise InputError(f"--basemap {path.name!r} holds {header['tile_compression'].name.lower()}-compressed tiles; "
+                             "the page serves uncompressed or gzipped tiles (pmtiles convert can rewrite them)")
         names = {TileType.PNG: "png", TileType.JPEG: "jpg", TileType.WEBP: "webp", TileType.MVT: "pbf"}
         fmt = names.get(header["tile_type"], header["tile_type"].name.lower())
         self._lock = threading.Lock()
@@ -145,7 +157,7 @@ class _PMTiles(Basemap):
     def tile(self, z: int, x: int, y: int) -> bytes | None:
         with self._lock:
             data = self._reader.get(z, x, y)
-        return None if data is None else _plain(bytes(data))
+        return None if data is None else bytes(data)
 
     def close(self) -> None:
         self._fh.close()

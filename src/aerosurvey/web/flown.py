@@ -5,14 +5,12 @@ from __future__ import annotations
 
 import base64
 import io
-import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aerosurvey import manifest as mf
 from aerosurvey.commands.refly import MIN_GAP_DEFAULT_M2
 from aerosurvey.errors import InputError
 from aerosurvey.flight import records
@@ -20,6 +18,9 @@ from aerosurvey.flight.ingest import distance_text, far_from_plan
 from aerosurvey.manifest import Manifest
 from aerosurvey.rules.flown import PLACES_FILE
 from aerosurvey.web.mapproj import MapFrame
+
+if TYPE_CHECKING:
+    from aerosurvey.rules.planview import PlanView
 
 #: Gaps smaller than this are left out, on the map and in the page's re-fly (as `aerosurvey refly` by default).
 MIN_GAP_M2 = MIN_GAP_DEFAULT_M2
@@ -29,17 +30,17 @@ _RAMP = np.array([[215, 48, 39], [244, 109, 67], [253, 174, 97], [254, 224, 139]
                   [166, 217, 106], [102, 189, 99], [26, 152, 80], [0, 104, 55]], dtype=np.uint8)
 
 
-def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str | None = None,
-                 plan_features: str | None = None) -> dict[str, Any]:
+def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | None = None,
+                 plan_view: PlanView | None = None) -> dict[str, Any]:
     """Layers from the uploaded files: events.csv (required), coverage.tif, log_report.json and
     failing_places.geojson (`aerosurvey check FOLDER`: where the rules fail on what was flown), optional.
-    With the plan's manifest and plan.geojson (`plan_features`), `gaps` is the ground of the area
-    fewer flown photos see than the plan needs (what `aerosurvey refly` would re-fly), in WGS84.
+    With the plan as the rules see it (`plan_view`), `gaps` is the ground of the area fewer flown
+    photos see than the plan needs (what `aerosurvey refly` would re-fly), in WGS84.
 
     Results of another mission are refused as `log ingest` refuses a log of another plan:
-    with the page's plan (`plan`: its manifest, or manifest.json's text) when the events lie a
-    median of more than one footprint from its stations or the report names another mission;
-    without it, when they lie outside the plan's map frame.
+    with the page's plan (`plan`: its manifest) when the events lie a median of more than one
+    footprint from its stations or the report names another mission; without it, when they lie
+    outside the plan's map frame.
     """
     if "events.csv" not in files:
         raise InputError(f"flight results: events.csv is missing among {sorted(files) or 'no files'}; choose the folder "
@@ -47,17 +48,16 @@ def flown_layers(files: dict[str, Path], frame: MapFrame, plan: Manifest | str |
     try:
         rows = records.read_events_csv(files["events.csv"])
         report = records.read_report(files["log_report.json"]) if "log_report.json" in files else None
-        doc = mf.loads(plan, "the page's plan") if isinstance(plan, str) else plan
     except InputError as exc:
         raise InputError(f"flight results: {exc}", key="flight") from None
-    _same_plan(rows, report, frame, doc)
+    _same_plan(rows, report, frame, plan)
     out: dict[str, Any] = {"events": _events(rows, frame)}
     if "coverage.tif" in files:
         out["coverage"] = _coverage(files["coverage.tif"], frame)
     if PLACES_FILE in files:
         out["failing"], out["rules"] = _failing_places(files[PLACES_FILE])
-    if "coverage.tif" in files and isinstance(doc, Manifest) and plan_features is not None:
-        out["gaps"] = _gaps(files["coverage.tif"], doc, plan_features)
+    if "coverage.tif" in files and plan_view is not None:
+        out["gaps"] = _gaps(files["coverage.tif"], plan_view)
     if report is not None:
         out["report"] = {k: report.get(k) for k in ("log", "events", "planned", "matched", "missed_stations", "extra_triggers",
                                                   "far_triggers", "coverage", "realized") if k in report}
@@ -138,11 +138,9 @@ def _failing_places(path: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     return {"type": "FeatureCollection", "features": places.drawn}, rules
 
 
-def _gaps(coverage: Path, doc: Manifest, plan_features: str) -> dict[str, Any]:
+def _gaps(coverage: Path, view: PlanView) -> dict[str, Any]:
     """The area's ground seen by fewer flown photos than the plan needs, as `aerosurvey refly` finds it, in WGS84."""
     from aerosurvey.flight.refly import gap_area, gaps_layer
-    from aerosurvey.rules.planview import PlanView
 
-    view = PlanView.from_manifest(doc, json.loads(plan_features), "the page's plan")
-    need = doc.derived.images_per_point
+    need = view.document.derived.images_per_point
     return gaps_layer(gap_area(coverage, need, view.area, MIN_GAP_M2), view, need)

@@ -65,15 +65,15 @@ async def resume(request: Request) -> Response:
 
 def _layers(bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     # the plan's manifest: results of another plan are refused by distance and mission name
-    return flown_layers(files, bundle.frame, bundle.files["manifest.json"], bundle.files["plan.geojson"])
+    return flown_layers(files, bundle.frame, bundle.manifest, bundle.plan_view)
 
 
 def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     """`aerosurvey refly` over the uploaded folder, with the saved spec file the page's plan was made from."""
-    from aerosurvey import manifest as mf
     from aerosurvey.flight.refly import plan_refly
-    from aerosurvey.rules.planview import PlanView
 
+    if bundle.plan_view is None:
+        raise InputError("refly: a resumed flight has no plan of its own to re-fly; load the results on the plan", key="refly")
     if state.spec_path is None or bundle.zones is not None or service.spec_to_json(bundle.spec) != state.spec:
         raise InputError("refly: the re-fly is planned from the saved spec file, as `aerosurvey refly --spec` does, and the "
                          "plan on the page is not that of a saved spec: save the spec, let the page plan, then make the re-fly",
@@ -82,18 +82,17 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
         if name not in files:
             raise InputError(f"refly: {name} is missing among the loaded files; load the folder `aerosurvey log ingest "
                              "--plan` wrote", key="refly")
-    doc = mf.loads(bundle.files["manifest.json"], "the page's plan")
-    view = PlanView.from_manifest(doc, json.loads(bundle.files["plan.geojson"]), "the page's plan")
-    r = plan_refly(folder, view, state.spec_path, MIN_GAP_M2)
+    r = plan_refly(folder, bundle.plan_view, state.spec_path, MIN_GAP_M2)
     if r.plan is None:
         return {"plan_id": None, "files": [], "notes": list(r.notes),
                 "summary": f"no gaps: every cell of the area is seen by at least {r.need} flown photos; nothing to re-fly"}
     import shapely
 
     name = r.plan.spec.name
-    pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame))
+    manifest, features, view = service.plan_documents(r.files, "the re-fly")
+    pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame, manifest=manifest, plan_view=view))
     plan = r.plan
-    lines = [f for f in json.loads(r.files["plan.geojson"])["features"] if f["properties"]["role"] == "line"]
+    lines = [f for f in features["features"] if f["properties"]["role"] == "line"]
     return {"plan_id": pid, "files": sorted(r.files), "notes": list(r.notes),
             "lines": {"type": "FeatureCollection", "features": lines}, "gaps": json.loads(r.files["gaps.geojson"]),
             "summary": f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than "
@@ -104,12 +103,13 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
 def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     """`aerosurvey resume --log` over the uploaded folder: the page's plan (its spec and drawn zones, in
     memory) flown on from the station after the flight's last matched photo."""
-    from aerosurvey import manifest as mf
     from aerosurvey.commands.resume import last_photographed, resumed_text, same_plan
     from aerosurvey.outputs import render_resume
     from aerosurvey.plan.planner import resume_mission
 
-    doc = mf.loads(bundle.files["manifest.json"], "the page's plan")
+    doc = bundle.manifest
+    if doc is None:
+        raise InputError("resume: a resumed flight is resumed from its plan; load the results on the plan", key="resume")
     try:
         station = last_photographed(folder, doc)
         spec, inputs = service.spec_and_inputs(bundle.spec, state.workspace, bundle.zones)

@@ -24,7 +24,7 @@ from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, 
 MAX_WAIT_S = 10.0
 _POLL_S = 0.02
 _MEDIA = {"json": "application/json", "geojson": "application/geo+json", "kml": "application/vnd.google-earth.kml+xml",
-          "svg": "image/svg+xml", "csv": "text/csv", "gpx": "application/gpx+xml"}
+          "svg": "image/svg+xml", "csv": "text/csv", "gpx": "application/gpx+xml", "kmz": "application/vnd.google-earth.kmz"}
 
 
 async def submit_plan(request: Request) -> Response:
@@ -37,7 +37,7 @@ async def submit_plan(request: Request) -> Response:
 
     def work(progress: Progress) -> dict[str, Any]:
         bundle = service.plan_bundle(spec, state.workspace, progress, zones)
-        return {"plan_id": state.remember(bundle), "files": sorted(bundle.files), **bundle.view}
+        return {"plan_id": state.remember(bundle), "files": bundle.names(), **bundle.view}
 
     job = state.runner.submit(work)
     return JSONResponse({"job": job.id}, status_code=202)
@@ -75,9 +75,10 @@ async def plan_file(request: Request) -> Response:
     if bundle is None:
         return plan_gone(request)
     name = request.path_params["name"]
-    if name not in bundle.files:
-        return not_found(f"the plan has no file {name!r}; it has {', '.join(sorted(bundle.files))}")
-    return Response(bundle.files[name].encode("utf-8"), media_type=_MEDIA.get(name.rsplit(".", 1)[-1], "text/plain"),
+    data = bundle.data(name)
+    if data is None:
+        return not_found(f"the plan has no file {name!r}; it has {', '.join(bundle.names())}")
+    return Response(data, media_type=_MEDIA.get(name.rsplit(".", 1)[-1], "text/plain"),
                     headers={"Content-Disposition": f'attachment; filename="{name}"'})
 
 
@@ -85,6 +86,6 @@ async def plan_archive(request: Request) -> Response:
     bundle = server(request).plan(request.path_params["plan_id"])
     if bundle is None:
         return plan_gone(request)
-    data = await blocking(zip_texts, bundle.files)
+    data = await blocking(zip_texts, {**bundle.files, **bundle.binary})
     stem = bundle.view["name"] or "mission"
     return Response(data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{stem}.zip"'})

@@ -97,15 +97,15 @@ async def spec_save(request: Request) -> Response:
     try:
         spec = await spec_body(request)
         zones = await zones_body(request)
-        saved, geometry = await blocking(_save, state, spec, zones)
+        saved, geometry, preview = await blocking(_save, state, spec, zones)
     except AerosurveyError as exc:
         return error(exc)
-    preview = await blocking(geometry_preview, state.workspace, saved)
     return JSONResponse({"saved": str(state.spec_path), "geometry": geometry, "spec": saved, "preview": preview})
 
 
-def _save(state: ServerState, spec: dict[str, Any], zones: list[str] | None) -> tuple[dict[str, Any], list[str]]:
+def _save(state: ServerState, spec: dict[str, Any], zones: list[str] | None
+          ) -> tuple[dict[str, Any], list[str], dict[str, Any]]:
     assert state.spec_path is not None
-    saved, geometry = save_with_geometry(state.workspace, state.spec_path, spec, zones)
+    saved, geometry, preview = save_with_geometry(state.workspace, state.spec_path, spec, zones)
     state.spec = service.spec_to_json(saved)
-    return state.spec, geometry
+    return state.spec, geometry, preview

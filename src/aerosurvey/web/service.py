@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from aerosurvey.outputs import Rendered
     from aerosurvey.plan.inputs import PlanInputs
     from aerosurvey.plan.planner import Plan
+    from aerosurvey.rules.planview import PlanView
     from aerosurvey.spec import MissionSpec
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
@@ -71,7 +72,7 @@ def spec_to_toml(data: dict[str, Any]) -> str:
     """The spec as TOML text, tables in the documented order."""
     import tomli_w
 
-    order = ["mission", "area", "camera", "targets", "vehicle", "flight", "terrain", "battery", "conditions", "rules"]
+    order = ["mission", "area", "pattern", "camera", "targets", "vehicle", "flight", "terrain", "battery", "conditions", "rules"]
     ordered = {k: data[k] for k in order if k in data}
     ordered.update({k: v for k, v in data.items() if k not in ordered})
     return tomli_w.dumps(_drop_none(ordered))
@@ -142,6 +143,8 @@ def with_new_area(spec: dict[str, Any], area: dict[str, Any], name: str) -> dict
     out["mission"]["crs"] = "auto"
     out["area"] = dict(area)
     out.pop("terrain", None)
+    if (out.get("pattern") or {}).get("kind") == "corridor":  # an area file holds polygons, not a centreline
+        out.pop("pattern")
     if "battery" in out:
         out["battery"].pop("launch_points", None)
         out["battery"].pop("launch", None)
@@ -231,7 +234,7 @@ def _dataset_files(name: str, data: bytes) -> dict[str, bytes]:
 
 
 def exact_wkt(geom: BaseGeometry) -> str:
-    """A polygon or multipolygon as WKT that reads back to the same coordinates, bit for bit.
+    """A polygon, a line or one of their multi forms as WKT that reads back to the same coordinates, bit for bit.
 
     GEOS's writer (shapely.to_wkt) keeps 16 significant digits (17 or 18 with
     rounding_precision): 1137 (126, 14) of 400 000 random longitudes and latitudes came back
@@ -249,7 +252,11 @@ def exact_wkt(geom: BaseGeometry) -> str:
         return "POLYGON " + polygon(geom)
     if geom.geom_type == "MultiPolygon":
         return "MULTIPOLYGON (" + ", ".join(polygon(p) for p in geom.geoms) + ")"
-    raise ValueError(f"exact_wkt: a {geom.geom_type} is not an area")
+    if geom.geom_type == "LineString":
+        return "LINESTRING " + ring(geom)
+    if geom.geom_type == "MultiLineString":
+        return "MULTILINESTRING (" + ", ".join(ring(p) for p in geom.geoms) + ")"
+    raise ValueError(f"exact_wkt: a {geom.geom_type} is not an area or a centreline")
 
 
 # ---- plans ---------------------------------------------------------------------------------
@@ -259,13 +266,30 @@ Progress = Callable[[str, float], None]
 
 @dataclass
 class PlanBundle:
-    """A plan as the page shows it, and the files it offers for download."""
+    """A plan as the page shows it, and the files it offers for download.
+
+    `files` are the text files, `binary` the others (a DJI camera's .kmz waylines). `manifest` and
+    `plan_view` are its manifest.json and plan.geojson as read once when it was made, for the flight
+    results, re-fly and resume asked of it later (None: a resumed flight, which has no manifest)."""
 
     view: dict[str, Any]
     files: dict[str, str]
     frame: MapFrame
     spec: dict[str, Any] = field(default_factory=dict)  # what was planned: the page's spec and drawn zones
     zones: list[str] | None = None
+    manifest: mf.Manifest | None = None
+    plan_view: PlanView | None = None
+    binary: dict[str, bytes] = field(default_factory=dict)
+
+    def names(self) -> list[str]:
+        """Every file's name, sorted."""
+        return sorted({*self.files, *self.binary})
+
+    def data(self, name: str) -> bytes | None:
+        """A file's bytes (text as UTF-8), or None when the plan has no such file."""
+        if name in self.files:
+            return self.files[name].encode("utf-8")
+        return self.binary.get(name)
 
 
 def drawn_zones(zones: list[str]) -> tuple[BaseGeometry, ...]:
@@ -310,25 +334,32 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     rendered = render_outputs(plan)
     progress("control points", 0.97)
     files = dict(rendered.files)
-    manifest = mf.loads(files["manifest.json"], "the plan's manifest")
-    features = json.loads(files["plan.geojson"])
-    points, cp_files = _control_points(rendered, manifest, features)
+    manifest, features, plan_view = plan_documents(files, "the page's plan")
+    points, cp_files = _control_points(rendered, plan_view)
     files.update(cp_files)
     frame = MapFrame.around(plan.area_wgs84, plan.planar)
     view = _view(plan, frame, manifest, features, points, rendered)
     progress("done", 1.0)
-    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones)
+    return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view, dict(rendered.binary))
 
 
-def _control_points(rendered: Rendered, manifest: mf.Manifest, features: dict[str, Any]) -> tuple[Any, dict[str, str]]:
+def plan_documents(files: dict[str, str], where: str) -> tuple[mf.Manifest, dict[str, Any], PlanView]:
+    """A plan's manifest.json and plan.geojson (texts by name) read once: the typed manifest, the GeoJSON
+    and the plan as the rules see it."""
+    from aerosurvey.rules.planview import PlanView
+
+    manifest = mf.loads(files["manifest.json"], where)
+    features = json.loads(files["plan.geojson"])
+    return manifest, features, PlanView.from_manifest(manifest, features, where)
+
+
+def _control_points(rendered: Rendered, plan_view: PlanView) -> tuple[Any, dict[str, str]]:
     from aerosurvey.rules.cp_files import control_point_files
     from aerosurvey.rules.engine import Evidence, layout_settings
-    from aerosurvey.rules.planview import PlanView
 
     ev = rendered.evidence
     if ev is None:
-        view = PlanView.from_manifest(manifest, features, "the plan")
-        ev = Evidence(view, layout_settings(view, []))
+        ev = Evidence(plan_view, layout_settings(plan_view, []))
     return ev.points, control_point_files(ev.view, ev.points)
 
 
@@ -353,13 +384,13 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
     sx, sy = frame.from_lonlat(st.lon, st.lat)
     station_index = {sid: i for i, sid in enumerate(st.ids)}
     lines = []
-    for f in by_role.get("line", []):
-        (lo0, la0), (lo1, la1) = f["geometry"]["coordinates"]
-        x, y = frame.from_lonlat(np.array([lo0, lo1]), np.array([la0, la1]))
+    for f in by_role.get("line", []):  # a corridor's lines bend: every vertex of each
+        lonlat = np.asarray(f["geometry"]["coordinates"], dtype=float)
+        x, y = frame.from_lonlat(lonlat[:, 0], lonlat[:, 1])
         p = f["properties"]
         lines.append({"id": p["id"], "pass": p["pass"], "photos": p["photos"],
                       "sortie": sortie[station_index[p["first_station"]]],
-                      "xy": [[_m(x[0]), _m(y[0])], [_m(x[1]), _m(y[1])]]})
+                      "xy": [[_m(a), _m(b)] for a, b in zip(x, y, strict=True)]})
     launch = []
     for i, site in enumerate(plan.launch_sites, start=1):
         x, y = frame.from_lonlat(np.array([site.lon]), np.array([site.lat]))
@@ -383,6 +414,7 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         rules.append({**r, "where": where})
     return {
         "name": plan.spec.name,
+        "pattern": plan.spec.pattern.kind,  # a corridor's "area" is its band around the centreline
         "frame": frame.as_dict(),
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],

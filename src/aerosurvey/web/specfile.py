@@ -6,25 +6,29 @@ from __future__ import annotations
 import copy
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import shapely.geometry
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import AerosurveyError
 from aerosurvey.fileio import atomic_write_text
+from aerosurvey.inputs import load_geometry
 from aerosurvey.web import service
 
+if TYPE_CHECKING:
+    from aerosurvey.spec import MissionSpec
 
-def validated_toml(ws: service.Workspace, spec: dict[str, Any], zones: list[str] | None = None) -> str:
-    """The spec as TOML, after the same checks a plan makes (InputError naming the key when one fails)."""
+
+def checked_spec(ws: service.Workspace, spec: dict[str, Any], zones: list[str] | None = None
+                 ) -> tuple[MissionSpec, tuple[BaseGeometry, ...] | None]:
+    """The spec after the same checks a plan makes (InputError naming the key when one fails), and its
+    drawn zones read (None: none sent, the spec's zone files stand)."""
     from aerosurvey.spec import parse_spec
 
     ws.check_paths(spec)
-    parse_spec(spec, base=ws.base, path=None)
-    if zones:
-        service.drawn_zones(zones)  # checked, though a TOML alone cannot hold them
-    return service.spec_to_toml(relative_paths(ws, spec))
+    parsed = parse_spec(spec, base=ws.base, path=None)
+    return parsed, (service.drawn_zones(zones) if zones is not None else None)
 
 
 def relative_paths(ws: service.Workspace, spec: dict[str, Any]) -> dict[str, Any]:
@@ -51,61 +55,65 @@ def _relative(ws: service.Workspace, value: str) -> str:
 def geometry_preview(ws: service.Workspace, spec_data: dict[str, Any]) -> dict[str, Any] | None:
     """The spec's area and exclusion zones as exact WKT in WGS84, for the page to draw (and edit)
     before the first plan arrives; None when the spec cannot be read yet (its plan will say why)."""
-    from aerosurvey.inputs import load_geometry
-    from aerosurvey.spec import parse_spec
-
     if not spec_data:
         return None
     try:
-        ws.check_paths(spec_data)
-        area, zones = load_geometry(parse_spec(spec_data, base=ws.base, path=None))
+        parsed, _ = checked_spec(ws, spec_data)
+        return _preview(*load_geometry(parsed))
     except AerosurveyError:
         return None
+
+
+def _preview(area: BaseGeometry, zones: tuple[BaseGeometry, ...]) -> dict[str, Any]:
     return {"area": service.exact_wkt(area), "zones": [service.exact_wkt(z) for z in zones]}
 
 
-def with_geometry_files(spec: dict[str, Any], zones: list[str] | None, stem: str,
-                        area_too: bool) -> tuple[dict[str, Any], dict[str, str]]:
-    """The spec pointing at GeoJSON files of its drawn zones (`STEM.zones.geojson`) and, with
-    `area_too`, of its inline area (`STEM.area.geojson`), and those files' texts by name."""
-    from aerosurvey.area import read_area
-
+def with_geometry_files(spec: dict[str, Any], area: BaseGeometry | None, zones: tuple[BaseGeometry, ...] | None,
+                        stem: str) -> tuple[dict[str, Any], dict[str, str]]:
+    """The spec pointing at GeoJSON files of its drawn zones (`STEM.zones.geojson`) and, given its
+    inline `area` (WGS84), of that (`STEM.area.geojson`, a corridor's `STEM.centreline.geojson`),
+    and those files' texts by name."""
     out = copy.deepcopy(spec)
-    area = out.setdefault("area", {})
+    table = out.setdefault("area", {})
     files: dict[str, str] = {}
-    if area_too and isinstance(area.get("wkt"), str):
-        geom = read_area(None, area.pop("wkt"), area.pop("wkt_crs", "EPSG:4326"), "area")
-        area["file"] = f"{stem}.area.geojson"
-        files[area["file"]] = _feature_collection([geom], "area")
+    if area is not None:
+        role = "centreline" if area.geom_type in ("LineString", "MultiLineString") else "area"
+        for key in ("wkt", "wkt_crs"):
+            table.pop(key, None)
+        table["file"] = f"{stem}.{role}.geojson"
+        files[table["file"]] = _feature_collection([area], role)
     if zones is not None:
-        area.pop("exclusions", None)
+        table.pop("exclusions", None)
         if zones:
-            area["exclusions"] = [f"{stem}.zones.geojson"]
-            files[area["exclusions"][0]] = _feature_collection(list(service.drawn_zones(zones)), "exclusion")
+            table["exclusions"] = [f"{stem}.zones.geojson"]
+            files[table["exclusions"][0]] = _feature_collection(list(zones), "exclusion")
     return out, files
 
 
 def save_with_geometry(ws: service.Workspace, spec_path: Path, spec: dict[str, Any],
-                       zones: list[str] | None) -> tuple[dict[str, Any], list[str]]:
-    """Write the spec over `spec_path`, with an inline (drawn or uploaded) area and drawn zones as
-    GeoJSON files beside it (`STEM.area.geojson`, `STEM.zones.geojson`), each written atomically,
-    the spec last. Returns the spec as written (paths to those files) and the files' names.
+                       zones: list[str] | None) -> tuple[dict[str, Any], list[str], dict[str, Any]]:
+    """Write the spec over `spec_path`, with an inline (drawn or uploaded) area or corridor centreline
+    and drawn zones as GeoJSON files beside it (`STEM.area.geojson` or `STEM.centreline.geojson`,
+    `STEM.zones.geojson`), each written atomically, the spec last. Returns the spec as written (paths to
+    those files), the files' names and the geometry's preview (as `geometry_preview` gives it).
 
-    Everything is checked before anything is written.
+    Everything is checked (the spec parsed and its geometry read once) before anything is written.
     """
-    validated_toml(ws, spec, zones)
-    out, files = with_geometry_files(spec, zones, spec_path.stem, area_too=True)
+    parsed, drawn = checked_spec(ws, spec, zones)
+    area, spec_zones = load_geometry(parsed)
+    out, files = with_geometry_files(spec, area if parsed.area.wkt is not None else None, drawn, spec_path.stem)
+    preview = _preview(area, drawn if drawn is not None else spec_zones)
     for name, text in files.items():
         atomic_write_text(spec_path.parent / name, text)
-    atomic_write_text(spec_path, validated_toml(ws, out))
-    return out, sorted(files)
+    atomic_write_text(spec_path, service.spec_to_toml(relative_paths(ws, out)))
+    return out, sorted(files), preview
 
 
 def spec_download(ws: service.Workspace, spec: dict[str, Any], zones: list[str] | None, name: str) -> dict[str, str]:
     """The files of *Spec as TOML*: `NAME.toml` (the area inline), and `NAME.zones.geojson` beside it when
     zones are drawn. Checked as a plan checks them."""
-    validated_toml(ws, spec, zones)
-    out, files = with_geometry_files(spec, zones or None, name, area_too=False)
+    _, drawn = checked_spec(ws, spec, zones or None)
+    out, files = with_geometry_files(spec, None, drawn, name)
     return {f"{name}.toml": service.spec_to_toml(relative_paths(ws, out)), **files}
 
 

@@ -12,7 +12,7 @@ import shutil
 import threading
 import zipfile
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
@@ -145,8 +145,8 @@ def save_upload(upload: UploadFile, folder: Path) -> Path:
     return target
 
 
-def zip_texts(files: dict[str, str]) -> bytes:
-    """Text files by name as a zip archive's bytes."""
+def zip_texts(files: Mapping[str, str | bytes]) -> bytes:
+    """Files (text or bytes) by name as a zip archive's bytes."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
         for name, text in sorted(files.items()):

@@ -1,4 +1,4 @@
-"""Point features as columns: how thousands of stations reach the GeoJSON and KML writers.
+"""Point features as columns: how thousands of stations reach the GeoJSON writer.
 
 A `PointLayer` holds the same features a list of GeoJSON Point features would (`features()`
 makes them), one column per property. The writers make their text a column at a time from

@@ -6,6 +6,7 @@
 const SORTIE_COLOURS = ["#1565c0", "#ef6c00", "#6a1b9a", "#00897b", "#c2185b", "#5d4037", "#3949ab", "#7cb342",
   "#f9a825", "#00838f", "#8e24aa", "#d84315"];
 const WEB = "EPSG:3857", WGS84 = "EPSG:4326";
+const DEFAULT_CORRIDOR_WIDTH_M = 50;  // a first centreline's corridor, until the pilot sets its width
 
 const S = {
   spec: {},            // the spec being edited: the source of truth for the form
@@ -64,6 +65,43 @@ function fillForm() {
   for (const el of $$("[data-key^='battery.']")) el.disabled = !$("#battery-on").checked;
   const profiles = ((S.spec.rules || {}).profiles) || [];
   for (const cb of $$("#profiles input")) cb.checked = profiles.includes(cb.value);
+  showChosenFields();
+}
+
+// ---- the pattern: area grid, corridor along a drawn centreline, oblique ------------------------------
+function patternKind() { return (S.spec.pattern && S.spec.pattern.kind) || "area"; }
+/** The [pattern] keys each kind reads (the spec refuses the others). */
+const PATTERN_KEYS = { area: [], corridor: ["width_m", "left_m", "right_m"], oblique: ["scheme", "pitch_deg", "max_far_gsd_cm"] };
+/** Only the fields of the chosen pattern and trigger are shown. */
+function showChosenFields() {
+  const kind = patternKind(), trigger = (S.spec.camera && S.spec.camera.trigger) || "distance";
+  for (const el of $$("[data-pattern]")) el.hidden = el.dataset.pattern !== kind;
+  for (const el of $$("[data-trigger]")) el.hidden = el.dataset.trigger !== trigger;
+}
+/** The pattern's kind changed: keys of other kinds go, a corridor is not cross-hatched, and the spec's area
+ * follows the kind when the other geometry is drawn (a corridor's area is its centreline, other kinds' polygons). */
+function onKind() {
+  const kind = patternKind();
+  L.area.changed();  // area polygons are drawn faint under a corridor
+  for (const k of Object.keys(S.spec.pattern || {})) if (k !== "kind" && !PATTERN_KEYS[kind].includes(k)) delete S.spec.pattern[k];
+  if (kind === "corridor" && S.spec.flight) delete S.spec.flight.cross_hatch;
+  const role = kind === "corridor" ? "centreline" : "area";
+  const holds = /^\s*(MULTI)?LINESTRING/i.test((S.spec.area && S.spec.area.wkt) || "") ? "centreline" : "area";
+  if (holds !== role && editFeatures(role).length) { S.touched.add(role); writeArea(); }
+  fillForm();
+}
+/** A pattern field changed: keys of another kind go, a width replaces left and right (and back). */
+function onPatternField(key) {
+  const p = S.spec.pattern;
+  if (!p) return;
+  if (key === "pattern.kind") onKind();
+  else {  // the other way of giving the width is emptied (the field being typed in is left alone)
+    const others = key === "pattern.width_m" ? ["left_m", "right_m"] : ["width_m"];
+    if (p[key.split(".")[1]] !== undefined) {
+      for (const k of others) { delete p[k]; $(`[data-key='pattern.${k}']`).value = ""; }
+    }
+  }
+  if (!Object.keys(p).length) delete S.spec.pattern;
 }
 
 function parseField(el) {
@@ -86,6 +124,8 @@ function onField(el) {
   if (p.error) { el.classList.add("bad"); showError(el.dataset.key, p.error); return; }
   el.classList.remove("bad");
   setKey(S.spec, el.dataset.key, p.value);
+  if (el.dataset.key.startsWith("pattern.")) onPatternField(el.dataset.key);
+  if (el.dataset.key === "camera.trigger") showChosenFields();
   schedule();
 }
 
@@ -262,6 +302,7 @@ const st = {
   highlight: new olb.Style({ stroke: new olb.Stroke({ color: "rgba(255,23,68,0.8)", width: 6 }), fill: new olb.Fill({ color: "rgba(255,23,68,0.45)" }),
     image: new olb.CircleStyle({ radius: 10, stroke: new olb.Stroke({ color: "#ff1744", width: 3 }) }) }),
   refly: new olb.Style({ stroke: new olb.Stroke({ color: "#00c853", width: 3, lineDash: [8, 5] }) }),
+  corridor: new olb.Style({ stroke: new olb.Stroke({ color: "#6a1b9a", width: 1.5, lineDash: [8, 4] }), fill: new olb.Fill({ color: "rgba(106,27,154,0.08)" }) }),
   measure: new olb.Style({ stroke: new olb.Stroke({ color: "#0d47a1", width: 2, lineDash: [6, 4] }), fill: new olb.Fill({ color: "rgba(13,71,161,0.12)" }),
     image: new olb.CircleStyle({ radius: 4, fill: new olb.Fill({ color: "#0d47a1" }) }) }),
 };
@@ -285,7 +326,15 @@ function siteStyle(f) {
 const launchStyle = new olb.Style({
   image: new olb.RegularShape({ points: 3, radius: 9, fill: new olb.Fill({ color: "#ffb300" }), stroke: new olb.Stroke({ color: "#1d2630", width: 1.5 }) }),
 });
-function editStyle(f) { return f.get("role") === "zone" ? st.zone : f.get("role") === "launch" ? launchStyle : st.area; }
+const centrelineStyle = [new olb.Style({ stroke: new olb.Stroke({ color: "#fff", width: 6 }) }),
+  new olb.Style({ stroke: new olb.Stroke({ color: "#6a1b9a", width: 3 }) })];
+const EDIT_STYLES = { zone: st.zone, launch: launchStyle, centreline: centrelineStyle };
+const unusedAreaStyle = new olb.Style({ stroke: new olb.Stroke({ color: "rgba(46,125,50,0.45)", width: 1.5, lineDash: [4, 4] }) });
+/** The drawn geometry by role; area polygons a corridor does not use are drawn faint. */
+function editStyle(f) {
+  if (f.get("role") === "area" && patternKind() === "corridor") return unusedAreaStyle;
+  return EDIT_STYLES[f.get("role")] || st.area;
+}
 
 /** A point style with the feature's id written above it once the map is zoomed in (under 0.8 m a pixel). */
 function labelled(style) {
@@ -301,35 +350,78 @@ function vector(name, style, z) {
   layer.set("name", name);
   return layer;
 }
-// a vector basemap (--basemap FILE of Mapbox Vector Tiles): a generic style by the layer's and feature's names
+// a vector basemap (--basemap FILE of Mapbox Vector Tiles): a default style by the layer's and feature's names, read
+// the same way for the common schemas (OpenMapTiles, Shortbread, Protomaps, GDAL's own layers with a class field):
+// water, green, land use, buildings (zoomed in), roads by rank with casings, paths, railways, boundaries; names along
+// roads and rivers, on water and parks, and at places
+const VT_KINDS = [["water", /water|ocean|river|lake|pond|sea|reservoir|canal|stream|ditch/],
+  ["building", /building/], ["rail", /rail|train|tram|subway|funicular/],
+  ["major", /motorway|trunk|primary|highway|major/], ["medium", /secondary|tertiary|medium/],
+  ["path", /path|track|footway|cycleway|steps|bridleway|pedestrian/],
+  ["road", /road|street|minor|service|residential_road|unclassified|living|transport/],
+  ["green", /park|wood|forest|grass|landcover|green|farm|meadow|orchard|vineyard|scrub|wetland|cemetery/],
+  ["boundary", /boundary|admin/], ["landuse", /landuse|residential|industrial|commercial|retail/]];
+const vtStroke = (color, width, lineDash) => new olb.Stroke({ color, width, lineDash });
+const vtText = (font, color, placement) => new olb.Text({ font, placement, fill: new olb.Fill({ color }), overflow: false,
+  stroke: new olb.Stroke({ color: "rgba(255,255,255,0.9)", width: 3 }) });
+/** Road styles by rank: a casing under the fill, both widening as the map zooms in (`w`: pixels a line). */
+const VT_ROADS = { major: ["#e39b54", "#fcd6a4", 1.6], medium: ["#c5c28a", "#f7fabf", 1.25], road: ["#b8b8b8", "#ffffff", 1] };
 const VT = {
-  water: new olb.Style({ fill: new olb.Fill({ color: "#aad3df" }), stroke: new olb.Stroke({ color: "#7fb5c9", width: 1 }) }),
-  green: new olb.Style({ fill: new olb.Fill({ color: "#d6eccb" }), stroke: new olb.Stroke({ color: "#b9d9a6", width: 1 }) }),
-  building: new olb.Style({ fill: new olb.Fill({ color: "#e3d9cc" }), stroke: new olb.Stroke({ color: "#c9bba9", width: 1 }) }),
-  road: new olb.Style({ stroke: new olb.Stroke({ color: "#a0a0a0", width: 3 }) }),
-  boundary: new olb.Style({ stroke: new olb.Stroke({ color: "#9c6fb6", width: 1, lineDash: [6, 4] }) }),
-  other: new olb.Style({ fill: new olb.Fill({ color: "rgba(120,120,120,0.08)" }), stroke: new olb.Stroke({ color: "#c0c0c0", width: 1 }) }),
-  label: new olb.Style({ text: new olb.Text({ font: "12px system-ui, sans-serif", fill: new olb.Fill({ color: "#333" }),
-    stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) }),
+  water: new olb.Style({ fill: new olb.Fill({ color: "#aad3df" }), stroke: vtStroke("#7fb5c9", 1.5), zIndex: 1 }),
+  green: new olb.Style({ fill: new olb.Fill({ color: "#d6eccb" }), zIndex: 0 }),
+  landuse: new olb.Style({ fill: new olb.Fill({ color: "rgba(224,218,208,0.5)" }), zIndex: 0 }),
+  building: new olb.Style({ fill: new olb.Fill({ color: "#e3d9cc" }), stroke: vtStroke("#c9bba9", 1), zIndex: 2 }),
+  path: new olb.Style({ stroke: vtStroke("#a0522d", 1, [4, 3]), zIndex: 3 }),
+  rail: new olb.Style({ stroke: vtStroke("#707070", 1.5, [8, 4]), zIndex: 6 }),
+  boundary: new olb.Style({ stroke: vtStroke("#9c6fb6", 1, [6, 4]), zIndex: 7 }),
+  other: new olb.Style({ fill: new olb.Fill({ color: "rgba(120,120,120,0.06)" }), stroke: vtStroke("#c8c8c8", 1), zIndex: 0 }),
+  place: new olb.Style({ text: vtText("bold 12px system-ui, sans-serif", "#222", "point"), zIndex: 10 }),
+  poi: new olb.Style({ text: vtText("11px system-ui, sans-serif", "#444", "point"), zIndex: 9 }),
+  roadName: new olb.Style({ text: vtText("11px system-ui, sans-serif", "#333", "line"), zIndex: 9 }),
+  waterName: new olb.Style({ text: vtText("italic 11px system-ui, sans-serif", "#2a6f97", "point"), zIndex: 9 }),
+  riverName: new olb.Style({ text: vtText("italic 11px system-ui, sans-serif", "#2a6f97", "line"), zIndex: 9 }),
+  greenName: new olb.Style({ text: vtText("italic 11px system-ui, sans-serif", "#3b7a2a", "point"), zIndex: 9 }),
 };
-const VT_KINDS = [["water", /water|ocean|river|lake|pond|sea/], ["green", /park|wood|forest|grass|landcover|landuse|green|farm|meadow/],
-  ["building", /building/], ["road", /road|transport|street|highway|path|track|rail/], ["boundary", /boundary|admin/]];
-function vectorBasemapStyle(f) {
-  const type = f.getType();
-  if (type === "Point" || type === "MultiPoint") {
-    if (!f.get("name")) return null;
-    VT.label.getText().setText(String(f.get("name")));
-    return VT.label;
+const vtRoadStyles = new Map();
+function vtRoad(kind, resolution) {
+  const [casing, fill, rank] = VT_ROADS[kind];
+  const w = Math.round(2 * rank * Math.min(4, Math.max(1, 8 / Math.sqrt(resolution)))) / 2;  // 1 px at zoom 12, 4 at 17
+  const key = `${kind}${w}`;
+  if (!vtRoadStyles.has(key)) {
+    vtRoadStyles.set(key, [new olb.Style({ stroke: vtStroke(casing, w + 2), zIndex: 4 }), new olb.Style({ stroke: vtStroke(fill, w), zIndex: 5 })]);
   }
-  const words = `${f.get("layer") || ""} ${f.get("class") || ""} ${f.get("kind") || ""} ${f.get("type") || ""}`.toLowerCase();
-  const kind = VT_KINDS.find(([, re]) => re.test(words));
-  return VT[kind ? kind[0] : "other"];
+  return vtRoadStyles.get(key);
+}
+/** The name a feature carries in the common schemas, or "". */
+function vtName(f) { return String(f.get("name") || f.get("name:latin") || f.get("name_en") || f.get("name_int") || ""); }
+function vectorBasemapStyle(f, resolution) {
+  const type = f.getType();
+  const words = `${f.get("layer") || ""} ${f.get("class") || ""} ${f.get("subclass") || ""} ${f.get("kind") || ""} ${f.get("type") || ""}`.toLowerCase();
+  const found = VT_KINDS.find(([, re]) => re.test(words));
+  const kind = found ? found[0] : "other";
+  const name = vtName(f);
+  const label = (style) => { style.getText().setText(name); return style; };
+  if (type === "Point" || type === "MultiPoint") {
+    if (!name) return null;
+    return label(/place|city|town|village|hamlet|suburb|locality/.test(words) ? VT.place : kind === "water" ? VT.waterName : VT.poi);
+  }
+  const line = type === "LineString" || type === "MultiLineString";
+  if (kind === "building" && resolution > 4) return null;  // buildings from zoom 15: below it they are only noise
+  let styles;
+  if (line && VT_ROADS[kind]) styles = vtRoad(kind, resolution);
+  else styles = [VT[kind] || VT.other];
+  if (!name) return styles;
+  if (line && (VT_ROADS[kind] || kind === "path")) return [...styles, label(VT.roadName)];
+  if (kind === "water") return [...styles, label(line ? VT.riverName : VT.waterName)];
+  if (kind === "green" && !line) return [...styles, label(VT.greenName)];
+  return styles;
 }
 
 const L = {
   basemap: new olb.TileLayer({ zIndex: 0 }),
   vbasemap: new olb.VectorTileLayer({ zIndex: 0, style: vectorBasemapStyle, declutter: true }),
   coverage: new olb.ImageLayer({ zIndex: 1 }),
+  corridor: vector("corridor", st.corridor, 2),
   uncovered: vector("uncovered", st.uncovered, 3),
   lines: vector("lines", lineStyle, 4),
   stations: vector("stations", stationStyle, 5),
@@ -365,6 +457,7 @@ function render(view) {
   const V = view.layers;
   const put = (layer, feats) => { const s = layer.getSource(); s.clear(true); s.addFeatures(feats); };
   put(L.uncovered, (V.uncovered || []).map((p) => new olb.Feature(polygonOf(p))));
+  put(L.corridor, view.pattern === "corridor" ? V.area.map((p) => new olb.Feature(polygonOf(p))) : []);  // the planned band
   put(L.lines, V.lines.map((l) => new olb.Feature({ geometry: new olb.LineString(l.xy.map(frameXY)), id: l.id, sortie: l.sortie })));
   put(L.stations, V.stations.ids.map((id, i) => pointFeature(V.stations.x[i], V.stations.y[i], { id, sortie: V.stations.sortie[i] })));
   const sites = V.launch.length ? V.launch : [{ id: "home", ...V.home }];
@@ -526,7 +619,10 @@ function renderFly(view) {
       parts.push(bat);
     }
     const files = document.createElement("div"); files.className = "files";
-    for (const f of b.files) files.appendChild(fileLink(f));
+    // the sortie's files for every fleet the plan exports (.plan, .waypoints, a DJI camera's .kmz): those of its stems
+    const stem = (f) => f.replace(/\.[^.]+$/, "");
+    const stems = new Set(b.files.map(stem));
+    for (const f of view.files.filter((n) => stems.has(stem(n)))) files.appendChild(fileLink(f));
     parts.push(files);
     div.append(h, ...parts);
     box.appendChild(div);
@@ -559,13 +655,19 @@ function renderFiles(view) {
 
 // ---- the drawn geometry: area polygons (with holes), exclusion zones, launch points ------------
 function editFeatures(role) { return edit.getFeatures().filter((f) => f.get("role") === role); }
+/** Polygons (or lines: a corridor's centreline) as one WKT geometry in WGS84. */
 function toWkt(geoms) {
-  const g = geoms.length === 1 ? geoms[0] : new olb.MultiPolygon(geoms.map((p) => p.getCoordinates()));
+  const multi = geoms[0].getType() === "LineString" ? "MultiLineString" : "MultiPolygon";
+  const g = geoms.length === 1 ? geoms[0] : geojson.readGeometry({ type: multi, coordinates: geoms.map((p) => p.getCoordinates()) });
   return wkt.writeGeometry(g.clone().transform(WEB, WGS84));
 }
 function readWkt(text) {
   const g = wkt.readGeometry(text, { dataProjection: WGS84, featureProjection: WEB });
-  return g.getType() === "MultiPolygon" ? g.getPolygons() : [g];
+  return g.getType() === "MultiPolygon" ? g.getPolygons() : g.getType() === "MultiLineString" ? g.getLineStrings() : [g];
+}
+/** The spec's area geometry drawn with its role: polygons are the area, lines a corridor's centreline. */
+function addArea(text, add) {
+  readWkt(text).forEach((g) => add(g, g.getType() === "LineString" ? "centreline" : "area"));
 }
 
 /** The editable features from the spec (area WKT, launch points) and the zones (drawn WKT or the server's preview of the files). */
@@ -575,9 +677,9 @@ function loadEditable() {
   const area = S.spec.area || {};
   // the spec's WKT, else the server's reading of its files; else (a spec that could not be read at the start) the plan's
   const planned = (key) => (S.view ? S.view.layers[key] : []).map(polygonOf);
-  if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) readWkt(area.wkt).forEach((g) => add(g, "area"));
-  else if (S.preview && S.preview.area) readWkt(S.preview.area).forEach((g) => add(g, "area"));
-  else planned("area").forEach((g) => add(g, "area"));
+  if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) addArea(area.wkt, add);
+  else if (S.preview && S.preview.area) addArea(S.preview.area, add);
+  else if (!S.view || S.view.pattern !== "corridor") planned("area").forEach((g) => add(g, "area"));  // not a corridor's band
   if (S.zones !== null) S.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else planned("exclusions").forEach((g) => add(g, "zone"));
@@ -593,8 +695,9 @@ function launchPoints() {
   return Array.isArray(a) ? [a] : [];
 }
 
+/** The area into the spec: a corridor's centreline (pattern.kind = "corridor"), else the area polygons. */
 function writeArea() {
-  const polys = editFeatures("area").map((f) => f.getGeometry());
+  const polys = editFeatures(patternKind() === "corridor" ? "centreline" : "area").map((f) => f.getGeometry());
   if (!polys.length) { delete S.spec.area; return; }
   if (!S.spec.camera && S.defaults) { S.spec = { ...structuredClone(S.defaults), ...S.spec }; fillForm(); }  // a page started without a spec
   const { file, wkt, wkt_crs, ...rest } = S.spec.area || {};  // the zone files and the launch point stay
@@ -618,14 +721,14 @@ function geometryChanged(roles) {
   writeGeometry();
 }
 function writeGeometry() {
-  if (S.touched.has("area")) writeArea();
+  if (S.touched.has("area") || S.touched.has("centreline")) writeArea();
   if (S.touched.has("zone")) writeZones();
   if (S.touched.has("launch")) writeLaunch();
   updateUndo();
   clearError("area");
   if (!S.spec.area) {  // nothing left to plan: the last plan's layers go too
     S.seq++;
-    for (const l of [L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
+    for (const l of [L.corridor, L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
     setStatus("draw an area to plan");
     return;
   }
@@ -662,7 +765,8 @@ function setTool(tool) {
   translate.setActive(tool === "move");
   $("#measure-out").hidden = !tool.startsWith("measure");
   if (!tool.startsWith("measure")) L.measure.getSource().clear();
-  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", measure: "LineString", "measure-area": "Polygon" }[tool];
+  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", centreline: "LineString", measure: "LineString",
+    "measure-area": "Polygon" }[tool];
   if (type) {
     draw = new olb.Draw({ type, source: tool.startsWith("measure") ? L.measure.getSource() : undefined, stopClick: true });
     draw.on("drawstart", (e) => { if (tool.startsWith("measure")) { L.measure.getSource().clear(); measureLive(e.feature); } });
@@ -674,9 +778,13 @@ function setTool(tool) {
 
 function onDrawn(tool, feature) {
   const geom = feature.getGeometry();
-  if (tool === "area" || tool === "zone" || tool === "launch") {
+  if (tool === "area" || tool === "zone" || tool === "launch" || tool === "centreline") {
     const role = tool;
     edit.addFeature(new olb.Feature({ geometry: geom, role }));
+    if (role === "centreline" && patternKind() !== "corridor") {  // a centreline makes the plan a corridor along it
+      S.spec.pattern = { kind: "corridor", width_m: DEFAULT_CORRIDOR_WIDTH_M };
+      onKind();
+    }
     geometryChanged([role]);
   } else if (tool === "hole") {
     const inside = editFeatures("area").find((f) => f.getGeometry().intersectsCoordinate(geom.getInteriorPoint().getCoordinates()));
@@ -711,7 +819,7 @@ function deleteAt(pixel) {
     const k = rings.findIndex((r, i) => i > 0 && new olb.Polygon([r]).intersectsCoordinate(coord));
     if (k > 0) { rings.splice(k, 1); f.getGeometry().setCoordinates(rings); geometryChanged(["area"]); return; }
   }
-  const rank = { launch: 0, zone: 1, area: 2 };
+  const rank = { launch: 0, centreline: 1, zone: 2, area: 3 };
   const f = hits.sort((a, b) => rank[a.get("role")] - rank[b.get("role")])[0];
   if (f) { edit.removeFeature(f); geometryChanged([f.get("role")]); }
 }
