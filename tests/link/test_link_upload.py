@@ -217,15 +217,18 @@ def test_ardupilot_stored_form() -> None:
     assert ardupilot_stored(unknown, plane=False) == unknown
 
 
-def test_a_command_without_a_position_sends_param5_as_a_plain_integer() -> None:
-    """MISSION_ITEM_INT's x is 1e-7 degrees for a position but the parameter itself for a
-    MAV_FRAME_MISSION command: ArduPilot takes DO_DIGICAM_CONTROL's x as its shooting command
-    (1 = take a picture; 10,000,000 would be stored as the byte 128 and take none)."""
+def test_the_shooting_command_goes_as_a_plain_integer() -> None:
+    """MISSION_ITEM_INT's x is 1e-7 degrees for a position but the parameter itself for
+    DO_DIGICAM_CONTROL: ArduPilot takes its x as the shooting command (1 = take a picture;
+    10,000,000 is stored as the byte 128 and takes none, as seen in SITL)."""
     shoot = MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
     w = item_to_wire(shoot, 7, "item 7")
     assert (w.x, w.y) == (1, 0)
     wp = item_to_wire(MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, 49.5, 15.25, 80.0), 8, "item 8")
     assert (wp.x, wp.y) == (495000000, 152500000)
+    # PX4's DO_LAND_START goes in MAV_FRAME_MISSION with its place: still 1e-7 degrees
+    land = item_to_wire(MissionItem(mav.DO_LAND_START, mav.FRAME_MISSION, 0, 0, 0, 0, 49.5, 15.25, 0.0), 9, "item 9")
+    assert (land.x, land.y) == (495000000, 152500000)
     with pytest.raises(InputError, match="item 7 param5 = 1.5"):
         item_to_wire(MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0, 0, 0, 0, 1.5, 0, 0), 7, "item 7")
 

@@ -96,11 +96,15 @@ def param_int(v: float, what: str) -> int:
     return int(v)
 
 
+#: commands whose param5/6 are not a position: MISSION_ITEM_INT carries them as plain integers
+#: (the exceptions of ArduPilot's AP_Mission::convert_MISSION_ITEM_to_MISSION_ITEM_INT that
+#: aerosurvey writes; ArduPilot takes DO_DIGICAM_CONTROL's x as its shooting command, 1 = take a picture)
+PLAIN_XY_COMMANDS = frozenset({mav.DO_DIGICAM_CONTROL})
+
+
 def item_to_wire(it: MissionItem, seq: int, what: str) -> mp.WireItem:
-    """The item as MISSION_ITEM_INT: x/y are 1e-7 degrees for a position, but plain integers for a
-    command without one (frame MAV_FRAME_MISSION): ArduPilot's AP_Mission and PX4 read
-    DO_DIGICAM_CONTROL's param5 (1 = take a picture) and DO_GIMBAL_MANAGER_PITCHYAW's flags there."""
-    if it.frame == mav.FRAME_MISSION:
+    """The item as MISSION_ITEM_INT: x/y in 1e-7 degrees, or the parameters themselves for PLAIN_XY_COMMANDS."""
+    if it.command in PLAIN_XY_COMMANDS:
         x, y = param_int(it.x, f"{what} param5"), param_int(it.y, f"{what} param6")
     else:
         x, y = deg_e7(it.x, f"{what} latitude"), deg_e7(it.y, f"{what} longitude")
