@@ -1,4 +1,4 @@
-"""A minimal DataFlash writer for tests: FMT messages and camera events (CAM)."""
+"""A minimal DataFlash writer for tests: FMT messages, camera events (CAM) and mount angles (MNT)."""
 
 from __future__ import annotations
 
@@ -19,4 +19,17 @@ def camera_log(events: list[tuple[float, float, float, float, float]]) -> bytes:
     for t, lat, lon, alt, rel in events:
         out += HEAD + bytes([200]) + struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7),
                                                  alt, rel, 0.0, 0.0, 0.0)
+    return bytes(out)
+
+
+def mount_log(cams: list[tuple[float, float, float, float]], mounts: list[tuple[float, float, float, float]]) -> bytes:
+    """CAM messages (time_s, vehicle roll, pitch, yaw) and MNT messages (time_s, roll, pitch,
+    yaw relative to the body), in time order, as ArduPilot writes them (degrees)."""
+    out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
+    out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
+    out += _fmt(201, "MNT", "QBfffffff", "TimeUS,I,DRoll,Roll,DPitch,Pitch,DYawB,YawB,DYawE")
+    rows = [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), 495000000, 153000000, 80.0, 80.0, r, p, y)) for t, r, p, y in cams]
+    rows += [(t, 201, struct.pack("<QBfffffff", int(t * 1e6), 0, 0.0, r, -45.0, p, 0.0, y, 0.0)) for t, r, p, y in mounts]
+    for _, typ, body in sorted(rows, key=lambda row: row[0]):
+        out += HEAD + bytes([typ]) + body
     return bytes(out)

@@ -86,7 +86,8 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
         return f
 
     monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
-    monkeypatch.setattr(harness, "prepare", lambda sv: None)
+    mounts = []
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount: mounts.append(mount))
     monkeypatch.setattr(harness, "fly", fake_fly)
     temp = tmp_path / "temp"
     temp.mkdir()
@@ -98,6 +99,8 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     assert all(r["completed"] and r["triggers_match"] and r["max_trigger_offset_m"] == 0.0 for r in rows)
     assert all(r["time_ratio"] == 1.0 for r in rows)
     assert _FakeVehicle.started == ["start", "stop"] * len(routes)
+    assert mounts == [False] * len(routes)  # a nadir plan flies without a mount
+    assert all("mount_pitch_deg" not in r for r in rows)
     report = json.loads((tmp_path / "report" / "sitl_report.json").read_text())
     assert [r["photos_planned"] for r in report["sorties"]] == [len(r.stations) for r in routes.values()]
     assert sorted(p.name for p in (tmp_path / "report").glob("*.BIN")) == sorted(f"{n}.BIN" for n in routes)
@@ -109,3 +112,33 @@ def test_sitl_fly_without_a_manifest_is_one_line(tmp_path):
     res = CliRunner().invoke(main, ["sitl", "fly", str(tmp_path)])
     assert res.exit_code == 2 and res.output.count("\n") == 1
     assert "has no manifest.json: give the folder `aerosurvey plan` wrote" in res.output
+
+
+def test_the_survey_parameters_add_a_mount_only_when_asked():
+    copter = dict(harness.survey_params("copter", mount=False))
+    assert copter["CAM1_TYPE"] == 1 and copter["AUTO_OPTIONS"] == 3 and "MNT1_TYPE" not in copter
+    assert "THR_FAILSAFE" not in copter  # a PLANE: line
+    mounted = dict(harness.survey_params("copter", mount=True))
+    assert mounted["MNT1_TYPE"] == 1 and {mounted[f"SERVO{n}_FUNCTION"] for n in (9, 10, 11)} == {6, 7, 8}
+    plane = dict(harness.survey_params("plane", mount=True))
+    assert plane["THR_FAILSAFE"] == 0 and plane["MNT1_TYPE"] == 1 and "AUTO_OPTIONS" not in plane
+
+
+def test_the_camera_pitch_at_each_picture_turns_the_servo_angles_by_the_vehicle_attitude(tmp_path):
+    """A servo mount logs its angles relative to the body: a vehicle pitched 20° nose down with
+    the servo at -25° looks 45° down; rolled 10° with the servo rolled back -10°, still 45°."""
+    from dfwriter import mount_log
+    from scipy.spatial.transform import Rotation
+
+    log = tmp_path / "m.BIN"
+    # (time_s, vehicle roll, pitch, yaw) per picture; (time_s, roll, pitch, yaw_body) per mount message
+    cams = [(0.5, 0.0, 0.0, 90.0), (2.0, 0.0, -20.0, 270.0), (3.0, 10.0, -20.0, 45.0), (4.0, 3.0, -7.0, 10.0)]
+    mnts = [(1.0, 0.0, -45.0, 0.0), (2.0, 0.0, -25.0, 0.0), (2.9, -10.0, -25.0, 0.0), (3.5, 5.0, -30.0, 12.0)]
+    log.write_bytes(mount_log(cams, mnts))
+    got = sitl_run.mount_pitch_at_photos(log)
+    assert got[0] is None  # before the mount's first message
+    assert got[1] == pytest.approx(-45.0, abs=0.01)
+    expected = [(Rotation.from_euler("ZYX", [c[3], c[2], c[1]], degrees=True)
+                 * Rotation.from_euler("ZYX", [m[3], m[2], m[1]], degrees=True)).as_euler("ZYX", degrees=True)[1]
+                for c, m in zip(cams[1:], mnts[1:])]
+    assert got[1:] == pytest.approx(expected, abs=0.01)

@@ -18,10 +18,12 @@ from aerosurvey.link.upload import (
     ardupilot_stored,
     compare_items,
     fence_wire_items,
+    item_to_wire,
     mission_wire_items,
     upload_mission,
 )
 from aerosurvey.mission import mavlink_ids as mav
+from aerosurvey.mission.items import MissionItem
 
 FAST = mp.Policy(timeout=0.1, retries=5, restarts=3, busy_wait=0.3)
 
@@ -213,3 +215,28 @@ def test_ardupilot_stored_form() -> None:
     assert (s.frame, s.param1, s.param2, s.param3, s.param4, s.x, s.y, s.z) == (0, 1.0, 12.5, -1.0, 0.0, 0, 0, 0.0)
     unknown = mp.WireItem(5, 31000, 3, 1, 2, 3, 4, 5, 6, 7)
     assert ardupilot_stored(unknown, plane=False) == unknown
+
+
+def test_the_shooting_command_goes_as_a_plain_integer() -> None:
+    """MISSION_ITEM_INT's x is 1e-7 degrees for a position but the parameter itself for
+    DO_DIGICAM_CONTROL: ArduPilot takes its x as the shooting command (1 = take a picture;
+    10,000,000 is stored as the byte 128 and takes none, as seen in SITL)."""
+    shoot = MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
+    w = item_to_wire(shoot, 7, "item 7")
+    assert (w.x, w.y) == (1, 0)
+    wp = item_to_wire(MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, 49.5, 15.25, 80.0), 8, "item 8")
+    assert (wp.x, wp.y) == (495000000, 152500000)
+    # PX4's DO_LAND_START goes in MAV_FRAME_MISSION with its place: still 1e-7 degrees
+    land = item_to_wire(MissionItem(mav.DO_LAND_START, mav.FRAME_MISSION, 0, 0, 0, 0, 49.5, 15.25, 0.0), 9, "item 9")
+    assert (land.x, land.y) == (495000000, 152500000)
+    with pytest.raises(InputError, match="item 7 param5 = 1.5"):
+        item_to_wire(MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0, 0, 0, 0, 1.5, 0, 0), 7, "item 7")
+
+
+def test_ardupilot_keeps_mount_angles_and_the_shooting_command() -> None:
+    mount = mp.WireItem(4, mav.DO_MOUNT_CONTROL, mav.FRAME_MISSION, -45.0, 0.0, 12.5, 0.0, 0, 0, 2.0)
+    m = ardupilot_stored(mount, plane=False)
+    assert (m.frame, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z) == (0, -45.0, 0.0, 12.5, 0.0, 0, 0, 2.0)
+    shoot = mp.WireItem(6, mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0.0, 0.0, -1.0, 0.0, 1, 0, 0.0)
+    s = ardupilot_stored(shoot, plane=False)
+    assert (s.frame, s.param3, s.x, s.y, s.z) == (0, -1.0, 1, 0, 0.0)

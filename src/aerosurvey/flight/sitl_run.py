@@ -20,6 +20,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text
 from aerosurvey.link import sitl as harness
 from aerosurvey.manifest import Manifest
+from aerosurvey.mission import mavlink_ids as mav
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     results = []
     for route in sortie_routes(doc, plan_dir, resume_dir):
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
+        # a mission that points a gimbal flies with a mount, whose angles the log then records
+        mount = any(item.command == mav.DO_MOUNT_CONTROL for item in mission.items)
         lat, lon, alt = mission.home
         # SITL's working folder (its logs, eeprom, output): removed however the sortie ends
         with tempfile.TemporaryDirectory(prefix="aerosurvey-sitl-") as tmp:
@@ -102,7 +105,7 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                                      list(settings.defaults), work, settings.boot_timeout)
             try:
                 sv.start()
-                harness.prepare(sv)
+                harness.prepare(sv, mount)
 
                 def upload(m: Any) -> str:
                     with open_link("tcp:127.0.0.1:5762", 30.0) as link:
@@ -120,6 +123,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                 shutil.copyfile(logs[-1], dest)
                 flight.log = dest.name
         row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
+        if mount:
+            row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else None
         if doc.camera.trigger == "camera":
             row["triggers_match"] = None  # the camera's own intervalometer is not simulated
         results.append(row)
@@ -131,3 +136,44 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     text = "\n".join(f"{r['sortie']}: " + ", ".join(f"{k}={v}" for k, v in r.items() if k != "sortie") for r in results)
     atomic_write_text(report_dir / "sitl_report.txt", text + "\n")
     return results
+
+
+def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
+    """The camera's pitch against the horizon (degrees, -90 = nadir) at each picture of a SITL
+    DataFlash log with the harness's servo mount, None before the mount's first message.
+
+    A servo mount has no attitude feedback: its MNT log message gives, as Roll/Pitch/YawB, the
+    angles it drives its servos to, relative to the vehicle's body (seen in ArduCopter 4.7 SITL:
+    MNT Pitch = the target -45° minus the vehicle's pitch). The camera's attitude is then the
+    vehicle's (the CAM message's R, P, Y at the picture) turned by those angles (both ZYX Euler).
+    """
+    import numpy as np
+
+    from aerosurvey.flight.dataflash import DataFlashLog
+
+    with DataFlashLog(log_path) as log:
+        cam, mnt = log.messages("CAM"), log.messages("MNT")
+    if not cam:
+        return []
+    if not mnt:
+        return [None] * len(cam["TimeUS"])
+    at = np.searchsorted(mnt["TimeUS"], cam["TimeUS"], side="right") - 1
+    k = np.maximum(at, 0)
+    body = _zyx(cam["R"], cam["P"], cam["Y"])
+    mount = _zyx(mnt["Roll"][k], mnt["Pitch"][k], mnt["YawB"][k])
+    camera = body @ mount
+    pitch = np.degrees(np.arcsin(np.clip(-camera[:, 2, 0], -1.0, 1.0)))
+    return [round(float(p), 2) if a >= 0 else None for p, a in zip(pitch, at)]
+
+
+def _zyx(roll: Any, pitch: Any, yaw: Any) -> Any:
+    """Rotation matrices (n, 3, 3) of ZYX Euler angles in degrees (yaw, then pitch, then roll)."""
+    import numpy as np
+
+    r, p, y = (np.radians(np.asarray(v, dtype=np.float64)) for v in (roll, pitch, yaw))
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
+        np.stack([-sp, cp * sr, cp * cr], -1),
+    ], -2)

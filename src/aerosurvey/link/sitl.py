@@ -222,18 +222,27 @@ class SitlVehicle:
         raise self.error(f"SITL did not arm within {timeout:g} s; it said: {' | '.join(said[-4:]) or 'nothing'}")
 
 
-def prepare(sv: SitlVehicle) -> None:
-    """Parameters for a survey in simulation, then a reboot so the camera backend exists."""
+def survey_params(vehicle: str, mount: bool) -> list[tuple[str, float]]:
+    """The parameters of PARAMS_FILE for `vehicle`, with its MOUNT: lines when `mount` (a
+    mission that points a gimbal), in the file's order."""
+    out = []
     for line in PARAMS_FILE.read_text().splitlines():
         line = line.split("#", 1)[0].strip()
         if not line:
             continue
         name, value = line.split()[:2]
-        if name.startswith("COPTER:") or name.startswith("PLANE:"):
-            kind, name = name.split(":", 1)
-            if (kind == "PLANE") != (sv.vehicle == "plane"):
-                continue
-        sv.set_param(name, float(value))
+        kind, _, bare = name.rpartition(":")
+        if kind == "MOUNT" and not mount or kind in ("COPTER", "PLANE") and (kind == "PLANE") != (vehicle == "plane"):
+            continue
+        out.append((bare, float(value)))
+    return out
+
+
+def prepare(sv: SitlVehicle, mount: bool = False) -> None:
+    """Parameters for a survey in simulation (a servo mount too when `mount`), then a reboot
+    so the camera and mount backends exist."""
+    for name, value in survey_params(sv.vehicle, mount):
+        sv.set_param(name, value)
     sv.reboot()
     sv.request_messages()
 
@@ -338,6 +347,7 @@ def compare(flight: Flight, stations: list[tuple[float, float]], runs: list[tupl
         "sortie": flight.name, "completed": flight.completed, "photos_planned": len(stations),
         "triggers_flown": len(flight.triggers), "triggers_match": len(flight.triggers) == len(stations),
         "max_trigger_offset_m": round(max(d), 2) if d else None,
+        "trigger_offsets_m": [round(x, 2) for x in d],  # each trigger's distance from its station, in order
         "max_cross_track_m": round(max(xte), 2) if xte else None,
         "flown_time_s": round(flown, 1) if flown else None, "estimated_time_s": round(est_time_s, 1),
         "time_ratio": round(flown / est_time_s, 3) if flown else None,

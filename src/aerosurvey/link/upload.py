@@ -87,9 +87,28 @@ def deg_e7(v: float, what: str) -> int:
     return e7
 
 
+def param_int(v: float, what: str) -> int:
+    """A command's own parameter 5 or 6 as the plain integer MISSION_ITEM_INT carries (NaN: 0)."""
+    if math.isnan(v):
+        return 0
+    if v != round(v) or not -(2**31) <= v < 2**31:
+        raise InputError(f"{what} = {v!r}: a MAVLink mission command takes a whole number there")
+    return int(v)
+
+
+#: commands whose param5/6 are not a position: MISSION_ITEM_INT carries them as plain integers
+#: (the exceptions of ArduPilot's AP_Mission::convert_MISSION_ITEM_to_MISSION_ITEM_INT that
+#: aerosurvey writes; ArduPilot takes DO_DIGICAM_CONTROL's x as its shooting command, 1 = take a picture)
+PLAIN_XY_COMMANDS = frozenset({mav.DO_DIGICAM_CONTROL})
+
+
 def item_to_wire(it: MissionItem, seq: int, what: str) -> mp.WireItem:
-    return mp.WireItem(seq, it.command, it.frame, it.param1, it.param2, it.param3, it.param4,
-                       deg_e7(it.x, f"{what} latitude"), deg_e7(it.y, f"{what} longitude"), it.z,
+    """The item as MISSION_ITEM_INT: x/y in 1e-7 degrees, or the parameters themselves for PLAIN_XY_COMMANDS."""
+    if it.command in PLAIN_XY_COMMANDS:
+        x, y = param_int(it.x, f"{what} param5"), param_int(it.y, f"{what} param6")
+    else:
+        x, y = deg_e7(it.x, f"{what} latitude"), deg_e7(it.y, f"{what} longitude")
+    return mp.WireItem(seq, it.command, it.frame, it.param1, it.param2, it.param3, it.param4, x, y, it.z,
                        1 if it.autocontinue else 0, 0, mp.MISSION)
 
 
@@ -157,6 +176,11 @@ def _trunc(v: float) -> float:
     return float(math.trunc(v)) if math.isfinite(v) else 0.0
 
 
+def _byte(v: float, signed: bool = False) -> float:
+    b = int(_trunc(v)) & 0xFF
+    return float(b - 256 if signed and b > 127 else b)
+
+
 def _ardupilot_params(it: mp.WireItem, plane: bool) -> tuple[float, float, float, float] | None:
     p1, p2, p3, p4 = it.param1, it.param2, it.param3, it.param4
     c = it.command
@@ -176,6 +200,10 @@ def _ardupilot_params(it: mp.WireItem, plane: bool) -> tuple[float, float, float
         return (_trunc(p1), f32(p2), f32(p3), 0.0)
     if c == mav.DO_SET_CAM_TRIGG_DIST:
         return (f32(p1), 0.0, _trunc(p3), 0.0)
+    if c == mav.DO_MOUNT_CONTROL:  # pitch, roll, yaw as floats (the mode, param7, too: `ardupilot_stored`)
+        return (f32(p1), f32(p2), f32(p3), 0.0)
+    if c == mav.DO_DIGICAM_CONTROL:  # session, zoom position, zoom step (signed), focus lock: a byte each
+        return (_byte(p1), _byte(p2), _byte(p3, signed=True), _byte(p4))
     if c in (mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION, mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION):
         return (_trunc(p1), 0.0, 0.0, 0.0)
     return None
@@ -197,7 +225,11 @@ def ardupilot_stored(it: mp.WireItem, plane: bool) -> mp.WireItem:
         z = f32(math.trunc(f32(f32(it.z) * 100.0)) * f32(0.01)) if math.isfinite(it.z) else it.z
         frame = _FRAME_STORED.get(it.frame, it.frame)
         return mp.WireItem(it.seq, it.command, frame, *params, it.x, it.y, z, 1, 0, it.mission_type)
-    return mp.WireItem(it.seq, it.command, 0, *params, 0, 0, 0.0, 1, 0, it.mission_type)
+    # DO_DIGICAM_CONTROL keeps its shooting command (x) and command id (y), a byte each;
+    # DO_MOUNT_CONTROL its mount mode (z; ArduCopter 4.7 SITL returns it)
+    x, y = (it.x & 0xFF, it.y & 0xFF) if it.command == mav.DO_DIGICAM_CONTROL else (0, 0)
+    z = _trunc(it.z) if it.command == mav.DO_MOUNT_CONTROL else 0.0
+    return mp.WireItem(it.seq, it.command, 0, *params, x, y, z, 1, 0, it.mission_type)
 
 
 # --- what PX4 keeps of an item -----------------------------------------------------------
