@@ -42,3 +42,16 @@ def test_every_format_is_written_and_reads_back(out: Path) -> None:
     assert pyogrio.read_info(out / "plan" / "plan.gpkg", layer="stations")["features"] == len(stations)
     plan = json.loads((out / "plan" / "mission.plan").read_text())
     assert len(plan["rallyPoints"]["points"]) == 1
+    # the DJI block: WPML waylines per flight that lxml parses, and Survey items in its .plan files
+    import zipfile
+
+    from lxml import etree
+
+    dji = out / "dji"
+    for kmz in ["mission.kmz", *sorted(p.name for p in dji.glob("sortie-*.kmz"))]:
+        with zipfile.ZipFile(dji / kmz) as z:
+            assert {"wpmz/template.kml", "wpmz/waylines.wpml"} <= set(z.namelist())
+            etree.fromstring(z.read("wpmz/waylines.wpml"))
+    assert len(list(dji.glob("sortie-*.kmz"))) == len(list(dji.glob("sortie-*.waypoints"))) >= 1
+    items = json.loads((dji / "mission.plan").read_text())["mission"]["items"]
+    assert any(it.get("complexItemType") == "survey" for it in items)

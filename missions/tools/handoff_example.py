@@ -11,7 +11,10 @@
 5. `aerosurvey log gcp-predict`: gcp_predictions.csv;
 6. `aerosurvey log gcp-list`: gcp_list.txt, here from the predictions standing in for a marking
    tool's export and the proposed GCPs with the home ground as a stand-in surveyed elevation
-   (demo values: a real list needs the marks measured in the images and surveyed GCPs).
+   (demo values: a real list needs the marks measured in the images and surveyed GCPs);
+7. `aerosurvey plan missions/dji-m3e-block.toml`: a DJI Mavic 3 Enterprise block, whose flights
+   are also DJI WPML waylines for DJI Pilot 2 (mission.kmz, sortie-NN.kmz); its .plan files hold
+   QGroundControl Survey items (`--qgc survey`, the default).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "missions" / "kubad-abad-fixed-wing.toml"
+DJI_SPEC = ROOT / "missions" / "dji-m3e-block.toml"
 LOG = ROOT / "tests" / "data" / "sitl_plane_kubad.bin"
 CAMERA_CLOCK_OFFSET_S = -2.5
 
@@ -85,6 +89,7 @@ def main(out: Path) -> None:
     run(["log", "gcp-predict", str(flight), "--plan", str(plan), "-o", str(flight / "gcp_predictions.csv")])
     run(["log", "gcp-list", str(flight / "gcp_predictions.csv"), "--surveyed", str(stand_in_survey(plan, flight)),
          "--images", str(images), "-o", str(flight / "gcp_list.txt")])
+    run(["plan", str(DJI_SPEC), "-o", str(out / "dji")])
 
 
 if __name__ == "__main__":
