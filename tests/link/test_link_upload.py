@@ -240,3 +240,18 @@ def test_ardupilot_keeps_mount_angles_and_the_shooting_command() -> None:
     shoot = mp.WireItem(6, mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0.0, 0.0, -1.0, 0.0, 1, 0, 0.0)
     s = ardupilot_stored(shoot, plane=False)
     assert (s.frame, s.param3, s.x, s.y, s.z) == (0, -1.0, 1, 0, 0.0)
+
+
+def test_command_parameters_that_are_not_places_go_as_plain_integers() -> None:
+    """MISSION_ITEM_INT's x/y are 1e-7 degrees only for a place: PX4's gimbal manager flags (12 =
+    roll and pitch locked to the horizon) and ArduPilot's shooting command (1) go as they are."""
+    from aerosurvey.link.upload import item_to_wire
+    from aerosurvey.mission import mavlink_ids as mav
+    from aerosurvey.mission.items import MissionItem
+
+    gimbal = MissionItem(mav.DO_GIMBAL_MANAGER_PITCHYAW, mav.FRAME_MISSION, -45.0, 0.0, float("nan"), float("nan"), 12.0, 0.0, 0.0)
+    shoot = MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0, 0, 0, 0, 1.0, 0.0, 0.0)
+    place = MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT, 0, 0, 0, 0, 49.5, 15.3, 80.0)
+    assert item_to_wire(gimbal, 1, "item 1").x == 12
+    assert item_to_wire(shoot, 2, "item 2").x == 1
+    assert (item_to_wire(place, 3, "item 3").x, item_to_wire(place, 3, "item 3").y) == (495_000_000, 153_000_000)

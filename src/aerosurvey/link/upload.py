@@ -98,8 +98,10 @@ def param_int(v: float, what: str) -> int:
 
 #: commands whose param5/6 are not a position: MISSION_ITEM_INT carries them as plain integers
 #: (the exceptions of ArduPilot's AP_Mission::convert_MISSION_ITEM_to_MISSION_ITEM_INT that
-#: aerosurvey writes; ArduPilot takes DO_DIGICAM_CONTROL's x as its shooting command, 1 = take a picture)
-PLAIN_XY_COMMANDS = frozenset({mav.DO_DIGICAM_CONTROL})
+#: aerosurvey writes; ArduPilot takes DO_DIGICAM_CONTROL's x as its shooting command, 1 = take a
+#: picture; PX4's gimbal manager reads DO_GIMBAL_MANAGER_PITCHYAW's x as its flags, 12 = roll and
+#: pitch locked to the horizon, which 1e-7 degrees would make 120,000,000)
+PLAIN_XY_COMMANDS = frozenset({mav.DO_DIGICAM_CONTROL, mav.DO_GIMBAL_MANAGER_PITCHYAW})
 
 
 def item_to_wire(it: MissionItem, seq: int, what: str) -> mp.WireItem:
