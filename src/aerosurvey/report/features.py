@@ -19,7 +19,6 @@ from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
 from aerosurvey.plan.capture import Optics, Photos, footprint_corners
 from aerosurvey.plan.planner import Plan
-from aerosurvey.plan.route import Run
 
 
 def _r(v: float, nd: int = 8) -> float:
@@ -106,12 +105,17 @@ def _footprints_text(plan: Plan, table: StationTable, corners: tuple[np.ndarray,
                       string_texts(table.column("id")), *ring], len(sids), ",")
 
 
-def _line_coords(plan: Plan, run: Run, first: int, last: int) -> list[list[float]]:
-    """A run's line as flown with the camera on: its first station, its bends, its last station."""
+def _line_coords(plan: Plan) -> list[list[list[float]]]:
+    """Each run's line as flown with the camera on: its first station, its bends, its last station
+    (the bends of every run turned to longitude and latitude in one transform)."""
     st = plan.stations
-    lon, lat = plan.planar.lonlat(run.bends_xy[:, 0], run.bends_xy[:, 1])
-    return [[_r(st.lon[first]), _r(st.lat[first])], *([_r(lo), _r(la)] for lo, la in zip(lon.tolist(), lat.tolist())),
-            [_r(st.lon[last]), _r(st.lat[last])]]
+    runs = plan.route.runs
+    bends = np.concatenate([r.bends_xy for r in runs]) if runs else np.zeros((0, 2))
+    lon, lat = plan.planar.lonlat(bends[:, 0], bends[:, 1])
+    corners = [[_r(a), _r(b)] for a, b in zip(lon.tolist(), lat.tolist())]
+    at = np.cumsum([0, *(len(r.bends_xy) for r in runs)]).tolist()
+    return [[[_r(st.lon[first]), _r(st.lat[first])], *corners[at[i]:at[i + 1]], [_r(st.lon[last]), _r(st.lat[last])]]
+            for i, (first, last, _) in enumerate(run_stations(plan))]
 
 
 def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLayer, int]:
@@ -127,13 +131,14 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
     st = plan.stations
     from aerosurvey.mission.builder import run_id
 
+    lines = _line_coords(plan)
     for i, (r, (first, last, photos)) in enumerate(zip(plan.route.runs, run_stations(plan))):
         rid = run_id(plan, i)
         feats.append({"type": "Feature", "id": rid, "properties": {
             "role": "line", "id": rid, "line": ids.line_id(r.pass_index, r.line), "pass": r.pass_index,
             "heading_deg": round(r.heading_deg, 3), "photos": photos,
             "first_station": st.ids[first], "last_station": st.ids[last]},
-            "geometry": {"type": "LineString", "coordinates": _line_coords(plan, r, first, last)}})
+            "geometry": {"type": "LineString", "coordinates": lines[i]}})
     _finite("station", st.lon, st.lat, st.alt_rel_m, st.agl_m, st.heading_deg)  # the GeoJSON writer writes NaN as null
     n = len(st.ids)
     line_of_run = [ids.line_id(r.pass_index, r.line) for r in plan.route.runs]
