@@ -195,7 +195,7 @@ def test_hover_and_capture_shoots_at_rest_on_each_station(tmp_path):
 
 @pytest.mark.sitl
 def test_long_north_south_runs_at_the_equator_keep_their_stations(tmp_path):
-    """Three 3 km runs north-south at 0.3° N (125 photos each): ArduPilot measures distances on a
+    """3 km runs north-south at 0.3° N (125 photos each): ArduPilot measures distances on a
     sphere of the equatorial radius, 0.67 % longer than the ground north-south there, so stations
     laid in ground metres would drift from the pictures by 17 m along a run and one picture too
     many would be taken per run (seen before the stations were laid in ArduPilot's metres).
@@ -209,7 +209,9 @@ def test_long_north_south_runs_at_the_equator_keep_their_stations(tmp_path):
                      area=[[32.000, 0.300], [32.0012, 0.300], [32.0012, 0.327], [32.000, 0.327], [32.000, 0.300]])
     out = tmp_path / "equator"
     manifest, report = _plan_and_fly(spec, out, binary)
-    assert sum(r["photos_planned"] for r in report["sorties"]) > 300  # three runs of about 125 photos
+    # long runs (about 125 photos each: a drift would add up along them); two or three of them
+    # (the area is about 1.4 footprints wide)
+    assert len(manifest["lines"]) >= 2 and all(line["photos"] >= 100 for line in manifest["lines"])
     _assert_flown_as_planned(manifest, report, out, manifest["derived"]["photo_base_m"] / 4)
 
 
