@@ -189,7 +189,9 @@ def _pattern(plan: Plan) -> dict[str, Any]:
                "footprint_across_m": _f(plan.across_m), "footprint_along_m": _f(plan.along_m),
                "line_spacing_m": _f(plan.spacing_m), "photo_base_m": _f(plan.base_m), "trigger_distance_m": trigger}
               for ps in plan.passes if not ps.empty]
-    hover = plan.spec.camera.settle_s + plan.spec.camera.min_cycle_s if plan.spec.camera.trigger == "hover" else None
+    from aerosurvey.plan.sensor import hover_rest_s  # the writer's; the reader does not load the planner
+
+    hover = hover_rest_s(plan.spec) if plan.spec.camera.trigger == "hover" else None
     return {"kind": p.kind, "parameters": params, "hover_s": _f(hover) if hover is not None else None, "passes": passes}
 
 

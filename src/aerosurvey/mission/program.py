@@ -30,7 +30,6 @@ the camera stays on through it, as through a "terrain" waypoint.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +39,7 @@ from aerosurvey import ids
 from aerosurvey.errors import InputError
 from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG, approach_lonlat
 from aerosurvey.plan.model import Plan, RouteWaypoint
+from aerosurvey.plan.photogrammetry import ardupilot_distance_m
 
 #: the gimbal's pitch before the first action: straight down, as a survey mount is set
 NADIR_PITCH_DEG = -90.0
@@ -200,9 +200,8 @@ def rtl_target(vehicle: str, home: tuple[float, float], rally: list[tuple[float,
 
 
 def _metres(a: tuple[float, float], b: tuple[float, float]) -> float:
-    """Roughly the metres between two (lat, lon) places (enough to tell near from far)."""
-    k = math.pi / 180.0 * 6_371_000.0
-    return math.hypot((a[0] - b[0]) * k, (a[1] - b[1]) * k * math.cos(math.radians((a[0] + b[0]) / 2.0)))
+    """ArduPilot's distance between two (lat, lon) places: it picks the nearest rally point by it."""
+    return float(ardupilot_distance_m(a[1], a[0], b[1], b[0]))
 
 
 def _tag(plan: Plan, w: RouteWaypoint) -> str:

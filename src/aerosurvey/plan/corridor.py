@@ -60,14 +60,12 @@ class Corridor:
     right_m: float
     images_beyond_boundary: int
     coverage_margin_m: float
-    distance_trigger: bool  # stations where ArduPilot's distance trigger fires; else a base apart along the strip
 
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> Corridor:
         p = spec.pattern
         assert p.left_m is not None and p.right_m is not None
-        return cls(p.left_m, p.right_m, spec.targets.images_beyond_boundary, spec.targets.coverage_margin_m,
-                   spec.camera.trigger == "distance")
+        return cls(p.left_m, p.right_m, spec.targets.images_beyond_boundary, spec.targets.coverage_margin_m)
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         if site.centreline is None:
@@ -77,9 +75,7 @@ class Corridor:
         left, right = self.left_m * k + grow, self.right_m * k + grow
         across, along = sensor.across_m * k, sensor.along_m * k
         base = sensor.base_m * k
-        offsets = (np.array([(left - right) / 2.0]) if left + right <= across
-                   else strip_offsets(-right, left, across, sensor.spacing_m * k, sensor.side_images_per_point))
-        chord = self.distance_trigger and sensor.trigger_distance_m is not None
+        offsets = strip_ordinates(left, right, across, sensor.spacing_m * k, sensor.side_images_per_point)
 
         def autopilot_m(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             """ArduPilot's distance between the points a and b (planning CRS, (n, 2) each)."""
@@ -106,7 +102,7 @@ class Corridor:
                     first, last = station_span(a, b, a, b, along, base, sensor.forward_images_per_point,
                                                self.images_beyond_boundary)
                     ext = _extend(path, -first, last - float(arc[-1]) + 2.0 * base)
-                    at = _stations(ext, autopilot_m, sensor.base_m, last - first, sensor.trigger_distance_m if chord else None,
+                    at = _stations(ext, autopilot_m, sensor.base_m, last - first, sensor.trigger_distance_m,
                                    sensor.speed.speed_ms / TRIGGER_CHECK_HZ)
                     strips += _cut(line, len([s for s in strips if s.line == line]), numbered, ext, at,
                                    site.zones_buffered, clearance)
@@ -121,6 +117,15 @@ class Corridor:
         start = shapely.get_coordinates(pieces[0])[:2]
         heading = math.degrees(math.atan2(*(start[1] - start[0]))) % 360.0
         return Layout(heading, "along the corridor's centreline", tuple(passes), site.area, exact)
+
+
+def strip_ordinates(left: float, right: float, across: float, spacing: float, per_point: int) -> np.ndarray:
+    """The strips' offsets from the centreline (positive: to its left) over a corridor `left` and
+    `right` of it: one down the middle when a footprint `across` wide spans it, else the area
+    grid's rule across the width (`strip_offsets`: every point in `per_point` strips)."""
+    if left + right <= across:
+        return np.array([(left - right) / 2.0])
+    return strip_offsets(-right, left, across, spacing, per_point)
 
 
 def _split_at_sharp_bends(xy: np.ndarray) -> list[np.ndarray]:

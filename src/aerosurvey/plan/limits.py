@@ -18,6 +18,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.plan.corridor import strip_ordinates
 from aerosurvey.plan.lines import strip_offsets_many
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
@@ -84,9 +85,9 @@ def _corridor_cost(spec: MissionSpec, site: Site, sensor: SensorSolution) -> Cos
     assert site.centreline is not None and spec.pattern.left_m is not None and spec.pattern.right_m is not None
     k = site.grid_scale
     pieces = shapely.get_parts(shapely.line_merge(site.centreline))
-    width = spec.pattern.left_m + spec.pattern.right_m + 2.0 * spec.targets.coverage_margin_m
-    strips = 1 if width <= sensor.across_m else len(strip_offsets_many(
-        np.zeros(1), np.array([width]), sensor.across_m, sensor.spacing_m, sensor.side_images_per_point)[0])
+    margin = spec.targets.coverage_margin_m
+    strips = len(strip_ordinates(spec.pattern.left_m + margin, spec.pattern.right_m + margin, sensor.across_m,
+                                 sensor.spacing_m, sensor.side_images_per_point))
     extension = 2 * (spec.targets.images_beyond_boundary + sensor.forward_images_per_point)
     lengths = shapely.length(pieces) / k
     photos = float(np.sum(strips * (lengths / sensor.base_m + extension)))

@@ -145,7 +145,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         # photos taken at rest: neither motion blur nor the camera's cycle limits the speed between them
         speed = pg.SpeedLimit(spec.vehicle.cruise_speed_ms, "vehicle cruise speed (hover-and-capture: photos at rest)",
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
-        hover = spec.camera.settle_s + spec.camera.min_cycle_s
+        hover = hover_rest_s(spec)
     trigger_cmd = None
     if spec.camera.trigger == "distance":
         # whole centimetres a second, rounded down: the mission commands the speed to 1 cm/s, and
@@ -168,6 +168,23 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
     )
 
 
+def hover_rest_s(spec: MissionSpec) -> float:
+    """Hover-and-capture: the seconds at rest at a station, settling (`camera.settle_s`) and the shot (the camera's cycle)."""
+    return spec.camera.settle_s + spec.camera.min_cycle_s
+
+
+def tilted_corners(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> np.ndarray:
+    """(4, 2) flat-ground footprint corners of a photo from `agl_m` looking north at `pitch_deg`
+    (top-right, top-left, bottom-left, bottom-right): the capture model's. ValueError when a
+    corner's ray reaches the horizon."""
+    from aerosurvey.plan.capture import Optics, Photos, footprint_corners
+
+    zero = np.zeros(1)
+    c: np.ndarray = footprint_corners(Photos.looking(zero, zero, np.array([agl_m]), zero, np.array([pitch_deg])),
+                                      Optics.of(camera, mount), 0.0)[0]
+    return c
+
+
 def oblique_footprint(spec: MissionSpec, low_agl_m: float, high_agl_m: float) -> tuple[float, float, float]:
     """(across, along, far-edge GSD) of the oblique scheme's photos: the rectangle every one of
     them holds whichever way it looks relative to the flight (along the line or across it, and
@@ -175,14 +192,12 @@ def oblique_footprint(spec: MissionSpec, low_agl_m: float, high_agl_m: float) ->
     at the far edge of an oblique photo from the highest. From the capture model: the tilted
     photo's trapezoid is `depth` deep from its near to its far edge and `near` wide at its near
     edge, which bound the rectangle inside it."""
-    from aerosurvey.plan.capture import Optics, Photos, edge_gsd, footprint_corners
+    from aerosurvey.plan.capture import Optics, Photos, edge_gsd
 
-    optics = Optics.of(spec.camera.camera, spec.camera.mount)
-    zero = np.zeros(1)
+    cam, mount = spec.camera.camera, spec.camera.mount
 
-    def corners(pitch: float) -> np.ndarray:  # top-right, top-left, bottom-left, bottom-right; looking north
-        c: np.ndarray = footprint_corners(Photos.looking(zero, zero, np.array([low_agl_m]), zero, np.array([pitch])), optics, 0.0)[0]
-        return c
+    def corners(pitch: float) -> np.ndarray:
+        return tilted_corners(cam, mount, pitch, low_agl_m)
 
     try:
         c = corners(spec.pattern.pitch_deg)
@@ -196,8 +211,9 @@ def oblique_footprint(spec: MissionSpec, low_agl_m: float, high_agl_m: float) ->
     sides = [depth, near]
     if spec.pattern.scheme == "five-direction":
         sides += [float(v) for v in pg.footprint(low_agl_m, spec.camera.camera, spec.camera.mount)]
+    zero = np.zeros(1)
     high = Photos.looking(zero, zero, np.array([high_agl_m]), zero, np.array([spec.pattern.pitch_deg]))
-    far_gsd = float(edge_gsd(high, optics, 0.0).far_m[0])
+    far_gsd = float(edge_gsd(high, Optics.of(cam, mount), 0.0).far_m[0])
     if spec.pattern.scheme == "double-grid":  # a photo looks along its line: its depth along, its near edge across
         return near, depth, far_gsd
     return min(sides), min(sides), far_gsd
@@ -213,11 +229,7 @@ def _sees_ground(corners: Callable[[float], np.ndarray], pitch: float) -> bool:
 
 def oblique_centre_m(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> float:
     """How far ahead of the camera (on flat ground) the middle of an oblique photo's depth lies."""
-    from aerosurvey.plan.capture import Optics, Photos, footprint_corners
-
-    zero = np.zeros(1)
-    c = footprint_corners(Photos.looking(zero, zero, np.array([agl_m]), zero, np.array([pitch_deg])),
-                          Optics.of(camera, mount), 0.0)[0]
+    c = tilted_corners(camera, mount, pitch_deg, agl_m)
     return float((min(c[0, 1], c[1, 1]) + max(c[2, 1], c[3, 1])) / 2.0)
 
 
