@@ -2,8 +2,10 @@
 
 A clone in an empty folder must pass `make demo` and `make test` (`.ci/run` runs them on such a
 copy). This test catches the references that would make that fail, or that send a reader of the
-code to a file they do not have: a path into a sibling folder (`../shared`, `shared/papers/…`),
-or a machine's own folders (`/root/…`, `/work/…`, `/home/…`). Sources are cited by their title.
+code to a file they do not have: a path into a sibling folder (the shared docs, papers or reference
+folder beside the repository), or a machine's own folders (root's, the workplace's, a home folder).
+Sources are cited by their title. This file names no such path itself: its examples are built from
+pieces, so the check holds for it like for every other file.
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 #: Paths that lead out of the repository.
-OUTSIDE = re.compile(r"(\.\./shared\b|\bshared/(papers|reference|docs)\b|(?<![\w.])/(root|work|home)/\w)")
+SIBLING = "shared"
+OUTSIDE = re.compile(r"(\.\./" + SIBLING + r"\b|\b" + SIBLING + r"/(papers|reference|docs)\b|(?<![\w.])/(root|work|home)/\w)")
 
 
 def _repository_files() -> list[Path]:
@@ -44,13 +47,15 @@ def test_no_file_refers_to_a_path_outside_the_repository() -> None:
         if text is None:
             continue
         for n, line in enumerate(text.splitlines(), 1):
-            if OUTSIDE.search(line) and path != Path(__file__).resolve():
+            if OUTSIDE.search(line):
                 found.append(f"{path.relative_to(REPO)}:{n}: {line.strip()[:120]}")
     assert not found, "paths outside the repository:\n" + "\n".join(found)
 
 
 def test_the_pattern_finds_what_it_is_meant_to() -> None:
-    for bad in ("see ../shared/docs/x.md", "shared/papers/000.txt", 'Path("/root/sitl/bin")', "/work/main/src"):
+    sep = "/"
+    for bad in (f"see ..{sep}{SIBLING}{sep}docs/x.md", f"{SIBLING}{sep}papers/000.txt", f'Path("{sep}root{sep}sitl/bin")',
+                f"{sep}work{sep}main/src"):
         assert OUTSIDE.search(bad), bad
     for fine in ("tests/data/reference/x.csv", "shared by the format tests", "a/root/b", "src/aerosurvey/work/x"):
         assert not OUTSIDE.search(fine), fine
