@@ -200,8 +200,8 @@ def test_hover_gimbal_and_the_budget(tmp_path: Path) -> None:
     st = plan.stations
     pitch = st.pitch_deg.copy()
     pitch[st.run == 1] = -60.0
-    plan = replace(plan, stations=replace(st, pitch_deg=pitch),
-                   spec=replace(plan.spec, camera=replace(plan.spec.camera, trigger="hover", settle_s=1.5)))
+    plan = replace(plan, altitudes=replace(plan.altitudes, stations=replace(st, pitch_deg=pitch)),
+                   camera=replace(plan.camera, trigger="hover", settle_s=1.5))
     program = flight_program(plan)
     assert wpml.refusal(program) is None
     path = tmp_path / "h.kmz"

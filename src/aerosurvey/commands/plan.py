@@ -43,7 +43,7 @@ def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str) -> None:
         result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()
         report("mission files, rules and preview", 0.85)
-        rendered = write_outputs(result, outdir, gpkg, qgc)
+        rendered = write_outputs(result, mission_spec, outdir, gpkg, qgc)
     log.info("planned in %.2f s, files written in %.2f s", t1 - t0, time.perf_counter() - t1)
     for line in summary_text(rendered.summary, f"aerosurvey check {shlex.quote(str(outdir))}"):
         console.echo(line)

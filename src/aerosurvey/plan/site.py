@@ -56,12 +56,13 @@ class Site:
     exclusions_wgs84: tuple[BaseGeometry, ...]
     area: BaseGeometry  # planning CRS, normalised
     zones: BaseGeometry | None  # the exclusion zones, united
-    zones_buffered: BaseGeometry | None  # with flight.exclusion_margin_m: nothing may fly inside
+    zones_buffered: BaseGeometry | None  # with the margin: nothing may fly inside
     grid_scale: float  # planning-CRS metres per ground metre at the area's centroid
     dem: Dem | None
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
     simplification: Simplification
     centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
+    margin_m: float = 0.0  # flight.exclusion_margin_m: how far from the zones every leg keeps (ground metres)
 
     def autopilot_scale(self, heading_deg: float) -> float:
         """Planning-grid metres per metre of ArduPilot's distance along a line heading (a grid
@@ -202,7 +203,8 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> 
         dem = Dem(inputs.dem, planar)
         if spec.terrain.mode != "none":
             ground = dem.range_over(area, "area")
-    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline)
+    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline,
+                spec.flight.exclusion_margin_m)
 
 
 def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> BaseGeometry:
