@@ -2,9 +2,12 @@
 
 The layout follows DJI's published WPML reference (DJI Cloud API documentation, "DJI WPML":
 overview, template.kml, waylines.wpml, common elements; namespace wpmz/1.0.2 as in its
-samples): a ZIP archive holding `wpmz/template.kml` (the editable template, templateType
-"waypoint") and `wpmz/waylines.wpml` (what the aircraft executes), both KML 2.2 documents
-with a `wpml:missionConfig` and one `Folder` of `Placemark` waypoints.
+samples): a ZIP archive holding `wpmz/template.kml` (the editable template) and
+`wpmz/waylines.wpml` (what the aircraft executes), both KML 2.2 documents with a
+`wpml:missionConfig` and one `Folder`. waylines.wpml's Folder holds the program's waypoints as
+`Placemark`s; template.kml's holds a mapping2d or mappingStrip template where one expresses the
+flight (mission/formats/dji_template.py chooses, and says why not), else the same waypoints as
+a waypoint template.
 
 What is written:
 
