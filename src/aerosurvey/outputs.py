@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,7 +14,8 @@ from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
-from aerosurvey.mission.formats import QGC_LAYOUTS, wpml
+from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS, wpml
+from aerosurvey.mission.formats.dji_template import template_choice
 from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.qgc_survey import survey_items
@@ -34,6 +36,8 @@ from aerosurvey.report.features import footprint_lonlat, plan_geojson
 from aerosurvey.report.gpkg import footprints_layer, gpkg_bytes, plan_layers
 from aerosurvey.report.preview import render_svg
 from aerosurvey.report.summary import Summary, plan_summary
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -99,10 +103,12 @@ def plan_text(plan: Plan, m: Mission, qgc: str, stations: tuple[int, int] | None
     return dumps_plan(m, surveys)
 
 
-def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) -> Rendered:
+def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
+                   dji: str = DJI_TEMPLATES[0]) -> Rendered:
     """File name → text of every output of `plan`, planned from `spec` (the manifest last: it lists the others' hashes);
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
-    is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`)."""
+    is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`), `dji`
+    which template the DJI .kmz files hold (`dji_kmz_files`)."""
     # one flight program per file stem (the whole mission and each sortie), checked once, then emitted
     programs = {"mission": flight_program(plan)} | _sortie_programs(plan, ids.sortie_file_stem)
     final_gate(plan, programs)
@@ -126,7 +132,7 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
-    binary, dji_warnings = dji_kmz_files(programs)
+    binary, dji_warnings = dji_kmz_files(plan, programs, dji)
     warnings += dji_warnings
     # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
     # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
@@ -144,10 +150,11 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
 
 
-def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes], list[str]]:
+def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI_TEMPLATES[0]) -> tuple[dict[str, bytes], list[str]]:
     """A DJI WPML .kmz next to each flight's .plan and .waypoints when the camera is one a DJI
     aircraft flies waylines with (mission/formats/wpml.py), and a warning for each flight that
-    cannot be one (with why)."""
+    cannot be one (with why). `dji` "mapping": template.kml holds a mapping template where one
+    expresses the flight (mission/formats/dji_template.py), "waypoint": always the waypoint template."""
     files: dict[str, bytes] = {}
     warnings: list[str] = []
     for stem, p in programs.items():
@@ -156,7 +163,11 @@ def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes],
             return {}, []
         why = wpml.refusal(p)
         if why is None:
-            files[f"{stem}.kmz"] = wpml.kmz_bytes(p, aircraft)
+            # the whole mission, or its one sortie, flies every station
+            template = template_choice(plan, p, stem == "mission" or len(plan.sorties) == 1, dji)
+            if isinstance(template, str):
+                log.info("%s.kmz: waypoint template (%s)", stem, template)
+            files[f"{stem}.kmz"] = wpml.kmz_bytes(p, aircraft, template)
         else:
             warnings.append(f"{stem}.kmz (DJI waylines for the {aircraft.name}) is not written: {why}")
     return files, warnings
@@ -198,9 +209,10 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def write_outputs(plan: Plan, spec: MissionSpec, outdir: Path, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) -> Rendered:
+def write_outputs(plan: Plan, spec: MissionSpec, outdir: Path, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
+                  dji: str = DJI_TEMPLATES[0]) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
-    rendered = render_outputs(plan, spec, gpkg, qgc)
+    rendered = render_outputs(plan, spec, gpkg, qgc, dji)
     with staged_directory(outdir) as stage:
         for name, text in rendered.files.items():
             atomic_write_text(stage / name, text)

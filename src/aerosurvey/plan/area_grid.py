@@ -108,7 +108,7 @@ class AreaGrid:
             passes.append(Pass(i, fr, tuple(segs)))
         if not any(p.segments for p in passes):
             raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
-        return Layout(heading, chosen, tuple(passes), covered)
+        return Layout(heading, chosen, tuple(passes), covered, self.coverage_margin_m)
 
 
 __all__ = ["AreaGrid", "strip_geometry"]

@@ -116,7 +116,7 @@ class Corridor:
         exact = shapely.union_all(shapely.buffer(bends, reach, quad_segs=4)) if len(bends) else None
         start = shapely.get_coordinates(pieces[0])[:2]
         heading = math.degrees(math.atan2(*(start[1] - start[0]))) % 360.0
-        return Layout(heading, "along the corridor's centreline", tuple(passes), site.area, exact)
+        return Layout(heading, "along the corridor's centreline", tuple(passes), site.area, self.coverage_margin_m, exact)
 
 
 def strip_ordinates(left: float, right: float, across: float, spacing: float, per_point: int) -> np.ndarray:
