@@ -46,10 +46,17 @@ DENSIFY_SHARE = 0.2
 MAX_SAMPLES = 200_000
 #: a medial path's end is cut back to the last fork within this many inscribed radii of it
 SPUR_REACH = 3.0
+#: a branch is judged against the main path's widest inscribed circle within this many of its
+#: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
+BRANCH_WINDOW = 25
 #: the main path is simplified within this share of its median inscribed radius
 SIMPLIFY_SHARE = 0.2
 #: a corridor polygon at least this many times longer than wide
 MIN_ASPECT = 2.0
+#: the round outside of a bend in `corridor_polygon`: its arc drawn as this many chords
+FAN_STEPS = 32
+#: `corridor_polygon`'s vertices on a grid this fine (CRS units: a micrometre in a metric CRS)
+GRID_SIZE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -173,27 +180,37 @@ def _longest_path(nodes: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.n
 
 
 def _trimmed(xy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The path with each end cut back past its run into a corner: the points from the end on
-    that lie within SPUR_REACH of their inscribed radius of it (a corner's spur narrows to the
-    corner; a round end's path stops at its centre), each end at most to the path's middle."""
+    """The path with each end cut back past its run into a corner. From each end up to the farthest
+    point (in the path's first half) within SPUR_REACH of its inscribed radius of it, the cut is at
+    the first point whose radius reaches 0.98 of the widest there: a corner's spur widens from
+    nothing at the corner to the corridor's width; a round end's path starts at its centre, as wide."""
     arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
     mid = int(np.searchsorted(arc, arc[-1] / 2.0))
-    near_start = np.hypot(*(xy - xy[0]).T) <= SPUR_REACH * radius
-    near_end = np.hypot(*(xy - xy[-1]).T) <= SPUR_REACH * radius
-    i = min(int(np.argmin(near_start)) - 1, mid) if not near_start.all() else mid
-    j = max(len(xy) - int(np.argmin(near_end[::-1])), mid) if not near_end.all() else mid
-    return xy[max(i, 0):j + 1], radius[max(i, 0):j + 1]
+
+    def cut(pts: np.ndarray, r: np.ndarray, half: int) -> int:
+        near = np.flatnonzero(np.hypot(*(pts[:half] - pts[0]).T) <= SPUR_REACH * r[:half])
+        reach = int(near.max()) + 1 if len(near) else 1
+        return int(np.argmax(r[:reach] >= 0.98 * r[:reach].max()))
+
+    i = cut(xy, radius, mid + 1)
+    j = len(xy) - 1 - cut(xy[::-1], radius[::-1], len(xy) - mid)
+    return xy[i:j + 1], radius[i:j + 1]
 
 
 def _refuse_branches(nodes: np.ndarray, node_radius: np.ndarray, line: np.ndarray, path: np.ndarray, radius: np.ndarray,
                      unit: float, where: str) -> None:
     """Refuse a polygon whose medial axis has a point whose inscribed circle, at least half as
-    wide as the nearest one on the main path, lies wholly beyond that one's radius from the
+    wide as the corridor's next to it on the main path, lies wholly beyond that width from the
     centreline `line`: a branch as wide as the corridor, not a corner."""
     pts = shapely.points(nodes)
+    from scipy.ndimage import maximum_filter1d
+
+    # the corridor's inscribed radius along the main path: the widest within BRANCH_WINDOW path
+    # points (a narrow spot of a wiggly outline makes no branch of what is beside it)
+    wide = maximum_filter1d(radius, size=2 * BRANCH_WINDOW + 1, mode="nearest")
     which, nearest = shapely.STRtree(shapely.points(path)).query_nearest(pts, all_matches=False)
     near = np.empty(len(pts))
-    near[which] = radius[nearest]
+    near[which] = wide[nearest]
     centreline = shapely.linestrings(line)
     off = shapely.distance(centreline, pts)
     branch = (node_radius >= 0.5 * near) & (off - node_radius >= near)
@@ -244,7 +261,10 @@ def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float) -> 
         out = shapely.difference(part, band)
         if out.area <= 1e-9 * part.area:
             return left, right
-        grow = float(np.max(shapely.distance(band, shapely.points(shapely.get_coordinates(out))))) + 1e-6 * (left + right)
+        # as far as the farthest point out, and the sag of a fan's chords at the bends (its arc is
+        # FAN_STEPS chords of at most π/FAN_STEPS each, within the circle)
+        sag = max(left, right) * (1.0 / math.cos(math.pi / (2 * FAN_STEPS)) - 1.0)
+        grow = float(np.max(shapely.distance(band, shapely.points(shapely.get_coordinates(out))))) + sag
         left, right = left + grow, right + grow
     raise AssertionError(f"the corridor round the derived centreline does not cover the polygon ({out.area:g} left out)")
 
@@ -275,6 +295,8 @@ def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> Bas
                 continue
             t0, t1 = math.atan2(n0[1], n0[0]), math.atan2(n1[1], n1[0])
             sweep = (t1 - t0 + math.pi) % (2 * math.pi) - math.pi
-            t = t0 + sweep * np.linspace(0.0, 1.0, 33)
+            t = t0 + sweep * np.linspace(0.0, 1.0, FAN_STEPS + 1)
             parts.append(shapely.Polygon(np.vstack([xy[k], xy[k] + r * np.column_stack([np.cos(t), np.sin(t)])])))
-    return shapely.normalize(shapely.union_all(parts))
+    # on a grid of GRID_SIZE: each fan's first and last arc points are the rectangles' corners computed
+    # another way, a few 1e-14 apart, and GEOS's union without a grid has dropped a whole part over them
+    return shapely.normalize(shapely.union_all(parts, grid_size=GRID_SIZE))
