@@ -13,8 +13,8 @@ corridor round that line cover the polygon. Each part of a MultiPolygon gets its
    boundary samples or more nearest.
 2. Its longest path (the graph's diameter, found by two shortest-path searches from scipy,
    exact on a tree) is the main line. At each end it runs into a corner of the outline (a
-   rectangle's medial axis forks into its corners): each end is cut back to the last fork within
-   SPUR_REACH times the inscribed radius there (corners of 39° or wider).
+   rectangle's medial axis forks into its corners): each end is cut back to where the corridor
+   reaches its width (`_trimmed`).
 3. A polygon with a branch (a Y) has no single centreline: a point of the medial axis whose
    inscribed circle, at least half as wide as the corridor there, lies wholly beyond the
    corridor's own inscribed width from the main line is refused with its numbers.
@@ -44,8 +44,11 @@ DENSIFY_SHARE = 0.2
 #: at most this many boundary samples (the Voronoi diagram's memory and time): a longer outline
 #: is sampled more coarsely, and refused when that is coarser than half its typical half-width
 MAX_SAMPLES = 200_000
-#: a medial path's end is cut back to the last fork within this many inscribed radii of it
+#: a medial path's end is looked at as far as this many inscribed radii from it (corners of 39°
+#: or wider), and cut where its radius reaches END_WIDTH_SHARE of the widest there (on a square
+#: end's spur, that point lies (1 − share) × the half-width off the corridor's axis)
 SPUR_REACH = 3.0
+END_WIDTH_SHARE = 0.995
 #: a branch is judged against the main path's widest inscribed circle within this many of its
 #: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
 BRANCH_WINDOW = 25
@@ -182,7 +185,7 @@ def _longest_path(nodes: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.n
 def _trimmed(xy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The path with each end cut back past its run into a corner. From each end up to the farthest
     point (in the path's first half) within SPUR_REACH of its inscribed radius of it, the cut is at
-    the first point whose radius reaches 0.98 of the widest there: a corner's spur widens from
+    the first point whose radius reaches END_WIDTH_SHARE of the widest there: a corner's spur widens from
     nothing at the corner to the corridor's width; a round end's path starts at its centre, as wide."""
     arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
     mid = int(np.searchsorted(arc, arc[-1] / 2.0))
@@ -190,7 +193,7 @@ def _trimmed(xy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray
     def cut(pts: np.ndarray, r: np.ndarray, half: int) -> int:
         near = np.flatnonzero(np.hypot(*(pts[:half] - pts[0]).T) <= SPUR_REACH * r[:half])
         reach = int(near.max()) + 1 if len(near) else 1
-        return int(np.argmax(r[:reach] >= 0.98 * r[:reach].max()))
+        return int(np.argmax(r[:reach] >= END_WIDTH_SHARE * r[:reach].max()))
 
     i = cut(xy, radius, mid + 1)
     j = len(xy) - 1 - cut(xy[::-1], radius[::-1], len(xy) - mid)
