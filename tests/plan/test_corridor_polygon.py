@@ -16,6 +16,8 @@ import pytest
 import shapely
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as hs
+from test_corridor import LOCAL
+from test_corridor import _write as corridor_spec
 
 import independent_legs as il
 import independent_trigger as it
@@ -25,8 +27,6 @@ from aerosurvey.outputs import write_outputs
 from aerosurvey.spec import load_spec
 
 EXAMPLES = int(os.environ.get("AEROSURVEY_CORRIDOR_EXAMPLES", "8"))
-ORIGIN = (15.3, 49.5)
-LOCAL = il.Local(*ORIGIN)
 
 
 def _to_lonlat(g: shapely.Geometry) -> shapely.Geometry:
@@ -34,29 +34,13 @@ def _to_lonlat(g: shapely.Geometry) -> shapely.Geometry:
 
 
 def _write(folder: Path, polygon: shapely.Geometry, pattern: str) -> Path:
-    """The polygon (local metres) as road.geojson and a corridor spec over it with `pattern`'s lines."""
-    (folder / "road.geojson").write_text(shapely.to_geojson(_to_lonlat(polygon)))
-    spec = folder / "spec.toml"
-    spec.write_text(f"""
-[mission]
-name = "corridor polygon"
-[area]
-file = "road.geojson"
-[pattern]
-kind = "corridor"
-{pattern}
-[camera]
-model = "sony-a6000-16mm"
-trigger = "distance"
-[targets]
-gsd_cm = 2.0
-forward_overlap = 0.75
-side_overlap = 0.6
-images_beyond_boundary = 2
-[vehicle]
-type = "copter"
-cruise_speed_ms = 10.0
-""")
+    """test_corridor's spec (copter, distance trigger, 2 cm, 75/60 % overlaps) over the polygon (local
+    metres) in place of its centreline, with `pattern`'s lines in place of its width."""
+    spec = corridor_spec(folder, [np.array([[0.0, 0.0], [1.0, 0.0]])], 100.0, "copter", [], None)
+    (folder / "line.geojson").write_text(shapely.to_geojson(_to_lonlat(polygon)))
+    text = spec.read_text()
+    assert "width_m = 100.0\n" in text
+    spec.write_text(text.replace("width_m = 100.0\n", f"{pattern}\n"))
     return spec
 
 
@@ -114,13 +98,13 @@ def test_a_straight_polygon_with_its_width_given(tmp_path: Path) -> None:
 def test_a_y_shaped_polygon_is_refused_naming_the_file(tmp_path: Path) -> None:
     arms = [shapely.LineString([(0, 0), (0, 800)]), shapely.LineString([(0, 800), (-500, 1400)]),
             shapely.LineString([(0, 800), (500, 1400)])]
-    with pytest.raises(InputError, match=r"^area.file '.*road.geojson': the corridor polygon branches") as exc:
+    with pytest.raises(InputError, match=r"^area.file '.*line.geojson': the corridor polygon branches") as exc:
         _plan(tmp_path, shapely.union_all([a.buffer(40) for a in arms]))
     assert "\n" not in str(exc.value)
 
 
 def test_a_line_without_a_width_is_refused(tmp_path: Path) -> None:
     spec = _write(tmp_path, shapely.box(0, 0, 1200, 120), "")
-    (tmp_path / "road.geojson").write_text(shapely.to_geojson(_to_lonlat(shapely.LineString([(0, 0), (1200, 0)]))))
+    (tmp_path / "line.geojson").write_text(shapely.to_geojson(_to_lonlat(shapely.LineString([(0, 0), (1200, 0)]))))
     with pytest.raises(InputError, match="holds a centreline: .* needs width_m"):
         plan_from_files(load_spec(spec))
