@@ -8,19 +8,19 @@ the centreline the corridor pattern flies along, and the widths each side of it 
 corridor round that line cover the polygon. Each part of a MultiPolygon gets its own centreline.
 
 1. The boundary is sampled every DENSIFY_SHARE of the polygon's typical half-width (its area
-   over its perimeter; at most MAX_SAMPLES samples) and the Voronoi edges of the samples that lie
-   inside the polygon kept: an approximation of its medial axis, a graph of the points with two
-   boundary samples or more nearest.
+   over its perimeter; at most MAX_SAMPLES samples) and the Voronoi edges of the samples (qhull,
+   through scipy) that lie inside the polygon kept: an approximation of its medial axis, a graph
+   of the points with two boundary samples or more nearest.
 2. Its longest path (the graph's diameter, found by two shortest-path searches from scipy,
    exact on a tree) is the main line. At each end it runs into a corner of the outline (a
    rectangle's medial axis forks into its corners): each end is cut back to where the corridor
    reaches its width (`_trimmed`).
-3. A polygon with a branch (a Y) has no single centreline: a point of the medial axis whose
+3. The line is simplified within SIMPLIFY_SHARE of its median inscribed radius (Douglas-Peucker),
+   extended straight at each end over the ground that lies beyond it, and turned to run
+   eastwards (northwards when its ends lie due north of one another).
+4. A polygon with a branch (a Y) has no single centreline: a point of the medial axis whose
    inscribed circle, at least half as wide as the corridor there, lies wholly beyond the
-   corridor's own inscribed width from the main line is refused with its numbers.
-4. The line is simplified within SIMPLIFY_SHARE of its median inscribed radius (Douglas-Peucker),
-   turned to run eastwards (northwards when its ends lie due north of one another), and extended
-   straight at each end over the ground that lies beyond it.
+   corridor's own inscribed width from the line is refused with its numbers.
 5. The widths: the farthest boundary sample from the line on its left and on its right. The
    corridor round the line with those widths is checked to cover the polygon (grown by what
    sticks out, if the samples missed any), and one shorter than MIN_ASPECT times its width refused.
@@ -53,7 +53,7 @@ END_WIDTH_SHARE = 0.995
 #: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
 BRANCH_WINDOW = 25
 #: the main path is simplified within this share of its median inscribed radius
-SIMPLIFY_SHARE = 0.2
+SIMPLIFY_SHARE = 0.1
 #: a corridor polygon at least this many times longer than wide
 MIN_ASPECT = 2.0
 #: the round outside of a bend in `corridor_polygon`: its arc drawn as this many chords
@@ -84,7 +84,7 @@ def derive_centreline(polygon: BaseGeometry, unit: float, where: str) -> Derived
     for i, part in enumerate(parts, start=1):
         name = f"{where} (polygon {i} of {len(parts)})" if len(parts) > 1 else where
         xy, tol = _part_centreline(part, unit, name)
-        part_left, part_right = _covering(part, xy, *_sides(xy, _boundary_samples(part, _spacing(part))))
+        xy, part_left, part_right = _covering(part, xy, *_sides(xy, _boundary_samples(part, _spacing(part))))
         length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
         width = part_left + part_right
         if length < MIN_ASPECT * width:
@@ -133,14 +133,20 @@ def _part_centreline(part: BaseGeometry, unit: float, where: str) -> tuple[np.nd
         raise InputError(f"{where}: the corridor polygon is about as wide as it is long (its medial axis is a point): "
                          f"a corridor polygon must be at least {MIN_ASPECT:g} times longer than wide; plan it as an area "
                          "(pattern.kind = 'area')")
-    tol = SIMPLIFY_SHARE * float(np.median(radius))
-    simple = np.asarray(shapely.get_coordinates(shapely.simplify(shapely.linestrings(xy), tol)), float)
-    d = simple[-1] - simple[0]
+    typical = float(np.median(radius))
+    tol = SIMPLIFY_SHARE * typical
+    line = _extended(_simplified(xy, tol), xy, samples, 2.0 * typical, tol)
+    d = line[-1] - line[0]
     if d[0] < 0 or (d[0] == 0 and d[1] < 0):  # eastwards, or northwards
-        simple = simple[::-1]
-    line = _extended(simple, samples)
+        line = line[::-1]
     _refuse_branches(nodes[axis], shapely.distance(shapely.points(nodes[axis]), boundary), line, xy, radius, unit, where)
     return line, tol
+
+
+def _simplified(xy: np.ndarray, tol: float) -> np.ndarray:
+    """The polyline simplified within `tol` (Douglas-Peucker: a subset of its points, ends kept)."""
+    simple: np.ndarray = np.asarray(shapely.get_coordinates(shapely.simplify(shapely.linestrings(xy), tol)), float)
+    return simple
 
 
 def _medial_axis(part: BaseGeometry, samples: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -228,18 +234,32 @@ def _refuse_branches(nodes: np.ndarray, node_radius: np.ndarray, line: np.ndarra
                      "per arm that do not touch")
 
 
-def _extended(xy: np.ndarray, samples: np.ndarray) -> np.ndarray:
-    """The line continued straight at each end as far as the boundary samples nearest its end
-    reach beyond it (along the end segment's direction)."""
-    line = shapely.linestrings(xy)
-    at = shapely.line_locate_point(line, shapely.points(samples))
-    out = xy.copy()
-    for end, inner, nearest in ((0, 1, at <= 0.0), (-1, -2, at >= line.length)):
-        d = xy[end] - xy[inner]
-        d = d / math.hypot(*d)
-        beyond = (samples[nearest] - xy[end]) @ d
-        out[end] = xy[end] + d * max(float(beyond.max()) if len(beyond) else 0.0, 0.0)
-    return out
+def _extended(line: np.ndarray, path: np.ndarray, samples: np.ndarray, reach: float, tol: float) -> np.ndarray:
+    """The simplified `line` continued straight at each end as far as the boundary samples nearest
+    that end reach beyond it, in the direction of the medial `path`'s last `reach` there (a chord:
+    the last segment of a wiggly outline's axis may point anywhere): a new end point, the old one
+    left out when it lies within `tol` of the new last segment."""
+    simple = shapely.linestrings(line)
+    at = shapely.line_locate_point(simple, shapely.points(samples))
+    length = float(simple.length)  # GEOS's: what it gives a point projected past the end
+    raw = shapely.linestrings(path)
+    back = min(reach, float(raw.length) / 2.0)
+    out = [p for p in line]
+    for first, inner_at, nearest in ((True, back, at <= 0.0), (False, float(raw.length) - back, at >= length)):
+        end = out[0] if first else out[-1]
+        inner = np.asarray(shapely.get_coordinates(shapely.line_interpolate_point(raw, inner_at)), float)[0]
+        d = (end - inner) / math.hypot(*(end - inner))
+        beyond = float(((samples[nearest] - end) @ d).max()) if nearest.any() else 0.0
+        if beyond <= 0.0:
+            continue
+        new, before = end + d * beyond, (out[1] if first else out[-2])
+        drop = shapely.distance(shapely.Point(end), shapely.LineString([new, before])) <= tol
+        if first:
+            out = [new, *out[1:]] if drop else [new, *out]
+        else:
+            out = [*out[:-1], new] if drop else [*out, new]
+    extended: np.ndarray = np.array(out)
+    return extended
 
 
 def _sides(xy: np.ndarray, samples: np.ndarray) -> tuple[float, float]:
@@ -256,19 +276,25 @@ def _sides(xy: np.ndarray, samples: np.ndarray) -> tuple[float, float]:
     return float(off[left].max(initial=0.0)), float(off[~left].max(initial=0.0))
 
 
-def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float) -> tuple[float, float]:
-    """`left` and `right`, both grown by as far as the polygon reaches out of the corridor they
-    make round the line (nothing, unless the boundary between two samples bulges out of it)."""
-    for _ in range(3):
+def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float) -> tuple[np.ndarray, float, float]:
+    """The line and `left` and `right`, the widths and both ends grown by as far as the polygon
+    reaches out of the corridor they make (nothing, unless the boundary between two samples
+    bulges out of it); a millionth of the polygon's area may stay out (rounding slivers)."""
+    for _ in range(6):
         band = corridor_polygon(shapely.linestrings(xy), left, right)
         out = shapely.difference(part, band)
-        if out.area <= 1e-9 * part.area:
-            return left, right
-        # as far as the farthest point out, and the sag of a fan's chords at the bends (its arc is
-        # FAN_STEPS chords of at most π/FAN_STEPS each, within the circle)
+        if out.area <= 1e-6 * part.area:
+            return xy, left, right
+        # twice as far as the farthest vertex out (a sliver in the inside corner of a bend reaches
+        # further from the band between its vertices), and the sag of a fan's chords at the bends
+        # (its arc is FAN_STEPS chords of at most π/FAN_STEPS each, within the circle)
         sag = max(left, right) * (1.0 / math.cos(math.pi / (2 * FAN_STEPS)) - 1.0)
-        grow = float(np.max(shapely.distance(band, shapely.points(shapely.get_coordinates(out))))) + sag
+        grow = 2.0 * float(np.max(shapely.distance(band, shapely.points(shapely.get_coordinates(out))))) + sag
         left, right = left + grow, right + grow
+        xy = xy.copy()
+        for end, inner in ((0, 1), (-1, -2)):
+            d = xy[end] - xy[inner]
+            xy[end] = xy[end] + d / math.hypot(*d) * grow
     raise AssertionError(f"the corridor round the derived centreline does not cover the polygon ({out.area:g} left out)")
 
 
