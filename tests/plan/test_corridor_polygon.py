@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +47,8 @@ def _write(folder: Path, polygon: shapely.Geometry, pattern: str) -> Path:
 
 def _plan(folder: Path, polygon: shapely.Geometry, pattern: str = "") -> tuple[dict, Path]:
     out = folder / "out"
-    write_outputs(plan_from_files(load_spec(_write(folder, polygon, pattern))), out)
+    loaded = load_spec(_write(folder, polygon, pattern))
+    write_outputs(plan_from_files(loaded), loaded, out)
     return json.loads((out / "manifest.json").read_text()), out
 
 
@@ -80,6 +82,10 @@ def test_a_bent_corridor_polygon_is_covered(tmp_path_factory: pytest.TempPathFac
     manifest, out = _plan(folder, polygon)
     note = [w for w in manifest["warnings"] if w.startswith("centreline derived from the corridor polygon")]
     assert len(note) == 1 and "cover the polygon" in note[0], manifest["warnings"]
+    sides = manifest["pattern"]["parameters"]  # the derived widths, as the note gives them
+    said = re.search(r"([\d.]+) m to its left and ([\d.]+) m to its right", note[0])
+    assert said is not None and abs(float(said[1]) - sides["left_m"]) <= 0.051 and abs(float(said[2]) - sides["right_m"]) <= 0.051
+    assert min(sides["left_m"], sides["right_m"]) >= half - 0.5  # the outline is `half` from the line buffered
     problems = _problems(out, manifest, polygon)
     assert not problems, f"files in {folder}:\n" + "\n".join(problems)
 
@@ -91,7 +97,7 @@ def test_a_straight_polygon_with_its_width_given(tmp_path: Path) -> None:
     manifest, out = _plan(tmp_path, polygon, "width_m = 124")
     note = [w for w in manifest["warnings"] if w.startswith("centreline derived from the corridor polygon")]
     assert len(note) == 1 and "holds 100.0 % of the polygon" in note[0], manifest["warnings"]
-    assert manifest["pattern"]["parameters"] == {"left_m": 62.0, "right_m": 62.0}
+    assert manifest["pattern"]["parameters"] == {"left_m": 62.0, "right_m": 62.0}  # the spec's
     assert not _problems(out, manifest, polygon)
 
 
