@@ -165,3 +165,11 @@ def test_each_part_of_a_multipolygon_gets_its_centreline() -> None:
     d = derive_centreline(parts, 1.0, "area.file 'two.geojson'")
     assert d.centreline.geom_type == "MultiLineString" and len(d.centreline.geoms) == 2
     assert uncovered(parts, d.centreline, d.left, d.right) <= 1e-6 * parts.area
+
+
+def test_holes_are_flown_over() -> None:
+    """A road with a traffic island: the line runs down the middle as without it."""
+    road = shapely.box(0, 0, 1000, 100).difference(shapely.box(400, 40, 600, 60))
+    d = derive_centreline(road, 1.0, "area.file 'road.geojson'")
+    assert np.allclose(shapely.get_coordinates(d.centreline), [[0, 50], [1000, 50]], atol=0.5)
+    assert d.left == pytest.approx(50, abs=0.5) and d.right == pytest.approx(50, abs=0.5)

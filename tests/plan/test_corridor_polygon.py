@@ -101,6 +101,14 @@ def test_a_straight_polygon_with_its_width_given(tmp_path: Path) -> None:
     assert not _problems(out, manifest, polygon)
 
 
+def test_each_part_of_a_multipolygon_is_a_pass(tmp_path: Path) -> None:
+    """Two strips 1 km apart: a centreline each, flown as a pass each, both covered."""
+    strips = shapely.MultiPolygon([shapely.box(0, 0, 1000, 80), shapely.box(0, 1000, 80, 2200)])
+    manifest, out = _plan(tmp_path, strips)
+    assert {line["pass"] for line in manifest["lines"]} == {1, 2}
+    assert not _problems(out, manifest, strips)
+
+
 def test_a_y_shaped_polygon_is_refused_naming_the_file(tmp_path: Path) -> None:
     arms = [shapely.LineString([(0, 0), (0, 800)]), shapely.LineString([(0, 800), (-500, 1400)]),
             shapely.LineString([(0, 800), (500, 1400)])]

@@ -5,7 +5,8 @@ corridor plan photographs.
 
 `derive_centreline` turns a corridor drawn as a polygon (a road's outline, a river's banks) into
 the centreline the corridor pattern flies along, and the widths each side of it that make the
-corridor round that line cover the polygon. Each part of a MultiPolygon gets its own centreline.
+corridor round that line cover the polygon. Each part of a MultiPolygon gets its own centreline;
+holes are filled (ground that needs no photos, flown over as an area's holes are).
 
 1. The boundary is sampled every DENSIFY_SHARE of the polygon's typical half-width (its area
    over its perimeter; at most MAX_SAMPLES samples) and the Voronoi edges of the samples (qhull,
@@ -77,7 +78,8 @@ class DerivedCentreline:
 def derive_centreline(polygon: BaseGeometry, unit: float, where: str) -> DerivedCentreline:
     """The centreline of each part of `polygon` (planar CRS, `unit` CRS units per metre) and the
     widths that cover it. `where` names the input in messages (InputError)."""
-    parts = shapely.get_parts(polygon)
+    # holes filled: ground that needs no photos, which the corridor flies over (as an area's holes)
+    parts = shapely.polygons(shapely.get_exterior_ring(shapely.get_parts(polygon)))
     lines: list[np.ndarray] = []
     tolerances = []
     left = right = 0.0
