@@ -179,8 +179,8 @@ def _pattern(plan: Plan) -> dict[str, Any]:
     """The pattern and its parameters, and each pass's camera attitude and sensor solution."""
     p = plan.pattern
     params: dict[str, Any] = {}
-    if p.kind == "corridor":
-        params = {"left_m": p.left_m, "right_m": p.right_m}
+    if p.kind == "corridor" and plan.site.sides_m is not None:  # the spec's widths, or those derived from a corridor polygon
+        params = {"left_m": _f(plan.site.sides_m[0]), "right_m": _f(plan.site.sides_m[1])}
     elif p.kind == "oblique":
         params = {"scheme": p.scheme, "pitch_deg": p.pitch_deg,
                   "max_far_gsd_cm": _f(p.max_far_gsd_m * 100, 4) if p.max_far_gsd_m is not None else None}

@@ -14,6 +14,7 @@ run of waylines.wpml.
 
 from __future__ import annotations
 
+import json
 import math
 import zipfile
 from dataclasses import replace
@@ -451,6 +452,28 @@ def test_corridor_is_a_strip_template_along_its_centreline(tmp_path: Path) -> No
     assert pm.findtext("wpml:includeCenterEnable", namespaces=NS) == str(lines % 2)
     assert pm.findtext("wpml:singleLineEnable", namespaces=NS) == str(int(lines == 1))
     assert float(pm.findtext("wpml:cuttingDistance", namespaces=NS)) >= shapely.LineString(written).length
+
+
+def test_a_corridor_polygon_is_a_strip_template_as_wide_as_its_derived_widths(tmp_path: Path) -> None:
+    """The corridor's outline (the line above buffered by 75 m) and no width: the strip's extents are
+    the widths the plan derived (the manifest's), half their sum each side."""
+    line = [[15.000, 49.400], [15.010, 49.402], [15.018, 49.398]]
+    tr = _local(15.009, 49.400)
+    xy = np.column_stack(tr.transform([p[0] for p in line], [p[1] for p in line]))
+    ring = shapely.get_coordinates(shapely.LineString(xy).buffer(75.0).exterior)
+    lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
+    write_geojson(tmp_path / "outline.geojson", [[[float(a), float(b)] for a, b in zip(lon, lat)]])
+    spec = make_spec(tmp_path, {"camera": {"model": "dji-mavic-3-enterprise"}, "area": {"file": "outline.geojson"},
+                                "pattern": {"kind": "corridor"}})
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    tpl = _kmz(out / "mission.kmz")["wpmz/template.kml"]
+    assert tpl.findtext(".//wpml:templateType", namespaces=NS) == "mappingStrip"
+    pm = tpl.find("k:Document/k:Folder/k:Placemark", NS)
+    sides = json.loads((out / "manifest.json").read_text())["pattern"]["parameters"]
+    assert int(pm.findtext("wpml:leftExtend", namespaces=NS)) == round((sides["left_m"] + sides["right_m"]) / 2.0)
+    assert 70.0 <= sides["left_m"] <= 90.0 and 70.0 <= sides["right_m"] <= 90.0  # 75 m, give or take the medial axis
 
 
 @pytest.mark.parametrize(("overrides", "reason"), [

@@ -127,8 +127,8 @@ def template_choice(plan: Plan, p: FlightProgram, whole: bool, asked: str = DJI_
         return "the corridor's strips are not the offsets of one line: a strip template lays them so"
     polyline = found[0]
     lines = len({r.line for r in plan.route.runs})
-    assert plan.pattern.left_m is not None and plan.pattern.right_m is not None
+    assert plan.site.sides_m is not None  # the spec's widths, or those derived from a corridor polygon
     length = float(np.sum(_GEOD.line_lengths(polyline[:, 0], polyline[:, 1])))
     return replace(flown, kind="mappingStrip", coordinates=tuple((float(x), float(y)) for x, y in polyline),
-                   extend_m=round((plan.pattern.left_m + plan.pattern.right_m) / 2.0),
+                   extend_m=round(sum(plan.site.sides_m) / 2.0),
                    include_centre=lines % 2 == 1, single_line=lines == 1, length_m=float(math.ceil(length)))
