@@ -136,7 +136,7 @@ def check_limits(spec: MissionSpec, site: Site, sensor: SensorSolution) -> tuple
         raise InputError(f"the plan would take {what}: more than limits.max_flight_hours = {spec.limits.max_flight_hours:g}; "
                          "check the area and the speed, or raise limits.max_flight_hours for a job this large",
                          key="limits.max_flight_hours")
-    warnings = list(site.warnings)  # the site step's (a derived centreline), here until the plan collects each step's
+    warnings = []
     t = spec.targets
     if t.forward_overlap < MIN_STEREO_FORWARD:
         warnings.append(f"targets.forward_overlap = {t.forward_overlap:g} is under {MIN_STEREO_FORWARD:g}: ground between "

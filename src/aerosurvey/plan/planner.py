@@ -99,7 +99,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
         bounds=_bounds(site, sensor, layout, 2 if spec.flight.cross_hatch else 1),
         estimates=est, sun=sun,
-        warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings + _zone_warnings(spec, site),
+        warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
+                  + _zone_warnings(spec, site)),
     )
 
 
