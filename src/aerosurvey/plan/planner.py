@@ -108,8 +108,9 @@ def _bounds(site: Site, sensor: SensorSolution, layout: Layout, directions: int)
     """The grid's lower bounds (plan/bounds.py) for the area the photos must see: grown by the coverage margin."""
     margin = layout.margin_m * site.grid_scale
     covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
+    width = None if site.sides_m is None else sum(site.sides_m) + 2.0 * layout.margin_m
     return grid_bounds(covered, site.grid_scale, sensor.across_m, sensor.spacing_m, sensor.base_m,
-                       sensor.side_images_per_point, directions)
+                       sensor.side_images_per_point, directions, width)
 
 
 def _share(report: Progress, start: float, end: float) -> Progress:
