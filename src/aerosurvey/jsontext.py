@@ -115,9 +115,11 @@ class Column(tuple[Any, ...]):
     texts: tuple[str, ...] | None
     one: str | None
 
-    def __new__(cls, values: Iterable[Any] = (), texts: Sequence[str] | None = None, one: str | None = None) -> Column:
+    def __new__(cls, values: Iterable[Any] = (), texts: Sequence[str] | None = None, one: str | None = None,
+                kinds: frozenset[type] | None = None) -> Column:
+        """`kinds`, when the maker knows them (an array's dtype, strings by code), else read off the values."""
         col = super().__new__(cls, values)
-        col.kinds = frozenset(map(type, col))
+        col.kinds = frozenset(map(type, col)) if kinds is None else kinds
         col.texts = None if texts is None else tuple(texts)
         col.one = one
         return col
@@ -129,11 +131,12 @@ class Column(tuple[Any, ...]):
         station columns: ~1.2 ms a column → ~0.4 ms."""
         if a.ndim != 1 or a.dtype.kind not in "fi" or (a.dtype.kind == "f" and not np.isfinite(a).all()):
             raise ValueError(f"Column.of_array: a 1-D array of finite floats or of integers, not {a.dtype} {a.shape}")
-        if a.dtype.kind == "f":
+        kind: type = float if a.dtype.kind == "f" else int
+        if kind is float:
             texts = _float_texts(a)
         else:
             texts = orjson.dumps(a, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")[1:-1].split(",") if len(a) else []
-        return cls(a.tolist(), texts)
+        return cls(a.tolist(), texts, kinds=frozenset({kind}) if len(a) else frozenset())
 
     @classmethod
     def of_codes(cls, names: Sequence[str], codes: np.ndarray) -> Column:
@@ -145,7 +148,8 @@ class Column(tuple[Any, ...]):
         values, texts = np.empty(len(names), dtype=object), np.empty(len(names), dtype=object)
         values[:], texts[:] = list(names), list(map(_encode_str, names))
         codes = np.asarray(codes, dtype=np.intp)
-        return cls(values[codes].tolist(), texts[codes].tolist(), names[0] if len(names) == 1 else None)
+        return cls(values[codes].tolist(), texts[codes].tolist(), names[0] if len(names) == 1 else None,
+                   frozenset({str}) if len(codes) else frozenset())
 
 
 def one_value(values: Sequence[Any]) -> Any:
