@@ -16,6 +16,7 @@ from aerosurvey.jsontext import (
     dumps_compact,
     dumps_indented,
     float_texts,
+    int_texts,
     join_rows,
     one_value,
     pair_texts,
@@ -211,7 +212,19 @@ def test_a_column_of_an_int_array_writes_as_json(values: list[int]) -> None:
     col = Column.of_array(np.array(values, dtype=np.int64))
     assert col == tuple(values)
     assert all(type(v) is int for v in col)
+    assert col.kinds == frozenset(map(type, col))
     assert value_texts(col) == [json.dumps(v) for v in values]
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.uint32, np.int64, np.uint64])
+def test_int_texts_is_str_of_each_value(dtype: type) -> None:
+    info = np.iinfo(dtype)
+    a = np.array([info.min, info.max, 0, 1, info.max // 3, info.min // 7], dtype=dtype)
+    assert int_texts(a) == [str(v) for v in a.tolist()]
+    assert int_texts(a[::2]) == [str(v) for v in a[::2].tolist()]  # strided
+    assert int_texts(np.array([], dtype=dtype)) == []
+    with pytest.raises(ValueError):
+        int_texts(np.array([1.0]))
 
 
 @pytest.mark.parametrize("a", [np.array([1.0, math.nan]), np.array([math.inf]), np.array([[1.0]]), np.array(["a"])])

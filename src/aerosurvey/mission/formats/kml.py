@@ -36,7 +36,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import exponent_form, float_texts, join_rows
+from aerosurvey.jsontext import exponent_form, float_texts, int_texts, join_rows
 from aerosurvey.mission.formats.wpl import format_number
 from aerosurvey.report.gpkg import STYLES, Layer, Style
 
@@ -80,7 +80,7 @@ def _field_texts(values: np.ndarray, where: str) -> list[str]:
     if values.dtype.kind == "b":
         return ["true" if v else "false" for v in values.tolist()]
     if values.dtype.kind in "iu":
-        return list(map(str, values.tolist()))
+        return int_texts(values)
     if values.dtype.kind == "f":
         return _numbers(values)
     return _xml_texts([str(v) for v in values.tolist()], where)
