@@ -462,8 +462,10 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
         tags = {it.tag.split(":")[0] for it in items}
         runs = [k for k, rid in enumerate(run_ids) if rid in tags]
         shots = int(np.isin(station_run, runs).sum())
-        line_alts = [it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None]
-        distance = line_alts[0] if mode == DISTANCE_RELATIVE else plan.heights.nominal_agl_m
+        if mode == DISTANCE_RELATIVE:  # the height of the block's first waypoint on a line
+            distance = next(it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None)
+        else:
+            distance = plan.heights.nominal_agl_m
         gsd_cm = distance * cam.sensor_width_mm * 100.0 / (cam.image_width_px * cam.focal_mm)
         landscape = spec.camera.mount == "landscape"
         side_px, front_px = (cam.image_width_px, cam.image_height_px) if landscape else (cam.image_height_px, cam.image_width_px)
