@@ -216,6 +216,19 @@ def test_a_column_of_an_int_array_writes_as_json(values: list[int]) -> None:
     assert value_texts(col) == [json.dumps(v) for v in values]
 
 
+def test_a_column_of_an_array_reads_as_its_values() -> None:
+    a = np.array([1.5, -0.0, 2.0])
+    col = Column.of_array(a)
+    a[0] = 9.0  # the column keeps its own copy
+    assert col == (1.5, -0.0, 2.0) and list(col) == [1.5, -0.0, 2.0] and len(col) == 3
+    assert type(col[0]) is float and col[-1] == 2.0 and col[1:] == (-0.0, 2.0)
+    ints = Column.of_array(np.arange(3))
+    assert type(ints[2]) is int and tuple(ints) == (0, 1, 2)
+    codes = Column.of_codes(["a", "b"], np.array([1, 0, 1]))
+    assert codes == ("b", "a", "b") and codes[0] == "b" and codes == Column(["b", "a", "b"])
+    assert col != [1.5, -0.0, 2.0]  # equal to a tuple of its values, as a tuple is
+
+
 @pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.uint32, np.int64, np.uint64])
 def test_int_texts_is_str_of_each_value(dtype: type) -> None:
     info = np.iinfo(dtype)

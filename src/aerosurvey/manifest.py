@@ -135,7 +135,7 @@ STATION_KEYS = ("id", "seq", "line", "x", "y", "lon", "lat", "ground_m", "alt_re
 class StationTable:
     """The manifest's stations as columns, one per STATION_KEYS, of plain JSON values."""
 
-    columns: tuple[tuple[Any, ...], ...]
+    columns: tuple[Column, ...]
 
     def rows(self) -> list[dict[str, Any]]:
         """The stations as the manifest's JSON rows."""
@@ -145,7 +145,7 @@ class StationTable:
         """The rows' JSON text, `sep` between them, as `dumps` writes rows (made from the columns)."""
         return table_text(STATION_KEYS, self.columns, sep)
 
-    def column(self, key: str) -> tuple[Any, ...]:
+    def column(self, key: str) -> Column:
         """The column of one of STATION_KEYS."""
         return self.columns[STATION_KEYS.index(key)]
 
