@@ -229,6 +229,14 @@ def test_a_column_of_an_array_reads_as_its_values() -> None:
     assert col != [1.5, -0.0, 2.0]  # equal to a tuple of its values, as a tuple is
 
 
+@given(st.lists(finite | rounded, max_size=30))
+def test_a_column_of_an_array_without_texts_writes_as_json(values: list[float]) -> None:
+    a = np.array(values, float)
+    col = Column(a, kinds=frozenset({float}) if values else frozenset())
+    assert col.texts is None and np.asarray(col) is a
+    assert value_texts(col) == float_texts(col) == [json.dumps(v) for v in values]
+
+
 @pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.uint32, np.int64, np.uint64])
 def test_int_texts_is_str_of_each_value(dtype: type) -> None:
     info = np.iinfo(dtype)

@@ -148,6 +148,11 @@ class Column(Sequence[Any]):
             return tuple(v.tolist())
         return v.item() if isinstance(v, np.generic) else v
 
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        """The values as an array: a column made from one gives it (numpy reads it as it is)."""
+        a = self._values if isinstance(self._values, np.ndarray) else np.array(self._values, dtype=object)
+        return a if dtype is None else a.astype(dtype, copy=False)
+
     def __eq__(self, other: object) -> bool:
         """Equal to a tuple, or a Column, of the same values."""
         if isinstance(other, Column):
