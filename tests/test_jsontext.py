@@ -16,6 +16,7 @@ from aerosurvey.jsontext import (
     dumps_compact,
     dumps_indented,
     float_texts,
+    int_texts,
     join_rows,
     one_value,
     pair_texts,
@@ -211,7 +212,40 @@ def test_a_column_of_an_int_array_writes_as_json(values: list[int]) -> None:
     col = Column.of_array(np.array(values, dtype=np.int64))
     assert col == tuple(values)
     assert all(type(v) is int for v in col)
+    assert col.kinds == frozenset(map(type, col))
     assert value_texts(col) == [json.dumps(v) for v in values]
+
+
+def test_a_column_of_an_array_reads_as_its_values() -> None:
+    a = np.array([1.5, -0.0, 2.0])
+    col = Column.of_array(a)
+    a[0] = 9.0  # the column keeps its own copy
+    assert col == (1.5, -0.0, 2.0) and list(col) == [1.5, -0.0, 2.0] and len(col) == 3
+    assert type(col[0]) is float and col[-1] == 2.0 and col[1:] == (-0.0, 2.0)
+    ints = Column.of_array(np.arange(3))
+    assert type(ints[2]) is int and tuple(ints) == (0, 1, 2)
+    codes = Column.of_codes(["a", "b"], np.array([1, 0, 1]))
+    assert codes == ("b", "a", "b") and codes[0] == "b" and codes == Column(["b", "a", "b"])
+    assert col != [1.5, -0.0, 2.0]  # equal to a tuple of its values, as a tuple is
+
+
+@given(st.lists(finite | rounded, max_size=30))
+def test_a_column_of_an_array_without_texts_writes_as_json(values: list[float]) -> None:
+    a = np.array(values, float)
+    col = Column(a, kinds=frozenset({float}) if values else frozenset())
+    assert col.texts is None and np.asarray(col) is a
+    assert value_texts(col) == float_texts(col) == [json.dumps(v) for v in values]
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.uint32, np.int64, np.uint64])
+def test_int_texts_is_str_of_each_value(dtype: type) -> None:
+    info = np.iinfo(dtype)
+    a = np.array([info.min, info.max, 0, 1, info.max // 3, info.min // 7], dtype=dtype)
+    assert int_texts(a) == [str(v) for v in a.tolist()]
+    assert int_texts(a[::2]) == [str(v) for v in a[::2].tolist()]  # strided
+    assert int_texts(np.array([], dtype=dtype)) == []
+    with pytest.raises(ValueError):
+        int_texts(np.array([1.0]))
 
 
 @pytest.mark.parametrize("a", [np.array([1.0, math.nan]), np.array([math.inf]), np.array([[1.0]]), np.array(["a"])])

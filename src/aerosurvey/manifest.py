@@ -135,7 +135,7 @@ STATION_KEYS = ("id", "seq", "line", "x", "y", "lon", "lat", "ground_m", "alt_re
 class StationTable:
     """The manifest's stations as columns, one per STATION_KEYS, of plain JSON values."""
 
-    columns: tuple[tuple[Any, ...], ...]
+    columns: tuple[Column, ...]
 
     def rows(self) -> list[dict[str, Any]]:
         """The stations as the manifest's JSON rows."""
@@ -145,7 +145,7 @@ class StationTable:
         """The rows' JSON text, `sep` between them, as `dumps` writes rows (made from the columns)."""
         return table_text(STATION_KEYS, self.columns, sep)
 
-    def column(self, key: str) -> tuple[Any, ...]:
+    def column(self, key: str) -> Column:
         """The column of one of STATION_KEYS."""
         return self.columns[STATION_KEYS.index(key)]
 
@@ -153,14 +153,15 @@ class StationTable:
 def station_table(plan: Plan) -> StationTable:
     """The plan's stations as the manifest records them (rounded; None where a value is not
     finite). Its columns are `jsontext.Column`s: plan.geojson writes the ids,
-    positions and heights from them too (`report.features.plan_geojson`), their texts made once."""
+    positions and heights from them too (`report.features.plan_geojson`), their texts made here,
+    once for both files; the columns only the manifest writes get their texts from its writer."""
     st = plan.stations
 
-    def col(a: np.ndarray, nd: int) -> Column:
+    def col(a: np.ndarray, nd: int, geojson: bool = False) -> Column:
         r = np.round(np.asarray(a, float), nd)
         finite = np.isfinite(r)
         if finite.all():  # most columns: no per-value test
-            return Column.of_array(r)
+            return Column.of_array(r) if geojson else Column(r, kinds=frozenset({float}) if len(r) else frozenset())
         if not finite.any():  # the ground without a DEM
             return Column((None,) * len(r))
         return Column(None if not math.isfinite(v) else v for v in r.tolist())
@@ -170,8 +171,8 @@ def station_table(plan: Plan) -> StationTable:
     # the ids' JSON texts made here, once: plan.geojson writes them twice (feature id, property) and the manifest once
     return StationTable((Column(st.ids, string_texts(st.ids)), Column.of_array(np.arange(1, len(st.ids) + 1)),
                          Column.of_codes(run_ids, st.run),
-                         col(st.x, 3), col(st.y, 3), col(st.lon, 8), col(st.lat, 8), col(st.ground_m, 2),
-                         col(st.alt_rel_m, 2), col(st.agl_m, 2), col(gsd_cm, 3), col(st.heading_deg, 3),
+                         col(st.x, 3), col(st.y, 3), col(st.lon, 8, True), col(st.lat, 8, True), col(st.ground_m, 2),
+                         col(st.alt_rel_m, 2, True), col(st.agl_m, 2, True), col(gsd_cm, 3), col(st.heading_deg, 3, True),
                          col(st.pitch_deg, 2), col(st.camera_yaw_deg, 3)))
 
 

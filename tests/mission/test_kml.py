@@ -119,7 +119,7 @@ def test_every_placemark_has_a_style_and_each_sortie_its_colour(written) -> None
 
 
 def _layer(ids: list[str], note: list[str]) -> Layer:
-    pts = shapely.points(np.column_stack([np.linspace(15.0, 15.001, len(ids)), np.full(len(ids), 49.4)]))
+    pts = np.column_stack([np.linspace(15.0, 15.001, len(ids)), np.full(len(ids), 49.4)])  # a point layer's coordinates
     return Layer("gcps", "Point", pts, (("id", np.array(ids, dtype=object)), ("note", np.array(note, dtype=object)),
                                        ("images", np.arange(len(ids), dtype=np.int64))), STYLES["gcps"])
 
@@ -147,7 +147,7 @@ def test_a_character_xml_cannot_hold_is_refused_naming_where(bad: str) -> None:
 
 
 def test_a_near_zero_coordinate_is_written_without_an_exponent() -> None:
-    pts = shapely.points([[0.00001, -0.000002], [1e-9, 0.0]])
+    pts = np.array([[0.00001, -0.000002], [1e-9, 0.0]])
     text = layers_to_kml([Layer("gcps", "Point", pts, (("id", np.array(["a", "b"], dtype=object)),), STYLES["gcps"])], "x")
     coords = [c.text for c in ET.fromstring(text).iter(f"{K}coordinates")]
     assert coords[0] == "0.00001,-0.000002" and "e" not in coords[1]

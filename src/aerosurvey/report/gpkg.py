@@ -70,17 +70,34 @@ class Style:
 @dataclass(frozen=True)
 class Layer:
     """One layer: its name, OGR geometry type, geometries (WGS84, with z when the type says Z),
-    attribute columns (equal lengths) and style."""
+    attribute columns (equal lengths) and style. A point layer's geometries are its points'
+    coordinates, an (n, 2) array, (n, 3) with z: thousands of stations need no object each
+    (plan.kml writes their numbers; `shapes` makes the points plan.gpkg stores)."""
 
     name: str
     geometry_type: str
-    geometries: Sequence[shapely.Geometry] | npt.NDArray[np.object_]
+    geometries: Sequence[shapely.Geometry] | npt.NDArray[Any]
     fields: tuple[tuple[str, np.ndarray], ...]
     style: Style
+
+    def __post_init__(self) -> None:
+        if self.is_points and np.shape(self.geometries) != (len(self.geometries), 3 if self.has_z else 2):
+            raise ValueError(f"layer {self.name}: a {self.geometry_type} layer's geometries are coordinates "
+                             f"({3 if self.has_z else 2} a point), not {np.shape(self.geometries)}")
 
     @property
     def has_z(self) -> bool:
         return self.geometry_type.endswith(" Z")
+
+    @property
+    def is_points(self) -> bool:
+        return self.geometry_type in ("Point", "Point Z")
+
+    def shapes(self) -> npt.NDArray[np.object_]:
+        """The geometries as shapely objects (a point layer's points made from its coordinates)."""
+        if self.is_points:
+            return np.asarray(shapely.points(np.asarray(self.geometries, float)), dtype=object).reshape(-1)
+        return np.asarray(self.geometries, dtype=object)
 
 
 STYLES = {
@@ -116,8 +133,7 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
     zt = " Z" if z3 else ""
 
     def points(lon: np.ndarray, lat: np.ndarray, z: np.ndarray | None) -> np.ndarray:
-        coords = np.column_stack([lon, lat] + ([z] if z is not None else []))
-        return shapely.points(coords) if len(coords) else np.array([], dtype=object)
+        return np.column_stack([lon, lat] + ([z] if z is not None else [])).astype(float)
 
     def multi(g: shapely.Geometry) -> shapely.Geometry:
         return g if g.geom_type == "MultiPolygon" else shapely.MultiPolygon([g])
@@ -235,7 +251,7 @@ def write_gpkg(path: Path, layers: Sequence[Layer]) -> None:
     pyogrio.set_gdal_config_options(options)
     try:
         for layer in layers:
-            geoms = np.array(shapely.to_wkb(np.asarray(layer.geometries, dtype=object), output_dimension=3 if layer.has_z else 2),
+            geoms = np.array(shapely.to_wkb(layer.shapes(), output_dimension=3 if layer.has_z else 2),
                              dtype=object) if len(layer.geometries) else np.array([], dtype=object)
             pyogrio.raw.write(str(path), geoms, [c for _, c in layer.fields], [n for n, _ in layer.fields], layer=layer.name,
                               driver="GPKG", geometry_type=layer.geometry_type, crs=CRS, append=path.exists())

@@ -116,13 +116,17 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
     parts.append('<polyline fill="none" stroke="#888" stroke-width="1" stroke-dasharray="4 3" points="'
                  + join_rows([tenths(wx), ",", tenths(wy)], len(wx), " ") + '"><title>route</title></polyline>')
     colours = {1: "#1f5fbf", 2: "#c0601a"}
-    for i, r in enumerate(plan.route.runs):
-        # the line as flown with the camera on: first station, bends, last station
-        line = np.vstack([r.station_xy[:1], r.bends_xy, r.station_xy[-1:]])
-        lx, ly = view.pts(line[:, 0], line[:, 1])
-        drawn = " ".join(f"{x:.1f},{y:.1f}" for x, y in zip(lx, ly))
-        parts.append(f'<polyline fill="none" points="{drawn}" stroke="{colours.get(r.pass_index, "#555")}" '
-                     f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></polyline>')
+    # each run's line as flown with the camera on: first station, bends, last station (every run's
+    # points placed and written in one go, then split by run)
+    lines = [np.vstack([r.station_xy[:1], r.bends_xy, r.station_xy[-1:]]) for r in plan.route.runs]
+    if lines:
+        at = np.cumsum([len(line) for line in lines]).tolist()
+        xy = np.concatenate(lines)
+        lx, ly = view.pts(xy[:, 0], xy[:, 1])
+        texts = [f"{x},{y}" for x, y in zip(tenths(lx), tenths(ly))]
+        for i, (r, start, end) in enumerate(zip(plan.route.runs, [0, *at[:-1]], at)):
+            parts.append(f'<polyline fill="none" points="{" ".join(texts[start:end])}" stroke="{colours.get(r.pass_index, "#555")}" '
+                         f'stroke-width="2"><title>run {i + 1}, {len(r.station_xy)} photos</title></polyline>')
     if len(st.ids) <= 20000:
         dx, dy = view.pts(st.x, st.y)
         dots = join_rows(["M", tenths(dx), ",", tenths(dy), "h0.01"], len(dx), "")

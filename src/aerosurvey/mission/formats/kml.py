@@ -36,7 +36,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
-from aerosurvey.jsontext import exponent_form, float_texts, join_rows
+from aerosurvey.jsontext import exponent_form, float_texts, int_texts, join_rows
 from aerosurvey.mission.formats.wpl import format_number
 from aerosurvey.report.gpkg import STYLES, Layer, Style
 
@@ -80,7 +80,7 @@ def _field_texts(values: np.ndarray, where: str) -> list[str]:
     if values.dtype.kind == "b":
         return ["true" if v else "false" for v in values.tolist()]
     if values.dtype.kind in "iu":
-        return list(map(str, values.tolist()))
+        return int_texts(values)
     if values.dtype.kind == "f":
         return _numbers(values)
     return _xml_texts([str(v) for v in values.tolist()], where)
@@ -128,16 +128,18 @@ def _mode(has_z: bool) -> str:
     return "<altitudeMode>absolute</altitudeMode>" if has_z else ""
 
 
-def _geometries(geoms: np.ndarray, has_z: bool) -> list[str | list[str]]:
+def _geometries(layer: Layer) -> list[str | list[str]]:
     """`join_rows` parts of the KML of each point, line, polygon or multi-polygon: the positions of
     them all made in one go (a layer's geometries give them in order: each polygon's outer ring,
     then its holes); points (thousands of stations) as the columns of their numbers."""
-    columns = _position_columns(shapely.get_coordinates(geoms, include_z=has_z))
-    if (shapely.get_type_id(geoms) == shapely.GeometryType.POINT).all():
-        numbers: list[str | list[str]] = [columns[0]]
-        for c in columns[1:]:
-            numbers += [",", c]
+    has_z = layer.has_z
+    if layer.is_points:
+        numbers: list[str | list[str]] = []
+        for c in _position_columns(np.asarray(layer.geometries, float)):
+            numbers += [",", c] if numbers else [c]
         return [f"<Point>{_mode(has_z)}<coordinates>", *numbers, "</coordinates></Point>"]
+    geoms = np.asarray(layer.geometries, dtype=object)
+    columns = _position_columns(shapely.get_coordinates(geoms, include_z=has_z))
     positions = [",".join(row) for row in zip(*columns)]
     taken = 0
 
@@ -176,7 +178,7 @@ def _placemarks(layer: Layer) -> str:
     data: list[str | list[str]] = []
     for k in order:
         data += [f'<Data name="{escape(k, _QUOTES)}"><value>', texts[k], "</value></Data>"]
-    geometries = _geometries(np.asarray(layer.geometries, dtype=object), layer.has_z)
+    geometries = _geometries(layer)
     return join_rows(["<Placemark><name>", names, "</name><styleUrl>", style, "</styleUrl><ExtendedData>", *data,
                       "</ExtendedData>", *geometries, "</Placemark>"], n, "\n")
 

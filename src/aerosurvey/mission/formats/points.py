@@ -8,6 +8,7 @@ it (`jsontext.join_rows`), never a dict per feature: measured on the 100 km² be
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,10 +21,10 @@ class PointLayer:
     "geometry": {"type": "Point", "coordinates": [lon[i], lat[i]]}}` in that order; the
     properties' columns in their order, each as long as `ids`, of plain JSON values."""
 
-    ids: tuple[str, ...]
-    properties: tuple[tuple[str, tuple[Any, ...]], ...]
-    lon: tuple[float, ...]
-    lat: tuple[float, ...]
+    ids: Sequence[str]
+    properties: tuple[tuple[str, Sequence[Any]], ...]
+    lon: Sequence[float]
+    lat: Sequence[float]
 
     def __post_init__(self) -> None:
         n = len(self.ids)

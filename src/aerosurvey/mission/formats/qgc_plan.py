@@ -50,7 +50,10 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.jsontext import dumps_indented
@@ -86,28 +89,41 @@ _COPTER_TYPES = frozenset({2, 3, 4, 13, 14, 15})
 _PLANE_TYPES = frozenset({1, *range(19, 26)})
 _PARAM_NAMES = ("param1", "param2", "param3", "param4", "x (latitude)", "y (longitude)", "z (altitude)")
 _HOME_NAMES = ("latitude", "longitude", "altitude")
+_LAT_LON = ("latitude", "longitude")
 Polygon = tuple[tuple[float, float], ...]
 
 
-def _finite_or_nan(value: float, where: str, name: str = "") -> float | int | None:
-    """A JSON value for a number: NaN becomes null as QGroundControl writes it, infinity is
-    refused (the error names `where` and `name`, joined only then: thousands of items pass)."""
-    v = float(value)
-    if math.isnan(v):
-        return None
-    if math.isinf(v):
-        raise InputError(f"{where}{' ' + name if name else ''} = {v!r} is not allowed: a finite number (or NaN for 'unset')")
-    if v.is_integer() and abs(v) < 2**53:
-        return int(v)
-    return v
+def _json_numbers(values: Any, where: Callable[[int], str], nan_ok: bool = True) -> list[Any]:
+    """Numbers as the JSON values of a plan file, in a list (nested as `values` is): whole numbers
+    as integers (Mission Planner's C# reader takes ints where QGroundControl writes them), NaN as
+    null as QGroundControl writes it (refused unless `nan_ok`), infinity refused; an error names
+    the value's place, `where` of its flat index (made only then). One numpy pass for them all:
+    a mission's items have thousands."""
+    a = np.asarray(values, dtype=float)
+    bad = np.isinf(a) | (np.isnan(a) & (not nan_ok))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        v = float(a.flat[i])
+        allowed = "a finite number" if math.isnan(v) or not nan_ok else "a finite number (or NaN for 'unset')"
+        raise InputError(f"{where(i)} = {v!r} is not allowed: {allowed}")
+    out = a.astype(object)
+    whole = (a == np.trunc(a)) & (np.abs(a) < 2**53)  # NaN is not whole
+    out[whole] = a[whole].astype(np.int64)
+    out[np.isnan(a)] = None
+    numbers: list[Any] = out.tolist()
+    return numbers
 
 
 def _finite(value: float, where: str) -> float | int:
-    """A JSON value for a number that must be finite (home, speeds, fence vertices)."""
-    v = _finite_or_nan(value, where)
-    if v is None:
-        raise InputError(f"{where} = nan is not allowed: a finite number")
+    """A JSON value for one number that must be finite (speeds, the survey's settings)."""
+    v: float | int = _json_numbers([value], lambda _: where, nan_ok=False)[0]
     return v
+
+
+def _lat_lons(points: Any, where: str) -> list[Any]:
+    """[latitude, longitude] pairs (finite) as JSON values; an error names `where`, the vertex (from 1) and which."""
+    return _json_numbers(np.reshape(np.asarray(points, float), (-1, 2)),
+                         lambda i: f"{where} vertex {i // 2 + 1} {_LAT_LON[i % 2]}", nan_ok=False)
 
 
 def _check_item(it: MissionItem, where: str) -> None:
@@ -122,11 +138,9 @@ def _check_item(it: MissionItem, where: str) -> None:
                 raise InputError(f"{where} {name} = {v!r} is not allowed: a position item needs a finite position")
 
 
-def _item_dict(it: MissionItem, seq: int) -> dict[str, Any]:
-    """A SimpleItem as QGroundControl saves it; `seq` (1-based) is also its doJumpId, as in QGC's own files."""
-    where = f"mission item {seq}"
-    _check_item(it, where)
-    params = [_finite_or_nan(v, where, name) for name, v in zip(_PARAM_NAMES, (*it.params, it.x, it.y, it.z))]
+def _item_dict(it: MissionItem, seq: int, params: list[float | int | None]) -> dict[str, Any]:
+    """A SimpleItem as QGroundControl saves it, its `params` (param1-4, x, y, z) as `_json_numbers`
+    makes them; `seq` (1-based) is also its doJumpId, as in QGC's own files."""
     d: dict[str, Any] = {"autoContinue": bool(it.autocontinue), "command": it.command, "doJumpId": seq, "frame": it.frame,
                          "params": params, "type": "SimpleItem"}
     if it.has_position and it.frame in _ALT_MODE:
@@ -147,9 +161,7 @@ def _fence_polygons(m: Mission) -> list[dict[str, Any]]:
             where = f"{kind} fence polygon {k}"
             if len(poly) < 3:
                 raise InputError(f"{where} has {len(poly)} vertices; a fence polygon needs at least 3")
-            pts = [[_finite(lat, f"{where} vertex {j} latitude"), _finite(lon, f"{where} vertex {j} longitude")]
-                   for j, (lat, lon) in enumerate(poly, start=1)]
-            out.append({"inclusion": inclusion, "polygon": pts, "version": FENCE_POLYGON_VERSION})
+            out.append({"inclusion": inclusion, "polygon": _lat_lons(poly, where), "version": FENCE_POLYGON_VERSION})
     return out
 
 
@@ -191,8 +203,7 @@ def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
         "Items": items,
         "Refly90Degrees": False,
         "TurnAroundDistance": num(s.turnaround_m, "turnaround distance"),
-        "VisualTransectPoints": [[num(lat, "visual point latitude"), num(lon, "visual point longitude")]
-                                 for lat, lon in s.visual_points],
+        "VisualTransectPoints": _lat_lons(s.visual_points, f"{where} visual point"),
         "version": TRANSECT_STYLE_VERSION,
     }
     if s.distance_mode == 3:  # QGroundControl's own terrain following: it reads these only then
@@ -208,7 +219,7 @@ def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
             "EntryPoint": s.entry_location,
             "TransectStyleComplexItem": transect,
             "complexItemType": "CorridorScan",
-            "polyline": [[num(lat, "polyline latitude"), num(lon, "polyline longitude")] for lat, lon in s.corridor_polyline],
+            "polyline": _lat_lons(s.corridor_polyline, f"{where} polyline"),
             "type": "ComplexItem",
             "version": CORRIDOR_VERSION,
         }
@@ -220,7 +231,7 @@ def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
         "complexItemType": "survey",
         "entryLocation": s.entry_location,
         "flyAlternateTransects": s.fly_alternate,
-        "polygon": [[num(lat, "polygon latitude"), num(lon, "polygon longitude")] for lat, lon in s.polygon],
+        "polygon": _lat_lons(s.polygon, f"{where} polygon"),
         "splitConcavePolygons": False,
         "type": "ComplexItem",
         "version": SURVEY_VERSION,
@@ -236,7 +247,11 @@ def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dic
         raise InputError(f"mission vehicle = {m.vehicle!r} is not allowed: one of {', '.join(_VEHICLE)}")
     if len(m.home) != 3:
         raise InputError(f"mission home = {m.home!r} is not allowed: (latitude, longitude, altitude AMSL)")
-    items: list[dict[str, Any]] = [_item_dict(it, seq) for seq, it in enumerate(m.items, start=1)]
+    for seq, it in enumerate(m.items, start=1):
+        _check_item(it, f"mission item {seq}")
+    params = _json_numbers([(*it.params, it.x, it.y, it.z) for it in m.items],
+                           lambda i: f"mission item {i // 7 + 1} {_PARAM_NAMES[i % 7]}")
+    items: list[dict[str, Any]] = [_item_dict(it, seq, p) for seq, (it, p) in enumerate(zip(m.items, params), start=1)]
     for s in sorted(surveys, key=lambda s: s.first, reverse=True):  # from the end: earlier indices stay valid
         if not 0 <= s.first <= s.last < len(m.items):
             raise InputError(f"survey item of pass {s.pass_index} holds items {s.first + 1}-{s.last + 1}, "
@@ -251,7 +266,7 @@ def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dic
         "firmwareType": _FIRMWARE[m.firmware],
         "hoverSpeed": _finite(m.hover_speed, "mission hover_speed"),
         "items": items,
-        "plannedHomePosition": [_finite(v, f"mission home {name}") for name, v in zip(_HOME_NAMES, m.home)],
+        "plannedHomePosition": _json_numbers(m.home, lambda i: f"mission home {_HOME_NAMES[i]}", nan_ok=False),
         "vehicleType": _VEHICLE[m.vehicle],
         "version": MISSION_VERSION,
     }
@@ -266,15 +281,16 @@ def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dic
         "groundStation": "QGroundControl",
         "mission": mission,
         NAME_KEY: m.name,
-        "rallyPoints": {"points": [[_finite(v, f"rally point {k} {name}") for name, v in zip(_HOME_NAMES, p)]
-                                   for k, p in enumerate(m.rally, start=1)], "version": RALLY_VERSION},
+        "rallyPoints": {"points": _json_numbers(np.reshape(np.asarray(m.rally, float), (-1, 3)),
+                                                lambda i: f"rally point {i // 3 + 1} {_HOME_NAMES[i % 3]}", nan_ok=False),
+                        "version": RALLY_VERSION},
         "version": PLAN_FILE_VERSION,
     }
 
 
 def dumps_plan(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> str:
     """The plan as JSON text: sorted keys, indent 4, newline at the end, so equal missions give
-    equal bytes. Every float in `mission_to_plan_dict` has passed `_finite_or_nan` or `_finite`
+    equal bytes. Every float in `mission_to_plan_dict` has passed `_json_numbers`
     (NaN is None there, infinity refused), as `dumps_indented` requires."""
     return dumps_indented(mission_to_plan_dict(m, surveys)) + "\n"
 

@@ -122,11 +122,13 @@ def _to_tangent(lat0: float, lon0: float) -> Transformer:
 
 @dataclass(frozen=True)
 class _PassLines:
-    """A pass's lines as flown: per line (by line number), the lon/lat where the camera is
-    switched on and off on each of its runs; and how the pass starts."""
+    """A pass's lines as flown: the lon/lat where the camera is switched on and off on each run,
+    grouped by line (line numbers ascending, each line's points from `starts[k]` on); and how
+    the pass starts."""
 
     numbers: np.ndarray  # line numbers, ascending
-    points: list[np.ndarray]  # per line, (n, 2) lon/lat of its runs' starts and ends
+    points: np.ndarray  # (n, 2) lon/lat of the runs' starts and ends, line after line
+    starts: np.ndarray  # index in `points` of each line's first point
     first_run: tuple[np.ndarray, np.ndarray]  # lon/lat of the first run's start and end
     first_line: int  # position in `numbers` of the line flown first
 
@@ -144,8 +146,9 @@ def _pass_lines(plan: Plan, pass_index: int) -> _PassLines:
             if w.run == first_run:
                 first[0 if w.kind == "line_start" else 1] = (w.lon, w.lat)
     numbers = np.array(sorted(ends))
-    return _PassLines(numbers, [np.array(ends[k]) for k in numbers], (np.array(first[0]), np.array(first[1])),
-                      int(np.searchsorted(numbers, runs[first_run].line)))
+    counts = [len(ends[k]) for k in numbers]
+    return _PassLines(numbers, np.array([p for k in numbers for p in ends[k]]), np.cumsum([0, *counts[:-1]]),
+                      (np.array(first[0]), np.array(first[1])), int(np.searchsorted(numbers, runs[first_run].line)))
 
 
 @dataclass(frozen=True)
@@ -172,19 +175,22 @@ class _Strips:
 
 
 def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
-    pts = [np.column_stack(tr.transform(p[:, 0], p[:, 1])) for p in lines.points]
+    en = np.column_stack(tr.transform(lines.points[:, 0], lines.points[:, 1]))  # every line's points in one transform
     start, end = (np.array(tr.transform(*q)) for q in lines.first_run)
-    longest = max(pts, key=lambda p: float(np.ptp(p[:, 0]) ** 2 + np.ptp(p[:, 1]) ** 2))
+    at = lines.starts  # each line's points: en[at[k]:at[k + 1]] (per-line statistics by reduceat)
+    extent = np.maximum.reduceat(en, at) - np.minimum.reduceat(en, at)
+    k = int(np.argmax((extent ** 2).sum(axis=1)))  # the longest line
+    longest = en[at[k]:at[k + 1] if k + 1 < len(at) else len(en)]
     d = longest[np.argmax(longest @ (end - start))] - longest[np.argmin(longest @ (end - start))]
     bearing = math.degrees(math.atan2(d[0], d[1]))
     # SurveyComplexItem::_clampGridAngle90 keeps -90..90 and turns the rest by 180°
     angle = bearing - 180.0 if bearing > 90.0 else bearing + 180.0 if bearing < -90.0 else bearing
     a = math.radians(bearing)
     along, across = np.array([math.sin(a), math.cos(a)]), np.array([math.cos(a), -math.sin(a)])
-    v = np.array([float(np.mean(p @ across)) for p in pts])
+    v = np.add.reduceat(en @ across, at) / np.diff([*at, len(en)])  # each line's mean offset across
     order = np.argsort(v)
-    lo = np.array([float((pts[k] @ along).min()) for k in order])
-    hi = np.array([float((pts[k] @ along).max()) for k in order])
+    u = en @ along
+    lo, hi = np.minimum.reduceat(u, at)[order], np.maximum.reduceat(u, at)[order]
     # the spacing the lines lie at on this plane: a least-squares line through their offsets by line number
     spacing = abs(float(np.polyfit(lines.numbers[order], v[order], 1)[0])) if len(v) > 1 else plan.sensor.spacing_m
     sign = 1.0 if angle == bearing else -1.0
@@ -242,11 +248,12 @@ def _grid_offsets(st: _Strips, m0: np.ndarray, m1: np.ndarray, tail: np.ndarray)
     bottom, top = st.v[0] - np.asarray(m0, float), st.v[-1] + np.asarray(m1, float)
     back = u_lo - np.asarray(tail, float)
     uv = [(back, bottom), (back, st.v[0] - (1.0 - _RAIL) * np.asarray(m0, float)), (u_hi, bottom), (u_lo, top), (u_hi, top)]
-    east = np.stack(np.broadcast_arrays(*[u * st.along[0] + w * st.across[0] for u, w in uv]), axis=-1)
-    north = np.stack(np.broadcast_arrays(*[u * st.along[1] + w * st.across[1] for u, w in uv]), axis=-1)
-    centre_across = (east.min(axis=-1) + east.max(axis=-1)) / 2.0 * st.across[0] + \
-        (north.min(axis=-1) + north.max(axis=-1)) / 2.0 * st.across[1]
-    half = (np.maximum(np.ptp(east, axis=-1), np.ptp(north, axis=-1)) + QGC_LINE_MARGIN_M) / 2.0
+    # the corners' east and north, corner by corner along axis 0 (the box: their min and max over it)
+    east = np.stack(np.broadcast_arrays(*[u * st.along[0] + w * st.across[0] for u, w in uv]))
+    north = np.stack(np.broadcast_arrays(*[u * st.along[1] + w * st.across[1] for u, w in uv]))
+    e_lo, e_hi, n_lo, n_hi = east.min(axis=0), east.max(axis=0), north.min(axis=0), north.max(axis=0)
+    centre_across = (e_lo + e_hi) / 2.0 * st.across[0] + (n_lo + n_hi) / 2.0 * st.across[1]
+    half = (np.maximum(e_hi - e_lo, n_hi - n_lo) + QGC_LINE_MARGIN_M) / 2.0
     s = st.spacing
     # QGroundControl lays its lines along sign·across from the box's centre: line k at sign·(-h + k·spacing)
     return np.asarray((centre_across - st.sign * half - st.v[0] + s / 2.0) % s - s / 2.0, float)
@@ -274,7 +281,7 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
     and the lines clear of the rails.
     Where no margins put the grid on our lines, it is left as near as they put it."""
     lines = _pass_lines(plan, pass_index)
-    origin = lines.points[0][0]
+    origin = lines.points[0]
     for _ in range(3):  # the plane's origin is vertex 0, which depends a little on the bearing measured on it
         tr = _to_tangent(float(origin[1]), float(origin[0]))
         st = _strips(plan, lines, tr)
@@ -455,8 +462,10 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
         tags = {it.tag.split(":")[0] for it in items}
         runs = [k for k, rid in enumerate(run_ids) if rid in tags]
         shots = int(np.isin(station_run, runs).sum())
-        line_alts = [it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None]
-        distance = line_alts[0] if mode == DISTANCE_RELATIVE else plan.sensor.heights.nominal_agl_m
+        if mode == DISTANCE_RELATIVE:  # the height of the block's first waypoint on a line
+            distance = next(it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None)
+        else:
+            distance = plan.sensor.heights.nominal_agl_m
         gsd_cm = distance * cam.sensor_width_mm * 100.0 / (cam.image_width_px * cam.focal_mm)
         landscape = plan.camera.mount == "landscape"
         side_px, front_px = (cam.image_width_px, cam.image_height_px) if landscape else (cam.image_height_px, cam.image_width_px)
