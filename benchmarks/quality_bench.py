@@ -69,6 +69,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 
 import independent_coverage as ic  # noqa: E402  (the tests' independent replay, by path)
+from ardupilot_location import metres_per_ground_metre  # noqa: E402
 
 LAT0, LON0, EPSG = 49.40, 15.00, 32633
 PEER = "opencoverage==0.2.0"
@@ -145,9 +146,14 @@ def peer_rows(peer: dict, to_ll) -> list[list[float]]:
     lon, lat = to_ll.transform(xy[:, 0], xy[:, 1])
     h = peer["height"]
     # commanded as aerosurvey commands its own: whole 50 Hz check steps within the peer's forward
-    # distance, less half a step, so the autopilot's pictures lie no farther apart than it asked
+    # distance, less half a step, so the autopilot's pictures lie no farther apart than it asked;
+    # in ArduPilot's metres (its flat earth, as the replay measures), along the peer's lines (its
+    # legs of a base or more: the fewest autopilot metres per ground metre of any of them)
+    d = np.hypot(*np.diff(xy, axis=0).T)
+    long = np.flatnonzero(d >= peer["forward"])
+    scale = min((metres_per_ground_metre(lat[i], lon[i], lat[i + 1], lon[i + 1], d[i]) for i in long.tolist()), default=1.0)
     step = SPEED / 50.0
-    command = math.floor(peer["forward"] / step + 1e-9) * step - step / 2.0
+    command = math.floor(peer["forward"] * scale / step + 1e-9) * step - step / 2.0
     rows = [[0, 0, 3, ic.DO_CHANGE_SPEED, 1, SPEED, -1, 0, 0, 0, 0, 1],
             [0, 0, 3, ic.NAV_WAYPOINT, 0, 0, 0, 0, lat[0], lon[0], h, 1],
             [0, 0, 3, ic.DO_SET_CAM_TRIGG_DIST, command, 0, 1, 0, 0, 0, 0, 1]]
