@@ -6,15 +6,26 @@ search of the line order and cells.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import shapely
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.layout import Layout
-from aerosurvey.plan.lines import LineSegment, Outline, StripGeometry, build_lines, line_bounds
+from aerosurvey.plan.lines import (
+    LineSegment,
+    Outline,
+    StripGeometry,
+    anchored_offsets,
+    build_lines,
+    line_bounds,
+    strip_offsets,
+)
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.sensor import SensorSolution
@@ -100,15 +111,169 @@ class AreaGrid:
             chosen = "auto: the shortest estimated flight time"
         else:
             heading, chosen = self.heading_deg, "fixed by the spec"
+        zones = site.zones_buffered
+
+        banded: dict[float, tuple[float, list[float], list[LineSegment]]] = {}
+
+        def cells_for(h: float) -> tuple[float, list[float], list[LineSegment]]:
+            if h not in banded:
+                fr, segs = lines_for(h)
+                zf = fr.geom_to_frame(zones) if zones is not None else None
+                banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, strips(h), segs,
+                                           lambda s: quick_cost(s, lead, sensor.kinematics))
+            return banded[h]
+
+        concave = covered.area < shapely.convex_hull(covered).area * (1.0 - 1e-9)
+        # bands end runs inside the area, at their cuts: not where each run must end beyond it
+        banding = concave and not self.images_beyond_boundary
+        if banding and self.heading_deg is None and not self.cross_hatch:
+            # cut into bands, a heading along one of the area's own long edges (a notch's side)
+            # may fly shorter than the single grid's best heading: the cheapest kept
+            report("cells across the notches", 0.62)
+            # (and no more photos than the single grid: the time estimate flies lines in order,
+            # the route searches more; a layout it prices cheaper with more photos may fly longer)
+            photos = sum(s.n for s in lines_for(heading)[1])
+            fewer = [h for h in (heading, *edge_headings(covered)) if sum(s.n for s in cells_for(h)[2]) <= photos]
+            heading = min(fewer, key=lambda h: (cells_for(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
         report("flight lines and photo stations", 0.66)
         passes = []
+        split = 0
         for i, h in enumerate(headings, start=1):
-            fr, segs = lines_for(h)
-            passes.append(Pass(i, fr, tuple(segs)))
+            _, cuts, segs = cells_for(h) if banding else (0.0, [], lines_for(h)[1])
+            split = max(split, len(cuts) + 1 if cuts else 0)
+            passes.append(Pass(i, lines_for(h)[0], tuple(segs)))
         if not any(p.segments for p in passes):
             raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
+        if split:
+            chosen += f"; lines laid in {split} bands across the notches (a shorter flight than one grid)"
         return Layout(heading, chosen, tuple(passes), covered)
 
 
-__all__ = ["AreaGrid", "strip_geometry"]
+#: the area's edge directions tried as headings of a banded layout: the longest ones
+MAX_EDGE_HEADINGS = 6
+
+
+def edge_headings(area: BaseGeometry) -> list[float]:
+    """The directions (degrees, 0-180) of the area's longest boundary edges, holes' too, the
+    MAX_EDGE_HEADINGS longest distinct ones (a notch's sides are no edges of the hull)."""
+    rings = shapely.get_rings(shapely.get_parts(area))
+    xy, ring_of = shapely.get_coordinates(rings, return_index=True)
+    start = np.flatnonzero(ring_of[1:] == ring_of[:-1])
+    d = xy[start + 1] - xy[start]
+    length = np.hypot(d[:, 0], d[:, 1])
+    out: list[float] = []
+    for i in np.argsort(-length, kind="stable").tolist():
+        h = round(float(np.degrees(np.arctan2(d[i, 0], d[i, 1])) % 180.0), 6)
+        if length[i] > 0 and h not in out:
+            out.append(h)
+        if len(out) == MAX_EDGE_HEADINGS:
+            break
+    return out
+
+
+#: cuts between cells tried: the ordinates where the area's width jumps most
+MAX_CUTS = 6
+
+
+def cut_candidates(area_f: BaseGeometry, spacing: float, base: float) -> list[float]:
+    """Ordinates (line frame) where a band of cells may be cut: the area's reflex vertices (where
+    a notch or a hole begins or ends, so the lines' lengths jump), those whose width jumps most
+    first (the area's length along the lines a quarter spacing below against above), at most
+    MAX_CUTS, each at least half a spacing from the others and from the area's lowest and
+    highest ordinate, and a jump of a base or more."""
+    _, vmin, _, vmax = area_f.bounds
+    vs: list[float] = []
+    for poly in shapely.get_parts(area_f):
+        for ring in (poly.exterior, *poly.interiors):
+            xy = np.asarray(ring.coords)[:-1]
+            if len(xy) < 3:
+                continue
+            ccw = shapely.LinearRing(xy).is_ccw
+            d_in, d_out = xy - np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0) - xy
+            turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
+            # the area lies left of a counter-clockwise exterior and of a clockwise hole
+            left = ccw if ring is poly.exterior else not ccw
+            vs += xy[(turn < 0) if left else (turn > 0), 1].tolist()
+    q = spacing / 2.0
+    cand = np.unique(np.asarray(vs, float))  # exact: a cut a hair off a notch's corner leaves a sliver of the wider side
+    cand = cand[(cand > vmin + q) & (cand < vmax - q)]
+    if not len(cand):
+        return []
+    minx, _, maxx, _ = area_f.bounds
+    w = spacing / 4.0
+    below = shapely.area(shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), cand - w, np.double(maxx + 1.0), cand)) / w
+    above = shapely.area(shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), cand, np.double(maxx + 1.0), cand + w)) / w
+    jump = np.abs(above - below)
+    kept: list[float] = []
+    for i in np.argsort(-jump, kind="stable").tolist():
+        if jump[i] < base or len(kept) == MAX_CUTS:
+            break
+        if all(abs(cand[i] - c) >= q for c in kept):
+            kept.append(float(cand[i]))
+    return kept
+
+
+def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry,
+               cuts: list[float], direction: int = 1) -> list[LineSegment]:
+    """The area cut across the lines at the ordinates `cuts` into bands, each band laid with its
+    own lines (`build_lines`: every point of a band in k_side strips of its lines, k_fwd photos
+    each, so every point of the area is); the lines of all bands numbered by ordinate, as one
+    pass's. Runs end at the cuts, inside the area: not for the images-beyond-the-boundary rule.
+
+    Bands are laid one after another, upwards (`direction` 1) or downwards (−1): a band's lines
+    centred on it (`strip_offsets`) when its first line then lies within a spacing of the last
+    band's last line, else at the spacing from that line on (`anchored_offsets`), so that no two
+    neighbouring lines lie farther apart than the spacing (the asked side overlap holds between
+    bands too)."""
+    minx, vmin, maxx, vmax = area_f.bounds
+    edges = [vmin, *sorted(cuts), vmax]
+    spans = list(zip(edges[:-1], edges[1:]))[::direction]
+    reach = g.across / 2.0 - (g.side_per_point - 1) * g.spacing  # the k-th line from a band's edge
+    laid: list[tuple[float, int, int, LineSegment]] = []
+    last: float | None = None
+    for b, (lo, hi) in enumerate(spans):
+        band = shapely.clip_by_rect(area_f, minx - 1.0, lo, maxx + 1.0, hi)
+        if band.is_empty or band.area <= 0:
+            continue
+        _, blo, _, bhi = band.bounds
+        vs = strip_offsets(blo, bhi, g.across, g.spacing, g.side_per_point)
+        near = vs[0] if direction > 0 else vs[-1]
+        if last is not None and abs(near - last) > g.spacing * (1.0 + 1e-9):
+            first = min(last + g.spacing, blo + reach) if direction > 0 else max(last - g.spacing, bhi - reach)
+            anchored = anchored_offsets(blo, bhi, first, direction, g)
+            if anchored is None:
+                return []  # not laid this way: priced as no layout
+            vs = anchored
+        last = float(vs[-1] if direction > 0 else vs[0])
+        laid += [(s.v, b, s.line, s) for s in build_lines(band, zones_f, g, vs=vs)]
+    index: dict[tuple[int, int], int] = {}
+    for _, b, line, _ in sorted(laid, key=lambda t: t[:3]):
+        index.setdefault((b, line), len(index))
+    return [LineSegment(index[(b, line)], s.part, s.v, s.x0, s.n, s.base)
+            for _, b, line, s in sorted(laid, key=lambda t: (index[(t[1], t[2])], t[3].part))]
+
+
+def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry, grid: list[LineSegment],
+                   cost: Callable[[list[LineSegment]], float]) -> tuple[float, list[float], list[LineSegment]]:
+    """(time, cuts, runs): the single grid's runs `grid`, or the area cut into bands across the lines
+    (`cell_lines`) where that costs less time: cuts added one at a time, the one saving most
+    first, while one saves any (a line crossing a notch photographs the ground on both sides of
+    it at the length of the longer; a band each lays them at their own lengths)."""
+    cands = cut_candidates(area_f, g.spacing, g.base)
+    best_cost = cost(grid) if grid else math.inf
+    cuts: list[float] = []
+    best = grid
+    while cands:
+        tried = [(c, cell_lines(area_f, zones_f, g, [*cuts, c], d)) for c in cands for d in (1, -1)]
+        priced = [(cost(segs) if segs else math.inf, c, segs) for c, segs in tried]
+        value, c, segs = min(priced, key=lambda t: (t[0], t[1]))
+        if not value < best_cost * (1.0 - 1e-9):
+            break
+        best_cost, best = value, segs
+        cuts.append(c)
+        cands.remove(c)
+    return best_cost, sorted(cuts), best
+
+
+__all__ = ["AreaGrid", "cell_lines", "cheapest_cells", "cut_candidates", "strip_geometry"]
