@@ -115,12 +115,16 @@ class AreaGrid:
 
         banded: dict[float, tuple[float, list[float], list[LineSegment]]] = {}
 
+        # no more photos than the single grid at its heading: the time estimate flies lines in
+        # order, the route searches more, so a layout priced cheaper with more photos may fly longer
+        most = sum(s.n for s in lines_for(heading)[1])
+
         def cells_for(h: float) -> tuple[float, list[float], list[LineSegment]]:
             if h not in banded:
                 fr, segs = lines_for(h)
                 zf = fr.geom_to_frame(zones) if zones is not None else None
                 banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, strips(h), segs,
-                                           lambda s: quick_cost(s, lead, sensor.kinematics))
+                                           lambda s: quick_cost(s, lead, sensor.kinematics), most)
             return banded[h]
 
         concave = covered.area < shapely.convex_hull(covered).area * (1.0 - 1e-9)
@@ -130,11 +134,8 @@ class AreaGrid:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
             # may fly shorter than the single grid's best heading: the cheapest kept
             report("cells across the notches", 0.62)
-            # (and no more photos than the single grid: the time estimate flies lines in order,
-            # the route searches more; a layout it prices cheaper with more photos may fly longer)
-            photos = sum(s.n for s in lines_for(heading)[1])
-            fewer = [h for h in (heading, *edge_headings(covered)) if sum(s.n for s in cells_for(h)[2]) <= photos]
-            heading = min(fewer, key=lambda h: (cells_for(h)[0], h != heading, h))
+            fewer = [h for h in edge_headings(covered) if sum(s.n for s in cells_for(h)[2]) <= most]
+            heading = min((heading, *fewer), key=lambda h: (cells_for(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
         report("flight lines and photo stations", 0.66)
         passes = []
@@ -255,10 +256,10 @@ def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeome
 
 
 def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry, grid: list[LineSegment],
-                   cost: Callable[[list[LineSegment]], float]) -> tuple[float, list[float], list[LineSegment]]:
+                   cost: Callable[[list[LineSegment]], float], most_photos: int) -> tuple[float, list[float], list[LineSegment]]:
     """(time, cuts, runs): the single grid's runs `grid`, or the area cut into bands across the lines
-    (`cell_lines`) where that costs less time: cuts added one at a time, the one saving most
-    first, while one saves any (a line crossing a notch photographs the ground on both sides of
+    (`cell_lines`) where that costs less time with `most_photos` photos or fewer: cuts added one
+    at a time, the one saving most first, while one saves any (a line crossing a notch photographs the ground on both sides of
     it at the length of the longer; a band each lays them at their own lengths)."""
     cands = cut_candidates(area_f, g.spacing, g.base)
     best_cost = cost(grid) if grid else math.inf
@@ -266,7 +267,8 @@ def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripG
     best = grid
     while cands:
         tried = [(c, cell_lines(area_f, zones_f, g, [*cuts, c], d)) for c in cands for d in (1, -1)]
-        priced = [(cost(segs) if segs else math.inf, c, segs) for c, segs in tried]
+        priced = [(cost(segs) if segs and sum(s.n for s in segs) <= most_photos else math.inf, c, segs)
+                  for c, segs in tried]
         value, c, segs = min(priced, key=lambda t: (t[0], t[1]))
         if not value < best_cost * (1.0 - 1e-9):
             break
