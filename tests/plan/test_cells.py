@@ -1,14 +1,19 @@
 """Areas with a notch laid in bands across it (plan/area_grid.py cheapest_cells): the plan must
 still put every point on k_side x k_fwd photos with the asked overlaps (side overlap between the
 bands' lines too) and the images beyond the boundary, checked from the exported mission alone
-by the independent replay (tests/test_plan_coverage.py check_mission)."""
+by the independent replay (tests/test_plan_coverage.py check_mission). Its size:
+AEROSURVEY_CELLS_EXAMPLES (8)."""
 
 from __future__ import annotations
 
 import math
+import os
 
 import pytest
 import shapely
+import shapely.affinity
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from conftest import make_spec
 from test_plan_coverage import check_mission
@@ -31,3 +36,22 @@ def test_banded_layouts_keep_the_guarantee(tmp_path, shape, heading):
     spec = make_spec(tmp_path, {"flight": {"heading": heading}}, area=ring(shape))
     res = check_mission(spec, tmp_path / "out", samples=60)
     assert "bands" in res["manifest"]["derived"]["heading_chosen"]
+
+
+EXAMPLES = int(os.environ.get("AEROSURVEY_CELLS_EXAMPLES", "8"))
+
+
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(width=st.floats(300, 900), height=st.floats(250, 700), notch_w=st.floats(0.2, 0.7), notch_h=st.floats(0.3, 0.8),
+       where=st.sampled_from(["corner", "side"]), turn=st.floats(0, 180), side=st.sampled_from([0.6, 0.7]),
+       heading=st.one_of(st.just("auto"), st.floats(0, 179.9)))
+def test_notched_areas_keep_the_guarantee(tmp_path_factory, width, height, notch_w, notch_h, where, turn, side, heading):
+    """An L (a corner notch) or a U (a notch in the middle of a side), turned, planned banded or
+    not: every point on k_side x k_fwd photos, the asked overlaps, from the mission file alone."""
+    tmp = tmp_path_factory.mktemp("notch")
+    nw, nh = notch_w * width, notch_h * height
+    x0 = width - nw if where == "corner" else (width - nw) / 2.0
+    shape = shapely.difference(shapely.box(0, 0, width, height), shapely.box(x0, height - nh, x0 + nw, height + 1.0))
+    shape = shapely.affinity.rotate(shape, turn, origin="centroid")
+    spec = make_spec(tmp, {"targets": {"side_overlap": side}, "flight": {"heading": heading}}, area=ring(shape))
+    check_mission(spec, tmp / "out", samples=50)
