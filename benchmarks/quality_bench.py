@@ -32,8 +32,9 @@ overlaps, height and speed) is handed the area buffered outward (round joins) by
 written as the rows of a QGC WPL file (DO_CHANGE_SPEED, the first waypoint,
 DO_SET_CAM_TRIGG_DIST(its forward distance, 0, 1), every waypoint of its path, the trigger off)
 and replayed by the same code (the distance commanded as aerosurvey commands its own: the whole
-50 Hz check steps within the peer's forward distance, less half a step, else the autopilot's
-pictures fall farther apart than asked and some ground stays on 7 photos at any buffer); d is
+50 Hz check steps within the peer's forward distance in ArduPilot's metres along its lines (the
+replay measures in them), less half a step, else the autopilot's pictures fall farther apart
+than asked and some ground stays on 7 photos at any buffer); d is
 the smallest (bisection, 9 steps from 0 to a footprint's width, doubled while short) at which
 its photos see >= 99.9 % of the samples on >= 8 photos.
 Photos: the replayed pictures (the peer's trigger stays on along its connectors, as one
