@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+import shapely.ops
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
@@ -26,7 +27,7 @@ from aerosurvey.plan.lines import (
     line_bounds,
     strip_offsets,
 )
-from aerosurvey.plan.progress import Progress
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
@@ -56,16 +57,49 @@ class AreaGrid:
     cross_hatch: bool
     images_beyond_boundary: int
     coverage_margin_m: float
+    # the area may be cut in pieces of their own heading (several passes): not for the oblique
+    # pattern, which flies its grid's first pass again with the camera turned
+    pieces: bool = True
 
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> AreaGrid:
         return cls(spec.flight.heading_deg, spec.flight.cross_hatch, spec.targets.images_beyond_boundary,
-                   spec.targets.coverage_margin_m)
+                   spec.targets.coverage_margin_m, pieces=spec.pattern.kind == "area")
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         k = site.grid_scale
         margin = self.coverage_margin_m * k
         covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
+        whole = self._grid(covered, site, sensor, report)
+        laid = [whole]
+        chosen = whole.chosen
+        # pieces end runs inside the area, at the cut: not where each run must end beyond it
+        if (self.pieces and self.heading_deg is None and not self.cross_hatch and not self.images_beyond_boundary
+                and covered.geom_type == "Polygon" and _concave(covered)):
+            report("pieces of their own heading", 0.64)
+            speed = sensor.kinematics.speed_ms
+            best = whole.cost
+            for a, b in split_candidates(covered):
+                la, lb = (self._grid(piece, site, sensor, no_progress) for piece in (a, b))
+                turn = abs((la.heading - lb.heading + 90.0) % 180.0 - 90.0)
+                # the transit between the pieces: at most from one's centre to the other's
+                cost = la.cost + lb.cost + a.centroid.distance(b.centroid) / speed
+                if turn >= PARALLEL_DEG and la.photos + lb.photos <= whole.photos and cost < best * (1.0 - 1e-9):
+                    best, laid = cost, [la, lb]
+            if len(laid) == 2:
+                chosen = (f"auto: the area cut in two pieces flown at {laid[0].heading:.1f}° and {laid[1].heading:.1f}° "
+                          "(a shorter flight than one heading)")
+        report("flight lines and photo stations", 0.66)
+        passes = [Pass(i, fr, tuple(segs)) for i, (fr, segs) in enumerate((p for la in laid for p in la.passes), start=1)]
+        if not any(p.segments for p in passes):
+            raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
+        return Layout(laid[0].heading, chosen, tuple(passes), covered)
+
+    def _grid(self, covered: BaseGeometry, site: Site, sensor: SensorSolution, report: Progress) -> _Laid:
+        """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading, in
+        bands across its notches where that flies shorter (`cheapest_cells`)."""
+        k = site.grid_scale
+
         def strips(h: float) -> StripGeometry:
             return strip_geometry(sensor, self.images_beyond_boundary, k, site.autopilot_scale(h))
 
@@ -127,9 +161,8 @@ class AreaGrid:
                                            lambda s: quick_cost(s, lead, sensor.kinematics), most)
             return banded[h]
 
-        concave = covered.area < shapely.convex_hull(covered).area * (1.0 - 1e-9)
         # bands end runs inside the area, at their cuts: not where each run must end beyond it
-        banding = concave and not self.images_beyond_boundary
+        banding = _concave(covered) and not self.images_beyond_boundary
         if banding and self.heading_deg is None and not self.cross_hatch:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
             # may fly shorter than the single grid's best heading: the cheapest kept
@@ -137,18 +170,73 @@ class AreaGrid:
             fewer = [h for h in edge_headings(covered) if sum(s.n for s in cells_for(h)[2]) <= most]
             heading = min((heading, *fewer), key=lambda h: (cells_for(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
-        report("flight lines and photo stations", 0.66)
         passes = []
         split = 0
-        for i, h in enumerate(headings, start=1):
+        for h in headings:
             _, cuts, segs = cells_for(h) if banding else (0.0, [], lines_for(h)[1])
             split = max(split, len(cuts) + 1 if cuts else 0)
-            passes.append(Pass(i, lines_for(h)[0], tuple(segs)))
-        if not any(p.segments for p in passes):
-            raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
+            passes.append((lines_for(h)[0], segs))
         if split:
             chosen += f"; lines laid in {split} bands across the notches (a shorter flight than one grid)"
-        return Layout(heading, chosen, tuple(passes), covered)
+        main = passes[0][1]
+        return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
+                     sum(s.n for _, segs in passes for s in segs))
+
+
+@dataclass(frozen=True)
+class _Laid:
+    """One area's (or piece's) lines: its heading, why, its passes' frames and runs, the time
+    estimate of its main pass and its photos."""
+
+    heading: float
+    chosen: str
+    passes: list[tuple[LineFrame, list[LineSegment]]]
+    cost: float
+    photos: int
+
+
+def _concave(area: BaseGeometry) -> bool:
+    return bool(area.area < shapely.convex_hull(area).area * (1.0 - 1e-9))
+
+
+#: two pieces' headings at least this far apart: nearer, their lines could lie side by side
+#: farther apart than the spacing (bands lay those, `cell_lines`)
+PARALLEL_DEG = 3.0
+#: reflex vertices whose cuts `split_candidates` tries: the sharpest ones
+MAX_SPLIT_VERTICES = 4
+
+
+def split_candidates(area: shapely.Polygon) -> list[tuple[shapely.Polygon, shapely.Polygon]]:
+    """Ways to cut the area in two at a reflex vertex of its outline (the MAX_SPLIT_VERTICES
+    sharpest): along either edge at the vertex carried on into the area, or along the bisector
+    of its angle, each to where it first meets the outline again; only cuts that leave two
+    polygons, each a hundredth of the area or more."""
+    xy = np.asarray(shapely.orient_polygons(area).exterior.coords)[:-1]
+    d_in, d_out = xy - np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0) - xy
+    turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]  # counter-clockwise exterior: a right turn is reflex
+    ln_in, ln_out = np.hypot(*d_in.T), np.hypot(*d_out.T)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sharp = np.where((turn < 0) & (ln_in > 0) & (ln_out > 0), -turn / (ln_in * ln_out), 0.0)
+    reach = 2.0 * float(np.hypot(*(np.ptp(xy, axis=0))))
+    out: list[tuple[shapely.Polygon, shapely.Polygon]] = []
+    for i in np.argsort(-sharp, kind="stable")[:MAX_SPLIT_VERTICES].tolist():
+        if sharp[i] <= 1e-6:
+            break
+        u_in, u_out = d_in[i] / ln_in[i], d_out[i] / ln_out[i]
+        for u in (u_in, -u_out, u_in - u_out):
+            u = u / np.hypot(*u)
+            p = xy[i]
+            ray = shapely.LineString([p + u * 1e-6 * reach, p + u * reach])
+            hit = shapely.intersection(ray, area.exterior)
+            pts = shapely.get_coordinates(hit)
+            if not len(pts):
+                continue
+            q = pts[np.argmin(np.hypot(*(pts - p).T))]
+            cut = shapely.LineString([p - u * 1e-6 * reach, q + u * 1e-6 * reach])
+            pieces = [g for g in shapely.get_parts(shapely.ops.split(area, cut)) if g.geom_type == "Polygon"]
+            if len(pieces) == 2 and min(g.area for g in pieces) >= area.area / 100.0:
+                out.append((pieces[0], pieces[1]))
+    return out
 
 
 #: the area's edge directions tried as headings of a banded layout: the longest ones
@@ -278,4 +366,4 @@ def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripG
     return best_cost, sorted(cuts), best
 
 
-__all__ = ["AreaGrid", "cell_lines", "cheapest_cells", "cut_candidates", "strip_geometry"]
+__all__ = ["AreaGrid", "cell_lines", "cheapest_cells", "cut_candidates", "split_candidates", "strip_geometry"]
