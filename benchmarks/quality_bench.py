@@ -45,7 +45,8 @@ width by rotating calipers with the 2-strip side rule at the edges; photos: area
 spacing)).
 
 Not covered: the time model (turns, accelerations) of either planner, wind, terrain, zones,
-other overlaps or cameras; the peer's bisection finds a d at which the rule holds, not always
+other overlaps or cameras, images beyond the boundary (none asked here: aerosurvey's bands and
+pieces of concave areas are laid only then), cross-hatch, planes; the peer's bisection finds a d at which the rule holds, not always
 the smallest when coverage is not monotone in d (this can only favour aerosurvey by a few
 metres of buffer).
 """
