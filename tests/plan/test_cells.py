@@ -62,8 +62,12 @@ def test_notched_areas_keep_the_guarantee(tmp_path_factory, width, height, notch
     not: every point on k_side x k_fwd photos, the asked overlaps, from the mission file alone."""
     tmp = tmp_path_factory.mktemp("notch")
     nw, nh = notch_w * width, notch_h * height
-    x0 = width - nw if where == "corner" else (width - nw) / 2.0
-    shape = shapely.difference(shapely.box(0, 0, width, height), shapely.box(x0, height - nh, x0 + nw, height + 1.0))
-    shape = shapely.affinity.rotate(shape, turn, origin="centroid")
+    w, h, y = width, height, height - nh
+    if where == "corner":
+        xy = [(0, 0), (w, 0), (w, y), (w - nw, y), (w - nw, h), (0, h)]
+    else:
+        x0 = (w - nw) / 2.0
+        xy = [(0, 0), (w, 0), (w, h), (x0 + nw, h), (x0 + nw, y), (x0, y), (x0, h), (0, h)]
+    shape = shapely.affinity.rotate(shapely.Polygon(xy), turn, origin="centroid")
     spec = make_spec(tmp, {"targets": {"side_overlap": side}, "flight": {"heading": heading}}, area=ring(shape))
     check_mission(spec, tmp / "out", samples=50)

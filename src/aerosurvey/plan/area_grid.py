@@ -15,6 +15,7 @@ import shapely.ops
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
+from aerosurvey.plan.bounds import narrowest
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.layout import Layout
@@ -78,11 +79,25 @@ class AreaGrid:
                 and covered.geom_type == "Polygon" and _concave(covered)):
             report("pieces of their own heading", 0.64)
             speed = sensor.kinematics.speed_ms
+            lead = sensor.lead_in_m * k
+
+            def rough(piece: BaseGeometry) -> float:
+                """A piece's time estimate with lines along its narrowest direction (no search)."""
+                h = narrowest(piece)[1]
+                fr = LineFrame(h)
+                segs = build_lines(fr.geom_to_frame(piece), None,
+                                   strip_geometry(sensor, 0, k, site.autopilot_scale(h)))
+                return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+
+            # the transit between the pieces: at most from one's centre to the other's
+            splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
+                      for a, b in split_candidates(covered, sensor.spacing_m * k / 4.0)]
             best = whole.cost
-            for a, b in split_candidates(covered):
+            # only the splits whose rough estimate beats the one grid are searched (each piece its
+            # heading search): the two most promising
+            for _, a, b in sorted((t for t in splits if t[0] < whole.cost), key=lambda t: t[0])[:MAX_SPLITS_SEARCHED]:
                 la, lb = (self._grid(piece, site, sensor, no_progress) for piece in (a, b))
                 turn = abs((la.heading - lb.heading + 90.0) % 180.0 - 90.0)
-                # the transit between the pieces: at most from one's centre to the other's
                 cost = la.cost + lb.cost + a.centroid.distance(b.centroid) / speed
                 if turn >= PARALLEL_DEG and la.photos + lb.photos <= whole.photos and cost < best * (1.0 - 1e-9):
                     best, laid = cost, [la, lb]
@@ -153,12 +168,18 @@ class AreaGrid:
         # order, the route searches more, so a layout priced cheaper with more photos may fly longer
         most = sum(s.n for s in lines_for(heading)[1])
 
+        # where to cut and which headings to try, from the outline without its small wiggles
+        # (Douglas-Peucker keeps a subset of the vertices: a notch's corners stay where they are)
+        simple = shapely.simplify(covered, sensor.spacing_m * k / 4.0, preserve_topology=True)
+
         def cells_for(h: float) -> tuple[float, list[float], list[LineSegment]]:
             if h not in banded:
                 fr, segs = lines_for(h)
                 zf = fr.geom_to_frame(zones) if zones is not None else None
-                banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, strips(h), segs,
-                                           lambda s: quick_cost(s, lead, sensor.kinematics), most)
+                g_h = strips(h)
+                cands = cut_candidates(fr.geom_to_frame(simple), g_h.spacing, g_h.base)
+                banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, g_h, segs,
+                                           lambda s: quick_cost(s, lead, sensor.kinematics), most, cands)
             return banded[h]
 
         # bands end runs inside the area, at their cuts: not where each run must end beyond it
@@ -167,7 +188,7 @@ class AreaGrid:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
             # may fly shorter than the single grid's best heading: the cheapest kept
             report("cells across the notches", 0.62)
-            fewer = [h for h in edge_headings(covered) if sum(s.n for s in cells_for(h)[2]) <= most]
+            fewer = [h for h in edge_headings(simple) if sum(s.n for s in cells_for(h)[2]) <= most]
             heading = min((heading, *fewer), key=lambda h: (cells_for(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
         passes = []
@@ -202,37 +223,43 @@ def _concave(area: BaseGeometry) -> bool:
 #: two pieces' headings at least this far apart: nearer, their lines could lie side by side
 #: farther apart than the spacing (bands lay those, `cell_lines`)
 PARALLEL_DEG = 3.0
-#: reflex vertices whose cuts `split_candidates` tries: the sharpest ones
-MAX_SPLIT_VERTICES = 4
+#: reflex vertices whose cuts `split_candidates` tries: the most marked ones
+MAX_SPLIT_VERTICES = 3
+#: splits whose pieces get a heading search of their own: the ones roughly estimated fastest
+MAX_SPLITS_SEARCHED = 2
 
 
-def split_candidates(area: shapely.Polygon) -> list[tuple[shapely.Polygon, shapely.Polygon]]:
-    """Ways to cut the area in two at a reflex vertex of its outline (the MAX_SPLIT_VERTICES
-    sharpest): along either edge at the vertex carried on into the area, or along the bisector
-    of its angle, each to where it first meets the outline again; only cuts that leave two
-    polygons, each a hundredth of the area or more."""
-    xy = np.asarray(shapely.orient_polygons(area).exterior.coords)[:-1]
+def split_candidates(area: shapely.Polygon, tol: float) -> list[tuple[shapely.Polygon, shapely.Polygon]]:
+    """Ways to cut the area in two at a reflex vertex of its outline simplified by `tol` (a
+    detailed outline's small wiggles are no notches): at the MAX_SPLIT_VERTICES most marked
+    (the turn's sine times the shorter of its two edges), along either edge at the vertex
+    carried on into the area, or along the bisector of its angle, each to where it first meets
+    the simplified outline again and 2·tol on, so that it crosses the area's own outline; only
+    cuts that leave two polygons, each a hundredth of the area or more."""
+    simple = shapely.simplify(area, tol, preserve_topology=True)
+    if simple.geom_type != "Polygon":
+        return []
+    xy = np.asarray(shapely.orient_polygons(simple).exterior.coords)[:-1]
     d_in, d_out = xy - np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0) - xy
     turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]  # counter-clockwise exterior: a right turn is reflex
     ln_in, ln_out = np.hypot(*d_in.T), np.hypot(*d_out.T)
     with np.errstate(invalid="ignore", divide="ignore"):
-        sharp = np.where((turn < 0) & (ln_in > 0) & (ln_out > 0), -turn / (ln_in * ln_out), 0.0)
+        marked = np.where((turn < 0) & (ln_in > 0) & (ln_out > 0), -turn / (ln_in * ln_out) * np.minimum(ln_in, ln_out), 0.0)
     reach = 2.0 * float(np.hypot(*(np.ptp(xy, axis=0))))
     out: list[tuple[shapely.Polygon, shapely.Polygon]] = []
-    for i in np.argsort(-sharp, kind="stable")[:MAX_SPLIT_VERTICES].tolist():
-        if sharp[i] <= 1e-6:
+    for i in np.argsort(-marked, kind="stable")[:MAX_SPLIT_VERTICES].tolist():
+        if marked[i] <= tol:
             break
         u_in, u_out = d_in[i] / ln_in[i], d_out[i] / ln_out[i]
         for u in (u_in, -u_out, u_in - u_out):
             u = u / np.hypot(*u)
             p = xy[i]
-            ray = shapely.LineString([p + u * 1e-6 * reach, p + u * reach])
-            hit = shapely.intersection(ray, area.exterior)
+            hit = shapely.intersection(shapely.LineString([p + u * 1e-6 * reach, p + u * reach]), simple.exterior)
             pts = shapely.get_coordinates(hit)
             if not len(pts):
                 continue
             q = pts[np.argmin(np.hypot(*(pts - p).T))]
-            cut = shapely.LineString([p - u * 1e-6 * reach, q + u * 1e-6 * reach])
+            cut = shapely.LineString([p - u * (2.0 * tol + 1e-6 * reach), q + u * (2.0 * tol + 1e-6 * reach)])
             pieces = [g for g in shapely.get_parts(shapely.ops.split(area, cut)) if g.geom_type == "Polygon"]
             if len(pieces) == 2 and min(g.area for g in pieces) >= area.area / 100.0:
                 out.append((pieces[0], pieces[1]))
@@ -344,12 +371,14 @@ def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeome
 
 
 def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry, grid: list[LineSegment],
-                   cost: Callable[[list[LineSegment]], float], most_photos: int) -> tuple[float, list[float], list[LineSegment]]:
+                   cost: Callable[[list[LineSegment]], float], most_photos: int,
+                   cands: list[float]) -> tuple[float, list[float], list[LineSegment]]:
     """(time, cuts, runs): the single grid's runs `grid`, or the area cut into bands across the lines
     (`cell_lines`) where that costs less time with `most_photos` photos or fewer: cuts added one
     at a time, the one saving most first, while one saves any (a line crossing a notch photographs the ground on both sides of
-    it at the length of the longer; a band each lays them at their own lengths)."""
-    cands = cut_candidates(area_f, g.spacing, g.base)
+    it at the length of the longer; a band each lays them at their own lengths). `cands`: the
+    cuts to try (`cut_candidates`)."""
+    cands = list(cands)
     best_cost = cost(grid) if grid else math.inf
     cuts: list[float] = []
     best = grid
