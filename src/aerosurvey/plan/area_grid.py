@@ -162,7 +162,7 @@ class AreaGrid:
             heading, chosen = self.heading_deg, "fixed by the spec"
         zones = site.zones_buffered
 
-        banded: dict[float, tuple[float, list[float], list[LineSegment]]] = {}
+        banded: dict[float, tuple[float, list[float], list[list[LineSegment]]]] = {}
 
         # no more photos than the single grid at its heading: the time estimate flies lines in
         # order, the route searches more, so a layout priced cheaper with more photos may fly longer
@@ -172,7 +172,7 @@ class AreaGrid:
         # (Douglas-Peucker keeps a subset of the vertices: a notch's corners stay where they are)
         simple = shapely.simplify(covered, sensor.spacing_m * k / 4.0, preserve_topology=True)
 
-        def cells_for(h: float) -> tuple[float, list[float], list[LineSegment]]:
+        def cells_for(h: float) -> tuple[float, list[float], list[list[LineSegment]]]:
             if h not in banded:
                 fr, segs = lines_for(h)
                 zf = fr.geom_to_frame(zones) if zones is not None else None
@@ -188,18 +188,19 @@ class AreaGrid:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
             # may fly shorter than the single grid's best heading: the cheapest kept
             report("cells across the notches", 0.62)
-            fewer = [h for h in edge_headings(simple) if sum(s.n for s in cells_for(h)[2]) <= most]
+            fewer = [h for h in edge_headings(simple) if sum(s.n for b in cells_for(h)[2] for s in b) <= most]
             heading = min((heading, *fewer), key=lambda h: (cells_for(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
-        passes = []
+        passes: list[tuple[LineFrame, list[LineSegment]]] = []
         split = 0
+        main: list[LineSegment] = []
         for h in headings:
-            _, cuts, segs = cells_for(h) if banding else (0.0, [], lines_for(h)[1])
+            _, cuts, bands = cells_for(h) if banding else (0.0, [], [lines_for(h)[1]])
             split = max(split, len(cuts) + 1 if cuts else 0)
-            passes.append((lines_for(h)[0], segs))
+            passes += [(lines_for(h)[0], segs) for segs in bands]  # a band a pass
+            main = main or joined(bands)
         if split:
-            chosen += f"; lines laid in {split} bands across the notches (a shorter flight than one grid)"
-        main = passes[0][1]
+            chosen += f"; lines laid in {split} bands across the notches, a pass each (a shorter flight than one grid)"
         return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
                      sum(s.n for _, segs in passes for s in segs))
 
@@ -331,24 +332,25 @@ def cut_candidates(area_f: BaseGeometry, spacing: float, base: float) -> list[fl
 
 
 def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry,
-               cuts: list[float], direction: int = 1) -> list[LineSegment]:
+               cuts: list[float], direction: int = 1) -> list[list[LineSegment]]:
     """The area cut across the lines at the ordinates `cuts` into bands, each band laid with its
     own lines (`build_lines`: every point of a band in k_side strips of its lines, k_fwd photos
-    each, so every point of the area is); the lines of all bands numbered by ordinate, as one
-    pass's. Runs end at the cuts, inside the area: not for the images-beyond-the-boundary rule.
+    each, so every point of the area is): the runs of each band, in the order laid (a pass
+    each: its lines evenly spaced, as QGroundControl's Survey item regenerates a pass). Runs
+    end at the cuts, inside the area: not for the images-beyond-the-boundary rule.
 
     Bands are laid one after another, upwards (`direction` 1) or downwards (−1): a band's lines
     centred on it (`strip_offsets`) when its first line then lies within a spacing of the last
     band's last line, else at the spacing from that line on (`anchored_offsets`), so that no two
     neighbouring lines lie farther apart than the spacing (the asked side overlap holds between
-    bands too)."""
+    bands too). No bands ([]) where a band cannot be laid so."""
     minx, vmin, maxx, vmax = area_f.bounds
     edges = [vmin, *sorted(cuts), vmax]
     spans = list(zip(edges[:-1], edges[1:]))[::direction]
     reach = g.across / 2.0 - (g.side_per_point - 1) * g.spacing  # the k-th line from a band's edge
-    laid: list[tuple[float, int, int, LineSegment]] = []
+    out: list[list[LineSegment]] = []
     last: float | None = None
-    for b, (lo, hi) in enumerate(spans):
+    for lo, hi in spans:
         band = shapely.clip_by_rect(area_f, minx - 1.0, lo, maxx + 1.0, hi)
         if band.is_empty or band.area <= 0:
             continue
@@ -359,10 +361,18 @@ def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeome
             first = min(last + g.spacing, blo + reach) if direction > 0 else max(last - g.spacing, bhi - reach)
             anchored = anchored_offsets(blo, bhi, first, direction, g)
             if anchored is None:
-                return []  # not laid this way: priced as no layout
+                return []
             vs = anchored
         last = float(vs[-1] if direction > 0 else vs[0])
-        laid += [(s.v, b, s.line, s) for s in build_lines(band, zones_f, g, vs=vs)]
+        segs = build_lines(band, zones_f, g, vs=vs)
+        if segs:
+            out.append(segs)
+    return out
+
+
+def joined(bands: list[list[LineSegment]]) -> list[LineSegment]:
+    """The bands' runs as one pass's, lines numbered by ordinate (the time estimate's order)."""
+    laid = [(s.v, b, s.line, s) for b, segs in enumerate(bands) for s in segs]
     index: dict[tuple[int, int], int] = {}
     for _, b, line, _ in sorted(laid, key=lambda t: t[:3]):
         index.setdefault((b, line), len(index))
@@ -372,27 +382,27 @@ def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeome
 
 def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry, grid: list[LineSegment],
                    cost: Callable[[list[LineSegment]], float], most_photos: int,
-                   cands: list[float]) -> tuple[float, list[float], list[LineSegment]]:
-    """(time, cuts, runs): the single grid's runs `grid`, or the area cut into bands across the lines
-    (`cell_lines`) where that costs less time with `most_photos` photos or fewer: cuts added one
-    at a time, the one saving most first, while one saves any (a line crossing a notch photographs the ground on both sides of
-    it at the length of the longer; a band each lays them at their own lengths). `cands`: the
-    cuts to try (`cut_candidates`)."""
+                   cands: list[float]) -> tuple[float, list[float], list[list[LineSegment]]]:
+    """(time, cuts, bands' runs): the single grid's runs `grid` (one band), or the area cut into
+    bands across the lines (`cell_lines`) where that costs less time with `most_photos` photos or
+    fewer: cuts added one at a time, the one saving most first, while one saves any (a line
+    crossing a notch photographs the ground on both sides of it at the length of the longer; a
+    band each lays them at their own lengths). `cands`: the cuts to try (`cut_candidates`)."""
     cands = list(cands)
     best_cost = cost(grid) if grid else math.inf
     cuts: list[float] = []
-    best = grid
+    best = [grid]
     while cands:
         tried = [(c, cell_lines(area_f, zones_f, g, [*cuts, c], d)) for c in cands for d in (1, -1)]
-        priced = [(cost(segs) if segs and sum(s.n for s in segs) <= most_photos else math.inf, c, segs)
-                  for c, segs in tried]
-        value, c, segs = min(priced, key=lambda t: (t[0], t[1]))
+        priced = [(cost(joined(bands)) if bands and sum(s.n for b in bands for s in b) <= most_photos else math.inf,
+                   c, bands) for c, bands in tried]
+        value, c, bands = min(priced, key=lambda t: (t[0], t[1]))
         if not value < best_cost * (1.0 - 1e-9):
             break
-        best_cost, best = value, segs
+        best_cost, best = value, bands
         cuts.append(c)
         cands.remove(c)
     return best_cost, sorted(cuts), best
 
 
-__all__ = ["AreaGrid", "cell_lines", "cheapest_cells", "cut_candidates", "split_candidates", "strip_geometry"]
+__all__ = ["AreaGrid", "cell_lines", "cheapest_cells", "cut_candidates", "joined", "split_candidates", "strip_geometry"]
