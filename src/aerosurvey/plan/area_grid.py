@@ -58,14 +58,15 @@ class AreaGrid:
     cross_hatch: bool
     images_beyond_boundary: int
     coverage_margin_m: float
-    # the area may be cut in pieces of their own heading (several passes): not for the oblique
-    # pattern, which flies its grid's first pass again with the camera turned
-    pieces: bool = True
+    # the area may be flown in several passes a heading (pieces of their own heading, a band a
+    # pass): not for the oblique pattern, which flies its grid's first pass again with the
+    # camera turned (its bands are joined in one pass)
+    several_passes: bool = True
 
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> AreaGrid:
         return cls(spec.flight.heading_deg, spec.flight.cross_hatch, spec.targets.images_beyond_boundary,
-                   spec.targets.coverage_margin_m, pieces=spec.pattern.kind == "area")
+                   spec.targets.coverage_margin_m, several_passes=spec.pattern.kind == "area")
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         k = site.grid_scale
@@ -75,7 +76,7 @@ class AreaGrid:
         laid = [whole]
         chosen = whole.chosen
         # pieces end runs inside the area, at the cut: not where each run must end beyond it
-        if (self.pieces and self.heading_deg is None and not self.cross_hatch and not self.images_beyond_boundary
+        if (self.several_passes and self.heading_deg is None and not self.cross_hatch and not self.images_beyond_boundary
                 and covered.geom_type == "Polygon" and _concave(covered)):
             report("pieces of their own heading", 0.64)
             speed = sensor.kinematics.speed_ms
@@ -197,10 +198,12 @@ class AreaGrid:
         for h in headings:
             _, cuts, bands = cells_for(h) if banding else (0.0, [], [lines_for(h)[1]])
             split = max(split, len(cuts) + 1 if cuts else 0)
-            passes += [(lines_for(h)[0], segs) for segs in bands]  # a band a pass
+            fr = lines_for(h)[0]
+            passes += [(fr, segs) for segs in bands] if self.several_passes else [(fr, joined(bands))]
             main = main or joined(bands)
         if split:
-            chosen += f"; lines laid in {split} bands across the notches, a pass each (a shorter flight than one grid)"
+            each = ", a pass each" if self.several_passes else ""
+            chosen += f"; lines laid in {split} bands across the notches{each} (a shorter flight than one grid)"
         return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
                      sum(s.n for _, segs in passes for s in segs))
 
