@@ -7,7 +7,9 @@ A synthetic pipeline centreline winds from 49.0 N, 15.0 E north-eastwards: a ben
 turning by up to ±35° (seeded), so a 220 km line has 110 segments. It is planned by `aerosurvey
 plan` in a fresh process (a copter, the a6000 at 2.8 cm GSD, 75/60 % overlap, a 300 m wide
 corridor: 3 strips), once without a battery and once with 30 min batteries and a launch point
-every 5 km along the line. The whole command is timed (reading, planning, every output file)
+every 5 km along the line; and once more with the corridor given as its outline (the line buffered
+by 150 m, a polygon, no width: its centreline and widths derived, plan/centreline.py), without a
+battery. The whole command is timed (reading, planning, every output file)
 and its peak memory (max RSS, wait4) read; the fastest of --repeat runs is kept. Printed with
 each: photos, strips, sorties and the exit code.
 
@@ -80,6 +82,18 @@ def centreline(km: float, seed: int = 1) -> list[tuple[float, float]]:
     return pts
 
 
+def outline(pts: list[tuple[float, float]], half_m: float) -> dict:
+    """The corridor's outline: the centreline buffered by `half_m` in a local equirectangular frame
+    (metres about its first point), as a GeoJSON Polygon in longitude/latitude."""
+    import shapely
+
+    lon0, lat0 = pts[0]
+    kx, ky = 111_320.0 * math.cos(math.radians(lat0)), 110_574.0
+    line = shapely.LineString([((lo - lon0) * kx, (la - lat0) * ky) for lo, la in pts])
+    ring = shapely.get_coordinates(shapely.buffer(line, half_m).exterior)
+    return {"type": "Polygon", "coordinates": [[[lon0 + x / kx, lat0 + y / ky] for x, y in ring]]}
+
+
 def run(cmd: list[str], cwd: Path) -> tuple[float, float, int, str]:
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -107,9 +121,13 @@ def main() -> None:
             (base / "line.geojson").write_text(json.dumps({"type": "LineString", "coordinates": pts}))
             every = max(1, int(5.0 / 2.0))
             launch = json.dumps([list(p) for p in pts[::every]])
-            for sorties in (False, True):
+            (base / "outline.geojson").write_text(json.dumps(outline(pts, 150.0)))
+            for case in ("one flight", "sorties", "polygon"):
+                sorties = case == "sorties"
                 text = SPEC.format(km=km) + (BATTERY.format(points=launch) if sorties else "")
-                spec = base / f"c{km:g}{'s' if sorties else ''}.toml"
+                if case == "polygon":
+                    text = text.replace('file = "line.geojson"', 'file = "outline.geojson"').replace("width_m = 300\n", "")
+                spec = base / f"c{km:g}{case[0]}.toml"
                 spec.write_text(text)
                 best = None
                 for i in range(args.repeat):
@@ -123,7 +141,7 @@ def main() -> None:
                 if (out / "manifest.json").exists():
                     m = json.loads((out / "manifest.json").read_text())
                     photos, strips, n_sorties = len(m["stations"]), len({ln["line"] for ln in m["lines"]}), len(m["sorties"])
-                name = f"{km:g} km {'sorties' if sorties else 'one flight'}"
+                name = f"{km:g} km {case}"
                 print(f"{name:<26} {wall:7.2f} {wall / ref:6.2f} {mb:6.0f} {photos:8d} {strips:6d} {n_sorties:7d} {code}"
                       + (f"  {last}" if code else ""))
 

@@ -111,7 +111,7 @@ def run_case(name: str, runs: int, gpkg: bool = False) -> dict[str, object]:
         t0, c0 = time.perf_counter(), time.process_time()
         plan = plan_mission(spec, inputs)
         t1 = time.perf_counter()
-        rendered = render_outputs(plan, gpkg)
+        rendered = render_outputs(plan, spec, gpkg)
         files = rendered.files
         t2, c2 = time.perf_counter(), time.process_time()
         if gpkg:
@@ -121,7 +121,7 @@ def run_case(name: str, runs: int, gpkg: bool = False) -> dict[str, object]:
             gpkg_bytes([*plan_layers(plan), footprints_layer(plan)])
             gpkg_times.append(time.perf_counter() - t3)
         t4 = time.perf_counter()
-        layers_to_kml(plan_layers(plan), plan.spec.name)
+        layers_to_kml(plan_layers(plan), plan.name)
         kml_times.append(time.perf_counter() - t4)
         if k == 0:  # warm-up: imports inside functions, caches
             photos = len(plan.stations.ids)

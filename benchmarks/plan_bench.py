@@ -119,16 +119,16 @@ def make_case(name: str, tmp: Path) -> Path:
     return p
 
 
-def quality(plan) -> dict[str, float]:
-    s, b, L = plan.spacing_m, plan.base_m, plan.along_m
-    k = plan.forward_images_per_point
-    beyond = plan.spec.targets.images_beyond_boundary
+def quality(plan, spec) -> dict[str, float]:
+    s, b, L = plan.sensor.spacing_m, plan.sensor.base_m, plan.sensor.along_m
+    k = plan.sensor.forward_images_per_point
+    beyond = spec.targets.images_beyond_boundary
     ext = max(beyond * b, (k - 1) * b - L / 2, 0.0)
     runs = len(plan.route.runs)
-    passes = len(plan.passes)
-    area = plan.area.area
-    if plan.exclusions is not None:
-        area -= shapely.intersection(plan.area, shapely.buffer(plan.exclusions, plan.spec.flight.exclusion_margin_m)).area
+    passes = len(plan.layout.passes)
+    area = plan.site.area.area
+    if plan.site.zones is not None:
+        area -= shapely.intersection(plan.site.area, shapely.buffer(plan.site.zones, plan.site.margin_m)).area
     bound_len = passes * area / s + runs * 2 * ext
     flown = sum((len(r.station_xy) - 1) * b for r in plan.route.runs)
     bound_photos = passes * area / (s * b) + runs * 2 * ext / b
@@ -136,11 +136,11 @@ def quality(plan) -> dict[str, float]:
     # (the outer-edge rule), at each pass's heading: the structural minimum
     from aerosurvey.plan.frame import LineFrame
 
-    k_side = plan.side_images_per_point
+    k_side = plan.sensor.side_images_per_point
     min_lines = 0
-    for p in plan.passes:
-        _, v0, _, v1 = LineFrame(p.frame.heading_deg).geom_to_frame(plan.area).bounds
-        min_lines += max(k_side, math.ceil((v1 - v0 - plan.across_m + 2 * (k_side - 1) * s) / s - 1e-9) + 1)
+    for p in plan.layout.passes:
+        _, v0, _, v1 = LineFrame(p.frame.heading_deg).geom_to_frame(plan.site.area).bounds
+        min_lines += max(k_side, math.ceil((v1 - v0 - plan.sensor.across_m + 2 * (k_side - 1) * s) / s - 1e-9) + 1)
     lines = len({(r.pass_index, r.line) for r in plan.route.runs})
     return {"lines": lines, "min_lines": min_lines,"line_length_m": round(flown, 1), "line_length_bound_m": round(bound_len, 1),
             "line_length_ratio": round(flown / bound_len, 4), "photos": len(plan.stations.ids),
@@ -157,15 +157,16 @@ def run_case(name: str) -> dict:
         spec_path = make_case(name, tmp)
         # the modules are imported above, before timing: module import is not planning work
         t0 = time.perf_counter()
-        plan = plan_from_files(load_spec(spec_path))
+        spec = load_spec(spec_path)
+        plan = plan_from_files(spec)
         t1 = time.perf_counter()
-        files = write_outputs(plan, tmp / "out").files
+        files = write_outputs(plan, spec, tmp / "out").files
         t2 = time.perf_counter()
         size = sum(len(v.encode()) for v in files.values())
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return {"case": name, "area_ha": round(plan.area.area / 1e4, 1), "plan_s": round(t1 - t0, 3),
+    return {"case": name, "area_ha": round(plan.site.area.area / 1e4, 1), "plan_s": round(t1 - t0, 3),
             "write_s": round(t2 - t1, 3), "total_s": round(t2 - t0, 3), "peak_rss_mb": round(rss_mb, 1),
-            "output_mb": round(size / 1e6, 2), **quality(plan)}
+            "output_mb": round(size / 1e6, 2), **quality(plan, spec)}
 
 
 STARTUP_ROUNDS = 5
@@ -181,7 +182,7 @@ STARTUP = [
     # the plan's work through the library, no CLI: the ratio of the command to it is what start-up adds
     ("library plan 72ha", ["-c", "from pathlib import Path; from aerosurvey.spec import load_spec; "
                            "from aerosurvey.inputs import plan_from_files; from aerosurvey.outputs import write_outputs; "
-                           f"write_outputs(plan_from_files(load_spec(Path({_EXAMPLE!r}))), Path('{{tmp}}/lib'))"],
+                           f"spec = load_spec(Path({_EXAMPLE!r})); write_outputs(plan_from_files(spec), spec, Path('{{tmp}}/lib'))"],
      [("import numpy, shapely, pyproj", None)]),
     ("aerosurvey plan 72ha", ["-m", "aerosurvey.cli", "plan", _EXAMPLE, "-o", "{tmp}/out"],
      [("import numpy, shapely, pyproj", 2.5), ("library plan 72ha", None)]),

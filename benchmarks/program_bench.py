@@ -74,12 +74,12 @@ def main() -> None:
         print(f"  programs {t_prog / t_plan:.3f}x, gate {t_gate / t_plan:.3f}x, MAVLink + texts {t_mav / t_plan:.3f}x, "
               f"kmz {t_kmz / t_plan:.3f}x of the planning time; {len(made)} kmz, {sum(map(len, made))} bytes"
               + (f"; refused: {refused[0]}" if refused else ""))
-        hover = replace(plan, spec=replace(plan.spec, camera=replace(plan.spec.camera, trigger="hover", settle_s=2.0)))
-        if plan.spec.vehicle.type == "copter":
+        hover = replace(plan, camera=replace(plan.camera, trigger="hover", settle_s=2.0))
+        if plan.vehicle.type == "copter":
             whole = mavlink_mission(flight_program(hover))
-            limit = mavlink_item_limit(plan.spec)
+            limit = mavlink_item_limit(plan.vehicle.firmware, plan.battery)
             print(f"  hover and shoot: {len(whole.items) + 1} items in the whole mission (home included) "
-                  f"against {limit} ({plan.spec.vehicle.firmware}); {len(plan.stations.ids)} stations")
+                  f"against {limit} ({plan.vehicle.firmware}); {len(plan.stations.ids)} stations")
     sys.stdout.flush()
 
 

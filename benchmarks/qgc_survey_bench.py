@@ -60,9 +60,10 @@ def render_ratio(example: str, runs: int) -> float:
     times: dict[str, list[float]] = {"survey": [], "items": []}
     for _ in range(runs):
         for layout in ("items", "survey"):
-            plan = plan_from_files(load_spec(REPO / "missions" / f"{example}.toml"))  # a fresh plan: no cached polygon
+            spec = load_spec(REPO / "missions" / f"{example}.toml")
+            plan = plan_from_files(spec)  # a fresh plan: no cached polygon
             t0 = time.perf_counter()
-            render_outputs(plan, qgc=layout)
+            render_outputs(plan, spec, qgc=layout)
             times[layout].append(time.perf_counter() - t0)
     return statistics.median(times["survey"]) / statistics.median(times["items"])
 

@@ -191,8 +191,9 @@ def ours(area: shapely.Polygon, scenario: dict, to_ll, to_xy, gx, gy, tmp: Path)
             "vehicle": {"type": "copter", "cruise_speed_ms": SPEED, "max_height_agl_m": scenario["cap"]},
             "flight": {"heading": "auto", "cross_hatch": False}}
     (tmp / "spec.toml").write_text(tomli_w.dumps(spec))
-    plan = plan_from_files(load_spec(tmp / "spec.toml"))
-    write_outputs(plan, tmp / "out")
+    loaded = load_spec(tmp / "spec.toml")
+    plan = plan_from_files(loaded)
+    write_outputs(plan, loaded, tmp / "out")
     manifest = json.loads((tmp / "out" / "manifest.json").read_text())
     _, rows = ic.read_wpl(tmp / "out" / "mission.waypoints")
     photos, share = seen(rows, to_xy, gx, gy)
@@ -200,7 +201,7 @@ def ours(area: shapely.Polygon, scenario: dict, to_ll, to_xy, gx, gy, tmp: Path)
     first = kinds.index("lead_in")
     last = len(kinds) - 1 - kinds[::-1].index("line_end")
     xy = np.array([(w.x, w.y) for w in plan.waypoints[first:last + 1]])
-    path = float(np.hypot(*np.diff(xy, axis=0).T).sum()) / plan.grid_scale
+    path = float(np.hypot(*np.diff(xy, axis=0).T).sum()) / plan.site.grid_scale
     b = manifest["derived"].get("bounds") or {"strips": math.nan, "photos": math.nan}  # none before issue 27's
     return {"photos": photos, "share": share, "path_m": path, "strips": len({r["line"] for r in manifest["lines"]}),
             "strip_bound": b["strips"], "photo_bound": b["photos"], "planned": int(manifest["estimates"]["photos"])}

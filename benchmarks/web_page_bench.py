@@ -34,7 +34,8 @@ def _direct(spec_path: Path) -> float:
     from aerosurvey.spec import load_spec
 
     t = time.perf_counter()
-    render_outputs(plan_from_files(load_spec(spec_path)))
+    loaded = load_spec(spec_path)
+    render_outputs(plan_from_files(loaded), loaded)
     return time.perf_counter() - t
 
 

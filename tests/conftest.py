@@ -61,9 +61,10 @@ def written(request, tmp_path_factory):
     from aerosurvey.outputs import write_outputs
     from aerosurvey.spec import load_spec
 
-    plan = plan_from_files(load_spec(Path(__file__).resolve().parents[1] / "missions" / f"{request.param}.toml"))
+    spec = load_spec(Path(__file__).resolve().parents[1] / "missions" / f"{request.param}.toml")
+    plan = plan_from_files(spec)
     out = tmp_path_factory.mktemp(request.param)
-    write_outputs(plan, out, gpkg=True)
+    write_outputs(plan, spec, out, gpkg=True)
     return request.param, plan, out
 
 

@@ -14,9 +14,13 @@ import shapely
 
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.outputs import write_outputs
-from aerosurvey.spec import load_spec
+from aerosurvey.spec import MissionSpec, load_spec
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _spec(example: str) -> MissionSpec:
+    return load_spec(ROOT / "missions" / f"{example}.toml")
 LAYERS = {"area": "MultiPolygon", "zones": "MultiPolygon", "strips": "LineString", "route": "LineString",
           "stations": "Point", "footprints": "Polygon", "launch_points": "Point", "gcps": "Point",
           "check_points": "Point", "unphotographed": "Polygon"}
@@ -96,8 +100,8 @@ def test_route_is_each_sortie_file_in_flight_order(written) -> None:
 
 
 def test_same_plan_same_bytes(written, tmp_path) -> None:
-    _, plan, out = written
-    write_outputs(plan, tmp_path / "again", gpkg=True)
+    name, plan, out = written
+    write_outputs(plan, _spec(name), tmp_path / "again", gpkg=True)
     assert (tmp_path / "again" / "plan.gpkg").read_bytes() == (out / "plan.gpkg").read_bytes()
 
 
@@ -114,8 +118,9 @@ def test_control_points_are_the_rules_proposals(written) -> None:
     """The gcps and check_points layers hold the points the rule profiles propose, where they are."""
     from aerosurvey.outputs import render_outputs
 
-    _, plan, out = written
-    ev = render_outputs(plan).evidence
+    name, plan, out = written
+    spec = _spec(name)
+    ev = render_outputs(plan, spec).evidence
     points = ev.points if ev is not None else []
     for layer, role in (("gcps", "gcp"), ("check_points", "check")):
         _, _, geoms, fields = pyogrio.raw.read(out / "plan.gpkg", layer=layer, columns=["id"])
@@ -123,9 +128,9 @@ def test_control_points_are_the_rules_proposals(written) -> None:
         assert list(fields[0]) == [p.id for p in want]
         for wkb, p in zip(geoms, want):
             g = shapely.from_wkb(wkb)
-            x, y = plan.planar.forward(g).coords[0]
+            x, y = plan.site.planar.forward(g).coords[0]
             assert abs(x - p.x) < 0.01 and abs(y - p.y) < 0.01
-    if plan.spec.profiles:
+    if spec.profiles:
         assert any(p.role == "gcp" for p in points)
 
 
@@ -147,9 +152,10 @@ def test_plan_geojson_splits_by_role_in_gdal(written) -> None:
 
 
 def test_a_plan_without_sorties_has_one_route_from_home(spec_factory, tmp_path) -> None:
-    plan = plan_from_files(load_spec(spec_factory()))
+    spec = load_spec(spec_factory())
+    plan = plan_from_files(spec)
     assert not plan.sorties
-    write_outputs(plan, tmp_path / "o", gpkg=True)
+    write_outputs(plan, spec, tmp_path / "o", gpkg=True)
     path = tmp_path / "o" / "plan.gpkg"
     _, _, geoms, fields = pyogrio.raw.read(path, layer="route")
     assert list(fields[0]) == ["mission"]
@@ -158,4 +164,4 @@ def test_a_plan_without_sorties_has_one_route_from_home(spec_factory, tmp_path) 
     want = [[float(r[9]), float(r[8])] for r in rows[1:] if r[3] == "16"]
     np.testing.assert_allclose(coords[1:-1], want, atol=1e-7)
     _, _, _, lp = pyogrio.raw.read(path, layer="launch_points", read_geometry=False)
-    assert len(lp[0]) == max(1, len(plan.launch_sites))
+    assert len(lp[0]) == max(1, len(plan.launch.sites))

@@ -75,8 +75,9 @@ def test_writer_output_in_memory_passes_the_schema(small_plan):
     from aerosurvey.mission.builder import build_mission
     from aerosurvey.spec import load_spec
 
-    plan = plan_from_files(load_spec(small_plan.parent / "spec.toml"))
-    m = mf.build_manifest(plan, len(build_mission(plan).items), {})
+    spec = load_spec(small_plan.parent / "spec.toml")
+    plan = plan_from_files(spec)
+    m = mf.build_manifest(plan, spec, len(build_mission(plan).items), {})
     text = mf.dumps(m)
     assert list(_full_validator().iter_errors(json.loads(text))) == []
     assert mf.loads(text, "in memory").mission.name == "test"
@@ -89,9 +90,10 @@ def test_stations_written_from_columns_are_the_rows(small_plan):
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.spec import load_spec
 
-    plan = plan_from_files(load_spec(small_plan.parent / "spec.toml"))
-    full = mf.build_manifest(plan, 7, {"a": "b"})
-    bare = mf.build_manifest(plan, 7, {"a": "b"}, with_stations=False)
+    spec = load_spec(small_plan.parent / "spec.toml")
+    plan = plan_from_files(spec)
+    full = mf.build_manifest(plan, spec, 7, {"a": "b"})
+    bare = mf.build_manifest(plan, spec, 7, {"a": "b"}, with_stations=False)
     table = mf.station_table(plan)
     assert bare["stations"] == [] and table.rows() == full["stations"] and len(full["stations"]) > 10
     assert mf.dumps(bare, table) == mf.dumps(full)

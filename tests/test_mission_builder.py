@@ -23,8 +23,8 @@ def _plan(tmp_path, overrides=None):
 def test_copter_item_pattern(tmp_path):
     plan, m = _plan(tmp_path)
     items = m.items
-    assert items[0].command == mav.NAV_TAKEOFF and items[0].z == pytest.approx(plan.heights.nominal_agl_m, abs=0.01)
-    assert items[1].command == mav.DO_CHANGE_SPEED and items[1].param2 == pytest.approx(plan.speed.speed_ms, abs=0.01)
+    assert items[0].command == mav.NAV_TAKEOFF and items[0].z == pytest.approx(plan.sensor.heights.nominal_agl_m, abs=0.01)
+    assert items[1].command == mav.DO_CHANGE_SPEED and items[1].param2 == pytest.approx(plan.sensor.speed.speed_ms, abs=0.01)
     assert items[-1].command == mav.NAV_RETURN_TO_LAUNCH
     body = [it.command for it in items[2:-1]]
     run = [mav.NAV_WAYPOINT, mav.NAV_WAYPOINT, mav.DO_SET_CAM_TRIGG_DIST, mav.NAV_WAYPOINT, mav.DO_SET_CAM_TRIGG_DIST]
@@ -33,10 +33,10 @@ def test_copter_item_pattern(tmp_path):
     off = [it for it in items if it.command == mav.DO_SET_CAM_TRIGG_DIST and it.param1 == 0]
     assert len(on) == len(off) == len(plan.route.runs)
     # ArduPilot checks the distance at 50 Hz: photos land a whole number of check steps apart
-    step = plan.speed.speed_ms / 50.0
-    assert all(it.param1 == plan.trigger_distance_m and it.param3 == 1 for it in on)
-    assert math.ceil(plan.trigger_distance_m / step) * step == pytest.approx(plan.base_m)
-    assert plan.base_m / step == pytest.approx(round(plan.base_m / step))
+    step = plan.sensor.speed.speed_ms / 50.0
+    assert all(it.param1 == plan.sensor.trigger_distance_m and it.param3 == 1 for it in on)
+    assert math.ceil(plan.sensor.trigger_distance_m / step) * step == pytest.approx(plan.sensor.base_m)
+    assert plan.sensor.base_m / step == pytest.approx(round(plan.sensor.base_m / step))
     assert {it.frame for it in items if it.command == mav.NAV_WAYPOINT} == {mav.FRAME_GLOBAL_RELATIVE_ALT}
 
 
@@ -53,23 +53,23 @@ def test_line_end_is_half_a_base_past_the_last_station(tmp_path):
         _, _, d_first = t.inv(st.lon[firsti], st.lat[firsti], first.y, first.x)
         _, _, d_lead = t.inv(lead.y, lead.x, first.y, first.x)
         assert d_first < 0.01
-        assert d_end == pytest.approx(plan.base_m / 2, rel=2e-3)
-        assert d_lead == pytest.approx(plan.lead_in_m, rel=2e-3)
+        assert d_end == pytest.approx(plan.sensor.base_m / 2, rel=2e-3)
+        assert d_lead == pytest.approx(plan.sensor.lead_in_m, rel=2e-3)
 
 
 def test_copter_lead_in_is_the_stopping_distance(tmp_path):
     plan, _ = _plan(tmp_path, {"vehicle": {"acceleration_ms2": 2.0}})
-    assert plan.lead_in_m == pytest.approx(max(5.0, plan.speed.speed_ms ** 2 / 4.0))
+    assert plan.sensor.lead_in_m == pytest.approx(max(5.0, plan.sensor.speed.speed_ms ** 2 / 4.0))
 
 
 def test_plane_lead_in_is_three_l1_distances(tmp_path):
     # SITL: a plane settles onto the line only ~3 L1 distances after a turn (docs/planning.md)
     plan, _ = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}})
-    v = plan.speed.speed_ms
-    assert plan.lead_in_m == pytest.approx(max(plan.turn_radius_m, 3 * 0.75 * 17.0 * v / math.pi), rel=1e-9)
+    v = plan.sensor.speed.speed_ms
+    assert plan.sensor.lead_in_m == pytest.approx(max(plan.sensor.turn_radius_m, 3 * 0.75 * 17.0 * v / math.pi), rel=1e-9)
     tuned, _ = _plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0, "nav_period_s": 12.0}})
-    assert tuned.lead_in_m == pytest.approx(max(tuned.turn_radius_m, 3 * 0.75 * 12.0 * v / math.pi), rel=1e-9)
-    assert tuned.lead_in_m < plan.lead_in_m
+    assert tuned.sensor.lead_in_m == pytest.approx(max(tuned.sensor.turn_radius_m, 3 * 0.75 * 12.0 * v / math.pi), rel=1e-9)
+    assert tuned.sensor.lead_in_m < plan.sensor.lead_in_m
     with pytest.raises(Exception, match=r"vehicle\.nav_period_s.*2"):
         _plan(tmp_path, {"vehicle": {"type": "plane", "nav_period_s": 2}})
 
@@ -91,9 +91,9 @@ def test_plane_takeoff_and_land_option(tmp_path):
     on = [i for i, it in enumerate(m.items) if it.command == mav.DO_SET_CAM_TRIGG_DIST]
     assert all(m.items[i - 1].param2 == 2.0 for i in on)
     speed = next(it for it in m.items if it.command == mav.DO_CHANGE_SPEED)
-    assert speed.param1 == 0.0 and speed.param2 == pytest.approx(plan.speed.speed_ms, abs=0.01)  # airspeed for ArduPlane
-    v = plan.speed.speed_ms  # the survey speed (here the motion-blur limit), not the cruise speed
-    assert plan.turn_radius_m == pytest.approx(v ** 2 / (9.80665 * math.tan(math.radians(30))), rel=1e-6)
+    assert speed.param1 == 0.0 and speed.param2 == pytest.approx(plan.sensor.speed.speed_ms, abs=0.01)  # airspeed for ArduPlane
+    v = plan.sensor.speed.speed_ms  # the survey speed (here the motion-blur limit), not the cruise speed
+    assert plan.sensor.turn_radius_m == pytest.approx(v ** 2 / (9.80665 * math.tan(math.radians(30))), rel=1e-6)
 
 
 def test_time_trigger_items(tmp_path):
@@ -101,14 +101,15 @@ def test_time_trigger_items(tmp_path):
     on = [it for it in m.items if it.command == mav.DO_SET_CAM_TRIGG_INTERVAL and it.param1 > 0]
     assert len(on) == len(plan.route.runs) and on[0].param1 == 3000.0
     # ground speed gives the photo base at that interval (or less when the vehicle is slower)
-    assert plan.speed.speed_ms == pytest.approx(min(plan.base_m / 3.0, plan.speed.cruise_ms, plan.speed.blur_limit_ms))
+    speed = plan.sensor.speed
+    assert speed.speed_ms == pytest.approx(min(plan.sensor.base_m / 3.0, speed.cruise_ms, speed.blur_limit_ms))
 
 
 def test_camera_intervalometer_has_no_trigger_items(tmp_path):
     plan, m = _plan(tmp_path, {"camera": {"trigger": "camera", "interval_s": 2.0}})
     cmds = {it.command for it in m.items}
     assert mav.DO_SET_CAM_TRIGG_DIST not in cmds and mav.DO_SET_CAM_TRIGG_INTERVAL not in cmds
-    assert plan.trigger_interval_s == 2.0
+    assert plan.sensor.trigger_interval_s == 2.0
 
 
 def test_interval_shorter_than_the_camera_cycle_is_refused(tmp_path):

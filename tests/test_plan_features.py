@@ -37,7 +37,8 @@ def test_planning_and_rendering_leave_the_collector_on(monkeypatch) -> None:
     fc = plan_features(plan_from_files(load_spec(ROOT / "missions" / "obratan-72ha.toml")))
     roles = [f["properties"]["role"] for f in fc["features"]]
     assert roles.count("station") == roles.count("footprint") > 0
-    render_outputs(plan_from_files(load_spec(ROOT / "missions" / "kubad-abad-fixed-wing.toml")))
+    loaded = load_spec(ROOT / "missions" / "kubad-abad-fixed-wing.toml")
+    render_outputs(plan_from_files(loaded), loaded)
     assert seen == [True, True] and gc.isenabled()
 
 
@@ -78,7 +79,8 @@ def test_geojson_text_with_ids_json_escapes_is_json_text(plan) -> None:
 
     for odd in ['"', "\\", "\t", "é"]:
         ids = [f"{sid}{odd}" for sid in plan.stations.ids]
-        other = dataclasses.replace(plan, stations=dataclasses.replace(plan.stations, ids=ids))
+        renamed = dataclasses.replace(plan.stations, ids=ids)
+        other = dataclasses.replace(plan, altitudes=dataclasses.replace(plan.altitudes, stations=renamed))
         _, _, text = plan_geojson(other)
         assert text == json.dumps(plan_features(other), separators=(",", ":"), ensure_ascii=False, allow_nan=False) + "\n"
         footprints = [f for f in json.loads(text)["features"] if f["properties"]["role"] == "footprint"]

@@ -37,7 +37,7 @@ def test_sorties_fit_and_cover_every_station_once(tmp_path_factory, kind, seed, 
     for s, _wps in plan.sorties:
         # the model's own cost of the sortie fits the usable battery
         assert s.battery_used <= 1.0 + 1e-9
-        f = 1 / (1 - (wind / plan.speed.speed_ms) ** 2)
+        f = 1 / (1 - (wind / plan.sensor.speed.speed_ms) ** 2)
         assert s.horizontal_s * f + s.vertical_s <= usable_s * (1 + 1e-9)
         covered.extend(range(s.first, s.last + 1))
     assert covered == list(range(len(plan.stations.ids)))

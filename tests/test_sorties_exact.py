@@ -180,7 +180,8 @@ def _exported_sorties_fit(out: Path) -> int:
 @pytest.mark.parametrize("name", ["obratan-72ha", "forest-dem", "kubad-abad-fixed-wing"])
 def test_example_sorties(name, tmp_path):
     assert _candidates_cost_their_whole_path(_split_args(REPO / "missions" / f"{name}.toml"), 4) > 100
-    write_outputs(plan_from_files(load_spec(REPO / "missions" / f"{name}.toml")), tmp_path / "o")
+    loaded = load_spec(REPO / "missions" / f"{name}.toml")
+    write_outputs(plan_from_files(loaded), loaded, tmp_path / "o")
     assert _exported_sorties_fit(tmp_path / "o") >= 1
 
 
@@ -212,11 +213,12 @@ def test_random_plans_split_into_sorties_that_fit(tmp_path_factory, vehicle, zon
         table["vehicle"]["max_height_agl_m"] = 120
     spec = make_spec(tmp, table)
     try:
-        plan = plan_from_files(load_spec(spec))
+        loaded = load_spec(spec)
+        plan = plan_from_files(loaded)
     except InputError:  # battery too small, a launch point a plane cannot use, terrain mode refused
         assume(False)
     _candidates_cost_their_whole_path(_split_args(spec), 3, 20)
-    write_outputs(plan, tmp / "o")
+    write_outputs(plan, loaded, tmp / "o")
     assert _exported_sorties_fit(tmp / "o") == len(plan.sorties)
 
 

@@ -53,9 +53,9 @@ def test_gsd_unreachable_under_the_cap(spec_factory, tmp_path):
 def test_plan_at_cap_reports_the_achieved_gsd(spec_factory):
     spec = load_spec(spec_factory({"targets": {"gsd_cm": 6.0, "plan_at_cap": True}}))
     plan = plan_from_files(spec)
-    assert plan.heights.max_agl_m == pytest.approx(120.0)
+    assert plan.sensor.heights.max_agl_m == pytest.approx(120.0)
     assert any("height cap" in w for w in plan.warnings)
-    assert plan.gsd_max_m == pytest.approx(120 * (23.5 / 6000) / 16.0)
+    assert plan.sensor.gsd_max_m == pytest.approx(120 * (23.5 / 6000) / 16.0)
 
 
 def test_self_intersecting_area_says_where(spec_factory, tmp_path):

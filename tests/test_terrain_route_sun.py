@@ -58,11 +58,11 @@ def test_nodata_under_the_area(tmp_path):
 def test_fixed_mode_reports_relief_and_keeps_overlap_at_the_highest_ground(tmp_path):
     name = _dem(tmp_path, relief=30.0)
     plan = plan_from_files(load_spec(make_spec(tmp_path, {"terrain": {"dem": name, "mode": "fixed"}})))
-    h = plan.heights
+    h = plan.sensor.heights
     relief = h.ground_max_m - h.ground_min_m
     assert relief > 5
     assert h.spacing_agl_m == pytest.approx(h.target_agl_m - relief)
-    assert plan.gsd_max_m == pytest.approx(0.025)
+    assert plan.sensor.gsd_max_m == pytest.approx(0.025)
     assert any("fixed height over terrain" in w for w in plan.warnings)
     # every station flies the same altitude, its AGL is that altitude over its own ground
     assert np.ptp(plan.stations.alt_rel_m) == 0
@@ -82,8 +82,8 @@ def test_follow_mode_keeps_agl_within_tolerance_with_few_waypoints(tmp_path):
     plan = plan_from_files(load_spec(spec))
     terrain_wps = [w for w in plan.waypoints if w.kind == "terrain"]
     assert 0 < len(terrain_wps) < len(plan.stations.ids)
-    assert np.allclose(plan.stations.agl_m, plan.heights.nominal_agl_m)
-    assert plan.heights.max_agl_m <= 120
+    assert np.allclose(plan.stations.agl_m, plan.sensor.heights.nominal_agl_m)
+    assert plan.sensor.heights.max_agl_m <= 120
 
 
 def test_terrain_frame_items(tmp_path):
@@ -93,7 +93,7 @@ def test_terrain_frame_items(tmp_path):
     m = build_mission(plan)
     wps = [it for it in m.items if it.command == 16]
     assert {it.frame for it in wps} == {10}
-    assert all(it.z == pytest.approx(plan.heights.nominal_agl_m, abs=0.01) for it in wps)
+    assert all(it.z == pytest.approx(plan.sensor.heights.nominal_agl_m, abs=0.01) for it in wps)
 
 
 def test_thin_profile_keeps_ends_and_tolerance():

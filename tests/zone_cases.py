@@ -339,7 +339,8 @@ def plan_case(case: Case, folder: Path) -> Outcome:
     spec = write_case(case, folder)
     out = folder / "out"
     try:
-        write_outputs(plan_from_files(load_spec(spec)), out)
+        loaded = load_spec(spec)
+        write_outputs(plan_from_files(loaded), loaded, out)
     except InputError as exc:
         return Outcome(case, str(exc), [], None)
     c = shapely.centroid(case.area)

@@ -124,8 +124,8 @@ def validate_lines(geom: BaseGeometry, name: str, geographic: bool) -> BaseGeome
     if geom.is_empty:
         raise InputError(f"{name}: no line in it (empty geometry)")
     if geom.geom_type not in ("LineString", "MultiLineString"):
-        raise InputError(f"{name}: a {geom.geom_type} is not a centreline; give a LineString or MultiLineString "
-                         "(pattern.kind = 'corridor')")
+        raise InputError(f"{name}: a {geom.geom_type} is not a centreline; give a LineString or MultiLineString, "
+                         "or the corridor's Polygon (pattern.kind = 'corridor')")
     xy = shapely.get_coordinates(geom)
     if not np.isfinite(xy).all():
         raise InputError(f"{name}: a coordinate is not a finite number")
@@ -350,12 +350,18 @@ def _parse_vector(source: Path | bytes, where: str, short: str, name: str,
 
 def _kept(geoms: list[BaseGeometry | None], crs: pyproj.CRS, where: str, short: str, name: str,
           lines: bool = False) -> BaseGeometry:
-    """The polygons (`lines`: the lines) among a dataset's geometries, the rest left out, each
-    checked; polygons unioned, lines gathered into one (Multi)LineString."""
-    kinds = ("LineString", "MultiLineString") if lines else ("Polygon", "MultiPolygon")
-    parts = [p for g in geoms if g is not None and not g.is_empty for p in shapely.get_parts(g) if p.geom_type in kinds]
+    """The polygons (`lines`: a corridor's lines, or else its polygons) among a dataset's geometries,
+    the rest left out, each checked; polygons unioned, lines gathered into one (Multi)LineString."""
+    every = [p for g in geoms if g is not None and not g.is_empty for p in shapely.get_parts(g)]
+    polygons = [p for p in every if p.geom_type in ("Polygon", "MultiPolygon")]
+    parts = [p for p in every if p.geom_type in ("LineString", "MultiLineString")] if lines else polygons
+    if lines and parts and polygons:
+        raise InputError(f"{name}: {where!r} holds {len(parts)} line(s) and {len(polygons)} polygon(s): a corridor is its "
+                         "centreline (lines) or its polygon, not both")
+    if lines and not parts:  # a corridor polygon: its centreline is derived (plan/centreline.py)
+        parts, lines = polygons, False
     if not parts:
-        raise InputError(f"{name}: {where!r} holds no {'line' if lines else 'polygon'}")
+        raise InputError(f"{name}: {where!r} holds no {'line or polygon' if lines else 'polygon'}")
     if lines:
         return validate_lines(shapely.line_merge(shapely.multilinestrings(parts)) if len(parts) > 1 else parts[0],
                               f"{name} ({short})", crs.is_geographic)
@@ -373,7 +379,7 @@ def _from_wkt(text: str, name: str) -> BaseGeometry:
 
 def read_area(path: Path | None, wkt: str | None, wkt_crs: str, name: str, lines: bool = False) -> BaseGeometry:
     """The area (or an exclusion zone) as a valid polygon geometry in WGS84 longitude/latitude;
-    `lines`: a corridor's centreline, a (Multi)LineString."""
+    `lines`: a corridor's centreline, a (Multi)LineString, or its polygon."""
     if path is not None:
         geom, crs = _read_vector(path, name, lines)
     else:
@@ -410,8 +416,9 @@ def read_area_data(shown: str, files: Mapping[str, bytes], name: str) -> BaseGeo
 
 
 def _in_wgs84(geom: BaseGeometry, crs: pyproj.CRS, name: str, lines: bool = False) -> BaseGeometry:
-    """A parsed area (`lines`: centreline) checked in its own CRS, then in WGS84 longitude/latitude."""
-    validate = validate_lines if lines else validate_polygons
+    """A parsed area (`lines`: a corridor's centreline or polygon) checked in its own CRS, then in
+    WGS84 longitude/latitude."""
+    validate = validate_lines if lines and geom.geom_type not in ("Polygon", "MultiPolygon") else validate_polygons
     geom = validate(geom, name, crs.is_geographic)
     if not crs.equals(_WGS84):
         geom = transformed(pyproj.Transformer.from_crs(crs, _WGS84, always_xy=True), geom)

@@ -105,7 +105,7 @@ def progress(label: str, *, enabled: bool | None = None, file: IO[str] | None = 
         with console.progress("planning") as report:
             plan = plan_mission(spec, console.part(report, 0.0, 0.9))
             report("writing the mission files", 0.9)
-            write_outputs(plan, outdir)
+            write_outputs(plan, spec, outdir)
 
     `report(stage, done)` names the current stage and the share of the whole job done (0..1;
     values outside are clamped, a smaller value than before does not move the bar back). A

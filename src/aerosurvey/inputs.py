@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 def load_geometry(spec: MissionSpec) -> tuple[BaseGeometry, tuple[BaseGeometry, ...]]:
     """The area and the exclusion zones of the spec, in WGS84 (what the web page shows before it plans)."""
     corridor = spec.pattern.kind == "corridor"
-    area = read_area(spec.area.file, spec.area.wkt, spec.area.wkt_crs, "area.file (the centreline)" if corridor else "area",
+    area = read_area(spec.area.file, spec.area.wkt, spec.area.wkt_crs, "area.file (the corridor)" if corridor else "area",
                      lines=corridor)
     return area, tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)
 

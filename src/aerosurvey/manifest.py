@@ -18,7 +18,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
     from aerosurvey.plan.planner import Plan
+    from aerosurvey.spec import MissionSpec
 
 SCHEMA = "aerosurvey-manifest"
 SCHEMA_VERSION = 3
@@ -56,7 +57,7 @@ def _lonlats(plan: Plan, xys: list[tuple[float, float]]) -> list[list[float | No
     if not xys:
         return []
     xy = np.asarray(xys, float).reshape(-1, 2)
-    lon, lat = plan.planar.lonlat(xy[:, 0], xy[:, 1])
+    lon, lat = plan.site.planar.lonlat(xy[:, 0], xy[:, 1])
     return [[_f(a, 8), _f(b, 8)] for a, b in zip(lon.tolist(), lat.tolist())]
 
 
@@ -64,23 +65,22 @@ def sortie_record(plan: Plan, k: int, stem: str) -> dict[str, Any]:
     """Sortie k (from 1) as the manifest and resume.json record it, its files named `stem`.plan and
     .waypoints; with a [battery] table, also its wind allowance and battery use."""
     s, _wps = plan.sorties[k - 1]
-    st, site = plan.stations, plan.launch_sites[s.launch]
+    st, site = plan.stations, plan.launch.sites[s.launch]
     out: dict[str, Any] = {
         "id": ids.sortie_id(k), "files": [f"{stem}.plan", f"{stem}.waypoints"],
         "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
         "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
         "time_s": _f(s.horizontal_s + s.vertical_s, 1), "distance_m": _f(s.distance_m, 1), "mission_items": s.items + 1,
     }
-    if plan.spec.battery is not None:
-        budget = cast(Any, plan.battery)  # the sortie Budget (typed `object` on the plan)
+    budget = plan.battery
+    if budget is not None and budget.reserve is not None:
         out["time_with_wind_allowance_s"] = _f(s.horizontal_s * budget.wind_factor + s.vertical_s, 1)
-        out["battery_used_pct"] = _f(100 * s.battery_used * (1 - plan.spec.battery.reserve), 1)
+        out["battery_used_pct"] = _f(100 * s.battery_used * (1 - budget.reserve), 1)
         out["usable_used_pct"] = _f(100 * s.battery_used, 1)
     return out
 
 
 def _sorties(plan: Plan) -> list[dict[str, Any]]:
-    assert not plan.sorties or plan.spec.battery is not None, "a plan's sorties are split only with a [battery] table"
     return [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
 
 
@@ -166,7 +166,7 @@ def station_table(plan: Plan) -> StationTable:
         return Column(None if not math.isfinite(v) else v for v in r.tolist())
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
-    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.spec.camera.camera)
+    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.camera.camera)
     # the ids' JSON texts made here, once: plan.geojson writes them twice (feature id, property) and the manifest once
     return StationTable((Column(st.ids, string_texts(st.ids)), Column.of_array(np.arange(1, len(st.ids) + 1)),
                          Column.of_codes(run_ids, st.run),
@@ -177,45 +177,30 @@ def station_table(plan: Plan) -> StationTable:
 
 def _pattern(plan: Plan) -> dict[str, Any]:
     """The pattern and its parameters, and each pass's camera attitude and sensor solution."""
-    p = plan.spec.pattern
+    p = plan.pattern
     params: dict[str, Any] = {}
-    if p.kind == "corridor":
-        params = {"left_m": p.left_m, "right_m": p.right_m}
+    if p.kind == "corridor" and plan.site.sides_m is not None:  # the spec's widths, or those derived from a corridor polygon
+        params = {"left_m": _f(plan.site.sides_m[0]), "right_m": _f(plan.site.sides_m[1])}
     elif p.kind == "oblique":
         params = {"scheme": p.scheme, "pitch_deg": p.pitch_deg,
                   "max_far_gsd_cm": _f(p.max_far_gsd_m * 100, 4) if p.max_far_gsd_m is not None else None}
-    trigger = _f(plan.trigger_distance_m) if plan.trigger_distance_m is not None else None
+    trigger = _f(plan.sensor.trigger_distance_m) if plan.sensor.trigger_distance_m is not None else None
     passes = [{"pass": ps.index, "pitch_deg": ps.pitch_deg, "look_deg": _f(ps.look_deg) if ps.look_deg is not None else None,
-               "footprint_across_m": _f(plan.across_m), "footprint_along_m": _f(plan.along_m),
-               "line_spacing_m": _f(plan.spacing_m), "photo_base_m": _f(plan.base_m), "trigger_distance_m": trigger}
-              for ps in plan.passes if not ps.empty]
-    from aerosurvey.plan.sensor import hover_rest_s  # the writer's; the reader does not load the planner
-
-    hover = hover_rest_s(plan.spec) if plan.spec.camera.trigger == "hover" else None
+               "footprint_across_m": _f(plan.sensor.across_m), "footprint_along_m": _f(plan.sensor.along_m),
+               "line_spacing_m": _f(plan.sensor.spacing_m), "photo_base_m": _f(plan.sensor.base_m), "trigger_distance_m": trigger}
+              for ps in plan.layout.passes if not ps.empty]
+    hover = plan.sensor.hover_s
     return {"kind": p.kind, "parameters": params, "hover_s": _f(hover) if hover is not None else None, "passes": passes}
 
 
-def _bounds(plan: Plan) -> dict[str, Any]:
-    """The grid's lower bounds (plan/bounds.py) for the area the lines photograph (grown by the margin)."""
-    import shapely
-
-    from aerosurvey.plan.bounds import grid_bounds
-
-    margin = plan.spec.targets.coverage_margin_m * plan.grid_scale
-    covered = shapely.buffer(plan.area, margin, quad_segs=4) if margin > 0 else plan.area
-    b = grid_bounds(covered, plan.grid_scale, plan.across_m, plan.spacing_m, plan.base_m, plan.side_images_per_point,
-                    2 if plan.spec.flight.cross_hatch else 1)
-    return {"min_width_m": _f(b.min_width_m), "strips": b.strips, "photos": b.photos}
-
-
-def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with_stations: bool = True) -> dict[str, Any]:
-    """The manifest as plain JSON data. `outputs` maps each written file name to its sha256.
+def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: dict[str, str],
+                   with_stations: bool = True) -> dict[str, Any]:
+    """The manifest of `plan`, planned from `spec`, as plain JSON data. `outputs` maps each written file name to its sha256.
     Without `with_stations`, `stations` is left empty, for `dumps` to write from a StationTable."""
-    spec = plan.spec
     base = spec.path.parent if spec.path else Path(".")
-    cam = spec.camera.camera
+    cam = plan.camera.camera
     st = plan.stations
-    h = plan.heights
+    h = plan.sensor.heights
     lines = []
     ends = _lonlats(plan, [xy for r in plan.route.runs for xy in (r.lead_in_xy, r.end_xy)])
     bends = _lonlats(plan, [(float(x), float(y)) for r in plan.route.runs for x, y in r.bends_xy])
@@ -240,52 +225,52 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
         "schema": SCHEMA,
         "schema_version": SCHEMA_VERSION,
         "aerosurvey_version": __version__,
-        "mission": {"name": spec.name, "vehicle": spec.vehicle.type, "firmware": spec.vehicle.firmware,
+        "mission": {"name": plan.name, "vehicle": plan.vehicle.type, "firmware": plan.vehicle.firmware,
                     "profiles": list(spec.profiles)},
         "rule_overrides": dict(sorted(spec.rule_overrides.items())),
         "inputs": inputs,
-        "crs": {"planning": plan.planar.name, "geographic": "EPSG:4326"},
+        "crs": {"planning": plan.site.planar.name, "geographic": "EPSG:4326"},
         "camera": {"id": cam.id, "name": cam.name, "sensor_mm": [cam.sensor_width_mm, cam.sensor_height_mm],
                    "image_px": [cam.image_width_px, cam.image_height_px], "focal_mm": cam.focal_mm,
-                   "pixel_pitch_um": _f(cam.pixel_pitch_um, 4), "mount": spec.camera.mount,
-                   "trigger": spec.camera.trigger, "min_cycle_s": spec.camera.min_cycle_s,
-                   "exposure_s": spec.camera.exposure_s, "source": cam.source},
-        "targets": {"gsd_cm": _f(plan.gsd_target_m * 100, 4), "forward_overlap": spec.targets.forward_overlap,
+                   "pixel_pitch_um": _f(cam.pixel_pitch_um, 4), "mount": plan.camera.mount,
+                   "trigger": plan.camera.trigger, "min_cycle_s": plan.camera.min_cycle_s,
+                   "exposure_s": plan.camera.exposure_s, "source": cam.source},
+        "targets": {"gsd_cm": _f(plan.sensor.gsd_target_m * 100, 4), "forward_overlap": spec.targets.forward_overlap,
                     "side_overlap": spec.targets.side_overlap,
                     "images_beyond_boundary": spec.targets.images_beyond_boundary,
                     "coverage_margin_m": spec.targets.coverage_margin_m,
-                    "max_height_agl_m": spec.vehicle.max_height_agl_m},
+                    "max_height_agl_m": plan.vehicle.max_height_agl_m},
         "pattern": _pattern(plan),
         "derived": {
             "height_agl_m": _f(h.nominal_agl_m), "height_for_gsd_m": _f(h.target_agl_m),
             "lowest_agl_m": _f(h.spacing_agl_m), "highest_agl_m": _f(h.max_agl_m),
-            "gsd_min_cm": _f(plan.gsd_min_m * 100, 4), "gsd_max_cm": _f(plan.gsd_max_m * 100, 4),
-            "footprint_across_m": _f(plan.across_m), "footprint_along_m": _f(plan.along_m),
-            "line_spacing_m": _f(plan.spacing_m), "photo_base_m": _f(plan.base_m),
-            "trigger_distance_m": _f(plan.trigger_distance_m) if plan.trigger_distance_m is not None else None,
-            "side_images_per_point": plan.side_images_per_point,
-            "forward_images_per_point": plan.forward_images_per_point,
-            "speed_ms": _f(plan.speed.speed_ms), "speed_reason": plan.speed.reason,
-            "speed_limits_ms": {"cruise": _f(plan.speed.cruise_ms), "camera_cycle": _f(plan.speed.cycle_limit_ms),
-                                "motion_blur": _f(plan.speed.blur_limit_ms)},
-            "trigger_interval_s": _f(plan.trigger_interval_s) if plan.trigger_interval_s else None,
-            "lead_in_m": _f(plan.lead_in_m), "turn_radius_m": _f(plan.turn_radius_m),
-            "heading_deg": _f(plan.heading_deg), "heading_chosen": plan.heading_chosen,
-            "cross_hatch": spec.flight.cross_hatch, "exclusion_margin_m": spec.flight.exclusion_margin_m,
+            "gsd_min_cm": _f(plan.sensor.gsd_min_m * 100, 4), "gsd_max_cm": _f(plan.sensor.gsd_max_m * 100, 4),
+            "footprint_across_m": _f(plan.sensor.across_m), "footprint_along_m": _f(plan.sensor.along_m),
+            "line_spacing_m": _f(plan.sensor.spacing_m), "photo_base_m": _f(plan.sensor.base_m),
+            "trigger_distance_m": _f(plan.sensor.trigger_distance_m) if plan.sensor.trigger_distance_m is not None else None,
+            "side_images_per_point": plan.sensor.side_images_per_point,
+            "forward_images_per_point": plan.sensor.forward_images_per_point,
+            "speed_ms": _f(plan.sensor.speed.speed_ms), "speed_reason": plan.sensor.speed.reason,
+            "speed_limits_ms": {"cruise": _f(plan.sensor.speed.cruise_ms), "camera_cycle": _f(plan.sensor.speed.cycle_limit_ms),
+                                "motion_blur": _f(plan.sensor.speed.blur_limit_ms)},
+            "trigger_interval_s": _f(plan.sensor.trigger_interval_s) if plan.sensor.trigger_interval_s else None,
+            "lead_in_m": _f(plan.sensor.lead_in_m), "turn_radius_m": _f(plan.sensor.turn_radius_m),
+            "heading_deg": _f(plan.layout.heading_deg), "heading_chosen": plan.layout.heading_chosen,
+            "cross_hatch": spec.flight.cross_hatch, "exclusion_margin_m": plan.site.margin_m,
             "route_strategy": list(plan.route.strategy),
-            "altitude_frame": plan.altitude_frame,
+            "altitude_frame": plan.altitudes.frame,
             "terrain": {"mode": h.mode, "ground_min_m": _f(h.ground_min_m) if h.ground_min_m is not None else None,
                         "ground_max_m": _f(h.ground_max_m) if h.ground_max_m is not None else None,
                         "fixed_alt_amsl_m": _f(h.fixed_alt_amsl_m) if h.fixed_alt_amsl_m is not None else None,
-                        "tolerance_m": spec.terrain.tolerance_m},
-            "area_ha": _f(plan.area.area / 1e4, 4),
-            "grid_scale": round(plan.grid_scale, 9),
-            "simplification": {"tolerance_m": _f(plan.simplification.tolerance_m, 4),
-                               "area_vertices": list(plan.simplification.area_vertices),
-                               "zone_vertices": list(plan.simplification.zone_vertices)},
-            "bounds": _bounds(plan),
+                        "tolerance_m": plan.altitudes.tolerance_m},
+            "area_ha": _f(plan.site.area.area / 1e4, 4),
+            "grid_scale": round(plan.site.grid_scale, 9),
+            "simplification": {"tolerance_m": _f(plan.site.simplification.tolerance_m, 4),
+                               "area_vertices": list(plan.site.simplification.area_vertices),
+                               "zone_vertices": list(plan.site.simplification.zone_vertices)},
+            "bounds": {"min_width_m": _f(plan.bounds.min_width_m), "strips": plan.bounds.strips, "photos": plan.bounds.photos},
         },
-        "home": {"lon": _f(plan.home[0], 8), "lat": _f(plan.home[1], 8), "ground_amsl_m": _f(plan.home[2], 2)},
+        "home": {"lon": _f(plan.launch.home[0], 8), "lat": _f(plan.launch.home[1], 8), "ground_amsl_m": _f(plan.launch.home[2], 2)},
         "estimates": {k: (_f(v, 1) if k != "photos" else int(v)) for k, v in plan.estimates.items()},
         "conditions": plan.sun,
         "sorties": _sorties(plan),
@@ -293,11 +278,11 @@ def build_manifest(plan: Plan, mission_items: int, outputs: dict[str, str], with
         "stations": stations,
         "mission_items": mission_items,
         "outputs": dict(sorted(outputs.items())),
-        "battery": None if plan.spec.battery is None else {
-            "usable_min": plan.spec.battery.usable_min, "capacity_wh": plan.spec.battery.capacity_wh,
-            "cruise_power_w": plan.spec.battery.cruise_power_w, "climb_power_w": plan.spec.battery.climb_power_w,
-            "reserve": plan.spec.battery.reserve, "wind_ms": plan.spec.battery.wind_ms,
-            "max_mission_items": plan.spec.battery.max_mission_items},
+        "battery": None if spec.battery is None else {
+            "usable_min": spec.battery.usable_min, "capacity_wh": spec.battery.capacity_wh,
+            "cruise_power_w": spec.battery.cruise_power_w, "climb_power_w": spec.battery.climb_power_w,
+            "reserve": spec.battery.reserve, "wind_ms": spec.battery.wind_ms,
+            "max_mission_items": spec.battery.max_mission_items},
         "warnings": list(plan.warnings),
         "coverage": _coverage(plan),
     }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,7 +14,8 @@ from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
-from aerosurvey.mission.formats import QGC_LAYOUTS, wpml
+from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS, wpml
+from aerosurvey.mission.formats.dji_template import template_choice
 from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.qgc_survey import survey_items
@@ -25,6 +27,7 @@ from aerosurvey.mission.targets import mavlink_item_limit
 from aerosurvey.plan.coverage import uncovered_rule
 from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 from aerosurvey.plan.planner import Plan
+from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
@@ -33,6 +36,8 @@ from aerosurvey.report.features import footprint_lonlat, plan_geojson
 from aerosurvey.report.gpkg import footprints_layer, gpkg_bytes, plan_layers
 from aerosurvey.report.preview import render_svg
 from aerosurvey.report.summary import Summary, plan_summary
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -48,10 +53,10 @@ class Rendered:
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
     """A mission longer than the autopilot holds is flagged with what to do about it."""
 
-    limit = mavlink_item_limit(plan.spec)
+    limit = mavlink_item_limit(plan.vehicle.firmware, plan.battery)
     n = len(mission.items) + 1
     if n > limit:
-        msg = (f"the whole mission has {n} items, more than the {limit} a {plan.spec.vehicle.firmware} autopilot holds "
+        msg = (f"the whole mission has {n} items, more than the {limit} a {plan.vehicle.firmware} autopilot holds "
                f"by default (battery.max_mission_items)")
         if plan.sorties:
             return [msg + "; fly the sortie files, each within the limit"]
@@ -64,14 +69,14 @@ def final_gate(plan: Plan, programs: dict[str, FlightProgram]) -> None:
     """Every leg of every flight outside the zones and their margins, or nothing is written."""
     bad = []
     for stem, p in programs.items():
-        legs = program_legs(p, stem, plan.planar, PLANE_RTL_LOITER_M * plan.grid_scale, plan.grid_scale)
-        bad += check_legs(legs, plan.exclusions, plan.spec.flight.exclusion_margin_m, plan.grid_scale, plan.planar)
+        legs = program_legs(p, stem, plan.site.planar, PLANE_RTL_LOITER_M * plan.site.grid_scale, plan.site.grid_scale)
+        bad += check_legs(legs, plan.site.zones, plan.site.margin_m, plan.site.grid_scale, plan.site.planar)
     if bad:
         more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""
         raise CheckFailed("the plan is not written: " + "; ".join(v.message() for v in bad[:3]) + more)
 
 
-def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
+def _rules(spec: MissionSpec, manifest: dict[str, Any], stations: mf.StationTable,
            features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
     """Evaluate the spec's rule profiles on the plan as later readers will see it (the
     manifest with its station rows, made here only when there are profiles to read them)."""
@@ -79,11 +84,11 @@ def _rules(plan: Plan, manifest: dict[str, Any], stations: mf.StationTable,
     from aerosurvey.rules.planview import PlanView
     from aerosurvey.rules.profile import apply_overrides, select_profiles
 
-    if not plan.spec.profiles:
+    if not spec.profiles:
         return [], [], None
     view = PlanView.from_documents({**manifest, "stations": stations.rows()}, features, "the plan",
                                    check=False)  # just made by the writer
-    profiles = apply_overrides(select_profiles(list(plan.spec.profiles)), plan.spec.rule_overrides)
+    profiles = apply_overrides(select_profiles(list(spec.profiles)), spec.rule_overrides)
     ev = Evidence(view, layout_settings(view, profiles))
     return evaluate(profiles, ev), ev.points, ev
 
@@ -98,12 +103,14 @@ def plan_text(plan: Plan, m: Mission, qgc: str, stations: tuple[int, int] | None
     return dumps_plan(m, surveys)
 
 
-def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) -> Rendered:
-    """File name → text of every output (the manifest last: it lists the others' hashes);
+def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
+                   dji: str = DJI_TEMPLATES[0]) -> Rendered:
+    """File name → text of every output of `plan`, planned from `spec` (the manifest last: it lists the others' hashes);
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
-    is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`)."""
+    is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`), `dji`
+    which template the DJI .kmz files hold (`dji_kmz_files`)."""
     # one flight program per file stem (the whole mission and each sortie), checked once, then emitted
-    programs = {"mission": flight_program(plan, name=plan.spec.name)} | _sortie_programs(plan, ids.sortie_file_stem)
+    programs = {"mission": flight_program(plan)} | _sortie_programs(plan, ids.sortie_file_stem)
     final_gate(plan, programs)
     mission = mavlink_mission(programs["mission"])
     # the station table's columns are written into the manifest and plan.geojson, and the
@@ -117,20 +124,20 @@ def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) ->
     files.update(_mission_files(plan, {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()},
                                 qgc))
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
-    manifest = mf.build_manifest(plan, len(mission.items), {}, with_stations=False)
-    results, points, evidence = _rules(plan, manifest, stations_table, fc)
+    manifest = mf.build_manifest(plan, spec, len(mission.items), {}, with_stations=False)
+    results, points, evidence = _rules(spec, manifest, stations_table, fc)
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
     manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
-    binary, dji_warnings = dji_kmz_files(programs)
+    binary, dji_warnings = dji_kmz_files(plan, programs, dji)
     warnings += dji_warnings
     # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
     # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
     layers = plan_layers(plan, points)
-    files["plan.kml"] = layers_to_kml(layers, plan.spec.name)
+    files["plan.kml"] = layers_to_kml(layers, plan.name)
     if gpkg:
         binary["plan.gpkg"] = gpkg_bytes([*layers, footprints_layer(plan, corners)])
     hashes = {name: _sha256(text.encode("utf-8")) for name, text in files.items()}
@@ -143,10 +150,11 @@ def render_outputs(plan: Plan, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) ->
     return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
 
 
-def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes], list[str]]:
+def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI_TEMPLATES[0]) -> tuple[dict[str, bytes], list[str]]:
     """A DJI WPML .kmz next to each flight's .plan and .waypoints when the camera is one a DJI
     aircraft flies waylines with (mission/formats/wpml.py), and a warning for each flight that
-    cannot be one (with why)."""
+    cannot be one (with why). `dji` "mapping": template.kml holds a mapping template where one
+    expresses the flight (mission/formats/dji_template.py), "waypoint": always the waypoint template."""
     files: dict[str, bytes] = {}
     warnings: list[str] = []
     for stem, p in programs.items():
@@ -155,7 +163,11 @@ def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes],
             return {}, []
         why = wpml.refusal(p)
         if why is None:
-            files[f"{stem}.kmz"] = wpml.kmz_bytes(p, aircraft)
+            # the whole mission, or its one sortie, flies every station
+            template = template_choice(plan, p, stem == "mission" or len(plan.sorties) == 1, dji)
+            if isinstance(template, str):
+                log.info("%s.kmz: waypoint template (%s)", stem, template)
+            files[f"{stem}.kmz"] = wpml.kmz_bytes(p, aircraft, template)
         else:
             warnings.append(f"{stem}.kmz (DJI waylines for the {aircraft.name}) is not written: {why}")
     return files, warnings
@@ -163,7 +175,7 @@ def dji_kmz_files(programs: dict[str, FlightProgram]) -> tuple[dict[str, bytes],
 
 def _sortie_programs(plan: Plan, stem: Callable[[int], str]) -> dict[str, FlightProgram]:
     """Each sortie's flight program from its launch site, by file stem."""
-    return {stem(k): flight_program(plan, k - 1, name=f"{plan.spec.name}-{stem(k)}") for k in range(1, len(plan.sorties) + 1)}
+    return {stem(k): flight_program(plan, k - 1, name=f"{plan.name}-{stem(k)}") for k in range(1, len(plan.sorties) + 1)}
 
 
 def _mission_files(plan: Plan, missions: dict[str, Mission], qgc: str) -> dict[str, str]:
@@ -189,7 +201,7 @@ def render_resume(plan: Plan, after_station: str, plan_folder: str, qgc: str = Q
     final_gate(plan, programs)
     files = _mission_files(plan, {stem: mavlink_mission(p) for stem, p in programs.items()}, qgc)
     sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
-    files[resumefile.FILE] = resumefile.dumps(plan.spec.name, plan_folder, after_station, sorties)
+    files[resumefile.FILE] = resumefile.dumps(plan.name, plan_folder, after_station, sorties)
     return files
 
 
@@ -197,9 +209,10 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def write_outputs(plan: Plan, outdir: Path, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0]) -> Rendered:
+def write_outputs(plan: Plan, spec: MissionSpec, outdir: Path, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
+                  dji: str = DJI_TEMPLATES[0]) -> Rendered:
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
-    rendered = render_outputs(plan, gpkg, qgc)
+    rendered = render_outputs(plan, spec, gpkg, qgc, dji)
     with staged_directory(outdir) as stage:
         for name, text in rendered.files.items():
             atomic_write_text(stage / name, text)

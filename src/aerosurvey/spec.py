@@ -72,7 +72,8 @@ class PatternSpec:
     """The spec's [pattern] table: how photo runs are laid.
 
     area: parallel lines over the area (with [flight] heading and cross_hatch); corridor: strips
-    along a centreline, `left_m` and `right_m` of ground each side of it; oblique: the area grid
+    along a centreline, `left_m` and `right_m` of ground each side of it (None: derived from the
+    corridor polygon given instead of a centreline, plan/centreline.py); oblique: the area grid
     flown again with the camera tilted to `pitch_deg` (gimbal convention, −90 is straight down),
     as a double grid (two headings, the camera looking along the flight) or five directions
     (nadir plus four obliques looking north, east, south and west)."""
@@ -338,12 +339,12 @@ def _pattern(top: _Table, flight: FlightSpec) -> PatternSpec:
         right = p.number("right_m", None, lo=0.0, hi=10000.0)
         if width is not None and (left is not None or right is not None):
             raise InputError("[pattern] corridor takes either width_m or left_m and right_m, not both")
-        if width is None and (left is None or right is None):
-            raise InputError("[pattern] kind = 'corridor' needs width_m (centred on the centreline) or both left_m and right_m")
+        if (left is None) != (right is None):
+            raise InputError("[pattern] corridor takes width_m (centred on the centreline) or both left_m and right_m, "
+                             "or none of them for a corridor polygon (its widths derived)")
         if width is not None:
             left = right = width / 2.0
-        assert left is not None and right is not None
-        if left + right <= 0:
+        if left is not None and right is not None and left + right <= 0:
             raise bad_value("pattern.left_m + pattern.right_m", left + right, "a corridor wider than 0 m")
         if flight.cross_hatch:
             raise InputError("flight.cross_hatch is for area grids: a corridor is flown along its centreline")

@@ -82,7 +82,8 @@ def test_an_area_with_holes_and_a_zone(tmp_path) -> None:
     write_geojson(tmp_path / "zone.geojson", [zone])
     spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]}, "flight": {"exclusion_margin_m": 30.0}},
                      rings=random_polygon("holed", 7, 400.0))
-    write_outputs(plan_from_files(load_spec(spec)), tmp_path / "o", gpkg=True)
+    loaded = load_spec(spec)
+    write_outputs(plan_from_files(loaded), loaded, tmp_path / "o", gpkg=True)
     counts = {n: pyogrio.read_info(tmp_path / "o" / "plan.kml", layer=n)["features"]
               for n, _ in pyogrio.list_layers(tmp_path / "o" / "plan.kml")}
     assert counts["zones"] == 1, counts

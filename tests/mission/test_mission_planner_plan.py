@@ -33,7 +33,8 @@ def _is_double(v: object) -> bool:
 
 @pytest.fixture(scope="module", params=["obratan-72ha", "forest-dem", "kubad-abad-fixed-wing"])
 def plan_files(request) -> dict[str, dict]:
-    files = render_outputs(plan_from_files(load_spec(ROOT / "missions" / f"{request.param}.toml"))).files
+    loaded = load_spec(ROOT / "missions" / f"{request.param}.toml")
+    files = render_outputs(plan_from_files(loaded), loaded).files
     return {name: json.loads(text) for name, text in files.items() if name.endswith(".plan")}
 
 

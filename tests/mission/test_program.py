@@ -113,14 +113,14 @@ def _tilted(plan: Plan, runs: dict[int, float], yaw_offset: dict[int, float] | N
         pitch[st.run == r] = p
     for r, d in (yaw_offset or {}).items():
         bearing[st.run == r] = (bearing[st.run == r] + d) % 360.0
-    return replace(plan, stations=replace(st, pitch_deg=pitch, camera_yaw_deg=bearing))
+    return replace(plan, altitudes=replace(plan.altitudes, stations=replace(st, pitch_deg=pitch, camera_yaw_deg=bearing)))
 
 
 def test_a_nadir_plan_has_no_gimbal_items(tmp_path: Path) -> None:
     plan = _plan(tmp_path)
     assert (plan.stations.pitch_deg == -90).all()
     for firmware in ("ardupilot", "px4"):
-        p = replace(plan, spec=replace(plan.spec, vehicle=replace(plan.spec.vehicle, firmware=firmware)))
+        p = replace(plan, vehicle=replace(plan.vehicle, firmware=firmware))
         cmds = {it.command for it in build_mission(p).items}
         assert not cmds & {M.MAV_CMD_DO_MOUNT_CONTROL, M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW}
 
@@ -145,7 +145,7 @@ def test_gimbal_items_where_the_pitch_changes_with_the_documented_params(tmp_pat
     # PX4: DO_GIMBAL_MANAGER_PITCHYAW, param1 pitch, param2 yaw, param5 flags: pitch against the horizon
     doc = CMD[M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW].param
     assert "pitch" in doc[1].lower() and "yaw" in doc[2].lower() and "flags" in doc[5].lower()
-    px4 = replace(plan, spec=replace(plan.spec, vehicle=replace(plan.spec.vehicle, firmware="px4")))
+    px4 = replace(plan, vehicle=replace(plan.vehicle, firmware="px4"))
     g = [it for it in build_mission(px4).items if it.command == M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW]
     assert [(it.param1, it.param2) for it in g] == [(-45.0, 0.0), (-45.0, 90.0), (-90.0, 0.0)]
     assert all(int(it.x) & M.GIMBAL_MANAGER_FLAGS_PITCH_LOCK and not int(it.x) & M.GIMBAL_MANAGER_FLAGS_YAW_LOCK for it in g)
@@ -153,8 +153,7 @@ def test_gimbal_items_where_the_pitch_changes_with_the_documented_params(tmp_pat
 
 
 def _hover(plan: Plan, settle_s: float = 2.0) -> Plan:
-    cam = replace(plan.spec.camera, trigger="hover", settle_s=settle_s)
-    return replace(plan, spec=replace(plan.spec, camera=cam))
+    return replace(plan, camera=replace(plan.camera, trigger="hover", settle_s=settle_s))
 
 
 @pytest.mark.parametrize("overrides", [None, {"terrain": {"dem": "dem.tif", "mode": "follow", "tolerance_m": 2.0}},
@@ -196,7 +195,7 @@ def test_hover_items_per_autopilot_with_the_documented_params(tmp_path: Path) ->
     assert all(items[i].x == 1 for i in shots)
     assert all(items[i - 1].command == M.MAV_CMD_NAV_WAYPOINT and items[i - 1].param1 == 2.0 for i in shots)
     assert not [it for it in items if it.command in (M.MAV_CMD_DO_SET_CAM_TRIGG_DIST, M.MAV_CMD_DO_SET_CAM_TRIGG_INTERVAL)]
-    px4 = build_mission(replace(plan, spec=replace(plan.spec, vehicle=replace(plan.spec.vehicle, firmware="px4")))).items
+    px4 = build_mission(replace(plan, vehicle=replace(plan.vehicle, firmware="px4"))).items
     caps = [(i, it) for i, it in enumerate(px4) if it.command == M.MAV_CMD_IMAGE_START_CAPTURE]
     doc = CMD[M.MAV_CMD_IMAGE_START_CAPTURE].param
     assert "total number of images" in doc[3].lower() and "sequence number" in doc[4].lower()
@@ -204,14 +203,6 @@ def test_hover_items_per_autopilot_with_the_documented_params(tmp_path: Path) ->
     assert [(it.param2, it.param3, it.param4) for _, it in caps] == [(0.0, 1.0, float(s)) for s in range(1, n + 1)]
     assert all(px4[i - 1].param1 == 2.0 for i, _ in caps)
     assert not [it for it in px4 if it.command == M.MAV_CMD_DO_DIGICAM_CONTROL]
-
-
-def test_hover_for_a_plane_is_refused(tmp_path: Path) -> None:
-    from aerosurvey.errors import InputError
-
-    plan = _hover(_plan(tmp_path, {"vehicle": {"type": "plane", "cruise_speed_ms": 16.0}}))
-    with pytest.raises(InputError, match="camera.trigger = 'hover' is not allowed for vehicle.type = 'plane'"):
-        flight_program(plan)
 
 
 def test_a_bend_keeps_the_camera_on(tmp_path: Path) -> None:

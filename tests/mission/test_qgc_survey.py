@@ -150,7 +150,7 @@ class _Pass:
     def __init__(self, runs: list[SimpleNamespace], waypoints: list[SimpleNamespace], spacing: float) -> None:
         self.route = SimpleNamespace(runs=runs)
         self.waypoints = waypoints
-        self.spacing_m = spacing
+        self.sensor = SimpleNamespace(spacing_m=spacing)
 
 
 def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, starts: list[float], lengths: list[float],

@@ -85,3 +85,25 @@ def test_strip_offsets_put_every_point_in_k_strips_at_the_spacing_or_closer(widt
     # as few lines as the strip bound of a band that wide
     band = shapely.box(0.0, lo, 1e5, lo + width)  # its minimum width is `width`
     assert len(vs) == grid_bounds(band, 1.0, across, spacing, 1.0, k, 1).strips
+
+
+def test_a_corridors_strip_bound_is_across_its_width_not_its_outline(tmp_path):
+    """A bent corridor's outline is wide; its strips follow the centreline, so its bound counts
+    the strips across left + right, and the plan of the road example flies no fewer."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    subprocess.run([sys.executable, "-m", "aerosurvey.cli", "plan", str(repo / "missions" / "road-corridor.toml"),
+                    "-o", str(tmp_path / "o")], check=True, capture_output=True)
+    m = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    bound = m["derived"]["bounds"]
+    flown = len({line["line"] for line in m["lines"]})
+    p = m["pattern"]["parameters"]
+    k, a, s = m["derived"]["side_images_per_point"], m["derived"]["footprint_across_m"], m["derived"]["line_spacing_m"]
+    width = p["left_m"] + p["right_m"] + 2 * m["targets"]["coverage_margin_m"]
+    assert width >= a  # the example is wider than one footprint
+    assert bound["strips"] == max(k, math.ceil((width - a) / s - 1e-9) + 2 * k - 1)
+    assert bound["strips"] <= flown

@@ -145,7 +145,8 @@ def test_random_corridors_are_covered_and_counted(tmp_path_factory: pytest.TempP
         zones = [shapely.Point((a + b) / 2).buffer(40.0, cap_style="square")]
     spec = _write(folder, pieces, width, vehicle, zones, battery)
     try:
-        write_outputs(plan_from_files(load_spec(spec)), folder / "out")
+        loaded = load_spec(spec)
+        write_outputs(plan_from_files(loaded), loaded, folder / "out")
     except InputError as exc:
         assert zone, f"refused without a zone: {exc}"
         event("refused: a zone across the corridor")
@@ -158,7 +159,8 @@ def test_random_corridors_are_covered_and_counted(tmp_path_factory: pytest.TempP
 def test_a_narrow_corridor_is_one_strip_down_the_middle(tmp_path: Path) -> None:
     pieces = [np.array([[0.0, 0.0], [600.0, 0.0], [900.0, 400.0]])]
     spec = _write(tmp_path, pieces, 40.0, "copter", [], None)
-    write_outputs(plan_from_files(load_spec(spec)), tmp_path / "out")
+    loaded = load_spec(spec)
+    write_outputs(plan_from_files(loaded), loaded, tmp_path / "out")
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert {line["line"] for line in manifest["lines"]} == {"P1-L001"}  # one strip (split at the 53° bend)
     assert not _judge(tmp_path / "out", pieces, 40.0, [])
@@ -170,7 +172,8 @@ def test_asymmetric_widths_cover_each_side(tmp_path: Path) -> None:
     _write(tmp_path, [xy], 10.0, "copter", [], None)
     spec = tmp_path / "spec.toml"
     spec.write_text(spec.read_text().replace("width_m = 10.0", "left_m = 120\nright_m = 10"))
-    write_outputs(plan_from_files(load_spec(spec)), tmp_path / "out")
+    loaded = load_spec(spec)
+    write_outputs(plan_from_files(loaded), loaded, tmp_path / "out")
     ground = shapely.box(-120.0, 0.0, 10.0, 800.0)
     cov = il.coverage_gaps(tmp_path / "out", shapely.transform(ground, lambda a: np.column_stack(LOCAL.inv.transform(a[:, 0], a[:, 1]))),
                            [], 10.0, LOCAL)

@@ -56,7 +56,8 @@ heading = 90
 @pytest.mark.parametrize("battery", [False, True])
 def test_every_station_is_a_stop_with_one_shot(tmp_path: Path, battery: bool) -> None:
     out = tmp_path / "out"
-    write_outputs(plan_from_files(load_spec(_spec(tmp_path, "hover", battery))), out)
+    loaded = load_spec(_spec(tmp_path, "hover", battery))
+    write_outputs(plan_from_files(loaded), loaded, out)
     manifest = json.loads((out / "manifest.json").read_text())
     stations = {(round(s["lat"], 7), round(s["lon"], 7)) for s in manifest["stations"]}
     files = sorted(out.glob("sortie-*.waypoints")) if battery else [out / "mission.waypoints"]
@@ -83,8 +84,8 @@ def test_the_stops_cost_their_time(tmp_path: Path) -> None:
     assert len(hover.stations.ids) == len(through.stations.ids)
     n, runs = len(hover.stations.ids), len(hover.route.runs)
     v, a, jerk = 8.0, 2.0, 1.0
-    b = hover.base_m
-    cycle = hover.spec.camera.min_cycle_s
+    b = hover.sensor.base_m
+    cycle = hover.camera.min_cycle_s
     leg = (b / v + v / a + a / jerk) if b >= v * (v / a + a / jerk) else 2 * math.sqrt(b / a) + a / jerk
     extra = n * (1.5 + cycle) + (n - runs) * (leg - b / v)
     got = hover.estimates["survey_time_s"] - through.estimates["survey_time_s"]

@@ -114,7 +114,8 @@ cruise_speed_ms = 8.0
 heading = {heading}
 """)
     out = folder / "out"
-    write_outputs(plan_from_files(load_spec(folder / "spec.toml")), out)
+    loaded = load_spec(folder / "spec.toml")
+    write_outputs(plan_from_files(loaded), loaded, out)
     return out
 
 
@@ -165,5 +166,6 @@ def test_the_far_edge_gsd_is_a_limit_the_plan_keeps(tmp_path: Path) -> None:
     spec = tmp_path / "spec.toml"
     spec.write_text(spec.read_text().replace('pitch_deg = -45.0', 'pitch_deg = -45.0\nmax_far_gsd_cm = 4.0'))
     with pytest.raises(InputError, match=r"pattern.max_far_gsd_cm = 4: .* fly at most [0-9.]+ m high"):
-        write_outputs(plan_from_files(load_spec(spec)), tmp_path / "again")
+        loaded = load_spec(spec)
+        write_outputs(plan_from_files(loaded), loaded, tmp_path / "again")
     assert far["stations"]

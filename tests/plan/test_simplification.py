@@ -93,5 +93,5 @@ def test_a_detailed_circle_is_simplified_and_reported():
     tol = s.tolerance_m * site.grid_scale
     assert 0.0 < site.area.area - given_area.area <= tol * given_area.length
     plan = plan_mission(spec, PlanInputs(area, (zone,)))
-    assert plan.simplification == s
-    assert shapely.get_num_coordinates(plan.area_wgs84) == s.area_vertices[1]
+    assert plan.site.simplification == s
+    assert shapely.get_num_coordinates(plan.site.area_wgs84) == s.area_vertices[1]

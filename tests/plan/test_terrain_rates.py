@@ -63,8 +63,8 @@ def test_a_cliff_is_climbed_early_and_reported(tmp_path: Path) -> None:
                                 "vehicle": {"climb_rate_ms": 2.0, "descent_rate_ms": 1.0}})
     plan = plan_from_files(load_spec(spec))
     st_ = plan.stations
-    speed = plan.speed.speed_ms
-    wanted_agl = plan.heights.nominal_agl_m
+    speed = plan.sensor.speed.speed_ms
+    wanted_agl = plan.sensor.heights.nominal_agl_m
     assert (st_.agl_m >= wanted_agl - 1e-6).all()  # never below the height the GSD needs
     for r in np.unique(st_.run):
         i = np.flatnonzero(st_.run == r)

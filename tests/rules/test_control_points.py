@@ -27,7 +27,8 @@ def test_layout_on_random_areas(tmp_path_factory, kind, seed, size):
     # coverage extends past the GCP ring (10 m out): every GCP can then be seen by the plan
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 8, "coverage_margin_m": 12.0}},
                      rings=random_polygon(kind, seed, size))
-    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
+    loaded = load_spec(spec)
+    manifest, features = plan_documents(plan_from_files(loaded), loaded)
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     profiles = select_profiles(["cz-land-consolidation"])
     ev = Evidence(view, layout_settings(view, profiles))
@@ -118,7 +119,8 @@ def test_the_layout_keeps_out_of_the_plan_s_exclusion_zones(tmp_path) -> None:
     zone = [[15.0024, 49.4013], [15.0036, 49.4013], [15.0036, 49.4022], [15.0024, 49.4022], [15.0024, 49.4013]]
     write_geojson(tmp_path / "zone.geojson", [zone])
     spec = make_spec(tmp_path, {"area": {"exclusions": ["zone.geojson"]}})
-    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
+    loaded = load_spec(spec)
+    manifest, features = plan_documents(plan_from_files(loaded), loaded)
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     assert view.exclusions is not None
     nogo = layout_settings(view, []).nogo

@@ -24,14 +24,17 @@ MOUNTS = ("landscape", "portrait")
 
 
 @pytest.fixture(scope="module")
-def plan(tmp_path_factory):
-    return plan_from_files(load_spec(make_spec(tmp_path_factory.mktemp("fp"))))
+def planned(tmp_path_factory):
+    """(spec, plan) of a small block."""
+    spec = load_spec(make_spec(tmp_path_factory.mktemp("fp")))
+    return spec, plan_from_files(spec)
 
 
-def _view(plan, cam_id: str, mount: str) -> PlanView:
-    """The rules' view of `plan` flown with another camera: its manifest written by the manifest writer."""
-    camera = dataclasses.replace(plan.spec.camera, camera=database()[cam_id], mount=mount)
-    manifest, features = plan_documents(dataclasses.replace(plan, spec=dataclasses.replace(plan.spec, camera=camera)))
+def _view(planned, cam_id: str, mount: str) -> PlanView:
+    """The rules' view of the plan flown with another camera: its manifest written by the manifest writer."""
+    spec, plan = planned
+    camera = dataclasses.replace(plan.camera, camera=database()[cam_id], mount=mount)
+    manifest, features = plan_documents(dataclasses.replace(plan, camera=camera), spec)
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     # heights over the whole range a survey flies, not only this plan's one height
     return dataclasses.replace(view, agl=np.linspace(15.0, 500.0, len(view.x)))
@@ -39,12 +42,13 @@ def _view(plan, cam_id: str, mount: str) -> PlanView:
 
 @pytest.mark.parametrize("mount", MOUNTS)
 @pytest.mark.parametrize("cam_id", CAMERAS)
-def test_rules_footprint_is_the_planners(plan, cam_id, mount):
-    view = _view(plan, cam_id, mount)
+def test_rules_footprint_is_the_planners(planned, cam_id, mount):
+    view = _view(planned, cam_id, mount)
+    plan = planned[1]
     cam = database()[cam_id]
     across, along = pg.footprint(view.agl, cam, mount)
     fp = footprints(view)
-    k = plan.grid_scale
+    k = plan.site.grid_scale
     # the manifest rounds the grid scale to 1e-9; the planner's rule and the old sensor-size
     # rule differ by up to 0.3 % (DJI Zenmuse P1: 5460 px x 4.38 um = 23.93 mm, sensor 24 mm)
     np.testing.assert_allclose(fp.across, np.asarray(across) * k, rtol=2e-9)
@@ -75,8 +79,8 @@ def test_footprint_takes_the_smaller_of_pixels_and_published_sensor():
         pg.footprint_m(100.0, 35.9, 24.0, 8192, 5460, 35.0, "sideways")
 
 
-def test_unknown_mount_in_a_manifest_is_an_input_error(plan):
-    view = _view(plan, "sony-a6000-16mm", "landscape")
+def test_unknown_mount_in_a_manifest_is_an_input_error(planned):
+    view = _view(planned, "sony-a6000-16mm", "landscape")
     view.manifest["camera"]["mount"] = "Portrait"
     with pytest.raises(InputError, match="camera.mount = 'Portrait'"):
         footprints(view)

@@ -19,7 +19,8 @@ from conftest import make_spec
 @pytest.fixture(scope="module")
 def view(tmp_path_factory) -> PlanView:
     spec = make_spec(tmp_path_factory.mktemp("layout"), {"targets": {"images_beyond_boundary": 8, "coverage_margin_m": 12.0}})
-    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
+    loaded = load_spec(spec)
+    manifest, features = plan_documents(plan_from_files(loaded), loaded)
     return PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
 
 

@@ -135,7 +135,8 @@ def test_gcps_keep_their_definition(seed, kind, reach, min_images, count, offset
 
 
 def test_obratan_side_overlaps_hold_and_gcps_keep_their_definition():
-    manifest, features = plan_documents(plan_from_files(load_spec(REPO / "missions" / "obratan-72ha.toml")))
+    loaded = load_spec(REPO / "missions" / "obratan-72ha.toml")
+    manifest, features = plan_documents(plan_from_files(loaded), loaded)
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
     pairs = side_overlaps(view, ev.footprints)
@@ -155,7 +156,8 @@ def test_planned_gcps_keep_their_definition(tmp_path_factory, kind, seed, size, 
     tmp = tmp_path_factory.mktemp("exact")
     spec = make_spec(tmp, {"targets": {"images_beyond_boundary": 2, "coverage_margin_m": margin}, "flight": {"cross_hatch": cross}},
                      rings=random_polygon(kind, seed, size))
-    manifest, features = plan_documents(plan_from_files(load_spec(spec)))
+    loaded = load_spec(spec)
+    manifest, features = plan_documents(plan_from_files(loaded), loaded)
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
     s = ev.settings

@@ -142,7 +142,7 @@ def test_bad_centrelines_are_refused_before_anything_is_written(tmp_path):
     spec = service.read_spec_file(spec_path)
     spec["pattern"] = {"kind": "corridor", "width_m": 60.0}
     spec["flight"].pop("cross_hatch", None)
-    for wkt, message in [("POLYGON ((14.9 49.4, 14.91 49.4, 14.91 49.41, 14.9 49.4))", "a Polygon is not a centreline"),
+    for wkt, message in [("POINT (14.9 49.4)", "a Point is not a centreline"),  # a polygon is a corridor polygon
                          ("LINESTRING (14.9 49.4, 14.9 49.4)", "zero length"),
                          ("LINESTRING (14.9 49.4, 14.9 95.0)", "outside longitude"),
                          ("LINESTRING (14.9 49.4", "not valid WKT")]:

@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from aerosurvey import console
-from aerosurvey.mission.formats import QGC_LAYOUTS
+from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS
 
 log = logging.getLogger(__name__)
 
@@ -24,7 +24,11 @@ log = logging.getLogger(__name__)
 @click.option("--qgc", type=click.Choice(QGC_LAYOUTS), default=QGC_LAYOUTS[0], show_default=True,
               help="How the .plan files hold each photo pass: a QGroundControl Survey item the pilot can edit "
                    "(flown as planned until edited), or plain waypoint items (docs/clients/qgroundcontrol.md).")
-def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str) -> None:
+@click.option("--dji", type=click.Choice(DJI_TEMPLATES), default=DJI_TEMPLATES[0], show_default=True,
+              help="What template.kml of each DJI .kmz holds: a mapping template (mapping2d, mappingStrip) where one "
+                   "expresses the flight, else waypoints; or always waypoints. The route flown is the same "
+                   "(docs/clients/dji.md).")
+def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into the -o folder.
 
     Prints the plan's summary and the `aerosurvey check` command that shows the evidence of
@@ -43,7 +47,7 @@ def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str) -> None:
         result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()
         report("mission files, rules and preview", 0.85)
-        rendered = write_outputs(result, outdir, gpkg, qgc)
+        rendered = write_outputs(result, mission_spec, outdir, gpkg, qgc, dji)
     log.info("planned in %.2f s, files written in %.2f s", t1 - t0, time.perf_counter() - t1)
     for line in summary_text(rendered.summary, f"aerosurvey check {shlex.quote(str(outdir))}"):
         console.echo(line)

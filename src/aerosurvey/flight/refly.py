@@ -110,8 +110,9 @@ def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float
     if gaps.is_empty:
         return Refly(gaps, need, None, {}, tuple(notes))
     data = refly_spec(spec_path, gaps, view.crs)
-    plan = plan_from_files(parse_spec(data, base=spec_path.parent, path=None))
-    files = dict(render_outputs(plan).files)
+    spec = parse_spec(data, base=spec_path.parent, path=None)
+    plan = plan_from_files(spec)
+    files = dict(render_outputs(plan, spec).files)
     files["gaps.geojson"] = json.dumps(gaps_layer(gaps, view, need)) + "\n"
     return Refly(gaps, need, plan, files, tuple(notes))
 

@@ -36,8 +36,7 @@ import numpy as np
 import shapely
 
 from aerosurvey import ids
-from aerosurvey.errors import InputError
-from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG, approach_lonlat
+from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG
 from aerosurvey.plan.model import Plan, RouteWaypoint
 from aerosurvey.plan.photogrammetry import ardupilot_distance_m
 
@@ -133,59 +132,57 @@ def _wrap180(deg: float) -> float:
 def flight_program(plan: Plan, sortie: int | None = None, name: str | None = None) -> FlightProgram:
     """The program of sortie `sortie` (0-based index into plan.sorties) from its launch site, or
     of the whole mission from the plan's home when None."""
-    spec = plan.spec
+    vehicle = plan.vehicle.type
     if sortie is None:
         wps: tuple[RouteWaypoint, ...] = plan.waypoints
-        lon, lat, ground = plan.home
+        lon, lat, ground = plan.launch.home
         first_station, last_station = 0, len(plan.stations.ids) - 1
     else:
         s, wps = plan.sorties[sortie]
-        site = plan.launch_sites[s.launch]
+        site = plan.launch.sites[s.launch]
         lon, lat, ground = site.lon, site.lat, site.ground_m
         first_station, last_station = s.first, s.last
-    if spec.camera.trigger == "hover" and spec.vehicle.type == "plane":
-        raise InputError("camera.trigger = 'hover' is not allowed for vehicle.type = 'plane': a plane cannot stop at a station")
-    relative = plan.altitude_frame == "relative"
+    relative = plan.altitudes.frame == "relative"
     # relative altitudes are above the plan's home; a sortie's launch site is higher or lower
-    shift = plan.home[2] - ground if relative else 0.0
+    shift = plan.launch.home[2] - ground if relative else 0.0
     waypoints = _waypoints(plan, wps, shift, first_station, last_station)
-    takeoff = waypoints[0].alt_m if relative and waypoints else round(plan.heights.nominal_agl_m, 2)
-    f = spec.flight
+    takeoff = waypoints[0].alt_m if relative and waypoints else round(plan.sensor.heights.nominal_agl_m, 2)
+    landing = plan.launch.landing
     approach = None
-    if f.end == "land" and spec.vehicle.type == "plane":
-        alon, alat = approach_lonlat(spec, lon, lat)
-        approach = Approach(round(alat, 8), round(alon, 8), round(f.approach_alt_m, 2))
+    if landing.approach_m is not None:
+        alon, alat = landing.approach_lonlat(lon, lat)
+        approach = Approach(round(alat, 8), round(alon, 8), round(landing.approach_alt_m, 2))
     # the straight way home crosses a zone: the transit waypoints fly round it and a copter
     # lands at the launch point rather than leaving the way home to RTL
     home_detour = bool(wps) and wps[-1].kind == "transit"
-    land = f.end == "land" or (home_detour and spec.vehicle.type == "copter")
-    h = plan.heights.nominal_agl_m
-    rally = tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2)) for st in plan.launch_sites)
+    land = landing.end == "land" or (home_detour and vehicle == "copter")
+    h = plan.sensor.heights.nominal_agl_m
+    rally = tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2)) for st in plan.launch.sites)
     if not land and waypoints:
         # RTL goes to the nearest rally point (and home, for a copter) from where it starts: when that is
         # another launch site, the flight first comes home (its way home is clear of the zones: the
         # route's transit), so that the nearest is this one
         last = waypoints[-1]
-        to = rtl_target(spec.vehicle.type, (round(lat, 8), round(lon, 8)), [(r[0], r[1]) for r in rally], (last.lat, last.lon))
+        to = rtl_target(vehicle, (round(lat, 8), round(lon, 8)), [(r[0], r[1]) for r in rally], (last.lat, last.lon))
         if _metres(to, (lat, lon)) > 1.0:
             waypoints = (*waypoints, Waypoint(round(lat, 8), round(lon, 8), last.alt_m, "transit", -1, "transit", "", 0.0))
     return FlightProgram(
-        name=name or spec.name,
-        vehicle=spec.vehicle.type,
-        firmware=spec.vehicle.firmware,
-        camera_id=spec.camera.camera.id,
+        name=name or plan.name,
+        vehicle=vehicle,
+        firmware=plan.vehicle.firmware,
+        camera_id=plan.camera.camera.id,
         home=(round(lat, 8), round(lon, 8), round(ground, 2)),
-        altitude_frame=plan.altitude_frame,
+        altitude_frame=plan.altitudes.frame,
         takeoff_alt_m=takeoff,
-        takeoff_pitch_deg=PLANE_TAKEOFF_PITCH_DEG if spec.vehicle.type == "plane" else 0.0,
-        speed_ms=plan.speed.speed_ms,
-        cruise_speed_ms=spec.vehicle.cruise_speed_ms,
-        fixed_yaw_deg=None if f.fixed_yaw_deg is None else float(f.fixed_yaw_deg),
+        takeoff_pitch_deg=PLANE_TAKEOFF_PITCH_DEG if vehicle == "plane" else 0.0,
+        speed_ms=plan.sensor.speed.speed_ms,
+        cruise_speed_ms=plan.vehicle.cruise_speed_ms,
+        fixed_yaw_deg=plan.launch.fixed_yaw_deg,
         waypoints=waypoints,
         end="land" if land else "rtl",
         approach=approach,
-        fence_inclusion=plan.fence_inclusion,
-        fence_exclusion=plan.fence_exclusion,
+        fence_inclusion=plan.launch.fence.inclusion,
+        fence_exclusion=plan.launch.fence.exclusion,
         # every launch site a rally point, at the survey's height above its ground, as an altitude above this launch point
         rally=rally,
     )
@@ -215,13 +212,12 @@ def _tag(plan: Plan, w: RouteWaypoint) -> str:
 
 def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: int, last: int) -> tuple[Waypoint, ...]:
     """The route's waypoints with their actions (hover: every station of the sortie's runs too)."""
-    spec = plan.spec
     st = plan.stations
-    hover = spec.camera.trigger == "hover"
+    hover = plan.camera.trigger == "hover"
     if hover:
         wps = _with_hover_stations(plan, wps, first, last)
     start, stop = _camera_actions(plan)
-    yaw_fixed = spec.flight.fixed_yaw_deg
+    yaw_fixed = plan.launch.fixed_yaw_deg
     gimbal = Gimbal(NADIR_PITCH_DEG, 0.0, 0.0)
     first_of_run = {}
     for i, w in enumerate(wps):
@@ -230,7 +226,7 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
     station_of_run = {int(r): int(i) for r, i in zip(*np.unique(st.run, return_index=True))}
     heading_of_run = {r: float(st.heading_deg[i]) for r, i in station_of_run.items()}
     out = []
-    relative = plan.altitude_frame == "relative"
+    relative = plan.altitudes.frame == "relative"
     for i, w in enumerate(wps):
         actions: list[Action] = []
         heading = heading_of_run.get(w.run, 0.0) if w.run >= 0 else 0.0
@@ -244,7 +240,7 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
                 actions.append(want)
             gimbal = want
         if hover and w.station and w.kind in ("line_start", "terrain", "bend", "station"):
-            actions.append(HoverShoot(spec.camera.settle_s))
+            actions.append(HoverShoot(plan.camera.settle_s))
         elif w.kind == "line_start" and start is not None:
             actions.append(start)
         elif w.kind == "line_end" and stop is not None:
@@ -256,13 +252,13 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
 
 
 def _camera_actions(plan: Plan) -> tuple[CameraStart | None, CameraStop | None]:
-    trig = plan.spec.camera.trigger
+    trig = plan.camera.trigger
     if trig == "distance":
-        assert plan.trigger_distance_m is not None
-        return CameraStart(plan.trigger_distance_m, None), CameraStop(distance=True)
+        assert plan.sensor.trigger_distance_m is not None
+        return CameraStart(plan.sensor.trigger_distance_m, None), CameraStop(distance=True)
     if trig == "time":
-        assert plan.trigger_interval_s is not None
-        return CameraStart(None, plan.trigger_interval_s), CameraStop(distance=False)
+        assert plan.sensor.trigger_interval_s is not None
+        return CameraStart(None, plan.sensor.trigger_interval_s), CameraStop(distance=False)
     return None, None
 
 

@@ -14,7 +14,12 @@ missions for, in one place.
 
 from __future__ import annotations
 
-from aerosurvey.spec import MAX_ITEMS, MissionSpec
+from typing import TYPE_CHECKING
+
+from aerosurvey.spec import MAX_ITEMS
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.sorties import Budget
 
 DJI_MAX_WAYPOINTS = 65535
 DJI_MIN_WAYPOINTS = 2
@@ -22,8 +27,9 @@ DJI_MAX_ACTION_GROUPS = 65536  # ids 0..65535
 DJI_MAX_SPEED_MS = 15.0
 
 
-def mavlink_item_limit(spec: MissionSpec) -> int:
-    """Mission items (home included) the spec's autopilot holds."""
-    if spec.battery is not None:
-        return spec.battery.max_mission_items
-    return MAX_ITEMS[spec.vehicle.firmware]
+def mavlink_item_limit(firmware: str, battery: Budget | None) -> int:
+    """Mission items (home included) the autopilot holds: the battery budget's when a battery
+    is given (battery.max_mission_items), else the firmware's default."""
+    if battery is not None:
+        return battery.max_items
+    return MAX_ITEMS[firmware]

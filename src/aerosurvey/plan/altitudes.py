@@ -29,6 +29,7 @@ class Altitudes:
     stations: Stations
     waypoints: tuple[RouteWaypoint, ...]
     frame: str  # "relative" (above home) or "terrain"
+    tolerance_m: float  # how far the height above the ground may stray from the one asked between waypoints
     warnings: tuple[str, ...] = ()
 
 
@@ -140,7 +141,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     stations = Stations(sid, run_idx, x, y, lon, lat, ground, alt_rel, agl, hd, pitch, look)
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
-    return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", warnings)
+    return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", tolerance_m, warnings)
 
 
 def _under_cap(runs: tuple[Run, ...], run_idx: np.ndarray, agl: np.ndarray, cap_agl_m: float, slopes: Slopes) -> None:

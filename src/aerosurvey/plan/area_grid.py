@@ -109,7 +109,7 @@ class AreaGrid:
         passes = [Pass(i, fr, tuple(segs)) for i, (fr, segs) in enumerate((p for la in laid for p in la.passes), start=1)]
         if not any(p.segments for p in passes):
             raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
-        return Layout(laid[0].heading, chosen, tuple(passes), covered)
+        return Layout(laid[0].heading, chosen, tuple(passes), covered, self.coverage_margin_m)
 
     def _grid(self, covered: BaseGeometry, site: Site, sensor: SensorSolution, report: Progress) -> _Laid:
         """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading, in

@@ -13,7 +13,9 @@ it is from the floor.
 - Photos: the area over base × spacing (each photo accounts for at most one base × spacing
   cell of new ground), a floor that ignores the forward rule's photos beyond the ends.
 
-Both are per pass, times the passes (a cross-hatch flies two).
+Both are per pass, times the passes (a cross-hatch flies two). A corridor's strips follow its
+centreline: its strip bound is the same count across its width (left + right), not across the
+minimum width of its outline (a bent corridor's outline is wide).
 """
 
 from __future__ import annotations
@@ -59,10 +61,12 @@ def narrowest(geom: BaseGeometry) -> tuple[float, float]:
 
 
 def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_m: float, base_m: float,
-                side_per_point: int, passes: int) -> GridBounds:
+                side_per_point: int, passes: int, width_m: float | None = None) -> GridBounds:
     """The strip and photo bounds of `area` (planning-grid coordinates, `grid_scale` grid metres
-    per ground metre) for strips of width `across_m` at `spacing_m`, photos every `base_m`."""
-    width = minimum_width(area) / grid_scale
+    per ground metre) for strips of width `across_m` at `spacing_m`, photos every `base_m`.
+    `width_m`: the width the strips run along instead (a corridor's, its strips following its
+    centreline); None: the area's minimum width."""
+    width = minimum_width(area) / grid_scale if width_m is None else width_m
     k = side_per_point
     strips = k if width < across_m else max(k, math.ceil((width - across_m) / spacing_m - 1e-9) + 2 * k - 1)
     photos = math.ceil(area.area / grid_scale**2 / (base_m * spacing_m) - 1e-9)

@@ -1,7 +1,8 @@
 """The corridor pattern: strips along a centreline (a road, a river, a pipeline, a power line).
 
 A corridor is the ground `left_m` to the left and `right_m` to the right of its centreline
-(`Site.centreline`, the area is that ground). Its strips are the centreline offset sideways
+(`Site.centreline` and `Site.sides_m`, the area is that ground; the site step derives both from
+a corridor polygon when area.file holds one, plan/centreline.py). Its strips are the centreline offset sideways
 to the ordinates an area grid's lines would have across the same width (`strip_offsets`: every
 point in ⌊1/(1−side)⌋ strips), or one strip down the middle when one footprint spans the width.
 Each strip bends where the centreline does, with mitred corners, so the outside of a bend is
@@ -54,25 +55,22 @@ MITRE_LIMIT = 5.0
 
 @dataclass(frozen=True)
 class Corridor:
-    """Strips along a centreline, `left_m` and `right_m` of ground each side of it."""
+    """Strips along the site's centreline, over its ground each side of it (`Site.sides_m`: the
+    spec's widths, or those derived from a corridor polygon)."""
 
-    left_m: float
-    right_m: float
     images_beyond_boundary: int
     coverage_margin_m: float
 
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> Corridor:
-        p = spec.pattern
-        assert p.left_m is not None and p.right_m is not None
-        return cls(p.left_m, p.right_m, spec.targets.images_beyond_boundary, spec.targets.coverage_margin_m)
+        return cls(spec.targets.images_beyond_boundary, spec.targets.coverage_margin_m)
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
-        if site.centreline is None:
-            raise InputError("pattern.kind = 'corridor' needs area.file to hold the centreline (a LineString)")
+        if site.centreline is None or site.sides_m is None:
+            raise InputError("pattern.kind = 'corridor' needs area.file to hold the centreline (a LineString) or the corridor polygon")
         k = site.grid_scale
         grow = site.simplification.tolerance_m * k + self.coverage_margin_m * k
-        left, right = self.left_m * k + grow, self.right_m * k + grow
+        left, right = site.sides_m[0] * k + grow, site.sides_m[1] * k + grow
         across, along = sensor.across_m * k, sensor.along_m * k
         base = sensor.base_m * k
         offsets = strip_ordinates(left, right, across, sensor.spacing_m * k, sensor.side_images_per_point)
@@ -116,7 +114,7 @@ class Corridor:
         exact = shapely.union_all(shapely.buffer(bends, reach, quad_segs=4)) if len(bends) else None
         start = shapely.get_coordinates(pieces[0])[:2]
         heading = math.degrees(math.atan2(*(start[1] - start[0]))) % 360.0
-        return Layout(heading, "along the corridor's centreline", tuple(passes), site.area, exact)
+        return Layout(heading, "along the corridor's centreline", tuple(passes), site.area, self.coverage_margin_m, exact)
 
 
 def strip_ordinates(left: float, right: float, across: float, spacing: float, per_point: int) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from aerosurvey.spec import MissionSpec
 
@@ -19,14 +20,30 @@ def climb_out_m(spec: MissionSpec, altitude_m: float) -> float:
     return max(altitude_m, 0.0) / math.tan(math.radians(PLANE_TAKEOFF_PITCH_DEG))
 
 
-def approach_lonlat(spec: MissionSpec, lon: float, lat: float) -> tuple[float, float]:
-    """The approach waypoint `flight.approach_m` downwind of the touchdown point at (lon, lat):
-    the plane lands heading into `flight.wind_from_deg`."""
-    f = spec.flight
-    assert f.wind_from_deg is not None
-    back = math.radians((f.wind_from_deg + 180.0) % 360.0)
-    d_north, d_east = f.approach_m * math.cos(back), f.approach_m * math.sin(back)
-    return lon + d_east / (111_320.0 * math.cos(math.radians(lat))), lat + d_north / 111_320.0
+@dataclass(frozen=True)
+class Landing:
+    """How a flight ends: "land" at its launch point or "rtl"; a plane that lands flies its
+    approach from `approach_m` downwind (into the wind from `wind_from_deg`) at `approach_alt_m`."""
+
+    end: str
+    approach_m: float | None = None  # None: no approach (a copter, or RTL)
+    wind_from_deg: float = 0.0
+    approach_alt_m: float = 0.0
+
+    @classmethod
+    def of(cls, spec: MissionSpec) -> Landing:
+        f = spec.flight
+        if not lands_with_approach(spec):
+            return cls(f.end)
+        assert f.wind_from_deg is not None
+        return cls(f.end, f.approach_m, f.wind_from_deg, f.approach_alt_m)
+
+    def approach_lonlat(self, lon: float, lat: float) -> tuple[float, float]:
+        """The approach waypoint `approach_m` downwind of the touchdown point at (lon, lat)."""
+        assert self.approach_m is not None, "a landing without an approach"
+        back = math.radians((self.wind_from_deg + 180.0) % 360.0)
+        d_north, d_east = self.approach_m * math.cos(back), self.approach_m * math.sin(back)
+        return lon + d_east / (111_320.0 * math.cos(math.radians(lat))), lat + d_north / 111_320.0
 
 
 def lands_with_approach(spec: MissionSpec) -> bool:

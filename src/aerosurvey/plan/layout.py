@@ -23,6 +23,7 @@ class Layout:
     heading_chosen: str  # why: "auto: …", "fixed by the spec", "along the corridor's centreline"
     passes: tuple[Pass, ...]
     covered: BaseGeometry  # what the strips photograph: the area grown by targets.coverage_margin_m
+    margin_m: float  # targets.coverage_margin_m: how far beyond the area the photos reach (ground metres)
     # ground where the pattern's own rule does not prove the overlaps (a corridor's bends): the
     # coverage step checks the footprints there exactly, as it does next to the zones
     check_exactly: BaseGeometry | None = None

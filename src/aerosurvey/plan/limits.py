@@ -82,11 +82,11 @@ def estimate_cost(spec: MissionSpec, site: Site, sensor: SensorSolution) -> Cost
 def _corridor_cost(spec: MissionSpec, site: Site, sensor: SensorSolution) -> CostEstimate:
     """A corridor's: each piece of the centreline flown once per strip (as many as `strip_offsets`
     lays over its width), as long as the piece with the photos beyond both ends."""
-    assert site.centreline is not None and spec.pattern.left_m is not None and spec.pattern.right_m is not None
+    assert site.centreline is not None and site.sides_m is not None
     k = site.grid_scale
     pieces = shapely.get_parts(shapely.line_merge(site.centreline))
     margin = spec.targets.coverage_margin_m
-    strips = len(strip_ordinates(spec.pattern.left_m + margin, spec.pattern.right_m + margin, sensor.across_m,
+    strips = len(strip_ordinates(site.sides_m[0] + margin, site.sides_m[1] + margin, sensor.across_m,
                                  sensor.spacing_m, sensor.side_images_per_point))
     extension = 2 * (spec.targets.images_beyond_boundary + sensor.forward_images_per_point)
     lengths = shapely.length(pieces) / k

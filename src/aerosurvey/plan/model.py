@@ -9,16 +9,18 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-from shapely.geometry.base import BaseGeometry
 
 if TYPE_CHECKING:
-    from aerosurvey.area import Planar
+    from aerosurvey.plan.altitudes import Altitudes
+    from aerosurvey.plan.bounds import GridBounds
     from aerosurvey.plan.coverage import Coverage
-    from aerosurvey.plan.photogrammetry import SpeedLimit
-    from aerosurvey.plan.route import Pass, Route
-    from aerosurvey.plan.site import Simplification
+    from aerosurvey.plan.landing import Landing
+    from aerosurvey.plan.layout import Layout
+    from aerosurvey.plan.route import Route
+    from aerosurvey.plan.sensor import SensorSolution
+    from aerosurvey.plan.site import Site
     from aerosurvey.plan.sorties import Budget, LaunchSite, Sortie
-    from aerosurvey.spec import MissionSpec
+    from aerosurvey.spec import CameraSpec, PatternSpec, VehicleSpec
 
 
 @dataclass(frozen=True)
@@ -82,48 +84,44 @@ class SortiePlan(NamedTuple):
     waypoints: tuple[RouteWaypoint, ...]
 
 
+@dataclass(frozen=True)
+class Launch:
+    """Where the flights start and end and where they may fly: the launch, fence and landing steps' decisions."""
+
+    home: tuple[float, float, float]  # lon, lat, ground AMSL (0 without a DEM)
+    home_xy: tuple[float, float]  # planning CRS
+    sites: tuple[LaunchSite, ...]  # where sorties may start: the battery's launch points, else home
+    fence: Fence
+    landing: Landing  # how a flight ends: land (a plane on its approach) or RTL
+    fixed_yaw_deg: float | None  # copters: the nose's one heading for the whole flight; None: along the track
+
+
 @dataclass(frozen=True, eq=False)
 class Plan:
-    """A planned survey: what every output (mission files, manifest, reports) is made from."""
+    """A planned survey, each part the record of the step that decided it: what every output
+    (mission files, manifest, reports) is made from. It holds decisions, not the spec: the
+    vehicle and camera it was planned for, the pattern flown, then each step's result."""
 
-    spec: MissionSpec
-    planar: Planar
-    area_wgs84: BaseGeometry
-    area: BaseGeometry
-    exclusions_wgs84: tuple[BaseGeometry, ...]
-    exclusions: BaseGeometry | None
-    heights: Heights
-    gsd_target_m: float
-    gsd_min_m: float
-    gsd_max_m: float
-    across_m: float
-    along_m: float
-    spacing_m: float
-    base_m: float
-    side_images_per_point: int
-    forward_images_per_point: int
-    speed: SpeedLimit
-    trigger_interval_s: float | None
-    lead_in_m: float
-    turn_radius_m: float
-    heading_deg: float
-    heading_chosen: str
-    passes: tuple[Pass, ...]
-    route: Route
-    stations: Stations
-    waypoints: tuple[RouteWaypoint, ...]
-    home: tuple[float, float, float]  # lon, lat, ground AMSL (0 without a DEM)
-    home_xy: tuple[float, float]
-    altitude_frame: str  # "relative" or "terrain"
-    grid_scale: float  # planning-CRS metres per ground metre at the area
-    trigger_distance_m: float | None  # DO_SET_CAM_TRIGG_DIST (distance triggering); base_m is the mean spacing flown
+    name: str
+    vehicle: VehicleSpec
+    camera: CameraSpec  # the camera, its mount and how it is triggered
+    pattern: PatternSpec
+    site: Site  # the area and zones in the planning CRS, the relief
+    sensor: SensorSolution  # heights, GSD, footprint, spacing, base, speed, trigger
+    layout: Layout  # the heading and the passes of strips
+    route: Route  # the runs in flight order
+    altitudes: Altitudes  # the stations and survey waypoints with their heights, the altitude frame
+    launch: Launch
+    waypoints: tuple[RouteWaypoint, ...]  # the whole flight: the survey's with the transits from and back home
+    sorties: tuple[SortiePlan, ...]  # battery flights; () without a [battery] table
+    battery: Budget | None  # the sortie budget when a battery is given
+    coverage: Coverage  # the required ground fewer than two photos see (next to zones), exactly
+    bounds: GridBounds  # the strip and photo counts no grid can go below
     estimates: Mapping[str, float]
     sun: Mapping[str, object] | None
     warnings: tuple[str, ...]
-    fence_inclusion: tuple[Ring, ...]
-    fence_exclusion: tuple[Ring, ...]
-    launch_sites: tuple[LaunchSite, ...]
-    sorties: tuple[SortiePlan, ...]
-    battery: Budget | None  # the sortie budget when a battery is given
-    coverage: Coverage  # the required ground fewer than two photos see (next to zones), exactly
-    simplification: Simplification  # how the area's and the zones' boundaries were simplified
+
+    @property
+    def stations(self) -> Stations:
+        """The photo stations in flight order (the altitudes step's)."""
+        return self.altitudes.stations

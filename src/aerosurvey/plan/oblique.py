@@ -54,4 +54,4 @@ class Oblique:
             passes = (nadir, *(replace(nadir, index=2 + i, pitch_deg=self.pitch_deg,
                                        look_deg=(lay.heading_deg + 90.0 * i) % 360.0) for i in range(4)))
             how = f"{lay.heading_chosen}; nadir and four obliques at {self.pitch_deg:g}° over the same lines"
-        return Layout(lay.heading_deg, how, passes, lay.covered, lay.check_exactly)
+        return Layout(lay.heading_deg, how, passes, lay.covered, self.grid.coverage_margin_m, lay.check_exactly)

@@ -21,13 +21,14 @@ import shapely
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
+from aerosurvey.plan.bounds import GridBounds, grid_bounds
 from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
-from aerosurvey.plan.landing import climb_out_m
+from aerosurvey.plan.landing import Landing, climb_out_m
 from aerosurvey.plan.limits import check_limits
-from aerosurvey.plan.model import Heights, Plan, RouteWaypoint, SortiePlan, Stations
+from aerosurvey.plan.model import Heights, Launch, Plan, RouteWaypoint, SortiePlan, Stations
 from aerosurvey.plan.pattern import Layout, pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours
@@ -91,19 +92,25 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
     return Plan(
-        spec=spec, planar=site.planar, area_wgs84=site.area_wgs84, area=site.area, exclusions_wgs84=site.exclusions_wgs84,
-        exclusions=site.zones, heights=sensor.heights, gsd_target_m=sensor.gsd_target_m, gsd_min_m=sensor.gsd_min_m,
-        gsd_max_m=sensor.gsd_max_m, across_m=sensor.across_m, along_m=sensor.along_m, spacing_m=sensor.spacing_m,
-        base_m=sensor.base_m, side_images_per_point=sensor.side_images_per_point,
-        forward_images_per_point=sensor.forward_images_per_point, speed=sensor.speed,
-        trigger_interval_s=sensor.trigger_interval_s, lead_in_m=sensor.lead_in_m, turn_radius_m=sensor.turn_radius_m,
-        heading_deg=layout.heading_deg, heading_chosen=layout.heading_chosen, passes=layout.passes, route=routed.route,
-        stations=alts.stations, waypoints=waypoints, home=home, home_xy=routed.home_xy, altitude_frame=alts.frame,
-        grid_scale=site.grid_scale, trigger_distance_m=sensor.trigger_distance_m, estimates=est, sun=sun,
-        warnings=sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings + _zone_warnings(spec, site),
-        fence_inclusion=fence.inclusion, fence_exclusion=fence.exclusion, launch_sites=sites, sorties=sorties,
-        battery=budget, coverage=coverage, simplification=site.simplification,
+        name=spec.name, vehicle=spec.vehicle, camera=spec.camera, pattern=spec.pattern, site=site, sensor=sensor,
+        layout=layout, route=routed.route, altitudes=alts,
+        launch=Launch(home, routed.home_xy, sites, fence, Landing.of(spec),
+                      None if spec.flight.fixed_yaw_deg is None else float(spec.flight.fixed_yaw_deg)),
+        waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
+        bounds=_bounds(site, sensor, layout, 2 if spec.flight.cross_hatch else 1),
+        estimates=est, sun=sun,
+        warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
+                  + _zone_warnings(spec, site)),
     )
+
+
+def _bounds(site: Site, sensor: SensorSolution, layout: Layout, directions: int) -> GridBounds:
+    """The grid's lower bounds (plan/bounds.py) for the area the photos must see: grown by the coverage margin."""
+    margin = layout.margin_m * site.grid_scale
+    covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
+    width = None if site.sides_m is None else sum(site.sides_m) + 2.0 * layout.margin_m
+    return grid_bounds(covered, site.grid_scale, sensor.across_m, sensor.spacing_m, sensor.base_m,
+                       sensor.side_images_per_point, directions, width)
 
 
 def _share(report: Progress, start: float, end: float) -> Progress:
@@ -213,7 +220,7 @@ def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tupl
         usable_s=b.usable_min * 60.0 * keep if b.usable_min is not None else None,
         usable_j=b.capacity_wh * 3600.0 * keep if b.capacity_wh is not None else None,
         cruise_w=b.cruise_power_w, climb_w=b.climb_power_w,
-        wind_factor=wind_factor(b.wind_ms, v), max_items=b.max_mission_items,
+        wind_factor=wind_factor(b.wind_ms, v), max_items=b.max_mission_items, reserve=b.reserve,
     )
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
     try:

@@ -12,7 +12,7 @@ import shapely
 from aerosurvey.errors import InputError
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
-    approach_lonlat,
+    Landing,
     climb_out_m,
     home_clearance_m,
     lands_with_approach,
@@ -74,7 +74,7 @@ def end_of_flight(spec: MissionSpec, site: Site, home: tuple[float, float]) -> t
     if not lands_with_approach(spec):
         return home
     lon, lat = site.planar.lonlat(np.array([home[0]]), np.array([home[1]]))
-    alon, alat = approach_lonlat(spec, float(lon[0]), float(lat[0]))
+    alon, alat = Landing.of(spec).approach_lonlat(float(lon[0]), float(lat[0]))
     ax, ay = site.planar.xy(np.array([alon]), np.array([alat]))
     return (float(ax[0]), float(ay[0]))
 

@@ -22,6 +22,7 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey.area import Planar, check_area_of_use, planning_crs
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
+from aerosurvey.plan.centreline import corridor_polygon, derive_centreline
 from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.spec import MissionSpec
 
@@ -56,12 +57,15 @@ class Site:
     exclusions_wgs84: tuple[BaseGeometry, ...]
     area: BaseGeometry  # planning CRS, normalised
     zones: BaseGeometry | None  # the exclusion zones, united
-    zones_buffered: BaseGeometry | None  # with flight.exclusion_margin_m: nothing may fly inside
+    zones_buffered: BaseGeometry | None  # with the margin: nothing may fly inside
     grid_scale: float  # planning-CRS metres per ground metre at the area's centroid
     dem: Dem | None
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
     simplification: Simplification
     centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
+    margin_m: float = 0.0  # flight.exclusion_margin_m: how far from the zones every leg keeps (ground metres)
+    sides_m: tuple[float, float] | None = None  # a corridor's ground left and right of its centreline (ground metres)
+    warnings: tuple[str, ...] = ()  # what the site step decided that the user should see (a derived centreline)
 
     def autopilot_scale(self, heading_deg: float) -> float:
         """Planning-grid metres per metre of ArduPilot's distance along a line heading (a grid
@@ -159,14 +163,15 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> 
     c = inputs.area_wgs84.centroid
     k = planar.scale_factor(c.x, c.y)
     tol = simplify_tolerance_m(spec, height_agl_m) * k
-    centreline = None
+    centreline = sides = None
+    warnings: tuple[str, ...] = ()
     if spec.pattern.kind == "corridor":
-        assert spec.pattern.left_m is not None and spec.pattern.right_m is not None
+        given = planar.forward(inputs.area_wgs84)
+        line, sides, warnings = _corridor_centreline(spec, given, k)
         # the corridor round a simpler centreline (within `tol` of the given one), each side wider
         # by the tolerance: it covers the corridor round the given centreline
-        given = shapely.line_merge(planar.forward(inputs.area_wgs84))
-        centreline = shapely.simplify(given, tol, preserve_topology=False)
-        area = corridor_polygon(centreline, spec.pattern.left_m * k + tol, spec.pattern.right_m * k + tol)
+        centreline = shapely.simplify(shapely.line_merge(line), tol, preserve_topology=False)
+        area = corridor_polygon(centreline, sides[0] * k + tol, sides[1] * k + tol)
         area_wgs84 = planar.inverse(area)
     else:
         given = planar.forward(inputs.area_wgs84)
@@ -202,35 +207,33 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> 
         dem = Dem(inputs.dem, planar)
         if spec.terrain.mode != "none":
             ground = dem.range_over(area, "area")
-    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline)
+    return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline,
+                spec.flight.exclusion_margin_m, sides, warnings)
 
 
-def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> BaseGeometry:
-    """The ground `left` to the left and `right` to the right of a centreline (looking along it),
-    ending square at its ends, with round corners outside its bends: a rectangle along each
-    segment and a fan outside each bend, united. (GEOS's one-sided buffer drops ground where a
-    centreline winds back close to itself.)"""
-    parts: list[BaseGeometry] = []
-    for piece in shapely.get_parts(centreline):
-        xy = np.asarray(shapely.get_coordinates(piece), float)
-        d = np.diff(xy, axis=0)
-        keep = np.hypot(d[:, 0], d[:, 1]) > 0
-        xy = np.vstack([xy[:1], xy[1:][keep]])
-        d = d[keep]
-        if not len(d):
-            continue
-        u = d / np.hypot(d[:, 0], d[:, 1])[:, None]
-        n = np.column_stack([-u[:, 1], u[:, 0]])  # to the left
-        a, b = xy[:-1], xy[1:]
-        rings = np.stack([a + n * left, b + n * left, b - n * right, a - n * right], axis=1)
-        parts += shapely.polygons(rings).tolist()
-        for k in range(1, len(xy) - 1):
-            turn = u[k - 1, 0] * u[k, 1] - u[k - 1, 1] * u[k, 0]  # > 0: turning left, the outside is on the right
-            r, n0, n1 = (right, -n[k - 1], -n[k]) if turn > 0 else (left, n[k - 1], n[k])
-            if r <= 0:
-                continue
-            t0, t1 = math.atan2(n0[1], n0[0]), math.atan2(n1[1], n1[0])
-            sweep = (t1 - t0 + math.pi) % (2 * math.pi) - math.pi
-            t = t0 + sweep * np.linspace(0.0, 1.0, 33)
-            parts.append(shapely.Polygon(np.vstack([xy[k], xy[k] + r * np.column_stack([np.cos(t), np.sin(t)])])))
-    return shapely.normalize(shapely.union_all(parts))
+def _corridor_centreline(spec: MissionSpec, given: BaseGeometry,
+                         k: float) -> tuple[BaseGeometry, tuple[float, float], tuple[str, ...]]:
+    """A corridor's centreline (planning CRS), its ground left and right of it (ground metres) and
+    what to tell the user: the line given, or the one derived from a corridor polygon
+    (plan/centreline.py) with the spec's widths or, without them, the widths that cover the polygon."""
+    p = spec.pattern
+    where = f"area.file {str(spec.area.file)!r}" if spec.area.file is not None else "area.wkt"
+    if given.geom_type not in ("Polygon", "MultiPolygon"):
+        if p.left_m is None or p.right_m is None:
+            raise InputError(f"{where} holds a centreline: [pattern] kind = 'corridor' needs width_m (centred on it) or "
+                             "left_m and right_m for a line (only a corridor polygon's widths are derived)", key="pattern.width_m")
+        return given, (p.left_m, p.right_m), ()
+    derived = derive_centreline(given, k, where)
+    length_km = derived.centreline.length / k / 1000.0
+    tolerance = f"simplified within {derived.tolerance / k:.1f} m"
+    if p.left_m is None or p.right_m is None:
+        sides = (derived.left / k, derived.right / k)
+        return derived.centreline, sides, (
+            f"centreline derived from the corridor polygon: {length_km:,.2f} km ({tolerance}), {sides[0]:.1f} m to its "
+            f"left and {sides[1]:.1f} m to its right cover the polygon",)
+    band = corridor_polygon(derived.centreline, p.left_m * k, p.right_m * k)
+    share = shapely.intersection(given, band).area / given.area
+    return derived.centreline, (p.left_m, p.right_m), (
+        f"centreline derived from the corridor polygon: {length_km:,.2f} km ({tolerance}); the corridor the spec gives "
+        f"({p.left_m:g} m left, {p.right_m:g} m right) holds {100 * share:.1f} % of the polygon, "
+        f"{derived.left / k:.1f} m left and {derived.right / k:.1f} m right would hold all of it",)

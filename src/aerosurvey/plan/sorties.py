@@ -82,6 +82,7 @@ class Budget:
     climb_w: float | None
     wind_factor: float
     max_items: int
+    reserve: float | None = None  # the share of the battery kept back (battery.reserve); None: no battery given
 
     def cost(self, horizontal_s: float, vertical_s: float) -> float:
         """Battery used, in the budget's unit."""

@@ -79,8 +79,8 @@ def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     the station's height above ground."""
     st = plan.stations
     photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
-    corners = footprint_corners(photos, Optics.of(plan.spec.camera.camera, plan.spec.camera.mount), 0.0, plan.grid_scale)
-    return plan.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
+    corners = footprint_corners(photos, Optics.of(plan.camera.camera, plan.camera.mount), 0.0, plan.site.grid_scale)
+    return plan.site.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
 
 
 def _footprints_text(plan: Plan, table: StationTable, corners: tuple[np.ndarray, np.ndarray] | None = None) -> str:
@@ -111,7 +111,7 @@ def _line_coords(plan: Plan) -> list[list[list[float]]]:
     st = plan.stations
     runs = plan.route.runs
     bends = np.concatenate([r.bends_xy for r in runs]) if runs else np.zeros((0, 2))
-    lon, lat = plan.planar.lonlat(bends[:, 0], bends[:, 1])
+    lon, lat = plan.site.planar.lonlat(bends[:, 0], bends[:, 1])
     corners = [[_r(a), _r(b)] for a, b in zip(lon.tolist(), lat.tolist())]
     at = np.cumsum([0, *(len(r.bends_xy) for r in runs)]).tolist()
     return [[[_r(st.lon[first]), _r(st.lat[first])], *corners[at[i]:at[i + 1]], [_r(st.lon[last]), _r(st.lat[last])]]
@@ -123,9 +123,11 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
     manifest's `table` also has taken from it), and the index of the features where the
     stations (and after them the footprints) belong."""
     feats: list[dict[str, Any]] = []
-    feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": round(plan.area.area / 1e4, 4)},
-                  "geometry": {"type": plan.area_wgs84.geom_type, "coordinates": _coords(plan.area_wgs84)}})
-    for i, z in enumerate(plan.exclusions_wgs84, start=1):
+    area = plan.site.area_wgs84
+    area_ha = round(plan.site.area.area / 1e4, 4)
+    feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": area_ha},
+                  "geometry": {"type": area.geom_type, "coordinates": _coords(area)}})
+    for i, z in enumerate(plan.site.exclusions_wgs84, start=1):
         feats.append({"type": "Feature", "id": f"exclusion-{i}", "properties": {"role": "exclusion", "id": f"exclusion-{i}"},
                       "geometry": {"type": z.geom_type, "coordinates": _coords(z)}})
     st = plan.stations
@@ -152,11 +154,11 @@ def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLay
         col("lon"), col("lat"))
     for i, part in enumerate(plan.coverage.polygons(), start=1):
         feats.append({"type": "Feature", "id": f"uncovered-{i}", "properties": {
-            "role": "uncovered", "id": f"uncovered-{i}", "area_m2": round(part.area / plan.grid_scale ** 2, 2),
-            "min_images": 2}, "geometry": {"type": "Polygon", "coordinates": _coords(plan.planar.inverse(part))}})
-    hlon, hlat, _ = plan.home
+            "role": "uncovered", "id": f"uncovered-{i}", "area_m2": round(part.area / plan.site.grid_scale ** 2, 2),
+            "min_images": 2}, "geometry": {"type": "Polygon", "coordinates": _coords(plan.site.planar.inverse(part))}})
+    hlon, hlat, _ = plan.launch.home
     feats.append({"type": "Feature", "id": "home", "properties": {"role": "home", "id": "home"},
                   "geometry": {"type": "Point", "coordinates": [_r(hlon), _r(hlat)]}})
     if not all(math.isfinite(v) for v in (hlon, hlat)):
         raise ValueError("home position is not finite")
-    return {"type": "FeatureCollection", "name": plan.spec.name, "features": feats}, stations, at
+    return {"type": "FeatureCollection", "name": plan.name, "features": feats}, stations, at

@@ -108,9 +108,9 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
     from aerosurvey.manifest import run_stations
     from aerosurvey.mission.builder import run_id
     st = plan.stations
-    z3 = plan.heights.mode in THREE_D_MODES
-    home_ground = float(plan.home[2])
-    relative = plan.altitude_frame == "relative"
+    z3 = plan.sensor.heights.mode in THREE_D_MODES
+    home_ground = float(plan.launch.home[2])
+    relative = plan.altitudes.frame == "relative"
     # heights above mean sea level: the home ground plus the height above home, or the ground plus the height above it
     st_z = home_ground + st.alt_rel_m if relative else st.ground_m + st.alt_rel_m
     zt = " Z" if z3 else ""
@@ -122,9 +122,9 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
     def multi(g: shapely.Geometry) -> shapely.Geometry:
         return g if g.geom_type == "MultiPolygon" else shapely.MultiPolygon([g])
 
-    layers = [Layer("area", "MultiPolygon", [multi(plan.area_wgs84)],
-                    (("id", _text(["area"])), ("area_ha", np.array([round(plan.area.area / 1e4, 4)]))), STYLES["area"])]
-    zones = [multi(z) for z in plan.exclusions_wgs84]
+    layers = [Layer("area", "MultiPolygon", [multi(plan.site.area_wgs84)],
+                    (("id", _text(["area"])), ("area_ha", np.array([round(plan.site.area.area / 1e4, 4)]))), STYLES["area"])]
+    zones = [multi(z) for z in plan.site.exclusions_wgs84]
     layers.append(Layer("zones", "MultiPolygon", zones, (("id", _text([f"exclusion-{i}" for i in range(1, len(zones) + 1)])),),
                         STYLES["zones"]))
     strips, sid, line, first, last, photos = [], [], [], [], [], []
@@ -144,25 +144,25 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
         ("id", _text(st.ids)), ("seq", np.arange(1, len(st.ids) + 1, dtype=np.int64)),
         ("alt_rel_m", np.round(st.alt_rel_m, 2)), ("agl_m", np.round(st.agl_m, 2)),
         ("heading_deg", np.round(st.heading_deg, 3))), STYLES["stations"]))
-    sites = plan.launch_sites or ()
+    sites = plan.launch.sites or ()
     if sites:
         lon, lat, g = (np.array([getattr(s, k) for s in sites], float) for k in ("lon", "lat", "ground_m"))
         names = [f"launch-{k}" for k in range(1, len(sites) + 1)]
     else:
-        lon, lat, g = (np.array([v], float) for v in plan.home)
+        lon, lat, g = (np.array([v], float) for v in plan.launch.home)
         names = ["home"]
     layers.append(Layer("launch_points", "Point" + zt, points(lon, lat, g if z3 else None),
                         (("id", _text(names)), ("ground_m", np.round(g, 2))), STYLES["launch_points"]))
     for name, role in (("gcps", "gcp"), ("check_points", "check")):
         pts = [p for p in control_points if p.role == role]
-        plon, plat = plan.planar.lonlat(np.array([p.x for p in pts], float), np.array([p.y for p in pts], float))
+        plon, plat = plan.site.planar.lonlat(np.array([p.x for p in pts], float), np.array([p.y for p in pts], float))
         layers.append(Layer(name, "Point", points(np.atleast_1d(plon), np.atleast_1d(plat), None), (
             ("id", _text([p.id for p in pts])), ("images", np.array([p.images for p in pts], np.int64)),
             ("note", _text([p.note for p in pts]))), STYLES[name]))
     parts = plan.coverage.polygons()
-    layers.append(Layer("unphotographed", "Polygon", [plan.planar.inverse(p) for p in parts], (
+    layers.append(Layer("unphotographed", "Polygon", [plan.site.planar.inverse(p) for p in parts], (
         ("id", _text([f"uncovered-{i}" for i in range(1, len(parts) + 1)])),
-        ("area_m2", np.array([round(p.area / plan.grid_scale ** 2, 2) for p in parts], float))), STYLES["unphotographed"]))
+        ("area_m2", np.array([round(p.area / plan.site.grid_scale ** 2, 2) for p in parts], float))), STYLES["unphotographed"]))
     return layers
 
 
@@ -181,14 +181,14 @@ def footprints_layer(plan: Plan, corners: tuple[np.ndarray, np.ndarray] | None =
 def _route_layer(plan: Plan, with_z: bool) -> Layer:
     """The route as flown, one line per sortie (or one for the whole mission): from the launch
     point on the ground through every waypoint in order and back; z above mean sea level."""
-    home_ground = float(plan.home[2])
+    home_ground = float(plan.launch.home[2])
     flights: list[tuple[str, tuple[float, float, float], Sequence[Any]]] = []
     if plan.sorties:
         for k, (sortie, sortie_wps) in enumerate(plan.sorties, start=1):
-            s = plan.launch_sites[sortie.launch]
+            s = plan.launch.sites[sortie.launch]
             flights.append((ids.sortie_id(k), (s.lon, s.lat, s.ground_m), sortie_wps))
     else:
-        flights.append(("mission", (plan.home[0], plan.home[1], home_ground), plan.waypoints))
+        flights.append(("mission", (plan.launch.home[0], plan.launch.home[1], home_ground), plan.waypoints))
     lines, names, counts = [], [], []
     for name, (lon, lat, ground), wps in flights:
         coords = [(lon, lat, ground), *((w.lon, w.lat, home_ground + w.alt_m) for w in wps), (lon, lat, ground)]

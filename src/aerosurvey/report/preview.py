@@ -88,9 +88,9 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
     summary (the figures `plan` prints, the rule count included), control points when given."""
     st = plan.stations
     wp = np.asarray([(w.x, w.y) for w in plan.waypoints])
-    geoms = [plan.area, shapely.MultiPoint(wp)]
-    if plan.exclusions is not None:
-        geoms.append(plan.exclusions)
+    geoms = [plan.site.area, shapely.MultiPoint(wp)]
+    if plan.site.zones is not None:
+        geoms.append(plan.site.zones)
     x0, y0, x1, y1 = shapely.total_bounds(geoms)
     view = _View((x0, y0, x1, y1))
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{_W}" height="{_H}" viewBox="0 0 {_W} {_H}" font-family="sans-serif">',
@@ -106,10 +106,10 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
                  f'spacing {s.spacing_m:.1f} m, photo base {s.photo_base_m:.2f} m, CRS {escape(s.crs)}</text>')
     colour = "#b00" if s.rules.failing else "#070"
     parts.append(f'<text x="{_PAD}" y="{_HEAD - 2}" font-size="13" fill="{colour}">{escape("rules: " + s.rules.text())}</text>')
-    parts.append(f'<path d="{view.path(plan.area)}" fill="#cfe8c4" fill-rule="evenodd" stroke="#3a7d2c" '
+    parts.append(f'<path d="{view.path(plan.site.area)}" fill="#cfe8c4" fill-rule="evenodd" stroke="#3a7d2c" '
                  'stroke-width="2"><title>area</title></path>')
-    if plan.exclusions is not None:
-        parts.append(f'<path d="{view.path(plan.exclusions)}" fill="#f4b4b4" fill-opacity="0.8" stroke="#b00" '
+    if plan.site.zones is not None:
+        parts.append(f'<path d="{view.path(plan.site.zones)}" fill="#f4b4b4" fill-opacity="0.8" stroke="#b00" '
                      'stroke-width="2"><title>exclusion zone</title></path>')
     # the route's points as `pt` places them, their texts by `tenths` (a format a number took ~1 ms for the 1,000 ha plan's 198)
     wx, wy = view.pts(wp[:, 0], wp[:, 1])
@@ -127,7 +127,7 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
         dx, dy = view.pts(st.x, st.y)
         dots = join_rows(["M", tenths(dx), ",", tenths(dy), "h0.01"], len(dx), "")
         parts.append(f'<path d="{dots}" stroke="#111" stroke-width="2.5" stroke-linecap="round"><title>photo stations</title></path>')
-    hx, hy = view.pt(*plan.home_xy)
+    hx, hy = view.pt(*plan.launch.home_xy)
     parts.append(f'<circle cx="{hx:.1f}" cy="{hy:.1f}" r="7" fill="#fff" stroke="#000" stroke-width="2">'
                  '<title>take-off (home)</title></circle>')
     sx, sy = wx[0], wy[0]

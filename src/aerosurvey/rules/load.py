@@ -12,6 +12,7 @@ from aerosurvey.rules.planview import PlanView
 
 if TYPE_CHECKING:
     from aerosurvey.plan.planner import Plan
+    from aerosurvey.spec import MissionSpec
 
 
 @dataclass(frozen=True)
@@ -24,14 +25,14 @@ class Target:
     planner_rules: tuple[dict[str, Any], ...] = ()
 
 
-def plan_documents(plan: Plan) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The manifest and GeoJSON of a plan, in memory (no files written)."""
+def plan_documents(plan: Plan, spec: MissionSpec) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The manifest and GeoJSON of `plan`, planned from `spec`, in memory (no files written)."""
     from aerosurvey.manifest import build_manifest
     from aerosurvey.mission.builder import build_mission
     from aerosurvey.report.features import plan_features
 
     mission = build_mission(plan)
-    return build_manifest(plan, len(mission.items), {}), plan_features(plan, with_footprints=False)
+    return build_manifest(plan, spec, len(mission.items), {}), plan_features(plan, with_footprints=False)
 
 
 def open_target(path: Path) -> Target:
@@ -48,7 +49,7 @@ def open_target(path: Path) -> Target:
 
         spec = load_spec(path)
         plan = plan_from_files(spec)
-        manifest, features = plan_documents(plan)
+        manifest, features = plan_documents(plan, spec)
         view = PlanView.from_documents(manifest, features, str(path), check=False)  # made here, by the writer
         return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan.coverage),))
     if not path.exists():

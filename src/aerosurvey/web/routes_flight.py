@@ -88,7 +88,7 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
                 "summary": f"no gaps: every cell of the area is seen by at least {r.need} flown photos; nothing to re-fly"}
     import shapely
 
-    name = r.plan.spec.name
+    name = r.plan.name
     manifest, features, view = service.plan_documents(r.files, "the re-fly")
     pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame, manifest=manifest, plan_view=view))
     plan = r.plan

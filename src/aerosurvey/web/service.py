@@ -331,13 +331,13 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     spec, inputs = spec_and_inputs(spec_data, ws, zones)
     plan = plan_mission(spec, inputs, progress)
     progress("mission files and rules", 0.92)
-    rendered = render_outputs(plan)
+    rendered = render_outputs(plan, spec)
     progress("control points", 0.97)
     files = dict(rendered.files)
     manifest, features, plan_view = plan_documents(files, "the page's plan")
     points, cp_files = _control_points(rendered, plan_view)
     files.update(cp_files)
-    frame = MapFrame.around(plan.area_wgs84, plan.planar)
+    frame = MapFrame.around(plan.site.area_wgs84, plan.site.planar)
     view = _view(plan, frame, manifest, features, points, rendered)
     progress("done", 1.0)
     return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view, dict(rendered.binary))
@@ -392,13 +392,13 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
                       "sortie": sortie[station_index[p["first_station"]]],
                       "xy": [[_m(a), _m(b)] for a, b in zip(x, y, strict=True)]})
     launch = []
-    for i, site in enumerate(plan.launch_sites, start=1):
+    for i, site in enumerate(plan.launch.sites, start=1):
         x, y = frame.from_lonlat(np.array([site.lon]), np.array([site.lat]))
         launch.append({"id": f"launch-{i}", "x": _m(x[0]), "y": _m(y[0])})
-    hx, hy = frame.from_lonlat(np.array([plan.home[0]]), np.array([plan.home[1]]))
+    hx, hy = frame.from_lonlat(np.array([plan.launch.home[0]]), np.array([plan.launch.home[1]]))
     cps = []
     for p in points:
-        lon, lat = plan.planar.lonlat(np.array([p.x / 1.0]), np.array([p.y / 1.0]))
+        lon, lat = plan.site.planar.lonlat(np.array([p.x / 1.0]), np.array([p.y / 1.0]))
         x, y = frame.from_lonlat(lon, lat)
         cps.append({"id": p.id, "role": p.role, "x": _m(x[0]), "y": _m(y[0]), "images": p.images, "note": p.note})
     rules = []
@@ -406,15 +406,15 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         where = []
         for w in r.get("where", []):
             if "xy" in w:
-                lon, lat = plan.planar.lonlat(np.array([w["xy"][0]]), np.array([w["xy"][1]]))
+                lon, lat = plan.site.planar.lonlat(np.array([w["xy"][0]]), np.array([w["xy"][1]]))
                 x, y = frame.from_lonlat(lon, lat)
                 where.append({"xy": [_m(x[0]), _m(y[0])]})
             else:
                 where.append(w)
         rules.append({**r, "where": where})
     return {
-        "name": plan.spec.name,
-        "pattern": plan.spec.pattern.kind,  # a corridor's "area" is its band around the centreline
+        "name": plan.name,
+        "pattern": plan.pattern.kind,  # a corridor's "area" is its band around the centreline
         "frame": frame.as_dict(),
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],

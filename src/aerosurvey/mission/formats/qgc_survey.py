@@ -186,7 +186,7 @@ def _strips(plan: Plan, lines: _PassLines, tr: Transformer) -> _Strips:
     lo = np.array([float((pts[k] @ along).min()) for k in order])
     hi = np.array([float((pts[k] @ along).max()) for k in order])
     # the spacing the lines lie at on this plane: a least-squares line through their offsets by line number
-    spacing = abs(float(np.polyfit(lines.numbers[order], v[order], 1)[0])) if len(v) > 1 else plan.spacing_m
+    spacing = abs(float(np.polyfit(lines.numbers[order], v[order], 1)[0])) if len(v) > 1 else plan.sensor.spacing_m
     sign = 1.0 if angle == bearing else -1.0
     first_pos = int(np.flatnonzero(order == lines.first_line)[0])
     last = len(v) - 1 if sign > 0 else 0
@@ -411,7 +411,7 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     piece = pieces[parts.index(first.part)]
     if float((flown[-1] - flown[0]) @ (piece[-1] - piece[0])) < 0:  # the polyline runs the way our first run flies
         polyline, offsets = polyline[::-1], -offsets
-    spacing = float(np.median(np.abs(np.diff(offsets)))) if len(lines) > 1 else plan.spacing_m
+    spacing = float(np.median(np.abs(np.diff(offsets)))) if len(lines) > 1 else plan.sensor.spacing_m
     # QGroundControl's first transect is its leftmost (EntryPoint 0); ours starts on the first line flown
     entry = 0 if offsets[lines.index(first.line)] >= offsets.max() - spacing / 2.0 else 1
     lon, lat = tr.transform(polyline[:, 0], polyline[:, 1], direction="INVERSE")
@@ -424,12 +424,12 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
     where its strips are the offsets of one polyline); the mission flies stations
     `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
     last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
-    spec, cam = plan.spec, plan.spec.camera.camera
+    cam = plan.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
     station_run = np.asarray(plan.stations.run)[first_station:last_station + 1]
-    if plan.altitude_frame == "terrain":
+    if plan.altitudes.frame == "terrain":
         mode = DISTANCE_TERRAIN_FRAME
-    elif plan.heights.mode == "follow":
+    elif plan.sensor.heights.mode == "follow":
         mode = DISTANCE_CALC_ABOVE_TERRAIN
     else:
         mode = DISTANCE_RELATIVE
@@ -438,7 +438,7 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
         polygon: tuple[tuple[float, float], ...] = ()
         polyline: tuple[tuple[float, float], ...] = ()
         width, angle = 0.0, 0.0
-        if spec.pattern.kind == "corridor":
+        if plan.pattern.kind == "corridor":
             # a corridor's strips bend: a Survey item would regenerate straight lines (the road
             # example: 4 for our 12 runs, their ends up to 2.6 km from ours); a Corridor Scan item
             # offsets one polyline instead
@@ -456,11 +456,11 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
         runs = [k for k, rid in enumerate(run_ids) if rid in tags]
         shots = int(np.isin(station_run, runs).sum())
         line_alts = [it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None]
-        distance = line_alts[0] if mode == DISTANCE_RELATIVE else plan.heights.nominal_agl_m
+        distance = line_alts[0] if mode == DISTANCE_RELATIVE else plan.sensor.heights.nominal_agl_m
         gsd_cm = distance * cam.sensor_width_mm * 100.0 / (cam.image_width_px * cam.focal_mm)
-        landscape = spec.camera.mount == "landscape"
+        landscape = plan.camera.mount == "landscape"
         side_px, front_px = (cam.image_width_px, cam.image_height_px) if landscape else (cam.image_height_px, cam.image_width_px)
-        trigger = plan.trigger_distance_m if plan.trigger_distance_m is not None else plan.base_m
+        trigger = plan.sensor.trigger_distance_m if plan.sensor.trigger_distance_m is not None else plan.sensor.base_m
         camera = QgcCamera(cam.sensor_width_mm, cam.sensor_height_mm, cam.image_width_px, cam.image_height_px, cam.focal_mm,
                            landscape, cam.min_cycle_s, gsd_cm,
                            100.0 * (1.0 - trigger / (front_px * gsd_cm / 100.0)),
@@ -468,10 +468,11 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
         out.append(QgcSurvey(
             first=a, last=b, pass_index=p, polygon=polygon, angle_deg=angle, entry_location=entry,
             fly_alternate=not polyline and _alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
-            turnaround_m=plan.lead_in_m, distance_m=distance, distance_mode=mode, hover=spec.camera.trigger == "hover",
-            camera_shots=shots, camera=camera, terrain_tolerance_m=spec.terrain.tolerance_m if mode == DISTANCE_CALC_ABOVE_TERRAIN else 0.0,
-            max_climb_ms=spec.vehicle.climb_rate_ms, max_descent_ms=spec.vehicle.descent_rate_ms,
-            flight_speed_ms=plan.speed.speed_ms,
+            turnaround_m=plan.sensor.lead_in_m, distance_m=distance, distance_mode=mode, hover=plan.camera.trigger == "hover",
+            camera_shots=shots, camera=camera,
+            terrain_tolerance_m=plan.altitudes.tolerance_m if mode == DISTANCE_CALC_ABOVE_TERRAIN else 0.0,
+            max_climb_ms=plan.vehicle.climb_rate_ms, max_descent_ms=plan.vehicle.descent_rate_ms,
+            flight_speed_ms=plan.sensor.speed.speed_ms,
             visual_points=tuple((it.x, it.y) for it in items if it.has_position),
             corridor_polyline=polyline, corridor_width_m=width,
         ))

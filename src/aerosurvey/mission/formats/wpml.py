@@ -2,9 +2,12 @@
 
 The layout follows DJI's published WPML reference (DJI Cloud API documentation, "DJI WPML":
 overview, template.kml, waylines.wpml, common elements; namespace wpmz/1.0.2 as in its
-samples): a ZIP archive holding `wpmz/template.kml` (the editable template, templateType
-"waypoint") and `wpmz/waylines.wpml` (what the aircraft executes), both KML 2.2 documents
-with a `wpml:missionConfig` and one `Folder` of `Placemark` waypoints.
+samples): a ZIP archive holding `wpmz/template.kml` (the editable template) and
+`wpmz/waylines.wpml` (what the aircraft executes), both KML 2.2 documents with a
+`wpml:missionConfig` and one `Folder`. waylines.wpml's Folder holds the program's waypoints as
+`Placemark`s; template.kml's holds a mapping2d or mappingStrip template where one expresses the
+flight (mission/formats/dji_template.py chooses, and says why not), else the same waypoints as
+a waypoint template.
 
 What is written:
 
@@ -40,6 +43,7 @@ from dataclasses import dataclass
 
 from lxml import etree
 
+from aerosurvey.mission.formats.dji_template import MappingTemplate
 from aerosurvey.mission.formats.wpl import format_number
 from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot
 from aerosurvey.mission.targets import DJI_MAX_ACTION_GROUPS, DJI_MAX_SPEED_MS, DJI_MAX_WAYPOINTS, DJI_MIN_WAYPOINTS
@@ -232,17 +236,74 @@ def _capture_ends(p: FlightProgram) -> dict[int, int]:
     return ends
 
 
-def _document(p: FlightProgram, a: DjiAircraft, template: bool) -> etree._Element:
+def _kml_coordinates(parent: etree._Element, points: tuple[tuple[float, float], ...]) -> None:
+    """`lon,lat,0 lon,lat,0 …`: the reference reads the heights only with wpml:facadeWaylineEnable
+    or wpml:stripUseTemplateAltitude, both 0 here."""
+    etree.SubElement(parent, f"{{{KML_NS}}}coordinates").text = " ".join(f"{_num(x)},{_num(y)},0" for x, y in points)
+
+
+def _mapping_folder(folder: etree._Element, p: FlightProgram, a: DjiAircraft, m: MappingTemplate) -> None:
+    """A mapping2d or mappingStrip template (template.kml, "Template common elements", "Mapping Aerial
+    Template Element", "Waypoint Segment Flight Template Element")."""
+    _w(folder, "templateType", m.kind)
+    _w(folder, "templateId", 0)
+    sys = _w(folder, "waylineCoordinateSysParam")
+    _w(sys, "coordinateMode", "WGS84")
+    _w(sys, "heightMode", "relativeToStartPoint")
+    _w(sys, "globalShootHeight", m.shoot_height_m)
+    _w(sys, "surfaceFollowModeEnable", 0)
+    _w(folder, "autoFlightSpeed", p.speed_ms)
+    payload = _w(folder, "payloadParam")
+    _w(payload, "payloadPositionIndex", PAYLOAD_POSITION)
+    _w(payload, "imageFormat", a.image_format)
+    pm = etree.SubElement(folder, f"{{{KML_NS}}}Placemark")
+    strip = m.kind == "mappingStrip"
+    _w(pm, "caliFlightEnable", 0)
+    if not strip:
+        _w(pm, "elevationOptimizeEnable", 0)  # no extra oblique photos at the end: waylines.wpml has none
+    _w(pm, "shootType", m.shoot_type)
+    _w(pm, "direction", m.direction_deg)
+    _w(pm, "margin", m.margin_m)
+    if strip:
+        _w(pm, "singleLineEnable", int(m.single_line))
+        _w(pm, "cuttingDistance", m.length_m)
+        _w(pm, "boundaryOptimEnable", 0)
+        _w(pm, "leftExtend", m.extend_m)
+        _w(pm, "rightExtend", m.extend_m)
+        _w(pm, "includeCenterEnable", int(m.include_centre))
+    overlap = _w(pm, "overlap")
+    _w(overlap, "orthoCameraOverlapH", m.overlap_h)
+    _w(overlap, "orthoCameraOverlapW", m.overlap_w)
+    # relative to the take-off point: the reference has the ellipsoid height equal to it then
+    _w(pm, "ellipsoidHeight", m.height_m)
+    _w(pm, "height", m.height_m)
+    if strip:
+        _w(pm, "stripUseTemplateAltitude", 0)
+        _kml_coordinates(etree.SubElement(pm, f"{{{KML_NS}}}LineString"), m.coordinates)
+    else:
+        poly = etree.SubElement(pm, f"{{{KML_NS}}}Polygon")
+        ring = etree.SubElement(etree.SubElement(poly, f"{{{KML_NS}}}outerBoundaryIs"), f"{{{KML_NS}}}LinearRing")
+        _kml_coordinates(ring, m.coordinates)
+
+
+def _document(p: FlightProgram, a: DjiAircraft, template: MappingTemplate | str | None) -> etree._Element:
+    """template.kml (`template` the mapping template, or why the waypoint template is written), or
+    waylines.wpml (`template` None)."""
     root = etree.Element(f"{{{KML_NS}}}kml", nsmap=NSMAP)
     doc = etree.SubElement(root, f"{{{KML_NS}}}Document")
-    if template:
+    if template is not None:
         _w(doc, "author", "aerosurvey")
     _mission_config(doc, p, a)
     folder = etree.SubElement(doc, f"{{{KML_NS}}}Folder")
-    if template:
+    if isinstance(template, MappingTemplate):
+        _mapping_folder(folder, p, a, template)
+        return root
+    if template:  # why the waypoint template (a comment holds no "--")
+        folder.append(etree.Comment(f" waypoint template: {template.replace('--', '- -')} "))
+    if template is not None:
         _w(folder, "templateType", "waypoint")
     _w(folder, "templateId", 0)
-    if template:
+    if template is not None:
         sys = _w(folder, "waylineCoordinateSysParam")
         _w(sys, "coordinateMode", "WGS84")
         _w(sys, "heightMode", "relativeToStartPoint")
@@ -265,7 +326,7 @@ def _document(p: FlightProgram, a: DjiAircraft, template: bool) -> etree._Elemen
         pt = etree.SubElement(pm, f"{{{KML_NS}}}Point")
         etree.SubElement(pt, f"{{{KML_NS}}}coordinates").text = f"{_num(w.lon)},{_num(w.lat)}"
         _w(pm, "index", i)
-        if template:
+        if template is not None:
             _w(pm, "useGlobalHeight", 0)
             # heights relative to the take-off point; the reference pairs an ellipsoid height
             # with every height, which a relative plan does not know: the same value is written
@@ -289,13 +350,14 @@ def _xml(root: etree._Element) -> bytes:
     return bytes(etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True))
 
 
-def kmz_bytes(p: FlightProgram, aircraft: DjiAircraft) -> bytes:
-    """The .kmz (a ZIP archive) of `p` for `aircraft`; equal programs give equal bytes. The
-    caller checks `refusal(p)` first."""
+def kmz_bytes(p: FlightProgram, aircraft: DjiAircraft, template: MappingTemplate | str = "") -> bytes:
+    """The .kmz (a ZIP archive) of `p` for `aircraft`; equal programs give equal bytes. `template`:
+    the mapping template of template.kml (dji_template.template_choice), or why it is the waypoint
+    template; waylines.wpml is the program's waypoints either way. The caller checks `refusal(p)` first."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, template in ((TEMPLATE, True), (WAYLINES, False)):
+        for name, what in ((TEMPLATE, template), (WAYLINES, None)):
             info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
-            z.writestr(info, _xml(_document(p, aircraft, template)))
+            z.writestr(info, _xml(_document(p, aircraft, what)))
     return buf.getvalue()
