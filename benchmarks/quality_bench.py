@@ -32,8 +32,9 @@ overlaps, height and speed) is handed the area buffered outward (round joins) by
 written as the rows of a QGC WPL file (DO_CHANGE_SPEED, the first waypoint,
 DO_SET_CAM_TRIGG_DIST(its forward distance, 0, 1), every waypoint of its path, the trigger off)
 and replayed by the same code (the distance commanded as aerosurvey commands its own: the whole
-50 Hz check steps within the peer's forward distance, less half a step, else the autopilot's
-pictures fall farther apart than asked and some ground stays on 7 photos at any buffer); d is
+50 Hz check steps within the peer's forward distance in ArduPilot's metres along its lines (the
+replay measures in them), less half a step, else the autopilot's pictures fall farther apart
+than asked and some ground stays on 7 photos at any buffer); d is
 the smallest (bisection, 9 steps from 0 to a footprint's width, doubled while short) at which
 its photos see >= 99.9 % of the samples on >= 8 photos.
 Photos: the replayed pictures (the peer's trigger stays on along its connectors, as one
@@ -44,7 +45,8 @@ width by rotating calipers with the 2-strip side rule at the edges; photos: area
 spacing)).
 
 Not covered: the time model (turns, accelerations) of either planner, wind, terrain, zones,
-other overlaps or cameras; the peer's bisection finds a d at which the rule holds, not always
+other overlaps or cameras, images beyond the boundary (none asked here: aerosurvey's bands and
+pieces of concave areas are laid only then), cross-hatch, planes; the peer's bisection finds a d at which the rule holds, not always
 the smallest when coverage is not monotone in d (this can only favour aerosurvey by a few
 metres of buffer).
 """
@@ -69,6 +71,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 
 import independent_coverage as ic  # noqa: E402  (the tests' independent replay, by path)
+from ardupilot_location import metres_per_ground_metre  # noqa: E402
 
 LAT0, LON0, EPSG = 49.40, 15.00, 32633
 PEER = "opencoverage==0.2.0"
@@ -145,9 +148,14 @@ def peer_rows(peer: dict, to_ll) -> list[list[float]]:
     lon, lat = to_ll.transform(xy[:, 0], xy[:, 1])
     h = peer["height"]
     # commanded as aerosurvey commands its own: whole 50 Hz check steps within the peer's forward
-    # distance, less half a step, so the autopilot's pictures lie no farther apart than it asked
+    # distance, less half a step, so the autopilot's pictures lie no farther apart than it asked;
+    # in ArduPilot's metres (its flat earth, as the replay measures), along the peer's lines (its
+    # legs of a base or more: the fewest autopilot metres per ground metre of any of them)
+    d = np.hypot(*np.diff(xy, axis=0).T)
+    long = np.flatnonzero(d >= peer["forward"])
+    scale = min((metres_per_ground_metre(lat[i], lon[i], lat[i + 1], lon[i + 1], d[i]) for i in long.tolist()), default=1.0)
     step = SPEED / 50.0
-    command = math.floor(peer["forward"] / step + 1e-9) * step - step / 2.0
+    command = math.floor(peer["forward"] * scale / step + 1e-9) * step - step / 2.0
     rows = [[0, 0, 3, ic.DO_CHANGE_SPEED, 1, SPEED, -1, 0, 0, 0, 0, 1],
             [0, 0, 3, ic.NAV_WAYPOINT, 0, 0, 0, 0, lat[0], lon[0], h, 1],
             [0, 0, 3, ic.DO_SET_CAM_TRIGG_DIST, command, 0, 1, 0, 0, 0, 0, 1]]

@@ -10,7 +10,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aerosurvey.plan.bounds import grid_bounds, minimum_width
+from aerosurvey.plan.bounds import grid_bounds, minimum_width, narrowest
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import strip_offsets
 
@@ -42,6 +42,17 @@ def test_minimum_width_of_a_rectangle_is_its_short_side():
     rect = shapely.affinity.rotate(shapely.box(0, 0, 300, 120), 33.0)
     assert math.isclose(minimum_width(rect), 120.0, rel_tol=1e-9)
     assert minimum_width(shapely.LineString([(0, 0), (5, 5)])) == 0.0
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000), size=st.floats(50, 2000))
+def test_the_narrowest_heading_measures_the_minimum_width(seed, size):
+    """Across lines at the narrowest heading (compass degrees) the area is its minimum width wide."""
+    poly = _convex(seed, size)
+    w, h = narrowest(poly)
+    _, vmin, _, vmax = LineFrame(h).geom_to_frame(poly).bounds
+    assert math.isclose(vmax - vmin, w, rel_tol=1e-9, abs_tol=1e-9 * size)
+    assert math.isclose(w, minimum_width(poly), rel_tol=1e-12)
 
 
 @settings(max_examples=30, deadline=None)

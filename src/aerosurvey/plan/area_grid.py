@@ -6,16 +6,29 @@ search of the line order and cells.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import shapely
+import shapely.ops
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
+from aerosurvey.plan.bounds import narrowest
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.layout import Layout
-from aerosurvey.plan.lines import LineSegment, Outline, StripGeometry, build_lines, line_bounds
-from aerosurvey.plan.progress import Progress
+from aerosurvey.plan.lines import (
+    LineSegment,
+    Outline,
+    StripGeometry,
+    anchored_offsets,
+    build_lines,
+    line_bounds,
+    strip_offsets,
+)
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
@@ -45,16 +58,64 @@ class AreaGrid:
     cross_hatch: bool
     images_beyond_boundary: int
     coverage_margin_m: float
+    # the area may be flown in several passes a heading (pieces of their own heading, a band a
+    # pass): not for the oblique pattern, which flies its grid's first pass again with the
+    # camera turned (its bands are joined in one pass)
+    several_passes: bool = True
 
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> AreaGrid:
         return cls(spec.flight.heading_deg, spec.flight.cross_hatch, spec.targets.images_beyond_boundary,
-                   spec.targets.coverage_margin_m)
+                   spec.targets.coverage_margin_m, several_passes=spec.pattern.kind == "area")
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         k = site.grid_scale
         margin = self.coverage_margin_m * k
         covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
+        whole = self._grid(covered, site, sensor, report)
+        laid = [whole]
+        chosen = whole.chosen
+        # pieces end runs inside the area, at the cut: not where each run must end beyond it
+        if (self.several_passes and self.heading_deg is None and not self.cross_hatch and not self.images_beyond_boundary
+                and covered.geom_type == "Polygon" and _concave(covered)):
+            report("pieces of their own heading", 0.64)
+            speed = sensor.kinematics.speed_ms
+            lead = sensor.lead_in_m * k
+
+            def rough(piece: BaseGeometry) -> float:
+                """A piece's time estimate with lines along its narrowest direction (no search)."""
+                h = narrowest(piece)[1]
+                fr = LineFrame(h)
+                segs = build_lines(fr.geom_to_frame(piece), None,
+                                   strip_geometry(sensor, 0, k, site.autopilot_scale(h)))
+                return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+
+            # the transit between the pieces: at most from one's centre to the other's
+            splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
+                      for a, b in split_candidates(covered, sensor.spacing_m * k / 4.0)]
+            best = whole.cost
+            # only the splits whose rough estimate beats the one grid are searched (each piece its
+            # heading search): the two most promising
+            for _, a, b in sorted((t for t in splits if t[0] < whole.cost), key=lambda t: t[0])[:MAX_SPLITS_SEARCHED]:
+                la, lb = (self._grid(piece, site, sensor, no_progress) for piece in (a, b))
+                turn = abs((la.heading - lb.heading + 90.0) % 180.0 - 90.0)
+                cost = la.cost + lb.cost + a.centroid.distance(b.centroid) / speed
+                if turn >= PARALLEL_DEG and la.photos + lb.photos <= whole.photos and cost < best * (1.0 - 1e-9):
+                    best, laid = cost, [la, lb]
+            if len(laid) == 2:
+                chosen = (f"auto: the area cut in two pieces flown at {laid[0].heading:.1f}° and {laid[1].heading:.1f}° "
+                          "(a shorter flight than one heading)")
+        report("flight lines and photo stations", 0.66)
+        passes = [Pass(i, fr, tuple(segs)) for i, (fr, segs) in enumerate((p for la in laid for p in la.passes), start=1)]
+        if not any(p.segments for p in passes):
+            raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
+        return Layout(laid[0].heading, chosen, tuple(passes), covered, self.coverage_margin_m)
+
+    def _grid(self, covered: BaseGeometry, site: Site, sensor: SensorSolution, report: Progress) -> _Laid:
+        """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading, in
+        bands across its notches where that flies shorter (`cheapest_cells`)."""
+        k = site.grid_scale
+
         def strips(h: float) -> StripGeometry:
             return strip_geometry(sensor, self.images_beyond_boundary, k, site.autopilot_scale(h))
 
@@ -100,15 +161,251 @@ class AreaGrid:
             chosen = "auto: the shortest estimated flight time"
         else:
             heading, chosen = self.heading_deg, "fixed by the spec"
+        zones = site.zones_buffered
+
+        banded: dict[float, tuple[float, list[float], list[list[LineSegment]]]] = {}
+
+        # no more photos than the single grid at its heading: the time estimate flies lines in
+        # order, the route searches more, so a layout priced cheaper with more photos may fly longer
+        most = sum(s.n for s in lines_for(heading)[1])
+
+        # where to cut and which headings to try, from the outline without its small wiggles
+        # (Douglas-Peucker keeps a subset of the vertices: a notch's corners stay where they are)
+        simple = shapely.simplify(covered, sensor.spacing_m * k / 4.0, preserve_topology=True)
+
+        def cells_for(h: float) -> tuple[float, list[float], list[list[LineSegment]]]:
+            if h not in banded:
+                fr, segs = lines_for(h)
+                zf = fr.geom_to_frame(zones) if zones is not None else None
+                g_h = strips(h)
+                cands = cut_candidates(fr.geom_to_frame(simple), g_h.spacing, g_h.base)
+                banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, g_h, segs,
+                                           lambda s: quick_cost(s, lead, sensor.kinematics), most, cands)
+            return banded[h]
+
+        # bands end runs inside the area, at their cuts: not where each run must end beyond it
+        banding = _concave(covered) and not self.images_beyond_boundary
+        if banding and self.heading_deg is None and not self.cross_hatch:
+            # cut into bands, a heading along one of the area's own long edges (a notch's side)
+            # may fly shorter than the single grid's best heading: the cheapest kept
+            report("cells across the notches", 0.62)
+            fewer = [h for h in edge_headings(simple) if sum(s.n for b in cells_for(h)[2] for s in b) <= most]
+            heading = min((heading, *fewer), key=lambda h: (cells_for(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
-        report("flight lines and photo stations", 0.66)
-        passes = []
-        for i, h in enumerate(headings, start=1):
-            fr, segs = lines_for(h)
-            passes.append(Pass(i, fr, tuple(segs)))
-        if not any(p.segments for p in passes):
-            raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
-        return Layout(heading, chosen, tuple(passes), covered, self.coverage_margin_m)
+        passes: list[tuple[LineFrame, list[LineSegment]]] = []
+        split = 0
+        main: list[LineSegment] = []
+        for h in headings:
+            _, cuts, bands = cells_for(h) if banding else (0.0, [], [lines_for(h)[1]])
+            split = max(split, len(cuts) + 1 if cuts else 0)
+            fr = lines_for(h)[0]
+            passes += [(fr, segs) for segs in bands] if self.several_passes else [(fr, joined(bands))]
+            main = main or joined(bands)
+        if split:
+            each = ", a pass each" if self.several_passes else ""
+            chosen += f"; lines laid in {split} bands across the notches{each} (a shorter flight than one grid)"
+        return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
+                     sum(s.n for _, segs in passes for s in segs))
 
 
-__all__ = ["AreaGrid", "strip_geometry"]
+@dataclass(frozen=True)
+class _Laid:
+    """One area's (or piece's) lines: its heading, why, its passes' frames and runs, the time
+    estimate of its main pass and its photos."""
+
+    heading: float
+    chosen: str
+    passes: list[tuple[LineFrame, list[LineSegment]]]
+    cost: float
+    photos: int
+
+
+def _concave(area: BaseGeometry) -> bool:
+    return bool(area.area < shapely.convex_hull(area).area * (1.0 - 1e-9))
+
+
+#: two pieces' headings at least this far apart: nearer, their lines could lie side by side
+#: farther apart than the spacing (bands lay those, `cell_lines`)
+PARALLEL_DEG = 3.0
+#: reflex vertices whose cuts `split_candidates` tries: the most marked ones
+MAX_SPLIT_VERTICES = 3
+#: splits whose pieces get a heading search of their own: the ones roughly estimated fastest
+MAX_SPLITS_SEARCHED = 2
+
+
+def split_candidates(area: shapely.Polygon, tol: float) -> list[tuple[shapely.Polygon, shapely.Polygon]]:
+    """Ways to cut the area in two at a reflex vertex of its outline simplified by `tol` (a
+    detailed outline's small wiggles are no notches): at the MAX_SPLIT_VERTICES most marked
+    (the turn's sine times the shorter of its two edges), along either edge at the vertex
+    carried on into the area, or along the bisector of its angle, each to where it first meets
+    the simplified outline again and 2·tol on, so that it crosses the area's own outline; only
+    cuts that leave two polygons, each a hundredth of the area or more."""
+    simple = shapely.simplify(area, tol, preserve_topology=True)
+    if simple.geom_type != "Polygon":
+        return []
+    xy = np.asarray(shapely.orient_polygons(simple).exterior.coords)[:-1]
+    d_in, d_out = xy - np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0) - xy
+    turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]  # counter-clockwise exterior: a right turn is reflex
+    ln_in, ln_out = np.hypot(*d_in.T), np.hypot(*d_out.T)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        marked = np.where((turn < 0) & (ln_in > 0) & (ln_out > 0), -turn / (ln_in * ln_out) * np.minimum(ln_in, ln_out), 0.0)
+    reach = 2.0 * float(np.hypot(*(np.ptp(xy, axis=0))))
+    out: list[tuple[shapely.Polygon, shapely.Polygon]] = []
+    for i in np.argsort(-marked, kind="stable")[:MAX_SPLIT_VERTICES].tolist():
+        if marked[i] <= tol:
+            break
+        u_in, u_out = d_in[i] / ln_in[i], d_out[i] / ln_out[i]
+        for u in (u_in, -u_out, u_in - u_out):
+            u = u / np.hypot(*u)
+            p = xy[i]
+            hit = shapely.intersection(shapely.LineString([p + u * 1e-6 * reach, p + u * reach]), simple.exterior)
+            pts = shapely.get_coordinates(hit)
+            if not len(pts):
+                continue
+            q = pts[np.argmin(np.hypot(*(pts - p).T))]
+            cut = shapely.LineString([p - u * (2.0 * tol + 1e-6 * reach), q + u * (2.0 * tol + 1e-6 * reach)])
+            pieces = [g for g in shapely.get_parts(shapely.ops.split(area, cut)) if g.geom_type == "Polygon"]
+            if len(pieces) == 2 and min(g.area for g in pieces) >= area.area / 100.0:
+                out.append((pieces[0], pieces[1]))
+    return out
+
+
+#: the area's edge directions tried as headings of a banded layout: the longest ones
+MAX_EDGE_HEADINGS = 6
+
+
+def edge_headings(area: BaseGeometry) -> list[float]:
+    """The directions (degrees, 0-180) of the area's longest boundary edges, holes' too, the
+    MAX_EDGE_HEADINGS longest distinct ones (a notch's sides are no edges of the hull)."""
+    rings = shapely.get_rings(shapely.get_parts(area))
+    xy, ring_of = shapely.get_coordinates(rings, return_index=True)
+    start = np.flatnonzero(ring_of[1:] == ring_of[:-1])
+    d = xy[start + 1] - xy[start]
+    length = np.hypot(d[:, 0], d[:, 1])
+    out: list[float] = []
+    for i in np.argsort(-length, kind="stable").tolist():
+        h = round(float(np.degrees(np.arctan2(d[i, 0], d[i, 1])) % 180.0), 6)
+        if length[i] > 0 and h not in out:
+            out.append(h)
+        if len(out) == MAX_EDGE_HEADINGS:
+            break
+    return out
+
+
+#: cuts between cells tried: the ordinates where the area's width jumps most
+MAX_CUTS = 6
+
+
+def cut_candidates(area_f: BaseGeometry, spacing: float, base: float) -> list[float]:
+    """Ordinates (line frame) where a band of cells may be cut: the area's reflex vertices (where
+    a notch or a hole begins or ends, so the lines' lengths jump), those whose width jumps most
+    first (the area's length along the lines a quarter spacing below against above), at most
+    MAX_CUTS, each at least half a spacing from the others and from the area's lowest and
+    highest ordinate, and a jump of a base or more."""
+    _, vmin, _, vmax = area_f.bounds
+    vs: list[float] = []
+    for poly in shapely.get_parts(area_f):
+        for ring in (poly.exterior, *poly.interiors):
+            xy = np.asarray(ring.coords)[:-1]
+            if len(xy) < 3:
+                continue
+            ccw = shapely.LinearRing(xy).is_ccw
+            d_in, d_out = xy - np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0) - xy
+            turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
+            # the area lies left of a counter-clockwise exterior and of a clockwise hole
+            left = ccw if ring is poly.exterior else not ccw
+            vs += xy[(turn < 0) if left else (turn > 0), 1].tolist()
+    q = spacing / 2.0
+    cand = np.unique(np.asarray(vs, float))  # exact: a cut a hair off a notch's corner leaves a sliver of the wider side
+    cand = cand[(cand > vmin + q) & (cand < vmax - q)]
+    if not len(cand):
+        return []
+    minx, _, maxx, _ = area_f.bounds
+    w = spacing / 4.0
+    below = shapely.area(shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), cand - w, np.double(maxx + 1.0), cand)) / w
+    above = shapely.area(shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), cand, np.double(maxx + 1.0), cand + w)) / w
+    jump = np.abs(above - below)
+    kept: list[float] = []
+    for i in np.argsort(-jump, kind="stable").tolist():
+        if jump[i] < base or len(kept) == MAX_CUTS:
+            break
+        if all(abs(cand[i] - c) >= q for c in kept):
+            kept.append(float(cand[i]))
+    return kept
+
+
+def cell_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry,
+               cuts: list[float], direction: int = 1) -> list[list[LineSegment]]:
+    """The area cut across the lines at the ordinates `cuts` into bands, each band laid with its
+    own lines (`build_lines`: every point of a band in k_side strips of its lines, k_fwd photos
+    each, so every point of the area is): the runs of each band, in the order laid (a pass
+    each: its lines evenly spaced, as QGroundControl's Survey item regenerates a pass). Runs
+    end at the cuts, inside the area: not for the images-beyond-the-boundary rule.
+
+    Bands are laid one after another, upwards (`direction` 1) or downwards (−1): a band's lines
+    centred on it (`strip_offsets`) when its first line then lies within a spacing of the last
+    band's last line, else at the spacing from that line on (`anchored_offsets`), so that no two
+    neighbouring lines lie farther apart than the spacing (the asked side overlap holds between
+    bands too). No bands ([]) where a band cannot be laid so."""
+    minx, vmin, maxx, vmax = area_f.bounds
+    edges = [vmin, *sorted(cuts), vmax]
+    spans = list(zip(edges[:-1], edges[1:]))[::direction]
+    reach = g.across / 2.0 - (g.side_per_point - 1) * g.spacing  # the k-th line from a band's edge
+    out: list[list[LineSegment]] = []
+    last: float | None = None
+    for lo, hi in spans:
+        band = shapely.clip_by_rect(area_f, minx - 1.0, lo, maxx + 1.0, hi)
+        if band.is_empty or band.area <= 0:
+            continue
+        _, blo, _, bhi = band.bounds
+        vs = strip_offsets(blo, bhi, g.across, g.spacing, g.side_per_point)
+        near = vs[0] if direction > 0 else vs[-1]
+        if last is not None and abs(near - last) > g.spacing * (1.0 + 1e-9):
+            first = min(last + g.spacing, blo + reach) if direction > 0 else max(last - g.spacing, bhi - reach)
+            anchored = anchored_offsets(blo, bhi, first, direction, g)
+            if anchored is None:
+                return []
+            vs = anchored
+        last = float(vs[-1] if direction > 0 else vs[0])
+        segs = build_lines(band, zones_f, g, vs=vs)
+        if segs:
+            out.append(segs)
+    return out
+
+
+def joined(bands: list[list[LineSegment]]) -> list[LineSegment]:
+    """The bands' runs as one pass's, lines numbered by ordinate (the time estimate's order)."""
+    laid = [(s.v, b, s.line, s) for b, segs in enumerate(bands) for s in segs]
+    index: dict[tuple[int, int], int] = {}
+    for _, b, line, _ in sorted(laid, key=lambda t: t[:3]):
+        index.setdefault((b, line), len(index))
+    return [LineSegment(index[(b, line)], s.part, s.v, s.x0, s.n, s.base)
+            for _, b, line, s in sorted(laid, key=lambda t: (index[(t[1], t[2])], t[3].part))]
+
+
+def cheapest_cells(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry, grid: list[LineSegment],
+                   cost: Callable[[list[LineSegment]], float], most_photos: int,
+                   cands: list[float]) -> tuple[float, list[float], list[list[LineSegment]]]:
+    """(time, cuts, bands' runs): the single grid's runs `grid` (one band), or the area cut into
+    bands across the lines (`cell_lines`) where that costs less time with `most_photos` photos or
+    fewer: cuts added one at a time, the one saving most first, while one saves any (a line
+    crossing a notch photographs the ground on both sides of it at the length of the longer; a
+    band each lays them at their own lengths). `cands`: the cuts to try (`cut_candidates`)."""
+    cands = list(cands)
+    best_cost = cost(grid) if grid else math.inf
+    cuts: list[float] = []
+    best = [grid]
+    while cands:
+        tried = [(c, cell_lines(area_f, zones_f, g, [*cuts, c], d)) for c in cands for d in (1, -1)]
+        priced = [(cost(joined(bands)) if bands and sum(s.n for b in bands for s in b) <= most_photos else math.inf,
+                   c, bands) for c, bands in tried]
+        value, c, bands = min(priced, key=lambda t: (t[0], t[1]))
+        if not value < best_cost * (1.0 - 1e-9):
+            break
+        best_cost, best = value, bands
+        cuts.append(c)
+        cands.remove(c)
+    return best_cost, sorted(cuts), best
+
+
+__all__ = ["AreaGrid", "cell_lines", "cheapest_cells", "cut_candidates", "joined", "split_candidates", "strip_geometry"]

@@ -38,16 +38,26 @@ class GridBounds:
 def minimum_width(geom: BaseGeometry) -> float:
     """The smallest distance between two parallel lines enclosing `geom` (rotating calipers:
     the width across each edge of its convex hull, the smallest of them)."""
+    return narrowest(geom)[0]
+
+
+def narrowest(geom: BaseGeometry) -> tuple[float, float]:
+    """(minimum width, the heading along which it is measured across): the compass direction
+    (degrees, 0-180, x east and y north) of the convex hull's edge the width is smallest
+    across, the heading of lines that need fewest strips."""
     hull = shapely.convex_hull(geom)
     if hull.geom_type != "Polygon":
-        return 0.0  # a point or a segment: no width
+        return 0.0, 0.0  # a point or a segment: no width
     xy = np.asarray(hull.exterior.coords)
     d = np.diff(xy, axis=0)
     length = np.hypot(d[:, 0], d[:, 1])
     keep = length > 0
     normal = np.column_stack([-d[keep, 1], d[keep, 0]]) / length[keep, None]
     proj = xy @ normal.T  # every vertex on every edge's normal
-    return float((proj.max(axis=0) - proj.min(axis=0)).min())
+    width = proj.max(axis=0) - proj.min(axis=0)
+    i = int(np.argmin(width))
+    dx, dy = d[keep][i]
+    return float(width[i]), float(np.degrees(np.arctan2(dx, dy)) % 180.0)
 
 
 def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_m: float, base_m: float,
@@ -63,4 +73,4 @@ def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_
     return GridBounds(width, passes * strips, passes * photos)
 
 
-__all__ = ["GridBounds", "grid_bounds", "minimum_width"]
+__all__ = ["GridBounds", "grid_bounds", "minimum_width", "narrowest"]

@@ -323,10 +323,29 @@ def _lone_runs(intervals: list[list[tuple[float, float]]], enter: np.ndarray, le
     return dict(zip(lines, zip(x0.tolist(), n.tolist())))
 
 
-def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry) -> list[LineSegment]:
-    """All photo runs of one pass over the area (in the line frame)."""
+def anchored_offsets(vmin: float, vmax: float, first: float, direction: int, g: StripGeometry) -> np.ndarray | None:
+    """Line ordinates `first` + direction·j·S, j = 0 … n − 1 (ascending), as few as put every v in
+    [vmin, vmax] in `side_per_point` strips: a band's lines continuing a neighbouring band's at
+    the spacing (the asked side overlap between them). `first` lies within the k-th strip's
+    reach of the band's near edge, so the near edge is covered; lines are added at the far end
+    (None if no count up to the range's own lines and k more on either side covers it)."""
+    reach = g.across / 2.0 + _EPS
+    probe = np.linspace(vmin, vmax, 257)
+    for n in range(g.side_per_point, math.ceil((vmax - vmin) / g.spacing) + 2 * g.side_per_point + 2):
+        vs = np.sort(first + direction * g.spacing * np.arange(n))
+        if ((np.abs(probe[:, None] - vs[None, :]) <= reach).sum(axis=1) >= g.side_per_point).all():
+            return vs
+    return None
+
+
+def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry,
+                vs: np.ndarray | None = None) -> list[LineSegment]:
+    """All photo runs of one pass over the area (in the line frame). `vs`: the line ordinates
+    (ascending, S apart or closer, every point of `area_f` in k_side strips), when not
+    `strip_offsets` of the area's bounds."""
     _, vmin, _, vmax = area_f.bounds
-    vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
+    if vs is None:
+        vs = strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point)
     intervals = band_intervals(area_f, *line_slabs(vs, g))
     owner, xs = line_crossings(area_f, vs) if g.beyond else (np.zeros(0, np.int64), np.zeros(0))
     enter, leave = np.full(len(vs), np.inf), np.full(len(vs), -np.inf)
