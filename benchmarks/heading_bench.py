@@ -46,7 +46,7 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
     spec = load_spec(spec_path)
     h, gsd, warnings = target_height(spec)
     site = prepare_site(spec, load_inputs(spec), h)
-    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), warnings)
+    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), warnings, autopilot_stretch=site.autopilot_stretch())
     k = site.grid_scale
     margin = spec.targets.coverage_margin_m * k
     covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area

@@ -105,6 +105,7 @@ def test_every_run_takes_its_planned_photos(tmp_path_factory: pytest.TempPathFac
     assert not wrong, f"runs whose photo count differs (id, planned, flown): {wrong[:5]}"
     assert len(photos) == len(m["stations"])
     _photos_at_stations(m, photos)
+    _forward_overlap_on_the_ground(m, photos)
 
 
 def _photos_at_stations(m: dict, photos: list[it.Photo]) -> None:
@@ -142,3 +143,36 @@ def test_long_runs_take_their_planned_photos(tmp_path: Path, lat: float, heading
         flown[ph.block] += 1
     assert flown == [line["photos"] for line in m["lines"]]
     _photos_at_stations(m, photos)
+    _forward_overlap_on_the_ground(m, photos)
+
+
+def _forward_overlap_on_the_ground(m: dict, photos: list[it.Photo]) -> None:
+    """The photos the autopilot takes lie at most along × (1 − forward overlap) apart on the
+    ground (the ellipsoid's metres, pyproj's geodesic), in whichever direction the run goes: the
+    autopilot measures in its own metres, up to 0.7 % shorter than the ground's. After a run's
+    first picture the gaps are equal (whole 50 Hz check steps), so their mean from the second
+    picture to the last is the gap, free of the positions' 1e-7° rounding. The first gap may be
+    half a step longer: the first picture is taken when the trigger is switched on
+    (DO_SET_CAM_TRIGG_DIST's param3), out of step with the checks that take the next."""
+    from pyproj import Geod
+
+    cam, t = m["camera"], m["targets"]
+    side_mm = cam["sensor_mm"][1] if cam["mount"] == "landscape" else cam["sensor_mm"][0]
+    along = side_mm * m["derived"]["lowest_agl_m"] / cam["focal_mm"]
+    allowed = along * (1.0 - t["forward_overlap"])
+    half_step = m["derived"]["speed_ms"] / it.UPDATE_HZ / 2.0
+    geod = Geod(ellps="WGS84")
+    runs: dict[int, list[it.Photo]] = {}
+    for ph in photos:
+        runs.setdefault(ph.block, []).append(ph)
+    checked = 0
+    for run in runs.values():
+        if len(run) >= 2:
+            first = geod.inv(run[0].lon, run[0].lat, run[1].lon, run[1].lat)[2]
+            assert first <= allowed + half_step * 1.01 + 0.02, (first, allowed, half_step)
+        if len(run) >= 4:
+            a, b = run[1], run[-1]
+            gap = geod.inv(a.lon, a.lat, b.lon, b.lat)[2] / (len(run) - 2)
+            assert gap <= allowed + 0.02 / (len(run) - 2), (gap, allowed, len(run))
+            checked += 1
+    assert checked > 0

@@ -39,7 +39,7 @@ def _square(lon: float, lat: float, side_m: float) -> shapely.Polygon:
 def _estimate(spec, area):
     h, gsd, w = target_height(spec)
     site = prepare_site(spec, PlanInputs(area), h)
-    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), w)
+    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), w, autopilot_stretch=site.autopilot_stretch())
     return estimate_cost(spec, site, sensor), sensor
 
 

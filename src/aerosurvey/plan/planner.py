@@ -61,7 +61,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     h_target, gsd_target, cap_warnings = target_height(spec)
     site = prepare_site(spec, inputs, h_target)
     report("heights over the ground", 0.03)
-    sensor = solve_sensor(spec, h_target, gsd_target, solve_heights(spec, h_target, site.ground), cap_warnings)
+    sensor = solve_sensor(spec, h_target, gsd_target, solve_heights(spec, h_target, site.ground), cap_warnings,
+                          autopilot_stretch=site.autopilot_stretch())
     limit_warnings = check_limits(spec, site, sensor)
     layout = pattern_for(spec).layout(site, sensor, report)
     report("route", 0.72)

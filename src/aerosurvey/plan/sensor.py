@@ -107,8 +107,11 @@ def lead_in_m(spec: MissionSpec, speed_ms: float, radius_m: float) -> float:
 
 
 def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights: Heights,
-                 warnings: tuple[str, ...] = ()) -> SensorSolution:
-    """Footprint, spacing, base, speed and trigger for the heights the terrain mode decided."""
+                 warnings: tuple[str, ...] = (), *, autopilot_stretch: float) -> SensorSolution:
+    """Footprint, spacing, base, speed and trigger for the heights the terrain mode decided.
+    `autopilot_stretch`: the most ground metres a metre of the autopilot's distance spans at the
+    site (`Site.autopilot_stretch`); the base is in the autopilot's metres (it triggers and
+    flies by them), short enough that on the ground it keeps the forward overlap in any direction."""
     cam = spec.camera.camera
     if heights.max_agl_m > spec.vehicle.max_height_agl_m + 1e-9:
         raise InputError(f"the plan would fly {heights.max_agl_m:.1f} m above ground, above "
@@ -126,7 +129,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
     spacing = pg.line_spacing(across, spec.targets.side_overlap)
     # whole centimetres, rounded down: the mission carries the trigger distance to 1 cm, and
     # the stations must lie exactly where the autopilot's distance trigger will fire
-    base = math.floor(pg.trigger_distance(along, spec.targets.forward_overlap) * 100.0) / 100.0
+    base = math.floor(pg.trigger_distance(along, spec.targets.forward_overlap) / autopilot_stretch * 100.0) / 100.0
     gsd_min = pg.gsd_from_height(heights.spacing_agl_m, cam)
     gsd_max = pg.gsd_from_height(heights.max_agl_m, cam) if gsd_far is None else gsd_far
     speed = pg.survey_speed(spec.vehicle.cruise_speed_ms, base, gsd_min, cam, spec.camera.max_blur_px,

@@ -74,12 +74,22 @@ class Site:
         base times this apart are where its distance trigger fires: the ground's metres and the
         autopilot's differ by up to 0.7 % with the direction and the latitude (`grid_scale`
         turns ground metres into grid metres)."""
+        return float(self._autopilot_scales(np.array([heading_deg]))[0])
+
+    def autopilot_stretch(self) -> float:
+        """The most ground metres one metre of ArduPilot's distance spans at the area, in any
+        direction (every degree of heading): a photo base measured in the autopilot's metres
+        is at most this many times longer on the ground, whichever way a line runs."""
+        return float(self._autopilot_scales(np.arange(0.0, 180.0, 1.0)).max()) / self.grid_scale
+
+    def _autopilot_scales(self, headings_deg: np.ndarray) -> np.ndarray:
         c = self.area.centroid
         half = 500.0 * self.grid_scale
-        h = math.radians(heading_deg)
-        dx, dy = half * math.sin(h), half * math.cos(h)
-        lon, lat = self.planar.lonlat(np.array([c.x - dx, c.x + dx]), np.array([c.y - dy, c.y + dy]))
-        return 2.0 * half / float(pg.ardupilot_distance_m(lon[0], lat[0], lon[1], lat[1]))
+        h = np.radians(headings_deg)
+        dx, dy = half * np.sin(h), half * np.cos(h)
+        lon, lat = self.planar.lonlat(np.concatenate([c.x - dx, c.x + dx]), np.concatenate([c.y - dy, c.y + dy]))
+        n = len(h)
+        return np.asarray(2.0 * half / pg.ardupilot_distance_m(lon[:n], lat[:n], lon[n:], lat[n:]), float)
 
 
 def simplify_tolerance_m(spec: MissionSpec, height_agl_m: float) -> float:
