@@ -3,6 +3,7 @@ against the plan's own lower bounds (issue 27).
 
     python benchmarks/quality_bench.py                 # every area, both scenarios
     python benchmarks/quality_bench.py --area block-72ha --scenario gsd4.5
+    python benchmarks/quality_bench.py --bound-sweep   # no peer: convex blocks of 12 to 4,000 ha against the photo bound
     PYTHONPATH=OTHER/src python benchmarks/quality_bench.py   # another version's planner (e.g. main's sources)
 
 The peer is installed by this script into its own virtual environment under the user's cache
@@ -237,15 +238,36 @@ def peer(py: Path, area: shapely.Polygon, scenario: dict, to_ll, to_xy, gx, gy, 
     return {"photos": n, "share": share, "path_m": float(np.hypot(*np.diff(xy, axis=0).T).sum()), "buffer_m": hi}
 
 
+def bound_sweep(scenarios: list[str], to_ll, to_xy) -> None:
+    """How the photos' excess over the photo bound falls as a convex block grows: the edge
+    strips and the line ends the guarantee needs grow with the perimeter, the bound with the area."""
+    block = areas()["block-12ha"]
+    for scen in scenarios:
+        for ha in (12, 72, 300, 1000, 4000):
+            f = math.sqrt(ha * 1e4 / block.area)
+            area = shapely.affinity.scale(block, f, f, origin="centroid")
+            gx, gy = ic.grid_inside(area, 120)
+            with tempfile.TemporaryDirectory() as td:
+                a = ours(area, SCENARIOS[scen], to_ll, to_xy, gx, gy, Path(td))
+            print(json.dumps({"scenario": scen, "ha": ha, "photos": a["planned"], "photo_bound": a["photo_bound"],
+                              "photos_over_bound": round(a["planned"] / a["photo_bound"], 3), "strips": a["strips"],
+                              "strip_bound": a["strip_bound"], "ours_on_8": round(a["share"], 5)}), flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--area", action="append", help="only these areas (repeatable)")
     ap.add_argument("--scenario", action="append", choices=sorted(SCENARIOS))
+    ap.add_argument("--bound-sweep", action="store_true",
+                    help="no peer: block-12ha's rectangle scaled to 12 ... 4,000 ha, photos against the photo bound")
     args = ap.parse_args()
     import pyproj
 
     to_xy = ic.local_projection(LON0, LAT0)
     to_ll = pyproj.Transformer.from_crs(to_xy.target_crs, "EPSG:4326", always_xy=True)
+    if args.bound_sweep:
+        bound_sweep(args.scenario or list(SCENARIOS), to_ll, to_xy)
+        return
     py = peer_python()
     rows = []
     for scen in args.scenario or list(SCENARIOS):
