@@ -12,10 +12,12 @@ holes are filled (ground that needs no photos, flown over as an area's holes are
    over its perimeter; at most MAX_SAMPLES samples) and the Voronoi edges of the samples (qhull,
    through scipy) that lie inside the polygon kept: an approximation of its medial axis, a graph
    of the points with two boundary samples or more nearest.
-2. Its longest path (the graph's diameter, found by two shortest-path searches from scipy,
-   exact on a tree) is the main line. At each end it runs into a corner of the outline (a
-   rectangle's medial axis forks into its corners): each end is cut back to where the corridor
-   reaches its width (`_trimmed`).
+2. Its spurs are pruned: each subtree off the axis whose inscribed circles all lie within
+   SPUR_SHARE times the inscribed radius at its root of the root (an outline's corner: a square
+   end's, a mitred bend's outer one; a bump of a wiggly edge), and an end's last radius or so with
+   them (the spur pruning of the medial-axis literature, by the radius at the root). The longest
+   path of what is left (the graph's diameter, found by two shortest-path searches from scipy,
+   exact on a tree) is the main line.
 3. The line is simplified within SIMPLIFY_SHARE of its median inscribed radius (Douglas-Peucker),
    extended straight at each end over the ground that lies beyond it, and turned to run
    eastwards (northwards when its ends lie due north of one another).
@@ -45,11 +47,11 @@ DENSIFY_SHARE = 0.2
 #: at most this many boundary samples (the Voronoi diagram's memory and time): a longer outline
 #: is sampled more coarsely, and refused when that is coarser than half its typical half-width
 MAX_SAMPLES = 200_000
-#: a medial path's end is looked at as far as this many inscribed radii from it (corners of 39°
-#: or wider), and cut where its radius reaches END_WIDTH_SHARE of the widest there (on a square
-#: end's spur, that point lies (1 − share) × the half-width off the corridor's axis)
-SPUR_REACH = 3.0
-END_WIDTH_SHARE = 0.995
+#: a spur of the medial axis (a leaf's run to the first fork, with the spurs pruned off it before)
+#: whose inscribed circles all lie within this many times the fork's inscribed radius of the fork
+#: is pruned: an outline's corner (a square end's corner reaches √2 radii, a mitred bend's outer
+#: corner 1/cos(turn/2): 1.56 at 100°, 2 at 120°) or a bump of a wiggly edge, not an arm
+SPUR_SHARE = 2.0
 #: a branch is judged against the main path's widest inscribed circle within this many of its
 #: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
 BRANCH_WINDOW = 25
@@ -126,22 +128,20 @@ def _part_centreline(part: BaseGeometry, unit: float, where: str) -> tuple[np.nd
     nodes, a, b = _medial_axis(part, samples)
     if not len(a):
         raise InputError(f"{where}: no medial axis found inside the corridor polygon; give its centreline as a line")
-    path, axis = _longest_path(nodes, a, b)
-    boundary = shapely.boundary(part)
-    xy = nodes[path]
-    radius = shapely.distance(shapely.points(xy), boundary)
-    xy, radius = _trimmed(xy, radius)
-    if len(xy) < 2:
+    node_radius = shapely.distance(shapely.points(nodes), shapely.boundary(part))
+    path, axis = _main_axis(nodes, node_radius, a, b)
+    if len(path) < 2:  # a disc's or a square's medial axis: a point, or spurs from one into its corners
         raise InputError(f"{where}: the corridor polygon is about as wide as it is long (its medial axis is a point): "
                          f"a corridor polygon must be at least {MIN_ASPECT:g} times longer than wide; plan it as an area "
                          "(pattern.kind = 'area')")
+    xy, radius = nodes[path], node_radius[path]
     typical = float(np.median(radius))
     tol = SIMPLIFY_SHARE * typical
     line = _extended(_simplified(xy, tol), xy, samples, 2.0 * typical, tol)
     d = line[-1] - line[0]
     if d[0] < 0 or (d[0] == 0 and d[1] < 0):  # eastwards, or northwards
         line = line[::-1]
-    _refuse_branches(nodes[axis], shapely.distance(shapely.points(nodes[axis]), boundary), line, xy, radius, unit, where)
+    _refuse_branches(nodes[axis], node_radius[axis], line, xy, radius, unit, where)
     return line, tol
 
 
@@ -166,46 +166,53 @@ def _medial_axis(part: BaseGeometry, samples: np.ndarray) -> tuple[np.ndarray, n
     return nodes, ridges[:, 0], ridges[:, 1]
 
 
-def _longest_path(nodes: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The vertex indices of the longest path of the graph's component with the longest edges in
-    all (exact on a tree: the farthest vertex from any vertex is an end of it), and which
-    vertices belong to that component."""
+def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertex indices of the main path of the medial axis (edges `a`-`b`, inscribed `radius`
+    at each vertex), and which vertices belong to the axis it runs along: the component with the
+    longest edges in all, its spurs pruned (`_spurs`), and its longest path (exact on a tree: the
+    farthest vertex from any vertex is an end of it)."""
     from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components, dijkstra
+    from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 
-    length = np.hypot(*(nodes[b] - nodes[a]).T)
-    n = len(nodes)
-    graph = coo_matrix((np.r_[length, length], (np.r_[a, b], np.r_[b, a])), shape=(n, n)).tocsr()
-    _, label = connected_components(graph, directed=False)
-    main = int(np.argmax(np.bincount(label[a], weights=length)))
-    far = dijkstra(graph, directed=False, indices=int(a[label[a] == main][0]))
+    def graph(a: np.ndarray, b: np.ndarray) -> coo_matrix:
+        length = np.hypot(*(nodes[b] - nodes[a]).T)
+        return coo_matrix((np.r_[length, length], (np.r_[a, b], np.r_[b, a])), shape=(len(nodes), len(nodes))).tocsr()
+
+    _, label = connected_components(graph(a, b), directed=False)
+    main = int(np.argmax(np.bincount(label[a], weights=np.hypot(*(nodes[b] - nodes[a]).T))))
+    root = int(np.argmax(np.where(label == main, radius, -1.0)))  # the widest point: not on a spur
+    order, parent = breadth_first_order(graph(a, b), root, directed=False)
+    child = order[1:]
+    kept = child[~_spurs(nodes, radius, order, parent)[child]]
+    pruned = graph(kept, parent[kept])
+    _, label = connected_components(pruned, directed=False)
+    far = dijkstra(pruned, directed=False, indices=root)
     first = int(np.argmax(np.where(np.isfinite(far), far, -1.0)))
-    far, before = dijkstra(graph, directed=False, indices=first, return_predecessors=True)
+    far, before = dijkstra(pruned, directed=False, indices=first, return_predecessors=True)
     last = int(np.argmax(np.where(np.isfinite(far), far, -1.0)))
     path = [last]
     while path[-1] != first:
         path.append(int(before[path[-1]]))
-    on_axis = np.zeros(n, bool)
-    on_axis[np.r_[a, b]] = True
-    return np.array(path[::-1]), on_axis & (label == main)
+    on_axis = np.zeros(len(nodes), bool)
+    on_axis[np.r_[kept, parent[kept]]] = True
+    return np.array(path[::-1]), on_axis & (label == label[root])
 
 
-def _trimmed(xy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The path with each end cut back past its run into a corner. From each end up to the farthest
-    point (in the path's first half) within SPUR_REACH of its inscribed radius of it, the cut is at
-    the first point whose radius reaches END_WIDTH_SHARE of the widest there: a corner's spur widens from
-    nothing at the corner to the corridor's width; a round end's path starts at its centre, as wide."""
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
-    mid = int(np.searchsorted(arc, arc[-1] / 2.0))
-
-    def cut(pts: np.ndarray, r: np.ndarray, half: int) -> int:
-        near = np.flatnonzero(np.hypot(*(pts[:half] - pts[0]).T) <= SPUR_REACH * r[:half])
-        reach = int(near.max()) + 1 if len(near) else 1
-        return int(np.argmax(r[:reach] >= END_WIDTH_SHARE * r[:reach].max()))
-
-    i = cut(xy, radius, mid + 1)
-    j = len(xy) - 1 - cut(xy[::-1], radius[::-1], len(xy) - mid)
-    return xy[i:j + 1], radius[i:j + 1]
+def _spurs(nodes: np.ndarray, radius: np.ndarray, order: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """Which vertices of a tree (visited in breadth-first `order` from its root, each vertex's
+    `parent`) are cut off with the spur they head: those whose own inscribed circle and all of their
+    descendants' lie within SPUR_SHARE times their parent's inscribed radius of it (the spur pruning
+    of the medial-axis literature, judged by the radius at the spur's root). The circle round a
+    vertex holding its descendants' is bounded from its children's (each's distance plus its own)."""
+    holds = radius.astype(float)
+    step = np.zeros(len(nodes))
+    child = order[1:]
+    step[child] = np.hypot(*(nodes[child] - nodes[parent[child]]).T)
+    for v, up in zip(order[:0:-1].tolist(), parent[order[:0:-1]].tolist()):  # leaves first
+        holds[up] = max(holds[up], step[v] + holds[v])
+    spur = np.zeros(len(nodes), bool)
+    spur[child] = step[child] + holds[child] <= SPUR_SHARE * radius[parent[child]]
+    return spur
 
 
 def _refuse_branches(nodes: np.ndarray, node_radius: np.ndarray, line: np.ndarray, path: np.ndarray, radius: np.ndarray,
