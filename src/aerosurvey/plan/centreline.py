@@ -169,8 +169,9 @@ def _medial_axis(part: BaseGeometry, samples: np.ndarray) -> tuple[np.ndarray, n
 def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The vertex indices of the main path of the medial axis (edges `a`-`b`, inscribed `radius`
     at each vertex), and which vertices belong to the axis it runs along: the component with the
-    longest edges in all, its spurs pruned (`_spurs`), and its longest path (exact on a tree: the
-    farthest vertex from any vertex is an end of it)."""
+    longest edges in all (spurs and all: the branch test judges them), its spurs pruned (`_spurs`),
+    and the longest path of what is left (exact on a tree: the farthest vertex from any vertex is
+    an end of it)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 
@@ -178,14 +179,14 @@ def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarr
         length = np.hypot(*(nodes[b] - nodes[a]).T)
         return coo_matrix((np.r_[length, length], (np.r_[a, b], np.r_[b, a])), shape=(len(nodes), len(nodes))).tocsr()
 
-    _, label = connected_components(graph(a, b), directed=False)
+    axis = graph(a, b)
+    _, label = connected_components(axis, directed=False)
     main = int(np.argmax(np.bincount(label[a], weights=np.hypot(*(nodes[b] - nodes[a]).T))))
     root = int(np.argmax(np.where(label == main, radius, -1.0)))  # the widest point: not on a spur
-    order, parent = breadth_first_order(graph(a, b), root, directed=False)
+    order, parent = breadth_first_order(axis, root, directed=False)
     child = order[1:]
     kept = child[~_spurs(nodes, radius, order, parent)[child]]
     pruned = graph(kept, parent[kept])
-    _, label = connected_components(pruned, directed=False)
     far = dijkstra(pruned, directed=False, indices=root)
     first = int(np.argmax(np.where(np.isfinite(far), far, -1.0)))
     far, before = dijkstra(pruned, directed=False, indices=first, return_predecessors=True)
@@ -194,8 +195,8 @@ def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarr
     while path[-1] != first:
         path.append(int(before[path[-1]]))
     on_axis = np.zeros(len(nodes), bool)
-    on_axis[np.r_[kept, parent[kept]]] = True
-    return np.array(path[::-1]), on_axis & (label == label[root])
+    on_axis[order] = True  # the component searched from the root
+    return np.array(path[::-1]), on_axis
 
 
 def _spurs(nodes: np.ndarray, radius: np.ndarray, order: np.ndarray, parent: np.ndarray) -> np.ndarray:
