@@ -128,7 +128,9 @@ def _part_centreline(part: BaseGeometry, unit: float, where: str) -> tuple[np.nd
     nodes, a, b = _medial_axis(part, samples)
     if not len(a):
         raise InputError(f"{where}: no medial axis found inside the corridor polygon; give its centreline as a line")
-    node_radius = shapely.distance(shapely.points(nodes), shapely.boundary(part))
+    node_radius = np.zeros(len(nodes))  # the inscribed radius at each vertex of the axis
+    on_edges = np.unique(np.r_[a, b])
+    node_radius[on_edges] = shapely.distance(shapely.points(nodes[on_edges]), shapely.boundary(part))
     path, axis = _main_axis(nodes, node_radius, a, b)
     if len(path) < 2:  # a disc's or a square's medial axis: a point, or spurs from one into its corners
         raise InputError(f"{where}: the corridor polygon is about as wide as it is long (its medial axis is a point): "
