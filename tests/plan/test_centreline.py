@@ -9,7 +9,7 @@ polygon was built from and a band rebuilt here from the derived line and widths 
   tolerance and a third of the half-width (the line's own shift at a sharp bend).
 - Wiggly edges (the outline moved by noise of a tenth of the half-width): one centreline still,
   close to the polyline, the band covering the polygon.
-- A Y (three arms as wide as the corridor) is refused in one line naming the input, the branch's
+- A Y or a T (three arms as wide as the corridor, round or flat at their ends) is refused in one line naming the input, the branch's
   numbers and what is allowed; so is a blob (shorter than twice its width), with its numbers.
 """
 
@@ -128,15 +128,17 @@ def test_wiggly_edges_still_give_one_centreline(xy: np.ndarray, half: float, see
 
 
 @settings(max_examples=max(EXAMPLES // 3, 10), deadline=None)
-@given(arm=hs.floats(300, 900), half=hs.floats(15, 60), turn=hs.floats(math.radians(50), math.radians(130)),
-       heading=hs.floats(0, 2 * math.pi))
-def test_a_y_is_refused_in_one_line_with_its_numbers(arm: float, half: float, turn: float, heading: float) -> None:
+@given(arm=hs.floats(300, 900), half=hs.floats(15, 60), turn=hs.floats(math.radians(50), math.radians(180)),
+       heading=hs.floats(0, 2 * math.pi), cap=hs.sampled_from(["round", "flat"]))
+def test_a_y_is_refused_in_one_line_with_its_numbers(arm: float, half: float, turn: float, heading: float, cap: str) -> None:
+    """Three arms from a fork (a T at a turn of 180°), round or flat at their ends."""
     fork = np.zeros(2)
 
     def to(bearing: float) -> np.ndarray:
         return fork + arm * np.array([math.sin(bearing), math.cos(bearing)])
 
-    y = shapely.union_all([shapely.LineString([fork, to(heading + b)]).buffer(half) for b in (0.0, math.pi - turn / 2, math.pi + turn / 2)])
+    y = shapely.union_all([shapely.LineString([fork, to(heading + b)]).buffer(half, cap_style=cap)
+                           for b in (0.0, math.pi - turn / 2, math.pi + turn / 2)])
     with pytest.raises(InputError) as exc:
         derive_centreline(y, 1.0, "area.file 'junction.geojson'")
     message = str(exc.value)

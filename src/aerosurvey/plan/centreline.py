@@ -47,10 +47,11 @@ DENSIFY_SHARE = 0.2
 #: at most this many boundary samples (the Voronoi diagram's memory and time): a longer outline
 #: is sampled more coarsely, and refused when that is coarser than half its typical half-width
 MAX_SAMPLES = 200_000
-#: a spur of the medial axis (a leaf's run to the first fork, with the spurs pruned off it before)
-#: whose inscribed circles all lie within this many times the fork's inscribed radius of the fork
-#: is pruned: an outline's corner (a square end's corner reaches √2 radii, a mitred bend's outer
-#: corner 1/cos(turn/2): 1.56 at 100°, 2 at 120°) or a bump of a wiggly edge, not an arm
+#: a spur of the medial axis (a piece hanging off one of its vertices) whose inscribed circles all
+#: lie within this many times that vertex's inscribed radius of it is pruned: an outline's corner
+#: (a square end's reaches √2 radii, a mitred bend's outer one 1/cos(turn / 2): 1.56 at 100°, 2 at
+#: 120°) or a bump of a wiggly edge, not an arm; an end loses about a radius with it (as much as
+#: SPUR_SHARE − 1 radii lies within the circle), which `_extended` gives back
 SPUR_SHARE = 2.0
 #: a branch is judged against the main path's widest inscribed circle within this many of its
 #: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
@@ -184,7 +185,7 @@ def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarr
     axis = graph(a, b)
     _, label = connected_components(axis, directed=False)
     main = int(np.argmax(np.bincount(label[a], weights=np.hypot(*(nodes[b] - nodes[a]).T))))
-    root = int(np.argmax(np.where(label == main, radius, -1.0)))  # the widest point: not on a spur
+    root = int(np.argmax(np.where(label == main, radius, -1.0)))  # the widest point: on the axis, not a spur
     order, parent = breadth_first_order(axis, root, directed=False)
     child = order[1:]
     kept = child[~_spurs(nodes, radius, order, parent)[child]]
