@@ -86,6 +86,12 @@ def _simple_corridor(poly: shapely.Geometry) -> bool:
 # back, nor the outer corner's spur an arm
 @example(xy=np.array([[0, 0], [0, 300], [0, 600], [299.81724811, 610.46984901]]), half=79.0, cap="round", join="round")
 @example(xy=np.array([[0, 0], [0, 300], [298.35656861, 268.64146102]]), half=76.0, cap="round", join="round")
+# a spiral's last end a few metres beside its first: an end cut back by a radius left its cap
+# nearer the first leg than its own (widths of 203 m for 80, and a band that missed 92 m²)
+@example(xy=np.array([[0, 0], [0, 466], [734.66793324, 718.96645601], [884.00652226, 161.62725424],
+                      [168.73872903, 99.04943095]]), half=80.0, cap="square", join="mitre")
+@example(xy=np.array([[0, 0], [0, 598], [740.19252529, 649.75930352], [891.64106834, 154.39343993],
+                      [55.91720866, 51.77945278]]), half=22.0, cap="round", join="round")
 def test_a_bent_corridor_gives_back_its_line_and_a_covering_band(xy: np.ndarray, half: float, cap: str, join: str) -> None:
     poly = shapely.LineString(xy).buffer(half, cap_style=cap, join_style=join)
     if not _simple_corridor(poly):

@@ -14,10 +14,10 @@ holes are filled (ground that needs no photos, flown over as an area's holes are
    of the points with two boundary samples or more nearest.
 2. Its spurs are pruned: each subtree off the axis whose inscribed circles all lie within
    SPUR_SHARE times the inscribed radius at its root of the root (an outline's corner: a square
-   end's, a mitred bend's outer one; a bump of a wiggly edge), and an end's last radius or so with
-   them (the spur pruning of the medial-axis literature, by the radius at the root). The longest
-   path of what is left (the graph's diameter, found by two shortest-path searches from scipy,
-   exact on a tree) is the main line.
+   end's, a mitred bend's outer one; a bump of a wiggly edge; the spur pruning of the medial-axis
+   literature, by the radius at the root). The longest path of what is left (the graph's diameter,
+   found by two shortest-path searches from scipy, exact on a tree) is the main line, each end
+   carried on into what was pruned there while one way on stays as wide (`_widest_on`).
 3. The line is simplified within SIMPLIFY_SHARE of its median inscribed radius (Douglas-Peucker),
    extended straight at each end over the ground that lies beyond it, and turned to run
    eastwards (northwards when its ends lie due north of one another).
@@ -51,8 +51,11 @@ MAX_SAMPLES = 200_000
 #: lie within this many times that vertex's inscribed radius of it is pruned: an outline's corner
 #: (a square end's reaches √2 radii, a mitred bend's outer one 1/cos(turn / 2): 1.56 at 100°, 2 at
 #: 120°) or a bump of a wiggly edge, not an arm; an end loses about a radius with it (as much as
-#: SPUR_SHARE − 1 radii lies within the circle), which `_extended` gives back
+#: SPUR_SHARE − 1 radii lies within the circle), which `_widest_on` gives back
 SPUR_SHARE = 2.0
+#: a main path's end is carried on into the spurs pruned off it while the corridor keeps this share
+#: of its width there
+END_WIDTH_SHARE = 0.95
 #: a branch is judged against the main path's widest inscribed circle within this many of its
 #: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
 BRANCH_WINDOW = 25
@@ -188,7 +191,8 @@ def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarr
     root = int(np.argmax(np.where(label == main, radius, -1.0)))  # the widest point: on the axis, not a spur
     order, parent = breadth_first_order(axis, root, directed=False)
     child = order[1:]
-    kept = child[~_spurs(nodes, radius, order, parent)[child]]
+    spur = _spurs(nodes, radius, order, parent)
+    kept = child[~spur[child]]
     pruned = graph(kept, parent[kept])
     far = dijkstra(pruned, directed=False, indices=root)
     first = int(np.argmax(np.where(np.isfinite(far), far, -1.0)))
@@ -199,7 +203,20 @@ def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarr
         path.append(int(before[path[-1]]))
     on_axis = np.zeros(len(nodes), bool)
     on_axis[order] = True  # the component searched from the root
-    return np.array(path[::-1]), on_axis
+    return np.array([*_widest_on(first, radius, parent, spur)[::-1], *path[::-1], *_widest_on(last, radius, parent, spur)]), on_axis
+
+
+def _widest_on(end: int, radius: np.ndarray, parent: np.ndarray, spur: np.ndarray) -> list[int]:
+    """The vertices on from a main path's `end` into the spurs pruned off it, as long as one way
+    on keeps END_WIDTH_SHARE of the corridor's width at the end: on to a round end's centre, to the
+    fork of a square end's two corners (pruning takes up to SPUR_SHARE − 1 radii off an end)."""
+    out = [end]
+    while True:
+        child = np.flatnonzero(spur & (parent == out[-1]))
+        wide = child[radius[child] >= END_WIDTH_SHARE * radius[end]]
+        if len(wide) != 1:
+            return out[1:]
+        out.append(int(wide[0]))
 
 
 def _spurs(nodes: np.ndarray, radius: np.ndarray, order: np.ndarray, parent: np.ndarray) -> np.ndarray:
