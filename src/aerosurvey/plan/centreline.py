@@ -159,16 +159,24 @@ def _simplified(xy: np.ndarray, tol: float) -> np.ndarray:
 
 def _medial_axis(part: BaseGeometry, samples: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Voronoi vertices of the boundary samples (qhull's, through scipy) and the Voronoi
-    edges between them that lie inside the polygon, as pairs of vertex indices."""
-    from scipy.spatial import Voronoi
+    edges between them that lie inside the polygon, as pairs of vertex indices. An edge is kept
+    only if both its ends lie as near its two samples as any (to a thousandth): qhull merges the
+    vertices of samples on one circle (a straight corridor sampled alike on both sides), and a
+    merged vertex has carried edges 150 m along a corridor."""
+    from scipy.spatial import KDTree, Voronoi
 
     centre = samples.mean(axis=0)
     vor = Voronoi(samples - centre)
     nodes = vor.vertices + centre
-    ridges = np.array([r for r in vor.ridge_vertices if r[0] >= 0 and r[1] >= 0], dtype=np.int64).reshape(-1, 2)
+    finite = np.array([r[0] >= 0 and r[1] >= 0 for r in vor.ridge_vertices], bool)
+    ridges = np.array([r for r, ok in zip(vor.ridge_vertices, finite) if ok], dtype=np.int64).reshape(-1, 2)
     shapely.prepare(part)
-    inside = shapely.contains_properly(part, shapely.linestrings(nodes[ridges.reshape(-1)].reshape(-1, 2, 2)))
-    ridges = ridges[inside]
+    inside = shapely.contains_properly(part, shapely.linestrings(nodes[ridges]))
+    ridges, pair = ridges[inside], samples[vor.ridge_points[finite][inside]]  # each edge's two samples
+    ends = nodes[ridges]  # (edge, end, xy)
+    nearest = KDTree(samples).query(ends.reshape(-1, 2))[0].reshape(-1, 2)
+    own = np.hypot(*(ends[:, :, None, :] - pair[:, None, :, :]).transpose(3, 0, 1, 2))  # (edge, end, sample)
+    ridges = ridges[np.all(own <= 1.001 * nearest[:, :, None], axis=(1, 2))]
     return nodes, ridges[:, 0], ridges[:, 1]
 
 
@@ -223,16 +231,28 @@ def _spurs(nodes: np.ndarray, radius: np.ndarray, order: np.ndarray, parent: np.
     """Which vertices of a tree (visited in breadth-first `order` from its root, each vertex's
     `parent`) are cut off with the spur they head: those whose own inscribed circle and all of their
     descendants' lie within SPUR_SHARE times their parent's inscribed radius of it (the spur pruning
-    of the medial-axis literature, judged by the radius at the spur's root). The circle round a
-    vertex holding its descendants' is bounded from its children's (each's distance plus its own)."""
-    holds = radius.astype(float)
-    step = np.zeros(len(nodes))
+    of the medial-axis literature, judged by the radius at the spur's root). No spur reaches
+    further along the tree than SPUR_SHARE times the widest radius: each vertex is checked against
+    its ancestors that near it, all at once, a step up at a time."""
     child = order[1:]
+    step = np.zeros(len(nodes))
     step[child] = np.hypot(*(nodes[child] - nodes[parent[child]]).T)
-    for v, up in zip(order[:0:-1].tolist(), parent[order[:0:-1]].tolist()):  # leaves first
-        holds[up] = max(holds[up], step[v] + holds[v])
+    reach = SPUR_SHARE * float(radius[order].max())
+    # how far each vertex's descendants reach along the tree, their radius added: leaves first
+    extent = radius.astype(float).tolist()
+    for v, up in zip(order[:0:-1].tolist(), parent[order[:0:-1]].tolist()):
+        extent[up] = max(extent[up], step[v] + extent[v])
+    # a vertex whose circle lies beyond SPUR_SHARE radii of an ancestor: the ancestor's child on
+    # the way to it heads no spur
+    beyond = np.zeros(len(nodes), bool)
+    at, below, up, walked = child, child, parent[child], step[child]
+    while len(at):
+        far = np.hypot(*(nodes[at] - nodes[up]).T) + radius[at] > SPUR_SHARE * radius[up]
+        beyond[below[far]] = True
+        on = (parent[up] >= 0) & (walked + step[up] <= reach)
+        at, below, up, walked = at[on], up[on], parent[up[on]], walked[on] + step[up[on]]
     spur = np.zeros(len(nodes), bool)
-    spur[child] = step[child] + holds[child] <= SPUR_SHARE * radius[parent[child]]
+    spur[child] = (np.asarray(extent)[child] + step[child] <= reach) & ~beyond[child]
     return spur
 
 
