@@ -185,7 +185,7 @@ def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarr
     at each vertex), and which vertices belong to the axis it runs along: the component with the
     longest edges in all (spurs and all: the branch test judges them), its spurs pruned (`_spurs`),
     and the longest path of what is left (exact on a tree: the farthest vertex from any vertex is
-    an end of it)."""
+    an end of it), each end carried on into the spurs pruned there (`_widest_on`)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 
