@@ -124,6 +124,8 @@ def test_a_bent_corridor_gives_back_its_line_and_a_covering_band(xy: np.ndarray,
 @given(xy=polylines(), half=hs.floats(25, 80), seed=hs.integers(0, 2**31))
 # a noisy round end: its spurs, pruned one circle round two at a time, looked wider than they are
 @example(xy=np.array([[0, 0], [366.8813493762429, 235.57180535850893]]), half=25.0, seed=0)
+# a sliver inside a bend between short segments of the derived line, covered in the seventh round
+@example(xy=np.array([[0.0, 0.0], [171.94448454001753, -245.83550239187926], [19.208335169343485, -572.9328406192319]]), half=60.0, seed=2)
 def test_wiggly_edges_still_give_one_centreline(xy: np.ndarray, half: float, seed: int) -> None:
     smooth = shapely.LineString(xy).buffer(half, quad_segs=16)
     # legs at least a half-width apart: the noise (a tenth of the half-width a coordinate) moving
