@@ -12,10 +12,12 @@ holes are filled (ground that needs no photos, flown over as an area's holes are
    over its perimeter; at most MAX_SAMPLES samples) and the Voronoi edges of the samples (qhull,
    through scipy) that lie inside the polygon kept: an approximation of its medial axis, a graph
    of the points with two boundary samples or more nearest.
-2. Its longest path (the graph's diameter, found by two shortest-path searches from scipy,
-   exact on a tree) is the main line. At each end it runs into a corner of the outline (a
-   rectangle's medial axis forks into its corners): each end is cut back to where the corridor
-   reaches its width (`_trimmed`).
+2. Its spurs are pruned: each subtree off the axis whose inscribed circles all lie within
+   SPUR_SHARE times the inscribed radius at its root of the root (an outline's corner: a square
+   end's, a mitred bend's outer one; a bump of a wiggly edge; the spur pruning of the medial-axis
+   literature, by the radius at the root). The longest path of what is left (the graph's diameter,
+   found by two shortest-path searches from scipy, exact on a tree) is the main line, each end
+   carried on into what was pruned there while one way on stays as wide (`_widest_on`).
 3. The line is simplified within SIMPLIFY_SHARE of its median inscribed radius (Douglas-Peucker),
    extended straight at each end over the ground that lies beyond it, and turned to run
    eastwards (northwards when its ends lie due north of one another).
@@ -45,11 +47,15 @@ DENSIFY_SHARE = 0.2
 #: at most this many boundary samples (the Voronoi diagram's memory and time): a longer outline
 #: is sampled more coarsely, and refused when that is coarser than half its typical half-width
 MAX_SAMPLES = 200_000
-#: a medial path's end is looked at as far as this many inscribed radii from it (corners of 39°
-#: or wider), and cut where its radius reaches END_WIDTH_SHARE of the widest there (on a square
-#: end's spur, that point lies (1 − share) × the half-width off the corridor's axis)
-SPUR_REACH = 3.0
-END_WIDTH_SHARE = 0.995
+#: a spur of the medial axis (a piece hanging off one of its vertices) whose inscribed circles all
+#: lie within this many times that vertex's inscribed radius of it is pruned: an outline's corner
+#: (a square end's reaches √2 radii, a mitred bend's outer one 1/cos(turn / 2): 1.56 at 100°, 2 at
+#: 120°) or a bump of a wiggly edge, not an arm; an end loses about a radius with it (as much as
+#: SPUR_SHARE − 1 radii lies within the circle), which `_widest_on` gives back
+SPUR_SHARE = 2.0
+#: a main path's end is carried on into the spurs pruned off it while the corridor keeps this share
+#: of its width there
+END_WIDTH_SHARE = 0.95
 #: a branch is judged against the main path's widest inscribed circle within this many of its
 #: points either side (about 2.5 corridor widths: the boundary is sampled every DENSIFY_SHARE of a half-width)
 BRANCH_WINDOW = 25
@@ -126,22 +132,22 @@ def _part_centreline(part: BaseGeometry, unit: float, where: str) -> tuple[np.nd
     nodes, a, b = _medial_axis(part, samples)
     if not len(a):
         raise InputError(f"{where}: no medial axis found inside the corridor polygon; give its centreline as a line")
-    path, axis = _longest_path(nodes, a, b)
-    boundary = shapely.boundary(part)
-    xy = nodes[path]
-    radius = shapely.distance(shapely.points(xy), boundary)
-    xy, radius = _trimmed(xy, radius)
-    if len(xy) < 2:
+    node_radius = np.zeros(len(nodes))  # the inscribed radius at each vertex of the axis
+    on_edges = np.unique(np.r_[a, b])
+    node_radius[on_edges] = shapely.distance(shapely.points(nodes[on_edges]), shapely.boundary(part))
+    path, axis = _main_axis(nodes, node_radius, a, b)
+    if len(path) < 2:  # a disc's or a square's medial axis: a point, or spurs from one into its corners
         raise InputError(f"{where}: the corridor polygon is about as wide as it is long (its medial axis is a point): "
                          f"a corridor polygon must be at least {MIN_ASPECT:g} times longer than wide; plan it as an area "
                          "(pattern.kind = 'area')")
+    xy, radius = nodes[path], node_radius[path]
     typical = float(np.median(radius))
     tol = SIMPLIFY_SHARE * typical
     line = _extended(_simplified(xy, tol), xy, samples, 2.0 * typical, tol)
     d = line[-1] - line[0]
     if d[0] < 0 or (d[0] == 0 and d[1] < 0):  # eastwards, or northwards
         line = line[::-1]
-    _refuse_branches(nodes[axis], shapely.distance(shapely.points(nodes[axis]), boundary), line, xy, radius, unit, where)
+    _refuse_branches(nodes[axis], node_radius[axis], line, xy, radius, unit, where)
     return line, tol
 
 
@@ -153,59 +159,101 @@ def _simplified(xy: np.ndarray, tol: float) -> np.ndarray:
 
 def _medial_axis(part: BaseGeometry, samples: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Voronoi vertices of the boundary samples (qhull's, through scipy) and the Voronoi
-    edges between them that lie inside the polygon, as pairs of vertex indices."""
-    from scipy.spatial import Voronoi
+    edges between them that lie inside the polygon, as pairs of vertex indices. An edge is kept
+    only if both its ends lie as near its two samples as any (to a thousandth): qhull merges the
+    vertices of samples on one circle (a straight corridor sampled alike on both sides), and a
+    merged vertex has carried edges 150 m along a corridor."""
+    from scipy.spatial import KDTree, Voronoi
 
     centre = samples.mean(axis=0)
     vor = Voronoi(samples - centre)
     nodes = vor.vertices + centre
-    ridges = np.array([r for r in vor.ridge_vertices if r[0] >= 0 and r[1] >= 0], dtype=np.int64).reshape(-1, 2)
+    finite = np.array([r[0] >= 0 and r[1] >= 0 for r in vor.ridge_vertices], bool)
+    ridges = np.array([r for r, ok in zip(vor.ridge_vertices, finite) if ok], dtype=np.int64).reshape(-1, 2)
     shapely.prepare(part)
-    inside = shapely.contains_properly(part, shapely.linestrings(nodes[ridges.reshape(-1)].reshape(-1, 2, 2)))
-    ridges = ridges[inside]
+    inside = shapely.contains_properly(part, shapely.linestrings(nodes[ridges]))
+    ridges, pair = ridges[inside], samples[vor.ridge_points[finite][inside]]  # each edge's two samples
+    ends = nodes[ridges]  # (edge, end, xy)
+    nearest = KDTree(samples).query(ends.reshape(-1, 2))[0].reshape(-1, 2)
+    own = np.hypot(*(ends[:, :, None, :] - pair[:, None, :, :]).transpose(3, 0, 1, 2))  # (edge, end, sample)
+    ridges = ridges[np.all(own <= 1.001 * nearest[:, :, None], axis=(1, 2))]
     return nodes, ridges[:, 0], ridges[:, 1]
 
 
-def _longest_path(nodes: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The vertex indices of the longest path of the graph's component with the longest edges in
-    all (exact on a tree: the farthest vertex from any vertex is an end of it), and which
-    vertices belong to that component."""
+def _main_axis(nodes: np.ndarray, radius: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertex indices of the main path of the medial axis (edges `a`-`b`, inscribed `radius`
+    at each vertex), and which vertices belong to the axis it runs along: the component with the
+    longest edges in all (spurs and all: the branch test judges them), its spurs pruned (`_spurs`),
+    and the longest path of what is left (exact on a tree: the farthest vertex from any vertex is
+    an end of it), each end carried on into the spurs pruned there (`_widest_on`)."""
     from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components, dijkstra
+    from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 
-    length = np.hypot(*(nodes[b] - nodes[a]).T)
-    n = len(nodes)
-    graph = coo_matrix((np.r_[length, length], (np.r_[a, b], np.r_[b, a])), shape=(n, n)).tocsr()
-    _, label = connected_components(graph, directed=False)
-    main = int(np.argmax(np.bincount(label[a], weights=length)))
-    far = dijkstra(graph, directed=False, indices=int(a[label[a] == main][0]))
+    def graph(a: np.ndarray, b: np.ndarray) -> coo_matrix:
+        length = np.hypot(*(nodes[b] - nodes[a]).T)
+        return coo_matrix((np.r_[length, length], (np.r_[a, b], np.r_[b, a])), shape=(len(nodes), len(nodes))).tocsr()
+
+    axis = graph(a, b)
+    _, label = connected_components(axis, directed=False)
+    main = int(np.argmax(np.bincount(label[a], weights=np.hypot(*(nodes[b] - nodes[a]).T))))
+    root = int(np.argmax(np.where(label == main, radius, -1.0)))  # the widest point: on the axis, not a spur
+    order, parent = breadth_first_order(axis, root, directed=False)
+    child = order[1:]
+    spur = _spurs(nodes, radius, order, parent)
+    kept = child[~spur[child]]
+    pruned = graph(kept, parent[kept])
+    far = dijkstra(pruned, directed=False, indices=root)
     first = int(np.argmax(np.where(np.isfinite(far), far, -1.0)))
-    far, before = dijkstra(graph, directed=False, indices=first, return_predecessors=True)
+    far, before = dijkstra(pruned, directed=False, indices=first, return_predecessors=True)
     last = int(np.argmax(np.where(np.isfinite(far), far, -1.0)))
     path = [last]
     while path[-1] != first:
         path.append(int(before[path[-1]]))
-    on_axis = np.zeros(n, bool)
-    on_axis[np.r_[a, b]] = True
-    return np.array(path[::-1]), on_axis & (label == main)
+    on_axis = np.zeros(len(nodes), bool)
+    on_axis[order] = True  # the component searched from the root
+    return np.array([*_widest_on(first, radius, parent, spur)[::-1], *path[::-1], *_widest_on(last, radius, parent, spur)]), on_axis
 
 
-def _trimmed(xy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The path with each end cut back past its run into a corner. From each end up to the farthest
-    point (in the path's first half) within SPUR_REACH of its inscribed radius of it, the cut is at
-    the first point whose radius reaches END_WIDTH_SHARE of the widest there: a corner's spur widens from
-    nothing at the corner to the corridor's width; a round end's path starts at its centre, as wide."""
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
-    mid = int(np.searchsorted(arc, arc[-1] / 2.0))
+def _widest_on(end: int, radius: np.ndarray, parent: np.ndarray, spur: np.ndarray) -> list[int]:
+    """The vertices on from a main path's `end` into the spurs pruned off it, as long as one way
+    on keeps END_WIDTH_SHARE of the corridor's width at the end: on to a round end's centre, to the
+    fork of a square end's two corners (pruning takes up to SPUR_SHARE − 1 radii off an end)."""
+    out = [end]
+    while True:
+        child = np.flatnonzero(spur & (parent == out[-1]))
+        wide = child[radius[child] >= END_WIDTH_SHARE * radius[end]]
+        if len(wide) != 1:
+            return out[1:]
+        out.append(int(wide[0]))
 
-    def cut(pts: np.ndarray, r: np.ndarray, half: int) -> int:
-        near = np.flatnonzero(np.hypot(*(pts[:half] - pts[0]).T) <= SPUR_REACH * r[:half])
-        reach = int(near.max()) + 1 if len(near) else 1
-        return int(np.argmax(r[:reach] >= END_WIDTH_SHARE * r[:reach].max()))
 
-    i = cut(xy, radius, mid + 1)
-    j = len(xy) - 1 - cut(xy[::-1], radius[::-1], len(xy) - mid)
-    return xy[i:j + 1], radius[i:j + 1]
+def _spurs(nodes: np.ndarray, radius: np.ndarray, order: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """Which vertices of a tree (visited in breadth-first `order` from its root, each vertex's
+    `parent`) are cut off with the spur they head: those whose own inscribed circle and all of their
+    descendants' lie within SPUR_SHARE times their parent's inscribed radius of it (the spur pruning
+    of the medial-axis literature, judged by the radius at the spur's root). No spur reaches
+    further along the tree than SPUR_SHARE times the widest radius: each vertex is checked against
+    its ancestors that near it, all at once, a step up at a time."""
+    child = order[1:]
+    step = np.zeros(len(nodes))
+    step[child] = np.hypot(*(nodes[child] - nodes[parent[child]]).T)
+    reach = SPUR_SHARE * float(radius[order].max())
+    # how far each vertex's descendants reach along the tree, their radius added: leaves first
+    extent = radius.astype(float).tolist()
+    for v, up in zip(order[:0:-1].tolist(), parent[order[:0:-1]].tolist()):
+        extent[up] = max(extent[up], step[v] + extent[v])
+    # a vertex whose circle lies beyond SPUR_SHARE radii of an ancestor: the ancestor's child on
+    # the way to it heads no spur
+    beyond = np.zeros(len(nodes), bool)
+    at, below, up, walked = child, child, parent[child], step[child]
+    while len(at):
+        far = np.hypot(*(nodes[at] - nodes[up]).T) + radius[at] > SPUR_SHARE * radius[up]
+        beyond[below[far]] = True
+        on = (parent[up] >= 0) & (walked + step[up] <= reach)
+        at, below, up, walked = at[on], up[on], parent[up[on]], walked[on] + step[up[on]]
+    spur = np.zeros(len(nodes), bool)
+    spur[child] = (np.asarray(extent)[child] + step[child] <= reach) & ~beyond[child]
+    return spur
 
 
 def _refuse_branches(nodes: np.ndarray, node_radius: np.ndarray, line: np.ndarray, path: np.ndarray, radius: np.ndarray,
@@ -281,8 +329,10 @@ def _sides(xy: np.ndarray, samples: np.ndarray) -> tuple[float, float]:
 def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float) -> tuple[np.ndarray, float, float]:
     """The line and `left` and `right`, the widths and both ends grown by as far as the polygon
     reaches out of the corridor they make (nothing, unless the boundary between two samples
-    bulges out of it); a millionth of the polygon's area may stay out (rounding slivers)."""
-    for _ in range(6):
+    bulges out of it); a millionth of the polygon's area may stay out (rounding slivers). Up to
+    twelve rounds: a sliver inside a bend between short segments shrinks by about half a round
+    (a wiggly outline's 1.3 m² took seven)."""
+    for _ in range(12):
         band = corridor_polygon(shapely.linestrings(xy), left, right)
         out = shapely.difference(part, band)
         if out.area <= 1e-6 * part.area:
