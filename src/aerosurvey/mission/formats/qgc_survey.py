@@ -31,7 +31,7 @@ them puts QGroundControl's grid on our lines (`_ring`, `survey_geometry`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -267,7 +267,6 @@ def _clear(r: np.ndarray, m0: np.ndarray, m1: np.ndarray, s: float) -> np.ndarra
                       & (r < s - m0 - safe) & (r > m1 - s + safe), bool)
 
 
-@lru_cache(maxsize=4)  # per plan (a Plan hashes by identity): a mission and its sorties' files share a pass's polygon
 def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
     """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
     lines QGroundControl regenerates a pass from.
@@ -426,10 +425,25 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
 
 
-def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
-    """A Survey item for each of the mission's pass blocks (a Corridor Scan item for a corridor's,
-    where its strips are the offsets of one polyline); the mission flies stations
-    `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
+@dataclass
+class PassShapes:
+    """Each pass's Survey polygon and lines (`survey_geometry`), made once for the files of one
+    render: the whole mission's .plan and its sorties' share a pass's polygon."""
+
+    plan: Plan
+    made: dict[int, tuple[np.ndarray, _Strips]] = field(default_factory=dict)
+
+    def of(self, pass_index: int) -> tuple[np.ndarray, _Strips]:
+        if pass_index not in self.made:
+            self.made[pass_index] = survey_geometry(self.plan, pass_index)
+        return self.made[pass_index]
+
+
+def survey_items(shapes: PassShapes, m: Mission, first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
+    """A Survey item for each of the mission's pass blocks of `shapes.plan` (a Corridor Scan item
+    for a corridor's, where its strips are the offsets of one polyline); the mission flies
+    stations `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
+    plan = shapes.plan
     last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
     cam = plan.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
@@ -455,7 +469,7 @@ def survey_items(plan: Plan, m: Mission, first_station: int = 0, last_station: i
             line, width, spacing, entry = found
             polyline = tuple((float(lat), float(lon)) for lon, lat in line)
         else:
-            ring, fit = survey_geometry(plan, p)
+            ring, fit = shapes.of(p)
             polygon = tuple((float(lat), float(lon)) for lon, lat in ring)
             spacing, angle, entry = fit.spacing, fit.angle, 2 * fit.reverse_points + fit.reverse_lines
         items = m.items[a:b + 1]
