@@ -233,7 +233,8 @@ def test_a_column_of_an_array_reads_as_its_values() -> None:
 def test_a_column_of_an_array_without_texts_writes_as_json(values: list[float]) -> None:
     a = np.array(values, float)
     col = Column(a, kinds=frozenset({float}) if values else frozenset())
-    assert col.texts is None and np.asarray(col) is a
+    assert col.texts is None and np.array_equal(np.asarray(col), a)
+    assert not len(a) or np.shares_memory(np.asarray(col), a)  # the array itself (a read-only view), not a copy
     assert value_texts(col) == float_texts(col) == [json.dumps(v) for v in values]
 
 
@@ -281,3 +282,18 @@ def test_join_rows_with_texts_side_by_side(rows: list[list[str]], sep: str, layo
     parts: list[str | list[str]] = [cols[int(p[1])] if p in ("c0", "c1") else p for p in layout]
     expected = sep.join("".join(p if isinstance(p, str) else p[i] for p in parts) for i in range(len(rows)))
     assert join_rows(parts, len(rows), sep) == expected
+
+
+def test_a_columns_array_is_read_only_and_copies_when_asked():
+    """Its texts were made from its values: no view of them may change them."""
+    import numpy as np
+    import pytest
+
+    from aerosurvey.jsontext import Column
+
+    col = Column.of_array(np.array([1.5, 2.5]))
+    with pytest.raises(ValueError):
+        np.asarray(col)[0] = 9.0
+    copied = np.array(col, copy=True)
+    copied[0] = 9.0
+    assert tuple(col) == (1.5, 2.5) and col.texts == ("1.5", "2.5")

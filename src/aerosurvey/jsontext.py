@@ -125,6 +125,9 @@ class Column(Sequence[Any]):
     def __init__(self, values: Iterable[Any] | np.ndarray = (), texts: Sequence[str] | None = None,
                  one: str | None = None, kinds: frozenset[type] | None = None) -> None:
         """`kinds`, when the maker knows them (an array's dtype, strings by code), else read off the values."""
+        if isinstance(values, np.ndarray):
+            values = values.view()
+            values.flags.writeable = False  # the texts were made from these values: read-only through every view
         self._values: tuple[Any, ...] | np.ndarray = values if isinstance(values, np.ndarray) else tuple(values)
         self.kinds = frozenset(map(type, self)) if kinds is None else kinds
         self.texts = None if texts is None else tuple(texts)
@@ -149,9 +152,11 @@ class Column(Sequence[Any]):
         return v.item() if isinstance(v, np.generic) else v
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        """The values as an array: a column made from one gives it (numpy reads it as it is)."""
+        """The values as an array: a column made from one gives it, read-only (numpy reads it as
+        it is), or a copy of it when `copy` is asked."""
         a = self._values if isinstance(self._values, np.ndarray) else np.array(self._values, dtype=object)
-        return a if dtype is None else a.astype(dtype, copy=False)
+        a = a if dtype is None else a.astype(dtype, copy=False)
+        return a.copy() if copy else a
 
     def __eq__(self, other: object) -> bool:
         """Equal to a tuple, or a Column, of the same values."""

@@ -239,7 +239,7 @@ def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: d
         "targets": {"gsd_cm": _f(plan.sensor.gsd_target_m * 100, 4), "forward_overlap": spec.targets.forward_overlap,
                     "side_overlap": spec.targets.side_overlap,
                     "images_beyond_boundary": spec.targets.images_beyond_boundary,
-                    "coverage_margin_m": spec.targets.coverage_margin_m,
+                    "coverage_margin_m": plan.layout.margin_m,
                     "max_height_agl_m": plan.vehicle.max_height_agl_m},
         "pattern": _pattern(plan),
         "derived": {

@@ -477,7 +477,7 @@ def test_a_corridor_polygon_is_a_strip_template_as_wide_as_its_derived_widths(tm
 
 
 @pytest.mark.parametrize(("overrides", "reason"), [
-    ({"flight": {"cross_hatch": True}}, "2 passes (flight.cross_hatch)"),
+    ({"flight": {"cross_hatch": True}}, "2 passes at "),
     ({"camera": {"trigger": "hover"}}, "camera.trigger = 'hover'"),
     ({"pattern": {"kind": "oblique"}}, "pattern.kind = 'oblique'"),
     ({"area": {"exclusions": ["zone.geojson"]}}, "exclusion zones"),
@@ -492,6 +492,23 @@ def test_what_a_mapping_template_cannot_say_stays_waypoints_with_why(tmp_path: P
     assert tpl.findtext(".//wpml:templateType", namespaces=NS) == "waypoint"
     assert reason in _comments(tpl)
     assert _check_reference(tpl, template=True) == []
+
+
+def test_a_strip_flown_in_two_pieces_is_waypoints_saying_so(tmp_path: Path) -> None:
+    """A strip 100 m wide bent once is flown as two pieces at their own headings: two passes,
+    which a mapping template cannot hold; the reason names both headings and the layout."""
+    bent = shapely.LineString([(0, 0), (700, 0), (1100, 350)]).buffer(50, cap_style="flat", join_style="mitre")
+    k_lat, k_lon = 1 / 111_320.0, 1 / (111_320.0 * math.cos(math.radians(49.4)))
+    area = [[15.0 + x * k_lon, 49.4 + y * k_lat] for x, y in bent.exterior.coords]
+    out = tmp_path / "out"
+    spec = make_spec(tmp_path, {"camera": {"model": "dji-mavic-3-enterprise"}}, area=area)
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    chosen = json.loads((out / "manifest.json").read_text())["derived"]["heading_chosen"]
+    tpl = _kmz(out / "mission.kmz")["wpmz/template.kml"]
+    assert tpl.findtext(".//wpml:templateType", namespaces=NS) == "waypoint"
+    why = _comments(tpl)
+    assert "2 passes at " in why and chosen in why and "cross_hatch" not in why, why
 
 
 def test_a_sortie_of_several_is_waypoints_the_whole_mission_mapping(tmp_path: Path) -> None:

@@ -322,8 +322,8 @@ def cut_candidates(area_f: BaseGeometry, spacing: float, base: float) -> list[fl
         return []
     minx, _, maxx, _ = area_f.bounds
     w = spacing / 4.0
-    below = shapely.area(shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), cand - w, np.double(maxx + 1.0), cand)) / w
-    above = shapely.area(shapely.lib.clip_by_rect(area_f, np.double(minx - 1.0), cand, np.double(maxx + 1.0), cand + w)) / w
+    below = shapely.area(shapely.intersection(area_f, shapely.box(minx - 1.0, cand - w, maxx + 1.0, cand))) / w
+    above = shapely.area(shapely.intersection(area_f, shapely.box(minx - 1.0, cand, maxx + 1.0, cand + w))) / w
     jump = np.abs(above - below)
     kept: list[float] = []
     for i in np.argsort(-jump, kind="stable").tolist():

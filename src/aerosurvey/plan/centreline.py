@@ -92,7 +92,7 @@ def derive_centreline(polygon: BaseGeometry, unit: float, where: str) -> Derived
     for i, part in enumerate(parts, start=1):
         name = f"{where} (polygon {i} of {len(parts)})" if len(parts) > 1 else where
         xy, tol = _part_centreline(part, unit, name)
-        xy, part_left, part_right = _covering(part, xy, *_sides(xy, _boundary_samples(part, _spacing(part))))
+        xy, part_left, part_right = _covering(part, xy, *_sides(xy, _boundary_samples(part, _spacing(part))), unit, name)
         length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
         width = part_left + part_right
         if length < MIN_ASPECT * width:
@@ -326,7 +326,8 @@ def _sides(xy: np.ndarray, samples: np.ndarray) -> tuple[float, float]:
     return float(off[left].max(initial=0.0)), float(off[~left].max(initial=0.0))
 
 
-def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float) -> tuple[np.ndarray, float, float]:
+def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float, unit: float,
+              where: str) -> tuple[np.ndarray, float, float]:
     """The line and `left` and `right`, the widths and both ends grown by as far as the polygon
     reaches out of the corridor they make (nothing, unless the boundary between two samples
     bulges out of it); a millionth of the polygon's area may stay out (rounding slivers). Up to
@@ -347,7 +348,8 @@ def _covering(part: BaseGeometry, xy: np.ndarray, left: float, right: float) -> 
         for end, inner in ((0, 1), (-1, -2)):
             d = xy[end] - xy[inner]
             xy[end] = xy[end] + d / math.hypot(*d) * grow
-    raise AssertionError(f"the corridor round the derived centreline does not cover the polygon ({out.area:g} left out)")
+    raise InputError(f"{where}: the corridor round the centreline derived from the polygon still leaves {out.area / unit**2:,.1f} m² "
+                     "of it out after twelve widenings; give the centreline as a line (LineString) with pattern.width_m")
 
 
 def corridor_polygon(centreline: BaseGeometry, left: float, right: float) -> BaseGeometry:

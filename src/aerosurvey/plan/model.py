@@ -114,7 +114,9 @@ class Plan:
     launch: Launch
     waypoints: tuple[RouteWaypoint, ...]  # the whole flight: the survey's with the transits from and back home
     sorties: tuple[SortiePlan, ...]  # battery flights; () without a [battery] table
-    battery: Budget | None  # the sortie budget when a battery is given
+    # the sorties' budget: a battery's (its reserve set) when [battery] is given; for a resumed plan
+    # without one, only the autopilot's item limit (reserve None); None when no sorties were split
+    battery: Budget | None
     coverage: Coverage  # the required ground fewer than two photos see (next to zones), exactly
     bounds: GridBounds  # the strip and photo counts no grid can go below
     estimates: Mapping[str, float]

@@ -98,11 +98,19 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         launch=Launch(home, routed.home_xy, sites, fence, Landing.of(spec),
                       None if spec.flight.fixed_yaw_deg is None else float(spec.flight.fixed_yaw_deg)),
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
-        bounds=_bounds(site, sensor, layout, 2 if spec.flight.cross_hatch else 1),
+        bounds=_bounds(site, sensor, layout, _times_over(spec)),
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
                   + _zone_warnings(spec, site)),
     )
+
+
+def _times_over(spec: MissionSpec) -> int:
+    """How many times the pattern photographs the ground: a cross-hatch twice, an oblique double
+    grid twice, five directions five times, else once."""
+    if spec.pattern.kind == "oblique":
+        return 2 if spec.pattern.scheme == "double-grid" else 5
+    return 2 if spec.pattern.kind == "area" and spec.flight.cross_hatch else 1
 
 
 def _bounds(site: Site, sensor: SensorSolution, layout: Layout, directions: int) -> GridBounds:

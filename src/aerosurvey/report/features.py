@@ -71,8 +71,13 @@ def plan_geojson(plan: Plan, table: StationTable | None = None,
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
     parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table, corners), dumps_compact(feats[at:])[1:-1]]
     # one join, the parts comma-separated in it: the stations' and footprints' texts (megabytes) copied once
-    separated = [text for p in parts if p for text in (",", p)][1:]
-    return fc, stations, "".join([head, ',"features":[', *separated, "]}\n"])
+    pieces = [head, ',"features":[']
+    for p in (p for p in parts if p):
+        if len(pieces) > 2:
+            pieces.append(",")
+        pieces.append(p)
+    pieces.append("]}\n")
+    return fc, stations, "".join(pieces)
 
 
 def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:

@@ -70,8 +70,12 @@ def _why_not(plan: Plan, p: FlightProgram, whole: bool) -> str | None:
     kind = plan.pattern.kind
     if kind not in ("area", "corridor"):
         return f"pattern.kind = {kind!r}: DJI's oblique template (mapping3d) flies its own five passes"
-    if len(plan.layout.passes) != 1:
-        return f"{len(plan.layout.passes)} passes (flight.cross_hatch): a mapping template holds one direction"
+    passes = [p for p in plan.layout.passes if not p.empty]
+    if len(passes) != 1:
+        headings = sorted({round(p.frame.heading_deg) % 180 for p in passes if p.frame is not None})
+        at = f" at {', '.join(f'{h}°' for h in headings)}" if headings else ""
+        return (f"{len(passes)} passes{at} (cross-hatch, bands across notches, pieces at their own headings, "
+                f"lines along the zones or corridor parts; {plan.layout.heading_chosen}): a mapping template holds one")
     if not whole:
         return "this sortie flies part of the pass: a mapping template covers the whole area"
     if plan.site.zones is not None:
