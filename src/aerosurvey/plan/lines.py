@@ -328,14 +328,17 @@ def anchored_offsets(vmin: float, vmax: float, first: float, direction: int, g: 
     [vmin, vmax] in `side_per_point` strips: a band's lines continuing a neighbouring band's at
     the spacing (the asked side overlap between them). `first` lies within the k-th strip's
     reach of the band's near edge, so the near edge is covered; lines are added at the far end
-    (None if no count up to the range's own lines and k more on either side covers it)."""
+    until the k-th from the last reaches the far edge (None if those lines leave a point in fewer
+    than k strips: the near edge out of reach, or lines too far apart)."""
+    k = g.side_per_point
     reach = g.across / 2.0 + _EPS
+    far = vmax - reach - first if direction > 0 else first - vmin - reach  # how far the k-th last line must go
+    n = max(k, k + math.ceil(far / g.spacing - 1e-9))
+    vs = np.sort(first + direction * g.spacing * np.arange(n))
     probe = np.linspace(vmin, vmax, 257)
-    for n in range(g.side_per_point, math.ceil((vmax - vmin) / g.spacing) + 2 * g.side_per_point + 2):
-        vs = np.sort(first + direction * g.spacing * np.arange(n))
-        if ((np.abs(probe[:, None] - vs[None, :]) <= reach).sum(axis=1) >= g.side_per_point).all():
-            return vs
-    return None
+    # a probe's strips are those of the lines within reach: a window of lines round where it falls
+    lo, hi = np.searchsorted(vs, probe - reach, "left"), np.searchsorted(vs, probe + reach, "right")
+    return vs if ((hi - lo) >= k).all() else None
 
 
 def build_lines(area_f: BaseGeometry, zones_f: BaseGeometry | None, g: StripGeometry,
