@@ -18,7 +18,7 @@ from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS, wpml
 from aerosurvey.mission.formats.dji_template import template_choice
 from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
-from aerosurvey.mission.formats.qgc_survey import PassShapes, survey_items
+from aerosurvey.mission.formats.qgc_survey import SurveyShapes, survey_blocks, survey_items, survey_shapes
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
@@ -93,13 +93,11 @@ def _rules(spec: MissionSpec, manifest: dict[str, Any], stations: mf.StationTabl
     return evaluate(profiles, ev), ev.points, ev
 
 
-def plan_text(shapes: PassShapes, m: Mission, qgc: str, stations: tuple[int, int] | None = None) -> str:
-    """A mission's .plan: with `qgc` "survey" each photo pass of `shapes.plan` in a
-    QGroundControl Survey item, with "items" every item plain; the mission flies `stations`
-    (first, last in flight order; all when None)."""
-    if qgc not in QGC_LAYOUTS:
-        raise ValueError(f"qgc = {qgc!r}: one of {', '.join(QGC_LAYOUTS)}")
-    surveys = survey_items(shapes, m, *(stations or (0, None))) if qgc == "survey" else ()
+def plan_text(plan: Plan, shapes: SurveyShapes | None, m: Mission, stations: tuple[int, int] | None = None) -> str:
+    """A mission's .plan: with `shapes` (`survey_shapes`, for `--qgc survey`) each photo pass in a
+    QGroundControl Survey item, without every item plain; the mission flies `stations` (first,
+    last in flight order; all when None)."""
+    surveys = survey_items(plan, shapes, m, *(stations or (0, None))) if shapes is not None else ()
     return dumps_plan(m, surveys)
 
 
@@ -181,15 +179,18 @@ def _sortie_programs(plan: Plan, stem: Callable[[int], str]) -> dict[str, Flight
 def _mission_files(plan: Plan, missions: dict[str, Mission], qgc: str) -> dict[str, str]:
     """Each flight's .plan and .waypoints: the whole mission's ("mission", all stations) and
     the sorties' (the other stems, in the order of plan.sorties, each flying its stations)."""
+    if qgc not in QGC_LAYOUTS:
+        raise ValueError(f"qgc = {qgc!r}: one of {', '.join(QGC_LAYOUTS)}")
     sorties = iter(plan.sorties)
-    shapes = PassShapes(plan)
+    passes = {p for m in missions.values() for p, _, _ in survey_blocks(m)}
+    shapes = survey_shapes(plan, passes) if qgc == "survey" else None
     out = {}
     for stem, m in missions.items():
         stations = None
         if stem != "mission":
             sortie = next(sorties).sortie
             stations = (sortie.first, sortie.last)
-        out[f"{stem}.plan"] = plan_text(shapes, m, qgc, stations)
+        out[f"{stem}.plan"] = plan_text(plan, shapes, m, stations)
         out[f"{stem}.waypoints"] = dumps_wpl(m)
     return out
 

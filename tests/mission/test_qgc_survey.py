@@ -26,7 +26,7 @@ from aerosurvey import ids  # noqa: E402
 from aerosurvey.cli import main  # noqa: E402
 from aerosurvey.mission import mavlink_ids as mav  # noqa: E402
 from aerosurvey.mission.formats.qgc_plan import loads_plan  # noqa: E402
-from aerosurvey.mission.formats.qgc_survey import survey_blocks, survey_geometry  # noqa: E402
+from aerosurvey.mission.formats.qgc_survey import survey_blocks, survey_geometry, survey_shapes  # noqa: E402
 from aerosurvey.mission.items import Mission, MissionItem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -151,12 +151,13 @@ class _Pass:
         self.route = SimpleNamespace(runs=runs)
         self.waypoints = waypoints
         self.sensor = SimpleNamespace(spacing_m=spacing)
+        self.pattern = SimpleNamespace(kind="area")
 
 
 def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, starts: list[float], lengths: list[float],
-                    first_at_end: bool, first_reversed: bool) -> _Pass:
-    """A stand-in for a Plan: one pass of lines at `bearing`, `spacing` apart, flown as a lawnmower,
-    positions made with the port's projection on a plane at (lat, lon)."""
+                    first_at_end: bool, first_reversed: bool, offsets: list[float] | None = None) -> _Pass:
+    """A stand-in for a Plan: one pass of lines at `bearing`, `spacing` apart (or at `offsets`
+    across), flown as a lawnmower, positions made with the port's projection on a plane at (lat, lon)."""
     a = math.radians(bearing)
     along, across = np.array([math.sin(a), math.cos(a)]), np.array([math.cos(a), -math.sin(a)])
     n = len(starts)
@@ -168,7 +169,7 @@ def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, star
             ends = ends[::-1]
         runs.append(SimpleNamespace(pass_index=1, line=line))
         for kind, u in zip(("line_start", "line_end"), ends, strict=True):
-            e, nn = u * along + line * spacing * across
+            e, nn = u * along + (line * spacing if offsets is None else offsets[line]) * across
             la, lo = qgc.from_plane(float(e), float(nn), lat, lon)
             wps.append(SimpleNamespace(kind=kind, run=k, lon=lo, lat=la))
     return _Pass(runs, wps, spacing)
@@ -197,3 +198,14 @@ def test_qgroundcontrol_regenerates_any_lawnmower(lat, lon, bearing, spacing, n,
         o_xy = qgc.to_plane(np.array([p[0] for p in o_line]), np.array([p[1] for p in o_line]), *origin)
         # each QGC line where our run is, end for end: same place, same direction, same order
         assert float(np.abs(q_xy - o_xy).max()) <= TOL_M
+
+
+def test_a_pass_of_unevenly_spaced_lines_stays_plain_items() -> None:
+    """Two bands of lines flown as one pass (an oblique grid's), the second band's lines 0.6 of a
+    spacing on from the first's: QGroundControl's generator lays lines evenly, so an edit would
+    move them; the pass gets no Survey item. The same lines evenly spaced get one."""
+    starts, lengths = [0.0] * 5, [400.0] * 5
+    even = _synthetic_plan(49.4, 15.0, 30.0, 40.0, starts, lengths, False, False)
+    banded = _synthetic_plan(49.4, 15.0, 30.0, 40.0, starts, lengths, False, False, offsets=[0.0, 40.0, 80.0, 104.0, 144.0])
+    assert survey_shapes(even, [1])[1] is not None
+    assert survey_shapes(banded, [1])[1] is None

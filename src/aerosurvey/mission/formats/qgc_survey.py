@@ -31,8 +31,10 @@ them puts QGroundControl's grid on our lines (`_ring`, `survey_geometry`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from functools import lru_cache
+from types import MappingProxyType
 
 import numpy as np
 from pyproj import Transformer
@@ -425,25 +427,32 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
 
 
-@dataclass
-class PassShapes:
-    """Each pass's Survey polygon and lines (`survey_geometry`), made once for the files of one
-    render: the whole mission's .plan and its sorties' share a pass's polygon."""
-
-    plan: Plan
-    made: dict[int, tuple[np.ndarray, _Strips]] = field(default_factory=dict)
-
-    def of(self, pass_index: int) -> tuple[np.ndarray, _Strips]:
-        if pass_index not in self.made:
-            self.made[pass_index] = survey_geometry(self.plan, pass_index)
-        return self.made[pass_index]
+#: each area pass's Survey polygon and lines by pass index (`survey_shapes`)
+SurveyShapes = Mapping[int, tuple[np.ndarray, _Strips] | None]
 
 
-def survey_items(shapes: PassShapes, m: Mission, first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
-    """A Survey item for each of the mission's pass blocks of `shapes.plan` (a Corridor Scan item
-    for a corridor's, where its strips are the offsets of one polyline); the mission flies
-    stations `first_station`..`last_station` (flight order) of the plan (a sortie flies a part)."""
-    plan = shapes.plan
+def survey_shapes(plan: Plan, passes: Iterable[int]) -> SurveyShapes:
+    """Each of `passes`' Survey polygon and lines (`survey_geometry`) by pass index, made once for
+    the files of one render (the whole mission's .plan and its sorties' share a pass's polygon);
+    None for a pass whose lines are not evenly spaced (an oblique grid's bands flown as one pass),
+    which QGroundControl's generator would lay evenly on an edit: it stays plain items. A
+    corridor's passes are Corridor Scan items, made without these."""
+    if plan.pattern.kind == "corridor":
+        return MappingProxyType({})
+    shapes: dict[int, tuple[np.ndarray, _Strips] | None] = {}
+    for p in sorted(set(passes)):
+        ring, st = survey_geometry(plan, p)
+        even = len(st.v) < 2 or float(np.max(np.abs(np.diff(st.v) - st.spacing))) <= 0.01 * st.spacing
+        shapes[p] = (ring, st) if even else None
+    return MappingProxyType(shapes)
+
+
+def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission,
+                 first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
+    """A Survey item for each of the mission's pass blocks with a shape in `shapes`
+    (`survey_shapes`), or a Corridor Scan item for a corridor's, where its strips are the offsets
+    of one polyline; the mission flies stations `first_station`..`last_station` (flight order) of
+    the plan (a sortie flies a part)."""
     last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
     cam = plan.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
@@ -469,7 +478,10 @@ def survey_items(shapes: PassShapes, m: Mission, first_station: int = 0, last_st
             line, width, spacing, entry = found
             polyline = tuple((float(lat), float(lon)) for lon, lat in line)
         else:
-            ring, fit = shapes.of(p)
+            shape = shapes[p]
+            if shape is None:  # the pass stays plain items
+                continue
+            ring, fit = shape
             polygon = tuple((float(lat), float(lon)) for lon, lat in ring)
             spacing, angle, entry = fit.spacing, fit.angle, 2 * fit.reverse_points + fit.reverse_lines
         items = m.items[a:b + 1]
