@@ -105,5 +105,17 @@ def test_a_corridors_strip_bound_is_across_its_width_not_its_outline(tmp_path):
     k, a, s = m["derived"]["side_images_per_point"], m["derived"]["footprint_across_m"], m["derived"]["line_spacing_m"]
     width = p["left_m"] + p["right_m"] + 2 * m["targets"]["coverage_margin_m"]
     assert width >= a  # the example is wider than one footprint
-    assert bound["strips"] == max(k, math.ceil((width - a) / s - 1e-9) + 2 * k - 1)
+    assert bound["strips"] == _fewest_lines(width, a, s, k)
     assert bound["strips"] <= flown
+
+
+def _fewest_lines(width: float, across: float, spacing: float, k: int) -> int:
+    """The fewest lines `spacing` apart whose strips (±across/2) put every point of [0, width] in
+    k of them, found by trying counts and offsets on sampled points (not by the bound's formula)."""
+    pts = np.linspace(0.0, width, 2001)
+    for n in range(1, 1000):
+        for first in np.linspace(-across / 2.0, across / 2.0, 241):  # the first line within half a strip of 0
+            lines = first + spacing * np.arange(n)
+            if ((np.abs(pts[:, None] - lines[None, :]) <= across / 2.0 + 1e-6).sum(axis=1) >= k).all():
+                return n
+    raise AssertionError("no count of lines covers the width")
