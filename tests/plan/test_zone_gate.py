@@ -81,7 +81,7 @@ def test_the_final_gate_stops_what_planning_let_through(tmp_path: Path, monkeypa
 
     for module in (routing, planner):
         monkeypatch.setattr(module, "check_launch", lambda *a, **k: None)
-        monkeypatch.setattr(module, "end_of_flight", lambda spec, site, home: home)
+        monkeypatch.setattr(module, "end_of_flight", lambda landing, site, home: home)
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["plan", str(_landing_case(tmp_path)), "-o", str(out)])
     assert res.exit_code == 1, res.output

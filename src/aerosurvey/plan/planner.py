@@ -77,6 +77,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
     sites = launch_sites(spec, site, routed.home_xy, home)
+    landing = Landing.of(spec)
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
     budget: Budget | None = None
     sorties: tuple[SortiePlan, ...] = ()
@@ -85,7 +86,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         report("battery sorties", 0.88)
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
-                          tuple(end_of_flight(spec, site, (s.x, s.y)) for s in sites),
+                          tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
                           climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
         budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
@@ -95,7 +96,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     return Plan(
         name=spec.name, vehicle=spec.vehicle, camera=spec.camera, pattern=spec.pattern, site=site, sensor=sensor,
         layout=layout, route=routed.route, altitudes=alts,
-        launch=Launch(home, routed.home_xy, sites, fence, Landing.of(spec),
+        launch=Launch(home, routed.home_xy, sites, fence, landing,
                       None if spec.flight.fixed_yaw_deg is None else float(spec.flight.fixed_yaw_deg)),
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
         bounds=_bounds(site, sensor, layout, _times_over(spec)),

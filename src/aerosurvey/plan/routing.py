@@ -69,12 +69,12 @@ def climb_out(spec: MissionSpec, site: Site, sensor: SensorSolution, detours: De
                          "area.launch farther from the zones", key="area.launch") from None
 
 
-def end_of_flight(spec: MissionSpec, site: Site, home: tuple[float, float]) -> tuple[float, float]:
+def end_of_flight(landing: Landing, site: Site, home: tuple[float, float]) -> tuple[float, float]:
     """Where the way home ends: a landing plane's approach waypoint, else the launch point."""
-    if not lands_with_approach(spec):
+    if landing.approach_m is None:
         return home
     lon, lat = site.planar.lonlat(np.array([home[0]]), np.array([home[1]]))
-    alon, alat = Landing.of(spec).approach_lonlat(float(lon[0]), float(lat[0]))
+    alon, alat = landing.approach_lonlat(float(lon[0]), float(lat[0]))
     ax, ay = site.planar.xy(np.array([alon]), np.array([alat]))
     return (float(ax[0]), float(ay[0]))
 
@@ -93,7 +93,7 @@ def check_launch(spec: MissionSpec, site: Site, home: tuple[float, float], what:
         problem = (f"lies {d / site.grid_scale:.0f} m from an exclusion zone's margin, inside the {home_clearance_m(spec):g} m "
                    "a plane circles home at after RTL (ArduPlane WP_LOITER_RAD)")
     elif lands_with_approach(spec):
-        approach = end_of_flight(spec, site, home)
+        approach = end_of_flight(Landing.of(spec), site, home)
         if shapely.intersects(site.zones_buffered, shapely.LineString([approach, home])):
             problem = (f"has its landing approach (flight.approach_m = {spec.flight.approach_m:g} m into flight.wind_from_deg = "
                        f"{spec.flight.wind_from_deg:g}) across an exclusion zone or its margin; change the approach, the wind "
@@ -127,7 +127,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
     try:
         out = climb_out(spec, site, sensor, detours, home, first)
-        back = detours.path(last, end_of_flight(spec, site, home))
+        back = detours.path(last, end_of_flight(Landing.of(spec), site, home))
     except ValueError as exc:
         raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
     return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))

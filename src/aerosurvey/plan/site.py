@@ -62,10 +62,10 @@ class Site:
     dem: Dem | None
     ground: tuple[float, float] | None  # lowest and highest DEM cell under the area (a terrain mode with a DEM)
     simplification: Simplification
-    centreline: BaseGeometry | None = None  # a corridor's centreline (planning CRS); its area is the corridor
-    margin_m: float = 0.0  # flight.exclusion_margin_m: how far from the zones every leg keeps (ground metres)
-    sides_m: tuple[float, float] | None = None  # a corridor's ground left and right of its centreline (ground metres)
-    warnings: tuple[str, ...] = ()  # what the site step decided that the user should see (a derived centreline)
+    centreline: BaseGeometry | None  # a corridor's centreline (planning CRS); its area is the corridor
+    margin_m: float  # flight.exclusion_margin_m: how far from the zones every leg keeps (ground metres)
+    sides_m: tuple[float, float] | None  # a corridor's ground left and right of its centreline (ground metres)
+    warnings: tuple[str, ...]  # what the site step decided that the user should see (a derived centreline)
 
     def autopilot_scale(self, heading_deg: float) -> float:
         """Planning-grid metres per metre of ArduPilot's distance along a line heading (a grid
