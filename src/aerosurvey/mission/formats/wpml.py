@@ -286,24 +286,26 @@ def _mapping_folder(folder: etree._Element, p: FlightProgram, a: DjiAircraft, m:
         _kml_coordinates(ring, m.coordinates)
 
 
-def _document(p: FlightProgram, a: DjiAircraft, template: MappingTemplate | str | None) -> etree._Element:
-    """template.kml (`template` the mapping template, or why the waypoint template is written), or
-    waylines.wpml (`template` None)."""
+def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTemplate | None = None,
+              why: str = "") -> etree._Element:
+    """`name` TEMPLATE (template.kml: `mapping`, or the waypoint template with `why` in a comment)
+    or WAYLINES (waylines.wpml, what the aircraft flies)."""
+    is_template = name == TEMPLATE
     root = etree.Element(f"{{{KML_NS}}}kml", nsmap=NSMAP)
     doc = etree.SubElement(root, f"{{{KML_NS}}}Document")
-    if template is not None:
+    if is_template:
         _w(doc, "author", "aerosurvey")
     _mission_config(doc, p, a)
     folder = etree.SubElement(doc, f"{{{KML_NS}}}Folder")
-    if isinstance(template, MappingTemplate):
-        _mapping_folder(folder, p, a, template)
+    if mapping is not None:
+        _mapping_folder(folder, p, a, mapping)
         return root
-    if template:  # why the waypoint template (a comment holds no "--")
-        folder.append(etree.Comment(f" waypoint template: {template.replace('--', '- -')} "))
-    if template is not None:
+    if why:  # why the waypoint template (a comment holds no "--")
+        folder.append(etree.Comment(f" waypoint template: {why.replace('--', '- -')} "))
+    if is_template:
         _w(folder, "templateType", "waypoint")
     _w(folder, "templateId", 0)
-    if template is not None:
+    if is_template:
         sys = _w(folder, "waylineCoordinateSysParam")
         _w(sys, "coordinateMode", "WGS84")
         _w(sys, "heightMode", "relativeToStartPoint")
@@ -326,7 +328,7 @@ def _document(p: FlightProgram, a: DjiAircraft, template: MappingTemplate | str 
         pt = etree.SubElement(pm, f"{{{KML_NS}}}Point")
         etree.SubElement(pt, f"{{{KML_NS}}}coordinates").text = f"{_num(w.lon)},{_num(w.lat)}"
         _w(pm, "index", i)
-        if template is not None:
+        if is_template:
             _w(pm, "useGlobalHeight", 0)
             # heights relative to the take-off point; the reference pairs an ellipsoid height
             # with every height, which a relative plan does not know: the same value is written
@@ -354,10 +356,12 @@ def kmz_bytes(p: FlightProgram, aircraft: DjiAircraft, template: MappingTemplate
     """The .kmz (a ZIP archive) of `p` for `aircraft`; equal programs give equal bytes. `template`:
     the mapping template of template.kml (dji_template.template_choice), or why it is the waypoint
     template; waylines.wpml is the program's waypoints either way. The caller checks `refusal(p)` first."""
+    mapping = template if isinstance(template, MappingTemplate) else None
+    why = template if isinstance(template, str) else ""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, what in ((TEMPLATE, template), (WAYLINES, None)):
+        for name, doc in ((TEMPLATE, _document(p, aircraft, TEMPLATE, mapping, why)), (WAYLINES, _document(p, aircraft, WAYLINES))):
             info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
-            z.writestr(info, _xml(_document(p, aircraft, what)))
+            z.writestr(info, _xml(doc))
     return buf.getvalue()
