@@ -198,6 +198,8 @@ def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: d
                    with_stations: bool = True) -> dict[str, Any]:
     """The manifest of `plan`, planned from `spec`, as plain JSON data. `outputs` maps each written file name to its sha256.
     Without `with_stations`, `stations` is left empty, for `dumps` to write from a StationTable."""
+    if spec.name != plan.name:
+        raise ValueError(f"build_manifest: the spec {spec.name!r} is not the one plan {plan.name!r} was made from")
     base = spec.path.parent if spec.path else Path(".")
     cam = plan.camera.camera
     st = plan.stations
