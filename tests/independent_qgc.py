@@ -112,10 +112,7 @@ def corridor_problems(it: dict[str, Any], where: str) -> list[str]:
         out.append(f"{where}: CorridorScan version {it.get('version')!r}, 2 expected")
     if it.get("EntryPoint") not in (0, 1, 2, 3):
         out.append(f"{where}: EntryPoint {it.get('EntryPoint')!r} is not 0-3")
-    out += _coords(it.get("polyline", []), f"{where} polyline", altitude=False)
-    if len(it.get("polyline", [])) < 2:
-        out.append(f"{where}: polyline has fewer than 2 vertices")
-    return out + transect_problems(it.get("TransectStyleComplexItem", {}), f"{where} TransectStyleComplexItem")
+    return out + _shape_and_transects(it, "polyline", 2, "", where)
 
 
 def survey_problems(it: dict[str, Any], where: str) -> list[str]:
@@ -130,9 +127,15 @@ def survey_problems(it: dict[str, Any], where: str) -> list[str]:
                               ("TransectStyleComplexItem", OBJECT, True)], where)
     if it.get("entryLocation") not in (0, 1, 2, 3):
         out.append(f"{where}: entryLocation {it.get('entryLocation')!r} is not 0-3")
-    out += _coords(it.get("polygon", []), f"{where} polygon", altitude=False)
-    if len(it.get("polygon", [])) < 3:
-        out.append(f"{where}: polygon has fewer than 3 vertices (QGroundControl draws nothing)")
+    return out + _shape_and_transects(it, "polygon", 3, " (QGroundControl draws nothing)", where)
+
+
+def _shape_and_transects(it: dict[str, Any], key: str, fewest: int, why: str, where: str) -> list[str]:
+    """QGCMapPolyline/QGCMapPolygon::loadFromJson of the item's `key` (2-D vertices, at least
+    `fewest`), then its TransectStyleComplexItem."""
+    out = _coords(it.get(key, []), f"{where} {key}", altitude=False)
+    if len(it.get(key, [])) < fewest:
+        out.append(f"{where}: {key} has fewer than {fewest} vertices{why}")
     return out + transect_problems(it.get("TransectStyleComplexItem", {}), f"{where} TransectStyleComplexItem")
 
 
