@@ -114,11 +114,6 @@ class FlightProgram:
     fence_exclusion: tuple[tuple[tuple[float, float], ...], ...]
     rally: tuple[tuple[float, float, float], ...]  # latitude, longitude, altitude above the launch point
 
-    @property
-    def yaw_mode(self) -> str:
-        """"along_track" (the nose along the route) or "fixed" (`fixed_yaw_deg` for the whole flight)."""
-        return "along_track" if self.fixed_yaw_deg is None else "fixed"
-
 
 def run_id(plan: Plan, run: int) -> str:
     r = plan.route.runs[run]
