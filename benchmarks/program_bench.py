@@ -40,7 +40,7 @@ def main() -> None:
     from aerosurvey.mission.formats.qgc_plan import dumps_plan
     from aerosurvey.mission.formats.wpl import dumps_wpl
     from aerosurvey.mission.program import flight_program
-    from aerosurvey.mission.targets import mavlink_item_limit
+    from aerosurvey.mission.targets import M3E, mavlink_item_limit
     from aerosurvey.outputs import final_gate
     from aerosurvey.spec import load_spec
 
@@ -63,7 +63,7 @@ def main() -> None:
         t_mav, (missions, _) = _median(mavlink)
 
         def kmz(progs=progs):
-            return [wpml.kmz_bytes(p, wpml.M3E) if wpml.refusal(p) is None else None for p in progs.values()]
+            return [wpml.kmz_bytes(p, M3E) if wpml.refusal(p) is None else None for p in progs.values()]
 
         t_kmz, kmzs = _median(kmz)
         n_wp = sum(len(p.waypoints) for p in progs.values())

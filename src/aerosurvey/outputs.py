@@ -14,8 +14,7 @@ from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
-from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS, wpml
-from aerosurvey.mission.formats.dji_template import template_choice
+from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS
 from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
 from aerosurvey.mission.formats.qgc_survey import SurveyShapes, survey_blocks, survey_items, survey_shapes
@@ -23,7 +22,7 @@ from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
 from aerosurvey.mission.program import FlightProgram, flight_program
-from aerosurvey.mission.targets import mavlink_item_limit
+from aerosurvey.mission.targets import dji_aircraft, mavlink_item_limit
 from aerosurvey.plan.coverage import uncovered_rule
 from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 from aerosurvey.plan.planner import Plan
@@ -153,12 +152,16 @@ def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI
     aircraft flies waylines with (mission/formats/wpml.py), and a warning for each flight that
     cannot be one (with why). `dji` "mapping": template.kml holds a mapping template where one
     expresses the flight (mission/formats/dji_template.py), "waypoint": always the waypoint template."""
+    aircraft = dji_aircraft(programs["mission"].camera_id)
+    if aircraft is None:
+        return {}, []
+    # the writer (and lxml) loads for a DJI camera only: not at every plan's start
+    from aerosurvey.mission.formats import wpml
+    from aerosurvey.mission.formats.dji_template import template_choice
+
     files: dict[str, bytes] = {}
     warnings: list[str] = []
     for stem, p in programs.items():
-        aircraft = wpml.aircraft_for(p.camera_id)
-        if aircraft is None:
-            return {}, []
         why = wpml.refusal(p)
         if why is None:
             # the whole mission, or its one sortie, flies every station

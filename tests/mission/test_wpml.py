@@ -32,6 +32,7 @@ from aerosurvey.inputs import plan_from_files
 from aerosurvey.mission.formats import wpml
 from aerosurvey.mission.formats.dji_template import MappingTemplate, template_choice
 from aerosurvey.mission.program import flight_program
+from aerosurvey.mission.targets import M3E
 from aerosurvey.spec import load_spec
 from conftest import make_spec, write_geojson
 
@@ -303,7 +304,7 @@ def test_hover_gimbal_and_the_budget(tmp_path: Path) -> None:
     program = flight_program(plan)
     assert wpml.refusal(program) is None
     path = tmp_path / "h.kmz"
-    path.write_bytes(wpml.kmz_bytes(program, wpml.M3E))
+    path.write_bytes(wpml.kmz_bytes(program, M3E))
     for name, root in _kmz(path).items():
         assert _check_reference(root, template=name.endswith(".kml")) == []
         marks = root.findall(".//k:Placemark", NS)

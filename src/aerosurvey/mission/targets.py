@@ -1,5 +1,6 @@
 """What each target holds: the limits of the autopilots and controllers aerosurvey writes
-missions for, in one place.
+missions for, in one place, and which DJI aircraft carries which camera (`dji_aircraft`: a
+plan writes DJI files, and loads their writer, only for those).
 
 - ArduPilot and PX4: mission items, home included (`spec.MAX_ITEMS`, the default of the
   spec's battery.max_mission_items, which overrides it): ArduCopter 4.7 SITL refuses more than
@@ -14,6 +15,7 @@ missions for, in one place.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from aerosurvey.spec import MAX_ITEMS
@@ -33,3 +35,33 @@ def mavlink_item_limit(firmware: str, battery: Budget | None) -> int:
     if battery is not None:
         return battery.max_items
     return MAX_ITEMS[firmware]
+
+
+@dataclass(frozen=True)
+class DjiAircraft:
+    name: str
+    drone_enum: int  # wpml:droneEnumValue
+    drone_sub_enum: int  # wpml:droneSubEnumValue
+    payload_enum: int  # wpml:payloadEnumValue
+    image_format: str  # wpml:imageFormat: which lens' photos are stored
+
+
+#: DJI WPML reference, common elements (droneEnumValue, payloadEnumValue) and the Cloud API's
+#: product list: M3E 77/0 with the Mavic 3E camera 66; M30 67/0 with its camera 52; M350 RTK 89/0
+#: with the Zenmuse P1 50 (payloadEnumValue 50 as the reference listed it up to its 2023 versions).
+M3E = DjiAircraft("DJI Mavic 3 Enterprise (M3E)", 77, 0, 66, "wide")
+M30 = DjiAircraft("DJI Matrice 30 (M30)", 67, 0, 52, "wide")
+M350_P1 = DjiAircraft("DJI Matrice 350 RTK with Zenmuse P1", 89, 0, 50, "visible")
+#: aerosurvey's camera ids (data/cameras.toml) flown by an aircraft DJI Pilot 2 flies WPML with.
+#: The M30's camera is not in cameras.toml: M30 is ready for when it is.
+AIRCRAFT_BY_CAMERA = {
+    "dji-mavic-3-enterprise": M3E,
+    "dji-zenmuse-p1-24mm": M350_P1,
+    "dji-zenmuse-p1-35mm": M350_P1,
+    "dji-zenmuse-p1-50mm": M350_P1,
+}
+
+
+def dji_aircraft(camera_id: str) -> DjiAircraft | None:
+    """The DJI aircraft that carries this camera, or None when it is not one DJI Pilot 2 flies WPML with."""
+    return AIRCRAFT_BY_CAMERA.get(camera_id)

@@ -39,14 +39,19 @@ from __future__ import annotations
 
 import io
 import zipfile
-from dataclasses import dataclass
 
 from lxml import etree
 
 from aerosurvey.mission.formats.dji_template import MappingTemplate
 from aerosurvey.mission.formats.wpl import format_number
 from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot
-from aerosurvey.mission.targets import DJI_MAX_ACTION_GROUPS, DJI_MAX_SPEED_MS, DJI_MAX_WAYPOINTS, DJI_MIN_WAYPOINTS
+from aerosurvey.mission.targets import (
+    DJI_MAX_ACTION_GROUPS,
+    DJI_MAX_SPEED_MS,
+    DJI_MAX_WAYPOINTS,
+    DJI_MIN_WAYPOINTS,
+    DjiAircraft,
+)
 
 KML_NS = "http://www.opengis.net/kml/2.2"
 WPML_NS = "http://www.dji.com/wpmz/1.0.2"
@@ -55,36 +60,6 @@ TEMPLATE = "wpmz/template.kml"
 WAYLINES = "wpmz/waylines.wpml"
 #: the payload's mount: position 1 (the main gimbal; an M350's front left)
 PAYLOAD_POSITION = 0
-
-
-@dataclass(frozen=True)
-class DjiAircraft:
-    name: str
-    drone_enum: int  # wpml:droneEnumValue
-    drone_sub_enum: int  # wpml:droneSubEnumValue
-    payload_enum: int  # wpml:payloadEnumValue
-    image_format: str  # wpml:imageFormat: which lens' photos are stored
-
-
-#: DJI WPML reference, common elements (droneEnumValue, payloadEnumValue) and the Cloud API's
-#: product list: M3E 77/0 with the Mavic 3E camera 66; M30 67/0 with its camera 52; M350 RTK 89/0
-#: with the Zenmuse P1 50 (payloadEnumValue 50 as the reference listed it up to its 2023 versions).
-M3E = DjiAircraft("DJI Mavic 3 Enterprise (M3E)", 77, 0, 66, "wide")
-M30 = DjiAircraft("DJI Matrice 30 (M30)", 67, 0, 52, "wide")
-M350_P1 = DjiAircraft("DJI Matrice 350 RTK with Zenmuse P1", 89, 0, 50, "visible")
-#: aerosurvey's camera ids (data/cameras.toml) flown by an aircraft DJI Pilot 2 flies WPML with.
-#: The M30's camera is not in cameras.toml: M30 is ready for when it is.
-AIRCRAFT_BY_CAMERA = {
-    "dji-mavic-3-enterprise": M3E,
-    "dji-zenmuse-p1-24mm": M350_P1,
-    "dji-zenmuse-p1-35mm": M350_P1,
-    "dji-zenmuse-p1-50mm": M350_P1,
-}
-
-
-def aircraft_for(camera_id: str) -> DjiAircraft | None:
-    """The DJI aircraft that carries this camera, or None when it is not one DJI Pilot 2 flies WPML with."""
-    return AIRCRAFT_BY_CAMERA.get(camera_id)
 
 
 def _groups(p: FlightProgram) -> int:
