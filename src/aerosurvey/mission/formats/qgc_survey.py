@@ -287,7 +287,10 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
         tr = _to_tangent(float(origin[1]), float(origin[0]))
         st = _strips(plan, lines, tr)
         e, n = _ring(st, (st.spacing / 2.0, st.spacing / 2.0))[0]
-        origin = np.array(tr.transform(e, n, direction="INVERSE"))
+        vertex0 = np.array(tr.transform(e, n, direction="INVERSE"))
+        if float(np.abs(vertex0 - origin).max()) < 1e-9:  # within 0.1 mm of this plane's origin: settled
+            break
+        origin = vertex0
     ring = _ring(st, *_rails(st))
     lon, lat = tr.transform(ring[:, 0], ring[:, 1], direction="INVERSE")
     return np.column_stack([lon, lat]), st
