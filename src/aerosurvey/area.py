@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pyproj
 import shapely
 import simdjson
@@ -71,6 +72,40 @@ class Planar:
     def xy(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, y = self.to_plan.transform(np.asarray(lon, float), np.asarray(lat, float))
         return np.asarray(x), np.asarray(y)
+
+    # Bearings cross between true north and the planning grid here, and nowhere else.
+    #
+    # A true bearing (autopilot and DJI yaw, gimbal yaw, MAVLink and WPML headings, EXIF
+    # GPSImgDirection) is clockwise from the meridian; a grid bearing (the plan's line headings,
+    # camera looks, footprints) is clockwise from the planning CRS's +y axis. They differ by the
+    # meridian convergence at the place: 7.4° at Obrataň in S-JTSK (Krovak), up to about 3° at
+    # the edge of a UTM zone, tens of degrees in a polar stereographic grid.
+
+    def convergence_deg(self, x: npt.ArrayLike, y: npt.ArrayLike) -> np.ndarray:
+        """The meridian convergence at planning-CRS points: the true bearing of grid north,
+        degrees, positive where grid north lies east of true north (true = grid + convergence).
+
+        Measured through this Planar's own transformer (a true-north step of 1e-6° each way), so
+        it holds for the axes and the datum shift the plan's coordinates were made with; PROJ's
+        `get_factors().meridian_convergence` gives the same angle on the CRS's own datum, which
+        for S-JTSK misses the 5" rotation of the WGS 84 shift (0.002° at Obrataň)."""
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        lon, lat = self.lonlat(x, y)
+        step = 1e-6
+        lat_n = np.minimum(lat + step, 90.0)
+        lat_s = np.maximum(lat - step, -90.0)
+        xn, yn = self.xy(lon, lat_n)
+        xs, ys = self.xy(lon, lat_s)
+        grid_of_north = np.degrees(np.arctan2(xn - xs, yn - ys))
+        return np.asarray(-grid_of_north, float)
+
+    def true_bearing(self, grid_deg: npt.ArrayLike, x: npt.ArrayLike, y: npt.ArrayLike) -> np.ndarray:
+        """Grid bearings at planning-CRS points as true bearings (0..360)."""
+        return np.asarray((np.asarray(grid_deg, float) + self.convergence_deg(x, y)) % 360.0, float)
+
+    def grid_bearing(self, true_deg: npt.ArrayLike, x: npt.ArrayLike, y: npt.ArrayLike) -> np.ndarray:
+        """True bearings at planning-CRS points as grid bearings (0..360)."""
+        return np.asarray((np.asarray(true_deg, float) - self.convergence_deg(x, y)) % 360.0, float)
 
 
 def transformed(t: pyproj.Transformer, geom: BaseGeometry) -> BaseGeometry:

@@ -12,13 +12,14 @@ def _fmt(typ: int, name: str, fmt: str, cols: str) -> bytes:
     return HEAD + bytes([128]) + struct.pack("<BB4s16s64s", typ, length, name.encode(), fmt.encode(), cols.encode())
 
 
-def camera_log(events: list[tuple[float, float, float, float, float]]) -> bytes:
-    """(time_s, lat, lon, alt_amsl, rel_alt) per event, nadir (zero attitude)."""
+def camera_log(events: list[tuple[float, float, float, float, float]], yaw: list[float] | None = None) -> bytes:
+    """(time_s, lat, lon, alt_amsl, rel_alt) per event, level; the vehicle's yaw (degrees from
+    true north, as ArduPilot logs it) per event, or 0."""
     out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
     out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
-    for t, lat, lon, alt, rel in events:
+    for i, (t, lat, lon, alt, rel) in enumerate(events):
         out += HEAD + bytes([200]) + struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7),
-                                                 alt, rel, 0.0, 0.0, 0.0)
+                                                 alt, rel, 0.0, 0.0, yaw[i] if yaw is not None else 0.0)
     return bytes(out)
 
 

@@ -26,6 +26,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.flight.events import Events, Match
 from aerosurvey.flight.records import EventRows
 from aerosurvey.manifest import Home
+from aerosurvey.reproject import planar
 from aerosurvey.rules.footprints import Footprints
 from aerosurvey.rules.planview import PlanView
 
@@ -48,9 +49,10 @@ def _centres(x: np.ndarray, y: np.ndarray, h: np.ndarray, roll: np.ndarray, pitc
     return x + along * np.sin(yaw) - across * np.cos(yaw), y + along * np.cos(yaw) + across * np.sin(yaw)
 
 
-def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground: GroundFn | None,
+def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, yaw_grid: np.ndarray, tilt: float, ground: GroundFn | None,
                   iterations: int = 6) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(height above ground, ground height or NaN, centre x, centre y) of each photo.
+    """(height above ground, ground height or NaN, centre x, centre y) of each photo; `yaw_grid`
+    is each photo's logged yaw as a grid bearing (`Planar.grid_bearing`).
 
     Without `ground`: the height above home (flat ground). With it: AMSL altitude minus
     the ground under the footprint centre. A tilted camera's centre moves with the height,
@@ -61,7 +63,7 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
     """
     home = np.where(np.isfinite(ev.rel_alt_m), ev.rel_alt_m, np.nan)
     if ground is None:
-        cx, cy = _centres(x, y, home, ev.roll, ev.pitch, ev.yaw, tilt)
+        cx, cy = _centres(x, y, home, ev.roll, ev.pitch, yaw_grid, tilt)
         return home, np.full(len(x), np.nan), cx, cy
     alt = np.asarray(ev.alt_m, float)
     h = home.copy()
@@ -71,7 +73,7 @@ def photo_heights(x: np.ndarray, y: np.ndarray, ev: Events, tilt: float, ground:
         new = np.where(np.isfinite(g) & np.isfinite(alt) & (alt - g > 0), alt - g, home)
         done = np.all((np.abs(new - h) < 1e-4) | ~np.isfinite(new))
         h = new
-        cx, cy = _centres(x, y, h, ev.roll, ev.pitch, ev.yaw, tilt)
+        cx, cy = _centres(x, y, h, ev.roll, ev.pitch, yaw_grid, tilt)
         if done:
             break
     g = np.asarray(ground(cx, cy), float)
@@ -84,12 +86,13 @@ class FlownPhotos:
     """The logged photos in place of the planned stations, in the log's order."""
 
     ids: tuple[str, ...]  # E00001 …
+    station: tuple[str | None, ...]  # the planned station each matched (None: an extra trigger)
     run: tuple[str, ...]  # the run of the station each matched (unmatched photos: runs of their own)
     x: np.ndarray  # footprint centre, planning CRS
     y: np.ndarray
     agl_m: np.ndarray
     ground_m: np.ndarray  # NaN where the height above home was used
-    heading_deg: np.ndarray
+    yaw_deg: np.ndarray  # the vehicle's logged yaw (a true bearing) turned into a grid bearing at the photo
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -100,17 +103,18 @@ def flown_photos(crs: str, run_of: Mapping[str, str], ev: Events, match: Match |
     """The logged photos with the footprint geometry the rules measure.
 
     Each photo keeps the run of the station it matched (see :func:`photo_runs`) and its
-    logged yaw as heading. Its height above ground is the height above home (flat ground)
+    logged yaw, a true bearing, as a grid bearing at its place. Its height above ground is the height above home (flat ground)
     unless `ground` gives the terrain, see :func:`photo_heights`. A camera on a nadir gimbal
     (the default) looks straight down; with `fixed_camera` the body's roll and pitch move the
     footprint's centre by h·tan(angle).
     """
-    x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(ev.lon, ev.lat))
-    h, g, cx, cy = photo_heights(x, y, ev, 1.0 if fixed_camera else 0.0, ground)
+    grid = planar(crs)
+    x, y = grid.xy(ev.lon, ev.lat)
+    yaw = grid.grid_bearing(np.nan_to_num(ev.yaw), x, y)
+    h, g, cx, cy = photo_heights(x, y, ev, yaw, 1.0 if fixed_camera else 0.0, ground)
     stations = match.station if match is not None else [None] * len(ev)
-    return FlownPhotos(tuple(ids.event_id(i + 1) for i in range(len(ev))), photo_runs(stations, run_of),
-                       np.asarray(cx, float), np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float),
-                       np.nan_to_num(ev.yaw) % 360.0)
+    return FlownPhotos(tuple(ids.event_id(i + 1) for i in range(len(ev))), tuple(stations), photo_runs(stations, run_of),
+                       np.asarray(cx, float), np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float), yaw)
 
 
 def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_camera: bool) -> FlownPhotos:
@@ -118,11 +122,13 @@ def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_
     agl_m column: above the DEM or above home) and the footprint centres :func:`flown_photos`
     makes from them. Rows without a position or a height are left out: no footprint is known."""
     keep = np.flatnonzero(np.isfinite(rows.lon) & np.isfinite(rows.lat) & np.isfinite(rows.agl_m))
-    x, y = (np.asarray(a, float) for a in transformer("EPSG:4326", crs).transform(rows.lon[keep], rows.lat[keep]))
-    h, yaw = rows.agl_m[keep], rows.yaw[keep]
+    grid = planar(crs)
+    x, y = grid.xy(rows.lon[keep], rows.lat[keep])
+    h, yaw = rows.agl_m[keep], grid.grid_bearing(np.nan_to_num(rows.yaw[keep]), x, y)
     cx, cy = _centres(x, y, h, rows.roll[keep], rows.pitch[keep], yaw, 1.0 if fixed_camera else 0.0)
-    return FlownPhotos(tuple(ids.event_id(int(rows.event[i])) for i in keep), photo_runs([rows.station[i] for i in keep], run_of),
-                       np.asarray(cx, float), np.asarray(cy, float), h, rows.ground_m[keep], np.nan_to_num(yaw) % 360.0)
+    station = [rows.station[i] or None for i in keep]
+    return FlownPhotos(tuple(ids.event_id(int(rows.event[i])) for i in keep), tuple(station), photo_runs(station, run_of),
+                       np.asarray(cx, float), np.asarray(cy, float), h, rows.ground_m[keep], yaw)
 
 
 def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tuple[str, ...]:
@@ -141,17 +147,43 @@ def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tup
     return tuple(out)
 
 
-def flown_view(view: PlanView, photos: FlownPhotos) -> PlanView:
-    """The plan as the rules see it, with the flown photos in place of the planned stations: each
-    with its planned station's camera pitch and look relative to the flight (nadir where none matched)."""
+@dataclass(frozen=True)
+class Aim:
+    """Where each photo's camera pointed on its gimbal, as planned for the station it matched:
+    the pitch (gimbal convention, −90 straight down) and the yaw against the vehicle's nose
+    (degrees, clockwise). A photo that matched no station: straight down along the nose."""
+
+    pitch_deg: np.ndarray
+    yaw_deg: np.ndarray
+
+
+def _station_index(view: PlanView, photos: FlownPhotos) -> np.ndarray:
+    """The index in the plan of the station each photo matched, −1 for none."""
     at = {sid: i for i, sid in enumerate(view.station_ids)}
-    idx = np.array([at.get(sid, -1) for sid in photos.ids], np.intp)
+    return np.array([at.get(sid, -1) if sid else -1 for sid in photos.station], np.intp)
+
+
+def planned_aim(view: PlanView, photos: FlownPhotos) -> Aim:
+    """The aim of each flown photo: its matched station's camera pitch and its look against the
+    planned nose (the track, or the plan's fixed yaw)."""
+    idx = _station_index(view, photos)
     matched = idx >= 0
-    pitch = np.where(matched, view.pitch_deg[idx], -90.0)
-    relative = np.where(matched, view.camera_yaw_deg[idx] - view.heading_deg[idx], 0.0)
+    return Aim(np.where(matched, view.pitch_deg[idx], -90.0),
+               np.where(matched, (view.camera_yaw_deg[idx] - view.nose_deg()[idx] + 180.0) % 360.0 - 180.0, 0.0))
+
+
+def flown_view(view: PlanView, photos: FlownPhotos) -> PlanView:
+    """The plan as the rules see it, with the flown photos in place of the planned stations.
+
+    A photo that matched a station keeps that station's direction of flight, and its camera
+    turns with the vehicle: it takes its planned aim (`planned_aim`) from the nose the log
+    recorded. A photo that matched none looks straight down along the logged nose."""
+    idx = _station_index(view, photos)
+    aim = planned_aim(view, photos)
+    heading = np.where(idx >= 0, view.heading_deg[idx], photos.yaw_deg)
     return dataclasses.replace(view, station_ids=list(photos.ids), run_ids=list(photos.run), x=photos.x, y=photos.y,
-                               agl=photos.agl_m, heading_deg=photos.heading_deg, pitch_deg=pitch,
-                               camera_yaw_deg=(np.asarray(photos.heading_deg, float) + relative) % 360.0)
+                               agl=photos.agl_m, heading_deg=heading, pitch_deg=aim.pitch_deg,
+                               camera_yaw_deg=(np.asarray(photos.yaw_deg, float) + aim.yaw_deg) % 360.0)
 
 
 class DemGround:

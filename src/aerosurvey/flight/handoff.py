@@ -3,9 +3,12 @@
 Every file names images by their file names (never by station ids), and gives each camera's
 orientation, not the vehicle's: yaw, pitch, roll in the convention Pix4D, Metashape and
 OpenDroneMap share (0, 0, 0 is a camera looking straight down with the image's top to the
-north; pitch 90 looks ahead; see `capture.Attitudes.of_body`). A camera on a nadir gimbal (the
-default) is (vehicle yaw, 0, 0); a camera fixed to the body (`--fixed-camera`) has the
-vehicle's yaw, pitch and roll. The mount (landscape, portrait) changes neither: in the capture
+north; pitch 90 looks ahead; see `capture.Attitudes.of_body`), the yaw a true bearing as the
+autopilot logs it (each program turns it into its projection's grid itself). A camera on a
+gimbal is (vehicle yaw + the gimbal's planned yaw against the nose, 90 + the gimbal's planned
+pitch, 0): (vehicle yaw, 0, 0) looking straight down, (yaw, 45, 0) for an oblique pitched to
+−45°; a camera fixed to the body (`--fixed-camera`) has the vehicle's yaw, pitch and roll.
+The mount (landscape, portrait) changes neither: in the capture
 model the image's top is towards the nose in both.
 
 - geo.txt (OpenDroneMap): the CRS line, then `image lon lat alt yaw pitch roll horizontal
@@ -38,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from aerosurvey.errors import InputError
+from aerosurvey.flight.coverage import Aim
 from aerosurvey.flight.events import Events
 from aerosurvey.flight.images import ImageMatch
 from aerosurvey.plan import capture
@@ -62,19 +66,19 @@ class CameraPoses:
     def __len__(self) -> int:
         return len(self.images)
 
-    def attitudes(self) -> capture.Attitudes:
-        """The cameras' attitudes as the capture model has them."""
-        return capture.Attitudes.of_body(self.yaw, self.pitch, self.roll)
 
-
-def camera_poses(m: ImageMatch, ev: Events, fixed_camera: bool) -> CameraPoses:
-    """The matched images' camera poses; images without a position are left out."""
+def camera_poses(m: ImageMatch, ev: Events, fixed_camera: bool, aim: Aim | None = None) -> CameraPoses:
+    """The matched images' camera poses; images without a position are left out. `aim`: each
+    event's planned gimbal aim (without one, a gimbal camera looks straight down along the nose)."""
     pairs = [(f.name, j) for f, j in zip(m.files, m.event_of)
              if j is not None and math.isfinite(ev.lon[j]) and math.isfinite(ev.lat[j]) and math.isfinite(ev.alt_m[j])]
     k = np.array([j for _, j in pairs], int)
     yaw = np.nan_to_num(np.asarray(ev.yaw, float)[k]) % 360.0
     if fixed_camera:
         pitch, roll = (np.nan_to_num(np.asarray(a, float)[k]) for a in (ev.pitch, ev.roll))
+    elif aim is not None:
+        yaw = (yaw + aim.yaw_deg[k]) % 360.0
+        pitch, roll = 90.0 + aim.pitch_deg[k], np.zeros(len(k))
     else:
         pitch, roll = np.zeros(len(k)), np.zeros(len(k))
     return CameraPoses(tuple(n for n, _ in pairs), np.asarray(ev.lon, float)[k], np.asarray(ev.lat, float)[k],
@@ -173,8 +177,11 @@ def predict_marks(poses: CameraPoses, points: Sequence[GroundPoint], optics: cap
 
     if not points or not len(poses):
         return []
-    x, y = planar(crs).xy(poses.lon, poses.lat)
-    photos = capture.Photos(np.asarray(x, float), np.asarray(y, float), poses.alt_m, poses.attitudes())
+    grid = planar(crs)
+    x, y = grid.xy(poses.lon, poses.lat)
+    # the poses' yaw is a true bearing; the capture model turns cameras in the grid
+    attitudes = capture.Attitudes.of_body(grid.grid_bearing(poses.yaw, x, y), poses.pitch, poses.roll)
+    photos = capture.Photos(np.asarray(x, float), np.asarray(y, float), poses.alt_m, attitudes)
     ip = capture.image_points(photos, optics, np.array([p.x for p in points]), np.array([p.y for p in points]),
                               np.array([p.z for p in points]), grid_scale)
     out = []

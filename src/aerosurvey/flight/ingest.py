@@ -20,6 +20,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
 from aerosurvey.flight.coverage import (
+    Aim,
     CountRaster,
     DemGround,
     FlownPhotos,
@@ -27,6 +28,7 @@ from aerosurvey.flight.coverage import (
     flown_photos,
     flown_view,
     heights_summary,
+    planned_aim,
     write_count_raster,
 )
 from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
@@ -69,6 +71,7 @@ class Ingested:
     coverage: CountRaster | None
     report: dict[str, Any]
     rules: list[dict[str, Any]]
+    aim: Aim | None = None  # each event's planned gimbal aim (with a plan)
 
 
 def _local_xy(lon: np.ndarray, lat: np.ndarray, lat0: float) -> np.ndarray:
@@ -213,7 +216,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     report["coverage"] = coverage.summary
     report_progress("done", 1.0)
     records.report_document(report)  # a report that does not match its schema is a bug: found before writing
-    return Ingested(ev, match, img, photos, coverage, report, rules)
+    return Ingested(ev, match, img, photos, coverage, report, rules, planned_aim(view, photos))
 
 
 def event_columns(result: Ingested) -> dict[str, Any]:
@@ -241,7 +244,7 @@ def write_ingest(result: Ingested, outdir: Path, *, accuracy_xy: float = 2.0, ac
             write_count_raster(stage / "coverage.tif", result.coverage)
         atomic_write_text(stage / "events.csv", events_text)
         if result.images is not None:
-            poses = camera_poses(result.images, result.events, fixed_camera)
+            poses = camera_poses(result.images, result.events, fixed_camera, result.aim)
             for name, write in (("geo.txt", geo_txt), ("pix4d_geolocation.csv", pix4d_csv),
                                 ("metashape_reference.csv", metashape_csv)):
                 atomic_write_text(stage / name, write(poses, accuracy_xy, accuracy_z))

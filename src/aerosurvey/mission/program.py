@@ -11,10 +11,14 @@ point; "terrain": metres above the terrain under the waypoint) and the actions e
 starts when it is reached, then the end (return to launch, or land at the launch point, a
 plane after its approach waypoint).
 
+Every bearing in a program is a true bearing (clockwise from the meridian), as autopilots, DJI
+and MAVLink take them: the plan's grid bearings are turned by the meridian convergence at
+their place (`Planar.true_bearing`) when the program is built, and nowhere else.
+
 Actions, done in their order when the vehicle reaches their waypoint:
 
 - `Gimbal`: the camera's pitch (gimbal convention, −90 looks straight down) and its yaw
-  relative to the vehicle's nose, at the first waypoint of a run whose pitch (or, tilted,
+  relative to the vehicle's nose (and the true bearing it looks to), at the first waypoint of a run whose pitch (or, tilted,
   whose yaw) differs from the run before. The mount is taken to point straight down at
   take-off, so a nadir-only plan has no gimbal action at all.
 - `CameraStart` / `CameraStop`: photos every `distance_m` metres or every `interval_s`
@@ -50,7 +54,7 @@ ON_LINE = ("line_start", "terrain", "bend", "station", "line_end")
 class Gimbal:
     pitch_deg: float  # gimbal convention: −90 straight down, 0 level
     yaw_deg: float  # relative to the vehicle's nose, positive to the right, −180..180
-    bearing_deg: float  # the compass bearing the camera looks to (0..360)
+    bearing_deg: float  # the true bearing the camera looks to (0..360)
 
 
 @dataclass(frozen=True)
@@ -81,7 +85,7 @@ class Waypoint:
     run: int  # index into plan.route.runs; -1 for transit
     tag: str  # the station id, or the run's id and what the waypoint is ("P1-L002-R1:lead-in"), "transit", "detour"
     run_id: str  # "P1-L002-R1"; "" off the runs
-    heading_deg: float  # the direction of flight on its run (0 off the runs)
+    heading_deg: float  # the direction of flight on its run, a true bearing (0 off the runs)
     actions: tuple[Action, ...] = ()
 
 
@@ -106,7 +110,7 @@ class FlightProgram:
     takeoff_pitch_deg: float  # a plane's climb pitch; 0 for a copter
     speed_ms: float  # the survey speed (ground speed; a plane's airspeed in still air)
     cruise_speed_ms: float  # the vehicle's cruise speed, for transits
-    fixed_yaw_deg: float | None  # None: the nose along the track; else one compass heading for the whole flight
+    fixed_yaw_deg: float | None  # None: the nose along the track; else one true heading for the whole flight
     waypoints: tuple[Waypoint, ...]
     end: str  # "rtl" or "land" (at the launch point)
     approach: Approach | None  # a plane landing: its approach waypoint
@@ -219,7 +223,13 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
         if w.run >= 0 and w.kind in ("lead_in", "line_start", "station") and w.run not in first_of_run:
             first_of_run[w.run] = i
     station_of_run = {int(r): int(i) for r, i in zip(*np.unique(st.run, return_index=True))}
-    heading_of_run = {r: float(st.heading_deg[i]) for r, i in station_of_run.items()}
+    # the run's direction of flight and each run's camera look, as true bearings at the run's first station
+    k_of_run = np.array(list(station_of_run.values()), np.intp)
+    planar = plan.site.planar
+    true_heading = planar.true_bearing(st.heading_deg[k_of_run], st.x[k_of_run], st.y[k_of_run])
+    true_look = planar.true_bearing(st.camera_yaw_deg[k_of_run], st.x[k_of_run], st.y[k_of_run])
+    heading_of_run = {r: float(true_heading[j]) for j, r in enumerate(station_of_run)}
+    look_of_run = {r: float(true_look[j]) for j, r in enumerate(station_of_run)}
     out = []
     relative = plan.altitudes.frame == "relative"
     for i, w in enumerate(wps):
@@ -227,9 +237,9 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
         heading = heading_of_run.get(w.run, 0.0) if w.run >= 0 else 0.0
         if first_of_run.get(w.run) == i and w.run in station_of_run:
             k = station_of_run[w.run]
-            pitch, bearing = float(st.pitch_deg[k]), float(st.camera_yaw_deg[k]) % 360.0
+            pitch, bearing = float(st.pitch_deg[k]), look_of_run[w.run]
             nose = heading if yaw_fixed is None else float(yaw_fixed)
-            want = Gimbal(pitch, _wrap180(bearing - nose), bearing)
+            want = Gimbal(pitch, round(_wrap180(bearing - nose), 6), bearing)
             # a yaw alone matters only to a tilted camera: a nadir-only plan has no gimbal action
             if want.pitch_deg != gimbal.pitch_deg or (pitch != NADIR_PITCH_DEG and want.yaw_deg != gimbal.yaw_deg):
                 actions.append(want)

@@ -56,10 +56,13 @@ def flyable_profile(s: np.ndarray, wanted: np.ndarray, slopes: Slopes) -> np.nda
 
 
 def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_ground: float, planar: Planar,
-                     tolerance_m: float, slopes: Slopes | None = None, cap_agl_m: float = math.inf) -> Altitudes:
+                     tolerance_m: float, slopes: Slopes | None = None, cap_agl_m: float = math.inf,
+                     fixed_yaw_deg: float | None = None) -> Altitudes:
     """Stations with ids and altitudes, and the route's waypoints with theirs; in follow mode
     each run's profile within `slopes` (None: as steep as the ground), refused (InputError)
-    where that takes a photo above `cap_agl_m`."""
+    where that takes a photo above `cap_agl_m`. With `fixed_yaw_deg` (the nose's one true heading)
+    a camera that looks along the nose (a run without its own look) faces that yaw, turned into the
+    grid at each station."""
     runs = route.runs
     sid = ids.station_ids_of_lines((r.pass_index, r.line, np.asarray(r.station_index, int).tolist()) for r in runs)
     counts = [len(r.station_index) for r in runs]
@@ -70,6 +73,9 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     pitch = np.repeat(np.asarray([r.pitch_deg for r in runs], float), counts)
     look = np.concatenate([np.full(len(r.station_xy), r.look_deg) if r.look_deg is not None else r.headings() for r in runs]) \
         if runs else np.zeros(0)
+    if fixed_yaw_deg is not None and runs:
+        along_nose = np.repeat(np.array([r.look_deg is None for r in runs]), counts)
+        look = np.where(along_nose, planar.grid_bearing(np.full(len(x), fixed_yaw_deg), x, y), look)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
     warnings: tuple[str, ...] = ()

@@ -49,6 +49,28 @@ def footprint(height_m: FloatOrArray, camera: Camera, mount: str = "landscape") 
                        camera.image_height_px, camera.focal_mm, mount)
 
 
+def turned_footprint(across_m: float, along_m: float, turn_deg: float) -> tuple[float, float]:
+    """(across, along) of the largest rectangle square to the flight line inside a footprint
+    turned by `turn_deg` against it (a camera whose image top faces a fixed yaw, not the track).
+
+    The footprint is `across_m` × `along_m` square to the nose; turned, the ground it surely
+    photographs along a line is this rectangle, so spacing and base laid from it keep the
+    overlaps. 0° (or 180°) gives the footprint, 90° its sides swapped.
+    """
+    t = abs(turn_deg) % 180.0
+    t = 180.0 - t if t > 90.0 else t
+    w, h = (across_m, along_m) if t <= 45.0 else (along_m, across_m)  # w × h turned by 90° − t is the same ground
+    a = math.radians(t if t <= 45.0 else 90.0 - t)
+    sin_a, cos_a = math.sin(a), math.cos(a)
+    long_side, short_side = max(w, h), min(w, h)
+    if short_side <= 2.0 * sin_a * cos_a * long_side or abs(sin_a - cos_a) < 1e-12:
+        # the short side touches both long edges: the rectangle's corners lie on them
+        half = 0.5 * short_side
+        return (half / sin_a, half / cos_a) if w >= h else (half / cos_a, half / sin_a)
+    cos_2a = cos_a * cos_a - sin_a * sin_a
+    return (w * cos_a - h * sin_a) / cos_2a, (h * cos_a - w * sin_a) / cos_2a
+
+
 def line_spacing(across_m: float, side_overlap: float) -> float:
     """Distance between neighbouring flight lines: Wg · (1 − side overlap), less SAFETY."""
     return across_m * (1.0 - side_overlap) * (1.0 - SAFETY)

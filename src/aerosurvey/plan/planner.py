@@ -14,6 +14,7 @@ Each step is a function of frozen data from the steps before it and can be calle
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -61,10 +62,15 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     h_target, gsd_target, cap_warnings = target_height(spec)
     site = prepare_site(spec, inputs, h_target)
     report("heights over the ground", 0.03)
-    sensor = solve_sensor(spec, h_target, gsd_target, solve_heights(spec, h_target, site.ground), cap_warnings,
-                          autopilot_stretch=site.autopilot_stretch())
+    heights = solve_heights(spec, h_target, site.ground)
+    stretch = site.autopilot_stretch()
+    sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, autopilot_stretch=stretch)
     limit_warnings = check_limits(spec, site, sensor)
     layout = pattern_for(spec).layout(site, sensor, report)
+    if spec.flight.fixed_yaw_deg is not None:
+        def solve(turns: tuple[float, ...]) -> SensorSolution:
+            return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, autopilot_stretch=stretch, camera_turns_deg=turns)
+        sensor, layout = _under_fixed_yaw(spec, site, sensor, layout, solve, report)
     report("route", 0.72)
     routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.72, 0.84))
     extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
@@ -123,6 +129,42 @@ def _bounds(site: Site, sensor: SensorSolution, layout: Layout, directions: int)
                        sensor.side_images_per_point, directions, width)
 
 
+#: how many times the layout is laid again for a fixed yaw before the plan is refused (each time
+#: with the camera's turns against every line heading the layouts so far used)
+FIXED_YAW_ROUNDS = 3
+
+
+def _line_headings(layout: Layout) -> np.ndarray:
+    """Every direction (grid bearing) the layout's lines run in: each frame's heading, each strip's at its stations."""
+    out = [np.array([p.frame.heading_deg]) for p in layout.passes if p.frame is not None and p.look_deg is None]
+    out += [np.asarray(s.heading_deg, float) for p in layout.passes if p.look_deg is None for s in p.strips]
+    return np.round(np.concatenate(out) % 180.0, 6) if out else np.zeros(0)
+
+
+def _under_fixed_yaw(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
+                     solve: Callable[[tuple[float, ...]], SensorSolution], report: Progress) -> tuple[SensorSolution, Layout]:
+    """The sensor solution and layout of a copter holding one yaw (flight.fixed_yaw_deg, a true bearing):
+    a camera that looks along the nose (every pass whose look is not set) is turned against the lines by the
+    yaw minus their heading, so spacing and base are laid from the ground it surely photographs across and
+    along each line (`photogrammetry.turned_footprint`). A layout whose lines run in a direction the solution
+    was not made for (its heading search chose another) is laid again with that direction too."""
+    assert spec.flight.fixed_yaw_deg is not None
+    c = site.area.centroid
+    nose = float(site.planar.grid_bearing(spec.flight.fixed_yaw_deg, c.x, c.y))
+    known: set[float] = set()
+    for _ in range(FIXED_YAW_ROUNDS):
+        wanted = {float(h) for h in _line_headings(layout)}
+        if wanted <= known:
+            return sensor, layout
+        known |= wanted
+        sensor = solve(tuple(sorted(round((nose - h) % 180.0, 6) for h in known)))
+        layout = pattern_for(spec).layout(site, sensor, report)
+    if {float(h) for h in _line_headings(layout)} <= known:
+        return sensor, layout
+    raise InputError(f"flight.fixed_yaw_deg = {spec.flight.fixed_yaw_deg:g}: the line heading changes each time the spacing is "
+                     f"laid for the camera turned against it; fix the lines' heading (flight.heading_deg)", key="flight.fixed_yaw_deg")
+
+
 def _share(report: Progress, start: float, end: float) -> Progress:
     """`report` for a step that runs from `start` to `end` of the plan: its 0..1 passed on scaled."""
     return lambda stage, done: report(stage, start + (end - start) * done)
@@ -135,7 +177,7 @@ def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
     home_ground = _ground(site, routed.home_xy, "launch point")
     slopes = Slopes.of(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms, sensor.speed.speed_ms)
     alts = assign_altitudes(routed.route, sensor.heights, site.dem, home_ground, site.planar, spec.terrain.tolerance_m, slopes,
-                            spec.vehicle.max_height_agl_m)
+                            spec.vehicle.max_height_agl_m, spec.flight.fixed_yaw_deg)
     return routed, home_ground, alts, coverage_shortfall(spec, site, sensor, alts.stations, layout.check_exactly)
 
 

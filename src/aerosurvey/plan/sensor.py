@@ -107,8 +107,11 @@ def lead_in_m(spec: MissionSpec, speed_ms: float, radius_m: float) -> float:
 
 
 def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights: Heights,
-                 warnings: tuple[str, ...] = (), *, autopilot_stretch: float) -> SensorSolution:
+                 warnings: tuple[str, ...] = (), *, autopilot_stretch: float,
+                 camera_turns_deg: tuple[float, ...] = ()) -> SensorSolution:
     """Footprint, spacing, base, speed and trigger for the heights the terrain mode decided.
+    `camera_turns_deg`: the angles a camera held at a fixed yaw is turned by against the lines; the
+    footprint is then the ground it surely photographs across and along the line at every one of them.
     `autopilot_stretch`: the most ground metres a metre of the autopilot's distance spans at the
     site (`Site.autopilot_stretch`); the base is in the autopilot's metres (it triggers and
     flies by them), short enough that on the ground it keeps the forward overlap in any direction."""
@@ -126,6 +129,9 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
                              f"{gsd_far * 100:.2f} cm from {heights.max_agl_m:.1f} m above ground at pitch {spec.pattern.pitch_deg:g}°; "
                              f"fly at most {heights.max_agl_m * limit / gsd_far:.1f} m high, or pitch the camera further down",
                              key="pattern.max_far_gsd_cm")
+    if camera_turns_deg:
+        turned = [pg.turned_footprint(across, along, t) for t in camera_turns_deg]
+        across, along = min(a for a, _ in turned), min(b for _, b in turned)
     spacing = pg.line_spacing(across, spec.targets.side_overlap)
     # whole centimetres, rounded down: the mission carries the trigger distance to 1 cm, and
     # the stations must lie exactly where the autopilot's distance trigger will fire

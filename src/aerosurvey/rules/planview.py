@@ -19,6 +19,7 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey import manifest as mf
 from aerosurvey.area import transformer
 from aerosurvey.errors import InputError
+from aerosurvey.reproject import planar
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,6 +47,14 @@ class PlanView:
     def camera(self) -> dict[str, Any]:
         camera: dict[str, Any] = self.manifest["camera"]
         return camera
+
+    def nose_deg(self) -> np.ndarray:
+        """The vehicle's planned yaw at each station, a grid bearing: along the track, or the plan's
+        one fixed yaw (the manifest's `derived.fixed_yaw_deg`, a true bearing) turned into the grid there."""
+        fixed = self.manifest.get("derived", {}).get("fixed_yaw_deg")
+        if fixed is None:
+            return np.asarray(self.heading_deg, float)
+        return planar(self.crs).grid_bearing(np.full(len(self.x), float(fixed)), self.x, self.y)
 
     @property
     def area_ha(self) -> float:
