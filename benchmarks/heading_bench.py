@@ -30,7 +30,7 @@ from aerosurvey.inputs import load_inputs  # noqa: E402
 from aerosurvey.plan.frame import LineFrame  # noqa: E402
 from aerosurvey.plan.heading import best_heading  # noqa: E402
 from aerosurvey.plan.lines import Outline, StripGeometry, build_lines, line_bounds  # noqa: E402
-from aerosurvey.plan.pattern import strip_geometry  # noqa: E402
+from aerosurvey.plan.pattern import kind_of, strip_geometry  # noqa: E402
 from aerosurvey.plan.route import quick_cost, quick_cost_lower_bounds  # noqa: E402
 from aerosurvey.plan.sensor import solve_heights, solve_sensor, target_height  # noqa: E402
 from aerosurvey.plan.site import prepare_site  # noqa: E402
@@ -46,7 +46,9 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
     spec = load_spec(spec_path)
     h, gsd, warnings = target_height(spec)
     site = prepare_site(spec, load_inputs(spec), h)
-    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), warnings, autopilot_stretch=site.autopilot_stretch())
+    heights = solve_heights(spec, h, site.ground)
+    sensor = solve_sensor(spec, h, gsd, heights, warnings, footprint=kind_of(spec.pattern.kind).footprint(spec, heights),
+                          autopilot_stretch=site.autopilot_stretch())
     k = site.grid_scale
     margin = spec.targets.coverage_margin_m * k
     covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area

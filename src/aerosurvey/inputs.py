@@ -28,7 +28,9 @@ if TYPE_CHECKING:
 
 def load_geometry(spec: MissionSpec) -> tuple[BaseGeometry, tuple[BaseGeometry, ...]]:
     """The area and the exclusion zones of the spec, in WGS84 (what the web page shows before it plans)."""
-    corridor = spec.pattern.kind == "corridor"
+    from aerosurvey.plan.pattern import kind_of
+
+    corridor = kind_of(spec.pattern.kind).area_is_centreline
     area = read_area(spec.area.file, spec.area.wkt, spec.area.wkt_crs, "area.file (the corridor)" if corridor else "area",
                      lines=corridor)
     return area, tuple(read_area(p, None, "EPSG:4326", f"exclusion zone {p.name}") for p in spec.area.exclusions)

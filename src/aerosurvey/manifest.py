@@ -178,13 +178,10 @@ def station_table(plan: Plan) -> StationTable:
 
 def _pattern(plan: Plan) -> dict[str, Any]:
     """The pattern and its parameters, and each pass's camera attitude and sensor solution."""
+    from aerosurvey.plan.pattern import kind_of
+
     p = plan.pattern
-    params: dict[str, Any] = {}
-    if p.kind == "corridor" and plan.site.sides_m is not None:  # the spec's widths, or those derived from a corridor polygon
-        params = {"left_m": _f(plan.site.sides_m[0]), "right_m": _f(plan.site.sides_m[1])}
-    elif p.kind == "oblique":
-        params = {"scheme": p.scheme, "pitch_deg": p.pitch_deg,
-                  "max_far_gsd_cm": _f(p.max_far_gsd_m * 100, 4) if p.max_far_gsd_m is not None else None}
+    params = kind_of(p.kind).parameters(plan)
     trigger = _f(plan.sensor.trigger_distance_m) if plan.sensor.trigger_distance_m is not None else None
     passes = [{"pass": ps.index, "pitch_deg": ps.pitch_deg, "look_deg": _f(ps.look_deg) if ps.look_deg is not None else None,
                "footprint_across_m": _f(plan.sensor.across_m), "footprint_along_m": _f(plan.sensor.along_m),

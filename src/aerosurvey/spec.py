@@ -19,8 +19,6 @@ from aerosurvey.errors import InputError, bad_value
 
 MOUNTS = ("landscape", "portrait")
 TRIGGERS = ("distance", "time", "camera", "hover")
-PATTERNS = ("area", "corridor", "oblique")
-OBLIQUE_SCHEMES = ("double-grid", "five-direction")
 VEHICLES = ("copter", "plane")
 FIRMWARES = ("ardupilot", "px4")
 TERRAIN_MODES = ("none", "fixed", "follow", "terrain-frame")
@@ -69,21 +67,12 @@ class Targets:
 
 @dataclass(frozen=True)
 class PatternSpec:
-    """The spec's [pattern] table: how photo runs are laid.
-
-    area: parallel lines over the area (with [flight] heading and cross_hatch); corridor: strips
-    along a centreline, `left_m` and `right_m` of ground each side of it (None: derived from the
-    corridor polygon given instead of a centreline, plan/centreline.py); oblique: the area grid
-    flown again with the camera tilted to `pitch_deg` (gimbal convention, −90 is straight down),
-    as a double grid (two headings, the camera looking along the flight) or five directions
-    (nadir plus four obliques looking north, east, south and west)."""
+    """The spec's [pattern] table: how photo runs are laid. `kind` names a pattern of the registry
+    (plan/pattern.py); `options` are that pattern's own settings, read from its fields
+    (`PatternKind.options`: e.g. a corridor's widths, an oblique's scheme and pitch)."""
 
     kind: str
-    left_m: float | None = None  # corridor
-    right_m: float | None = None
-    scheme: str = "double-grid"  # oblique
-    pitch_deg: float = -45.0  # oblique
-    max_far_gsd_m: float | None = None  # oblique: the coarsest GSD allowed at a photo's far edge
+    options: object = None
 
 
 @dataclass(frozen=True)
@@ -331,33 +320,21 @@ def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
 
 
 def _pattern(top: _Table, flight: FlightSpec) -> PatternSpec:
+    """The [pattern] table, read by the fields of the registry's pattern of its kind."""
+    from aerosurvey.plan.pattern import PATTERNS
+
     p = top.table("pattern")
-    kind = p.choice("kind", "area", PATTERNS)
-    if kind == "corridor":
-        width = p.number("width_m", None, lo=0.0, lo_open=True, hi=20000.0)
-        left = p.number("left_m", None, lo=0.0, hi=10000.0)
-        right = p.number("right_m", None, lo=0.0, hi=10000.0)
-        if width is not None and (left is not None or right is not None):
-            raise InputError("[pattern] corridor takes either width_m or left_m and right_m, not both")
-        if (left is None) != (right is None):
-            raise InputError("[pattern] corridor takes width_m (centred on the centreline) or both left_m and right_m, "
-                             "or none of them for a corridor polygon (its widths derived)")
-        if width is not None:
-            left = right = width / 2.0
-        if left is not None and right is not None and left + right <= 0:
-            raise bad_value("pattern.left_m + pattern.right_m", left + right, "a corridor wider than 0 m")
-        if flight.cross_hatch:
-            raise InputError("flight.cross_hatch is for area grids: a corridor is flown along its centreline")
-        out = PatternSpec(kind, left_m=left, right_m=right)
-    elif kind == "oblique":
-        far = p.number("max_far_gsd_cm", None, lo=0.0, lo_open=True, hi=1000.0)
-        out = PatternSpec(kind, scheme=p.choice("scheme", "double-grid", OBLIQUE_SCHEMES),
-                          pitch_deg=p.number("pitch_deg", -45.0, lo=-80.0, hi=-20.0) or -45.0,
-                          max_far_gsd_m=far / 100.0 if far is not None else None)
-    else:
-        out = PatternSpec(kind)
+    kind = p.choice("kind", "area", tuple(PATTERNS))
+    pattern = PATTERNS[kind]
+    values: dict[str, Any] = {}
+    for f in pattern.fields:
+        if f.type == "choice":
+            values[f.key] = p.choice(f.key, str(f.default), tuple(c for c, _ in f.choices))
+        else:
+            v = p.number(f.key, None if f.default is None else float(f.default), lo=f.lo, hi=f.hi, lo_open=f.lo_open)
+            values[f.key] = None if v is None else v * f.scale
     p.done()
-    return out
+    return PatternSpec(kind, pattern.options(values, flight))
 
 
 def load_spec(path: str | Path) -> MissionSpec:

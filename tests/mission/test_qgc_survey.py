@@ -145,13 +145,13 @@ def test_survey_blocks_hold_a_pass_with_the_detours_between_its_lines() -> None:
 
 
 class _Pass:
-    """A stand-in for a Plan (hashable by identity, as Plan is): its route's runs, waypoints and spacing."""
+    """A stand-in for a Plan (hashable by identity, as Plan is): its route's runs, waypoints and spacing, one pass of lines in a frame."""
 
     def __init__(self, runs: list[SimpleNamespace], waypoints: list[SimpleNamespace], spacing: float) -> None:
         self.route = SimpleNamespace(runs=runs)
         self.waypoints = waypoints
         self.sensor = SimpleNamespace(spacing_m=spacing)
-        self.pattern = SimpleNamespace(kind="area")
+        self.layout = SimpleNamespace(passes=[SimpleNamespace(index=1, frame=object())])  # parallel lines in a frame
 
 
 def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, starts: list[float], lengths: list[float],

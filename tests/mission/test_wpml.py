@@ -480,7 +480,7 @@ def test_a_corridor_polygon_is_a_strip_template_as_wide_as_its_derived_widths(tm
 @pytest.mark.parametrize(("overrides", "reason"), [
     ({"flight": {"cross_hatch": True}}, "2 passes at "),
     ({"camera": {"trigger": "hover"}}, "camera.trigger = 'hover'"),
-    ({"pattern": {"kind": "oblique"}}, "pattern.kind = 'oblique'"),
+    ({"pattern": {"kind": "oblique"}}, "2 passes at "),  # a double grid: two passes, the camera tilted
     ({"area": {"exclusions": ["zone.geojson"]}}, "exclusion zones"),
 ])
 def test_what_a_mapping_template_cannot_say_stays_waypoints_with_why(tmp_path: Path, overrides: dict, reason: str) -> None:

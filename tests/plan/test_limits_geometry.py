@@ -12,6 +12,7 @@ import shapely
 from aerosurvey.errors import InputError
 from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.plan.limits import estimate_cost
+from aerosurvey.plan.pattern import kind_of
 from aerosurvey.plan.planner import plan_mission
 from aerosurvey.plan.sensor import solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import prepare_site
@@ -39,7 +40,9 @@ def _square(lon: float, lat: float, side_m: float) -> shapely.Polygon:
 def _estimate(spec, area):
     h, gsd, w = target_height(spec)
     site = prepare_site(spec, PlanInputs(area), h)
-    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, site.ground), w, autopilot_stretch=site.autopilot_stretch())
+    heights = solve_heights(spec, h, site.ground)
+    sensor = solve_sensor(spec, h, gsd, heights, w, footprint=kind_of(spec.pattern.kind).footprint(spec, heights),
+                          autopilot_stretch=site.autopilot_stretch())
     return estimate_cost(spec, site, sensor), sensor
 
 

@@ -18,10 +18,10 @@ from aerosurvey.inputs import load_inputs
 from aerosurvey.plan.altitudes import assign_altitudes
 from aerosurvey.plan.estimates import estimate
 from aerosurvey.plan.inputs import PlanInputs
-from aerosurvey.plan.pattern import AreaGrid, pattern_for
+from aerosurvey.plan.pattern import AreaGrid, kind_of, pattern_for
 from aerosurvey.plan.planner import plan_mission
 from aerosurvey.plan.routing import plan_route
-from aerosurvey.plan.sensor import solve_heights, solve_sensor, target_height
+from aerosurvey.plan.sensor import nadir_footprint, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import prepare_site
 from aerosurvey.spec import load_spec, parse_spec
 
@@ -50,7 +50,9 @@ def test_steps_one_by_one_with_plain_data():
     assert site.zones is None and site.dem is None and site.ground is None
     assert 0.99 < site.grid_scale < 1.01
     assert gsd == pytest.approx(0.025) and warnings == ()
-    sensor = solve_sensor(spec, h, gsd, solve_heights(spec, h, None), autopilot_stretch=site.autopilot_stretch())
+    heights = solve_heights(spec, h, None)
+    sensor = solve_sensor(spec, h, gsd, heights, footprint=kind_of(spec.pattern.kind).footprint(spec, heights),
+                          autopilot_stretch=site.autopilot_stretch())
     # a6000 16 mm: landscape footprint 6000 px × 2.5 cm across, spacing 40 % of it (less the safety)
     assert sensor.across_m == pytest.approx(min(6000 * 0.025, 23.5 * h / 16), rel=1e-9)
     assert sensor.spacing_m == pytest.approx(sensor.across_m * 0.4 * 0.999, rel=1e-9)
@@ -132,7 +134,9 @@ def test_wind_at_or_above_the_survey_speed_is_refused(above: float | None):
     # pixel), flown in whole cm/s (the mission's DO_CHANGE_SPEED): 3.12 m/s
     probe = spec_of(camera={"exposure_s": 0.004})
     h, gsd, _ = target_height(probe)
-    speed = solve_sensor(probe, h, gsd, solve_heights(probe, h, None), autopilot_stretch=1.0).speed.speed_ms  # the speed alone
+    probe_heights = solve_heights(probe, h, None)
+    speed = solve_sensor(probe, h, gsd, probe_heights, footprint=nadir_footprint(probe, probe_heights),
+                         autopilot_stretch=1.0).speed.speed_ms  # the speed alone
     assert speed == pytest.approx(3.12)
     wind = 9.0 if above is None else speed + above
     spec = spec_of(battery={"usable_min": 27.7, "wind_ms": wind}, camera={"exposure_s": 0.004})

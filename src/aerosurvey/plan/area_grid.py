@@ -6,8 +6,9 @@ search of the line order and cells.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import shapely
@@ -18,7 +19,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.plan.bounds import narrowest
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
-from aerosurvey.plan.layout import Layout
+from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.lines import (
     LineSegment,
     Outline,
@@ -30,9 +31,12 @@ from aerosurvey.plan.lines import (
 )
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
-from aerosurvey.plan.sensor import SensorSolution
+from aerosurvey.plan.sensor import Footprint, SensorSolution, nadir_footprint
 from aerosurvey.plan.site import Site
-from aerosurvey.spec import MissionSpec
+from aerosurvey.spec import FlightSpec, MissionSpec
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.model import Heights, Plan
 
 #: frames × (edges + rings + zones) a batch of the heading search's bounds may hold (a few MB a numpy array)
 BOUND_BATCH_ELEMENTS = 200_000
@@ -63,10 +67,35 @@ class AreaGrid:
     # camera turned (its bands are joined in one pass)
     several_passes: bool = True
 
+    kind: ClassVar[str] = "area"
+    title: ClassVar[str] = "area grid"
+    area_is_centreline: ClassVar[bool] = False
+    fields: ClassVar[tuple[Field, ...]] = ()  # its heading and cross-hatch are [flight]'s
+
     @classmethod
-    def from_spec(cls, spec: MissionSpec) -> AreaGrid:
+    def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
+        return None, None
+
+    @classmethod
+    def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> None:
+        return None
+
+    @classmethod
+    def from_spec(cls, spec: MissionSpec, several_passes: bool = True) -> AreaGrid:
         return cls(spec.flight.heading_deg, spec.flight.cross_hatch, spec.targets.images_beyond_boundary,
-                   spec.targets.coverage_margin_m, several_passes=spec.pattern.kind == "area")
+                   spec.targets.coverage_margin_m, several_passes=several_passes)
+
+    @classmethod
+    def footprint(cls, spec: MissionSpec, heights: Heights) -> Footprint:
+        return nadir_footprint(spec, heights)
+
+    @classmethod
+    def times_over(cls, spec: MissionSpec) -> int:
+        return 2 if spec.flight.cross_hatch else 1
+
+    @classmethod
+    def parameters(cls, plan: Plan) -> dict[str, Any]:
+        return {}
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         k = site.grid_scale

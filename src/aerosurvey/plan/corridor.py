@@ -9,13 +9,8 @@ Each strip bends where the centreline does, with mitred corners, so the outside 
 flown to its corner; it runs on past both ends of the centreline as far as the forward overlap
 and the images-beyond-the-boundary rule ask (`station_span`, as for an area grid's line ends).
 
-Photo stations are where the autopilot takes the photos: with distance triggering, ArduPilot
-takes one at the first 50 Hz check that lies the trigger distance or more from the last photo,
-in a straight line (AP_Camera_Backend::update, Location::get_distance), so on a straight
-stretch they are a base apart and through a bend a whole number of check steps further along
-the strip, until the chord reaches the trigger distance. With time triggering they are a base
-apart along the strip. All these lengths are ArduPilot's metres (`ardupilot_distance_m`), which
-differ from the ground's by up to 0.7 % with the direction and the latitude.
+Photo stations are where the autopilot takes the photos (plan/polyline.py: along a strip that
+bends, as ArduPilot's distance trigger fires).
 
 Each piece of the centreline is a pass; its strips are flown in order, back and forth. Next to
 an exclusion zone (and its margin, and the clearance a turn needs) stations are left out and
@@ -26,22 +21,27 @@ footprints exactly (`Layout.check_exactly`): there the straight-line rule does n
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.errors import InputError
-from aerosurvey.plan.layout import Layout
+from aerosurvey.errors import InputError, bad_value
+from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.lines import station_span, strip_offsets
 from aerosurvey.plan.photogrammetry import TRIGGER_CHECK_HZ, ardupilot_distance_m
+from aerosurvey.plan.polyline import arc_lengths, extend, stations_along, strips_clear_of
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.route import Pass, Strip
-from aerosurvey.plan.sensor import SensorSolution
+from aerosurvey.plan.sensor import Footprint, SensorSolution, nadir_footprint
 from aerosurvey.plan.site import Site
-from aerosurvey.spec import MissionSpec
+from aerosurvey.spec import FlightSpec, MissionSpec
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.model import Heights, Plan
 
 #: a bend sharper than this (the change of direction) splits the strips there: each side's strip
 #: runs on past the bend as past an end (the images-beyond-the-boundary rule and the forward
@@ -54,6 +54,15 @@ MITRE_LIMIT = 5.0
 
 
 @dataclass(frozen=True)
+class CorridorOptions:
+    """[pattern] kind = "corridor": the ground left and right of the centreline, looking along it
+    (metres; None: derived from the corridor polygon given instead of a centreline, plan/centreline.py)."""
+
+    left_m: float | None
+    right_m: float | None
+
+
+@dataclass(frozen=True)
 class Corridor:
     """Strips along the site's centreline, over its ground each side of it (`Site.sides_m`: the
     spec's widths, or those derived from a corridor polygon)."""
@@ -61,9 +70,56 @@ class Corridor:
     images_beyond_boundary: int
     coverage_margin_m: float
 
+    kind: ClassVar[str] = "corridor"
+    title: ClassVar[str] = "corridor along a centreline"
+    area_is_centreline: ClassVar[bool] = True
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("width_m", "Corridor width (m)", "number", None, lo=0.0, hi=20000.0, lo_open=True,
+              hint="Ground photographed across the corridor, centred on the centreline"),
+        Field("left_m", "or left of the line (m)", "number", None, lo=0.0, hi=10000.0),
+        Field("right_m", "and right of it (m)", "number", None, lo=0.0, hi=10000.0),
+    )
+
+    @classmethod
+    def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
+        o = spec.pattern.options
+        assert isinstance(o, CorridorOptions), o  # the spec made it from this kind's fields
+        return o.left_m, o.right_m
+
+    @classmethod
+    def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> CorridorOptions:
+        width, left, right = values["width_m"], values["left_m"], values["right_m"]
+        if width is not None and (left is not None or right is not None):
+            raise InputError("[pattern] corridor takes either width_m or left_m and right_m, not both")
+        if (left is None) != (right is None):
+            raise InputError("[pattern] corridor takes width_m (centred on the centreline) or both left_m and right_m, "
+                             "or none of them for a corridor polygon (its widths derived)")
+        if width is not None:
+            left = right = width / 2.0
+        if left is not None and right is not None and left + right <= 0:
+            raise bad_value("pattern.left_m + pattern.right_m", left + right, "a corridor wider than 0 m")
+        if flight.cross_hatch:
+            raise InputError("flight.cross_hatch is for area grids: a corridor is flown along its centreline")
+        return CorridorOptions(left, right)
+
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> Corridor:
         return cls(spec.targets.images_beyond_boundary, spec.targets.coverage_margin_m)
+
+    @classmethod
+    def footprint(cls, spec: MissionSpec, heights: Heights) -> Footprint:
+        return nadir_footprint(spec, heights)
+
+    @classmethod
+    def times_over(cls, spec: MissionSpec) -> int:
+        return 1
+
+    @classmethod
+    def parameters(cls, plan: Plan) -> dict[str, Any]:
+        """The widths flown: the spec's, or those derived from a corridor polygon."""
+        if plan.site.sides_m is None:
+            return {}
+        return {"left_m": round(plan.site.sides_m[0], 3), "right_m": round(plan.site.sides_m[1], 3)}
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         if site.centreline is None or site.sides_m is None:
@@ -92,17 +148,17 @@ class Corridor:
                 stretches = _split_at_sharp_bends(np.asarray(shapely.get_coordinates(piece), float))
                 for j, stretch in enumerate(stretches):
                     path = _offset(shapely.LineString(stretch), v)
-                    arc = _arc(path)
+                    arc = arc_lengths(path)
                     # at a sharp bend the corridor's outside reaches its width past the bend (a round corner)
                     a = -max(left, right) if j > 0 else 0.0
                     b = float(arc[-1]) + (max(left, right) if j < len(stretches) - 1 else 0.0)
                     # the strip enters the corridor at a and leaves it at b
                     first, last = station_span(a, b, a, b, along, base, sensor.forward_images_per_point,
                                                self.images_beyond_boundary)
-                    ext = _extend(path, -first, last - float(arc[-1]) + 2.0 * base)
-                    at = _stations(ext, autopilot_m, sensor.base_m, last - first, sensor.trigger_distance_m,
+                    ext = extend(path, -first, last - float(arc[-1]) + 2.0 * base)
+                    at = stations_along(ext, autopilot_m, sensor.base_m, last - first, sensor.trigger_distance_m,
                                    sensor.speed.speed_ms / TRIGGER_CHECK_HZ)
-                    strips += _cut(line, len([s for s in strips if s.line == line]), numbered, ext, at,
+                    strips += strips_clear_of(line, len([s for s in strips if s.line == line]), numbered, ext, at,
                                    site.zones_buffered, clearance)
                     numbered += len(at)
             if strips:
@@ -145,91 +201,3 @@ def _offset(line: BaseGeometry, v: float) -> np.ndarray:
     return np.asarray(shapely.get_coordinates(max(parts, key=lambda p: p.length)), float)
 
 
-def _arc(path: np.ndarray) -> np.ndarray:
-    """The distance along the polyline of each of its points."""
-    arc: np.ndarray = np.r_[0.0, np.cumsum(np.hypot(*np.diff(path, axis=0).T))]
-    return arc
-
-
-def _extend(path: np.ndarray, before: float, after: float) -> np.ndarray:
-    """The polyline continued straight `before` back from its start and `after` on from its end."""
-    d0 = (path[1] - path[0]) / np.hypot(*(path[1] - path[0]))
-    d1 = (path[-1] - path[-2]) / np.hypot(*(path[-1] - path[-2]))
-    return np.vstack([path[0] - d0 * max(before, 0.0), path[1:-1], path[-1] + d1 * max(after, 0.0)])
-
-
-def _at(path: np.ndarray, arc: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The points at distances `s` along the polyline."""
-    return np.column_stack([np.interp(s, arc, path[:, 0]), np.interp(s, arc, path[:, 1])])
-
-
-def _stations(path: np.ndarray, autopilot_m: Callable[[np.ndarray, np.ndarray], np.ndarray], base: float, span: float,
-              chord: float | None, step: float) -> np.ndarray:
-    """Distances along `path` (grid metres) of the stations from its start until `span` is
-    reached. The autopilot measures in its own metres (`autopilot_m(a, b)`: between the points
-    a and b, (n, 2) each): `base`, `chord` (the trigger distance) and `step` (between its 50 Hz
-    checks) are in them. A base apart along the strip; with a distance trigger through a bend,
-    at the first check whose straight distance from the last station reaches `chord`."""
-    arc = _arc(path)
-    own = np.r_[0.0, np.cumsum(autopilot_m(path[:-1], path[1:]))]  # the autopilot's metres along the strip
-    inner = own[1:-1]
-    out = [0.0]
-    end = float(np.interp(span, arc, own))
-    while out[-1] < end - 1e-6:
-        s = out[-1]
-        nxt = s + base
-        if chord is not None and np.any((inner > s) & (inner < nxt + base)):
-            # a bend within reach: ArduPilot's straight-line distance from s, check by check
-            cand = s + step * np.arange(1, int(math.ceil(2.0 * base / step)) + 2)
-            here = _at(path, own, np.array([s]))
-            far = autopilot_m(np.repeat(here, len(cand), axis=0), _at(path, own, cand)) >= chord
-            nxt = float(cand[int(np.argmax(far))]) if far.any() else float(cand[-1])
-        out.append(nxt)
-    at: np.ndarray = np.interp(np.asarray(out), own, arc)
-    return at
-
-
-def _cut(line: int, part0: int, index0: int, path: np.ndarray, at: np.ndarray, zones: BaseGeometry | None,
-         clearance: float) -> list[Strip]:
-    """The strips of one stretch of a line: its stations at distances `at` along `path`, without
-    those within `clearance` of a zone's margin, cut where that leaves a gap or where the way
-    between two stations meets a margin; their parts numbered from `part0`, stations from `index0`."""
-    arc = _arc(path)
-    xy = _at(path, arc, at)
-    n = len(at)
-    keep = np.ones(n, bool)
-    joined = np.ones(max(n - 1, 0), bool)  # whether the way from station j to j + 1 is flown with the camera on
-    if zones is not None:
-        keep = shapely.distance(zones, shapely.points(xy)) > clearance
-        ways = [np.vstack([xy[j], path[(arc > at[j]) & (arc < at[j + 1])], xy[j + 1]]) for j in range(n - 1)]
-        if ways:
-            lines = shapely.linestrings(np.vstack(ways), indices=np.repeat(np.arange(len(ways)), [len(w) for w in ways]))
-            joined = ~shapely.intersects(zones, lines)
-    runs: list[tuple[int, int]] = []
-    j = 0
-    while j < n:
-        if not keep[j]:
-            j += 1
-            continue
-        e = j
-        while e + 1 < n and keep[e + 1] and joined[e]:
-            e += 1
-        runs.append((j, e))
-        j = e + 1
-    heading = _headings(path, arc, at)
-    out = []
-    for part, (a, b) in enumerate(runs):
-        inner = (arc > at[a]) & (arc < at[b])
-        bends = path[inner]
-        after = np.searchsorted(at[a:b + 1], arc[inner], side="right") - 1
-        out.append(Strip(line, part0 + part, np.vstack([xy[a], bends, xy[b]]), xy[a:b + 1].copy(), index0 + np.arange(a, b + 1),
-                         heading[a:b + 1].copy(), after.astype(np.int64)))
-    return out
-
-
-def _headings(path: np.ndarray, arc: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """The compass bearing of the polyline's segment under each distance (the next one at a corner)."""
-    seg = np.clip(np.searchsorted(arc, at, side="right") - 1, 0, len(path) - 2)
-    d = path[seg + 1] - path[seg]
-    bearing: np.ndarray = np.degrees(np.arctan2(d[:, 0], d[:, 1])) % 360.0
-    return bearing

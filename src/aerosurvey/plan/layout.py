@@ -6,15 +6,20 @@ are chosen by `[pattern] kind` from the registry in `plan/pattern.py`.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.route import Pass
-from aerosurvey.plan.sensor import SensorSolution
+from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.model import Heights, Plan
+    from aerosurvey.spec import FlightSpec, MissionSpec
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,3 +38,62 @@ class Pattern(Protocol):
     """One way of laying photo strips over a site."""
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout: ...
+
+
+@dataclass(frozen=True)
+class Field:
+    """A key of the spec's [pattern] table that a pattern takes: how the spec reads it, how the
+    page shows it and the docs name it. Its value, read with the bounds given, is kept times
+    `scale` (a `_cm` key kept in metres)."""
+
+    key: str
+    label: str
+    type: str  # "number" or "choice"
+    default: float | str | None = None  # None: absent unless given
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    choices: tuple[tuple[str, str], ...] = ()  # (value, what the page shows)
+    hint: str = ""
+    scale: float = 1.0
+
+
+class PatternKind(Protocol):
+    """A `[pattern] kind`: what the spec, the later steps and the outputs ask of a pattern. The
+    registry (`plan/pattern.py`) holds one per kind; nothing else tests a kind by its name."""
+
+    kind: ClassVar[str]
+    title: ClassVar[str]  # what the page and the docs call it
+    fields: ClassVar[tuple[Field, ...]]  # the [pattern] keys it takes besides `kind`
+    # the area file holds a centreline (a line) rather than the area's polygons, which the
+    # pattern may also take (a corridor polygon)
+    area_is_centreline: ClassVar[bool]
+
+    @classmethod
+    def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
+        """With `area_is_centreline`: the ground asked for left and right of the centreline (None:
+        derived from a corridor polygon); (None, None) for the others."""
+        ...
+
+    @classmethod
+    def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> object:
+        """The pattern's own settings from its fields' values (InputError for a combination it refuses)."""
+        ...
+
+    @classmethod
+    def from_spec(cls, spec: MissionSpec) -> Pattern: ...
+
+    @classmethod
+    def footprint(cls, spec: MissionSpec, heights: Heights) -> Footprint:
+        """The ground each photo surely photographs, square to its line, that spacing and base are laid from."""
+        ...
+
+    @classmethod
+    def times_over(cls, spec: MissionSpec) -> int:
+        """How many times the pattern photographs the same ground (the bounds' multiple)."""
+        ...
+
+    @classmethod
+    def parameters(cls, plan: Plan) -> dict[str, Any]:
+        """The manifest's `pattern.parameters`: what the plan was laid with."""
+        ...

@@ -7,7 +7,7 @@
                     towards the lines' heading and 90°, 180° and 270° from it (a gimbal's yaw
                     relative to the nose, set at each run)
 
-Spacing and base come from the rectangle every photo of the scheme holds (`sensor.oblique_footprint`:
+Spacing and base come from the rectangle every photo of the scheme holds (`oblique_footprint`:
 the tilted trapezoid's near-edge width and depth), so the asked overlaps hold in the tilted
 photos. A tilted photo sees the ground ahead of the camera: the middle of its depth lies
 `oblique_centre_m` ahead, so the lines are laid over the area grown by that much (a footprint
@@ -18,15 +18,43 @@ footprints exactly.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
 
 from aerosurvey.camera import Camera
+from aerosurvey.errors import InputError
+from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.area_grid import AreaGrid
-from aerosurvey.plan.layout import Layout
+from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.progress import Progress
-from aerosurvey.plan.sensor import SensorSolution, oblique_centre_m
+from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
-from aerosurvey.spec import MissionSpec
+from aerosurvey.spec import FlightSpec, MissionSpec
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.model import Heights, Plan
+
+SCHEMES = ("double-grid", "five-direction")
+
+
+@dataclass(frozen=True)
+class ObliqueOptions:
+    """[pattern] kind = "oblique": the scheme, the camera's pitch (gimbal convention, −90 straight
+    down) and the coarsest GSD allowed at a photo's far edge (metres; None: no limit)."""
+
+    scheme: str
+    pitch_deg: float
+    max_far_gsd_m: float | None
+
+
+def _options(spec: MissionSpec) -> ObliqueOptions:
+    o = spec.pattern.options
+    assert isinstance(o, ObliqueOptions), o  # the spec made it from this kind's fields
+    return o
 
 
 @dataclass(frozen=True)
@@ -37,9 +65,52 @@ class Oblique:
     camera: Camera
     mount: str
 
+    kind: ClassVar[str] = "oblique"
+    title: ClassVar[str] = "oblique"
+    area_is_centreline: ClassVar[bool] = False
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("scheme", "Scheme", "choice", "double-grid",
+              choices=(("double-grid", "double grid (two headings, camera along the flight)"),
+                       ("five-direction", "five directions (nadir, and four looks at 90° steps)"))),
+        Field("pitch_deg", "Camera pitch (°)", "number", -45.0, lo=-80.0, hi=-20.0, hint="Gimbal pitch: -90 looks straight down"),
+        Field("max_far_gsd_cm", "Far-edge GSD limit (cm)", "number", None, lo=0.0, hi=1000.0, lo_open=True, scale=0.01,
+              hint="The coarsest ground sampling a tilted photo may have at its far edge"),
+    )
+
+    @classmethod
+    def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
+        return None, None
+
+    @classmethod
+    def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> ObliqueOptions:
+        return ObliqueOptions(str(values["scheme"]), float(values["pitch_deg"]), values["max_far_gsd_cm"])
+
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> Oblique:
-        return cls(AreaGrid.from_spec(spec), spec.pattern.scheme, spec.pattern.pitch_deg, spec.camera.camera, spec.camera.mount)
+        o = _options(spec)
+        return cls(AreaGrid.from_spec(spec, several_passes=False), o.scheme, o.pitch_deg, spec.camera.camera, spec.camera.mount)
+
+    @classmethod
+    def footprint(cls, spec: MissionSpec, heights: Heights) -> Footprint:
+        o = _options(spec)
+        across, along, far = oblique_footprint(spec, o, heights.spacing_agl_m, heights.max_agl_m)
+        if o.max_far_gsd_m is not None and far > o.max_far_gsd_m:
+            raise InputError(f"pattern.max_far_gsd_cm = {o.max_far_gsd_m * 100:g}: the oblique photos' far edge has a GSD of "
+                             f"{far * 100:.2f} cm from {heights.max_agl_m:.1f} m above ground at pitch {o.pitch_deg:g}°; "
+                             f"fly at most {heights.max_agl_m * o.max_far_gsd_m / far:.1f} m high, or pitch the camera further down",
+                             key="pattern.max_far_gsd_cm")
+        return Footprint(across, along, far)
+
+    @classmethod
+    def times_over(cls, spec: MissionSpec) -> int:
+        return 2 if _options(spec).scheme == "double-grid" else 5
+
+    @classmethod
+    def parameters(cls, plan: Plan) -> dict[str, Any]:
+        o = plan.pattern.options
+        assert isinstance(o, ObliqueOptions)
+        return {"scheme": o.scheme, "pitch_deg": o.pitch_deg,
+                "max_far_gsd_cm": round(o.max_far_gsd_m * 100, 4) if o.max_far_gsd_m is not None else None}
 
     def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
         ahead = oblique_centre_m(self.camera, self.mount, self.pitch_deg, sensor.heights.max_agl_m)
@@ -55,3 +126,63 @@ class Oblique:
                                        look_deg=(lay.heading_deg + 90.0 * i) % 360.0) for i in range(4)))
             how = f"{lay.heading_chosen}; nadir and four obliques at {self.pitch_deg:g}° over the same lines"
         return Layout(lay.heading_deg, how, passes, lay.covered, self.grid.coverage_margin_m, lay.check_exactly)
+
+
+def tilted_corners(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> np.ndarray:
+    """(4, 2) flat-ground footprint corners of a photo from `agl_m` looking north at `pitch_deg`
+    (top-right, top-left, bottom-left, bottom-right): the capture model's. ValueError when a
+    corner's ray reaches the horizon."""
+    from aerosurvey.plan.capture import Optics, Photos, footprint_corners
+
+    zero = np.zeros(1)
+    c: np.ndarray = footprint_corners(Photos.looking(zero, zero, np.array([agl_m]), zero, np.array([pitch_deg])),
+                                      Optics.of(camera, mount), 0.0)[0]
+    return c
+
+
+def oblique_footprint(spec: MissionSpec, options: ObliqueOptions, low_agl_m: float, high_agl_m: float) -> tuple[float, float, float]:
+    """(across, along, far-edge GSD) of the oblique scheme's photos: the rectangle every one of
+    them holds whichever way it looks relative to the flight (along the line or across it, and
+    the nadir photos of the five-direction scheme), at the lowest height; and the coarsest GSD,
+    at the far edge of an oblique photo from the highest. From the capture model: the tilted
+    photo's trapezoid is `depth` deep from its near to its far edge and `near` wide at its near
+    edge, which bound the rectangle inside it."""
+    from aerosurvey.plan.capture import Optics, Photos, edge_gsd
+
+    cam, mount = spec.camera.camera, spec.camera.mount
+
+    def corners(pitch: float) -> np.ndarray:
+        return tilted_corners(cam, mount, pitch, low_agl_m)
+
+    try:
+        c = corners(options.pitch_deg)
+    except ValueError:  # the image's far edge reaches the horizon
+        steepest = next(p for p in np.arange(math.floor(options.pitch_deg), -89.0, -1.0) if _sees_ground(corners, float(p)))
+        raise InputError(f"pattern.pitch_deg = {options.pitch_deg:g} tilts {spec.camera.camera.name}'s image up to the "
+                         f"horizon: its far corners see no ground; allowed with this camera and mount: {steepest:g} or lower",
+                         key="pattern.pitch_deg") from None
+    depth = float(min(c[0, 1], c[1, 1]) - max(c[2, 1], c[3, 1]))
+    near = float(c[3, 0] - c[2, 0])
+    sides = [depth, near]
+    if options.scheme == "five-direction":
+        sides += [float(v) for v in pg.footprint(low_agl_m, spec.camera.camera, spec.camera.mount)]
+    zero = np.zeros(1)
+    high = Photos.looking(zero, zero, np.array([high_agl_m]), zero, np.array([options.pitch_deg]))
+    far_gsd = float(edge_gsd(high, Optics.of(cam, mount), 0.0).far_m[0])
+    if options.scheme == "double-grid":  # a photo looks along its line: its depth along, its near edge across
+        return near, depth, far_gsd
+    return min(sides), min(sides), far_gsd
+
+
+def _sees_ground(corners: Callable[[float], np.ndarray], pitch: float) -> bool:
+    try:
+        corners(pitch)
+    except ValueError:
+        return False
+    return True
+
+
+def oblique_centre_m(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> float:
+    """How far ahead of the camera (on flat ground) the middle of an oblique photo's depth lies."""
+    c = tilted_corners(camera, mount, pitch_deg, agl_m)
+    return float((min(c[0, 1], c[1, 1]) + max(c[2, 1], c[3, 1])) / 2.0)

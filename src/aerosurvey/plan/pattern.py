@@ -1,39 +1,56 @@
-"""Flight patterns, chosen by the spec's `[pattern] kind`: each lays photo strips over the site
-(`Layout`) for the route step to order and join.
+"""The pattern registry: every `[pattern] kind`, and what each one says of itself.
 
     area       parallel lines over the area, optionally cross-hatched            (area_grid.py)
     corridor   strips along a centreline, bending with it                        (corridor.py)
     oblique    the area grid flown with the camera tilted (double grid, five directions) (oblique.py)
 
-A pattern is a class with `from_spec(spec)` and `layout(site, sensor, report)`; adding one is a
-module and an entry in `PATTERNS` (docs/planning.md: "Adding a pattern").
+A pattern is a class (`layout.PatternKind`): its kind, title and [pattern] fields, how its
+options are read from the spec, how it lays its strips over a site, and what the later steps
+ask of it (the ground a photo surely photographs, how many times it photographs the ground,
+the manifest's parameters). Everything that depends on the kind asks the entry here: the
+spec's allowed kinds and fields, the sensor's footprint, the bounds, the manifest (and the
+kinds its reader accepts), the web page's fields. Adding a pattern is its module and one
+entry in `PATTERNS` (docs/planning.md: "How to add a flight pattern").
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Mapping
+from typing import Any
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.area_grid import AreaGrid, strip_geometry
 from aerosurvey.plan.corridor import Corridor
-from aerosurvey.plan.layout import Layout, Pattern
+from aerosurvey.plan.layout import Field, Layout, Pattern, PatternKind
 from aerosurvey.plan.oblique import Oblique
 from aerosurvey.spec import MissionSpec
 
-#: `[pattern] kind` → how the pattern is made from the spec
-PATTERNS: dict[str, Callable[[MissionSpec], Pattern]] = {
-    "area": AreaGrid.from_spec,
-    "corridor": Corridor.from_spec,
-    "oblique": Oblique.from_spec,
-}
+#: `[pattern] kind` → the pattern
+PATTERNS: Mapping[str, type[PatternKind]] = {p.kind: p for p in (AreaGrid, Corridor, Oblique)}
+
+
+def kind_of(kind: str) -> type[PatternKind]:
+    """The registry's pattern of a kind; InputError naming the kinds there are."""
+    found = PATTERNS.get(kind)
+    if found is None:
+        raise InputError(f"pattern.kind = {kind!r} is not a pattern; allowed: {', '.join(PATTERNS)}", key="pattern.kind")
+    return found
 
 
 def pattern_for(spec: MissionSpec) -> Pattern:
-    """The pattern a spec asks for."""
-    make = PATTERNS.get(spec.pattern.kind)
-    if make is None:  # the spec allows only the registry's kinds: a kind without a pattern is a bug
-        raise InputError(f"pattern.kind = {spec.pattern.kind!r} has no pattern; allowed: {', '.join(PATTERNS)}")
-    return make(spec)
+    """The pattern a spec asks for, made from it."""
+    return kind_of(spec.pattern.kind).from_spec(spec)
 
 
-__all__ = ["PATTERNS", "AreaGrid", "Corridor", "Layout", "Oblique", "Pattern", "pattern_for", "strip_geometry"]
+def field_table() -> list[dict[str, Any]]:
+    """The kinds with their fields as plain data: what the web page builds its pattern box from."""
+    def field(f: Field) -> dict[str, Any]:
+        return {"key": f.key, "label": f.label, "type": f.type, "default": f.default, "min": f.lo, "max": f.hi,
+                "choices": [list(c) for c in f.choices], "hint": f.hint}
+
+    return [{"kind": p.kind, "title": p.title, "area_is_centreline": p.area_is_centreline,
+             "fields": [field(f) for f in p.fields]} for p in PATTERNS.values()]
+
+
+__all__ = ["PATTERNS", "AreaGrid", "Corridor", "Layout", "Oblique", "Pattern", "field_table", "kind_of", "pattern_for",
+           "strip_geometry"]

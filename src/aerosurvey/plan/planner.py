@@ -30,7 +30,7 @@ from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.plan.landing import Landing, climb_out_m
 from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Launch, Plan, RouteWaypoint, SortiePlan, Stations
-from aerosurvey.plan.pattern import Layout, pattern_for
+from aerosurvey.plan.pattern import Layout, kind_of, pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours
 from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
@@ -64,12 +64,15 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     report("heights over the ground", 0.03)
     heights = solve_heights(spec, h_target, site.ground)
     stretch = site.autopilot_stretch()
-    sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, autopilot_stretch=stretch)
+    pattern = kind_of(spec.pattern.kind)
+    footprint = pattern.footprint(spec, heights)
+    sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch)
     limit_warnings = check_limits(spec, site, sensor)
-    layout = pattern_for(spec).layout(site, sensor, report)
+    layout = pattern.from_spec(spec).layout(site, sensor, report)
     if spec.flight.fixed_yaw_deg is not None:
         def solve(turns: tuple[float, ...]) -> SensorSolution:
-            return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, autopilot_stretch=stretch, camera_turns_deg=turns)
+            return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
+                                autopilot_stretch=stretch, camera_turns_deg=turns)
         sensor, layout = _under_fixed_yaw(spec, site, sensor, layout, solve, report)
     report("route", 0.72)
     routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.72, 0.84))
@@ -105,19 +108,11 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         launch=Launch(home, routed.home_xy, sites, fence, landing,
                       None if spec.flight.fixed_yaw_deg is None else float(spec.flight.fixed_yaw_deg)),
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
-        bounds=_bounds(site, sensor, layout, _times_over(spec)),
+        bounds=_bounds(site, sensor, layout, pattern.times_over(spec)),
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
                   + _zone_warnings(spec, site)),
     )
-
-
-def _times_over(spec: MissionSpec) -> int:
-    """How many times the pattern photographs the ground: a cross-hatch twice, an oblique double
-    grid twice, five directions five times, else once."""
-    if spec.pattern.kind == "oblique":
-        return 2 if spec.pattern.scheme == "double-grid" else 5
-    return 2 if spec.pattern.kind == "area" and spec.flight.cross_hatch else 1
 
 
 def _bounds(site: Site, sensor: SensorSolution, layout: Layout, directions: int) -> GridBounds:

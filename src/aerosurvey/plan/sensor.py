@@ -5,17 +5,29 @@ trigger, from the spec and the relief under the area. The first step of the pipe
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-import numpy as np
-
-from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.model import Heights
 from aerosurvey.plan.route import Kinematics
 from aerosurvey.spec import MissionSpec
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """The ground a pattern's photo surely photographs, square to its line (metres, at the
+    lowest height above ground), and for a tilted camera the GSD at its far edge."""
+
+    across_m: float
+    along_m: float
+    far_gsd_m: float | None = None  # None: the camera looks straight down (the GSD is the height's)
+
+
+def nadir_footprint(spec: MissionSpec, heights: Heights) -> Footprint:
+    """A camera looking straight down, the image's top along the line."""
+    across, along = pg.footprint(heights.spacing_agl_m, spec.camera.camera, spec.camera.mount)
+    return Footprint(float(across), float(along))
 
 
 @dataclass(frozen=True)
@@ -107,9 +119,10 @@ def lead_in_m(spec: MissionSpec, speed_ms: float, radius_m: float) -> float:
 
 
 def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights: Heights,
-                 warnings: tuple[str, ...] = (), *, autopilot_stretch: float,
+                 warnings: tuple[str, ...] = (), *, footprint: Footprint, autopilot_stretch: float,
                  camera_turns_deg: tuple[float, ...] = ()) -> SensorSolution:
     """Footprint, spacing, base, speed and trigger for the heights the terrain mode decided.
+    `footprint`: the ground a photo of the pattern surely photographs (`PatternKind.footprint`).
     `camera_turns_deg`: the angles a camera held at a fixed yaw is turned by against the lines; the
     footprint is then the ground it surely photographs across and along the line at every one of them.
     `autopilot_stretch`: the most ground metres a metre of the autopilot's distance spans at the
@@ -119,16 +132,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
     if heights.max_agl_m > spec.vehicle.max_height_agl_m + 1e-9:
         raise InputError(f"the plan would fly {heights.max_agl_m:.1f} m above ground, above "
                          f"vehicle.max_height_agl_m = {spec.vehicle.max_height_agl_m:g} m")
-    across, along = pg.footprint(heights.spacing_agl_m, cam, spec.camera.mount)
-    gsd_far = None
-    if spec.pattern.kind == "oblique":
-        across, along, gsd_far = oblique_footprint(spec, heights.spacing_agl_m, heights.max_agl_m)
-        limit = spec.pattern.max_far_gsd_m
-        if limit is not None and gsd_far > limit:
-            raise InputError(f"pattern.max_far_gsd_cm = {limit * 100:g}: the oblique photos' far edge has a GSD of "
-                             f"{gsd_far * 100:.2f} cm from {heights.max_agl_m:.1f} m above ground at pitch {spec.pattern.pitch_deg:g}°; "
-                             f"fly at most {heights.max_agl_m * limit / gsd_far:.1f} m high, or pitch the camera further down",
-                             key="pattern.max_far_gsd_cm")
+    across, along, gsd_far = footprint.across_m, footprint.along_m, footprint.far_gsd_m
     if camera_turns_deg:
         turned = [pg.turned_footprint(across, along, t) for t in camera_turns_deg]
         across, along = min(a for a, _ in turned), min(b for _, b in turned)
@@ -180,66 +184,6 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
 def hover_rest_s(spec: MissionSpec) -> float:
     """Hover-and-capture: the seconds at rest at a station, settling (`camera.settle_s`) and the shot (the camera's cycle)."""
     return spec.camera.settle_s + spec.camera.min_cycle_s
-
-
-def tilted_corners(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> np.ndarray:
-    """(4, 2) flat-ground footprint corners of a photo from `agl_m` looking north at `pitch_deg`
-    (top-right, top-left, bottom-left, bottom-right): the capture model's. ValueError when a
-    corner's ray reaches the horizon."""
-    from aerosurvey.plan.capture import Optics, Photos, footprint_corners
-
-    zero = np.zeros(1)
-    c: np.ndarray = footprint_corners(Photos.looking(zero, zero, np.array([agl_m]), zero, np.array([pitch_deg])),
-                                      Optics.of(camera, mount), 0.0)[0]
-    return c
-
-
-def oblique_footprint(spec: MissionSpec, low_agl_m: float, high_agl_m: float) -> tuple[float, float, float]:
-    """(across, along, far-edge GSD) of the oblique scheme's photos: the rectangle every one of
-    them holds whichever way it looks relative to the flight (along the line or across it, and
-    the nadir photos of the five-direction scheme), at the lowest height; and the coarsest GSD,
-    at the far edge of an oblique photo from the highest. From the capture model: the tilted
-    photo's trapezoid is `depth` deep from its near to its far edge and `near` wide at its near
-    edge, which bound the rectangle inside it."""
-    from aerosurvey.plan.capture import Optics, Photos, edge_gsd
-
-    cam, mount = spec.camera.camera, spec.camera.mount
-
-    def corners(pitch: float) -> np.ndarray:
-        return tilted_corners(cam, mount, pitch, low_agl_m)
-
-    try:
-        c = corners(spec.pattern.pitch_deg)
-    except ValueError:  # the image's far edge reaches the horizon
-        steepest = next(p for p in np.arange(math.floor(spec.pattern.pitch_deg), -89.0, -1.0) if _sees_ground(corners, float(p)))
-        raise InputError(f"pattern.pitch_deg = {spec.pattern.pitch_deg:g} tilts {spec.camera.camera.name}'s image up to the "
-                         f"horizon: its far corners see no ground; allowed with this camera and mount: {steepest:g} or lower",
-                         key="pattern.pitch_deg") from None
-    depth = float(min(c[0, 1], c[1, 1]) - max(c[2, 1], c[3, 1]))
-    near = float(c[3, 0] - c[2, 0])
-    sides = [depth, near]
-    if spec.pattern.scheme == "five-direction":
-        sides += [float(v) for v in pg.footprint(low_agl_m, spec.camera.camera, spec.camera.mount)]
-    zero = np.zeros(1)
-    high = Photos.looking(zero, zero, np.array([high_agl_m]), zero, np.array([spec.pattern.pitch_deg]))
-    far_gsd = float(edge_gsd(high, Optics.of(cam, mount), 0.0).far_m[0])
-    if spec.pattern.scheme == "double-grid":  # a photo looks along its line: its depth along, its near edge across
-        return near, depth, far_gsd
-    return min(sides), min(sides), far_gsd
-
-
-def _sees_ground(corners: Callable[[float], np.ndarray], pitch: float) -> bool:
-    try:
-        corners(pitch)
-    except ValueError:
-        return False
-    return True
-
-
-def oblique_centre_m(camera: Camera, mount: str, pitch_deg: float, agl_m: float) -> float:
-    """How far ahead of the camera (on flat ground) the middle of an oblique photo's depth lies."""
-    c = tilted_corners(camera, mount, pitch_deg, agl_m)
-    return float((min(c[0, 1], c[1, 1]) + max(c[2, 1], c[3, 1])) / 2.0)
 
 
 def reach_beyond_area_m(spec: MissionSpec) -> float:

@@ -175,9 +175,12 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> 
     tol = simplify_tolerance_m(spec, height_agl_m) * k
     centreline = sides = None
     warnings: tuple[str, ...] = ()
-    if spec.pattern.kind == "corridor":
+    from aerosurvey.plan.pattern import kind_of  # the registry's patterns are laid on a Site
+
+    pattern = kind_of(spec.pattern.kind)
+    if pattern.area_is_centreline:
         given = planar.forward(inputs.area_wgs84)
-        line, sides, warnings = _corridor_centreline(spec, given, k)
+        line, sides, warnings = _corridor_centreline(spec, pattern.centreline_sides(spec), given, k)
         # the corridor round a simpler centreline (within `tol` of the given one), each side wider
         # by the tolerance: it covers the corridor round the given centreline
         centreline = shapely.simplify(shapely.line_merge(line), tol, preserve_topology=False)
@@ -221,29 +224,29 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> 
                 spec.flight.exclusion_margin_m, sides, warnings)
 
 
-def _corridor_centreline(spec: MissionSpec, given: BaseGeometry,
+def _corridor_centreline(spec: MissionSpec, asked: tuple[float | None, float | None], given: BaseGeometry,
                          k: float) -> tuple[BaseGeometry, tuple[float, float], tuple[str, ...]]:
     """A corridor's centreline (planning CRS), its ground left and right of it (ground metres) and
     what to tell the user: the line given, or the one derived from a corridor polygon
     (plan/centreline.py) with the spec's widths or, without them, the widths that cover the polygon."""
-    p = spec.pattern
+    left, right = asked
     where = f"area.file {str(spec.area.file)!r}" if spec.area.file is not None else "area.wkt"
     if given.geom_type not in ("Polygon", "MultiPolygon"):
-        if p.left_m is None or p.right_m is None:
+        if left is None or right is None:
             raise InputError(f"{where} holds a centreline: [pattern] kind = 'corridor' needs width_m (centred on it) or "
                              "left_m and right_m for a line (only a corridor polygon's widths are derived)", key="pattern.width_m")
-        return given, (p.left_m, p.right_m), ()
+        return given, (left, right), ()
     derived = derive_centreline(given, k, where)
     length_km = derived.centreline.length / k / 1000.0
     tolerance = f"simplified within {derived.tolerance / k:.1f} m"
-    if p.left_m is None or p.right_m is None:
+    if left is None or right is None:
         sides = (derived.left / k, derived.right / k)
         return derived.centreline, sides, (
             f"centreline derived from the corridor polygon: {length_km:,.2f} km ({tolerance}), {sides[0]:.1f} m to its "
             f"left and {sides[1]:.1f} m to its right cover the polygon",)
-    band = corridor_polygon(derived.centreline, p.left_m * k, p.right_m * k)
+    band = corridor_polygon(derived.centreline, left * k, right * k)
     share = shapely.intersection(given, band).area / given.area
-    return derived.centreline, (p.left_m, p.right_m), (
+    return derived.centreline, (left, right), (
         f"centreline derived from the corridor polygon: {length_km:,.2f} km ({tolerance}); the corridor the spec gives "
-        f"({p.left_m:g} m left, {p.right_m:g} m right) holds {100 * share:.1f} % of the polygon, "
+        f"({left:g} m left, {right:g} m right) holds {100 * share:.1f} % of the polygon, "
         f"{derived.left / k:.1f} m left and {derived.right / k:.1f} m right would hold all of it",)

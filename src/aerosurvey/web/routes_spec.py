@@ -37,13 +37,14 @@ async def api_state(request: Request) -> Response:
 def _state(state: ServerState) -> dict[str, Any]:
     """The page's starting point (the camera database and profiles are read from files)."""
     from aerosurvey.camera import database
+    from aerosurvey.plan.pattern import field_table
     from aerosurvey.rules.profile import available_profiles
 
     cams = [{"id": c.id, "name": c.name, "focal_mm": c.focal_mm, "pixel_pitch_um": round(c.pixel_pitch_um, 2)}
             for c in sorted(database().values(), key=lambda c: c.id)]
     profiles = [{"id": p.id, "name": p.name, "rules": len(p.rules)} for p in available_profiles().values()]
     return {"spec": state.spec, "spec_path": str(state.spec_path) if state.spec_path else None, "cameras": cams,
-            "profiles": profiles, "tile_url": state.tile_url, "upload_limit": state.upload_limit,
+            "profiles": profiles, "patterns": field_table(), "tile_url": state.tile_url, "upload_limit": state.upload_limit,
             "preview": geometry_preview(state.workspace, state.spec),
             # a page without a spec: the settings an area drawn on it starts from
             "defaults": {k: v for k, v in service.default_spec({}, "drawn-area").items() if k != "area"},

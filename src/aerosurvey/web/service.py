@@ -26,6 +26,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey import manifest as mf
 from aerosurvey.errors import InputError
+from aerosurvey.plan.pattern import PATTERNS, kind_of
 from aerosurvey.report.summary import summary_json
 from aerosurvey.web.mapproj import MapFrame
 
@@ -143,7 +144,8 @@ def with_new_area(spec: dict[str, Any], area: dict[str, Any], name: str) -> dict
     out["mission"]["crs"] = "auto"
     out["area"] = dict(area)
     out.pop("terrain", None)
-    if (out.get("pattern") or {}).get("kind") == "corridor":  # an area file holds polygons, not a centreline
+    kind = (out.get("pattern") or {}).get("kind")
+    if isinstance(kind, str) and kind in PATTERNS and PATTERNS[kind].area_is_centreline:  # an area file holds polygons, not a centreline
         out.pop("pattern")
     if "battery" in out:
         out["battery"].pop("launch_points", None)
@@ -414,7 +416,9 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         rules.append({**r, "where": where})
     return {
         "name": plan.name,
-        "pattern": plan.pattern.kind,  # a corridor's "area" is its band around the centreline
+        "pattern": plan.pattern.kind,
+        # a centreline's "area" (a corridor's) is its band around the centreline
+        "area_is_centreline": kind_of(plan.pattern.kind).area_is_centreline,
         "frame": frame.as_dict(),
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],

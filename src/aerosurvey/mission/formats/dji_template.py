@@ -66,10 +66,8 @@ def _first_line(p: FlightProgram) -> tuple[int, int] | None:
 
 
 def _why_not(plan: Plan, p: FlightProgram, whole: bool) -> str | None:
-    """Why no mapping template expresses the flight, or None: the conditions common to both."""
-    kind = plan.pattern.kind
-    if kind not in ("area", "corridor"):
-        return f"pattern.kind = {kind!r}: DJI's oblique template (mapping3d) flies its own five passes"
+    """Why no mapping template expresses the flight, or None: the conditions common to both (one
+    pass of nadir photos: parallel lines in a frame for mapping2d, strips for mappingStrip)."""
     passes = [p for p in plan.layout.passes if not p.empty]
     if len(passes) != 1:
         headings = sorted({round(p.frame.heading_deg) % 180 for p in passes if p.frame is not None})
@@ -120,7 +118,7 @@ def template_choice(plan: Plan, p: FlightProgram, whole: bool, asked: str = DJI_
         height_m=a.alt_m,
         shoot_height_m=round(plan.sensor.heights.spacing_agl_m, 2),
     )
-    if plan.pattern.kind == "area":
+    if plan.layout.passes[0].frame is not None:  # parallel lines over the area: its outline
         area = plan.site.area_wgs84
         if not isinstance(area, shapely.Polygon) or len(area.interiors):
             return "the area is several polygons or has holes: a mapping template holds one outline"

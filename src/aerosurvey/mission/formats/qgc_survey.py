@@ -438,12 +438,11 @@ def survey_shapes(plan: Plan, passes: Iterable[int]) -> SurveyShapes:
     """Each of `passes`' Survey polygon and lines (`survey_geometry`) by pass index, made once for
     the files of one render (the whole mission's .plan and its sorties' share a pass's polygon);
     None for a pass whose lines are not evenly spaced (an oblique grid's bands flown as one pass),
-    which QGroundControl's generator would lay evenly on an edit: it stays plain items. A
-    corridor's passes are Corridor Scan items, made without these."""
-    if plan.pattern.kind == "corridor":
-        return MappingProxyType({})
+    which QGroundControl's generator would lay evenly on an edit: it stays plain items. A pass
+    of strips (polylines: a corridor's) has none: it is a Corridor Scan item, made without these."""
+    framed = {p.index for p in plan.layout.passes if p.frame is not None}
     shapes: dict[int, tuple[np.ndarray, _Strips] | None] = {}
-    for p in sorted(set(passes)):
+    for p in sorted(set(passes) & framed):
         ring, st = survey_geometry(plan, p)
         even = len(st.v) < 2 or float(np.max(np.abs(np.diff(st.v) - st.spacing))) <= 0.01 * st.spacing
         shapes[p] = (ring, st) if even else None
@@ -452,10 +451,10 @@ def survey_shapes(plan: Plan, passes: Iterable[int]) -> SurveyShapes:
 
 def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission,
                  first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
-    """A Survey item for each of the mission's pass blocks with a shape in `shapes`
-    (`survey_shapes`), or a Corridor Scan item for a corridor's, where its strips are the offsets
-    of one polyline; the mission flies stations `first_station`..`last_station` (flight order) of
-    the plan (a sortie flies a part)."""
+    """A Survey item for each of the mission's pass blocks of parallel lines in a frame with a
+    shape in `shapes` (`survey_shapes`), or a Corridor Scan item for a pass of strips where they
+    are the offsets of one polyline; the mission flies stations `first_station`..`last_station`
+    (flight order) of the plan (a sortie flies a part). Any other pass stays plain items."""
     last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
     cam = plan.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
@@ -466,13 +465,14 @@ def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission,
         mode = DISTANCE_CALC_ABOVE_TERRAIN
     else:
         mode = DISTANCE_RELATIVE
+    framed = {p.index for p in plan.layout.passes if p.frame is not None}
     out: list[QgcSurvey] = []
     for p, a, b in survey_blocks(m):
         polygon: tuple[tuple[float, float], ...] = ()
         polyline: tuple[tuple[float, float], ...] = ()
         width, angle = 0.0, 0.0
-        if plan.pattern.kind == "corridor":
-            # a corridor's strips bend: a Survey item would regenerate straight lines (the road
+        if p not in framed:
+            # strips bend (a corridor's): a Survey item would regenerate straight lines (the road
             # example: 4 for our 12 runs, their ends up to 2.6 km from ours); a Corridor Scan item
             # offsets one polyline instead
             found = corridor_geometry(plan, p)

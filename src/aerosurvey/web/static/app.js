@@ -70,12 +70,45 @@ function fillForm() {
 
 // ---- the pattern: area grid, corridor along a drawn centreline, oblique ------------------------------
 function patternKind() { return (S.spec.pattern && S.spec.pattern.kind) || "area"; }
-/** The [pattern] keys each kind reads (the spec refuses the others). */
-const PATTERN_KEYS = { area: [], corridor: ["width_m", "left_m", "right_m"], oblique: ["scheme", "pitch_deg", "max_far_gsd_cm"] };
+/** The patterns the server's registry has: kind → {title, area_is_centreline, fields} (GET /api/state). */
+S.patterns = {};
+/** Whether the chosen pattern flies along a centreline drawn as the area (a corridor). */
+function centrelineKind() { return !!(S.patterns[patternKind()] || {}).area_is_centreline; }
+/** The pattern box from the registry: a choice of kind, and each kind's fields (shown for that kind only). */
+function buildPatternBox(patterns) {
+  const select = $("#pattern-kind"), box = $("#pattern-fields");
+  for (const p of patterns) {
+    S.patterns[p.kind] = p;
+    const o = document.createElement("option"); o.value = p.kind; o.textContent = p.title; select.appendChild(o);
+    for (const f of p.fields) {
+      const label = document.createElement("label"); label.dataset.pattern = p.kind;
+      let input;
+      if (f.type === "choice") {
+        input = document.createElement("select");
+        const none = document.createElement("option"); none.value = ""; none.textContent = `default (${f.default})`; input.appendChild(none);
+        for (const [value, text] of f.choices) { const c = document.createElement("option"); c.value = value; c.textContent = text; input.appendChild(c); }
+        input.dataset.type = "text";
+      } else {
+        input = document.createElement("input"); input.type = "number"; input.step = "any"; input.dataset.type = "number";
+        if (f.min !== null) input.min = String(f.min);
+        if (f.max !== null) input.max = String(f.max);
+        input.placeholder = f.default === null ? "none" : String(f.default);
+      }
+      input.dataset.key = `pattern.${f.key}`;
+      if (f.hint) input.title = f.hint;
+      label.append(`${f.label} `, input);
+      box.appendChild(label);
+    }
+    const err = document.createElement("div"); err.className = "err"; err.dataset.pattern = p.kind;
+    err.dataset.for = p.fields.map((f) => `pattern.${f.key}`).join(" ");
+    box.appendChild(err);
+  }
+}
 /** Only the fields of the chosen pattern and trigger are shown. */
 function showChosenFields() {
   const kind = patternKind(), trigger = (S.spec.camera && S.spec.camera.trigger) || "distance";
   for (const el of $$("[data-pattern]")) el.hidden = el.dataset.pattern !== kind;
+  for (const el of $$("[data-centreline]")) el.hidden = !centrelineKind();
   for (const el of $$("[data-trigger]")) el.hidden = el.dataset.trigger !== trigger;
 }
 /** The pattern's kind changed: keys of other kinds go, a corridor is not cross-hatched, and the spec's area
@@ -83,9 +116,10 @@ function showChosenFields() {
 function onKind() {
   const kind = patternKind();
   L.area.changed();  // area polygons are drawn faint under a corridor
-  for (const k of Object.keys(S.spec.pattern || {})) if (k !== "kind" && !PATTERN_KEYS[kind].includes(k)) delete S.spec.pattern[k];
-  if (kind === "corridor" && S.spec.flight) delete S.spec.flight.cross_hatch;
-  const role = kind === "corridor" ? "centreline" : "area";
+  const keys = ((S.patterns[kind] || {}).fields || []).map((f) => f.key);
+  for (const k of Object.keys(S.spec.pattern || {})) if (k !== "kind" && !keys.includes(k)) delete S.spec.pattern[k];
+  if (centrelineKind() && S.spec.flight) delete S.spec.flight.cross_hatch;
+  const role = centrelineKind() ? "centreline" : "area";
   const holds = /^\s*(MULTI)?LINESTRING/i.test((S.spec.area && S.spec.area.wkt) || "") ? "centreline" : "area";
   if (holds !== role && editFeatures(role).length) { S.touched.add(role); writeArea(); }
   fillForm();
@@ -332,7 +366,7 @@ const EDIT_STYLES = { zone: st.zone, launch: launchStyle, centreline: centreline
 const unusedAreaStyle = new olb.Style({ stroke: new olb.Stroke({ color: "rgba(46,125,50,0.45)", width: 1.5, lineDash: [4, 4] }) });
 /** The drawn geometry by role; area polygons a corridor does not use are drawn faint. */
 function editStyle(f) {
-  if (f.get("role") === "area" && patternKind() === "corridor") return unusedAreaStyle;
+  if (f.get("role") === "area" && centrelineKind()) return unusedAreaStyle;
   return EDIT_STYLES[f.get("role")] || st.area;
 }
 
@@ -457,7 +491,7 @@ function render(view) {
   const V = view.layers;
   const put = (layer, feats) => { const s = layer.getSource(); s.clear(true); s.addFeatures(feats); };
   put(L.uncovered, (V.uncovered || []).map((p) => new olb.Feature(polygonOf(p))));
-  put(L.corridor, view.pattern === "corridor" ? V.area.map((p) => new olb.Feature(polygonOf(p))) : []);  // the planned band
+  put(L.corridor, view.area_is_centreline ? V.area.map((p) => new olb.Feature(polygonOf(p))) : []);  // the planned band
   put(L.lines, V.lines.map((l) => new olb.Feature({ geometry: new olb.LineString(l.xy.map(frameXY)), id: l.id, sortie: l.sortie })));
   put(L.stations, V.stations.ids.map((id, i) => pointFeature(V.stations.x[i], V.stations.y[i], { id, sortie: V.stations.sortie[i] })));
   const sites = V.launch.length ? V.launch : [{ id: "home", ...V.home }];
@@ -679,7 +713,7 @@ function loadEditable() {
   const planned = (key) => (S.view ? S.view.layers[key] : []).map(polygonOf);
   if (area.wkt && (!area.wkt_crs || area.wkt_crs === WGS84)) addArea(area.wkt, add);
   else if (S.preview && S.preview.area) addArea(S.preview.area, add);
-  else if (!S.view || S.view.pattern !== "corridor") planned("area").forEach((g) => add(g, "area"));  // not a corridor's band
+  else if (!S.view || !S.view.area_is_centreline) planned("area").forEach((g) => add(g, "area"));  // not a corridor's band
   if (S.zones !== null) S.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else planned("exclusions").forEach((g) => add(g, "zone"));
@@ -697,7 +731,7 @@ function launchPoints() {
 
 /** The area into the spec: a corridor's centreline (pattern.kind = "corridor"), else the area polygons. */
 function writeArea() {
-  const polys = editFeatures(patternKind() === "corridor" ? "centreline" : "area").map((f) => f.getGeometry());
+  const polys = editFeatures(centrelineKind() ? "centreline" : "area").map((f) => f.getGeometry());
   if (!polys.length) { delete S.spec.area; return; }
   if (!S.spec.camera && S.defaults) { S.spec = { ...structuredClone(S.defaults), ...S.spec }; fillForm(); }  // a page started without a spec
   const { file, wkt, wkt_crs, ...rest } = S.spec.area || {};  // the zone files and the launch point stay
@@ -781,8 +815,10 @@ function onDrawn(tool, feature) {
   if (tool === "area" || tool === "zone" || tool === "launch" || tool === "centreline") {
     const role = tool;
     edit.addFeature(new olb.Feature({ geometry: geom, role }));
-    if (role === "centreline" && patternKind() !== "corridor") {  // a centreline makes the plan a corridor along it
-      S.spec.pattern = { kind: "corridor", width_m: DEFAULT_CORRIDOR_WIDTH_M };
+    if (role === "centreline" && !centrelineKind()) {  // a centreline makes the plan one along it (a corridor)
+      const along = Object.values(S.patterns).find((p) => p.area_is_centreline);
+      S.spec.pattern = { kind: along.kind };
+      if (along.fields.some((f) => f.key === "width_m")) S.spec.pattern.width_m = DEFAULT_CORRIDOR_WIDTH_M;
       onKind();
     }
     geometryChanged([role]);
@@ -1015,6 +1051,7 @@ async function start() {
   }
   const inline = document.createElement("option"); inline.value = "__inline__"; inline.textContent = "inline camera from the spec"; inline.disabled = true;
   sel.appendChild(inline);
+  buildPatternBox(st.patterns);
   const pbox = $("#profiles");
   for (const p of st.profiles) {
     const l = document.createElement("label"); l.style.justifyContent = "flex-start";
