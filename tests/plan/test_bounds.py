@@ -119,3 +119,28 @@ def _fewest_lines(width: float, across: float, spacing: float, k: int) -> int:
             if ((np.abs(pts[:, None] - lines[None, :]) <= across / 2.0 + 1e-6).sum(axis=1) >= k).all():
                 return n
     raise AssertionError("no count of lines covers the width")
+
+
+def test_a_corridor_one_footprint_spans_is_bound_by_one_strip(tmp_path):
+    """A corridor narrower than a footprint is one strip down the middle (its guarantee): the
+    bound is one strip and at most the photos flown (was: a bound of 2 strips over a plan of 1)."""
+    import json
+
+    from click.testing import CliRunner
+    from tests.conftest import write_geojson
+
+    from aerosurvey.cli import main
+
+    write_geojson(tmp_path / "line.geojson", [[15.0, 49.4], [15.01, 49.4], [15.02, 49.405]], "LineString")
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[mission]\nname = "narrow"\n[area]\nfile = "line.geojson"\n[pattern]\nkind = "corridor"\nwidth_m = 40\n'
+                    '[camera]\nmodel = "sony-a6000-16mm"\n[targets]\ngsd_cm = 2.5\nforward_overlap = 0.75\nside_overlap = 0.6\n'
+                    '[vehicle]\ntype = "copter"\ncruise_speed_ms = 10.0\n')
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp_path / "o")])
+    assert res.exit_code in (0, 1), res.output
+    m = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert m["derived"]["footprint_across_m"] > 40
+    flown_lines = len({line["line"] for line in m["lines"]})
+    assert flown_lines == 1
+    assert m["derived"]["bounds"]["strips"] == 1
+    assert m["derived"]["bounds"]["photos"] <= len(m["stations"])

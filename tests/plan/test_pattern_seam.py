@@ -24,6 +24,7 @@ from tests.conftest import make_spec
 
 from aerosurvey.cli import main
 from aerosurvey.plan import pattern as registry
+from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds
 from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.polyline import stations_along, strips_clear_of
 from aerosurvey.plan.route import Pass
@@ -60,8 +61,9 @@ class Diagonals:
         return nadir_footprint(spec, heights)
 
     @classmethod
-    def times_over(cls, spec: MissionSpec) -> int:
-        return 1
+    def bounds(cls, spec: MissionSpec, site: Any, sensor: Any, layout: Layout) -> GridBounds:
+        return grid_bounds(covered(site.area, layout.margin_m, site.grid_scale), site.grid_scale, sensor.across_m,
+                           sensor.spacing_m, sensor.base_m, sensor.side_images_per_point, 1)
 
     @classmethod
     def parameters(cls, plan: Any) -> dict[str, Any]:

@@ -16,7 +16,7 @@ import shapely.ops
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.bounds import narrowest
+from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds, narrowest
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.layout import Field, Layout
@@ -90,8 +90,9 @@ class AreaGrid:
         return nadir_footprint(spec, heights)
 
     @classmethod
-    def times_over(cls, spec: MissionSpec) -> int:
-        return 2 if spec.flight.cross_hatch else 1
+    def bounds(cls, spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> GridBounds:
+        return grid_bounds(covered(site.area, layout.margin_m, site.grid_scale), site.grid_scale, sensor.across_m,
+                           sensor.spacing_m, sensor.base_m, sensor.side_images_per_point, 2 if spec.flight.cross_hatch else 1)
 
     @classmethod
     def parameters(cls, plan: Plan) -> dict[str, Any]:

@@ -61,16 +61,27 @@ def narrowest(geom: BaseGeometry) -> tuple[float, float]:
 
 
 def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_m: float, base_m: float,
-                side_per_point: int, passes: int, width_m: float | None = None) -> GridBounds:
+                side_per_point: int, passes: int, width_m: float | None = None, one_strip_when_narrow: bool = False) -> GridBounds:
     """The strip and photo bounds of `area` (planning-grid coordinates, `grid_scale` grid metres
     per ground metre) for strips of width `across_m` at `spacing_m`, photos every `base_m`.
     `width_m`: the width the strips run along instead (a corridor's, its strips following its
-    centreline); None: the area's minimum width."""
+    centreline); None: the area's minimum width. `one_strip_when_narrow`: the pattern's guarantee
+    for ground narrower than a footprint is one strip down its middle (a corridor's), not
+    `side_per_point` strips: then one strip, and each photo sees at most base × footprint of new ground."""
     width = minimum_width(area) / grid_scale if width_m is None else width_m
     k = side_per_point
+    ground = area.area / grid_scale**2
+    if one_strip_when_narrow and width < across_m:
+        return GridBounds(width, passes, passes * math.ceil(ground / (base_m * across_m) - 1e-9))
     strips = k if width < across_m else max(k, math.ceil((width - across_m) / spacing_m - 1e-9) + 2 * k - 1)
-    photos = math.ceil(area.area / grid_scale**2 / (base_m * spacing_m) - 1e-9)
+    photos = math.ceil(ground / (base_m * spacing_m) - 1e-9)
     return GridBounds(width, passes * strips, passes * photos)
 
 
-__all__ = ["GridBounds", "grid_bounds", "minimum_width", "narrowest"]
+def covered(area: BaseGeometry, margin_m: float, grid_scale: float) -> BaseGeometry:
+    """The ground the photos must see: the area (planning CRS) grown by the coverage margin (ground metres)."""
+    margin = margin_m * grid_scale
+    return shapely.buffer(area, margin, quad_segs=4) if margin > 0 else area
+
+
+__all__ = ["GridBounds", "covered", "grid_bounds", "minimum_width", "narrowest"]

@@ -30,6 +30,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError, bad_value
+from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds
 from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.lines import station_span, strip_offsets
 from aerosurvey.plan.photogrammetry import TRIGGER_CHECK_HZ, ardupilot_distance_m
@@ -111,8 +112,13 @@ class Corridor:
         return nadir_footprint(spec, heights)
 
     @classmethod
-    def times_over(cls, spec: MissionSpec) -> int:
-        return 1
+    def bounds(cls, spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> GridBounds:
+        """Strips follow the centreline: the count across its width (left + right, grown by the
+        coverage margin), not across its outline's (a bent corridor's is wide); one strip down
+        the middle of a corridor one footprint spans."""
+        width = None if site.sides_m is None else sum(site.sides_m) + 2.0 * layout.margin_m
+        return grid_bounds(covered(site.area, layout.margin_m, site.grid_scale), site.grid_scale, sensor.across_m,
+                           sensor.spacing_m, sensor.base_m, sensor.side_images_per_point, 1, width, one_strip_when_narrow=True)
 
     @classmethod
     def parameters(cls, plan: Plan) -> dict[str, Any]:

@@ -18,6 +18,7 @@ from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
 
 if TYPE_CHECKING:
+    from aerosurvey.plan.bounds import GridBounds
     from aerosurvey.plan.model import Heights, Plan
     from aerosurvey.spec import FlightSpec, MissionSpec
 
@@ -89,8 +90,9 @@ class PatternKind(Protocol):
         ...
 
     @classmethod
-    def times_over(cls, spec: MissionSpec) -> int:
-        """How many times the pattern photographs the same ground (the bounds' multiple)."""
+    def bounds(cls, spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> GridBounds:
+        """The fewest strips and photos any grid of parallel strips at the plan's spacing and base
+        flies for the pattern's guarantee (plan/bounds.py), each time it photographs the ground."""
         ...
 
     @classmethod

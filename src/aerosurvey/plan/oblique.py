@@ -29,6 +29,7 @@ from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.area_grid import AreaGrid
+from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds
 from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.sensor import Footprint, SensorSolution
@@ -102,8 +103,11 @@ class Oblique:
         return Footprint(across, along, far)
 
     @classmethod
-    def times_over(cls, spec: MissionSpec) -> int:
-        return 2 if _options(spec).scheme == "double-grid" else 5
+    def bounds(cls, spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> GridBounds:
+        """An area grid's, once for each pass over the ground: a double grid two, five directions five."""
+        return grid_bounds(covered(site.area, layout.margin_m, site.grid_scale), site.grid_scale, sensor.across_m,
+                           sensor.spacing_m, sensor.base_m, sensor.side_images_per_point,
+                           2 if _options(spec).scheme == "double-grid" else 5)
 
     @classmethod
     def parameters(cls, plan: Plan) -> dict[str, Any]:

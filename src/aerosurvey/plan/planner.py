@@ -22,7 +22,6 @@ import shapely
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
-from aerosurvey.plan.bounds import GridBounds, grid_bounds
 from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
@@ -108,20 +107,11 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
         launch=Launch(home, routed.home_xy, sites, fence, landing,
                       None if spec.flight.fixed_yaw_deg is None else float(spec.flight.fixed_yaw_deg)),
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
-        bounds=_bounds(site, sensor, layout, pattern.times_over(spec)),
+        bounds=pattern.bounds(spec, site, sensor, layout),
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
                   + _zone_warnings(spec, site)),
     )
-
-
-def _bounds(site: Site, sensor: SensorSolution, layout: Layout, directions: int) -> GridBounds:
-    """The grid's lower bounds (plan/bounds.py) for the area the photos must see: grown by the coverage margin."""
-    margin = layout.margin_m * site.grid_scale
-    covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
-    width = None if site.sides_m is None else sum(site.sides_m) + 2.0 * layout.margin_m
-    return grid_bounds(covered, site.grid_scale, sensor.across_m, sensor.spacing_m, sensor.base_m,
-                       sensor.side_images_per_point, directions, width)
 
 
 #: how many times the layout is laid again for a fixed yaw before the plan is refused (each time
