@@ -78,6 +78,62 @@ def test_a_resumed_flight_flies_as_planned(tmp_path):
         assert abs(row["time_ratio"] - 1.0) <= 0.10, row
 
 
+@pytest.mark.sitl
+def test_a_flight_cut_into_rtl_along_its_line_is_resumed_without_a_gap(tmp_path):
+    """The default 17 ha area flown north-south from its edge: line 2 flies back towards home, and
+    the flight is switched to RTL half way along it. ArduPilot keeps triggering in RTL, on its way
+    home along and off the line; `log ingest` matches some of those photos to the next stations.
+    `resume --log` counts only the photos in AUTO within the tolerance, and the union of both
+    flights' AUTO photos (read with pymavlink from their logs: CAM and MODE) takes every station
+    within a quarter base."""
+    from conftest import make_spec
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
+    out = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    lines = [s["line"] for s in manifest["stations"]]
+    order = sorted(set(lines), key=lines.index)
+    cut = lines.count(order[0]) + lines.count(order[1]) // 2
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--rtl-after", str(cut), "--sitl-bin", binary, "--speedup", "20"])
+    assert res.exit_code == 0, res.output
+    first = json.loads((out / "sitl" / "sitl_report.json").read_text())["sorties"][0]
+    assert first["rtl_after_photos"] == cut and first["triggers_flown"] > cut, first  # it took photos in RTL
+    flight = tmp_path / "flight"
+    res = CliRunner().invoke(main, ["log", "ingest", str(out / "sitl" / first["log"]), "--plan", str(out), "-o", str(flight)])
+    assert res.exit_code == 0, res.output
+    rows = [r for r in (flight / "events.csv").read_text().splitlines()[2:]]
+    assert any(",RTL,P" in r for r in rows), "no RTL photo was matched to a station: the cut does not test the trap"
+    resumed = tmp_path / "resume"
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--log", str(flight), "-o", str(resumed)])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--resume", str(resumed), "--sitl-bin", binary, "--speedup", "20"])
+    assert res.exit_code == 0, res.output
+    logs = [out / "sitl" / first["log"]] + [resumed / "sitl" / r["log"]
+                                            for r in json.loads((resumed / "sitl" / "sitl_report.json").read_text())["sorties"]]
+    auto = []  # (lat, lon) of every photo taken in AUTO (ArduCopter mode 3)
+    for log in logs:
+        mode = None
+        for m in _log(log, ["MODE", "CAM"]):
+            if m.get_type() == "MODE":
+                mode = m.ModeNum
+            elif mode == 3:
+                auto.append((m.Lat, m.Lng))
+    import numpy as np
+
+    st = manifest["stations"]
+    k = np.pi / 180.0 * 6_371_000.0
+    lat0 = np.radians(np.mean([s["lat"] for s in st]))
+    a = np.array(auto)
+    d = np.hypot((np.array([s["lat"] for s in st])[:, None] - a[None, :, 0]) * k,
+                 (np.array([s["lon"] for s in st])[:, None] - a[None, :, 1]) * k * np.cos(lat0)).min(axis=1)
+    tol = manifest["derived"]["photo_base_m"] / 4
+    assert [s["id"] for s, di in zip(st, d) if di > tol] == []
+
+
 # ---- the patterns of issue 24: corridor, oblique double grid, hover-and-capture --------------------
 
 def _plan_and_fly(spec: Path, out: Path, binary: str) -> tuple[dict, dict]:
