@@ -52,10 +52,9 @@ def test_example_flies_as_planned(name, vehicle, tmp_path):
         assert (out / "sitl" / row["log"]).exists()
 
 
-@pytest.mark.sitl
-def test_a_resumed_flight_flies_as_planned(tmp_path):
-    """The default 17 ha area cut after its 40th photo: `resume` writes the rest, and SITL takes
-    exactly the stations left, each within the report's quarter base, in the estimated time."""
+def _default_area_planned(tmp_path: Path) -> tuple[str, Path, Path]:
+    """(the SITL copter binary, the spec, the plan folder) of the default 17 ha area flown
+    north-south; the test skips without a binary."""
     from conftest import make_spec
 
     binary = _binary("copter")
@@ -64,6 +63,14 @@ def test_a_resumed_flight_flies_as_planned(tmp_path):
     spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
     out = tmp_path / "plan"
     assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    return binary, spec, out
+
+
+@pytest.mark.sitl
+def test_a_resumed_flight_flies_as_planned(tmp_path):
+    """The default 17 ha area cut after its 40th photo: `resume` writes the rest, and SITL takes
+    exactly the stations left, each within the report's quarter base, in the estimated time."""
+    binary, spec, out = _default_area_planned(tmp_path)
     after = json.loads((out / "manifest.json").read_text())["stations"][39]["id"]
     resumed = tmp_path / "resume"
     res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--after", after, "-o", str(resumed)])
@@ -86,14 +93,7 @@ def test_a_flight_cut_into_rtl_along_its_line_is_resumed_without_a_gap(tmp_path)
     `resume --log` counts only the photos in AUTO within the tolerance, and the union of both
     flights' AUTO photos (read with pymavlink from their logs: CAM and MODE) takes every station
     within a quarter base."""
-    from conftest import make_spec
-
-    binary = _binary("copter")
-    if binary is None:
-        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
-    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
-    out = tmp_path / "plan"
-    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    binary, spec, out = _default_area_planned(tmp_path)
     manifest = json.loads((out / "manifest.json").read_text())
     lines = [s["line"] for s in manifest["stations"]]
     order = sorted(set(lines), key=lines.index)
