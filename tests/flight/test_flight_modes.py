@@ -9,10 +9,13 @@ import json
 import struct
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from csvrows import event_rows
 from dfwriter import survey_log
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as hs
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from ulogwriter import camera_status_log
 
@@ -169,3 +172,44 @@ def test_the_sitl_logs_modes_are_those_pymavlink_reads(tmp_path, name, auto):
     rows, rep = _ingest(tmp_path, log)
     assert [r["mode"] for r in rows] == want == ["AUTO"] * len(cams)
     assert rep["modes"]["events_in_mission_mode"] == len(cams)
+
+
+def _mode_truth(data: bytes, path: Path) -> list[tuple[int, float, int]]:
+    """(end offset, time s, mode number) of each MODE message, as pymavlink's DFReader reads the intact log."""
+    from pymavlink import DFReader
+
+    path.write_bytes(data)
+    r = DFReader.DFReader_binary(str(path))
+    out = []
+    while (m := r.recv_match(type="MODE")) is not None:
+        out.append((r.offset, m.TimeUS / 1e6, m.ModeNum))
+    return out
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(kind=hs.sampled_from(["cut", "flips", "junk"]), where=hs.floats(0.0, 1.0), seed=hs.integers(0, 2**16))
+def test_damaged_logs_keep_the_modes_before_the_damage(tmp_path, kind, where, seed):
+    """A log cut off, with bytes flipped or junk inserted from some place on: reading its modes raises
+    nothing, and every MODE message wholly before the damage comes back as logged."""
+    from aerosurvey.flight.modes import from_dataflash
+
+    changes = [(90.0 + 10 * k, (COPTER_AUTO, COPTER_RTL, COPTER_LOITER)[k % 3], 2) for k in range(12)]
+    data = survey_log(_events(60), changes)
+    truth = _mode_truth(data, tmp_path / "intact.bin")
+    rng = np.random.default_rng(seed)
+    at = int(where * (len(data) - 1))
+    if kind == "cut":
+        damaged = data[:at]
+    elif kind == "flips":
+        b = bytearray(data)
+        for i in rng.integers(at, len(data), 8):
+            b[int(i)] ^= 1 << int(rng.integers(8))
+        damaged = bytes(b)
+    else:
+        damaged = data[:at] + rng.bytes(int(rng.integers(1, 200))) + data[at:]
+    path = tmp_path / "damaged.bin"
+    path.write_bytes(damaged)
+    modes = from_dataflash(path)
+    names = {COPTER_AUTO: "AUTO", COPTER_RTL: "RTL", COPTER_LOITER: "LOITER"}
+    before = [(t, names[number]) for end, t, number in truth if end <= at]
+    assert modes.at(np.array([t for t, _ in before])) == [name for _, name in before], (kind, at)

@@ -130,7 +130,10 @@ def from_dataflash(path: Path, plan_vehicle: str | None = None) -> Modes:
     if not vehicle:
         return _none("the log does not name its firmware (no MSG or VER message) and no plan says the vehicle: "
                      "a MODE number means a mode only for one firmware", firmware, found)
-    numbers = np.asarray(mode["ModeNum"] if "ModeNum" in mode else mode["Mode"], int)
+    column = next((c for c in ("ModeNum", "Mode") if c in mode), None)
+    if column is None:
+        return _none("the log's MODE messages have no mode column that decodes (a damaged FMT record)", firmware, found)
+    numbers = np.asarray(mode[column], int)
     names = [_ardupilot_name(vehicle, int(n)) for n in numbers]
     rsn = mode.get("Rsn")
     reasons: list[str | None] = [None] * len(t) if rsn is None else \
