@@ -52,10 +52,9 @@ def test_example_flies_as_planned(name, vehicle, tmp_path):
         assert (out / "sitl" / row["log"]).exists()
 
 
-@pytest.mark.sitl
-def test_a_resumed_flight_flies_as_planned(tmp_path):
-    """The default 17 ha area cut after its 40th photo: `resume` writes the rest, and SITL takes
-    exactly the stations left, each within the report's quarter base, in the estimated time."""
+def _default_area_planned(tmp_path: Path) -> tuple[str, Path, Path]:
+    """(the SITL copter binary, the spec, the plan folder) of the default 17 ha area flown
+    north-south; the test skips without a binary."""
     from conftest import make_spec
 
     binary = _binary("copter")
@@ -64,6 +63,14 @@ def test_a_resumed_flight_flies_as_planned(tmp_path):
     spec = make_spec(tmp_path, {"flight": {"heading": 0.0}})
     out = tmp_path / "plan"
     assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    return binary, spec, out
+
+
+@pytest.mark.sitl
+def test_a_resumed_flight_flies_as_planned(tmp_path):
+    """The default 17 ha area cut after its 40th photo: `resume` writes the rest, and SITL takes
+    exactly the stations left, each within the report's quarter base, in the estimated time."""
+    binary, spec, out = _default_area_planned(tmp_path)
     after = json.loads((out / "manifest.json").read_text())["stations"][39]["id"]
     resumed = tmp_path / "resume"
     res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--after", after, "-o", str(resumed)])
@@ -76,6 +83,55 @@ def test_a_resumed_flight_flies_as_planned(tmp_path):
     for row in report["sorties"]:
         assert row["completed"] and row["triggers_flown"] == row["photos_planned"], row
         assert abs(row["time_ratio"] - 1.0) <= 0.10, row
+
+
+@pytest.mark.sitl
+def test_a_flight_cut_into_rtl_along_its_line_is_resumed_without_a_gap(tmp_path):
+    """The default 17 ha area flown north-south from its edge: line 2 flies back towards home, and
+    the flight is switched to RTL half way along it. ArduPilot keeps triggering in RTL, on its way
+    home along and off the line; `log ingest` matches some of those photos to the next stations.
+    `resume --log` counts only the photos in AUTO within the tolerance, and the union of both
+    flights' AUTO photos (read with pymavlink from their logs: CAM and MODE) takes every station
+    within a quarter base."""
+    binary, spec, out = _default_area_planned(tmp_path)
+    manifest = json.loads((out / "manifest.json").read_text())
+    lines = [s["line"] for s in manifest["stations"]]
+    order = sorted(set(lines), key=lines.index)
+    cut = lines.count(order[0]) + lines.count(order[1]) // 2
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--rtl-after", str(cut), "--sitl-bin", binary, "--speedup", "20"])
+    assert res.exit_code == 0, res.output
+    first = json.loads((out / "sitl" / "sitl_report.json").read_text())["sorties"][0]
+    assert first["rtl_after_photos"] == cut and first["triggers_flown"] > cut, first  # it took photos in RTL
+    flight = tmp_path / "flight"
+    res = CliRunner().invoke(main, ["log", "ingest", str(out / "sitl" / first["log"]), "--plan", str(out), "-o", str(flight)])
+    assert res.exit_code == 0, res.output
+    rows = [r for r in (flight / "events.csv").read_text().splitlines()[2:]]
+    assert any(",RTL,P" in r for r in rows), "no RTL photo was matched to a station: the cut does not test the trap"
+    resumed = tmp_path / "resume"
+    res = CliRunner().invoke(main, ["resume", str(out), "--spec", str(spec), "--log", str(flight), "-o", str(resumed)])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--resume", str(resumed), "--sitl-bin", binary, "--speedup", "20"])
+    assert res.exit_code == 0, res.output
+    logs = [out / "sitl" / first["log"]] + [resumed / "sitl" / r["log"]
+                                            for r in json.loads((resumed / "sitl" / "sitl_report.json").read_text())["sorties"]]
+    auto = []  # (lat, lon) of every photo taken in AUTO (ArduCopter mode 3)
+    for log in logs:
+        mode = None
+        for m in _log(log, ["MODE", "CAM"]):
+            if m.get_type() == "MODE":
+                mode = m.ModeNum
+            elif mode == 3:
+                auto.append((m.Lat, m.Lng))
+    import numpy as np
+
+    st = manifest["stations"]
+    k = np.pi / 180.0 * 6_371_000.0
+    lat0 = np.radians(np.mean([s["lat"] for s in st]))
+    a = np.array(auto)
+    d = np.hypot((np.array([s["lat"] for s in st])[:, None] - a[None, :, 0]) * k,
+                 (np.array([s["lon"] for s in st])[:, None] - a[None, :, 1]) * k * np.cos(lat0)).min(axis=1)
+    tol = manifest["derived"]["photo_base_m"] / 4
+    assert [s["id"] for s, di in zip(st, d) if di > tol] == []
 
 
 # ---- the patterns of issue 24: corridor, oblique double grid, hover-and-capture --------------------

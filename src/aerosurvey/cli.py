@@ -48,7 +48,7 @@ COMMANDS: Mapping[str, Lazy] = {
     "qa": Lazy("aerosurvey.commands.qa:qa", "Quality assessment of finished products (accuracy, reproducibility, time series)."),
     "refly": Lazy("aerosurvey.commands.refly:refly", "Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."),
     "resume": Lazy("aerosurvey.commands.resume:resume",
-                   "Missions for the rest of a flight of PLAN_DIR cut short, from the station after its last photo."),
+                   "Missions for the rest of a flight of PLAN_DIR cut short, from its first station not photographed."),
     "serve": Lazy("aerosurvey.commands.serve:serve",
                   "Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."),
     "sitl": Lazy("aerosurvey.commands.sitl:sitl", "ArduPilot SITL: fly the planned missions in simulation (needs a SITL binary you have)."),

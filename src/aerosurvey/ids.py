@@ -10,8 +10,10 @@
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import NamedTuple
+
+from aerosurvey.errors import InputError
 
 _STATION = re.compile(r"^P(\d+)-L(\d{3,})-S(\d{4,})$")
 _PASS = re.compile(r"^P(\d+)-L\d{3,}(?:$|-)")
@@ -61,6 +63,17 @@ def parse_station_id(text: str) -> StationRef:
     if m is None:
         raise ValueError(f"{text!r} is not a station id (P<pass>-L<line>-S<station>, e.g. P1-L003-S0042)")
     return StationRef(int(m.group(1)), int(m.group(2)) - 1, int(m.group(3)) - 1)
+
+
+def station_index(station_ids: Sequence[str], station: str) -> int:
+    """The index of `station` among a plan's stations (flight order); InputError naming the
+    plan's first and last station when it has no such station."""
+    try:
+        return list(station_ids).index(station)
+    except ValueError:
+        first, last = (station_ids[0], station_ids[-1]) if station_ids else ("-", "-")
+        raise InputError(f"station {station!r} is not a station of this plan ({len(station_ids)} stations, "
+                         f"{first} to {last})") from None
 
 
 def pass_of(text: str) -> int | None:

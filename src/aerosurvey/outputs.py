@@ -198,15 +198,17 @@ def _mission_files(plan: Plan, missions: dict[str, Mission], qgc: str) -> dict[s
     return out
 
 
-def render_resume(plan: Plan, after_station: str, plan_folder: str, qgc: str = QGC_LAYOUTS[0]) -> dict[str, str]:
+def render_resume(plan: Plan, stations_done: int, counted: tuple[str, ...], plan_folder: str,
+                  qgc: str = QGC_LAYOUTS[0]) -> dict[str, str]:
     """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
     .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
-    station the flight resumes after and what each sortie flies."""
+    station the flight resumes from, what was counted as done and why, and what each sortie flies."""
     programs = _sortie_programs(plan, ids.resume_file_stem)
     final_gate(plan, programs)
     files = _mission_files(plan, {stem: mavlink_mission(p) for stem, p in programs.items()}, qgc)
     sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
-    files[resumefile.FILE] = resumefile.dumps(plan.name, plan_folder, after_station, sorties)
+    first = plan.stations.ids[plan.sorties[0].sortie.first]
+    files[resumefile.FILE] = resumefile.dumps(plan.name, plan_folder, first, stations_done, counted, sorties)
     return files
 
 

@@ -8,5 +8,5 @@ from pathlib import Path
 
 def event_rows(path: Path) -> list[dict[str, str]]:
     lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
-    assert lines[0] == "# aerosurvey-events 1\n", lines[0]
+    assert lines[0] == "# aerosurvey-events 2\n", lines[0]
     return list(csv.DictReader(lines[1:]))

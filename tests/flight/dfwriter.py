@@ -1,4 +1,5 @@
-"""A minimal DataFlash writer for tests: FMT messages, camera events (CAM) and mount angles (MNT)."""
+"""A minimal DataFlash writer for tests: FMT messages, camera events (CAM), mount angles (MNT), flight
+modes (MODE) and the firmware line (MSG)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ HEAD = b"\xa3\x95"
 
 
 def _fmt(typ: int, name: str, fmt: str, cols: str) -> bytes:
-    length = 3 + struct.calcsize("<" + "".join({"Q": "Q", "L": "i", "f": "f", "B": "B", "n": "4s", "N": "16s", "Z": "64s"}[c] for c in fmt))
+    chars = {"Q": "Q", "L": "i", "f": "f", "B": "B", "M": "B", "n": "4s", "N": "16s", "Z": "64s"}
+    length = 3 + struct.calcsize("<" + "".join(chars[c] for c in fmt))
     return HEAD + bytes([128]) + struct.pack("<BB4s16s64s", typ, length, name.encode(), fmt.encode(), cols.encode())
 
 
@@ -31,6 +33,24 @@ def mount_log(cams: list[tuple[float, float, float, float]], mounts: list[tuple[
     out += _fmt(201, "MNT", "QBfffffff", "TimeUS,I,DRoll,Roll,DPitch,Pitch,DYawB,YawB,DYawE")
     rows = [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), 495000000, 153000000, 80.0, 80.0, r, p, y)) for t, r, p, y in cams]
     rows += [(t, 201, struct.pack("<QBfffffff", int(t * 1e6), 0, 0.0, r, -45.0, p, 0.0, y, 0.0)) for t, r, p, y in mounts]
+    for _, typ, body in sorted(rows, key=lambda row: row[0]):
+        out += HEAD + bytes([typ]) + body
+    return bytes(out)
+
+
+def survey_log(events: list[tuple[float, float, float, float, float]], modes: list[tuple[float, int, int]],
+               firmware: str | None = "ArduCopter V4.5.7 (2a3dc4b7)") -> bytes:
+    """CAM messages (time_s, lat, lon, alt_amsl, rel_alt; nadir), MODE messages (time_s, mode
+    number, reason) and, unless None, the firmware line ArduPilot writes first (MSG), in time
+    order, with ArduPilot 4's layouts."""
+    out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
+    out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
+    out += _fmt(202, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
+    out += _fmt(203, "MSG", "QZ", "TimeUS,Message")
+    rows = [(0.0, 203, struct.pack("<Q64s", 0, firmware.encode()))] if firmware is not None else []
+    rows += [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7), alt, rel, 0.0, 0.0, 0.0))
+             for t, lat, lon, alt, rel in events]
+    rows += [(t, 202, struct.pack("<QBBB", int(t * 1e6), mode, mode, reason)) for t, mode, reason in modes]
     for _, typ, body in sorted(rows, key=lambda row: row[0]):
         out += HEAD + bytes([typ]) + body
     return bytes(out)

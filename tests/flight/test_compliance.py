@@ -451,3 +451,27 @@ def test_a_sortie_is_judged_against_its_own_planned_stations(tmp_path):
     photos = len(event_rows(folder / "events.csv"))
     plain = _run("check", folder, "--profile", "after-flight", "--profile-dir", profiles)[1]
     assert plain.splitlines()[0].startswith(f"{photos} flown photos against {len(own)} planned stations of sortie {s01['id']} ")
+
+
+def test_a_flight_checked_without_a_profile_is_judged_on_the_planners_own_rule(copter):
+    """As `check PLAN_FOLDER` does: no profile given, none in the plan's spec: the planner's own
+    rule (every point of the area on two photos or more) planned vs flown, and a warning that
+    lists the profiles. The whole flight passes it; the flight cut short fails it where no flown
+    photo pair sees the ground (the independent count, footprints shrunk by half a metre)."""
+    whole = _ingest(copter, COPTER_LOG, "whole-no-profile")
+    res = CliRunner().invoke(main, ["check", str(whole)])
+    assert res.exit_code == 0, res.output
+    assert "no rule profile chosen (none given, none in the plan's spec): only the planner's own rules are checked; " \
+           "add --profile ID, one of: asprs-2014, asprs-2023, cz-land-consolidation" in res.stderr
+    (line,) = [ln for ln in res.stdout.splitlines() if ln.startswith("uncovered-ground: ")]
+    assert " / flown " in line and " PASS (required >= 2 photos on every point of the area)" in line, line
+    cut = copter["tmp"] / "cut-no-profile.bin"
+    data = COPTER_LOG.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    folder = _ingest(copter, cut, "cut-no-profile")
+    res = CliRunner().invoke(main, ["check", str(folder), "--json"])
+    assert res.exit_code == 1, res.output
+    result = json.loads(res.stdout)
+    assert result["failed"] == ["uncovered-ground"] and result["results"][0]["planned"]["status"] == "pass"
+    assert result["results"][0]["profile"] == "plan"
+    assert _check_sample_points(copter["plan"], folder, "uncovered-ground", 2)

@@ -218,8 +218,8 @@ def test_predict_then_list_on_the_command_line(tmp_path: Path) -> None:
         for j, dlat in enumerate((-0.0002, 0.0, 0.0002)):
             lines.append(f"IMG_{k}{j}.JPG {lon:.8f} {lat + dlat:.8f} 400.000 90.00 0.00 0.00 2 4")
     (flight / "geo.txt").write_text("\n".join(lines) + "\n")
-    (flight / "events.csv").write_text("# aerosurvey-events 1\nevent,time_s,lat,lon,alt_m,rel_alt_m,roll,pitch,yaw,"
-                                       "station,distance_m,ground_m,agl_m\n1,0,49.4,15,400,100,0,0,90,,,,\n")
+    (flight / "events.csv").write_text("# aerosurvey-events 2\nevent,time_s,lat,lon,alt_m,rel_alt_m,roll,pitch,yaw,mode,"
+                                       "station,distance_m,ground_m,agl_m\n1,0,49.4,15,400,100,0,0,90,,,,,\n")
     out = tmp_path / "pred.csv"
     r = CliRunner().invoke(main, ["log", "gcp-predict", str(flight), "--plan", str(plan_dir), "-o", str(out)])
     assert r.exit_code == 0, r.output

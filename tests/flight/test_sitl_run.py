@@ -76,7 +76,8 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     doc = mf.read_manifest(split_plan)
     routes = {r.name: r for r in sitl_run.sortie_routes(doc, split_plan)}
 
-    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload):
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+        assert rtl_after_photos is None
         f = harness.Flight(name)
         for lat, lon in routes[name].stations:  # every planned photo, exactly where planned
             f.triggers.append((lat, lon, 100.0))
@@ -106,6 +107,36 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     assert sorted(p.name for p in (tmp_path / "report").glob("*.BIN")) == sorted(f"{n}.BIN" for n in routes)
     assert len(_FakeVehicle.folders) == len(routes) and all(f.parent == temp for f in _FakeVehicle.folders)
     assert list(temp.iterdir()) == []  # SITL's work folders removed
+
+
+def test_a_flight_cut_short_flies_its_first_sortie_only(split_plan, tmp_path, monkeypatch):
+    """--rtl-after N: the first sortie flies, the harness is asked to switch to RTL after photo N,
+    and the row says the sortie was cut; a sortie with fewer photos than N was not cut."""
+    doc = mf.read_manifest(split_plan)
+    first = sitl_run.sortie_routes(doc, split_plan)[0]
+    asked = []
+
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+        asked.append((name, rtl_after_photos))
+        f = harness.Flight(name)
+        for lat, lon in first.stations[:rtl_after_photos]:
+            f.triggers.append((lat, lon, 100.0))
+            f.trigger_track_index.append(len(f.track))
+            f.track.append((len(f.track) * 1000, lat, lon, 100.0))
+        f.armed_ms, f.disarmed_ms = 1, len(f.track) * 1000
+        f.cut_ms = f.track[-1][0] if rtl_after_photos <= len(first.stations) else None
+        return f
+
+    monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount: None)
+    monkeypatch.setattr(harness, "fly", fake_fly)
+    rows = sitl_run.fly_sorties(doc, split_plan, sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0,
+                                                                     rtl_after_photos=7), tmp_path / "report")
+    assert asked == [(first.name, 7)] and len(rows) == 1
+    assert rows[0]["rtl_after_photos"] == 7 and rows[0]["triggers_flown"] == 7 and not rows[0]["completed"]
+    rows = sitl_run.fly_sorties(doc, split_plan, sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0,
+                                                                     rtl_after_photos=10_000), tmp_path / "again")
+    assert rows[0]["rtl_after_photos"] is None
 
 
 def test_sitl_fly_without_a_manifest_is_one_line(tmp_path):

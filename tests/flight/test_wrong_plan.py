@@ -196,8 +196,10 @@ def test_events_and_report_files_are_versioned(tmp_path, plans):
     assert res.exit_code == 0, res.output
     text = (tmp_path / "o" / "events.csv").read_text()
     assert len(records.loads_events(text)) == 152
-    for bad, expected in [(text.split("\n", 1)[1], "does not start with '# aerosurvey-events 1'"),
-                          (text.replace("# aerosurvey-events 1", "# aerosurvey-events 2", 1), "upgrade aerosurvey"),
+    for bad, expected in [(text.split("\n", 1)[1], "does not start with '# aerosurvey-events 2'"),
+                          (text.replace("# aerosurvey-events 2", "# aerosurvey-events 3", 1), "upgrade aerosurvey"),
+                          (text.replace("# aerosurvey-events 2", "# aerosurvey-events 1", 1), "run `aerosurvey log ingest` again"),
+                          (text.replace(",AUTO,", ",auto mode,", 1), "does not match"),
                           (text.replace(",alt_m,", ",altitude,", 1), "columns"),
                           (text.replace("\n1,", "\nx,", 1), "event = 'x' is not a number")]:
         with pytest.raises(InputError, match=expected):

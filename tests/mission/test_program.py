@@ -134,11 +134,12 @@ def test_gimbal_items_where_the_pitch_changes_with_the_documented_params(tmp_pat
     assert "yaw" in CMD[M.MAV_CMD_DO_MOUNT_CONTROL].param[3].lower()
     items = build_mission(plan).items
     mounts = [(i, it) for i, it in enumerate(items) if it.command == M.MAV_CMD_DO_MOUNT_CONTROL]
-    # run 1 tilts, run 2 keeps the pitch but looks 90° right of the nose, run 3 is nadir again
-    assert [(it.param1, it.param3) for _, it in mounts] == [(-45.0, 0.0), (-45.0, 90.0), (-90.0, 0.0)]
+    # a plan that tilts the camera sets it at its first run (nadir: the mount may be where another
+    # flight left it); run 1 tilts, run 2 keeps the pitch but looks 90° right of the nose, run 3 is nadir again
+    assert [(it.param1, it.param3) for _, it in mounts] == [(-90.0, 0.0), (-45.0, 0.0), (-45.0, 90.0), (-90.0, 0.0)]
     assert all(it.z == M.MAV_MOUNT_MODE_MAVLINK_TARGETING for _, it in mounts)
     # each before its run's first station: right after the run's lead-in waypoint
-    for (i, _), run in zip(mounts, (1, 2, 3)):
+    for (i, _), run in zip(mounts, (0, 1, 2, 3), strict=True):
         r = plan.route.runs[run]
         assert items[i - 1].command == M.MAV_CMD_NAV_WAYPOINT
         assert items[i - 1].tag == f"P{r.pass_index}-L{r.line + 1:03d}-R{r.part + 1}:lead-in"
@@ -147,7 +148,7 @@ def test_gimbal_items_where_the_pitch_changes_with_the_documented_params(tmp_pat
     assert "pitch" in doc[1].lower() and "yaw" in doc[2].lower() and "flags" in doc[5].lower()
     px4 = replace(plan, vehicle=replace(plan.vehicle, firmware="px4"))
     g = [it for it in build_mission(px4).items if it.command == M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW]
-    assert [(it.param1, it.param2) for it in g] == [(-45.0, 0.0), (-45.0, 90.0), (-90.0, 0.0)]
+    assert [(it.param1, it.param2) for it in g] == [(-90.0, 0.0), (-45.0, 0.0), (-45.0, 90.0), (-90.0, 0.0)]
     assert all(int(it.x) & M.GIMBAL_MANAGER_FLAGS_PITCH_LOCK and not int(it.x) & M.GIMBAL_MANAGER_FLAGS_YAW_LOCK for it in g)
     assert not [it for it in build_mission(px4).items if it.command == M.MAV_CMD_DO_MOUNT_CONTROL]
 

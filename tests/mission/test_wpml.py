@@ -315,7 +315,9 @@ def test_hover_gimbal_and_the_budget(tmp_path: Path) -> None:
             assert funcs[-2:] == ["hover", "takePhoto"]
             assert float(pm.findtext(".//wpml:hoverTime", namespaces=NS)) == 1.5
         pitches = [float(e.text) for e in root.iterfind(".//wpml:gimbalPitchRotateAngle", NS)]
-        assert pitches == [-90.0, -60.0, -90.0]  # straight down at the start, tilted for run 1, down again after
+        # straight down at the start (the waylines' first action), set again at run 0 (a plan that tilts the
+        # camera sets it at its first run), tilted for run 1, down again after
+        assert pitches == [-90.0, -90.0, -60.0, -90.0]
     # the budget: numbers in the refusal
     many = replace(program, waypoints=program.waypoints * (65536 // len(program.waypoints) + 1))
     assert f"{len(many.waypoints)} waypoints, more than the 65535" in (wpml.refusal(many) or "")

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from qa_accuracy_helpers import STATEMENT_ARGS, make_points, planned_square
+from qa_accuracy_helpers import STATEMENT_ARGS, make_points, planned_square, product
 
 from aerosurvey.cli import main
 from aerosurvey.qa.assessment import Settings, assess
@@ -52,12 +52,19 @@ def test_bias_outlier_and_single_point_dependence() -> None:
     assert any(w.startswith("significant bias in z") for w in r["warnings"])
     dx2 = dx.copy()
     dx2[7] = 0.6  # a blunder: flagged and kept (it is in the RMSE), and the RMSE rests on it
-    r = assess(make_points(dx2, dy, dz, x=x, y=y), Settings(standard="asprs2014", class_h_cm=10))
+    points = make_points(dx2, dy, dz, x=x, y=y, crs="EPSG:32633")
+    r = assess(points, Settings(standard="asprs2014", class_h_cm=10, ref_sigma_xy_m=0.005, ref_sigma_z_m=0.008,
+                                product=product()))
+    assert r["verdict"]["status"] == "valid"
     assert any("outliers in x" in w and "P8" in w for w in r["warnings"])
     assert r["result"]["rmse_x_m"] == pytest.approx(np.sqrt(np.mean(dx2**2)))
     assert "outlier_x" in next(p for p in r["points"] if p["id"] == "P8")["flags"]
     assert any("depends on one point: without P8" in w for w in r["warnings"])
     assert any("verdict rests on single points" in w and "P8" in w for w in r["warnings"])
+    # a result without a verdict (the statement's inputs not given: not tested) has none to rest on one point
+    r = assess(points, Settings(standard="asprs2014", class_h_cm=10))
+    assert r["verdict"]["status"] == "not tested" and not any("verdict rests" in w for w in r["warnings"])
+    assert any("depends on one point: without P8" in w for w in r["warnings"])  # the RMSE does
 
 
 def test_survey_not_accurate_enough() -> None:

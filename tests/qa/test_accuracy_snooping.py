@@ -224,6 +224,11 @@ def test_four_points_with_a_1_m_blunder_are_not_tested(tmp_path: Path) -> None:
     res = CliRunner().invoke(main, ["qa", "accuracy", str(path), "--standard", "snooping"])
     assert res.exit_code == 3, res.output
     assert "RESULT: NOT TESTED" in res.stdout and "too little evidence for data snooping: 4 points, 7 needed" in res.stdout
+    # one result: the figures say what was rejected, nothing but the RESULT line gives a verdict
+    # (before: "1 of 4 points rejected (Q3): 25.0 %, limit 5 %; the data set fails." above "RESULT: NOT TESTED",
+    # and a warning that leaving out Q3 "turns fail into pass")
+    assert "1 of 4 points rejected (Q3): 25.0 %, over the limit of 5 %." in res.stdout
+    assert "fail" not in res.stdout.split("RESULT:")[0].lower() and "verdict rests on single points" not in res.stdout
     # with the specification's sigma0 Baarda's w-test decides on one point: the blunder is found, the set fails
     known = CliRunner().invoke(main, ["qa", "accuracy", str(path), "--standard", "snooping", "--sigma0-h", "0.01",
                                       "--sigma0-v", "0.01"])
@@ -254,3 +259,37 @@ def test_fewest_points_follow_from_the_mdb_limit() -> None:
     assert sn.fewest_points(sn.TAU_TEST, sn.TAU_TEST, 0.001, 0.80, 8.0) == 7
     assert sn.fewest_points(sn.TAU_TEST, None, 0.001, 0.80, 8.0) == 4  # 2 values a point
     assert sn.fewest_points(sn.W_TEST, sn.W_TEST, 0.001, 0.80, 8.0) == 1
+
+
+def test_the_standard_says_what_it_is_under_its_old_id(tmp_path: Path) -> None:
+    """The id is the one it had; the name is the method's (Baarda / Pope), no longer the cadastral
+    practice whose 1.96 sigma / 2.16 sigma thresholds it no longer uses."""
+    from aerosurvey.qa.choices import STANDARDS
+
+    assert STANDARDS["snooping"] == "Data snooping (Baarda's w-test / Pope's tau-test)"
+    path = _csv(tmp_path / "ten.csv", np.linspace(-0.02, 0.02, 10), np.linspace(0.02, -0.02, 10))
+    res = CliRunner().invoke(main, ["qa", "accuracy", str(path), "--standard", "snooping"])
+    assert res.stdout.startswith("Accuracy QA of ten.csv: Data snooping (Baarda's w-test / Pope's tau-test)\n"), res.output
+    assert "Hellenic" not in res.output
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_a_result_without_a_verdict_gives_none_in_its_text(seed: int) -> None:
+    """Sets of 2 to 12 points, blunders or none, sigma0 given or not, check points or ground control
+    only: when the result is not tested (or indicative only) no sentence or warning says the set
+    passes or fails; when it is tested, the share sentence agrees with the verdict."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 13))
+    dx, dy, dz = rng.normal(0, 0.02, n), rng.normal(0, 0.02, n), rng.normal(0, 0.03, n)
+    dz[int(rng.integers(n))] += float(rng.choice([0.0, 0.5, 1.0]))
+    sigma0 = {"sigma0_h_m": 0.02, "sigma0_v_m": 0.03} if seed % 3 == 0 else {}
+    roles = ["GCP"] * n if seed % 4 == 1 else None
+    r = assess(make_points(dx, dy, dz, roles=roles), Settings(standard="snooping", **sigma0))
+    text = " ".join(r["sentences"] + r["warnings"]).lower()
+    share = next(x for x in r["sentences"] if " points rejected" in x)
+    if r["verdict"]["status"] != "valid":
+        assert r["passed"] is None
+        assert not any(w in text for w in ("fail", "passed", " met", "verdict")), text
+    else:
+        assert ("over the limit" in share) == (not r["result"]["share_ok"])
+        assert r["passed"] is r["result"]["passed"]

@@ -109,6 +109,7 @@ def test_resume_of_a_flight_cut_short_is_the_commands(tmp_path):
         assert r.status_code == 200, r.text
         out = r.json()
         assert out["summary"] in res.output  # the command's own line
+        assert out["notes"] == json.loads((tmp_path / "r" / "resume.json").read_text())["counted"]  # what was counted, why
         cli = sorted(p.name for p in (tmp_path / "r").iterdir() if not p.name.startswith("."))
         assert sorted(out["files"]) == cli
         for name in cli:

@@ -14,43 +14,36 @@ from aerosurvey import console
 from aerosurvey.errors import CheckFailed, InputError
 
 if TYPE_CHECKING:
-    from aerosurvey.rules.engine import Evidence, RuleResult
     from aerosurvey.rules.load import Target
+    from aerosurvey.rules.profile import Profile
 
 log = logging.getLogger(__name__)
 
 _MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "info": "INFO", "not-checkable": "N/A "}
 
 
-def run_rules(target: Target, profile_ids: list[str], profile_dirs: list[Path]) -> tuple[list[RuleResult], Evidence]:
-    """Results of the chosen profiles (default: those the plan was checked with) on a target,
-    with the control point layout used."""
+def chosen_profiles(target: Target, profile_ids: list[str], profile_dirs: list[Path]) -> list[Profile]:
+    """The chosen profiles (default: those the plan was checked with), with the plan's overrides.
+    None chosen (none given, none in the plan): [] and a one-line warning that lists the profiles there are."""
     # the rule engine loads numpy, shapely and pyproj: imported when rules run, not when help lists this command
-    from aerosurvey.rules.engine import evaluate
-    from aerosurvey.rules.flown import plan_evidence
-    from aerosurvey.rules.profile import apply_overrides, select_profiles
+    from aerosurvey.rules.profile import apply_overrides, available_profiles, select_profiles
 
     ids = profile_ids or target.profiles
-    if not ids:
-        raise InputError("no rule profile chosen: give --profile ID (see `aerosurvey check --list`) "
-                         "or name them in the spec's [rules] profiles")
-    profiles = apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
-    ev = plan_evidence(target.view, profiles, target.outdir)
-    return evaluate(profiles, ev), ev
-
-
-def plan_records(target: Target, profile_ids: list[str], profile_dirs: list[Path]) -> list[dict[str, Any]]:
-    """Every rule result of a plan, as manifest.json records and as `plan` counts them: the
-    chosen profiles' and the planner's own (uncovered-ground). Without a profile (none given,
-    none in the plan) the planner's own only, and a one-line warning lists the profiles there are."""
-    if profile_ids or target.profiles:
-        results, _ = run_rules(target, profile_ids, profile_dirs)
-        return [dict(r.as_dict()) for r in results] + list(target.planner_rules)
-    from aerosurvey.rules.profile import available_profiles
-
+    if ids:
+        return apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
     log.warning("no rule profile chosen (none given, none in the plan's spec): only the planner's own rules are "
                 "checked; add --profile ID, one of: %s", ", ".join(available_profiles(profile_dirs)))
-    return list(target.planner_rules)
+    return []
+
+
+def plan_records(target: Target, profiles: list[Profile]) -> list[dict[str, Any]]:
+    """Every rule result of a plan, as manifest.json records and as `plan` counts them: the
+    profiles' and the planner's own (uncovered-ground)."""
+    from aerosurvey.rules.engine import evaluate
+    from aerosurvey.rules.flown import plan_evidence
+
+    results = evaluate(profiles, plan_evidence(target.view, profiles, target.outdir)) if profiles else []
+    return [dict(r.as_dict()) for r in results] + list(target.planner_rules)
 
 
 def format_results(records: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -81,8 +74,9 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
     given, none in the plan) only the planner's own rules are checked, and a warning lists
     the available profiles. With -q (and no --json), nothing but the error of a failing check.
 
-    A flight folder (`log ingest --plan` output) is checked planned vs flown; the places a rule
-    fails on the flown photos go to its failing_places.geojson.
+    A flight folder (`log ingest` output, with the plan) is checked planned vs flown, without a
+    profile on the planner's own rule too; the places a rule fails on the flown photos go to its
+    failing_places.geojson.
 
     Exit code 0 when every error-level rule passes, 1 when one fails (named on stderr), 2 for bad input.
     """
@@ -100,12 +94,12 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
     if (target / "log_report.json").is_file():  # a `log ingest` folder: planned vs flown (docs/flight-logs.md)
         from aerosurvey.flight.compliance import check_flight
 
-        check_flight(target, plan_dir, lambda t: run_rules(t, list(profiles), list(profile_dirs)), list(profile_dirs), as_json)
+        check_flight(target, plan_dir, lambda t: chosen_profiles(t, list(profiles), list(profile_dirs)), as_json)
         return
     if plan_dir is not None:
         raise InputError(f"--plan {str(plan_dir)!r} is for a flight folder (`aerosurvey log ingest` output); {str(target)!r} is none")
     plan = open_target(target)
-    records = plan_records(plan, list(profiles), list(profile_dirs))
+    records = plan_records(plan, chosen_profiles(plan, list(profiles), list(profile_dirs)))
     summary = plan_summary(plan.view.manifest, records)
     if as_json:
         click.echo(json.dumps({"results": records, "failed": list(summary.rules.failed), "summary": summary_json(summary)},

@@ -68,6 +68,9 @@ def _echo(report: dict[str, Any]) -> None:
     click.echo(f"{report['events']} camera events ({report['source']}); {read['skipped_bytes']} bytes skipped in "
                f"{read.get('skipped_places', len(read['skipped']))} place(s), {read.get('dropped_events', 0)} event(s) "
                "dropped")
+    from aerosurvey.flight.modes import modes_text
+
+    click.echo(modes_text(report["modes"]))
     img = report.get("images")
     if img is not None:
         off = img["clock_offset_s"]

@@ -1,4 +1,5 @@
-"""`aerosurvey resume`: the rest of a flight cut short, from the station after its last photo.
+"""`aerosurvey resume`: the rest of a flight cut short, from the first station it did not photograph
+as the mission asked (flight/resume_start.py says what counts).
 
 Exit codes: 0 written, 2 bad input (a station the plan does not have, a spec or planner that no
 longer makes the same plan, a log folder of another plan, nothing left to fly).
@@ -15,29 +16,13 @@ from aerosurvey import console
 from aerosurvey.errors import InputError
 
 if TYPE_CHECKING:
+    from aerosurvey.flight.resume_start import ResumeStart
     from aerosurvey.manifest import Manifest
     from aerosurvey.plan.planner import Plan
 
 #: re-planned stations must lie this close to the plan folder's (degrees; ~1 cm) and metres of altitude
 SAME_DEG = 1e-7
 SAME_ALT_M = 0.01
-
-
-def last_photographed(log_dir: Path, doc: Manifest) -> str:
-    """The station of the last photo of a `log ingest` folder of this plan (log order)."""
-    from aerosurvey.flight import records
-    from aerosurvey.flight.refly import read_log_of_plan
-
-    read_log_of_plan(log_dir, doc)
-    events_path = log_dir / "events.csv"
-    if not events_path.is_file():
-        raise InputError(f"--log {str(log_dir)!r} has no events.csv: give the folder "
-                         "`aerosurvey log ingest LOG --plan PLAN -o FOLDER` wrote", key="--log")
-    matched = [s for s in records.read_events_csv(events_path).station if s]
-    if not matched:
-        raise InputError(f"--log {str(log_dir)!r}: no camera event was matched to a station of the plan; "
-                         "give --after STATION_ID", key="--log")
-    return matched[-1]
 
 
 def same_plan(plan: Plan, doc: Manifest) -> None:
@@ -57,11 +42,11 @@ def same_plan(plan: Plan, doc: Manifest) -> None:
                          "aerosurvey version)")
 
 
-def resumed_text(plan: Plan, station: str) -> str:
-    """One line: the station resumed after, the photos left and the sorties they take."""
+def resumed_text(plan: Plan, start: ResumeStart) -> str:
+    """One line: the first station flown, the photos left, those counted as done and the sorties they take."""
     left = sum(s.last - s.first + 1 for s, _ in plan.sorties)
-    return (f"resume after {station}: {left} of {len(plan.stations.ids)} photos left, from "
-            f"{plan.stations.ids[plan.sorties[0].sortie.first]}, in {len(plan.sorties)} sortie(s)")
+    return (f"resume from {start.first_id}: {left} of {len(plan.stations.ids)} photos left, {start.done} counted as done, "
+            f"in {len(plan.sorties)} sortie(s)")
 
 
 @click.command()
@@ -69,22 +54,27 @@ def resumed_text(plan: Plan, station: str) -> str:
 @click.option("--spec", "spec_path", required=True, type=click.Path(dir_okay=False, exists=True, path_type=Path),
               help="The mission spec PLAN_DIR was planned from.")
 @click.option("--after", "after", default=None, metavar="STATION_ID",
-              help="The station of the last photo taken, e.g. P1-L004-S0023.")
+              help="The stations up to this one (flight order) are done, e.g. P1-L004-S0023: resume after it.")
 @click.option("--log", "log_dir", default=None, type=click.Path(file_okay=False, exists=True, path_type=Path),
-              help="A `log ingest` folder of the flight: resume after its last matched photo.")
+              help="The folder `log ingest` wrote for the flight, with the plan: resume from the first station without a photo taken in "
+                   "the mission's mode (AUTO) within the tolerance of its station.")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for the resumed sorties' mission files and resume.json.")
 def resume(plan_dir: Path, spec_path: Path, after: str | None, log_dir: Path | None, outdir: Path) -> None:
-    """Missions for the rest of a flight of PLAN_DIR cut short, from the station after its last photo.
+    """Missions for the rest of a flight of PLAN_DIR cut short, from its first station not photographed.
 
-    The station is --after's, or the last photo of the --log folder. The first sortie flies the
-    rest of that photo's line with a lead-in and the camera switched on again, then the remaining
-    plan follows, split into sorties by the battery and the autopilot's item limit, with the
-    plan's station ids. Exit code 0 when written, 2 for bad input.
+    With --log, a photo counts as done when it was taken in the mission's mode (AUTO; not in a
+    return to launch, which keeps triggering) within the tolerance of its station, and the flight
+    resumes at the first station of the flight order no such photo took; with --after, at the
+    station after the one given. The first sortie flies from there with a lead-in, the gimbal set
+    and the camera switched on again, then the remaining plan follows, split into sorties by the
+    battery and the autopilot's item limit, with the plan's station ids. Exit code 0 when written,
+    2 for bad input.
     """
     if (after is None) == (log_dir is None):
         raise InputError("give one of --after STATION_ID or --log FLIGHT_FOLDER", key="--after")
     from aerosurvey.fileio import atomic_write_text, staged_directory
+    from aerosurvey.flight.resume_start import start_after, start_from_log
     from aerosurvey.inputs import load_inputs
     from aerosurvey.manifest import read_manifest
     from aerosurvey.outputs import render_resume
@@ -92,19 +82,21 @@ def resume(plan_dir: Path, spec_path: Path, after: str | None, log_dir: Path | N
     from aerosurvey.spec import load_spec
 
     doc = read_manifest(plan_dir, "PLAN_DIR")
-    station = after if after is not None else last_photographed(log_dir, doc)  # type: ignore[arg-type]
+    start = start_after(doc.stations.ids, after) if after is not None else start_from_log(log_dir, doc)  # type: ignore[arg-type]
     spec = load_spec(spec_path)
     if spec.name != doc.mission.name:
         raise InputError(f"--spec {str(spec_path)!r} is mission {spec.name!r}, but {plan_dir} is mission "
                          f"{doc.mission.name!r}", key="--spec")
-    plan = resume_mission(spec, load_inputs(spec), station)
+    plan = resume_mission(spec, load_inputs(spec), start.first_id)
     same_plan(plan, doc)
-    files = render_resume(plan, station, str(plan_dir))
+    files = render_resume(plan, start.done, start.said, str(plan_dir))
     with staged_directory(outdir) as stage:
         for name, text in files.items():
             atomic_write_text(stage / name, text)
     st = plan.stations
-    console.echo(resumed_text(plan, station))
+    for line in start.said:  # what was counted as done and why
+        console.echo(line)
+    console.echo(resumed_text(plan, start))
     for k, (s, _) in enumerate(plan.sorties, start=1):
         console.echo(f"  resume-{k:02d}  {s.last - s.first + 1:5d} photos  {(s.horizontal_s + s.vertical_s) / 60:6.1f} min  "
                    f"{st.ids[s.first]} -> {st.ids[s.last]}")

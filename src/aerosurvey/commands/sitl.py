@@ -31,12 +31,18 @@ def sitl() -> None:
               help="Folder for the report and logs (default: OUTDIR/sitl, or RESUME/sitl with --resume).")
 @click.option("--resume", "resume_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="Fly the sorties `aerosurvey resume` wrote into this folder instead of OUTDIR's own.")
+@click.option("--rtl-after", "rtl_after", type=click.IntRange(min=1), default=None, metavar="N",
+              help="A flight cut short: fly the first sortie only and switch it to RTL after its Nth photo (ArduPilot "
+                   "keeps triggering by distance in RTL); its log is the input of `aerosurvey resume`.")
 def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None, defaults: tuple[Path, ...],
-        timeout_factor: float, boot_timeout: float, report_dir: Path | None, resume_dir: Path | None) -> None:
+        timeout_factor: float, boot_timeout: float, report_dir: Path | None, resume_dir: Path | None,
+        rtl_after: int | None) -> None:
     """Upload, verify and fly every sortie of OUTDIR in SITL; exit 1 when a sortie does not match its plan.
 
     SITL runs in a temporary folder, removed afterwards; paths given here are taken from the
-    current folder. When SITL fails, the error quotes the last lines it printed.
+    current folder. When SITL fails, the error quotes the last lines it printed. A sortie cut
+    short on purpose (--rtl-after) is reported, not judged; exit 1 when it was not cut (it
+    took fewer photos).
     """
     # the SITL harness and pymavlink load only when the command runs
     from aerosurvey.flight.sitl_run import SitlSettings, fly_sorties
@@ -46,9 +52,15 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, sitl_bin: str | None,
     doc = read_manifest(outdir, "OUTDIR")
     vehicle = vehicle or doc.mission.vehicle
     settings = SitlSettings(vehicle, harness.find_binary(vehicle, sitl_bin), tuple(defaults) or harness.default_params(vehicle),
-                            speedup, timeout_factor, boot_timeout)
+                            speedup, timeout_factor, boot_timeout, rtl_after)
     report_dir = report_dir or (resume_dir or outdir) / "sitl"
     results = fly_sorties(doc, outdir, settings, report_dir, _echo_row, resume_dir)
+    if rtl_after is not None:
+        bad = [r["sortie"] for r in results if r["rtl_after_photos"] is None]
+        if bad:
+            raise harness.SitlError(f"sortie {bad[0]} was not cut: it took {results[0]['triggers_flown']} photos, "
+                                    f"--rtl-after {rtl_after} asks for more (see {report_dir / 'sitl_report.txt'})")
+        return
     bad = [r["sortie"] for r in results if not r["completed"] or r["triggers_match"] is False]
     if bad:
         raise harness.SitlError(f"sorties that did not fly as planned: {', '.join(bad)} (see {report_dir / 'sitl_report.txt'})")

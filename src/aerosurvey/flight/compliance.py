@@ -22,14 +22,14 @@ from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
 from aerosurvey.flight.coverage import flown_view, recorded_photos
 from aerosurvey.flight.refly import check_report_of_plan
-from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, failed_errors
-from aerosurvey.rules.flown import PLACES_FILE, Judged, failing_places, judge, on_view, part
+from aerosurvey.rules.engine import Evidence, evaluate, failed_errors
+from aerosurvey.rules.flown import PLACES_FILE, Judged, failing_places, judge, on_view, part, plan_evidence, planner_profile
 from aerosurvey.rules.load import Target
 from aerosurvey.rules.planview import PlanView
-from aerosurvey.rules.profile import Profile, apply_overrides, select_profiles
+from aerosurvey.rules.profile import Profile
 
-#: `check`'s rule run on a plan: the results of the chosen profiles and the evidence they used.
-RunRules = Callable[[Target], tuple[list[RuleResult], Evidence]]
+#: `check`'s choice of profiles for a plan ([] when none is chosen: the planner's own rule is checked)
+ChooseProfiles = Callable[[Target], list[Profile]]
 
 
 @dataclass(frozen=True)
@@ -107,19 +107,10 @@ def open_flight(folder: Path, plan_dir: Path | None = None) -> Flight:
     return Flight(folder, plan_folder, view, planned, flown_view(view, photos), sortie, heights)
 
 
-def _profiles_of(results: list[RuleResult], target: Target, profile_dirs: list[Path]) -> list[Profile]:
-    """The profiles `check` chose for the results (their ids, in order), with the plan's overrides."""
-    ids = list(dict.fromkeys(r.profile for r in results))
-    return apply_overrides(select_profiles(ids, profile_dirs), target.overrides)
-
-
-def judge_flight(flight: Flight, run_rules: RunRules, profile_dirs: list[Path]) -> tuple[list[Judged], Evidence]:
-    """Each rule of the chosen profiles planned (on the stations the log is of) and flown, with the flown evidence."""
-    target = flight.target
-    planned, base = run_rules(target)
-    profiles = _profiles_of(planned, target, profile_dirs)
-    if flight.planned is not flight.plan:
-        planned = evaluate(profiles, on_view(base, flight.planned))
+def judge_flight(flight: Flight, profiles: list[Profile]) -> tuple[list[Judged], Evidence]:
+    """Each rule of the profiles planned (on the stations the log is of) and flown, with the flown evidence."""
+    base = plan_evidence(flight.plan, profiles, flight.plan_folder)
+    planned = evaluate(profiles, base if flight.planned is flight.plan else on_view(base, flight.planned))
     flown = on_view(base, flight.flown)
     return judge(profiles, planned, flown), flown
 
@@ -130,11 +121,12 @@ def write_places(folder: Path, layer: dict[str, Any]) -> None:
         atomic_write_text(stage / PLACES_FILE, json.dumps(layer, indent=1) + "\n")
 
 
-def check_flight(folder: Path, plan_dir: Path | None, run_rules: RunRules, profile_dirs: list[Path], as_json: bool) -> None:
+def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> None:
     """`aerosurvey check FLIGHT_FOLDER`: print each rule planned / flown, write the failing places;
-    exit 1 when an error-level rule fails on the flown photos."""
+    exit 1 when an error-level rule fails on the flown photos. Without a profile chosen, the
+    planner's own rule (`planner_profile`), as `check PLAN_FOLDER` does."""
     flight = open_flight(folder, plan_dir)
-    judged, flown = judge_flight(flight, run_rules, profile_dirs)
+    judged, flown = judge_flight(flight, choose(flight.target) or [planner_profile()])
     layer = failing_places(judged, flown)
     write_places(folder, layer)
     bad = failed_errors([j.flown for j in judged])

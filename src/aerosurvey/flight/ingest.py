@@ -34,6 +34,7 @@ from aerosurvey.flight.coverage import (
 from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
 from aerosurvey.flight.handoff import camera_poses, geo_txt, metashape_csv, pix4d_csv
 from aerosurvey.flight.images import ImageMatch, geotag_images, list_images, match_images
+from aerosurvey.flight.modes import modes_report, read_modes
 from aerosurvey.manifest import Manifest, Stations
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.rules.engine import Evidence, LayoutSettings, evaluate
@@ -65,6 +66,7 @@ class Ingested:
     """What `log ingest` found; `report` is log_report.json's content (without the geotag part)."""
 
     events: Events
+    mode: list[str | None]  # the flight mode at each event (None: not known)
     match: Match | None
     images: ImageMatch | None
     photos: FlownPhotos | None
@@ -167,13 +169,16 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     ev, info = read_events(flight_log)
     report_progress("camera events read", 0.4)
     report: dict[str, Any] = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
+    modes = read_modes(flight_log, view.document.mission.vehicle if view is not None else None)
+    mode = modes.at(ev.time_s)
+    report["modes"] = modes_report(modes, mode)
     img = None
     if images_dir is not None:
         img = match_images(list_images(images_dir), ev)
         report["images"] = {"files": len(img.files), "method": img.method, "clock_offset_s": img.offset_s,
                             "unmatched_files": img.unmatched_files, "unmatched_events": img.unmatched_events}
     if view is None or stations is None:
-        return Ingested(ev, None, img, None, None, report, [])
+        return Ingested(ev, mode, None, img, None, None, report, [])
     doc = view.document
     median = check_same_plan(ev, view, flight_log.name, sortie)
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
@@ -216,7 +221,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     report["coverage"] = coverage.summary
     report_progress("done", 1.0)
     records.report_document(report)  # a report that does not match its schema is a bug: found before writing
-    return Ingested(ev, match, img, photos, coverage, report, rules, planned_aim(view, photos))
+    return Ingested(ev, mode, match, img, photos, coverage, report, rules, planned_aim(view, photos))
 
 
 def event_columns(result: Ingested) -> dict[str, Any]:
@@ -226,7 +231,7 @@ def event_columns(result: Ingested) -> dict[str, Any]:
     station = list(match.station) if match is not None else [None] * n
     dist = np.where([s is not None for s in station], match.distance_m, np.nan) if match is not None else np.full(n, np.nan)
     return {"event": np.arange(1, n + 1), "time_s": ev.time_s, "lat": ev.lat, "lon": ev.lon, "alt_m": ev.alt_m,
-            "rel_alt_m": ev.rel_alt_m, "roll": ev.roll, "pitch": ev.pitch, "yaw": ev.yaw, "station": station,
+            "rel_alt_m": ev.rel_alt_m, "roll": ev.roll, "pitch": ev.pitch, "yaw": ev.yaw, "mode": result.mode, "station": station,
             "distance_m": dist, "ground_m": photos.ground_m if photos is not None else np.full(n, np.nan),
             "agl_m": photos.agl_m if photos is not None else np.full(n, np.nan)}
 

@@ -2,7 +2,7 @@
 one reader of each, versioned, with schemas shipped in the package (data/events.schema.json,
 data/log_report.schema.json; docs/flight-logs.md is checked against them).
 
-events.csv starts with the line ``# aerosurvey-events 1`` (schema name and version), then
+events.csv starts with the line ``# aerosurvey-events 2`` (schema name and version), then
 the CSV header and one row per camera event. Spreadsheets show that first line as a row
 of its own; pandas reads the file with ``read_csv(path, comment="#")``.
 """
@@ -24,7 +24,7 @@ from aerosurvey import __version__, schemas
 from aerosurvey.errors import InputError
 
 EVENTS_SCHEMA = "aerosurvey-events"
-EVENTS_VERSION = 1
+EVENTS_VERSION = 2
 REPORT_SCHEMA = "aerosurvey-log-report"
 REPORT_VERSION = 1
 
@@ -49,6 +49,7 @@ class EventRows:
     roll: np.ndarray
     pitch: np.ndarray
     yaw: np.ndarray
+    mode: tuple[str | None, ...]  # the flight mode at the event (flight/modes.py)
     station: tuple[str | None, ...]
     distance_m: np.ndarray
     ground_m: np.ndarray
@@ -122,7 +123,8 @@ def loads_events(text: str, where: str = "events.csv") -> EventRows:
         return np.array([np.nan if r[c] is None else r[c] for r in rows], float)
 
     return EventRows(np.array([r["event"] for r in rows], int), num("time_s"), num("lat"), num("lon"), num("alt_m"),
-                     num("rel_alt_m"), num("roll"), num("pitch"), num("yaw"), tuple(r["station"] for r in rows),
+                     num("rel_alt_m"), num("roll"), num("pitch"), num("yaw"), tuple(r["mode"] for r in rows),
+                     tuple(r["station"] for r in rows),
                      num("distance_m"), num("ground_m"), num("agl_m"))
 
 

@@ -78,6 +78,7 @@ class SitlSettings:
     speedup: float
     timeout_factor: float
     boot_timeout: float = 60.0  # seconds for SITL to listen and send its first heartbeat
+    rtl_after_photos: int | None = None  # a flight cut short: the first sortie switched to RTL after this photo
 
 
 def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
@@ -85,7 +86,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                 resume_dir: Path | None = None) -> list[dict[str, Any]]:
     """Upload, verify and fly every sortie in SITL (those of `resume_dir` when given); copy each
     DataFlash log into `report_dir` and write sitl_report.json / .txt there. Returns one
-    comparison row per sortie."""
+    comparison row per sortie. With `settings.rtl_after_photos`, only the first sortie flies,
+    switched to RTL after that photo (a flight cut short, for `aerosurvey resume`); its row says so."""
     # the MAVLink link layer and the mission reader are needed only here
     from aerosurvey.link.connection import open_link
     from aerosurvey.link.mission_protocol import Policy
@@ -93,7 +95,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
     from aerosurvey.mission.formats.qgc_plan import loads_plan
 
     results = []
-    for route in sortie_routes(doc, plan_dir, resume_dir):
+    routes = sortie_routes(doc, plan_dir, resume_dir)
+    for route in routes[:1] if settings.rtl_after_photos is not None else routes:
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
         # a mission that points a gimbal flies with a mount, whose angles the log then records
         mount = any(item.command == mav.DO_MOUNT_CONTROL for item in mission.items)
@@ -113,7 +116,7 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                     return f"{rep.mission.items} items uploaded and verified"
 
                 flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items),
-                                     settings.timeout_factor, upload)
+                                     settings.timeout_factor, upload, rtl_after_photos=settings.rtl_after_photos)
             finally:
                 sv.stop()
             logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []
@@ -123,6 +126,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
                 shutil.copyfile(logs[-1], dest)
                 flight.log = dest.name
         row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
+        if settings.rtl_after_photos is not None:
+            row["rtl_after_photos"] = settings.rtl_after_photos if flight.cut_ms is not None else None
         if mount:
             row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else None
         if doc.camera.trigger == "camera":

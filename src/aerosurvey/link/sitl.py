@@ -77,6 +77,7 @@ class Flight:
     armed_ms: int | None = None
     disarmed_ms: int | None = None
     completed: bool = False
+    cut_ms: int | None = None  # when the flight was switched to RTL on purpose (`fly`'s rtl_after_photos)
     battery_mah: float | None = None
     log: str | None = None
     upload_note: str = ""
@@ -248,8 +249,12 @@ def prepare(sv: SitlVehicle, mount: bool = False) -> None:
 
 
 def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
-        upload: Callable[[Mission], str]) -> Flight:
-    """Upload (with verification), arm, fly AUTO to the end, and record what happened."""
+        upload: Callable[[Mission], str], rtl_after_photos: int | None = None) -> Flight:
+    """Upload (with verification), arm, fly AUTO to the end, and record what happened.
+
+    With `rtl_after_photos`, a flight cut short: switched to RTL as the camera feedback of that
+    photo arrives (ArduPilot keeps triggering by distance in RTL, CAM_AUTO_ONLY = 0), and over
+    once it is back (a copter landed and disarmed, a plane over home)."""
     from pymavlink import mavutil
 
     flight = Flight(name)
@@ -279,6 +284,10 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
         if t == "CAMERA_FEEDBACK":
             flight.triggers.append((m.lat * 1e-7, m.lng * 1e-7, float(m.alt_rel)))
             flight.trigger_track_index.append(len(flight.track))
+            if flight.cut_ms is None and len(flight.triggers) == rtl_after_photos:
+                sv.set_mode((PLANE_MODES if sv.vehicle == "plane" else COPTER_MODES)["RTL"])
+                flight.cut_ms = flight.track[-1][0] if flight.track else 0
+                flight.messages.append(f"switched to RTL after photo {rtl_after_photos}")
         elif t == "GLOBAL_POSITION_INT":
             if flight.armed_ms is None:
                 flight.armed_ms = m.time_boot_ms
@@ -296,14 +305,14 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
                 flight.disarmed_ms = flight.track[-1][0]
                 flight.completed = reached_last
                 break
-        if sv.vehicle == "plane" and reached_last and flight.track:
+        if sv.vehicle == "plane" and (reached_last or flight.cut_ms is not None) and flight.track:
             # a plane's RTL loiters: the sortie is over when it is back over home
             _, lat, lon, _ = flight.track[-1]
             if _dist(lat, lon, sv.home[0], sv.home[1]) < 150.0:
                 flight.disarmed_ms = flight.track[-1][0]
-                flight.completed = True
+                flight.completed = reached_last
                 break
-    if not flight.completed:
+    if not flight.completed and flight.cut_ms is None:
         flight.messages.append(f"not completed within the time limit (armed={armed}, reached the last item={reached_last})")
     return flight
 

@@ -18,9 +18,11 @@ their place (`Planar.true_bearing`) when the program is built, and nowhere else.
 Actions, done in their order when the vehicle reaches their waypoint:
 
 - `Gimbal`: the camera's pitch (gimbal convention, −90 looks straight down) and its yaw
-  relative to the vehicle's nose (and the true bearing it looks to), at the first waypoint of a run whose pitch (or, tilted,
-  whose yaw) differs from the run before. The mount is taken to point straight down at
-  take-off, so a nadir-only plan has no gimbal action at all.
+  relative to the vehicle's nose (and the true bearing it looks to), at the first waypoint
+  of a run whose pitch (or, tilted, whose yaw) differs from the run before. A nadir-only plan takes the mount to point straight
+  down at take-off and has no gimbal action at all; a plan that tilts the camera anywhere sets
+  it at the first run of every flight, nadir or not, since a flight (a sortie, a resumed
+  flight) may take off with the mount where another flight left it.
 - `CameraStart` / `CameraStop`: photos every `distance_m` metres or every `interval_s`
   seconds from a run's first station to its line end (camera.trigger "distance" or "time";
   the camera's own intervalometer, "camera", has none).
@@ -217,7 +219,8 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
         wps = _with_hover_stations(plan, wps, first, last)
     start, stop = _camera_actions(plan)
     yaw_fixed = plan.launch.fixed_yaw_deg
-    gimbal = Gimbal(NADIR_PITCH_DEG, 0.0, 0.0)
+    # the mount's state at take-off: straight down in a nadir-only plan, else not known
+    gimbal: Gimbal | None = Gimbal(NADIR_PITCH_DEG, 0.0, 0.0) if bool(np.all(st.pitch_deg == NADIR_PITCH_DEG)) else None
     first_of_run = {}
     for i, w in enumerate(wps):
         if w.run >= 0 and w.kind in ("lead_in", "line_start", "station") and w.run not in first_of_run:
@@ -241,7 +244,8 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
             nose = heading if yaw_fixed is None else float(yaw_fixed)
             want = Gimbal(pitch, round(_wrap180(bearing - nose), 6), bearing)
             # a yaw alone matters only to a tilted camera: a nadir-only plan has no gimbal action
-            if want.pitch_deg != gimbal.pitch_deg or (pitch != NADIR_PITCH_DEG and want.yaw_deg != gimbal.yaw_deg):
+            if gimbal is None or want.pitch_deg != gimbal.pitch_deg or (pitch != NADIR_PITCH_DEG
+                                                                         and want.yaw_deg != gimbal.yaw_deg):
                 actions.append(want)
             gimbal = want
         if hover and w.station and w.kind in ("line_start", "terrain", "bend", "station"):

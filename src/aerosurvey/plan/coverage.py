@@ -30,8 +30,9 @@ from aerosurvey.spec import MissionSpec
 
 #: photos that must see a point for it to be reconstructed (a stereo pair)
 MIN_IMAGES = 2
-#: the profile name of the planner's own rule result (`uncovered_rule`) among the manifest's rules
-PLANNER_PROFILE = "plan"
+#: the profile name of the planner's own rule result (`uncovered_rule`) among the manifest's rules, its id and words
+PLANNER_PROFILE, UNCOVERED_RULE = "plan", "uncovered-ground"
+UNCOVERED_STATEMENT = "every point of the area outside the exclusion zones and their margins is seen by at least two photos"
 #: parts of the shortfall smaller than this are rounding slivers of the polygon operations
 SLIVER_M2 = 0.01
 #: ground counts as seen by a photo only this far inside its footprint: where a photo is
@@ -137,9 +138,8 @@ def uncovered_rule(c: Coverage) -> dict[str, Any]:
     """The planner's own rule result, as the manifest records rule results: required ground fewer
     than two photos see (next to the zones)."""
     where = [{"xy": [round(p.x, 2), round(p.y, 2)]} for p in (part.representative_point() for part in c.polygons()[:50])]
-    return {"profile": PLANNER_PROFILE, "rule": "uncovered-ground", "status": "fail" if c.uncovered_m2 > 0 else "pass",
-            "severity": "error",
-            "statement": "every point of the area outside the exclusion zones and their margins is seen by at least two photos",
+    return {"profile": PLANNER_PROFILE, "rule": UNCOVERED_RULE, "status": "fail" if c.uncovered_m2 > 0 else "pass",
+            "severity": "error", "statement": UNCOVERED_STATEMENT,
             "measured": f"{c.uncovered_m2:.2f} m² in {c.parts} part(s) seen by fewer than {MIN_IMAGES} photos",
             "required": "0 m²", "evidence": ["the layer 'uncovered' of plan.geojson"] if c.parts else [],
             "where": where, "source": "aerosurvey planner (plan/coverage.py)"}

@@ -21,6 +21,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.ids import station_index
 from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
 from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.estimates import estimate, sun_over_window
@@ -48,15 +49,16 @@ def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | Non
     return _plan(spec, inputs, progress or no_progress)
 
 
-def resume_mission(spec: MissionSpec, inputs: PlanInputs, after_station: str, progress: Progress | None = None) -> Plan:
-    """The plan of `spec` whose sorties fly only the stations after `after_station` (the last
-    photo of a flight cut short): the same route, stations and ids, the rest split into sorties
-    that each fit a battery ([battery]) and the autopilot's mission storage. The first sortie
-    starts at the next station with a lead-in and the camera switched on there, mid-line or not."""
-    return _plan(spec, inputs, progress or no_progress, after_station)
+def resume_mission(spec: MissionSpec, inputs: PlanInputs, from_station: str, progress: Progress | None = None) -> Plan:
+    """The plan of `spec` whose sorties fly only the stations from `from_station` on (the first
+    station of a flight cut short not photographed as the mission asked): the same route,
+    stations and ids, the rest split into sorties that each fit a battery ([battery]) and the
+    autopilot's mission storage. The first sortie starts at that station with a lead-in, the
+    gimbal set and the camera switched on there, mid-line or not."""
+    return _plan(spec, inputs, progress or no_progress, from_station)
 
 
-def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after: str | None = None) -> Plan:
+def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: str | None = None) -> Plan:
     report("the site", 0.0)
     h_target, gsd_target, cap_warnings = target_height(spec)
     site = prepare_site(spec, inputs, h_target)
@@ -89,8 +91,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_after:
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
     budget: Budget | None = None
     sorties: tuple[SortiePlan, ...] = ()
-    start = 0 if resume_after is None else _station_after(alts.stations, resume_after)
-    if spec.battery is not None or resume_after is not None:
+    start = 0 if resume_from is None else station_index(alts.stations.ids, resume_from)
+    if spec.battery is not None or resume_from is not None:
         report("battery sorties", 0.88)
         path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                           site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
@@ -218,18 +220,6 @@ def launch_sites(spec: MissionSpec, site: Site, home_xy: tuple[float, float],
     for i, (px, py) in enumerate(zip(x, y)):
         check_launch(spec, site, (float(px), float(py)), f"battery.launch_points[{i + 1}] = {list(pts[i])}", "battery.launch_points")
     return tuple(LaunchSite(float(px), float(py), float(lo), float(la), float(g)) for px, py, lo, la, g in zip(x, y, lon, lat, ground))
-
-
-def _station_after(stations: Stations, station_id: str) -> int:
-    """The index (flight order) of the station after `station_id`; InputError when there is none."""
-    try:
-        i = stations.ids.index(station_id)
-    except ValueError:
-        raise InputError(f"station {station_id!r} is not a station of this plan ({len(stations.ids)} stations, "
-                         f"{stations.ids[0] if stations.ids else '-'} to {stations.ids[-1] if stations.ids else '-'})") from None
-    if i + 1 == len(stations.ids):
-        raise InputError(f"station {station_id!r} is the plan's last: nothing is left to fly")
-    return i + 1
 
 
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],

@@ -309,16 +309,17 @@ def _run_snooping(t: CheckPoints, s: Settings, area_km2: float | None) -> _Run:
                  f"{c['largest_statistic']:.2f}, MDB {_cm_text(c['mdb_m'])}" for c in it["tests"]]
         outcome = f"rejects {it['rejected']} ({it['axis']})" if it["rejected"] else "rejects none"
         sentences.append(f"Iteration {it['iteration']} ({it['points']} points): " + "; ".join(parts) + f": {outcome}.")
+    # the figures only: the verdict is the result's one (not tested when the evidence is too little)
     sentences.append(f"{len(rejected)} of {t.n} points rejected{' (' + ', '.join(rejected) + ')' if rejected else ''}"
-                     f": {res.rejected_share * 100:.1f} %, limit {res.max_share * 100:g} %"
-                     + ("." if res.share_ok else "; the data set fails."))
+                     f": {res.rejected_share * 100:.1f} %, " + ("limit" if res.share_ok else "over the limit of")
+                     + f" {res.max_share * 100:g} %.")
     for label, every, kept in ((a, res.global_all.get(a), res.global_kept.get(a)) for a in ("horizontal", "vertical")):
         for which, g in (("every point", every), ("the points kept", kept)):
             if g is not None:
                 sentences.append(
                     f"Global test ({label}, {which}): sigma = {_cm_text(g['sigma_m'])}, sum e^2 / sigma0^2 = "
                     f"{g['statistic']:.2f} {'<=' if g['passed'] else '>'} chi2({g['dof']}, {1 - g['alpha']:g}) = "
-                    f"{g['limit']:.2f} with sigma0 = {_cm_text(g['sigma0_m'])}: {'passed' if g['passed'] else 'failed'}.")
+                    f"{g['limit']:.2f} with sigma0 = {_cm_text(g['sigma0_m'])}.")
     result["sentences"] = sentences
     run = _Run(result, None, lambda m: run_on(m).passed, flags={"snooping_rejected": res.rejected})
     why = (f"a blunder of {s.max_mdb:g} sigma on one value must be found with {s.power * 100:g} % power at alpha0 = "
@@ -401,7 +402,7 @@ def assess(points: CheckPoints, s: Settings, campaign: Campaign | None = None) -
     warnings += review.outlier_findings(tested)
     bounds = area_bounds_local(campaign, tested) if campaign is not None else None
     warnings += review.distribution_findings(tested, bounds)
-    warnings += review.influence_findings(tested, run.verdict)
+    influence_at = len(warnings)  # the verdict's dependence on single points: once it is known whether there is one
     notes = [f"input lengths in {points.units}" + ("" if points.units_stated else " (assumed: no unit stated)")
              + f"; CRS {points.crs or 'not stated'}"] + notes + run.notes
     if not tested.has_positions:
@@ -424,6 +425,9 @@ def assess(points: CheckPoints, s: Settings, campaign: Campaign | None = None) -
         c_warn, c_notes = campaign_checks(campaign, points, tested if is_check.any() else None, valid)
         warnings += c_warn
         notes += c_notes
+    # a result without a verdict (not tested, indicative only) has no verdict to rest on single points
+    warnings[influence_at:influence_at] = review.influence_findings(tested, run.verdict if valid.status == validity.VALID
+                                                                    else None)
     result = dict(run.result)
     sentences = result.pop("sentences", [])
     if valid.status != validity.VALID and run.invalid_sentences is not None:

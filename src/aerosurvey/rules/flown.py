@@ -26,12 +26,24 @@ from aerosurvey.rules.checks import Where
 from aerosurvey.rules.cp_files import layout_points
 from aerosurvey.rules.engine import Evidence, RuleResult, evaluate, layout_settings
 from aerosurvey.rules.planview import PlanView
-from aerosurvey.rules.profile import Profile
+from aerosurvey.rules.profile import Profile, Rule
 
 #: The layer of failing places `aerosurvey check FLIGHT_FOLDER` writes into the flight folder
 #: (`failing_places` makes it, `read_places` reads it), and the role of its features.
 PLACES_FILE = "failing_places.geojson"
 PLACE_ROLE = "failing-place"
+
+
+def planner_profile() -> Profile:
+    """The planner's own rule (uncovered-ground) as a profile, for a flight checked without one: the
+    planner measures it exactly from its stations' footprints next to the zones; on flown photos it
+    is measured the way `coverage_min_images` measures, on sample points of the area outside the
+    zones, planned and flown alike."""
+    from aerosurvey.plan.coverage import MIN_IMAGES, PLANNER_PROFILE, UNCOVERED_RULE, UNCOVERED_STATEMENT
+
+    rule = Rule(UNCOVERED_RULE, UNCOVERED_STATEMENT, "coverage_min_images", "error",
+                "aerosurvey planner (plan/coverage.py), on sample points of the area", {"min": MIN_IMAGES})
+    return Profile(PLANNER_PROFILE, "the planner's own rule", "aerosurvey", (rule,), "")
 
 
 def plan_evidence(view: PlanView, profiles: list[Profile], folder: Path | None) -> Evidence:

@@ -102,8 +102,9 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
 
 def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     """`aerosurvey resume --log` over the uploaded folder: the page's plan (its spec and drawn zones, in
-    memory) flown on from the station after the flight's last matched photo."""
-    from aerosurvey.commands.resume import last_photographed, resumed_text, same_plan
+    memory) flown on from the first station the flight did not photograph as the mission asked."""
+    from aerosurvey.commands.resume import resumed_text, same_plan
+    from aerosurvey.flight.resume_start import start_from_log
     from aerosurvey.outputs import render_resume
     from aerosurvey.plan.planner import resume_mission
 
@@ -111,13 +112,13 @@ def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files:
     if doc is None:
         raise InputError("resume: a resumed flight is resumed from its plan; load the results on the plan", key="resume")
     try:
-        station = last_photographed(folder, doc)
+        start = start_from_log(folder, doc)
         spec, inputs = service.spec_and_inputs(bundle.spec, state.workspace, bundle.zones)
-        plan = resume_mission(spec, inputs, station)
+        plan = resume_mission(spec, inputs, start.first_id)
         same_plan(plan, doc)
-        out = render_resume(plan, station, "the page's plan")
+        out = render_resume(plan, start.done, start.said, "the page's plan")
     except InputError as exc:  # the command's message, about the folder the page loaded
         text = str(exc).replace(f"--log {str(folder)!r}", "the loaded folder").replace(repr(str(folder)), "the loaded folder")
         raise InputError(text, key="resume") from None
     pid = state.remember(service.PlanBundle({"name": f"{spec.name}-resume"}, out, bundle.frame))
-    return {"plan_id": pid, "files": sorted(out), "notes": [], "summary": resumed_text(plan, station)}
+    return {"plan_id": pid, "files": sorted(out), "notes": list(start.said), "summary": resumed_text(plan, start)}
