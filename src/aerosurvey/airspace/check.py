@@ -283,7 +283,7 @@ def _in_frame(limit: Limit | None, ground: np.ndarray, base: np.ndarray, no_dem:
     if limit is None:
         return none
     if limit.reference == "AGL":
-        return limit.value_m + ground - base
+        return np.asarray(limit.value_m + ground - base, float)
     if no_dem:
         return none
     span = amsl_span(limit)
