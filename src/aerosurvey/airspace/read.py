@@ -12,7 +12,8 @@ do not take (docs/airspace.md):
   (none: UTC);
 - ED-318 geometries: read here (the ED-318 type parses every geometry as a Point and refuses a
   Polygon), with their layers (the type requires both limits; published files may state one: a
-  limit left out is not stated, never 0);
+  limit left out is not stated, never 0), and feature ids (the type takes whole numbers only;
+  GeoJSON allows strings; aerosurvey names zones by their identifier);
 - limits read as the numbers written (the ED-269 type keeps whole numbers only).
 
 What is then read into `Geozone` (airspace/model.py): one outline (polygon with its holes, or
@@ -206,9 +207,10 @@ def _ed318(data: dict[str, Any], name: str) -> tuple[Geozone, ...]:
         outline, radius = _ed318_outline(raw["geometry"], layer, where)
         unit = FOOT_M if layer is not None and layer.get("uom") == "ft" else 1.0
         lower = upper = None
-        if layer is not None:
-            lower = _limit(layer.get("lower"), _reference(layer, "lowerReference", where), unit, f"{where} layer.lower", ceiling=False)
-            upper = _limit(layer.get("upper"), _reference(layer, "upperReference", where), unit, f"{where} layer.upper", ceiling=True)
+        if layer is not None and layer.get("lower") is not None:
+            lower = _limit(layer["lower"], _reference(layer, "lowerReference", where), unit, f"{where} layer.lower", ceiling=False)
+        if layer is not None and layer.get("upper") is not None:
+            upper = _limit(layer["upper"], _reference(layer, "upperReference", where), unit, f"{where} layer.upper", ceiling=True)
         kind = p.type.value
         periods, unresolved = _ed318_periods(p.get("limitedApplicability"), where)
         out.append(Geozone(
@@ -240,6 +242,7 @@ def _ed318_normalised(f: Any) -> Any:
         return f
     f = dict(f)
     f["geometry"] = None
+    f.pop("id", None)  # the type reads any id as a whole number; a GeoJSON id may be a string (and is not used)
     p = f.get("properties")
     if isinstance(p, dict) and p.get("type") == "REQ_AUTHORISATION":
         f["properties"] = {**p, "type": "REQ_AUTHORIZATION"}
