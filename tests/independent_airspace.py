@@ -241,7 +241,7 @@ def _time(t: dt.time) -> str:
 def ed269_feature(z: Zone, spelling: str = "REQ_AUTHORISATION") -> dict:
     """A feature of ED-269's UASZoneVersion from its published fields."""
     unit = {"m": "M", "ft": "FT"}
-    lim = z.lower or z.upper or (0, "m", "AGL")
+    lim = z.lower or z.upper or (0, z.circle[3] if z.circle else "m", "AGL")
     geometry: dict = {"uomDimensions": unit[lim[1]], "lowerVerticalReference": (z.lower or lim)[2],
                       "upperVerticalReference": (z.upper or lim)[2]}
     if z.lower is not None:
@@ -277,7 +277,7 @@ def write_ed269(path: Path, zones: list[Zone], bom: bool = False) -> Path:
 
 def ed318_feature(z: Zone) -> dict:
     """A feature of ED-318's GeoJSON from its published fields."""
-    lim = z.lower or z.upper or (0, "m", "AGL")
+    lim = z.lower or z.upper or (0, z.circle[3] if z.circle else "m", "AGL")
     layer: dict = {"uom": lim[1]}
     if z.lower is not None:
         layer |= {"lower": z.lower[0], "lowerReference": z.lower[2]}

@@ -8,7 +8,7 @@ import dataclasses
 import datetime as dt
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 import independent_airspace as ia
@@ -66,7 +66,7 @@ def cases(draw):
     return zs, auth, window, size, height, draw(st.sampled_from(["ED-269", "ED-318"]))
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(case=cases())
 def test_random_zones_get_the_independent_verdict(case, tmp_path_factory):
     zs, auth, window, (w, h), height, fmt = case
@@ -84,6 +84,7 @@ def test_random_zones_get_the_independent_verdict(case, tmp_path_factory):
         plan = plan_from_files(spec)
     except InputError as exc:  # zones that leave nothing to survey, or no launch point outside them
         assert "exclusion zones" in str(exc) or "launch" in str(exc), str(exc)
+        event("refused: the zones leave no survey or no launch point")
         return
     report = check_airspace(plan, mission_programs(plan))
     assert report is not None
@@ -97,8 +98,10 @@ def test_random_zones_get_the_independent_verdict(case, tmp_path_factory):
         verdicts = {ia.expected_verdict(z, legs, local, home, lambda lon, lat: home, set(auth), window).verdict
                     for legs, _ in flights}
         if None in verdicts:
+            event("a zone not firm (a leg on its edge)")
             continue  # a leg on the zone's edge or a limit: not firm
         expected = "block" if "block" in verdicts else "advise" if "advise" in verdicts else "neither"
+        event(f"verdict {expected}")
         assert got.get(z.ident, "neither") == expected, (z, got, report.notes)
 
 

@@ -181,17 +181,16 @@ def check_legs_4d(plan: Plan, airspace: Airspace, legs: Sequence[Leg3],
     listed = sorted(set(int(z) for z in near_zones))
     leg_i, zone_i = tree.query(geoms, predicate="intersects")
     applies = [airspace.applies(z) for z in zones]
+    entered = set(int(z) for z in zone_i)
+    # the legs that may meet a zone that applies and restricts: where each lies inside the outline
+    keep = np.array([applies[z] and airspace.blocks(zones[z]) is not None for z in zone_i.tolist()], bool).reshape(-1)
+    pieces = _pieces(geoms, np.asarray(outlines, dtype=object), leg_i[keep], zone_i[keep])
     found: dict[int, list[Meeting]] = {}
-    entered: set[int] = set()
-    no_dem = site.dem is None
-    for li, zi in zip(leg_i.tolist(), zone_i.tolist()):
-        z = zones[zi]
-        entered.add(zi)
-        if not applies[zi] or airspace.blocks(z) is None:
-            continue
-        m = _meeting(legs[li], geoms[li], outlines[zi], z, plan, homes[legs[li].leg.flight])
+    for (li, zi), parts in pieces.items():
+        m = _meeting(legs[li], parts, zones[zi], plan, homes[legs[li].leg.flight])
         if m is not None:
             found.setdefault(zi, []).append(m)
+    no_dem = site.dem is None
     unconverted = {lim.reference for zi in listed for lim in (zones[zi].lower, zones[zi].upper)
                    if lim is not None and lim.reference != "AGL"}
     if no_dem and unconverted:
@@ -227,30 +226,44 @@ def check_legs_4d(plan: Plan, airspace: Airspace, legs: Sequence[Leg3],
     return AirspaceReport(airspace, tuple(verdicts), tuple(notes))
 
 
-def _pieces(line: shapely.Geometry, outline: shapely.Geometry) -> list[tuple[float, float]]:
-    """The parts (fractions t0..t1 along the leg) of a leg inside an outline; a point leg: (0, 1) when inside."""
-    if line.geom_type == "Point":
-        return [(0.0, 1.0)] if shapely.covers(outline, line) else []
-    inside = shapely.intersection(line, outline)
-    out = []
-    length = line.length
-    for part in shapely.get_parts(inside):
-        coords = shapely.get_coordinates(part)
-        ts = [line.project(shapely.Point(c)) / length for c in (coords[0], coords[-1])]
-        out.append((min(ts), max(ts)))
+def _pieces(geoms: np.ndarray, outlines: np.ndarray, leg_i: np.ndarray,
+            zone_i: np.ndarray) -> dict[tuple[int, int], list[tuple[float, float]]]:
+    """For each (leg, zone) pair: the parts of the leg inside the outline, as fractions (t0, t1) along it; a point leg
+    (vertical) inside: (0, 1). One vectorised intersection for every pair."""
+    out: dict[tuple[int, int], list[tuple[float, float]]] = {}
+    if len(leg_i) == 0:
+        return out
+    lines, polys = geoms[leg_i], outlines[zone_i]
+    point = shapely.get_type_id(lines) == 0
+    for j in np.flatnonzero(point & shapely.covers(polys, lines)):
+        out[(int(leg_i[j]), int(zone_i[j]))] = [(0.0, 1.0)]
+    seg = np.flatnonzero(~point)
+    inside = shapely.intersection(lines[seg], polys[seg])
+    parts, part_of = shapely.get_parts(inside, return_index=True)
+    if len(parts) == 0:
+        return out
+    coords, coord_of = shapely.get_coordinates(parts, return_index=True)
+    first = np.searchsorted(coord_of, np.arange(len(parts)))
+    last = np.searchsorted(coord_of, np.arange(len(parts)), side="right") - 1
+    owner = lines[seg][part_of]
+    t0 = shapely.line_locate_point(owner, shapely.points(coords[first]), normalized=True)
+    t1 = shapely.line_locate_point(owner, shapely.points(coords[last]), normalized=True)
+    for p, a, b in zip(part_of.tolist(), t0.tolist(), t1.tolist()):
+        j = seg[p]
+        out.setdefault((int(leg_i[j]), int(zone_i[j])), []).append((min(a, b), max(a, b)))
     return out
 
 
-def _meeting(leg: Leg3, line: shapely.Geometry, outline: shapely.Geometry, zone: Geozone, plan: Plan,
+def _meeting(leg: Leg3, pieces: list[tuple[float, float]], zone: Geozone, plan: Plan,
              home: tuple[float, float, float]) -> Meeting | None:
-    """The first point of the leg inside the outline at a height inside the zone's band, or None."""
+    """The first point of the leg inside the outline (`pieces`, fractions along it) at a height in the zone's band, or None."""
     site = plan.site
     k = site.grid_scale
     (x0, y0), (x1, y1) = leg.leg.start, leg.leg.end
     length = math.hypot(x1 - x0, y1 - y0) / k
     home_ground = home[2]
     relative = plan.altitudes.frame == "relative"
-    for t0, t1 in _pieces(line, outline):
+    for t0, t1 in pieces:
         n = int(min(MAX_SAMPLES, max(1, math.ceil((t1 - t0) * length / SAMPLE_M))))
         t = np.linspace(t0, t1, n + 1)
         x, y = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
@@ -265,13 +278,13 @@ def _meeting(leg: Leg3, line: shapely.Geometry, outline: shapely.Geometry, zone:
         if hit is None:
             continue
         i, f = hit
-        tt = t[i] + f * (t[i + 1] - t[i]) if i + 1 < len(t) else t[i]
+        tt = t[i] + f * (t[i + 1] - t[i])
         gx, gy = x0 + tt * (x1 - x0), y0 + tt * (y1 - y0)
         g = float(np.interp(tt, t, ground))
         alt = float(np.interp(tt, t, np.clip(lower, lo, hi)))  # the lowest height in the band there
         amsl = alt + float(np.interp(tt, t, base))
         lon, lat = site.planar.lonlat(np.array([gx]), np.array([gy]))
-        inside = sum(b - a for a, b in _pieces(line, outline)) * length
+        inside = sum(b - a for a, b in pieces) * length
         return Meeting(leg.leg.flight, leg.leg.seq, leg.leg.what, inside, (float(lon[0]), float(lat[0])), (gx, gy),
                        amsl - g, None if site.dem is None else amsl)
     return None
@@ -291,21 +304,21 @@ def _in_frame(limit: Limit | None, ground: np.ndarray, base: np.ndarray, no_dem:
 
 
 def _first_meeting(c1: np.ndarray, c2: np.ndarray) -> tuple[int, float] | None:
-    """The first sub-interval i (samples i..i+1) and fraction f in it where both straight functions c1, c2 are >= 0."""
-    for i in range(max(1, len(c1) - 1)):
-        j = min(i + 1, len(c1) - 1)
-        lo, hi = 0.0, 1.0
-        for a, b in ((float(c1[i]), float(c1[j])), (float(c2[i]), float(c2[j]))):
-            if a >= 0 and b >= 0:
-                continue
-            if a < 0 and b < 0:
-                lo, hi = 1.0, 0.0
-                break
-            r = a / (a - b)
-            if a >= 0:
-                hi = min(hi, r)
-            else:
-                lo = max(lo, r)
-        if lo <= hi:
-            return i, lo
-    return None
+    """The first interval i (between samples i and i + 1) and the fraction f in it where the straight functions c1 and
+    c2 (their values at the samples) are both >= 0; None when there is none."""
+    lo = np.zeros(len(c1) - 1)
+    hi = np.ones(len(c1) - 1)
+    for c in (c1, c2):
+        a, b = c[:-1], c[1:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(a != b, a / (a - b), 0.0)
+        rising = (a < 0) & (b >= 0)
+        falling = (a >= 0) & (b < 0)
+        lo = np.where(rising, np.maximum(lo, r), lo)
+        hi = np.where(falling, np.minimum(hi, r), hi)
+        hi = np.where((a < 0) & (b < 0), -1.0, hi)
+    ok = np.flatnonzero(lo <= hi)
+    if len(ok) == 0:
+        return None
+    i = int(ok[0])
+    return i, float(lo[i])
