@@ -8,6 +8,8 @@ command makes to plan a spec as it stands on disk.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,10 +21,9 @@ from aerosurvey.plan.inputs import DemGrid, PlanInputs
 from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
-    from pathlib import Path
-
     from shapely.geometry.base import BaseGeometry
 
+    from aerosurvey.airspace.model import Airspace, Geozone
     from aerosurvey.plan.planner import Plan, Progress
 
 
@@ -47,7 +48,48 @@ def load_inputs(spec: MissionSpec) -> PlanInputs:
         if spec.battery is not None:
             extra += [shapely.Point(p) for p in spec.battery.launch_points]
         dem = read_dem_window(spec.terrain.dem, shapely.union_all([area, *extra]), reach_beyond_area_m(spec))
-    return PlanInputs(area, zones, dem)
+    return PlanInputs(area, zones, dem, load_airspace(spec, area))
+
+
+def load_airspace(spec: MissionSpec, area_wgs84: BaseGeometry) -> Airspace | None:
+    """The official zone files of [airspace] zones, each read whole (airspace/read.py), with the authorisations and
+    the planned window; None without zone files. A file whose zones all lie far from the area but would lie over it
+    read latitude first is refused: its coordinates are in the wrong order."""
+    if not spec.airspace.zones:
+        if spec.airspace.authorisations:
+            raise InputError("airspace.authorisations is given but airspace.zones names no zone file", key="airspace.authorisations")
+        return None
+    from aerosurvey.airspace.model import Airspace
+    from aerosurvey.airspace.read import read_zone_file
+
+    zones: list[Geozone] = []
+    for path in spec.airspace.zones:
+        read = read_zone_file(path)
+        _check_order(read, path, area_wgs84)
+        zones.extend(read)
+    known = {z.identifier for z in zones}
+    unknown = [a for a in spec.airspace.authorisations if a not in known]
+    if unknown:
+        raise InputError(f"airspace.authorisations names {', '.join(repr(a) for a in unknown)}, no zone of the zone files "
+                         f"({', '.join(p.name for p in spec.airspace.zones)}): give the identifiers of the zones you are "
+                         "authorised for", key="airspace.authorisations")
+    c = spec.conditions
+    window = (c.start, c.end) if c.start is not None and c.end is not None else None
+    return Airspace(tuple(zones), tuple(str(p) for p in spec.airspace.zones), spec.airspace.authorisations, window)
+
+
+#: a zone file none of whose zones lies within this many degrees of the area is checked for swapped coordinates
+_ORDER_REACH_DEG = 1.0
+
+
+def _check_order(zones: Sequence[Geozone], path: Path, area_wgs84: BaseGeometry) -> None:
+    pts = np.array([shapely.get_coordinates(z.outline).mean(axis=0) for z in zones])
+    near = shapely.dwithin(shapely.points(pts), area_wgs84, _ORDER_REACH_DEG)
+    swapped = shapely.dwithin(shapely.points(pts[:, ::-1]), area_wgs84, _ORDER_REACH_DEG)
+    if not near.any() and swapped.any():
+        raise InputError(f"zone file {path.name!r}: none of its {len(zones)} zones lies near the area, but read latitude "
+                         "first they would: its coordinates seem to be [latitude, longitude]; ED-269 and ED-318 (GeoJSON) "
+                         "give [longitude, latitude]", key="airspace.zones")
 
 
 def plan_from_files(spec: MissionSpec, progress: Progress | None = None) -> Plan:

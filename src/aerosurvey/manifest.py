@@ -29,6 +29,7 @@ from aerosurvey.jsontext import Column, rows_text, string_texts, table_text
 from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
+    from aerosurvey.airspace.check import AirspaceReport
     from aerosurvey.plan.planner import Plan
     from aerosurvey.spec import MissionSpec
 
@@ -111,6 +112,21 @@ def _coverage(plan: Plan) -> dict[str, Any]:
     c = plan.coverage
     return {"min_images": MIN_IMAGES, "required_m2": round(c.required_m2, 1), "checked_m2": round(c.checked_m2, 1),
             "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
+
+
+#: the version of the manifest's `airspace` record: a change of its fields bumps it (docs/airspace.md)
+AIRSPACE_VERSION = 1
+
+
+def airspace_record(report: AirspaceReport, spec: MissionSpec) -> dict[str, Any]:
+    """The official zones the flights were checked against (airspace/check.py): the files, the authorisations, the
+    planned window, and each zone near the flights with its verdict and the legs that meet it."""
+    base = spec.path.parent if spec.path else Path(".")
+    w = report.airspace.window
+    return {"version": AIRSPACE_VERSION, "files": [_input(p, base) for p in spec.airspace.zones],
+            "authorisations": list(report.airspace.authorisations),
+            "window": None if w is None else {"start": w[0].isoformat(), "end": w[1].isoformat()},
+            "zones_read": len(report.airspace.zones), "zones": report.manifest_zones(), "notes": list(report.notes)}
 
 
 def run_stations(plan: Plan) -> list[tuple[int, int, int]]:

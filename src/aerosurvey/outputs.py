@@ -29,6 +29,7 @@ from aerosurvey.plan.planner import Plan
 from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
+    from aerosurvey.airspace.check import AirspaceReport
     from aerosurvey.rules.control_points import ControlPoint
     from aerosurvey.rules.engine import Evidence, RuleResult
 from aerosurvey.report.features import footprint_lonlat, plan_geojson
@@ -75,6 +76,25 @@ def final_gate(plan: Plan, programs: dict[str, FlightProgram]) -> None:
         raise CheckFailed("the plan is not written: " + "; ".join(v.message() for v in bad[:3]) + more)
 
 
+def airspace_gate(plan: Plan, programs: dict[str, FlightProgram]) -> AirspaceReport | None:
+    """Every leg of every flight against the official zones in four dimensions (airspace/check.py): a zone that blocks
+    a leg stops the plan with the zone, the leg and the figures; else the report of every zone near the flights."""
+    if plan.airspace is None:
+        return None
+    from aerosurvey.airspace.check import check_airspace
+
+    report = check_airspace(plan, programs)
+    refusal = report.refusal() if report is not None else None
+    if refusal is not None:
+        raise CheckFailed("the plan is not written: " + refusal)
+    return report
+
+
+def planner_airspace_rule(report: AirspaceReport | None) -> list[dict[str, Any]]:
+    """The planner's airspace rule as a manifest rule record, when the plan was checked against official zones."""
+    return [] if report is None else [report.rule_record()]
+
+
 def _rules(spec: MissionSpec, manifest: dict[str, Any], stations: mf.StationTable,
            features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
     """Evaluate the spec's rule profiles on the plan as later readers will see it (the
@@ -107,8 +127,9 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`), `dji`
     which template the DJI .kmz files hold (`dji_kmz_files`)."""
     # one flight program per file stem (the whole mission and each sortie), checked once, then emitted
-    programs = {"mission": flight_program(plan)} | _sortie_programs(plan, ids.sortie_file_stem)
+    programs = mission_programs(plan)
     final_gate(plan, programs)
+    airspace = airspace_gate(plan, programs)
     mission = mavlink_mission(programs["mission"])
     # the station table's columns are written into the manifest and plan.geojson, and the
     # rules make its rows; the footprints' corners go into plan.geojson and plan.gpkg
@@ -122,11 +143,14 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
                                 qgc))
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, spec, len(mission.items), {}, with_stations=False)
+    if airspace is not None:
+        manifest["airspace"] = mf.airspace_record(airspace, spec)
+        warnings += [f"airspace: {v.text()}" for v in airspace.of("advise")] + [f"airspace: {n}" for n in airspace.notes]
     results, points, evidence = _rules(spec, manifest, stations_table, fc)
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
-    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)]
+    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)] + planner_airspace_rule(airspace)
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
     binary, dji_warnings = dji_kmz_files(plan, programs, dji)
@@ -174,6 +198,11 @@ def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI
     return files, warnings
 
 
+def mission_programs(plan: Plan) -> dict[str, FlightProgram]:
+    """The flight program of the whole mission ("mission") and of each sortie, by file stem."""
+    return {"mission": flight_program(plan)} | _sortie_programs(plan, ids.sortie_file_stem)
+
+
 def _sortie_programs(plan: Plan, stem: Callable[[int], str]) -> dict[str, FlightProgram]:
     """Each sortie's flight program from its launch site, by file stem."""
     return {stem(k): flight_program(plan, k - 1, name=f"{plan.name}-{stem(k)}") for k in range(1, len(plan.sorties) + 1)}
@@ -205,6 +234,7 @@ def render_resume(plan: Plan, stations_done: int, counted: tuple[str, ...], plan
     station the flight resumes from, what was counted as done and why, and what each sortie flies."""
     programs = _sortie_programs(plan, ids.resume_file_stem)
     final_gate(plan, programs)
+    airspace_gate(plan, programs)
     files = _mission_files(plan, {stem: mavlink_mission(p) for stem, p in programs.items()}, qgc)
     sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
     first = plan.stations.ids[plan.sorties[0].sortie.first]

@@ -9,8 +9,8 @@ from __future__ import annotations
 import datetime as dt
 import math
 import tomllib
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -140,6 +140,15 @@ class ConditionsSpec:
 
 
 @dataclass(frozen=True)
+class AirspaceSpec:
+    """The spec's [airspace] table: official UAS zone files (ED-269, ED-318) the plan is checked against, and the
+    identifiers of the zones the operator holds an authorisation for (docs/airspace.md)."""
+
+    zones: tuple[Path, ...] = ()
+    authorisations: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class LimitsSpec:
     """Sanity limits checked from the spec before any planning work (raise them for a real large job)."""
 
@@ -167,6 +176,7 @@ class MissionSpec:
     path: Path | None
     limits: LimitsSpec = LimitsSpec()
     pattern: PatternSpec = PatternSpec("area")
+    airspace: AirspaceSpec = AirspaceSpec()
 
 
 class _Table:
@@ -317,6 +327,24 @@ def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
     if spec.wind_ms >= vehicle.cruise_speed_ms:
         raise bad_value("battery.wind_ms", spec.wind_ms, f"less than the cruise speed {vehicle.cruise_speed_ms:g} m/s")
     return spec
+
+
+def _airspace(t: _Table, base: Path) -> AirspaceSpec:
+    zones = t.raw("zones", [])
+    if not isinstance(zones, list):
+        raise bad_value("airspace.zones", zones, "a list of ED-269 or ED-318 zone files")
+    auth = t.raw("authorisations", [])
+    if not isinstance(auth, list) or not all(isinstance(a, str) and a.strip() for a in auth):
+        raise bad_value("airspace.authorisations", auth, "a list of zone identifiers the operator is authorised for")
+    t.done()
+    return AirspaceSpec(tuple(_path(base, z, "airspace.zones") for z in zones), tuple(a.strip() for a in auth))
+
+
+def with_zone_files(spec: MissionSpec, files: Sequence[Path]) -> MissionSpec:
+    """`spec` with official zone files besides its [airspace] zones (the commands' --zones)."""
+    if not files:
+        return spec
+    return replace(spec, airspace=replace(spec.airspace, zones=spec.airspace.zones + tuple(files)))
 
 
 def _pattern(top: _Table, flight: FlightSpec) -> PatternSpec:
@@ -501,6 +529,8 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     battery = _battery(top, vehicle) if top.has("battery") else None
     pattern = _pattern(top, flight)
 
+    airspace = _airspace(top.table("airspace"), base)
+
     lt = top.table("limits")
     limits = LimitsSpec(
         max_photos=lt.integer("max_photos", LimitsSpec.max_photos, lo=1, hi=100_000_000),
@@ -522,5 +552,5 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     return MissionSpec(
         name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
         flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles),
-        rule_overrides=dict(overrides), battery=battery, path=path, limits=limits, pattern=pattern,
+        rule_overrides=dict(overrides), battery=battery, path=path, limits=limits, pattern=pattern, airspace=airspace,
     )

@@ -63,10 +63,13 @@ def format_results(records: Sequence[Mapping[str, Any]]) -> list[str]:
               help="A folder of your own rule profiles (*.toml); also AEROSURVEY_PROFILES.")
 @click.option("--list", "list_profiles", is_flag=True, help="List the rule profiles there are (no TARGET needed).")
 @click.option("--json", "as_json", is_flag=True, help="Print the results (and a plan's summary) as JSON.")
+@click.option("--zones", "zone_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="An official UAS zone file (ED-269 or ED-318; repeatable) to check a mission spec against, besides its "
+                   "[airspace] zones (docs/airspace.md).")
 @click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="With a flight folder: the plan folder it flew (default: the one its log_report.json names).")
 def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], list_profiles: bool,
-          as_json: bool, plan_dir: Path | None) -> None:
+          as_json: bool, zone_files: tuple[Path, ...], plan_dir: Path | None) -> None:
     """Check a mission spec or a plan folder against rule profiles.
 
     Prints each rule's result and the plan's summary, whose rule count is the one `plan`
@@ -98,7 +101,7 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
         return
     if plan_dir is not None:
         raise InputError(f"--plan {str(plan_dir)!r} is for a flight folder (`aerosurvey log ingest` output); {str(target)!r} is none")
-    plan = open_target(target)
+    plan = open_target(target, zone_files)
     records = plan_records(plan, chosen_profiles(plan, list(profiles), list(profile_dirs)))
     summary = plan_summary(plan.view.manifest, records)
     if as_json:

@@ -28,21 +28,25 @@ log = logging.getLogger(__name__)
               help="What template.kml of each DJI .kmz holds: a mapping template (mapping2d, mappingStrip) where one "
                    "expresses the flight, else waypoints; or always waypoints. The route flown is the same "
                    "(docs/clients/dji.md).")
-def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str) -> None:
+@click.option("--zones", "zone_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="An official UAS zone file (ED-269 or ED-318; repeatable) to check every leg against in four dimensions, "
+                   "besides the spec's [airspace] zones (docs/airspace.md).")
+def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str, zone_files: tuple[Path, ...]) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into the -o folder.
 
     Prints the plan's summary and the `aerosurvey check` command that shows the evidence of
-    its rules (nothing with -q). Exit code 0 when written, 1 when the final safety gate
+    its rules (nothing with -q). Exit code 0 when written, 1 when the final safety gate (a leg in an
+    exclusion zone, or in an official zone that blocks it: docs/airspace.md)
     refuses a leg, 2 for bad input (nothing written then).
     """
     # imported here, not at the top: listing this command in `aerosurvey --help` must not load the planner
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import write_outputs
     from aerosurvey.report.summary import summary_text
-    from aerosurvey.spec import load_spec
+    from aerosurvey.spec import load_spec, with_zone_files
 
     t0 = time.perf_counter()
-    mission_spec = load_spec(spec)
+    mission_spec = with_zone_files(load_spec(spec), zone_files)
     with console.progress(f"planning {mission_spec.name}") as report:
         result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()

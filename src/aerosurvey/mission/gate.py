@@ -69,9 +69,7 @@ def program_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter
         pts.append(("rtl", to[0], to[1]))
     x, y = planar.xy(np.array([lon0] + [p[2] for p in pts]), np.array([lat0] + [p[1] for p in pts]))
     home = (float(x[0]), float(y[0]))
-    climb = 0.0
-    if program.vehicle == "plane" and program.takeoff_pitch_deg > 0:
-        climb = max(program.takeoff_alt_m, 0.0) / math.tan(math.radians(program.takeoff_pitch_deg)) * grid_scale
+    climb = takeoff_climb(program) * grid_scale
     legs: list[Leg] = []
     prev = home
     for n, ((what, _, _), px, py) in enumerate(zip(pts, x[1:], y[1:]), start=1):
@@ -88,6 +86,13 @@ def program_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter
         ring = [(home[0] + rtl_loiter * float(np.cos(t)), home[1] + rtl_loiter * float(np.sin(t))) for t in a]
         legs += [Leg(flight, legs[-1].seq, "rtl-loiter", p, q) for p, q in zip(ring[:-1], ring[1:])]
     return legs
+
+
+def takeoff_climb(program: FlightProgram) -> float:
+    """Ground metres a plane flies straight ahead climbing at its take-off pitch to the take-off altitude; 0 for a copter."""
+    if program.vehicle == "plane" and program.takeoff_pitch_deg > 0:
+        return max(program.takeoff_alt_m, 0.0) / math.tan(math.radians(program.takeoff_pitch_deg))
+    return 0.0
 
 
 def check_legs(legs: list[Leg], zones: BaseGeometry | None, margin_m: float, grid_scale: float,

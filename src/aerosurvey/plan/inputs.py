@@ -7,9 +7,13 @@ A web page, a test or a plug-in that has its geometry in memory builds `PlanInpu
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from shapely.geometry.base import BaseGeometry
+
+if TYPE_CHECKING:
+    from aerosurvey.airspace.model import Airspace
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,3 +42,4 @@ class PlanInputs:
     area_wgs84: BaseGeometry
     exclusions_wgs84: tuple[BaseGeometry, ...] = ()
     dem: DemGrid | None = None
+    airspace: Airspace | None = None  # official UAS zones ([airspace]), the authorisations and the planned window

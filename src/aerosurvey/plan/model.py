@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 if TYPE_CHECKING:
+    from aerosurvey.airspace.model import Airspace
     from aerosurvey.plan.altitudes import Altitudes
     from aerosurvey.plan.bounds import GridBounds
     from aerosurvey.plan.coverage import Coverage
@@ -122,6 +123,8 @@ class Plan:
     estimates: Mapping[str, float]
     sun: Mapping[str, object] | None
     warnings: tuple[str, ...]
+    # the official UAS zones the flights are checked against (airspace/check.py), as given; None without [airspace] zones
+    airspace: Airspace | None = None
 
     @property
     def stations(self) -> Stations:

@@ -20,6 +20,7 @@ from dataclasses import replace
 import numpy as np
 import shapely
 
+from aerosurvey.airspace.route import route_zones
 from aerosurvey.errors import InputError
 from aerosurvey.ids import station_index
 from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
@@ -34,7 +35,7 @@ from aerosurvey.plan.pattern import Layout, kind_of, pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.route import Detours
 from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
-from aerosurvey.plan.sensor import SensorSolution, solve_heights, solve_sensor, target_height
+from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split, wind_factor
 from aerosurvey.plan.zone_edges import edge_passes
@@ -61,7 +62,9 @@ def resume_mission(spec: MissionSpec, inputs: PlanInputs, from_station: str, pro
 def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: str | None = None) -> Plan:
     report("the site", 0.0)
     h_target, gsd_target, cap_warnings = target_height(spec)
-    site = prepare_site(spec, inputs, h_target)
+    # official zones the whole flight's heights may not enter join the exclusion zones (airspace/route.py)
+    official = route_zones(inputs.airspace, inputs.area_wgs84, reach_beyond_area_m(spec), spec.vehicle.max_height_agl_m, inputs.dem)
+    site = prepare_site(spec, replace(inputs, exclusions_wgs84=inputs.exclusions_wgs84 + official.outlines), h_target)
     report("heights over the ground", 0.03)
     heights = solve_heights(spec, h_target, site.ground)
     stretch = site.autopilot_stretch()
@@ -112,7 +115,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         bounds=pattern.bounds(spec, site, sensor, layout),
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
-                  + _zone_warnings(spec, site)),
+                  + _zone_warnings(spec, site) + official.warnings),
+        airspace=inputs.airspace,
     )
 
 

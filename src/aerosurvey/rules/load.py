@@ -35,23 +35,46 @@ def plan_documents(plan: Plan, spec: MissionSpec) -> tuple[dict[str, Any], dict[
     return build_manifest(plan, spec, len(mission.items), {}), plan_features(plan, with_footprints=False)
 
 
-def open_target(path: Path) -> Target:
+def airspace_check(plan: Plan, spec: MissionSpec) -> tuple[dict[str, Any] | None, tuple[dict[str, Any], ...]]:
+    """The manifest's airspace record and the planner's airspace rule of `plan` (every flight's legs against the
+    official zones in four dimensions), or (None, ()) without official zones."""
+    if plan.airspace is None:
+        return None, ()
+    from aerosurvey.airspace.check import check_airspace
+    from aerosurvey.manifest import airspace_record
+    from aerosurvey.outputs import mission_programs
+
+    report = check_airspace(plan, mission_programs(plan))
+    if report is None:
+        return None, ()
+    return airspace_record(report, spec), (report.rule_record(),)
+
+
+def open_target(path: Path, zones: tuple[Path, ...] = ()) -> Target:
+    """What `check` and `gcp` read: a plan folder, or a mission spec planned in memory (with `zones`, official
+    zone files besides its [airspace] zones: `check --zones`)."""
     from aerosurvey.plan.coverage import PLANNER_PROFILE, uncovered_rule
 
     if path.is_dir():
+        if zones:
+            raise InputError(f"--zones is for a mission spec: {str(path)!r} is a plan folder, planned with the zones it was "
+                             "planned with (re-plan it with `aerosurvey plan SPEC --zones FILE`)", key="--zones")
         view = PlanView.from_outdir(path)
         doc = view.document
         planner = [dict(r) for r in doc.rules if r["profile"] == PLANNER_PROFILE]  # made with the plan's own data
         return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path, tuple(planner))
     if path.suffix.lower() == ".toml":
         from aerosurvey.inputs import plan_from_files
-        from aerosurvey.spec import load_spec
+        from aerosurvey.spec import load_spec, with_zone_files
 
-        spec = load_spec(path)
+        spec = with_zone_files(load_spec(path), zones)
         plan = plan_from_files(spec)
         manifest, features = plan_documents(plan, spec)
+        airspace, airspace_rule = airspace_check(plan, spec)
+        if airspace is not None:
+            manifest["airspace"] = airspace
         view = PlanView.from_documents(manifest, features, str(path), check=False)  # made here, by the writer
-        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan.coverage),))
+        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan.coverage), *airspace_rule))
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")
     raise InputError(f"{str(path)!r} is neither a mission spec (.toml) nor a folder written by `aerosurvey plan`")
