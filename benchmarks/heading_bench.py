@@ -27,11 +27,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import inprocess_bench  # noqa: E402  (the benchmark next to this one: its cases)
 
 from aerosurvey.inputs import load_inputs  # noqa: E402
+from aerosurvey.plan.flight_time import quick_cost, quick_cost_lower_bounds  # noqa: E402
 from aerosurvey.plan.frame import LineFrame  # noqa: E402
 from aerosurvey.plan.heading import best_heading  # noqa: E402
 from aerosurvey.plan.lines import Outline, StripGeometry, build_lines, line_bounds  # noqa: E402
 from aerosurvey.plan.pattern import kind_of, strip_geometry  # noqa: E402
-from aerosurvey.plan.route import quick_cost, quick_cost_lower_bounds  # noqa: E402
 from aerosurvey.plan.sensor import solve_heights, solve_sensor, target_height  # noqa: E402
 from aerosurvey.plan.site import prepare_site  # noqa: E402
 from aerosurvey.spec import load_spec  # noqa: E402

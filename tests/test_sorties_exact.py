@@ -21,7 +21,7 @@ import independent_coverage as ic
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.outputs import write_outputs
-from aerosurvey.plan.route import CopterTime, Kinematics, RouteSegments, kept_segments, path_time
+from aerosurvey.plan.flight_time import CopterTime, Kinematics, RouteSegments, kept_segments, path_time
 from aerosurvey.plan.sorties import Splitter
 from aerosurvey.spec import load_spec
 from conftest import REPO, make_spec, write_geojson
@@ -119,7 +119,7 @@ def _split_args(spec_path: Path) -> tuple:
 def _candidates_cost_their_whole_path(args: tuple, firsts: int, lasts: int = 60) -> int:
     """Sorties from a few first stations to many later ones: a copter's level flight time is no
     less than its path (launch point, its waypoints, launch point) flown at cruise speed, and is
-    that path's time by route.path_time to 0.1 % (the costing by parts keeps the transits' ends
+    that path's time by flight_time.path_time to 0.1 % (the costing by parts keeps the transits' ends
     apart from the waypoints by up to a few metres); a plane cuts each corner on its turn radius,
     so its waypoints' polyline bounds nothing. Every sortie's battery use is the budget's for its
     times. Returns how many were compared."""

@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
-from aerosurvey.plan.route import line_orders, plane_turn_length
+from aerosurvey.plan.flight_time import plane_turn_length
+from aerosurvey.plan.route import line_orders
 from aerosurvey.plan.sun import sun_elevation_deg
 from aerosurvey.plan.terrain import thin_profile
 from aerosurvey.spec import load_spec

@@ -17,10 +17,12 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey import ids
 from aerosurvey.area import planning_crs
 from aerosurvey.plan import lines as lines_module
+from aerosurvey.plan.detours import Detours, clip_approach
 from aerosurvey.plan.fence import FENCE_MARGIN_M, geofence
 from aerosurvey.plan.frame import LineFrame, to_frames
 from aerosurvey.plan.lines import LineSegment, cut_by_zones, strip_offsets, strip_offsets_many
-from aerosurvey.plan.route import Detours, Pass, _build_runs, _run_ends, clip_approach
+from aerosurvey.plan.passes import Pass
+from aerosurvey.plan.route import _build_runs, _run_ends
 
 # -- runs of many legs made in one step ------------------------------------------------------
 
@@ -254,7 +256,7 @@ def _length(a: tuple[float, float], via: list[tuple[float, float]], b: tuple[flo
 
 def test_detours_searched_zone_by_zone_are_clear_and_as_short_as_over_every_corner() -> None:
     """The detour search looks at the corners of the zones its way crosses, more as it needs them
-    (route.Detours.way_round); the shortest way over every corner (scipy's Dijkstra) is the reference. Seeded,
+    (detours.Detours.way_round); the shortest way over every corner (scipy's Dijkstra) is the reference. Seeded,
     400 random cases of 1-25 boxes: a way exists for both or for neither, every leg of the new
     way is clear, none is shorter than the reference (it is the shortest), and the new ways are
     as long to 0.1 % in 95 % of the cases and to 5 % in all (measured: at most 0.02 % longer)."""
@@ -331,7 +333,7 @@ def test_strip_offsets_on_the_edge_are_left_to_the_full_check(monkeypatch: pytes
 
 @given(st.lists(st.floats(0.0, 2000.0), max_size=20), st.floats(1.0, 500.0))
 def test_plane_turn_lengths_are_plane_turn_length(lateral: list[float], radius: float) -> None:
-    from aerosurvey.plan.route import plane_turn_length, plane_turn_lengths
+    from aerosurvey.plan.flight_time import plane_turn_length, plane_turn_lengths
 
     many = plane_turn_lengths(np.array(lateral), radius).tolist()
     assert many == pytest.approx([plane_turn_length(d, radius) for d in lateral], rel=1e-12, abs=1e-9)

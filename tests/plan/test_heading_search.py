@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.plan.flight_time import Kinematics, connector_stops, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.lines import (
@@ -28,7 +29,6 @@ from aerosurvey.plan.lines import (
     segments_for_line,
     strip_offsets,
 )
-from aerosurvey.plan.route import Kinematics, connector_stops, quick_cost, quick_cost_lower_bounds
 
 KINDS = ("convex", "concave", "holed", "split")
 

@@ -26,8 +26,8 @@ from aerosurvey.cli import main
 from aerosurvey.plan import pattern as registry
 from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds
 from aerosurvey.plan.layout import Field, Layout
+from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.polyline import stations_along, strips_clear_of
-from aerosurvey.plan.route import Pass
 from aerosurvey.plan.sensor import Footprint, nadir_footprint
 from aerosurvey.spec import FlightSpec, MissionSpec
 

@@ -20,7 +20,7 @@ from aerosurvey import ids
 from aerosurvey.area import Planar
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Route, Run
+from aerosurvey.plan.passes import Route, Run
 from aerosurvey.plan.terrain import Dem, thin_profile
 
 

@@ -17,6 +17,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds, narrowest
+from aerosurvey.plan.flight_time import quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.layout import Field, Layout
@@ -29,8 +30,8 @@ from aerosurvey.plan.lines import (
     line_bounds,
     strip_offsets,
 )
+from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.route import Pass, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.sensor import Footprint, SensorSolution, nadir_footprint
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import FlightSpec, MissionSpec

@@ -33,10 +33,10 @@ from aerosurvey.errors import InputError, bad_value
 from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds
 from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.lines import station_span, strip_offsets
+from aerosurvey.plan.passes import Pass, Strip
 from aerosurvey.plan.photogrammetry import TRIGGER_CHECK_HZ, ardupilot_distance_m
 from aerosurvey.plan.polyline import arc_lengths, extend, stations_along, strips_clear_of
 from aerosurvey.plan.progress import Progress
-from aerosurvey.plan.route import Pass, Strip
 from aerosurvey.plan.sensor import Footprint, SensorSolution, nadir_footprint
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import FlightSpec, MissionSpec

@@ -6,8 +6,9 @@ from typing import Any
 
 import numpy as np
 
+from aerosurvey.plan.flight_time import Kinematics, descent_time, hover_time, path_time
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.route import Kinematics, Route, descent_time, hover_time, path_time
+from aerosurvey.plan.passes import Route
 from aerosurvey.plan.sun import elevation_over_window
 from aerosurvey.spec import MissionSpec
 

@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.progress import Progress
-from aerosurvey.plan.route import Pass
 from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
 

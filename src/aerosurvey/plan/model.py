@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from aerosurvey.plan.coverage import Coverage
     from aerosurvey.plan.landing import Landing
     from aerosurvey.plan.layout import Layout
-    from aerosurvey.plan.route import Route
+    from aerosurvey.plan.passes import Route
     from aerosurvey.plan.sensor import SensorSolution
     from aerosurvey.plan.site import Site
     from aerosurvey.plan.sorties import Budget, LaunchSite, Sortie

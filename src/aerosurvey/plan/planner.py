@@ -25,6 +25,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.ids import station_index
 from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
 from aerosurvey.plan.coverage import Coverage, coverage_shortfall
+from aerosurvey.plan.detours import Detours
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
@@ -33,7 +34,6 @@ from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Launch, Plan, RouteWaypoint, SortiePlan, Stations
 from aerosurvey.plan.pattern import Layout, kind_of, pattern_for
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.route import Detours
 from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
 from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site

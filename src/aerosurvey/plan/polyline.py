@@ -20,7 +20,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.plan.route import Strip
+from aerosurvey.plan.passes import Strip
 
 
 def arc_lengths(path: np.ndarray) -> np.ndarray:

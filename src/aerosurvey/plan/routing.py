@@ -10,6 +10,7 @@ import numpy as np
 import shapely
 
 from aerosurvey.errors import InputError
+from aerosurvey.plan.detours import Detours, climb_out_path
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
     Landing,
@@ -17,9 +18,10 @@ from aerosurvey.plan.landing import (
     home_clearance_m,
     lands_with_approach,
 )
+from aerosurvey.plan.passes import Route
 from aerosurvey.plan.pattern import Layout
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.route import Detours, Route, build_route, climb_out_path
+from aerosurvey.plan.route import build_route
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec

@@ -9,8 +9,8 @@ from dataclasses import dataclass, replace
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
+from aerosurvey.plan.flight_time import Kinematics
 from aerosurvey.plan.model import Heights
-from aerosurvey.plan.route import Kinematics
 from aerosurvey.spec import MissionSpec
 
 

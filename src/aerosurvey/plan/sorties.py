@@ -21,24 +21,22 @@ from itertools import accumulate
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.route import (
+from aerosurvey.plan.detours import Detours, climb_out_path, clip_approach
+from aerosurvey.plan.flight_time import (
     KEPT,
     CopterTime,
-    Detours,
     Kinematics,
     RouteSegments,
-    Run,
     Segments,
     all_segments,
-    climb_out_path,
-    clip_approach,
     descent_time,
     hover_time,
     kept_segments,
     path_time,
 )
+from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
+from aerosurvey.plan.passes import Run
+from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.spec import VehicleSpec
 
 
@@ -201,7 +199,7 @@ class Splitter:
     the whole runs between is summed from stretches timed once (RouteSegments). A copter's last
     pieces ending mid-run are not made: what they share per run (`_Ends`) is, and per last station
     only the few segments of its own (`_last`). The sums are
-    route.path_time's, term by term in the same order, so the costs are the floats timing each
+    flight_time.path_time's, term by term in the same order, so the costs are the floats timing each
     sortie's whole polyline gives (tests/test_sorties_exact.py compares them)."""
 
     def __init__(self, plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: Kinematics, detours: Detours,
@@ -349,7 +347,7 @@ class Splitter:
         return np.vstack([np.asarray(out_leg), pts, np.asarray(back_leg)]) / self.plan.grid_scale
 
     def _copter_time(self, li: int, p0: _Piece, i: int, j: int, tail: Segments) -> float:
-        """route.path_time of the sortie's polyline: the head (site, way out, first piece, into the
+        """flight_time.path_time of the sortie's polyline: the head (site, way out, first piece, into the
         route), the route's whole runs, and the kept segments of the tail after them.
 
         CopterTime is a fold over the polyline's kept segments, so its state after a part is kept

@@ -16,8 +16,8 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import StripGeometry, band_intervals, cut_by_zones, segments_for_line
+from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.pattern import strip_geometry
-from aerosurvey.plan.route import Pass
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 

@@ -1,0 +1,368 @@
+"""The flight-time model: what it needs of the vehicle (`Kinematics`), a plane's turn between
+lines, a copter's stops at corners and its straight runs (`path_time`; `CopterTime` and
+`RouteSegments` time a route in parts for the battery split), hover-and-capture, the descent, and
+the quick estimate of a heading's boustrophedon (`quick_cost`) with its proven lower bounds.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from aerosurvey.plan.lines import LineBounds, LineSegment
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """What the time model needs of the vehicle."""
+
+    vehicle: str
+    speed_ms: float
+    accel_ms2: float
+    turn_radius_m: float
+    jerk_ms3: float = 1.0  # copters: ArduCopter's WPNAV_JERK default
+
+
+def plane_turn_length(lateral: float, radius: float) -> float:
+    """Path length of a 180° turn between parallel lines `lateral` apart.
+
+    At least 2R apart: two quarter circles and a straight. Closer: an omega (bulb) turn
+    of total angle π + 4α with cos α = (2R + d) / 4R.
+    """
+    d = abs(lateral)
+    if d >= 2 * radius:
+        return math.pi * radius + (d - 2 * radius)
+    alpha = math.acos(min(1.0, (2 * radius + d) / (4 * radius)))
+    return radius * (math.pi + 4 * alpha)
+
+
+def plane_turn_lengths(lateral: np.ndarray, radius: float) -> np.ndarray:
+    """`plane_turn_length` of many non-negative distances at once (numpy's arccos may differ
+    from math.acos by an ulp: for bounds, not for the route's own times)."""
+    d = np.asarray(lateral, float)
+    bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + d) / (4.0 * radius))))
+    out: np.ndarray = np.where(d >= 2.0 * radius, math.pi * radius + (d - 2.0 * radius), bulb)
+    return out
+
+
+#: A copter stops at a corner sharper than this (degrees) and flies on through a gentler one
+CORNER_DEG = 30.0
+
+
+def _straight_time(d: float, k: Kinematics) -> float:
+    """Copter from rest to rest over d metres: top speed v, acceleration a, jerk J.
+
+    With jerk-limited (S-curve) acceleration each of the two speed changes costs
+    (v/a + a/J)/2 more than cruising the same distance, so t = d/v + v/a + a/J.
+    """
+    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
+    if d <= 0:
+        return 0.0
+    ramp = a / j if j > 0 else 0.0
+    if d >= v * (v / a + ramp):
+        return d / v + v / a + ramp
+    return 2.0 * math.sqrt(d / a) + ramp
+
+
+def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics) -> float:
+    """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
+    `stations` photos it stops (braking and accelerating again over the `base` between two
+    stations of a run, `_straight_time` against cruising it) and rests `hold_s`."""
+    stops = max(stations - runs, 0)
+    return stations * hold_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+
+
+#: path_time drops segments this short or shorter (planning-grid units / grid scale)
+KEPT = 1e-9
+
+
+def path_time(points: np.ndarray, k: Kinematics) -> float:
+    """Flight time along a polyline.
+
+    Copter: it stops at every corner sharper than CORNER_DEG and flies straight runs
+    with the acceleration model. Plane: constant speed; a reversal between two lines is
+    flown as the turn of :func:`plane_turn_length` instead of the straight connection.
+    """
+    if len(points) < 2:
+        return 0.0
+    if k.vehicle == "copter":  # the battery split times sorties in parts by the same CopterTime
+        timer = CopterTime(k)
+        timer.feed(kept_segments(points))
+        return timer.time()
+    seg = np.diff(points, axis=0)
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    keep = lengths > KEPT
+    seg, lengths = seg[keep], lengths[keep]
+    if len(lengths) == 0:
+        return 0.0
+    ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
+    turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
+    total_len = float(lengths.sum())
+    i = 0
+    while i < len(turn) - 1:
+        if turn[i] + turn[i + 1] > 150.0:  # a reversal: corner, short leg, corner
+            u = seg[i] / lengths[i]
+            lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
+            total_len += plane_turn_length(lateral, k.turn_radius_m) - lengths[i + 1]
+            i += 2
+        else:
+            i += 1
+    return total_len / k.speed_ms
+
+
+#: The segments path_time keeps of a polyline: (lengths, directions in degrees), planning-grid units / grid scale
+Segments = tuple[list[float], list[float]]
+
+
+def all_segments(points: np.ndarray) -> Segments:
+    """Every segment's length and direction (degrees) of a polyline, the dropped ones too, as
+    `kept_segments` measures them (elementwise: the same floats whichever polyline a segment is part of)."""
+    d = (points[1:] - points[:-1]).T
+    return np.hypot(d[0], d[1]).tolist(), np.degrees(np.arctan2(d[1], d[0])).tolist()
+
+
+def kept_segments(points: np.ndarray) -> Segments:
+    """The segments path_time keeps of a polyline (already divided by the grid scale), by
+    the same numpy operations on the same values (np.diff is this subtraction): elementwise, so a
+    segment's length and direction are the same floats whichever polyline it is part of."""
+    d = (points[1:] - points[:-1]).T
+    dx, dy = d[0], d[1]
+    lengths = np.hypot(dx, dy)
+    keep = lengths > KEPT
+    if not keep.all():
+        dx, dy, lengths = dx[keep], dy[keep], lengths[keep]
+    return lengths.tolist(), np.degrees(np.arctan2(dy, dx)).tolist()
+
+
+class RouteSegments:
+    """The kept segments of the whole runs and the detours between them, in flight order, with
+    path_time's corners, each segment's length flown straight since the last corner (`running`)
+    and, at each corner, the time of the straight stretch it ends (`closed`)."""
+
+    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before")
+
+    def __init__(self, points: np.ndarray, kin: Kinematics):
+        self.lengths, self.angles = kept_segments(points)
+        seg = np.diff(points, axis=0)
+        # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
+        self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > KEPT)]).tolist()
+        turn = np.abs((np.diff(np.asarray(self.angles)) + 180.0) % 360.0 - 180.0)
+        self.corners: list[int] = (np.flatnonzero(turn > CORNER_DEG) + 1).tolist()
+        self.running: list[float] = []
+        self.closed: dict[int, float] = {}
+        at_corner = set(self.corners)
+        for k, length in enumerate(self.lengths):
+            if k in at_corner:
+                self.closed[k] = _straight_time(self.running[-1], kin)
+            self.running.append(length if k == 0 or k in at_corner else self.running[-1] + length)
+
+
+class CopterTime:
+    """path_time of a copter (path_time is made by it): it stops at every corner sharper than
+    CORNER_DEG and times each straight stretch by _straight_time. Fed in parts, so that
+    the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
+
+    __slots__ = ("kin", "total", "run", "last")
+
+    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0):
+        self.kin = kin
+        self.total = total  # the stretches ended so far
+        self.run = run  # flown straight since the last corner (None before the first kept segment)
+        self.last = last  # direction of the last kept segment
+
+    def feed(self, segs: Segments) -> None:
+        # the state in locals while the loop runs (the same operations in the same order; measured on
+        # a 57-line boustrophedon's 170 segments: 82-88 -> 75-79 µs, /tmp/p2/feedt.py)
+        total, run, last, kin, corner = self.total, self.run, self.last, self.kin, CORNER_DEG
+        for length, ang in zip(*segs):
+            if run is None:
+                run = length
+            elif abs((ang - last + 180.0) % 360.0 - 180.0) > corner:
+                total += _straight_time(run, kin)
+                run = length
+            else:
+                run += length
+            last = ang
+        self.total, self.run, self.last = total, run, last
+
+    def route(self, rs: RouteSegments, k0: int, k1: int) -> None:
+        """Feed the route's kept segments k0..k1-1: the first as any other, then one by one up to
+        the first corner, the stretches between corners by their times, the last by its length."""
+        if k0 >= k1:
+            return
+        self.feed(([rs.lengths[k0]], [rs.angles[k0]]))
+        assert self.run is not None
+        ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
+        for k in range(k0 + 1, rs.corners[ci] if ci < cj else k1):
+            self.run += rs.lengths[k]
+        if ci < cj:
+            self.total += _straight_time(self.run, self.kin)
+            for c in rs.corners[ci + 1:cj]:
+                self.total += rs.closed[c]
+            self.run = rs.running[k1 - 1]
+        self.last = rs.angles[k1 - 1]
+
+    def time(self) -> float:
+        return 0.0 if self.run is None else self.total + _straight_time(self.run, self.kin)
+
+
+
+#: A copter lands its last metres slowly (ArduCopter: below LAND_ALT_LOW = 10 m at LAND_SPEED = 0.5 m/s).
+LAND_SLOW_ALT_M, LAND_SLOW_SPEED_MS = 10.0, 0.5
+
+
+def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
+    """Time from the survey height to the ground: descent rate, then a copter's slow final metres."""
+    if vehicle != "copter":
+        return alt_m / rate_ms
+    slow = min(alt_m, LAND_SLOW_ALT_M)
+    return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
+
+
+def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> float:
+    """Estimated time of a boustrophedon over the segments, in their own line frame.
+
+    Used to compare headings: it needs only the run ends (time is the same in any frame).
+    """
+    by_line: dict[int, list[LineSegment]] = {}
+    for s in segments:
+        by_line.setdefault(s.line, []).append(s)
+    pts: list[tuple[float, float]] = []
+    for i, line in enumerate(sorted(by_line)):
+        segs = sorted(by_line[line], key=lambda s: s.x0)
+        d = 1 if i % 2 == 0 else -1
+        if d < 0:
+            segs.reverse()
+        for s in segs:
+            first, last = (s.x0, s.x1) if d > 0 else (s.x1, s.x0)
+            pts.extend([(first - d * lead_in, s.v), (first, s.v), (last + d * s.base / 2.0, s.v)])
+    return path_time(np.asarray(pts), k)
+
+
+def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
+    """Per run length d: the least G(x) = t(x) − x/v of a copter's straight run
+    (`_straight_time`) over every x ≥ d; and the least over every x > 0. G is v/a + a/J from
+    D = v(v/a + a/J) on and 2√(x/a) + a/J − x/v (concave) below D, so the least is at d, just
+    below D, or past D."""
+    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
+    ramp = a / j if j > 0 else 0.0
+    big, top = v * (v / a + ramp), v / a + ramp
+    below_big = min(2.0 * math.sqrt(big / a) + ramp - big / v, top)
+    here = 2.0 * np.sqrt(np.maximum(d, 0.0) / a) + ramp - np.maximum(d, 0.0) / v
+    return np.where(d >= big, top, np.minimum(here, below_big)), min(ramp, below_big)
+
+
+def _connector_ahead(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float,
+                     base: float) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """How far the connector from sure line i to sure line j (flown the other way) runs ahead,
+    along line i's direction of flight, as (least, most), line i flown to the right (+x: from its
+    last station + base/2 to line j's last station + lead_in) and to the left (from its first
+    station − base/2 to line j's first station − lead_in)."""
+    right = (lb.last_lo[j] + lead_in - lb.last_hi[i] - base / 2.0, lb.last_hi[j] + lead_in - lb.last_lo[i] - base / 2.0)
+    left = (lb.first_lo[i] - base / 2.0 - lb.first_hi[j] + lead_in, lb.first_hi[i] - base / 2.0 - lb.first_lo[j] + lead_in)
+    return right, left
+
+
+def connector_stops(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float, base: float) -> np.ndarray:
+    """Per pair of sure lines (i, j) of a heading: is a copter surely stopped at both corners of
+    the connector from line i to line j (each turn sharper than CORNER_DEG), whichever way the two
+    lines are flown (see quick_cost_lower_bounds)?"""
+    dv = lb.v[j] - lb.v[i]
+    cot = 1.0 / math.tan(math.radians(CORNER_DEG)) * (1.0 - 1e-6)
+    stops = np.ones(len(i), bool)
+    for lo, hi in _connector_ahead(lb, i, j, lead_in, base):
+        stops &= (hi < dv * cot) & (lo > -dv * cot)
+    return stops
+
+
+def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> np.ndarray:
+    """Per heading of `lb`: a proven lower bound of `quick_cost(build_lines(...), lead_in, k)`.
+
+    The path quick_cost times is, line after line (those with runs, by ordinate), the line's
+    part P (lead-in, stations, half a base past the last run, all on the line, backwards
+    between runs that overlap) and a connector to the next line, at least Δv long. For a line
+    sure to exist, P runs from before its first station to past its last one: it is at least
+    λ = extent + lead_in + base/2 long.
+
+    Copter (t = d/v + G(d) per stop-to-stop run, G ≥ least_gain): every leg is along the line
+    but the connectors, so a stop within P is a reversal (two corners of 180°: ≥ 3 runs, G ≥ 3m,
+    m = least_gain(0)); otherwise P lies in one run of length ≥ λ. A connector's two corners
+    add up to 180°, so at least one is a stop: either both are (the connector is a run of
+    its own: Δv/v + least_gain(Δv)), or it turns by ≤ 30° into a line, so it is at least 2Δv
+    long. Where both corners are surely sharper than 30°, whichever way the two lines are flown,
+    the connector is a run of its own: it runs from line i's end (its last station + base/2 flown
+    to the right, its first − base/2 to the left: a line's runs lie apart, so its last run ends
+    at its outermost station) to line j's lead-in (its last station + lead_in, its first −
+    lead_in), and the bounds of those stations bound how far it runs ahead along line i (a
+    corner is sharper than 30° when that is below Δv·cot 30° out of line i and above −Δv·cot 30°
+    into line j; the segments before and after it run along the lines). Runs of different lines
+    and those connector runs are distinct, hence the sum.
+    Between two sure lines with unsure ones between them there is at least one connector and
+    they add up to the ordinate difference; each connector has G ≥ m or the extra length ≥ Δv.
+
+    Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two
+    corners add up to more than 150°, by the turn `plane_turn_length` over its lateral offset,
+    never shorter than that offset; it pairs corners from the first on, skipping the corner
+    after a pair). A connector's offset is Δv (the leg before it runs along the line), so it
+    counts at least Δv. A connector that surely turns by at most 150° out of the line before
+    it ("gentle", from the bounds of both lines' ends, either way they are flown) is surely
+    replaced by the turn over Δv: its first corner is skipped only when paired with the 0°
+    corner before it. Its second corner is then skipped, so the lead-in after it (lead_in > 0)
+    is not replaced. A sure line with gentle connectors in and out (or only surely empty lines
+    beyond it) thus keeps its first lead-in and its last run: with no reversal within (a line
+    of one run has none) nothing of it is replaced, λ; else its first reversal replaces the
+    leg before it and the lead-in after it by the turn over 0 each: at least
+    lead_in + base/2 + 2·turn(0).
+    """
+    frames = int(lb.heading.max()) + 1 if len(lb.heading) else 0
+    exists = np.flatnonzero(lb.exists)
+    hid, v, speed = lb.heading, lb.v, k.speed_ms
+    lam = lb.extent[exists] + lead_in + base / 2.0
+    i, j = exists[:-1], exists[1:]
+    pair = hid[i] == hid[j]  # consecutive sure lines of one heading
+    i, j = i[pair], j[pair]
+    dv = v[j] - v[i]
+    # with only surely empty lines between them, the connector joins them
+    unknown = np.cumsum(~lb.exists & ~lb.absent)
+    joined = unknown[j] == unknown[i]
+
+    def per_heading(at: np.ndarray, values: np.ndarray) -> np.ndarray:
+        return np.bincount(hid[at], weights=values, minlength=frames).astype(float)  # float when empty too
+
+    if k.vehicle == "copter":
+        gain, m = _least_gain(np.concatenate([lam, dv[joined]]), k)
+        same = hid[1:] == hid[:-1]
+        gap = float(np.min(np.diff(v)[same])) if same.any() else 0.0  # no two lines of a heading are closer
+        total = per_heading(exists, lam / speed + np.minimum(gain[:len(lam)], 3.0 * m))
+        # a joined connector whose corners are surely both sharper than 30°, whichever way the two
+        # lines are flown, is a run of its own (see the docstring)
+        stops = connector_stops(lb, i, j, lead_in, base)
+        own = dv[joined] / speed + gain[len(lam):]
+        total += per_heading(i[joined], np.where(stops[joined], own, np.minimum(own, 2.0 * dv[joined] / speed)))
+        total += per_heading(i[~joined], dv[~joined] / speed + min(m, gap / speed))
+        return total * (1.0 - 1e-7)
+    # plane: connectors that surely turn by at most 150° out of the line before them, whichever
+    # way that line is flown (see the docstring)
+    cot30 = math.sqrt(3.0) * (1.0 - 1e-6)
+    (ahead_right, _), (ahead_left, _) = _connector_ahead(lb, i, j, lead_in, base)
+    gentle = joined & (ahead_right >= -dv * cot30) & (ahead_left >= -dv * cot30) & (lead_in > 1e-6)
+    # each heading's first and last sure line: are all lines before (after) it surely empty?
+    start = np.flatnonzero(np.r_[True, hid[1:] != hid[:-1]])
+    end = np.r_[start[1:], len(hid)] - 1
+    before_start = np.where(start > 0, unknown[np.maximum(start - 1, 0)], 0)[hid[exists]]
+    known_before = unknown[exists] == before_start
+    known_after = unknown[exists] == unknown[end][hid[exists]]
+    # a sure line's connectors in and out, where it has them
+    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]] if len(exists) else np.zeros(0, bool)  # no sure line: none
+    last = np.r_[first[1:], True] if len(exists) else np.zeros(0, bool)
+    into, out = np.zeros(len(exists), bool), np.zeros(len(exists), bool)
+    into[~first] = gentle
+    out[~last] = gentle
+    as_laid = (np.where(first, known_before, into) & np.where(last, known_after, out) & (lead_in > 1e-6))
+    short = lead_in + base / 2.0 + 2.0 * plane_turn_length(0.0, k.turn_radius_m)
+    length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
+    length += per_heading(i, np.where(gentle, plane_turn_lengths(dv, k.turn_radius_m), dv))
+    return length / speed * (1.0 - 1e-7)
