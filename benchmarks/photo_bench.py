@@ -10,7 +10,9 @@ fields as attributes), one in eight with the XMP fields as elements, one in eigh
 (big-endian EXIF, GPSImgDirection, no XMP). Each file is padded to --pixel-mb with a sparse run of
 image data, as a real 20 MP photo is 8-12 MB: a reader that reads the whole file pays for it.
 
-Candidates (each in its own process per run, so its peak memory is its own):
+Candidates (each in its own process per run, so its peak memory is its own; the libraries that
+aerosurvey does not depend on are installed by hand for the comparison, `pip install exifread pyexiv2
+piexif defusedxml`, and a candidate whose library is missing is reported as failed):
 
   pillow-lxml     Pillow's Image.open (reads the markers up to the image data) + getexif() and its GPS
                   and Exif IFDs; the XMP packet Pillow keeps (info["xmp"]) parsed with lxml
