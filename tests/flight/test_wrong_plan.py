@@ -205,9 +205,10 @@ def test_events_and_report_files_are_versioned(tmp_path, plans):
         with pytest.raises(InputError, match=expected):
             records.loads_events(bad)
     rep = json.loads((tmp_path / "o" / "log_report.json").read_text())
-    assert rep["schema"] == "aerosurvey-log-report" and rep["schema_version"] == 1
-    for doc, expected in [({**rep, "schema_version": 2}, "upgrade aerosurvey"), ({k: v for k, v in rep.items() if k != "schema"},
-                                                                              "run it again"),
+    assert rep["schema"] == "aerosurvey-log-report" and rep["schema_version"] == records.REPORT_VERSION
+    for doc, expected in [({**rep, "schema_version": records.REPORT_VERSION + 1}, "upgrade aerosurvey"),
+                          ({**rep, "schema_version": records.REPORT_VERSION - 1}, "run `aerosurvey log ingest` again"),
+                          ({k: v for k, v in rep.items() if k != "schema"}, "run it again"),
                           ({**rep, "events": "many"}, "events: 'many' is not of type 'integer'")]:
         with pytest.raises(InputError, match=expected):
             records.loads_report(json.dumps(doc))

@@ -16,7 +16,7 @@ def log() -> None:
 
 
 @log.command("ingest")
-@click.argument("flight_log", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("flight_log", type=click.Path(path_type=Path))
 @click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="The plan folder (manifest.json) the flight flew.")
 @click.option("--sortie", default=None, help="Sortie id (S01 …) the log is of; default: the whole mission.")
@@ -26,9 +26,11 @@ def log() -> None:
               help="Folder of the flight's images: matched to events by EXIF time; writes the camera poses for "
                    "photogrammetry (geo.txt, pix4d_geolocation.csv, metashape_reference.csv).")
 @click.option("--accuracy-xy", type=float, default=2.0, show_default=True,
-              help="Camera position accuracy (m, one standard deviation) in the camera pose files.")
+              help="Camera position accuracy (m, one standard deviation) in the camera pose files; a photo that "
+                   "records its own (DJI's RtkStdLon/Lat) has that.")
 @click.option("--accuracy-z", type=float, default=4.0, show_default=True,
-              help="Camera height accuracy (m, one standard deviation) in the camera pose files.")
+              help="Camera height accuracy (m, one standard deviation) in the camera pose files; a photo that "
+                   "records its own (DJI's RtkStdHgt) has that.")
 @click.option("--fixed-camera", is_flag=True, help="The camera is fixed to the body (no gimbal): apply roll and pitch to the footprints.")
 @click.option("--dem", "dem_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="DEM GeoTIFF (any CRS, orthometric heights): with --plan, photo heights above ground are the "
@@ -44,12 +46,18 @@ def log() -> None:
 def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, images_dir: Path | None,
            accuracy_xy: float, accuracy_z: float, fixed_camera: bool, dem_path: Path | None, geotag_dir: Path | None,
            geotag_in_place: bool, outdir: Path) -> None:
-    """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json)."""
+    """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json).
+
+    FLIGHT_LOG is a DataFlash (.bin, .log), telemetry (.tlog) or ULog (.ulg) log, or a folder of
+    the flight's photos (a DJI aircraft's, or any camera's with GPS EXIF): then each photo is a
+    camera event, with its RTK solution, and the camera pose files are written for its photos."""
     # the flight modules pull in rasterio, scipy and the rule engine: imported when the command runs
     from aerosurvey.errors import CheckFailed
-    from aerosurvey.flight.ingest import geotag_destination, ingest, losses_beyond_share, write_ingest
+    from aerosurvey.flight.ingest import geotag_destination, ingest, losses_beyond_share, photo_flight_options, write_ingest
     from aerosurvey.rules.planview import PlanView
 
+    if flight_log.is_dir():
+        photo_flight_options(flight_log, images_dir, fixed_camera, geotag_dir is not None or geotag_in_place)
     geotag_dir = geotag_destination(images_dir, geotag_dir, geotag_in_place)
     view = PlanView.from_outdir(plan_dir, "--plan") if plan_dir is not None else None
     with console.progress(f"log ingest {flight_log.name}") as step:
@@ -65,9 +73,12 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
 
 def _echo(report: dict[str, Any]) -> None:
     read = report["read"]
-    click.echo(f"{report['events']} camera events ({report['source']}); {read['skipped_bytes']} bytes skipped in "
-               f"{read.get('skipped_places', len(read['skipped']))} place(s), {read.get('dropped_events', 0)} event(s) "
-               "dropped")
+    if "photos" in report:
+        _echo_photos(report["photos"])
+    else:
+        click.echo(f"{report['events']} camera events ({report['source']}); {read['skipped_bytes']} bytes skipped in "
+                   f"{read.get('skipped_places', len(read['skipped']))} place(s), {read.get('dropped_events', 0)} event(s) "
+                   "dropped")
     from aerosurvey.flight.modes import modes_text
 
     click.echo(modes_text(report["modes"]))
@@ -102,6 +113,20 @@ def _echo(report: dict[str, Any]) -> None:
                    f"area, {100 * cov['uncovered_share']:.2f} % uncovered (coverage.tif)")
     for r in report.get("rules_on_flown_data", []):
         click.echo(f"  {r['status'].upper():>5} {r['rule']}: measured {r['measured']}; required {r['required']}")
+
+
+def _echo_photos(p: dict[str, Any]) -> None:
+    skipped = ", ".join(f"{n} {why}" for why, n in sorted(p["skipped"].items()))
+    click.echo(f"{p['used']} of {p['files']} photos are camera events ({', '.join(p['cameras'])}; {p['first_capture']} to "
+               f"{p['last_capture']})" + (f"; skipped: {skipped} (log_report.json's read.skipped)" if skipped else ""))
+    rtk = p["rtk"]
+    if rtk["fixed_share"] is None:
+        click.echo("RTK: no photo records an RTK solution")
+        return
+    names = [f"{x['file']} ({x['solution']} {x['flag']})" for x in rtk["not_fixed"]]
+    more = f" and {len(names) - 10} more (log_report.json)" if len(names) > 10 else ""
+    click.echo(f"RTK: {rtk['fixed']} fixed of {p['used'] - rtk['not recorded']} photos recording it "
+               f"({100 * rtk['fixed_share']:.1f} %)" + (f"; not fixed: {', '.join(names[:10])}{more}" if names else ""))
 
 
 def _echo_geotag(g: dict[str, Any]) -> None:

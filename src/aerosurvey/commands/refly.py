@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from aerosurvey.mission.formats import DJI_TEMPLATES
+
 #: gaps smaller than this (m²) are not re-flown unless --min-gap-m2 says otherwise (the page uses it too)
 MIN_GAP_DEFAULT_M2 = 25.0
 
@@ -18,14 +20,19 @@ MIN_GAP_DEFAULT_M2 = 25.0
               help="The mission spec of that plan (camera, vehicle, targets are reused).")
 @click.option("--min-gap-m2", type=click.FloatRange(min=0), default=MIN_GAP_DEFAULT_M2, show_default=True,
               help="Ignore smaller gaps.")
+@click.option("--dji", type=click.Choice(DJI_TEMPLATES), default=DJI_TEMPLATES[0], show_default=True,
+              help="With a DJI camera: the template of the re-fly's .kmz waylines, as `plan --dji` (docs/clients/dji.md).")
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path))
-def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, outdir: Path) -> None:
-    """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos."""
+def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, dji: str, outdir: Path) -> None:
+    """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos.
+
+    The re-fly is a plan of its own over the gaps, with every file `plan` writes for the spec's
+    camera and vehicle: with a DJI camera, the .kmz waylines DJI Pilot 2 flies."""
     # the planner and rasterio are heavy: imported when the command runs
     from aerosurvey.flight.refly import plan_refly, write_refly
     from aerosurvey.rules.planview import PlanView
 
-    r = plan_refly(log_dir, PlanView.from_outdir(plan_dir, "--plan"), spec_path, min_gap_m2)
+    r = plan_refly(log_dir, PlanView.from_outdir(plan_dir, "--plan"), spec_path, min_gap_m2, dji)
     for note in r.notes:
         click.echo(f"note: {note}")
     if r.plan is None:
@@ -37,4 +44,4 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, out
 
     click.echo(f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than {r.need} "
                f"photos; re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
-               f"{plan.estimates['total_time_s'] / 60:.1f} min; wrote {', '.join(sorted(r.files))} to {outdir}")
+               f"{plan.estimates['total_time_s'] / 60:.1f} min; wrote {', '.join(sorted({*r.files, *r.binary}))} to {outdir}")

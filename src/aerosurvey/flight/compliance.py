@@ -68,6 +68,8 @@ def _heights(report: dict[str, Any]) -> str:
                                                            if h.get("outside_dem") else ""))
     else:
         text = "heights above home: flat ground assumed (`log ingest --dem` gives heights above the terrain)"
+    if "photos" in report:
+        return text + "; each photo's camera attitude as it recorded it (its gimbal's pitch and yaw)"
     if "fixed_camera" not in h:
         return text + "; camera taken as on a nadir gimbal (the report does not say)"
     return text + ("; camera fixed to the body: roll and pitch move the footprints" if h["fixed_camera"]
@@ -96,7 +98,7 @@ def open_flight(folder: Path, plan_dir: Path | None = None) -> Flight:
                          "run `aerosurvey log ingest` again")
     sortie = info["sortie"]
     fixed = bool((report.get("heights") or {}).get("fixed_camera", False))
-    photos = recorded_photos(view.crs, dict(zip(doc.stations.ids, doc.stations.run)), rows, fixed)
+    photos = recorded_photos(view.crs, dict(zip(doc.stations.ids, doc.stations.run)), rows, fixed, "photos" in report)
     if not len(photos):
         raise InputError(f"{events}: none of its {len(rows)} photos has a position and a height above ground: "
                          "nothing flown can be measured")

@@ -93,6 +93,9 @@ class FlownPhotos:
     agl_m: np.ndarray
     ground_m: np.ndarray  # NaN where the height above home was used
     yaw_deg: np.ndarray  # the vehicle's logged yaw (a true bearing) turned into a grid bearing at the photo
+    #: a photo flight's recorded camera pitch (gimbal convention, −90 straight down): then yaw_deg
+    #: is the camera's own (Events.camera_attitude); None: the plan's aim turns with the vehicle
+    camera_pitch_deg: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -111,24 +114,29 @@ def flown_photos(crs: str, run_of: Mapping[str, str], ev: Events, match: Match |
     grid = planar(crs)
     x, y = grid.xy(ev.lon, ev.lat)
     yaw = grid.grid_bearing(np.nan_to_num(ev.yaw), x, y)
-    h, g, cx, cy = photo_heights(x, y, ev, yaw, 1.0 if fixed_camera else 0.0, ground)
+    h, g, cx, cy = photo_heights(x, y, ev, yaw, 1.0 if fixed_camera and not ev.camera_attitude else 0.0, ground)
     stations = match.station if match is not None else [None] * len(ev)
     return FlownPhotos(tuple(ids.event_id(i + 1) for i in range(len(ev))), tuple(stations), photo_runs(stations, run_of),
-                       np.asarray(cx, float), np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float), yaw)
+                       np.asarray(cx, float), np.asarray(cy, float), np.asarray(h, float), np.asarray(g, float), yaw,
+                       np.asarray(ev.pitch, float) if ev.camera_attitude else None)
 
 
-def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_camera: bool) -> FlownPhotos:
+def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_camera: bool,
+                    camera_attitude: bool = False) -> FlownPhotos:
     """The photos events.csv records, with the heights above ground `log ingest` gave them (its
     agl_m column: above the DEM or above home) and the footprint centres :func:`flown_photos`
-    makes from them. Rows without a position or a height are left out: no footprint is known."""
+    makes from them; `camera_attitude`: its roll, pitch and yaw are the camera's (a photo
+    flight's, Events.camera_attitude). Rows without a position or a height are left out: no
+    footprint is known."""
     keep = np.flatnonzero(np.isfinite(rows.lon) & np.isfinite(rows.lat) & np.isfinite(rows.agl_m))
     grid = planar(crs)
     x, y = grid.xy(rows.lon[keep], rows.lat[keep])
     h, yaw = rows.agl_m[keep], grid.grid_bearing(np.nan_to_num(rows.yaw[keep]), x, y)
-    cx, cy = _centres(x, y, h, rows.roll[keep], rows.pitch[keep], yaw, 1.0 if fixed_camera else 0.0)
+    cx, cy = _centres(x, y, h, rows.roll[keep], rows.pitch[keep], yaw, 1.0 if fixed_camera and not camera_attitude else 0.0)
     station = [rows.station[i] or None for i in keep]
     return FlownPhotos(tuple(ids.event_id(int(rows.event[i])) for i in keep), tuple(station), photo_runs(station, run_of),
-                       np.asarray(cx, float), np.asarray(cy, float), h, rows.ground_m[keep], yaw)
+                       np.asarray(cx, float), np.asarray(cy, float), h, rows.ground_m[keep], yaw,
+                       rows.pitch[keep] if camera_attitude else None)
 
 
 def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tuple[str, ...]:
@@ -165,7 +173,10 @@ def _station_index(view: PlanView, photos: FlownPhotos) -> np.ndarray:
 
 def planned_aim(view: PlanView, photos: FlownPhotos) -> Aim:
     """The aim of each flown photo: its matched station's camera pitch and its look against the
-    planned nose (the track, or the plan's fixed yaw)."""
+    planned nose (the track, or the plan's fixed yaw). A photo flight recorded its camera's
+    own pitch and yaw: that is its aim (the yaw already the camera's, nothing to add)."""
+    if photos.camera_pitch_deg is not None:
+        return Aim(photos.camera_pitch_deg, np.zeros(len(photos)))
     idx = _station_index(view, photos)
     matched = idx >= 0
     return Aim(np.where(matched, view.pitch_deg[idx], -90.0),

@@ -30,6 +30,9 @@ class Events:
     yaw: np.ndarray
     source: str
     utc_s: np.ndarray | None = None  # seconds since 1970 (UTC) from the GPS time, when logged
+    #: roll, pitch, yaw are the camera's own (a gimbal's, recorded with each photo: pitch 0 level,
+    #: −90 straight down; yaw a true bearing), not the vehicle's (flight/photos.py)
+    camera_attitude: bool = False
 
     def __len__(self) -> int:
         return len(self.time_s)

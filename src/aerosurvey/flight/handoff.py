@@ -9,7 +9,11 @@ gimbal is (vehicle yaw + the gimbal's planned yaw against the nose, 90 + the gim
 pitch, 0): (vehicle yaw, 0, 0) looking straight down, (yaw, 45, 0) for an oblique pitched to
 −45°; a camera fixed to the body (`--fixed-camera`) has the vehicle's yaw, pitch and roll.
 The mount (landscape, portrait) changes neither: in the capture
-model the image's top is towards the nose in both.
+model the image's top is towards the nose in both. A flight recorded by its photos
+(flight/photos.py) recorded each camera's own attitude: (gimbal yaw, 90 + gimbal pitch, 0).
+
+The accuracies are --accuracy-xy/-z for every image, or each image's own where the flight
+recorded them (a photo flight's RTK standard deviations, `accuracies`).
 
 - geo.txt (OpenDroneMap): the CRS line, then `image lon lat alt yaw pitch roll horizontal
   vertical` (opendm/geo.py GeoFile: columns 5-7 are read as the angles, 8-9 as accuracies).
@@ -53,7 +57,9 @@ ODM_MIN_MARKS = 3
 @dataclass(frozen=True)
 class CameraPoses:
     """Matched images: file name, WGS84 position, altitude above mean sea level, and camera
-    orientation (degrees, see the module docstring)."""
+    orientation (degrees, see the module docstring); `std_m`, where known, each image's own
+    position accuracy (rows of east, north, up standard deviations in metres, NaN where not
+    known: the files take the --accuracy-xy/-z defaults there)."""
 
     images: tuple[str, ...]
     lon: np.ndarray
@@ -62,14 +68,18 @@ class CameraPoses:
     yaw: np.ndarray
     pitch: np.ndarray
     roll: np.ndarray
+    std_m: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.images)
 
 
-def camera_poses(m: ImageMatch, ev: Events, fixed_camera: bool, aim: Aim | None = None) -> CameraPoses:
+def camera_poses(m: ImageMatch, ev: Events, fixed_camera: bool, aim: Aim | None = None,
+                 std_m: np.ndarray | None = None) -> CameraPoses:
     """The matched images' camera poses; images without a position are left out. `aim`: each
-    event's planned gimbal aim (without one, a gimbal camera looks straight down along the nose)."""
+    event's planned gimbal aim (without one, a gimbal camera looks straight down along the nose);
+    `std_m`: each event's position accuracy (rows of east, north, up standard deviations, NaN
+    where not known), as a photo flight's RTK solution records it."""
     pairs = [(f.name, j) for f, j in zip(m.files, m.event_of)
              if j is not None and math.isfinite(ev.lon[j]) and math.isfinite(ev.lat[j]) and math.isfinite(ev.alt_m[j])]
     k = np.array([j for _, j in pairs], int)
@@ -82,7 +92,8 @@ def camera_poses(m: ImageMatch, ev: Events, fixed_camera: bool, aim: Aim | None 
     else:
         pitch, roll = np.zeros(len(k)), np.zeros(len(k))
     return CameraPoses(tuple(n for n, _ in pairs), np.asarray(ev.lon, float)[k], np.asarray(ev.lat, float)[k],
-                       np.asarray(ev.alt_m, float)[k], yaw, pitch, roll)
+                       np.asarray(ev.alt_m, float)[k], yaw, pitch, roll,
+                       np.asarray(std_m, float).reshape(-1, 3)[k] if std_m is not None else None)
 
 
 def _check_accuracy(accuracy_xy: float, accuracy_z: float) -> None:
@@ -91,14 +102,27 @@ def _check_accuracy(accuracy_xy: float, accuracy_z: float) -> None:
             raise InputError(f"{name} = {v!r} is not allowed: a standard deviation in metres, more than 0")
 
 
+def accuracies(p: CameraPoses, accuracy_xy: float, accuracy_z: float) -> np.ndarray:
+    """Each image's (east, north, horizontal, up) standard deviation in metres: its own where
+    known and more than 0, else the defaults. The horizontal one is the larger of east and north,
+    as OpenDroneMap takes DJI's RtkStdLon and RtkStdLat."""
+    _check_accuracy(accuracy_xy, accuracy_z)
+    own = p.std_m if p.std_m is not None else np.full((len(p), 3), np.nan)
+    known = np.isfinite(own) & (own > 0)
+    east = np.where(known[:, 0], own[:, 0], accuracy_xy)
+    north = np.where(known[:, 1], own[:, 1], accuracy_xy)
+    horizontal = np.where(known[:, 0] & known[:, 1], np.maximum(east, north), accuracy_xy)
+    return np.column_stack([east, north, horizontal, np.where(known[:, 2], own[:, 2], accuracy_z)])
+
+
 def _pose_lines(p: CameraPoses, accuracy_xy: float, accuracy_z: float, first: str, columns: Sequence[str], sep: str) -> str:
     """`first`, then a line per image of the `columns` (names below) joined by `sep`."""
-    _check_accuracy(accuracy_xy, accuracy_z)
+    acc = accuracies(p, accuracy_xy, accuracy_z)
     lines = [first]
     for i, name in enumerate(p.images):
         cells = {"image": name, "lon": f"{p.lon[i]:.8f}", "lat": f"{p.lat[i]:.8f}", "alt": f"{p.alt_m[i]:.3f}",
                  "yaw": f"{p.yaw[i]:.2f}", "pitch": f"{p.pitch[i]:.2f}", "roll": f"{p.roll[i]:.2f}",
-                 "acc_xy": f"{accuracy_xy:g}", "acc_z": f"{accuracy_z:g}"}
+                 "acc_x": f"{acc[i, 0]:g}", "acc_y": f"{acc[i, 1]:g}", "acc_xy": f"{acc[i, 2]:g}", "acc_z": f"{acc[i, 3]:g}"}
         lines.append(sep.join(cells[c] for c in columns))
     return "\n".join(lines) + "\n"
 
@@ -120,7 +144,7 @@ def metashape_csv(p: CameraPoses, accuracy_xy: float, accuracy_z: float) -> str:
     """Metashape's camera reference file, columns nxyzabcXYZ (see the module docstring)."""
     return _pose_lines(p, accuracy_xy, accuracy_z,
                        "#label,longitude,latitude,altitude,yaw,pitch,roll,accuracy x,accuracy y,accuracy z",
-                       ("image", "lon", "lat", "alt", "yaw", "pitch", "roll", "acc_xy", "acc_xy", "acc_z"), ",")
+                       ("image", "lon", "lat", "alt", "yaw", "pitch", "roll", "acc_x", "acc_y", "acc_z"), ",")
 
 
 def read_geo_txt(text: str, where: str) -> CameraPoses:

@@ -8,6 +8,7 @@ photo-count raster) and runs the plan's rules on them; nothing is written.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from aerosurvey.area import transformer
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
@@ -35,6 +37,7 @@ from aerosurvey.flight.events import Events, Match, match_to_stations, read_even
 from aerosurvey.flight.handoff import camera_poses, geo_txt, metashape_csv, pix4d_csv
 from aerosurvey.flight.images import ImageMatch, geotag_images, list_images, match_images
 from aerosurvey.flight.modes import modes_report, read_modes
+from aerosurvey.flight.photos import PhotoFlight, read_photo_flight
 from aerosurvey.manifest import Manifest, Stations
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.rules.engine import Evidence, LayoutSettings, evaluate
@@ -74,6 +77,7 @@ class Ingested:
     report: dict[str, Any]
     rules: list[dict[str, Any]]
     aim: Aim | None = None  # each event's planned gimbal aim (with a plan)
+    record: PhotoFlight | None = None  # the photos, when the flight record is a folder of them
 
 
 def _local_xy(lon: np.ndarray, lat: np.ndarray, lat0: float) -> np.ndarray:
@@ -166,19 +170,28 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     if sortie is not None and view is None:
         raise InputError(f"--sortie {sortie!r}: a sortie is of a plan; give --plan too", key="--sortie")
     report_progress("reading the log", 0.0)
-    ev, info = read_events(flight_log)
+    record = None
+    if flight_log.is_dir():
+        photo_flight_options(flight_log, images_dir, fixed_camera)
+        record = read_photo_flight(flight_log, lambda stage, done: report_progress(stage, 0.4 * done))
+        ev, info = record.events, record.read
+    else:
+        ev, info = read_events(flight_log)
     report_progress("camera events read", 0.4)
     report: dict[str, Any] = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
     modes = read_modes(flight_log, view.document.mission.vehicle if view is not None else None)
     mode = modes.at(ev.time_s)
     report["modes"] = modes_report(modes, mode)
     img = None
+    if record is not None:
+        report["photos"] = dict(record.report)
+        img = ImageMatch(list(record.files), list(range(len(record))), "the photos are the flight record", None, [], [])
     if images_dir is not None:
         img = match_images(list_images(images_dir), ev)
         report["images"] = {"files": len(img.files), "method": img.method, "clock_offset_s": img.offset_s,
                             "unmatched_files": img.unmatched_files, "unmatched_events": img.unmatched_events}
     if view is None or stations is None:
-        return Ingested(ev, mode, None, img, None, None, report, [])
+        return Ingested(ev, mode, None, img, None, None, report, [], record=record)
     doc = view.document
     median = check_same_plan(ev, view, flight_log.name, sortie)
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
@@ -191,6 +204,8 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
                    "max_distance_m": float(max((d for d in match.distance_m if d == d), default=0.0))})
     dem = _dem_ground(dem_path, view)
     try:
+        if record is not None:
+            ev, report["photos"]["rel_alt_from_dem_at_home"] = heights_above_take_off(ev, dem, doc, view.crs, flight_log)
         photos = flown_photos(view.crs, dict(zip(doc.stations.ids, doc.stations.run)), ev, match, fixed_camera, dem)
         report["heights"] = heights_summary(photos, ev, dem, doc.home, view.crs, fixed_camera)
     finally:
@@ -221,7 +236,45 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     report["coverage"] = coverage.summary
     report_progress("done", 1.0)
     records.report_document(report)  # a report that does not match its schema is a bug: found before writing
-    return Ingested(ev, mode, match, img, photos, coverage, report, rules, planned_aim(view, photos))
+    return Ingested(ev, mode, match, img, photos, coverage, report, rules, planned_aim(view, photos), record)
+
+
+def photo_flight_options(folder: Path, images_dir: Path | None, fixed_camera: bool, geotag: bool = False) -> None:
+    """A folder of photos is the flight record: the photos are the events (nothing to match them
+    to or tag them with), and each records its camera's own attitude (nothing fixed to the body
+    to apply). Options that say otherwise are refused."""
+    if geotag:
+        raise InputError(f"--geotag-copies / --geotag-in-place: the photos of {str(folder)!r} are the flight record and "
+                         "carry their positions already; geotagging tags a log's matched images", key="--geotag-copies")
+    if images_dir is not None:
+        raise InputError(f"--images {str(images_dir)!r}: the flight record {str(folder)!r} is a folder of photos, which "
+                         "are the camera events themselves; --images matches a log's events to photos", key="--images")
+    if fixed_camera:
+        raise InputError(f"--fixed-camera: the photos of {str(folder)!r} record their camera's own attitude (a gimbal's "
+                         "angles, or straight down); --fixed-camera applies a log's vehicle attitude", key="--fixed-camera")
+
+
+def heights_above_take_off(ev: Events, dem: DemGround | None, doc: Manifest, crs: str, folder: Path) -> tuple[Events, int]:
+    """(the events, how many took it) with a height above take-off for each photo that records
+    only its altitude (a camera without DJI's RelativeAltitude): its altitude minus the DEM's
+    ground at the plan's home. Without a DEM, or where the DEM has no ground there, InputError."""
+    missing = ~np.isfinite(ev.rel_alt_m) & np.isfinite(ev.alt_m)
+    if not missing.any():
+        return ev, 0
+    where = (f"{int(missing.sum())} of the {len(ev)} photos of {str(folder)!r} record their altitude but no height "
+             "above the take-off point (DJI's RelativeAltitude)")
+    if dem is None:
+        raise InputError(f"{where}: give --dem, the terrain under the flight (their heights above ground are their "
+                         "altitude minus the DEM's ground)", key="--dem")
+    ground = math.nan
+    if doc.home.lon is not None and doc.home.lat is not None:
+        hx, hy = transformer("EPSG:4326", crs).transform(doc.home.lon, doc.home.lat)
+        ground = float(dem(np.array([hx]), np.array([hy]))[0])
+    if not math.isfinite(ground):
+        raise InputError(f"{where}, and --dem {dem.path.name!r} has no ground at the plan's home "
+                         f"({doc.home.lon}, {doc.home.lat}) to take them from", key="--dem")
+    rel = np.where(missing, ev.alt_m - ground, ev.rel_alt_m)
+    return dataclasses.replace(ev, rel_alt_m=rel), int(missing.sum())
 
 
 def event_columns(result: Ingested) -> dict[str, Any]:
@@ -249,7 +302,9 @@ def write_ingest(result: Ingested, outdir: Path, *, accuracy_xy: float = 2.0, ac
             write_count_raster(stage / "coverage.tif", result.coverage)
         atomic_write_text(stage / "events.csv", events_text)
         if result.images is not None:
-            poses = camera_poses(result.images, result.events, fixed_camera, result.aim)
+            rec = result.record
+            std = np.column_stack([rec.std_lon_m, rec.std_lat_m, rec.std_hgt_m]) if rec is not None else None
+            poses = camera_poses(result.images, result.events, fixed_camera, result.aim, std)
             for name, write in (("geo.txt", geo_txt), ("pix4d_geolocation.csv", pix4d_csv),
                                 ("metashape_reference.csv", metashape_csv)):
                 atomic_write_text(stage / name, write(poses, accuracy_xy, accuracy_z))

@@ -204,7 +204,10 @@ def from_ulog(path: Path) -> Modes:
 
 
 def read_modes(path: Path, plan_vehicle: str | None = None) -> Modes:
-    """The flight modes of a log (.bin/.log, .tlog, .ulg; the events' reader has checked its type)."""
+    """The flight modes of a log (.bin/.log, .tlog, .ulg; the events' reader has checked its type);
+    none for a folder of photos (a DJI flight's record: its photos carry no flight mode)."""
+    if path.is_dir():
+        return _none("a folder of photos records no flight mode")
     suffix = path.suffix.lower()
     if suffix in (".bin", ".log"):
         return from_dataflash(path, plan_vehicle)

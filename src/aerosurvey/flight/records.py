@@ -26,7 +26,7 @@ from aerosurvey.errors import InputError
 EVENTS_SCHEMA = "aerosurvey-events"
 EVENTS_VERSION = 2
 REPORT_SCHEMA = "aerosurvey-log-report"
-REPORT_VERSION = 1
+REPORT_VERSION = 2  # 2: a folder of photos as the flight record (`photos`), the flight modes (`modes`)
 
 #: The columns in file order, from the schema; the decimals each number is written with.
 COLUMNS: tuple[str, ...] = tuple(schemas.schema("events")["properties"]["rows"]["items"]["properties"])

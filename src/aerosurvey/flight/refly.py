@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -16,10 +16,11 @@ import shapely
 import shapely.geometry
 
 from aerosurvey.errors import InputError
-from aerosurvey.fileio import atomic_write_text, staged_directory
+from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
 from aerosurvey.flight import records
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.manifest import Manifest, sha256_file
+from aerosurvey.mission.formats import DJI_TEMPLATES
 from aerosurvey.outputs import render_outputs
 from aerosurvey.plan.planner import Plan
 from aerosurvey.rules.planview import PlanView
@@ -69,6 +70,7 @@ class Refly:
     plan: Plan | None  # the re-fly (None when there are no gaps)
     files: dict[str, str]  # file name -> text: every output of `plan` and gaps.geojson
     notes: tuple[str, ...]
+    binary: dict[str, bytes] = field(default_factory=dict)  # file name -> bytes: a DJI camera's .kmz waylines
 
 
 def check_report_of_plan(report: dict[str, Any], log_dir: Path, doc: Manifest) -> None:
@@ -90,8 +92,9 @@ def read_log_of_plan(log_dir: Path, doc: Manifest) -> dict[str, Any]:
     return report
 
 
-def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float) -> Refly:
-    """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos, with the plan's own spec."""
+def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float, dji: str = DJI_TEMPLATES[0]) -> Refly:
+    """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos, with the plan's own spec;
+    every output `plan` writes for it (`dji`: the DJI .kmz files' template, as `plan --dji`)."""
     doc = view.document
     spec = load_spec(spec_path)
     if spec.name != doc.mission.name:
@@ -112,9 +115,10 @@ def plan_refly(log_dir: Path, view: PlanView, spec_path: Path, min_gap_m2: float
     data = refly_spec(spec_path, gaps, view.crs)
     spec = parse_spec(data, base=spec_path.parent, path=None)
     plan = plan_from_files(spec)
-    files = dict(render_outputs(plan, spec).files)
+    rendered = render_outputs(plan, spec, dji=dji)
+    files = dict(rendered.files)
     files["gaps.geojson"] = json.dumps(gaps_layer(gaps, view, need)) + "\n"
-    return Refly(gaps, need, plan, files, tuple(notes))
+    return Refly(gaps, need, plan, files, tuple(notes), dict(rendered.binary))
 
 
 def gaps_layer(gaps: shapely.Geometry, view: PlanView, need: int) -> dict[str, Any]:
@@ -132,3 +136,5 @@ def write_refly(r: Refly, outdir: Path) -> None:
     with staged_directory(outdir) as stage:
         for name, text in r.files.items():
             atomic_write_text(stage / name, text)
+        for name, data in r.binary.items():
+            atomic_write_bytes(stage / name, data)

@@ -90,10 +90,11 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
 
     name = r.plan.name
     manifest, features, view = service.plan_documents(r.files, "the re-fly")
-    pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame, manifest=manifest, plan_view=view))
+    pid = state.remember(service.PlanBundle({"name": name}, dict(r.files), bundle.frame, manifest=manifest, plan_view=view,
+                                            binary=dict(r.binary)))
     plan = r.plan
     lines = [f for f in features["features"] if f["properties"]["role"] == "line"]
-    return {"plan_id": pid, "files": sorted(r.files), "notes": list(r.notes),
+    return {"plan_id": pid, "files": sorted({*r.files, *r.binary}), "notes": list(r.notes),
             "lines": {"type": "FeatureCollection", "features": lines}, "gaps": json.loads(r.files["gaps.geojson"]),
             "summary": f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than "
                        f"{r.need} photos; re-fly {name}: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
