@@ -1,4 +1,4 @@
-"""A minimal DataFlash writer for tests: FMT messages, camera events (CAM) and mount angles (MNT)."""
+"""A minimal DataFlash writer for tests: FMT messages, camera events (CAM), mount angles (MNT) and mission items (CMD)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,11 @@ import struct
 HEAD = b"\xa3\x95"
 
 
+_STRUCT = {"Q": "Q", "L": "i", "f": "f", "B": "B", "H": "H", "n": "4s", "N": "16s", "Z": "64s"}
+
+
 def _fmt(typ: int, name: str, fmt: str, cols: str) -> bytes:
-    length = 3 + struct.calcsize("<" + "".join({"Q": "Q", "L": "i", "f": "f", "B": "B", "n": "4s", "N": "16s", "Z": "64s"}[c] for c in fmt))
+    length = 3 + struct.calcsize("<" + "".join(_STRUCT[c] for c in fmt))
     return HEAD + bytes([128]) + struct.pack("<BB4s16s64s", typ, length, name.encode(), fmt.encode(), cols.encode())
 
 
@@ -30,6 +33,29 @@ def mount_log(cams: list[tuple[float, float, float, float]], mounts: list[tuple[
     out += _fmt(201, "MNT", "QBfffffff", "TimeUS,I,DRoll,Roll,DPitch,Pitch,DYawB,YawB,DYawE")
     rows = [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), 495000000, 153000000, 80.0, 80.0, r, p, y)) for t, r, p, y in cams]
     rows += [(t, 201, struct.pack("<QBfffffff", int(t * 1e6), 0, 0.0, r, -45.0, p, 0.0, y, 0.0)) for t, r, p, y in mounts]
+    for _, typ, body in sorted(rows, key=lambda row: row[0]):
+        out += HEAD + bytes([typ]) + body
+    return bytes(out)
+
+
+#: one mission item as ArduPilot's CMD message logs it: command, frame, param1-4, latitude, longitude, altitude
+Cmd = tuple[int, int, float, float, float, float, float, float, float]
+
+
+def mission_log(writes: list[tuple[float, list[Cmd]]], events: list[tuple[float, float, float, float, float]]) -> bytes:
+    """CMD messages and CAM events in time order: each write (time_s, items) numbers its items from 0
+    under one CTot, as ArduPilot writes its whole mission (item 0 home); each event (time_s, lat,
+    lon, alt_amsl, rel_alt), nadir."""
+    out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
+    out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
+    out += _fmt(202, "CMD", "QHHHffffLLfB", "TimeUS,CTot,CNum,CId,Prm1,Prm2,Prm3,Prm4,Lat,Lng,Alt,Frame")
+    rows = []
+    for t, items in writes:
+        for k, (cmd, frame, p1, p2, p3, p4, lat, lon, alt) in enumerate(items):
+            rows.append((t, 202, struct.pack("<QHHHffffiifB", int(t * 1e6), len(items), k, cmd, p1, p2, p3, p4,
+                                             round(lat * 1e7), round(lon * 1e7), alt, frame)))
+    rows += [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7), alt, rel, 0.0, 0.0, 0.0))
+             for t, lat, lon, alt, rel in events]
     for _, typ, body in sorted(rows, key=lambda row: row[0]):
         out += HEAD + bytes([typ]) + body
     return bytes(out)
