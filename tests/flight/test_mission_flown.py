@@ -494,33 +494,40 @@ def _mission(seed: int, n_lines: int) -> tuple[list[mp.WireItem], list[str]]:
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**31), n_lines=st.integers(2, 8), data=st.data())
 def test_every_edit_is_reported_as_the_item_it_touched(seed, n_lines, data):
-    """Random altitude changes and moves of waypoints (more than the tolerance), each reported at
-    its item with its field and distance; the rest one by meaning."""
+    """Random altitude changes and moves of waypoints (more than the tolerance) and items left
+    out: each change reported at its item with its field and distance, each item left out as
+    missing (one of its alike items, for a camera item), the rest one by meaning."""
     items, tags = _mission(seed, n_lines)
     wps = [k for k, it in enumerate(items) if it.command == 16]
     touched = data.draw(st.sets(st.sampled_from(wps), max_size=len(wps) // 3))
-    moves = {k: data.draw(st.floats(3.0, 400.0)) for k in touched if data.draw(st.booleans())}
+    # moves short of half the 55 m between waypoints: each stays the nearest to where it was
+    moves = {k: data.draw(st.floats(3.0, 25.0)) for k in touched if data.draw(st.booleans())}
     lowered = {k: data.draw(st.floats(0.5, 50.0)) for k in touched if k not in moves}
+    dropped = data.draw(st.sets(st.sampled_from([k for k in range(len(items)) if k not in touched]), max_size=4))
     logged = []
     for it in items:
+        if it.seq in dropped:
+            continue
         x, y, z = it.x, it.y, it.z
         if it.seq in moves:
             lon2, lat2, _ = GEOD.fwd(y * 1e-7, x * 1e-7, 45.0, moves[it.seq])
             x, y = round(lat2 * 1e7), round(lon2 * 1e7)
         if it.seq in lowered:
             z -= lowered[it.seq]
-        logged.append(mp.WireItem(it.seq, it.command, it.frame, it.param1, it.param2, it.param3, it.param4, x, y, z))
+        logged.append(mp.WireItem(len(logged), it.command, it.frame, it.param1, it.param2, it.param3, it.param4, x, y, z))
     c = mfl.compare(mfl.PlannedMission("S01", "s.plan", tuple(items), tuple(tags)), logged, True, lambda it: it, False)
-    got = {d.planned: d for d in c.differences}
-    assert set(got) == set(moves) | set(lowered) and all(d.kind == "differs" and d.logged == d.planned for d in got.values())
+    changed = {d.planned: d for d in c.differences if d.kind == "differs"}
+    missing = [d for d in c.differences if d.kind == "missing"]
+    assert {d.kind for d in c.differences} <= {"differs", "missing"}
+    assert set(changed) == set(moves) | set(lowered)
+    assert sorted((items[d.planned].command, tags[d.planned].split(":")[0]) for d in missing) == \
+        sorted((items[k].command, tags[k].split(":")[0]) for k in dropped)
     for k, dist in moves.items():
-        (f,) = got[k].fields
+        (f,) = changed[k].fields
         assert f["field"] == "position" and f["offset_m"] == pytest.approx(dist, rel=2e-3, abs=0.05)
     for k, dz in lowered.items():
-        (f,) = got[k].fields
+        (f,) = changed[k].fields
         assert (f["field"], f["planned"]) == ("altitude", 100.0) and f["logged"] == pytest.approx(100.0 - dz, abs=1e-4)
-    assert c.same == len(items) - len(got)
-    survey = sum(t.startswith("P1-L") and it.command == 16 for it, t in zip(items, tags))
-    assert c.survey_waypoints == survey and c.found == survey - len(moves)
-    assert c.verdict == ("plan" if not got else "changed" if c.found >= survey / 2 else "other")
-
+    assert c.same == len(items) - len(changed) - len(dropped)
+    survey = [k for k, (it, t) in enumerate(zip(items, tags)) if t.startswith("P1-L") and it.command == 16]
+    assert c.survey_waypoints == len(survey) and c.found == len(survey) - len(set(moves) | (dropped & set(survey)))

@@ -2,11 +2,13 @@
 
 Pure: the plan's missions (each sortie's, or the whole mission's, as `aerosurvey plan` wrote
 them) and the log's items (`mission_log.MissionRecord`) in, plain data out. Items are compared
-by meaning, as the autopilot keeps them: both sides go through the autopilot's storage rules
-(`link.upload.ardupilot_stored`, `px4_stored`: fields it does not keep are not compared), then
-the command must be the same, a position within POSITION_TOL_M, an altitude within ALT_TOL_M
-and the parameters within float32's rounding. The two lists are aligned (difflib) so that an
-item added or left out shows as that item, not as every item after it.
+by meaning, as the autopilot keeps them: the plan's go through the autopilot's storage rules
+(`link.upload.ardupilot_stored`, `px4_stored`: fields it does not keep are not compared), and
+so do the log's when it holds them as sent (a telemetry log's upload); then the command must
+be the same, a position within POSITION_TOL_M, an altitude within ALT_TOL_M
+and the parameters within float32's rounding. The two lists are aligned (difflib on the items
+in context, then each stretch that differs item by item: `_stretch`) so that an item added or
+left out shows as that item, not as every item after it.
 
 What names the flight: the plan's survey waypoints (items tagged with a line, run or station
 id: the lead-ins, line starts, stations and line ends the photos depend on). A log whose
@@ -243,16 +245,20 @@ class Comparison:
 
 
 def _signature(it: mp.WireItem) -> tuple[Any, ...]:
-    """An item without a position as one hashable value (NaN as None)."""
+    """An item without a position as one hashable value (NaN as None; its frame, which says nothing
+    without a position, left out: ArduPilot stores 0 for the plan's 2)."""
     def v(x: float) -> float | None:
         return None if math.isnan(x) else f32(x)
-    return (it.command, same_frame(it.frame), v(it.param1), v(it.param2), v(it.param3), v(it.param4), it.x, it.y, v(it.z))
+    return (it.command, v(it.param1), v(it.param2), v(it.param3), v(it.param4), it.x, it.y, v(it.z))
 
 
-def _keys(planned: Sequence[mp.WireItem], logged: Sequence[mp.WireItem]) -> tuple[list[Any], list[Any]]:
-    """Alignment keys: items that are one by meaning share a key. An item without a position is
-    its signature; one with a position the index of the first planned item it is one with (a
-    logged item with none: a key of its own)."""
+def _keys(planned: Sequence[mp.WireItem], logged: Sequence[mp.WireItem]) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
+    """Alignment keys of the planned and the logged items, plain and in context: items that are
+    one by meaning share a plain key. An item with a position is the index of the first planned
+    item it is one with (a logged item with none: a key of its own); one without is its
+    signature, and in context that after the key of the last item with a position (the camera
+    items of every line are alike: after their line's waypoint each is one item, so difflib's
+    alignment stays near linear instead of trying every alike item against every other)."""
     places: dict[int, tuple[list[int], np.ndarray]] = {}  # command -> planned items with a place, their (lat, lon)
     for i, it in enumerate(planned):
         p = _place(it)
@@ -272,15 +278,76 @@ def _keys(planned: Sequence[mp.WireItem], logged: Sequence[mp.WireItem]) -> tupl
                 return idx[q]
         return None
 
-    def key(it: mp.WireItem, own: Any) -> Any:
-        p = _place(it)
-        if p is None:
-            return ("item", _signature(it))
-        same = first_same(it, p)
-        return ("place", same) if same is not None else own
+    def keys(items: Sequence[mp.WireItem], own: str) -> tuple[list[Any], list[Any]]:
+        plain: list[Any] = []
+        context: list[Any] = []
+        at: Any = None  # the key of the last item with a position
+        for i, it in enumerate(items):
+            p = _place(it)
+            if p is None:
+                plain.append(("item", _signature(it)))
+                context.append((plain[-1], at))
+                continue
+            same = first_same(it, p)
+            at = ("place", same) if same is not None else (own, i)
+            plain.append(at)
+            context.append(at)
+        return plain, context
 
-    return ([key(it, ("place", i)) for i, it in enumerate(planned)],
-            [key(it, ("logged", i)) for i, it in enumerate(logged)])
+    (pp, pc), (lp, lc) = keys(planned, "place"), keys(logged, "logged")
+    return pp, lp, pc, lc
+
+
+#: the most cells (planned × logged items of one stretch that differs) the stretch is aligned item by
+#: item in; a larger one (another mission: nothing aligns) pairs its items by command only (difflib)
+_MAX_CELLS = 4_000_000
+
+
+def _stretch(pp: list[Any], lp: list[Any], planned: Sequence[mp.WireItem], logged: Sequence[mp.WireItem]) -> \
+        list[tuple[int | None, int | None]]:
+    """The items of a stretch that differs, paired: (planned, logged) indexes within it, None on the
+    side an item is missing from. The pairing holds the most items one by meaning (plain keys
+    equal, 3 points), then of one command at one place (2: an item changed where it was), then of
+    one command, the nearer the better (1 to 2: an item moved), in order: a Needleman-Wunsch
+    alignment without gap costs, a row at a time (numpy)."""
+    n, m = len(pp), len(lp)
+    pcmd, lcmd = [it.command for it in planned], [it.command for it in logged]
+    if not n or not m or n * m > _MAX_CELLS:
+        out: list[tuple[int | None, int | None]] = []
+        for op, a0, a1, b0, b1 in difflib.SequenceMatcher(None, pcmd, lcmd, autojunk=False).get_opcodes():
+            if op == "equal":
+                out += list(zip(range(a0, a1), range(b0, b1)))
+            else:
+                out += [(i, None) for i in range(a0, a1)] + [(None, j) for j in range(b0, b1)]
+        return out
+    ids_: dict[Any, int] = {}
+    kp = np.array([ids_.setdefault(k, len(ids_)) for k in pp])
+    kl = np.array([ids_.setdefault(k, len(ids_)) for k in lp])
+    pl, ll = (np.array([_place(it) or (math.nan, math.nan) for it in items], float).reshape(-1, 2) for items in (planned, logged))
+    kx = np.array([_metres_per_degree(lat)[0] if math.isfinite(lat) else 0.0 for lat in pl[:, 0]])
+    ky = np.array([_metres_per_degree(lat)[1] if math.isfinite(lat) else 0.0 for lat in pl[:, 0]])
+    d = np.hypot((ll[None, :, 1] - pl[:, None, 1]) * kx[:, None], (ll[None, :, 0] - pl[:, None, 0]) * ky[:, None])
+    here = (np.isnan(pl[:, :1]) & np.isnan(ll[None, :, 0])) | (d <= POSITION_TOL_M)
+    same_cmd = np.array(pcmd)[:, None] == np.array(lcmd)[None, :]
+    moved = 1.0 + 1.0 / (1.0 + np.nan_to_num(d, nan=np.inf))
+    w = np.where(kp[:, None] == kl[None, :], 3.0, np.where(same_cmd, np.where(here, 2.0, moved), -1e9))
+    score = np.zeros((n + 1, m + 1))
+    for i in range(1, n + 1):
+        best = np.maximum(score[i - 1, 1:], score[i - 1, :-1] + w[i - 1])
+        score[i, 1:] = np.maximum.accumulate(np.maximum(best, 0))
+    pairs: list[tuple[int | None, int | None]] = []
+    i, j = n, m
+    while i > 0 or j > 0:
+        if i > 0 and j > 0 and w[i - 1, j - 1] > 0 and score[i, j] == score[i - 1, j - 1] + w[i - 1, j - 1]:
+            pairs.append((i - 1, j - 1))
+            i, j = i - 1, j - 1
+        elif i > 0 and (j == 0 or score[i, j] == score[i - 1, j]):
+            pairs.append((i - 1, None))
+            i -= 1
+        else:
+            pairs.append((None, j - 1))
+            j -= 1
+    return pairs[::-1]
 
 
 def _survey(planned: PlannedMission, kept: Sequence[int], logged: Sequence[mp.WireItem], recorded: set[int] | None) -> \
@@ -288,14 +355,19 @@ def _survey(planned: PlannedMission, kept: Sequence[int], logged: Sequence[mp.Wi
     """(survey waypoints the record holds a number of (`recorded`: the sequence numbers an
     incomplete record holds; None: all), how many the log's mission has at their place, the
     median and largest distance from them to the nearest logged item of their command)."""
+    by_command: dict[int, list[tuple[float, float]]] = {}
+    for a in logged:
+        q = _place(a)
+        if q is not None:
+            by_command.setdefault(a.command, []).append(q)
+    places = {cmd: np.array(ps, float) for cmd, ps in by_command.items()}
     near: list[float] = []
     for i in kept:
         it, tag = planned.items[i], planned.tags[i]
         p = _place(it)
         if p is None or ids.pass_of(tag) is None or (recorded is not None and it.seq not in recorded):
             continue
-        ds = [distance_m(p, q) for q in (_place(a) for a in logged if a.command == it.command) if q is not None]
-        near.append(min(ds) if ds else math.inf)
+        near.append(_nearest_m(p, places.get(it.command, np.empty((0, 2)))))
     found = sum(d <= POSITION_TOL_M for d in near)
     fin = [d for d in near if math.isfinite(d)]
     return len(near), found, (float(np.median(fin)) if fin else None), (max(fin) if fin else None)
@@ -320,12 +392,12 @@ def photo_starts(items: Sequence[mp.WireItem]) -> list[tuple[float, float]]:
     return out
 
 
-def _near(p: tuple[float, float], places: np.ndarray) -> bool:
-    """`p` lies within POSITION_TOL_M of one of `places` (rows of lat, lon)."""
+def _nearest_m(p: tuple[float, float], places: np.ndarray) -> float:
+    """Metres from `p` to the nearest of `places` (rows of lat, lon); infinite when there are none."""
     if not len(places):
-        return False
+        return math.inf
     kx, ky = _metres_per_degree(p[0])
-    return bool(np.min(np.hypot((places[:, 1] - p[1]) * kx, (places[:, 0] - p[0]) * ky)) <= POSITION_TOL_M)
+    return float(np.min(np.hypot((places[:, 1] - p[1]) * kx, (places[:, 0] - p[0]) * ky)))
 
 
 def compare(planned: PlannedMission, logged: Sequence[mp.WireItem], complete: bool,
@@ -339,7 +411,7 @@ def compare(planned: PlannedMission, logged: Sequence[mp.WireItem], complete: bo
     kept = [i for i, it in enumerate(planned.items) if not (skip_home and planned.tags[i] == "home")]
     plan_items = [stored(planned.items[i]) for i in kept]
     log_items = [it if log_stored else stored(it) for it in logged if not (skip_home and it.seq == 0)]
-    pk, lk = _keys(plan_items, log_items)
+    pp, lp, pc, lc = _keys(plan_items, log_items)
     diffs: list[Difference] = []
     same = unrecorded = 0
 
@@ -355,25 +427,31 @@ def compare(planned: PlannedMission, logged: Sequence[mp.WireItem], complete: bo
         a = log_items[j]
         diffs.append(Difference("added", None, a.seq, a.command, ""))
 
-    opcodes = difflib.SequenceMatcher(None, pk, lk, autojunk=False).get_opcodes()
+    opcodes = difflib.SequenceMatcher(None, pc, lc, autojunk=False).get_opcodes()
     for op, i0, i1, j0, j1 in opcodes:
         if op == "equal":
             same += i1 - i0
             continue
-        pairs = min(i1 - i0, j1 - j0) if op == "replace" else 0
-        for q in range(pairs):
-            e, a = plan_items[i0 + q], log_items[j0 + q]
-            diffs.append(Difference("differs", e.seq, a.seq, e.command, planned.tags[kept[i0 + q]],
-                                    tuple(field_differences(e, a))))
-        for i in range(i0 + pairs, i1):
-            missing(i)
-        for j in range(j0 + pairs, j1):
-            added(j)
+        # an item added or left out changes the context of the items after it up to the next waypoint:
+        # the stretch is paired item by item (`_stretch`): one by meaning, changed, left out, added
+        for a, b in _stretch(pp[i0:i1], lp[j0:j1], plan_items[i0:i1], log_items[j0:j1]):
+            if a is None:
+                assert b is not None
+                added(j0 + b)
+            elif b is None:
+                missing(i0 + a)
+            else:
+                e, g = plan_items[i0 + a], log_items[j0 + b]
+                fields = field_differences(e, g)
+                if fields:
+                    diffs.append(Difference("differs", e.seq, g.seq, e.command, planned.tags[kept[i0 + a]], tuple(fields)))
+                else:
+                    same += 1
     survey, found, med, top = _survey(planned, kept, log_items, None if complete else {a.seq for a in log_items})
     prefix = opcodes[0][2] if opcodes and opcodes[0][0] == "equal" else 0
     partial = 0 < prefix == same < len(plan_items) and any(ids.pass_of(planned.tags[i]) is not None for i in kept[:prefix])
     starts = photo_starts(log_items)
-    at_stations = sum(_near(p, stations) for p in starts) if stations is not None else 0
+    at_stations = sum(_nearest_m(p, stations) <= POSITION_TOL_M for p in starts) if stations is not None else 0
     return Comparison(planned, len(plan_items), len(log_items), complete, same, tuple(diffs), unrecorded, survey, found,
                       med, top, len(starts), at_stations, partial)
 
