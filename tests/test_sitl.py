@@ -52,6 +52,35 @@ def test_example_flies_as_planned(name, vehicle, tmp_path):
         assert (out / "sitl" / row["log"]).exists()
 
 
+@pytest.mark.sitl
+def test_each_sorties_log_names_its_sortie(tmp_path):
+    """A plan split into two sorties, each flown in SITL: each log's mission (its CMD messages, as
+    ArduCopter stored the upload) is its sortie's, every item as planned, and `log ingest` without
+    --sortie matches its photos to that sortie's stations."""
+    from conftest import make_spec
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    out = tmp_path / "plan"
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}, "battery": {"usable_min": 10.0}})
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert len(manifest["sorties"]) == 2
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--sitl-bin", binary, "--speedup", "20"])
+    assert res.exit_code == 0, res.output
+    for row, sortie in zip(json.loads((out / "sitl" / "sitl_report.json").read_text())["sorties"], manifest["sorties"]):
+        folder = tmp_path / sortie["id"]
+        res = CliRunner().invoke(main, ["log", "ingest", str(out / "sitl" / row["log"]), "--plan", str(out), "-o", str(folder)])
+        assert res.exit_code == 0, res.output
+        report = json.loads((folder / "log_report.json").read_text())
+        m = report["mission"]
+        assert (m["verdict"], m["sortie"], m["file"], m["differences"]) == ("plan", sortie["id"], sortie["files"][0], [])
+        assert m["same_items"] == m["planned_items"] == sortie["mission_items"] - 1  # the items after home
+        assert report["plan"]["sortie"] == sortie["id"] and report["planned"] == sortie["photos"]
+        assert report["matched"] == row["triggers_flown"] and report["extras"]["count"] == len(report["extra_triggers"])
+
+
 def _default_area_planned(tmp_path: Path) -> tuple[str, Path, Path]:
     """(the SITL copter binary, the spec, the plan folder) of the default 17 ha area flown
     north-south; the test skips without a binary."""

@@ -37,6 +37,8 @@ SCHEMA = "aerosurvey-manifest"
 SCHEMA_VERSION = 3
 #: The file name `aerosurvey plan` writes the manifest under.
 FILE_NAME = "manifest.json"
+#: The whole mission's QGroundControl plan (each sortie's is named by `ids.sortie_file_stem`)
+WHOLE_MISSION_FILE = "mission.plan"
 
 
 def sha256_file(path: Path) -> str:
@@ -501,6 +503,12 @@ class Manifest:
             have = ", ".join(s.id for s in self.sorties) or "none (the plan is one mission)"
             raise InputError(f"--sortie {sortie_id!r} is not a sortie of {self.where}: it has {have}", key="--sortie")
         return found
+
+    def mission_files(self) -> tuple[tuple[str | None, str], ...]:
+        """(sortie id, its mission's .plan file) of each sortie, then (None, the whole mission's
+        WHOLE_MISSION_FILE) unless the plan is one sortie: the flyable missions `aerosurvey plan` wrote."""
+        files: list[tuple[str | None, str]] = [(s.id, s.files[0]) for s in self.sorties]
+        return tuple(files if len(files) == 1 else [*files, (None, WHOLE_MISSION_FILE)])
 
     def sortie_stations(self, sortie_id: str | None) -> Stations:
         """The stations one sortie flies (all of them for None)."""

@@ -1,5 +1,5 @@
 """A minimal DataFlash writer for tests: FMT messages, camera events (CAM), mount angles (MNT), flight
-modes (MODE) and the firmware line (MSG)."""
+modes (MODE), the firmware line (MSG) and mission items (CMD)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,11 @@ import struct
 HEAD = b"\xa3\x95"
 
 
+_STRUCT = {"Q": "Q", "L": "i", "f": "f", "B": "B", "M": "B", "H": "H", "n": "4s", "N": "16s", "Z": "64s"}
+
+
 def _fmt(typ: int, name: str, fmt: str, cols: str) -> bytes:
-    chars = {"Q": "Q", "L": "i", "f": "f", "B": "B", "M": "B", "n": "4s", "N": "16s", "Z": "64s"}
-    length = 3 + struct.calcsize("<" + "".join(chars[c] for c in fmt))
+    length = 3 + struct.calcsize("<" + "".join(_STRUCT[c] for c in fmt))
     return HEAD + bytes([128]) + struct.pack("<BB4s16s64s", typ, length, name.encode(), fmt.encode(), cols.encode())
 
 
@@ -51,6 +53,29 @@ def survey_log(events: list[tuple[float, float, float, float, float]], modes: li
     rows += [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7), alt, rel, 0.0, 0.0, 0.0))
              for t, lat, lon, alt, rel in events]
     rows += [(t, 202, struct.pack("<QBBB", int(t * 1e6), mode, mode, reason)) for t, mode, reason in modes]
+    for _, typ, body in sorted(rows, key=lambda row: row[0]):
+        out += HEAD + bytes([typ]) + body
+    return bytes(out)
+
+
+#: one mission item as ArduPilot's CMD message logs it: command, frame, param1-4, latitude, longitude, altitude
+Cmd = tuple[int, int, float, float, float, float, float, float, float]
+
+
+def mission_log(writes: list[tuple[float, list[Cmd]]], events: list[tuple[float, float, float, float, float]]) -> bytes:
+    """CMD messages and CAM events in time order: each write (time_s, items) numbers its items from 0
+    under one CTot, as ArduPilot writes its whole mission (item 0 home); each event (time_s, lat,
+    lon, alt_amsl, rel_alt), nadir."""
+    out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
+    out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
+    out += _fmt(202, "CMD", "QHHHffffLLfB", "TimeUS,CTot,CNum,CId,Prm1,Prm2,Prm3,Prm4,Lat,Lng,Alt,Frame")
+    rows = []
+    for t, items in writes:
+        for k, (cmd, frame, p1, p2, p3, p4, lat, lon, alt) in enumerate(items):
+            rows.append((t, 202, struct.pack("<QHHHffffiifB", int(t * 1e6), len(items), k, cmd, p1, p2, p3, p4,
+                                             round(lat * 1e7), round(lon * 1e7), alt, frame)))
+    rows += [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), round(lat * 1e7), round(lon * 1e7), alt, rel, 0.0, 0.0, 0.0))
+             for t, lat, lon, alt, rel in events]
     for _, typ, body in sorted(rows, key=lambda row: row[0]):
         out += HEAD + bytes([typ]) + body
     return bytes(out)

@@ -86,9 +86,10 @@ def _runs_of_lines(rng: np.random.Generator, n_runs: int, headings: list[float],
 @settings(max_examples=150, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_runs=st.integers(1, 12), heading=st.floats(0, 2 * np.pi), width=st.floats(30, 90),
        missing=st.integers(0, 11))
-def test_side_overlap_is_the_farther_of_the_nearest_runs_either_side(seed, n_runs, heading, width, missing):
-    """Parallel runs at random offsets, one left out (a line flown without photos): each run's
-    overlap is 1 - d / width with d the larger of its gaps to the nearest run on either side."""
+def test_side_overlap_pairs_each_run_with_its_nearest_neighbours_once(seed, n_runs, heading, width, missing):
+    """Parallel runs at random offsets, one left out (a line flown without photos): every two runs
+    next to each other across the lines are one pair, listed once, their overlap 1 - d / width
+    with d their distance; the runs either side of the missing one are such a pair."""
     rng = np.random.default_rng(seed)
     offsets = np.sort(rng.uniform(0, 40 * n_runs, n_runs + 1))
     offsets = np.delete(offsets, missing % len(offsets))
@@ -101,14 +102,13 @@ def test_side_overlap_is_the_farther_of_the_nearest_runs_either_side(seed, n_run
         run_ids += [f"L{r}"] * len(along)
     n = len(run_ids)
     fp = rect_footprints(np.array(xs), np.array(ys), np.full(n, heading), np.full(n, width), np.full(n, 40.0))
-    got = {run: overlap for run, _, overlap in side_overlaps(SimpleNamespace(run_ids=run_ids), fp)}
-    for r, off in enumerate(offsets):
-        gaps = [abs(off - o) for o in (offsets[r - 1] if r else None, offsets[r + 1] if r + 1 < len(offsets) else None)
-                if o is not None and abs(off - o) > 1e-6]
-        if gaps:
-            assert got[f"L{r}"] == pytest.approx(1 - max(gaps) / width, abs=1e-6)
-        else:
-            assert f"L{r}" not in got
+    pairs = side_overlaps(SimpleNamespace(run_ids=run_ids), fp)
+    got = {(a, b): overlap for a, b, overlap in pairs}
+    assert len(got) == len(pairs) and len({frozenset(p) for p in got}) == len(pairs)  # each pair once
+    want = {(f"L{r}", f"L{r + 1}"): 1 - (offsets[r + 1] - offsets[r]) / width for r in range(len(offsets) - 1)}
+    assert got.keys() == want.keys()
+    for pair, overlap in want.items():
+        assert got[pair] == pytest.approx(overlap, abs=1e-6)
 
 
 @settings(max_examples=120, deadline=None)
@@ -140,8 +140,10 @@ def test_obratan_side_overlaps_hold_and_gcps_keep_their_definition():
     view = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
     ev = Evidence(view, layout_settings(view, select_profiles(["cz-land-consolidation"])))
     pairs = side_overlaps(view, ev.footprints)
-    # every run has a parallel neighbour, and the planned spacing gives at least the asked 60 %
-    assert len(pairs) == len(set(view.run_ids)) and min(p[2] for p in pairs) >= 0.6 - 1e-6
+    # every run has a parallel neighbour, each pair of neighbours is listed once, and the planned
+    # spacing gives at least the asked 60 %
+    assert {r for p in pairs for r in p[:2]} == set(view.run_ids)
+    assert len({frozenset(p[:2]) for p in pairs}) == len(pairs) and min(p[2] for p in pairs) >= 0.6 - 1e-6
     s = ev.settings
     got = propose_gcps(view.area, ev.footprints, s.gcp_count, s.gcp_min_images, s.gcp_offset_m, s.gcp_max_spacing_m, s.nogo)
     assert len(got) >= s.gcp_count >= 17  # the profile's ceil(n_images / 100) + 1 (1,595 photos planned)

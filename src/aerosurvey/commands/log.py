@@ -54,6 +54,7 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
     # the flight modules pull in rasterio, scipy and the rule engine: imported when the command runs
     from aerosurvey.errors import CheckFailed
     from aerosurvey.flight.ingest import geotag_destination, ingest, losses_beyond_share, photo_flight_options, write_ingest
+    from aerosurvey.flight.mission_flown import another_mission
     from aerosurvey.rules.planview import PlanView
 
     if flight_log.is_dir():
@@ -66,9 +67,13 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
     report = write_ingest(result, outdir, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, fixed_camera=fixed_camera,
                           geotag_dir=geotag_dir, geotag_in_place=geotag_in_place)
     _echo(report)
+    if result.mission is not None:
+        for line in result.mission.lines():
+            click.echo(line)
     lost = losses_beyond_share(flight_log.name, report["read"], report["events"])
-    if lost is not None:
-        raise CheckFailed(lost)
+    other = another_mission(report)
+    if lost is not None or other is not None:
+        raise CheckFailed("; ".join(why for why in (other, lost) if why is not None))
 
 
 def _echo(report: dict[str, Any]) -> None:
@@ -95,6 +100,10 @@ def _echo(report: dict[str, Any]) -> None:
                    f"{len(report['missed_stations'])} missed, {len(report['extra_triggers'])} extra, "
                    f"{len(report['far_triggers'])} farther than {report['tolerance_m']:.2f} m "
                    f"(max {report['max_distance_m']:.2f} m)")
+        ex = report["extras"]
+        if ex["count"]:
+            click.echo(f"{ex['count']} extra photo(s) on no planned line ({ex['on_ground']} on the ground): in the flown "
+                       "coverage, in no run (log_report.json's extras)")
         hz = report["heights"]
         if hz["source"] == "dem":
             span = f"{hz['agl_min_m']:.1f}..{hz['agl_max_m']:.1f} m" if hz["agl_min_m"] is not None else "none known"

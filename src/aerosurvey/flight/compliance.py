@@ -17,10 +17,11 @@ from typing import Any
 import click
 
 from aerosurvey import manifest as mf
-from aerosurvey.errors import InputError
+from aerosurvey.errors import CheckFailed, InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
 from aerosurvey.flight import records
 from aerosurvey.flight.coverage import flown_view, recorded_photos
+from aerosurvey.flight.mission_flown import another_mission
 from aerosurvey.flight.refly import check_report_of_plan
 from aerosurvey.rules.engine import Evidence, evaluate, failed_errors
 from aerosurvey.rules.flown import PLACES_FILE, Judged, failing_places, judge, on_view, part, plan_evidence, planner_profile
@@ -43,6 +44,7 @@ class Flight:
     flown: PlanView  # the plan with the flown photos in place of its stations
     sortie: str | None
     heights: str  # where the flown heights above ground came from, and the camera mount
+    other_mission: str | None = None  # why the log's mission is another than the plan's (`mission_flown.another_mission`)
 
     @property
     def target(self) -> Target:
@@ -106,7 +108,7 @@ def open_flight(folder: Path, plan_dir: Path | None = None) -> Flight:
     heights = _heights(report)
     if len(photos) < len(rows):
         heights += f"; {len(rows) - len(photos)} photo(s) without a position or height left out"
-    return Flight(folder, plan_folder, view, planned, flown_view(view, photos), sortie, heights)
+    return Flight(folder, plan_folder, view, planned, flown_view(view, photos), sortie, heights, another_mission(report))
 
 
 def judge_flight(flight: Flight, profiles: list[Profile]) -> tuple[list[Judged], Evidence]:
@@ -125,9 +127,12 @@ def write_places(folder: Path, layer: dict[str, Any]) -> None:
 
 def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> None:
     """`aerosurvey check FLIGHT_FOLDER`: print each rule planned / flown, write the failing places;
-    exit 1 when an error-level rule fails on the flown photos. Without a profile chosen, the
-    planner's own rule (`planner_profile`), as `check PLAN_FOLDER` does."""
+    exit 1 when an error-level rule fails on the flown photos, or when `log ingest` found that the
+    vehicle flew another mission (its rules are then not judged against this plan). Without a
+    profile chosen, the planner's own rule (`planner_profile`), as `check PLAN_FOLDER` does."""
     flight = open_flight(folder, plan_dir)
+    if flight.other_mission is not None:
+        raise CheckFailed(flight.other_mission)
     judged, flown = judge_flight(flight, choose(flight.target) or [planner_profile()])
     layer = failing_places(judged, flown)
     write_places(folder, layer)

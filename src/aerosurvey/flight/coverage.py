@@ -87,7 +87,7 @@ class FlownPhotos:
 
     ids: tuple[str, ...]  # E00001 …
     station: tuple[str | None, ...]  # the planned station each matched (None: an extra trigger)
-    run: tuple[str, ...]  # the run of the station each matched (unmatched photos: runs of their own)
+    run: tuple[str | None, ...]  # the run of the station each matched (None: an extra on no planned line, `photo_runs`)
     x: np.ndarray  # footprint centre, planning CRS
     y: np.ndarray
     agl_m: np.ndarray
@@ -139,10 +139,11 @@ def recorded_photos(crs: str, run_of: Mapping[str, str], rows: EventRows, fixed_
                        rows.pitch[keep] if camera_attitude else None)
 
 
-def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tuple[str, ...]:
+def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tuple[str | None, ...]:
     """The run of each photo, in the log's order: the run of the station it matched (`run_of`:
     station id → run id). A photo matched to no station (an extra trigger) between two photos
-    of one run is part of that run; any other forms a run of its own, ``unmatched-<index>``."""
+    of one run is part of that run; any other belongs to no planned line (a turn, a line's end,
+    a test shot on the ground): None, an extra, in no run (its footprint still counts)."""
     runs: list[str | None] = [run_of.get(s) if s else None for s in stations]
     known = [i for i, r in enumerate(runs) if r is not None]
     out = []
@@ -150,9 +151,44 @@ def photo_runs(stations: Sequence[str | None], run_of: Mapping[str, str]) -> tup
         if r is None:
             k = int(np.searchsorted(known, i))
             before, after = (runs[known[k - 1]] if k > 0 else None), (runs[known[k]] if k < len(known) else None)
-            r = before if before is not None and before == after else f"unmatched-{i}"
+            r = before if before == after else None
         out.append(r)
     return tuple(out)
+
+
+#: metres above home under which a photo is taken on the ground (a test shot before take-off or
+#: after landing; the barometer drifts a metre or two on the ground)
+ON_GROUND_M = 5.0
+
+
+def on_the_ground(rel_alt_m: np.ndarray, planned_rel_alt_m: np.ndarray) -> np.ndarray:
+    """Photos taken on the ground, which match no station however near one they lie (home is often
+    under the first line): less than ON_GROUND_M above home, where every station is planned at
+    least twice that high (else none: a plan that low cannot tell the ground from its stations)."""
+    rel = np.asarray(rel_alt_m, float)
+    planned = np.asarray(planned_rel_alt_m, float)
+    if not planned.size or not (np.nanmin(planned) >= 2 * ON_GROUND_M):
+        return np.zeros(len(rel), bool)
+    return np.asarray(np.isfinite(rel) & (rel < ON_GROUND_M), bool)
+
+
+def extras_summary(runs: Sequence[str | None], rel_alt_m: np.ndarray, lon: np.ndarray, lat: np.ndarray) -> dict[str, Any]:
+    """log_report.json's `extras`: the photos on no planned line (`photo_runs` None), each with its
+    place, its height above home and the runs flown before and after it."""
+    rows = []
+    for i, r in enumerate(runs):
+        if r is not None:
+            continue
+        before = next((q for q in reversed(runs[:i]) if q is not None), None)
+        after = next((q for q in runs[i + 1:] if q is not None), None)
+        h = float(rel_alt_m[i])
+        rows.append({"event": i + 1, "lon": _finite(lon[i], 8), "lat": _finite(lat[i], 8), "rel_alt_m": _finite(h, 2),
+                     "on_ground": bool(math.isfinite(h) and h < ON_GROUND_M), "after_run": before, "before_run": after})
+    return {"count": len(rows), "on_ground": sum(r["on_ground"] for r in rows), "photos": rows}
+
+
+def _finite(v: float, nd: int) -> float | None:
+    return round(float(v), nd) if math.isfinite(v) else None
 
 
 @dataclass(frozen=True)

@@ -543,17 +543,23 @@ def from_ulog(path: Path) -> tuple[Events, ReadInfo]:
     return ev, info
 
 
+#: the flight log kinds by file name suffix
+LOG_KINDS = {".bin": "dataflash", ".log": "dataflash", ".tlog": "tlog", ".ulg": "ulog"}
+
+
+def log_kind(path: Path) -> str:
+    """The kind of a flight log (LOG_KINDS) by its file name's suffix; InputError for another."""
+    kind = LOG_KINDS.get(path.suffix.lower())
+    if kind is None:
+        raise InputError(f"{path.name}: unknown log type {path.suffix.lower()!r}; allowed: .bin (DataFlash), .tlog (MAVLink), "
+                         ".ulg (PX4 ULog)")
+    return kind
+
+
 def read_events(path: Path) -> tuple[Events, ReadInfo]:
     if not path.exists():
         raise InputError(f"flight log {str(path)!r} does not exist")
-    suffix = path.suffix.lower()
-    if suffix in (".bin", ".log"):
-        return from_dataflash(path)
-    if suffix == ".tlog":
-        return from_tlog(path)
-    if suffix == ".ulg":
-        return from_ulog(path)
-    raise InputError(f"{path.name}: unknown log type {suffix!r}; allowed: .bin (DataFlash), .tlog (MAVLink), .ulg (PX4 ULog)")
+    return {"dataflash": from_dataflash, "tlog": from_tlog, "ulog": from_ulog}[log_kind(path)](path)
 
 
 @dataclass(frozen=True)
@@ -565,13 +571,14 @@ class Match:
     far: list[int]  # matched events farther than the tolerance
 
 
-def match_to_stations(ev: Events, stations: list[dict[str, Any]], tolerance_m: float, window: int = 60) -> Match:
+def match_to_stations(ev: Events, stations: list[dict[str, Any]], tolerance_m: float, window: int = 60,
+                      unmatched: np.ndarray | None = None) -> Match:
     """Match events to planned stations, both in flight order.
 
     Each event takes the nearest station among the next `window` not yet matched ones,
     within 3 × tolerance; stations passed over are missed, events with none near are
-    extra triggers. Order is kept, so a photo over a cross-hatch crossing cannot take a
-    station of the other pass.
+    extra triggers, as are the events `unmatched` marks (photos on the ground). Order is
+    kept, so a photo over a cross-hatch crossing cannot take a station of the other pass.
     """
     k = math.pi / 180.0
     lat0 = float(np.nanmean(ev.lat)) if len(ev) else 0.0
@@ -586,7 +593,7 @@ def match_to_stations(ev: Events, stations: list[dict[str, Any]], tolerance_m: f
     j = 0
     for i in range(len(ex)):
         hi = min(j + window, len(sx))
-        if j >= hi:
+        if j >= hi or (unmatched is not None and unmatched[i]):
             continue
         d = np.hypot(sx[j:hi] - ex[i], sy[j:hi] - ey[i])
         q = int(np.argmin(d))

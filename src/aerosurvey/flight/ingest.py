@@ -1,8 +1,10 @@
 """A flight log's camera events against the plan it flew: the work of `aerosurvey log ingest`.
 
 :func:`ingest` reads the log (and the images, when given), refuses a log of another plan,
-matches events to the planned stations, measures the flown footprints (overlaps, GSD, a
-photo-count raster) and runs the plan's rules on them; nothing is written.
+compares the mission the log records with the plan's (which sortie it flew, what differs:
+flight/mission_flown.py), matches events to the planned stations, measures the flown
+footprints (overlaps, GSD, a photo-count raster) and runs the plan's rules on them; nothing
+is written.
 :func:`write_ingest` writes the result into a staged folder, all or nothing.
 """
 
@@ -27,18 +29,30 @@ from aerosurvey.flight.coverage import (
     DemGround,
     FlownPhotos,
     count_raster,
+    extras_summary,
     flown_photos,
     flown_view,
     heights_summary,
+    on_the_ground,
     planned_aim,
     write_count_raster,
 )
 from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
 from aerosurvey.flight.handoff import camera_poses, geo_txt, metashape_csv, pix4d_csv
 from aerosurvey.flight.images import ImageMatch, geotag_images, list_images, match_images
+from aerosurvey.flight.mission_flown import (
+    NOT_COMPARED,
+    NOT_RECORDED,
+    MissionCheck,
+    PlannedMission,
+    not_compared,
+    planned_mission,
+    recognise,
+)
+from aerosurvey.flight.mission_log import read_mission
 from aerosurvey.flight.modes import modes_report, read_modes
 from aerosurvey.flight.photos import PhotoFlight, read_photo_flight
-from aerosurvey.manifest import Manifest, Stations
+from aerosurvey.manifest import Manifest, Stations, sha256_file
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.rules.engine import Evidence, LayoutSettings, evaluate
 from aerosurvey.rules.flown import on_view, plan_evidence
@@ -78,6 +92,7 @@ class Ingested:
     rules: list[dict[str, Any]]
     aim: Aim | None = None  # each event's planned gimbal aim (with a plan)
     record: PhotoFlight | None = None  # the photos, when the flight record is a folder of them
+    mission: MissionCheck | None = None  # the log's mission against the plan's (with a plan)
 
 
 def _local_xy(lon: np.ndarray, lat: np.ndarray, lat0: float) -> np.ndarray:
@@ -126,6 +141,48 @@ def _sortie_flown(ev: Events, doc: Manifest) -> tuple[str | None, int]:
     return doc.sorties[best].id, int(np.sum(votes == best))
 
 
+def planned_missions(doc: Manifest) -> tuple[list[PlannedMission], list[str], list[str]]:
+    """(the plan folder's missions, the files missing, those changed since `aerosurvey plan` wrote
+    them): each sortie's .plan, and the whole mission's (`Manifest.mission_files`)."""
+    from aerosurvey.mission.formats.qgc_plan import loads_plan
+
+    folder = Path(doc.where).parent
+    found, missing, changed = [], [], []
+    for sortie, file in doc.mission_files():
+        path = folder / file
+        if not path.is_file():
+            missing.append(file)
+            continue
+        if doc.outputs.get(file) not in (None, sha256_file(path)):
+            changed.append(file)
+        found.append(planned_mission(sortie, file, loads_plan(path.read_text(encoding="utf-8"), str(path))))
+    return found, missing, changed
+
+
+def mission_check(flight_log: Path, doc: Manifest) -> MissionCheck:
+    """The mission the log records against the plan folder's missions (`mission_flown.recognise`);
+    a folder of photos records none (a DJI flight's photos do not carry the mission)."""
+    if flight_log.is_dir():
+        return not_compared(NOT_RECORDED, "", "a folder of photos records no mission")
+    record = read_mission(flight_log)
+    flown = record.flown
+    if flown is None:
+        return not_compared(NOT_RECORDED, record.source, record.note)
+    note = record.note + (f"; {record.superseded} mission(s) recorded before it were replaced before the first photo"
+                          if record.superseded else "")
+    candidates, missing, changed = planned_missions(doc)
+    if not candidates:
+        return not_compared(NOT_COMPARED, record.source, f"the plan folder has no mission file ({', '.join(missing)}) to "
+                            f"compare the log's mission with ({note})", len(flown.items), flown.total)
+    if missing:
+        note += f"; {', '.join(missing)} not in the plan folder, not compared"
+    if changed:
+        note += f"; {', '.join(changed)} changed since `aerosurvey plan` wrote it (sha256 not the manifest's): compared as it is"
+    return recognise(candidates, flown.items, flown.complete, flown.total, [(m.at, m.items) for m in record.later],
+                     record.autopilot, record.stored, doc.mission.vehicle == "plane", record.source, note, doc.mission.name,
+                     np.column_stack([doc.stations.lat, doc.stations.lon]))
+
+
 def check_same_plan(ev: Events, view: PlanView, log_name: str, sortie: str | None) -> float:
     """The median distance of the events to the nearest planned station. A log whose events lie
     farther than one footprint (the longer side) is of another mission, and one whose events lie
@@ -166,9 +223,10 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     report_progress = progress or no_progress
     if dem_path is not None and view is None:
         _dem_ground(dem_path, view)
-    stations = view.document.sortie_stations(sortie) if view is not None else None
     if sortie is not None and view is None:
         raise InputError(f"--sortie {sortie!r}: a sortie is of a plan; give --plan too", key="--sortie")
+    if sortie is not None and view is not None:
+        view.document.sortie(sortie)  # an unknown sortie is refused before the log is read
     report_progress("reading the log", 0.0)
     record = None
     if flight_log.is_dir():
@@ -190,13 +248,23 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         img = match_images(list_images(images_dir), ev)
         report["images"] = {"files": len(img.files), "method": img.method, "clock_offset_s": img.offset_s,
                             "unmatched_files": img.unmatched_files, "unmatched_events": img.unmatched_events}
-    if view is None or stations is None:
+    if view is None:
         return Ingested(ev, mode, None, img, None, None, report, [], record=record)
     doc = view.document
+    mission = mission_check(flight_log, doc)
+    if mission.names_sortie and sortie is not None and mission.sortie != sortie:
+        of = f"sortie {mission.sortie}'s" if mission.sortie else "the whole mission's"
+        raise InputError(f"flight log {flight_log.name!r} is not of --sortie {sortie}: the mission its vehicle was given is {of} "
+                         f"({mission.comparison.planned.file if mission.comparison else '?'}); give "
+                         + (f"--sortie {mission.sortie}" if mission.sortie else "no --sortie"), key="--sortie")
     median = check_same_plan(ev, view, flight_log.name, sortie)
+    if mission.names_sortie:
+        sortie = mission.sortie
+    report["mission"] = mission.as_dict()
+    stations = doc.sortie_stations(sortie)
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
     rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
-    match = match_to_stations(ev, rows, tol)
+    match = match_to_stations(ev, rows, tol, unmatched=on_the_ground(ev.rel_alt_m, stations.alt_rel_m))
     report_progress("flown footprints and overlaps", 0.55)
     report["plan"] = {"mission": doc.mission.name, "folder": doc.where, "sortie": sortie, "median_distance_m": round(median, 3)}
     report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
@@ -211,6 +279,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     finally:
         if dem is not None:
             dem.close()
+    report["extras"] = extras_summary(photos.run, ev.rel_alt_m, ev.lon, ev.lat)
     flown = flown_view(view, photos)
     profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides)) \
         if doc.mission.profiles else []
@@ -236,7 +305,7 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
     report["coverage"] = coverage.summary
     report_progress("done", 1.0)
     records.report_document(report)  # a report that does not match its schema is a bug: found before writing
-    return Ingested(ev, mode, match, img, photos, coverage, report, rules, planned_aim(view, photos), record)
+    return Ingested(ev, mode, match, img, photos, coverage, report, rules, planned_aim(view, photos), record, mission)
 
 
 def photo_flight_options(folder: Path, images_dir: Path | None, fixed_camera: bool, geotag: bool = False) -> None:

@@ -19,7 +19,7 @@ from aerosurvey import resumefile
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_text
 from aerosurvey.link import sitl as harness
-from aerosurvey.manifest import Manifest
+from aerosurvey.manifest import WHOLE_MISSION_FILE, Manifest
 from aerosurvey.mission import mavlink_ids as mav
 
 
@@ -50,7 +50,7 @@ def sortie_routes(doc: Manifest, plan_dir: Path, resume_dir: Path | None = None)
     out = []
     parts = [(s.id, s.files[0], doc.sortie_stations(s.id), s.time_s) for s in doc.sorties]
     if not parts:
-        parts = [("mission", "mission.plan", doc.stations, doc.estimates.get("total_time_s"))]
+        parts = [("mission", WHOLE_MISSION_FILE, doc.stations, doc.estimates.get("total_time_s"))]
     folder = plan_dir
     if resume_dir is not None:
         resumed = resumefile.read(resume_dir)

@@ -29,6 +29,11 @@ COPTER_TYPES = frozenset({2, 3, 4, 13, 14, 15})  # MAV_TYPE multirotors and heli
 _COMMAND_NAMES = {v: k for k, v in vars(mav).items() if k.isupper() and not k.startswith(("FRAME_", "AUTOPILOT_", "TYPE_"))}
 
 
+def command_name(command: int) -> str:
+    """The MAV_CMD name of a command aerosurvey writes (`MAV_CMD <number>` for any other)."""
+    return _COMMAND_NAMES.get(command, f"MAV_CMD {command}")
+
+
 class Link(Protocol):
     """What a transfer needs from a link; MavLink implements it, tests add a simulated one."""
 
@@ -323,6 +328,11 @@ def _show(v: object) -> str:
 _SAME_FRAME = {5: 0, 6: 3, 11: 10}
 
 
+def same_frame(frame: int) -> int:
+    """The frame a frame number means (`_SAME_FRAME`)."""
+    return _SAME_FRAME.get(frame, frame)
+
+
 def _same_f32(a: float, b: float) -> bool:
     a, b = f32(a), f32(b)
     if math.isnan(a) or math.isnan(b):
@@ -347,7 +357,7 @@ def compare_items(expected: Sequence[mp.WireItem], actual: Sequence[mp.WireItem]
         if e.command != a.command:
             miss("command", e.command, a.command)
             continue
-        if _SAME_FRAME.get(e.frame, e.frame) != _SAME_FRAME.get(a.frame, a.frame):
+        if same_frame(e.frame) != same_frame(a.frame):
             miss("frame", e.frame, a.frame)
         for k, (ev, av) in enumerate(zip((e.param1, e.param2, e.param3, e.param4), (a.param1, a.param2, a.param3, a.param4)), 1):
             if not _same_f32(ev, av):
@@ -608,7 +618,7 @@ def check_px4(m: Mission, file: str, rally: bool) -> None:
         for it in items:
             answer = px4_refusal(it)
             if answer is not None:
-                name = _COMMAND_NAMES.get(it.command, f"MAV_CMD {it.command}")
+                name = command_name(it.command)
                 raise Refused(f"{file}: {mp.TYPE_NAMES[kind]} item {it.seq} ({name}, frame {it.frame}) is not one PX4 takes "
                               f"(it answers {answer}"
                               + ("; PX4 has no terrain frame: plan it with relative altitudes" if it.frame in (10, 11) else "")

@@ -122,10 +122,11 @@ def sample_grid(geom: BaseGeometry, target_points: int = 4000) -> tuple[FloatArr
 
 
 def runs(view: PlanView) -> dict[str, IntArray]:
-    """Station indices of each run, in flight order."""
+    """Station indices of each run, in flight order (a flown photo on no planned line is in none)."""
     out: dict[str, list[int]] = {}
     for i, r in enumerate(view.run_ids):
-        out.setdefault(r, []).append(i)
+        if r is not None:
+            out.setdefault(r, []).append(i)
     return {k: np.asarray(v, np.intp) for k, v in out.items()}
 
 
@@ -142,10 +143,11 @@ def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
 
 
 def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]]:
-    """(run, neighbour, overlap of their strips) for every run that has a parallel run beside it:
-    the nearest parallel run on each side where there is one, and of the two the farther (the
-    smaller overlap). A run whose neighbour on one side was not flown is measured against the
-    next run on that side, so a missing line fails the rule on both runs beside it.
+    """(run, neighbour, overlap of their strips) for every pair of neighbouring runs, each pair
+    once (in the order of its first run): each run and the nearest parallel run on each side of
+    it, where there is one. A pair measured from both of its runs (their headings differ a
+    little) keeps the smaller overlap. A run whose neighbour on one side was not flown is paired
+    with the next run on that side, so a missing line fails the rule on the pair beside it.
 
     Each run's stations are measured across and along the lines of its heading; runs of the same
     heading (all the runs of one direction of a pass: 4 headings for the 34 runs of the Obrataň
@@ -180,11 +182,11 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
             means[(h, k)] = float(np.mean(frame(h)[2][starts[k]:ends[k]]))
         return means[(h, k)]
 
-    out = []
-    for k, (rid, h) in enumerate(zip(ids, heads)):
+    pairs: dict[tuple[int, int], float] = {}  # (run, neighbour) by their indexes, the first the lower
+    for k, h in enumerate(heads):
         umins, umaxs, _ = frame(h)
         umin, umax, v_mean, w = umins[k], umaxs[k], across(h, k), widths[k]
-        nearest: dict[bool, tuple[float, str, float]] = {}  # per side (right of the heading or not)
+        nearest: dict[bool, tuple[float, int]] = {}  # per side (right of the heading or not)
         for q, hq in enumerate(heads):
             if q == k or abs(math.sin(hq - h)) > 0.052:  # parallel within 3°: flown yaw wanders a little
                 continue
@@ -194,11 +196,11 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
             d = abs(signed)
             side = signed > 0
             if d > 1e-6 and (side not in nearest or d < nearest[side][0]):
-                nearest[side] = (d, ids[q], min(w, widths[q]))
-        if nearest:
-            d, neighbour, width = max(nearest.values())
-            out.append((rid, neighbour, 1 - d / width))
-    return out
+                nearest[side] = (d, q)
+        for d, q in nearest.values():
+            pair = (min(k, q), max(k, q))
+            pairs[pair] = min(pairs.get(pair, math.inf), 1 - d / min(w, widths[q]))
+    return [(ids[a], ids[b], v) for (a, b), v in sorted(pairs.items())]
 
 
 @dataclass(frozen=True)

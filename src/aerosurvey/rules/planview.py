@@ -32,7 +32,7 @@ class PlanView:
     area: BaseGeometry  # planning CRS
     exclusions: BaseGeometry | None
     station_ids: list[str]
-    run_ids: list[str]  # the run (line id) of each station, in flight order
+    run_ids: list[str | None]  # the run (line id) of each station, in flight order (None: a flown photo on no planned line)
     x: np.ndarray
     y: np.ndarray
     agl: np.ndarray
