@@ -25,7 +25,8 @@ returned event against the intact event nearest in time (within 5 s; touched by 
 or not): position, altitude, relative altitude, roll, pitch, yaw, each within the
 tolerance of FIELD_TOLERANCE; an event beyond it in any field is "altered", and "impossible"
 when the field is out of physical bounds (PHYSICAL); an empty (NaN) field where the intact
-event has one is "emptied". pymavlink reads CAM with recv_match; ours is `read_events`, the
+event has one is "emptied"; and how many events the reader dropped as implausible
+(`read.implausible_events`). pymavlink reads CAM with recv_match; ours is `read_events`, the
 reader plus its checks, as `log ingest` uses it.
 """
 
@@ -203,7 +204,7 @@ def _quiet() -> Iterator[None]:
 Returned = list[tuple[int, int, int, Fields]]  # (TimeUS, lat e7, lon e7, every field) of each event returned
 
 
-def _pymavlink_events(path: Path) -> tuple[Returned, str]:
+def _pymavlink_events(path: Path) -> tuple[Returned, str, int]:
     from pymavlink import DFReader
 
     out: Returned = []
@@ -213,23 +214,25 @@ def _pymavlink_events(path: Path) -> tuple[Returned, str]:
             while (m := r.recv_match(type="CAM")) is not None:
                 out.append((int(m.TimeUS), round(m.Lat * 1e7), round(m.Lng * 1e7), _cam_fields(m)))
     except Exception as exc:  # a damaged log may make pymavlink raise: what it returned so far counts
-        return out, type(exc).__name__
-    return out, ""
+        return out, type(exc).__name__, 0
+    return out, "", 0
 
 
-def _our_events(path: Path) -> tuple[Returned, str]:
+def _our_events(path: Path) -> tuple[Returned, str, int]:
+    """The events returned, what was raised, the events dropped as implausible."""
     from aerosurvey.errors import InputError
     from aerosurvey.flight.events import read_events
 
     try:
-        ev, _ = read_events(path)
+        ev, info = read_events(path)
     except InputError:
-        return [], ""
+        return [], "", 0
     except Exception as exc:  # counted, not hidden: the damage tests say there are none
-        return [], type(exc).__name__
+        return [], type(exc).__name__, 0
     rows = zip(ev.time_s.tolist(), ev.lat.tolist(), ev.lon.tolist(), ev.alt_m.tolist(), ev.rel_alt_m.tolist(),
                ev.roll.tolist(), ev.pitch.tolist(), ev.yaw.tolist())
-    return [(round(t * 1e6), round(la * 1e7), round(lo * 1e7), (la, lo, *rest)) for t, la, lo, *rest in rows], ""
+    return ([(round(t * 1e6), round(la * 1e7), round(lo * 1e7), (la, lo, *rest)) for t, la, lo, *rest in rows], "",
+            info["implausible_events"])
 
 
 def _near(g: tuple[int, int, int], e: tuple[int, int, int]) -> bool:
@@ -241,7 +244,7 @@ def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlin
     """Totals per (reader, kind of damage), and per reader over every kind ("all")."""
     rng = random.Random(seed)
     counts = ("untouched", "recovered", "twice", "not_in_log", "altered", "raised", "copies", "judged",
-              "fields_altered", "impossible", "fields_emptied", "untouched_dropped", "copies_altered")
+              "fields_altered", "impossible", "fields_emptied", "untouched_dropped", "copies_altered", "implausible")
     totals: dict[tuple[str, str], dict[str, int]] = {(r, k): dict.fromkeys(counts, 0) for r in readers for k in (*KINDS, "all")}
     with tempfile.TemporaryDirectory() as td:
         for base in (DATA / "sitl_plane_kubad.bin", DATA / "sitl_copter_survey.bin"):
@@ -259,7 +262,7 @@ def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlin
                     for reader, read in (("pymavlink", _pymavlink_events), ("ours", _our_events)):
                         if reader not in readers:
                             continue
-                        returned, raised = read(p)
+                        returned, raised, implausible = read(p)
                         got = [g[:3] for g in returned]
                         extra = [g for g in set(got) if g not in keys]
                         judged = [_altered(g[3], fields[t]) for g in returned if (t := _nearest(times, g[0])) is not None]
@@ -277,6 +280,7 @@ def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlin
                             tot["impossible"] += sum(bad for _, _, bad in judged)
                             tot["fields_emptied"] += sum(bool(e) for _, e, _ in judged)
                             tot["untouched_dropped"] += sum(e[0] not in back for e in untouched)
+                            tot["implausible"] += implausible
                             tot["copies_altered"] += any(a for a, _, _ in judged)
                             for a, _, _ in judged:
                                 for name in a:
@@ -314,12 +318,12 @@ def main() -> None:
               f"{tol['position_m']:g} m of position, {tol['alt_m']:g} m of altitude and relative altitude, "
               f"{tol['angle_deg']:g}° of roll, pitch, yaw):")
         print("| damage | reader | returned within 5 s of an intact event | with a field altered (copies) | of them impossible "
-              "| with a field emptied | untouched events dropped | altered fields |")
+              "| with a field emptied | dropped as implausible (of them untouched) | altered fields |")
         print("| --- | --- | --- | --- | --- | --- | --- | --- |")
         for (reader, kind), t in runs.items():
             which = ", ".join(f"{k.split()[1]} {v}" for k, v in sorted(t.items()) if k.startswith("altered "))
             print(f"| {kind} | {reader} | {t['judged']:,} | {t['fields_altered']} ({t['copies_altered']}) | "
-                  f"{t['impossible']} | {t['fields_emptied']} | {t['untouched_dropped']} | {which or '-'} |")
+                  f"{t['impossible']} | {t['fields_emptied']} | {t['implausible']} ({t['untouched_dropped']}) | {which or '-'} |")
 
 
 def speed(log: str, min_mb: float) -> None:

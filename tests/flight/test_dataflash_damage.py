@@ -102,9 +102,12 @@ def check_events(tmp: Path, base: Path, damaged: bytes, first_damage: int, only_
     # time, else the nearest within 5 s and 60 m), and every field of it is that event's
     times = np.array([e[1] for e in true])
     fields = truth_fields(base)
-    # a field may be empty only where the report says why: its CAM column's format character was damaged
+    # a field may be empty only where the report says why: its CAM column's format character was
+    # damaged, or its column name (the layout has no such column)
     undecoded = {s["reason"].split("column ")[1].split()[0] for s in info["skipped"] if "is not decoded" in s["reason"]}
-    emptied = {k for k, columns in FIELD_COLUMNS.items() if undecoded & columns}
+    absent = {c for part in info["checks"].split("; ") if " column: " in part
+              for c in part.split(" has no ")[1].split(" column")[0].split(" or ")}
+    emptied = {k for k, columns in FIELD_COLUMNS.items() if (undecoded | absent) & columns}
     returned = zip(got, ev.alt_m.tolist(), ev.rel_alt_m.tolist(), ev.roll.tolist(), ev.pitch.tolist(), ev.yaw.tolist())
     taken: set[int] = set()
     for (t, la, lo), *rest in returned:
@@ -358,6 +361,22 @@ def test_an_fmt_record_with_damaged_column_names_keeps_its_messages(tmp_path: Pa
     assert len(ev) == len(true) and info["dropped_events"] == 0
     (s,) = info["skipped"]
     assert (s["offset"], s["length"], s["kind"]) == (at + 26, 1, "format") and "damaged column names" in s["reason"]
+
+
+def test_a_column_name_damaged_into_another_empties_that_field_and_says_so(tmp_path: Path) -> None:
+    """A flipped bit that turns the CAM record's column name RelAlt into RelAmt (printable, so
+    not seen as damage): the layout has no RelAlt, every event comes back without one, and the
+    report says why."""
+    data, true = truth(COPTER)
+    at = data.find(b"Lat,Lng,Alt,RelAlt,GPSAlt")
+    damaged = bytearray(data)
+    damaged[at + len("Lat,Lng,Alt,RelA")] ^= 0x01  # l -> m
+    path = tmp_path / "name.bin"
+    path.write_bytes(bytes(damaged))
+    ev, info = read_events(path)
+    assert len(ev) == len(true) and info["dropped_events"] == 0 and np.isnan(ev.rel_alt_m).all()
+    assert "CAM has no RelAlt column: relative altitude empty in every event" in info["checks"]
+    assert ev.alt_m == pytest.approx([fields[2] for fields in truth_fields(COPTER).values()], abs=1e-6)
 
 
 @pytest.mark.parametrize("base", [PLANE, COPTER])

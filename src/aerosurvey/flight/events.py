@@ -652,13 +652,16 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
              f"{1e3 * lag_limit:.0f} ms): its time or place is not the logged one; dropped")
     else:
         checks = "time order (no GPS fixes in the log)"
-    fields = {"alt": get("Alt"), "rel_alt": get("RelAlt"), "roll": get("R", "Roll"), "pitch": get("P", "Pitch"),
-              "yaw": get("Y", "Yaw")}
+    columns = {"alt": ("Alt",), "rel_alt": ("RelAlt",), "roll": ("R", "Roll"), "pitch": ("P", "Pitch"), "yaw": ("Y", "Yaw")}
+    fields = {field: get(*names) for field, names in columns.items()}
     faults = [""] * n
     found, ran = field_faults(tcheck[keep], {k: v[keep] for k, v in fields.items()}, refs)
     for i, f in zip(np.flatnonzero(keep).tolist(), found):
         faults[i] = f
     checks += ", " + ran
+    for field, names in columns.items():  # an older layout, or a column name damaged into another one
+        if not any(c in cam for c in names):
+            checks += f"; {source} has no {' or '.join(names)} column: {FIELD_NAMES[field]} empty in every event"
     drop(np.array([bool(f) for f in faults]), "event", lambda i: f"{faults[i]}; dropped")
     key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else None
     if key is not None:
