@@ -389,7 +389,7 @@ ALT_BOUND_M = 10_000.0
 #: ATT_WINDOW_S (ArduPilot's ATT, PX4's vehicle_attitude, MAVLink's ATTITUDE), without an
 #: offset. A field off by more than its floor and more than EVENT_SPREAD robust standard
 #: deviations of the log's own events is not the one the autopilot logged. Measured on the SITL
-#: logs of tests/data: altitudes within 0.2 m of the GPS range, attitudes within 0.15° of ATT's.
+#: logs of tests/data: altitudes within 0.07 m of the GPS range, attitudes within 0.14° of ATT's.
 #: Without GPS altitudes, an event's altitude minus its relative altitude (the home altitude) is
 #: checked against the nearest FIELD_OFFSET_EVENTS events' median instead.
 FIELD_WINDOW_S = 1.0
@@ -570,8 +570,10 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     report, events whose own fields disagree with the log: no position on the globe; a time
     outside the span of the log's GPS messages; farther than EVENT_TRACK_M from every GPS fix
     logged within EVENT_WINDOW_S; a boot time outside the span of the GPS fix its own GPS time
-    names; a time or a place off the GPS track beyond the log's own spread (`_on_track`); a time
-    that breaks the order of the others (the fewest are dropped that leave the times strictly
+    names; a time or a place off the GPS track beyond the log's own spread (`_on_track`); an
+    altitude, relative altitude, roll, pitch or yaw that is impossible or that the GPS track's
+    altitudes or the ATT messages contradict (`field_faults`); a time that breaks the order of
+    the others (the fewest are dropped that leave the times strictly
     increasing in file order). One log is one boot of the autopilot (ArduPilot starts a new
     file at each), so its times increase.
     """
