@@ -20,16 +20,24 @@ Then damaged copies of the committed SITL logs (junk FMT records inserted; a chu
 again after itself, before itself or inside itself; the log cut off; bits flipped; seeded),
 per kind of damage: for each reader the camera events it returns against those
 of the intact log, over the events the damage did not touch: recovered, returned twice,
-and returned but not in the intact log (altered or invented). pymavlink reads CAM with
-recv_match; ours is `read_events`, the reader plus its checks, as `log ingest` uses it.
+and returned but not in the intact log (altered or invented). Then every field of every
+returned event against the intact event nearest in time (within 5 s; touched by the damage
+or not): position, altitude, relative altitude, roll, pitch, yaw, each within the
+tolerance of FIELD_TOLERANCE; an event beyond it in any field is "altered", and "impossible"
+when the field is out of physical bounds (PHYSICAL); an empty (NaN) field where the intact
+event has one is "emptied"; and how many events the reader dropped as implausible
+(`read.implausible_events`). pymavlink reads CAM with recv_match; ours is `read_events`, the
+reader plus its checks, as `log ingest` uses it.
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
 import contextlib
 import io
 import json
+import math
 import os
 import random
 import resource
@@ -80,6 +88,60 @@ def child(reader: str, task: str, path: str) -> dict[str, float]:
 # --- damaged copies -----------------------------------------------------------------------------
 
 HEAD = b"\xa3\x95"
+
+
+#: a CAM event's fields as compared: (lat, lon, alt AMSL m, rel alt m, roll, pitch, yaw degrees)
+Fields = tuple[float, float, float, float, float, float, float]
+#: a returned field farther than this from the intact event's is altered: metres of position
+#: (lat and lon), metres of altitude and relative altitude, degrees of attitude
+FIELD_TOLERANCE = {"position_m": 2.5, "alt_m": 4.0, "angle_deg": 6.0}
+#: what no vehicle logs: altitudes beyond 10 km of sea level or home, roll beyond ±180°, pitch
+#: beyond ±90°, yaw outside -180..360°
+PHYSICAL = {"alt_m": 10_000.0, "roll": 180.0, "pitch": 90.0, "yaw": (-180.0, 360.0)}
+
+
+def _cam_fields(m: object) -> Fields:
+    """A pymavlink CAM message's fields (ArduCopter 4.6 names the attitude R, P, Y)."""
+    def get(*names: str) -> float:
+        return float(next(getattr(m, k) for k in names if hasattr(m, k)))
+    return (get("Lat"), get("Lng"), get("Alt"), get("RelAlt"), get("R", "Roll"), get("P", "Pitch"), get("Y", "Yaw"))
+
+
+def _intact_fields(path: Path) -> dict[int, Fields]:
+    """Every CAM event's fields by its TimeUS, as pymavlink reads the intact log."""
+    from pymavlink import DFReader
+
+    r = DFReader.DFReader_binary(str(path))
+    out = {}
+    while (m := r.recv_match(type="CAM")) is not None:
+        out[int(m.TimeUS)] = _cam_fields(m)
+    return out
+
+
+def _altered(got: Fields, true: Fields) -> tuple[list[str], list[str], bool]:
+    """(the fields beyond FIELD_TOLERANCE of the intact event's, the fields emptied, whether a
+    returned field is out of physical bounds)."""
+    names = ("position", "alt", "rel_alt", "roll", "pitch", "yaw")
+    lat, lon, *rest = got
+    k = math.pi / 180 * 6_371_000
+    moved = math.hypot((lat - true[0]) * k, (lon - true[1]) * k * math.cos(math.radians(true[0])))
+    diffs = [moved, abs(rest[0] - true[2]), abs(rest[1] - true[3]), abs(rest[2] - true[4]), abs(rest[3] - true[5]),
+             abs((rest[4] - true[6] + 180.0) % 360.0 - 180.0)]
+    limits = [FIELD_TOLERANCE["position_m"], FIELD_TOLERANCE["alt_m"], FIELD_TOLERANCE["alt_m"]] + [FIELD_TOLERANCE["angle_deg"]] * 3
+    altered = [n for n, d, lim in zip(names, diffs, limits) if d > lim]
+    emptied = [n for n, d in zip(names, diffs) if math.isnan(d)]
+    yaw_lo, yaw_hi = PHYSICAL["yaw"]
+    impossible = (abs(rest[0]) > PHYSICAL["alt_m"] or abs(rest[1]) > PHYSICAL["alt_m"] or abs(rest[2]) > PHYSICAL["roll"]
+                  or abs(rest[3]) > PHYSICAL["pitch"] or not yaw_lo <= rest[4] <= yaw_hi)
+    return altered, emptied, impossible
+
+
+def _nearest(times: list[int], t: int) -> int | None:
+    """The intact event time (µs, sorted) nearest `t`, within 5 s: the event a returned one is
+    (its time may be altered too)."""
+    k = bisect.bisect_left(times, t)
+    near = min(times[max(k - 1, 0):k + 1], key=lambda u: abs(u - t), default=None)
+    return near if near is not None and abs(near - t) <= 5_000_000 else None
 
 
 def _intact_events(path: Path) -> list[tuple[int, int, int, int, int]]:
@@ -139,31 +201,38 @@ def _quiet() -> Iterator[None]:
         os.close(null)
 
 
-def _pymavlink_events(path: Path) -> tuple[list[tuple[int, int, int]], str]:
+Returned = list[tuple[int, int, int, Fields]]  # (TimeUS, lat e7, lon e7, every field) of each event returned
+
+
+def _pymavlink_events(path: Path) -> tuple[Returned, str, int]:
     from pymavlink import DFReader
 
-    out: list[tuple[int, int, int]] = []
+    out: Returned = []
     try:
         with _quiet():  # pymavlink prints a line per byte of damage
             r = DFReader.DFReader_binary(str(path))
             while (m := r.recv_match(type="CAM")) is not None:
-                out.append((int(m.TimeUS), round(m.Lat * 1e7), round(m.Lng * 1e7)))
+                out.append((int(m.TimeUS), round(m.Lat * 1e7), round(m.Lng * 1e7), _cam_fields(m)))
     except Exception as exc:  # a damaged log may make pymavlink raise: what it returned so far counts
-        return out, type(exc).__name__
-    return out, ""
+        return out, type(exc).__name__, 0
+    return out, "", 0
 
 
-def _our_events(path: Path) -> tuple[list[tuple[int, int, int]], str]:
+def _our_events(path: Path) -> tuple[Returned, str, int]:
+    """The events returned, what was raised, the events dropped as implausible."""
     from aerosurvey.errors import InputError
     from aerosurvey.flight.events import read_events
 
     try:
-        ev, _ = read_events(path)
+        ev, info = read_events(path)
     except InputError:
-        return [], ""
+        return [], "", 0
     except Exception as exc:  # counted, not hidden: the damage tests say there are none
-        return [], type(exc).__name__
-    return [(round(t * 1e6), round(la * 1e7), round(lo * 1e7)) for t, la, lo in zip(ev.time_s, ev.lat, ev.lon)], ""
+        return [], type(exc).__name__, 0
+    rows = zip(ev.time_s.tolist(), ev.lat.tolist(), ev.lon.tolist(), ev.alt_m.tolist(), ev.rel_alt_m.tolist(),
+               ev.roll.tolist(), ev.pitch.tolist(), ev.yaw.tolist())
+    return ([(round(t * 1e6), round(la * 1e7), round(lo * 1e7), (la, lo, *rest)) for t, la, lo, *rest in rows], "",
+            info["implausible_events"])
 
 
 def _near(g: tuple[int, int, int], e: tuple[int, int, int]) -> bool:
@@ -174,12 +243,13 @@ def _near(g: tuple[int, int, int], e: tuple[int, int, int]) -> bool:
 def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlink", "ours")) -> dict[tuple[str, str], dict[str, int]]:
     """Totals per (reader, kind of damage), and per reader over every kind ("all")."""
     rng = random.Random(seed)
-    totals: dict[tuple[str, str], dict[str, int]] = {
-        (r, k): {"untouched": 0, "recovered": 0, "twice": 0, "not_in_log": 0, "altered": 0, "raised": 0, "copies": 0}
-        for r in readers for k in (*KINDS, "all")}
+    counts = ("untouched", "recovered", "twice", "not_in_log", "altered", "raised", "copies", "judged",
+              "fields_altered", "impossible", "fields_emptied", "untouched_dropped", "copies_altered", "implausible")
+    totals: dict[tuple[str, str], dict[str, int]] = {(r, k): dict.fromkeys(counts, 0) for r in readers for k in (*KINDS, "all")}
     with tempfile.TemporaryDirectory() as td:
         for base in (DATA / "sitl_plane_kubad.bin", DATA / "sitl_copter_survey.bin"):
-            data, intact = base.read_bytes(), _intact_events(base)
+            data, intact, fields = base.read_bytes(), _intact_events(base), _intact_fields(base)
+            times = sorted(fields)
             keys = {e[2:] for e in intact}
             for kind in KINDS:
                 for _ in range(per_kind):
@@ -192,8 +262,11 @@ def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlin
                     for reader, read in (("pymavlink", _pymavlink_events), ("ours", _our_events)):
                         if reader not in readers:
                             continue
-                        got, raised = read(p)
+                        returned, raised, implausible = read(p)
+                        got = [g[:3] for g in returned]
                         extra = [g for g in set(got) if g not in keys]
+                        judged = [_altered(g[3], fields[t]) for g in returned if (t := _nearest(times, g[0])) is not None]
+                        back = {g[0] for g in returned}
                         for tot in (totals[reader, kind], totals[reader, "all"]):
                             tot["copies"] += 1
                             tot["untouched"] += len(untouched)
@@ -202,6 +275,16 @@ def damaged_runs(per_kind: int, seed: int, readers: tuple[str, ...] = ("pymavlin
                             tot["not_in_log"] += len(extra)
                             tot["altered"] += sum(1 for g in extra if any(_near(g, e) for e in damaged_events))
                             tot["raised"] += bool(raised)
+                            tot["judged"] += len(judged)
+                            tot["fields_altered"] += sum(bool(a) for a, _, _ in judged)
+                            tot["impossible"] += sum(bad for _, _, bad in judged)
+                            tot["fields_emptied"] += sum(bool(e) for _, e, _ in judged)
+                            tot["untouched_dropped"] += sum(e[0] not in back for e in untouched)
+                            tot["implausible"] += implausible
+                            tot["copies_altered"] += any(a for a, _, _ in judged)
+                            for a, _, _ in judged:
+                                for name in a:
+                                    tot[f"altered {name}"] = tot.get(f"altered {name}", 0) + 1
     return totals
 
 
@@ -225,10 +308,22 @@ def main() -> None:
               "over the camera events the damage did not touch:")
         print("| damage | reader | untouched events returned | returned twice | altered | made up | raised |")
         print("| --- | --- | --- | --- | --- | --- | --- |")
-        for (reader, kind), t in damaged_runs(a.damaged, a.seed, tuple(a.readers.split(","))).items():
+        runs = damaged_runs(a.damaged, a.seed, tuple(a.readers.split(",")))
+        for (reader, kind), t in runs.items():
             print(f"| {kind} | {reader} | {t['recovered']:,} of {t['untouched']:,} "
                   f"({100 * t['recovered'] / max(1, t['untouched']):.2f} %) | {t['twice']:,} | {t['altered']} | "
                   f"{t['not_in_log'] - t['altered']} | on {t['raised']} of {t['copies']} copies |")
+        tol = FIELD_TOLERANCE
+        print(f"\nevery field of each returned event against the intact event nearest in time (tolerance "
+              f"{tol['position_m']:g} m of position, {tol['alt_m']:g} m of altitude and relative altitude, "
+              f"{tol['angle_deg']:g}° of roll, pitch, yaw):")
+        print("| damage | reader | returned within 5 s of an intact event | with a field altered (copies) | of them impossible "
+              "| with a field emptied | dropped as implausible (of them untouched) | altered fields |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        for (reader, kind), t in runs.items():
+            which = ", ".join(f"{k.split()[1]} {v}" for k, v in sorted(t.items()) if k.startswith("altered "))
+            print(f"| {kind} | {reader} | {t['judged']:,} | {t['fields_altered']} ({t['copies_altered']}) | "
+                  f"{t['impossible']} | {t['fields_emptied']} | {t['implausible']} ({t['untouched_dropped']}) | {which or '-'} |")
 
 
 def speed(log: str, min_mb: float) -> None:

@@ -1,5 +1,6 @@
 """A minimal DataFlash writer for tests: FMT messages, camera events (CAM), mount angles (MNT), flight
-modes (MODE), the firmware line (MSG) and mission items (CMD)."""
+modes (MODE), the firmware line (MSG), mission items (CMD), and a flight's GPS fixes, attitude (ATT)
+and camera events in the layouts ArduPilot 4.x logs them."""
 
 from __future__ import annotations
 
@@ -8,7 +9,9 @@ import struct
 HEAD = b"\xa3\x95"
 
 
-_STRUCT = {"Q": "Q", "L": "i", "f": "f", "B": "B", "M": "B", "H": "H", "n": "4s", "N": "16s", "Z": "64s"}
+#: DataFlash format characters as struct characters (c, C, e, L are scaled integers)
+_STRUCT = {"Q": "Q", "L": "i", "f": "f", "B": "B", "M": "B", "H": "H", "I": "I", "c": "h", "C": "H", "e": "i",
+           "n": "4s", "N": "16s", "Z": "64s"}
 
 
 def _fmt(typ: int, name: str, fmt: str, cols: str) -> bytes:
@@ -78,4 +81,36 @@ def mission_log(writes: list[tuple[float, list[Cmd]]], events: list[tuple[float,
              for t, lat, lon, alt, rel in events]
     for _, typ, body in sorted(rows, key=lambda row: row[0]):
         out += HEAD + bytes([typ]) + body
+    return bytes(out)
+
+
+#: the layouts of ArduPilot 4.x (as in tests/data's SITL logs)
+GPS = (201, "GPS", "QBBIHBcLLeffffB", "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt,Spd,GCrs,VZ,Yaw,U")
+ATT = (202, "ATT", "QffffffB", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,AEKF")
+CAM = (200, "CAM", "QBHIHLLeeeccC", "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y")
+
+
+def _message(layout: tuple[int, str, str, str], *values: float | int) -> bytes:
+    typ, _, fmt, _ = layout
+    return HEAD + bytes([typ]) + struct.pack("<" + "".join(_STRUCT[c] for c in fmt), *values)
+
+
+def flight_log(fixes: list[tuple[float, int, int, float, float, float]],
+               attitudes: list[tuple[float, float, float, float]],
+               cams: list[tuple[float, int, int, float, float, float, float, float, float, float]]) -> bytes:
+    """A flight as ArduPilot logs it, in time order:
+    fixes (log time s, GPS week, GPS ms of week, lat, lon, alt AMSL m),
+    attitudes (time s, roll, pitch, yaw degrees),
+    cams (time s, GPS week, GPS ms of the last fix, lat, lon, alt AMSL, rel alt, roll, pitch, yaw 0..360)."""
+    out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
+    for layout in (GPS, ATT, CAM):
+        out += _fmt(*layout)
+    rows = [(t, _message(GPS, round(t * 1e6), 0, 6, ms, week, 12, 70, round(lat * 1e7), round(lon * 1e7), round(alt * 100),
+                         0.0, 0.0, 0.0, 0.0, 1)) for t, week, ms, lat, lon, alt in fixes]
+    rows += [(t, _message(ATT, round(t * 1e6), r, r, p, p, y, y, 3)) for t, r, p, y in attitudes]
+    rows += [(t, _message(CAM, round(t * 1e6), 0, n + 1, ms, week, round(lat * 1e7), round(lon * 1e7), round(alt * 100),
+                          round(rel * 100), round(alt * 100), round(r * 100), round(p * 100), round(y * 100)))
+             for n, (t, week, ms, lat, lon, alt, rel, r, p, y) in enumerate(cams)]
+    for _, body in sorted(rows, key=lambda row: row[0]):
+        out += body
     return bytes(out)

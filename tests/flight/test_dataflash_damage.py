@@ -6,6 +6,8 @@ every camera event wholly before the first damaged byte comes back exactly, and 
 returned twice or made up (each returned event is one of the logged ones: within 5 s and
 60 m of a distinct logged event; a flipped byte may still nudge a real event's values, and
 no reader can tell a time stamp a few seconds off while the vehicle flies on the same line).
+Every field of every returned event is that logged event's, within FIELD_TOLERANCE: position,
+altitude, relative altitude, roll, pitch and yaw.
 """
 
 from __future__ import annotations
@@ -32,6 +34,35 @@ COPTER = DATA / "sitl_copter_survey.bin"
 REAL = DATA / "dronekit_la_log171.bin"  # a Pixhawk log: no camera events, 91,530 messages
 HEAD = b"\xa3\x95"
 SETTINGS = settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+
+
+#: how far a returned field may lie from the logged one: metres of position, metres of altitude
+#: and relative altitude, degrees of roll, pitch, yaw (a flipped low bit changes a field by less;
+#: a field off by more is damage the reader must not return as real)
+FIELD_TOLERANCE = {"position": 2.5, "alt": 4.0, "rel_alt": 4.0, "roll": 6.0, "pitch": 6.0, "yaw": 6.0}
+FIELD_COLUMNS = {"position": {"Lat", "Lng"}, "alt": {"Alt"}, "rel_alt": {"RelAlt"}, "roll": {"R", "Roll"},
+                 "pitch": {"P", "Pitch"}, "yaw": {"Y", "Yaw"}}
+
+
+@functools.cache
+def truth_fields(path: Path) -> dict[int, tuple[float, ...]]:
+    """Each CAM event's (lat, lon, alt, rel_alt, roll, pitch, yaw) by its TimeUS, as pymavlink
+    reads the intact log."""
+    r = DFReader.DFReader_binary(str(path))
+    out = {}
+    while (m := r.recv_match(type="CAM")) is not None:
+        out[int(m.TimeUS)] = (m.Lat, m.Lng, m.Alt, m.RelAlt, m.R, m.P, m.Y)
+    return out
+
+
+def field_differences(got: tuple[float, ...], true: tuple[float, ...]) -> dict[str, float]:
+    """How far each field of a returned event lies from the logged event's (NaN: emptied)."""
+    lat, lon, *rest = got
+    diffs = {"position": _metres(lat, lon, true[0], true[1])}
+    for name, g, t in zip(("alt", "rel_alt", "roll", "pitch"), rest, true[2:]):
+        diffs[name] = abs(g - t)
+    diffs["yaw"] = abs((rest[4] - true[6] + 180.0) % 360.0 - 180.0)
+    return diffs
 
 
 @functools.cache
@@ -67,14 +98,27 @@ def check_events(tmp: Path, base: Path, damaged: bytes, first_damage: int, only_
     have = {(round(t * 1e6), round(la * 1e7), round(lo * 1e7)) for t, la, lo in got}
     for _, t, la, lo in before:
         assert (round(t * 1e6), round(la * 1e7), round(lo * 1e7)) in have, f"event at {t} s before the damage lost"
-    # none twice, none made up: each returned event takes a distinct logged one
+    # none twice, none made up: each returned event takes a distinct logged one (the one of its
+    # time, else the nearest within 5 s and 60 m), and every field of it is that event's
     times = np.array([e[1] for e in true])
+    fields = truth_fields(base)
+    # a field may be empty only where the report says why: its CAM column's format character was
+    # damaged, or its column name (the layout has no such column)
+    undecoded = {s["reason"].split("column ")[1].split()[0] for s in info["skipped"] if "is not decoded" in s["reason"]}
+    absent = {c for part in info["checks"].split("; ") if " column: " in part
+              for c in part.split(" has no ")[1].split(" column")[0].split(" or ")}
+    emptied = {k for k, columns in FIELD_COLUMNS.items() if (undecoded | absent) & columns}
+    returned = zip(got, ev.alt_m.tolist(), ev.rel_alt_m.tolist(), ev.roll.tolist(), ev.pitch.tolist(), ev.yaw.tolist())
     taken: set[int] = set()
-    for t, la, lo in got:
+    for (t, la, lo), *rest in returned:
         near = [j for j in np.flatnonzero(np.abs(times - t) <= 5.0)
                 if j not in taken and _metres(la, lo, true[j][2], true[j][3]) <= 60.0]
         assert near, f"event at {t:.3f} s ({la:.7f}, {lo:.7f}) is none of the logged ones"
-        taken.add(int(min(near, key=lambda j: abs(times[j] - t))))
+        j = min(near, key=lambda j: (times[j] != t, _metres(la, lo, true[j][2], true[j][3])))
+        taken.add(int(j))
+        diffs = field_differences((la, lo, *rest), fields[round(times[j] * 1e6)])
+        off = {k: d for k, d in diffs.items() if not d <= FIELD_TOLERANCE[k] and k not in emptied}
+        assert not off, f"event at {t:.3f} s returned with fields off the logged ones: {off}"
     assert info["dropped_events"] >= 0 and info["skipped_places"] >= len(info["skipped"])
     # whatever was dropped or skipped is said, with where and why
     for s in info["skipped"]:
@@ -122,6 +166,10 @@ def test_junk_fmt_records(tmp_path: Path, base: Path, at: float, random_bytes: b
 
 
 @SETTINGS
+# the log's first 95 bytes (its first FMT record and an FMT header) copied just before a CAM
+# message: the FMT header read 89 bytes over the CAM message (found by a run on 2026-11-26)
+@example(base=PLANE, a=0.0, size=95, after_itself=False, to=0.5027708058682548)
+@example(base=PLANE, a=0.01, size=294, after_itself=False, to=0.5027708058682548)  # its 89 bytes end where the CAM's end
 @given(base=bases, a=st.floats(0, 1), size=st.integers(1, 200_000), after_itself=st.booleans(), to=st.floats(0, 1))
 def test_duplicated_chunks(tmp_path: Path, base: Path, a: float, size: int, after_itself: bool, to: float) -> None:
     """A chunk of the log copied again, right after itself or anywhere else (before it, inside
@@ -137,6 +185,13 @@ def test_duplicated_chunks(tmp_path: Path, base: Path, a: float, size: int, afte
 @example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(150, 328, 1)])  # an event 16.8 s late, after the last one
 @example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(150, 329, 1)])  # an event 4295 s late, after the GPS messages
 @example(base=PLANE, flips=[(0.0, 1)], cam_flips=[(1008, 235, 40)])  # found by a run on 2026-11-25
+# one field of a CAM record (46 bytes: header, TimeUS, I, Img, GPSTime, GPSWeek, Lat, Lng, Alt at 28,
+# RelAlt at 32, GPSAlt, R at 40, P at 42, Y at 44) altered, its time and place intact
+@example(base=PLANE, flips=[(0.0, 1)], cam_flips=[(200, 30, 4)])  # altitude 2,621 m higher
+@example(base=PLANE, flips=[(0.0, 1)], cam_flips=[(201, 35, 1)])  # relative altitude 168 km higher
+@example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(60, 41, 0x10)])  # roll 41° more
+@example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(61, 43, 0x40)])  # pitch 164° more
+@example(base=COPTER, flips=[(0.0, 1)], cam_flips=[(62, 45, 0x80)])  # yaw 328° more
 @given(base=bases, flips=st.lists(st.tuples(st.floats(0, 1), st.integers(1, 255)), min_size=1, max_size=30),
        cam_flips=st.lists(st.tuples(st.integers(0, 10**6), st.integers(0, 10**6), st.integers(1, 255)), max_size=10))
 def test_flipped_bytes(tmp_path: Path, base: Path, flips: list[tuple[float, int]],
@@ -306,6 +361,22 @@ def test_an_fmt_record_with_damaged_column_names_keeps_its_messages(tmp_path: Pa
     assert len(ev) == len(true) and info["dropped_events"] == 0
     (s,) = info["skipped"]
     assert (s["offset"], s["length"], s["kind"]) == (at + 26, 1, "format") and "damaged column names" in s["reason"]
+
+
+def test_a_column_name_damaged_into_another_empties_that_field_and_says_so(tmp_path: Path) -> None:
+    """A flipped bit that turns the CAM record's column name RelAlt into RelAmt (printable, so
+    not seen as damage): the layout has no RelAlt, every event comes back without one, and the
+    report says why."""
+    data, true = truth(COPTER)
+    at = data.find(b"Lat,Lng,Alt,RelAlt,GPSAlt")
+    damaged = bytearray(data)
+    damaged[at + len("Lat,Lng,Alt,RelA")] ^= 0x01  # l -> m
+    path = tmp_path / "name.bin"
+    path.write_bytes(bytes(damaged))
+    ev, info = read_events(path)
+    assert len(ev) == len(true) and info["dropped_events"] == 0 and np.isnan(ev.rel_alt_m).all()
+    assert "CAM has no RelAlt column: relative altitude empty in every event" in info["checks"]
+    assert ev.alt_m == pytest.approx([fields[2] for fields in truth_fields(COPTER).values()], abs=1e-6)
 
 
 @pytest.mark.parametrize("base", [PLANE, COPTER])

@@ -8,7 +8,7 @@ import struct
 from typing import Any
 
 MAGIC = b"ULog\x01\x12\x35"
-_STRUCT = {"uint64_t": "Q", "uint32_t": "I", "uint16_t": "H", "uint8_t": "B", "int32_t": "i", "float": "f",
+_STRUCT = {"uint64_t": "Q", "uint32_t": "I", "uint16_t": "H", "uint8_t": "B", "int8_t": "b", "int32_t": "i", "float": "f",
            "double": "d", "bool": "?"}
 
 
@@ -30,6 +30,30 @@ def ulog(topics: dict[str, list[tuple[str, str]]], rows: list[tuple[str, dict[st
         fields = topics[name]
         body = struct.pack("<" + "".join(_STRUCT[t] for t, _ in fields), *(values.get(f, 0) for _, f in fields))
         out += _message("D", struct.pack("<H", ids[name]) + body)
+    return bytes(out)
+
+
+def _code(field_type: str) -> str:
+    """A field's struct code: "float[4]" is four floats."""
+    base, _, count = field_type.partition("[")
+    return (count.rstrip("]") if count else "") + _STRUCT[base]
+
+
+def ulog_of_rows(topics: dict[str, tuple[list[tuple[str, str]], list[tuple[float | int, ...]]]]) -> bytes:
+    """topics: name -> ((type, name) of each field, the first "uint64_t timestamp"; rows of values in
+    field order, arrays flattened), written in time order across the topics, after PX4's flag bits."""
+    out = bytearray(MAGIC + bytes([1]) + struct.pack("<Q", 0))
+    out += _message("B", bytes(16) + struct.pack("<3Q", 0, 0, 0))
+    for name, (fields, _) in topics.items():
+        out += _message("F", (name + ":" + "".join(f"{t} {n};" for t, n in fields)).encode())
+    for msg_id, name in enumerate(topics):
+        out += _message("A", struct.pack("<BH", 0, msg_id) + name.encode())
+    data = []
+    for msg_id, (fields, rows) in enumerate(topics.values()):
+        code = "<" + "".join(_code(t) for t, _ in fields)
+        data += [(row[0], _message("D", struct.pack("<H", msg_id) + struct.pack(code, *row))) for row in rows]
+    for _, body in sorted(data, key=lambda d: d[0]):
+        out += body
     return bytes(out)
 
 

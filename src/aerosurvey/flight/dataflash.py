@@ -155,6 +155,7 @@ class DataFlashLog:
         self.skipped: list[Skip] = []
         self._names: dict[str, Format] = {}
         self._reject = ""
+        self._lengths = [0] * 256  # message length by type, as the scan knows them
         self._scan()
 
     def close(self) -> None:
@@ -176,28 +177,37 @@ class DataFlashLog:
             self._reject = "FMT record cut off at the end of the file"
             return False
         why = check_format(typ, length, name, fmt, cols)
+        repaired = _repair_format(typ, length, name, fmt, cols) if why is not None else None
+        if why is not None and repaired is None:
+            self._reject = why
+            return False
+        name_s, cols_s = (_cstr(x).decode("ascii", "replace") for x in (name, cols))
+        fmt_s = _cstr(repaired[0] if repaired else fmt).decode("ascii", "replace")
+        columns = cols_s.split(",") if cols_s else []
+        old = self.formats.get(typ)
+        clash = old is not None and (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns)
+        if (clash or (old is None and self.type_of(name_s) is not None)) and \
+                (not self._followed(o + FMT_LEN) or self._inner_message(o, o + FMT_LEN) is not None):
+            # a record that would only be ignored, followed by no message or holding messages that
+            # are, is damage that reads as an FMT header (a copied chunk's first bytes): its 89 bytes
+            # would take real messages
+            self._reject = f"FMT record for {name_s} that redefines a type and spans other messages"
+            return False
         undecoded: frozenset[str] = frozenset()
-        if why is not None:
-            repaired = _repair_format(typ, length, name, fmt, cols)
-            if repaired is None:
-                self._reject = why
-                return False
-            fmt, at = repaired
+        if repaired is not None:
+            at = repaired[1]
             col = _cstr(cols).split(b",")[at].decode("ascii", "replace")
             undecoded = frozenset([col])
             self._skip(o + 3 + 6 + at, 1, f"{why}: character {at + 1} damaged; the record's length and other characters "
                        f"still frame its messages, column {col} is not decoded", "format")
-        name_s, fmt_s, cols_s = (_cstr(x).decode("ascii", "replace") for x in (name, fmt, cols))
         bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
         if bad:
             self._skip(o + 3 + 22 + bad[0], bad[-1] - bad[0] + 1, f"FMT record for {name_s}: damaged column names "
                        f"{cols_s!r}; kept for its layout, which holds", "format")
-        columns = cols_s.split(",") if cols_s else []
-        old = self.formats.get(typ)
         if old is not None:
-            if (old.length, old.name, old.fmt, old.columns) == (length, name_s, fmt_s, columns) and not undecoded:
+            if not clash and not undecoded:
                 old.undecoded = frozenset()  # an intact copy of a repaired record: every column decodes
-            if (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns):
+            if clash:
                 self._skip(o, FMT_LEN, f"FMT record redefines type {typ} ({old.name}, {old.fmt}, {old.length} bytes) as "
                                        f"{name_s}, {fmt_s}, {length} bytes: ignored, the first definition is kept", "format")
             return True
@@ -219,7 +229,7 @@ class DataFlashLog:
 
     def _scan(self) -> None:
         buf, n = self._buf, self.size
-        lengths = [0] * 256
+        lengths = self._lengths
         lengths[FMT_TYPE] = FMT_LEN
         offsets = self.offsets
         o = 0
@@ -264,7 +274,7 @@ class DataFlashLog:
             # (a message after it starts inside it), then it is damage and the scan goes on there
             lt = buf[last + 2] if last >= 0 else FMT_TYPE
             if not resync and lt != FMT_TYPE and last + lengths[lt] == o:
-                cut = self._cut_at(last, o, lengths)
+                cut = None if self._followed(o) else self._inner_message(last, o)
                 if cut is not None:
                     offsets[lt].pop()
                     self._skip(last, cut - last, "message cut off by damage")
@@ -278,18 +288,20 @@ class DataFlashLog:
         if o < n:
             self._skip(o, n - o, "message cut off at the end of the file")
 
-    def _cut_at(self, o: int, e: int, lengths: list[int]) -> int | None:
-        """Where a message that seems to span [o, e) really ends, when damage cut it short: it is
-        not followed by a header (nor the end of the file), and a header inside it frames a
-        message that is (the first such one). None when the message stands as it is."""
-        buf, n = self._buf, self.size
-        if e >= n - 1 or buf[e:e + 2] == HEAD:
-            return None
+    def _followed(self, e: int) -> bool:
+        """Whether a message ending at `e` is followed by a header or the end of the file."""
+        return e >= self.size - 1 or self._buf[e:e + 2] == HEAD
+
+    def _inner_message(self, o: int, e: int) -> int | None:
+        """The first header inside what seems a message spanning [o, e) that frames a message
+        followed by a header (or the end of the file): where that message really ends when
+        damage cut it short, or where real messages lie under damage that reads as one. None
+        when there is none."""
+        buf, n, lengths = self._buf, self.size, self._lengths
         h = buf.find(HEAD, o + 1, e + 1)  # a header may start on the message's last byte
         while h >= 0:
             ln = lengths[buf[h + 2]] if h + 2 < n else 0
-            f = h + ln
-            if ln and f <= n and (f >= n - 1 or buf[f:f + 2] == HEAD):
+            if ln and h + ln <= n and self._followed(h + ln):
                 return h
             h = buf.find(HEAD, h + 1, e + 1)
         return None

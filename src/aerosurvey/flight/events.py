@@ -5,6 +5,7 @@ from __future__ import annotations
 import bisect
 import functools
 import math
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -139,6 +140,7 @@ class _Track:
     lon: np.ndarray
     week: np.ndarray | None  # GPS week and milliseconds of the week of each fix, when logged
     ms: np.ndarray | None
+    alt: np.ndarray | None = None  # metres above mean sea level, when logged
 
     @functools.cached_property
     def fix_times(self) -> np.ndarray:
@@ -150,9 +152,18 @@ class _Track:
         if self.week is None or self.ms is None or len(gt) < 5:
             return gt
         gps_s = gps_seconds(self.week, self.ms)
-        w = min(51, len(gt) - (len(gt) + 1) % 2)
-        core = np.median(np.lib.stride_tricks.sliding_window_view(gt - gps_s, w), axis=1)
-        return np.asarray(gps_s + np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])])  # ends: first, last w
+        return np.asarray(gps_s + _running_median(gt - gps_s, 51))
+
+
+def _running_median(v: np.ndarray, width: int) -> np.ndarray:
+    """The median of each value and its nearest neighbours, `width` of them (odd; fewer when
+    there are fewer values), in the given order; the first and last width // 2 values take the
+    first and last full window's median."""
+    w = min(width, len(v) - (len(v) + 1) % 2)
+    if w < 1:
+        return np.asarray(v, float).copy()
+    core = np.median(np.lib.stride_tricks.sliding_window_view(v, w), axis=1)
+    return np.asarray(np.r_[np.full(w // 2, core[0]), core, np.full(w // 2, core[-1])], float)
 
 
 def gps_seconds(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
@@ -179,9 +190,14 @@ def _gps_track(log: DataFlashLog) -> _Track | None:
     clock = "GWk" in g and "GMS" in g
     week = np.asarray(g["GWk"], float) if clock else np.zeros(len(lat))
     ms = np.asarray(g["GMS"], float) if clock else np.zeros(len(lat))
-    rows = np.unique(np.column_stack([t, lat, lon, week, ms])[ok], axis=0)  # in time order, repeats once
-    rows = rows[~_damaged_fixes(rows, clock)]
-    return _Track(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] if clock else None, rows[:, 4] if clock else None)
+    # in time order, repeats once: a fix's altitude does not make it another fix (a message cut
+    # where a copied chunk begins may end in foreign bytes)
+    rows, first = np.unique(np.column_stack([t, lat, lon, week, ms])[ok], axis=0, return_index=True)
+    alt = np.asarray(g["Alt"], float)[ok][first] if "Alt" in g else None
+    good = ~_damaged_fixes(rows, clock)
+    rows = rows[good]
+    return _Track(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3] if clock else None, rows[:, 4] if clock else None,
+                  alt[good] if alt is not None else None)
 
 
 #: a GPS fix is damaged, and left out of the track the events are checked against, when its
@@ -261,13 +277,39 @@ def _far_from_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Tra
     return out
 
 
+#: a vehicle that stays at a place (a wait at a waypoint, hover-and-capture) passes it over an
+#: interval, not at one instant: an event whose time falls within a stretch of the track that
+#: stayed within EVENT_CROSS_FLOOR_M of its place for longer than a pass at TRACK_MIN_SPEED_MS
+#: takes (the events of a slower track are not checked for time either) is where the track was
+#: at its time; its time is not judged against the first time the track came there (seen: a
+#: copter in wind at a corridor line's first waypoint from 119.8 s to 128.9 s, its photo at the
+#: end of the wait dropped as 9.9 s off).
+STAY_S = 2.0 * EVENT_CROSS_FLOOR_M / TRACK_MIN_SPEED_MS
+
+
+def _stays(fix_t: np.ndarray, dist: np.ndarray, t: float) -> bool:
+    """Whether the track (fix times in order, each fix's distance from an event's place) stayed
+    within EVENT_CROSS_FLOOR_M of the place over a stretch of at least STAY_S that holds `t`
+    (the fixes either side of `t` and every fix between the stretch's ends)."""
+    near = dist <= EVENT_CROSS_FLOOR_M
+    j = int(np.searchsorted(fix_t, t))  # the first fix after t
+    if not (j > 0 and near[j - 1]) and not (j < len(near) and near[j]):
+        return False
+    at = j - 1 if j > 0 and near[j - 1] else j
+    away = np.flatnonzero(~near)
+    first = int(away[away < at][-1]) + 1 if (away < at).any() else 0
+    last = int(away[away > at][0]) - 1 if (away > at).any() else len(near) - 1
+    return bool(fix_t[last] - fix_t[first] >= STAY_S)
+
+
 def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
     nearest segment between two fixes within LAG_WINDOW_S of its time; NaN where there is none,
     where the nearest point is a segment's end (the event lies beyond it: the track's end, a
-    gap), or where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
-    damage took the fixes between)."""
+    gap), where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
+    damage took the fixes between), or where the track stayed at the event's place at its time
+    (`_stays`: it was there, at whatever time it first came)."""
     gt = track.t
     n = len(t)
     dt_out, d_out, v_out = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
@@ -281,7 +323,7 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     for i in np.flatnonzero(np.isfinite(t) & np.isfinite(ex) & np.isfinite(ey)).tolist():
         a = max(int(np.searchsorted(gt, t[i] - LAG_WINDOW_S)) - 1, 0)
         b = min(int(np.searchsorted(gt, t[i] + LAG_WINDOW_S, "right")), len(gt) - 1)
-        if b <= a:
+        if b <= a or _stays(gt[a:b + 1], np.hypot(gx[a:b + 1] - ex[i], gy[a:b + 1] - ey[i]), float(t[i])):
             continue
         ax, ay, dx, dy = gx[a:b], gy[a:b], gx[a + 1:b + 1] - gx[a:b], gy[a + 1:b + 1] - gy[a:b]
         dur = gt[a + 1:b + 1] - gt[a:b]
@@ -332,6 +374,195 @@ def _off_gps_clock(time_s: np.ndarray, week: np.ndarray, ms: np.ndarray, track: 
     return np.asarray(named & ((time_s < ft[fix] - GPS_CLOCK_SLACK_S) | (time_s > t_next + GPS_CLOCK_SLACK_S)), bool)
 
 
+# --- an event's altitude and attitude -------------------------------------------------------
+
+#: what no vehicle logs: a roll beyond ±180°, a pitch beyond ±90°, a yaw outside -180..360°
+#: (ArduPilot logs 0..360, a quaternion gives -180..180), an altitude or a relative altitude more
+#: than ALT_BOUND_M from sea level or home. A damaged record is checked against these first.
+ANGLE_BOUNDS = {"roll": (-180.0, 180.0), "pitch": (-90.0, 90.0), "yaw": (-180.0, 360.0)}
+ALT_BOUND_M = 10_000.0
+#: Then against what the log recorded around the event's time. Its altitude and relative
+#: altitude against the GPS track's altitudes: each event's altitude minus the GPS altitude at
+#: its time is one offset along a log (the barometer's and the GPS's heights drift apart slowly;
+#: the relative altitude's offset also holds the home altitude), taken as the median over the
+#: nearest FIELD_OFFSET_EVENTS events; with it, the event lies within the range of the GPS
+#: altitudes from the last fix before FIELD_WINDOW_S ahead of its time to the first fix after
+#: FIELD_WINDOW_S past it (a climb or the GPS's noise widens it), or it is off by how far it lies
+#: beyond that range. Its roll, pitch and yaw alike against the vehicle's attitude logged within
+#: ATT_WINDOW_S (ArduPilot's ATT, PX4's vehicle_attitude, MAVLink's ATTITUDE), without an
+#: offset. A field off by more than its floor and more than EVENT_SPREAD robust standard
+#: deviations of the log's own events is not the one the autopilot logged. Measured on the SITL
+#: logs of tests/data: altitudes within 0.07 m of the GPS range, attitudes within 0.14° of ATT's.
+#: Without GPS altitudes, an event's altitude minus its relative altitude (the home altitude) is
+#: checked against the nearest FIELD_OFFSET_EVENTS events' median instead.
+FIELD_WINDOW_S = 1.0
+ATT_WINDOW_S = 0.5
+FIELD_OFFSET_EVENTS = 21
+ALT_FLOOR_M = 3.0
+ATT_FLOOR_DEG = 5.0
+
+
+@dataclass(frozen=True)
+class Series:
+    """One quantity the log recorded besides its camera events, in time order on the events' clock."""
+
+    t: np.ndarray
+    v: np.ndarray
+    what: str  # for the reasons: "the GPS track's altitude", "ATT roll"
+
+
+@dataclass(frozen=True)
+class FieldReferences:
+    """What an event's fields are checked against; None where the log has none. `rel_alt` may
+    be an altitude above sea level: the offset the events show to it holds the home altitude."""
+
+    alt: Series | None = None
+    rel_alt: Series | None = None
+    roll: Series | None = None
+    pitch: Series | None = None
+    yaw: Series | None = None
+    window_s: float = 0.0  # more seconds either side, where the clocks differ (a telemetry log's reception)
+    above_home: bool = True  # the events' relative altitude is above home (PX4's is above the ground)
+
+
+def _range_around(t: np.ndarray, ref: Series, window: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest, highest) value of `ref` from its last sample before t - window to its first
+    after t + window; NaN where `ref` does not reach beyond both ends."""
+    rt, rv = ref.t, ref.v
+    lo = np.searchsorted(rt, t - window) - 1
+    hi = np.searchsorted(rt, t + window, "right")
+    judged = np.isfinite(t) & (lo >= 0) & (hi < len(rt))
+    lo, hi = np.where(judged, lo, 0), np.where(judged, hi, 0)
+    bounds = np.column_stack([lo, hi + 1]).ravel()  # reduceat takes each [lo, hi] from the even places
+    padded = np.append(rv, rv[-1:]) if len(rv) else np.zeros(1)
+    low = np.where(judged, np.minimum.reduceat(padded, bounds)[::2], np.nan)
+    high = np.where(judged, np.maximum.reduceat(padded, bounds)[::2], np.nan)
+    return low, high
+
+
+def _off_floor(dev: np.ndarray, floor: float) -> tuple[np.ndarray, float]:
+    """(mask of the deviations beyond the limit, the limit): `floor`, or EVENT_SPREAD robust
+    standard deviations of the finite deviations when they are more (five or more of them)."""
+    fin = dev[np.isfinite(dev)]
+    spread = EVENT_SPREAD * 1.4826 * float(np.median(np.abs(fin - np.median(fin)))) if len(fin) >= 5 else 0.0
+    limit = max(floor, spread)
+    return np.isfinite(dev) & (dev > limit), limit
+
+
+FIELD_NAMES = {"alt": "altitude", "rel_alt": "relative altitude", "roll": "roll", "pitch": "pitch", "yaw": "yaw"}
+
+
+def _bounds(key: str) -> tuple[float, float]:
+    return ANGLE_BOUNDS.get(key, (-ALT_BOUND_M, ALT_BOUND_M))
+
+
+@dataclass(frozen=True)
+class _Judged:
+    """One field of each event against its reference: how far it lies outside the range the
+    reference took around its time (NaN: not judged), that range, and the limit."""
+
+    dev: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    offset: np.ndarray  # the log's own offset of the field to the reference (altitudes), added to the range
+    window: float
+    limit: float
+
+
+def _judge(key: str, t: np.ndarray, v: np.ndarray, ref: Series, window_s: float) -> _Judged | None:
+    """A field (`key` of FIELD_NAMES; NaN where not to judge) against its reference's samples
+    within physical bounds (the others are damage); None when there are none."""
+    lo_b, hi_b = _bounds(key)
+    sound = (ref.v >= lo_b) & (ref.v <= hi_b)
+    if not sound.any():
+        return None
+    rt = ref.t[sound]
+    rv = np.unwrap(ref.v[sound], period=360.0) if key == "yaw" else ref.v[sound]
+    at = np.interp(t, rt, rv)
+    offset = np.zeros(len(t))
+    if key == "yaw":  # the turn nearest the vehicle's
+        v = v + 360.0 * np.round((at - v) / 360.0)
+    if key in ("alt", "rel_alt"):  # the log's own offset to the reference, over the nearest events in time
+        order = np.argsort(np.where(np.isfinite(t), t, np.inf), kind="stable")
+        resid = (v - at)[order]
+        fin = np.isfinite(resid)
+        offset[order[fin]] = _running_median(resid[fin], FIELD_OFFSET_EVENTS)
+    window = (FIELD_WINDOW_S if key in ("alt", "rel_alt") else ATT_WINDOW_S) + window_s
+    low, high = _range_around(t, Series(rt, rv, ref.what), window)
+    low, high = low + offset, high + offset
+    dev = np.maximum(np.maximum(low - v, v - high), 0.0)
+    return _Judged(dev, low, high, offset, window, _off_floor(dev, ALT_FLOOR_M if key in ("alt", "rel_alt") else ATT_FLOOR_DEG)[1])
+
+
+def _home_faults(t: np.ndarray, alt: np.ndarray, rel: np.ndarray, judged: np.ndarray) -> dict[int, str]:
+    """Where no altitude was judged against a reference: the home altitude each event's altitude
+    and relative altitude give, against that of the nearest events in time."""
+    both = np.isfinite(alt) & np.isfinite(rel) & ~judged & np.isfinite(t)
+    idx = np.flatnonzero(both)
+    idx = idx[np.argsort(t[idx], kind="stable")]
+    home = alt[idx] - rel[idx]
+    usual = _running_median(home, FIELD_OFFSET_EVENTS)
+    off, limit = _off_floor(np.abs(home - usual), ALT_FLOOR_M)
+    return {int(idx[k]): f"altitude {alt[idx[k]]:.2f} m and relative altitude {rel[idx[k]]:.2f} m put home at "
+                         f"{home[k]:.1f} m, the log's events at {usual[k]:.1f} m (allowed {limit:.1f} m)"
+            for k in np.flatnonzero(off).tolist()}
+
+
+def field_faults(t: np.ndarray, fields: dict[str, np.ndarray], refs: FieldReferences) -> tuple[list[str], str]:
+    """What is wrong with each event's altitude, relative altitude and attitude ('' where
+    nothing), and the checks that ran. `fields` holds the FIELD_NAMES (NaN where the log has no
+    value: not judged); `t` is on the references' clock."""
+    n = len(t)
+    faults: list[list[str]] = [[] for _ in range(n)]
+    ran = ["physical bounds"]
+    judged_alt = np.zeros(n, bool)
+    for key, name in FIELD_NAMES.items():
+        v = np.asarray(fields[key], float)
+        unit = "°" if key in ANGLE_BOUNDS else " m"
+        lo_b, hi_b = _bounds(key)
+        out = np.isfinite(v) & ((v < lo_b) | (v > hi_b))
+        for i in np.flatnonzero(out).tolist():
+            faults[i].append(f"{name} {v[i]:.2f}{unit} is outside {lo_b:g} to {hi_b:g}{unit}")
+        ref: Series | None = getattr(refs, key)
+        j = _judge(key, t, np.where(out, np.nan, v), ref, refs.window_s) if ref is not None else None
+        if ref is None or j is None:
+            continue
+        ran.append(f"{name} on {ref.what}")
+        if key in ("alt", "rel_alt"):
+            judged_alt |= np.isfinite(j.dev)
+        for i in np.flatnonzero(np.isfinite(j.dev) & (j.dev > j.limit)).tolist():
+            span = f"{j.low[i] % 360:.1f} to {j.high[i] % 360:.1f}°" if key == "yaw" else f"{j.low[i]:.1f} to {j.high[i]:.1f}{unit}"
+            shift = "" if key in ANGLE_BOUNDS else f" {j.offset[i]:+.1f} m, the log's offset to it"
+            if key == "rel_alt" and ref is refs.alt:
+                shift += " (home altitude included)"
+            faults[i].append(f"{name} {v[i]:.2f}{unit} lies {j.dev[i]:.1f}{unit} outside {span}: {ref.what} within "
+                             f"{j.window:g} s of its time{shift} (allowed {j.limit:.1f}{unit})")
+    if refs.above_home:
+        home = _home_faults(t, np.asarray(fields["alt"], float), np.asarray(fields["rel_alt"], float), judged_alt)
+        if (~judged_alt).any() and np.isfinite(fields["rel_alt"]).any():
+            ran.append("home altitude against the events'")
+        for i, f in home.items():
+            faults[i].append(f)
+    return ["; ".join(f) for f in faults], ", ".join(ran)
+
+
+def _dataflash_references(log: DataFlashLog, track: _Track | None) -> FieldReferences:
+    """The GPS track's altitudes, and the vehicle's attitude from the ATT messages (each sample
+    once, in time order), to check the camera events' other fields against."""
+    alt = None
+    if track is not None and track.alt is not None and np.isfinite(track.t).all():
+        alt = Series(track.t, track.alt, "the GPS track's altitude")
+    a = log.messages("ATT")
+    clock = next((c for c in ("TimeUS", "TimeMS") if c in a), None)
+    if clock is None or not all(k in a for k in ("Roll", "Pitch", "Yaw")):
+        return FieldReferences(alt, alt)
+    t = np.asarray(a[clock], float) / (1e6 if clock == "TimeUS" else 1e3)
+    rows = np.column_stack([t] + [np.asarray(a[k], float) for k in ("Roll", "Pitch", "Yaw")])
+    rows = np.unique(rows[np.isfinite(rows).all(axis=1)], axis=0)  # in time order, a copied chunk's repeats once
+    roll, pitch, yaw = (Series(rows[:, 0], rows[:, k], f"ATT {name}") for k, name in ((1, "roll"), (2, "pitch"), (3, "yaw")))
+    return FieldReferences(alt, alt, roll, pitch, yaw)
+
+
 def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     """CAM messages (or TRIG when no CAM was logged) of an ArduPilot DataFlash log, checked.
 
@@ -342,8 +573,10 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     report, events whose own fields disagree with the log: no position on the globe; a time
     outside the span of the log's GPS messages; farther than EVENT_TRACK_M from every GPS fix
     logged within EVENT_WINDOW_S; a boot time outside the span of the GPS fix its own GPS time
-    names; a time or a place off the GPS track beyond the log's own spread (`_on_track`); a time
-    that breaks the order of the others (the fewest are dropped that leave the times strictly
+    names; a time or a place off the GPS track beyond the log's own spread (`_on_track`); an
+    altitude, relative altitude, roll, pitch or yaw that is impossible or that the GPS track's
+    altitudes or the ATT messages contradict (`field_faults`); a time that breaks the order of
+    the others (the fewest are dropped that leave the times strictly
     increasing in file order). One log is one boot of the autopilot (ArduPilot starts a new
     file at each), so its times increase.
     """
@@ -366,6 +599,7 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
         rec_len = fmt.length
         rep = log.repeated(source)
         track = _gps_track(log)
+        refs = _dataflash_references(log, track)
     n = len(offs)
 
     def get(*names: str) -> np.ndarray:  # the first of the column names the layout has
@@ -391,9 +625,9 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
 
     bad_pos = ~(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90) & (np.abs(lon) <= 180) & ((lat != 0) | (lon != 0)))
     drop(bad_pos, "event", lambda i: f"position {lat[i]:.7f}, {lon[i]:.7f} is not a place on the globe; dropped")
+    tcheck = time_s if np.isfinite(time_s).all() else np.full(n, np.nan)
     if track is not None:
         checks = f"GPS track ({len(track.t)} fixes), time order"
-        tcheck = time_s if np.isfinite(time_s).all() else np.full(n, np.nan)
         gt = track.t
         if np.isfinite(gt).all() and np.isfinite(tcheck).all():
             lo, hi = float(gt[0]) - EVENT_WINDOW_S, float(gt[-1]) + EVENT_WINDOW_S
@@ -423,6 +657,17 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
              f"{1e3 * lag_limit:.0f} ms): its time or place is not the logged one; dropped")
     else:
         checks = "time order (no GPS fixes in the log)"
+    columns = {"alt": ("Alt",), "rel_alt": ("RelAlt",), "roll": ("R", "Roll"), "pitch": ("P", "Pitch"), "yaw": ("Y", "Yaw")}
+    fields = {field: get(*names) for field, names in columns.items()}
+    faults = [""] * n
+    found, ran = field_faults(tcheck[keep], {k: v[keep] for k, v in fields.items()}, refs)
+    for i, f in zip(np.flatnonzero(keep).tolist(), found):
+        faults[i] = f
+    checks += ", " + ran
+    for field, names in columns.items():  # an older layout, or a column name damaged into another one
+        if not any(c in cam for c in names):
+            checks += f"; {source} has no {' or '.join(names)} column: {FIELD_NAMES[field]} empty in every event"
+    drop(np.array([bool(f) for f in faults]), "event", lambda i: f"{faults[i]}; dropped")
     key = time_s if np.isfinite(time_s).all() else utc if utc is not None and np.isfinite(utc).all() else None
     if key is not None:
         # copies of one message have one time, so an increasing sequence takes at most one of them
@@ -454,8 +699,8 @@ def from_dataflash(path: Path) -> tuple[Events, ReadInfo]:
     k = np.flatnonzero(keep)
     sort_key = key if key is not None else np.arange(n, dtype=float)
     k = k[np.argsort(sort_key[k], kind="stable")]
-    ev = Events(time_s[k], lat[k], lon[k], get("Alt")[k], get("RelAlt")[k], get("R", "Roll")[k], get("P", "Pitch")[k],
-                get("Y", "Yaw")[k], source, utc[k] if utc is not None else None)
+    ev = Events(time_s[k], lat[k], lon[k], fields["alt"][k], fields["rel_alt"][k], fields["roll"][k], fields["pitch"][k],
+                fields["yaw"][k], source, utc[k] if utc is not None else None)
     return ev, info
 
 
@@ -475,9 +720,10 @@ def gps_to_utc(week: np.ndarray, ms_of_week: np.ndarray) -> np.ndarray:
     return GPS_EPOCH_UNIX + gps_seconds(week, ms_of_week) - LEAP_SECONDS
 
 
-def _tlog_packets(data: bytes, mav: Any) -> tuple[list[Any], int]:
-    """Walk [8-byte time stamp][MAVLink packet] records; on a packet that does not decode
-    (bad CRC, cut off), move one byte on and look for the next one that does."""
+def _tlog_packets(data: bytes, mav: Any) -> tuple[list[tuple[int, int, Any]], int]:
+    """Walk [8-byte time stamp][MAVLink packet] records: (offset, length, message) of each
+    record, and the bytes skipped; on a packet that does not decode (bad CRC, cut off), move
+    one byte on and look for the next one that does."""
     out, skipped, o, n = [], 0, 0, len(data)
     while o + 8 + 8 <= n:
         p = o + 8
@@ -494,7 +740,7 @@ def _tlog_packets(data: bytes, mav: Any) -> tuple[list[Any], int]:
                 m = None
             # an unknown message id is decoded without a CRC check: not evidence of a packet
             if m is not None and not m.get_type().startswith("UNKNOWN"):
-                out.append(m)
+                out.append((o, 8 + size, m))
                 o = p + size
                 continue
         o += 1
@@ -502,45 +748,121 @@ def _tlog_packets(data: bytes, mav: Any) -> tuple[list[Any], int]:
     return out, skipped + max(0, n - o)
 
 
+def tlog_messages(path: Path) -> list[Any]:
+    """The MAVLink messages of a telemetry log that decode, in file order (damage skipped)."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    packets, _ = _tlog_packets(path.read_bytes(), mavlink.MAVLink(None))
+    return [m for _, _, m in packets]
+
+
+#: a telemetry log stamps each message when the ground station received it; the camera feedback
+#: and the attitude and position messages cross the link on their own schedules, so their
+#: stamps differ by the link's delays: their windows are this much wider
+TLOG_RECEPTION_S = 1.0
+
+
+def _series(rows: list[tuple[float, float]], what: str) -> Series | None:
+    """(time, value) samples as a Series in time order, finite ones only; None when there are none."""
+    a = np.asarray(rows, float).reshape(-1, 2)
+    a = a[np.isfinite(a).all(axis=1)]
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    return Series(a[:, 0], a[:, 1], what) if len(a) else None
+
+
+def _drop_faulty(source: str, ev: Events, check_t: np.ndarray, refs: FieldReferences, places: list[tuple[int, int]],
+                 log_name: str) -> tuple[Events, list[SkipInfo], str]:
+    """The events whose fields hold (`field_faults` on `check_t`, the references' clock), the
+    dropped ones' reports at their (offset, length) in the log, and the checks that ran."""
+    fields = {"alt": ev.alt_m, "rel_alt": ev.rel_alt_m, "roll": ev.roll, "pitch": ev.pitch, "yaw": ev.yaw}
+    faults, ran = field_faults(check_t, fields, refs)
+    skips: list[SkipInfo] = [{"offset": places[i][0], "length": places[i][1], "kind": "event",
+                              "reason": f"{source} event at {_when(ev.time_s, None, i)}: {f}; dropped"}
+                             for i, f in enumerate(faults) if f]
+    keep = np.array([not f for f in faults], bool)
+    if not keep.any():
+        raise InputError(f"{log_name}: none of the {len(ev)} {source} events in the log is plausible "
+                         f"(first reason: {skips[0]['reason']})")
+    k = np.flatnonzero(keep)
+    return Events(ev.time_s[k], ev.lat[k], ev.lon[k], ev.alt_m[k], ev.rel_alt_m[k], ev.roll[k], ev.pitch[k], ev.yaw[k],
+                  source, ev.utc_s[k] if ev.utc_s is not None else None), skips, ran
+
+
 def from_tlog(path: Path) -> tuple[Events, ReadInfo]:
-    """CAMERA_FEEDBACK messages of a MAVLink telemetry log; damage costs only what it touches."""
+    """CAMERA_FEEDBACK messages of a MAVLink telemetry log; damage costs only what it touches.
+    Each event's altitude and attitude are checked (`field_faults`) against the ATTITUDE and
+    GLOBAL_POSITION_INT messages received around it, where the log has them."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
     data = path.read_bytes()
-    msgs, skipped = _tlog_packets(data, mavlink.MAVLink(None))
-    rows = [(m.time_usec, m.lat * 1e-7, m.lng * 1e-7, m.alt_msl, m.alt_rel, m.roll, m.pitch, m.yaw)
-            for m in msgs if m.get_type() == "CAMERA_FEEDBACK"]
-    info = _info(len(data), len(msgs), [], 0, "none")
-    info["skipped_bytes"] = info["lost_bytes"] = skipped  # the walker counts bytes, not places
-    if not rows:
-        raise InputError(f"{path.name}: no CAMERA_FEEDBACK messages in the telemetry log ({len(msgs)} messages read)")
-    a = np.asarray(rows, float)
-    a = a[np.argsort(a[:, 0], kind="stable")]
-    return Events(a[:, 0] / 1e6, a[:, 1], a[:, 2], a[:, 3], a[:, 4], a[:, 5], a[:, 6], a[:, 7], "CAMERA_FEEDBACK"), info
+    packets, skipped = _tlog_packets(data, mavlink.MAVLink(None))
+
+    def received(name: str) -> list[tuple[float, int, int, Any]]:  # (reception time s, offset, length, message)
+        return [(struct.unpack_from(">Q", data, o)[0] / 1e6, o, ln, m) for o, ln, m in packets if m.get_type() == name]
+
+    cams = sorted(received("CAMERA_FEEDBACK"), key=lambda c: c[3].time_usec)
+    if not cams:
+        raise InputError(f"{path.name}: no CAMERA_FEEDBACK messages in the telemetry log ({len(packets)} messages read)")
+    a = np.asarray([(m.time_usec, m.lat * 1e-7, m.lng * 1e-7, m.alt_msl, m.alt_rel, m.roll, m.pitch, m.yaw)
+                    for _, _, _, m in cams], float)
+    ev = Events(a[:, 0] / 1e6, a[:, 1], a[:, 2], a[:, 3], a[:, 4], a[:, 5], a[:, 6], a[:, 7], "CAMERA_FEEDBACK")
+    att, pos = received("ATTITUDE"), received("GLOBAL_POSITION_INT")
+    refs = FieldReferences(
+        alt=_series([(t, m.alt / 1000.0) for t, _, _, m in pos], "GLOBAL_POSITION_INT altitude"),
+        rel_alt=_series([(t, m.relative_alt / 1000.0) for t, _, _, m in pos], "GLOBAL_POSITION_INT relative altitude"),
+        roll=_series([(t, math.degrees(m.roll)) for t, _, _, m in att], "ATTITUDE roll"),
+        pitch=_series([(t, math.degrees(m.pitch)) for t, _, _, m in att], "ATTITUDE pitch"),
+        yaw=_series([(t, math.degrees(m.yaw)) for t, _, _, m in att], "ATTITUDE yaw"), window_s=TLOG_RECEPTION_S)
+    ev, skips, ran = _drop_faulty("CAMERA_FEEDBACK", ev, np.array([c[0] for c in cams]), refs,
+                                  [(o, ln) for _, o, ln, _ in cams], path.name)
+    info = _info(len(data), len(packets), skips, len(skips), ran)
+    info["skipped_bytes"] += skipped  # the walker counts bytes, not places
+    info["lost_bytes"] = skipped
+    return ev, info
 
 
-def from_ulog(path: Path) -> tuple[Events, ReadInfo]:
-    """camera_capture topics of a PX4 ULog (pyulog)."""
-    from pyulog import ULog
-
-    try:
-        u = ULog(str(path), ["camera_capture"])
-    except Exception as exc:  # pyulog raises plain exceptions for files it cannot parse
-        raise InputError(f"{path.name}: not a readable ULog ({exc})") from None
-    data = [d for d in u.data_list if d.name == "camera_capture"]
-    info = _info(path.stat().st_size, sum(len(d.data["timestamp"]) for d in data), [], 0, "none")
-    if not data:
-        raise InputError(f"{path.name}: no camera_capture topic in the ULog")
-    d = data[0].data
-    q = np.column_stack([d[f"q[{i}]"] for i in range(4)]) if "q[0]" in d else np.full((len(d["timestamp"]), 4), np.nan)
+def _euler(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Roll, pitch, yaw (degrees) of PX4 attitude quaternions (rows w, x, y, z)."""
     w, x, y, z = q.T
     roll = np.degrees(np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)))
     pitch = np.degrees(np.arcsin(np.clip(2 * (w * y - z * x), -1, 1)))
     yaw = np.degrees(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
-    rel = np.asarray(d.get("ground_distance", np.full(len(d["timestamp"]), np.nan)), float)
-    ev = Events(np.asarray(d["timestamp"], float) / 1e6, np.asarray(d["lat"], float), np.asarray(d["lon"], float),
-                np.asarray(d["alt"], float), rel, roll, pitch, yaw, "camera_capture")
-    return ev, info
+    return roll, pitch, yaw
+
+
+def from_ulog(path: Path) -> tuple[Events, ReadInfo]:
+    """camera_capture topics of a PX4 ULog (pyulog). Each event's altitude and attitude are
+    checked (`field_faults`) against the vehicle_global_position and vehicle_attitude topics
+    logged around it, where the log has them (its ground distance against physical bounds
+    only). pyulog tells no message's place in the file: a dropped event's report has offset
+    and length 0."""
+    from pyulog import ULog
+
+    try:
+        u = ULog(str(path), ["camera_capture", "vehicle_attitude", "vehicle_global_position"])
+    except Exception as exc:  # pyulog raises plain exceptions for files it cannot parse
+        raise InputError(f"{path.name}: not a readable ULog ({exc})") from None
+    topics = {d.name: d.data for d in reversed(u.data_list)}  # the first instance of each
+    messages = sum(len(d.data["timestamp"]) for d in u.data_list)
+    if "camera_capture" not in topics:
+        raise InputError(f"{path.name}: no camera_capture topic in the ULog")
+    d = topics["camera_capture"]
+    n = len(d["timestamp"])
+    q = np.column_stack([d[f"q[{i}]"] for i in range(4)]) if "q[0]" in d else np.full((n, 4), np.nan)
+    rel = np.asarray(d.get("ground_distance", np.full(n, np.nan)), float)
+    t = np.asarray(d["timestamp"], float) / 1e6
+    ev = Events(t, np.asarray(d["lat"], float), np.asarray(d["lon"], float), np.asarray(d["alt"], float), rel, *_euler(q),
+                "camera_capture")
+    att, pos = topics.get("vehicle_attitude", {}), topics.get("vehicle_global_position", {})
+    alt = _series(list(zip(pos["timestamp"] / 1e6, pos["alt"])), "vehicle_global_position altitude") if "alt" in pos else None
+    angles: dict[str, Series | None] = {}
+    if "q[0]" in att:
+        at = att["timestamp"] / 1e6
+        q_att = np.column_stack([att[f"q[{i}]"] for i in range(4)]).astype(float)
+        angles = {k: _series(list(zip(at, v)), f"vehicle_attitude {k}") for k, v in zip(("roll", "pitch", "yaw"), _euler(q_att))}
+    refs = FieldReferences(alt, None, angles.get("roll"), angles.get("pitch"), angles.get("yaw"), above_home=False)
+    ev, skips, ran = _drop_faulty("camera_capture", ev, t, refs, [(0, 0)] * n, path.name)
+    return ev, _info(path.stat().st_size, messages, skips, len(skips), ran)
 
 
 #: the flight log kinds by file name suffix

@@ -31,7 +31,7 @@ import numpy as np
 
 from aerosurvey.errors import InputError
 from aerosurvey.flight.dataflash import DataFlashLog
-from aerosurvey.flight.events import _longest_increasing, _tlog_packets, log_kind
+from aerosurvey.flight.events import _longest_increasing, log_kind, tlog_messages
 from aerosurvey.link import mission_protocol as mp
 from aerosurvey.mission import mavlink_ids as mav
 
@@ -168,9 +168,7 @@ def _wire(m: Any) -> mp.WireItem:
 
 def from_tlog(path: Path) -> MissionRecord:
     """The mission transfers of a MAVLink telemetry log (see the module's docstring)."""
-    from pymavlink.dialects.v20 import ardupilotmega as mavlink
-
-    msgs, _ = _tlog_packets(path.read_bytes(), mavlink.MAVLink(None))
+    msgs = tlog_messages(path)
     autopilot = next((_AUTOPILOTS.get(int(m.autopilot), "") for m in msgs
                       if m.get_type() == "HEARTBEAT" and int(m.autopilot) != _AUTOPILOT_INVALID), "")
     first_photo = float(next((k for k, m in enumerate(msgs) if m.get_type() == "CAMERA_FEEDBACK"), math.inf))

@@ -162,12 +162,10 @@ def from_tlog(path: Path) -> Modes:
     A HEARTBEAT carries no time of the vehicle's clock, and CAMERA_FEEDBACK's time is the
     camera's (UNIX time): the mode at an event is that of the last HEARTBEAT before it in the
     log, and the step function is sampled at the events' own times."""
-    from pymavlink.dialects.v20 import ardupilotmega as mavlink
-
     # the events' reader walks the packets: one walker, damage skipped alike
-    from aerosurvey.flight.events import _tlog_packets
+    from aerosurvey.flight.events import tlog_messages
 
-    msgs, _ = _tlog_packets(path.read_bytes(), mavlink.MAVLink(None))
+    msgs = tlog_messages(path)
     current: tuple[str, str] | None = None
     firmware = ""
     times: list[float] = []
