@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
+import re
 import time
 import tomllib
+import urllib.parse
 import zipfile
 from pathlib import Path
 
@@ -14,7 +17,7 @@ import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
-from webutil import client, copy_mission, run_plan
+from webutil import TestClient, client, copy_mission, run_plan
 
 from aerosurvey.cli import main
 from aerosurvey.fileio import LISTING
@@ -63,14 +66,12 @@ def test_plan_equals_the_cli_byte_for_byte(planned):
     _, result, files, archive, out = planned
     cli_names = {p.name for p in out.iterdir()} - {LISTING}  # the CLI's folder also lists what it wrote there
     assert cli_names <= set(result["files"])
-    for name in cli_names - {"manifest.json", "preview.svg"}:  # the manifest names the spec path; both carry it
+    for name in cli_names:  # the page's spec is the file's: the manifest names the spec file (inputs.spec) as the CLI's does
         assert files[name].status_code == 200
         assert files[name].content == (out / name).read_bytes(), name
-    assert files["mission.waypoints"].headers["content-disposition"] == 'attachment; filename="mission.waypoints"'
-    cli_manifest = json.loads((out / "manifest.json").read_text())
-    web_manifest = json.loads(files["manifest.json"].content)
-    for key in ("derived", "estimates", "stations", "sorties", "rules", "mission_items"):
-        assert web_manifest[key] == cli_manifest[key], key
+    assert json.loads(files["manifest.json"].content)["inputs"]["spec"]["path"] == "obratan-72ha.toml"
+    assert files["mission.waypoints"].headers["content-disposition"] == \
+        "attachment; filename=\"mission.waypoints\"; filename*=UTF-8''mission.waypoints"
     with zipfile.ZipFile(io.BytesIO(archive.content)) as zf:
         assert sorted(zf.namelist()) == sorted(result["files"])
         assert zf.read("mission.waypoints") == (out / "mission.waypoints").read_bytes()
@@ -324,14 +325,23 @@ def test_two_plans_at_once_equal_one_at_a_time(obratan, tmp_path):
 
 
 def test_spec_as_toml_round_trips(obratan):
+    """The spec's TOML comes with the area file it names, under the path it names it by."""
     with client(obratan) as c:
         spec = c.get("/api/state").json()["spec"]
         spec["targets"]["side_overlap"] = 0.65
         r = c.post("/api/spec/toml", json={"spec": spec})
-        assert r.status_code == 200 and r.headers["content-disposition"] == 'attachment; filename="obratan-72ha.toml"'
-        back = tomllib.loads(r.text)
+        assert r.status_code == 200 and r.headers["content-type"] == "application/zip"
+        assert r.headers["content-disposition"] == "attachment; filename=\"obratan-72ha.zip\"; filename*=UTF-8''obratan-72ha.zip"
+        with zipfile.ZipFile(io.BytesIO(r.content)) as zf:
+            assert sorted(zf.namelist()) == ["areas/obratan-72ha.geojson", "obratan-72ha.toml"]
+            assert zf.read("areas/obratan-72ha.geojson") == (obratan.parent / "areas" / "obratan-72ha.geojson").read_bytes()
+            back = tomllib.loads(zf.read("obratan-72ha.toml").decode())
         assert back["targets"]["side_overlap"] == 0.65 and back["area"]["file"] == "areas/obratan-72ha.geojson"
         assert back["rules"]["profiles"] == ["cz-land-consolidation"]
+        # an area inline (uploaded or drawn): the TOML alone
+        spec["area"] = {"wkt": shapely.box(14.95, 49.43, 14.955, 49.433).wkt}
+        r = c.post("/api/spec/toml", json={"spec": spec})
+        assert r.headers["content-type"] == "application/toml" and tomllib.loads(r.text)["area"] == spec["area"]
         spec["targets"]["forward_overlap"] = 2
         r = c.post("/api/spec/toml", json={"spec": spec})
         assert r.status_code == 400 and r.json()["key"] == "targets.forward_overlap"
@@ -361,6 +371,45 @@ def test_save_without_a_spec_file_is_a_conflict():
         assert r.status_code == 409
 
 
+def _filename(disposition: str) -> str:
+    """The file name a Content-Disposition header gives a browser: its `filename*` (RFC 5987: charset, language,
+    percent-encoded bytes), read here by the RFC's grammar."""
+    m = re.search(r"filename\*=UTF-8'[^']*'([A-Za-z0-9!#$&+.^_`|~%-]+)(;|$)", disposition)
+    assert m is not None, disposition
+    return urllib.parse.unquote(m.group(1), encoding="utf-8", errors="strict")
+
+
+def test_downloads_of_a_mission_named_in_czech(obratan):
+    """A Czech mission name: every download answers, named in UTF-8 (RFC 5987) with an ASCII fallback (RFC 6266)."""
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        spec["mission"]["name"] = "Obrataň 72 ha"
+        r = c.post("/api/spec/toml", json={"spec": spec})
+        assert r.status_code == 200, r.text
+        assert _filename(r.headers["content-disposition"]) == "Obrataň 72 ha.zip"
+        assert 'filename="Obratan 72 ha.zip"' in r.headers["content-disposition"]
+        with zipfile.ZipFile(io.BytesIO(r.content)) as zf:
+            assert "Obrataň 72 ha.toml" in zf.namelist()
+        st = run_plan(c, spec)
+        assert st["state"] == "done", st
+        pid = st["result"]["plan_id"]
+        r = c.get(f"/api/plans/{pid}/archive.zip")
+        assert r.status_code == 200 and _filename(r.headers["content-disposition"]) == "Obrataň 72 ha.zip"
+        assert _filename(c.get(f"/api/plans/{pid}/files/mission.plan").headers["content-disposition"]) == "mission.plan"
+
+
+def test_an_edited_spec_is_planned_without_naming_the_file(obratan):
+    """The manifest names the spec file (inputs.spec) only when the page's spec is what the file holds."""
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        spec["targets"]["side_overlap"] = 0.65
+        st = run_plan(c, spec)
+        manifest = json.loads(c.get(f"/api/plans/{st['result']['plan_id']}/files/manifest.json").content)
+        assert manifest["inputs"]["spec"] is None
+        area = (obratan.parent / "areas" / "obratan-72ha.geojson").read_bytes()
+        assert manifest["inputs"]["area"]["sha256"] == hashlib.sha256(area).hexdigest()
+
+
 def test_host_and_origin_checks(obratan):
     with client(obratan, allowed_hosts=["127.0.0.1:8765"]) as c:
         assert c.get("/api/state").status_code == 421  # the test client's Host is 'testserver'
@@ -372,6 +421,62 @@ def test_host_and_origin_checks(obratan):
         r = c.post("/api/plan", json={"spec": ok.json()["spec"]},
                    headers={"host": "127.0.0.1:8765", "origin": "http://127.0.0.1:8765"})
         assert r.status_code == 202
+
+
+def test_origin_checked_when_any_host_is_answered(obratan):
+    """`serve --host` off loopback answers any Host; a state-changing request from another origin is still refused."""
+    with client(obratan, allowed_hosts=None) as c:
+        spec = c.get("/api/state", headers={"host": "192.168.1.5:8765"}).json()["spec"]
+        for method, url, body in (("POST", "/api/plan", {"spec": spec}), ("POST", "/api/spec/save", {"spec": spec}),
+                                  ("POST", "/api/spec/toml", {"spec": spec}), ("DELETE", "/api/jobs/j1", None)):
+            r = c.request(method, url, json=body, headers={"host": "192.168.1.5:8765", "origin": "https://evil.example"})
+            assert r.status_code == 403 and "evil.example" in r.json()["error"], (method, url)
+        r = c.post("/api/plan", json={"spec": spec}, headers={"host": "192.168.1.5:8765", "origin": "http://192.168.1.5:8765"})
+        assert r.status_code == 202  # the page itself
+        assert c.post("/api/plan", json={"spec": spec}).status_code == 202  # not a browser: no Origin
+
+
+def test_serve_off_loopback_warns_which_check_is_off(obratan, monkeypatch, caplog):
+    """The warning says the Host check is off and the Origin check on; the app it serves refuses other origins."""
+    import uvicorn
+
+    served = {}
+    monkeypatch.setattr(uvicorn, "run", lambda app, **kw: served.update(app=app, **kw))
+    with caplog.at_level("WARNING"):
+        res = CliRunner().invoke(main, ["serve", str(obratan), "--host", "0.0.0.0", "--port", "8799"])
+    assert res.exit_code == 0, res.output
+    assert "Host check is off" in caplog.text and "Origin check stays on" in caplog.text
+    with TestClient(served["app"]) as c:
+        r = c.post("/api/plan", json={"spec": {}}, headers={"host": "10.0.0.7:8799", "origin": "https://evil.example"})
+        assert r.status_code == 403
+
+
+def test_queued_plans_are_capped(obratan):
+    """Plans waiting for a planning thread are capped: one more is refused with 429 and the reason; a cancelled one
+    frees its place."""
+    import threading
+
+    from aerosurvey.web.jobs import JobRunner
+
+    release = threading.Event()
+    with client(obratan) as c:
+        spec = c.get("/api/state").json()["spec"]
+        runner = c.app.state.server.runner = JobRunner(workers=1, max_waiting=2)
+        try:
+            runner.submit(lambda progress: release.wait(30))  # the one thread, busy
+            waiting = [c.post("/api/plan", json={"spec": spec}) for _ in range(2)]
+            assert [r.status_code for r in waiting] == [202, 202]
+            r = c.post("/api/plan", json={"spec": spec})
+            assert r.status_code == 429 and "2 plans are already waiting" in r.json()["error"]
+            assert c.delete(f"/api/jobs/{waiting[0].json()['job']}").status_code == 200
+            r = c.post("/api/plan", json={"spec": spec})
+            assert r.status_code == 202
+            release.set()
+            st = c.get(f"/api/jobs/{r.json()['job']}?wait=10").json()
+            assert st["state"] == "done", st
+        finally:
+            release.set()
+            runner.shutdown()
 
 
 def test_rule_failure_says_where(obratan):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import io
-import shutil
 import tomllib
 import zipfile
 
@@ -87,14 +86,13 @@ def test_drawn_zones_reach_the_plan(tmp_path):
         assert st_both["state"] == "error" and st_both["error"]["key"] == "zones"
         r = c.post("/api/plan", json={"spec": state["spec"], "zones": "POLYGON"})
         assert r.status_code == 400 and r.json()["key"] == "zones"
-        assert c.post("/api/spec/toml", json={"spec": state["spec"], "zones": []}).headers["content-type"] == "application/toml"
-        # Spec as TOML with drawn zones: a zip of the TOML and the zones' GeoJSON, which plans the page's mission
+        # Spec as TOML with drawn zones: a zip of the TOML, the zones' GeoJSON and the area file the spec names, which
+        # plans the page's mission
         r = c.post("/api/spec/toml", json={"spec": state["spec"], "zones": [zone.wkt]})
         assert r.status_code == 200 and r.headers["content-type"] == "application/zip"
         with zipfile.ZipFile(io.BytesIO(r.content)) as zf:
-            assert sorted(zf.namelist()) == ["obratan-72ha.toml", "obratan-72ha.zones.geojson"]
+            assert sorted(zf.namelist()) == ["areas/obratan-72ha.geojson", "obratan-72ha.toml", "obratan-72ha.zones.geojson"]
             zf.extractall(tmp_path / "download")
-        shutil.copytree(spec_path.parent / "areas", tmp_path / "download" / "areas")
         res = CliRunner().invoke(main, ["plan", str(tmp_path / "download" / "obratan-72ha.toml"), "-o", str(tmp_path / "cli")])
         assert planned(res.exit_code, res.output), res.output
         page = c.get(f"/api/plans/{done['result']['plan_id']}/files/mission.waypoints").text

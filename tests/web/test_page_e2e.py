@@ -12,10 +12,12 @@ import http.server
 import json
 import math
 import os
+import re
 import shutil
 import threading
 import time
 import tomllib
+import zipfile
 from pathlib import Path
 
 import pyproj
@@ -30,6 +32,9 @@ from conftest import planned, random_polygon, write_geojson
 pytestmark = pytest.mark.browser
 
 SHOTS = REPO / "out" / "test-screenshots"
+#: What the page writes in WGS84 is rounded to 1e-8 degrees: the map's own coordinates (Web Mercator) are within
+#: half of that of what the spec and the saved files hold.
+DEGREE_STEP = 1e-8
 CHROMIUM = os.environ.get("AEROSURVEY_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
 ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
         "--disable-component-update", "--disable-sync"]
@@ -178,13 +183,19 @@ def test_rule_failure_listed_highlighted_and_cleared_on_replan(page):
     assert _features(page, "highlight") == 0
 
 
+def _refused(pg, key: str, value: str):
+    """Type a value the planner refuses into the field of spec key `key` (on *Setup*); its error box, once shown."""
+    _tab(pg, "setup")
+    pg.fill(f"[data-key='{key}']", value)
+    box = pg.locator(f".err[data-for~='{key}']")
+    box.wait_for(state="visible", timeout=30000)
+    return box
+
+
 def test_bad_value_shown_next_to_its_field_and_kept(page):
     lines = _features(page, "lines")
-    _tab(page, "setup")
     field = "[data-key='targets.side_overlap']"
-    page.fill(field, "1.2")
-    box = page.locator(".err[data-for='targets.side_overlap']")
-    box.wait_for(state="visible", timeout=30000)
+    box = _refused(page, "targets.side_overlap", "1.2")
     assert "targets.side_overlap = 1.2 is not allowed" in box.text_content()
     assert page.input_value(field) == "1.2"  # what the user typed stays
     assert _features(page, "lines") == lines  # the previous plan stays on the map
@@ -209,6 +220,9 @@ def test_fly_blocks_in_flight_order_and_downloads_equal_the_cli(page, site):
     with page.expect_download() as d:
         blocks.nth(2).locator("a[data-file='sortie-03.waypoints']").click()
     assert Path(d.value.path()).read_bytes() == (site["cli"] / "sortie-03.waypoints").read_bytes()
+    with page.expect_download() as d:  # the spec as the file holds it: the manifest names it as the CLI's does
+        page.locator("#file-groups a[data-file='manifest.json']").click()
+    assert Path(d.value.path()).read_bytes() == (site["cli"] / "manifest.json").read_bytes()
 
 
 def test_fly_blocks_offer_dji_waylines(site):
@@ -267,14 +281,13 @@ def test_basemap_only_when_configured(page, site):
         assert _Tiles.asked and all(p.endswith(".png") and p.count("/") == 3 for p in _Tiles.asked)
         page.screenshot(path=str(SHOTS / "06-basemap.png"))
         # the same view through a WMTS REST template (Web Mercator): the same tiles, asked by row and column
+        _rendered(page)  # every XYZ tile of the view asked and drawn
         xyz = {tuple(int(v) for v in p[1:-4].split("/")) for p in _Tiles.asked}
         _Tiles.asked = []
         page.fill("#tile-url", f"http://127.0.0.1:{port}/wmts/{{TileMatrix}}/{{TileRow}}/{{TileCol}}.png")
         page.dispatch_event("#tile-url", "change")
-        end = time.monotonic() + 10
-        while len(_Tiles.asked) < len(xyz) and time.monotonic() < end:
-            page.wait_for_timeout(50)
-        wmts = {tuple(int(v) for v in p[len("/wmts/"):-4].split("/")) for p in _Tiles.asked}
+        _rendered(page)
+        wmts = {tuple(int(v) for v in p[len("/wmts/"):-4].split("/")) for p in _Tiles.asked if p.startswith("/wmts/")}
         assert {(z, col, row) for z, row, col in wmts} == xyz
     finally:
         page.evaluate("localStorage.removeItem('aerosurvey.tileUrl')")
@@ -457,7 +470,8 @@ def test_hole_launch_point_delete_and_measure(page):
     page.click("#tools [data-tool='launch']")
     _replan_and_wait(page, lambda: page.mouse.click(box["x"] + 60, box["y"] + box["height"] - 80))
     (lon, lat), = _drawn(page, "launch")
-    assert page.evaluate("window.aerosurvey.spec.battery.launch_points") == [[lon, lat]]
+    (point,) = page.evaluate("window.aerosurvey.spec.battery.launch_points")
+    assert point == pytest.approx([lon, lat], abs=DEGREE_STEP) and all(round(v, 8) == v for v in point)
     first = page.locator("#fly-blocks .fly").first.text_content()
     assert f"{lat:.6f}° N {lon:.6f}° E" in first
     # delete: a click in the hole takes the hole out
@@ -498,7 +512,7 @@ def test_move_a_zone_and_read_labels(page):
     after = shapely.Polygon(_drawn(page, "zone")[0][0]).centroid
     assert after.x > before.x and abs(after.y - before.y) < 1e-6
     zone = shapely.from_wkt(page.evaluate("window.aerosurvey.zones[0]"))
-    assert zone.centroid.distance(after) < 1e-9  # what is planned is what was moved
+    assert zone.centroid.distance(after) < DEGREE_STEP  # what is planned is what was moved
     # zoomed in, the control points carry their ids
     page.evaluate("window.aerosurvey.map.getView().setResolution(0.5)")
     page.wait_for_timeout(300)
@@ -536,7 +550,7 @@ def test_save_the_drawn_zone_with_the_spec_and_reload(site):
         assert saved["area"]["file"] == "areas/obratan-72ha.geojson"  # the area was not edited: its file stays
         zones = json.loads((tmp / "obratan-72ha.zones.geojson").read_text())["features"]
         assert len(zones) == 1
-        assert shapely.Polygon(zones[0]["geometry"]["coordinates"][0]).hausdorff_distance(shapely.Polygon(drawn)) < 1e-9
+        assert shapely.Polygon(zones[0]["geometry"]["coordinates"][0]).hausdorff_distance(shapely.Polygon(drawn)) < DEGREE_STEP
         # the saved spec plans, with `aerosurvey plan`, the mission the page planned
         res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
         assert planned(res.exit_code, res.output), res.output
@@ -620,7 +634,7 @@ def test_draw_a_corridor_centreline_plan_edit_and_save(site):
         for (lon, lat), want in zip(line[1:], clicked[1:]):
             assert (lon, lat) == pytest.approx(want, abs=1e-6)
         assert pg.evaluate("window.aerosurvey.spec.pattern") == {"kind": "corridor", "width_m": 50}
-        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
+        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), DEGREE_STEP)
         assert pg.text_content("#general-error") == ""
         _corridor_lines(pg, line)
         _tab(pg, "setup")
@@ -645,7 +659,7 @@ def test_draw_a_corridor_centreline_plan_edit_and_save(site):
         _corridor_lines(pg, moved)
         _replan_and_wait(pg, lambda: pg.click("#undo"))
         assert _drawn(pg, "centreline")[0] == line
-        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), 1e-12)
+        assert shapely.from_wkt(pg.evaluate("window.aerosurvey.spec.area.wkt")).equals_exact(shapely.LineString(line), DEGREE_STEP)
         _corridor_lines(pg, line)
         _replan_and_wait(pg, lambda: pg.click("#redo"))
         assert _drawn(pg, "centreline")[0] == moved
@@ -660,7 +674,7 @@ def test_draw_a_corridor_centreline_plan_edit_and_save(site):
         assert saved["area"]["file"] == "obratan-72ha.centreline.geojson" and "wkt" not in saved["area"]
         (feat,) = json.loads((tmp / "obratan-72ha.centreline.geojson").read_text())["features"]
         assert feat["properties"]["role"] == "centreline" and feat["geometry"]["type"] == "LineString"
-        assert shapely.LineString(feat["geometry"]["coordinates"]).equals_exact(shapely.LineString(moved), 1e-12)
+        assert shapely.LineString(feat["geometry"]["coordinates"]).equals_exact(shapely.LineString(moved), DEGREE_STEP)
         assert not list(tmp.glob(".*.tmp"))  # no temporary file left
         # the saved spec plans, with `aerosurvey plan`, the mission the page planned
         res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")])
@@ -669,7 +683,7 @@ def test_draw_a_corridor_centreline_plan_edit_and_save(site):
         # reloaded: the centreline on the map from the saved file, the form a corridor of 200 m
         pg.reload()
         pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
-        assert shapely.LineString(_drawn(pg, "centreline")[0]).equals_exact(shapely.LineString(moved), 1e-12)
+        assert shapely.LineString(_drawn(pg, "centreline")[0]).equals_exact(shapely.LineString(moved), DEGREE_STEP)
         _corridor_lines(pg, moved)
         _tab(pg, "setup")
         assert pg.input_value("#pattern-kind") == "corridor" and pg.input_value("[data-key='pattern.width_m']") == "200"
@@ -819,6 +833,22 @@ def test_layout_in_the_field(site, size):
         assert first["x"] + first["width"] <= pg.locator("#map").bounding_box()["x"] + 1  # beside the map, not over it
         assert pg.evaluate("document.scrollingElement.scrollHeight") <= h
         pg.screenshot(path=str(SHOTS / f"layout-{w}x{h}.png"))
+
+        def whole(sel: str) -> None:  # in view and not cut: nothing of its text overflows its box
+            inside(sel)
+            assert pg.evaluate("s => { const e = document.querySelector(s); "
+                               "return e.scrollWidth <= e.clientWidth && e.scrollHeight <= e.clientHeight; }", sel), \
+                (sel, pg.text_content(sel))
+
+        assert pg.text_content("#status").startswith("planned in")
+        whole("#status")
+        _tab(pg, "setup")  # the page's longest status: a change that cannot be planned
+        pg.fill("[data-key='targets.side_overlap']", "1.2")
+        pg.wait_for_function("document.querySelector('#status').textContent.startsWith('the last change')", timeout=30000)
+        whole("#status")
+        for key in ("height AGL", "GSD", "photos", "time", "sorties", "rules"):
+            inside(f"#summary dd[data-summary='{key}']")
+        assert pg.evaluate("document.scrollingElement.scrollHeight") <= h
     finally:
         ctx.close()
 
@@ -850,3 +880,275 @@ def test_long_plan_shows_progress_and_cancels(site):
     finally:
         ctx.close()
         server.stop()
+
+
+# ---- issue 37: the pilot's workflow at the keyboard, in Czech, offline and after a flight ----------------------------
+
+def _unzipped(path: Path) -> dict[str, bytes]:
+    with zipfile.ZipFile(path) as zf:
+        return {n: zf.read(n) for n in zf.namelist()}
+
+
+def test_czech_mission_name_downloads(page, site):
+    """A mission named in Czech (the project's own example is Czech): *Spec as TOML* and the zip of all files download
+    under that name (RFC 6266 / 5987 headers), with its files in them."""
+    _tab(page, "setup")
+    _replan_and_wait(page, lambda: page.fill("[data-key='mission.name']", "Obrataň 72 ha"))
+    assert page.evaluate("window.aerosurvey.view.name") == "Obrataň 72 ha"
+    with page.expect_download() as d:
+        page.click("#download-toml")
+    assert d.value.suggested_filename == "Obrataň 72 ha.zip"  # the TOML and the area file it names
+    files = _unzipped(Path(d.value.path()))
+    assert tomllib.loads(files["Obrataň 72 ha.toml"].decode())["mission"]["name"] == "Obrataň 72 ha"
+    _tab(page, "fly")
+    with page.expect_download() as d:
+        page.click("#file-groups a[href$='archive.zip']")
+    assert d.value.suggested_filename == "Obrataň 72 ha.zip"
+    files = _unzipped(Path(d.value.path()))
+    assert json.loads(files["manifest.json"])["mission"]["name"] == "Obrataň 72 ha"
+    assert sorted(files) == sorted(page.evaluate("window.aerosurvey.view.files"))
+    with page.expect_download() as d:
+        page.locator("#file-groups a[data-file='mission.waypoints']").click()
+    assert d.value.suggested_filename == "mission.waypoints"
+    assert page.text_content("#general-error") == ""
+
+
+def test_spec_as_toml_of_the_unchanged_spec_plans_anywhere(page, site, tmp_path):
+    """*Spec as TOML* of the spec the page started with carries the area file it names: unpacked in an empty folder,
+    `aerosurvey plan` plans the page's mission from it."""
+    _tab(page, "setup")
+    with page.expect_download() as d:
+        page.click("#download-toml")
+    files = _unzipped(Path(d.value.path()))
+    assert sorted(files) == ["areas/obratan-72ha.geojson", "obratan-72ha.toml"]
+    assert files["areas/obratan-72ha.geojson"] == (site["spec"].parent / "areas" / "obratan-72ha.geojson").read_bytes()
+    for name, data in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_bytes(data)
+    res = CliRunner().invoke(main, ["plan", str(tmp_path / "obratan-72ha.toml"), "-o", str(tmp_path / "cli")])
+    assert planned(res.exit_code, res.output), res.output
+    pid = page.evaluate("window.aerosurvey.view.plan_id")
+    assert (tmp_path / "cli" / "mission.waypoints").read_text() == \
+        page.evaluate(f"fetch('/api/plans/{pid}/files/mission.waypoints').then(r => r.text())")
+
+
+def test_battery_toggle_after_a_field_error_keeps_planning(page):
+    """A battery field refused by the planner, then the battery split switched off and on: no script error (the error
+    box is not read as a field), and the next change plans."""
+    assert "battery.usable_min = -5" in _refused(page, "battery.usable_min", "-5").text_content()
+    page.uncheck("#battery-on")
+    page.check("#battery-on")
+    assert page.errors == []
+    _replan_and_wait(page, lambda: page.fill("[data-key='battery.usable_min']", "25"))
+    assert page.evaluate("window.aerosurvey.view.summary.sorties") > 1 and page.errors == []
+
+
+def _focused(pg) -> str:
+    """The focused element, as `#id`, `tab:NAME`, `tool:NAME`, `rule:ID` or its tag."""
+    return pg.evaluate("""() => { const e = document.activeElement;
+        if (e.id) return '#' + e.id;
+        if (e.dataset.tab) return 'tab:' + e.dataset.tab;
+        if (e.dataset.tool) return 'tool:' + e.dataset.tool;
+        if (e.dataset.rule) return 'rule:' + e.dataset.rule;
+        return e.tagName.toLowerCase(); }""")
+
+
+def _tab_to(pg, target: str, limit: int = 150) -> list[str]:
+    """Press Tab until `target` (as `_focused` names it) has the focus; the names passed on the way."""
+    seen = []
+    for _ in range(limit):
+        pg.keyboard.press("Tab")
+        seen.append(_focused(pg))
+        if seen[-1] == target:
+            return seen
+    raise AssertionError(f"{target} not reached by Tab; reached {seen}")
+
+
+def test_every_control_reached_and_used_by_keyboard(site):
+    """Only the keyboard: the area file picked from the drop zone (Enter) and from its button, the tabs and tools
+    (with aria-selected, aria-pressed), a failing rule shown (Enter), the flight folder's picker."""
+    tmp = site["tmp"] / "keyboard"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    spec.write_text(spec.read_text().replace("forward_overlap = 0.75", "forward_overlap = 0.70"))  # a rule fails
+    gj = write_geojson(tmp / "field.geojson", random_polygon("convex", 7, 300))
+    with _own_server_page(site, spec) as (pg, _):
+        # file choosers intercepted from now on: Playwright turns interception on without waiting for Chromium, so a
+        # chooser opened right after the first listener may escape it on a busy machine
+        pg.on("filechooser", lambda chooser: None)
+        pg.evaluate("1")
+        tabs = {t: pg.locator(f"#tabs button[data-tab='{t}']") for t in ("setup", "fly", "rules", "flight")}
+        assert [tabs[t].get_attribute("aria-selected") for t in tabs] == ["false", "true", "false", "false"]
+        seen = _tab_to(pg, "tool:zone")
+        assert {"tab:setup", "tab:fly", "tab:rules", "tab:flight", "tool:edit", "tool:area"} <= set(seen)
+        pg.keyboard.press("Enter")
+        assert pg.get_attribute("#tools [data-tool='zone']", "aria-pressed") == "true"
+        assert pg.get_attribute("#tools [data-tool='edit']", "aria-pressed") == "false"
+        # a failing rule: Tab to the Rules tab, Enter, Tab to the rule, Enter: its places drawn
+        _open_tab_by_keyboard(pg, "rules")
+        assert tabs["rules"].get_attribute("aria-selected") == "true" and tabs["fly"].get_attribute("aria-selected") == "false"
+        _tab_to(pg, "rule:cz-forward-overlap")
+        assert _features(pg, "highlight") == 0
+        pg.keyboard.press("Enter")
+        assert _features(pg, "highlight") > 0
+        # the flight folder's picker
+        _open_tab_by_keyboard(pg, "flight")
+        assert _chooser_by_key(pg, "#pick-flight", "Enter").is_multiple()
+        # the area file: the drop zone itself (Enter), and its button (Space)
+        _open_tab_by_keyboard(pg, "setup")
+        chooser = _chooser_by_key(pg, "#drop", "Enter")
+        _replan_and_wait(pg, lambda: chooser.set_files(str(gj)))
+        assert pg.evaluate("window.aerosurvey.spec.mission.name") == "field"
+        assert not _chooser_by_key(pg, "#pick-area", " ").is_multiple()
+
+
+def _open_tab_by_keyboard(pg, name: str) -> None:
+    _tab_to(pg, f"tab:{name}")
+    pg.keyboard.press("Enter")
+
+
+def _chooser_by_key(pg, target: str, key: str):
+    """Tab to `target`, press `key`: the file chooser it opens."""
+    _tab_to(pg, target)
+    with pg.expect_file_chooser() as fc:
+        pg.keyboard.press(key)
+    return fc.value
+
+
+def _waypoint_route(path: Path) -> list[tuple[float, float]]:
+    """The NAV_WAYPOINT items (command 16) of a QGC WPL 110 file after its home line, as (lon, lat): read here, by the
+    format's columns (index, current, frame, command, p1-p4, lat, lon, alt, autocontinue)."""
+    rows = [line.split("\t") for line in path.read_text().splitlines()[2:]]
+    return [(float(r[9]), float(r[8])) for r in rows if int(r[3]) == 16]
+
+
+def test_resumed_flight_drawn_and_a_cleared_flight_says_why(site):
+    """A flight cut half way: *Resume the flight* draws each resumed sortie's route (the command's waypoints); an edit
+    then re-plans, and the loaded flight is cleared with the reason and a button that loads it on the new plan."""
+    from conftest import make_spec
+
+    tmp = site["tmp"] / "resume"
+    tmp.mkdir()
+    spec = make_spec(tmp, {"flight": {"heading": 0.0}})
+    plan = tmp / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
+    data = (REPO / "tests" / "data" / "sitl_copter_survey.bin").read_bytes()
+    (tmp / "cut.bin").write_bytes(data[: len(data) // 2])
+    res = CliRunner().invoke(main, ["log", "ingest", str(tmp / "cut.bin"), "--plan", str(plan), "-o", str(tmp / "log")])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["resume", str(plan), "--spec", str(spec), "--log", str(tmp / "log"), "-o", str(tmp / "r")])
+    assert res.exit_code == 0, res.output
+    with _own_server_page(site, spec) as (pg, _):
+        _tab(pg, "flight")
+        pg.set_input_files("#flight-files", str(tmp / "log"))
+        pg.wait_for_function("window.aerosurvey.layers.flown.getSource().getFeatures().length > 0", timeout=30000)
+        flown = _features(pg, "flown")
+        pg.click("#make-resume")
+        pg.wait_for_function("window.aerosurvey.layers.refly.getSource().getFeatures().length > 0", timeout=60000)
+        drawn = pg.evaluate("""window.aerosurvey.layers.refly.getSource().getFeatures().map(f => [f.get('id'),
+            f.getGeometry().clone().transform('EPSG:3857', 'EPSG:4326').getCoordinates()])""")
+        sorties = sorted(p.stem for p in (tmp / "r").glob("resume-*.waypoints"))
+        assert sorted(i for i, _ in drawn) == sorties
+        for sid, coords in drawn:
+            want = _waypoint_route(tmp / "r" / f"{sid}.waypoints")
+            assert len(coords) == len(want) >= 2
+            assert max(max(abs(a - c), abs(b - d)) for (a, b), (c, d) in zip(coords, want)) < 1e-7
+        # an edit: a new plan; the flight of the last one is cleared, and says so
+        _tab(pg, "setup")
+        _replan_and_wait(pg, lambda: pg.fill("[data-key='targets.side_overlap']", "0.72"))
+        assert _features(pg, "flown") == 0
+        assert "flight loaded on the last plan was cleared" in pg.text_content("#status")
+        _tab(pg, "flight")
+        assert "the plan changed" in pg.text_content("#flight-summary")
+        pg.click("#reload-flight")
+        pg.wait_for_function("window.aerosurvey.layers.flown.getSource().getFeatures().length > 0", timeout=30000)
+        assert _features(pg, "flown") == flown
+
+
+def test_launch_points_without_a_dem_say_so(page, site):
+    """Without a DEM a launch point has no ground height: "no DEM", not the manifest's 0 m; with the forest example's
+    DEM, the ground height of the manifest."""
+    for block in page.locator("#fly-blocks .fly .launch").all():
+        assert "no DEM" in block.text_content() and "AMSL" not in block.text_content()
+    tmp = site["tmp"] / "dem"
+    (tmp / "areas").mkdir(parents=True)
+    for name in ("forest-dem.toml", "areas/forest-block.geojson", "areas/forest-block-dem.tif"):
+        shutil.copy(REPO / "missions" / name, tmp / name)
+    res = CliRunner().invoke(main, ["plan", str(tmp / "forest-dem.toml"), "-o", str(tmp / "cli")])
+    assert planned(res.exit_code, res.output), res.output
+    sorties = json.loads((tmp / "cli" / "manifest.json").read_text())["sorties"]
+    with _own_server_page(site, tmp / "forest-dem.toml") as (pg, _):
+        _tab(pg, "fly")
+        texts = [b.text_content() for b in pg.locator("#fly-blocks .fly .launch").all()]
+        assert len(texts) == len(sorties)
+        for text, s in zip(texts, sorties):
+            assert f"ground {s['launch']['ground_amsl_m']} m AMSL" in text and s["launch"]["ground_amsl_m"] > 0
+
+
+def test_cancel_goes_back_to_the_plan_shown_and_save_writes_it(site):
+    """A change whose plan is cancelled: the form shows again the value of the plan on the map, and Save writes that."""
+    tmp = site["tmp"] / "cancel-back"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    # no battery split: a GSD of 0.5 cm plans for seconds (long enough to cancel) instead of being refused
+    spec.write_text(re.sub(r"\[battery\][^\[]*", "[limits]\nmax_photos = 10000000\nmax_flight_hours = 10000\n\n", spec.read_text()))
+    with _own_server_page(site, spec) as (pg, _):
+        lines = _features(pg, "lines")
+        _tab(pg, "setup")
+        pg.fill("#target-value", "0.5")
+        pg.locator("#progress").wait_for(state="visible", timeout=30000)
+        pg.click("#cancel")
+        pg.wait_for_function("document.querySelector('#status').textContent.startsWith('cancelled')", timeout=30000)
+        assert pg.input_value("#target-value") == "2.5" and pg.evaluate("window.aerosurvey.spec.targets.gsd_cm") == 2.5
+        assert "back to the plan shown" in pg.text_content("#status")
+        assert _features(pg, "lines") == lines
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        assert tomllib.loads(spec.read_text())["targets"]["gsd_cm"] == 2.5
+
+
+def test_escape_abandons_a_drawing_and_backspace_removes_its_last_corner(page):
+    zones = len(_drawn(page, "zone"))
+    page.click("#tools [data-tool='zone']")
+    sq = _zone_square(page, 60)
+    for x, y in sq[:3]:
+        page.mouse.click(x, y)
+        page.wait_for_timeout(300)
+    page.keyboard.press("Escape")  # abandoned: nothing drawn, nothing planned
+    page.wait_for_timeout(500)
+    assert len(_drawn(page, "zone")) == zones
+    far = (sq[2][0] + 40, sq[2][1] + 40)  # a corner clicked by mistake, then removed
+    for x, y in [*sq[:2], far]:
+        page.mouse.click(x, y)
+        page.wait_for_timeout(300)
+    page.keyboard.press("Backspace")
+
+    def finish():  # the last two corners, then the first again to close the ring
+        for x, y in sq[2:]:
+            page.mouse.click(x, y)
+            page.wait_for_timeout(300)
+        page.mouse.click(*sq[0])
+
+    _replan_and_wait(page, finish)
+    (rings,) = _drawn(page, "zone")[zones:]
+    corners = [_page_px(page, lon, lat) for lon, lat in rings[0][:-1]]
+    assert len(corners) == 4  # the square: the three corners abandoned, the mistaken one removed
+    for (x, y), (wx, wy) in zip(sorted(corners), sorted(sq)):
+        assert abs(x - wx) < 2 and abs(y - wy) < 2
+
+
+def test_drawn_geometry_is_rounded_to_1e8_degrees(page, site):
+    """The drawn GeoJSON and the spec's drawn zones hold no Web Mercator round-trip noise: degrees to 1e-8, and the
+    untouched area's corners are the area file's own numbers."""
+    page.click("#tools [data-tool='zone']")
+    _replan_and_wait(page, lambda: _click_polygon(page, _zone_square(page, 50)))
+    _tab(page, "setup")
+    with page.expect_download() as d:
+        page.click("#download-drawn")
+    feats = json.loads(Path(d.value.path()).read_text())["features"]
+    area_file = json.loads((site["spec"].parent / "areas" / "obratan-72ha.geojson").read_text())["features"][0]
+    (area,) = [f for f in feats if f["properties"]["role"] == "area"]
+    assert area["geometry"]["coordinates"] == area_file["geometry"]["coordinates"]
+    numbers = [v for f in feats for ring in f["geometry"]["coordinates"] for xy in ring for v in xy]
+    numbers += [float(v) for z in page.evaluate("window.aerosurvey.zones") for v in re.findall(r"-?\d+\.\d+", z)]
+    assert numbers and all(round(v, 8) == v for v in numbers)

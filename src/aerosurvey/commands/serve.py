@@ -57,7 +57,9 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, basemap: Path 
         allowed = [f"127.0.0.1:{port}", f"localhost:{port}", f"[::1]:{port}"]
     else:
         log.warning("listening on %s: anyone who can reach this address can plan with the files in the mission's folder "
-                    "and upload files to this machine", host)
+                    "and upload files to this machine; the Host check is off (any host name is answered, so a web page "
+                    "could reach the server through DNS rebinding), the Origin check stays on (a state-changing request "
+                    "from another origin is refused)", host)
         allowed = None
     app = create_app(spec, tile_url=tile_url, allowed_hosts=allowed, upload_limit=max_upload_mb * 1024 * 1024,
                      basemap=basemap)

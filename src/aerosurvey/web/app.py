@@ -4,7 +4,7 @@ Endpoints (all JSON unless said otherwise), each a small handler in a module of 
   GET    /                           the page                                   (routes_spec)
   GET    /api/state                  the starting spec, cameras, rule profiles, settings
   POST   /api/area                   multipart `file`: an area file, read in memory → a spec over it (area as WKT)
-  POST   /api/spec/toml              {"spec": {...}} → the spec as TOML (attachment)
+  POST   /api/spec/toml              {"spec": {...}} → the spec as TOML (attachment); a zip with the files it names
   POST   /api/spec/save              {"spec": {...}} → written over the spec file the server was started with
   POST   /api/plan                   {"spec": {...}} → 202 {"job": id}; a plan runs as a job  (routes_plan)
   GET    /api/jobs/{id}?wait=S       the job's state, progress and, when done, the plan's view
@@ -14,7 +14,8 @@ Endpoints (all JSON unless said otherwise), each a small handler in a module of 
   POST   /api/plans/{pid}/refly      the same files → the re-fly mission of what was not photographed
   POST   /api/plans/{pid}/resume     the same files → the rest of a flight cut short
   GET    /api/basemap/{z}/{x}/{y}    a tile of the offline basemap file (--basemap)            (routes_basemap)
-Errors are {"error": message, "key": spec key or null} with 400 (bad input), 404, 409, 413 or 500.
+Errors are {"error": message, "key": spec key or null} with 400 (bad input), 403 (another origin), 404, 409,
+413 (too large), 421 (another host), 429 (too many plans waiting) or 500.
 Handlers run on the event loop; file I/O and computing run on worker threads.
 """
 
@@ -68,7 +69,7 @@ def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts:
     tiles = open_basemap(basemap) if basemap is not None else None
     uploads = Path(tempfile.mkdtemp(prefix="aerosurvey-serve-"))
     base = spec_path.parent if spec_path is not None else uploads
-    ws = service.Workspace(base=base, uploads=uploads, roots=[base])
+    ws = service.Workspace(base=base, uploads=uploads, roots=[base], spec_file=spec_path)
     state = ServerState(spec_path, spec, ws, tile_url, JobRunner(workers=workers), upload_limit, tiles)
 
     @contextlib.asynccontextmanager

@@ -29,6 +29,10 @@ class Cancelled(Exception):
     """The job was cancelled; raised from inside its progress report."""
 
 
+class QueueFull(Exception):
+    """As many jobs wait for a worker as the runner queues: the new one is refused (HTTP 429)."""
+
+
 @dataclass
 class Job:
     id: str
@@ -41,6 +45,8 @@ class Job:
     finished: float | None = None
     cancel: threading.Event = field(default_factory=threading.Event)
     done: threading.Event = field(default_factory=threading.Event)
+    # what the job runs, dropped once it runs or is cancelled: a cancelled job waiting for a thread holds no spec
+    work: Callable[[Progress], Any] | None = field(default=None, repr=False)
 
     def report(self, stage: str, share: float) -> None:
         if self.cancel.is_set():
@@ -54,30 +60,40 @@ class Job:
 
 
 class JobRunner:
-    """Runs jobs on `workers` threads and keeps the last `keep` finished ones for their results."""
+    """Runs jobs on `workers` threads, at most `max_waiting` of them waiting for a thread (cancelled ones
+    not counted: they end as soon as a thread takes them), and keeps the last `keep` finished ones for
+    their results."""
 
-    def __init__(self, workers: int = 2, keep: int = 16):
+    def __init__(self, workers: int = 2, keep: int = 16, max_waiting: int = 8):
         self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="aerosurvey-job")
+        self._workers = workers
+        self._max_waiting = max_waiting
         self._jobs: OrderedDict[str, Job] = OrderedDict()
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
         self._keep = keep
 
     def submit(self, fn: Callable[[Progress], Any]) -> Job:
+        """Queue a job; QueueFull when `max_waiting` jobs already wait."""
         with self._lock:
-            job = Job(id=f"j{next(self._ids)}")
+            waiting = sum(j.state == "queued" and not j.cancel.is_set() for j in self._jobs.values())
+            if waiting >= self._max_waiting:
+                raise QueueFull(f"{waiting} plans are already waiting for the server's {self._workers} planning "
+                                f"thread(s), the most it queues; wait for one to finish or cancel one (DELETE /api/jobs/ID)")
+            job = Job(id=f"j{next(self._ids)}", work=fn)
             self._jobs[job.id] = job
             while len(self._jobs) > self._keep:
                 oldest = next(iter(self._jobs))
                 if not self._jobs[oldest].done.is_set():
                     break
                 self._jobs.pop(oldest)
-        self._pool.submit(self._run, job, fn)
+        self._pool.submit(self._run, job)
         return job
 
-    def _run(self, job: Job, fn: Callable[[Progress], Any]) -> None:
+    def _run(self, job: Job) -> None:
         try:
-            if job.cancel.is_set():
+            fn, job.work = job.work, None
+            if job.cancel.is_set() or fn is None:
                 raise Cancelled()
             job.state = "running"
             job.started = time.monotonic()
@@ -106,6 +122,7 @@ class JobRunner:
         job = self.get(job_id)
         if job is not None:
             job.cancel.set()
+            job.work = None
         return job
 
     def shutdown(self) -> None:

@@ -2,8 +2,9 @@
 
 `HostCheck` answers only to the host names it is served on (a web site in the user's
 browser cannot reach it through DNS rebinding) and refuses state-changing requests from
-other origins. `BodyLimit` stops a request body at the upload limit, whether or not the
-client announced its length.
+other origins, also when it answers any host name (`serve --host` on a network address).
+`BodyLimit` stops a request body at the upload limit, whether or not the client announced
+its length.
 """
 
 from __future__ import annotations
@@ -71,23 +72,27 @@ class BodyLimit:
 
 
 class HostCheck:
+    """`allowed_hosts`: the Host headers answered (None: any, a server on a network address). State-changing
+    requests (not GET, HEAD or OPTIONS) from a browser are refused unless they come from the page itself: their
+    Origin is one of the allowed hosts or, with any Host answered, the Host they were sent to."""
+
     def __init__(self, app: ASGIApp, allowed_hosts: list[str] | None):
         self.app = app
         self.allowed = None if allowed_hosts is None else {h.lower() for h in allowed_hosts}
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or self.allowed is None:
+        if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
         headers = dict(scope.get("headers") or [])
         host = headers.get(b"host", b"").decode("latin-1").lower()
-        if host not in self.allowed:
+        if self.allowed is not None and host not in self.allowed:
             await _send_json(send, 421, {"error": f"Host {host!r} is not served here; open one of {sorted(self.allowed)}", "key": None})
             return
         origin = headers.get(b"origin")
         if scope["method"] not in ("GET", "HEAD", "OPTIONS") and origin is not None:
             o = origin.decode("latin-1").lower().split("://", 1)[-1]
-            if o not in self.allowed:
+            if o not in (self.allowed if self.allowed is not None else {host}):
                 await _send_json(send, 403, {"error": f"requests from origin {origin.decode('latin-1')!r} are refused", "key": None})
                 return
         await self.app(scope, receive, send)

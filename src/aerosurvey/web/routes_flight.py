@@ -2,7 +2,7 @@
 
   POST   /api/plans/{pid}/flight     multipart files of a `log ingest` folder → flown layers
   POST   /api/plans/{pid}/refly      the same files → the re-fly mission (`aerosurvey refly`) and its files
-  POST   /api/plans/{pid}/resume     the same files → the rest of the flight (`aerosurvey resume --log`) and its files
+  POST   /api/plans/{pid}/resume     the same files → the rest of the flight (`aerosurvey resume --log`), its files and routes
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import json
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from starlette.datastructures import UploadFile
 from starlette.requests import Request
@@ -22,6 +22,9 @@ from aerosurvey.rules.flown import PLACES_FILE
 from aerosurvey.web import service
 from aerosurvey.web.flown import MIN_GAP_M2, flown_layers
 from aerosurvey.web.state import ServerState, blocking, error, plan_gone, save_upload, server
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.planner import Plan
 
 #: The files of a `log ingest` folder the page reads (failing_places.geojson: `aerosurvey check FOLDER`); others are ignored.
 FLIGHT_FILES = ("events.csv", "coverage.tif", "log_report.json", PLACES_FILE)
@@ -122,4 +125,15 @@ def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files:
         text = str(exc).replace(f"--log {str(folder)!r}", "the loaded folder").replace(repr(str(folder)), "the loaded folder")
         raise InputError(text, key="resume") from None
     pid = state.remember(service.PlanBundle({"name": f"{spec.name}-resume"}, out, bundle.frame))
-    return {"plan_id": pid, "files": sorted(out), "notes": list(start.said), "summary": resumed_text(plan, start)}
+    return {"plan_id": pid, "files": sorted(out), "notes": list(start.said), "summary": resumed_text(plan, start),
+            "lines": _sortie_routes(plan)}
+
+
+def _sortie_routes(plan: Plan) -> dict[str, Any]:
+    """Each resumed sortie's route as it flies it (its waypoints, WGS84), named by the files it is written to."""
+    from aerosurvey import ids
+
+    feats = [{"type": "Feature", "properties": {"role": "route", "id": ids.resume_file_stem(k)},
+              "geometry": {"type": "LineString", "coordinates": [[round(w.lon, 8), round(w.lat, 8)] for w in wps]}}
+             for k, (_, wps) in enumerate(plan.sorties, start=1)]
+    return {"type": "FeatureCollection", "features": feats}

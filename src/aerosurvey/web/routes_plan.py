@@ -1,6 +1,6 @@
 """Plans as jobs and a plan's files:
 
-  POST   /api/plan                   {"spec": {...}, "zones": [WKT, ...]?} → 202 {"job": id}
+  POST   /api/plan                   {"spec": {...}, "zones": [WKT, ...]?} → 202 {"job": id}; 429 when the queue is full
   GET    /api/jobs/{id}?wait=S       the job's state and progress; when done, the plan's view
   DELETE /api/jobs/{id}              cancel a running plan
   GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
@@ -18,8 +18,8 @@ from starlette.responses import JSONResponse, Response
 
 from aerosurvey.errors import InputError
 from aerosurvey.web import service
-from aerosurvey.web.jobs import Progress
-from aerosurvey.web.state import blocking, error, not_found, plan_gone, server, spec_body, zip_texts, zones_body
+from aerosurvey.web.jobs import Progress, QueueFull
+from aerosurvey.web.state import attachment, blocking, error, not_found, plan_gone, server, spec_body, zip_texts, zones_body
 
 MAX_WAIT_S = 10.0
 _POLL_S = 0.02
@@ -39,7 +39,10 @@ async def submit_plan(request: Request) -> Response:
         bundle = service.plan_bundle(spec, state.workspace, progress, zones)
         return {"plan_id": state.remember(bundle), "files": bundle.names(), **bundle.view}
 
-    job = state.runner.submit(work)
+    try:
+        job = state.runner.submit(work)
+    except QueueFull as exc:
+        return error(exc, 429)
     return JSONResponse({"job": job.id}, status_code=202)
 
 
@@ -79,7 +82,7 @@ async def plan_file(request: Request) -> Response:
     if data is None:
         return not_found(f"the plan has no file {name!r}; it has {', '.join(bundle.names())}")
     return Response(data, media_type=_MEDIA.get(name.rsplit(".", 1)[-1], "text/plain"),
-                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+                    headers=attachment(name))
 
 
 async def plan_archive(request: Request) -> Response:
@@ -88,4 +91,4 @@ async def plan_archive(request: Request) -> Response:
         return plan_gone(request)
     data = await blocking(zip_texts, {**bundle.files, **bundle.binary})
     stem = bundle.view["name"] or "mission"
-    return Response(data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{stem}.zip"'})
+    return Response(data, media_type="application/zip", headers=attachment(f"{stem}.zip"))

@@ -3,7 +3,7 @@
   GET    /                 the page
   GET    /api/state        the starting spec, its geometry (WKT), cameras, rule profiles, settings
   POST   /api/area         multipart `file`: an area file, read in memory → a spec over it (area as WKT)
-  POST   /api/spec/toml    {"spec": {...}} → the spec as TOML (attachment)
+  POST   /api/spec/toml    {"spec": {...}, "zones"?} → the spec as TOML (attachment); a zip of it and the files it names
   POST   /api/spec/save    {"spec": {...}, "zones"?} → written over the spec file the server was started with;
                            a drawn area and drawn zones go to GeoJSON files beside it
 """
@@ -22,7 +22,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.web import service
 from aerosurvey.web.specfile import geometry_preview, save_with_geometry, spec_download
-from aerosurvey.web.state import ServerState, blocking, error, form_in_memory, server, spec_body, zip_texts, zones_body
+from aerosurvey.web.state import ServerState, attachment, blocking, error, form_in_memory, server, spec_body, zip_texts, zones_body
 
 
 async def index(request: Request) -> Response:
@@ -74,7 +74,7 @@ async def upload_area(request: Request) -> Response:
 
 
 async def spec_toml(request: Request) -> Response:
-    """The spec as a TOML file; with drawn zones, a zip of it and the zones' GeoJSON file it names."""
+    """The spec as a TOML file; a zip of it and the files it names (drawn zones' GeoJSON, the area and zone files)."""
     state = server(request)
     try:
         spec = await spec_body(request)
@@ -84,10 +84,10 @@ async def spec_toml(request: Request) -> Response:
     except AerosurveyError as exc:
         return error(exc)
     if len(files) == 1:
-        return Response(files[f"{name}.toml"].encode("utf-8"), media_type="application/toml",
-                        headers={"Content-Disposition": f'attachment; filename="{name}.toml"'})
+        return Response(files[f"{name}.toml"], media_type="application/toml",
+                        headers=attachment(f"{name}.toml"))
     return Response(await blocking(zip_texts, files), media_type="application/zip",
-                    headers={"Content-Disposition": f'attachment; filename="{name}.zip"'})
+                    headers=attachment(f"{name}.zip"))
 
 
 async def spec_save(request: Request) -> Response:

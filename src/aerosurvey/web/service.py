@@ -98,6 +98,17 @@ class Workspace:
     base: Path
     uploads: Path
     roots: list[Path] = field(default_factory=list)
+    spec_file: Path | None = None  # the spec file the server was started with
+
+    def file_of(self, spec: dict[str, Any], zones: list[str] | None) -> Path | None:
+        """The spec file, when `spec` (without drawn zones) is what it holds now: its plan is then that of the file,
+        whose manifest names it (`inputs.spec`, path and hash) as `aerosurvey plan` does; else None."""
+        if self.spec_file is None or zones is not None:
+            return None
+        try:
+            return self.spec_file if read_spec_file(self.spec_file) == spec else None
+        except InputError:  # changed on disk since: the page's spec is not that file's
+            return None
 
     def allowed(self, p: Path) -> bool:
         r = p.resolve()
@@ -158,7 +169,7 @@ def with_new_area(spec: dict[str, Any], area: dict[str, Any], name: str) -> dict
 #: What an upload's archive (a zipped Shapefile, a KMZ) may unpack to in memory.
 MAX_UNPACKED = 100 * 1024 * 1024
 #: A Shapefile's own files: the ones of the .shp's name that GDAL reads.
-_SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
+SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
 
 
 @dataclass(frozen=True)
@@ -225,7 +236,7 @@ def _dataset_files(name: str, data: bytes) -> dict[str, bytes]:
                     raise InputError(f"area upload {name!r}: a zipped Shapefile must hold exactly one .shp file, found "
                                      f"{len(shp)}", key="area.file")
                 stem = shp[0].filename[:-4]
-                wanted = [m for m in members if m.filename[:-4] == stem and m.filename[-4:].lower() in _SHAPEFILE_PARTS]
+                wanted = [m for m in members if m.filename[:-4] == stem and m.filename[-4:].lower() in SHAPEFILE_PARTS]
             if sum(m.file_size for m in wanted) > MAX_UNPACKED:
                 raise InputError(f"area upload {name!r}: unpacks to more than {MAX_UNPACKED // 1048576} MB", key="area.file")
             # base names at the root (a KMZ's documents flattened: GDAL's LIBKML driver reads them as one folder)
@@ -313,7 +324,7 @@ def spec_and_inputs(spec_data: dict[str, Any], ws: Workspace, zones: list[str] |
     if not isinstance(spec_data, dict):
         raise InputError("spec: expected a JSON object with the mission spec's tables")
     ws.check_paths(spec_data)
-    spec = parse_spec(spec_data, base=ws.base, path=None)
+    spec = parse_spec(spec_data, base=ws.base, path=ws.file_of(spec_data, zones))
     if zones is not None and spec.area.exclusions:
         raise InputError("zones: drawn exclusion zones replace area.exclusions; send one or the other", key="zones")
     # an uploaded or drawn area is inline WKT: the loader parses it in memory and reads files only
@@ -420,6 +431,7 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         # a centreline's "area" (a corridor's) is its band around the centreline
         "area_is_centreline": kind_of(plan.pattern.kind).area_is_centreline,
         "frame": frame.as_dict(),
+        "dem": plan.site.dem is not None,  # without one, launch points have no ground height (the manifest's 0 m)
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],
             "exclusions": [frame.rings(g) for g in _polygons(by_role.get("exclusion", []))],

@@ -4,6 +4,7 @@ writes them) and the geometry drawn on the page, saved as GeoJSON files beside i
 from __future__ import annotations
 
 import copy
+import glob
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -11,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import shapely.geometry
 from shapely.geometry.base import BaseGeometry
 
-from aerosurvey.errors import AerosurveyError
+from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.fileio import atomic_write_text
 from aerosurvey.inputs import load_geometry
 from aerosurvey.web import service
@@ -109,12 +110,33 @@ def save_with_geometry(ws: service.Workspace, spec_path: Path, spec: dict[str, A
     return out, sorted(files), preview
 
 
-def spec_download(ws: service.Workspace, spec: dict[str, Any], zones: list[str] | None, name: str) -> dict[str, str]:
-    """The files of *Spec as TOML*: `NAME.toml` (the area inline), and `NAME.zones.geojson` beside it when
-    zones are drawn. Checked as a plan checks them."""
-    _, drawn = checked_spec(ws, spec, zones or None)
+def spec_download(ws: service.Workspace, spec: dict[str, Any], zones: list[str] | None, name: str) -> dict[str, str | bytes]:
+    """The files of *Spec as TOML*: `NAME.toml` (an uploaded or drawn area inline), `NAME.zones.geojson`
+    beside it when zones are drawn, and the area and zone files the spec names, under the paths it names
+    them by (a Shapefile with its .shx, .dbf, .prj and .cpg): the download plans as the mission folder does.
+    A DEM is named, not included (a GeoTIFF may be hundreds of MB). Checked as a plan checks them."""
+    parsed, drawn = checked_spec(ws, spec, zones or None)
     out, files = with_geometry_files(spec, None, drawn, name)
-    return {f"{name}.toml": service.spec_to_toml(relative_paths(ws, out)), **files}
+    named = [p for p in (parsed.area.file, *(parsed.area.exclusions if drawn is None else ())) if p is not None]
+    return {f"{name}.toml": service.spec_to_toml(relative_paths(ws, out)), **files, **_named_files(ws, named)}
+
+
+def _named_files(ws: service.Workspace, paths: list[Path]) -> dict[str, bytes]:
+    """The bytes of the geometry files a spec names, by their path relative to its folder."""
+    found = [q for p in paths for q in _dataset(p)]
+    size = sum(q.stat().st_size for q in found)
+    if size > service.MAX_UNPACKED:
+        raise InputError(f"spec download: the area and zone files the spec names hold {size / 1048576:.0f} MB, more than "
+                         f"{service.MAX_UNPACKED // 1048576} MB; copy the mission's folder instead")
+    return {_relative(ws, str(q)): q.read_bytes() for q in found}
+
+
+def _dataset(path: Path) -> list[Path]:
+    """A geometry file and, for a Shapefile, the files of its name that GDAL reads with it."""
+    if path.suffix.lower() != ".shp":
+        return [path]
+    return sorted(q for q in path.parent.glob(f"{glob.escape(path.stem)}.*")
+                  if q.suffix.lower() in service.SHAPEFILE_PARTS and q.is_file())
 
 
 def _feature_collection(geoms: list[BaseGeometry], role: str) -> str:

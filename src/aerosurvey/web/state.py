@@ -10,12 +10,14 @@ import io
 import itertools
 import shutil
 import threading
+import unicodedata
 import zipfile
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
+from urllib.parse import quote
 
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import FormData, UploadFile
@@ -77,6 +79,21 @@ async def blocking(fn: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
 def error(exc: Exception, status: int = 400) -> JSONResponse:
     """The API's error body: the message and the spec key at fault (or null)."""
     return JSONResponse({"error": str(exc), "key": getattr(exc, "key", None)}, status_code=status)
+
+
+def attachment(name: str) -> dict[str, str]:
+    """The Content-Disposition header of a download named `name` (RFC 6266): the name itself as UTF-8
+    (`filename*`, RFC 5987) and an ASCII fallback for clients that read only `filename` (accents
+    dropped, other characters `_`). A header is Latin-1 on the wire: a mission named in Czech would
+    not fit it as it is."""
+    fallback = "".join(_ascii(c) for c in name)
+    return {"Content-Disposition": f"attachment; filename=\"{fallback}\"; filename*=UTF-8''{quote(name, safe='')}"}
+
+
+def _ascii(c: str) -> str:
+    """A character of a file name in ASCII for a quoted header value: its letter without the accent, else `_`."""
+    base = unicodedata.normalize("NFKD", c).encode("ascii", "ignore").decode("ascii")
+    return base if base.isprintable() and base and base not in ('"', "\\") else "_"
 
 
 def not_found(message: str) -> JSONResponse:

@@ -6,6 +6,11 @@
 const SORTIE_COLOURS = ["#1565c0", "#ef6c00", "#6a1b9a", "#00897b", "#c2185b", "#5d4037", "#3949ab", "#7cb342",
   "#f9a825", "#00838f", "#8e24aa", "#d84315"];
 const WEB = "EPSG:3857", WGS84 = "EPSG:4326";
+// what the page writes in WGS84 is rounded to 1e-8° (about a millimetre): the map's Web Mercator round trip adds noise
+// in the last digits (14.9517319 comes back as 14.951731900000002), which rounding removes
+const DEGREE_DECIMALS = 8;
+const TO_WGS84 = { dataProjection: WGS84, featureProjection: WEB, decimals: DEGREE_DECIMALS };
+function lonLatOf(coord) { return olb.toLonLat(coord).map((v) => Math.round(v * 10 ** DEGREE_DECIMALS) / 10 ** DEGREE_DECIMALS); }
 const DEFAULT_CORRIDOR_WIDTH_M = 50;  // a first centreline's corridor, until the pilot sets its width
 
 const S = {
@@ -13,6 +18,7 @@ const S = {
   specPath: null,
   zones: null,         // drawn exclusion zones as WKT (WGS84); null: the spec's zone files
   view: null,          // the last plan's result
+  planned: null,       // what that plan was made of: {spec, zones, drawn}; a cancelled plan goes back to it
   job: null,           // the running plan job's id
   seq: 0,              // plan request counter: stale results are dropped
   timer: null,
@@ -231,7 +237,6 @@ function errorBox(key) {
 function showError(key, message) {
   const box = errorBox(key) || $("#general-error");
   box.textContent = message;
-  box.dataset.key = key || "";
   const field = key ? $(`[data-key='${key}']`) : null;
   if (field) field.classList.add("bad");
   // a field's error inside a hidden tab: the general line says where to look
@@ -282,6 +287,7 @@ async function replan() {
   if (!S.spec.area) { setStatus("draw an area or drop an area file to start"); return; }
   const started = performance.now();
   setStatus("planning…");
+  const submitted = { spec: structuredClone(S.spec), zones: S.zones === null ? null : [...S.zones], drawn: snapshot() };
   let job;
   try {
     job = (await api("POST", "/api/plan", planBody())).job;
@@ -298,8 +304,9 @@ async function replan() {
         clearAllErrors();
         S.stats.plans += 1;
         S.stats.lastMs = Math.round(performance.now() - started);
-        render(st.result);
-        setStatus(`planned in ${(st.elapsed_s).toFixed(2)} s`);
+        S.planned = submitted;
+        const dropped = render(st.result);
+        setStatus(`planned in ${(st.elapsed_s).toFixed(2)} s` + (dropped ? "; the flight loaded on the last plan was cleared" : ""));
         break;
       }
       if (st.state === "error") {
@@ -308,7 +315,11 @@ async function replan() {
         setStatus("the last change could not be planned; the map shows the previous plan");
         break;
       }
-      if (st.state === "cancelled") { setStatus("cancelled; the map shows the previous plan"); break; }
+      if (st.state === "cancelled") {
+        backToPlanned();
+        setStatus(S.view ? "cancelled; the form and the map are back to the plan shown" : "cancelled; nothing planned yet");
+        break;
+      }
     }
   } catch (e) {
     if (seq === S.seq) { showError(e.key, e.message); setStatus("error"); }
@@ -319,6 +330,23 @@ async function replan() {
 }
 
 function setStatus(text) { $("#status").textContent = text; }
+
+/** A plan cancelled: the spec, the zones and the drawn geometry go back to what the plan on the map was made of (the
+ * spec the page started with before any plan), so that the form shows, and Save writes, only what was planned.
+ * Undo (Ctrl+Z) brings a cancelled drawing back. */
+function backToPlanned() {
+  const p = S.planned;
+  S.spec = structuredClone(p.spec);
+  S.zones = p.zones === null ? null : [...p.zones];
+  fillForm();
+  L.area.changed();  // a corridor's area polygons are drawn faint
+  S.touched = new Set(p.drawn.touched);  // the roles written into that spec
+  if (JSON.stringify(p.drawn.features) !== JSON.stringify(snapshot().features)) {
+    restore(p.drawn);
+    S.history = S.history.slice(0, S.pos + 1); S.history.push(snapshot()); S.pos = S.history.length - 1;
+    updateUndo();
+  }
+}
 
 // ---- map: layers and styles --------------------------------------------------------------------
 function colour(sortie) { return sortie ? SORTIE_COLOURS[(sortie - 1) % SORTIE_COLOURS.length] : SORTIE_COLOURS[0]; }
@@ -506,8 +534,25 @@ function render(view) {
   renderSummary(view);
   renderRules(view);
   renderFly(view);
-  if (S.flown && S.flown.plan_id !== view.plan_id) clearFlown();
+  const dropped = S.flown && S.flown.plan_id !== view.plan_id;
+  if (dropped) dropFlown();
   noteFirstMap();
+  return dropped;
+}
+
+/** The plan changed under a loaded flight: its layers go (they were matched to the last plan), with the reason and a
+ * button that loads the same files on the new plan. */
+function dropFlown() {
+  const files = S.flown.files;
+  clearFlown();
+  const p = document.createElement("p");
+  p.textContent = "The flight loaded on the last plan was cleared: the plan changed (re-planned after an edit), and the "
+    + "flight's photos, coverage and rules were matched to the last plan's stations. ";
+  const again = document.createElement("button"); again.type = "button"; again.id = "reload-flight";
+  again.textContent = "Load it on this plan";
+  again.addEventListener("click", () => loadFlight(files));
+  p.appendChild(again);
+  $("#flight-summary").appendChild(p);
 }
 
 function registerPlanCrs(frame) {
@@ -583,7 +628,11 @@ function ruleItem(r, onClick) {
   detail.textContent = `measured ${r.measured}; required ${r.required}` + ((r.evidence || []).length ? "\n" + r.evidence.slice(0, 6).join("\n") : "");
   li.append(status, name, detail);
   li.title = r.statement || "";
-  if (onClick) li.addEventListener("click", () => onClick(r, li));
+  if (onClick) {  // a rule with places to show: a button, reached by Tab and pressed with Enter or Space
+    li.tabIndex = 0; li.setAttribute("role", "button");
+    li.addEventListener("click", () => onClick(r, li));
+    li.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); onClick(r, li); } });
+  }
   return li;
 }
 
@@ -643,7 +692,10 @@ function renderFly(view) {
     const facts = document.createElement("div"); facts.className = "facts";
     facts.textContent = `${b.photos} photos · ${(b.distance_m / 1000).toFixed(2)} km`;
     const launch = document.createElement("div"); launch.className = "launch";
-    if (b.launch) launch.textContent = `launch point ${b.launch.index}: ${lonlatText(b.launch.lon, b.launch.lat)}, ground ${b.launch.ground_amsl_m} m AMSL`;
+    if (b.launch) {  // without a DEM the manifest's ground is 0 m: no height is known
+      launch.textContent = `launch point ${b.launch.index}: ${lonlatText(b.launch.lon, b.launch.lat)}, `
+        + (view.dem ? `ground ${b.launch.ground_amsl_m} m AMSL` : "no DEM");
+    }
     else { const H = view.layers.home; const [lon, lat] = olb.toLonLat(frameXY([H.x, H.y])); launch.textContent = `take-off (home): ${lonlatText(lon, lat)}`; }
     const parts = [facts, launch];
     if (b.usable_used_pct !== undefined) {
@@ -693,7 +745,7 @@ function editFeatures(role) { return edit.getFeatures().filter((f) => f.get("rol
 function toWkt(geoms) {
   const multi = geoms[0].getType() === "LineString" ? "MultiLineString" : "MultiPolygon";
   const g = geoms.length === 1 ? geoms[0] : geojson.readGeometry({ type: multi, coordinates: geoms.map((p) => p.getCoordinates()) });
-  return wkt.writeGeometry(g.clone().transform(WEB, WGS84));
+  return wkt.writeGeometry(g, TO_WGS84);
 }
 function readWkt(text) {
   const g = wkt.readGeometry(text, { dataProjection: WGS84, featureProjection: WEB });
@@ -742,7 +794,7 @@ function writeZones() {
   if (S.spec.area) delete S.spec.area.exclusions;
 }
 function writeLaunch() {
-  const pts = editFeatures("launch").map((f) => olb.toLonLat(f.getGeometry().getCoordinates()));
+  const pts = editFeatures("launch").map((f) => lonLatOf(f.getGeometry().getCoordinates()));
   if (S.spec.area) delete S.spec.area.launch;
   if (S.spec.battery) { S.spec.battery.launch_points = pts; if (!pts.length) delete S.spec.battery.launch_points; }
   else if (pts.length && S.spec.area) S.spec.area.launch = pts[pts.length - 1];
@@ -792,7 +844,7 @@ const snap = new olb.Snap({ source: edit, pixelTolerance: 12 });
 
 function setTool(tool) {
   S.tool = tool;
-  for (const b of $$("#tools [data-tool]")) b.classList.toggle("on", b.dataset.tool === tool);
+  for (const b of $$("#tools [data-tool]")) { b.classList.toggle("on", b.dataset.tool === tool); b.setAttribute("aria-pressed", String(b.dataset.tool === tool)); }
   if (draw) { map.removeInteraction(draw); draw = null; }
   map.removeInteraction(snap);
   modify.setActive(tool === "edit");
@@ -1013,7 +1065,7 @@ async function downloadToml() {
   } catch (e) { showError(e.key, e.message); }
 }
 function downloadDrawn() {
-  const text = geojson.writeFeatures(edit.getFeatures(), { dataProjection: WGS84, featureProjection: WEB });
+  const text = geojson.writeFeatures(edit.getFeatures(), TO_WGS84);
   downloadBlob(new Blob([text], { type: "application/geo+json" }), `${(S.spec.mission || {}).name || "mission"}-drawn.geojson`);
 }
 async function saveSpec() {
@@ -1027,7 +1079,7 @@ async function saveSpec() {
 
 // ---- tabs ----------------------------------------------------------------------------------------
 function showTab(name) {
-  for (const b of $$("#tabs button")) b.classList.toggle("on", b.dataset.tab === name);
+  for (const b of $$("#tabs button")) { b.classList.toggle("on", b.dataset.tab === name); b.setAttribute("aria-selected", String(b.dataset.tab === name)); }
   for (const t of $$(".tab")) t.hidden = t.dataset.tab !== name;
 }
 
@@ -1079,7 +1131,12 @@ async function start() {
   for (const b of $$("#tabs button")) b.addEventListener("click", () => showTab(b.dataset.tab));
   $("#area-file").addEventListener("change", (e) => { if (e.target.files[0]) uploadArea(e.target.files[0]); e.target.value = ""; });
   $("#flight-files").addEventListener("change", (e) => { loadFlight(Array.from(e.target.files)); e.target.value = ""; });
+  $("#pick-area").addEventListener("click", () => $("#area-file").click());  // the file inputs are hidden: buttons open them
+  $("#pick-flight").addEventListener("click", () => $("#flight-files").click());
   const drop = $("#drop");
+  drop.addEventListener("keydown", (e) => {  // the drop zone itself, focused: Enter or Space picks a file
+    if (e.target === drop && (e.key === "Enter" || e.key === " ")) { e.preventDefault(); $("#area-file").click(); }
+  });
   for (const t of ["dragenter", "dragover"]) drop.addEventListener(t, (e) => { e.preventDefault(); drop.classList.add("over"); });
   for (const t of ["dragleave", "drop"]) drop.addEventListener(t, (e) => { e.preventDefault(); drop.classList.remove("over"); });
   drop.addEventListener("drop", (e) => { const f = e.dataTransfer.files[0]; if (f) uploadArea(f); });
@@ -1096,6 +1153,11 @@ async function start() {
   for (const b of $$("#tools [data-tool]")) b.addEventListener("click", () => setTool(b.dataset.tool));
   $("#undo").addEventListener("click", undo);
   $("#redo").addEventListener("click", redo);
+  document.addEventListener("keydown", (e) => {  // while drawing: Escape abandons the drawing, Backspace removes its last point
+    if (!draw || e.ctrlKey || e.metaKey || ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement.tagName)) return;
+    if (e.key === "Escape") draw.abortDrawing();
+    if (e.key === "Backspace") { e.preventDefault(); draw.removeLastPoint(); }
+  });
   document.addEventListener("keydown", (e) => {
     if (!(e.ctrlKey || e.metaKey) || ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement.tagName)) return;
     if (e.key === "z" && !e.shiftKey) { e.preventDefault(); undo(); }
@@ -1105,11 +1167,12 @@ async function start() {
   map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); });
   setTool("edit");
 
+  loadEditable();  // the spec's area on the map before its first plan arrives; without one, the first drawing can be undone
+  S.planned = { spec: structuredClone(S.spec), zones: null, drawn: snapshot() };  // what a cancelled first plan goes back to
   if (S.spec.area) {
-    loadEditable(); fitAll(); noteFirstMap();  // the area is on the map before its first plan arrives
+    fitAll(); noteFirstMap();
     replan();
   } else {
-    loadEditable();  // nothing yet: the first drawing can be undone
     setStatus("draw an area or drop an area file to start");
     const b = S.basemap && S.basemap.bounds;  // a page without a spec opens over its offline basemap
     if (b) map.getView().fit([...olb.fromLonLat([b[0], b[1]]), ...olb.fromLonLat([b[2], b[3]])], { maxZoom: S.basemap.maxzoom });
