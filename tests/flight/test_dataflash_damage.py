@@ -170,6 +170,9 @@ def test_junk_fmt_records(tmp_path: Path, base: Path, at: float, random_bytes: b
 # message: the FMT header read 89 bytes over the CAM message (found by a run on 2026-11-26)
 @example(base=PLANE, a=0.0, size=95, after_itself=False, to=0.5027708058682548)
 @example(base=PLANE, a=0.01, size=294, after_itself=False, to=0.5027708058682548)  # its 89 bytes end where the CAM's end
+# 305 bytes: three FMT records and the start of a fourth, cut after its (short) column names, copied just
+# before a CAM message: an identical FMT copy whose 89 bytes took the CAM (found by a run on 2026-11-28)
+@example(base=PLANE, a=0.0, size=305, after_itself=False, to=0.9413715868230008)
 @given(base=bases, a=st.floats(0, 1), size=st.integers(1, 200_000), after_itself=st.booleans(), to=st.floats(0, 1))
 def test_duplicated_chunks(tmp_path: Path, base: Path, a: float, size: int, after_itself: bool, to: float) -> None:
     """A chunk of the log copied again, right after itself or anywhere else (before it, inside

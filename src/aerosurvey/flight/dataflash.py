@@ -186,12 +186,13 @@ class DataFlashLog:
         columns = cols_s.split(",") if cols_s else []
         old = self.formats.get(typ)
         clash = old is not None and (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns)
-        if (clash or (old is None and self.type_of(name_s) is not None)) and \
+        if (old is not None or self.type_of(name_s) is not None) and \
                 (not self._followed(o + FMT_LEN) or self._inner_message(o, o + FMT_LEN) is not None):
-            # a record that would only be ignored, followed by no message or holding messages that
-            # are, is damage that reads as an FMT header (a copied chunk's first bytes): its 89 bytes
-            # would take real messages
-            self._reject = f"FMT record for {name_s} that redefines a type and spans other messages"
+            # a record of a type already defined (ignored, or a copy that changes nothing), followed
+            # by no message or holding messages that are, is damage that reads as an FMT header (a
+            # copied chunk's first bytes, cut where its column names have ended): its 89 bytes would
+            # take real messages
+            self._reject = f"FMT record for {name_s} that repeats a defined type and spans other messages"
             return False
         undecoded: frozenset[str] = frozenset()
         if repaired is not None:
