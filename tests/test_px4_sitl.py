@@ -20,7 +20,7 @@ import pytest
 from click.testing import CliRunner
 
 from aerosurvey.cli import main
-from conftest import assert_sitl_cleaned_up, example_for_px4, make_spec, plan_and_fly
+from conftest import assert_sitl_cleaned_up, make_spec, plan_and_fly
 
 #: PX4's places (MissionBlock::item_contains_position)
 PX4_PLACES = {16, 17, 19, 21, 22, 31, 84, 85}
@@ -119,16 +119,6 @@ def test_lines_longer_than_px4_v1_13_takes_fly_cut_into_legs(tmp_path):
     legs = [float(_metres(np.array(a[0]), a[1], np.array(b[0]), b[1])) for a, b in zip(places, places[1:])]
     assert max(legs) <= 900.0
     assert "legs: the longest" in report["sorties"][0]["upload"]
-    _assert_flown(manifest, report, out, None)
-
-
-@pytest.mark.sitl
-def test_the_obratan_example_flies_in_px4(tmp_path):
-    """missions/obratan-72ha.toml planned for PX4: five sorties with 1.5 km lines (cut into legs
-    within 900 m), every photo of every sortie taken, each in its estimated time."""
-    binary = _binary()
-    out = tmp_path / "obratan"
-    manifest, report = _plan_and_fly(example_for_px4("obratan-72ha", tmp_path), out, binary)
     _assert_flown(manifest, report, out, None)
 
 

@@ -178,7 +178,7 @@ class Px4Vehicle(SitlVehicle):
         """Every parameter holds what was asked (PX4's start script may set a default over a value
         given as PX4_PARAM_ that equals the compiled-in default)."""
         names = tuple(name for name, _ in self.params)
-        got = link.read_params(names, self.boot_timeout)
+        got = link.read_params(names, self.boot_timeout, settle=self.boot_timeout)  # every one of them, asked again
         for name, value in self.params:
             if name not in got:
                 raise self.error(f"PX4 SITL has no parameter {name} (or did not answer for it)")
