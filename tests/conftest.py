@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,50 @@ def make_spec(tmp: Path, overrides: dict[str, Any] | None = None, area: list | N
     p = tmp / "spec.toml"
     p.write_text(tomli_w.dumps(spec))
     return p
+
+
+def example_for_px4(name: str, tmp: Path) -> Path:
+    """missions/NAME.toml with `[vehicle] firmware = "px4"`, written into `tmp` (its area and DEM
+    taken from missions/)."""
+    import tomllib
+
+    spec = tomllib.loads((REPO / "missions" / f"{name}.toml").read_text())
+    spec["vehicle"]["firmware"] = "px4"
+    for table, key in (("area", "file"), ("terrain", "dem")):
+        if key in spec.get(table, {}):
+            spec[table][key] = str(REPO / "missions" / spec[table][key])
+    path = tmp / f"{name}.toml"
+    path.write_text(tomli_w.dumps(spec))
+    return path
+
+
+def plan_and_fly(spec: Path, out: Path, *fly: str) -> tuple[dict, dict]:
+    """Plan `spec` into `out` and fly every sortie with `aerosurvey sitl fly OUT *fly`; (the
+    manifest, the SITL report), both as JSON."""
+    from click.testing import CliRunner
+
+    from aerosurvey.cli import main
+
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), *fly])
+    report = json.loads((out / "sitl" / "sitl_report.json").read_text())
+    assert res.exit_code == 0, res.output
+    return json.loads((out / "manifest.json").read_text()), report
+
+
+def assert_sitl_cleaned_up(temp: Path, pidfile: Path, plan_dir: Path) -> None:
+    """After a SITL that failed: its temporary folder (under `temp`) removed, its process (pid in
+    `pidfile`) stopped, no report written into the plan folder."""
+    assert list(temp.iterdir()) == []
+    pid = int(pidfile.read_text())
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        pass
+    else:
+        raise AssertionError(f"SITL process {pid} still runs")
+    assert not (plan_dir / "sitl").exists()
 
 
 @pytest.fixture

@@ -129,6 +129,19 @@ def test_copter_fixed_yaw(tmp_path):
     assert px4.autopilot_id == mav.AUTOPILOT_PX4
 
 
+def test_px4_waypoints_leave_the_nose_to_px4(tmp_path):
+    """Without a fixed yaw, a PX4 waypoint's yaw is NaN: PX4 turns a multicopter to a finite one
+    (0 held the nose north on every line in its SITL) and keeps its yaw mode (the nose along the
+    track) for NaN. ArduCopter ignores it: ArduPilot's waypoints keep 0."""
+    import math
+
+    _, px4 = _plan(tmp_path, {"vehicle": {"firmware": "px4"}})
+    waypoints = [it for it in px4.items if it.command == mav.NAV_WAYPOINT]
+    assert waypoints and all(math.isnan(it.param4) for it in waypoints)
+    _, ardupilot = _plan(tmp_path, {})
+    assert {it.param4 for it in ardupilot.items if it.command == mav.NAV_WAYPOINT} == {0.0}
+
+
 def test_geofence_in_the_plan_file(tmp_path):
     import json
 

@@ -19,7 +19,7 @@ import shapely
 from click.testing import CliRunner
 
 from aerosurvey.cli import main
-from conftest import REPO
+from conftest import REPO, assert_sitl_cleaned_up, plan_and_fly
 
 
 def _binary(vehicle: str) -> str | None:
@@ -167,12 +167,7 @@ def test_a_flight_cut_into_rtl_along_its_line_is_resumed_without_a_gap(tmp_path)
 
 def _plan_and_fly(spec: Path, out: Path, binary: str) -> tuple[dict, dict]:
     """Plan `spec` into `out`, fly every sortie in SITL; (the manifest, the SITL report)."""
-    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--sitl-bin", binary, "--speedup", "20"])
-    report = json.loads((out / "sitl" / "sitl_report.json").read_text())
-    assert res.exit_code == 0, res.output
-    return json.loads((out / "manifest.json").read_text()), report
+    return plan_and_fly(spec, out, "--sitl-bin", binary, "--speedup", "20")
 
 
 def _log(path: Path, types: list[str]) -> list:
@@ -337,14 +332,6 @@ def _fake(tmp_path, mode: str):
     return fake, pidfile
 
 
-def _gone(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    return False
-
-
 @pytest.mark.parametrize("mode", ["exit", "silent"])
 def test_relative_paths_reach_sitl_and_a_failure_quotes_its_output(kubad_plan, tmp_path, monkeypatch, mode):
     fake, pidfile = _fake(tmp_path, mode)
@@ -366,6 +353,4 @@ def test_relative_paths_reach_sitl_and_a_failure_quotes_its_output(kubad_plan, t
         assert "exited with code 3 at start" in msg and "no simulator model: giving up" in msg
     else:
         assert "within 1.5 s" in msg and "SITL's last output: fake SITL starting" in msg
-    assert list(temp.iterdir()) == []  # SITL's temporary folder is removed
-    assert _gone(int(pidfile.read_text()))  # and its process stopped
-    assert not (kubad_plan / "sitl").exists()
+    assert_sitl_cleaned_up(temp, pidfile, kubad_plan)

@@ -51,7 +51,8 @@ COMMANDS: Mapping[str, Lazy] = {
                    "Missions for the rest of a flight of PLAN_DIR cut short, from its first station not photographed."),
     "serve": Lazy("aerosurvey.commands.serve:serve",
                   "Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."),
-    "sitl": Lazy("aerosurvey.commands.sitl:sitl", "ArduPilot SITL: fly the planned missions in simulation (needs a SITL binary you have)."),
+    "sitl": Lazy("aerosurvey.commands.sitl:sitl",
+                 "ArduPilot or PX4 SITL: fly the planned missions in simulation (needs a SITL binary you have)."),
     "upload": Lazy("aerosurvey.commands.upload:upload",
                    "Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare."),
 }

@@ -66,14 +66,19 @@ def _lonlats(plan: Plan, xys: list[tuple[float, float]]) -> list[list[float | No
 
 def sortie_record(plan: Plan, k: int, stem: str) -> dict[str, Any]:
     """Sortie k (from 1) as the manifest and resume.json record it, its files named `stem`.plan and
-    .waypoints; with a [battery] table, also its wind allowance and battery use."""
+    .waypoints; with a [battery] table, also its wind allowance and battery use. Its mission items
+    are those of its mission (home included), counted on the mission itself: PX4's leg split
+    (mission/builder.py) adds waypoints the battery split does not count."""
+    from aerosurvey.mission.builder import build_mission
+
     s, _wps = plan.sorties[k - 1]
     st, site = plan.stations, plan.launch.sites[s.launch]
     out: dict[str, Any] = {
         "id": ids.sortie_id(k), "files": [f"{stem}.plan", f"{stem}.waypoints"],
         "launch": {"index": s.launch + 1, "lon": _f(site.lon, 8), "lat": _f(site.lat, 8), "ground_amsl_m": _f(site.ground_m, 2)},
         "first_station": st.ids[s.first], "last_station": st.ids[s.last], "photos": s.last - s.first + 1,
-        "time_s": _f(s.horizontal_s + s.vertical_s, 1), "distance_m": _f(s.distance_m, 1), "mission_items": s.items + 1,
+        "time_s": _f(s.horizontal_s + s.vertical_s, 1), "distance_m": _f(s.distance_m, 1),
+        "mission_items": len(build_mission(plan, k - 1).items) + 1,
     }
     budget = plan.battery
     if budget is not None and budget.reserve is not None:

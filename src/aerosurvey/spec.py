@@ -88,6 +88,7 @@ class VehicleSpec:
     max_height_agl_m: float
     climb_rate_ms: float
     descent_rate_ms: float
+    max_leg_m: float | None = None  # PX4: the longest leg between two places of a mission (None: ArduPilot, no limit)
 
 
 @dataclass(frozen=True)
@@ -284,6 +285,11 @@ def _datetime(t: _Table, key: str) -> dt.datetime | None:
 #: included ("Only 650 items are supported", seen here); boards with more storage hold more.
 #: PX4's dataman holds 2000.
 MAX_ITEMS = {"ardupilot": 650, "px4": 2000}
+#: PX4 v1.13 and earlier refuse, at arming, a mission whose consecutive places lie farther apart
+#: than their parameter MIS_DIST_WPS (900 m by default; PX4 v1.14 removed the check, PX4 pull
+#: request 21262): legs of PX4 missions longer than `vehicle.max_leg_m` (this by default) get
+#: waypoints on them (mission/builder.py).
+PX4_MAX_LEG_M = 900.0
 
 
 def _lonlat_list(t: _Table, key: str) -> tuple[tuple[float, float], ...]:
@@ -456,9 +462,14 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
 
     v = top.table("vehicle")
     vtype = v.choice("type", "copter", VEHICLES)
+    firmware = v.choice("firmware", "ardupilot", FIRMWARES)
+    if firmware != "px4" and v.raw("max_leg_m") is not None:
+        raise InputError(f"vehicle.max_leg_m is set but vehicle.firmware is {firmware!r}: it limits the legs of PX4 "
+                         "missions only (ArduPilot has no such limit); remove it or set vehicle.firmware = \"px4\"",
+                         key="vehicle.max_leg_m")
     vehicle = VehicleSpec(
         type=vtype,
-        firmware=v.choice("firmware", "ardupilot", FIRMWARES),
+        firmware=firmware,
         cruise_speed_ms=v.number("cruise_speed_ms", 10.0 if vtype == "copter" else 18.0, lo=0.5, hi=60.0) or 0.0,
         acceleration_ms2=v.number("acceleration_ms2", 2.5, lo=0.1, hi=20.0) or 0.0,
         bank_angle_deg=v.number("bank_angle_deg", 30.0, lo=5.0, hi=60.0) or 0.0,
@@ -466,6 +477,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         max_height_agl_m=v.number("max_height_agl_m", 120.0, lo=1.0, hi=10000.0) or 0.0,
         climb_rate_ms=v.number("climb_rate_ms", 2.5 if vtype == "copter" else 3.0, lo=0.1, hi=30.0) or 0.0,
         descent_rate_ms=v.number("descent_rate_ms", 1.5 if vtype == "copter" else 2.0, lo=0.1, hi=30.0) or 0.0,
+        max_leg_m=v.number("max_leg_m", PX4_MAX_LEG_M, lo=10.0, hi=100000.0) if firmware == "px4" else None,
     )
     v.done()
 
@@ -495,6 +507,10 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         raise InputError("flight.fixed_yaw_deg is for copters: a plane always points along its track")
     if vtype == "plane" and flight.end == "land" and flight.wind_from_deg is None:
         raise InputError("flight.end = 'land' for a plane needs flight.wind_from_deg: the landing approach is flown into the wind")
+    if vtype == "plane" and flight.end == "land" and vehicle.max_leg_m is not None and flight.approach_m > vehicle.max_leg_m:
+        raise InputError(f"flight.approach_m = {flight.approach_m:g} is longer than vehicle.max_leg_m = {vehicle.max_leg_m:g}: "
+                         "PX4 refuses a leg that long and a landing approach is not cut; allowed: up to vehicle.max_leg_m",
+                         key="flight.approach_m")
 
     tr = top.table("terrain")
     dem_raw = tr.raw("dem")

@@ -166,7 +166,7 @@ class VehicleModel:
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
                  early_accept_after: int | None = None, fail_item: int | None = None,
                  silent_after_request: int | None = None, px4: bool = False, fix: bool = True,
-                 mav_type: int | None = None, lose_final_acks: int = 0) -> None:
+                 mav_type: int | None = None, lose_final_acks: int = 0, params: dict[str, float | int] | None = None) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
@@ -189,6 +189,9 @@ class VehicleModel:
         self.fail_item = fail_item  # a mission item whose storage fails (ERROR, upload ends)
         self.silent_after_request = silent_after_request  # asks for this mission item, then never answers again
         self.lose_final_acks = lose_final_acks  # the final ACCEPTED of this many uploads never leaves the vehicle
+        # parameters it answers PARAM_REQUEST_READ for (a float REAL32, an int INT32); PX4 has MIS_DIST_1WP in every version and
+        # says nothing for a name it does not have
+        self.params = params if params is not None else {"MIS_DIST_1WP": 10000.0} if px4 else {}
         self.stored: dict[int, list[Stored]] = {0: [], 1: [], 2: []}
         self.receiving: int | None = None  # mission type being uploaded
         self._staging: list[Stored] = []
@@ -276,6 +279,15 @@ class VehicleModel:
         if kind == "COMMAND_LONG" and m.command == 512:  # MAV_CMD_REQUEST_MESSAGE
             self._note("got REQUEST_MESSAGE")
             return self._position(m.param1)
+        if kind == "PARAM_REQUEST_READ":
+            self._note(f"got PARAM_REQUEST_READ {m.param_id}")
+            if m.param_id not in self.params:
+                return []
+            value = self.params[m.param_id]
+            if isinstance(value, int):  # MAV_PARAM_TYPE_INT32, its bytes in the float (PX4's bytewise encoding)
+                return [self.mav.param_value_encode(m.param_id.encode(), struct.unpack("<f", struct.pack("<i", value))[0],
+                                                    6, len(self.params), 0)]
+            return [self.mav.param_value_encode(m.param_id.encode(), value, 9, len(self.params), 0)]
         if kind == "HEARTBEAT" or not kind.startswith("MISSION_"):
             return []
         self._note(f"got {kind}")

@@ -255,3 +255,59 @@ def test_a_planned_px4_plane_landing_is_one_px4_takes(tmp_path: Path) -> None:
     land = [it for it in m.items if it.command == mav.DO_LAND_START]
     assert land and all(it.frame == mav.FRAME_MISSION for it in land)
     check_px4(m, "mission.plan", rally=True)
+
+
+def _longest_leg(m: Mission) -> tuple[float, int, int]:
+    """(metres, seq, seq) of the longest leg between consecutive places, as PX4 v1.13 measures it
+    (haversine on 6,371 km; its items numbered from 0, positions at 1e-7 degrees)."""
+    places = [(k, round(it.x * 1e7) / 1e7, round(it.y * 1e7) / 1e7) for k, it in enumerate(m.items)
+              if it.command in (16, 21, 22)]
+
+    def hav(a: tuple[int, float, float], b: tuple[int, float, float]) -> float:
+        p1, p2 = math.radians(a[1]), math.radians(b[1])
+        h = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(math.radians(b[2] - a[2]) / 2) ** 2
+        return 2 * 6_371_000.0 * math.asin(math.sqrt(h))
+
+    return max((hav(a, b), a[0], b[0]) for a, b in zip(places, places[1:]))
+
+
+@pytest.mark.parametrize("params,said", [
+    ({"MIS_DIST_WPS": 900.0, "MIS_DIST_1WP": 900.0}, "within the vehicle's MIS_DIST_WPS = 900 m"),
+    ({"MIS_DIST_1WP": 10000.0}, "the vehicle has no MIS_DIST_WPS (PX4 v1.14 and later do not limit legs)"),
+    ({"MIS_DIST_WPS": 0.0, "MIS_DIST_1WP": 900.0}, "the vehicle's MIS_DIST_WPS = 0 does not limit legs"),
+    ({}, "MIS_DIST_WPS not known: the vehicle answered no parameter request"),
+])
+def test_the_legs_are_compared_with_the_vehicles_mis_dist_wps(tmp_path: Path, params: dict, said: str) -> None:
+    """PX4 v1.13 and earlier (MIS_DIST_WPS 900 m by default) take the mission, v1.14 and later have
+    no such parameter and do not answer for it; the report says which and how long the longest leg is."""
+    m = px4_mission(6)
+    d, a, b = _longest_leg(m)
+    model = VehicleModel(px4=True, home=m.home, params=params)
+    with FakeVehicle(model, "udp") as fv:
+        res = run(write(tmp_path, m), fv.url, "--timeout", "0.2", "--retries", "4")
+    assert res.exit_code == 0, res.output
+    assert f"legs: the longest, items {a} to {b}, is {d:,.0f} m; {said}" in res.output or \
+        f"legs: the longest, items {a} to {b}, is {d:,.0f} m, {said}" in res.output
+    assert len(model.stored[0]) == len(m.items)
+
+
+def test_a_leg_longer_than_the_vehicles_mis_dist_wps_is_refused_before_anything_is_sent(tmp_path: Path) -> None:
+    m = px4_mission(6)
+    d, a, b = _longest_leg(m)
+    assert 400.0 < d < 900.0
+    model = VehicleModel(px4=True, home=m.home, params={"MIS_DIST_WPS": 400.0, "MIS_DIST_1WP": 900.0})
+    with FakeVehicle(model, "udp") as fv:
+        res = run(write(tmp_path, m), fv.url)
+    assert res.exit_code == 3, res.output
+    assert res.output.strip().splitlines()[-1] == (
+        f"Error: survey.plan: mission items {a} and {b} lie {d:,.0f} m apart but the vehicle's MIS_DIST_WPS = 400 m "
+        "(PX4 refuses such a mission at arming): plan it again with vehicle.max_leg_m = 400, or raise MIS_DIST_WPS")
+    assert mission_messages(model) == 0 and model.log.get("got PARAM_REQUEST_READ MIS_DIST_WPS")
+
+
+def test_px4s_integer_parameters_are_read_from_their_bytes() -> None:
+    """PX4 sends an INT32 parameter's bytes in PARAM_VALUE's float (TRIG_MODE 4 arrives as 5.6e-45)."""
+    model = VehicleModel(px4=True, params={"TRIG_MODE": 4, "MPC_XY_CRUISE": 10.0, "MIS_DIST_1WP": -1})
+    with FakeVehicle(model, "udp") as fv, open_link(fv.url, 5.0) as link:
+        got = link.read_params(("TRIG_MODE", "MPC_XY_CRUISE", "MIS_DIST_1WP", "NO_SUCH_PARAM"), 1.0)
+    assert got == {"TRIG_MODE": 4.0, "MPC_XY_CRUISE": 10.0, "MIS_DIST_1WP": -1.0}

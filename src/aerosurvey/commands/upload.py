@@ -3,7 +3,8 @@
 Exit codes: 0 uploaded and verified (or uploaded with --no-verify), 1 the link failed or the
 vehicle stores something else, 2 bad input (unreadable plan, bad option), 3 refused before
 anything was sent: the plan does not fit the vehicle (autopilot, vehicle type, launch point,
-battery, item count; for PX4 its storage and the commands and frames it takes). PX4 missions
+battery, item count; for PX4 its storage, the commands and frames it takes and its
+MIS_DIST_WPS, read from it). PX4 missions
 go through MAVSDK (link/px4.py), ArduPilot missions through aerosurvey's own protocol. Nothing
 is reported as uploaded unless the vehicle acknowledged every item.
 """
@@ -29,7 +30,6 @@ from aerosurvey.link.upload import (
     TransferReport,
     UploadReport,
     VerificationFailed,
-    check_px4,
     check_vehicle,
     mission_wire_items,
     upload_mission,
@@ -237,8 +237,9 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
     With --rally its rally points go too. PX4 missions go through MAVSDK's mission_raw plugin.
 
     Before sending anything it compares the vehicle with the mission (autopilot, vehicle type,
-    distance from the planned launch point, battery, item count; for PX4 also its storage and the
-    commands and frames it takes) and refuses with exit code 3 when they do not fit. Exit code 0
+    distance from the planned launch point, battery, item count; for PX4 also its storage, the
+    commands and frames it takes and the longest leg against its MIS_DIST_WPS) and refuses with
+    exit code 3 when they do not fit. Exit code 0
     when uploaded and verified, 1 when the link fails or the vehicle stores something else (the
     differing item, field and values are named; a partial mission is "the vehicle holds N of M
     mission items: do not fly it"), 2 for bad input. Progress goes to stderr when it is a
@@ -252,16 +253,17 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
     facts, source = mission_facts(plan_file, mission, waypoints, vehicle)
     policy = mp.Policy(timeout=timeout, retries=retries)
     if mission.firmware == "px4":
-        from aerosurvey.link.px4 import MavsdkTransfers, mavsdk_url
+        from aerosurvey.link.px4 import MavsdkTransfers, mavsdk_url, px4_checks
 
         mavsdk_url(url)  # a connection MAVSDK cannot open is bad input before anything else
+    legs = None
     try:
         with open_link(url, policy.silence) as link:
             assert link.vehicle is not None
             position = link.vehicle_position(policy.silence) if limit is not None else None
             where = check_vehicle(facts, link.vehicle, position, limit)
             if mission.firmware == "px4":
-                check_px4(mission, facts.file, rally)
+                legs = px4_checks(link, mission, facts.file, rally, policy.silence)
             else:
                 with TransferProgress(sys.stderr) as progress:
                     report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress, rally=rally)
@@ -276,6 +278,8 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
         raise
     click.echo(f"{facts.file}: {facts.vehicle} mission for {facts.firmware}, {source}")
     click.echo(where)
+    if legs is not None:
+        click.echo(legs)
     for line in format_report(report, not no_verify, rally):
         click.echo(line)
     if mission.rally and not rally:

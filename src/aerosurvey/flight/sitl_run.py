@@ -1,8 +1,8 @@
-"""Fly a plan folder's sorties in ArduPilot SITL: the work of `aerosurvey sitl fly`.
+"""Fly a plan folder's sorties in ArduPilot or PX4 SITL: the work of `aerosurvey sitl fly`.
 
 The plan is read through the manifest reader; each sortie's stations and photo runs come
 from it, each sortie's mission from its `.plan` file. The SITL processes themselves are
-run by aerosurvey.link.sitl (a binary the user has).
+run by aerosurvey.link.sitl and aerosurvey.link.px4_sitl (a binary the user has).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from aerosurvey.fileio import atomic_write_text
 from aerosurvey.link import sitl as harness
 from aerosurvey.manifest import WHOLE_MISSION_FILE, Manifest
 from aerosurvey.mission import mavlink_ids as mav
+from aerosurvey.mission.items import Mission
 
 
 @dataclass(frozen=True)
@@ -79,52 +80,27 @@ class SitlSettings:
     timeout_factor: float
     boot_timeout: float = 60.0  # seconds for SITL to listen and send its first heartbeat
     rtl_after_photos: int | None = None  # a flight cut short: the first sortie switched to RTL after this photo
+    firmware: str = "ardupilot"  # "ardupilot" or "px4": which SITL `binary` is
 
 
 def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
                 on_sortie: Callable[[dict[str, Any]], None] = lambda row: None,
                 resume_dir: Path | None = None) -> list[dict[str, Any]]:
     """Upload, verify and fly every sortie in SITL (those of `resume_dir` when given); copy each
-    DataFlash log into `report_dir` and write sitl_report.json / .txt there. Returns one
-    comparison row per sortie. With `settings.rtl_after_photos`, only the first sortie flies,
-    switched to RTL after that photo (a flight cut short, for `aerosurvey resume`); its row says so."""
-    # the MAVLink link layer and the mission reader are needed only here
-    from aerosurvey.link.connection import open_link
-    from aerosurvey.link.mission_protocol import Policy
-    from aerosurvey.link.upload import upload_mission
+    flight log (ArduPilot's DataFlash, PX4's ULog) into `report_dir` and write sitl_report.json /
+    .txt there. Returns one comparison row per sortie. With `settings.rtl_after_photos`, only the
+    first sortie flies, switched to RTL after that photo (a flight cut short, for `aerosurvey
+    resume`; ArduPilot only); its row says so."""
     from aerosurvey.mission.formats.qgc_plan import loads_plan
 
     results = []
     routes = sortie_routes(doc, plan_dir, resume_dir)
     for route in routes[:1] if settings.rtl_after_photos is not None else routes:
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
-        # a mission that points a gimbal flies with a mount, whose angles the log then records
-        mount = any(item.command == mav.DO_MOUNT_CONTROL for item in mission.items)
-        lat, lon, alt = mission.home
         # SITL's working folder (its logs, eeprom, output): removed however the sortie ends
         with tempfile.TemporaryDirectory(prefix="aerosurvey-sitl-") as tmp:
-            work = Path(tmp)
-            sv = harness.SitlVehicle(settings.binary, settings.vehicle, (lat, lon, alt), settings.speedup,
-                                     list(settings.defaults), work, settings.boot_timeout)
-            try:
-                sv.start()
-                harness.prepare(sv, mount)
-
-                def upload(m: Any) -> str:
-                    with open_link("tcp:127.0.0.1:5762", 30.0) as link:
-                        rep = upload_mission(link, m, Policy())
-                    return f"{rep.mission.items} items uploaded and verified"
-
-                flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items),
-                                     settings.timeout_factor, upload, rtl_after_photos=settings.rtl_after_photos)
-            finally:
-                sv.stop()
-            logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []
-            if logs:
-                report_dir.mkdir(parents=True, exist_ok=True)
-                dest = report_dir / f"{route.name}.BIN"
-                shutil.copyfile(logs[-1], dest)
-                flight.log = dest.name
+            fly = _fly_px4 if settings.firmware == "px4" else _fly_ardupilot
+            flight, mount = fly(route, mission, settings, Path(tmp), report_dir)
         row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
         if settings.rtl_after_photos is not None:
             row["rtl_after_photos"] = settings.rtl_after_photos if flight.cut_ms is not None else None
@@ -136,11 +112,104 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
         on_sortie(row)
     report_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(report_dir / "sitl_report.json", json.dumps({
-        "vehicle": settings.vehicle, "binary": str(settings.binary), "speedup": settings.speedup, "sorties": results},
-        indent=1) + "\n")
+        "firmware": settings.firmware, "vehicle": settings.vehicle, "binary": str(settings.binary),
+        "speedup": settings.speedup, "sorties": results}, indent=1) + "\n")
     text = "\n".join(f"{r['sortie']}: " + ", ".join(f"{k}={v}" for k, v in r.items() if k != "sortie") for r in results)
     atomic_write_text(report_dir / "sitl_report.txt", text + "\n")
     return results
+
+
+def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings, work: Path,
+                   report_dir: Path) -> tuple[harness.Flight, bool]:
+    """One sortie in ArduPilot SITL in the folder `work`, its DataFlash log copied into
+    `report_dir`; (what it did, whether it flew with a mount)."""
+    from aerosurvey.link.connection import open_link
+    from aerosurvey.link.mission_protocol import Policy
+    from aerosurvey.link.upload import upload_mission
+
+    # a mission that points a gimbal flies with a mount, whose angles the log then records
+    mount = any(item.command == mav.DO_MOUNT_CONTROL for item in mission.items)
+    sv = harness.SitlVehicle(settings.binary, settings.vehicle, mission.home, settings.speedup,
+                             list(settings.defaults), work, settings.boot_timeout)
+    try:
+        sv.start()
+        harness.prepare(sv, mount)
+
+        def upload(m: Mission) -> str:
+            with open_link("tcp:127.0.0.1:5762", 30.0) as link:
+                rep = upload_mission(link, m, Policy())
+            return f"{rep.mission.items} items uploaded and verified"
+
+        flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items),
+                             settings.timeout_factor, upload, rtl_after_photos=settings.rtl_after_photos)
+    finally:
+        sv.stop()
+    logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []
+    if logs:
+        report_dir.mkdir(parents=True, exist_ok=True)
+        dest = report_dir / f"{route.name}.BIN"
+        shutil.copyfile(logs[-1], dest)
+        flight.log = dest.name
+    return flight, mount
+
+
+def _fly_px4(route: SortieRoute, mission: Mission, settings: SitlSettings, work: Path,
+             report_dir: Path) -> tuple[harness.Flight, bool]:
+    """One sortie in PX4 SITL (SIH) in the folder `work`, uploaded through aerosurvey's PX4 upload
+    (its checks, MAVSDK, the read-back), its ULog copied into `report_dir`; the photos are the
+    ULog's camera_capture (PX4's CAMERA_TRIGGER messages over MAVLink are not all delivered at a
+    SITL speed-up), each placed in the track by its time. (what it did, False: no mount flown)."""
+    import bisect
+
+    from aerosurvey.flight.events import from_ulog
+    from aerosurvey.link import px4_sitl
+    from aerosurvey.link.connection import open_link
+    from aerosurvey.link.mission_protocol import Policy
+    from aerosurvey.link.px4 import MavsdkTransfers, px4_checks
+    from aerosurvey.link.upload import upload_plan
+
+    policy = Policy()
+    sv = px4_sitl.Px4Vehicle(settings.binary, mission.home, settings.speedup,
+                             px4_sitl.flight_params(mission.cruise_speed, _speed(mission)), work, settings.boot_timeout)
+    try:
+        sv.start()
+        sv.request_messages()
+
+        def upload(m: Mission) -> str:
+            with open_link(sv.upload_url, policy.silence) as link:
+                legs = px4_checks(link, m, route.mission_file.name, False, policy.silence)
+            assert link.vehicle is not None
+            with MavsdkTransfers(sv.upload_url, link.vehicle, policy.timeout, policy.silence) as transfers:
+                rep = upload_plan(transfers, m)
+            return f"{rep.mission.items} items uploaded through MAVSDK and verified; {legs}"
+
+        # PX4 numbers the items from 0 (no home): the last is len - 1
+        flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items) - 1,
+                             settings.timeout_factor, upload)
+    finally:
+        sv.stop()
+    ulog = sv.ulog()
+    if ulog is None:
+        flight.messages.append("PX4 wrote no ULog")
+        return flight, False
+    report_dir.mkdir(parents=True, exist_ok=True)
+    dest = report_dir / f"{route.name}.ulg"
+    shutil.copyfile(ulog, dest)
+    flight.log = dest.name
+    try:
+        ev, _ = from_ulog(dest)
+    except InputError as exc:  # no camera_capture topic: PX4 took no photo
+        flight.messages.append(str(exc))
+        return flight, False
+    times = [t for t, *_ in flight.track]
+    flight.triggers = [(float(a), float(b), float(h) - mission.home[2]) for a, b, h in zip(ev.lat, ev.lon, ev.alt_m)]
+    flight.trigger_track_index = [bisect.bisect_left(times, t * 1000.0) for t in ev.time_s]
+    return flight, False
+
+
+def _speed(mission: Mission) -> float:
+    """The survey speed the mission commands (its DO_CHANGE_SPEED's), 0 without one."""
+    return max((it.param2 for it in mission.items if it.command == mav.DO_CHANGE_SPEED), default=0.0)
 
 
 def mount_pitch_at_photos(log_path: Path) -> list[float | None]:

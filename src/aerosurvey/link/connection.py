@@ -14,6 +14,7 @@ from __future__ import annotations
 import errno
 import os
 import socket
+import struct
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -216,6 +217,34 @@ class MavLink:
                 refused += 1  # MAV_RESULT_FAILED: e.g. no position yet
         return home
 
+    def read_params(self, names: tuple[str, ...], wait: float, settle: float = 0.5) -> dict[str, float]:
+        """The values of the parameters `names` the vehicle answered PARAM_REQUEST_READ for,
+        asked again every 0.5 s until all have answered, or `settle` seconds after the first
+        answer (a vehicle answers every name it has together), or `wait` seconds in all. A vehicle
+        without a parameter does not answer for it (PX4) or sends PARAM_ERROR (unknown to
+        pymavlink's dialect: ignored), so a name missing from the result was not answered.
+        Integer parameters come as PX4 sends them, their bytes in the float (MAVLink's bytewise
+        encoding), as ArduPilot sends them, cast to the float."""
+        if self.vehicle is None:
+            raise RuntimeError("wait_heartbeat() first: the target ids come from the vehicle's heartbeat")
+        got: dict[str, float] = {}
+        end, asked, first = self.now() + wait, -1.0, None
+        while self.now() < end and len(got) < len(names) and (first is None or self.now() < first + settle):
+            if self.now() - asked >= 0.5:
+                for name in names:
+                    if name not in got:
+                        self._write(self.conn.mav.param_request_read_encode(self.vehicle.system, self.vehicle.component,
+                                                                            name.encode(), -1))
+                asked = self.now()
+            m = self._recv_raw(min(end, asked + 0.5))
+            if m is None or m.get_type() != "PARAM_VALUE" or m.get_srcSystem() != self.vehicle.system:
+                continue
+            name = m.param_id if isinstance(m.param_id, str) else m.param_id.decode(errors="replace")
+            if name in names:
+                got[name] = _param_value(float(m.param_value), int(m.param_type), self.vehicle.autopilot)
+                first = self.now() if first is None else first
+        return got
+
     def send(self, msg: mp.Message) -> None:
         if self.vehicle is None:
             raise RuntimeError("wait_heartbeat() first: the target ids come from the vehicle's heartbeat")
@@ -240,6 +269,19 @@ class MavLink:
             msg = decode(m)
             if msg is not None:
                 return msg
+
+
+#: MAV_PARAM_TYPE of the integers (UINT8 … INT32) and their struct formats
+_INT_PARAM_FORMATS = {1: "<B3x", 2: "<b3x", 3: "<H2x", 4: "<h2x", 5: "<I", 6: "<i"}
+_AUTOPILOT_PX4 = 12
+
+
+def _param_value(value: float, param_type: int, autopilot: int) -> float:
+    """A PARAM_VALUE's value: PX4 puts an integer's bytes into the float (bytewise encoding)."""
+    fmt = _INT_PARAM_FORMATS.get(param_type)
+    if fmt is None or autopilot != _AUTOPILOT_PX4:
+        return value
+    return float(struct.unpack(fmt, struct.pack("<f", value))[0])
 
 
 # pymavlink's network and other non-serial prefixes (mavutil.mavlink_connection); anything else
@@ -271,6 +313,18 @@ def _serial_reason(exc: OSError) -> str:
 
 def open_link(url: str, timeout: float) -> MavLink:
     """Open `url` and wait for a vehicle heartbeat; LinkError (exit 1) or InputError (exit 2) otherwise."""
+    link = connect(url, timeout)
+    try:
+        link.wait_heartbeat(timeout)
+    except BaseException:
+        link.close()
+        raise
+    return link
+
+
+def connect(url: str, timeout: float) -> MavLink:
+    """Open `url` (`timeout`: seconds for a TCP connect), not yet waiting for the vehicle;
+    LinkError (exit 1) or InputError (exit 2) when it cannot be opened."""
     if not url or not url.strip():
         raise InputError("--connect is empty: give a pymavlink connection string such as tcp:127.0.0.1:5760")
     if os.path.isfile(url):
@@ -295,13 +349,7 @@ def open_link(url: str, timeout: float) -> MavLink:
         raise InputError(f"--connect {url!r}: cannot open the serial device {device}: {_serial_reason(exc)}") from None
     finally:
         socket.setdefaulttimeout(previous)
-    link = MavLink(url, conn)
-    try:
-        link.wait_heartbeat(timeout)
-    except BaseException:
-        link.close()
-        raise
-    return link
+    return MavLink(url, conn)
 
 
 def _network_error(url: str, exc: OSError, timeout: float) -> LinkError:

@@ -26,8 +26,9 @@ from typing import Any
 
 from aerosurvey.errors import InputError
 from aerosurvey.link import mission_protocol as mp
-from aerosurvey.link.connection import GCS_COMPONENT, GCS_SYSTEM, LinkError, Vehicle, serial_device
-from aerosurvey.link.upload import DownloadFailed, UploadFailed
+from aerosurvey.link.connection import GCS_COMPONENT, GCS_SYSTEM, LinkError, MavLink, Vehicle, serial_device
+from aerosurvey.link.upload import PX4_LEG_PARAMS, DownloadFailed, UploadFailed, check_px4, check_px4_legs
+from aerosurvey.mission.items import Mission
 
 log = logging.getLogger(__name__)
 
@@ -64,6 +65,14 @@ def mavsdk_url(url: str) -> str:
         return f"serial://{device}:{baud}"
     raise InputError(f"--connect {url!r}: a PX4 upload goes through MAVSDK, which opens udpin:, udpout:, tcp:, tcpin: "
                      "and serial devices")
+
+
+def px4_checks(link: MavLink, m: Mission, file: str, rally: bool, wait: float) -> str:
+    """Refuse (Refused) what this PX4 would refuse, before anything is sent: what it has no room
+    for or does not take (`check_px4`), and a leg longer than its MIS_DIST_WPS, read from it
+    (`check_px4_legs`; `wait`: seconds for its answers). Returns the line about the legs."""
+    check_px4(m, file, rally)
+    return check_px4_legs(m, file, link.read_params(PX4_LEG_PARAMS, wait))
 
 
 def _quiet_mavsdk() -> None:

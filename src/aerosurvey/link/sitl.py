@@ -116,8 +116,7 @@ class SitlVehicle:
                "--home", f"{lat:.8f},{lon:.8f},{alt:.2f},0"]
         if self.defaults:
             cmd += ["--defaults", ",".join(str(p) for p in self.defaults)]
-        self.log = open(self.workdir / "sitl.out", "wb")
-        self.proc = subprocess.Popen(cmd, cwd=self.workdir, stdout=self.log, stderr=subprocess.STDOUT)
+        self.launch(cmd)
         deadline = time.monotonic() + self.boot_timeout
         last_exc: Exception | None = None
         while time.monotonic() < deadline:
@@ -135,6 +134,11 @@ class SitlVehicle:
         if self.conn.wait_heartbeat(timeout=max(0.1, deadline - time.monotonic())) is None:
             self.check_running("at start")
             raise self.error(f"no heartbeat from SITL ({self.binary.name}) within {self.boot_timeout:g} s")
+
+    def launch(self, cmd: list[str], env: dict[str, str] | None = None) -> None:
+        """Start the SITL process in the working folder, its output into sitl.out there."""
+        self.log = open(self.workdir / "sitl.out", "wb")
+        self.proc = subprocess.Popen(cmd, cwd=self.workdir, stdout=self.log, stderr=subprocess.STDOUT, env=env)
 
     def check_running(self, when: str) -> None:
         """A SitlError quoting its output if the SITL process has ended."""
@@ -206,6 +210,20 @@ class SitlVehicle:
 
         self.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode)
 
+    def start_mission(self) -> None:
+        """Arm and start the uploaded mission."""
+        from pymavlink import mavutil
+
+        if self.vehicle == "plane":
+            # ArduPlane does not arm in AUTO: arm in MANUAL (throttle low), then hand over to the mission
+            self.set_mode(PLANE_MODES["MANUAL"])
+            self.arm(timeout=120.0)
+            self.set_mode(PLANE_MODES["AUTO"])
+        else:
+            self.set_mode(COPTER_MODES["AUTO"])  # AUTO_OPTIONS = 3: arms in AUTO and takes off without throttle
+            self.arm(timeout=120.0)
+        self.command(mavutil.mavlink.MAV_CMD_MISSION_START, 0, 0)
+
     def arm(self, timeout: float) -> None:
         """Arm as soon as the pre-arm checks pass (EKF and GPS ready)."""
         from pymavlink import mavutil
@@ -223,11 +241,11 @@ class SitlVehicle:
         raise self.error(f"SITL did not arm within {timeout:g} s; it said: {' | '.join(said[-4:]) or 'nothing'}")
 
 
-def survey_params(vehicle: str, mount: bool) -> list[tuple[str, float]]:
-    """The parameters of PARAMS_FILE for `vehicle`, with its MOUNT: lines when `mount` (a
-    mission that points a gimbal), in the file's order."""
+def survey_params(vehicle: str, mount: bool, path: Path = PARAMS_FILE) -> list[tuple[str, float]]:
+    """The parameters of the file `path` (PARAMS_FILE: ArduPilot's) for `vehicle`, with its
+    MOUNT: lines when `mount` (a mission that points a gimbal), in the file's order."""
     out = []
-    for line in PARAMS_FILE.read_text().splitlines():
+    for line in path.read_text().splitlines():
         line = line.split("#", 1)[0].strip()
         if not line:
             continue
@@ -259,15 +277,7 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
 
     flight = Flight(name)
     flight.upload_note = upload(mission)
-    if sv.vehicle == "plane":
-        # ArduPlane does not arm in AUTO: arm in MANUAL (throttle low), then hand over to the mission
-        sv.set_mode(PLANE_MODES["MANUAL"])
-        sv.arm(timeout=120.0)
-        sv.set_mode(PLANE_MODES["AUTO"])
-    else:
-        sv.set_mode(COPTER_MODES["AUTO"])  # AUTO_OPTIONS = 3: arms in AUTO and takes off without throttle
-        sv.arm(timeout=120.0)
-    sv.command(mavutil.mavlink.MAV_CMD_MISSION_START, 0, 0)
+    sv.start_mission()
     # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
     wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
     sim_start: int | None = None
@@ -299,7 +309,8 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
             reached_last = True
         elif t == "STATUSTEXT":
             flight.messages.append(m.text)
-        elif t == "HEARTBEAT" and m.type != mavutil.mavlink.MAV_TYPE_GCS:
+        elif (t == "HEARTBEAT" and m.type != mavutil.mavlink.MAV_TYPE_GCS
+              and m.autopilot != mavutil.mavlink.MAV_AUTOPILOT_INVALID):  # the autopilot's, not a camera's or gimbal's
             armed = bool(m.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             if not armed and flight.armed_ms is not None and len(flight.track) > 10:
                 flight.disarmed_ms = flight.track[-1][0]

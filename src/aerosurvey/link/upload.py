@@ -20,6 +20,7 @@ from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.connection import LinkError, Vehicle
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
+from aerosurvey.mission.legs import MIS_DIST_WPS, PX4_PLACE_COMMANDS, great_circle_m, longest_leg
 
 AUTOPILOT_ARDUPILOT = 3
 AUTOPILOT_PX4 = 12
@@ -518,13 +519,6 @@ def _stats_said(rep: TransferReport, via: str) -> str:
     return (lost if rep.stats.ack_lost else "although it acknowledged the upload") + "; the read-back shows it"
 
 
-def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    """Great-circle distance in metres (haversine on a 6371 km sphere: within 0.5 % at any range)."""
-    p1, p2, dlat, dlon = (math.radians(v) for v in (lat1, lat2, lat2 - lat1, lon2 - lon1))
-    h = math.sin(dlat / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dlon / 2) ** 2
-    return 2 * 6_371_000.0 * math.asin(min(1.0, math.sqrt(h)))
-
-
 def _vehicle_said(link: Link, since: float) -> str:
     """The vehicle's warnings during a failed transfer (ArduPilot explains NO_SPACE there)."""
     texts = [t for when, sev, t in getattr(link, "status_texts", []) if when >= since and sev <= 4]
@@ -598,7 +592,7 @@ def check_vehicle(facts: MissionFacts, vehicle: Vehicle, position: tuple[float, 
     if position is None:
         raise Refused(f"the vehicle reported no position and no home (no GPS fix?), so it cannot be compared with "
                       f"{where}: wait for a fix, or give --launch-distance off")
-    d = distance_m(lat, lon, *position)
+    d = great_circle_m(lat, lon, *position)
     if d > launch_distance:
         raise Refused(f"the vehicle is at {position[0]:.6f}, {position[1]:.6f}, {d:,.0f} m from {where} (limit "
                       f"{launch_distance:,.0f} m): move it there, or confirm with --launch-distance {math.ceil(d)}")
@@ -623,6 +617,35 @@ def check_px4(m: Mission, file: str, rally: bool) -> None:
                               f"(it answers {answer}"
                               + ("; PX4 has no terrain frame: plan it with relative altitudes" if it.frame in (10, 11) else "")
                               + ")")
+
+
+#: PX4's parameters read before an upload: MIS_DIST_WPS, and one every PX4 version has, whose
+#: answer shows that the vehicle answers parameter requests when MIS_DIST_WPS gets none
+PX4_LEG_PARAMS = (MIS_DIST_WPS, "MIS_DIST_1WP")
+
+
+def check_px4_legs(m: Mission, file: str, params: dict[str, float]) -> str:
+    """Refuse (Refused) a mission with a leg between two consecutive places (as PX4 reads the
+    wire items) longer than the vehicle's MIS_DIST_WPS (PX4 v1.13 and earlier refuse it at
+    arming; 0 or less: no limit). `params`: what the vehicle answered for PX4_LEG_PARAMS. Returns
+    the line that says how long the longest leg is against what."""
+    places = [(it.seq, it.x * 1e-7, it.y * 1e-7) for it in mission_wire_items(m) if it.command in PX4_PLACE_COMMANDS]
+    longest = longest_leg(places)
+    if longest is None:
+        return "legs: fewer than two places, nothing to compare"
+    d, a, b = longest
+    said = f"legs: the longest, items {a} to {b}, is {d:,.0f} m"
+    limit = params.get(MIS_DIST_WPS)
+    if limit is None:
+        return said + (f"; the vehicle has no {MIS_DIST_WPS} (PX4 v1.14 and later do not limit legs)" if params else
+                       f"; {MIS_DIST_WPS} not known: the vehicle answered no parameter request")
+    if limit <= 0:
+        return f"{said}; the vehicle's {MIS_DIST_WPS} = {limit:g} does not limit legs"
+    if d > limit:
+        raise Refused(f"{file}: mission items {a} and {b} lie {d:,.0f} m apart but the vehicle's {MIS_DIST_WPS} = "
+                      f"{limit:g} m (PX4 refuses such a mission at arming): plan it again with "
+                      f"vehicle.max_leg_m = {limit:g}, or raise {MIS_DIST_WPS}")
+    return f"{said}, within the vehicle's {MIS_DIST_WPS} = {limit:g} m"
 
 
 _ITEMS = {mp.MISSION: "mission items", mp.FENCE: "fence vertices", mp.RALLY: "rally points"}
@@ -717,7 +740,7 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
             h = actual[0]
             where = "has no home yet (0, 0)" if h.x == 0 and h.y == 0 else (
                 f"home is {h.x * 1e-7:.7f}, {h.y * 1e-7:.7f}, "
-                f"{distance_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7):.0f} m from the planned home")
+                f"{great_circle_m(m.home[0], m.home[1], h.x * 1e-7, h.y * 1e-7):.0f} m from the planned home")
             report.home_note = f"item 0 (home) not compared: ArduPilot replaces it with its own home; the vehicle {where}"
     if mismatches:
         first = mismatches[0]

@@ -30,7 +30,14 @@ The program's other actions (MAVLink common.xml for the parameters):
 Dialects: ArduCopter (takeoff, optional CONDITION_YAW for one fixed heading, RTL or LAND
 at the launch point), ArduPlane (takeoff with 15° pitch, then RTL, or DO_LAND_START, an
 approach waypoint and NAV_LAND flown into the wind), PX4 (the same items except
-CONDITION_YAW: a fixed heading goes into each waypoint's param4, as PX4 reads it).
+CONDITION_YAW: a fixed heading goes into each waypoint's param4, as PX4 reads it; and no leg
+between two places longer than the program's `max_leg_m`, `vehicle.max_leg_m`: PX4 v1.13 and
+earlier refuse such a mission at arming (mission/legs.py), so a longer leg gets waypoints on
+it, "split", in equal pieces. They go just before the place the leg leads to, after the
+actions of the place it leaves: on a photo line the camera keeps triggering by distance
+through them, a transit keeps its height, the way to a copter's landing its height until the
+landing point, and a plane's approach leg to NAV_LAND is never cut; spec.py refuses a PX4
+plane landing whose approach is longer than the limit).
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ import math
 
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
+from aerosurvey.mission.legs import leg_cuts
 from aerosurvey.mission.program import (
     CameraStart,
     CameraStop,
@@ -73,7 +81,9 @@ def _frame(p: FlightProgram) -> int:
 
 def _wp(p: FlightProgram, w: Waypoint, hold_s: float) -> MissionItem:
     accept = PLANE_LINE_ACCEPTANCE_M if p.vehicle == "plane" and w.kind in _PLANE_LINE_KINDS else 0.0
-    yaw = p.fixed_yaw_deg if p.fixed_yaw_deg is not None and p.firmware == "px4" else 0.0
+    # PX4 turns to a waypoint's finite yaw (0 = north: seen in its SITL, the nose held north on every line);
+    # NaN leaves the heading to its yaw mode, the nose along the track (MPC_YAW_MODE 0). ArduPilot ignores it.
+    yaw = p.fixed_yaw_deg if p.fixed_yaw_deg is not None and p.firmware == "px4" else math.nan if p.firmware == "px4" else 0.0
     return MissionItem(mav.NAV_WAYPOINT, _frame(p), hold_s, accept, 0.0, yaw, w.lat, w.lon, w.alt_m, True, w.tag)
 
 
@@ -119,11 +129,26 @@ def _end(p: FlightProgram) -> list[MissionItem]:
     return [MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION, tag="rtl")]
 
 
+def _cuts(p: FlightProgram, last: MissionItem, to: MissionItem, w: Waypoint | None) -> list[MissionItem]:
+    """Waypoints that cut the leg from the place `last` to the place `to` (the program's waypoint
+    `w`, or None for the end) into pieces within `p.max_leg_m`; none without a limit. On the way
+    to a landing the height stays, else it goes evenly from one end's to the other's."""
+    if p.max_leg_m is None:
+        return []
+    keep = to.command == mav.NAV_LAND
+    tag = "transit" if w is None else f"{w.run_id}:split" if w.run_id else w.tag
+    run, run_id, heading = (-1, "", 0.0) if w is None else (w.run, w.run_id, w.heading_deg)
+    return [_wp(p, Waypoint(round(lat, 8), round(lon, 8), round(last.z if keep else last.z + f * (to.z - last.z), 2),
+                            "split", run, tag, run_id, heading), 0.0)
+            for lat, lon, f in leg_cuts(last.x, last.y, to.x, to.y, p.max_leg_m)]
+
+
 def mavlink_mission(p: FlightProgram) -> Mission:
     """The mission for one flight: takeoff, speed, the program's waypoints and actions in order, then RTL or land."""
     lat, lon, ground = p.home
-    items = [MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, p.takeoff_pitch_deg, 0, 0, 0, lat, lon,
-                         p.takeoff_alt_m, tag="takeoff")]
+    last = MissionItem(mav.NAV_TAKEOFF, mav.FRAME_GLOBAL_RELATIVE_ALT, p.takeoff_pitch_deg, 0, 0, 0, lat, lon,
+                       p.takeoff_alt_m, tag="takeoff")
+    items = [last]
     # copters: ground speed (type 1); ArduPlane reads type 1 as a minimum ground speed and flies
     # its cruise airspeed, so planes get the speed as airspeed (type 0; equal to ground speed in still air)
     speed_type = 0.0 if p.vehicle == "plane" else 1.0
@@ -133,7 +158,10 @@ def mavlink_mission(p: FlightProgram) -> Mission:
     shots = 0
     for w in p.waypoints:
         hover = next((a for a in w.actions if isinstance(a, HoverShoot)), None)
-        items.append(_wp(p, w, hover.hold_s if hover is not None else 0.0))
+        wp = _wp(p, w, hover.hold_s if hover is not None else 0.0)
+        items += _cuts(p, last, wp, w)
+        items.append(wp)
+        last = wp
         rid = w.run_id
         for a in w.actions:
             if isinstance(a, Gimbal):
@@ -143,7 +171,12 @@ def mavlink_mission(p: FlightProgram) -> Mission:
                 items.append(_shoot(p, shots, f"{w.tag}:photo"))
             else:
                 items.append(_camera(a, f"{rid}:camera-{'on' if isinstance(a, CameraStart) else 'off'}"))
-    items.extend(_end(p))
+    end = _end(p)
+    # the leg to the end's first place (none after RTL; a plane's approach leg to NAV_LAND is not cut)
+    first = next((it for it in end if it.has_position), None)
+    if first is not None:
+        items += _cuts(p, last, first, None)
+    items.extend(end)
     return Mission(
         vehicle=p.vehicle,
         firmware=p.firmware,

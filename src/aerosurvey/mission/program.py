@@ -119,6 +119,7 @@ class FlightProgram:
     fence_inclusion: tuple[tuple[tuple[float, float], ...], ...]
     fence_exclusion: tuple[tuple[tuple[float, float], ...], ...]
     rally: tuple[tuple[float, float, float], ...]  # latitude, longitude, altitude above the launch point
+    max_leg_m: float | None = None  # PX4: the longest leg between two places (vehicle.max_leg_m); None: no limit
 
 
 def run_id(plan: Plan, run: int) -> str:
@@ -186,6 +187,7 @@ def flight_program(plan: Plan, sortie: int | None = None, name: str | None = Non
         fence_exclusion=plan.launch.fence.exclusion,
         # every launch site a rally point, at the survey's height above its ground, as an altitude above this launch point
         rally=rally,
+        max_leg_m=plan.vehicle.max_leg_m,
     )
 
 
