@@ -6,8 +6,9 @@ QGCMapPolygon.cc, MissionItem.cc, QGCGeo.cc). Written here in our own words; it 
 with aerosurvey's writer (mission/formats/qgc_plan.py, qgc_survey.py): json and numpy only.
 
 What the generator port does (SurveyComplexItem::_rebuildTransectsPhase1WorkerSinglePolygon):
-project the polygon onto the plane tangent at its first vertex (azimuthal equidistant on a
-sphere of radius 6378137 m, x east, y north); lay lines every AdjustedFootprintSide metres,
+project the polygon onto the plane tangent at its first vertex (x east, y north; up to 5.0 an
+azimuthal equidistant projection on a sphere of radius 6378137 m, from 5.1 GeographicLib's
+LocalCartesian on the WGS84 ellipsoid, as stored at commit 06a5e7676fa2: `FRAMES`); lay lines every AdjustedFootprintSide metres,
 starting half of (the larger side of the east-north bounding box + 2000 m) before the box's
 centre, each as long as that, rotated clockwise by the clamped angle; cut each to the two
 farthest crossings with the polygon's edges (the pair found first, edges in polygon order);
@@ -203,8 +204,49 @@ def uploaded_items(doc: dict[str, Any]) -> list[dict[str, Any]]:
 # ------------------------------------------------------------------ the generator
 
 
-def to_plane(lat: np.ndarray, lon: np.ndarray, lat0: float, lon0: float) -> np.ndarray:
-    """QGCGeo::convertGeoToNed, as (east, north): azimuthal equidistant on QGroundControl's sphere."""
+# QGroundControl's plane: QGCGeo::convertGeoToNed / convertNedToGeo at the polygon's first vertex.
+# Two conversions, by release (docs/clients/qgroundcontrol.md):
+#   "sphere": up to 5.0, an azimuthal equidistant projection on a sphere of radius WGS84_a;
+#   "ellipsoid": from 5.1 (master since January 2026), GeographicLib::LocalCartesian on the WGS84
+#   ellipsoid, heights 0: east and north on the plane tangent to the ellipsoid at the origin.
+FRAMES = ("sphere", "ellipsoid")
+WGS84_A = 6378137.0
+WGS84_F = 1.0 / 298.257223563
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
+
+
+def _ecef(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    p, lam = np.radians(lat), np.radians(lon)
+    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(p) ** 2)
+    return np.stack([n * np.cos(p) * np.cos(lam), n * np.cos(p) * np.sin(lam), n * (1.0 - WGS84_E2) * np.sin(p)], axis=-1)
+
+
+def _enu_axes(lat0: float, lon0: float) -> np.ndarray:
+    """Rows: the unit vectors east, north and up at (lat0, lon0), in ECEF."""
+    p, lam = math.radians(lat0), math.radians(lon0)
+    return np.array([[-math.sin(lam), math.cos(lam), 0.0],
+                     [-math.sin(p) * math.cos(lam), -math.sin(p) * math.sin(lam), math.cos(p)],
+                     [math.cos(p) * math.cos(lam), math.cos(p) * math.sin(lam), math.sin(p)]])
+
+
+def _geodetic(xyz: np.ndarray) -> tuple[float, float]:
+    """ECEF -> (latitude, longitude), by fixed-point iteration on the latitude (converges to 1e-12 rad in a few steps)."""
+    x, y, z = map(float, xyz)
+    r = math.hypot(x, y)
+    lat = math.atan2(z, r * (1.0 - WGS84_E2))
+    for _ in range(10):
+        n = WGS84_A / math.sqrt(1.0 - WGS84_E2 * math.sin(lat) ** 2)
+        h = r / math.cos(lat) - n
+        lat = math.atan2(z, r * (1.0 - WGS84_E2 * n / (n + h)))
+    return math.degrees(lat), math.degrees(math.atan2(y, x))
+
+
+def to_plane(lat: np.ndarray, lon: np.ndarray, lat0: float, lon0: float, frame: str = "sphere") -> np.ndarray:
+    """QGCGeo::convertGeoToNed, as (east, north), in QGroundControl's `frame` (FRAMES)."""
+    if frame == "ellipsoid":
+        d = _ecef(np.asarray(lat, float), np.asarray(lon, float)) - _ecef(np.array(lat0), np.array(lon0))
+        enu = d @ _enu_axes(lat0, lon0).T
+        return np.column_stack([enu[..., 0], enu[..., 1]])
     p, p0 = np.radians(lat), math.radians(lat0)
     dl = np.radians(lon) - math.radians(lon0)
     cos_c = np.clip(math.sin(p0) * np.sin(p) + math.cos(p0) * np.cos(p) * np.cos(dl), -1.0, 1.0)
@@ -215,8 +257,11 @@ def to_plane(lat: np.ndarray, lon: np.ndarray, lat0: float, lon0: float) -> np.n
     return np.column_stack([east, north])
 
 
-def from_plane(east: float, north: float, lat0: float, lon0: float) -> tuple[float, float]:
-    """QGCGeo::convertNedToGeo: the inverse of `to_plane`."""
+def from_plane(east: float, north: float, lat0: float, lon0: float, frame: str = "sphere") -> tuple[float, float]:
+    """QGCGeo::convertNedToGeo (down 0): the inverse of `to_plane`."""
+    if frame == "ellipsoid":
+        xyz = _ecef(np.array(lat0), np.array(lon0)) + np.array([east, north, 0.0]) @ _enu_axes(lat0, lon0)
+        return _geodetic(xyz)
     x, y = north / R_TANGENT, east / R_TANGENT
     c = math.hypot(x, y)
     p0, l0 = math.radians(lat0), math.radians(lon0)
@@ -279,11 +324,12 @@ class Regenerated:
     angle_deg: float
 
 
-def regenerate(survey: dict[str, Any]) -> Regenerated:
-    """The transects QGroundControl builds from a Survey item's settings when it is edited (no refly, no turnaround points)."""
+def regenerate(survey: dict[str, Any], frame: str = "sphere") -> Regenerated:
+    """The transects QGroundControl builds from a Survey item's settings when it is edited (no refly, no turnaround points),
+    on the plane of `frame` (FRAMES)."""
     poly = survey["polygon"]
     lat0, lon0 = poly[0]
-    pts = to_plane(np.array([p[0] for p in poly]), np.array([p[1] for p in poly]), lat0, lon0)
+    pts = to_plane(np.array([p[0] for p in poly]), np.array([p[1] for p in poly]), lat0, lon0, frame)
     pts[0] = (0.0, 0.0)
     closed = [tuple(map(float, p)) for p in pts] + [tuple(map(float, pts[0]))]
     inner = survey["TransectStyleComplexItem"]
@@ -313,7 +359,7 @@ def regenerate(survey: dict[str, Any]) -> Regenerated:
         cut = [c for c in [_cut(one, closed)] if c is not None]
     first = _qt_angle(cut[0]) if cut else 0.0
     cut = [(b, a) if abs(_qt_angle((a, b)) - first) > 1.0 else (a, b) for a, b in cut]
-    transects = [[from_plane(a[0], a[1], lat0, lon0), from_plane(b[0], b[1], lat0, lon0)] for a, b in cut]
+    transects = [[from_plane(a[0], a[1], lat0, lon0, frame), from_plane(b[0], b[1], lat0, lon0, frame)] for a, b in cut]
     entry = int(survey["entryLocation"])
     if entry in (2, 3):
         transects = [t[::-1] for t in transects]
@@ -353,13 +399,13 @@ def offset_polyline(pts: np.ndarray, d: float) -> np.ndarray:
     return np.array(out)
 
 
-def regenerate_corridor(item: dict[str, Any]) -> tuple[list[np.ndarray], int, tuple[float, float]]:
+def regenerate_corridor(item: dict[str, Any], frame: str = "sphere") -> tuple[list[np.ndarray], int, tuple[float, float]]:
     """CorridorScanComplexItem::_rebuildTransectsPhase1: the transects (on the plane at the
     polyline's first vertex, flight order), the camera shots (_recalcCameraShots, no trigger in
     turns: ⌈polyline length / trigger⌉ per transect) and the plane's origin."""
     line = item["polyline"]
     lat0, lon0 = line[0]
-    pts = to_plane(np.array([p[0] for p in line]), np.array([p[1] for p in line]), lat0, lon0)
+    pts = to_plane(np.array([p[0] for p in line]), np.array([p[1] for p in line]), lat0, lon0, frame)
     pts[0] = (0.0, 0.0)
     cam = item["TransectStyleComplexItem"]["CameraCalc"]
     spacing = float(cam["AdjustedFootprintSide"])
@@ -418,22 +464,23 @@ def flown_paths(items: list[dict[str, Any]]) -> list[list[tuple[float, float]]]:
     return out
 
 
-def compare_corridor(item: dict[str, Any], ours: list[list[tuple[float, float]]], lines: int) -> dict[str, float]:
+def compare_corridor(item: dict[str, Any], ours: list[list[tuple[float, float]]], lines: int,
+                     frame: str = "sphere") -> dict[str, float]:
     """How QGroundControl's regenerated corridor transects differ from our runs (each line's
     runs flown one after another): transects against lines, and the largest distance of our
     runs' points from the QGC transect of the same rank (and back)."""
     import shapely
 
-    transects, shots, origin = regenerate_corridor(item)
+    transects, shots, origin = regenerate_corridor(item, frame)
     per_line = len(ours) // lines if lines else 0
     worst, worst_back = 0.0, 0.0
     for k, t in enumerate(transects[:lines]):
         runs = ours[k * per_line:(k + 1) * per_line]
         pts = np.array([p for r in runs for p in r], float)
-        xy = to_plane(pts[:, 0], pts[:, 1], *origin)
+        xy = to_plane(pts[:, 0], pts[:, 1], *origin, frame)
         qgc_line = shapely.LineString(t)
         worst = max(worst, float(max(qgc_line.distance(shapely.Point(p)) for p in xy)))
-        ours_lines = shapely.MultiLineString([to_plane(np.array([p[0] for p in r]), np.array([p[1] for p in r]), *origin)
+        ours_lines = shapely.MultiLineString([to_plane(np.array([p[0] for p in r]), np.array([p[1] for p in r]), *origin, frame)
                                               for r in runs])
         worst_back = max(worst_back, float(max(ours_lines.distance(shapely.Point(p)) for p in t)))
     return {"qgc_transects": len(transects), "our_lines": lines, "our_runs": len(ours),
@@ -441,18 +488,18 @@ def compare_corridor(item: dict[str, Any], ours: list[list[tuple[float, float]]]
             "qgc_shots": shots, "written_shots": int(item["TransectStyleComplexItem"]["CameraShots"])}
 
 
-def compare(survey: dict[str, Any], ours: list[list[tuple[float, float]]]) -> dict[str, float]:
+def compare(survey: dict[str, Any], ours: list[list[tuple[float, float]]], frame: str = "sphere") -> dict[str, float]:
     """How QGroundControl's regenerated transects differ from our runs, on the plane at the polygon's
     first vertex: counts, spacings, the largest distance across the lines between each of QGC's
     lines and our nearest line, and the largest distance of a QGC line end from our line ends."""
-    gen = regenerate(survey)
+    gen = regenerate(survey, frame)
     lat0, lon0 = survey["polygon"][0]
     a = math.radians(gen.angle_deg)
     along, across = np.array([math.sin(a), math.cos(a)]), np.array([math.cos(a), -math.sin(a)])
 
     def plane(segs):
         flat = np.array([p for s in segs for p in s], float)
-        return to_plane(flat[:, 0], flat[:, 1], lat0, lon0).reshape(-1, 2, 2)
+        return to_plane(flat[:, 0], flat[:, 1], lat0, lon0, frame).reshape(-1, 2, 2)
 
     q, o = plane(gen.transects), plane(ours)
     q_off, o_off = q.mean(axis=1) @ across, o.mean(axis=1) @ across

@@ -17,7 +17,7 @@ from aerosurvey.mission.builder import mavlink_mission
 from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS
 from aerosurvey.mission.formats.kml import layers_to_kml
 from aerosurvey.mission.formats.qgc_plan import dumps_plan
-from aerosurvey.mission.formats.qgc_survey import SurveyShapes, survey_blocks, survey_items, survey_shapes
+from aerosurvey.mission.formats.qgc_survey import QGC_FRAMES, SurveyShapes, survey_blocks, survey_items, survey_shapes
 from aerosurvey.mission.formats.wpl import dumps_wpl
 from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
@@ -112,12 +112,10 @@ def _rules(spec: MissionSpec, manifest: dict[str, Any], stations: mf.StationTabl
     return evaluate(profiles, ev), ev.points, ev
 
 
-def plan_text(plan: Plan, shapes: SurveyShapes | None, m: Mission, stations: tuple[int, int] | None = None) -> str:
-    """A mission's .plan: with `shapes` (`survey_shapes`, for `--qgc survey`) each photo pass in a
-    QGroundControl Survey item, without every item plain; the mission flies `stations` (first,
-    last in flight order; all when None)."""
-    surveys = survey_items(plan, shapes, m, *(stations or (0, None))) if shapes is not None else ()
-    return dumps_plan(m, surveys)
+def plan_text(plan: Plan, shapes: SurveyShapes | None, m: Mission) -> str:
+    """A mission's .plan: with `shapes` (`survey_shapes` of the stations it flies, for `--qgc
+    survey`) each photo pass in a QGroundControl complex item, without every item plain."""
+    return dumps_plan(m, survey_items(plan, shapes, m) if shapes is not None else ())
 
 
 def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
@@ -214,15 +212,18 @@ def _mission_files(plan: Plan, missions: dict[str, Mission], qgc: str) -> dict[s
     if qgc not in QGC_LAYOUTS:
         raise ValueError(f"qgc = {qgc!r}: one of {', '.join(QGC_LAYOUTS)}")
     sorties = iter(plan.sorties)
-    passes = {p for m in missions.values() for p, _, _ in survey_blocks(m)}
-    shapes = survey_shapes(plan, passes) if qgc == "survey" else None
+    frame = QGC_FRAMES.get(qgc)
     out = {}
     for stem, m in missions.items():
         stations = None
         if stem != "mission":
             sortie = next(sorties).sortie
             stations = (sortie.first, sortie.last)
-        out[f"{stem}.plan"] = plan_text(plan, shapes, m, stations)
+        passes = [p for p, _, _ in survey_blocks(m)]
+        shapes = survey_shapes(plan, passes, frame, stations) if frame is not None else None
+        for why in shapes.plain if shapes is not None else ():
+            log.info("%s.plan: plain items for %s", stem, why)
+        out[f"{stem}.plan"] = plan_text(plan, shapes, m)
         out[f"{stem}.waypoints"] = dumps_wpl(m)
     return out
 

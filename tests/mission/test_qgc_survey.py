@@ -41,7 +41,7 @@ def planned(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Pat
     out: dict[str, dict[str, Path]] = {}
     for ex in EXAMPLES:
         out[ex] = {}
-        for layout in ("survey", "items"):
+        for layout in ("survey", "survey-5.0", "items"):
             folder = tmp_path_factory.mktemp(f"{ex}-{layout}")
             res = CliRunner().invoke(main, ["plan", str(ROOT / "missions" / f"{ex}.toml"), "-o", str(folder), "--qgc", layout])
             assert res.exit_code == 0, res.output
@@ -67,12 +67,14 @@ def test_every_plan_keeps_qgroundcontrols_loader_rules(planned, example: str) ->
         for path in _plans(folder):
             doc = _doc(path)
             assert qgc.plan_problems(doc) == [], f"{layout}/{path.name}"
-            assert bool(_surveys(doc)) == (layout == "survey"), f"{layout}/{path.name}"
+            if layout == "items":
+                assert not _surveys(doc), f"{layout}/{path.name}"
 
 
 @pytest.mark.parametrize("example", EXAMPLES)
-def test_survey_items_store_the_items_written_otherwise(planned, example: str) -> None:
-    for path in _plans(planned[example]["survey"]):
+@pytest.mark.parametrize("layout", ["survey", "survey-5.0"])
+def test_survey_items_store_the_items_written_otherwise(planned, example: str, layout: str) -> None:
+    for path in _plans(planned[example][layout]):
         got = qgc.uploaded_items(_doc(path))
         want = _doc(planned[example]["items"] / path.name)["mission"]["items"]
         assert len(got) == len(want), path.name
@@ -87,46 +89,60 @@ def test_survey_items_store_the_items_written_otherwise(planned, example: str) -
             canon(loads_plan((planned[example]["items"] / path.name).read_text(), path.name))
 
 
-@pytest.mark.parametrize("example", EXAMPLES)
-def test_qgroundcontrol_regenerates_our_lines(planned, example: str) -> None:
-    doc = _doc(planned[example]["survey"] / "mission.plan")
-    for survey in _surveys(doc):
-        if survey["complexItemType"] == "CorridorScan":
-            paths = qgc.flown_paths(survey["TransectStyleComplexItem"]["Items"])
-            lines = len({it["aerosurveyTag"][:7] for it in survey["TransectStyleComplexItem"]["Items"]})
-            got = qgc.compare_corridor(survey, paths, lines)
-            assert got["qgc_transects"] == lines, got
-            # QGC's transects bend where ours do; ours run on past sharp bends and the ends, so QGC takes fewer photos
-            assert got["max_qgc_vertex_from_ours_m"] <= CORRIDOR_VERTEX_M, got
-            assert got["qgc_shots"] <= got["written_shots"], got
-            continue
-        got = qgc.compare(survey, qgc.flown_lines(survey["TransectStyleComplexItem"]["Items"]))
-        assert got["qgc_transects"] == got["our_lines"] == got["our_runs"], got
-        assert got["qgc_spacing_m"] == pytest.approx(got["our_spacing_m"], abs=TOL_M)
-        assert got["max_across_m"] <= TOL_M and got["max_end_m"] <= TOL_M, got
-        assert got["same_order_m"] <= TOL_M, got  # flown in the same order, each the same way
-        assert got["qgc_shots"] == got["written_shots"], got
+#: the plane each layout is written for (QGCGeo::convertGeoToNed: 5.1 and later, 4.x-5.0)
+FRAME = {"survey": "ellipsoid", "survey-5.0": "sphere"}
+
+
+def _regeneration(survey: dict, frame: str) -> dict[str, float]:
+    """How QGroundControl, projecting on `frame`, regenerates a complex item against the runs it holds."""
+    items = survey["TransectStyleComplexItem"]["Items"]
+    if survey["complexItemType"] == "CorridorScan":
+        lines = len({it["aerosurveyTag"][:7] for it in items})
+        return qgc.compare_corridor(survey, qgc.flown_paths(items), lines, frame)
+    return qgc.compare(survey, qgc.flown_lines(items), frame)
 
 
 @pytest.mark.parametrize("example", EXAMPLES)
-def test_a_sorties_survey_regenerates_its_whole_pass(planned, example: str) -> None:
-    """A sortie's Survey holds the sortie's items and the whole pass's settings: an edit rebuilds the whole pass."""
-    whole = {s["TransectStyleComplexItem"]["Items"][0]["aerosurveyTag"][:2]: s
-             for s in _surveys(_doc(planned[example]["survey"] / "mission.plan"))}
-    shots: dict[str, int] = {}
-    for path in sorted(planned[example]["survey"].glob("sortie-*.plan")):
-        for s in _surveys(_doc(path)):
-            key = s["TransectStyleComplexItem"]["Items"][0]["aerosurveyTag"][:2]
-            for field in set(s) - {"TransectStyleComplexItem"}:
-                assert s[field] == whole[key][field], f"{path.name} {field}"
-            shots[key] = shots.get(key, 0) + s["TransectStyleComplexItem"]["CameraShots"]
-    if shots:  # the sorties' photos add up to the pass's
-        assert shots == {k: s["TransectStyleComplexItem"]["CameraShots"] for k, s in whole.items()}
+@pytest.mark.parametrize("layout", ["survey", "survey-5.0"])
+def test_qgroundcontrol_regenerates_the_lines_each_flight_flies(planned, example: str, layout: str) -> None:
+    """Every complex item of every flight (the mission's and each sortie's .plan), regenerated by
+    the QGroundControl it is written for, lays the lines the flight flies, and only those: an
+    edit never grows a sortie beyond its battery. A pass a sortie flies part of stays plain items."""
+    items = 0
+    for path in _plans(planned[example][layout]):
+        for survey in _surveys(_doc(path)):
+            items += 1
+            got = _regeneration(survey, FRAME[layout])
+            where = f"{path.name}: {got}"
+            if survey["complexItemType"] == "CorridorScan":
+                assert got["qgc_transects"] == got["our_lines"], where
+                # QGC's transects bend where ours do; ours run on past sharp bends and the ends, so QGC takes fewer photos
+                assert got["max_qgc_vertex_from_ours_m"] <= CORRIDOR_VERTEX_M, where
+                assert got["qgc_shots"] <= got["written_shots"], where
+                continue
+            assert got["qgc_transects"] == got["our_lines"] == got["our_runs"], where
+            assert got["qgc_spacing_m"] == pytest.approx(got["our_spacing_m"], abs=TOL_M), where
+            assert got["max_across_m"] <= TOL_M and got["max_end_m"] <= TOL_M, where
+            assert got["same_order_m"] <= TOL_M, where  # flown in the same order, each the same way
+            assert got["qgc_shots"] == got["written_shots"], where
+    assert items > 0
+
+
+def test_a_file_for_one_qgroundcontrol_is_off_in_the_other(tmp_path: Path) -> None:
+    """The two planes differ by metres over a block: Obrataň's Survey items written for 5.1 are
+    regenerated up to metres off by 4.x-5.0 and the other way round (what the layout choice is for)."""
+    worst = {}
+    for layout, other in (("survey", "sphere"), ("survey-5.0", "ellipsoid")):
+        res = CliRunner().invoke(main, ["plan", str(ROOT / "missions" / "obratan-72ha.toml"), "-o", str(tmp_path / layout),
+                                        "--qgc", layout])
+        assert res.exit_code == 0, res.output
+        worst[layout] = max(_regeneration(s, other)["max_across_m"] for s in _surveys(_doc(tmp_path / layout / "mission.plan")))
+    assert all(v > 1.0 for v in worst.values()), worst
 
 
 def test_items_layout_is_chosen_on_the_command_line(planned) -> None:
     res = CliRunner().invoke(main, ["plan", str(ROOT / "missions" / "forest-dem.toml"), "-o", "x", "--qgc", "flat"])
-    assert res.exit_code == 2 and "'flat' is not one of 'survey', 'items'" in res.output
+    assert res.exit_code == 2 and "'flat' is not one of 'survey', 'survey-5.0', 'items'" in res.output
 
 
 def test_survey_blocks_hold_a_pass_with_the_detours_between_its_lines() -> None:
@@ -149,13 +165,15 @@ class _Pass:
 
     def __init__(self, runs: list[SimpleNamespace], waypoints: list[SimpleNamespace], spacing: float) -> None:
         self.route = SimpleNamespace(runs=runs)
+        self.stations = SimpleNamespace(run=list(range(len(runs))))  # a station on each run
         self.waypoints = waypoints
         self.sensor = SimpleNamespace(spacing_m=spacing)
         self.layout = SimpleNamespace(passes=[SimpleNamespace(index=1, frame=object())])  # parallel lines in a frame
 
 
 def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, starts: list[float], lengths: list[float],
-                    first_at_end: bool, first_reversed: bool, offsets: list[float] | None = None) -> _Pass:
+                    first_at_end: bool, first_reversed: bool, offsets: list[float] | None = None,
+                    frame: str = "sphere") -> _Pass:
     """A stand-in for a Plan: one pass of lines at `bearing`, `spacing` apart (or at `offsets`
     across), flown as a lawnmower, positions made with the port's projection on a plane at (lat, lon)."""
     a = math.radians(bearing)
@@ -170,7 +188,7 @@ def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, star
         runs.append(SimpleNamespace(pass_index=1, line=line))
         for kind, u in zip(("line_start", "line_end"), ends, strict=True):
             e, nn = u * along + (line * spacing if offsets is None else offsets[line]) * across
-            la, lo = qgc.from_plane(float(e), float(nn), lat, lon)
+            la, lo = qgc.from_plane(float(e), float(nn), lat, lon, frame)
             wps.append(SimpleNamespace(kind=kind, run=k, lon=lo, lat=la))
     return _Pass(runs, wps, spacing)
 
@@ -178,24 +196,25 @@ def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, star
 @settings(max_examples=60, deadline=None)
 @given(lat=st.floats(-60, 60), lon=st.floats(-179, 179), bearing=st.floats(0, 360, exclude_max=True),
        spacing=st.floats(8, 150), n=st.integers(1, 25), data=st.data(),
-       first_at_end=st.booleans(), first_reversed=st.booleans())
-def test_qgroundcontrol_regenerates_any_lawnmower(lat, lon, bearing, spacing, n, data, first_at_end, first_reversed) -> None:
+       first_at_end=st.booleans(), first_reversed=st.booleans(), frame=st.sampled_from(qgc.FRAMES))
+def test_qgroundcontrol_regenerates_any_lawnmower(lat, lon, bearing, spacing, n, data, first_at_end, first_reversed,
+                                                  frame) -> None:
     starts = data.draw(st.lists(st.floats(-300, 0), min_size=n, max_size=n))
     lengths = data.draw(st.lists(st.floats(30, 1500), min_size=n, max_size=n))
-    plan = _synthetic_plan(lat, lon, bearing, spacing, starts, lengths, first_at_end, first_reversed)
-    ring, strips = survey_geometry(plan, 1)
+    plan = _synthetic_plan(lat, lon, bearing, spacing, starts, lengths, first_at_end, first_reversed, frame=frame)
+    ring, strips = survey_geometry(plan, 1, frame)
     entry = 2 * strips.reverse_points + strips.reverse_lines
     survey = {"polygon": [[la, lo] for lo, la in ring], "angle": strips.angle, "entryLocation": entry,
               "flyAlternateTransects": False,
               "TransectStyleComplexItem": {"CameraCalc": {"AdjustedFootprintSide": strips.spacing,
                                                           "AdjustedFootprintFrontal": 10.0}}}
-    gen = qgc.regenerate(survey)
+    gen = qgc.regenerate(survey, frame)
     ours = [[(w0.lat, w0.lon), (w1.lat, w1.lon)] for w0, w1 in zip(plan.waypoints[::2], plan.waypoints[1::2], strict=True)]
     assert len(gen.transects) == n
     origin = survey["polygon"][0]
     for q_line, o_line in zip(gen.transects, ours, strict=True):
-        q_xy = qgc.to_plane(np.array([p[0] for p in q_line]), np.array([p[1] for p in q_line]), *origin)
-        o_xy = qgc.to_plane(np.array([p[0] for p in o_line]), np.array([p[1] for p in o_line]), *origin)
+        q_xy = qgc.to_plane(np.array([p[0] for p in q_line]), np.array([p[1] for p in q_line]), *origin, frame)
+        o_xy = qgc.to_plane(np.array([p[0] for p in o_line]), np.array([p[1] for p in o_line]), *origin, frame)
         # each QGC line where our run is, end for end: same place, same direction, same order
         assert float(np.abs(q_xy - o_xy).max()) <= TOL_M
 
@@ -207,5 +226,6 @@ def test_a_pass_of_unevenly_spaced_lines_stays_plain_items() -> None:
     starts, lengths = [0.0] * 5, [400.0] * 5
     even = _synthetic_plan(49.4, 15.0, 30.0, 40.0, starts, lengths, False, False)
     banded = _synthetic_plan(49.4, 15.0, 30.0, 40.0, starts, lengths, False, False, offsets=[0.0, 40.0, 80.0, 104.0, 144.0])
-    assert survey_shapes(even, [1])[1] is not None
-    assert survey_shapes(banded, [1])[1] is None
+    assert survey_shapes(even, [1], "sphere").passes[1] is not None
+    banded_shapes = survey_shapes(banded, [1], "sphere")
+    assert banded_shapes.passes[1] is None and "not evenly spaced" in banded_shapes.plain[0]

@@ -23,7 +23,9 @@ log = logging.getLogger(__name__)
                                            "(docs/clients/qgis.md).")
 @click.option("--qgc", type=click.Choice(QGC_LAYOUTS), default=QGC_LAYOUTS[0], show_default=True,
               help="How the .plan files hold each photo pass: a QGroundControl Survey item the pilot can edit "
-                   "(flown as planned until edited), or plain waypoint items (docs/clients/qgroundcontrol.md).")
+                   "(flown as planned until edited), laid for QGroundControl 5.1 and later ('survey') or 4.x to 5.0 "
+                   "('survey-5.0': they regenerate an edited item on another plane), or plain waypoint items "
+                   "(docs/clients/qgroundcontrol.md).")
 @click.option("--dji", type=click.Choice(DJI_TEMPLATES), default=DJI_TEMPLATES[0], show_default=True,
               help="What template.kml of each DJI .kmz holds: a mapping template (mapping2d, mappingStrip) where one "
                    "expresses the flight, else waypoints; or always waypoints. The route flown is the same "

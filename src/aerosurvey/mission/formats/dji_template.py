@@ -124,7 +124,7 @@ def template_choice(plan: Plan, p: FlightProgram, whole: bool, asked: str = DJI_
             return "the area is several polygons or has holes: a mapping template holds one outline"
         ring = shapely.get_coordinates(area.exterior)
         return replace(flown, coordinates=tuple((float(x), float(y)) for x, y in ring))
-    found = corridor_geometry(plan, plan.layout.passes[0].index)
+    found = corridor_geometry(plan, plan.layout.passes[0].index, "ellipsoid")  # a metric plane at the polyline's start
     if found is None:
         return "the corridor's strips are not the offsets of one line: a strip template lays them so"
     polyline = found[0]

@@ -12,8 +12,11 @@ measured differences; tests/independent_qgc.py ports the generator).
 
 How QGroundControl lays its lines (SurveyComplexItem::_rebuildTransectsPhase1WorkerSinglePolygon),
 which the choices below follow:
-- the polygon is projected onto a plane tangent at its first vertex (an azimuthal equidistant
-  projection on a sphere of the WGS84 equatorial radius, x east, y north);
+- the polygon is projected onto a plane tangent at its first vertex, x east, y north: up to
+  QGroundControl 5.0 an azimuthal equidistant projection on a sphere of the WGS84 equatorial
+  radius ("sphere"), from 5.1 GeographicLib's LocalCartesian on the WGS84 ellipsoid, heights 0
+  ("ellipsoid"); the two place a line 1 km from the vertex up to 2.3 m apart, so the file is
+  written for one of them (`QGC_FRAMES`, docs/clients/qgroundcontrol.md);
 - lines run at the compass bearing `angle`, which it clamps to -90..90 by turning it by 180°;
   line k lies at -h + k·s from the centre of the polygon's east-north bounding box, measured
   towards the bearing angle + 90°, with s the spacing (CameraCalc's AdjustedFootprintSide) and
@@ -48,8 +51,10 @@ from aerosurvey.plan.planner import Plan
 DISTANCE_RELATIVE = 1
 DISTANCE_CALC_ABOVE_TERRAIN = 3
 DISTANCE_TERRAIN_FRAME = 4
-#: the sphere QGroundControl projects on (QGCGeo::convertGeoToNed: GeographicLib's WGS84_a)
+#: the sphere QGroundControl up to 5.0 projects on (QGCGeo::convertGeoToNed: GeographicLib's WGS84_a)
 QGC_SPHERE_M = 6378137.0
+#: QGroundControl's plane (QGCGeo::convertGeoToNed) by the file layout written for it (`aerosurvey plan --qgc`)
+QGC_FRAMES = MappingProxyType({"survey": "ellipsoid", "survey-5.0": "sphere"})
 #: QGroundControl lengthens its lines by this much beyond the polygon's bounding box
 QGC_LINE_MARGIN_M = 2000.0
 
@@ -116,10 +121,16 @@ def survey_blocks(m: Mission) -> list[tuple[int, int, int]]:
 
 
 @lru_cache(maxsize=64)
-def _to_tangent(lat0: float, lon0: float) -> Transformer:
-    """lon/lat -> metres east/north on QGroundControl's tangent plane at (lat0, lon0)."""
-    return Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={float(lat0)!r} +lon_0={float(lon0)!r} +R={QGC_SPHERE_M} "
-                                "+units=m +no_defs", always_xy=True)
+def _to_tangent(lat0: float, lon0: float, frame: str) -> Transformer:
+    """lon/lat -> metres east/north on QGroundControl's plane `frame` (a value of QGC_FRAMES) at (lat0, lon0)."""
+    if frame == "sphere":
+        return Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={float(lat0)!r} +lon_0={float(lon0)!r} "
+                                    f"+R={QGC_SPHERE_M} +units=m +no_defs", always_xy=True)
+    if frame == "ellipsoid":  # LocalCartesian: geocentric, then east-north-up at the origin; heights 0 both ways
+        return Transformer.from_pipeline(
+            "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad +step +proj=cart +ellps=WGS84 "
+            f"+step +proj=topocentric +ellps=WGS84 +lat_0={float(lat0)!r} +lon_0={float(lon0)!r} +h_0=0")
+    raise ValueError(f"QGroundControl frame {frame!r}: one of {', '.join(sorted(set(QGC_FRAMES.values())))}")
 
 
 @dataclass(frozen=True)
@@ -135,13 +146,14 @@ class _PassLines:
     first_line: int  # position in `numbers` of the line flown first
 
 
-def _pass_lines(plan: Plan, pass_index: int) -> _PassLines:
+def _pass_lines(plan: Plan, pass_index: int, flown: frozenset[int]) -> _PassLines:
+    """The lines of the pass's runs in `flown` (run indices)."""
     runs = plan.route.runs
     ends: dict[int, list[tuple[float, float]]] = {}
     first: dict[int, tuple[float, float]] = {}
     first_run = -1
     for w in plan.waypoints:
-        if w.kind in ("line_start", "line_end") and runs[w.run].pass_index == pass_index:
+        if w.kind in ("line_start", "line_end") and w.run in flown and runs[w.run].pass_index == pass_index:
             ends.setdefault(runs[w.run].line, []).append((w.lon, w.lat))
             if first_run < 0:
                 first_run = w.run
@@ -269,9 +281,11 @@ def _clear(r: np.ndarray, m0: np.ndarray, m1: np.ndarray, s: float) -> np.ndarra
                       & (r < s - m0 - safe) & (r > m1 - s + safe), bool)
 
 
-def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
-    """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane) and the
-    lines QGroundControl regenerates a pass from.
+def survey_geometry(plan: Plan, pass_index: int, frame: str,
+                    flown: frozenset[int] | None = None) -> tuple[np.ndarray, _Strips]:
+    """The polygon (lon/lat, open, vertex 0 the origin of QGroundControl's plane `frame`) and the
+    lines QGroundControl regenerates a pass from: all of its runs, or those in `flown` (run
+    indices: a sortie's).
 
     The polygon is the ground the pass's lines are flown over, one strip per line, with a rail
     beyond each outer line (`_ring`): each of QGroundControl's lines crosses its own strip's
@@ -281,10 +295,10 @@ def survey_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, _Strips]:
     larger side runs across, or along, the lines. They stay between 1 % and 99 % of a spacing,
     and the lines clear of the rails.
     Where no margins put the grid on our lines, it is left as near as they put it."""
-    lines = _pass_lines(plan, pass_index)
+    lines = _pass_lines(plan, pass_index, frozenset(range(len(plan.route.runs))) if flown is None else flown)
     origin = lines.points[0]
     for _ in range(3):  # the plane's origin is vertex 0, which depends a little on the bearing measured on it
-        tr = _to_tangent(float(origin[1]), float(origin[0]))
+        tr = _to_tangent(float(origin[1]), float(origin[0]), frame)
         st = _strips(plan, lines, tr)
         e, n = _ring(st, (st.spacing / 2.0, st.spacing / 2.0))[0]
         vertex0 = np.array(tr.transform(e, n, direction="INVERSE"))
@@ -341,12 +355,12 @@ def _rails(st: _Strips) -> tuple[tuple[float, float], float]:
     return (a, b), c
 
 
-def _alternate(plan: Plan, pass_index: int) -> bool:
-    """True when our lines are flown in QGroundControl's alternate order: every second line
-    one way, then the skipped ones on the way back."""
+def _alternate(plan: Plan, pass_index: int, flown: frozenset[int]) -> bool:
+    """True when our lines (of the runs in `flown`) are flown in QGroundControl's alternate
+    order: every second line one way, then the skipped ones on the way back."""
     order: list[int] = []
-    for r in plan.route.runs:
-        if r.pass_index == pass_index and (not order or order[-1] != r.line):
+    for j, r in enumerate(plan.route.runs):
+        if j in flown and r.pass_index == pass_index and (not order or order[-1] != r.line):
             order.append(r.line)
     n = len(order)
     if n < 3 or sorted(order) != list(range(min(order), min(order) + n)):
@@ -358,13 +372,13 @@ def _alternate(plan: Plan, pass_index: int) -> bool:
     return k == want
 
 
-def _run_paths(plan: Plan, pass_index: int) -> dict[tuple[int, int], np.ndarray]:
-    """(line, part) → lon/lat of each run's waypoints from where its camera is switched on
-    to where it is switched off (its start, bends, end)."""
+def _run_paths(plan: Plan, pass_index: int, flown: frozenset[int]) -> dict[tuple[int, int], np.ndarray]:
+    """(line, part) → lon/lat of the waypoints of each run in `flown` from where its camera is
+    switched on to where it is switched off (its start, bends, end)."""
     runs = plan.route.runs
     paths: dict[tuple[int, int], list[tuple[float, float]]] = {}
     for w in plan.waypoints:
-        r = runs[w.run] if w.run >= 0 else None
+        r = runs[w.run] if w.run in flown else None
         if r is not None and r.pass_index == pass_index and w.kind in ("line_start", "bend", "line_end"):
             paths.setdefault((r.line, r.part), []).append((w.lon, w.lat))
     return {k: np.array(v) for k, v in paths.items()}
@@ -380,9 +394,11 @@ def _cross_point(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray)
     return np.asarray(a0 + t * da, float)
 
 
-def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, float, int] | None:
+def corridor_geometry(plan: Plan, pass_index: int, frame: str,
+                      flown: frozenset[int] | None = None) -> tuple[np.ndarray, float, float, int] | None:
     """(polyline lon/lat, corridor width, spacing, entry point) of a Corridor Scan item for a
-    corridor's pass, or None when its strips are not the offsets of one polyline.
+    corridor's pass (its runs in `flown`, run indices: all when None), on QGroundControl's plane
+    `frame`, or None when its strips are not the offsets of one polyline.
 
     QGroundControl (CorridorScanComplexItem::_rebuildTransectsPhase1) flies ⌈width / spacing⌉
     transects, the polyline offset to the left by width/2 - spacing/2 - k·spacing (k = 0 … ;
@@ -392,13 +408,13 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     (each part runs on past the bend). The polyline written is the middle of our strips: per
     part, the mean of the lines' paths (vertex for vertex), the parts joined where their
     middles' end segments meet; the width is the lines' count times their spacing."""
-    paths = _run_paths(plan, pass_index)
+    paths = _run_paths(plan, pass_index, frozenset(range(len(plan.route.runs))) if flown is None else flown)
     lines = sorted({ln for ln, _ in paths})
     parts = sorted({pt for _, pt in paths})
     if any((ln, pt) not in paths for ln in lines for pt in parts):
         return None
     origin = paths[(lines[0], parts[0])][0]
-    tr = _to_tangent(float(origin[1]), float(origin[0]))
+    tr = _to_tangent(float(origin[1]), float(origin[0]), frame)
     en = {k: np.column_stack(tr.transform(v[:, 0], v[:, 1])) for k, v in paths.items()}
     pieces = []  # per part, the middle of the lines' paths, each the way the first line's path of that part runs
     for pt in parts:
@@ -412,15 +428,17 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     left = np.array([-chord[1], chord[0]]) / float(np.hypot(*chord))
     offsets = np.array([float((en[(ln, parts[0])].mean(axis=0) - pieces[0].mean(axis=0)) @ left) for ln in lines])
     # joined in the order the first line flies its parts (each piece runs its way)
-    flight = [pieces[parts.index(r.part)] for r in plan.route.runs if r.pass_index == pass_index and r.line == lines[0]]
+    flight = [pieces[parts.index(r.part)] for k, r in enumerate(plan.route.runs)
+              if r.pass_index == pass_index and r.line == lines[0] and (flown is None or k in flown)]
     line = [flight[0][:-1]]
     for a, b in zip(flight[:-1], flight[1:], strict=True):
         line += [_cross_point(a[-2], a[-1], b[0], b[1])[None, :], b[1:-1]]
     polyline = np.concatenate([*line, flight[-1][-1:]])
-    first = plan.route.runs[next(k for k, r in enumerate(plan.route.runs) if r.pass_index == pass_index)]
-    flown = en[(first.line, first.part)]
+    first = plan.route.runs[next(k for k, r in enumerate(plan.route.runs)
+                                 if r.pass_index == pass_index and (flown is None or k in flown))]
+    first_path = en[(first.line, first.part)]
     piece = pieces[parts.index(first.part)]
-    if float((flown[-1] - flown[0]) @ (piece[-1] - piece[0])) < 0:  # the polyline runs the way our first run flies
+    if float((first_path[-1] - first_path[0]) @ (piece[-1] - piece[0])) < 0:  # the polyline runs the way our first run flies
         polyline, offsets = polyline[::-1], -offsets
     spacing = float(np.median(np.abs(np.diff(offsets)))) if len(lines) > 1 else plan.sensor.spacing_m
     # QGroundControl's first transect is its leftmost (EntryPoint 0); ours starts on the first line flown
@@ -430,61 +448,99 @@ def corridor_geometry(plan: Plan, pass_index: int) -> tuple[np.ndarray, float, f
     return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
 
 
-#: each area pass's Survey polygon and lines by pass index (`survey_shapes`)
-SurveyShapes = Mapping[int, tuple[np.ndarray, _Strips] | None]
+@dataclass(frozen=True)
+class PassShape:
+    """What one pass's complex item is drawn from: a Survey item's polygon and lines
+    (`survey_geometry`), or a Corridor Scan item's polyline, width, spacing and entry
+    (`corridor_geometry`); and whether its lines are flown in QGroundControl's alternate order."""
+
+    grid: tuple[np.ndarray, _Strips] | None
+    corridor: tuple[np.ndarray, float, float, int] | None
+    alternate: bool
 
 
-def survey_shapes(plan: Plan, passes: Iterable[int]) -> SurveyShapes:
-    """Each of `passes`' Survey polygon and lines (`survey_geometry`) by pass index, made once for
-    the files of one render (the whole mission's .plan and its sorties' share a pass's polygon);
-    None for a pass whose lines are not evenly spaced (an oblique grid's bands flown as one pass),
-    which QGroundControl's generator would lay evenly on an edit: it stays plain items. A pass
-    of strips (polylines: a corridor's) has none: it is a Corridor Scan item, made without these."""
+@dataclass(frozen=True)
+class SurveyShapes:
+    """The complex items of one flight's .plan (`survey_shapes`): each pass's shape by pass
+    index (None: the pass stays plain items, for the reason in `plain`)."""
+
+    passes: Mapping[int, PassShape | None]
+    plain: tuple[str, ...]
+    first_station: int  # the flight's stations, in flight order
+    last_station: int
+
+
+def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
+                  stations: tuple[int, int] | None = None) -> SurveyShapes:
+    """Each of `passes`' complex item shape for a flight of stations `stations` (first, last in
+    flight order; the whole mission when None), on QGroundControl's plane `frame`.
+
+    An item holds only what its flight flies: QGroundControl regenerates every line of an
+    item's polygon when the pilot edits it, so a sortie's item is drawn from the sortie's own
+    runs. A pass stays plain items when its flight flies part of a run (an edit would lay the
+    whole line, beyond the sortie's battery), when its lines are not evenly spaced (an oblique
+    grid's bands flown as one pass, or a sortie's lines with a gap: QGroundControl lays them
+    evenly), or when its strips are not the offsets of one polyline."""
+    runs = plan.route.runs
+    station_run = np.asarray(plan.stations.run)
+    first, last = (0, len(station_run) - 1) if stations is None else stations
+    inside = np.zeros(len(station_run), bool)
+    inside[first:last + 1] = True
+    partial = set(station_run[~inside].tolist()) & set(station_run[inside].tolist())
+    flown = frozenset(int(k) for k in set(station_run[inside].tolist()) - partial)
     framed = {p.index for p in plan.layout.passes if p.frame is not None}
-    shapes: dict[int, tuple[np.ndarray, _Strips] | None] = {}
-    for p in sorted(set(passes) & framed):
-        ring, st = survey_geometry(plan, p)
-        even = len(st.v) < 2 or float(np.max(np.abs(np.diff(st.v) - st.spacing))) <= 0.01 * st.spacing
-        shapes[p] = (ring, st) if even else None
-    return MappingProxyType(shapes)
+    out: dict[int, PassShape | None] = {}
+    plain: list[str] = []
+    for p in sorted(set(passes)):
+        if any(runs[k].pass_index == p for k in partial):
+            out[p] = None
+            plain.append(f"pass {p}: the flight flies part of a line, which an edit in QGroundControl would lay whole")
+            continue
+        alternate = _alternate(plan, p, flown)
+        if p in framed:
+            ring, st = survey_geometry(plan, p, frame, flown)
+            even = len(st.v) < 2 or float(np.max(np.abs(np.diff(st.v) - st.spacing))) <= 0.01 * st.spacing
+            out[p] = PassShape((ring, st), None, alternate) if even else None
+            if not even:
+                plain.append(f"pass {p}: its lines are not evenly spaced, as QGroundControl would lay them on an edit")
+            continue
+        found = corridor_geometry(plan, p, frame, flown)
+        out[p] = None if found is None else PassShape(None, found, alternate)
+        if found is None:
+            plain.append(f"pass {p}: its strips are not the offsets of one line, as a Corridor Scan lays them")
+    return SurveyShapes(MappingProxyType(out), tuple(plain), first, last)
 
 
-def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission,
-                 first_station: int = 0, last_station: int | None = None) -> tuple[QgcSurvey, ...]:
-    """A Survey item for each of the mission's pass blocks of parallel lines in a frame with a
-    shape in `shapes` (`survey_shapes`), or a Corridor Scan item for a pass of strips where they
-    are the offsets of one polyline; the mission flies stations `first_station`..`last_station`
-    (flight order) of the plan (a sortie flies a part). Any other pass stays plain items."""
-    last_station = len(plan.stations.ids) - 1 if last_station is None else last_station
+def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission) -> tuple[QgcSurvey, ...]:
+    """A Survey item for each of the mission's pass blocks of parallel lines, or a Corridor Scan
+    item for a pass of strips, where `shapes` (`survey_shapes`, made for the stations the
+    mission flies) has the pass's shape. Any other pass stays plain items."""
     cam = plan.camera.camera
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
-    station_run = np.asarray(plan.stations.run)[first_station:last_station + 1]
+    station_run = np.asarray(plan.stations.run)[shapes.first_station:shapes.last_station + 1]
     if plan.altitudes.frame == "terrain":
         mode = DISTANCE_TERRAIN_FRAME
     elif plan.sensor.heights.mode == "follow":
         mode = DISTANCE_CALC_ABOVE_TERRAIN
     else:
         mode = DISTANCE_RELATIVE
-    framed = {p.index for p in plan.layout.passes if p.frame is not None}
     out: list[QgcSurvey] = []
     for p, a, b in survey_blocks(m):
         polygon: tuple[tuple[float, float], ...] = ()
         polyline: tuple[tuple[float, float], ...] = ()
         width, angle = 0.0, 0.0
-        if p not in framed:
+        shape = shapes.passes.get(p)
+        if shape is None:  # the pass stays plain items
+            continue
+        if shape.corridor is not None:
             # strips bend (a corridor's): a Survey item would regenerate straight lines (the road
             # example: 4 for our 12 runs, their ends up to 2.6 km from ours); a Corridor Scan item
             # offsets one polyline instead
-            found = corridor_geometry(plan, p)
-            if found is None:  # the pass stays plain items
-                continue
-            line, width, spacing, entry = found
+            line, width, spacing, entry = shape.corridor
             polyline = tuple((float(lat), float(lon)) for lon, lat in line)
         else:
-            shape = shapes[p]
-            if shape is None:  # the pass stays plain items
-                continue
-            ring, fit = shape
+            assert shape.grid is not None
+            ring, fit = shape.grid
             polygon = tuple((float(lat), float(lon)) for lon, lat in ring)
             spacing, angle, entry = fit.spacing, fit.angle, 2 * fit.reverse_points + fit.reverse_lines
         items = m.items[a:b + 1]
@@ -505,7 +561,7 @@ def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission,
                            100.0 * (1.0 - spacing / (side_px * gsd_cm / 100.0)))
         out.append(QgcSurvey(
             first=a, last=b, pass_index=p, polygon=polygon, angle_deg=angle, entry_location=entry,
-            fly_alternate=not polyline and _alternate(plan, p), spacing_m=spacing, trigger_m=trigger,
+            fly_alternate=not polyline and shape.alternate, spacing_m=spacing, trigger_m=trigger,
             turnaround_m=plan.sensor.lead_in_m, distance_m=distance, distance_mode=mode, hover=plan.camera.trigger == "hover",
             camera_shots=shots, camera=camera,
             terrain_tolerance_m=plan.altitudes.tolerance_m if mode == DISTANCE_CALC_ABOVE_TERRAIN else 0.0,
