@@ -49,6 +49,7 @@ def test_every_layer_has_its_crs_geometry_type_and_a_default_style(written) -> N
         kind = dict(db.execute("select table_name, data_type from gpkg_contents").fetchall())
         rows = db.execute("select f_table_name, f_geometry_column, styleName, styleQML, useAsDefault "
                           "from layer_styles").fetchall()
+        slds = dict(db.execute("select f_table_name, styleSLD from layer_styles").fetchall())
         geom_col = dict(db.execute("select table_name, column_name from gpkg_geometry_columns").fetchall())
     assert kind["layer_styles"] == "attributes"
     assert {r[0] for r in rows} == set(LAYERS) and len(rows) == len(LAYERS)
@@ -58,6 +59,56 @@ def test_every_layer_has_its_crs_geometry_type_and_a_default_style(written) -> N
         assert root.tag == "qgis"
         symbol = root.find("renderer-v2/symbols/symbol")
         assert symbol is not None and symbol.get("type") == SYMBOL[LAYERS[table]]
+        assert _sld_style(slds[table], table) == _qml_style(symbol), table
+    # GDAL reads the table as any attribute layer, the SLDs with it
+    _, _, _, columns = pyogrio.raw.read(path, layer="layer_styles", columns=["f_table_name", "styleSLD"], read_geometry=False)
+    assert dict(zip(columns[0], columns[1], strict=True)) == slds
+
+
+# the QML's and the SLD's styles read with the standard library's parser, each into
+# (symbolizer, fill "#rrggbb" or None, fill opacity, stroke, stroke opacity, stroke width in mm, marker size in mm)
+_SLD = {"sld": "http://www.opengis.net/sld", "se": "http://www.opengis.net/se"}
+_SYMBOLIZER = {"fill": "PolygonSymbolizer", "line": "LineSymbolizer", "marker": "PointSymbolizer"}
+
+
+def _rgba(text: str) -> tuple[str, float]:
+    r, g, b, a = (int(v) for v in text.split(","))
+    return f"#{r:02x}{g:02x}{b:02x}", round(a / 255.0, 2)
+
+
+def _qml_style(symbol: ET.Element) -> tuple:
+    opts = {o.get("name"): o.get("value") for o in symbol.iter("Option") if o.get("name")}
+    kind = symbol.get("type")
+    if kind == "line":
+        return ("LineSymbolizer", None, None, *_rgba(opts["line_color"]), float(opts["line_width"]), None)
+    fill, stroke = _rgba(opts["color"]), _rgba(opts["outline_color"])
+    if kind == "fill":
+        return ("PolygonSymbolizer", *fill, *stroke, float(opts["outline_width"]), None)
+    return ("PointSymbolizer", *fill, *stroke, float(opts["outline_width"]), float(opts["size"]))
+
+
+def _sld_style(text: str, layer: str) -> tuple:
+    """An SLD 1.1 document's one rule, as a client reads it: sizes from 0.28 mm pixels (SE 1.1)."""
+    root = ET.fromstring(text)
+    assert root.tag == "{http://www.opengis.net/sld}StyledLayerDescriptor" and root.get("version") == "1.1.0"
+    assert root.findtext("sld:NamedLayer/se:Name", namespaces=_SLD) == layer
+    rules = root.findall("sld:NamedLayer/sld:UserStyle/se:FeatureTypeStyle/se:Rule", _SLD)
+    assert len(rules) == 1
+    sym = next(iter(rules[0].findall("*")[1:]))  # after its se:Name
+    kind = sym.tag.split("}")[1]
+    where = sym.find("se:Graphic/se:Mark", _SLD) if kind == "PointSymbolizer" else sym
+
+    def params(tag: str) -> dict[str, str]:
+        el = where.find(f"se:{tag}", _SLD)
+        return {} if el is None else {p.get("name"): p.text for p in el.findall("se:SvgParameter", _SLD)}
+
+    fill, stroke = params("Fill"), params("Stroke")
+    if kind == "PointSymbolizer":
+        assert where.findtext("se:WellKnownName", namespaces=_SLD) == "circle"
+    size = sym.findtext("se:Graphic/se:Size", namespaces=_SLD)
+    return (kind, fill.get("fill"), round(float(fill["fill-opacity"]), 2) if fill else None,
+            stroke["stroke"], round(float(stroke["stroke-opacity"]), 2), round(float(stroke["stroke-width"]) * 0.28, 2),
+            None if size is None else round(float(size) * 0.28, 2))
 
 
 def test_counts_match_the_plan(written) -> None:

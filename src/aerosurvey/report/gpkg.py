@@ -28,7 +28,10 @@ terrain-frame route is 2-D: its waypoints between stations have no ground height
 Styles: a `layer_styles` table as QGIS writes it when a style is saved into a GeoPackage
 (QgsOgrProviderMetadata::saveStyle: a table without geometry, FID column `id`, the fields
 f_table_catalog … update_time, one row per layer with useAsDefault true), so QGIS draws each
-layer with its style when it is opened. The QML holds a single-symbol renderer.
+layer with its style when it is opened. The QML holds a single-symbol renderer; the same style
+is in `styleSLD` as an OGC Styled Layer Descriptor 1.1 (Symbology Encoding 1.1, as QGIS exports
+it) for the clients that read SLD rather than QML (GeoServer, MapServer, OpenLayers' readers):
+colours as #rrggbb with an opacity, sizes in the standard rendering pixels of 0.28 mm.
 
 The file is made by GDAL (pyogrio); `OGR_CURRENT_DATE` is fixed while writing, so the same
 plan gives the same bytes (GDAL would otherwise stamp gpkg_contents with the time).
@@ -239,6 +242,58 @@ def qml(style: Style) -> str:
             "</symbols></renderer-v2></qgis>\n")
 
 
+#: OGC's namespaces of an SLD 1.1 document, and its "standardized rendering pixel" (SE 1.1, 0.28 mm)
+SLD_NS = "http://www.opengis.net/sld"
+SE_NS = "http://www.opengis.net/se"
+SE_PIXEL_MM = 0.28
+
+
+def _hex_and_opacity(rgba: str) -> tuple[str, str]:
+    r, g, b, a = (int(v) for v in rgba.split(","))
+    return f"#{r:02x}{g:02x}{b:02x}", f"{a / 255.0:.3g}"
+
+
+def sld(name: str, style: Style) -> str:
+    """The style as an SLD 1.1 document (one rule, one symbolizer) for the layer `name`."""
+    from lxml import etree
+
+    def se(parent: etree._Element, tag: str, text: str | None = None, **attrs: str) -> etree._Element:
+        el = etree.SubElement(parent, f"{{{SE_NS}}}{tag}", attrs)
+        el.text = text
+        return el
+
+    def paint(parent: etree._Element, tag: str, rgba: str, width_mm: float | None = None) -> None:
+        colour, opacity = _hex_and_opacity(rgba)
+        kind = "fill" if tag == "Fill" else "stroke"
+        el = se(parent, tag)
+        se(el, "SvgParameter", colour, name=kind)
+        se(el, "SvgParameter", opacity, name=f"{kind}-opacity")
+        if width_mm is not None:
+            se(el, "SvgParameter", f"{width_mm / SE_PIXEL_MM:.3g}", name="stroke-width")
+
+    root = etree.Element(f"{{{SLD_NS}}}StyledLayerDescriptor", {"version": "1.1.0"}, nsmap={None: SLD_NS, "se": SE_NS})
+    layer = etree.SubElement(root, f"{{{SLD_NS}}}NamedLayer")
+    se(layer, "Name", name)
+    user = etree.SubElement(layer, f"{{{SLD_NS}}}UserStyle")
+    se(user, "Name", name)
+    rule = se(se(user, "FeatureTypeStyle"), "Rule")
+    se(rule, "Name", "Single symbol")
+    if style.kind == "fill":
+        sym = se(rule, "PolygonSymbolizer")
+        paint(sym, "Fill", style.color)
+        paint(sym, "Stroke", style.outline, style.width_mm)
+    elif style.kind == "line":
+        paint(se(rule, "LineSymbolizer"), "Stroke", style.color, style.width_mm)
+    else:
+        graphic = se(se(rule, "PointSymbolizer"), "Graphic")
+        mark = se(graphic, "Mark")
+        se(mark, "WellKnownName", "circle")
+        paint(mark, "Fill", style.color)
+        paint(mark, "Stroke", style.outline, 0.2)
+        se(graphic, "Size", f"{style.width_mm / SE_PIXEL_MM:.3g}")
+    return etree.tostring(root, encoding="unicode")
+
+
 def write_gpkg(path: Path, layers: Sequence[Layer]) -> None:
     """Write the layers and their styles into a new GeoPackage at `path` (which must not exist)."""
     import pyogrio
@@ -269,7 +324,7 @@ def _write_styles(path: Path, layers: Sequence[Layer]) -> None:
     empty = np.array([""] * n, dtype=object)
     fields = [("f_table_catalog", empty), ("f_table_schema", empty), ("f_table_name", _text([x.name for x in layers])),
               ("f_geometry_column", np.array(["geom"] * n, dtype=object)), ("styleName", _text([x.name for x in layers])),
-              ("styleQML", _text([qml(x.style) for x in layers])), ("styleSLD", empty),
+              ("styleQML", _text([qml(x.style) for x in layers])), ("styleSLD", _text([sld(x.name, x.style) for x in layers])),
               ("useAsDefault", np.ones(n, bool)), ("description", _text([f"aerosurvey: {x.name}" for x in layers])),
               ("owner", empty), ("ui", empty),
               ("update_time", np.full(n, np.datetime64(dt.datetime.fromisoformat(FIXED_TIME.replace("Z", "")), "ms")))]
