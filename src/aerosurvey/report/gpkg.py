@@ -291,7 +291,7 @@ def sld(name: str, style: Style) -> str:
         paint(mark, "Fill", style.color)
         paint(mark, "Stroke", style.outline, 0.2)
         se(graphic, "Size", f"{style.width_mm / SE_PIXEL_MM:.3g}")
-    return etree.tostring(root, encoding="unicode")
+    return str(etree.tostring(root, encoding="unicode"))
 
 
 def write_gpkg(path: Path, layers: Sequence[Layer]) -> None:
