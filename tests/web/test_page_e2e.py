@@ -853,6 +853,63 @@ def test_layout_in_the_field(site, size):
         ctx.close()
 
 
+def test_phone_in_the_field_with_qr_codes(site):
+    """On a phone (375×812, below 768 px) the page scrolls down, never sideways: the summary stays
+    in view at the top, every tab is usable at the full width, each sortie's fly block has its
+    files, and with `serve --lan` a QR button shows a code of the file's network address."""
+    from webutil import Server
+
+    server = Server(site["spec"], lan=True)
+    ctx = site["browser"].new_context(viewport={"width": 375, "height": 812}, is_mobile=True, has_touch=True)
+    errors: list[str] = []
+    try:
+        pg = ctx.new_page()
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.goto(server.url)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+
+        def no_sideways_scroll() -> None:
+            assert pg.evaluate("document.scrollingElement.scrollWidth") <= 375
+
+        def summary_in_view() -> None:
+            for key in ("photos", "time", "sorties", "rules"):
+                b = pg.locator(f"#summary dd[data-summary='{key}']").bounding_box()
+                assert b is not None and 0 <= b["y"] and b["y"] + b["height"] <= 812 and b["x"] + b["width"] <= 375, key
+
+        for tab in ("setup", "fly", "rules", "flight"):
+            _tab(pg, tab)
+            no_sideways_scroll()
+            summary_in_view()
+        _tab(pg, "fly")
+        blocks = pg.locator("#fly-blocks .fly")
+        assert blocks.count() == 5
+        first = blocks.first.bounding_box()
+        assert first["x"] >= 0 and first["x"] + first["width"] <= 375
+        assert {"sortie-01.plan", "sortie-01.waypoints"} <= set(pg.eval_on_selector_all(
+            "#fly-blocks .fly:first-child a[data-file]", "els => els.map(e => e.dataset.file)"))
+        # scrolled to the last block, the summary is still at the top
+        blocks.last.scroll_into_view_if_needed()
+        summary_in_view()
+        # a QR code of the first sortie's .plan, and the phone downloads the file from its address
+        blocks.first.locator("button[data-share='sortie-01.plan']").click()
+        pg.wait_for_selector("#fly-blocks .fly:first-child .qr img")
+        url = pg.text_content("#fly-blocks .fly:first-child .qr .hint").split(": ", 1)[1]
+        assert url.startswith(server.url + "lan/")
+        img = pg.locator("#fly-blocks .fly:first-child .qr img").bounding_box()
+        assert img["x"] >= 0 and img["x"] + img["width"] <= 375
+        no_sideways_scroll()
+        got = pg.request.get(url)
+        assert got.status == 200 and got.body() == (site["cli"] / "sortie-01.plan").read_bytes()
+        _tab(pg, "flight")
+        b = pg.locator("#pick-flight").bounding_box()
+        assert b is not None and b["x"] + b["width"] <= 375
+        pg.screenshot(path=str(SHOTS / "layout-375x812.png"), full_page=True)
+        assert errors == []
+    finally:
+        ctx.close()
+        server.stop()
+
+
 def test_long_plan_shows_progress_and_cancels(site):
     tmp = site["tmp"] / "big"
     tmp.mkdir()

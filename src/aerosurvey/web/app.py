@@ -35,6 +35,7 @@ from starlette.staticfiles import StaticFiles
 from aerosurvey.web import routes_basemap, routes_flight, routes_plan, routes_spec, service
 from aerosurvey.web.basemap import open_basemap
 from aerosurvey.web.jobs import JobRunner
+from aerosurvey.web.lan import LanGate, Shares
 from aerosurvey.web.limits import BodyLimit, HostCheck
 from aerosurvey.web.state import ServerState, blocking
 
@@ -51,6 +52,8 @@ ROUTES: list[BaseRoute] = [
     Route("/api/jobs/{job_id}", routes_plan.cancel_job, methods=["DELETE"]),
     Route("/api/plans/{plan_id}/files/{name}", routes_plan.plan_file),
     Route("/api/plans/{plan_id}/archive.zip", routes_plan.plan_archive),
+    Route("/api/plans/{plan_id}/share/{name}", routes_plan.share_file, methods=["POST"]),
+    Route("/lan/{token}/{name}", routes_plan.lan_file, methods=["GET", "HEAD"]),
     Route("/api/plans/{plan_id}/flight", routes_flight.flight_results, methods=["POST"]),
     Route("/api/plans/{plan_id}/refly", routes_flight.refly, methods=["POST"]),
     Route("/api/plans/{plan_id}/resume", routes_flight.resume, methods=["POST"]),
@@ -59,9 +62,12 @@ ROUTES: list[BaseRoute] = [
 
 
 def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts: list[str] | None = None,
-               upload_limit: int = UPLOAD_LIMIT, workers: int = 2, basemap: Path | None = None) -> Starlette:
+               upload_limit: int = UPLOAD_LIMIT, workers: int = 2, basemap: Path | None = None,
+               lan: str | None = None) -> Starlette:
     """The app; `allowed_hosts` None accepts any Host header (tests), else only those (DNS rebinding).
-    `basemap`: a local .mbtiles or .pmtiles file of raster or vector tiles the page draws under the plan."""
+    `basemap`: a local .mbtiles or .pmtiles file of raster or vector tiles the page draws under the plan.
+    `lan`: "ADDRESS:PORT" on the local network where shared files are served to other machines, and
+    nothing else (web/lan.py); None: nothing is shared."""
     spec = {}
     if spec_path is not None:
         spec_path = spec_path.resolve()
@@ -70,7 +76,8 @@ def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts:
     uploads = Path(tempfile.mkdtemp(prefix="aerosurvey-serve-"))
     base = spec_path.parent if spec_path is not None else uploads
     ws = service.Workspace(base=base, uploads=uploads, roots=[base], spec_file=spec_path)
-    state = ServerState(spec_path, spec, ws, tile_url, JobRunner(workers=workers), upload_limit, tiles)
+    state = ServerState(spec_path, spec, ws, tile_url, JobRunner(workers=workers), upload_limit, tiles,
+                        shares=Shares(f"http://{lan}") if lan is not None else None)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
@@ -85,6 +92,8 @@ def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts:
     static = StaticFiles(directory=str(resources.files("aerosurvey.web").joinpath("static")))
     app = Starlette(routes=[*ROUTES, Mount("/static", static)], lifespan=lifespan)
     app.add_middleware(BodyLimit, limit=upload_limit)
-    app.add_middleware(HostCheck, allowed_hosts=allowed_hosts)
+    app.add_middleware(HostCheck, allowed_hosts=allowed_hosts if allowed_hosts is None or lan is None else [*allowed_hosts, lan])
+    if lan is not None:  # outermost: another machine reaches nothing but the shared files
+        app.add_middleware(LanGate, lan_host=lan)
     app.state.server = state
     return app

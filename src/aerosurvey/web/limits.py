@@ -24,7 +24,7 @@ class _TooLarge(Exception):
     pass
 
 
-async def _send_json(send: Send, status: int, body: dict[str, Any]) -> None:
+async def send_json(send: Send, status: int, body: dict[str, Any]) -> None:
     data = json.dumps(body).encode("utf-8")
     await send({"type": "http.response.start", "status": status,
                 "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(data)).encode())]})
@@ -44,7 +44,7 @@ class BodyLimit:
         declared = headers.get(b"content-length")
         message = {"error": f"request body larger than the upload limit of {self.limit / 1048576:.0f} MB", "key": None}
         if declared is not None and declared.isdigit() and int(declared) > self.limit:
-            await _send_json(send, 413, message)
+            await send_json(send, 413, message)
             return
         seen = 0
         started = False
@@ -68,7 +68,7 @@ class BodyLimit:
             await self.app(scope, counted_receive, tracked_send)
         except _TooLarge:
             if not started:
-                await _send_json(send, 413, message)
+                await send_json(send, 413, message)
 
 
 class HostCheck:
@@ -87,12 +87,12 @@ class HostCheck:
         headers = dict(scope.get("headers") or [])
         host = headers.get(b"host", b"").decode("latin-1").lower()
         if self.allowed is not None and host not in self.allowed:
-            await _send_json(send, 421, {"error": f"Host {host!r} is not served here; open one of {sorted(self.allowed)}", "key": None})
+            await send_json(send, 421, {"error": f"Host {host!r} is not served here; open one of {sorted(self.allowed)}", "key": None})
             return
         origin = headers.get(b"origin")
         if scope["method"] not in ("GET", "HEAD", "OPTIONS") and origin is not None:
             o = origin.decode("latin-1").lower().split("://", 1)[-1]
             if o not in (self.allowed if self.allowed is not None else {host}):
-                await _send_json(send, 403, {"error": f"requests from origin {origin.decode('latin-1')!r} are refused", "key": None})
+                await send_json(send, 403, {"error": f"requests from origin {origin.decode('latin-1')!r} are refused", "key": None})
                 return
         await self.app(scope, receive, send)

@@ -5,6 +5,8 @@
   DELETE /api/jobs/{id}              cancel a running plan
   GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
   GET    /api/plans/{pid}/archive.zip  all of them
+  POST   /api/plans/{pid}/share/{n}  one file shared on the local network (serve --lan): its URL and QR code
+  GET    /lan/{token}/{n}            a shared file, the one request answered to other machines (web/lan.py)
 """
 
 from __future__ import annotations
@@ -81,8 +83,36 @@ async def plan_file(request: Request) -> Response:
     data = bundle.data(name)
     if data is None:
         return not_found(f"the plan has no file {name!r}; it has {', '.join(bundle.names())}")
-    return Response(data, media_type=_MEDIA.get(name.rsplit(".", 1)[-1], "text/plain"),
-                    headers=attachment(name))
+    return _file_response(name, data)
+
+
+def _file_response(name: str, data: bytes) -> Response:
+    return Response(data, media_type=_MEDIA.get(name.rsplit(".", 1)[-1], "text/plain"), headers=attachment(name))
+
+
+async def share_file(request: Request) -> Response:
+    state = server(request)
+    if state.shares is None:
+        return not_found("files are shared on the local network only when the server runs with `aerosurvey serve --lan`")
+    bundle = state.plan(request.path_params["plan_id"])
+    if bundle is None:
+        return plan_gone(request)
+    name = request.path_params["name"]
+    if bundle.data(name) is None:
+        return not_found(f"the plan has no file {name!r}; it has {', '.join(bundle.names())}")
+    return JSONResponse(await blocking(state.shares.share, request.path_params["plan_id"], name))
+
+
+async def lan_file(request: Request) -> Response:
+    state = server(request)
+    shared = state.shares.get(request.path_params["token"]) if state.shares is not None else None
+    if shared is None or shared[1] != request.path_params["name"]:
+        return not_found("no file is shared under this address (shares are forgotten when the server stops)")
+    bundle = state.plan(shared[0])
+    data = bundle.data(shared[1]) if bundle is not None else None
+    if data is None:
+        return not_found("the shared plan is not kept any more: share its file again from the page")
+    return _file_response(shared[1], data)
 
 
 async def plan_archive(request: Request) -> Response:

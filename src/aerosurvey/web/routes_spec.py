@@ -48,7 +48,8 @@ def _state(state: ServerState) -> dict[str, Any]:
             "preview": geometry_preview(state.workspace, state.spec),
             # a page without a spec: the settings an area drawn on it starts from
             "defaults": {k: v for k, v in service.default_spec({}, "drawn-area").items() if k != "area"},
-            "basemap": state.basemap.info.as_dict() if state.basemap else None}
+            "basemap": state.basemap.info.as_dict() if state.basemap else None,
+            "lan": state.shares is not None}
 
 
 async def upload_area(request: Request) -> Response:

@@ -29,6 +29,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.web import service
 from aerosurvey.web.basemap import Basemap
 from aerosurvey.web.jobs import JobRunner
+from aerosurvey.web.lan import Shares
 
 P = ParamSpec("P")
 T = TypeVar("T")
@@ -43,6 +44,7 @@ class ServerState:
     runner: JobRunner
     upload_limit: int
     basemap: Basemap | None = None  # the offline basemap file (--basemap), served as tiles
+    shares: Shares | None = None  # files shared on the local network (serve --lan), None without it
     plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
     serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
     keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB

@@ -24,6 +24,7 @@ const S = {
   timer: null,
   tileUrl: "",
   basemap: null,       // the server's own basemap (--basemap FILE), or null
+  lan: false,          // files can be shared on the local network (serve --lan): a QR button per sortie file
   flown: null,
   tool: "edit",
   history: [], pos: -1, // undo stack of the drawn geometry
@@ -670,6 +671,25 @@ function fileLink(name, label) {
   return a;
 }
 
+/** A button that shares one file on the local network (serve --lan) and shows its QR code in its fly block. */
+function qrButton(name) {
+  const b = document.createElement("button");
+  b.type = "button"; b.className = "qr-button"; b.textContent = "QR"; b.dataset.share = name;
+  b.title = `Show a QR code a phone or a DJI remote controller on this network downloads ${name} from`;
+  b.addEventListener("click", async () => {
+    const box = b.closest(".fly").querySelector(".qr");
+    box.textContent = "";
+    try {
+      const r = await api("POST", `/api/plans/${S.view.plan_id}/share/${encodeURIComponent(name)}`);
+      const img = document.createElement("img");
+      img.src = `data:image/png;base64,${r.qr_png}`; img.alt = `QR code of ${r.url}`;
+      const url = document.createElement("div"); url.className = "hint"; url.textContent = `${name}: ${r.url}`;
+      box.append(img, url);
+    } catch (e) { box.textContent = e.message; box.classList.add("err"); }
+  });
+  return b;
+}
+
 function lonlatText(lon, lat) {
   return `${Math.abs(lat).toFixed(6)}° ${lat >= 0 ? "N" : "S"} ${Math.abs(lon).toFixed(6)}° ${lon >= 0 ? "E" : "W"}`;
 }
@@ -708,8 +728,12 @@ function renderFly(view) {
     // the sortie's files for every fleet the plan exports (.plan, .waypoints, a DJI camera's .kmz): those of its stems
     const stem = (f) => f.replace(/\.[^.]+$/, "");
     const stems = new Set(b.files.map(stem));
-    for (const f of view.files.filter((n) => stems.has(stem(n)))) files.appendChild(fileLink(f));
+    for (const f of view.files.filter((n) => stems.has(stem(n)))) {
+      files.appendChild(fileLink(f));
+      if (S.lan) files.appendChild(qrButton(f));
+    }
     parts.push(files);
+    if (S.lan) { const qr = document.createElement("div"); qr.className = "qr"; parts.push(qr); }
     div.append(h, ...parts);
     box.appendChild(div);
   }
@@ -1090,6 +1114,7 @@ async function start() {
   S.specPath = st.spec_path;
   S.preview = st.preview;
   S.basemap = st.basemap;
+  S.lan = Boolean(st.lan);
   S.defaults = st.defaults;
   const saved = localStorage.getItem("aerosurvey.tileUrl");
   S.tileUrl = st.tile_url || saved || "";
