@@ -47,6 +47,7 @@ def load_inputs(spec: MissionSpec) -> PlanInputs:
         extra = [shapely.Point(p) for p in ((spec.area.launch,) if spec.area.launch else ())]
         if spec.battery is not None:
             extra += [shapely.Point(p) for p in spec.battery.launch_points]
+        extra += [shapely.Point(p) for p in spec.flight.rally_points]
         dem = read_dem_window(spec.terrain.dem, shapely.union_all([area, *extra]), reach_beyond_area_m(spec))
     return PlanInputs(area, zones, dem, load_airspace(spec, area))
 

@@ -104,6 +104,7 @@ class FlightSpec:
     wind_from_deg: float | None  # planes landing: the approach is flown into this wind
     approach_m: float
     approach_alt_m: float
+    rally_points: tuple[tuple[float, float], ...] = ()  # (lon, lat): where RTL may go besides the launch sites
 
 
 @dataclass(frozen=True)
@@ -499,6 +500,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         wind_from_deg=f.number("wind_from_deg", None, lo=0.0, hi=360.0, hi_open=True),
         approach_m=f.number("approach_m", 300.0, lo=20.0, hi=5000.0) or 300.0,
         approach_alt_m=f.number("approach_alt_m", 30.0, lo=5.0, hi=500.0) or 30.0,
+        rally_points=_lonlat_list(f, "rally_points"),
     )
     f.done()
     if camera.trigger == "hover" and vtype == "plane":

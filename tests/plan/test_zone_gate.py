@@ -130,3 +130,37 @@ def test_the_way_home_goes_round_a_zone(tmp_path: Path, battery: bool):
         assert max(inside) == 0.0, (f.name, inside)
         # the survey starts and ends north of the zone: there is a way round it, and a copter lands at home
         assert "\t21\t" in f.read_text().splitlines()[-1]
+
+
+def _rally_case(tmp_path: Path, rally: tuple[float, float]) -> Path:
+    write_fc(tmp_path / "area.geojson", box_ring(-300, 400, 300, 900))
+    write_fc(tmp_path / "zone.geojson", box_ring(400, -100, 600, 100))
+    spec = {"mission": {"name": "rally"}, "area": {"file": "area.geojson", "exclusions": ["zone.geojson"],
+                                                   "launch": lonlat(0, 0)},
+            "camera": {"model": "ricoh-gr"}, "targets": {"gsd_cm": 3.0},
+            "flight": {"heading": 90.0, "rally_points": [lonlat(*rally)]}}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(spec))
+    return tmp_path / "s.toml"
+
+
+def test_a_rally_point_is_where_rtl_may_go_and_the_fence_holds_it(tmp_path: Path):
+    import json
+
+    import shapely
+
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(_rally_case(tmp_path, (0.0, 1300.0))), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads((out / "mission.plan").read_text())
+    want = lonlat(0.0, 1300.0)
+    assert any(abs(p[1] - want[0]) < 1e-7 and abs(p[0] - want[1]) < 1e-7 for p in doc["rallyPoints"]["points"])
+    fence = next(p for p in doc["geoFence"]["polygons"] if p["inclusion"])
+    assert shapely.Polygon([(lon, lat) for lat, lon in fence["polygon"]]).contains(shapely.Point(*want))
+
+
+def test_a_rally_point_in_a_zone_is_refused_as_a_launch_point_is(tmp_path: Path):
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(_rally_case(tmp_path, (500.0, 0.0))), "-o", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "flight.rally_points[1] = [" in res.output and "lies inside an exclusion zone" in res.output
+    assert not out.exists()

@@ -1209,3 +1209,39 @@ def test_drawn_geometry_is_rounded_to_1e8_degrees(page, site):
     numbers = [v for f in feats for ring in f["geometry"]["coordinates"] for xy in ring for v in xy]
     numbers += [float(v) for z in page.evaluate("window.aerosurvey.zones") for v in re.findall(r"-?\d+\.\d+", z)]
     assert numbers and all(round(v, 8) == v for v in numbers)
+
+
+def test_rally_point_placed_checked_fenced_and_saved(site):
+    """A rally point placed on the map: RTL may go there (the .plan's rally points), the geofence
+    grows to hold it (drawn on the map), it is saved in the spec; placed in a zone, it is refused
+    next to the map, as a launch point is."""
+    tmp = site["tmp"] / "rally"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    with _own_server_page(site, spec) as (pg, _):
+        assert pg.evaluate("window.aerosurvey.layers.fence.getSource().getFeatures().length") == 1
+        box = pg.locator("#map").bounding_box()
+        pg.click("#tools [data-tool='rally']")
+        _replan_and_wait(pg, lambda: pg.mouse.click(box["x"] + box["width"] - 120, box["y"] + 90))
+        (lon, lat), = _drawn(pg, "rally")
+        (point,) = pg.evaluate("window.aerosurvey.spec.flight.rally_points")
+        assert point == pytest.approx([lon, lat], abs=DEGREE_STEP)
+        assert pg.evaluate("window.aerosurvey.view.layers.rally.length") == 1
+        fence = pg.evaluate("""() => window.aerosurvey.layers.fence.getSource().getFeatures()[0].getGeometry().clone()
+            .transform('EPSG:3857', 'EPSG:4326').getCoordinates()""")
+        assert shapely.Polygon(fence[0]).contains(shapely.Point(lon, lat))
+        plan_id = pg.evaluate("window.aerosurvey.view.plan_id")
+        doc = json.loads(pg.evaluate(f"fetch('/api/plans/{plan_id}/files/mission.plan').then(r => r.text())"))
+        assert any(abs(p[0] - lat) < 1e-7 and abs(p[1] - lon) < 1e-7 for p in doc["rallyPoints"]["points"])
+        _tab(pg, "setup")
+        pg.click("#save-spec")
+        pg.wait_for_function("document.querySelector('#save-status').textContent.startsWith('saved')", timeout=30000)
+        assert tomllib.loads(spec.read_text())["flight"]["rally_points"] == [pytest.approx([lon, lat], abs=DEGREE_STEP)]
+        # a zone over the rally point: refused by the gate launch points pass, the message next to the map
+        pg.click("#tools [data-tool='zone']")
+        x, y = box["x"] + box["width"] - 120, box["y"] + 90
+        _click_polygon(pg, [(x - 30, y - 30), (x + 30, y - 30), (x + 30, y + 30), (x - 30, y + 30)])
+        pg.wait_for_function("document.querySelector('#draw-error').textContent.includes('flight.rally_points[1]')",
+                             timeout=60000)
+        assert "inside an exclusion zone" in pg.text_content("#draw-error")
+        pg.screenshot(path=str(SHOTS / "17-rally-point-in-a-zone.png"))

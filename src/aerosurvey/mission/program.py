@@ -159,7 +159,8 @@ def flight_program(plan: Plan, sortie: int | None = None, name: str | None = Non
     home_detour = bool(wps) and wps[-1].kind == "transit"
     land = landing.end == "land" or (home_detour and vehicle == "copter")
     h = plan.sensor.heights.nominal_agl_m
-    rally = tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2)) for st in plan.launch.sites)
+    rally = tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2))
+                  for st in (*plan.launch.sites, *plan.launch.rally))
     if not land and waypoints:
         # RTL goes to the nearest rally point (and home, for a copter) from where it starts: when that is
         # another launch site, the flight first comes home (its way home is clear of the zones: the
@@ -185,7 +186,8 @@ def flight_program(plan: Plan, sortie: int | None = None, name: str | None = Non
         approach=approach,
         fence_inclusion=plan.launch.fence.inclusion,
         fence_exclusion=plan.launch.fence.exclusion,
-        # every launch site a rally point, at the survey's height above its ground, as an altitude above this launch point
+        # every launch site and the spec's rally points, at the survey's height above their ground, as an altitude above
+        # this launch point
         rally=rally,
         max_leg_m=plan.vehicle.max_leg_m,
     )

@@ -92,6 +92,7 @@ class Launch:
     home: tuple[float, float, float]  # lon, lat, ground AMSL (0 without a DEM)
     home_xy: tuple[float, float]  # planning CRS
     sites: tuple[LaunchSite, ...]  # where sorties may start: the battery's launch points, else home
+    rally: tuple[LaunchSite, ...]  # the spec's rally points: where RTL may go besides the launch sites
     fence: Fence
     landing: Landing  # how a flight ends: land (a plane on its approach) or RTL
     fixed_yaw_deg: float | None  # copters: the nose's one heading for the whole flight; None: along the track

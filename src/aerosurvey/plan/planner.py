@@ -98,8 +98,10 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
     sites = launch_sites(spec, site, routed.home_xy, home)
+    rally = rally_points(spec, site)
     landing = Landing.of(spec)
-    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
+    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
+                     site.exclusions_wgs84)
     budget: Budget | None = None
     sorties: tuple[SortiePlan, ...] = ()
     start = 0 if resume_from is None else station_index(alts.stations.ids, resume_from)
@@ -117,7 +119,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     return Plan(
         name=spec.name, vehicle=spec.vehicle, camera=spec.camera, pattern=spec.pattern, site=site, sensor=sensor,
         layout=layout, route=routed.route, altitudes=alts,
-        launch=Launch(home, routed.home_xy, sites, fence, landing,
+        launch=Launch(home, routed.home_xy, sites, rally, fence, landing,
                       None if spec.flight.fixed_yaw_deg is None else float(spec.flight.fixed_yaw_deg)),
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
         bounds=pattern.bounds(spec, site, sensor, layout),
@@ -225,12 +227,22 @@ def launch_sites(spec: MissionSpec, site: Site, home_xy: tuple[float, float],
     pts = spec.battery.launch_points if spec.battery is not None and spec.battery.launch_points else ()
     if not pts:
         return (LaunchSite(home_xy[0], home_xy[1], home[0], home[1], home[2]),)
+    return _places(spec, site, pts, "battery.launch_points")
+
+
+def rally_points(spec: MissionSpec, site: Site) -> tuple[LaunchSite, ...]:
+    """The spec's rally points (`flight.rally_points`): places RTL may fly to and land at, so
+    refused where a launch point would be (in or next to a zone, an approach across one)."""
+    return _places(spec, site, spec.flight.rally_points, "flight.rally_points") if spec.flight.rally_points else ()
+
+
+def _places(spec: MissionSpec, site: Site, pts: tuple[tuple[float, float], ...], key: str) -> tuple[LaunchSite, ...]:
     lon = np.array([p[0] for p in pts])
     lat = np.array([p[1] for p in pts])
     x, y = site.planar.xy(lon, lat)
-    ground = site.dem.sample(x, y, "launch points") if site.dem is not None else np.zeros(len(pts))
+    ground = site.dem.sample(x, y, key) if site.dem is not None else np.zeros(len(pts))
     for i, (px, py) in enumerate(zip(x, y)):
-        check_launch(spec, site, (float(px), float(py)), f"battery.launch_points[{i + 1}] = {list(pts[i])}", "battery.launch_points")
+        check_launch(spec, site, (float(px), float(py)), f"{key}[{i + 1}] = {list(pts[i])}", key)
     return tuple(LaunchSite(float(px), float(py), float(lo), float(la), float(g)) for px, py, lo, la, g in zip(x, y, lon, lat, ground))
 
 

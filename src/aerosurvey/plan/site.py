@@ -154,13 +154,14 @@ def _rings(geom: BaseGeometry) -> int:
 
 
 def _places(spec: MissionSpec, inputs: PlanInputs) -> list[tuple[str, BaseGeometry]]:
-    """The area, the exclusion zones and the launch points, each with its name in the spec."""
+    """The area, the exclusion zones, the launch and rally points, each with its name in the spec."""
     out: list[tuple[str, BaseGeometry]] = [("area", inputs.area_wgs84)]
     out += [(f"exclusion zone {p.name}", z) for p, z in zip(spec.area.exclusions, inputs.exclusions_wgs84)]
     if spec.area.launch is not None:
         out.append(("area.launch", shapely.Point(spec.area.launch)))
     if spec.battery is not None:
         out += [(f"battery.launch_points[{i}]", shapely.Point(p)) for i, p in enumerate(spec.battery.launch_points)]
+    out += [(f"flight.rally_points[{i}]", shapely.Point(p)) for i, p in enumerate(spec.flight.rally_points)]
     return out
 
 

@@ -408,6 +408,11 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
     for i, site in enumerate(plan.launch.sites, start=1):
         x, y = frame.from_lonlat(np.array([site.lon]), np.array([site.lat]))
         launch.append({"id": f"launch-{i}", "x": _m(x[0]), "y": _m(y[0])})
+    rally = []
+    for i, place in enumerate(plan.launch.rally, start=1):
+        x, y = frame.from_lonlat(np.array([place.lon]), np.array([place.lat]))
+        rally.append({"id": f"rally-{i}", "x": _m(x[0]), "y": _m(y[0])})
+    fence = [frame.rings(shapely.Polygon([(lon, lat) for lat, lon in ring])) for ring in plan.launch.fence.inclusion]
     hx, hy = frame.from_lonlat(np.array([plan.launch.home[0]]), np.array([plan.launch.home[1]]))
     cps = []
     for p in points:
@@ -440,6 +445,8 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
             "lines": lines,
             "stations": {"ids": st.ids, "x": [_m(v) for v in sx], "y": [_m(v) for v in sy], "sortie": sortie},
             "launch": launch,
+            "rally": rally,  # the spec's rally points (every launch site is one too)
+            "fence": fence,  # the geofence's inclusion polygon the mission files carry
             "home": {"x": _m(hx[0]), "y": _m(hy[0])},
             "control_points": cps,
         },

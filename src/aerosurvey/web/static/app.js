@@ -391,7 +391,12 @@ const launchStyle = new olb.Style({
 });
 const centrelineStyle = [new olb.Style({ stroke: new olb.Stroke({ color: "#fff", width: 6 }) }),
   new olb.Style({ stroke: new olb.Stroke({ color: "#6a1b9a", width: 3 }) })];
-const EDIT_STYLES = { zone: st.zone, launch: launchStyle, centreline: centrelineStyle };
+const rallyStyle = new olb.Style({
+  image: new olb.RegularShape({ points: 4, radius: 8, angle: Math.PI / 4, fill: new olb.Fill({ color: "#00acc1" }), stroke: new olb.Stroke({ color: "#1d2630", width: 1.5 }) }),
+  text: new olb.Text({ text: "R", fill: new olb.Fill({ color: "#fff" }), font: "bold 9px system-ui, sans-serif" }),
+});
+const fenceStyle = new olb.Style({ stroke: new olb.Stroke({ color: "#c62828", width: 1.5, lineDash: [8, 4] }) });
+const EDIT_STYLES = { zone: st.zone, launch: launchStyle, rally: rallyStyle, centreline: centrelineStyle };
 const unusedAreaStyle = new olb.Style({ stroke: new olb.Stroke({ color: "rgba(46,125,50,0.45)", width: 1.5, lineDash: [4, 4] }) });
 /** The drawn geometry by role; area polygons a corridor does not use are drawn faint. */
 function editStyle(f) {
@@ -493,13 +498,14 @@ const L = {
   flown: vector("flown", st.flown, 7),
   failing: vector("failing", st.failing, 8),
   refly: vector("refly", st.refly, 8),
+  fence: vector("fence", fenceStyle, 4),
   sites: vector("sites", siteStyle, 9),
   gcps: vector("gcps", labelled(st.gcp), 10),
   checks: vector("checks", labelled(st.check), 11),
   highlight: vector("highlight", st.highlight, 12),
   measure: vector("measure", st.measure, 13),
 };
-const edit = L.area.getSource();  // the drawn geometry: features with role area, zone or launch
+const edit = L.area.getSource();  // the drawn geometry: features with role area, zone, launch or rally
 const map = new olb.Map({
   target: "map",
   layers: Object.values(L),
@@ -525,6 +531,7 @@ function render(view) {
   put(L.stations, V.stations.ids.map((id, i) => pointFeature(V.stations.x[i], V.stations.y[i], { id, sortie: V.stations.sortie[i] })));
   const sites = V.launch.length ? V.launch : [{ id: "home", ...V.home }];
   put(L.sites, sites.map((s, i) => pointFeature(s.x, s.y, { id: s.id, label: sites.length > 1 ? String(i + 1) : "H" })));
+  put(L.fence, (V.fence || []).map((p) => new olb.Feature(polygonOf(p))));
   put(L.gcps, V.control_points.filter((p) => p.role === "gcp").map((p) => pointFeature(p.x, p.y, { id: p.id, note: p.note, images: p.images })));
   put(L.checks, V.control_points.filter((p) => p.role !== "gcp").map((p) => pointFeature(p.x, p.y, { id: p.id, note: p.note, images: p.images })));
   L.highlight.getSource().clear();
@@ -794,6 +801,7 @@ function loadEditable() {
   else if (S.preview) S.preview.zones.forEach((z) => readWkt(z).forEach((g) => add(g, "zone")));
   else planned("exclusions").forEach((g) => add(g, "zone"));
   for (const p of launchPoints()) add(new olb.Point(olb.fromLonLat(p)), "launch");
+  for (const p of (S.spec.flight && S.spec.flight.rally_points) || []) add(new olb.Point(olb.fromLonLat(p)), "rally");
   S.history = [snapshot()]; S.pos = 0; S.touched.clear();
   updateUndo();
 }
@@ -824,6 +832,13 @@ function writeLaunch() {
   else if (pts.length && S.spec.area) S.spec.area.launch = pts[pts.length - 1];
 }
 
+/** The rally points drawn into the spec's flight.rally_points (every launch site is a rally point too). */
+function writeRally() {
+  const pts = editFeatures("rally").map((f) => lonLatOf(f.getGeometry().getCoordinates()));
+  S.spec.flight = { ...(S.spec.flight || {}), rally_points: pts };
+  if (!pts.length) delete S.spec.flight.rally_points;
+}
+
 /** The user changed the drawn geometry of these roles: into the spec, onto the undo stack, re-plan. */
 function geometryChanged(roles) {
   for (const r of roles) S.touched.add(r);
@@ -834,11 +849,12 @@ function writeGeometry() {
   if (S.touched.has("area") || S.touched.has("centreline")) writeArea();
   if (S.touched.has("zone")) writeZones();
   if (S.touched.has("launch")) writeLaunch();
+  if (S.touched.has("rally")) writeRally();
   updateUndo();
   clearError("area");
   if (!S.spec.area) {  // nothing left to plan: the last plan's layers go too
     S.seq++;
-    for (const l of [L.corridor, L.uncovered, L.lines, L.stations, L.sites, L.gcps, L.checks, L.highlight]) l.getSource().clear();
+    for (const l of [L.corridor, L.uncovered, L.lines, L.stations, L.sites, L.fence, L.gcps, L.checks, L.highlight]) l.getSource().clear();
     setStatus("draw an area to plan");
     return;
   }
@@ -875,7 +891,7 @@ function setTool(tool) {
   translate.setActive(tool === "move");
   $("#measure-out").hidden = !tool.startsWith("measure");
   if (!tool.startsWith("measure")) L.measure.getSource().clear();
-  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", centreline: "LineString", measure: "LineString",
+  const type = { area: "Polygon", hole: "Polygon", zone: "Polygon", launch: "Point", rally: "Point", centreline: "LineString", measure: "LineString",
     "measure-area": "Polygon" }[tool];
   if (type) {
     draw = new olb.Draw({ type, source: tool.startsWith("measure") ? L.measure.getSource() : undefined, stopClick: true });
@@ -888,7 +904,7 @@ function setTool(tool) {
 
 function onDrawn(tool, feature) {
   const geom = feature.getGeometry();
-  if (tool === "area" || tool === "zone" || tool === "launch" || tool === "centreline") {
+  if (tool === "area" || tool === "zone" || tool === "launch" || tool === "rally" || tool === "centreline") {
     const role = tool;
     edit.addFeature(new olb.Feature({ geometry: geom, role }));
     if (role === "centreline" && !centrelineKind()) {  // a centreline makes the plan one along it (a corridor)
@@ -931,7 +947,7 @@ function deleteAt(pixel) {
     const k = rings.findIndex((r, i) => i > 0 && new olb.Polygon([r]).intersectsCoordinate(coord));
     if (k > 0) { rings.splice(k, 1); f.getGeometry().setCoordinates(rings); geometryChanged(["area"]); return; }
   }
-  const rank = { launch: 0, centreline: 1, zone: 2, area: 3 };
+  const rank = { launch: 0, rally: 0, centreline: 1, zone: 2, area: 3 };
   const f = hits.sort((a, b) => rank[a.get("role")] - rank[b.get("role")])[0];
   if (f) { edit.removeFeature(f); geometryChanged([f.get("role")]); }
 }
