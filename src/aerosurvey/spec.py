@@ -105,6 +105,7 @@ class FlightSpec:
     approach_m: float
     approach_alt_m: float
     rally_points: tuple[tuple[float, float], ...] = ()  # (lon, lat): where RTL may go besides the launch sites
+    pass_start: tuple[tuple[int, tuple[float, float]], ...] = ()  # (pass number, (lon, lat)): where the pilot starts it
 
 
 @dataclass(frozen=True)
@@ -308,6 +309,24 @@ def _lonlat_list(t: _Table, key: str) -> tuple[tuple[float, float], ...]:
     return tuple(out)
 
 
+def _pass_start(t: _Table) -> tuple[tuple[int, tuple[float, float]], ...]:
+    """`flight.pass_start`: a table of pass number → [longitude, latitude]: where each pass starts."""
+    raw = t.raw("pass_start", {})
+    where = t.key("pass_start")
+    if not isinstance(raw, dict):
+        raise bad_value(where, raw, "a table of pass number = [longitude, latitude], e.g. { 1 = [14.95, 49.43] }")
+    out = []
+    for k, p in raw.items():
+        if not (isinstance(k, str) and k.isdigit() and int(k) >= 1):
+            raise bad_value(f"{where} key", k, "a pass number: 1 for the main pass, 2 for the cross-hatch, …")
+        if (not isinstance(p, list) or len(p) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p)
+                or not (-180 <= p[0] <= 180 and -90 <= p[1] <= 90)):
+            raise bad_value(f"{where}.{k}", p, "[longitude, latitude] in degrees")
+        out.append((int(k), (float(p[0]), float(p[1]))))
+    return tuple(sorted(out))
+
+
 def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
     b = top.table("battery")
     minutes = b.number("usable_min", None, lo=0.0, lo_open=True, hi=1440.0)
@@ -501,6 +520,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         approach_m=f.number("approach_m", 300.0, lo=20.0, hi=5000.0) or 300.0,
         approach_alt_m=f.number("approach_alt_m", 30.0, lo=5.0, hi=500.0) or 30.0,
         rally_points=_lonlat_list(f, "rally_points"),
+        pass_start=_pass_start(f),
     )
     f.done()
     if camera.trigger == "hover" and vtype == "plane":

@@ -1245,3 +1245,31 @@ def test_rally_point_placed_checked_fenced_and_saved(site):
                              timeout=60000)
         assert "inside an exclusion zone" in pg.text_content("#draw-error")
         pg.screenshot(path=str(SHOTS / "17-rally-point-in-a-zone.png"))
+
+
+def test_start_of_a_pass_chosen_on_the_map(page):
+    """The start tool: a click near a line's end makes its pass start there; the plan's first run
+    of that pass then starts at that end, and the triangle marking the pass's start moves to it."""
+    def first_run(pass_no: int) -> list[list[float]]:
+        return page.evaluate(f"window.aerosurvey.view.layers.lines.find(l => l.pass === {pass_no}).xy")
+
+    before = first_run(1)
+    last = page.evaluate("(() => { const ls = window.aerosurvey.view.layers.lines.filter(l => l.pass === 1); "
+                         "return ls[ls.length - 1].xy; })()")
+    # the end of pass 1's last run that is farthest from where the pass starts now
+    target = max((last[0], last[-1]), key=lambda xy: math.dist(xy, before[0]))
+    px = page.evaluate("xy => { const [ox, oy] = window.aerosurvey.view.frame.origin; "
+                       "return window.aerosurvey.map.getPixelFromCoordinate([xy[0] + ox, xy[1] + oy]); }", target)
+    box = page.locator("#map").bounding_box()
+    page.click("#tools [data-tool='start']")
+    _replan_and_wait(page, lambda: page.mouse.click(box["x"] + px[0] + 5, box["y"] + px[1] + 5))
+    after = first_run(1)
+    assert math.dist(after[0], target) < 1.0 and math.dist(before[0], target) > 100.0
+    lon, lat = page.evaluate("window.aerosurvey.spec.flight.pass_start['1']")
+    got = page.evaluate("xy => { const [ox, oy] = window.aerosurvey.view.frame.origin; "
+                        "return window.olb.toLonLat([xy[0] + ox, xy[1] + oy]); }", after[0])
+    assert [lon, lat] == pytest.approx(got, abs=1e-7)
+    marker = page.evaluate("""window.aerosurvey.layers.starts.getSource().getFeatures()
+        .find(f => f.get('pass') === 1).getGeometry().getCoordinates()""")
+    origin = page.evaluate("window.aerosurvey.view.frame.origin")
+    assert math.dist([marker[0] - origin[0], marker[1] - origin[1]], after[0]) < 0.01

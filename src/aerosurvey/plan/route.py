@@ -10,6 +10,7 @@ detours in detours.py.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -247,26 +248,30 @@ def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, fl
 
 
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
-               start_near: tuple[float, float] | None) -> tuple[list[Run], str]:
+               start_near: tuple[float, float] | None, pinned: bool = False) -> tuple[list[Run], str]:
     """The fastest way through a pass: every line across the whole area (camera off over
     notches and holes) or cell by cell where the lines split, each from its best corner.
+    `pinned`: `start_near` is where the pilot chose the pass to start (`flight.pass_start`): of
+    the candidates, those whose first run starts nearest to it, and of them the fastest.
 
     Returns the runs and which of the two was chosen. Candidates are timed from their runs'
     ends alone (`_run_ends`); only the chosen one's runs are made.
     """
     n_lines = 1 + max(s.line for s in p.segments)
-    best: tuple[float, list[Leg], str] | None = None
+    best: tuple[float, float, list[Leg], str] | None = None
 
     def consider(legs: list[Leg], how: str) -> None:
         nonlocal best
         ends = _run_ends(p, legs, lead_in)
         cost = path_time(ends, k)
+        away = 0.0
         if start_near is not None:
-            cost += math.dist(start_near, (float(ends[0, 0]), float(ends[0, 1]))) / k.speed_ms
+            d = math.dist(start_near, (float(ends[0, 0]), float(ends[0, 1])))
+            away, cost = (round(d, 3), cost) if pinned else (0.0, cost + d / k.speed_ms)
         # a later candidate wins by a microsecond a second or more: orders that tie up to the
         # rounding of the runs' ends (a millimetre) keep the first, whichever way the rounding falls
-        if best is None or cost < best[0] * (1.0 - 1e-6) - 1e-9:
-            best = (cost, legs, how)
+        if best is None or away < best[0] or (away == best[0] and cost < best[1] * (1.0 - 1e-6) - 1e-9):
+            best = (away, cost, legs, how)
 
     for order in line_orders(n_lines, spacing, k.turn_radius_m, k.vehicle):
         for reverse in (False, True):
@@ -277,24 +282,29 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
     if len(todo) > 1:
         consider(_cells_route(p, todo, lead_in, start_near), f"{len(todo)} cells flown one after another")
     assert best is not None
-    return _build_runs(p, best[1], lead_in, _offsets(p)), best[2]
+    return _build_runs(p, best[2], lead_in, _offsets(p)), best[3]
 
 
 def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],
                 start_near: tuple[float, float] | None, detours: Detours, report: Progress = no_progress,
-                base: float = 0.0) -> Route:
+                base: float = 0.0, starts: Mapping[int, tuple[float, float]] | None = None) -> Route:
     """Order every pass, join them, and insert detours wherever a leg would enter a zone
-    (`report` hears how many of the legs that need one have theirs)."""
+    (`report` hears how many of the legs that need one have theirs). `starts`: by pass index,
+    the place the pilot chose a pass to start at (its first run starts at the line end nearest
+    to it); the others start where they are fastest from the place before them."""
     runs: list[Run] = []
     how: list[str] = []
     here = start_near
     for p, spacing in zip(passes, spacing_by_pass):
         if p.empty:
             continue
+        pin = (starts or {}).get(p.index)
         if p.frame is not None:
-            pr, chosen = order_pass(p, lead_in, k, spacing, here)
+            pr, chosen = order_pass(p, lead_in, k, spacing, pin or here, pinned=pin is not None)
         else:
-            pr, chosen = strip_runs(p, lead_in, base, here), "strips in order, back and forth"
+            pr, chosen = strip_runs(p, lead_in, base, pin or here), "strips in order, back and forth"
+        if pin is not None:
+            chosen += ", from the start chosen (flight.pass_start)"
         runs.extend(pr)
         how.append(chosen)
         here = pr[-1].end_xy

@@ -117,9 +117,18 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         launch_xy = (float(lx[0]), float(ly[0]))
         check_launch(spec, site, launch_xy, f"area.launch = {list(spec.area.launch)}", "area.launch")
     detours = Detours(site.zones, spec.flight.exclusion_margin_m)
+    numbers = sorted(p.index for p in layout.passes if not p.empty)
+    starts = {}
+    for n, (lon, lat) in spec.flight.pass_start:
+        if n not in numbers:
+            raise InputError(f"flight.pass_start.{n} = {[lon, lat]} is not allowed: the plan has pass "
+                             f"{', '.join(map(str, numbers))}", key="flight.pass_start")
+        sx, sy = site.planar.xy(np.array([lon]), np.array([lat]))
+        starts[n] = (float(sx[0]), float(sy[0]))
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, sensor.kinematics,
-                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours, report, sensor.base_m * k)
+                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours, report, sensor.base_m * k,
+                            starts)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc}") from None
     first = (route.waypoints[0].x, route.waypoints[0].y)

@@ -395,6 +395,13 @@ const rallyStyle = new olb.Style({
   image: new olb.RegularShape({ points: 4, radius: 8, angle: Math.PI / 4, fill: new olb.Fill({ color: "#00acc1" }), stroke: new olb.Stroke({ color: "#1d2630", width: 1.5 }) }),
   text: new olb.Text({ text: "R", fill: new olb.Fill({ color: "#fff" }), font: "bold 9px system-ui, sans-serif" }),
 });
+/** A pass's start: a triangle at its first run's first station, pointing the way it is flown. */
+function startStyle(f) {
+  return new olb.Style({
+    image: new olb.RegularShape({ points: 3, radius: 9, rotation: f.get("rotation"), fill: new olb.Fill({ color: "#2e7d32" }),
+      stroke: new olb.Stroke({ color: "#fff", width: 1.5 }) }),
+  });
+}
 const fenceStyle = new olb.Style({ stroke: new olb.Stroke({ color: "#c62828", width: 1.5, lineDash: [8, 4] }) });
 const EDIT_STYLES = { zone: st.zone, launch: launchStyle, rally: rallyStyle, centreline: centrelineStyle };
 const unusedAreaStyle = new olb.Style({ stroke: new olb.Stroke({ color: "rgba(46,125,50,0.45)", width: 1.5, lineDash: [4, 4] }) });
@@ -499,6 +506,7 @@ const L = {
   failing: vector("failing", st.failing, 8),
   refly: vector("refly", st.refly, 8),
   fence: vector("fence", fenceStyle, 4),
+  starts: vector("starts", startStyle, 9),
   sites: vector("sites", siteStyle, 9),
   gcps: vector("gcps", labelled(st.gcp), 10),
   checks: vector("checks", labelled(st.check), 11),
@@ -532,6 +540,12 @@ function render(view) {
   const sites = V.launch.length ? V.launch : [{ id: "home", ...V.home }];
   put(L.sites, sites.map((s, i) => pointFeature(s.x, s.y, { id: s.id, label: sites.length > 1 ? String(i + 1) : "H" })));
   put(L.fence, (V.fence || []).map((p) => new olb.Feature(polygonOf(p))));
+  const firsts = new Map();  // each pass's first run (the lines are in flight order)
+  for (const l of V.lines) if (!firsts.has(l.pass)) firsts.set(l.pass, l);
+  put(L.starts, [...firsts.values()].map((l) => {
+    const [a, b] = [l.xy[0], l.xy[1] || l.xy[0]];
+    return pointFeature(a[0], a[1], { pass: l.pass, rotation: Math.atan2(b[0] - a[0], b[1] - a[1]) });
+  }));
   put(L.gcps, V.control_points.filter((p) => p.role === "gcp").map((p) => pointFeature(p.x, p.y, { id: p.id, note: p.note, images: p.images })));
   put(L.checks, V.control_points.filter((p) => p.role !== "gcp").map((p) => pointFeature(p.x, p.y, { id: p.id, note: p.note, images: p.images })));
   L.highlight.getSource().clear();
@@ -938,6 +952,23 @@ function measureLive(feature) {
   feature.getGeometry().on("change", show);
 }
 
+/** The start tool: the line end nearest the click becomes its pass's start (flight.pass_start), then re-plan. */
+function startAt(pixel) {
+  if (!S.view) return;
+  let best = null;
+  for (const l of S.view.layers.lines) {
+    for (const xy of [l.xy[0], l.xy[l.xy.length - 1]]) {
+      const p = map.getPixelFromCoordinate(frameXY(xy));
+      const d = Math.hypot(p[0] - pixel[0], p[1] - pixel[1]);
+      if (!best || d < best.d) best = { d, xy, pass: l.pass };
+    }
+  }
+  if (!best || best.d > 40) { showError("area", "click near the end of a line: its pass will start there"); return; }
+  const [lon, lat] = lonLatOf(frameXY(best.xy));
+  S.spec.flight = { ...(S.spec.flight || {}), pass_start: { ...((S.spec.flight || {}).pass_start || {}), [String(best.pass)]: [lon, lat] } };
+  schedule();
+}
+
 function deleteAt(pixel) {
   const hits = map.getFeaturesAtPixel(pixel, { layerFilter: (l) => l === L.area, hitTolerance: 6 });
   const coord = map.getCoordinateFromPixel(pixel);
@@ -1205,7 +1236,7 @@ async function start() {
     if (e.key === "y" || (e.key === "z" && e.shiftKey)) { e.preventDefault(); redo(); }
   });
   map.on("pointermove", onPointer);
-  map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); });
+  map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); else if (S.tool === "start") startAt(e.pixel); });
   setTool("edit");
 
   loadEditable();  // the spec's area on the map before its first plan arrives; without one, the first drawing can be undone
