@@ -39,6 +39,8 @@ DIST = "aerosurvey"
 #: aerosurvey's own commands: {name: Lazy(target, short help)}. The targets are the entry
 #: points pyproject.toml declares, the short helps the commands' own (tests/test_cli.py).
 COMMANDS: Mapping[str, Lazy] = {
+    "brief": Lazy("aerosurvey.commands.brief:brief",
+                  "What a pilot checks before launch, for the day and time of the flight: go or no-go."),
     "cameras": Lazy("aerosurvey.commands.cameras:cameras", "List the camera database (or `cameras show ID` for one camera)."),
     "check": Lazy("aerosurvey.commands.check:check", "Check a mission spec or a plan folder against rule profiles."),
     "gcp": Lazy("aerosurvey.commands.gcp:gcp", "Propose GCPs (an envelope outside the perimeter) and check points (inside)."),

@@ -1,0 +1,141 @@
+"""The pilot's brief for the day (`aerosurvey brief`): what to check before launch, go or no-go.
+
+A brief is made from a plan re-planned for the flying window (the official zones' times and
+the sun depend on it) and says, each as go, advise or no-go:
+- **airspace**: every official zone the flights meet in that window, with its verdict and
+  message (docs/airspace.md); without zone files, that nothing official was checked;
+- **batteries**: how many, each one's share of its usable charge, the reserve left on the last;
+- **daylight**: the sun's elevation at the first launch and the last landing, sunset (the sun's
+  upper limb on the horizon: −0.833°, the standard refraction), and the image-quality threshold;
+- **vehicle**: the connected vehicle's settings checks, when the command was given a vehicle.
+
+The flying window starts at `at` and lasts the sorties' flight times plus a battery change
+between sorties. Pure: the clock, the files and the vehicle are the command's (commands/brief.py).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from aerosurvey.plan.sun import sun_elevation_deg
+
+#: the verdicts, from best to worst
+VERDICTS = ("go", "advise", "no-go")
+#: the sun's centre this far below the horizon is sunset: its upper limb on it, with standard refraction
+SUNSET_ELEVATION_DEG = -0.833
+_SCAN = dt.timedelta(minutes=5)
+
+
+@dataclass(frozen=True)
+class Item:
+    topic: str  # airspace, batteries, daylight, vehicle
+    verdict: str  # one of VERDICTS
+    text: str
+
+
+@dataclass(frozen=True)
+class Brief:
+    start: dt.datetime  # the first launch
+    end: dt.datetime  # the last landing
+    items: tuple[Item, ...]
+
+    @property
+    def verdict(self) -> str:
+        return max((i.verdict for i in self.items), key=VERDICTS.index, default="go")
+
+    def lines(self) -> list[str]:
+        out = [f"brief for {self.start.isoformat(timespec='minutes')} to {self.end.isoformat(timespec='minutes')}: "
+               f"{self.verdict.upper()}"]
+        out += [f"  {i.verdict.upper():6} {i.topic}: {i.text}" for i in self.items]
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"start": self.start.isoformat(), "end": self.end.isoformat(), "verdict": self.verdict,
+                "items": [{"topic": i.topic, "verdict": i.verdict, "text": i.text} for i in self.items]}
+
+
+@dataclass(frozen=True)
+class Sortie:
+    """What the brief needs of one flight of the plan: its id, time and battery use."""
+
+    id: str
+    time_s: float
+    usable_used_pct: float | None  # of the usable charge (after the reserve); None without a [battery] table
+    battery_used_pct: float | None  # of the whole pack
+
+
+def flying_window(at: dt.datetime, sorties: Sequence[Sortie], battery_change_min: float) -> tuple[dt.datetime, dt.datetime]:
+    """From the first launch at `at` to the last landing: the flights one after another, a battery change between."""
+    flying = sum(s.time_s for s in sorties)
+    changes = max(len(sorties) - 1, 0) * battery_change_min * 60.0
+    return at, at + dt.timedelta(seconds=flying + changes)
+
+
+def sunset_after(lon: float, lat: float, at: dt.datetime) -> dt.datetime | None:
+    """The first sunset after `at` within a day (None: the sun stays up, or is down at `at`)."""
+    if sun_elevation_deg(lon, lat, at) < SUNSET_ELEVATION_DEG:
+        return None
+    t = at
+    while t < at + dt.timedelta(days=1):
+        nxt = t + _SCAN
+        if sun_elevation_deg(lon, lat, nxt) < SUNSET_ELEVATION_DEG:
+            lo, hi = t, nxt
+            while hi - lo > dt.timedelta(seconds=1):
+                mid = lo + (hi - lo) / 2
+                lo, hi = (mid, hi) if sun_elevation_deg(lon, lat, mid) >= SUNSET_ELEVATION_DEG else (lo, mid)
+            return hi
+        t = nxt
+    return None
+
+
+def daylight_item(lon: float, lat: float, start: dt.datetime, end: dt.datetime, threshold_deg: float) -> Item:
+    first, last = sun_elevation_deg(lon, lat, start), sun_elevation_deg(lon, lat, end)
+    at = f"sun {first:.1f}° at the first launch, {last:.1f}° at the last landing"
+    if first < SUNSET_ELEVATION_DEG:
+        return Item("daylight", "no-go", f"{at}: the first launch is before sunrise")
+    sunset = sunset_after(lon, lat, start)
+    when = f"sunset {sunset.isoformat(timespec='minutes')}" if sunset is not None else "no sunset within a day"
+    if sunset is not None and end > sunset:
+        return Item("daylight", "no-go", f"{at}; {when}: the last landing is {(end - sunset).total_seconds() / 60:.0f} min "
+                                         "after it")
+    low = min(first, last)
+    if low < threshold_deg:  # the sun's elevation over a window of hours has its lowest at an end
+        return Item("daylight", "advise", f"{at}; {when}; below the {threshold_deg:g}° the spec asks for images "
+                                          "(conditions.min_sun_elevation_deg): long shadows hurt image matching")
+    return Item("daylight", "go", f"{at}; {when}")
+
+
+def battery_item(sorties: Sequence[Sortie], reserve: float | None) -> Item:
+    if not sorties or sorties[0].usable_used_pct is None:
+        return Item("batteries", "advise", f"{max(len(sorties), 1)} flight(s); the spec has no [battery] table, so no "
+                                           "battery use is known: check the flight time against the pack")
+    worst = max(s.usable_used_pct or 0.0 for s in sorties)
+    last = sorties[-1]
+    left = 100.0 - (last.battery_used_pct or 0.0)
+    text = (f"{len(sorties)} batter{'y' if len(sorties) == 1 else 'ies'}; each flight uses up to {worst:.0f} % of its usable "
+            f"charge; the last ({last.id}) lands with {left:.0f} % of the pack"
+            + (f" (the reserve kept is {reserve:.0%})" if reserve is not None else ""))
+    return Item("batteries", "no-go" if worst > 100.0 else "go", text)
+
+
+def airspace_items(verdicts: Sequence[tuple[str, str]] | None, notes: Sequence[str] = ()) -> list[Item]:
+    """(verdict, text) of every zone the flights meet (airspace.check.ZoneVerdict's), None without zone files."""
+    if verdicts is None:
+        return [Item("airspace", "advise", "no official zone file was given ([airspace] zones or --zones): the state's "
+                                           "airspace was not checked")]
+    out = [Item("airspace", {"block": "no-go", "advise": "advise"}.get(v, "go"), text) for v, text in verdicts
+           if v in ("block", "advise")]
+    out += [Item("airspace", "advise", n) for n in notes]
+    if not out:
+        out.append(Item("airspace", "go", f"{len(verdicts)} zone(s) near the flights; none applies to them in this window"))
+    return out
+
+
+def make_brief(start: dt.datetime, end: dt.datetime, lon: float, lat: float, threshold_deg: float,
+               sorties: Sequence[Sortie], reserve: float | None, airspace: list[Item],
+               vehicle: Sequence[Item] = ()) -> Brief:
+    return Brief(start, end, (*airspace, battery_item(sorties, reserve),
+                              daylight_item(lon, lat, start, end, threshold_deg), *vehicle))

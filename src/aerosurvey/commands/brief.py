@@ -1,0 +1,93 @@
+"""`aerosurvey brief`: what a pilot checks before launch, for the day and time of the flight; go or no-go."""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+from pathlib import Path
+
+import click
+
+from aerosurvey import console
+from aerosurvey.errors import CheckFailed, InputError
+
+
+def _when(value: str | None) -> dt.datetime:
+    """--at: ISO 8601 with a UTC offset; default the machine's clock now (the one place the brief reads it)."""
+    if value is None:
+        return dt.datetime.now(dt.UTC).astimezone().replace(microsecond=0)
+    try:
+        t = dt.datetime.fromisoformat(value)
+    except ValueError:
+        t = None
+    if t is None or t.tzinfo is None:
+        raise InputError(f"--at = {value!r} is not allowed: a date and time in ISO 8601 with its UTC offset, "
+                         "e.g. 2026-05-14T09:00+02:00")
+    return t
+
+
+def _spec_of(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Path:
+    """The spec the plan was made from: --spec, else the manifest's path beside the plan folder or here; its sha256
+    must be the manifest's (the brief is of that plan, not of a spec changed since)."""
+    candidates = [given] if given is not None else [plan_dir.parent / recorded["path"], Path(recorded["path"])]
+    for path in candidates:
+        if path is not None and path.is_file():
+            if hashlib.sha256(path.read_bytes()).hexdigest() != recorded["sha256"]:
+                raise InputError(f"{path} is not the spec {plan_dir} was planned from (its sha256 differs from the "
+                                 "manifest's): re-plan it, or give the spec it was made from with --spec")
+            return path
+    raise InputError(f"the spec {plan_dir} was planned from ({recorded['path']!r}) is not found beside it or here: "
+                     "give it with --spec")
+
+
+@click.command()
+@click.argument("plan_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--spec", "spec_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The spec the plan was made from (default: the manifest's, beside the plan folder or here).")
+@click.option("--at", "at", default=None, help="The first launch, ISO 8601 with its UTC offset (default: now).")
+@click.option("--zones", "zone_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="An official UAS zone file (ED-269 or ED-318; repeatable) besides the spec's [airspace] zones.")
+@click.option("--battery-change-min", type=click.FloatRange(0, 120), default=5.0, show_default=True,
+              help="Minutes between one flight's landing and the next one's launch.")
+@click.option("--json", "as_json", is_flag=True, help="Print the brief as JSON.")
+def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tuple[Path, ...], battery_change_min: float,
+          as_json: bool) -> None:
+    """Print what to check before launch for the flights of PLAN_DIR at --at: the official zones that apply then,
+    with their verdicts and messages; the batteries and the reserve left on the last; the sun at the first launch
+    and the last landing, and sunset. Exit code 0 go (advice printed), 1 no-go, 2 bad input (docs/brief.md)."""
+    from dataclasses import replace
+
+    from aerosurvey.airspace.check import check_airspace
+    from aerosurvey.brief import Item, Sortie, airspace_items, flying_window, make_brief
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.manifest import read_manifest
+    from aerosurvey.outputs import mission_programs
+    from aerosurvey.spec import load_spec, with_zone_files
+
+    doc = read_manifest(plan_dir, "PLAN_DIR")
+    start = _when(at)
+    raw = doc.raw
+    sorties = [Sortie(s["id"], float(s["time_s"]), s.get("usable_used_pct"), s.get("battery_used_pct"))
+               for s in raw["sorties"]] or [Sortie("mission", float(raw["estimates"]["total_time_s"]), None, None)]
+    first, last = flying_window(start, sorties, battery_change_min)
+    spec = with_zone_files(load_spec(_spec_of(plan_dir, spec_path, raw["inputs"]["spec"])), zone_files)
+    spec = replace(spec, conditions=replace(spec.conditions, start=first, end=last))
+    try:  # the zones' times and heights depend on the window: the plan made again for it
+        plan = plan_from_files(spec)
+        report = check_airspace(plan, mission_programs(plan))
+        zones = airspace_items(None if report is None else [(v.verdict, v.text()) for v in report.verdicts],
+                               () if report is None else report.notes)
+    except InputError as exc:
+        zones = [Item("airspace", "no-go", f"the plan cannot be made for this window: {exc}")]
+    battery = raw.get("battery") or {}
+    home = raw["home"]
+    result = make_brief(first, last, home["lon"], home["lat"], spec.conditions.min_sun_elevation_deg, sorties,
+                        battery.get("reserve"), zones)
+    if as_json:
+        click.echo(json.dumps(result.as_dict(), indent=1, ensure_ascii=False))
+    else:
+        for line in result.lines():
+            console.echo(line)
+    if result.verdict == "no-go":
+        raise CheckFailed(f"no-go: {'; '.join(i.topic for i in result.items if i.verdict == 'no-go')}")
