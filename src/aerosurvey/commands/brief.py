@@ -53,9 +53,12 @@ def _spec_of(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Pa
 @click.option("--json", "as_json", is_flag=True, help="Print the brief as JSON.")
 def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tuple[Path, ...], battery_change_min: float,
           as_json: bool) -> None:
-    """Print what to check before launch for the flights of PLAN_DIR at --at: the official zones that apply then,
-    with their verdicts and messages; the batteries and the reserve left on the last; the sun at the first launch
-    and the last landing, and sunset. Exit code 0 go (advice printed), 1 no-go, 2 bad input (docs/brief.md)."""
+    """What a pilot checks before launch, for the day and time of the flight: go or no-go.
+
+    For the flights of PLAN_DIR at --at: the official zones that apply then, with their verdicts
+    and messages; the batteries and the reserve left on the last; the sun at the first launch and
+    the last landing, and sunset. Exit code 0 go (advice printed), 1 no-go, 2 bad input
+    (docs/brief.md)."""
     from dataclasses import replace
 
     from aerosurvey.airspace.check import check_airspace
