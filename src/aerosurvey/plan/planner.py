@@ -30,12 +30,12 @@ from aerosurvey.plan.detours import Detours
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
-from aerosurvey.plan.landing import Landing, climb_out_m
+from aerosurvey.plan.landing import Landing, climb_out_m, home_clearance_m
 from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Launch, Plan, RouteWaypoint, SortiePlan, Stations
 from aerosurvey.plan.pattern import Layout, Pattern, kind_of
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
+from aerosurvey.plan.routing import RoutePlan, check_launch, default_home, end_of_flight, plan_route
 from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split, wind_factor
@@ -96,17 +96,34 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     home = (float(hlon[0]), float(hlat[0]), home_ground)
     sites = launch_sites(spec, site, routed.home_xy, home)
     landing = Landing.of(spec)
-    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
     budget: Budget | None = None
     sorties: tuple[SortiePlan, ...] = ()
     start = 0 if resume_from is None else station_index(alts.stations.ids, resume_from)
+    launch_warnings: tuple[str, ...] = ()
     if spec.battery is not None or resume_from is not None:
         report("battery sorties", 0.88)
-        path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
-                          site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
-                          tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
-                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
-        budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
+
+        def split_from(sites: tuple[LaunchSite, ...]) -> tuple[Budget, tuple[SortiePlan, ...]]:
+            path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
+                              site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
+                              tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
+                              climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
+            return battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
+
+        try:
+            budget, sorties = split_from(sites)
+        except InputError:
+            # the home is where the route starts: of a long area, its far end may lie out of one
+            # battery's reach from there; sorties there take off from the route's end instead
+            far = far_launch(spec, site, routed)
+            if far is None:
+                raise
+            sites += (far,)
+            budget, sorties = split_from(sites)
+            launch_warnings = (f"battery: from the launch point alone one battery cannot reach every station and come back; "
+                               f"sorties also take off at [{far.lon:.6f}, {far.lat:.6f}], the area's edge nearest the route's "
+                               "end, each from the nearer (battery.launch_points chooses the places)",)
+    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in sites], site.exclusions_wgs84)
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
@@ -120,7 +137,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         bounds=pattern.bounds(spec, site, sensor, layout),
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
-                  + _zone_warnings(spec, site) + zone_warnings),
+                  + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
         airspace=inputs.airspace,
     )
 
@@ -288,6 +305,26 @@ def launch_sites(spec: MissionSpec, site: Site, home_xy: tuple[float, float],
     for i, (px, py) in enumerate(zip(x, y)):
         check_launch(spec, site, (float(px), float(py)), f"battery.launch_points[{i + 1}] = {list(pts[i])}", "battery.launch_points")
     return tuple(LaunchSite(float(px), float(py), float(lo), float(la), float(g)) for px, py, lo, la, g in zip(x, y, lon, lat, ground))
+
+
+def far_launch(spec: MissionSpec, site: Site, routed: RoutePlan) -> LaunchSite | None:
+    """A second place sorties may take off from when none are given (battery.launch_points) and
+    the launch is the nearest: the area's edge nearest the route's last waypoint, as the home is
+    the edge nearest its first (`routing.default_home`); None where it is the home, or is not a
+    valid launch point (`routing.check_launch`)."""
+    if spec.battery is None or spec.battery.launch_points or spec.battery.launch != "nearest":
+        return None
+    last = routed.route.waypoints[-1]
+    clearance = home_clearance_m(spec) * site.grid_scale
+    xy = default_home(site, (last.x, last.y), clearance)
+    if math.dist(xy, routed.home_xy) < max(clearance, 1.0):
+        return None
+    try:
+        check_launch(spec, site, xy, "the launch point at the route's end", "battery.launch_points")
+    except InputError:
+        return None
+    lon, lat = site.planar.lonlat(np.array([xy[0]]), np.array([xy[1]]))
+    return LaunchSite(xy[0], xy[1], float(lon[0]), float(lat[0]), _ground(site, xy, "launch point"))
 
 
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],
