@@ -125,7 +125,8 @@ class AreaGrid:
         if first is None:
             raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
         yield first
-        others = [self._laid_out([whole], whole.chosen, covered)] if len(laid) == 2 else []
+        others = [self._laid_out([whole], f"{whole.chosen}; not cut in two pieces (they leave more ground next to the zones "
+                                 "unseen)", covered)] if len(laid) == 2 else []
         yield from (o for o in others if o is not None)
         for rank, h in enumerate(whole.others[:MAX_OTHER_HEADINGS], start=2):
             other = self._grid(covered, site, sensor, no_progress, at_heading=h)
