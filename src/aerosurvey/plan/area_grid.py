@@ -103,7 +103,8 @@ class AreaGrid:
         """The grids this area may be flown in, the shortest estimated flight first: the one grid at
         the fastest (or the fixed) heading, or the area cut in two pieces at their own headings where
         that flies shorter; then, laid only when asked for, the one grid where the pieces came first,
-        and the one grid at the next fastest headings the search priced (MAX_OTHER_HEADINGS). The
+        the one grid in one band where it was laid in bands across the notches (at the search's
+        heading), and the one grid at the next fastest headings the search priced (MAX_OTHER_HEADINGS). The
         planner flies the first that leaves no required ground unseen (`planner.flown_layout`): the
         estimate prices lines, not the ground a line cut short next to a zone leaves to one photo."""
         k = site.grid_scale
@@ -127,6 +128,10 @@ class AreaGrid:
         yield first
         others = [self._laid_out([whole], f"{whole.chosen}; not cut in two pieces (they leave more ground next to the zones "
                                  "unseen)", covered)] if len(laid) == 2 else []
+        if whole.banded:  # the one grid in one band, at its fastest heading
+            one = self._grid(covered, site, sensor, no_progress, at_heading=whole.searched, in_bands=False)
+            others.append(self._laid_out([one], f"{whole.chosen.split(';')[0]}; not laid in bands (they leave more ground "
+                                         "next to the zones unseen)", covered))
         yield from (o for o in others if o is not None)
         for rank, h in enumerate(whole.others[:MAX_OTHER_HEADINGS], start=2):
             other = self._grid(covered, site, sensor, no_progress, at_heading=h)
@@ -174,9 +179,10 @@ class AreaGrid:
         return Layout(laid[0].heading, chosen, tuple(passes), covered, self.coverage_margin_m)
 
     def _grid(self, covered: BaseGeometry, site: Site, sensor: SensorSolution, report: Progress,
-              at_heading: float | None = None) -> _Laid:
+              at_heading: float | None = None, in_bands: bool = True) -> _Laid:
         """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading (the
-        spec's, or `at_heading`), in bands across its notches where that flies shorter (`cheapest_cells`)."""
+        spec's, or `at_heading`), in bands across its notches where that flies shorter (`cheapest_cells`;
+        not with `in_bands` False)."""
         k = site.grid_scale
         fixed = self.heading_deg if at_heading is None else at_heading
 
@@ -227,6 +233,7 @@ class AreaGrid:
             chosen = "auto: the shortest estimated flight time"
         else:
             heading, chosen = fixed, "fixed by the spec"
+        searched = heading
         zones = site.zones_buffered
 
         banded: dict[float, tuple[float, list[float], list[list[LineSegment]]]] = {}
@@ -250,7 +257,7 @@ class AreaGrid:
             return banded[h]
 
         # bands end runs inside the area, at their cuts: not where each run must end beyond it
-        banding = _concave(covered) and not self.images_beyond_boundary
+        banding = in_bands and _concave(covered) and not self.images_beyond_boundary
         if banding and fixed is None and not self.cross_hatch:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
             # may fly shorter than the single grid's best heading: the cheapest kept
@@ -273,7 +280,7 @@ class AreaGrid:
         # the other headings priced, fastest first (where the search chose a notch's edge, the grid's best too)
         others = [h for c, h in sorted((c, h) for h, c in priced.items()) if h != heading and math.isfinite(c)]
         return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
-                     sum(s.n for _, segs in passes for s in segs), others)
+                     sum(s.n for _, segs in passes for s in segs), others, split > 0, searched)
 
 
 @dataclass(frozen=True)
@@ -287,6 +294,8 @@ class _Laid:
     cost: float
     photos: int
     others: list[float]  # the other headings the search priced, fastest first (none at a fixed heading)
+    banded: bool  # laid in bands across the notches
+    searched: float  # the heading of the search (or the fixed one), before a notch's edge may take its place
 
 
 def _ordinal(n: int) -> str:

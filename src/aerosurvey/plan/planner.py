@@ -193,7 +193,7 @@ def _share(report: Progress, start: float, end: float) -> Progress:
 
 
 #: a pattern's layouts flown at most (routed, their coverage checked) while the earlier ones leave ground unseen
-MAX_LAYOUTS = 6
+MAX_LAYOUTS = 8
 
 
 @dataclass(frozen=True, eq=False)
