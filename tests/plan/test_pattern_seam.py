@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -69,7 +69,7 @@ class Diagonals:
     def parameters(cls, plan: Any) -> dict[str, Any]:
         return {"count": plan.pattern.options}
 
-    def layout(self, site: Any, sensor: Any, report: Any) -> Layout:
+    def layouts(self, site: Any, sensor: Any, report: Any) -> Iterator[Layout]:
         x0, y0, x1, y1 = site.area.bounds
         k = site.grid_scale
         strips = []
@@ -83,7 +83,7 @@ class Diagonals:
             length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
             at = stations_along(path, own_metres, sensor.base_m, length, None, 0.1)
             strips += strips_clear_of(line, 0, 0, path, at, site.zones_buffered, 0.0)
-        return Layout(45.0, "a test's diagonals", (Pass(1, strips=tuple(strips)),), site.area, 0.0, check_exactly=site.area)
+        yield Layout(45.0, "a test's diagonals", (Pass(1, strips=tuple(strips)),), site.area, 0.0, check_exactly=site.area)
 
 
 def _run(*args: object) -> tuple[int, str]:

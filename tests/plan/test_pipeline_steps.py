@@ -56,7 +56,7 @@ def test_steps_one_by_one_with_plain_data():
     # a6000 16 mm: landscape footprint 6000 px × 2.5 cm across, spacing 40 % of it (less the safety)
     assert sensor.across_m == pytest.approx(min(6000 * 0.025, 23.5 * h / 16), rel=1e-9)
     assert sensor.spacing_m == pytest.approx(sensor.across_m * 0.4 * 0.999, rel=1e-9)
-    layout = AreaGrid(0.0, False, 0, 0.0).layout(site, sensor, lambda s, f: None)
+    layout = next(AreaGrid(0.0, False, 0, 0.0).layouts(site, sensor, lambda s, f: None))
     assert layout.heading_deg == 0.0 and len(layout.passes) == 1 and layout.passes[0].segments
     routed = plan_route(spec, site, sensor, layout)
     assert routed.transit_out == () and routed.transit_back == ()

@@ -6,7 +6,7 @@ search of the line order and cells.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -99,7 +99,14 @@ class AreaGrid:
     def parameters(cls, plan: Plan) -> dict[str, Any]:
         return {}
 
-    def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
+    def layouts(self, site: Site, sensor: SensorSolution, report: Progress) -> Iterator[Layout]:
+        """The grids this area may be flown in, the shortest estimated flight first: the one grid at
+        the fastest (or the fixed) heading, or the area cut in two pieces at their own headings where
+        that flies shorter; then, laid only when asked for, the one grid where the pieces came first,
+        the one grid in one band where it was laid in bands across the notches (at the search's
+        heading), and the one grid at the next fastest headings the search priced (MAX_OTHER_HEADINGS). The
+        planner flies the first that leaves no required ground unseen (`planner.flown_layout`): the
+        estimate prices lines, not the ground a line cut short next to a zone leaves to one photo."""
         k = site.grid_scale
         margin = self.coverage_margin_m * k
         covered = shapely.buffer(site.area, margin, quad_segs=4) if margin > 0 else site.area
@@ -110,42 +117,74 @@ class AreaGrid:
         if (self.several_passes and self.heading_deg is None and not self.cross_hatch and not self.images_beyond_boundary
                 and covered.geom_type == "Polygon" and _concave(covered)):
             report("pieces of their own heading", 0.64)
-            speed = sensor.kinematics.speed_ms
-            lead = sensor.lead_in_m * k
-
-            def rough(piece: BaseGeometry) -> float:
-                """A piece's time estimate with lines along its narrowest direction (no search)."""
-                h = narrowest(piece)[1]
-                fr = LineFrame(h)
-                segs = build_lines(fr.geom_to_frame(piece), None,
-                                   strip_geometry(sensor, 0, k, site.autopilot_scale(h)))
-                return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
-
-            # the transit between the pieces: at most from one's centre to the other's
-            splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
-                      for a, b in split_candidates(covered, sensor.spacing_m * k / 4.0)]
-            best = whole.cost
-            # only the splits whose rough estimate beats the one grid are searched (each piece its
-            # heading search): the two most promising
-            for _, a, b in sorted((t for t in splits if t[0] < whole.cost), key=lambda t: t[0])[:MAX_SPLITS_SEARCHED]:
-                la, lb = (self._grid(piece, site, sensor, no_progress) for piece in (a, b))
-                turn = abs((la.heading - lb.heading + 90.0) % 180.0 - 90.0)
-                cost = la.cost + lb.cost + a.centroid.distance(b.centroid) / speed
-                if turn >= PARALLEL_DEG and la.photos + lb.photos <= whole.photos and cost < best * (1.0 - 1e-9):
-                    best, laid = cost, [la, lb]
+            laid = self._pieces(covered, whole, site, sensor)
             if len(laid) == 2:
                 chosen = (f"auto: the area cut in two pieces flown at {laid[0].heading:.1f}° and {laid[1].heading:.1f}° "
                           "(a shorter flight than one heading)")
         report("flight lines and photo stations", 0.66)
+        first = self._laid_out(laid, chosen, covered)
+        if first is None:
+            raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
+        yield first
+        others = [self._laid_out([whole], f"{whole.chosen}; not cut in two pieces (they leave more ground next to the zones "
+                                 "unseen)", covered)] if len(laid) == 2 else []
+        if whole.banded:  # the one grid in one band, at its fastest heading
+            one = self._grid(covered, site, sensor, no_progress, at_heading=whole.searched, in_bands=False)
+            others.append(self._laid_out([one], f"{whole.chosen.split(';')[0]}; not laid in bands (they leave more ground "
+                                         "next to the zones unseen)", covered))
+        yield from (o for o in others if o is not None)
+        for rank, h in enumerate(whole.others[:MAX_OTHER_HEADINGS], start=2):
+            other = self._grid(covered, site, sensor, no_progress, at_heading=h)
+            why = other.chosen.replace("fixed by the spec", f"auto: the heading with the {_ordinal(rank)} shortest estimated "
+                                       "flight time (the faster layouts leave more ground next to the zones unseen)", 1)
+            lay = self._laid_out([other], why, covered)
+            if lay is not None:
+                yield lay
+
+    def _pieces(self, covered: BaseGeometry, whole: _Laid, site: Site, sensor: SensorSolution) -> list[_Laid]:
+        """The area cut in two pieces, each at its own heading, where that flies shorter than the one
+        grid `whole` with no more photos; else [whole]."""
+        k = site.grid_scale
+        speed = sensor.kinematics.speed_ms
+        lead = sensor.lead_in_m * k
+
+        def rough(piece: BaseGeometry) -> float:
+            """A piece's time estimate with lines along its narrowest direction (no search)."""
+            h = narrowest(piece)[1]
+            fr = LineFrame(h)
+            segs = build_lines(fr.geom_to_frame(piece), None,
+                               strip_geometry(sensor, 0, k, site.autopilot_scale(h)))
+            return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+
+        # the transit between the pieces: at most from one's centre to the other's
+        splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
+                  for a, b in split_candidates(covered, sensor.spacing_m * k / 4.0)]
+        best = whole.cost
+        laid = [whole]
+        # only the splits whose rough estimate beats the one grid are searched (each piece its
+        # heading search): the two most promising
+        for _, a, b in sorted((t for t in splits if t[0] < whole.cost), key=lambda t: t[0])[:MAX_SPLITS_SEARCHED]:
+            la, lb = (self._grid(piece, site, sensor, no_progress) for piece in (a, b))
+            turn = abs((la.heading - lb.heading + 90.0) % 180.0 - 90.0)
+            cost = la.cost + lb.cost + a.centroid.distance(b.centroid) / speed
+            if turn >= PARALLEL_DEG and la.photos + lb.photos <= whole.photos and cost < best * (1.0 - 1e-9):
+                best, laid = cost, [la, lb]
+        return laid
+
+    def _laid_out(self, laid: list[_Laid], chosen: str, covered: BaseGeometry) -> Layout | None:
+        """The Layout of one grid or of two pieces' grids; None where no line fits."""
         passes = [Pass(i, fr, tuple(segs)) for i, (fr, segs) in enumerate((p for la in laid for p in la.passes), start=1)]
         if not any(p.segments for p in passes):
-            raise InputError("no flight line fits: the area is smaller than one photo or entirely blocked by exclusion zones")
+            return None
         return Layout(laid[0].heading, chosen, tuple(passes), covered, self.coverage_margin_m)
 
-    def _grid(self, covered: BaseGeometry, site: Site, sensor: SensorSolution, report: Progress) -> _Laid:
-        """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading, in
-        bands across its notches where that flies shorter (`cheapest_cells`)."""
+    def _grid(self, covered: BaseGeometry, site: Site, sensor: SensorSolution, report: Progress,
+              at_heading: float | None = None, in_bands: bool = True) -> _Laid:
+        """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading (the
+        spec's, or `at_heading`), in bands across its notches where that flies shorter (`cheapest_cells`;
+        not with `in_bands` False)."""
         k = site.grid_scale
+        fixed = self.heading_deg if at_heading is None else at_heading
 
         def strips(h: float) -> StripGeometry:
             return strip_geometry(sensor, self.images_beyond_boundary, k, site.autopilot_scale(h))
@@ -164,7 +203,8 @@ class AreaGrid:
                 laid[h] = (fr, build_lines(fr.geom_to_frame(covered), zf, strips(h)))
             return laid[h]
 
-        if self.heading_deg is None:
+        priced: dict[float, float] = {}
+        if fixed is None:
             n_cand = len(candidate_headings(covered)) + 10
             tried = 0
 
@@ -173,7 +213,8 @@ class AreaGrid:
                 tried += 1
                 report("choosing the heading", 0.05 + 0.6 * min(1.0, tried / n_cand))
                 _, segs = lines_for(fr.heading_deg)
-                return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+                priced[fr.heading_deg] = quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+                return priced[fr.heading_deg]
 
             outline = Outline.of(covered, site.zones_buffered)
             plane = sensor.kinematics.vehicle != "copter"  # only the plane's bound asks which lines have one run
@@ -191,7 +232,8 @@ class AreaGrid:
             heading, _ = best_heading(covered, cost, bound=bound)
             chosen = "auto: the shortest estimated flight time"
         else:
-            heading, chosen = self.heading_deg, "fixed by the spec"
+            heading, chosen = fixed, "fixed by the spec"
+        searched = heading
         zones = site.zones_buffered
 
         banded: dict[float, tuple[float, list[float], list[list[LineSegment]]]] = {}
@@ -215,8 +257,8 @@ class AreaGrid:
             return banded[h]
 
         # bands end runs inside the area, at their cuts: not where each run must end beyond it
-        banding = _concave(covered) and not self.images_beyond_boundary
-        if banding and self.heading_deg is None and not self.cross_hatch:
+        banding = in_bands and _concave(covered) and not self.images_beyond_boundary
+        if banding and fixed is None and not self.cross_hatch:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
             # may fly shorter than the single grid's best heading: the cheapest kept
             report("cells across the notches", 0.62)
@@ -235,8 +277,10 @@ class AreaGrid:
         if split:
             each = ", a pass each" if self.several_passes else ""
             chosen += f"; lines laid in {split} bands across the notches{each} (a shorter flight than one grid)"
+        # the other headings priced, fastest first (where the search chose a notch's edge, the grid's best too)
+        others = [h for c, h in sorted((c, h) for h, c in priced.items()) if h != heading and math.isfinite(c)]
         return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
-                     sum(s.n for _, segs in passes for s in segs))
+                     sum(s.n for _, segs in passes for s in segs), others, split > 0, searched)
 
 
 @dataclass(frozen=True)
@@ -249,6 +293,13 @@ class _Laid:
     passes: list[tuple[LineFrame, list[LineSegment]]]
     cost: float
     photos: int
+    others: list[float]  # the other headings the search priced, fastest first (none at a fixed heading)
+    banded: bool  # laid in bands across the notches
+    searched: float  # the heading of the search (or the fixed one), before a notch's edge may take its place
+
+
+def _ordinal(n: int) -> str:
+    return f"{n}{'nd' if n == 2 else 'rd' if n == 3 else 'th'}"
 
 
 def _concave(area: BaseGeometry) -> bool:
@@ -258,6 +309,8 @@ def _concave(area: BaseGeometry) -> bool:
 #: two pieces' headings at least this far apart: nearer, their lines could lie side by side
 #: farther apart than the spacing (bands lay those, `cell_lines`)
 PARALLEL_DEG = 3.0
+#: headings other than the fastest laid as layouts of their own, when the faster leave ground unseen
+MAX_OTHER_HEADINGS = 4
 #: reflex vertices whose cuts `split_candidates` tries: the most marked ones
 MAX_SPLIT_VERTICES = 3
 #: splits whose pieces get a heading search of their own: the ones roughly estimated fastest

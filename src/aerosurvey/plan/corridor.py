@@ -21,7 +21,7 @@ footprints exactly (`Layout.check_exactly`): there the straight-line rule does n
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -127,7 +127,8 @@ class Corridor:
             return {}
         return {"left_m": round(plan.site.sides_m[0], 3), "right_m": round(plan.site.sides_m[1], 3)}
 
-    def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
+    def layouts(self, site: Site, sensor: SensorSolution, report: Progress) -> Iterator[Layout]:
+        """The strips along the centreline: one layout."""
         if site.centreline is None or site.sides_m is None:
             raise InputError("pattern.kind = 'corridor' needs area.file to hold the centreline (a LineString) or the corridor polygon")
         k = site.grid_scale
@@ -176,7 +177,7 @@ class Corridor:
         exact = shapely.union_all(shapely.buffer(bends, reach, quad_segs=4)) if len(bends) else None
         start = shapely.get_coordinates(pieces[0])[:2]
         heading = math.degrees(math.atan2(*(start[1] - start[0]))) % 360.0
-        return Layout(heading, "along the corridor's centreline", tuple(passes), site.area, self.coverage_margin_m, exact)
+        yield Layout(heading, "along the corridor's centreline", tuple(passes), site.area, self.coverage_margin_m, exact)
 
 
 def strip_ordinates(left: float, right: float, across: float, spacing: float, per_point: int) -> np.ndarray:

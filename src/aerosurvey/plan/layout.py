@@ -6,7 +6,7 @@ are chosen by `[pattern] kind` from the registry in `plan/pattern.py`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
@@ -38,7 +38,11 @@ class Layout:
 class Pattern(Protocol):
     """One way of laying photo strips over a site."""
 
-    def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout: ...
+    def layouts(self, site: Site, sensor: SensorSolution, report: Progress) -> Iterator[Layout]:
+        """The layouts it may fly, its own choice first (e.g. the shortest estimated flight), then,
+        laid only when the planner asks for them, alternatives: the planner flies the first that
+        leaves no required ground unseen, else the one that leaves least (`planner.flown_layout`)."""
+        ...
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ footprints exactly.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -116,11 +116,14 @@ class Oblique:
         return {"scheme": o.scheme, "pitch_deg": o.pitch_deg,
                 "max_far_gsd_cm": round(o.max_far_gsd_m * 100, 4) if o.max_far_gsd_m is not None else None}
 
-    def layout(self, site: Site, sensor: SensorSolution, report: Progress) -> Layout:
+    def layouts(self, site: Site, sensor: SensorSolution, report: Progress) -> Iterator[Layout]:
+        """Each of the area grid's layouts (`AreaGrid.layouts`), flown with the camera tilted."""
         ahead = oblique_centre_m(self.camera, self.mount, self.pitch_deg, sensor.heights.max_agl_m)
         grid = replace(self.grid, coverage_margin_m=self.grid.coverage_margin_m + ahead,
                        cross_hatch=self.scheme == "double-grid")
-        lay = grid.layout(site, sensor, report)
+        return (self._tilted(lay) for lay in grid.layouts(site, sensor, report))
+
+    def _tilted(self, lay: Layout) -> Layout:
         if self.scheme == "double-grid":
             passes = tuple(replace(p, pitch_deg=self.pitch_deg) for p in lay.passes)
             how = f"{lay.heading_chosen}; obliques at {self.pitch_deg:g}° looking along the flight, crossed at 90°"

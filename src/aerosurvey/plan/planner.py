@@ -14,8 +14,9 @@ Each step is a function of frozen data from the steps before it and can be calle
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import replace
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, replace
+from itertools import islice
 
 import numpy as np
 import shapely
@@ -29,19 +30,20 @@ from aerosurvey.plan.detours import Detours
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
 from aerosurvey.plan.inputs import PlanInputs
-from aerosurvey.plan.landing import Landing, climb_out_m
+from aerosurvey.plan.landing import Landing, climb_out_m, home_clearance_m
 from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Launch, Plan, RouteWaypoint, SortiePlan, Stations
-from aerosurvey.plan.pattern import Layout, kind_of, pattern_for
+from aerosurvey.plan.pattern import Layout, Pattern, kind_of
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.routing import RoutePlan, check_launch, end_of_flight, plan_route
+from aerosurvey.plan.routing import RoutePlan, check_launch, default_home, end_of_flight, plan_route
 from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split, wind_factor
 from aerosurvey.plan.zone_edges import edge_passes
 from aerosurvey.spec import MissionSpec
 
-__all__ = ["Heights", "Plan", "PlanInputs", "Progress", "RouteWaypoint", "Stations", "plan_mission", "resume_mission"]
+__all__ = ["Flown", "Heights", "Plan", "PlanInputs", "Progress", "RouteWaypoint", "Stations", "flown_layout", "fly_layout",
+           "plan_mission", "resume_mission"]
 
 
 def plan_mission(spec: MissionSpec, inputs: PlanInputs, progress: Progress | None = None) -> Plan:
@@ -80,38 +82,50 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     footprint = pattern.footprint(spec, heights)
     sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch)
     limit_warnings = check_limits(spec, site, sensor)
-    layout = pattern.from_spec(spec).layout(site, sensor, report)
+    laying = pattern.from_spec(spec)
+    layouts = laying.layouts(site, sensor, report)
     if spec.flight.fixed_yaw_deg is not None:
         def solve(turns: tuple[float, ...]) -> SensorSolution:
             return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
                                 autopilot_stretch=stretch, camera_turns_deg=turns)
-        sensor, layout = _under_fixed_yaw(spec, site, sensor, layout, solve, report)
-    report("route", 0.72)
-    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.72, 0.84))
-    extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
-    if extra:
-        # lines along the zones' margins where the cut lines leave ground unphotographed
-        report("lines along the zones", 0.85)
-        layout = replace(layout, passes=layout.passes + extra)
-        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.85, 0.88))
+        sensor, layouts = _under_fixed_yaw(spec, site, sensor, laying, layouts, solve, report)
+    flown = flown_layout(spec, site, sensor, layouts, report)
+    layout, routed, home_ground, alts, coverage = flown.layout, flown.routed, flown.home_ground, flown.alts, flown.coverage
     waypoints = _with_transits(alts.waypoints, routed, site)
     hlon, hlat = site.planar.lonlat(np.array([routed.home_xy[0]]), np.array([routed.home_xy[1]]))
     home = (float(hlon[0]), float(hlat[0]), home_ground)
     sites = launch_sites(spec, site, routed.home_xy, home)
     rally = rally_points(spec, site)
     landing = Landing.of(spec)
-    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
-                     site.exclusions_wgs84)
     budget: Budget | None = None
     sorties: tuple[SortiePlan, ...] = ()
     start = 0 if resume_from is None else station_index(alts.stations.ids, resume_from)
+    launch_warnings: tuple[str, ...] = ()
     if spec.battery is not None or resume_from is not None:
         report("battery sorties", 0.88)
-        path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
-                          site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
-                          tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
-                          climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
-        budget, sorties = battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
+
+        def split_from(sites: tuple[LaunchSite, ...]) -> tuple[Budget, tuple[SortiePlan, ...]]:
+            path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
+                              site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
+                              tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
+                              climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
+            return battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
+
+        try:
+            budget, sorties = split_from(sites)
+        except InputError:
+            # the home is where the route starts: of a long area, its far end may lie out of one
+            # battery's reach from there; sorties there take off from the route's end instead
+            far = far_launch(spec, site, routed)
+            if far is None:
+                raise
+            sites += (far,)
+            budget, sorties = split_from(sites)
+            launch_warnings = (f"battery: from the launch point alone one battery cannot reach every station and come back; "
+                               f"sorties also take off at [{far.lon:.6f}, {far.lat:.6f}], the area's edge nearest the route's "
+                               "end, each from the nearer (battery.launch_points chooses the places)",)
+    fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
+                     site.exclusions_wgs84)
     est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
@@ -125,7 +139,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         bounds=pattern.bounds(spec, site, sensor, layout),
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
-                  + _zone_warnings(spec, site) + zone_warnings),
+                  + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
         airspace=inputs.airspace,
     )
 
@@ -142,26 +156,35 @@ def _line_headings(layout: Layout) -> np.ndarray:
     return np.round(np.concatenate(out) % 180.0, 6) if out else np.zeros(0)
 
 
-def _under_fixed_yaw(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
-                     solve: Callable[[tuple[float, ...]], SensorSolution], report: Progress) -> tuple[SensorSolution, Layout]:
-    """The sensor solution and layout of a copter holding one yaw (flight.fixed_yaw_deg, a true bearing):
+def _under_fixed_yaw(spec: MissionSpec, site: Site, sensor: SensorSolution, pattern: Pattern, layouts: Iterator[Layout],
+                     solve: Callable[[tuple[float, ...]], SensorSolution],
+                     report: Progress) -> tuple[SensorSolution, Iterator[Layout]]:
+    """The sensor solution and layouts of a copter holding one yaw (flight.fixed_yaw_deg, a true bearing):
     a camera that looks along the nose (every pass whose look is not set) is turned against the lines by the
     yaw minus their heading, so spacing and base are laid from the ground it surely photographs across and
-    along each line (`photogrammetry.turned_footprint`). A layout whose lines run in a direction the solution
-    was not made for (its heading search chose another) is laid again with that direction too."""
+    along each line (`photogrammetry.turned_footprint`). A first layout whose lines run in a direction the
+    solution was not made for (its heading search chose another) is laid again with that direction too; of
+    the pattern's alternatives only those whose lines run in the directions the solution was made for follow it."""
     assert spec.flight.fixed_yaw_deg is not None
     c = site.area.centroid
     nose = float(site.planar.grid_bearing(spec.flight.fixed_yaw_deg, c.x, c.y))
     known: set[float] = set()
+
+    def solved(first: Layout) -> Iterator[Layout]:  # the alternatives of the last round's layouts, laid for its solution
+        yield first
+        yield from (lay for lay in layouts if {float(h) for h in _line_headings(lay)} <= known)
+
+    layout = next(layouts)
     for _ in range(FIXED_YAW_ROUNDS):
         wanted = {float(h) for h in _line_headings(layout)}
         if wanted <= known:
-            return sensor, layout
+            return sensor, solved(layout)
         known |= wanted
         sensor = solve(tuple(sorted(round((nose - h) % 180.0, 6) for h in known)))
-        layout = pattern_for(spec).layout(site, sensor, report)
+        layouts = pattern.layouts(site, sensor, report)
+        layout = next(layouts)
     if {float(h) for h in _line_headings(layout)} <= known:
-        return sensor, layout
+        return sensor, solved(layout)
     raise InputError(f"flight.fixed_yaw_deg = {spec.flight.fixed_yaw_deg:g}: the line heading changes each time the spacing is "
                      f"laid for the camera turned against it; fix the lines' heading (flight.heading_deg)", key="flight.fixed_yaw_deg")
 
@@ -169,6 +192,56 @@ def _under_fixed_yaw(spec: MissionSpec, site: Site, sensor: SensorSolution, layo
 def _share(report: Progress, start: float, end: float) -> Progress:
     """`report` for a step that runs from `start` to `end` of the plan: its 0..1 passed on scaled."""
     return lambda stage, done: report(stage, start + (end - start) * done)
+
+
+#: a pattern's layouts flown at most (routed, their coverage checked) while the earlier ones leave ground unseen
+MAX_LAYOUTS = 8
+
+
+@dataclass(frozen=True, eq=False)
+class Flown:
+    """A layout as flown: with the lines along the zones it needed, its route, altitudes and coverage."""
+
+    layout: Layout
+    routed: RoutePlan
+    home_ground: float
+    alts: Altitudes
+    coverage: Coverage
+
+
+def flown_layout(spec: MissionSpec, site: Site, sensor: SensorSolution, layouts: Iterable[Layout],
+                 report: Progress = no_progress) -> Flown:
+    """The layout the plan flies: of a pattern's layouts (`Pattern.layouts`, its own choice first),
+    the first whose flight leaves no required ground unseen (`fly_layout`'s coverage, the plan's),
+    else the one that leaves least (the earlier of equals); at most MAX_LAYOUTS are flown. The
+    pattern orders them by its time estimate, which prices the lines, not the ground next to a zone
+    that lines cut short leave to one photo: so no layout that gives up ground wins over one that
+    sees it all, and the alternatives are laid and flown only when the first leaves ground unseen."""
+    best: Flown | None = None
+    for i, layout in enumerate(islice(layouts, MAX_LAYOUTS)):
+        if i:
+            report("another layout: the faster ones leave ground next to the zones unseen", 0.72)
+        flown = fly_layout(spec, site, sensor, layout, report if i == 0 else no_progress)
+        if best is None or flown.coverage.uncovered_m2 < best.coverage.uncovered_m2:
+            best = flown
+        if best.coverage.uncovered_m2 <= 0:
+            break
+    assert best is not None, "a pattern lays at least one layout"
+    return best
+
+
+def fly_layout(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
+               report: Progress = no_progress) -> Flown:
+    """A layout routed with its altitudes and coverage, and lines along the zones' margins where its own
+    lines, cut short, leave ground unphotographed (`zone_edges.edge_passes`)."""
+    report("route", 0.72)
+    routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.72, 0.84))
+    extra = edge_passes(site, sensor, coverage.uncovered, len(layout.passes) + 1)
+    if extra:
+        report("lines along the zones", 0.85)
+        layout = replace(layout, passes=layout.passes + extra)
+        routed, home_ground, alts, coverage = _fly(spec, site, sensor, layout, _share(report, 0.85, 0.88))
+    return Flown(layout, routed, home_ground, alts, coverage)
 
 
 def _fly(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout,
@@ -244,6 +317,26 @@ def _places(spec: MissionSpec, site: Site, pts: tuple[tuple[float, float], ...],
     for i, (px, py) in enumerate(zip(x, y)):
         check_launch(spec, site, (float(px), float(py)), f"{key}[{i + 1}] = {list(pts[i])}", key)
     return tuple(LaunchSite(float(px), float(py), float(lo), float(la), float(g)) for px, py, lo, la, g in zip(x, y, lon, lat, ground))
+
+
+def far_launch(spec: MissionSpec, site: Site, routed: RoutePlan) -> LaunchSite | None:
+    """A second place sorties may take off from when none are given (battery.launch_points) and
+    the launch is the nearest: the area's edge nearest the route's last waypoint, as the home is
+    the edge nearest its first (`routing.default_home`); None where it is the home, or is not a
+    valid launch point (`routing.check_launch`)."""
+    if spec.battery is None or spec.battery.launch_points or spec.battery.launch != "nearest":
+        return None
+    last = routed.route.waypoints[-1]
+    clearance = home_clearance_m(spec) * site.grid_scale
+    xy = default_home(site, (last.x, last.y), clearance)
+    if math.dist(xy, routed.home_xy) < max(clearance, 1.0):
+        return None
+    try:
+        check_launch(spec, site, xy, "the launch point at the route's end", "battery.launch_points")
+    except InputError:
+        return None
+    lon, lat = site.planar.lonlat(np.array([xy[0]]), np.array([xy[1]]))
+    return LaunchSite(xy[0], xy[1], float(lon[0]), float(lat[0]), _ground(site, xy, "launch point"))
 
 
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],
