@@ -10,17 +10,21 @@ the sun depend on it) and says, each as go, advise or no-go:
 - **vehicle**: the connected vehicle's settings checks, when the command was given a vehicle.
 
 The flying window starts at `at` and lasts the sorties' flight times plus a battery change
-between sorties. Pure: the clock, the files and the vehicle are the command's (commands/brief.py).
+between sorties. The clock, the files and the vehicle are the callers' (commands/brief.py, the
+page's web/routes_plan.py): `brief_for` re-plans through the function it is given.
 """
 
 from __future__ import annotations
 
 import datetime as dt
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aerosurvey.plan.sun import sun_elevation_deg
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.planner import Plan
 
 #: the verdicts, from best to worst
 VERDICTS = ("go", "advise", "no-go")
@@ -139,3 +143,37 @@ def make_brief(start: dt.datetime, end: dt.datetime, lon: float, lat: float, thr
                vehicle: Sequence[Item] = ()) -> Brief:
     return Brief(start, end, (*airspace, battery_item(sorties, reserve),
                               daylight_item(lon, lat, start, end, threshold_deg), *vehicle))
+
+
+def manifest_sorties(manifest: Mapping[str, Any]) -> list[Sortie]:
+    """The flights of a plan's manifest.json (its sorties, else the one mission)."""
+    return ([Sortie(s["id"], float(s["time_s"]), s.get("usable_used_pct"), s.get("battery_used_pct"))
+             for s in manifest["sorties"]]
+            or [Sortie("mission", float(manifest["estimates"]["total_time_s"]), None, None)])
+
+
+def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: float,
+              replan: Callable[[dt.datetime, dt.datetime], Plan]) -> Brief:
+    """The brief of the plan of `manifest` flown from `at`: `replan(start, end)` makes the plan
+    again for that window (from the command's spec files, or the page's spec), whose official
+    zones are then checked in it (airspace/check.py, as `plan` checks them)."""
+    from aerosurvey.airspace.check import check_airspace
+    from aerosurvey.errors import InputError
+    from aerosurvey.outputs import mission_programs
+
+    sorties = manifest_sorties(manifest)
+    first, last = flying_window(at, sorties, battery_change_min)
+    threshold = float(manifest["conditions"]["threshold_deg"]) if manifest.get("conditions") else 0.0
+    try:
+        plan = replan(first, last)
+        report = check_airspace(plan, mission_programs(plan))
+        zones = airspace_items(None if report is None else [(v.verdict, v.text()) for v in report.verdicts],
+                               () if report is None else report.notes)
+        given = (plan.sun or {}).get("threshold_deg")  # the spec's conditions.min_sun_elevation_deg
+        if isinstance(given, (int, float)):
+            threshold = float(given)
+    except InputError as exc:
+        zones = [Item("airspace", "no-go", f"the plan cannot be made for this window: {exc}")]
+    battery = manifest.get("battery") or {}
+    home = manifest["home"]
+    return make_brief(first, last, float(home["lon"]), float(home["lat"]), threshold, sorties, battery.get("reserve"), zones)

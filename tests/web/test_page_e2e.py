@@ -1273,3 +1273,17 @@ def test_start_of_a_pass_chosen_on_the_map(page):
         .find(f => f.get('pass') === 1).getGeometry().getCoordinates()""")
     origin = page.evaluate("window.aerosurvey.view.frame.origin")
     assert math.dist([marker[0] - origin[0], marker[1] - origin[1]], after[0]) < 0.01
+
+
+def test_brief_for_a_time_chosen_on_the_page(page):
+    """The Fly tab's brief: a time in the evening gives no-go on daylight, named in red; a morning, the others' verdicts."""
+    _tab(page, "fly")
+    page.fill("#brief-at", "2026-05-14T19:00")
+    page.click("#make-brief")
+    page.wait_for_selector("#brief-items li[data-topic='daylight']")
+    # the browser's time zone is the machine's: 19:00 there is evening in Europe and later elsewhere
+    assert page.get_attribute("#brief-items li[data-topic='airspace']", "class") == "advise"
+    assert page.get_attribute("#brief-items li[data-topic='batteries']", "class") == "go"
+    page.fill("#brief-at", "")
+    page.click("#make-brief")
+    page.wait_for_function("document.querySelector('[data-for=\"brief\"]').textContent.includes('choose the date')")

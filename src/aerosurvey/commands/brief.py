@@ -61,32 +61,15 @@ def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tu
     (docs/brief.md)."""
     from dataclasses import replace
 
-    from aerosurvey.airspace.check import check_airspace
-    from aerosurvey.brief import Item, Sortie, airspace_items, flying_window, make_brief
+    from aerosurvey.brief import brief_for
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.manifest import read_manifest
-    from aerosurvey.outputs import mission_programs
     from aerosurvey.spec import load_spec, with_zone_files
 
     doc = read_manifest(plan_dir, "PLAN_DIR")
-    start = _when(at)
-    raw = doc.raw
-    sorties = [Sortie(s["id"], float(s["time_s"]), s.get("usable_used_pct"), s.get("battery_used_pct"))
-               for s in raw["sorties"]] or [Sortie("mission", float(raw["estimates"]["total_time_s"]), None, None)]
-    first, last = flying_window(start, sorties, battery_change_min)
-    spec = with_zone_files(load_spec(_spec_of(plan_dir, spec_path, raw["inputs"]["spec"])), zone_files)
-    spec = replace(spec, conditions=replace(spec.conditions, start=first, end=last))
-    try:  # the zones' times and heights depend on the window: the plan made again for it
-        plan = plan_from_files(spec)
-        report = check_airspace(plan, mission_programs(plan))
-        zones = airspace_items(None if report is None else [(v.verdict, v.text()) for v in report.verdicts],
-                               () if report is None else report.notes)
-    except InputError as exc:
-        zones = [Item("airspace", "no-go", f"the plan cannot be made for this window: {exc}")]
-    battery = raw.get("battery") or {}
-    home = raw["home"]
-    result = make_brief(first, last, home["lon"], home["lat"], spec.conditions.min_sun_elevation_deg, sorties,
-                        battery.get("reserve"), zones)
+    spec = with_zone_files(load_spec(_spec_of(plan_dir, spec_path, doc.raw["inputs"]["spec"])), zone_files)
+    result = brief_for(doc.raw, _when(at), battery_change_min,
+                       lambda a, b: plan_from_files(replace(spec, conditions=replace(spec.conditions, start=a, end=b))))
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=1, ensure_ascii=False))
     else:

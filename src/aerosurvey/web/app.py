@@ -53,6 +53,7 @@ ROUTES: list[BaseRoute] = [
     Route("/api/plans/{plan_id}/files/{name}", routes_plan.plan_file),
     Route("/api/plans/{plan_id}/archive.zip", routes_plan.plan_archive),
     Route("/api/plans/{plan_id}/share/{name}", routes_plan.share_file, methods=["POST"]),
+    Route("/api/plans/{plan_id}/brief", routes_plan.brief, methods=["POST"]),
     Route("/lan/{token}/{name}", routes_plan.lan_file, methods=["GET", "HEAD"]),
     Route("/api/plans/{plan_id}/flight", routes_flight.flight_results, methods=["POST"]),
     Route("/api/plans/{plan_id}/refly", routes_flight.refly, methods=["POST"]),

@@ -5,6 +5,7 @@
   DELETE /api/jobs/{id}              cancel a running plan
   GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
   GET    /api/plans/{pid}/archive.zip  all of them
+  POST   /api/plans/{pid}/brief      {"at": ISO 8601 with offset, "battery_change_min"?} → `aerosurvey brief` of the plan
   POST   /api/plans/{pid}/share/{n}  one file shared on the local network (serve --lan): its URL and QR code
   GET    /lan/{token}/{n}            a shared file, the one request answered to other machines (web/lan.py)
 """
@@ -12,6 +13,7 @@
 from __future__ import annotations
 
 import asyncio
+import datetime as dt
 import time
 from typing import Any
 
@@ -84,6 +86,27 @@ async def plan_file(request: Request) -> Response:
     if data is None:
         return not_found(f"the plan has no file {name!r}; it has {', '.join(bundle.names())}")
     return _file_response(name, data)
+
+
+async def brief(request: Request) -> Response:
+    state = server(request)
+    bundle = state.plan(request.path_params["plan_id"])
+    if bundle is None:
+        return plan_gone(request)
+    try:
+        body = await request.json()
+        at = dt.datetime.fromisoformat(str(body.get("at"))) if isinstance(body, dict) else None
+        change = float(body.get("battery_change_min", 5.0)) if isinstance(body, dict) else -1.0
+    except (ValueError, TypeError):
+        at, change = None, -1.0
+    if at is None or at.tzinfo is None:
+        return error(InputError("brief: send {\"at\": a date and time in ISO 8601 with its UTC offset}", key="brief"))
+    if not 0.0 <= change <= 120.0:
+        return error(InputError("brief: battery_change_min must be a number of minutes from 0 to 120", key="brief"))
+    try:
+        return JSONResponse(await blocking(service.bundle_brief, bundle, state.workspace, at, change))
+    except InputError as exc:
+        return error(exc)
 
 
 def _file_response(name: str, data: bytes) -> Response:

@@ -356,6 +356,21 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view, dict(rendered.binary))
 
 
+def bundle_brief(bundle: PlanBundle, ws: Workspace, at: dt.datetime, battery_change_min: float) -> dict[str, Any]:
+    """`aerosurvey brief` of the page's plan flown from `at`: its spec (and drawn zones) planned again for the window."""
+    from aerosurvey.brief import brief_for
+    from aerosurvey.plan.planner import plan_mission
+
+    if bundle.manifest is None:
+        raise InputError("brief: a resumed flight has no plan of its own; brief the plan", key="brief")
+
+    def replan(start: dt.datetime, end: dt.datetime) -> Any:
+        window = {**(bundle.spec.get("conditions") or {}), "start": start.isoformat(), "end": end.isoformat()}
+        return plan_mission(*spec_and_inputs({**bundle.spec, "conditions": window}, ws, bundle.zones))
+
+    return brief_for(bundle.manifest.raw, at, battery_change_min, replan).as_dict()
+
+
 def plan_documents(files: dict[str, str], where: str) -> tuple[mf.Manifest, dict[str, Any], PlanView]:
     """A plan's manifest.json and plan.geojson (texts by name) read once: the typed manifest, the GeoJSON
     and the plan as the rules see it."""

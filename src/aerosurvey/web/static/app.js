@@ -692,6 +692,26 @@ function fileLink(name, label) {
   return a;
 }
 
+/** `aerosurvey brief` of the plan shown, for the time chosen (the browser's own time zone). */
+async function makeBrief() {
+  const out = $("#brief-out"); out.textContent = "";
+  clearError("brief");
+  const value = $("#brief-at").value;
+  if (!value || !S.view) { showError("brief", "choose the date and time of the first launch"); return; }
+  try {
+    const r = await api("POST", `/api/plans/${S.view.plan_id}/brief`, { at: new Date(value).toISOString() });
+    const head = document.createElement("div"); head.className = `brief-verdict ${r.verdict}`;
+    head.textContent = `${r.verdict.toUpperCase()}: ${new Date(r.start).toLocaleString()} to ${new Date(r.end).toLocaleTimeString()}`;
+    const list = document.createElement("ul"); list.id = "brief-items";
+    for (const i of r.items) {
+      const li = document.createElement("li"); li.className = i.verdict; li.dataset.topic = i.topic;
+      li.textContent = `${i.verdict.toUpperCase()} ${i.topic}: ${i.text}`;
+      list.appendChild(li);
+    }
+    out.append(head, list);
+  } catch (e) { showError("brief", e.message); }
+}
+
 /** A button that shares one file on the local network (serve --lan) and shows its QR code in its fly block. */
 function qrButton(name) {
   const b = document.createElement("button");
@@ -1236,6 +1256,7 @@ async function start() {
     if (e.key === "y" || (e.key === "z" && e.shiftKey)) { e.preventDefault(); redo(); }
   });
   map.on("pointermove", onPointer);
+  $("#make-brief").addEventListener("click", makeBrief);
   map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); else if (S.tool === "start") startAt(e.pixel); });
   setTool("edit");
 
