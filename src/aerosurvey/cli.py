@@ -40,6 +40,8 @@ DIST = "aerosurvey"
 #: points pyproject.toml declares, the short helps the commands' own (tests/test_cli.py).
 COMMANDS: Mapping[str, Lazy] = {
     "cameras": Lazy("aerosurvey.commands.cameras:cameras", "List the camera database (or `cameras show ID` for one camera)."),
+    "campaign": Lazy("aerosurvey.commands.campaign:campaign",
+                     "Campaigns: many blocks planned in parallel (a process pool or Dask), one register of their lives."),
     "check": Lazy("aerosurvey.commands.check:check", "Check a mission spec or a plan folder against rule profiles."),
     "gcp": Lazy("aerosurvey.commands.gcp:gcp", "Propose GCPs (an envelope outside the perimeter) and check points (inside)."),
     "log": Lazy("aerosurvey.commands.log:log", "Flight logs: camera events, their match to the plan."),

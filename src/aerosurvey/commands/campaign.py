@@ -1,0 +1,93 @@
+"""`aerosurvey campaign`: many blocks planned as one campaign, and the campaign's register (docs/campaign.md)."""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import click
+
+from aerosurvey import console
+
+log = logging.getLogger(__name__)
+
+
+@click.group()
+def campaign() -> None:
+    """Campaigns: many blocks planned in parallel (a process pool or Dask), one register of their lives."""
+
+
+@campaign.command("plan")
+@click.argument("blocks", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="The campaign folder: blocks/NAME.KEY/ per block and register.gpkg (created if missing; a rerun "
+                   "plans only the blocks not done).")
+@click.option("--spec", "template", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The mission spec template (TOML) every block is planned with; [area] comes from the block.")
+@click.option("--outputs", default="manifest,pilot", show_default=True,
+              help="What each block writes: comma-separated groups of manifest, pilot (.plan, .waypoints, .kmz), "
+                   "geojson, kml, preview, gpkg; or all.")
+@click.option("--workers", type=int, default=None, help="Worker processes (default: the machine's cores).")
+@click.option("--dask", type=click.Choice(["local"]), default=None,
+              help="Run the blocks on Dask distributed, on a LocalCluster of --workers processes.")
+@click.option("--scheduler", default=None, help="Run the blocks on the Dask scheduler at this address (tcp://HOST:PORT).")
+def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int | None, dask: str | None,
+         scheduler: str | None) -> None:
+    """Plan every block of BLOCKS (a GeoPackage or GeoJSON of polygons) with the --spec template into
+    the campaign folder, and write its register.gpkg.
+
+    Each block is planned by one function of its inputs and written into its own folder named
+    after their hash, atomically: a rerun plans only what is not done, a crash loses nothing.
+    Exit code 0 when every block is planned, 1 when some failed (rerun to try them again),
+    2 for bad input.
+    """
+    import datetime as dt
+
+    from aerosurvey.campaign.blocks import read_blocks
+    from aerosurvey.campaign.job import make_jobs, parse_outputs
+    from aerosurvey.campaign.register import after_planning, read_register, write_register
+    from aerosurvey.campaign.run import executor, run_campaign
+    from aerosurvey.errors import CheckFailed
+
+    groups = parse_outputs(outputs)
+    crs, found = read_blocks(blocks)
+    jobs = make_jobs(found, crs, template, groups)
+    outdir.mkdir(parents=True, exist_ok=True)
+    with executor(workers if workers is not None else os.cpu_count() or 1, dask, scheduler) as run, \
+            console.progress(f"campaign {outdir.name}: {len(jobs)} blocks") as report:
+        results, tally = run_campaign(jobs, outdir, run, report)
+    events = read_register(outdir)[1] if (outdir / "register.gpkg").exists() else []
+    now = dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+    rows, events = after_planning(jobs, results, events, now)
+    path = write_register(outdir, rows, events)
+    counts: dict[str, int] = {}
+    for r in results:
+        counts[r.status] = counts.get(r.status, 0) + 1
+    console.echo(f"{len(jobs)} blocks: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) + f" ({tally.text()})")
+    console.echo(f"register: {path}")
+    failed = [r.name for r in results if r.status == "failed"]
+    if failed:
+        shown = ", ".join(failed[:5]) + (f" and {len(failed) - 5} more" if len(failed) > 5 else "")
+        raise CheckFailed(f"{len(failed)} block(s) failed ({shown}): `aerosurvey campaign status {outdir}` says why; "
+                          "run the same command again to plan them")
+
+
+@campaign.command("status")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--limit", type=int, default=20, show_default=True, help="Waiting blocks listed (0: all).")
+def status(campaign_dir: Path, limit: int) -> None:
+    """Counts of the blocks per status, and what each waiting block needs next."""
+    from aerosurvey.campaign.register import NEXT, read_register
+
+    rows, events = read_register(campaign_dir)
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r.status] = counts.get(r.status, 0) + 1
+    console.echo(f"{len(rows)} blocks, {len(events)} events: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+    waiting = [r for r in rows if r.status != "accepted"]
+    for r in waiting[:limit or None]:
+        why = f" ({r.message})" if r.message else (f" (failing: {r.rules_failing})" if r.rules_failing else "")
+        console.echo(f"  {r.name}: {r.status}{why}; next: {NEXT[r.status].format(folder=r.folder)}")
+    if limit and len(waiting) > limit:
+        console.echo(f"  … and {len(waiting) - limit} more waiting (--limit 0 lists all)")
