@@ -42,8 +42,6 @@ def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int 
     Exit code 0 when every block is planned, 1 when some failed (rerun to try them again),
     2 for bad input.
     """
-    import datetime as dt
-
     from aerosurvey.campaign.blocks import read_blocks
     from aerosurvey.campaign.job import make_jobs, parse_outputs
     from aerosurvey.campaign.register import after_planning, read_register, write_register
@@ -58,7 +56,7 @@ def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int 
             console.progress(f"campaign {outdir.name}: {len(jobs)} blocks") as report:
         results, tally = run_campaign(jobs, outdir, run, report)
     events = read_register(outdir)[1] if (outdir / "register.gpkg").exists() else []
-    now = dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+    now = _now()
     rows, events = after_planning(jobs, results, events, now)
     path = write_register(outdir, rows, events)
     counts: dict[str, int] = {}
@@ -91,3 +89,36 @@ def status(campaign_dir: Path, limit: int) -> None:
         console.echo(f"  {r.name}: {r.status}{why}; next: {NEXT[r.status].format(folder=r.folder)}")
     if limit and len(waiting) > limit:
         console.echo(f"  … and {len(waiting) - limit} more waiting (--limit 0 lists all)")
+
+
+@campaign.command("ingest")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.argument("flights", nargs=-1, required=True, type=click.Path(path_type=Path))
+def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
+    """File flight logs and photo folders under their blocks (CAMPAIGN/flights/BLOCK/FLIGHT/, as `log ingest --plan`
+    writes), each recognised by the mission it records (else by where its photos are); a "flown" event each.
+
+    Exit code 0 when every flight is filed, 1 when some is of no block (the rest are filed), 2 for bad input.
+    """
+    from aerosurvey.campaign.flights import ingest_flights
+    from aerosurvey.campaign.register import read_register, write_register
+    from aerosurvey.errors import CheckFailed
+
+    rows, events = read_register(campaign_dir)
+    now = _now()
+    with console.progress(f"campaign ingest: {len(flights)} flights"):
+        filed, rows, events = ingest_flights(campaign_dir, list(flights), rows, events, now)
+    write_register(campaign_dir, rows, events)
+    for f in filed:
+        console.echo(f"{f.flight}: {'block ' + f.block + ': ' + f.detail if f.block else 'not filed: ' + f.detail}")
+    lost = [f.flight for f in filed if f.block is None]
+    if lost:
+        raise CheckFailed(f"{len(lost)} of {len(filed)} flight(s) are of no block of the campaign ({', '.join(lost[:5])}); "
+                          "the others are filed")
+
+
+def _now() -> str:
+    """The time an event is recorded at: UTC, ISO 8601, whole seconds."""
+    import datetime as dt
+
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
