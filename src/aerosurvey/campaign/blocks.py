@@ -92,3 +92,21 @@ def _value(raw: Any, key: str, kind: type, where: str) -> Any:
     if not math.isfinite(value):
         raise InputError(f"{where}: {key} = {raw!r} is not allowed: a finite number")
     return value
+
+
+def write_blocks(path: Path, polygons_wgs84: list[Any], names: list[str], headings: list[float]) -> None:
+    """Write a blocks file (GeoPackage for .gpkg, else GeoJSON) in WGS84 with the attributes name and
+    heading, whole: into a temporary file renamed into place."""
+    import numpy as np
+    import pyogrio
+    import shapely
+
+    from aerosurvey.fileio import staged_file
+
+    driver = "GPKG" if path.suffix.lower() == ".gpkg" else "GeoJSON"
+    if driver == "GeoJSON" and path.suffix.lower() not in (".geojson", ".json"):
+        raise InputError(f"blocks file {str(path)!r}: give a .gpkg or .geojson name")
+    with staged_file(path) as tmp:
+        pyogrio.raw.write(tmp, np.array(shapely.to_wkb(polygons_wgs84), dtype=object),
+                          [np.array(names, dtype=object), np.array(headings, dtype=float)], ["name", "heading"],
+                          layer="blocks", driver=driver, geometry_type="Polygon", crs="EPSG:4326")

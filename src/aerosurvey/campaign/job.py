@@ -105,17 +105,18 @@ def make_jobs(blocks: list[Block], crs: str, template_path: Path, outputs: tuple
     return [BlockJob(b, crs, template, base, outputs, job_key(b, crs, values, base, outputs)) for b in blocks]
 
 
-def spec_values(job: BlockJob) -> dict[str, Any]:
-    """The template's values with the block's area, name and overrides: a spec as TOML would give it."""
+def spec_values(template: str, block: Block, crs: str) -> dict[str, Any]:
+    """The template's values (TOML text) with the block's area (in `crs`), name and overrides: a spec
+    as TOML would give it."""
     import shapely
 
-    data: dict[str, Any] = copy.deepcopy(tomllib.loads(job.template))
+    data: dict[str, Any] = copy.deepcopy(tomllib.loads(template))
     area = data.setdefault("area", {})
     area.pop("file", None)
-    area["wkt"] = shapely.to_wkt(shapely.from_wkb(job.block.wkb), rounding_precision=-1)
-    area["wkt_crs"] = job.crs
-    data.setdefault("mission", {})["name"] = job.name
-    found = dict(job.block.overrides)
+    area["wkt"] = shapely.to_wkt(shapely.from_wkb(block.wkb), rounding_precision=-1)
+    area["wkt_crs"] = crs
+    data.setdefault("mission", {})["name"] = block.name
+    found = dict(block.overrides)
     targets = data.setdefault("targets", {})
     for key, other in (("gsd_cm", "height_m"), ("height_m", "gsd_cm")):
         if key in found:
@@ -156,7 +157,7 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
     if final.is_dir():
         return read_result(job, final)
     try:
-        spec = parse_spec(spec_values(job), base=Path(job.base))
+        spec = parse_spec(spec_values(job.template, job.block, job.crs), base=Path(job.base))
         plan = plan_from_files(spec)
         rendered = render_outputs(plan, spec, gpkg="gpkg" in job.outputs)
     except AerosurveyError as exc:

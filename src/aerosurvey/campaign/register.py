@@ -14,8 +14,6 @@ a temporary file and renamed into place.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,11 +92,10 @@ def write_register(campaign: Path, rows: Sequence[BlockRow], events: Sequence[Ev
     import numpy as np
     import pyogrio
 
+    from aerosurvey.fileio import staged_file
+
     path = campaign / FILE
-    fd, tmp = tempfile.mkstemp(prefix=".register.", suffix=".gpkg", dir=campaign)
-    os.close(fd)
-    os.unlink(tmp)  # GDAL makes the file
-    try:
+    with staged_file(path) as tmp:
         geoms = np.array([r.wkb for r in rows], dtype=object)
         fields = [np.array([getattr(r, k) for r in rows], dtype=object) for k in _TEXTS]
         fields += [np.array([getattr(r, k) for r in rows], dtype=t) for k, t in _NUMBERS.items()]
@@ -108,10 +105,6 @@ def write_register(campaign: Path, rows: Sequence[BlockRow], events: Sequence[Ev
         values = [np.array([getattr(e, k) for e in events], dtype=object) for k in _EVENT_FIELDS]
         pyogrio.raw.write(tmp, None, values, list(_EVENT_FIELDS), layer="events", driver="GPKG", geometry_type=None,
                           append=True)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
     return path
 
 

@@ -122,3 +122,39 @@ def _now() -> str:
     import datetime as dt
 
     return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+@campaign.command("split")
+@click.argument("area", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The blocks file to write (.gpkg or .geojson): one polygon per block, with its name and heading.")
+@click.option("--max-ha", type=click.FloatRange(min=0, min_open=True), required=True,
+              help="The largest block, hectares, its overlaps included.")
+@click.option("--spec", "template", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The campaign's spec template: its camera, height and overlaps give the overlap at each cut.")
+@click.option("--heading", type=click.FloatRange(0, 360, max_open=True), default=None,
+              help="The flight lines' true bearing, degrees (default: the template's flight.heading, else along the area's length).")
+@click.option("--prefix", default="b", show_default=True, help="Block names: PREFIX0001, PREFIX0002 …")
+def split(area: Path, out: Path, max_ha: float, template: Path, heading: float | None, prefix: str) -> None:
+    """Cut AREA into blocks of at most --max-ha along straight cuts aligned with the flight lines, neighbours
+    overlapping at each cut by what neighbouring strips (or photos) of one area share (docs/campaign.md)."""
+    import shapely
+
+    from aerosurvey.area import read_area
+    from aerosurvey.campaign.blocks import Block, write_blocks
+    from aerosurvey.campaign.job import spec_values
+    from aerosurvey.campaign.split import blocks_of_area
+    from aerosurvey.spec import parse_spec
+
+    region = read_area(area, None, "EPSG:4326", "area")
+    try:
+        text = template.read_text(encoding="utf-8")
+    except OSError as exc:
+        from aerosurvey.errors import InputError
+
+        raise InputError(f"--spec {str(template)!r} cannot be read: {exc}") from None
+    spec = parse_spec(spec_values(text, Block("split", shapely.to_wkb(region), ()), "EPSG:4326"), base=template.parent)
+    polygons, headings = blocks_of_area(region, spec, max_ha, heading)
+    names = [f"{prefix}{i:04d}" for i in range(1, len(polygons) + 1)]
+    write_blocks(out, polygons, names, headings)
+    console.echo(f"{len(polygons)} blocks of at most {max_ha:g} ha written to {out}")
