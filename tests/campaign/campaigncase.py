@@ -95,3 +95,46 @@ def same_campaign(a: Path, b: Path) -> None:
     assert ra == rb
     key = lambda e: (e["block"], e["key"], e["event"])  # noqa: E731
     assert sorted(ea, key=key) == sorted(eb, key=key)
+
+
+def prove_union_coverage(campaign: Path, blocks_ll: dict, area_ll, k_side_overlap: float = 0.6,
+                         k_forward_overlap: float = 0.75) -> int:
+    """From each block's mission.waypoints alone (tests/independent_coverage.py): every point of `area_ll`
+    seen by as many photos of all blocks as one area's plan guarantees, and every point two blocks share
+    (`blocks_ll`: name → polygon, WGS84) by that many photos of each; returns the number of shared bands."""
+    import math
+
+    import shapely
+
+    import independent_coverage as ic
+    from aerosurvey.camera import get_camera
+
+    to_xy = ic.local_projection(area_ll.centroid.x, area_ll.centroid.y)
+
+    def proj(g):
+        return shapely.transform(g, lambda a: np.column_stack(to_xy.transform(a[:, 0], a[:, 1])))
+
+    cam = get_camera(TEMPLATE["camera"]["model"])
+    sensor = (cam.sensor_width_mm, cam.sensor_height_mm, cam.image_width_px, cam.image_height_px, cam.focal_mm)
+    k = math.floor(1 / (1 - k_side_overlap) + 1e-9) * math.floor(1 / (1 - k_forward_overlap) + 1e-9)
+    folders = block_folders(campaign)
+    photos, polys = {}, {}
+    for name, g in blocks_ll.items():
+        home, rows = ic.read_wpl(folders[name] / "mission.waypoints")
+        photos[name] = ic.replay_triggers(rows, to_xy, None, home[2])
+        polys[name] = proj(g)
+    gx, gy = ic.grid_inside(proj(area_ll), 80)
+    total = sum(ic.footprint_counts(p, gx, gy, sensor, "landscape") for p in photos.values())
+    assert total.min() >= k, f"a point of the area seen by {total.min()} photos of all blocks, need {k}"
+    shared = 0
+    for a in polys:
+        for b in polys:
+            band = shapely.intersection(polys[a], polys[b])
+            if a >= b or band.area < 1.0:
+                continue
+            shared += 1
+            bx, by = ic.grid_inside(band, 40)
+            for name in (a, b):
+                seen = ic.footprint_counts(photos[name], bx, by, sensor, "landscape")
+                assert seen.min() >= k, f"on the band {a}/{b}, a point seen by {seen.min()} photos of {name}, need {k}"
+    return shared

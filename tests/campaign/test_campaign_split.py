@@ -16,8 +16,6 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import independent_coverage as ic
-from aerosurvey.camera import get_camera
 from aerosurvey.campaign.split import split_area
 from aerosurvey.cli import main
 from conftest import random_polygon, write_geojson
@@ -89,36 +87,34 @@ def test_union_of_the_blocks_covered_as_one_area(tmp_path):
     res = CliRunner().invoke(main, ["campaign", "plan", str(blocks_file), "-o", str(out), "--spec", str(template),
                                     "--workers", "2"])
     assert res.exit_code == 0, res.output
+    for folder in cc.block_folders(out).values():
+        assert json.loads((folder / "block.json").read_text())["area_ha"] <= 8.0 * 1.01
+    shared = cc.prove_union_coverage(out, dict(zip(names, shapely.from_wkb(wkb))), shapely.Polygon(rings[0]))
+    assert shared >= len(names) - 1  # the blocks are connected through their bands
 
-    area_ll = shapely.Polygon(rings[0])
-    to_xy = ic.local_projection(area_ll.centroid.x, area_ll.centroid.y)
 
-    def proj(g):
-        return shapely.transform(g, lambda a: np.column_stack(to_xy.transform(a[:, 0], a[:, 1])))
-
-    cam = get_camera("sony-a6000-16mm")
-    sensor = (cam.sensor_width_mm, cam.sensor_height_mm, cam.image_width_px, cam.image_height_px, cam.focal_mm)
-    k = math.floor(1 / (1 - 0.6) + 1e-9) * math.floor(1 / (1 - 0.75) + 1e-9)
-    folders = cc.block_folders(out)
-    photos, polys = {}, {}
-    for name, g in zip(names, shapely.from_wkb(wkb)):
-        home, rows = ic.read_wpl(folders[name] / "mission.waypoints")
-        photos[name] = ic.replay_triggers(rows, to_xy, None, home[2])
-        polys[name] = proj(g)
-        assert json.loads((folders[name] / "block.json").read_text())["area_ha"] <= 8.0 * 1.01
-    area = proj(area_ll)
-    gx, gy = ic.grid_inside(area, 80)
-    total = sum(ic.footprint_counts(p, gx, gy, sensor, "landscape") for p in photos.values())
-    assert total.min() >= k, f"a point of the area seen by {total.min()} photos of all blocks, need {k}"
-    shared = 0
-    for a in polys:
-        for b in polys:
-            band = shapely.intersection(polys[a], polys[b])
-            if a >= b or band.area < 1.0:
-                continue
-            shared += 1
-            bx, by = ic.grid_inside(band, 40)
-            for name in (a, b):
-                seen = ic.footprint_counts(photos[name], bx, by, sensor, "landscape")
-                assert seen.min() >= k, f"on the band {a}/{b}, a point seen by {seen.min()} photos of {name}, need {k}"
-    assert shared >= len(polys) - 1  # the blocks are connected through their bands
+def test_abutting_blocks_grown_into_their_neighbours(tmp_path):
+    """A grid of blocks that only touch, planned with --overlap: the same proof over their union."""
+    feats = []
+    for i in range(3):
+        for j in range(2):
+            x, y = 15.0 + i * 0.004, 49.4 + j * 0.0028
+            ring = [[x, y], [x + 0.004, y], [x + 0.004, y + 0.0028], [x, y + 0.0028], [x, y]]
+            feats.append({"type": "Feature", "properties": {"name": f"g{i}{j}", "heading": 20.0},
+                          "geometry": {"type": "Polygon", "coordinates": [ring]}})
+    blocks_file = tmp_path / "grid.geojson"
+    blocks_file.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    template = cc.write_template(tmp_path)
+    out = tmp_path / "campaign"
+    res = CliRunner().invoke(main, ["campaign", "plan", str(blocks_file), "-o", str(out), "--spec", str(template),
+                                    "--workers", "2", "--overlap"])
+    assert res.exit_code == 0, res.output
+    rows, _ = cc.register(out)
+    grown = {r["name"]: shapely.from_wkb(bytes.fromhex(r["wkb"])) for r in rows}
+    given = {f["properties"]["name"]: shapely.geometry.shape(f["geometry"]) for f in feats}
+    for name in given:
+        assert grown[name].contains(given[name].buffer(-1e-9)) and grown[name].area > given[name].area
+    union = shapely.union_all(list(given.values()))
+    assert shapely.union_all(list(grown.values())).symmetric_difference(union).area < 1e-6 * union.area
+    shared = cc.prove_union_coverage(out, grown, union)
+    assert shared >= 7  # the grid's 7 shared edges, each a band (and corners where four meet)

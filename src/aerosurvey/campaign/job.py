@@ -26,6 +26,7 @@ from typing import Any
 
 from aerosurvey.campaign.blocks import Block
 from aerosurvey.errors import AerosurveyError, InputError
+from aerosurvey.spec import MissionSpec
 
 #: the version of the block folders' layout and of block.json; part of every key
 FORMAT = 1
@@ -92,17 +93,33 @@ def job_key(block: Block, crs: str, template_values: dict[str, Any], base: str, 
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def make_jobs(blocks: list[Block], crs: str, template_path: Path, outputs: tuple[str, ...]) -> list[BlockJob]:
-    """A job per block, with its key."""
+def read_template(template_path: Path) -> tuple[str, dict[str, Any]]:
+    """The spec template's text and values; a one-line InputError when it is missing or not TOML."""
     try:
         template = template_path.read_text(encoding="utf-8")
-        values = tomllib.loads(template)
+        return template, tomllib.loads(template)
     except FileNotFoundError:
         raise InputError(f"--spec {str(template_path)!r} does not exist") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"--spec {str(template_path)!r} cannot be read as TOML: {exc}") from None
+
+
+def make_jobs(blocks: list[Block], crs: str, template_path: Path, outputs: tuple[str, ...]) -> list[BlockJob]:
+    """A job per block, with its key."""
+    template, values = read_template(template_path)
     base = str(template_path.resolve().parent)
     return [BlockJob(b, crs, template, base, outputs, job_key(b, crs, values, base, outputs)) for b in blocks]
+
+
+def block_spec(template: str, base: Path, block: Block, crs: str) -> MissionSpec:
+    """The mission spec of one block (the template's TOML text with the block's area, name and
+    overrides; relative paths from `base`), checked; an InputError names the block."""
+    from aerosurvey.spec import parse_spec
+
+    try:
+        return parse_spec(spec_values(template, block, crs), base=base)
+    except InputError as exc:
+        raise InputError(f"block {block.name}: {exc}", key=exc.key) from None
 
 
 def spec_values(template: str, block: Block, crs: str) -> dict[str, Any]:
@@ -150,14 +167,13 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
     refuses come back as a "failed" result; nothing is written for them."""
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import render_outputs
-    from aerosurvey.spec import parse_spec
 
     blocks = Path(campaign) / BLOCKS_DIR
     final = blocks / job.folder
     if final.is_dir():
         return read_result(job, final)
     try:
-        spec = parse_spec(spec_values(job.template, job.block, job.crs), base=Path(job.base))
+        spec = block_spec(job.template, Path(job.base), job.block, job.crs)
         plan = plan_from_files(spec)
         rendered = render_outputs(plan, spec, gpkg="gpkg" in job.outputs)
     except AerosurveyError as exc:

@@ -39,6 +39,10 @@ def pool_results(workers: int) -> Executor:
     """An executor on a local process pool of `workers` processes."""
 
     def run(jobs: list[BlockJob], campaign: str) -> Iterator[Outcome]:
+        # the planner imported once here, before the workers fork: each has it without importing it again
+        import aerosurvey.inputs
+        import aerosurvey.outputs  # noqa: F401
+
         todo = iter(jobs)
         window = 2 * workers
         while True:

@@ -19,11 +19,13 @@ area's would, and their photos share at least what neighbouring strips or photos
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import shapely
 import shapely.affinity
 from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.campaign.blocks import Block
 from aerosurvey.errors import InputError
 from aerosurvey.spec import MissionSpec
 
@@ -108,19 +110,62 @@ def blocks_of_area(area_wgs84: BaseGeometry, spec: MissionSpec, max_ha: float,
     area's length. The overlaps are at the nominal height (spec.targets; over higher ground the
     footprint shrinks, and so does the overlap on the ground); the cuts are straight in the planning CRS."""
     from aerosurvey.area import planning_crs
-    from aerosurvey.plan.photogrammetry import footprint, height_from_gsd
 
     planar = planning_crs(spec.crs, area_wgs84)
     area = planar.forward(area_wgs84)
     c = area.centroid
     true = heading_deg if heading_deg is not None else spec.flight.heading_deg
     grid = float(planar.grid_bearing(true, c.x, c.y)) if true is not None else long_side_bearing(area)
-    t = spec.targets
-    height = t.height_m if t.height_m is not None else height_from_gsd(t.gsd_m or 0.0, spec.camera.camera)
-    across, along = footprint(height, spec.camera.camera, spec.camera.mount)
+    across, along = cut_overlaps_m(spec)
     lon, lat = planar.lonlat(c.x, c.y)
     scale = planar.scale_factor(float(lon), float(lat))
-    blocks = split_area(area, grid, max_ha * 1e4 * scale**2, across * t.side_overlap * scale, along * t.forward_overlap * scale)
+    blocks = split_area(area, grid, max_ha * 1e4 * scale**2, across * scale, along * scale)
     centres = [b.centroid for b in blocks]
     headings = planar.true_bearing(grid, [p.x for p in centres], [p.y for p in centres]) % 180.0
     return [planar.inverse(b) for b in blocks], [round(float(h), 4) for h in headings]
+
+
+def cut_overlaps_m(spec: MissionSpec) -> tuple[float, float]:
+    """The overlap at a cut along the lines and at one across them, ground metres: the footprint across
+    the lines times the side overlap, the footprint along them times the forward overlap, at the
+    spec's nominal height."""
+    from aerosurvey.plan.photogrammetry import footprint, height_from_gsd
+
+    t = spec.targets
+    height = t.height_m if t.height_m is not None else height_from_gsd(t.gsd_m or 0.0, spec.camera.camera)
+    across, along = footprint(height, spec.camera.camera, spec.camera.mount)
+    return float(across) * t.side_overlap, float(along) * t.forward_overlap
+
+
+def grow_into_neighbours(blocks: list[BaseGeometry], reach: list[float]) -> list[BaseGeometry]:
+    """Each block with the part of its neighbours within its `reach` of it: neighbours that abut then
+    share a band as wide as their two reaches along their shared edges; nothing grows beyond the
+    blocks' union."""
+    tree = shapely.STRtree(blocks)
+    out = []
+    for i, b in enumerate(blocks):
+        near = [j for j in tree.query(b, predicate="dwithin", distance=reach[i]) if j != i]
+        if not near:
+            out.append(b)
+            continue
+        reached = shapely.intersection(shapely.buffer(b, reach[i], join_style="mitre"),
+                                       shapely.union_all([blocks[j] for j in near]))
+        out.append(shapely.union(b, reached))
+    return out
+
+
+def overlapping_blocks(blocks: list[Block], crs: str, specs: list[MissionSpec]) -> list[Block]:
+    """Blocks (in `crs`) grown into their neighbours by the overlap the guarantee needs: each by half of
+    the larger of its spec's two cut overlaps (`cut_overlaps_m`), as the lines may run any way
+    across a shared edge, so that abutting neighbours share a band at least that wide."""
+    from aerosurvey.area import planning_crs, transformed, transformer
+
+    polys = [shapely.from_wkb(b.wkb) for b in blocks]
+    to_wgs = transformer(crs, "EPSG:4326")
+    planar = planning_crs(specs[0].crs, shapely.union_all([transformed(to_wgs, p) for p in polys]))
+    to_plan, back = transformer(crs, planar.crs.srs), transformer(planar.crs.srs, crs)
+    c = shapely.union_all(polys).centroid
+    lon, lat = to_wgs.transform(c.x, c.y)
+    scale = planar.scale_factor(lon, lat)
+    grown = grow_into_neighbours([transformed(to_plan, p) for p in polys], [max(cut_overlaps_m(s)) / 2 * scale for s in specs])
+    return [replace(b, wkb=shapely.to_wkb(transformed(back, g))) for b, g in zip(blocks, grown)]

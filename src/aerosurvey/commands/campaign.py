@@ -32,8 +32,11 @@ def campaign() -> None:
 @click.option("--dask", type=click.Choice(["local"]), default=None,
               help="Run the blocks on Dask distributed, on a LocalCluster of --workers processes.")
 @click.option("--scheduler", default=None, help="Run the blocks on the Dask scheduler at this address (tcp://HOST:PORT).")
+@click.option("--overlap", is_flag=True,
+              help="Grow each block into its neighbours by the overlap the guarantee needs, for blocks that abut (a grid, "
+                   "parcels); `campaign split`'s blocks overlap already.")
 def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int | None, dask: str | None,
-         scheduler: str | None) -> None:
+         scheduler: str | None, overlap: bool) -> None:
     """Plan every block of BLOCKS (a GeoPackage or GeoJSON of polygons) with the --spec template into
     the campaign folder, and write its register.gpkg.
 
@@ -50,6 +53,12 @@ def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int 
 
     groups = parse_outputs(outputs)
     crs, found = read_blocks(blocks)
+    if overlap:
+        from aerosurvey.campaign.job import block_spec, read_template
+        from aerosurvey.campaign.split import overlapping_blocks
+
+        text, _ = read_template(template)
+        found = overlapping_blocks(found, crs, [block_spec(text, template.resolve().parent, b, crs) for b in found])
     jobs = make_jobs(found, crs, template, groups)
     outdir.mkdir(parents=True, exist_ok=True)
     with executor(workers if workers is not None else os.cpu_count() or 1, dask, scheduler) as run, \
@@ -142,18 +151,12 @@ def split(area: Path, out: Path, max_ha: float, template: Path, heading: float |
 
     from aerosurvey.area import read_area
     from aerosurvey.campaign.blocks import Block, write_blocks
-    from aerosurvey.campaign.job import spec_values
+    from aerosurvey.campaign.job import block_spec, read_template
     from aerosurvey.campaign.split import blocks_of_area
-    from aerosurvey.spec import parse_spec
 
     region = read_area(area, None, "EPSG:4326", "area")
-    try:
-        text = template.read_text(encoding="utf-8")
-    except OSError as exc:
-        from aerosurvey.errors import InputError
-
-        raise InputError(f"--spec {str(template)!r} cannot be read: {exc}") from None
-    spec = parse_spec(spec_values(text, Block("split", shapely.to_wkb(region), ()), "EPSG:4326"), base=template.parent)
+    text, _ = read_template(template)
+    spec = block_spec(text, template.resolve().parent, Block("area", shapely.to_wkb(region), ()), "EPSG:4326")
     polygons, headings = blocks_of_area(region, spec, max_ha, heading)
     names = [f"{prefix}{i:04d}" for i in range(1, len(polygons) + 1)]
     write_blocks(out, polygons, names, headings)
