@@ -96,3 +96,41 @@ def test_geopackage_in_a_projected_crs(tmp_path):
         want = shapely.Polygon(np.column_stack(back.transform(*np.array(poly.exterior.coords).T)))
         assert got.symmetric_difference(want).area < 1e-6 * want.area
         assert row["area_ha"] == pytest.approx(poly.area / 1e4, rel=0.01)
+
+
+@pytest.mark.parametrize("damage", ["not-gpkg", "empty", "no-events", "field-missing"])
+def test_damaged_register(tmp_path, damage):
+    from aerosurvey.campaign.register import BlockRow, Event, write_register
+
+    row = BlockRow("a", "k", "a.k", "planned", shapely.to_wkb(shapely.box(15, 49, 15.01, 49.01)))
+    write_register(tmp_path, [row], [Event("a", "k", "planned", "2026-01-01T00:00:00Z")])
+    path = tmp_path / "register.gpkg"
+    if damage == "not-gpkg":
+        path.write_text("not a geopackage")
+    elif damage == "empty":
+        path.write_bytes(b"")
+    elif damage == "no-events":
+        import sqlite3
+
+        with sqlite3.connect(path) as db:
+            db.execute("DROP TABLE events")
+    else:
+        import sqlite3
+
+        with sqlite3.connect(path) as db:
+            db.execute("ALTER TABLE blocks DROP COLUMN photos")
+    res = CliRunner().invoke(main, ["campaign", "status", str(tmp_path)])
+    assert res.exit_code == 2, res.output
+    assert res.output.count("\n") == 1 and "register.gpkg" in res.output and "Traceback" not in res.output
+
+
+def test_status_order_and_next_steps():
+    from aerosurvey.campaign.register import NEXT, Event, status_of
+
+    ev = [Event("a", "k", "planned", "2026-01-01T00:00:00Z"), Event("a", "k", "flown", "2026-01-02T00:00:00Z"),
+          Event("a", "k", "qa", "2026-01-03T00:00:00Z"), Event("a", "k", "accepted", "2026-01-03T00:00:00Z")]
+    assert status_of("planned", ev[:1]) == "planned"
+    assert status_of("planned", ev[:2]) == "flown"
+    assert status_of("planned", ev) == "accepted"  # the same second: the later event of the lifecycle
+    assert status_of("rules-fail", []) == "rules-fail"
+    assert NEXT["accepted"] == "" and all(NEXT[s] for s in NEXT if s != "accepted")

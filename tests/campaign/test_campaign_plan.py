@@ -112,10 +112,11 @@ def test_failed_block_is_recorded_and_the_rest_planned(inputs, tmp_path):
     assert [e["event"] for e in cc.register(out)[1] if e["block"] == "t01"] == ["failed", "failed"]
 
 
-def test_driver_killed_mid_run_then_rerun(inputs, reference, tmp_path):
+@pytest.mark.parametrize("executor", [(), ("--dask", "local")], ids=["pool", "dask"])
+def test_driver_killed_mid_run_then_rerun(inputs, reference, tmp_path, executor):
     out = tmp_path / "campaign"
     cmd = [sys.executable, "-c", "from aerosurvey.cli import main; main()", "campaign", "plan", str(inputs[0]), "-o", str(out),
-           "--spec", str(inputs[1]), "--workers", "1"]
+           "--spec", str(inputs[1]), "--workers", "1", *executor]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 120
@@ -126,7 +127,7 @@ def test_driver_killed_mid_run_then_rerun(inputs, reference, tmp_path):
                 break
             time.sleep(0.005)
         assert proc.poll() is None, "the campaign ended before it could be killed: " + proc.stderr.read().decode()
-        os.killpg(proc.pid, signal.SIGKILL)  # the driver and its pool's workers
+        os.killpg(proc.pid, signal.SIGKILL)  # the driver and its workers (the pool's, or the LocalCluster's)
         proc.wait(10)
     finally:
         if proc.poll() is None:
@@ -196,3 +197,27 @@ def test_dask_worker_killed_then_rerun(inputs, reference, tmp_path, allowed_fail
     assert tally.done + tally.failed == N_BLOCKS
     campaign_plan(*inputs, out, "--workers", "2")
     cc.same_campaign(out, reference)
+
+
+def test_second_attempt_of_a_block_drops_its_copy(inputs, tmp_path, monkeypatch):
+    """Two attempts of one block: the one that renames second finds the folder and keeps it, its own copy
+    dropped; the folder is the first attempt's, whole."""
+    from aerosurvey.campaign import job as job_module
+
+    jobs = _jobs(inputs)[:1]
+    out = tmp_path / "campaign"
+    real_rename = os.rename
+    first = {}
+
+    def rename_after_another_attempt(src, dst):
+        if not first:  # the other attempt (a retried task, a killed driver's worker) finishes first
+            monkeypatch.setattr(job_module.os, "rename", real_rename)
+            first["result"] = job_module.plan_block(jobs[0], str(out))
+        return real_rename(src, dst)
+
+    monkeypatch.setattr(job_module.os, "rename", rename_after_another_attempt)
+    result = job_module.plan_block(jobs[0], str(out))
+    assert result.status == first["result"].status == "planned" and result.record == first["result"].record
+    folders = list((out / "blocks").iterdir())
+    assert [p.name for p in folders] == [jobs[0].folder]
+    assert sorted(p.name for p in folders[0].iterdir()) == ["block.json", "manifest.json", "mission.plan", "mission.waypoints"]
