@@ -72,3 +72,21 @@ def test_log_of_no_block_is_not_filed(campaign, tmp_path):
     assert cc.register(campaign) == before
     res = CliRunner().invoke(main, ["campaign", "ingest", str(campaign), str(tmp_path / "none.bin")])
     assert res.exit_code == 1 and "none.bin: not filed: flight" in res.output and "does not exist" in res.output
+
+
+def test_events_recorded_by_hand(campaign):
+    def record(*args: str) -> str:
+        res = CliRunner().invoke(main, ["campaign", "record", str(campaign), *args])
+        return f"{res.exit_code} {res.output}"
+
+    assert record("t00", "uploaded", "--detail", "pilot A").startswith("0 t00: uploaded recorded; status uploaded")
+    assert record("t00", "qa", "--detail", "RMSE 2.1 cm").startswith("0 t00: qa recorded; status qa")
+    assert record("t00", "accepted").startswith("0 t00: accepted recorded; status accepted")
+    assert "event = 'landed' is not allowed: one of uploaded, compliance, re-fly, qa, accepted" in record("t00", "landed")
+    assert "block = 'x9' is not in the campaign's register (3 blocks)" in record("x9", "qa")
+    rows, events = cc.register(campaign)
+    assert {r["name"]: r["status"] for r in rows}["t00"] == "accepted"
+    assert [(e["event"], e["detail"]) for e in events if e["block"] == "t00"] == [
+        ("planned", ""), ("uploaded", "pilot A"), ("qa", "RMSE 2.1 cm"), ("accepted", "")]
+    res = CliRunner().invoke(main, ["campaign", "status", str(campaign)])
+    assert "1 accepted" in res.output and "t00:" not in res.output

@@ -170,3 +170,27 @@ def after_planning(jobs: Sequence[BlockJob], results: Sequence[BlockResult], eve
                              int(r.get("sorties", 0)), float(r.get("gsd_cm", 0.0)), int(rules.get("evaluated", 0)),
                              int(rules.get("passed", 0)), ", ".join(rules.get("failing", [])), res.message))
     return rows, events
+
+
+#: the events `campaign record` records by hand (planned, failed and flown come from plan and ingest)
+RECORDED = ("uploaded", "compliance", "re-fly", "qa", "accepted")
+
+
+def with_event(rows: Sequence[BlockRow], events: Sequence[Event], block: str, event: str, now: str,
+               detail: str) -> tuple[list[BlockRow], list[Event]]:
+    """The register with one more event for a block (by name), its status updated; an InputError for a
+    block the register does not hold, an event not in RECORDED, or a block not planned."""
+    from dataclasses import replace
+
+    if event not in RECORDED:
+        raise InputError(f"event = {event!r} is not allowed: one of {', '.join(RECORDED)}")
+    found = [r for r in rows if r.name == block]
+    if not found:
+        raise InputError(f"block = {block!r} is not in the campaign's register ({len(rows)} blocks)")
+    row = found[0]
+    if row.status in ("failed", "rules-fail"):
+        raise InputError(f"block {block!r} is {row.status}: plan it first (`campaign plan`)")
+    new = Event(row.name, row.key, event, now, detail)
+    events = [*events, new]
+    status = status_of(row.status, [e for e in events if e.key == row.key])
+    return [replace(r, status=status) if r.name == block else r for r in rows], events

@@ -126,6 +126,21 @@ def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
                           "the others are filed")
 
 
+@campaign.command("record")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.argument("block")
+@click.argument("event")
+@click.option("--detail", default="", help="What the event says (who, which file, the QA figures …).")
+def record(campaign_dir: Path, block: str, event: str, detail: str) -> None:
+    """Record an event of BLOCK's life in the register by hand: uploaded, compliance, re-fly, qa or accepted."""
+    from aerosurvey.campaign.register import read_register, with_event, write_register
+
+    rows, events = read_register(campaign_dir)
+    rows, events = with_event(rows, events, block, event, _now(), detail)
+    write_register(campaign_dir, rows, events)
+    console.echo(f"{block}: {event} recorded; status {next(r.status for r in rows if r.name == block)}")
+
+
 def _now() -> str:
     """The time an event is recorded at: UTC, ISO 8601, whole seconds."""
     import datetime as dt
