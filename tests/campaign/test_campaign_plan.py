@@ -221,3 +221,29 @@ def test_second_attempt_of_a_block_drops_its_copy(inputs, tmp_path, monkeypatch)
     folders = list((out / "blocks").iterdir())
     assert [p.name for p in folders] == [jobs[0].folder]
     assert sorted(p.name for p in folders[0].iterdir()) == ["block.json", "manifest.json", "mission.plan", "mission.waypoints"]
+
+
+def test_an_attempt_ending_in_an_exception_is_a_failed_block(inputs, tmp_path):
+    """Whatever an attempt ends with (a bug's exception, a broken pool, Dask's KilledWorker) the block is
+    reported failed with it, and the rest of the campaign goes on."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from aerosurvey.campaign.job import plan_block
+    from aerosurvey.campaign.run import run_campaign
+
+    class KilledWorker(Exception):  # noqa: N818  (Dask's name)
+        pass
+
+    raised = {1: ValueError("a bug"), 2: BrokenProcessPool("gone"), 3: KilledWorker("block-x", "tcp://w")}
+
+    def executor(jobs, campaign):
+        for i, job in enumerate(jobs):
+            yield job, raised[i] if i in raised else plan_block(job, campaign)
+
+    jobs = _jobs(inputs)[:5]
+    results, tally = run_campaign(jobs, tmp_path / "c", executor)
+    assert [r.status for r in results] == ["planned", "failed", "failed", "failed", "planned"]
+    assert results[1].message == "ValueError: a bug"
+    assert "the worker process running it died" in results[2].message
+    assert "Dask gave up after distributed.scheduler.allowed-failures" in results[3].message
+    assert (tally.done, tally.failed, tally.remaining) == (2, 3, 0)

@@ -22,6 +22,7 @@ import logging
 import time
 from collections.abc import Callable, Iterator
 from concurrent import futures
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,7 +58,7 @@ def pool_results(workers: int) -> Executor:
                         job = running.pop(f)
                         try:
                             yield job, f.result()
-                        except futures.process.BrokenProcessPool as exc:
+                        except BrokenProcessPool as exc:
                             broken = True
                             yield job, exc
                         except Exception as exc:  # the block's own error, passed on as its outcome
@@ -169,7 +170,7 @@ def _failure(exc: BaseException) -> str:
     if name == "KilledWorker":
         return (f"the workers running it died ({exc}); Dask gave up after distributed.scheduler.allowed-failures: "
                 "rerun `campaign plan` to plan it again")
-    if isinstance(exc, futures.process.BrokenProcessPool):
+    if isinstance(exc, BrokenProcessPool):
         return "the worker process running it died; rerun `campaign plan` to plan it again"
     return f"{name}: {exc}"
 
