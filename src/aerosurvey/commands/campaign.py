@@ -104,8 +104,9 @@ def status(campaign_dir: Path, limit: int) -> None:
 @click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
 @click.argument("flights", nargs=-1, required=True, type=click.Path(path_type=Path))
 def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
-    """File flight logs and photo folders under their blocks (CAMPAIGN/flights/BLOCK/FLIGHT/, as `log ingest --plan`
-    writes), each recognised by the mission it records (else by where its photos are); a "flown" event each.
+    """File flight logs and photo folders under their blocks (a folder per flight in flights/ under its block's name,
+    written as `log ingest` writes one with the block's plan), each recognised by the mission it records (else by where
+    its photos are); a "flown" event each.
 
     Exit code 0 when every flight is filed, 1 when some is of no block (the rest are filed), 2 for bad input.
     """
