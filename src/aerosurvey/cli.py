@@ -42,6 +42,8 @@ COMMANDS: Mapping[str, Lazy] = {
     "brief": Lazy("aerosurvey.commands.brief:brief",
                   "What a pilot checks before launch, for the day and time of the flight: go or no-go."),
     "cameras": Lazy("aerosurvey.commands.cameras:cameras", "List the camera database (or `cameras show ID` for one camera)."),
+    "campaign": Lazy("aerosurvey.commands.campaign:campaign",
+                     "Campaigns: many blocks planned in parallel (a process pool or Dask), one register of their lives."),
     "check": Lazy("aerosurvey.commands.check:check", "Check a mission spec or a plan folder against rule profiles."),
     "gcp": Lazy("aerosurvey.commands.gcp:gcp", "Propose GCPs (an envelope outside the perimeter) and check points (inside)."),
     "log": Lazy("aerosurvey.commands.log:log", "Flight logs: camera events, their match to the plan."),

@@ -1,0 +1,115 @@
+"""`campaign ingest`: a day's flight logs and photo folders filed under their blocks.
+
+Each flight is read once without a plan for its camera events (`flight.ingest.ingest`); the
+blocks nearest its events are its candidates, the one most events lie nearest first. A log that
+records its mission is its block's when `flight.ingest.mission_check` recognises the block's
+mission, whole or a sortie, in it (changed or not); a flight that records no mission (a folder
+of photos) is the block's its events lie nearest to. The flight is then ingested against the
+block's plan folder as `log ingest --plan` does (the sortie recognised there) into
+CAMPAIGN/flights/BLOCK/FLIGHT/, and a "flown" event names it. A flight of no block is reported,
+nothing filed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from aerosurvey.campaign.job import BLOCKS_DIR
+from aerosurvey.campaign.register import BlockRow, Event, status_of
+from aerosurvey.errors import AerosurveyError, InputError
+
+FLIGHTS_DIR = "flights"
+#: blocks whose missions a log is compared with, nearest first
+CANDIDATES = 3
+
+
+@dataclass(frozen=True)
+class Filed:
+    """Where a flight went: `block` None when it is of no block (`detail` says why)."""
+
+    flight: str
+    block: str | None
+    detail: str
+    folder: Path | None = None
+
+
+def candidates(rows: Sequence[BlockRow], lon: Sequence[float], lat: Sequence[float]) -> list[BlockRow]:
+    """The planned blocks the events lie nearest to, the most events first (at most CANDIDATES)."""
+    import numpy as np
+    import shapely
+
+    planned = [r for r in rows if r.status not in ("failed",)]
+    if not planned or not len(lon):
+        return []
+    tree = shapely.STRtree(shapely.from_wkb([r.wkb for r in planned]))
+    nearest = tree.query_nearest(shapely.points(np.asarray(lon), np.asarray(lat)), all_matches=False)[1]
+    votes = np.bincount(nearest, minlength=len(planned))
+    order = np.argsort(-votes, kind="stable")
+    return [planned[i] for i in order[:CANDIDATES] if votes[i] > 0]
+
+
+def file_flight(campaign: Path, flight: Path, rows: Sequence[BlockRow]) -> Filed:
+    """Find the block of one flight and ingest it there (see the module's doc)."""
+    from aerosurvey.flight.ingest import ingest, mission_check, write_ingest
+    from aerosurvey.flight.mission_flown import CHANGED, NOT_COMPARED, NOT_RECORDED, PLAN
+    from aerosurvey.rules.planview import PlanView
+
+    if not flight.exists():
+        raise InputError(f"flight {str(flight)!r} does not exist")
+    events = ingest(flight).events
+    near = candidates(rows, events.lon.tolist(), events.lat.tolist())
+    if not near:
+        return Filed(flight.name, None, f"none of its {len(events)} camera events lies near a planned block")
+    chosen: tuple[BlockRow, PlanView] | None = None
+    tried = []
+    for row in near:
+        folder = campaign / BLOCKS_DIR / row.folder
+        try:
+            view = PlanView.from_outdir(folder, f"block {row.name}")
+        except InputError as exc:
+            raise InputError(f"block {row.name}: {exc}; `campaign ingest` needs each block's manifest.json and plan.geojson: "
+                             "plan the campaign with --outputs manifest,pilot,geojson") from None
+        check = mission_check(flight, view.document)
+        if check.names_sortie or check.verdict in (NOT_RECORDED, NOT_COMPARED):
+            chosen = (row, view)
+            break
+        tried.append(f"{row.name} ({check.verdict})")
+    if chosen is None:
+        return Filed(flight.name, None, f"its mission is none of the nearest blocks' ({', '.join(tried)})")
+    row, view = chosen
+    result = ingest(flight, view)
+    out = campaign / FLIGHTS_DIR / row.name / flight.name
+    report = write_ingest(result, out)
+    sortie = report.get("plan", {}).get("sortie")
+    how = "by its mission" if result.mission is not None and result.mission.verdict in (PLAN, CHANGED) else "by its photos' places"
+    detail = (f"{flight.name}: {'sortie ' + sortie if sortie else 'the whole mission'}, recognised {how}; "
+              f"{report.get('matched', 0)} of {report.get('planned', 0)} stations photographed")
+    return Filed(flight.name, row.name, detail, out)
+
+
+def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[BlockRow], events: Sequence[Event],
+                   now: str) -> tuple[list[Filed], list[BlockRow], list[Event]]:
+    """File each flight; the register's rows and events after it (a "flown" event per flight filed,
+    none again for a flight filed before under the same block)."""
+    by_name = {r.name: r for r in rows}
+    events = list(events)
+    filed = []
+    for flight in flights:
+        try:
+            f = file_flight(campaign, flight, rows)
+        except AerosurveyError as exc:
+            f = Filed(flight.name, None, str(exc))
+        filed.append(f)
+        if f.block is None:
+            continue
+        row = by_name[f.block]
+        again = any(e.key == row.key and e.event == "flown" and e.detail.startswith(f"{f.flight}:") for e in events)
+        if not again:
+            events.append(Event(row.name, row.key, "flown", now, f.detail))
+    of_key: dict[str, list[Event]] = {}
+    for e in events:
+        of_key.setdefault(e.key, []).append(e)
+    out_rows = [replace(r, status=status_of(r.status, of_key.get(r.key, []))) for r in rows]
+    return filed, out_rows, events

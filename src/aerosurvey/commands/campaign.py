@@ -1,0 +1,179 @@
+"""`aerosurvey campaign`: many blocks planned as one campaign, and the campaign's register (docs/campaign.md)."""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import click
+
+from aerosurvey import console
+
+log = logging.getLogger(__name__)
+
+
+@click.group()
+def campaign() -> None:
+    """Campaigns: many blocks planned in parallel (a process pool or Dask), one register of their lives."""
+
+
+@campaign.command("plan")
+@click.argument("blocks", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="The campaign folder: blocks/NAME.KEY/ per block and register.gpkg (created if missing; a rerun "
+                   "plans only the blocks not done).")
+@click.option("--spec", "template", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The mission spec template (TOML) every block is planned with; [area] comes from the block.")
+@click.option("--outputs", default="manifest,pilot", show_default=True,
+              help="What each block writes: comma-separated groups of manifest, pilot (.plan, .waypoints, .kmz), "
+                   "geojson, kml, preview, gpkg; or all.")
+@click.option("--workers", type=int, default=None, help="Worker processes (default: the machine's cores).")
+@click.option("--dask", type=click.Choice(["local"]), default=None,
+              help="Run the blocks on Dask distributed, on a LocalCluster of --workers processes.")
+@click.option("--scheduler", default=None, help="Run the blocks on the Dask scheduler at this address (tcp://HOST:PORT).")
+@click.option("--overlap", is_flag=True,
+              help="Grow each block into its neighbours by the overlap the guarantee needs, for blocks that abut (a grid, "
+                   "parcels); `campaign split`'s blocks overlap already.")
+def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int | None, dask: str | None,
+         scheduler: str | None, overlap: bool) -> None:
+    """Plan every block of BLOCKS (a GeoPackage or GeoJSON of polygons) with the --spec template into
+    the campaign folder, and write its register.gpkg.
+
+    Each block is planned by one function of its inputs and written into its own folder named
+    after their hash, atomically: a rerun plans only what is not done, a crash loses nothing.
+    Exit code 0 when every block is planned, 1 when some failed (rerun to try them again),
+    2 for bad input.
+    """
+    from aerosurvey.campaign.blocks import read_blocks
+    from aerosurvey.campaign.job import make_jobs, parse_outputs
+    from aerosurvey.campaign.register import after_planning, read_register, write_register
+    from aerosurvey.campaign.run import executor, run_campaign
+    from aerosurvey.errors import CheckFailed
+
+    groups = parse_outputs(outputs)
+    crs, found = read_blocks(blocks)
+    if overlap:
+        from aerosurvey.campaign.job import block_spec, read_template
+        from aerosurvey.campaign.split import overlapping_blocks
+
+        text, _ = read_template(template)
+        found = overlapping_blocks(found, crs, [block_spec(text, template.resolve().parent, b, crs) for b in found])
+    jobs = make_jobs(found, crs, template, groups)
+    outdir.mkdir(parents=True, exist_ok=True)
+    with executor(workers if workers is not None else os.cpu_count() or 1, dask, scheduler) as run, \
+            console.progress(f"campaign {outdir.name}: {len(jobs)} blocks") as report:
+        results, tally = run_campaign(jobs, outdir, run, report)
+    events = read_register(outdir)[1] if (outdir / "register.gpkg").exists() else []
+    now = _now()
+    rows, events = after_planning(jobs, results, events, now)
+    path = write_register(outdir, rows, events)
+    counts: dict[str, int] = {}
+    for r in results:
+        counts[r.status] = counts.get(r.status, 0) + 1
+    console.echo(f"{len(jobs)} blocks: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) + f" ({tally.text()})")
+    console.echo(f"register: {path}")
+    failed = [r.name for r in results if r.status == "failed"]
+    if failed:
+        shown = ", ".join(failed[:5]) + (f" and {len(failed) - 5} more" if len(failed) > 5 else "")
+        raise CheckFailed(f"{len(failed)} block(s) failed ({shown}): `aerosurvey campaign status {outdir}` says why; "
+                          "run the same command again to plan them")
+
+
+@campaign.command("status")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--limit", type=int, default=20, show_default=True, help="Waiting blocks listed (0: all).")
+def status(campaign_dir: Path, limit: int) -> None:
+    """Counts of the blocks per status, and what each waiting block needs next."""
+    from aerosurvey.campaign.register import NEXT, read_register
+
+    rows, events = read_register(campaign_dir)
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r.status] = counts.get(r.status, 0) + 1
+    console.echo(f"{len(rows)} blocks, {len(events)} events: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+    waiting = [r for r in rows if r.status != "accepted"]
+    for r in waiting[:limit or None]:
+        why = f" ({r.message})" if r.message else (f" (failing: {r.rules_failing})" if r.rules_failing else "")
+        console.echo(f"  {r.name}: {r.status}{why}; next: {NEXT[r.status].format(folder=r.folder)}")
+    if limit and len(waiting) > limit:
+        console.echo(f"  … and {len(waiting) - limit} more waiting (--limit 0 lists all)")
+
+
+@campaign.command("ingest")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.argument("flights", nargs=-1, required=True, type=click.Path(path_type=Path))
+def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
+    """File flight logs and photo folders under their blocks (a folder per flight in flights/ under its block's name,
+    written as `log ingest` writes one with the block's plan), each recognised by the mission it records (else by where
+    its photos are); a "flown" event each.
+
+    Exit code 0 when every flight is filed, 1 when some is of no block (the rest are filed), 2 for bad input.
+    """
+    from aerosurvey.campaign.flights import ingest_flights
+    from aerosurvey.campaign.register import read_register, write_register
+    from aerosurvey.errors import CheckFailed
+
+    rows, events = read_register(campaign_dir)
+    now = _now()
+    with console.progress(f"campaign ingest: {len(flights)} flights"):
+        filed, rows, events = ingest_flights(campaign_dir, list(flights), rows, events, now)
+    write_register(campaign_dir, rows, events)
+    for f in filed:
+        console.echo(f"{f.flight}: {'block ' + f.block + ': ' + f.detail if f.block else 'not filed: ' + f.detail}")
+    lost = [f.flight for f in filed if f.block is None]
+    if lost:
+        raise CheckFailed(f"{len(lost)} of {len(filed)} flight(s) are of no block of the campaign ({', '.join(lost[:5])}); "
+                          "the others are filed")
+
+
+@campaign.command("record")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.argument("block")
+@click.argument("event")
+@click.option("--detail", default="", help="What the event says (who, which file, the QA figures …).")
+def record(campaign_dir: Path, block: str, event: str, detail: str) -> None:
+    """Record an event of BLOCK's life in the register by hand: uploaded, compliance, re-fly, qa or accepted."""
+    from aerosurvey.campaign.register import read_register, with_event, write_register
+
+    rows, events = read_register(campaign_dir)
+    rows, events = with_event(rows, events, block, event, _now(), detail)
+    write_register(campaign_dir, rows, events)
+    console.echo(f"{block}: {event} recorded; status {next(r.status for r in rows if r.name == block)}")
+
+
+def _now() -> str:
+    """The time an event is recorded at: UTC, ISO 8601, whole seconds."""
+    import datetime as dt
+
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+@campaign.command("split")
+@click.argument("area", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The blocks file to write (.gpkg or .geojson): one polygon per block, with its name and heading.")
+@click.option("--max-ha", type=click.FloatRange(min=0, min_open=True), required=True,
+              help="The largest block, hectares, its overlaps included.")
+@click.option("--spec", "template", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The campaign's spec template: its camera, height and overlaps give the overlap at each cut.")
+@click.option("--heading", type=click.FloatRange(0, 360, max_open=True), default=None,
+              help="The flight lines' true bearing, degrees (default: the template's flight.heading, else along the area's length).")
+@click.option("--prefix", default="b", show_default=True, help="Block names: PREFIX0001, PREFIX0002 …")
+def split(area: Path, out: Path, max_ha: float, template: Path, heading: float | None, prefix: str) -> None:
+    """Cut AREA into blocks of at most --max-ha along straight cuts aligned with the flight lines, neighbours
+    overlapping at each cut by what neighbouring strips (or photos) of one area share (docs/campaign.md)."""
+    import shapely
+
+    from aerosurvey.area import read_area
+    from aerosurvey.campaign.blocks import Block, write_blocks
+    from aerosurvey.campaign.job import block_spec, read_template
+    from aerosurvey.campaign.split import blocks_of_area
+
+    region = read_area(area, None, "EPSG:4326", "area")
+    text, _ = read_template(template)
+    spec = block_spec(text, template.resolve().parent, Block("area", shapely.to_wkb(region), ()), "EPSG:4326")
+    polygons, headings = blocks_of_area(region, spec, max_ha, heading)
+    names = [f"{prefix}{i:04d}" for i in range(1, len(polygons) + 1)]
+    write_blocks(out, polygons, names, headings)
+    console.echo(f"{len(polygons)} blocks of at most {max_ha:g} ha written to {out}")

@@ -1,0 +1,120 @@
+"""`campaign split`: blocks within the size, together the area, overlapping at each cut; the blocks'
+union covered as one area would be, proved from the exported missions by the independent checker."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import campaigncase as cc
+import numpy as np
+import pyogrio
+import pytest
+import shapely
+import shapely.affinity
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from aerosurvey.campaign.split import split_area
+from aerosurvey.cli import main
+from conftest import random_polygon, write_geojson
+
+
+def _check_blocks(area, blocks, max_m2, reach_m):
+    """Every block within the size; together exactly the area; around every point of a block's edge
+    inside the area (not on its outline), the other blocks cover a disc of `reach_m`."""
+    assert blocks
+    for b in blocks:
+        assert b.area <= max_m2 * (1 + 1e-9) + 1e-6
+        assert b.geom_type == "Polygon" and b.is_valid
+    union = shapely.union_all(blocks)
+    assert union.symmetric_difference(area).area < 1e-6 * area.area
+    for i, b in enumerate(blocks):
+        others = shapely.union_all([o for j, o in enumerate(blocks) if j != i])
+        edge = b.exterior
+        pts = [edge.interpolate(d) for d in np.linspace(0, edge.length, 200, endpoint=False)]
+        for p in pts:
+            if area.boundary.distance(p) < 2 * reach_m:
+                continue  # on or near the area's own outline: no neighbour there
+            disc = p.buffer(reach_m * 0.98, quad_segs=8)
+            assert disc.difference(others).area < 1e-6 * disc.area, (i, p.wkt)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000),
+       heading=st.floats(0, 180), max_ha=st.floats(3, 20), ov=st.floats(10, 60))
+def test_split_blocks_cover_the_area_and_overlap(kind, seed, heading, max_ha, ov):
+    rings = random_polygon(kind, seed, 500.0)
+    k_lat, k_lon = 111_320.0, 111_320.0 * math.cos(math.radians(49.4))
+    area = shapely.Polygon(*[[((x - 15.0) * k_lon, (y - 49.4) * k_lat) for x, y in r] for r in rings[:1]],
+                           [[((x - 15.0) * k_lon, (y - 49.4) * k_lat) for x, y in r] for r in rings[1:]])
+    blocks = split_area(area, heading, max_ha * 1e4, ov, ov * 0.8)
+    _check_blocks(area, blocks, max_ha * 1e4, ov * 0.8)
+    # the cuts are straight and along or across the lines: each block's cut edges run at the heading or across it
+    for b in blocks:
+        coords = np.array(b.exterior.coords)
+        for (x0, y0), (x1, y1) in zip(coords[:-1], coords[1:]):
+            mid = shapely.Point((x0 + x1) / 2, (y0 + y1) / 2)
+            if area.boundary.distance(mid) < 1e-6 or math.hypot(x1 - x0, y1 - y0) < 1e-6:
+                continue
+            bearing = math.degrees(math.atan2(x1 - x0, y1 - y0)) % 180.0
+            off = min(abs(bearing - heading), 180 - abs(bearing - heading))
+            assert min(off, abs(off - 90)) < 1e-4, (bearing, heading)
+
+
+def test_max_ha_too_small_for_the_overlap():
+    from aerosurvey.errors import InputError
+
+    with pytest.raises(InputError, match="--max-ha 0.1 is too small"):
+        split_area(shapely.box(0, 0, 1000, 1000), 0.0, 0.1e4, 60, 50)
+
+
+def test_union_of_the_blocks_covered_as_one_area(tmp_path):
+    """Split a 30 ha area at 8 ha, plan the blocks as a campaign; from the .waypoints alone: every point of
+    the area seen by as many photos as one area's plan guarantees, and on each band two blocks share,
+    by that many photos of each."""
+    rings = random_polygon("concave", 7, 380.0)
+    area_file = write_geojson(tmp_path / "area.geojson", rings)
+    template = cc.write_template(tmp_path)
+    blocks_file = tmp_path / "blocks.gpkg"
+    res = CliRunner().invoke(main, ["campaign", "split", str(area_file), "-o", str(blocks_file), "--max-ha", "8",
+                                    "--spec", str(template), "--heading", "35"])
+    assert res.exit_code == 0, res.output
+    _, _, wkb, (names, headings) = pyogrio.raw.read(blocks_file)
+    assert len(names) >= 4 and np.allclose(headings, 35.0, atol=0.05)
+    out = tmp_path / "campaign"
+    res = CliRunner().invoke(main, ["campaign", "plan", str(blocks_file), "-o", str(out), "--spec", str(template),
+                                    "--workers", "2"])
+    assert res.exit_code == 0, res.output
+    for folder in cc.block_folders(out).values():
+        assert json.loads((folder / "block.json").read_text())["area_ha"] <= 8.0 * 1.01
+    shared = cc.prove_union_coverage(out, dict(zip(names, shapely.from_wkb(wkb))), shapely.Polygon(rings[0]))
+    assert shared >= len(names) - 1  # the blocks are connected through their bands
+
+
+def test_abutting_blocks_grown_into_their_neighbours(tmp_path):
+    """A grid of blocks that only touch, planned with --overlap: the same proof over their union."""
+    feats = []
+    for i in range(3):
+        for j in range(2):
+            x, y = 15.0 + i * 0.004, 49.4 + j * 0.0028
+            ring = [[x, y], [x + 0.004, y], [x + 0.004, y + 0.0028], [x, y + 0.0028], [x, y]]
+            feats.append({"type": "Feature", "properties": {"name": f"g{i}{j}", "heading": 20.0},
+                          "geometry": {"type": "Polygon", "coordinates": [ring]}})
+    blocks_file = tmp_path / "grid.geojson"
+    blocks_file.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    template = cc.write_template(tmp_path)
+    out = tmp_path / "campaign"
+    res = CliRunner().invoke(main, ["campaign", "plan", str(blocks_file), "-o", str(out), "--spec", str(template),
+                                    "--workers", "2", "--overlap"])
+    assert res.exit_code == 0, res.output
+    rows, _ = cc.register(out)
+    grown = {r["name"]: shapely.from_wkb(bytes.fromhex(r["wkb"])) for r in rows}
+    given = {f["properties"]["name"]: shapely.geometry.shape(f["geometry"]) for f in feats}
+    for name in given:
+        assert grown[name].contains(given[name].buffer(-1e-9)) and grown[name].area > given[name].area
+    union = shapely.union_all(list(given.values()))
+    assert shapely.union_all(list(grown.values())).symmetric_difference(union).area < 1e-6 * union.area
+    shared = cc.prove_union_coverage(out, grown, union)
+    assert shared >= 7  # the grid's 7 shared edges, each a band (and corners where four meet)
