@@ -135,8 +135,8 @@ FIXED_YAW_ROUNDS = 3
 
 def _line_headings(layout: Layout) -> np.ndarray:
     """Every direction (grid bearing) the layout's lines run in: each frame's heading, each strip's at its stations."""
-    out = [np.array([p.frame.heading_deg]) for p in layout.passes if p.frame is not None and p.look_deg is None]
-    out += [np.asarray(s.heading_deg, float) for p in layout.passes if p.look_deg is None for s in p.strips]
+    out = [np.array([p.frame.heading_deg]) for p in layout.passes if p.frame is not None and p.aim.look == "along"]
+    out += [np.asarray(s.heading_deg, float) for p in layout.passes if p.aim.look == "along" for s in p.strips]
     return np.round(np.concatenate(out) % 180.0, 6) if out else np.zeros(0)
 
 
