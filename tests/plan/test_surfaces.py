@@ -1,12 +1,9 @@
 """The capture model on a structure's faces, judged by a ray caster written here.
 
-The caster shares nothing with plan/capture.py or plan/surfaces.py: the camera's frame is
-built from its yaw and pitch as vectors (axis, right = level and square to it, top = right ×
-axis), a face point is seen when it projects inside the image, its face is turned towards the
-camera, and no sample of the segment from the camera to it lies inside the prism (shapely's
-contains, 600 samples). Pairs whose segment grazes the prism (a sample within two steps of its
-outline) are left out of the comparison: marching cannot tell them. The GSD on a face is the
-inverse of the image's Jacobian on the face's plane (finite differences of the projection).
+The caster (tests/independent_faces.py) shares nothing with plan/capture.py or
+plan/surfaces.py. Pairs whose segment grazes the prism are left out of the comparison:
+marching cannot tell them. The GSD on a face is the inverse of the image's Jacobian on the
+face's plane (finite differences of the projection).
 """
 
 from __future__ import annotations
@@ -22,47 +19,10 @@ from shapely import affinity
 
 from aerosurvey.plan.capture import Attitudes, Optics, Photos
 from aerosurvey.plan.surfaces import Structure, face_coverage, face_gsd, face_points, seen
+from independent_faces import caster, project
 
 OPTICS = Optics(width_mm=13.2, height_mm=8.7984, focal_mm=8.8, pixel_mm=0.0024, width_px=5500, height_px=3666)
-
-
-def _frame(yaw: float, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    y, p = math.radians(yaw), math.radians(pitch)
-    axis = np.array([math.sin(y) * math.cos(p), math.cos(y) * math.cos(p), math.sin(p)])
-    right = np.array([math.cos(y), -math.sin(y), 0.0])
-    return axis, right, np.cross(right, axis)
-
-
-def _project(c: np.ndarray, yaw: float, pitch: float, p: np.ndarray) -> tuple[float, float, float]:
-    """(u, v) in mm on the sensor (v up) and the depth along the axis."""
-    axis, right, top = _frame(yaw, pitch)
-    rel = p - c
-    depth = float(rel @ axis)
-    return OPTICS.focal_mm * float(rel @ right) / depth, OPTICS.focal_mm * float(rel @ top) / depth, depth
-
-
-def _caster(s: Structure, cams: list, p: np.ndarray, n: np.ndarray, samples: int = 600) -> tuple[np.ndarray, np.ndarray]:
-    """(seen, grazing) for every camera (x, y, z, yaw, pitch) and point (m, 3) with normals (m, 3)."""
-    outline = s.footprint.boundary
-    vis = np.zeros((len(cams), len(p)), bool)
-    graze = np.zeros((len(cams), len(p)), bool)
-    t = np.arange(samples) / samples
-    for a, (x, y, z, yaw, pitch) in enumerate(cams):
-        c = np.array([x, y, z])
-        for b in range(len(p)):
-            u, v, depth = _project(c, yaw, pitch, p[b])
-            if depth <= 0 or abs(u) > OPTICS.width_mm / 2 or abs(v) > OPTICS.height_mm / 2 or (c - p[b]) @ n[b] <= 0:
-                continue
-            q = p[b] + 0.01 * n[b]
-            seg = c[None] + t[:, None] * (q - c)[None]
-            step = float(np.linalg.norm(q - c)) / samples
-            in_z = (seg[:, 2] >= s.base_m) & (seg[:, 2] <= s.top_m)
-            inside = in_z & shapely.contains_xy(s.footprint, seg[:, 0], seg[:, 1])
-            near = (in_z & (shapely.distance(outline, shapely.points(seg[:, :2])) < 2 * step)) \
-                | ((np.abs(seg[:, 2] - s.top_m) < 2 * step) & shapely.contains_xy(s.footprint.buffer(2 * step), seg[:, 0], seg[:, 1]))
-            vis[a, b] = not inside.any()
-            graze[a, b] = bool(near[:-3].any())
-    return vis, graze
+SENSOR = (OPTICS.width_mm, OPTICS.height_mm, OPTICS.focal_mm)  # the caster's: image width and height, focal length (mm)
 
 
 @st.composite
@@ -96,7 +56,7 @@ def test_the_faces_a_photo_sees_are_the_ray_casters(s: Structure, standoff: floa
     photos = Photos(c[:, 0], c[:, 1], c[:, 2], Attitudes(c[:, 3], c[:, 4], np.zeros(len(c))))
     ours = seen(photos, OPTICS, s, pts)
     p = np.column_stack([pts.x, pts.y, pts.z])
-    theirs, graze = _caster(s, cams, p, pts.normal)
+    theirs, graze = caster(s.footprint, s.base_m, s.top_m, SENSOR, cams, p, pts.normal)
     differ = (ours != theirs) & ~graze
     assert not differ.any(), f"{int(differ.sum())} pairs differ, e.g. {np.argwhere(differ)[:3].tolist()}"
     assume((theirs & ~graze).any())
@@ -117,10 +77,10 @@ def _jacobian_gsd(cam: tuple, p: np.ndarray, n: np.ndarray) -> float:
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(n, e1)
     h = 1e-4
-    u0, v0, _ = _project(c, cam[3], cam[4], p)
+    u0, v0, _ = project(SENSOR, c, cam[3], cam[4], p)
     cols = []
     for e in (e1, e2):
-        u, v, _ = _project(c, cam[3], cam[4], p + h * e)
+        u, v, _ = project(SENSOR, c, cam[3], cam[4], p + h * e)
         cols.append([(u - u0) / h / OPTICS.pixel_mm, -(v - v0) / h / OPTICS.pixel_mm])
     inv = np.linalg.inv(np.array(cols).T)  # metres in the plane (e1, e2) a pixel along the image's columns and rows
     return float(max(np.linalg.norm(inv[:, 0]), np.linalg.norm(inv[:, 1])))

@@ -31,6 +31,7 @@ import shapely
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
+from aerosurvey.errors import InputError
 from aerosurvey.plan.capture import Attitudes, FloatArray, Optics, Photos, image_points, ray_directions
 
 #: how far off its face a point is moved towards the camera before the segment to it is tested
@@ -219,8 +220,76 @@ def face_coverage(photos: Photos, optics: Optics, s: Structure, pts: FacePoints,
     """The photos seeing each face point, counting only those at most `max_gsd_m` there, and the finest GSD among all that see it."""
     vis = seen(photos, optics, s, pts, grid_scale)
     i, j = np.nonzero(vis)
-    g = face_gsd(photos, optics, pts, i, j, grid_scale) if len(i) else np.zeros(0)
+    g = np.concatenate([np.zeros(0), *(face_gsd(photos, optics, pts, i[lo:lo + PAIRS_PER_BATCH], j[lo:lo + PAIRS_PER_BATCH],
+                                                 grid_scale) for lo in range(0, len(i), PAIRS_PER_BATCH))])
     finest = np.full(len(pts), math.inf)
     np.minimum.at(finest, j, g)
     images = np.bincount(j[g <= max_gsd_m], minlength=len(pts))
     return FaceCoverage(pts, images, finest)
+
+
+#: face points the planner's check samples a structure with, about (fewer on a small one: one a
+#: square metre); the check's time and memory grow with them times the photos
+FACE_POINTS = 5000
+#: the planner's rule on a structure's faces, as the manifest records rule results
+FACES_RULE = "structure-faces"
+
+
+@dataclass(frozen=True, eq=False)
+class FacesCheck:
+    """The planner's proof on a structure's faces ([structure]): the structure in the planning CRS,
+    the ground under it its heights stand on, what each face point needs (`min_images` photos, each
+    at most `max_gsd_m` there) and what the plan's photos give."""
+
+    structure: Structure
+    ground_m: float
+    min_images: int
+    max_gsd_m: float | None
+    coverage: FaceCoverage
+
+    @property
+    def short(self) -> np.ndarray:
+        """The face points seen by fewer photos than asked."""
+        short: np.ndarray = self.coverage.images < self.min_images
+        return short
+
+    @property
+    def short_m2(self) -> float:
+        return float(self.coverage.points.area_m2[self.short].sum())
+
+
+def check_faces(s: Structure, ground_m: float, photos: Photos, station_ids: list[str], optics: Optics, grid_scale: float,
+                min_images: int, max_gsd_m: float | None) -> FacesCheck:
+    """Which of the structure's face points the photos (heights on the structure's datum) see
+    `min_images` times; InputError naming a station inside the structure or below its base."""
+    inside = (shapely.contains_xy(s.footprint, photos.x, photos.y) & (photos.z <= s.top_m)) | (photos.z < s.base_m)
+    if inside.any():
+        k = int(np.argmax(inside))
+        raise InputError(f"station {station_ids[k]} is {photos.z[k]:.1f} m above the structure's ground inside the structure "
+                         f"(structure.base_m {s.base_m:g} .. top_m {s.top_m:g}) or below its base: the vehicle would hit it",
+                         key="structure.top_m")
+    area = s.footprint.area / grid_scale ** 2 + s.footprint.length / grid_scale * (s.top_m - s.base_m)
+    spacing = max(1.0, math.sqrt(area / FACE_POINTS))
+    pts = face_points(s, spacing, grid_scale)
+    cov = face_coverage(photos, optics, s, pts, grid_scale, math.inf if max_gsd_m is None else max_gsd_m)
+    return FacesCheck(s, ground_m, min_images, max_gsd_m, cov)
+
+
+def faces_rule(c: FacesCheck, profile: str) -> dict[str, object]:
+    """The planner's rule result on the faces, as the manifest records rule results. A check that saw
+    no face area fails: it proves nothing."""
+    cov = c.coverage
+    short = c.short
+    gsd = f" at most {c.max_gsd_m * 100:g} cm a pixel there" if c.max_gsd_m is not None else ""
+    xy = np.unique(np.round(np.column_stack([cov.points.x[short], cov.points.y[short]]), 2), axis=0)  # a wall's heights at one place
+    where = [{"xy": [float(x), float(y)]} for x, y in xy[:50]]
+    seen_at = cov.finest_gsd_m[np.isfinite(cov.finest_gsd_m)]
+    finest = f"; GSD on the faces {seen_at.min() * 100:.2f} to {seen_at.max() * 100:.2f} cm (finest photo at each point)" \
+        if len(seen_at) else "; no photo sees the structure"
+    return {"profile": profile, "rule": FACES_RULE, "status": "pass" if cov.area_m2 > 0 and c.short_m2 == 0 else "fail",
+            "severity": "error",
+            "statement": f"every point of the structure's walls and roof is seen by at least {c.min_images} photos{gsd}",
+            "measured": f"{c.short_m2:.2f} m² of {cov.area_m2:.2f} m² seen by fewer{finest}",
+            "required": "0 m² (of more than 0 m² checked)", "evidence": [f"{len(cov.points)} points on the faces, "
+                                                                        f"{int(short.sum())} short"],
+            "where": where, "source": "aerosurvey planner (plan/surfaces.py)"}
