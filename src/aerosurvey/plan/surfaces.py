@@ -145,6 +145,8 @@ def seen(photos: Photos, optics: Optics, s: Structure, pts: FacePoints, grid_sca
                   + (cy[sl, None] - pts.y[None]) / grid_scale * pts.normal[None, :, 1]
                   + (cz[sl, None] - pts.z[None]) * pts.normal[None, :, 2]) > 0
         out[sl] = image_points(part, optics, pts.x, pts.y, pts.z, grid_scale).seen & facing
+    if s.footprint.equals(s.footprint.convex_hull):
+        return out  # a convex prism hides no face turned towards a camera
     i, j = np.nonzero(out)
     a, b = s.walls()
     step = max(1, PAIRS_PER_BATCH // max(len(a), 1))
@@ -180,13 +182,12 @@ def face_gsd(photos: Photos, optics: Optics, pts: FacePoints, i: np.ndarray, j: 
     """GSD (metres a pixel, the larger of its two sides) of photo i[k] at face point j[k], on the
     face's plane: where the rays through the pixel at the point and its right and lower
     neighbours meet the plane."""
-    att = photos.attitude
-    sub = Attitudes(*(np.asarray(v, float)[i] for v in (att.yaw_deg, att.pitch_deg, att.roll_deg)))
-    # the camera's axis, and its image's right and top on the sensor's plane at the focal length
-    d = ray_directions(optics, sub, np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
+    # each photo's axis, and its image's right and top on the sensor's plane at the focal length
+    d = ray_directions(optics, photos.attitude, np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
     axis = d[:, 0]
     right = (d[:, 1] / np.einsum("pk,pk->p", d[:, 1], axis)[:, None] - axis) * optics.focal_mm / (optics.width_mm / 2)
     top = (d[:, 2] / np.einsum("pk,pk->p", d[:, 2], axis)[:, None] - axis) * optics.focal_mm / (optics.height_mm / 2)
+    axis, right, top = axis[i], right[i], top[i]
     rel = np.stack([(pts.x[j] - np.asarray(photos.x, float)[i]) / grid_scale,
                     (pts.y[j] - np.asarray(photos.y, float)[i]) / grid_scale, pts.z[j] - np.asarray(photos.z, float)[i]], -1)
     depth = np.einsum("pk,pk->p", rel, axis)
