@@ -54,6 +54,7 @@ def test_the_faces_seen_are_those_the_exported_mission_photographs(tmp_path: Pat
     rule = _faces_rule(json.loads((out / "manifest.json").read_text()))
     short, total = (float(v) for v in re.match(r"([\d.]+) m² of ([\d.]+) m²", rule["measured"]).groups())
     assert rule["status"] == ("pass" if short == 0 else "fail")
+    assert any(e.startswith("forward overlap on the faces") for e in rule["evidence"])
     code, text = _run("check", out)
     assert "structure-faces" in text
 

@@ -145,3 +145,20 @@ def test_a_camera_inside_the_structure_is_refused() -> None:
     photos = Photos(np.zeros(1), np.zeros(1), np.array([10.0]), Attitudes(np.zeros(1), np.zeros(1), np.zeros(1)))
     with pytest.raises(ValueError, match="inside the structure"):
         seen(photos, OPTICS, s, face_points(s, 5.0))
+
+
+def test_the_forward_overlap_on_a_wall_is_the_footprint_less_the_base() -> None:
+    """A row of level photos 40 m off a 200 m wall, 10 m apart: each sees 60 m of it (13.2 / 8.8 of
+    the distance), two neighbours share 50 m of that: 83 %, the row's first pair (cut by the wall's
+    end) all of the first's."""
+    s = Structure(shapely.box(0, 0, 200, 2), 0.0, 30.0)
+    xs = np.arange(20.0, 181.0, 10.0)
+    n = len(xs)
+    photos = Photos(xs, np.full(n, -40.0), np.full(n, 15.0), Attitudes(np.zeros(n), np.zeros(n), np.zeros(n)))
+    cov = face_coverage(photos, OPTICS, s, face_points(s, 1.0), run=np.zeros(n, int))
+    assert len(cov.forward_overlap) == n - 1
+    assert cov.forward_overlap.min() == pytest.approx(50.0 / 60.0, abs=0.02)
+    assert cov.forward_overlap[0] == pytest.approx(1.0, abs=0.02)
+    # another run's photos are no forward neighbours
+    split = face_coverage(photos, OPTICS, s, face_points(s, 1.0), run=(xs > 100).astype(int))
+    assert len(split.forward_overlap) == n - 2

@@ -142,7 +142,7 @@ def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home
     z = np.where(np.isfinite(st.ground_m), st.ground_m + st.agl_m - ground, st.agl_m)
     s = spec.structure
     photos = Photos.looking(st.x, st.y, z, st.camera_yaw_deg, st.pitch_deg)
-    return check_faces(Structure(footprint, s.base_m, s.top_m), ground, photos, st.ids,
+    return check_faces(Structure(footprint, s.base_m, s.top_m), ground, photos, st.ids, st.run,
                        Optics.of(spec.camera.camera, spec.camera.mount), site.grid_scale, s.min_images, s.max_gsd_m)
 
 

@@ -24,7 +24,7 @@ coverage from: the photos seeing each point, the finest GSD among them, and the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -205,11 +205,15 @@ def face_gsd(photos: Photos, optics: Optics, pts: FacePoints, i: np.ndarray, j: 
 
 @dataclass(frozen=True, eq=False)
 class FaceCoverage:
-    """Each face point's photos (those that see it) and the finest GSD among them (inf: none)."""
+    """Each face point's photos (those that see it) and the finest GSD among them (inf: none); and
+    the forward overlap on the faces of each two consecutive photos of a run that both see them
+    (the share of the first's seen face area the second also sees)."""
 
     points: FacePoints
     images: np.ndarray  # (m,) photos seeing each point
     finest_gsd_m: FloatArray  # (m,)
+    overlap_pairs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.intp))  # (k, 2) photo indices
+    forward_overlap: FloatArray = field(default_factory=lambda: np.zeros(0))  # (k,)
 
     @property
     def area_m2(self) -> float:
@@ -217,8 +221,10 @@ class FaceCoverage:
 
 
 def face_coverage(photos: Photos, optics: Optics, s: Structure, pts: FacePoints, grid_scale: float = 1.0,
-                  max_gsd_m: float = math.inf) -> FaceCoverage:
-    """The photos seeing each face point, counting only those at most `max_gsd_m` there, and the finest GSD among all that see it."""
+                  max_gsd_m: float = math.inf, run: np.ndarray | None = None) -> FaceCoverage:
+    """The photos seeing each face point, counting only those at most `max_gsd_m` there, and the
+    finest GSD among all that see it; with `run` (each photo's run, the photos in flight order)
+    the forward overlap on the faces of consecutive photos of a run that both see them."""
     vis = seen(photos, optics, s, pts, grid_scale)
     i, j = np.nonzero(vis)
     g = np.concatenate([np.zeros(0), *(face_gsd(photos, optics, pts, i[lo:lo + PAIRS_PER_BATCH], j[lo:lo + PAIRS_PER_BATCH],
@@ -226,7 +232,12 @@ def face_coverage(photos: Photos, optics: Optics, s: Structure, pts: FacePoints,
     finest = np.full(len(pts), math.inf)
     np.minimum.at(finest, j, g)
     images = np.bincount(j[g <= max_gsd_m], minlength=len(pts))
-    return FaceCoverage(pts, images, finest)
+    if run is None or len(vis) < 2:
+        return FaceCoverage(pts, images, finest)
+    first = vis[:-1] @ pts.area_m2
+    both = (vis[:-1] & vis[1:]) @ pts.area_m2
+    k = np.flatnonzero((np.asarray(run)[:-1] == np.asarray(run)[1:]) & (both > 0))
+    return FaceCoverage(pts, images, finest, np.column_stack([k, k + 1]), both[k] / first[k])
 
 
 #: face points the planner's check samples a structure with, about (fewer on a small one: one a
@@ -247,6 +258,7 @@ class FacesCheck:
     min_images: int
     max_gsd_m: float | None
     coverage: FaceCoverage
+    station_ids: list[str]  # the photos', in flight order
 
     @property
     def short(self) -> np.ndarray:
@@ -259,8 +271,8 @@ class FacesCheck:
         return float(self.coverage.points.area_m2[self.short].sum())
 
 
-def check_faces(s: Structure, ground_m: float, photos: Photos, station_ids: list[str], optics: Optics, grid_scale: float,
-                min_images: int, max_gsd_m: float | None) -> FacesCheck:
+def check_faces(s: Structure, ground_m: float, photos: Photos, station_ids: list[str], run: np.ndarray, optics: Optics,
+                grid_scale: float, min_images: int, max_gsd_m: float | None) -> FacesCheck:
     """Which of the structure's face points the photos (heights on the structure's datum) see
     `min_images` times; InputError naming a station inside the structure or below its base."""
     inside = (shapely.contains_xy(s.footprint, photos.x, photos.y) & (photos.z <= s.top_m)) | (photos.z < s.base_m)
@@ -272,8 +284,8 @@ def check_faces(s: Structure, ground_m: float, photos: Photos, station_ids: list
     area = s.footprint.area / grid_scale ** 2 + s.footprint.length / grid_scale * (s.top_m - s.base_m)
     spacing = max(1.0, math.sqrt(area / FACE_POINTS))
     pts = face_points(s, spacing, grid_scale)
-    cov = face_coverage(photos, optics, s, pts, grid_scale, math.inf if max_gsd_m is None else max_gsd_m)
-    return FacesCheck(s, ground_m, min_images, max_gsd_m, cov)
+    cov = face_coverage(photos, optics, s, pts, grid_scale, math.inf if max_gsd_m is None else max_gsd_m, run)
+    return FacesCheck(s, ground_m, min_images, max_gsd_m, cov, station_ids)
 
 
 def faces_rule(c: FacesCheck, profile: str) -> dict[str, object]:
@@ -292,5 +304,15 @@ def faces_rule(c: FacesCheck, profile: str) -> dict[str, object]:
             "statement": f"every point of the structure's walls and roof is seen by at least {c.min_images} photos{gsd}",
             "measured": f"{c.short_m2:.2f} m² of {cov.area_m2:.2f} m² seen by fewer{finest}",
             "required": "0 m² (of more than 0 m² checked)", "evidence": [f"{len(cov.points)} points on the faces, "
-                                                                        f"{int(short.sum())} short"],
+                                                                        f"{int(short.sum())} short", *_overlap_words(c)],
             "where": where, "source": "aerosurvey planner (plan/surfaces.py)"}
+
+
+def _overlap_words(c: FacesCheck) -> list[str]:
+    """The lowest and the median forward overlap on the faces, between consecutive photos that both see them."""
+    f = c.coverage.forward_overlap
+    if not len(f):
+        return ["no two consecutive photos of a run see the same face point"]
+    a, b = c.coverage.overlap_pairs[int(np.argmin(f))]
+    return [f"forward overlap on the faces (consecutive photos of a run that both see them): lowest {f.min():.0%} "
+            f"({c.station_ids[a]} / {c.station_ids[b]}), median {float(np.median(f)):.0%}"]
