@@ -49,7 +49,19 @@ def load_inputs(spec: MissionSpec) -> PlanInputs:
             extra += [shapely.Point(p) for p in spec.battery.launch_points]
         extra += [shapely.Point(p) for p in spec.flight.rally_points]
         dem = read_dem_window(spec.terrain.dem, shapely.union_all([area, *extra]), reach_beyond_area_m(spec))
-    return PlanInputs(area, zones, dem, load_airspace(spec, area))
+    return PlanInputs(area, zones, dem, load_airspace(spec, area), load_structure(spec))
+
+
+def load_structure(spec: MissionSpec) -> BaseGeometry | None:
+    """[structure]'s footprint (WGS84), one polygon; None without [structure]."""
+    if spec.structure is None:
+        return None
+    shape = read_area(spec.structure.file, None, "EPSG:4326", "structure.file")
+    if shape.geom_type != "Polygon":
+        raise InputError(f"structure.file {spec.structure.file.name!r} holds a {shape.geom_type} of "
+                         f"{len(shapely.get_parts(shape))} parts; allowed: one polygon (the structure's footprint)",
+                         key="structure.file")
+    return shape
 
 
 def load_airspace(spec: MissionSpec, area_wgs84: BaseGeometry) -> Airspace | None:

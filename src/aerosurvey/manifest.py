@@ -30,6 +30,7 @@ from aerosurvey.plan import photogrammetry as pg
 
 if TYPE_CHECKING:  # the writer's input; the reader does not need the planner
     from aerosurvey.airspace.check import AirspaceReport
+    from aerosurvey.plan.passes import Pass
     from aerosurvey.plan.planner import Plan
     from aerosurvey.spec import MissionSpec
 
@@ -199,6 +200,19 @@ def station_table(plan: Plan) -> StationTable:
                          col(st.pitch_deg, 2), col(st.camera_yaw_deg, 3)))
 
 
+def _aim_extras(ps: Pass) -> dict[str, Any]:
+    """A pass's aim and height beyond a pitch and a bearing, written only where they are set: a look
+    turned from the flight (`turn_deg`), at a point (`look_at`, planning CRS), a raised pass (`rise_m`)."""
+    out: dict[str, Any] = {}
+    if ps.aim.turn_deg:
+        out["turn_deg"] = _f(ps.aim.turn_deg)
+    if ps.aim.point is not None:
+        out["look_at"] = [_f(ps.aim.point[0]), _f(ps.aim.point[1])]
+    if ps.rise_m:
+        out["rise_m"] = _f(ps.rise_m)
+    return out
+
+
 def _pattern(plan: Plan) -> dict[str, Any]:
     """The pattern and its parameters, and each pass's camera attitude and sensor solution."""
     from aerosurvey.plan.pattern import kind_of
@@ -206,7 +220,8 @@ def _pattern(plan: Plan) -> dict[str, Any]:
     p = plan.pattern
     params = kind_of(p.kind).parameters(plan)
     trigger = _f(plan.sensor.trigger_distance_m) if plan.sensor.trigger_distance_m is not None else None
-    passes = [{"pass": ps.index, "pitch_deg": ps.pitch_deg, "look_deg": _f(ps.look_deg) if ps.look_deg is not None else None,
+    passes = [{"pass": ps.index, "pitch_deg": ps.aim.pitch_deg,
+               "look_deg": _f(ps.aim.bearing_deg) if ps.aim.bearing_deg is not None else None, **_aim_extras(ps),
                "footprint_across_m": _f(plan.sensor.across_m), "footprint_along_m": _f(plan.sensor.along_m),
                "line_spacing_m": _f(plan.sensor.spacing_m), "photo_base_m": _f(plan.sensor.base_m), "trigger_distance_m": trigger}
               for ps in plan.layout.passes if not ps.empty]

@@ -23,7 +23,7 @@ from aerosurvey.mission.gate import check_legs, program_legs
 from aerosurvey.mission.items import Mission
 from aerosurvey.mission.program import FlightProgram, flight_program
 from aerosurvey.mission.targets import dji_aircraft, mavlink_item_limit
-from aerosurvey.plan.coverage import uncovered_rule
+from aerosurvey.plan.coverage import planner_rules
 from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 from aerosurvey.plan.planner import Plan
 from aerosurvey.spec import MissionSpec
@@ -148,7 +148,7 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
-    manifest["rules"] = [r.as_dict() for r in results] + [uncovered_rule(plan.coverage)] + planner_airspace_rule(airspace)
+    manifest["rules"] = [r.as_dict() for r in results] + planner_rules(plan) + planner_airspace_rule(airspace)
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
     binary, dji_warnings = dji_kmz_files(plan, programs, dji)

@@ -152,6 +152,35 @@ class AirspaceSpec:
 
 
 @dataclass(frozen=True)
+class StructureSpec:
+    """The spec's [structure] table: a structure whose faces the photos must cover (plan/surfaces.py): its
+    footprint (a polygon file, read as the area is), its base and top in metres above the ground under it,
+    the photos each point of its walls and roof must be seen by, and the coarsest GSD on a face that
+    counts (metres; None: any)."""
+
+    file: Path
+    base_m: float
+    top_m: float
+    min_images: int
+    max_gsd_m: float | None
+
+
+def _structure(t: _Table, base: Path) -> StructureSpec:
+    raw = t.raw("file")
+    if raw is None:
+        raise InputError("structure.file is missing: [structure] needs the structure's footprint (a polygon file)", key="structure.file")
+    bottom = t.number("base_m", 0.0, lo=-1000.0, hi=10000.0) or 0.0
+    top = t.number("top_m", None, lo=-1000.0, hi=10000.0)
+    if top is None or top <= bottom:
+        raise bad_value("structure.top_m", top, f"a height above structure.base_m ({bottom:g} m)")
+    gsd_cm = t.number("max_gsd_cm", None, lo=0.0, lo_open=True, hi=1000.0)
+    spec = StructureSpec(_path(base, raw, "structure.file"), bottom, top, t.integer("min_images", 2, lo=1, hi=100),
+                         gsd_cm / 100.0 if gsd_cm is not None else None)
+    t.done()
+    return spec
+
+
+@dataclass(frozen=True)
 class LimitsSpec:
     """Sanity limits checked from the spec before any planning work (raise them for a real large job)."""
 
@@ -180,6 +209,7 @@ class MissionSpec:
     limits: LimitsSpec = LimitsSpec()
     pattern: PatternSpec = PatternSpec("area")
     airspace: AirspaceSpec = AirspaceSpec()
+    structure: StructureSpec | None = None
 
 
 class _Table:
@@ -568,6 +598,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
     pattern = _pattern(top, flight)
 
     airspace = _airspace(top.table("airspace"), base)
+    structure = _structure(top.table("structure"), base) if top.has("structure") else None
 
     lt = top.table("limits")
     limits = LimitsSpec(
@@ -591,4 +622,5 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         name=name, crs=crs, area=area, camera=camera, targets=targets, vehicle=vehicle,
         flight=flight, terrain=terrain, conditions=conditions, profiles=tuple(profiles),
         rule_overrides=dict(overrides), battery=battery, path=path, limits=limits, pattern=pattern, airspace=airspace,
+        structure=structure,
     )

@@ -53,6 +53,8 @@ from aerosurvey.mission.program import (
     FlightProgram,
     Gimbal,
     HoverShoot,
+    Roi,
+    RoiEnd,
     Waypoint,
     flight_program,
     run_id,
@@ -156,6 +158,7 @@ def mavlink_mission(p: FlightProgram) -> Mission:
     if p.fixed_yaw_deg is not None and p.firmware == "ardupilot":
         items.append(MissionItem(mav.CONDITION_YAW, mav.FRAME_MISSION, p.fixed_yaw_deg, 0.0, 1.0, 0.0, tag="fixed-yaw"))
     shots = 0
+    roi: tuple[float, float, float] | None = None  # the region of interest the autopilot holds
     for w in p.waypoints:
         hover = next((a for a in w.actions if isinstance(a, HoverShoot)), None)
         wp = _wp(p, w, hover.hold_s if hover is not None else 0.0)
@@ -166,6 +169,15 @@ def mavlink_mission(p: FlightProgram) -> Mission:
         for a in w.actions:
             if isinstance(a, Gimbal):
                 items.append(_gimbal(p, a, f"{rid}:gimbal"))
+            elif isinstance(a, Roi):
+                # given once, ArduPilot and PX4 hold the mount (and a copter's nose) on it until DO_SET_ROI_NONE
+                if (a.lat, a.lon, a.alt_m) != roi:
+                    items.append(MissionItem(mav.DO_SET_ROI_LOCATION, _frame(p), 0.0, 0.0, 0.0, 0.0, a.lat, a.lon, a.alt_m,
+                                             tag=f"{rid}:roi"))
+                    roi = (a.lat, a.lon, a.alt_m)
+            elif isinstance(a, RoiEnd):
+                items.append(MissionItem(mav.DO_SET_ROI_NONE, mav.FRAME_MISSION, tag=f"{rid}:roi-none"))
+                roi = None
             elif isinstance(a, HoverShoot):
                 shots += 1
                 items.append(_shoot(p, shots, f"{w.tag}:photo"))

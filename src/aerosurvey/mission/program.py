@@ -23,6 +23,12 @@ Actions, done in their order when the vehicle reaches their waypoint:
   down at take-off and has no gimbal action at all; a plan that tilts the camera anywhere sets
   it at the first run of every flight, nadir or not, since a flight (a sortie, a resumed
   flight) may take off with the mount where another flight left it.
+- `Roi` / `RoiEnd`: a run whose camera looks at a point (`Aim.point`) has it at every waypoint
+  from its first to its line end, instead of a `Gimbal` action (MAVLink: DO_SET_ROI_LOCATION
+  once, DO_SET_ROI_NONE at the line end; DJI: the towardPOI heading and the pitch towards the
+  point at each waypoint); the point's altitude is where the run's first station sees it at
+  the aim's pitch (`altitudes.look_at_height`). After it the mount's state is not known: the
+  next run sets its gimbal, nadir or not.
 - `CameraStart` / `CameraStop`: photos every `distance_m` metres or every `interval_s`
   seconds from a run's first station to its line end (camera.trigger "distance" or "time";
   the camera's own intervalometer, "camera", has none).
@@ -42,12 +48,12 @@ import numpy as np
 import shapely
 
 from aerosurvey import ids
+from aerosurvey.plan.altitudes import look_at_height, station_pitches
 from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG
 from aerosurvey.plan.model import Plan, RouteWaypoint
+from aerosurvey.plan.passes import NADIR_PITCH_DEG
 from aerosurvey.plan.photogrammetry import ardupilot_distance_m
 
-#: the gimbal's pitch before the first action: straight down, as a survey mount is set
-NADIR_PITCH_DEG = -90.0
 #: waypoint kinds on a photo run between its first station and its line end (the camera is on)
 ON_LINE = ("line_start", "terrain", "bend", "station", "line_end")
 
@@ -57,6 +63,24 @@ class Gimbal:
     pitch_deg: float  # gimbal convention: −90 straight down, 0 level
     yaw_deg: float  # relative to the vehicle's nose, positive to the right, −180..180
     bearing_deg: float  # the true bearing the camera looks to (0..360)
+
+
+@dataclass(frozen=True)
+class Roi:
+    """The camera on a point (a region of interest), at every waypoint of a run that looks at it,
+    until `RoiEnd`: an autopilot given the point once turns the mount (or the vehicle) to it and
+    pitches the camera towards it from wherever it flies; `pitch_deg` is that pitch from this
+    waypoint (for a program that sets the gimbal at each waypoint instead)."""
+
+    lat: float
+    lon: float
+    alt_m: float  # in the program's altitude frame
+    pitch_deg: float  # towards the point from this waypoint (gimbal convention)
+
+
+@dataclass(frozen=True)
+class RoiEnd:
+    """The region of interest released: the mount goes back to the last gimbal setting's mode."""
 
 
 @dataclass(frozen=True)
@@ -75,7 +99,7 @@ class HoverShoot:
     hold_s: float  # held still before the one photo
 
 
-Action = Gimbal | CameraStart | CameraStop | HoverShoot
+Action = Gimbal | Roi | RoiEnd | CameraStart | CameraStop | HoverShoot
 
 
 @dataclass(frozen=True)
@@ -238,11 +262,19 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
     heading_of_run = {r: float(true_heading[j]) for j, r in enumerate(station_of_run)}
     look_of_run = {r: float(true_look[j]) for j, r in enumerate(station_of_run)}
     out = []
-    relative = plan.altitudes.frame == "relative"
     for i, w in enumerate(wps):
         actions: list[Action] = []
         heading = heading_of_run.get(w.run, 0.0) if w.run >= 0 else 0.0
-        if first_of_run.get(w.run) == i and w.run in station_of_run:
+        aim = plan.route.runs[w.run].aim if w.run >= 0 else None
+        if aim is not None and aim.point is not None and w.run in station_of_run and i >= first_of_run.get(w.run, len(wps)) \
+                and w.kind in ("lead_in", *ON_LINE):
+            k = station_of_run[w.run]
+            z = look_at_height(aim, np.array([st.x[k], st.y[k]]), float(st.alt_rel_m[k]))
+            pitch = float(station_pitches(aim, np.array([[w.x, w.y]]), np.array([w.alt_m]), z)[0])
+            lon_lat = planar.lonlat(np.array([aim.point[0]]), np.array([aim.point[1]]))
+            actions.append(Roi(round(float(lon_lat[1][0]), 8), round(float(lon_lat[0][0]), 8), round(z + shift, 2), round(pitch, 4)))
+            gimbal = None  # where the region of interest leaves the mount
+        elif first_of_run.get(w.run) == i and w.run in station_of_run:
             k = station_of_run[w.run]
             pitch, bearing = float(st.pitch_deg[k]), look_of_run[w.run]
             nose = heading if yaw_fixed is None else float(yaw_fixed)
@@ -258,7 +290,9 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
             actions.append(start)
         elif w.kind == "line_end" and stop is not None:
             actions.append(stop)
-        alt = w.alt_m + (shift if relative else 0.0)
+        if w.kind == "line_end" and aim is not None and aim.point is not None:
+            actions.append(RoiEnd())
+        alt = w.alt_m + shift
         out.append(Waypoint(round(w.lat, 8), round(w.lon, 8), round(alt, 2), w.kind, w.run, _tag(plan, w),
                             run_id(plan, w.run) if w.run >= 0 else "", heading, tuple(actions)))
     return tuple(out)

@@ -20,7 +20,7 @@ from aerosurvey import ids
 from aerosurvey.area import Planar
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.passes import Route, Run
+from aerosurvey.plan.passes import Aim, Route, Run
 from aerosurvey.plan.terrain import Dem, thin_profile
 
 
@@ -70,41 +70,46 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     x, y = xy[:, 0].copy(), xy[:, 1].copy()
     run_idx = np.repeat(np.arange(len(runs)), counts)
     hd = np.concatenate([r.headings() for r in runs]) if runs else np.zeros(0)
-    pitch = np.repeat(np.asarray([r.pitch_deg for r in runs], float), counts)
-    look = np.concatenate([np.full(len(r.station_xy), r.look_deg) if r.look_deg is not None else r.headings() for r in runs]) \
-        if runs else np.zeros(0)
-    if fixed_yaw_deg is not None and runs:
-        along_nose = np.repeat(np.array([r.look_deg is None for r in runs]), counts)
-        look = np.where(along_nose, planar.grid_bearing(np.full(len(x), fixed_yaw_deg), x, y), look)
+    if fixed_yaw_deg is not None and runs:  # a camera looking along the flight looks along the nose
+        nose = planar.grid_bearing(np.full(len(x), fixed_yaw_deg), x, y)
+        along_nose = np.repeat(np.array([r.aim.look == "along" for r in runs]), counts)
+        hd_camera = np.where(along_nose, nose, hd)
+    else:
+        hd_camera = hd
+    look = np.concatenate([r.aim.bearings(xy[a:b], hd_camera[a:b]) for r, a, b in _spans(runs, counts)]) if runs else np.zeros(0)
+    rise = np.repeat(np.asarray([r.rise_m for r in runs], float), counts)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
     warnings: tuple[str, ...] = ()
     if mode == "fixed":
         assert heights.fixed_alt_amsl_m is not None
-        alt_rel = np.full(len(x), heights.fixed_alt_amsl_m - home_ground)
-        agl = heights.fixed_alt_amsl_m - ground
+        alt_rel = heights.fixed_alt_amsl_m - home_ground + rise
+        agl = heights.fixed_alt_amsl_m - ground + rise
     elif mode == "follow":
-        alt_rel = ground + heights.nominal_agl_m - home_ground
-        agl = np.full(len(x), heights.nominal_agl_m)
-        if slopes is not None:
-            alt_rel, agl, warnings = _within_slopes(runs, run_idx, x, y, alt_rel, ground, home_ground, slopes, tolerance_m)
-            _under_cap(runs, run_idx, agl, cap_agl_m, slopes)
+        alt_rel = ground + heights.nominal_agl_m + rise - home_ground
+        agl = heights.nominal_agl_m + rise
     else:  # terrain-frame (above terrain) or none
-        alt_rel = np.full(len(x), heights.nominal_agl_m)
-        agl = np.full(len(x), heights.nominal_agl_m)
+        alt_rel = heights.nominal_agl_m + rise
+        agl = alt_rel.copy()
+    _stations_under_cap(sid, runs, run_idx, agl, cap_agl_m)
+    if mode == "follow" and slopes is not None:
+        alt_rel, agl, warnings = _within_slopes(runs, run_idx, x, y, alt_rel, ground, home_ground, slopes, tolerance_m)
+        _under_cap(runs, run_idx, agl, cap_agl_m, slopes)
+    pitch = np.concatenate([station_pitches(r.aim, xy[a:b], alt_rel[a:b]) for r, a, b in _spans(runs, counts)]) \
+        if runs else np.zeros(0)
     start_of_run = np.searchsorted(run_idx, np.arange(len(runs)))
     end_of_run = np.searchsorted(run_idx, np.arange(len(runs)), side="right")
     pts: list[tuple[float, float, float, str, int, str]] = []
 
-    def alt_at(px: float, py: float, what: str) -> float:
+    def alt_at(px: float, py: float, what: str, run: int) -> float:
         if mode == "follow":
             assert dem is not None
             g = float(dem.sample(np.array([px]), np.array([py]), what)[0])
-            return g + heights.nominal_agl_m - home_ground
+            return g + heights.nominal_agl_m + runs[run].rise_m - home_ground
         if mode == "fixed":
             assert heights.fixed_alt_amsl_m is not None
-            return heights.fixed_alt_amsl_m - home_ground
-        return heights.nominal_agl_m
+            return heights.fixed_alt_amsl_m - home_ground + runs[run].rise_m
+        return heights.nominal_agl_m + runs[run].rise_m
 
     for w in route.waypoints:
         if w.kind == "line_start":
@@ -128,10 +133,11 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
             continue  # placed with its run's line start
         elif w.kind == "line_end":
             b = end_of_run[w.run]
-            pts.append((w.x, w.y, float(alt_rel[b - 1]) if mode == "follow" else alt_at(w.x, w.y, "line ends"), "line_end", w.run, ""))
+            end_alt = float(alt_rel[b - 1]) if mode == "follow" else alt_at(w.x, w.y, "line ends", w.run)
+            pts.append((w.x, w.y, end_alt, "line_end", w.run, ""))
         elif w.kind == "lead_in":
             a = start_of_run[w.run]
-            pts.append((w.x, w.y, float(alt_rel[a]) if mode == "follow" else alt_at(w.x, w.y, "lead-ins"), "lead_in", w.run, ""))
+            pts.append((w.x, w.y, float(alt_rel[a]) if mode == "follow" else alt_at(w.x, w.y, "lead-ins", w.run), "lead_in", w.run, ""))
         else:
             pts.append((w.x, w.y, math.nan, w.kind, w.run, ""))
     # detours keep the higher of their neighbours' altitudes
@@ -148,6 +154,44 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
     return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", tolerance_m, warnings)
+
+
+def _spans(runs: tuple[Run, ...], counts: list[int]) -> list[tuple[Run, int, int]]:
+    """Each run with the first and past-the-last index of its stations."""
+    ends = np.cumsum(counts).tolist()
+    return [(r, e - n, e) for r, n, e in zip(runs, counts, ends)]
+
+
+def station_pitches(aim: Aim, xy: np.ndarray, alt_m: np.ndarray, point_alt_m: float | None = None) -> np.ndarray:
+    """The camera's pitch at each place of a run (`xy` (n, 2), `alt_m` their altitudes): the aim's,
+    or looking at a point, towards it at `point_alt_m` (None: the height `look_at_height` sets
+    from the first place)."""
+    if aim.point is None or not len(xy):
+        return np.full(len(xy), aim.pitch_deg)
+    z = look_at_height(aim, xy[0], float(alt_m[0])) if point_alt_m is None else point_alt_m
+    d = np.hypot(*(np.asarray(aim.point, float) - np.asarray(xy, float).reshape(-1, 2)).T)
+    out: np.ndarray = np.degrees(np.arctan2(z - np.asarray(alt_m, float), d))
+    return out
+
+
+def look_at_height(aim: Aim, first_xy: np.ndarray, first_alt_m: float) -> float:
+    """The altitude (in the stations' frame) of the point an aim looks at: where the ray from a
+    run's first station at the aim's pitch meets the point's vertical (the region of interest
+    an autopilot is given; it then pitches the camera at every station towards it)."""
+    assert aim.point is not None
+    d = math.hypot(aim.point[0] - float(first_xy[0]), aim.point[1] - float(first_xy[1]))
+    return first_alt_m + d * math.tan(math.radians(aim.pitch_deg))
+
+
+def _stations_under_cap(sid: list[str], runs: tuple[Run, ...], run_idx: np.ndarray, agl: np.ndarray, cap_agl_m: float) -> None:
+    """InputError naming the highest station above `cap_agl_m` (vehicle.max_height_agl_m), its height and its pass's rise."""
+    if not len(agl) or not np.nanmax(agl, initial=-math.inf) > cap_agl_m + 1e-6:
+        return
+    i = int(np.nanargmax(agl))
+    r = runs[int(run_idx[i])]
+    rise = f" (its pass flies {r.rise_m:g} m above the plan's height)" if r.rise_m else ""
+    raise InputError(f"station {sid[i]} would be {agl[i]:.1f} m above ground{rise}, over vehicle.max_height_agl_m = "
+                     f"{cap_agl_m:g} m", key="vehicle.max_height_agl_m")
 
 
 def _under_cap(runs: tuple[Run, ...], run_idx: np.ndarray, agl: np.ndarray, cap_agl_m: float, slopes: Slopes) -> None:

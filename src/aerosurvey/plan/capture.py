@@ -147,15 +147,17 @@ CORNERS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
 
 def ray_directions(optics: Optics, attitude: Attitudes, uv: FloatArray) -> FloatArray:
     """(n, k, 3) unit directions (east, north, up) of the rays through image points `uv` (k, 2),
-    in units of the half sides (u to the image's right, v to its top), for each of n photos."""
-    u = uv[:, 0] * optics.width_mm / 2.0
-    v = uv[:, 1] * optics.height_mm / 2.0
+    in units of the half sides (u to the image's right, v to its top), for each of n photos;
+    or through each photo's own k points, `uv` (n, k, 2)."""
+    u = uv[..., 0] * optics.width_mm / 2.0
+    v = uv[..., 1] * optics.height_mm / 2.0
     # the camera at yaw 0, pitch 0, roll 0 looks north at the horizon: axis (0, 1, 0), image right
     # (1, 0, 0), image top (0, 0, 1); a ray is f·axis + u·right + v·top
-    cam = np.stack([u, np.full_like(u, optics.focal_mm), v], axis=-1)  # (k, 3)
+    cam = np.stack([u, np.full_like(u, optics.focal_mm), v], axis=-1)  # (k, 3) or (n, k, 3)
     cam /= np.linalg.norm(cam, axis=-1, keepdims=True)
+    cam = cam if cam.ndim == 3 else cam[None]
     r, p, y = (np.radians(a)[:, None] for a in (attitude.roll_deg, attitude.pitch_deg, attitude.yaw_deg))
-    x0, y0, z0 = cam[None, :, 0], cam[None, :, 1], cam[None, :, 2]
+    x0, y0, z0 = cam[..., 0], cam[..., 1], cam[..., 2]
     # pitch: about the east axis, positive raising the axis above the horizon
     y1, z1 = y0 * np.cos(p) - z0 * np.sin(p), y0 * np.sin(p) + z0 * np.cos(p)
     x1 = np.broadcast_to(x0, y1.shape)

@@ -15,7 +15,7 @@ computation runs where lines are cut: within a few footprints of a zone.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -27,6 +27,9 @@ from aerosurvey.plan.model import Stations
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.model import Plan
 
 #: photos that must see a point for it to be reconstructed (a stereo pair)
 MIN_IMAGES = 2
@@ -143,3 +146,11 @@ def uncovered_rule(c: Coverage) -> dict[str, Any]:
             "measured": f"{c.uncovered_m2:.2f} m² in {c.parts} part(s) seen by fewer than {MIN_IMAGES} photos",
             "required": "0 m²", "evidence": ["the layer 'uncovered' of plan.geojson"] if c.parts else [],
             "where": where, "source": "aerosurvey planner (plan/coverage.py)"}
+
+
+def planner_rules(plan: Plan) -> list[dict[str, Any]]:
+    """The planner's own rule results, as the manifest records them: the uncovered ground, and with a
+    [structure] its faces (plan/surfaces.py)."""
+    from aerosurvey.plan.surfaces import faces_rule
+
+    return [uncovered_rule(plan.coverage), *([faces_rule(plan.faces, PLANNER_PROFILE)] if plan.faces is not None else [])]

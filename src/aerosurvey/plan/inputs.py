@@ -43,3 +43,4 @@ class PlanInputs:
     exclusions_wgs84: tuple[BaseGeometry, ...] = ()
     dem: DemGrid | None = None
     airspace: Airspace | None = None  # official UAS zones ([airspace]), the authorisations and the planned window
+    structure_wgs84: BaseGeometry | None = None  # [structure]'s footprint, one polygon

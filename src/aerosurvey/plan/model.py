@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from aerosurvey.plan.sensor import SensorSolution
     from aerosurvey.plan.site import Site
     from aerosurvey.plan.sorties import Budget, LaunchSite, Sortie
+    from aerosurvey.plan.surfaces import FacesCheck
     from aerosurvey.spec import CameraSpec, PatternSpec, VehicleSpec
 
 
@@ -126,6 +127,8 @@ class Plan:
     warnings: tuple[str, ...]
     # the official UAS zones the flights are checked against (airspace/check.py), as given; None without [airspace] zones
     airspace: Airspace | None = None
+    # [structure]: which of its walls' and roof's points the photos see, and how often; None without one
+    faces: FacesCheck | None = None
 
     @property
     def stations(self) -> Stations:

@@ -31,6 +31,7 @@ from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.area_grid import AreaGrid
 from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds
 from aerosurvey.plan.layout import Field, Layout
+from aerosurvey.plan.passes import Aim
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
@@ -125,12 +126,12 @@ class Oblique:
 
     def _tilted(self, lay: Layout) -> Layout:
         if self.scheme == "double-grid":
-            passes = tuple(replace(p, pitch_deg=self.pitch_deg) for p in lay.passes)
+            passes = tuple(replace(p, aim=Aim(self.pitch_deg)) for p in lay.passes)
             how = f"{lay.heading_chosen}; obliques at {self.pitch_deg:g}° looking along the flight, crossed at 90°"
         else:
             nadir = lay.passes[0]
-            passes = (nadir, *(replace(nadir, index=2 + i, pitch_deg=self.pitch_deg,
-                                       look_deg=(lay.heading_deg + 90.0 * i) % 360.0) for i in range(4)))
+            passes = (nadir, *(replace(nadir, index=2 + i, aim=Aim(self.pitch_deg, bearing_deg=(lay.heading_deg + 90.0 * i) % 360.0))
+                               for i in range(4)))
             how = f"{lay.heading_chosen}; nadir and four obliques at {self.pitch_deg:g}° over the same lines"
         return Layout(lay.heading_deg, how, passes, lay.covered, self.grid.coverage_margin_m, lay.check_exactly)
 

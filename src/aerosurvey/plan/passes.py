@@ -5,12 +5,68 @@ the planning CRS, as plain frozen data.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
+
+
+@dataclass(frozen=True)
+class Aim:
+    """Where the camera looks: its pitch (gimbal convention: −90 straight down, 0 level) and its
+    look, one of three:
+
+    - along the flight, turned by `turn_deg` (0 ahead, 90 to the right, −90 to the left): the
+      camera follows the track through its bends (a mount's yaw relative to the nose);
+    - at a grid bearing `bearing_deg` (the planning CRS's; the flight program turns it into a
+      true bearing at each place, `Planar.true_bearing`);
+    - at a point `point` (planning CRS): the camera turned to it from every station, pitched so
+      that from the run's first station it looks at `pitch_deg` (the point's height is where that
+      ray meets its vertical: the region of interest an autopilot is given)."""
+
+    pitch_deg: float = -90.0
+    turn_deg: float = 0.0
+    bearing_deg: float | None = None
+    point: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.bearing_deg is not None and self.point is not None:
+            raise ValueError(f"an aim looks at a bearing or at a point, not both: {self}")
+        if self.turn_deg and (self.bearing_deg is not None or self.point is not None):
+            raise ValueError(f"an aim is turned from the flight only when it looks along it: {self}")
+        if not -90.0 <= self.pitch_deg <= 30.0 or not math.isfinite(self.pitch_deg):
+            raise ValueError(f"an aim's pitch is -90..30 degrees: {self}")
+        if self.point is not None and self.pitch_deg == NADIR_PITCH_DEG:
+            raise ValueError(f"an aim at a point looks at it from the side: a pitch above -90: {self}")
+
+    @property
+    def look(self) -> str:
+        """"along", "bearing" or "point"."""
+        return "point" if self.point is not None else "bearing" if self.bearing_deg is not None else "along"
+
+    @property
+    def nadir(self) -> bool:
+        return self.pitch_deg == NADIR_PITCH_DEG
+
+    def bearings(self, xy: np.ndarray, headings: np.ndarray) -> np.ndarray:
+        """The grid bearing the camera looks to at each station (`xy` (n, 2), `headings` the
+        direction of flight there, grid bearings)."""
+        if self.point is not None:
+            d = np.asarray(self.point, float) - np.asarray(xy, float).reshape(-1, 2)
+            out: np.ndarray = np.degrees(np.arctan2(d[:, 0], d[:, 1])) % 360.0
+            return out
+        if self.bearing_deg is not None:
+            return np.full(len(headings), self.bearing_deg % 360.0)
+        return (np.asarray(headings, float) + self.turn_deg) % 360.0
+
+
+#: the camera's pitch looking straight down
+NADIR_PITCH_DEG = -90.0
+#: straight down, the image's top ahead: a survey's mount
+NADIR = Aim()
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,8 +86,8 @@ class Strip:
 
 @dataclass(frozen=True, eq=False)
 class Pass:
-    """A group of strips flown one after another, with the camera held at one attitude, and the
-    hint the route step needs to order them.
+    """A group of strips flown one after another, with the camera held at one aim, at one height
+    (the plan's, raised by `rise_m`), and the hint the route step needs to order them.
 
     An area grid's pass is parallel lines in a frame (`frame` and `segments`): the route searches
     the line order and cells. Any other pattern gives `strips`, flown in their order, back and
@@ -41,8 +97,8 @@ class Pass:
     frame: LineFrame | None = None
     segments: tuple[LineSegment, ...] = ()
     strips: tuple[Strip, ...] = ()
-    pitch_deg: float = -90.0  # the camera's pitch (gimbal convention: −90 straight down)
-    look_deg: float | None = None  # the bearing the camera looks to; None: along the flight
+    aim: Aim = NADIR
+    rise_m: float = 0.0  # how far above the plan's flying height (Heights) the pass flies
 
     @property
     def empty(self) -> bool:
@@ -65,8 +121,8 @@ class Run:
     bends_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (k, 2) flight order
     bend_after: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # the station (flight order) each follows
     station_heading_deg: np.ndarray | None = None  # (n,) where the run bends; None: heading_deg throughout
-    pitch_deg: float = -90.0
-    look_deg: float | None = None  # the camera's bearing; None: along the flight
+    aim: Aim = NADIR
+    rise_m: float = 0.0  # its pass's
 
     def headings(self) -> np.ndarray:
         """The direction of flight at each station."""

@@ -25,6 +25,7 @@ from shapely.geometry.base import BaseGeometry
 from aerosurvey.errors import InputError
 from aerosurvey.ids import station_index
 from aerosurvey.plan.altitudes import Altitudes, Slopes, assign_altitudes
+from aerosurvey.plan.capture import Optics, Photos
 from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.detours import Detours
 from aerosurvey.plan.estimates import estimate, sun_over_window
@@ -39,6 +40,7 @@ from aerosurvey.plan.routing import RoutePlan, check_launch, default_home, end_o
 from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split, wind_factor
+from aerosurvey.plan.surfaces import FacesCheck, Structure, check_faces
 from aerosurvey.plan.zone_edges import edge_passes
 from aerosurvey.spec import MissionSpec
 
@@ -141,7 +143,23 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
                   + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
         airspace=inputs.airspace,
+        faces=_faces(spec, inputs, site, alts.stations, home_ground),
     )
+
+
+def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home_ground: float) -> FacesCheck | None:
+    """[structure]'s faces as the stations' photos see them: the photos' heights on the structure's
+    datum (its ground: the DEM's at its footprint, or the launch point's without a DEM)."""
+    if spec.structure is None or inputs.structure_wgs84 is None:
+        return None
+    footprint = site.planar.forward(inputs.structure_wgs84)
+    at = footprint.representative_point()
+    ground = float(site.dem.sample(np.array([at.x]), np.array([at.y]), "the structure")[0]) if site.dem is not None else home_ground
+    z = np.where(np.isfinite(st.ground_m), st.ground_m + st.agl_m - ground, st.agl_m)
+    s = spec.structure
+    photos = Photos.looking(st.x, st.y, z, st.camera_yaw_deg, st.pitch_deg)
+    return check_faces(Structure(footprint, s.base_m, s.top_m), ground, photos, st.ids, st.run,
+                       Optics.of(spec.camera.camera, spec.camera.mount), site.grid_scale, s.min_images, s.max_gsd_m)
 
 
 #: how many times the layout is laid again for a fixed yaw before the plan is refused (each time
@@ -151,8 +169,8 @@ FIXED_YAW_ROUNDS = 3
 
 def _line_headings(layout: Layout) -> np.ndarray:
     """Every direction (grid bearing) the layout's lines run in: each frame's heading, each strip's at its stations."""
-    out = [np.array([p.frame.heading_deg]) for p in layout.passes if p.frame is not None and p.look_deg is None]
-    out += [np.asarray(s.heading_deg, float) for p in layout.passes if p.look_deg is None for s in p.strips]
+    out = [np.array([p.frame.heading_deg]) for p in layout.passes if p.frame is not None and p.aim.look == "along"]
+    out += [np.asarray(s.heading_deg, float) for p in layout.passes if p.aim.look == "along" for s in p.strips]
     return np.round(np.concatenate(out) % 180.0, 6) if out else np.zeros(0)
 
 

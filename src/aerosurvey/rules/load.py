@@ -53,7 +53,7 @@ def airspace_check(plan: Plan, spec: MissionSpec) -> tuple[dict[str, Any] | None
 def open_target(path: Path, zones: tuple[Path, ...] = ()) -> Target:
     """What `check` and `gcp` read: a plan folder, or a mission spec planned in memory (with `zones`, official
     zone files besides its [airspace] zones: `check --zones`)."""
-    from aerosurvey.plan.coverage import PLANNER_PROFILE, uncovered_rule
+    from aerosurvey.plan.coverage import PLANNER_PROFILE, planner_rules
 
     if path.is_dir():
         if zones:
@@ -74,7 +74,7 @@ def open_target(path: Path, zones: tuple[Path, ...] = ()) -> Target:
         if airspace is not None:
             manifest["airspace"] = airspace
         view = PlanView.from_documents(manifest, features, str(path), check=False)  # made here, by the writer
-        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (uncovered_rule(plan.coverage), *airspace_rule))
+        return Target(view, list(spec.profiles), dict(spec.rule_overrides), None, (*planner_rules(plan), *airspace_rule))
     if not path.exists():
         raise InputError(f"{str(path)!r} does not exist; give a mission spec (.toml) or a folder written by `aerosurvey plan`")
     raise InputError(f"{str(path)!r} is neither a mission spec (.toml) nor a folder written by `aerosurvey plan`")

@@ -20,7 +20,9 @@ What is written:
   above the launch point. A program in the terrain frame has no DJI counterpart for waypoint
   routes (aboveGroundLevel is FlightHub 2's, realTimeFollowSurface the M3E's mapping
   templates'): `refusal` says so and no .kmz is written.
-- heading: waypointHeadingMode "followWayline", or "smoothTransition" at one angle for a fixed yaw.
+- heading: waypointHeadingMode "followWayline", or "smoothTransition" at one angle for a fixed yaw;
+  "towardPOI" (waypointPoiPoint: latitude, longitude, height) on the waypoints of a run whose
+  camera looks at a point, each with a gimbalRotate to the pitch towards it from there.
 - every waypoint "toPointAndStopWithDiscontinuityCurvature": straight legs, the ones the
   final gate checked, and a stop at each waypoint.
 - actions (wpml:actionGroup, ids from 0 across the file): at the first waypoint a gimbalRotate
@@ -44,7 +46,7 @@ from lxml import etree
 
 from aerosurvey.mission.formats.dji_template import MappingTemplate
 from aerosurvey.mission.formats.wpl import format_number
-from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot
+from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot, Roi
 from aerosurvey.mission.targets import (
     DJI_MAX_ACTION_GROUPS,
     DJI_MAX_SPEED_MS,
@@ -119,9 +121,12 @@ def _mission_config(doc: etree._Element, p: FlightProgram, a: DjiAircraft) -> No
     _w(payload, "payloadPositionIndex", PAYLOAD_POSITION)
 
 
-def _heading(parent: etree._Element, p: FlightProgram, tag: str) -> None:
+def _heading(parent: etree._Element, p: FlightProgram, tag: str, roi: Roi | None = None) -> None:
     h = _w(parent, tag)
-    if p.fixed_yaw_deg is None:
+    if roi is not None:
+        _w(h, "waypointHeadingMode", "towardPOI")
+        _w(h, "waypointPoiPoint", f"{_num(roi.lat)},{_num(roi.lon)},{_num(roi.alt_m)}")
+    elif p.fixed_yaw_deg is None:
         _w(h, "waypointHeadingMode", "followWayline")
     else:
         _w(h, "waypointHeadingMode", "smoothTransition")
@@ -181,6 +186,8 @@ def _actions(pm: etree._Element, p: FlightProgram, i: int, ends: dict[int, int],
     for a in w.actions:
         if isinstance(a, Gimbal):
             _gimbal_rotate(_group(pm, gid, i, i, "reachPoint"), a.pitch_deg, a.bearing_deg if a.yaw_deg != 0 else None)
+        elif isinstance(a, Roi):  # the aircraft heads to the point (towardPOI), the gimbal pitches to it
+            _gimbal_rotate(_group(pm, gid, i, i, "reachPoint"), a.pitch_deg, None)
         elif isinstance(a, HoverShoot):
             g = _group(pm, gid, i, i, "reachPoint")
             if a.hold_s > 0:
@@ -303,6 +310,7 @@ def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTempl
         pt = etree.SubElement(pm, f"{{{KML_NS}}}Point")
         etree.SubElement(pt, f"{{{KML_NS}}}coordinates").text = f"{_num(w.lon)},{_num(w.lat)}"
         _w(pm, "index", i)
+        roi = next((a for a in w.actions if isinstance(a, Roi)), None)
         if is_template:
             _w(pm, "useGlobalHeight", 0)
             # heights relative to the take-off point; the reference pairs an ellipsoid height
@@ -310,12 +318,14 @@ def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTempl
             _w(pm, "ellipsoidHeight", w.alt_m)
             _w(pm, "height", w.alt_m)
             _w(pm, "useGlobalSpeed", 1)
-            _w(pm, "useGlobalHeadingParam", 1)
+            _w(pm, "useGlobalHeadingParam", int(roi is None))
+            if roi is not None:
+                _heading(pm, p, "waypointHeadingParam", roi)
             _w(pm, "useGlobalTurnParam", 1)
         else:
             _w(pm, "executeHeight", w.alt_m)
             _w(pm, "waypointSpeed", p.speed_ms)
-            _heading(pm, p, "waypointHeadingParam")
+            _heading(pm, p, "waypointHeadingParam", roi)
             turn = _w(pm, "waypointTurnParam")
             _w(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
             _w(turn, "waypointTurnDampingDist", 0)
