@@ -22,7 +22,7 @@ from __future__ import annotations
 import json
 import math
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -91,7 +91,7 @@ class Rings:
         o = plan.pattern.options
         return {"radius_m": o.radius_m, "pitch_deg": o.pitch_deg, "rise_m": o.rise_m}
 
-    def layout(self, site: Any, sensor: Any, report: Any) -> Layout:
+    def layouts(self, site: Any, sensor: Any, report: Any) -> Iterator[Layout]:
         k = site.grid_scale
         c = site.area.centroid
         t = np.linspace(0.0, 2.0 * np.pi, 73)  # clockwise from north, closed
@@ -111,7 +111,7 @@ class Rings:
         passes = (Pass(1, strips=strips(ring), aim=Aim(o.pitch_deg, point=(c.x, c.y))),
                   Pass(2, strips=strips(ring), aim=Aim(o.pitch_deg, turn_deg=90.0), rise_m=o.rise_m),
                   Pass(3, strips=strips(across), aim=NADIR))
-        return Layout(0.0, "a test's rings", passes, site.area, 0.0, check_exactly=site.area)
+        yield Layout(0.0, "a test's rings", passes, site.area, 0.0, check_exactly=site.area)
 
 
 @pytest.fixture
