@@ -82,7 +82,8 @@ def recognise(ev: Events, mission: MissionCheck, doc: Manifest) -> Recognised:
     if flown is not None and votes > len(ev) / 2:
         return Recognised(SORTIE, flown, "photos", f"{votes} of its {len(ev)} photos lie nearest the stations of sortie {flown}")
     return Recognised(REFLY, None, "photos", f"no sortie's stations lie nearest more than half of its {len(ev)} photos"
-                      + (f" (sortie {flown}: {votes})" if flown is not None else "") + ": a re-fly, matched to every station")
+                      + (f" (sortie {flown}: {votes})" if flown is not None else "")
+                      + ": a re-fly, matched to the stations its photos lie nearest")
 
 
 @dataclass(frozen=True)
@@ -221,7 +222,7 @@ def ingest_day(paths: Sequence[Path], view: PlanView, *, tolerance_m: float | No
             median = check_same_plan(read.events, view, path.name, None)
             seen = recognise(read.events, mission, doc)
             result = on_plan(path, read, view, mission, seen.sortie, median, tolerance_m=tolerance_m,
-                             fixed_camera=fixed_camera, dem_path=dem_path, progress=step)
+                             fixed_camera=fixed_camera, dem_path=dem_path, nearest_only=seen.kind == REFLY, progress=step)
         except InputError as exc:
             raise InputError(f"{name} refused, nothing written: {exc}", key=exc.key) from None
         why = another_mission(result.report) or losses_beyond_share(path.name, result.report["read"], result.report["events"])
