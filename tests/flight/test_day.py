@@ -17,6 +17,7 @@ import re
 import shutil
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
 import rasterio
@@ -28,6 +29,7 @@ from hypothesis import strategies as st
 from tests.flight import photowriter as pw
 
 import independent_coverage as ic
+from aerosurvey import schemas
 from aerosurvey.cli import main
 from conftest import make_spec
 
@@ -300,6 +302,12 @@ def test_a_damaged_record_in_the_middle_is_refused_and_nothing_half_written(plan
     assert code == exit_code and text.count("\n") == 1 and "Traceback" not in text, text
     assert "record 2 of 3 ('S02.bin') refused, nothing written" in text, text
     assert {p.relative_to(day): p.read_bytes() for p in day.rglob("*") if p.is_file()} == before
+
+
+def test_the_day_report_schema_is_valid_and_documented():
+    jsonschema.Draft202012Validator.check_schema(schemas.schema("day_report"))
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "flight-logs.md").read_text(encoding="utf-8")
+    assert schemas.markdown_table("day_report") in doc
 
 
 def test_one_record_is_todays_ingest(plan, tmp_path):
