@@ -23,7 +23,7 @@ import pytest
 import rasterio
 import shapely
 from click.testing import CliRunner
-from dfwriter import camera_log
+from dfwriter import camera_log, mission_log
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from tests.flight import photowriter as pw
@@ -273,6 +273,42 @@ def test_a_record_of_another_plan_is_refused_by_name(plan, tmp_path):
     assert code == 2 and text.count("\n") == 1, text
     assert "record 2 of 2 ('far.bin')" in text and "is not of mission 'test'" in text and "more than one footprint" in text
     assert not (tmp_path / "day").exists()
+
+
+def _items(path: Path) -> list[tuple]:
+    """A .waypoints file's items as ArduPilot's CMD messages log them: command, frame (0 for an item
+    without a position), param1-4, lat, lon, alt."""
+    out = []
+    for line in path.read_text().splitlines()[1:]:
+        f = line.split("\t")
+        out.append((int(f[3]), 0 if int(f[2]) == 2 else int(f[2]), *(float(v) for v in f[4:11])))
+    return out
+
+
+def _mission_log(plan: Plan, path: Path, items: list[tuple], idx: list[int]) -> Path:
+    """A log recording a mission (`items`, written at 50 s) and a photo at each station of `idx` after it."""
+    photos = [(100.0 + 2.5 * t, plan.rows[i]["lat"], plan.rows[i]["lon"], plan.home + plan.rows[i]["alt_rel_m"],
+               plan.rows[i]["alt_rel_m"]) for t, i in enumerate(idx)]
+    path.write_bytes(mission_log([(50.0, items)], photos))
+    return path
+
+
+def test_a_log_recording_its_mission_is_that_sortie_and_another_mission_is_refused(plan, tmp_path):
+    s2 = plan.sorties["S02"]
+    # S02's mission uploaded, but only its first half photographed: the mission names the sortie, not the photos' votes
+    named = _mission_log(plan, tmp_path / "S02.bin", _items(plan.folder / "sortie-02.waypoints"), s2[: len(s2) // 3])
+    photos = plan.log(tmp_path / "S01.bin", plan.sorties["S01"])
+    code, text = _run("log", "ingest", photos, named, "--plan", plan.folder, "-o", tmp_path / "day")
+    assert code == 0, text
+    rec = _report(tmp_path / "day")["records"]
+    assert [(r["sortie"], r["recognised_by"]) for r in rec] == [("S01", "photos"), ("S02", "mission")]
+    assert "sortie-02.plan" in rec[1]["recognised"]
+    # our photos, but the vehicle was given another plan's mission: refused, exit 1, nothing written
+    far = Plan(tmp_path / "far", "far-field", FAR_RING)
+    other = _mission_log(plan, tmp_path / "other.bin", _items(far.folder / "sortie-01.waypoints"), s2)
+    code, text = _run("log", "ingest", photos, other, "--plan", plan.folder, "-o", tmp_path / "day2")
+    assert code == 1 and "record 2 of 2 ('other.bin') refused, nothing written" in text and "another mission" in text, text
+    assert not (tmp_path / "day2").exists()
 
 
 @pytest.mark.parametrize(("damage", "exit_code"), [("garbage", 2), ("cut", 2), ("flipped", 2), ("zeroed", 1)])

@@ -215,7 +215,7 @@ def check_day(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_js
                                "heights": whole.heights, "places": str(folder / PLACES_FILE)}, indent=1))
     else:
         for f, js, _ in judged:
-            _echo_judged(f, js, "sortie: " if f.sortie else "the whole day: ")
+            _echo_judged(f, js, "" if f.sortie else "the whole day: ")
             failed = failed_errors([j.flown for j in js])
             click.echo(f"{len(js)} rules as flown: {sum(j.status == 'pass' for j in js)} passed, {len(failed)} failed")
         click.echo(f"{len(layer['features'])} failing place(s) of the whole day in {folder / PLACES_FILE}")
