@@ -103,11 +103,16 @@ class Plan:
     def log(self, path: Path, idx: list[int], east_m: float | dict[int, float] = 0.0) -> Path:
         """A DataFlash log whose camera events are at stations `idx`, `east_m` east of them (per station: a dict)."""
         events = []
-        for t, i in enumerate(idx):
+        t = 0.0
+        for k, i in enumerate(idx):
             s = self.rows[i]
             east = east_m.get(i, 0.0) if isinstance(east_m, dict) else east_m
             lon = s["lon"] + east / (111_320.0 * math.cos(math.radians(s["lat"])))
-            events.append((2.0 * t, s["lat"], lon, 400.0, s["alt_rel_m"]))
+            if k:  # flown at 10 m/s from the photo before, at least 2 s after it
+                x0, y0 = self.to_xy.transform(events[-1][2], events[-1][1])
+                x1, y1 = self.to_xy.transform(lon, s["lat"])
+                t += max(2.0, math.hypot(x1 - x0, y1 - y0) / 10.0)
+            events.append((t, s["lat"], lon, 400.0, s["alt_rel_m"]))
         path.write_bytes(camera_log(events))
         return path
 
@@ -368,8 +373,10 @@ def test_several_records_need_the_plan_and_refuse_one_log_options(plan, tmp_path
 @given(data=st.data())
 def test_any_partition_with_dropouts_leaves_missing_the_complement(plan, tmp_path_factory, data):
     """Stations dealt at random to 2-4 records, each dropping some at random (and some dealt twice):
-    the day's photographed stations are their union, the missing ones its complement."""
+    the day's photographed stations are their union, the missing ones its complement, and its
+    coverage that of one flight photographing the union once."""
     from aerosurvey.flight.day import ingest_day
+    from aerosurvey.flight.ingest import ingest
     from aerosurvey.rules.planview import PlanView
 
     n = len(plan.ids)
@@ -391,4 +398,6 @@ def test_any_partition_with_dropouts_leaves_missing_the_complement(plan, tmp_pat
     assert day.report["day"]["photographed"] == len(union) == day.report["day"]["photos"]
     shared = {i for i in union if sum(i in s for s in sets) > 1}
     assert {r["station"] for r in day.report["day"]["repeated_stations"]} == {plan.ids[i] for i in shared}
+    once = ingest(plan.log(tmp / "once.bin", sorted(union)), PlanView.from_outdir(plan.folder, "--plan"))
+    assert once.coverage is not None and np.array_equal(day.coverage.counts, once.coverage.counts)
     shutil.rmtree(tmp)

@@ -3,10 +3,13 @@ its sorties, a sortie flown again, a re-fly) ingested together (`aerosurvey log 
 several records; docs/flight-logs.md, "A day of flights").
 
 Each record is read and recognised (:func:`recognise`): as the sortie its log's mission is, or
-the whole mission; else by its photos, as the sortie whose stations more than half of them lie
-nearest; else as a re-fly of the plan's stations (its photos spread over several sorties). A
-record of another plan, another mission or too damaged is refused with its name before
-anything is written.
+the whole mission (then matched to those stations, as one log is); else by its photos, as the
+sortie whose stations more than half of them lie nearest, else as a re-fly of the plan's
+stations (its photos spread over several sorties), and matched to the stations its photos lie
+nearest (the matcher takes stations in flight order within a window: a record that starts far
+into the plan, or holds a few photos of another sortie, would lose photos against the sortie's
+or the plan's stations). A record of another plan, another mission or too damaged is refused
+with its name before anything is written.
 
 The day's flown record is the union of the records' photos (:func:`union`): a station
 photographed by several records counts once, with the photo nearest it (ties: the earlier
@@ -20,6 +23,7 @@ coverage.tif.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -82,8 +86,7 @@ def recognise(ev: Events, mission: MissionCheck, doc: Manifest) -> Recognised:
     if flown is not None and votes > len(ev) / 2:
         return Recognised(SORTIE, flown, "photos", f"{votes} of its {len(ev)} photos lie nearest the stations of sortie {flown}")
     return Recognised(REFLY, None, "photos", f"no sortie's stations lie nearest more than half of its {len(ev)} photos"
-                      + (f" (sortie {flown}: {votes})" if flown is not None else "")
-                      + ": a re-fly, matched to the stations its photos lie nearest")
+                      + (f" (sortie {flown}: {votes})" if flown is not None else "") + ": a re-fly")
 
 
 @dataclass(frozen=True)
@@ -130,8 +133,9 @@ def union(view: PlanView, flowns: Sequence[Flown], numbers: Sequence[int]) -> Un
     best: dict[str, tuple[float, int, int]] = {}  # station -> (distance, record index, photo index)
     for r, f in enumerate(flowns):
         for i, (s, d) in enumerate(zip(f.station, f.distance_m.tolist())):
-            if s is not None and (s not in best or (d, r, i) < best[s]):
-                best[s] = (d, r, i)
+            key = (d if math.isfinite(d) else math.inf, r, i)
+            if s is not None and (s not in best or key < best[s]):
+                best[s] = key
     kept = []
     at = {sid: k for k, sid in enumerate(view.station_ids)}
     order: list[tuple[int, int, int, int]] = []  # (anchor station index, 0 matched / 1 not, record, photo)
@@ -150,6 +154,7 @@ def union(view: PlanView, flowns: Sequence[Flown], numbers: Sequence[int]) -> Un
     views = [f.flown for f in flowns]
     names = [ids.day_photo_id(n, p) for n, v in zip(numbers, views) for p in v.station_ids]
     runs = [q for v in views for q in v.run_ids]
+
     def column(key: str) -> np.ndarray:
         return np.concatenate([np.asarray(getattr(v, key), float) for v in views])[pick]
 
@@ -222,7 +227,7 @@ def ingest_day(paths: Sequence[Path], view: PlanView, *, tolerance_m: float | No
             median = check_same_plan(read.events, view, path.name, None)
             seen = recognise(read.events, mission, doc)
             result = on_plan(path, read, view, mission, seen.sortie, median, tolerance_m=tolerance_m,
-                             fixed_camera=fixed_camera, dem_path=dem_path, nearest_only=seen.kind == REFLY, progress=step)
+                             fixed_camera=fixed_camera, dem_path=dem_path, nearest_only=seen.by == "photos", progress=step)
         except InputError as exc:
             raise InputError(f"{name} refused, nothing written: {exc}", key=exc.key) from None
         why = another_mission(result.report) or losses_beyond_share(path.name, result.report["read"], result.report["events"])

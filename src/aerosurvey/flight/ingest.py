@@ -285,8 +285,9 @@ def on_plan(flight_log: Path, read: Read, view: PlanView, mission: MissionCheck,
             tolerance_m: float | None = None, fixed_camera: bool = False, dem_path: Path | None = None,
             nearest_only: bool = False, progress: Progress = no_progress) -> Ingested:
     """The record's events matched to the stations of `sortie` (None: every station; with
-    `nearest_only`, only those some event lies nearest: a re-fly of stations spread over the plan,
-    whose photos the matcher's window of stations in flight order would not reach), the flown
+    `nearest_only`, the plan's stations some event lies nearest, whatever their sortie: a record
+    of a day of flights recognised by its photos, whose photos the matcher's window of stations
+    in flight order might not reach), the flown
     footprints, figures, rules and coverage; `mission` is what the log's mission says (`mission_check`),
     `median` the events' median distance to the plan's stations (`check_same_plan`)."""
     doc = view.document
@@ -296,8 +297,8 @@ def on_plan(flight_log: Path, read: Read, view: PlanView, mission: MissionCheck,
     report["mission"] = mission.as_dict()
     stations = doc.sortie_stations(sortie)
     if nearest_only:
-        _, nearest = nearest_station(ev.lon, ev.lat, stations)
-        stations = stations.take(np.unique(nearest[nearest >= 0]))
+        _, nearest = nearest_station(ev.lon, ev.lat, doc.stations)
+        stations = doc.stations.take(np.unique(nearest[nearest >= 0]))
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
     rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
     match = match_to_stations(ev, rows, tol, unmatched=on_the_ground(ev.rel_alt_m, stations.alt_rel_m))
