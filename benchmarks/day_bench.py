@@ -14,6 +14,10 @@ the N single `log ingest Rk --plan PLAN -o OUTk`; then both in this process thro
 record), where start-up and the plan's reading are not repeated per command. The figures are the
 ratios day / sum of singles (the day also measures the union per sortie and whole); printed,
 never asserted.
+
+Measured on the shared 2-core machine (28 Nov 2026, default options: 1173 stations, 18 sorties,
+152 ha, 5 records of ~234 photos, best of 3): the day 3.28 s against 13.46 s for the 5 commands
+(ratio 0.24); in process 0.49 s against 1.49 s (ratio 0.33: each single reads the plan again).
 """
 
 from __future__ import annotations
