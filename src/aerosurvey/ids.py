@@ -103,6 +103,11 @@ def event_id(number: int) -> str:
     return f"E{number:05d}"
 
 
+def day_photo_id(record: int, photo: str) -> str:
+    """``R02-E00007``: photo `photo` (an :func:`event_id`) of record `record` (from 1) of a day of flights."""
+    return f"R{record:02d}-{photo}"
+
+
 #: The formats as patterns (the `pattern`s of data/manifest.schema.json; a test holds them equal).
 LINE_PATTERN = r"^P([0-9]+)-L([0-9]{3,})$"
 RUN_PATTERN = r"^P([0-9]+)-L([0-9]{3,})-R([0-9]+)$"

@@ -492,6 +492,12 @@ class Stations:
                         self.ground_m[sl], self.alt_rel_m[sl], self.agl_m[sl], self.gsd_cm[sl], self.heading_deg[sl],
                         self.pitch_deg[sl], self.camera_yaw_deg[sl])
 
+    def take(self, index: np.ndarray) -> Stations:
+        """The stations at `index` (ascending indices: flight order kept)."""
+        return Stations(tuple(self.ids[i] for i in index), self.seq[index], tuple(self.run[i] for i in index),
+                        *(getattr(self, k)[index] for k in ("x", "y", "lon", "lat", "ground_m", "alt_rel_m", "agl_m",
+                                                            "gsd_cm", "heading_deg", "pitch_deg", "camera_yaw_deg")))
+
 
 @dataclass(frozen=True)
 class Manifest:

@@ -94,7 +94,9 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
         return
     if target is None:
         raise InputError("give TARGET, a mission spec or a plan folder (or --list for the rule profiles)")
-    if (target / "log_report.json").is_file():  # a `log ingest` folder: planned vs flown (docs/flight-logs.md)
+    from aerosurvey.flight import DAY_FILE
+
+    if (target / "log_report.json").is_file() or (target / DAY_FILE).is_file():  # a `log ingest` folder: planned vs flown
         from aerosurvey.flight.compliance import check_flight
 
         check_flight(target, plan_dir, lambda t: chosen_profiles(t, list(profiles), list(profile_dirs)), as_json)

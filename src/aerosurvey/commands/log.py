@@ -16,7 +16,7 @@ def log() -> None:
 
 
 @log.command("ingest")
-@click.argument("flight_log", type=click.Path(path_type=Path))
+@click.argument("flight_logs", nargs=-1, required=True, type=click.Path(path_type=Path), metavar="FLIGHT_LOG...")
 @click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="The plan folder (manifest.json) the flight flew.")
 @click.option("--sortie", default=None, help="Sortie id (S01 …) the log is of; default: the whole mission.")
@@ -43,14 +43,25 @@ def log() -> None:
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for events.csv, log_report.json and, with --plan, coverage.tif; with --images, geo.txt, "
                    "pix4d_geolocation.csv and metashape_reference.csv.")
-def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, tolerance: float | None, images_dir: Path | None,
+def ingest(flight_logs: tuple[Path, ...], plan_dir: Path | None, sortie: str | None, tolerance: float | None, images_dir: Path | None,
            accuracy_xy: float, accuracy_z: float, fixed_camera: bool, dem_path: Path | None, geotag_dir: Path | None,
            geotag_in_place: bool, outdir: Path) -> None:
     """Extract camera events; with --plan, match them to the planned stations (events.csv, log_report.json).
 
     FLIGHT_LOG is a DataFlash (.bin, .log), telemetry (.tlog) or ULog (.ulg) log, or a folder of
     the flight's photos (a DJI aircraft's, or any camera's with GPS EXIF): then each photo is a
-    camera event, with its RTK solution, and the camera pose files are written for its photos."""
+    camera event, with its RTK solution, and the camera pose files are written for its photos.
+
+    Several FLIGHT_LOGs (logs and photo folders of one plan: its sorties, a sortie flown again, a
+    re-fly) are ingested as one day of flights, with --plan: each is recognised as its sortie,
+    its outputs go to records/NN-NAME/ of the output folder, and day_report.json holds the
+    coverage, figures and rules of their photos' union per sortie and for the whole, and the
+    stations no record photographed (docs/flight-logs.md, "A day of flights")."""
+    if len(flight_logs) > 1:
+        _ingest_day(flight_logs, plan_dir, sortie, tolerance, images_dir, accuracy_xy, accuracy_z, fixed_camera, dem_path,
+                    geotag_dir is not None or geotag_in_place, outdir)
+        return
+    flight_log = flight_logs[0]
     # the flight modules pull in rasterio, scipy and the rule engine: imported when the command runs
     from aerosurvey.errors import CheckFailed
     from aerosurvey.flight.ingest import geotag_destination, ingest, losses_beyond_share, photo_flight_options, write_ingest
@@ -74,6 +85,57 @@ def ingest(flight_log: Path, plan_dir: Path | None, sortie: str | None, toleranc
     other = another_mission(report)
     if lost is not None or other is not None:
         raise CheckFailed("; ".join(why for why in (other, lost) if why is not None))
+
+
+def _ingest_day(paths: tuple[Path, ...], plan_dir: Path | None, sortie: str | None, tolerance: float | None,
+                images_dir: Path | None, accuracy_xy: float, accuracy_z: float, fixed_camera: bool, dem_path: Path | None,
+                geotag: bool, outdir: Path) -> None:
+    from aerosurvey.errors import InputError
+    from aerosurvey.flight.day import ingest_day, write_day
+    from aerosurvey.rules.planview import PlanView
+
+    names = ", ".join(p.name for p in paths)
+    if plan_dir is None:
+        raise InputError(f"{len(paths)} flight records ({names}): a day of flights is of one plan; give --plan", key="--plan")
+    for given, option in ((sortie, "--sortie"), (images_dir, "--images"), (geotag or None, "--geotag-copies")):
+        if given is not None:
+            raise InputError(f"{option}: it is of one flight record, and {len(paths)} are given ({names}); each record's "
+                             "sortie is recognised, images and geotags are matched one log at a time", key=option)
+    view = PlanView.from_outdir(plan_dir, "--plan")
+    with console.progress(f"log ingest: a day of {len(paths)} records") as step:
+        day = ingest_day(paths, view, tolerance_m=tolerance, fixed_camera=fixed_camera, dem_path=dem_path, progress=step)
+    report = write_day(day, outdir, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, fixed_camera=fixed_camera)
+    for line in day_lines(report):
+        click.echo(line)
+    click.echo(f"wrote {outdir}: day_report.json, coverage.tif and each record's outputs in records/; re-fly what is "
+               f"missing with `aerosurvey refly {outdir} --plan {plan_dir} --spec SPEC`")
+
+
+def day_lines(report: dict[str, Any], most: int = 10) -> list[str]:
+    """What `log ingest` prints of a day: each record, each sortie and the whole day."""
+    out = []
+    for r in report["records"]:
+        what = f"sortie {r['sortie']}" if r["kind"] == "sortie" else ("the whole mission" if r["kind"] == "whole" else "a re-fly")
+        out.append(f"record {r['record']} {r['name']}: {what} ({r['recognised']}); {r['events']} photos, {r['matched']} "
+                   f"matched, {r['kept']} kept in the day ({r['folder']})")
+
+    def group(name: str, g: dict[str, Any]) -> None:
+        missing = g["missing_stations"]
+        more = f" and {len(missing) - most} more" if len(missing) > most else ""
+        out.append(f"{name}: {g['photographed']} of {g['planned']} stations photographed ({g['photos']} photos kept, "
+                   f"{len(g['repeated_stations'])} station(s) photographed again: the nearest photo kept), {len(missing)} "
+                   "missing" + (f": {', '.join(missing[:most])}{more}" if missing else ""))
+        out.extend(f"  {x['status'].upper():>5} {x['rule']}: measured {x['measured']}; required {x['required']}"
+                   for x in g["rules_on_flown_data"])
+
+    for g in report["sorties"]:
+        group(f"sortie {g['sortie']} (record {', '.join(map(str, g['records']))})", g)
+    day = report["day"]
+    group(f"the day ({len(report['records'])} records)", day)
+    cov = day["coverage"]
+    out.append(f"flown coverage of the day: at least {cov['min_images_in_area']} photos on every {cov['cell_m']:.1f} m cell "
+               f"of the area, {100 * cov['uncovered_share']:.2f} % uncovered (coverage.tif)")
+    return out
 
 
 def _echo(report: dict[str, Any]) -> None:

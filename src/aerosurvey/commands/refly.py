@@ -6,10 +6,8 @@ from pathlib import Path
 
 import click
 
+from aerosurvey.flight import MIN_GAP_DEFAULT_M2
 from aerosurvey.mission.formats import DJI_TEMPLATES
-
-#: gaps smaller than this (m²) are not re-flown unless --min-gap-m2 says otherwise (the page uses it too)
-MIN_GAP_DEFAULT_M2 = 25.0
 
 
 @click.command()

@@ -8,45 +8,11 @@ longer makes the same plan, a log folder of another plan, nothing left to fly).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
 from aerosurvey import console
 from aerosurvey.errors import InputError
-
-if TYPE_CHECKING:
-    from aerosurvey.flight.resume_start import ResumeStart
-    from aerosurvey.manifest import Manifest
-    from aerosurvey.plan.planner import Plan
-
-#: re-planned stations must lie this close to the plan folder's (degrees; ~1 cm) and metres of altitude
-SAME_DEG = 1e-7
-SAME_ALT_M = 0.01
-
-
-def same_plan(plan: Plan, doc: Manifest) -> None:
-    """The plan made now has the plan folder's stations (ids, positions, altitudes), or InputError."""
-    import numpy as np
-
-    st, was = plan.stations, doc.stations
-    if tuple(st.ids) != tuple(was.ids):
-        raise InputError(f"the spec now plans {len(st.ids)} stations where {doc.where} has {len(was.ids)} (or other ids): "
-                         "resume needs the same plan; give the spec and inputs the plan was made from")
-    moved = np.maximum(np.abs(st.lon - was.lon), np.abs(st.lat - was.lat))
-    climbed = np.abs(st.alt_rel_m - was.alt_rel_m)
-    if len(moved) and (moved.max() > SAME_DEG or climbed.max() > SAME_ALT_M):
-        i = int(np.argmax(moved / SAME_DEG + climbed / SAME_ALT_M))
-        raise InputError(f"the spec now plans station {st.ids[i]} {moved[i] * 111_320:.2f} m and {climbed[i]:.2f} m in "
-                         f"altitude away from {doc.where}'s: resume needs the same plan (the same spec, inputs and "
-                         "aerosurvey version)")
-
-
-def resumed_text(plan: Plan, start: ResumeStart) -> str:
-    """One line: the first station flown, the photos left, those counted as done and the sorties they take."""
-    left = sum(s.last - s.first + 1 for s, _ in plan.sorties)
-    return (f"resume from {start.first_id}: {left} of {len(plan.stations.ids)} photos left, {start.done} counted as done, "
-            f"in {len(plan.sorties)} sortie(s)")
 
 
 @click.command()
@@ -74,11 +40,10 @@ def resume(plan_dir: Path, spec_path: Path, after: str | None, log_dir: Path | N
     if (after is None) == (log_dir is None):
         raise InputError("give one of --after STATION_ID or --log FLIGHT_FOLDER", key="--after")
     from aerosurvey.fileio import atomic_write_text, staged_directory
+    from aerosurvey.flight.resume import resume_files, resumed_text, sortie_lines
     from aerosurvey.flight.resume_start import start_after, start_from_log
     from aerosurvey.inputs import load_inputs
     from aerosurvey.manifest import read_manifest
-    from aerosurvey.outputs import render_resume
-    from aerosurvey.plan.planner import resume_mission
     from aerosurvey.spec import load_spec
 
     doc = read_manifest(plan_dir, "PLAN_DIR")
@@ -87,17 +52,10 @@ def resume(plan_dir: Path, spec_path: Path, after: str | None, log_dir: Path | N
     if spec.name != doc.mission.name:
         raise InputError(f"--spec {str(spec_path)!r} is mission {spec.name!r}, but {plan_dir} is mission "
                          f"{doc.mission.name!r}", key="--spec")
-    plan = resume_mission(spec, load_inputs(spec), start.first_id)
-    same_plan(plan, doc)
-    files = render_resume(plan, start.done, start.said, str(plan_dir))
+    plan, files = resume_files(spec, load_inputs(spec), start, doc, str(plan_dir))
     with staged_directory(outdir) as stage:
         for name, text in files.items():
             atomic_write_text(stage / name, text)
-    st = plan.stations
-    for line in start.said:  # what was counted as done and why
+    for line in [*start.said, resumed_text(plan, start), *sortie_lines(plan)]:  # what was counted as done and why
         console.echo(line)
-    console.echo(resumed_text(plan, start))
-    for k, (s, _) in enumerate(plan.sorties, start=1):
-        console.echo(f"  resume-{k:02d}  {s.last - s.first + 1:5d} photos  {(s.horizontal_s + s.vertical_s) / 60:6.1f} min  "
-                   f"{st.ids[s.first]} -> {st.ids[s.last]}")
     console.echo(f"wrote {', '.join(sorted(files))} to {outdir}")

@@ -15,11 +15,13 @@ from pathlib import Path
 from typing import Any
 
 import click
+import numpy as np
 
+from aerosurvey import ids
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed, InputError
 from aerosurvey.fileio import atomic_write_text, staged_directory
-from aerosurvey.flight import records
+from aerosurvey.flight import DAY_FILE, records
 from aerosurvey.flight.coverage import flown_view, recorded_photos
 from aerosurvey.flight.mission_flown import another_mission
 from aerosurvey.flight.refly import check_report_of_plan
@@ -44,6 +46,9 @@ class Flight:
     flown: PlanView  # the plan with the flown photos in place of its stations
     sortie: str | None
     heights: str  # where the flown heights above ground came from, and the camera mount
+    #: the station each flown photo matched (None: none) and its metres from it (NaN: none), in `flown`'s order
+    station: tuple[str | None, ...]
+    distance_m: np.ndarray
     other_mission: str | None = None  # why the log's mission is another than the plan's (`mission_flown.another_mission`)
 
     @property
@@ -108,7 +113,9 @@ def open_flight(folder: Path, plan_dir: Path | None = None) -> Flight:
     heights = _heights(report)
     if len(photos) < len(rows):
         heights += f"; {len(rows) - len(photos)} photo(s) without a position or height left out"
-    return Flight(folder, plan_folder, view, planned, flown_view(view, photos), sortie, heights, another_mission(report))
+    distance = dict(zip((ids.event_id(int(e)) for e in rows.event), rows.distance_m.tolist()))
+    return Flight(folder, plan_folder, view, planned, flown_view(view, photos), sortie, heights, photos.station,
+                  np.array([distance[p] for p in photos.ids], float), another_mission(report))
 
 
 def judge_flight(flight: Flight, profiles: list[Profile]) -> tuple[list[Judged], Evidence]:
@@ -130,6 +137,9 @@ def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as
     exit 1 when an error-level rule fails on the flown photos, or when `log ingest` found that the
     vehicle flew another mission (its rules are then not judged against this plan). Without a
     profile chosen, the planner's own rule (`planner_profile`), as `check PLAN_FOLDER` does."""
+    if (folder / DAY_FILE).is_file():
+        check_day(folder, plan_dir, choose, as_json)
+        return
     flight = open_flight(folder, plan_dir)
     if flight.other_mission is not None:
         raise CheckFailed(flight.other_mission)
@@ -141,17 +151,73 @@ def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as
         click.echo(json.dumps({"results": [j.as_dict() for j in judged], "failed": [r.rule for r in bad],
                                "heights": flight.heights, "places": str(folder / PLACES_FILE)}, indent=1))
     else:
-        doc = flight.plan.document
-        of = f"sortie {flight.sortie} of " if flight.sortie else ""
-        click.echo(f"{len(flight.flown.station_ids)} flown photos against {len(flight.planned.station_ids)} planned "
-                   f"stations of {of}mission {doc.mission.name!r} ({flight.plan_folder})")
-        click.echo(flight.heights)
-        for j in judged:
-            click.echo(j.line())
-            if j.flown.outcome.status == "fail":
-                click.echo("".join(f"     - {e}\n" for e in j.flown.outcome.evidence), nl=False)
+        _echo_judged(flight, judged)
         before = sum(r.outcome.status == "fail" and r.severity == "error" for r in (j.planned for j in judged))
         click.echo(f"{len(judged)} rules as flown: {sum(j.status == 'pass' for j in judged)} passed, {len(bad)} failed "
                    f"({before} failed as planned); {len(layer['features'])} failing place(s) in {folder / PLACES_FILE}")
+    if bad:
+        raise SystemExit(1)
+
+
+def _echo_judged(flight: Flight, judged: list[Judged], title: str = "") -> None:
+    doc = flight.plan.document
+    of = f"sortie {flight.sortie} of " if flight.sortie else ""
+    click.echo(f"{title}{len(flight.flown.station_ids)} flown photos against {len(flight.planned.station_ids)} planned "
+               f"stations of {of}mission {doc.mission.name!r} ({flight.plan_folder})")
+    click.echo(flight.heights)
+    for j in judged:
+        click.echo(j.line())
+        if j.flown.outcome.status == "fail":
+            click.echo("".join(f"     - {e}\n" for e in j.flown.outcome.evidence), nl=False)
+
+
+def day_flights(folder: Path, plan_dir: Path | None) -> tuple[list[Flight], Flight]:
+    """A day of flights' folder (day_report.json) as flights: the union of the records of each
+    sortie it names, against that sortie's stations, and the union of every record against all
+    (flight/day.py's union: a station photographed twice counts once)."""
+    from aerosurvey.flight.day import Flown, union
+
+    day = records.read_day(folder / DAY_FILE)
+    flights = [open_flight(folder / r["folder"], plan_dir) for r in day["records"]]
+    for f in flights:
+        if f.other_mission is not None:
+            raise CheckFailed(f.other_mission)
+    numbers = [r["record"] for r in day["records"]]
+    first = flights[0]
+    heights = " | ".join(dict.fromkeys(f.heights for f in flights))
+
+    def group(of: list[int], sortie: str | None) -> Flight:
+        u = union(first.plan, [Flown(flights[k].flown, flights[k].station, flights[k].distance_m) for k in of],
+                  [numbers[k] for k in of])
+        planned = first.plan if sortie is None else part(first.plan, first.plan.document.sortie_stations(sortie).ids)
+        return Flight(folder, first.plan_folder, first.plan, planned, u.flown, sortie, heights, (), np.zeros(0))
+
+    sorties = [group([numbers.index(n) for n in s["records"]], s["sortie"]) for s in day["sorties"]]
+    return sorties, group(list(range(len(flights))), None)
+
+
+def check_day(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> None:
+    """`aerosurvey check DAY_FOLDER`: each sortie's and the whole day's rules planned / flown, on
+    the union of the records' photos; the whole day's failing places into the folder; exit 1
+    when an error-level rule fails on the whole day's photos (a sortie's failures are shown)."""
+    sorties, whole = day_flights(folder, plan_dir)
+    profiles = choose(whole.target) or [planner_profile()]
+    judged = [(f, *judge_flight(f, profiles)) for f in [*sorties, whole]]
+    _, whole_judged, whole_flown = judged[-1]
+    layer = failing_places(whole_judged, whole_flown)
+    write_places(folder, layer)
+    bad = failed_errors([j.flown for j in whole_judged])
+    if as_json:
+        click.echo(json.dumps({"sorties": [{"sortie": f.sortie, "results": [j.as_dict() for j in js],
+                                            "failed": [r.rule for r in failed_errors([j.flown for j in js])]}
+                                           for f, js, _ in judged[:-1]],
+                               "results": [j.as_dict() for j in whole_judged], "failed": [r.rule for r in bad],
+                               "heights": whole.heights, "places": str(folder / PLACES_FILE)}, indent=1))
+    else:
+        for f, js, _ in judged:
+            _echo_judged(f, js, "" if f.sortie else "the whole day: ")
+            failed = failed_errors([j.flown for j in js])
+            click.echo(f"{len(js)} rules as flown: {sum(j.status == 'pass' for j in js)} passed, {len(failed)} failed")
+        click.echo(f"{len(layer['features'])} failing place(s) of the whole day in {folder / PLACES_FILE}")
     if bad:
         raise SystemExit(1)

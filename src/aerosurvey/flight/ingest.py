@@ -127,7 +127,7 @@ def far_from_plan(lon: np.ndarray, lat: np.ndarray, doc: Manifest) -> tuple[floa
     return (float(np.median(fin)) if fin.size else math.nan), (doc.derived.footprint_m or 100.0)
 
 
-def _sortie_flown(ev: Events, doc: Manifest) -> tuple[str | None, int]:
+def sortie_flown(ev: Events, doc: Manifest) -> tuple[str | None, int]:
     """The sortie whose stations most events lie nearest to, and how many do."""
     _, index = nearest_station(ev.lon, ev.lat, doc.stations)
     of = np.full(len(doc.stations), -1)
@@ -198,7 +198,7 @@ def check_same_plan(ev: Events, view: PlanView, log_name: str, sortie: str | Non
                          f"{distance_text(med)} from the nearest planned station, more than one footprint ({limit:.0f} m); "
                          "give the plan folder of the mission flown")
     if sortie is not None:
-        flown, votes = _sortie_flown(ev, doc)
+        flown, votes = sortie_flown(ev, doc)
         if flown is not None and flown != sortie and votes > len(ev) / 2:
             raise InputError(f"flight log {log_name!r} is not of --sortie {sortie} of {what}: {votes} of its {len(ev)} "
                              f"camera events lie nearest the stations of sortie {flown}; give --sortie {flown}", key="--sortie")
@@ -214,6 +214,19 @@ def _dem_ground(dem_path: Path | None, view: PlanView | None) -> DemGround | Non
     return DemGround(dem_path, view.crs)
 
 
+@dataclass(frozen=True)
+class Read:
+    """A flight record as read, before it meets the plan: its camera events, the flight mode at
+    each, the photos when the record is a folder of them, the images matched when given, and
+    log_report.json's first fields."""
+
+    events: Events
+    mode: list[str | None]
+    record: PhotoFlight | None
+    images: ImageMatch | None
+    report: dict[str, Any]
+
+
 def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None = None, tolerance_m: float | None = None,
            fixed_camera: bool = False, dem_path: Path | None = None, images_dir: Path | None = None,
            progress: Progress | None = None) -> Ingested:
@@ -227,15 +240,32 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         raise InputError(f"--sortie {sortie!r}: a sortie is of a plan; give --plan too", key="--sortie")
     if sortie is not None and view is not None:
         view.document.sortie(sortie)  # an unknown sortie is refused before the log is read
-    report_progress("reading the log", 0.0)
+    read = read_record(flight_log, view, images_dir=images_dir, fixed_camera=fixed_camera, progress=report_progress)
+    if view is None:
+        return Ingested(read.events, read.mode, None, read.images, None, None, read.report, [], record=read.record)
+    mission = mission_check(flight_log, view.document)
+    if mission.names_sortie and sortie is not None and mission.sortie != sortie:
+        of = f"sortie {mission.sortie}'s" if mission.sortie else "the whole mission's"
+        raise InputError(f"flight log {flight_log.name!r} is not of --sortie {sortie}: the mission its vehicle was given is {of} "
+                         f"({mission.comparison.planned.file if mission.comparison else '?'}); give "
+                         + (f"--sortie {mission.sortie}" if mission.sortie else "no --sortie"), key="--sortie")
+    median = check_same_plan(read.events, view, flight_log.name, sortie)
+    return on_plan(flight_log, read, view, mission, mission.sortie if mission.names_sortie else sortie, median,
+                   tolerance_m=tolerance_m, fixed_camera=fixed_camera, dem_path=dem_path, progress=report_progress)
+
+
+def read_record(flight_log: Path, view: PlanView | None, *, images_dir: Path | None = None, fixed_camera: bool = False,
+                progress: Progress = no_progress) -> Read:
+    """Read a flight record (a log, or a folder of photos) and the images given with it; nothing is matched to the plan."""
+    progress("reading the log", 0.0)
     record = None
     if flight_log.is_dir():
         photo_flight_options(flight_log, images_dir, fixed_camera)
-        record = read_photo_flight(flight_log, lambda stage, done: report_progress(stage, 0.4 * done))
+        record = read_photo_flight(flight_log, lambda stage, done: progress(stage, 0.4 * done))
         ev, info = record.events, record.read
     else:
         ev, info = read_events(flight_log)
-    report_progress("camera events read", 0.4)
+    progress("camera events read", 0.4)
     report: dict[str, Any] = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
     modes = read_modes(flight_log, view.document.mission.vehicle if view is not None else None)
     mode = modes.at(ev.time_s)
@@ -248,24 +278,31 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         img = match_images(list_images(images_dir), ev)
         report["images"] = {"files": len(img.files), "method": img.method, "clock_offset_s": img.offset_s,
                             "unmatched_files": img.unmatched_files, "unmatched_events": img.unmatched_events}
-    if view is None:
-        return Ingested(ev, mode, None, img, None, None, report, [], record=record)
+    return Read(ev, mode, record, img, report)
+
+
+def on_plan(flight_log: Path, read: Read, view: PlanView, mission: MissionCheck, sortie: str | None, median: float, *,
+            tolerance_m: float | None = None, fixed_camera: bool = False, dem_path: Path | None = None,
+            nearest_only: bool = False, progress: Progress = no_progress) -> Ingested:
+    """The record's events matched to the stations of `sortie` (None: every station; with
+    `nearest_only`, the plan's stations some event lies nearest, whatever their sortie: a record
+    of a day of flights recognised by its photos, whose photos the matcher's window of stations
+    in flight order might not reach), the flown
+    footprints, figures, rules and coverage; `mission` is what the log's mission says (`mission_check`),
+    `median` the events' median distance to the plan's stations (`check_same_plan`)."""
     doc = view.document
-    mission = mission_check(flight_log, doc)
-    if mission.names_sortie and sortie is not None and mission.sortie != sortie:
-        of = f"sortie {mission.sortie}'s" if mission.sortie else "the whole mission's"
-        raise InputError(f"flight log {flight_log.name!r} is not of --sortie {sortie}: the mission its vehicle was given is {of} "
-                         f"({mission.comparison.planned.file if mission.comparison else '?'}); give "
-                         + (f"--sortie {mission.sortie}" if mission.sortie else "no --sortie"), key="--sortie")
-    median = check_same_plan(ev, view, flight_log.name, sortie)
-    if mission.names_sortie:
-        sortie = mission.sortie
+    ev, record, report = read.events, read.record, dict(read.report)
+    if record is not None:
+        report["photos"] = dict(report["photos"])
     report["mission"] = mission.as_dict()
     stations = doc.sortie_stations(sortie)
+    if nearest_only:
+        _, nearest = nearest_station(ev.lon, ev.lat, doc.stations)
+        stations = doc.stations.take(np.unique(nearest[nearest >= 0]))
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
     rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
     match = match_to_stations(ev, rows, tol, unmatched=on_the_ground(ev.rel_alt_m, stations.alt_rel_m))
-    report_progress("flown footprints and overlaps", 0.55)
+    progress("flown footprints and overlaps", 0.55)
     report["plan"] = {"mission": doc.mission.name, "folder": doc.where, "sortie": sortie, "median_distance_m": round(median, 3)}
     report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
                    "extra_triggers": match.extra, "far_triggers": match.far, "tolerance_m": tol,
@@ -280,32 +317,50 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         if dem is not None:
             dem.close()
     report["extras"] = extras_summary(photos.run, ev.rel_alt_m, ev.lon, ev.lat)
-    flown = flown_view(view, photos)
+    figures = flown_figures(view, flown_view(view, photos))
+    report["realized"] = figures.realized
+    if figures.profiles:
+        report["rules_on_flown_data"] = figures.rules
+    progress("flown coverage", 0.8)
+    assert figures.coverage is not None
+    report["coverage"] = figures.coverage.summary
+    progress("done", 1.0)
+    records.report_document(report)  # a report that does not match its schema is a bug: found before writing
+    return Ingested(ev, read.mode, match, read.images, photos, figures.coverage, report, figures.rules, planned_aim(view, photos),
+                    record, mission)
+
+
+@dataclass(frozen=True)
+class Figures:
+    """What the flown photos (a view of the plan with them in place of its stations) measure: the
+    realized overlaps and GSD, the plan's rules on them (none without a profile) and the photo-count raster."""
+
+    profiles: list[Any]
+    realized: dict[str, Any]
+    rules: list[dict[str, Any]]
+    coverage: CountRaster | None
+
+
+def flown_figures(view: PlanView, flown: PlanView, coverage: bool = True) -> Figures:
+    """The flown photos' footprints and overlaps, measured once for the figures, the rules and the
+    coverage (none unless `coverage`); the plan's control points seen by the flown photos."""
+    doc = view.document
     profiles = apply_overrides(select_profiles(list(doc.mission.profiles)), dict(doc.rule_overrides)) \
         if doc.mission.profiles else []
-    # the flown photos' footprints and overlaps, measured once for the figures, the rules and the coverage;
-    # the plan's control points seen by the flown photos
     evidence = on_view(plan_evidence(view, profiles, Path(doc.where).parent), flown) if profiles \
         else Evidence(flown, LayoutSettings())
     fwd = evidence.forward_overlaps
     side = evidence.side_overlaps
-    gsd = doc.camera.gsd_cm(photos.agl_m)
-    report["realized"] = {
+    gsd = doc.camera.gsd_cm(flown.agl)
+    realized = {
         "forward_overlap_min": min((v for _, v in fwd), default=None),
         "side_overlap_min": min((v for _, _, v in side), default=None),
         "gsd_cm_min": float(np.nanmin(gsd)) if np.isfinite(gsd).any() else None,
         "gsd_cm_max": float(np.nanmax(gsd)) if np.isfinite(gsd).any() else None,
     }
-    rules: list[dict[str, Any]] = []
-    if profiles:
-        rules = [dict(r.as_dict()) for r in evaluate(profiles, evidence)]
-        report["rules_on_flown_data"] = rules
-    report_progress("flown coverage", 0.8)
-    coverage = count_raster(flown, evidence.footprints, max(doc.derived.photo_base_m / 5, 0.5))
-    report["coverage"] = coverage.summary
-    report_progress("done", 1.0)
-    records.report_document(report)  # a report that does not match its schema is a bug: found before writing
-    return Ingested(ev, mode, match, img, photos, coverage, report, rules, planned_aim(view, photos), record, mission)
+    rules = [dict(r.as_dict()) for r in evaluate(profiles, evidence)] if profiles else []
+    raster = count_raster(flown, evidence.footprints, max(doc.derived.photo_base_m / 5, 0.5)) if coverage else None
+    return Figures(profiles, realized, rules, raster)
 
 
 def photo_flight_options(folder: Path, images_dir: Path | None, fixed_camera: bool, geotag: bool = False) -> None:
@@ -364,22 +419,30 @@ def write_ingest(result: Ingested, outdir: Path, *, accuracy_xy: float = 2.0, ac
     camera poses for photogrammetry (geo.txt, pix4d_geolocation.csv, metashape_reference.csv:
     flight/handoff.py) into `outdir`, all or nothing; tag the images when asked. Returns the
     report as written."""
+    with staged_directory(outdir) as stage:
+        return write_record(result, stage, accuracy_xy=accuracy_xy, accuracy_z=accuracy_z, fixed_camera=fixed_camera,
+                            geotag_dir=geotag_dir, geotag_in_place=geotag_in_place)
+
+
+def write_record(result: Ingested, folder: Path, *, accuracy_xy: float = 2.0, accuracy_z: float = 4.0,
+                 fixed_camera: bool = False, geotag_dir: Path | None = None, geotag_in_place: bool = False) -> dict[str, Any]:
+    """The files of :func:`write_ingest` into `folder`, a staging folder (or one inside it); returns the report as written."""
     report = dict(result.report)
     events_text = records.dumps_events(event_columns(result))
-    with staged_directory(outdir) as stage:
-        if result.coverage is not None:
-            write_count_raster(stage / "coverage.tif", result.coverage)
-        atomic_write_text(stage / "events.csv", events_text)
-        if result.images is not None:
-            rec = result.record
-            std = np.column_stack([rec.std_lon_m, rec.std_lat_m, rec.std_hgt_m]) if rec is not None else None
-            poses = camera_poses(result.images, result.events, fixed_camera, result.aim, std)
-            for name, write in (("geo.txt", geo_txt), ("pix4d_geolocation.csv", pix4d_csv),
-                                ("metashape_reference.csv", metashape_csv)):
-                atomic_write_text(stage / name, write(poses, accuracy_xy, accuracy_z))
-            if geotag_dir is not None:
-                report["geotag"] = {**geotag_images(result.images, result.events, geotag_dir), "in_place": geotag_in_place}
-        atomic_write_text(stage / "log_report.json", records.dumps_report(report))
+    folder.mkdir(parents=True, exist_ok=True)
+    if result.coverage is not None:
+        write_count_raster(folder / "coverage.tif", result.coverage)
+    atomic_write_text(folder / "events.csv", events_text)
+    if result.images is not None:
+        rec = result.record
+        std = np.column_stack([rec.std_lon_m, rec.std_lat_m, rec.std_hgt_m]) if rec is not None else None
+        poses = camera_poses(result.images, result.events, fixed_camera, result.aim, std)
+        for name, write in (("geo.txt", geo_txt), ("pix4d_geolocation.csv", pix4d_csv),
+                            ("metashape_reference.csv", metashape_csv)):
+            atomic_write_text(folder / name, write(poses, accuracy_xy, accuracy_z))
+        if geotag_dir is not None:
+            report["geotag"] = {**geotag_images(result.images, result.events, geotag_dir), "in_place": geotag_in_place}
+    atomic_write_text(folder / "log_report.json", records.dumps_report(report))
     return records.report_document(report)
 
 

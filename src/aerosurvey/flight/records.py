@@ -22,11 +22,14 @@ import numpy as np
 
 from aerosurvey import __version__, schemas
 from aerosurvey.errors import InputError
+from aerosurvey.flight import DAY_FILE
 
 EVENTS_SCHEMA = "aerosurvey-events"
 EVENTS_VERSION = 2
 REPORT_SCHEMA = "aerosurvey-log-report"
 REPORT_VERSION = 2  # 2: a folder of photos as the flight record (`photos`), the flight modes (`modes`)
+DAY_SCHEMA = "aerosurvey-day-report"
+DAY_VERSION = 1
 
 #: The columns in file order, from the schema; the decimals each number is written with.
 COLUMNS: tuple[str, ...] = tuple(schemas.schema("events")["properties"]["rows"]["items"]["properties"])
@@ -138,13 +141,45 @@ def read_events_csv(path: Path) -> EventRows:
     return loads_events(text, path.name)
 
 
+#: the JSON reports: schema name -> (schema id, version, file name, what it is called)
+_REPORTS = {"log_report": (REPORT_SCHEMA, REPORT_VERSION, "log_report.json", "log report"),
+            "day_report": (DAY_SCHEMA, DAY_VERSION, DAY_FILE, "day report")}
+
+
+def _document(name: str, body: Mapping[str, Any]) -> dict[str, Any]:
+    schema_id, version, file, _ = _REPORTS[name]
+    doc = {"schema": schema_id, "schema_version": version, "aerosurvey_version": __version__, **body}
+    err = schemas.first_error(name, doc)
+    if err is not None:
+        raise ValueError(f"{file} does not match its schema: {err}")
+    return doc
+
+
+def _loads(name: str, text: str | bytes, where: str) -> dict[str, Any]:
+    schema_id, version, _, label = _REPORTS[name]
+    try:
+        doc = json.loads(text)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{where} is not valid JSON: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("schema") != schema_id:
+        got = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
+        raise InputError(f"{where} is not a {label} of `aerosurvey log ingest` (schema = {got!r}): run it again")
+    schemas.check_version(where, label, doc.get("schema_version"), version, _REDO, str(doc.get("aerosurvey_version", "?")))
+    schemas.check(name, doc, where, label, version)
+    return doc
+
+
+def _read(name: str, path: Path) -> dict[str, Any]:
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{str(path)!r} cannot be read: {exc.strerror}") from None
+    return _loads(name, data, path.name)
+
+
 def report_document(body: Mapping[str, Any]) -> dict[str, Any]:
     """A log report with its schema header, checked against the schema (a failure is a bug: ValueError)."""
-    doc = {"schema": REPORT_SCHEMA, "schema_version": REPORT_VERSION, "aerosurvey_version": __version__, **body}
-    err = schemas.first_error("log_report", doc)
-    if err is not None:
-        raise ValueError(f"log_report.json does not match its schema: {err}")
-    return doc
+    return _document("log_report", body)
 
 
 def dumps_report(body: Mapping[str, Any]) -> str:
@@ -154,22 +189,24 @@ def dumps_report(body: Mapping[str, Any]) -> str:
 
 def loads_report(text: str | bytes, where: str = "log_report.json") -> dict[str, Any]:
     """A log report's data, checked against its schema and version."""
-    try:
-        doc = json.loads(text)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{where} is not valid JSON: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("schema") != REPORT_SCHEMA:
-        got = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
-        raise InputError(f"{where} is not a log report of `aerosurvey log ingest` (schema = {got!r}): run it again")
-    schemas.check_version(where, "log report", doc.get("schema_version"), REPORT_VERSION, _REDO,
-                          str(doc.get("aerosurvey_version", "?")))
-    schemas.check("log_report", doc, where, "log report", REPORT_VERSION)
-    return doc
+    return _loads("log_report", text, where)
 
 
 def read_report(path: Path) -> dict[str, Any]:
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"{str(path)!r} cannot be read: {exc.strerror}") from None
-    return loads_report(data, path.name)
+    return _read("log_report", path)
+
+
+def day_document(body: Mapping[str, Any]) -> dict[str, Any]:
+    """A day report (day_report.json: a day of flights, flight/day.py) with its schema header,
+    checked against the schema (a failure is a bug: ValueError)."""
+    return _document("day_report", body)
+
+
+def dumps_day(body: Mapping[str, Any]) -> str:
+    """The text of day_report.json."""
+    return json.dumps(day_document(body), indent=1, allow_nan=False) + "\n"
+
+
+def read_day(path: Path) -> dict[str, Any]:
+    """A day report's data, checked against its schema and version."""
+    return _read("day_report", path)

@@ -17,7 +17,7 @@ import shapely.geometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
-from aerosurvey.flight import records
+from aerosurvey.flight import DAY_FILE, records
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.manifest import Manifest, sha256_file
 from aerosurvey.mission.formats import DJI_TEMPLATES
@@ -84,7 +84,12 @@ def check_report_of_plan(report: dict[str, Any], log_dir: Path, doc: Manifest) -
 
 
 def read_log_of_plan(log_dir: Path, doc: Manifest) -> dict[str, Any]:
-    """The log folder's report (log_report.json), refused unless it is a flight of the plan's mission."""
+    """The log folder's report (log_report.json; a day of flights' day_report.json), refused unless
+    it is a flight of the plan's mission."""
+    if (log_dir / DAY_FILE).is_file():
+        day = records.read_day(log_dir / DAY_FILE)
+        check_report_of_plan(day, log_dir, doc)
+        return day
     if not (log_dir / "log_report.json").is_file():
         raise InputError(f"{str(log_dir)!r} has no log_report.json: give the folder `aerosurvey log ingest LOG --plan PLAN` wrote")
     report = records.read_report(log_dir / "log_report.json")

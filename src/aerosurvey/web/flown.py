@@ -11,9 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aerosurvey.commands.refly import MIN_GAP_DEFAULT_M2
 from aerosurvey.errors import InputError
-from aerosurvey.flight import records
+from aerosurvey.flight import MIN_GAP_DEFAULT_M2, records
 from aerosurvey.flight.ingest import distance_text, far_from_plan
 from aerosurvey.manifest import Manifest
 from aerosurvey.rules.flown import PLACES_FILE

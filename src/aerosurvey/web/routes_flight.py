@@ -107,10 +107,8 @@ def _refly(state: ServerState, bundle: service.PlanBundle, folder: Path, files: 
 def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files: dict[str, Path]) -> dict[str, Any]:
     """`aerosurvey resume --log` over the uploaded folder: the page's plan (its spec and drawn zones, in
     memory) flown on from the first station the flight did not photograph as the mission asked."""
-    from aerosurvey.commands.resume import resumed_text, same_plan
+    from aerosurvey.flight.resume import resume_files, resumed_text
     from aerosurvey.flight.resume_start import start_from_log
-    from aerosurvey.outputs import render_resume
-    from aerosurvey.plan.planner import resume_mission
 
     doc = bundle.manifest
     if doc is None:
@@ -118,9 +116,7 @@ def _resume(state: ServerState, bundle: service.PlanBundle, folder: Path, files:
     try:
         start = start_from_log(folder, doc)
         spec, inputs = service.spec_and_inputs(bundle.spec, state.workspace, bundle.zones)
-        plan = resume_mission(spec, inputs, start.first_id)
-        same_plan(plan, doc)
-        out = render_resume(plan, start.done, start.said, "the page's plan")
+        plan, out = resume_files(spec, inputs, start, doc, "the page's plan")
     except InputError as exc:  # the command's message, about the folder the page loaded
         text = str(exc).replace(f"--log {str(folder)!r}", "the loaded folder").replace(repr(str(folder)), "the loaded folder")
         raise InputError(text, key="resume") from None
