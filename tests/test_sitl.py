@@ -226,18 +226,28 @@ def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
     the horizon, the vehicle's attitude (CAM R, P, Y) turned by the servo angles relative to the
     body in the servo mount's order, pan, roll, tilt (MNT YawB, Roll, Pitch), is that pitch
     within 2°; the report's columns say the same."""
-    from scipy.spatial.transform import Rotation
-
     binary = _binary("copter")
     if binary is None:
         pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
     out = tmp_path / "oblique"
     manifest, report = _plan_and_fly(REPO / "missions" / "oblique-block.toml", out, binary)
+    # a double grid: every pass looks 45° down
+    assert [set(want) for want in _assert_aimed_as_planned(manifest, report, out)] == [{-45.0}] * len(report["sorties"])
+
+
+def _assert_aimed_as_planned(manifest: dict, report: dict, out: Path) -> list[list[float]]:
+    """Flown as planned (`_assert_flown_as_planned`), and at every picture (CAM) of each sortie
+    the mount's target (MNT DPitch) is its station's planned pitch and the camera's line of
+    sight is within 2° of it: the vehicle's attitude (CAM R, P, Y) turned by the servo angles
+    relative to the body in the servo mount's order, pan, roll, tilt (MNT YawB, Roll, Pitch),
+    computed with scipy; the report's columns say the same. (Each sortie's planned pitches.)"""
+    from scipy.spatial.transform import Rotation
+
     # the sorties fly the manifest's stations in order: each picture's planned pitch is its station's
     planned = iter([s["pitch_deg"] for s in manifest["stations"]])
+    out_rows = []
     for row in _assert_flown_as_planned(manifest, report, out, manifest["derived"]["photo_base_m"] / 4):
         want = [next(planned) for _ in range(row["photos_planned"])]
-        assert set(want) == {-45.0}  # a double grid: every pass looks 45° down
         log = out / "sitl" / row["log"]
         mounts = _log(log, ["MNT"])
         targets, pitches = [], []
@@ -257,6 +267,34 @@ def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
         assert worst <= 2.0, (row["sortie"], worst)
         assert row["mount_pitch_deg"] == pytest.approx(pitches, abs=0.01)
         assert row["aim_ok"] and row["max_aim_error_deg"] == pytest.approx(worst, abs=0.01)
+        out_rows.append(want)
+    return out_rows
+
+
+@pytest.mark.sitl
+def test_a_five_direction_plan_looks_every_way_as_planned(tmp_path):
+    """A small five-direction oblique block (a nadir pass and four looks 45° down, the mount
+    panned 0°, ±90° and 180° from the nose): every picture's line of sight within 2° of its
+    station's pitch, in the mount's own order. (Turned yaw-pitch-roll, the side-looking passes
+    read down to -40.1° in this flight: the vehicle's lean taken off the roll servo.)"""
+    from conftest import write_geojson
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    write_geojson(tmp_path / "area.geojson", [[[15.3560, 49.5400], [15.3572, 49.5400], [15.3572, 49.5406],
+                                               [15.3560, 49.5406], [15.3560, 49.5400]]])
+    spec = tmp_path / "five.toml"
+    spec.write_text('[mission]\nname = "five"\n[area]\nfile = "area.geojson"\n'
+                    '[pattern]\nkind = "oblique"\nscheme = "five-direction"\npitch_deg = -45\n'
+                    '[camera]\nmodel = "sony-a6000-16mm"\ntrigger = "distance"\n'
+                    '[targets]\nheight_m = 80\nforward_overlap = 0.75\nside_overlap = 0.6\n'
+                    '[vehicle]\ntype = "copter"\ncruise_speed_ms = 8.0\nmax_height_agl_m = 120\n')
+    out = tmp_path / "five"
+    manifest, report = _plan_and_fly(spec, out, binary)
+    looks = {(s["pitch_deg"], round((s["camera_yaw_deg"] - s["heading_deg"]) % 360.0)) for s in manifest["stations"]}
+    assert looks == {(-90.0, 0), (-45.0, 0), (-45.0, 90), (-45.0, 180), (-45.0, 270)}
+    assert [set(want) for want in _assert_aimed_as_planned(manifest, report, out)] == [{-90.0, -45.0}]
 
 
 @pytest.mark.sitl
