@@ -19,6 +19,11 @@ AP_Camera.cpp, AP_Camera_Backend.cpp):
 - DO_SET_CAM_TRIGG_INTERVAL (param1 ms > 0) is a camera clock: a picture at once, then one each
   interval of flight time (at the set speed), until the interval is set to 0.
 
+`replay(path, update_hz=20.0)` is PX4's camera_trigger instead (src/drivers/camera_trigger,
+v1.16): the same rules checked every 50 ms (its Run's poll interval) in its local frame (metres
+at these lengths as ArduPilot's), where a distance trigger started with param3 = 1 takes its
+one picture at once (started without it, PX4 takes one too: our missions always set it).
+
 Each picture carries the index of its trigger-on block (`block`): the photos between one
 "camera on" and the next "camera off", which are one planned run.
 """
@@ -78,8 +83,8 @@ class _Camera:
             self.picture(lat, lon)
 
 
-def replay(path: Path) -> list[Photo]:
-    """The pictures ArduPilot takes flying the mission file, in order."""
+def replay(path: Path, update_hz: float = UPDATE_HZ) -> list[Photo]:
+    """The pictures ArduPilot takes flying the mission file, in order (PX4 with `update_hz` 20)."""
     home, items = parse_wpl(path.read_text(), str(path))
     cam = _Camera()
     here = (home.lat, home.lon)
@@ -117,7 +122,7 @@ def replay(path: Path) -> list[Photo]:
         else:
             target = (it.lat, it.lon)
         length = distance_m(here[0], here[1], target[0], target[1])
-        step = speed / UPDATE_HZ if speed > 0 else 0.1
+        step = speed / update_hz if speed > 0 else 0.1
         s = 0.0
         while length > 0 and s + tick <= length:
             s += tick

@@ -1,5 +1,6 @@
 """End to end in PX4 SITL (its SIH quadrotor): plans for PX4 fly as planned through aerosurvey's
-PX4 upload, their photos read back from PX4's own log (ULog camera_capture, with pyulog).
+PX4 upload, their photos read back from PX4's own log (ULog camera_capture, with pyulog): as many
+as planned, each within `PHOTO_TOLERANCE_M` of its station, in the estimated time ±10 %.
 
 Marked `sitl`; skipped with the reason when no PX4 SITL binary is found (AEROSURVEY_PX4_BIN:
 build/px4_sitl_default/bin/px4 or its folder, or px4 on PATH). A fake PX4 (a script in a fake
@@ -26,6 +27,11 @@ from conftest import assert_sitl_cleaned_up, make_spec, plan_and_fly
 PX4_PLACES = {16, 17, 19, 21, 22, 31, 84, 85}
 #: a 220 m x 1,220 m block flown north-south: lines of about 1,300 m, over PX4 v1.13's 900 m
 LONG_AREA = [[15.000, 49.400], [15.003, 49.400], [15.003, 49.411], [15.000, 49.411], [15.000, 49.400]]
+#: how far a PX4 photo may lie from its station: PX4 counts a waypoint reached within its
+#: acceptance radius (NAV_ACC_RAD, 2 m in its SITL) and the distance trigger, started again
+#: there with a photo, photographs the station after that up to two of its 50 ms check steps
+#: late (1 m at 10 m/s): 3 m. (Seen: 1.99 m at most over Obrataň's 1,592 photos.)
+PHOTO_TOLERANCE_M = 3.0
 
 
 def _px4() -> str | None:
@@ -66,45 +72,71 @@ def _metres(lat1: np.ndarray, lon1: np.ndarray, lat2: np.ndarray, lon2: np.ndarr
     return 2 * 6_371_000.0 * np.arcsin(np.sqrt(h))
 
 
-def _assert_flown(manifest: dict, report: dict, out: Path, offset_limit_m: float | None) -> None:
-    """Every sortie completed; its ULog holds one camera_capture per planned photo (every station of
-    the plan in a sortie), each within `offset_limit_m` of its station (in flight order) when
-    given; the flight took the estimated time ±10 %."""
+def _assert_flown(manifest: dict, report: dict, out: Path) -> None:
+    """Every sortie flown completed; its ULog holds one camera_capture per planned photo (its
+    stations in the manifest, every one when the plan is one flight), each within
+    PHOTO_TOLERANCE_M of its station (in flight order); the flight took the estimated time ±10 %."""
     rows = report["sorties"]
     stations = manifest["stations"]
-    assert sum(r["photos_planned"] for r in rows) == len(stations)
-    first = 0
+    index = {s["id"]: k for k, s in enumerate(stations)}
+    sorties = {s["id"]: s for s in manifest["sorties"]}
+    if not sorties:
+        assert [r["sortie"] for r in rows] == ["mission"] and rows[0]["photos_planned"] == len(stations)
     for row in rows:
         assert row["completed"], row
         assert row["log"].endswith(".ulg")
         photos = _captures(out / "sitl" / row["log"])
         assert len(photos) == row["photos_planned"] == row["triggers_flown"], row["sortie"]
-        st = stations[first:first + len(photos)]
-        first += len(photos)
+        first, last = ((index[sorties[row["sortie"]]["first_station"]], index[sorties[row["sortie"]]["last_station"]])
+                       if sorties else (0, len(stations) - 1))
+        st = stations[first:last + 1]
+        assert len(st) == len(photos), row["sortie"]
         off = _metres(photos[:, 0], photos[:, 1], np.array([s["lat"] for s in st]), np.array([s["lon"] for s in st]))
         assert off.tolist() == pytest.approx(row["trigger_offsets_m"], abs=0.05)
-        if offset_limit_m is not None:
-            assert off.max() <= offset_limit_m, (row["sortie"], off.max(), offset_limit_m)
+        assert off.max() <= PHOTO_TOLERANCE_M, (row["sortie"], off.max())
         assert abs(row["time_ratio"] - 1.0) <= 0.10, row
 
 
 @pytest.mark.sitl
 def test_the_default_area_flies_in_px4_as_planned(tmp_path):
     """The tests' 17 ha area planned for PX4, flown north-south: one photo per station, each
-    within a quarter photo base of it, in the estimated time."""
+    within PHOTO_TOLERANCE_M of it, in the estimated time."""
     binary = _binary()
     spec = make_spec(tmp_path, {"vehicle": {"firmware": "px4"}, "flight": {"heading": 0.0}})
     out = tmp_path / "plan"
     manifest, report = _plan_and_fly(spec, out, binary)
-    _assert_flown(manifest, report, out, manifest["derived"]["photo_base_m"] / 4)
+    _assert_flown(manifest, report, out)
+
+
+@pytest.mark.sitl
+def test_the_obratan_example_flies_its_first_sortie_in_px4_as_planned(tmp_path):
+    """missions/obratan-72ha.toml planned for PX4, its first sortie flown (a slice of the example:
+    its five sorties take 13.5 minutes at a 10x speed-up on a 2-core machine): its six lines of up
+    to 61 photos, where the trigger's 50 ms check once lost the last photo of the 61-photo line
+    (354 of 355), now one photo per station, each within PHOTO_TOLERANCE_M, in the estimated time."""
+    from aerosurvey.flight.sitl_run import SitlSettings, fly_sorties
+    from aerosurvey.link.px4_sitl import find_px4
+    from aerosurvey.manifest import read_manifest
+    from conftest import example_for_px4
+
+    binary = _binary()
+    out = tmp_path / "obratan"
+    res = CliRunner().invoke(main, ["plan", str(example_for_px4("obratan-72ha", tmp_path)), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    settings = SitlSettings("copter", find_px4(binary), (), 10.0, 3.0, firmware="px4")
+    rows = fly_sorties(read_manifest(out), out, settings, out / "sitl", only=("S01",))
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert [r["sortie"] for r in rows] == ["S01"] and rows[0]["photos_planned"] >= 350
+    assert max(line["photos"] for line in manifest["lines"][:6]) >= 60  # the long lines are in this sortie
+    _assert_flown(manifest, json.loads((out / "sitl" / "sitl_report.json").read_text()), out)
 
 
 @pytest.mark.sitl
 def test_lines_longer_than_px4_v1_13_takes_fly_cut_into_legs(tmp_path):
     """1.3 km lines, longer than PX4 v1.13 and earlier take between two waypoints (MIS_DIST_WPS,
-    900 m): the mission PX4 holds has no leg over 900 m, and it flies every photo in the estimated
-    time. (PX4 checks its distance trigger every 50 ms, so along a 53-photo line its photos drift
-    from stations laid for ArduPilot's 50 Hz check; the report gives each photo's offset.)"""
+    900 m): the mission PX4 holds has no leg over 900 m, and it flies every photo of its 53-photo
+    lines within PHOTO_TOLERANCE_M of its station in the estimated time (the trigger started
+    again at every second station keeps PX4's 50 ms check from adding up along a line)."""
     from independent_legs import parse_wpl
 
     binary = _binary()
@@ -119,7 +151,7 @@ def test_lines_longer_than_px4_v1_13_takes_fly_cut_into_legs(tmp_path):
     legs = [float(_metres(np.array(a[0]), a[1], np.array(b[0]), b[1])) for a, b in zip(places, places[1:])]
     assert max(legs) <= 900.0
     assert "legs: the longest" in report["sorties"][0]["upload"]
-    _assert_flown(manifest, report, out, None)
+    _assert_flown(manifest, report, out)
 
 
 # ---- a fake PX4 (a script in a fake build folder): without PX4 --------------------------------------

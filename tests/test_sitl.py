@@ -8,8 +8,10 @@ harness passes paths, reports a SITL that fails and cleans up after it.
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
+import socket
 import sys
 import tempfile
 from pathlib import Path
@@ -222,19 +224,30 @@ def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
     harness adds one when a mission points a gimbal). At every picture (CAM) the mount's target
     (MNT DPitch) is its station's planned pitch (the manifest's), and the camera's pitch against
     the horizon, the vehicle's attitude (CAM R, P, Y) turned by the servo angles relative to the
-    body (MNT Roll, Pitch, YawB), is that pitch within 2°; the report's column says the same."""
-    from scipy.spatial.transform import Rotation
-
+    body in the servo mount's order, pan, roll, tilt (MNT YawB, Roll, Pitch), is that pitch
+    within 2°; the report's columns say the same."""
     binary = _binary("copter")
     if binary is None:
         pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
     out = tmp_path / "oblique"
     manifest, report = _plan_and_fly(REPO / "missions" / "oblique-block.toml", out, binary)
+    # a double grid: every pass looks 45° down
+    assert [set(want) for want in _assert_aimed_as_planned(manifest, report, out)] == [{-45.0}] * len(report["sorties"])
+
+
+def _assert_aimed_as_planned(manifest: dict, report: dict, out: Path) -> list[list[float]]:
+    """Flown as planned (`_assert_flown_as_planned`), and at every picture (CAM) of each sortie
+    the mount's target (MNT DPitch) is its station's planned pitch and the camera's line of
+    sight is within 2° of it: the vehicle's attitude (CAM R, P, Y) turned by the servo angles
+    relative to the body in the servo mount's order, pan, roll, tilt (MNT YawB, Roll, Pitch),
+    computed with scipy; the report's columns say the same. (Each sortie's planned pitches.)"""
+    from scipy.spatial.transform import Rotation
+
     # the sorties fly the manifest's stations in order: each picture's planned pitch is its station's
     planned = iter([s["pitch_deg"] for s in manifest["stations"]])
+    out_rows = []
     for row in _assert_flown_as_planned(manifest, report, out, manifest["derived"]["photo_base_m"] / 4):
         want = [next(planned) for _ in range(row["photos_planned"])]
-        assert set(want) == {-45.0}  # a double grid: every pass looks 45° down
         log = out / "sitl" / row["log"]
         mounts = _log(log, ["MNT"])
         targets, pitches = [], []
@@ -244,14 +257,44 @@ def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
             assert before, f"{row['sortie']}: a picture before the mount's first message"
             mount = before[-1]
             body = Rotation.from_euler("ZYX", [m.Y, m.P, m.R], degrees=True)
-            turn = Rotation.from_euler("ZYX", [mount.YawB, mount.Pitch, mount.Roll], degrees=True)
-            pitches.append((body * turn).as_euler("ZYX", degrees=True)[1])
+            turn = Rotation.from_euler("ZXY", [mount.YawB, mount.Roll, mount.Pitch], degrees=True)
+            sight = (body * turn).apply([1.0, 0.0, 0.0])  # the camera's line of sight
+            pitches.append(math.degrees(math.asin(-sight[2])))
             targets.append(mount.DPitch)
         assert len(pitches) == row["photos_planned"]
         assert targets == pytest.approx(want, abs=0.01), row["sortie"]
         worst = max(abs(p - w) for p, w in zip(pitches, want))
         assert worst <= 2.0, (row["sortie"], worst)
         assert row["mount_pitch_deg"] == pytest.approx(pitches, abs=0.01)
+        assert row["aim_ok"] and row["max_aim_error_deg"] == pytest.approx(worst, abs=0.01)
+        out_rows.append(want)
+    return out_rows
+
+
+@pytest.mark.sitl
+def test_a_five_direction_plan_looks_every_way_as_planned(tmp_path):
+    """A small five-direction oblique block (a nadir pass and four looks 45° down, the mount
+    panned 0°, ±90° and 180° from the nose): every picture's line of sight within 2° of its
+    station's pitch, in the mount's own order. (Turned yaw-pitch-roll, the side-looking passes
+    read down to -40.1° in this flight: the vehicle's lean taken off the roll servo.)"""
+    from conftest import write_geojson
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    write_geojson(tmp_path / "area.geojson", [[[15.3560, 49.5400], [15.3572, 49.5400], [15.3572, 49.5406],
+                                               [15.3560, 49.5406], [15.3560, 49.5400]]])
+    spec = tmp_path / "five.toml"
+    spec.write_text('[mission]\nname = "five"\n[area]\nfile = "area.geojson"\n'
+                    '[pattern]\nkind = "oblique"\nscheme = "five-direction"\npitch_deg = -45\n'
+                    '[camera]\nmodel = "sony-a6000-16mm"\ntrigger = "distance"\n'
+                    '[targets]\nheight_m = 80\nforward_overlap = 0.75\nside_overlap = 0.6\n'
+                    '[vehicle]\ntype = "copter"\ncruise_speed_ms = 8.0\nmax_height_agl_m = 120\n')
+    out = tmp_path / "five"
+    manifest, report = _plan_and_fly(spec, out, binary)
+    looks = {(s["pitch_deg"], round((s["camera_yaw_deg"] - s["heading_deg"]) % 360.0)) for s in manifest["stations"]}
+    assert looks == {(-90.0, 0), (-45.0, 0), (-45.0, 90), (-45.0, 180), (-45.0, 270)}
+    assert [set(want) for want in _assert_aimed_as_planned(manifest, report, out)] == [{-90.0, -45.0}]
 
 
 @pytest.mark.sitl
@@ -301,7 +344,7 @@ FAKE = """#!{python}
 import os, sys, time
 args = sys.argv[1:]
 open({pidfile!r}, "w").write(str(os.getpid()))
-print("fake SITL starting in", os.getcwd(), flush=True)
+print("fake SITL starting in", os.getcwd(), "as", *[a for a in args if a.startswith("-I")], flush=True)
 defaults = args[args.index("--defaults") + 1].split(",") if "--defaults" in args else []
 for d in defaults:
     if not os.path.isfile(d):
@@ -354,3 +397,34 @@ def test_relative_paths_reach_sitl_and_a_failure_quotes_its_output(kubad_plan, t
     else:
         assert "within 1.5 s" in msg and "SITL's last output: fake SITL starting" in msg
     assert_sitl_cleaned_up(temp, pidfile, kubad_plan)
+
+
+def _listening(port: int) -> socket.socket | None:
+    """A socket listening on tcp `port` of the loopback, or None when the port is taken."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        s.bind(("127.0.0.1", port))
+    except OSError:
+        s.close()
+        return None
+    s.listen()
+    return s
+
+
+def test_sitl_takes_an_instance_whose_ports_are_free(kubad_plan, tmp_path, monkeypatch):
+    """With SERIAL0 of the first free instance held by someone else, the harness starts SITL as
+    a later instance (-I N) and waits on that instance's SERIAL0, tcp 5760 + 10 N."""
+    fake, _ = _fake(tmp_path, "silent")
+    held = None
+    for n in range(9):
+        held = _listening(5760 + 10 * n)
+        if held is not None:
+            break
+    assert held is not None, "no tcp port 5760 + 10 N free to hold"
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    with held:
+        res = CliRunner().invoke(main, ["sitl", "fly", str(kubad_plan), "--sitl-bin", str(fake), "--boot-timeout", "1.5"])
+    assert res.exit_code == 1, res.output
+    msg = res.stderr.strip()
+    started = int(msg.split(" as -I", 1)[1].split()[0])
+    assert started > n and f"did not listen on tcp:127.0.0.1:{5760 + 10 * started} within 1.5 s" in msg

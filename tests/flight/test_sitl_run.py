@@ -7,6 +7,7 @@ import json
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -139,6 +140,25 @@ def test_a_flight_cut_short_flies_its_first_sortie_only(split_plan, tmp_path, mo
     assert rows[0]["rtl_after_photos"] is None
 
 
+def test_only_the_sorties_asked_fly_and_an_unknown_one_is_bad_input(split_plan, tmp_path, monkeypatch):
+    doc = mf.read_manifest(split_plan)
+    routes = sitl_run.sortie_routes(doc, split_plan)
+    flown = []
+
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+        flown.append(name)
+        return harness.Flight(name)
+
+    monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount: None)
+    monkeypatch.setattr(harness, "fly", fake_fly)
+    settings = sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0)
+    rows = sitl_run.fly_sorties(doc, split_plan, settings, tmp_path / "report", only=(routes[1].name,))
+    assert flown == [routes[1].name] == [r["sortie"] for r in rows]
+    with pytest.raises(InputError, match=rf"sorties S99: not sorties of .* \(it has {', '.join(r.name for r in routes)}\)"):
+        sitl_run.fly_sorties(doc, split_plan, settings, tmp_path / "again", only=("S99", routes[0].name))
+
+
 def test_sitl_fly_without_a_manifest_is_one_line(tmp_path):
     res = CliRunner().invoke(main, ["sitl", "fly", str(tmp_path)])
     assert res.exit_code == 2 and res.output.count("\n") == 1
@@ -156,20 +176,39 @@ def test_the_survey_parameters_add_a_mount_only_when_asked():
 
 
 def test_the_camera_pitch_at_each_picture_turns_the_servo_angles_by_the_vehicle_attitude(tmp_path):
-    """A servo mount logs its angles relative to the body: a vehicle pitched 20° nose down with
-    the servo at -25° looks 45° down; rolled 10° with the servo rolled back -10°, still 45°."""
+    """A servo mount logs its angles relative to the body, driven pan, then roll, then tilt: a
+    vehicle pitched 20° nose down with the servo at -25° looks 45° down; rolled 10° with the
+    servo rolled back -10°, still 45°; panned 90° (looking to the right) while pitched 20° nose
+    down, the lean is taken off the roll servo and the camera still looks 45° down (turned in
+    yaw-pitch-roll order it would read -41.6°)."""
     from dfwriter import mount_log
     from scipy.spatial.transform import Rotation
 
     log = tmp_path / "m.BIN"
     # (time_s, vehicle roll, pitch, yaw) per picture; (time_s, roll, pitch, yaw_body) per mount message
-    cams = [(0.5, 0.0, 0.0, 90.0), (2.0, 0.0, -20.0, 270.0), (3.0, 10.0, -20.0, 45.0), (4.0, 3.0, -7.0, 10.0)]
-    mnts = [(1.0, 0.0, -45.0, 0.0), (2.0, 0.0, -25.0, 0.0), (2.9, -10.0, -25.0, 0.0), (3.5, 5.0, -30.0, 12.0)]
+    cams = [(0.5, 0.0, 0.0, 90.0), (2.0, 0.0, -20.0, 270.0), (3.0, 10.0, -20.0, 45.0), (4.0, 3.0, -7.0, 10.0),
+            (5.0, 0.0, -20.0, 30.0), (6.0, 0.0, 15.0, 200.0)]
+    mnts = [(1.0, 0.0, -45.0, 0.0), (2.0, 0.0, -25.0, 0.0), (2.9, -10.0, -25.0, 0.0), (3.5, 5.0, -30.0, 12.0),
+            (4.5, 20.0, -45.0, 90.0), (5.5, 15.0, -45.0, -90.0)]
     log.write_bytes(mount_log(cams, mnts))
     got = sitl_run.mount_pitch_at_photos(log)
     assert got[0] is None  # before the mount's first message
     assert got[1] == pytest.approx(-45.0, abs=0.01)
+    assert got[4] == pytest.approx(-45.0, abs=0.01) and got[5] == pytest.approx(-45.0, abs=0.01)
+    # scipy's intrinsic rotations: the body yaw-pitch-roll ("ZYX"), the mount pan-roll-tilt ("ZXY")
     expected = [(Rotation.from_euler("ZYX", [c[3], c[2], c[1]], degrees=True)
-                 * Rotation.from_euler("ZYX", [m[3], m[2], m[1]], degrees=True)).as_euler("ZYX", degrees=True)[1]
+                 * Rotation.from_euler("ZXY", [m[3], m[1], m[2]], degrees=True)).apply([1.0, 0.0, 0.0])
                 for c, m in zip(cams[1:], mnts[1:])]
-    assert got[1:] == pytest.approx(expected, abs=0.01)
+    assert got[1:] == pytest.approx([float(np.degrees(np.arcsin(-v[2]))) for v in expected], abs=0.01)
+    wrong = (Rotation.from_euler("ZYX", [30.0, -20.0, 0.0], degrees=True)
+             * Rotation.from_euler("ZYX", [90.0, -45.0, 20.0], degrees=True)).apply([1.0, 0.0, 0.0])
+    assert float(np.degrees(np.arcsin(-wrong[2]))) == pytest.approx(-41.64, abs=0.01)  # the yaw-pitch-roll reading
+
+
+def test_the_flown_aim_is_judged_against_the_plan():
+    """The largest pitch difference from the planned, picture by picture; unknown (None) when a
+    picture has no mount reading."""
+    assert sitl_run.aim_error_deg([-44.0, -46.5, -45.2], (-45.0, -45.0, -45.0)) == 1.5
+    assert sitl_run.aim_error_deg([-90.0, -42.9], (-90.0, -45.0)) == 2.1
+    assert sitl_run.aim_error_deg([None, -45.0], (-45.0, -45.0)) is None
+    assert sitl_run.aim_error_deg([], (-45.0,)) is None

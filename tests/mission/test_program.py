@@ -17,7 +17,7 @@ from pymavlink import mavutil, mavwp
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.mission.builder import build_mission, mavlink_mission
 from aerosurvey.mission.formats.wpl import dumps_wpl
-from aerosurvey.mission.program import CameraStart, CameraStop, Gimbal, HoverShoot, flight_program
+from aerosurvey.mission.program import CameraRestart, CameraStart, CameraStop, Gimbal, HoverShoot, flight_program
 from aerosurvey.plan.model import Plan, RouteWaypoint
 from aerosurvey.spec import load_spec
 from conftest import REPO, make_spec
@@ -74,6 +74,8 @@ def _program_meaning(program) -> list[tuple]:
                 ev.append(("gimbal", round(a.pitch_deg, 2)))
             elif isinstance(a, CameraStart):
                 ev.append(("distance", round(a.distance_m, 4)) if a.distance_m is not None else ("time", round(a.interval_s, 4)))
+            elif isinstance(a, CameraRestart):
+                ev.append(("distance", round(a.distance_m, 4)))
             elif isinstance(a, CameraStop):
                 ev.append(("stop",))
             elif isinstance(a, HoverShoot):
@@ -225,14 +227,15 @@ def test_a_bend_keeps_the_camera_on(tmp_path: Path) -> None:
 @settings(max_examples=60, deadline=None)
 @given(turns=st.lists(st.floats(-80.0, 80.0), min_size=0, max_size=4),
        lengths=st.lists(st.floats(20.0, 200.0), min_size=5, max_size=5),
-       fractions=st.lists(st.floats(0.01, 0.99), min_size=1, max_size=30, unique=True))
-def test_hover_stations_fall_between_the_bends_in_flight_order(turns: list[float], lengths: list[float],
-                                                               fractions: list[float]) -> None:
-    """A strip with bends (turns up to 80°) and stations along it: the hover route keeps the
-    line's waypoints and puts every station between them in the order they lie along the strip."""
+       fractions=st.lists(st.floats(0.01, 0.99), min_size=1, max_size=30, unique=True), every=st.integers(1, 3))
+def test_station_waypoints_fall_between_the_bends_in_flight_order(turns: list[float], lengths: list[float],
+                                                                  fractions: list[float], every: int) -> None:
+    """A strip with bends (turns up to 80°) and stations along it: the route with every
+    `every`-th station (hover: 1; PX4's camera restarts: 2) keeps the line's waypoints and puts
+    those stations, counted from the first, between them in the order they lie along the strip."""
     from types import SimpleNamespace
 
-    from aerosurvey.mission.program import _with_hover_stations
+    from aerosurvey.mission.program import _with_stations
 
     # the strip's corners, turning by `turns` (degrees) after each leg
     heading, pts = 0.0, [np.zeros(2)]
@@ -263,13 +266,13 @@ def test_hover_stations_fall_between_the_bends_in_flight_order(turns: list[float
             RouteWaypoint(*xy_a[0], *xy_a[0], 50.0, "line_start", 0, ids[0])]
            + [RouteWaypoint(*p, *p, 50.0, kd, 0, "") for p, kd in zip(pts[1:-1], kinds)]
            + [RouteWaypoint(*pts[-1], *pts[-1], 50.0, "line_end", 0, "")])
-    out = _with_hover_stations(SimpleNamespace(stations=stations), tuple(wps), 0, len(ids) - 1)  # type: ignore[arg-type]
-    assert [w.station for w in out if w.station] == ids
+    out, at = _with_stations(SimpleNamespace(stations=stations), tuple(wps), 0, len(ids) - 1, every)  # type: ignore[arg-type]
+    assert [w.station for w in out if w.station] == ids[::every] and at == set(ids[::every])
     # every waypoint of the line kept, in its order
     assert [w for w in out if w.kind != "station"] == wps
     # the stations between two consecutive line waypoints are those whose distance along the strip lies between theirs
     corner_at = np.concatenate([[0.0], np.cumsum(seg)])
     bends = [corner_at[k + 1] for k in range(len(pts) - 2)]
     got = [w.kind for w in out if w.kind in ("bend", "station")]
-    want = [kd for _, kd in sorted([(d, "bend") for d in bends] + [(s, "station") for s in along[1:]])]
+    want = [kd for _, kd in sorted([(d, "bend") for d in bends] + [(s, "station") for s in along[::every][1:]])]
     assert got == want

@@ -59,34 +59,37 @@ def plan(spec: Path, out: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def long_lines(tmp_path_factory) -> tuple[Path, Path]:
-    """The long block planned for ArduPilot and for PX4 (the same spec but the firmware)."""
-    outs = []
-    for firmware in ("ardupilot", "px4"):
-        tmp = tmp_path_factory.mktemp(firmware)
-        plan(make_spec(tmp, {"vehicle": {"firmware": firmware}, "flight": {"heading": 0.0}}, area=LONG_AREA), tmp / "out")
-        outs.append(tmp / "out")
-    return outs[0], outs[1]
+def long_lines(tmp_path_factory) -> dict[str, Path]:
+    """The long block planned for ArduPilot and for PX4 (the same spec but the firmware), and for
+    PX4 with legs of at most 100 km (none cut) and of at most 40 m (PX4's photo lines have a
+    waypoint every second station, about 50 m apart: each is cut once)."""
+    outs = {}
+    for name, vehicle in (("ardupilot", {}), ("px4", {"firmware": "px4"}),
+                          ("px4-uncut", {"firmware": "px4", "max_leg_m": 100_000.0}),
+                          ("px4-40m", {"firmware": "px4", "max_leg_m": 40.0})):
+        tmp = tmp_path_factory.mktemp(name)
+        plan(make_spec(tmp, {"vehicle": vehicle, "flight": {"heading": 0.0}}, area=LONG_AREA), tmp / "out")
+        outs[name] = tmp / "out"
+    return outs
 
 
 def test_no_px4_leg_is_longer_than_900_m_where_the_ardupilot_mission_has_longer(long_lines):
-    ardupilot, px4 = long_lines
-    assert max(d for *_, d in px4_legs(ardupilot / "mission.waypoints")) > 1200.0  # the case is there
-    legs = px4_legs(px4 / "mission.waypoints")
+    assert max(d for *_, d in px4_legs(long_lines["ardupilot"] / "mission.waypoints")) > 1200.0  # the case is there
+    legs = px4_legs(long_lines["px4"] / "mission.waypoints")
     assert max(d for *_, d in legs) <= 900.0, [leg for leg in legs if leg[2] > 900.0]
 
 
 def test_the_cut_changes_nothing_but_adds_waypoints_on_the_legs(long_lines):
-    """Without the added waypoints the PX4 mission is the ArduPilot one item for item; each added
-    waypoint lies on the straight leg between the places before and after it, at their height;
-    the camera commands are where they were, so every run's photos are the same."""
-    ardupilot, px4 = long_lines
-    _, ap = parse_wpl((ardupilot / "mission.waypoints").read_text())
-    home, items = parse_wpl((px4 / "mission.waypoints").read_text())
-    # PX4's waypoints leave the heading to PX4 (yaw NaN: the nose along the track), ArduPilot's say 0, which it ignores
+    """Without the added waypoints the PX4 mission cut to 40 m legs is the uncut one item for item;
+    each leg longer than 40 m has the fewest waypoints added that make its pieces fit, each on
+    the straight leg between the places before and after it, at their height; the camera
+    commands are where they were, so every run's photos are the same."""
+    home, items = parse_wpl((long_lines["px4-40m"] / "mission.waypoints").read_text())
+    _, uncut = parse_wpl((long_lines["px4-uncut"] / "mission.waypoints").read_text())
+    # PX4's waypoints leave the heading to PX4 (yaw NaN: the nose along the track)
     assert all(math.isnan(it.params[3]) for it in items if it.command == 16)
     key = [(it.command, it.frame, it.params[:3], it.lat, it.lon, it.alt) for it in items]
-    want = [(it.command, it.frame, it.params[:3], it.lat, it.lon, it.alt) for it in ap]
+    want = [(it.command, it.frame, it.params[:3], it.lat, it.lon, it.alt) for it in uncut]
     kept, added, j = [], [], 0
     for k, item in enumerate(key):
         if j < len(want) and item == want[j]:
@@ -94,7 +97,9 @@ def test_the_cut_changes_nothing_but_adds_waypoints_on_the_legs(long_lines):
             j += 1
         else:
             added.append(k)
-    assert kept == want and len(added) == 5  # one waypoint on each of the five 1.3 km lines
+    places = [it for it in uncut if it.command in PX4_PLACES]
+    needed = sum(max(0, math.ceil(haversine(a.lat, a.lon, b.lat, b.lon) / 40.0 - 1e-9) - 1) for a, b in zip(places, places[1:]))
+    assert kept == want and len(added) == needed and needed >= 5 * 20  # 1.3 km lines: 26 legs of about 50 m each
     for k in added:
         it = items[k]
         assert (it.command, it.frame, it.params[:3]) == (16, 3, (0.0, 0.0, 0.0))
@@ -103,24 +108,38 @@ def test_the_cut_changes_nothing_but_adds_waypoints_on_the_legs(long_lines):
         via = SPHERE.inv(before.lon, before.lat, it.lon, it.lat)[2] + SPHERE.inv(it.lon, it.lat, after.lon, after.lat)[2]
         assert via - SPHERE.inv(before.lon, before.lat, after.lon, after.lat)[2] < 0.01
         assert it.alt == before.alt == after.alt
-        # it is on the photo run: the camera was switched on before it and off after it
-        on = [i for i in range(k) if items[i].command == 206 and items[i].params[0] > 0]
-        off = [i for i in range(k) if items[i].command == 206 and items[i].params[0] == 0]
-        assert len(on) == len(off) + 1
-    photos_ap, photos_px4 = replay(ardupilot / "mission.waypoints"), replay(px4 / "mission.waypoints")
-    assert len(photos_px4) == len(photos_ap) == len(json.loads((px4 / "manifest.json").read_text())["stations"])
-    for a, b in zip(photos_ap, photos_px4):
+    photos_uncut, photos_cut = replay(long_lines["px4-uncut"] / "mission.waypoints"), replay(long_lines["px4-40m"] / "mission.waypoints")
+    assert len(photos_cut) == len(photos_uncut) > 0
+    # a cut waypoint lies on its leg to 1e-8 degrees: a trigger check may then fall one step
+    # (10 m/s at 50 Hz: 0.2 m) later or sooner, never a photo more or less
+    for a, b in zip(photos_uncut, photos_cut):
         assert a.block == b.block
-        assert haversine(a.lat, a.lon, b.lat, b.lon) < 0.05
-    assert home.lat == parse_wpl((ardupilot / "mission.waypoints").read_text())[0].lat
+        assert haversine(a.lat, a.lon, b.lat, b.lon) < 0.21
+    assert home.lat == parse_wpl((long_lines["px4-uncut"] / "mission.waypoints").read_text())[0].lat
 
 
-def test_a_lower_limit_from_the_spec_cuts_every_leg_within_it(tmp_path):
-    out = tmp_path / "out"
-    plan(make_spec(tmp_path, {"vehicle": {"firmware": "px4", "max_leg_m": 300.0}, "flight": {"heading": 0.0}},
-                   area=LONG_AREA), out)
-    legs = px4_legs(out / "mission.waypoints")
-    assert max(d for *_, d in legs) <= 300.0 and max(d for *_, d in legs) > 250.0
+def _offsets(plan_dir: Path, update_hz: float) -> list[float]:
+    """Each replayed photo's distance from its station (in order); as many photos as stations."""
+    stations = json.loads((plan_dir / "manifest.json").read_text())["stations"]
+    photos = replay(plan_dir / "mission.waypoints", update_hz)
+    assert len(photos) == len(stations)
+    return [haversine(p.lat, p.lon, s["lat"], s["lon"]) for p, s in zip(photos, stations)]
+
+
+def test_px4_checking_its_distance_every_50_ms_keeps_every_photo_on_its_station(long_lines):
+    """PX4's trigger replayed on its mission (a check every 50 ms): the restarts at every second
+    station keep each of the 53 photos of a 1.3 km line within two check steps (1 m at 10 m/s) of
+    its station: the photo between two restarts comes at the commanded distance, the base and a
+    step, or up to a step later. The ArduPilot mission, whose stations are laid for 50 Hz, drifts by
+    more than 5 m along the same lines when checked every 50 ms, as PX4 would."""
+    assert max(_offsets(long_lines["px4"], 20.0)) <= 1.0 + 0.01
+    assert max(_offsets(long_lines["ardupilot"], 50.0)) <= 0.2  # within a 50 Hz check step
+    assert max(_offsets(long_lines["ardupilot"], 20.0)) > 5.0
+
+
+def test_a_lower_limit_from_the_spec_cuts_every_leg_within_it(long_lines):
+    legs = px4_legs(long_lines["px4-40m"] / "mission.waypoints")
+    assert max(d for *_, d in legs) <= 40.0 and max(d for *_, d in legs) > 30.0
 
 
 @pytest.mark.parametrize("name,longest", [("obratan-72ha", 1499.0), ("road-corridor", 2516.0)])

@@ -74,7 +74,7 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, firmware: str | None,
             raise harness.SitlError(f"sortie {bad[0]} was not cut: it took {results[0]['triggers_flown']} photos, "
                                     f"--rtl-after {rtl_after} asks for more (see {report_dir / 'sitl_report.txt'})")
         return
-    bad = [r["sortie"] for r in results if not r["completed"] or r["triggers_match"] is False]
+    bad = [r["sortie"] for r in results if not r["completed"] or r["triggers_match"] is False or r.get("aim_ok") is False]
     if bad:
         raise harness.SitlError(f"sorties that did not fly as planned: {', '.join(bad)} (see {report_dir / 'sitl_report.txt'})")
 

@@ -33,6 +33,7 @@ class SortieRoute:
     stations: tuple[tuple[float, float], ...]  # (lat, lon) in flight order
     runs: tuple[tuple[int, int], ...]  # (first, last) index within `stations`, per photo run
     estimated_s: float
+    pitches: tuple[float, ...] = ()  # each station's planned camera pitch (-90 = nadir), in flight order
 
 
 def _runs(run_of: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
@@ -67,7 +68,8 @@ def sortie_routes(doc: Manifest, plan_dir: Path, resume_dir: Path | None = None)
             raise InputError(f"{str(plan_dir)!r}: {file} is missing (the manifest lists it); plan again with `aerosurvey plan`")
         if est is None:
             raise InputError(f"{doc.where}: sortie {name} has no time estimate; plan again with `aerosurvey plan`")
-        out.append(SortieRoute(name, path, tuple(zip(st.lat.tolist(), st.lon.tolist())), _runs(st.run), float(est)))
+        out.append(SortieRoute(name, path, tuple(zip(st.lat.tolist(), st.lon.tolist())), _runs(st.run), float(est),
+                               tuple(st.pitch_deg.tolist())))
     return out
 
 
@@ -85,8 +87,9 @@ class SitlSettings:
 
 def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
                 on_sortie: Callable[[dict[str, Any]], None] = lambda row: None,
-                resume_dir: Path | None = None) -> list[dict[str, Any]]:
-    """Upload, verify and fly every sortie in SITL (those of `resume_dir` when given); copy each
+                resume_dir: Path | None = None, only: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
+    """Upload, verify and fly every sortie in SITL (those of `resume_dir` when given; those named
+    in `only`, when given, in the plan's order); copy each
     flight log (ArduPilot's DataFlash, PX4's ULog) into `report_dir` and write sitl_report.json /
     .txt there. Returns one comparison row per sortie. With `settings.rtl_after_photos`, only the
     first sortie flies, switched to RTL after that photo (a flight cut short, for `aerosurvey
@@ -95,6 +98,12 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
 
     results = []
     routes = sortie_routes(doc, plan_dir, resume_dir)
+    if only is not None:
+        unknown = sorted(set(only) - {r.name for r in routes})
+        if unknown:
+            raise InputError(f"sorties {', '.join(unknown)}: not sorties of {str(plan_dir)!r} "
+                             f"(it has {', '.join(r.name for r in routes)})")
+        routes = [r for r in routes if r.name in only]
     for route in routes[:1] if settings.rtl_after_photos is not None else routes:
         mission = loads_plan(route.mission_file.read_text(encoding="utf-8"), str(route.mission_file))
         # SITL's working folder (its logs, eeprom, output): removed however the sortie ends
@@ -105,7 +114,10 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
         if settings.rtl_after_photos is not None:
             row["rtl_after_photos"] = settings.rtl_after_photos if flight.cut_ms is not None else None
         if mount:
-            row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else None
+            # the camera's pitch flown at each picture against its station's: the flight fails beyond the tolerance
+            row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else []
+            row["max_aim_error_deg"] = aim_error_deg(row["mount_pitch_deg"], route.pitches)
+            row["aim_ok"] = row["max_aim_error_deg"] is not None and row["max_aim_error_deg"] <= AIM_TOLERANCE_DEG
         if doc.camera.trigger == "camera":
             row["triggers_match"] = None  # the camera's own intervalometer is not simulated
         results.append(row)
@@ -136,7 +148,7 @@ def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings,
         harness.prepare(sv, mount)
 
         def upload(m: Mission) -> str:
-            with open_link("tcp:127.0.0.1:5762", 30.0) as link:
+            with open_link(sv.upload_url, 30.0) as link:
                 rep = upload_mission(link, m, Policy())
             return f"{rep.mission.items} items uploaded and verified"
 
@@ -219,7 +231,12 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     A servo mount has no attitude feedback: its MNT log message gives, as Roll/Pitch/YawB, the
     angles it drives its servos to, relative to the vehicle's body (seen in ArduCopter 4.7 SITL:
     MNT Pitch = the target -45° minus the vehicle's pitch). The camera's attitude is then the
-    vehicle's (the CAM message's R, P, Y at the picture) turned by those angles (both ZYX Euler).
+    vehicle's (the CAM message's R, P, Y at the picture: ZYX Euler, yaw-pitch-roll) turned by
+    the servos in the mount's own order: pan, then roll, then tilt (yaw-roll-pitch). That is the
+    chain AP_Mount_Servo::update_angle_outputs drives: the pan servo takes the yaw relative to
+    the body, and the vehicle's lean, turned into the panned frame (rotated by minus the pan),
+    comes off the roll and tilt servos. Turned in yaw-pitch-roll order instead, a camera panned
+    90° and held 45° down while the vehicle leans 20° forward would read -41.6°.
     """
     import numpy as np
 
@@ -233,21 +250,34 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
         return [None] * len(cam["TimeUS"])
     at = np.searchsorted(mnt["TimeUS"], cam["TimeUS"], side="right") - 1
     k = np.maximum(at, 0)
-    body = _zyx(cam["R"], cam["P"], cam["Y"])
-    mount = _zyx(mnt["Roll"][k], mnt["Pitch"][k], mnt["YawB"][k])
-    camera = body @ mount
+    body = _turn("z", cam["Y"]) @ _turn("y", cam["P"]) @ _turn("x", cam["R"])
+    camera = body @ _turn("z", mnt["YawB"][k]) @ _turn("x", mnt["Roll"][k]) @ _turn("y", mnt["Pitch"][k])
+    # the elevation of the camera's x axis, its line of sight (gimbal convention: pitch about y)
     pitch = np.degrees(np.arcsin(np.clip(-camera[:, 2, 0], -1.0, 1.0)))
     return [round(float(p), 2) if a >= 0 else None for p, a in zip(pitch, at)]
 
 
-def _zyx(roll: Any, pitch: Any, yaw: Any) -> Any:
-    """Rotation matrices (n, 3, 3) of ZYX Euler angles in degrees (yaw, then pitch, then roll)."""
+#: the flown camera pitch may differ from the planned by this much (degrees) before the flight fails
+AIM_TOLERANCE_DEG = 2.0
+
+
+def aim_error_deg(flown: list[float | None], planned: tuple[float, ...]) -> float | None:
+    """The largest difference between the camera pitch flown at each picture and its station's
+    planned pitch (in order); None when a picture has no mount reading (its aim is not known) or
+    there are none."""
+    n = min(len(flown), len(planned))
+    if n == 0 or any(p is None for p in flown[:n]):
+        return None
+    return round(max(abs(float(f) - p) for f, p in zip(flown[:n], planned[:n]) if f is not None), 2)
+
+
+def _turn(axis: str, deg: Any) -> Any:
+    """Rotation matrices (n, 3, 3) about one body axis ("x", "y" or "z") by angles in degrees."""
     import numpy as np
 
-    r, p, y = (np.radians(np.asarray(v, dtype=np.float64)) for v in (roll, pitch, yaw))
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.stack([
-        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
-        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
-        np.stack([-sp, cp * sr, cp * cr], -1),
-    ], -2)
+    a = np.radians(np.asarray(deg, dtype=np.float64))
+    c, s, o, i = np.cos(a), np.sin(a), np.zeros_like(a), np.ones_like(a)
+    rows = {"x": [[i, o, o], [o, c, -s], [o, s, c]],
+            "y": [[c, o, s], [o, i, o], [-s, o, c]],
+            "z": [[c, -s, o], [s, c, o], [o, o, i]]}[axis]
+    return np.stack([np.stack(r, -1) for r in rows], -2)

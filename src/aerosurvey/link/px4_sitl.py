@@ -20,7 +20,6 @@ upload's checks and then MAVSDK open one after the other), through aerosurvey's 
 
 from __future__ import annotations
 
-import errno
 import fcntl
 import os
 import shutil
@@ -30,7 +29,7 @@ from pathlib import Path
 
 from aerosurvey.errors import InputError
 from aerosurvey.link.connection import LinkError, MavLink, connect
-from aerosurvey.link.sitl import SitlError, SitlVehicle, survey_params
+from aerosurvey.link.sitl import SitlError, SitlVehicle, port_free, survey_params
 
 SITL_DIR = Path(__file__).resolve().parents[3] / "sitl"
 PARAMS_FILE = SITL_DIR / "aerosurvey-px4.params"
@@ -82,17 +81,6 @@ def romfs(binary: Path) -> Path:
     return etc
 
 
-def _udp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError as exc:
-            if exc.errno == errno.EADDRINUSE:
-                return False
-            raise
-    return True
-
-
 def _lock_free(instance: int) -> bool:
     """True when no PX4 holds /tmp/px4_lock-N (PX4 keeps a write lock on it while it runs)."""
     path = Path(f"/tmp/px4_lock-{instance}")
@@ -111,7 +99,7 @@ def free_instance() -> int:
     """The lowest PX4 SITL instance whose lock file and ports no one holds."""
     for n in range(MAX_INSTANCE + 1):
         ports = (GCS_PORT + n, API_PORT + n, API_REMOTE_PORT + n, *(p + n for p in OTHER_PORTS))
-        if _lock_free(n) and all(_udp_free(p) for p in ports):
+        if _lock_free(n) and all(port_free(p, socket.SOCK_DGRAM) for p in ports):
             return n
     raise SitlError(f"no free PX4 SITL instance: instances 0 to {MAX_INSTANCE} are all in use (their /tmp/px4_lock-N "
                     f"or udp ports {GCS_PORT}+N, {API_PORT}+N, {API_REMOTE_PORT}+N are held)")

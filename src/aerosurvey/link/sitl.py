@@ -5,16 +5,22 @@ AEROSURVEY_SITL_BIN, or `arducopter`/`arduplane` on PATH). It starts it in an em
 working folder on loopback, sets the parameters a survey needs (a servo camera so that
 pictures are logged, AUTO_OPTIONS so a copter arms in AUTO, simulation-friendly
 failsafes), reboots it as ArduPilot's own autotest does for the camera backend, uploads
-and verifies each sortie with aerosurvey's link layer (SERIAL1, tcp 5762), flies it on
-SERIAL0 (tcp 5760), records camera feedback and the track, waits for the landing, copies
-the DataFlash log, and stops every process it started.
+and verifies each sortie with aerosurvey's link layer (SERIAL1), flies it on SERIAL0,
+records camera feedback and the track, waits for the landing, copies the DataFlash log, and
+stops every process it started.
+
+Instance N of ArduPilot SITL (-I N) listens on tcp 5760+10N (SERIAL0), 5762+10N (SERIAL1) and
+5763+10N (SERIAL2) (ArduPilot's SITL_cmdline: base port 5760 + 10 × instance). The harness
+takes the lowest N whose ports no one listens on, so several SITL flights can run side by side.
 """
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import shutil
+import socket
 import subprocess
 import time
 from collections.abc import Callable
@@ -30,6 +36,11 @@ COPTER_MODES = {"AUTO": 3, "RTL": 6, "LAND": 9}
 PLANE_MODES = {"MANUAL": 0, "AUTO": 10, "RTL": 11}
 #: lines of SITL's own output an error quotes
 OUTPUT_LINES = 5
+#: ArduPilot SITL's tcp ports for instance N are these plus 10 N: SERIAL0 (the harness flies on
+#: it), SERIAL1 (uploads), SERIAL2
+SERIAL0_PORT, SERIAL1_PORT, SERIAL2_PORT = 5760, 5762, 5763
+#: the instances the harness tries (0 to 9: ports 5760 to 5853)
+MAX_INSTANCE = 9
 
 
 class SitlError(CheckFailed):
@@ -53,6 +64,31 @@ def find_binary(vehicle: str, explicit: str | None) -> Path:
         raise InputError(f"no ArduPilot SITL binary: give --sitl-bin, set AEROSURVEY_SITL_BIN, or put {name} on PATH "
                          "(see sitl/README.md)")
     return Path(found)
+
+
+def port_free(port: int, kind: int = socket.SOCK_STREAM) -> bool:
+    """True when nothing holds `port` of the loopback: for tcp (`kind` SOCK_STREAM) nothing
+    listens there (a closed connection still waiting out its TIME_WAIT does not count: SITL
+    reuses the address, as this check does), for udp (SOCK_DGRAM) nothing is bound there."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        if kind == socket.SOCK_STREAM:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                return False
+            raise
+    return True
+
+
+def free_instance() -> int:
+    """The lowest ArduPilot SITL instance N whose tcp ports (5760+10N, 5762+10N, 5763+10N) are free."""
+    for n in range(MAX_INSTANCE + 1):
+        if all(port_free(p + 10 * n) for p in (SERIAL0_PORT, SERIAL1_PORT, SERIAL2_PORT)):
+            return n
+    raise SitlError(f"no free ArduPilot SITL instance: instances 0 to {MAX_INSTANCE} are all in use (tcp ports "
+                    f"{SERIAL0_PORT}+10N, {SERIAL1_PORT}+10N or {SERIAL2_PORT}+10N are held)")
 
 
 def default_params(vehicle: str) -> tuple[Path, ...]:
@@ -97,6 +133,7 @@ class SitlVehicle:
         self.proc: subprocess.Popen[bytes] | None = None
         self.conn: Any = None
         self.log: IO[bytes] | None = None
+        self.instance = -1  # the SITL instance (-I N), chosen at start
 
     def error(self, message: str) -> SitlError:
         """A SitlError that quotes the last lines SITL printed (where it says why it failed)."""
@@ -107,12 +144,19 @@ class SitlVehicle:
         said = " | ".join(lines[-OUTPUT_LINES:]) if lines else "nothing"
         return SitlError(f"{message}; SITL's last output: {said}")
 
+    @property
+    def upload_url(self) -> str:
+        """SERIAL1 of this instance, where the harness uploads."""
+        return f"tcp:127.0.0.1:{SERIAL1_PORT + 10 * self.instance}"
+
     def start(self) -> None:
         from pymavlink import mavutil
 
         lat, lon, alt = self.home
         model = "plane" if self.vehicle == "plane" else "quad"
-        cmd = [str(self.binary), "--model", model, "--speedup", f"{self.speedup:g}", "-I0",
+        self.instance = free_instance()
+        url = f"tcp:127.0.0.1:{SERIAL0_PORT + 10 * self.instance}"
+        cmd = [str(self.binary), "--model", model, "--speedup", f"{self.speedup:g}", f"-I{self.instance}",
                "--home", f"{lat:.8f},{lon:.8f},{alt:.2f},0"]
         if self.defaults:
             cmd += ["--defaults", ",".join(str(p) for p in self.defaults)]
@@ -122,14 +166,13 @@ class SitlVehicle:
         while time.monotonic() < deadline:
             self.check_running("at start")
             try:
-                self.conn = mavutil.mavlink_connection("tcp:127.0.0.1:5760", source_system=255, retries=0,
-                                                       autoreconnect=True)
+                self.conn = mavutil.mavlink_connection(url, source_system=255, retries=0, autoreconnect=True)
                 break
             except OSError as exc:
                 last_exc = exc
                 time.sleep(0.5)
         else:
-            raise self.error(f"SITL ({self.binary.name}) did not listen on tcp:127.0.0.1:5760 within "
+            raise self.error(f"SITL ({self.binary.name}) did not listen on {url} within "
                              f"{self.boot_timeout:g} s ({last_exc})")
         if self.conn.wait_heartbeat(timeout=max(0.1, deadline - time.monotonic())) is None:
             self.check_running("at start")

@@ -27,6 +27,11 @@ The program's other actions (MAVLink common.xml for the parameters):
   ArduPilot starts the DO command when the hold ends, as the vehicle turns to the next
   waypoint; PX4 runs it as the next item after the hold.
 
+PX4 by distance: the program's `CameraRestart` at every second station of a run (a
+waypoint there, then DO_SET_CAM_TRIGG_DIST with the distance and 'trigger once now', as at
+the line start): PX4 checks its distance every 50 ms, and the restart keeps its photos on
+their stations along lines of any length (mission/program.py).
+
 Dialects: ArduCopter (takeoff, optional CONDITION_YAW for one fixed heading, RTL or LAND
 at the launch point), ArduPlane (takeoff with 15° pitch, then RTL, or DO_LAND_START, an
 approach waypoint and NAV_LAND flown into the wind), PX4 (the same items except
@@ -48,6 +53,7 @@ from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 from aerosurvey.mission.legs import leg_cuts
 from aerosurvey.mission.program import (
+    CameraRestart,
     CameraStart,
     CameraStop,
     FlightProgram,
@@ -103,7 +109,9 @@ def _shoot(p: FlightProgram, sequence: int, tag: str) -> MissionItem:
     return MissionItem(mav.DO_DIGICAM_CONTROL, mav.FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, tag=tag)
 
 
-def _camera(a: CameraStart | CameraStop, tag: str) -> MissionItem:
+def _camera(a: CameraStart | CameraStop | CameraRestart, tag: str) -> MissionItem:
+    if isinstance(a, CameraRestart):
+        return MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, a.distance_m, 0.0, 1.0, tag=tag)
     if isinstance(a, CameraStart):
         if a.distance_m is not None:
             return MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, a.distance_m, 0.0, 1.0, tag=tag)
@@ -182,7 +190,8 @@ def mavlink_mission(p: FlightProgram) -> Mission:
                 shots += 1
                 items.append(_shoot(p, shots, f"{w.tag}:photo"))
             else:
-                items.append(_camera(a, f"{rid}:camera-{'on' if isinstance(a, CameraStart) else 'off'}"))
+                what = "restart" if isinstance(a, CameraRestart) else "on" if isinstance(a, CameraStart) else "off"
+                items.append(_camera(a, f"{rid}:camera-{what}"))
     end = _end(p)
     # the leg to the end's first place (none after RTL; a plane's approach leg to NAV_LAND is not cut)
     first = next((it for it in end if it.has_position), None)

@@ -34,9 +34,19 @@ Actions, done in their order when the vehicle reaches their waypoint:
   the camera's own intervalometer, "camera", has none).
 - `HoverShoot`: camera.trigger "hover": stop at the station, hold `hold_s` seconds
   (camera.settle_s), take one photo. Every station of a run is then a waypoint.
+- `CameraRestart` (PX4, camera.trigger "distance"): the distance trigger started again at a
+  station, with a photo at once, at every `PX4_RESTART_EVERY`-th station of a run (those
+  stations are then waypoints). PX4's camera_trigger (src/drivers/camera_trigger,
+  v1.16) checks the distance every 50 ms, ArduPilot at 50 Hz: the stations are laid for
+  ArduPilot's check steps, and PX4's coarser ones give photos up to a step (0.5 m at 10 m/s)
+  farther apart than commanded, so its photos would fall farther behind their stations with
+  every photo of a long line (0.18 m a photo in SITL: the last of a 60-photo line not taken).
+  Started again at a station, the trigger counts from that photo: the error cannot add up.
+  Between two restarts PX4 triggers by distance at `px4_trigger_distance`, a little more than
+  the photo base, so its own photo never comes before the restart's.
 
 Waypoint kinds are the route's (lead_in, line_start, terrain, bend, line_end, transit,
-detour) and "station" for a hover station between them. A "bend" is a corner of a strip:
+detour) and "station" for a hover (or PX4 restart) station between them. A "bend" is a corner of a strip:
 the camera stays on through it, as through a "terrain" waypoint.
 """
 
@@ -56,6 +66,12 @@ from aerosurvey.plan.photogrammetry import ardupilot_distance_m
 
 #: waypoint kinds on a photo run between its first station and its line end (the camera is on)
 ON_LINE = ("line_start", "terrain", "bend", "station", "line_end")
+#: waypoint kinds that can sit on a station (and shoot there)
+AT_STATION = ("line_start", "terrain", "bend", "station")
+#: PX4's camera_trigger checks its distance every 50 ms (Run's poll_interval_usec; v1.16)
+PX4_TRIGGER_CHECK_S = 0.05
+#: PX4 starts its distance trigger again at every this-many-th station of a run (measured in SITL: sitl/README.md)
+PX4_RESTART_EVERY = 2
 
 
 @dataclass(frozen=True)
@@ -99,7 +115,12 @@ class HoverShoot:
     hold_s: float  # held still before the one photo
 
 
-Action = Gimbal | Roi | RoiEnd | CameraStart | CameraStop | HoverShoot
+@dataclass(frozen=True)
+class CameraRestart:
+    distance_m: float  # PX4: the distance trigger started again here, a photo at once
+
+
+Action = Gimbal | Roi | RoiEnd | CameraStart | CameraStop | HoverShoot | CameraRestart
 
 
 @dataclass(frozen=True)
@@ -239,12 +260,24 @@ def _tag(plan: Plan, w: RouteWaypoint) -> str:
     return f"{run_id(plan, w.run)}:{what}"
 
 
+def px4_trigger_distance(base_m: float, speed_ms: float) -> float:
+    """The distance PX4's trigger is commanded between two restarts (`CameraRestart`): the photo
+    base and two of its check steps spread over the photos between restarts. Its photos then
+    come at least that far apart, and the restart at the next station (reached within PX4's
+    reach-and-check delays, under two check steps) comes before PX4's own photo there."""
+    return round(base_m + 2.0 * speed_ms * PX4_TRIGGER_CHECK_S / PX4_RESTART_EVERY, 2)
+
+
 def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: int, last: int) -> tuple[Waypoint, ...]:
-    """The route's waypoints with their actions (hover: every station of the sortie's runs too)."""
+    """The route's waypoints with their actions (hover: every station of the sortie's runs too;
+    PX4 by distance: every `PX4_RESTART_EVERY`-th)."""
     st = plan.stations
     hover = plan.camera.trigger == "hover"
-    if hover:
-        wps = _with_hover_stations(plan, wps, first, last)
+    restart = plan.vehicle.firmware == "px4" and plan.camera.trigger == "distance"
+    every = 1 if hover else PX4_RESTART_EVERY if restart else 0
+    at: set[str] = set()
+    if every:
+        wps, at = _with_stations(plan, wps, first, last, every)
     start, stop = _camera_actions(plan)
     yaw_fixed = plan.launch.fixed_yaw_deg
     # the mount's state at take-off: straight down in a nadir-only plan, else not known
@@ -284,10 +317,13 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
                                                                          and want.yaw_deg != gimbal.yaw_deg):
                 actions.append(want)
             gimbal = want
-        if hover and w.station and w.kind in ("line_start", "terrain", "bend", "station"):
+        if hover and w.station in at and w.kind in AT_STATION:
             actions.append(HoverShoot(plan.camera.settle_s))
         elif w.kind == "line_start" and start is not None:
             actions.append(start)
+        elif restart and w.station in at and w.kind in AT_STATION and isinstance(start, CameraStart):
+            assert start.distance_m is not None
+            actions.append(CameraRestart(start.distance_m))
         elif w.kind == "line_end" and stop is not None:
             actions.append(stop)
         if w.kind == "line_end" and aim is not None and aim.point is not None:
@@ -302,7 +338,10 @@ def _camera_actions(plan: Plan) -> tuple[CameraStart | None, CameraStop | None]:
     trig = plan.camera.trigger
     if trig == "distance":
         assert plan.sensor.trigger_distance_m is not None
-        return CameraStart(plan.sensor.trigger_distance_m, None), CameraStop(distance=True)
+        distance = plan.sensor.trigger_distance_m
+        if plan.vehicle.firmware == "px4":
+            distance = px4_trigger_distance(plan.sensor.base_m, plan.sensor.speed.speed_ms)
+        return CameraStart(distance, None), CameraStop(distance=True)
     if trig == "time":
         assert plan.sensor.trigger_interval_s is not None
         return CameraStart(None, plan.sensor.trigger_interval_s), CameraStop(distance=False)
@@ -315,11 +354,14 @@ def _station_waypoint(plan: Plan, n: int) -> RouteWaypoint:
                          "station", int(st.run[n]), st.ids[n])
 
 
-def _with_hover_stations(plan: Plan, wps: tuple[RouteWaypoint, ...], first: int, last: int) -> tuple[RouteWaypoint, ...]:
-    """The route with every station of the flight (stations first..last) on its run's line, in the
-    order they lie along it: a waypoint already on a station stays (and shoots there), the
-    others ("station") are inserted between the line's waypoints."""
+def _with_stations(plan: Plan, wps: tuple[RouteWaypoint, ...], first: int, last: int,
+                   every: int) -> tuple[tuple[RouteWaypoint, ...], set[str]]:
+    """The route with every `every`-th station of each run of the flight (stations first..last,
+    counted from the run's first station in it) on its run's line, in the order they lie along
+    it: a waypoint already on such a station stays (and shoots there), the others ("station")
+    are inserted between the line's waypoints; and the ids of those stations."""
     st = plan.stations
+    at: set[str] = set()
     out: list[RouteWaypoint] = []
     i = 0
     while i < len(wps):
@@ -334,7 +376,8 @@ def _with_hover_stations(plan: Plan, wps: tuple[RouteWaypoint, ...], first: int,
         line = list(wps[i:j])
         on_line = {p.station for p in line if p.station}
         k = np.flatnonzero(st.run == w.run)
-        k = k[(k >= first) & (k <= last)]
+        k = k[(k >= first) & (k <= last)][::every]
+        at.update(st.ids[n] for n in k)
         extra = [int(n) for n in k if st.ids[n] not in on_line]
         if len(line) > 1 and extra:
             path = shapely.LineString([(p.x, p.y) for p in line])
@@ -348,4 +391,4 @@ def _with_hover_stations(plan: Plan, wps: tuple[RouteWaypoint, ...], first: int,
         else:
             out.extend(line)
         i = j
-    return tuple(out)
+    return tuple(out), at

@@ -65,8 +65,8 @@ PAYLOAD_POSITION = 0
 
 
 def _groups(p: FlightProgram) -> int:
-    """Action groups the waylines hold: the first waypoint's gimbal, and one per program action but camera stops."""
-    return 1 + sum(not isinstance(a, CameraStop) for w in p.waypoints for a in w.actions)
+    """Action groups the waylines hold: the first waypoint's gimbal, and one per gimbal, hover shot and camera start."""
+    return 1 + sum(isinstance(a, (Gimbal, HoverShoot, CameraStart)) for w in p.waypoints for a in w.actions)
 
 
 def refusal(p: FlightProgram) -> str | None:
