@@ -17,10 +17,11 @@ import shapely
 
 from aerosurvey.area import read_area, transformer
 from aerosurvey.errors import InputError
-from aerosurvey.plan.inputs import DemGrid, PlanInputs
+from aerosurvey.plan.inputs import DemGrid, DemReader, PlanInputs
 from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
+    import rasterio.windows
     from shapely.geometry.base import BaseGeometry
 
     from aerosurvey.airspace.model import Airspace, Geozone
@@ -100,7 +101,8 @@ def plan_from_files(spec: MissionSpec, progress: Progress | None = None) -> Plan
 
 
 def read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) -> DemGrid:
-    """The DEM cells within `reach_m` of a geometry (WGS84), NaN for nodata, as a DemGrid."""
+    """The DEM window within `reach_m` of a geometry (WGS84) as a DemGrid whose cells are read when the planner needs
+    them (NaN for nodata); only the file's header is read here."""
     import rasterio
     import rasterio.errors
     import rasterio.windows
@@ -134,11 +136,33 @@ def read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) 
                 f"terrain.dem {path.name!r} does not cover the area: the DEM spans x {b.left:.1f}..{b.right:.1f}, "
                 f"y {b.bottom:.1f}..{b.top:.1f} in its CRS, the area x {left:.1f}..{right:.1f}, y {bottom:.1f}..{top:.1f}"
             ) from None
-        data = ds.read(1, window=win, masked=True).astype(np.float64).filled(np.nan)
         wt = ds.window_transform(win)
         b = ds.bounds
         return DemGrid(
-            name=path.name, heights=data, transform=(wt.a, wt.b, wt.c, wt.d, wt.e, wt.f), crs_wkt=crs_wkt,
+            name=path.name, shape=(int(win.height), int(win.width)), read=_window_reader(path, win),
+            transform=(wt.a, wt.b, wt.c, wt.d, wt.e, wt.f), crs_wkt=crs_wkt,
             offset=(int(win.col_off), int(win.row_off)), full_shape=(ds.height, ds.width),
             full_bounds=(b.left, b.bottom, b.right, b.top),
         )
+
+
+def _window_reader(path: Path, win: rasterio.windows.Window) -> DemReader:
+    """Windowed reads of `path` within `win`: the file is opened for each read and closed after it (GDAL's block cache
+    of a closed file is freed), so memory holds only what the planner keeps."""
+    import rasterio
+    import rasterio.errors
+    import rasterio.windows
+
+    col0, row0 = int(win.col_off), int(win.row_off)
+
+    def read(row: int, col: int, rows: int, cols: int) -> np.ndarray:
+        window = rasterio.windows.Window(col0 + col, row0 + row, cols, rows)
+        try:
+            with rasterio.open(path) as ds:
+                cells: np.ndarray = ds.read(1, window=window, out_dtype="float32")
+                cells[ds.read_masks(1, window=window) == 0] = np.nan  # nodata, or outside the file's own mask
+        except rasterio.errors.RasterioIOError as exc:
+            raise InputError(f"terrain.dem: {str(path)!r} cannot be read: {exc}") from None
+        return cells
+
+    return read
