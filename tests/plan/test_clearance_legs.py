@@ -31,11 +31,12 @@ def _flat() -> TestDem:
     return TestDem(np.full((SIZE, SIZE), GROUND), WEST, NORTH, CELL)
 
 
-def _spec(tmp: Path, dem: TestDem, vehicle: str, mode: str) -> Path:
+def _spec(tmp: Path, dem: TestDem, vehicle: str, mode: str, battery_min: float | None = None) -> Path:
     dem.write(tmp / "dem.tif")
     speed = 10.0 if vehicle == "copter" else 18.0
+    battery = {"battery": {"usable_min": battery_min}} if battery_min else {}
     return make_spec(tmp, {"terrain": {"dem": "dem.tif", "mode": mode, "min_clearance_m": 20.0},
-                           "vehicle": {"type": vehicle, "cruise_speed_ms": speed}})
+                           "vehicle": {"type": vehicle, "cruise_speed_ms": speed}, **battery})
 
 
 def _legs(plan):
@@ -57,9 +58,12 @@ def _refusal(plan, spec: Path, out: Path) -> list[dict[str, str]]:
     return [m.groupdict() for m in REFUSAL.finditer(str(e.value))]
 
 
-def test_a_ridge_between_two_stations_of_a_line_is_refused_naming_the_leg(tmp_path: Path) -> None:
+@pytest.mark.parametrize("battery_min", [None, 8.0])
+def test_a_ridge_between_two_stations_of_a_line_is_refused_naming_the_leg(tmp_path: Path, battery_min: float | None) -> None:
+    """Without a battery the one flight (mission) is named; with one, the whole mission and the sortie that flies the
+    line, each with its own leg."""
     flat = _flat()
-    plan = plan_from_files(load_spec(_spec(tmp_path, flat, "copter", "follow")))
+    plan = plan_from_files(load_spec(_spec(tmp_path, flat, "copter", "follow", battery_min)))
     legs = _legs(plan)
     # the longest leg along a line, and the middle of two of its stations
     i = max((j for j, leg in enumerate(legs) if re.search(r"-S\d+$", leg.leg.what)),
@@ -77,7 +81,7 @@ def test_a_ridge_between_two_stations_of_a_line_is_refused_naming_the_leg(tmp_pa
     ridge.heights[row, col] = GROUND + 200.0  # one cell: a mast, or the narrowest ridge the DEM can hold
     tmp2 = tmp_path / "ridge"
     tmp2.mkdir()
-    spec = _spec(tmp2, ridge, "copter", "follow")
+    spec = _spec(tmp2, ridge, "copter", "follow", battery_min)
     plan2 = plan_from_files(load_spec(spec))
     # the same stations and heights: the photo stations lie a cell and more from the ridge
     assert np.array_equal(plan2.stations.x, st.x) and np.array_equal(plan2.stations.alt_rel_m, st.alt_rel_m)
@@ -88,9 +92,18 @@ def test_a_ridge_between_two_stations_of_a_line_is_refused_naming_the_leg(tmp_pa
     lowest = ridge.lowest_on(path, np.array([flown, flown]))
     assert lowest < 20.0
     found = _refusal(plan2, spec, tmp2 / "out")
-    assert len(found) == 1
+    assert len(found) == (1 if battery_min is None else 2)
     f = found[0]
     assert (f["flight"], int(f["seq"]), f["what"]) == ("mission", leg.seq, leg.what)
+    if battery_min is not None:
+        assert len(plan2.sorties) > 1
+        s = found[1]
+        programs = mission_programs(plan2)
+        assert s["flight"] != "mission" and s["flight"] in programs
+        sortie_legs = flight_legs(programs[s["flight"]], s["flight"], plan2.site.planar, 0.0, plan2.site.grid_scale)
+        named = sortie_legs[[j for j, x in enumerate(sortie_legs) if x.leg.seq == int(s["seq"])][0]].leg
+        assert named.what == leg.what and np.allclose(named.end, leg.end)
+        assert (s["clear"], s["terrain"]) == (f["clear"], f["terrain"])
     assert float(f["clear"]) == pytest.approx(lowest, abs=0.06)
     assert float(f["flown"]) == pytest.approx(flown, abs=0.06)
     assert float(f["terrain"]) == pytest.approx(flown - lowest, abs=0.06)
@@ -156,3 +169,17 @@ def test_the_lowest_clearance_of_each_flight_is_recorded(tmp_path: Path, vehicle
     assert low["clearance_m"] == pytest.approx(lowest_flown, abs=0.01)
     [rule] = [r for r in m["rules"] if r["rule"] == "terrain-clearance"]
     assert rule["status"] == "pass" and rule["profile"] == "plan"
+
+
+def test_a_dem_gone_before_it_is_read_is_a_one_line_error(tmp_path: Path) -> None:
+    """The loader reads the DEM's header; the planner reads its cells later, and names the file when they are gone."""
+    from aerosurvey.errors import InputError
+    from aerosurvey.inputs import load_inputs
+    from aerosurvey.plan.planner import plan_mission
+
+    spec = load_spec(_spec(tmp_path, _flat(), "copter", "follow"))
+    inputs = load_inputs(spec)
+    (tmp_path / "dem.tif").unlink()
+    with pytest.raises(InputError, match=r"^terrain.dem: '.*dem.tif' cannot be read: ") as e:
+        plan_mission(spec, inputs)
+    assert "\n" not in str(e.value)
