@@ -16,7 +16,7 @@ plan, so a flat plan of the same spacing is measured too.
 
 Clearance: plan_bench's 10,000 ha (100 km2) area over a synthetic DEM of `--cell` metres, planned in this process,
 then `terrain_clearance` on its flight (the whole mission: one launch point cannot split 100 km2 into sorties) timed from a
-fresh DEM (its tiles read from the file, as the plan's last step reads them) and again with the tiles the first run
+fresh Dem (no tile unpacked yet, as the plan's last step meets it) and again with the tiles the first run
 left in its cache: wall and CPU seconds, the legs' length and the DEM cells under it.
 """
 
@@ -221,7 +221,7 @@ def main() -> None:
         print("peak RSS of `aerosurvey plan` on 1,000 ha (terrain mode follow), fresh process each")
         _print(memory())
     if a.clearance or both:
-        print("\nclearance along every leg of every flight on 100 km2 (cold: tiles read from the file; warm: cached)")
+        print("\nclearance along every leg of every flight on 100 km2 (cold: no tile unpacked yet; warm: the cache the first run left)")
         _print([clearance(a.cell)])
 
 

@@ -19,12 +19,12 @@ them (the start converted into that frame where the two differ):
 The ground is the DEM's bilinear surface between cell centres (`Dem.sample`), and the lowest
 clearance along a leg is found exactly on it (`Dem.lowest_along`), at the DEM's own resolution.
 
-A RTL leg holds the lowest of the heights RTL may fly at. A plane's turn from a line's end to
-the next line's lead-in is flown as the circular arc that leaves the line's end along the line
-and passes the lead-in (a semicircle for a U-turn), checked chord by chord. Where a leg to or
-from the ground (take-off, climb-out, landing glide, descents) is less than the minimum
-clearance above the launch point, it is the take-off or the landing itself: that part is not
-checked (the ground there is the launch point's).
+A RTL leg holds the lowest of the heights RTL may fly at. A plane turns at its turn radius from
+each waypoint towards the next, then flies straight to it (when the next lies inside that
+circle, the arc through it), checked chord by chord. The legs to and from the ground (a plane's
+take-off climb and landing glide) must stay above the terrain; the minimum clearance holds for
+every other leg. A copter's vertical take-off and descents are not checked: they rise from and
+come down to the ground under them.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from aerosurvey.area import Planar
 from aerosurvey.mission.program import FlightProgram
 from aerosurvey.plan.terrain import Dem
 
-#: legs that leave or reach the ground: checked only where they are at least the minimum clearance above the launch point
+#: legs that leave or reach the ground: they must stay above the terrain (the minimum clearance holds for every other leg)
 GROUND_LEGS = ("takeoff", "climb-out", "land", "descent", "rtl-descent")
 #: heights are written to the centimetre: a clearance this far under the minimum is rounding
 TOLERANCE_M = 0.01
@@ -91,7 +91,8 @@ class ClearanceReport:
         if not self.below:
             return None
         more = f" (and {len(self.below) - NAMED} more leg(s))" if len(self.below) > NAMED else ""
-        return (f"terrain clearance under {self.min_clearance_m:g} m (terrain.min_clearance_m): "
+        return (f"terrain clearance under {self.min_clearance_m:g} m (terrain.min_clearance_m; under the terrain on a "
+                "take-off climb or a landing glide): "
                 + "; ".join(b.text() for b in self.below[:NAMED]) + more)
 
     def rule_record(self) -> dict[str, Any]:
@@ -137,7 +138,7 @@ def terrain_clearance(programs: Mapping[str, FlightProgram], dem: Dem, planar: P
         airborne = [w for w in per_leg if w.what not in GROUND_LEGS] or per_leg
         if airborne:
             lowest.append(min(airborne, key=lambda w: w.clearance_m))
-            below += [w for w in per_leg if w.clearance_m < min_clearance_m - TOLERANCE_M]
+            below += [w for w in per_leg if w.clearance_m < (0.0 if w.what in GROUND_LEGS else min_clearance_m) - TOLERANCE_M]
     return ClearanceReport(min_clearance_m, dem.name, tuple(lowest), tuple(below))
 
 
@@ -164,14 +165,14 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
             if d > 0:
                 prev_dir = np.array([x1 - x0, y1 - y0]) / d
         else:
-            t0, t1 = 0.0, 1.0
-            if leg3.leg.what in GROUND_LEGS:  # only where it is at least `m` above the launch point
-                t0, t1 = _at_least(a0, a1, m)
+            ground_leg = leg3.leg.what in GROUND_LEGS
+            if ground_leg and d == 0:
+                continue  # straight up from, or down to, the ground it stands on
+            need = 0.0 if ground_leg else m
             path = np.array([leg3.leg.start, leg3.leg.end], float)
-            if program.vehicle == "plane" and prev_dir is not None and d > 0 and leg3.leg.what not in GROUND_LEGS:
+            if program.vehicle == "plane" and prev_dir is not None and d > 0 and not ground_leg:
                 path = turn_path(path[0], path[1], prev_dir, turn_radius, ARC_SAGITTA_M * k)
-            if t1 >= t0:
-                _add(straight, i, path, k, home + a0 - m, home + a1 - m, t0, t1)
+            _add(straight, i, path, k, home + a0 - need, home + a1 - need)
             last = path[-1] - path[-2]
             if float(np.hypot(*last)) > 0:
                 prev_dir = last / float(np.hypot(*last))
@@ -187,7 +188,7 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
             i = straight.leg[j]
             if i not in out:
                 s = float(along[j, 0] + frac[j] * (along[j, 1] - along[j, 0]))
-                flown = float(margin[j] + ground[j] + m)
+                flown = float(margin[j] + ground[j] + (0.0 if legs[i].leg.what in GROUND_LEGS else m))
                 out[i] = _lowest(legs[i], s, float(lon[j]), float(lat[j]), float(ground[j]), flown)
     if level:
         xy = np.array(level_xy, float)
@@ -201,16 +202,6 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
 
 def _lowest(leg3: Leg3, along_m: float, lon: float, lat: float, ground: float, amsl: float) -> Lowest:
     return Lowest(leg3.leg.flight, leg3.leg.seq, leg3.leg.what, along_m, lon, lat, ground, amsl, amsl - ground)
-
-
-def _at_least(a0: float, a1: float, m: float) -> tuple[float, float]:
-    """The fractions of a leg from height a0 to a1 (straight) where it is at least m; t0 > t1 when nowhere."""
-    if a0 >= m and a1 >= m:
-        return 0.0, 1.0
-    if a0 < m and a1 < m:
-        return 1.0, 0.0
-    t = (m - a0) / (a1 - a0)
-    return (t, 1.0) if a1 > a0 else (0.0, t)
 
 
 def turn_path(p0: np.ndarray, p1: np.ndarray, direction: np.ndarray, radius: float, sagitta: float) -> np.ndarray:
@@ -242,26 +233,14 @@ def turn_path(p0: np.ndarray, p1: np.ndarray, direction: np.ndarray, radius: flo
     return np.vstack([arc, p1[None, :]]) if d > radius else np.vstack([arc[:-1], p1[None, :]])
 
 
-def _add(pieces: _Pieces, leg: int, path: np.ndarray, k: float, k0: float, k1: float, t0: float, t1: float) -> None:
-    """Leg `leg` flown through `path` (its heights running straight with the distance flown), between fractions t0 and
-    t1 of the distance, under a ceiling from k0 to k1, as straight pieces."""
-    if len(path) == 2:  # most legs: one piece
-        (x0, y0), (x1, y1) = path.tolist()
-        length = math.hypot(x1 - x0, y1 - y0) / k
-        pieces.a.append((x0 + t0 * (x1 - x0), y0 + t0 * (y1 - y0)))
-        pieces.b.append((x0 + t1 * (x1 - x0), y0 + t1 * (y1 - y0)))
-        pieces.ceiling.append((k0 + t0 * (k1 - k0), k0 + t1 * (k1 - k0)))
-        pieces.leg.append(leg)
-        pieces.along.append((t0 * length, t1 * length))
-        return
+def _add(pieces: _Pieces, leg: int, path: np.ndarray, k: float, k0: float, k1: float) -> None:
+    """Leg `leg` flown through `path` (its heights running straight with the distance flown) under a ceiling from k0
+    to k1, as straight pieces."""
     cum = np.r_[0.0, np.cumsum(np.hypot(*np.diff(path, axis=0).T))]
-    total = float(cum[-1])
-    f = np.unique(np.r_[t0, cum[1:-1][(cum[1:-1] > t0 * total) & (cum[1:-1] < t1 * total)] / total, t1])
-    x = np.interp(f * total, cum, path[:, 0])
-    y = np.interp(f * total, cum, path[:, 1])
-    for j in range(len(f) - 1):
-        pieces.a.append((float(x[j]), float(y[j])))
-        pieces.b.append((float(x[j + 1]), float(y[j + 1])))
+    f = cum / cum[-1] if cum[-1] > 0 else np.linspace(0.0, 1.0, len(path))
+    for j in range(len(path) - 1):
+        pieces.a.append((float(path[j, 0]), float(path[j, 1])))
+        pieces.b.append((float(path[j + 1, 0]), float(path[j + 1, 1])))
         pieces.ceiling.append((k0 + f[j] * (k1 - k0), k0 + f[j + 1] * (k1 - k0)))
         pieces.leg.append(leg)
-        pieces.along.append((float(f[j] * total / k), float(f[j + 1] * total / k)))
+        pieces.along.append((float(cum[j] / k), float(cum[j + 1] / k)))

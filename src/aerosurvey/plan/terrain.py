@@ -2,11 +2,10 @@
 clearance along straight segments, area statistics, and the waypoint thinning used by the
 `follow` height mode.
 
-The window's cells are read a tile at a time through the grid's reader (the loader's windowed
-reads of the file, `aerosurvey.inputs`) and the last CACHE_TILES tiles are kept: a plan's memory
-is bounded by that cache, not by the DEM, nor by the window round the area. Every reader of
-many points groups them by tile, so each tile is read once per call. Heights are metres above
-the DEM's vertical datum, float32 as most DEMs hold them.
+The loader (`aerosurvey.inputs`) reads the window round where the plan flies; nothing here opens a
+file. The window is held in compressed tiles (`DemGrid`); the last CACHE_TILES tiles unpacked are
+kept, and every reader of many points groups them by tile, so each tile is unpacked once per call.
+Heights are metres above the DEM's vertical datum, float32 as most DEMs hold them.
 """
 
 from __future__ import annotations
@@ -21,15 +20,14 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar, transformer
 from aerosurvey.errors import InputError
-from aerosurvey.plan.inputs import DemGrid
+from aerosurvey.plan.inputs import TILE, DemGrid
 
 #: a segment is transformed into the DEM's cells exactly at points this far apart (planning metres) and taken
 #: straight in between (the curvature of a map projection over 200 m is far under a millimetre)
 CHUNK_M = 200.0
 #: pieces of segments (between rows and columns of cell centres) worked on at once (about 0.5 kB each)
 BATCH = 10_000
-#: the window is read in tiles of TILE × TILE cells, and the last CACHE_TILES read are kept (1 MB float32 each)
-TILE = 512
+#: the last CACHE_TILES tiles unpacked are kept (1 MB float32 each)
 CACHE_TILES = 4
 
 
@@ -49,11 +47,10 @@ class Dem:
         self._tiles: OrderedDict[tuple[int, int], np.ndarray] = OrderedDict()
 
     def _tile(self, tj: int, ti: int) -> np.ndarray:
-        """Tile (row tj, column ti) of the window, from the cache or read (the least recently used one dropped)."""
+        """Tile (row tj, column ti) of the window, from the cache or unpacked (the least recently used one dropped)."""
         tile = self._tiles.get((tj, ti))
         if tile is None:
-            rows, cols = self.grid.shape
-            tile = self.grid.read(tj * TILE, ti * TILE, min(TILE, rows - tj * TILE), min(TILE, cols - ti * TILE))
+            tile = self.grid.tile(tj, ti)
             self._tiles[(tj, ti)] = tile
             if len(self._tiles) > CACHE_TILES:
                 self._tiles.popitem(last=False)
