@@ -113,7 +113,20 @@ def plan_from_files(spec: MissionSpec, progress: Progress | None = None) -> Plan
 
 
 def read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) -> DemGrid:
-    """The DEM cells within `reach_m` of a geometry (WGS84), NaN for nodata, as a DemGrid."""
+    """The DEM cells within `reach_m` of a geometry (WGS84), NaN for nodata, as a DemGrid: read a tile at a time and
+    held compressed."""
+    import rasterio
+
+    # GDAL's block cache (5 % of the RAM by default) would keep every block read: the window is packed a tile at a time
+    with rasterio.Env(GDAL_CACHEMAX=_GDAL_CACHE_MB):
+        return _read_dem_window(path, around_wgs84, reach_m)
+
+
+#: megabytes of GDAL's block cache while a DEM is read
+_GDAL_CACHE_MB = 8
+
+
+def _read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) -> DemGrid:
     import rasterio
     import rasterio.errors
     import rasterio.windows
@@ -147,11 +160,19 @@ def read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) 
                 f"terrain.dem {path.name!r} does not cover the area: the DEM spans x {b.left:.1f}..{b.right:.1f}, "
                 f"y {b.bottom:.1f}..{b.top:.1f} in its CRS, the area x {left:.1f}..{right:.1f}, y {bottom:.1f}..{top:.1f}"
             ) from None
-        data = ds.read(1, window=win, masked=True).astype(np.float64).filled(np.nan)
         wt = ds.window_transform(win)
         b = ds.bounds
-        return DemGrid(
-            name=path.name, heights=data, transform=(wt.a, wt.b, wt.c, wt.d, wt.e, wt.f), crs_wkt=crs_wkt,
-            offset=(int(win.col_off), int(win.row_off)), full_shape=(ds.height, ds.width),
-            full_bounds=(b.left, b.bottom, b.right, b.top),
-        )
+        col0, row0 = int(win.col_off), int(win.row_off)
+
+        def read(row: int, col: int, rows: int, cols: int) -> np.ndarray:
+            window = rasterio.windows.Window(col0 + col, row0 + row, cols, rows)
+            cells: np.ndarray = ds.read(1, window=window, out_dtype="float32")
+            cells[ds.read_masks(1, window=window) == 0] = np.nan  # nodata, or outside the file's own mask
+            return cells
+
+        try:
+            return DemGrid.read_tiles(path.name, (int(win.height), int(win.width)), read,
+                                      (wt.a, wt.b, wt.c, wt.d, wt.e, wt.f), crs_wkt, (col0, row0), (ds.height, ds.width),
+                                      (b.left, b.bottom, b.right, b.top))
+        except rasterio.errors.RasterioIOError as exc:
+            raise InputError(f"terrain.dem: {str(path)!r} cannot be read: {exc}") from None

@@ -30,6 +30,7 @@ from aerosurvey.spec import MissionSpec
 
 if TYPE_CHECKING:
     from aerosurvey.airspace.check import AirspaceReport
+    from aerosurvey.mission.clearance import ClearanceReport
     from aerosurvey.rules.control_points import ControlPoint
     from aerosurvey.rules.engine import Evidence, RuleResult
 from aerosurvey.report.features import footprint_lonlat, plan_geojson
@@ -90,6 +91,22 @@ def airspace_gate(plan: Plan, programs: dict[str, FlightProgram]) -> AirspaceRep
     return report
 
 
+def terrain_gate(plan: Plan, programs: dict[str, FlightProgram]) -> ClearanceReport | None:
+    """Every leg of every flight at least terrain.min_clearance_m above the DEM (mission/clearance.py), or nothing is
+    written; None without a DEM."""
+    site = plan.site
+    if site.dem is None:
+        return None
+    from aerosurvey.mission.clearance import terrain_clearance
+
+    report = terrain_clearance(programs, site.dem, site.planar, site.grid_scale, site.min_clearance_m,
+                               PLANE_RTL_LOITER_M * site.grid_scale, plan.sensor.turn_radius_m * site.grid_scale)
+    refusal = report.refusal()
+    if refusal is not None:
+        raise CheckFailed("the plan is not written: " + refusal)
+    return report
+
+
 def planner_airspace_rule(report: AirspaceReport | None) -> list[dict[str, Any]]:
     """The planner's airspace rule as a manifest rule record, when the plan was checked against official zones."""
     return [] if report is None else [report.rule_record()]
@@ -128,6 +145,7 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     programs = mission_programs(plan)
     final_gate(plan, programs)
     airspace = airspace_gate(plan, programs)
+    clearance = terrain_gate(plan, programs)
     mission = mavlink_mission(programs["mission"])
     # the station table's columns are written into the manifest and plan.geojson, and the
     # rules make its rows; the footprints' corners go into plan.geojson and plan.gpkg
@@ -144,11 +162,14 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     if airspace is not None:
         manifest["airspace"] = mf.airspace_record(airspace, spec)
         warnings += [f"airspace: {v.text()}" for v in airspace.of("advise")] + [f"airspace: {n}" for n in airspace.notes]
+    if clearance is not None:
+        manifest["clearance"] = clearance.manifest_record()
     results, points, evidence = _rules(spec, manifest, stations_table, fc)
     for r in results:
         if r.status in ("fail", "warning"):
             warnings.append(f"rule {r.rule} ({r.profile}) fails: measured {r.outcome.measured}, required {r.outcome.required}")
-    manifest["rules"] = [r.as_dict() for r in results] + planner_rules(plan) + planner_airspace_rule(airspace)
+    manifest["rules"] = [r.as_dict() for r in results] + planner_rules(plan) + planner_airspace_rule(airspace) \
+        + ([clearance.rule_record()] if clearance is not None else [])
     summary = plan_summary(manifest, manifest["rules"])
     files["preview.svg"] = render_svg(plan, summary, points)
     binary, dji_warnings = dji_kmz_files(plan, programs, dji)
@@ -236,6 +257,7 @@ def render_resume(plan: Plan, stations_done: int, counted: tuple[str, ...], plan
     programs = _sortie_programs(plan, ids.resume_file_stem)
     final_gate(plan, programs)
     airspace_gate(plan, programs)
+    terrain_gate(plan, programs)
     files = _mission_files(plan, {stem: mavlink_mission(p) for stem, p in programs.items()}, qgc)
     sorties = [mf.sortie_record(plan, k, ids.resume_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
     first = plan.stations.ids[plan.sorties[0].sortie.first]

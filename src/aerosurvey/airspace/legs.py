@@ -25,6 +25,9 @@ class Leg3:
     leg: Leg  # flight, point number, what, start and end (planning CRS)
     alt_start: tuple[float, float]  # lowest and highest altitude at the start, in the program's frame
     alt_end: tuple[float, float]
+    #: the altitude frames of the start's and the end's heights: "relative" (above the launch point) or "terrain" (above
+    #: the terrain under the point); the autopilot flies the leg in the end's frame (ArduPilot converts the start into it)
+    frames: tuple[str, str] = ("relative", "relative")
 
 
 def _level(a: float) -> tuple[float, float]:
@@ -35,6 +38,8 @@ def flight_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter:
     """The legs of `program` (named `flight`) with their heights; `rtl_loiter` is a plane's circle after RTL (grid metres)."""
     out: list[Leg3] = []
     alt = 0.0  # on the ground at the launch point
+    frame = "relative"  # of `alt`: take-off, landing and RTL altitudes are above the launch point, waypoints in the program's frame
+    wp_frame = program.altitude_frame
     climb = takeoff_climb(program) * grid_scale
     wps = program.waypoints
     rtl_span = (0.0, 0.0)
@@ -54,25 +59,26 @@ def flight_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter:
                 f = climb / d
                 mid = (leg.start[0] + f * (leg.end[0] - leg.start[0]), leg.start[1] + f * (leg.end[1] - leg.start[1]))
                 out.append(Leg3(Leg(leg.flight, 1, "climb-out", leg.start, mid), _level(alt), _level(program.takeoff_alt_m)))
-                out.append(Leg3(Leg(leg.flight, leg.seq, leg.what, mid, leg.end), _level(program.takeoff_alt_m), _level(target)))
+                out.append(Leg3(Leg(leg.flight, leg.seq, leg.what, mid, leg.end), _level(program.takeoff_alt_m), _level(target),
+                                ("relative", wp_frame)))
             else:
-                out.append(Leg3(leg, _level(alt), _level(target)))
-            alt = target
+                out.append(Leg3(leg, _level(alt), _level(target), (frame, wp_frame)))
+            alt, frame = target, wp_frame
         elif leg.what == "approach":
             assert program.approach is not None
-            out.append(Leg3(leg, _level(alt), _level(program.approach.alt_m)))
-            alt = program.approach.alt_m
+            out.append(Leg3(leg, _level(alt), _level(program.approach.alt_m), (frame, "relative")))
+            alt, frame = program.approach.alt_m, "relative"
         elif leg.what == "land":
             if program.vehicle == "plane":  # glides from its approach to the ground
-                out.append(Leg3(leg, _level(alt), _level(0.0)))
+                out.append(Leg3(leg, _level(alt), _level(0.0), (frame, "relative")))
             else:  # flies to the launch point at its height, then descends
-                out.append(Leg3(leg, _level(alt), _level(alt)))
-                out.append(Leg3(Leg(leg.flight, leg.seq, "descent", leg.end, leg.end), _level(alt), _level(0.0)))
-            alt = 0.0
+                out.append(Leg3(leg, _level(alt), _level(alt), (frame, frame)))
+                out.append(Leg3(Leg(leg.flight, leg.seq, "descent", leg.end, leg.end), _level(alt), _level(0.0), (frame, "relative")))
+            alt, frame = 0.0, "relative"
         elif leg.what == "rtl":
             back = _rtl_altitude(program, alt)
             rtl_span = (min(alt, back), max(alt, back))
-            out.append(Leg3(leg, rtl_span, rtl_span))
+            out.append(Leg3(leg, rtl_span, rtl_span, (frame, "relative")))
             if program.vehicle == "copter":
                 out.append(Leg3(Leg(leg.flight, leg.seq, "rtl-descent", leg.end, leg.end), _level(rtl_span[1]), _level(0.0)))
         elif leg.what == "rtl-loiter":

@@ -56,9 +56,8 @@ def route_zones(airspace: Airspace | None, area_wgs84: BaseGeometry, reach_m: fl
     above it (the ground's range: the DEM window's lowest and highest cells; unknown without a DEM)."""
     if airspace is None or not airspace.zones:
         return RouteZones((), ())
-    ground_lo = ground_hi = None
-    if dem is not None and np.isfinite(dem.heights).any():
-        ground_lo, ground_hi = float(np.nanmin(dem.heights)), float(np.nanmax(dem.heights))
+    ground = dem.height_range() if dem is not None else None
+    ground_lo, ground_hi = ground if ground is not None else (None, None)
     picked: list[Geozone] = [z for z in airspace.zones if airspace.blocks(z) and airspace.applies(z)
                              and _covers_ground(z.lower, ground_lo) and _covers_top(z.upper, cap_agl_m, ground_hi)]
     if not picked:

@@ -287,8 +287,8 @@ class DemGround:
         cols, rows = self._cells(self._dem, x, y)
         g = self._dem.grid
         c0, r0 = g.offset
-        return bool(((cols - c0 >= 0) & (rows - r0 >= 0) & (cols - c0 <= g.heights.shape[1] - 1)
-                     & (rows - r0 <= g.heights.shape[0] - 1)).all())
+        return bool(((cols - c0 >= 0) & (rows - r0 >= 0) & (cols - c0 <= g.shape[1] - 1)
+                     & (rows - r0 <= g.shape[0] - 1)).all())
 
     @staticmethod
     def _cells(dem: Dem, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,11 +1,17 @@
-"""Terrain from a DEM window held in memory (`plan.inputs.DemGrid`): sampling in the
-planning CRS, area statistics, and the waypoint thinning used by the `follow` height mode.
+"""Terrain from a DEM window (`plan.inputs.DemGrid`): sampling in the planning CRS, the lowest
+clearance along straight segments, area statistics, and the waypoint thinning used by the
+`follow` height mode.
 
-The loader (`aerosurvey.inputs`) reads the window; nothing here opens a file. Heights are
-metres above the DEM's vertical datum.
+The loader (`aerosurvey.inputs`) reads the window round where the plan flies; nothing here opens a
+file. The window is held in compressed tiles (`DemGrid`); the last CACHE_TILES tiles unpacked are
+kept, and every reader of many points groups them by tile, so each tile is unpacked once per call.
+Heights are metres above the DEM's vertical datum, float32 as most DEMs hold them.
 """
 
 from __future__ import annotations
+
+import math
+from collections import OrderedDict
 
 import numpy as np
 import pyproj
@@ -14,7 +20,15 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar, transformer
 from aerosurvey.errors import InputError
-from aerosurvey.plan.inputs import DemGrid
+from aerosurvey.plan.inputs import TILE, DemGrid
+
+#: a segment is transformed into the DEM's cells exactly at points this far apart (planning metres) and taken
+#: straight in between (the curvature of a map projection over 200 m is far under a millimetre)
+CHUNK_M = 200.0
+#: pieces of segments (between rows and columns of cell centres) worked on at once (about 0.5 kB each)
+BATCH = 10_000
+#: the last CACHE_TILES tiles unpacked are kept (1 MB float32 each)
+CACHE_TILES = 4
 
 
 class Dem:
@@ -30,9 +44,37 @@ class Dem:
         self.window = Affine(*grid.transform)
         c0, r0 = grid.offset
         self.full = self.window * Affine.translation(-c0, -r0)
+        self._tiles: OrderedDict[tuple[int, int], np.ndarray] = OrderedDict()
 
-    def sample(self, x: np.ndarray, y: np.ndarray, what: str) -> np.ndarray:
-        """Bilinear heights at planning-CRS points; an error names points off the DEM or on nodata."""
+    def _tile(self, tj: int, ti: int) -> np.ndarray:
+        """Tile (row tj, column ti) of the window, from the cache or unpacked (the least recently used one dropped)."""
+        tile = self._tiles.get((tj, ti))
+        if tile is None:
+            tile = self.grid.tile(tj, ti)
+            self._tiles[(tj, ti)] = tile
+            if len(self._tiles) > CACHE_TILES:
+                self._tiles.popitem(last=False)
+        else:
+            self._tiles.move_to_end((tj, ti))
+        return tile
+
+    def _values(self, j: np.ndarray, i: np.ndarray) -> np.ndarray:
+        """The heights of window cells (rows j, columns i), float64, each tile read once."""
+        out = np.empty(len(j))
+        across = -(-self.grid.shape[1] // TILE)
+        key = (j // TILE) * across + i // TILE
+        order = np.argsort(key, kind="stable")
+        keys = key[order]
+        starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+        for s, e in zip(starts.tolist(), np.r_[starts[1:], len(keys)].tolist()):
+            tj, ti = divmod(int(keys[s]), across)
+            sel = order[s:e]
+            out[sel] = self._tile(tj, ti)[j[sel] - tj * TILE, i[sel] - ti * TILE]
+        return out
+
+    def _cells(self, x: np.ndarray, y: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray]:
+        """Planning-CRS points as (column, row) in the window read, continuous, 0 at the first cell's
+        centre; an error names points off the DEM or beyond the window."""
         x = np.atleast_1d(np.asarray(x, float))
         y = np.atleast_1d(np.asarray(y, float))
         dx, dy = self.to_dem.transform(x, y)
@@ -50,23 +92,29 @@ class Dem:
             )
         cols = np.clip(cols, 0, n_cols - 1)
         rows = np.clip(rows, 0, n_rows - 1)
-        arr = self.grid.heights
+        n_win_rows, n_win_cols = self.grid.shape
         c0, r0 = self.grid.offset
         cc, rr = cols - c0, rows - r0
-        if (cc < 0).any() or (rr < 0).any() or (cc > arr.shape[1] - 1).any() or (rr > arr.shape[0] - 1).any():
-            bad = (cc < 0) | (rr < 0) | (cc > arr.shape[1] - 1) | (rr > arr.shape[0] - 1)
+        bad = (cc < 0) | (rr < 0) | (cc > n_win_cols - 1) | (rr > n_win_rows - 1)
+        if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise InputError(
                 f"terrain.dem {self.name!r}: the {what} reach beyond the part of the DEM read around the area "
                 f"({int(bad.sum())} point(s), first at planning x {x[i]:.1f}, y {y[i]:.1f})"
             )
-        i0 = np.clip(np.floor(cc).astype(int), 0, arr.shape[1] - 1)
-        j0 = np.clip(np.floor(rr).astype(int), 0, arr.shape[0] - 1)
-        i1 = np.minimum(i0 + 1, arr.shape[1] - 1)
-        j1 = np.minimum(j0 + 1, arr.shape[0] - 1)
-        fx, fy = cc - i0, rr - j0
-        z: np.ndarray = (arr[j0, i0] * (1 - fx) * (1 - fy) + arr[j0, i1] * fx * (1 - fy)
-                         + arr[j1, i0] * (1 - fx) * fy + arr[j1, i1] * fx * fy)
+        return cc, rr
+
+    def _corners(self, i0: np.ndarray, j0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The heights at the four cell centres round (i0, j0)..(i0 + 1, j0 + 1), clipped to the window."""
+        rows, cols = self.grid.shape
+        i0 = np.clip(i0, 0, cols - 1)
+        j0 = np.clip(j0, 0, rows - 1)
+        i1 = np.minimum(i0 + 1, cols - 1)
+        j1 = np.minimum(j0 + 1, rows - 1)
+        z = self._values(np.concatenate([j0, j0, j1, j1]), np.concatenate([i0, i1, i0, i1])).reshape(4, -1)
+        return z[0], z[1], z[2], z[3]
+
+    def _nodata(self, z: np.ndarray, x: np.ndarray, y: np.ndarray, what: str) -> None:
         bad = ~np.isfinite(z)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
@@ -74,7 +122,119 @@ class Dem:
                 f"terrain.dem {self.name!r} has nodata under the {what}: {int(bad.sum())} point(s), "
                 f"first at planning x {x[i]:.1f}, y {y[i]:.1f}"
             )
+
+    def sample(self, x: np.ndarray, y: np.ndarray, what: str) -> np.ndarray:
+        """Bilinear heights at planning-CRS points (between the four nearest cell centres); an error
+        names points off the DEM or on nodata."""
+        x = np.atleast_1d(np.asarray(x, float))
+        y = np.atleast_1d(np.asarray(y, float))
+        cc, rr = self._cells(x, y, what)
+        i0 = np.floor(cc).astype(int)
+        j0 = np.floor(rr).astype(int)
+        z00, z01, z10, z11 = self._corners(i0, j0)
+        fx, fy = cc - np.clip(i0, 0, None), rr - np.clip(j0, 0, None)
+        z: np.ndarray = z00 * (1 - fx) * (1 - fy) + z01 * fx * (1 - fy) + z10 * (1 - fx) * fy + z11 * fx * fy
+        self._nodata(z, x, y, what)
         return z
+
+    def lowest_along(self, a: np.ndarray, b: np.ndarray, ceiling: np.ndarray,
+                     what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For straight segments from `a` to `b` ((n, 2) planning CRS) under a ceiling running straight
+        from ceiling[:, 0] at `a` to ceiling[:, 1] at `b` (heights in the DEM's datum): along each, the
+        lowest of ceiling − ground, the fraction of the segment where it is, and the ground there.
+
+        Exact for the surface `sample` reads: between two rows and two columns of cell centres the
+        ground is bilinear, so along a straight line it is a quadratic; the lowest margin lies where
+        the segment crosses a row or column of cell centres, at an end, or where the quadratic's slope
+        equals the ceiling's. The segment is taken straight in the DEM's cells between points
+        transformed exactly every CHUNK_M planning metres."""
+        a = np.asarray(a, float).reshape(-1, 2)
+        b = np.asarray(b, float).reshape(-1, 2)
+        ceiling = np.asarray(ceiling, float).reshape(-1, 2)
+        n = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / CHUNK_M)).astype(np.int64)
+        seg = np.repeat(np.arange(len(a)), n)
+        f0 = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / n[seg]
+        f1 = f0 + 1.0 / n[seg]
+        ends = np.concatenate([f0, f1])
+        sx = np.concatenate([seg, seg])
+        px, py = a[sx, 0] + ends * (b - a)[sx, 0], a[sx, 1] + ends * (b - a)[sx, 1]
+        cc, rr = self._cells(px, py, what)
+        m = len(f0)
+        u0, u1, v0, v1 = cc[:m], cc[m:], rr[:m], rr[m:]
+        margin = np.full(m, np.inf)
+        where = np.zeros(m)
+        ground = np.zeros(m)
+        # chunks in batches of about BATCH pieces, tile by tile: memory stays bounded whatever the legs' length, and
+        # each batch reads few tiles
+        across = -(-self.grid.shape[1] // TILE)
+        tiles = np.floor(np.clip(v0, 0, None) / TILE) * across + np.floor(np.clip(u0, 0, None) / TILE)
+        by_tile = np.argsort(tiles, kind="stable")
+        pieces = (np.abs(u1 - u0) + np.abs(v1 - v0) + 2)[by_tile]
+        batch = np.searchsorted(np.cumsum(pieces), np.arange(1, 2 + int(pieces.sum()) // BATCH) * BATCH)
+        for lo, hi in zip(np.r_[0, batch], np.r_[batch, m]):
+            if hi > lo:
+                sl = by_tile[int(lo):int(hi)]
+                margin[sl], where[sl], ground[sl] = self._lowest_on_chunks(
+                    u0[sl], v0[sl], u1[sl], v1[sl], ceiling[seg[sl]], f0[sl], f1[sl], px[sl], py[sl], what)
+        # the lowest chunk of each segment
+        order = np.lexsort((margin, seg))
+        first = order[np.searchsorted(seg[order], np.arange(len(a)))]
+        return margin[first], where[first], ground[first]
+
+    def _lowest_on_chunks(self, u0: np.ndarray, v0: np.ndarray, u1: np.ndarray, v1: np.ndarray, ceiling: np.ndarray,
+                          f0: np.ndarray, f1: np.ndarray, px: np.ndarray, py: np.ndarray,
+                          what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`lowest_along` on straight chunks in cell space (fractions f0..f1 of their segments, the
+        segment's ceiling at its ends): the lowest margin of each chunk, its fraction, the ground there."""
+        m = len(u0)
+        ts = [np.zeros(m), np.ones(m)]
+        ids = [np.arange(m), np.arange(m)]
+        for p0, p1 in ((u0, u1), (v0, v1)):  # where the chunk crosses a column (row) of cell centres
+            first = np.floor(np.minimum(p0, p1)) + 1
+            count = np.maximum(0, np.ceil(np.maximum(p0, p1)) - first).astype(np.int64)
+            c = np.repeat(np.arange(m), count)
+            k = first[c] + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+            ts.append((k - p0[c]) / (p1 - p0)[c])
+            ids.append(c)
+        t = np.concatenate(ts)
+        chunk = np.concatenate(ids)
+        order = np.lexsort((t, chunk))
+        t, chunk = t[order], chunk[order]
+        pair = np.flatnonzero(chunk[:-1] == chunk[1:])
+        c, ta, tb = chunk[pair], t[pair], t[pair + 1]
+        du, dv = (u1 - u0)[c], (v1 - v0)[c]
+        tm = 0.5 * (ta + tb)
+        i0 = np.floor(u0[c] + tm * du).astype(np.int64)
+        j0 = np.floor(v0[c] + tm * dv).astype(np.int64)
+        z00, z01, z10, z11 = self._corners(i0, j0)
+        i0, j0 = np.clip(i0, 0, None), np.clip(j0, 0, None)
+
+        def ground_at(tt: np.ndarray) -> np.ndarray:
+            fx, fy = u0[c] + tt * du - i0, v0[c] + tt * dv - j0
+            g: np.ndarray = z00 * (1 - fx) * (1 - fy) + z01 * fx * (1 - fy) + z10 * (1 - fx) * fy + z11 * fx * fy
+            return g
+
+        ga, gm, gb = ground_at(ta), ground_at(tm), ground_at(tb)
+        self._nodata(gm, px[c], py[c], what)
+        # on s in [0, 1] from ta to tb: ground ga + q1 s + q2 s²; ceiling ka + dk s
+        q2 = 2.0 * (ga + gb - 2.0 * gm)
+        q1 = gb - ga - q2
+        fa, fb = f0[c] + ta * (f1 - f0)[c], f0[c] + tb * (f1 - f0)[c]
+        ka = ceiling[c, 0] + fa * (ceiling[c, 1] - ceiling[c, 0])
+        dk = (fb - fa) * (ceiling[c, 1] - ceiling[c, 0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_in = np.where(q2 < 0, np.clip((dk - q1) / (2.0 * q2), 0.0, 1.0), 0.0)
+        cand_s = np.stack([np.zeros(len(c)), np.ones(len(c)), s_in])
+        cand_g = ga + q1 * cand_s + q2 * cand_s * cand_s
+        cand_m = ka + dk * cand_s - cand_g
+        best = np.argmin(cand_m, axis=0)
+        col = np.arange(len(c))
+        margin, s, g = cand_m[best, col], cand_s[best, col], cand_g[best, col]
+        frac = fa + s * (fb - fa)
+        # the lowest piece of each chunk
+        order = np.lexsort((margin, c))
+        lowest = order[np.searchsorted(c[order], np.arange(m))]
+        return margin[lowest], frac[lowest], g[lowest]
 
     def range_over(self, geom_plan: BaseGeometry, what: str) -> tuple[float, float]:
         """Lowest and highest DEM cell under a polygon (planning CRS); nodata there is an error."""
@@ -97,17 +257,30 @@ class Dem:
             rasterio.windows.Window(0, 0, n_cols, n_rows))
         c0, r0 = self.grid.offset
         rs, cs = int(win.row_off) - r0, int(win.col_off) - c0
-        arr = self.grid.heights[max(rs, 0): rs + int(win.height), max(cs, 0): cs + int(win.width)]
-        if rs < 0 or cs < 0 or arr.shape != (int(win.height), int(win.width)):
+        rows, cols = int(win.height), int(win.width)
+        if rs < 0 or cs < 0 or rs + rows > self.grid.shape[0] or cs + cols > self.grid.shape[1]:
             raise InputError(f"terrain.dem {self.name!r}: the {what} reaches beyond the part of the DEM read around it")
-        inside = rasterio.features.geometry_mask([g], out_shape=arr.shape, transform=rasterio.windows.transform(win, self.full),
-                                                invert=True, all_touched=True)
-        vals = arr[inside]
-        if not np.isfinite(vals).all():
-            raise InputError(f"terrain.dem {self.name!r} has {int((~np.isfinite(vals)).sum())} nodata cell(s) under the {what}")
-        if vals.size == 0:
+        lo, hi, cells, nodata = math.inf, -math.inf, 0, 0
+        for tj in range(rs // TILE, (rs + rows - 1) // TILE + 1):
+            for ti in range(cs // TILE, (cs + cols - 1) // TILE + 1):
+                # the part of this tile in the polygon's bounds, and its cells the polygon touches
+                j0, j1 = max(rs, tj * TILE), min(rs + rows, (tj + 1) * TILE)
+                i0, i1 = max(cs, ti * TILE), min(cs + cols, (ti + 1) * TILE)
+                part = self._tile(tj, ti)[j0 - tj * TILE: j1 - tj * TILE, i0 - ti * TILE: i1 - ti * TILE]
+                inside = rasterio.features.geometry_mask(
+                    [g], out_shape=part.shape, invert=True, all_touched=True,
+                    transform=rasterio.windows.transform(rasterio.windows.Window(i0 + c0, j0 + r0, i1 - i0, j1 - j0), self.full))
+                vals = part[inside]
+                finite = np.isfinite(vals)
+                nodata += int((~finite).sum())
+                cells += int(finite.sum())
+                if finite.any():
+                    lo, hi = min(lo, float(vals[finite].min())), max(hi, float(vals[finite].max()))
+        if nodata:
+            raise InputError(f"terrain.dem {self.name!r} has {nodata} nodata cell(s) under the {what}")
+        if cells == 0:
             raise InputError(f"terrain.dem {self.name!r}: no DEM cell under the {what}")
-        return float(vals.min()), float(vals.max())
+        return lo, hi
 
 
 def thin_profile(s: np.ndarray, alt: np.ndarray, tolerance: float) -> np.ndarray:

@@ -90,6 +90,8 @@ class Summary:
     sun_elevation_deg: tuple[float, float] | None
     mission_items: int
     rules: RuleCount
+    # the terrain clearance (manifest "clearance"): the minimum and each flight's lowest; None without a DEM
+    clearance: tuple[float, tuple[Mapping[str, Any], ...]] | None = None
 
 
 def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]) -> Summary:
@@ -119,6 +121,8 @@ def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]
                       for s in manifest["sorties"]),
         sun_elevation_deg=None if sun is None else (round(sun["min_elevation_deg"], 2), round(sun["max_elevation_deg"], 2)),
         mission_items=int(manifest["mission_items"]), rules=RuleCount.of(rules),
+        clearance=None if "clearance" not in manifest else (float(manifest["clearance"]["min_clearance_m"]),
+                                                             tuple(manifest["clearance"]["flights"])),
     )
 
 
@@ -150,6 +154,11 @@ def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
         lines.append("  sorties         id   photos  time min  dist km  battery %  first station -> last station")
         lines += [f"                  {x.id} {x.photos:7d} {x.time_min:9.1f} {x.distance_km:8.2f} {x.battery_pct:10.1f}  "
                   f"{x.first_station} -> {x.last_station}" for x in s.sorties]
+    if s.clearance is not None:
+        least, flights = s.clearance
+        lines.append(f"  clearance       the lowest above the DEM along the legs, per flight (terrain.min_clearance_m {least:g} m)")
+        lines += [f"                  {w['flight']}: {w['clearance_m']:.1f} m on the leg to point {w['seq']} ({w['what']}), "
+                  f"{w['along_m']:.0f} m along it" for w in flights]
     if s.sun_elevation_deg is not None:
         lines.append(f"  sun elevation   {s.sun_elevation_deg[0]:.2f}..{s.sun_elevation_deg[1]:.2f} deg over the planned window")
     hint = f" (`{check_command}` for the evidence)" if check_command else ""
