@@ -155,10 +155,8 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
     for i, leg3 in enumerate(legs):
         (x0, y0), (x1, y1) = leg3.leg.start, leg3.leg.end
         d = math.hypot(x1 - x0, y1 - y0)
-        a0, a1 = leg3.alt_start[0], leg3.alt_end[0]
-        start_frame, frame = leg3.frames
-        if start_frame != frame:  # the start converted into the end's frame at its ground
-            a0 += (ground0[i] - home) if frame == "relative" else (home - ground0[i])
+        a0, a1 = _start_in_end_frame(leg3, float(ground0[i]), home), leg3.alt_end[0]
+        frame = leg3.frames[1]
         if frame == "terrain":  # the clearance runs straight between the ends
             level += [(i, 0.0, a0, len(level_xy)), (i, d / k, a1, len(level_xy) + 1)]
             level_xy += [(x0, y0), (x1, y1)]
@@ -198,6 +196,72 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
             if i not in out or agl < out[i].clearance_m:
                 out[i] = _lowest(legs[i], s, float(lon[p]), float(lat[p]), float(g[p]), float(g[p]) + agl)
     return [out[i] for i in sorted(out)]
+
+
+def _start_in_end_frame(leg3: Leg3, ground_start: float, home: float) -> float:
+    """The leg's (lowest) start height in its end's frame: the autopilot flies the leg in that frame, the
+    start converted into it at the ground under it (`home`: the launch point's ground, the DEM's datum)."""
+    a0 = leg3.alt_start[0]
+    start_frame, frame = leg3.frames
+    if start_frame != frame:
+        a0 += (ground_start - home) if frame == "relative" else (home - ground_start)
+    return a0
+
+
+@dataclass(frozen=True)
+class Profile:
+    """The route of one flight over the terrain, leg after leg as `terrain_clearance` models it (turns
+    drawn straight): the ground distance flown, the height flown above mean sea level (the DEM's
+    datum) and the DEM's ground under it, at most about `samples` points and every leg's ends."""
+
+    distance_m: tuple[float, ...]
+    amsl_m: tuple[float, ...]
+    ground_m: tuple[float, ...]
+    checked: tuple[bool, ...]  # the minimum clearance holds there (not on the legs to and from the ground)
+    min_clearance_m: float
+
+    def record(self) -> dict[str, Any]:
+        return {"distance_m": [round(v, 1) for v in self.distance_m], "amsl_m": [round(v, 2) for v in self.amsl_m],
+                "ground_m": [round(v, 2) for v in self.ground_m], "checked": list(self.checked),
+                "min_clearance_m": self.min_clearance_m}
+
+
+def terrain_profile(program: FlightProgram, flight: str, dem: Dem, planar: Planar, grid_scale: float,
+                    min_clearance_m: float, rtl_loiter: float, samples: int = 1500) -> Profile:
+    """`program`'s route over `dem` for a profile drawing (the page's): the same legs and heights as the check."""
+    legs = flight_legs(program, flight, planar, rtl_loiter, grid_scale)
+    home = program.home[2]
+    lengths = [math.dist(leg3.leg.start, leg3.leg.end) / grid_scale for leg3 in legs]
+    step = max(sum(lengths) / max(samples, 1), 1e-9)
+    xs: list[np.ndarray] = []
+    ys: list[np.ndarray] = []
+    along: list[np.ndarray] = []
+    heights: list[tuple[np.ndarray, str, float]] = []  # per leg: its points' fractions, its frame, its end's height
+    run = 0.0
+    for leg3, d in zip(legs, lengths, strict=True):
+        t = np.linspace(0.0, 1.0, max(2, math.ceil(d / step) + 1))
+        (x0, y0), (x1, y1) = leg3.leg.start, leg3.leg.end
+        xs.append(x0 + t * (x1 - x0))
+        ys.append(y0 + t * (y1 - y0))
+        along.append(run + t * d)
+        run += d
+        heights.append((t, leg3.frames[1], leg3.alt_end[0]))
+    if not legs:
+        return Profile((), (), (), (), min_clearance_m)
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    ground = dem.sample(x, y, f"{flight}'s route")
+    amsl: list[np.ndarray] = []
+    checked: list[bool] = []
+    at = 0
+    for leg3, (t, frame, a1) in zip(legs, heights, strict=True):
+        g = ground[at:at + len(t)]
+        a0 = _start_in_end_frame(leg3, float(g[0]), home)
+        h = a0 + t * (a1 - a0)
+        amsl.append(g + h if frame == "terrain" else home + h)
+        checked += [leg3.leg.what not in GROUND_LEGS and leg3.leg.start != leg3.leg.end] * len(t)
+        at += len(t)
+    return Profile(tuple(map(float, np.concatenate(along))), tuple(map(float, np.concatenate(amsl))),
+                   tuple(map(float, ground)), tuple(checked), min_clearance_m)
 
 
 def _lowest(leg3: Leg3, along_m: float, lon: float, lat: float, ground: float, amsl: float) -> Lowest:

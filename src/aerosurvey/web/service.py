@@ -452,6 +452,7 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         "area_is_centreline": kind_of(plan.pattern.kind).area_is_centreline,
         "frame": frame.as_dict(),
         "dem": plan.site.dem is not None,  # without one, launch points have no ground height (the manifest's 0 m)
+        "profile": _profile(plan),  # the route over the terrain, None without a DEM
         "layers": {
             "area": [frame.rings(g) for g in _polygons(by_role.get("area", []))],
             "exclusions": [frame.rings(g) for g in _polygons(by_role.get("exclusion", []))],
@@ -470,6 +471,20 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
         "rules": rules,
         "warnings": rendered.warnings,
     }
+
+
+def _profile(plan: Plan) -> dict[str, Any] | None:
+    """The whole mission's route over the DEM (mission/clearance.py's legs and heights) for the page's profile; None
+    without a DEM."""
+    site = plan.site
+    if site.dem is None:
+        return None
+    from aerosurvey.mission.clearance import terrain_profile
+    from aerosurvey.mission.program import flight_program
+    from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
+
+    return terrain_profile(flight_program(plan), "mission", site.dem, site.planar, site.grid_scale, site.min_clearance_m,
+                           PLANE_RTL_LOITER_M * site.grid_scale).record()
 
 
 def _polygons(feats: list[dict[str, Any]]) -> list[Any]:

@@ -554,6 +554,7 @@ function render(view) {
   if (!S.fitted) { S.fitted = true; fitAll(); }  // the first plan's lines reach beyond the area
   renderLegend(view);
   renderSummary(view);
+  renderProfile(view);
   renderRules(view);
   renderFly(view);
   const dropped = S.flown && S.flown.plan_id !== view.plan_id;
@@ -606,6 +607,39 @@ function renderLegend(view) {
 }
 
 function fmtRange(r, unit) { return r[0] === r[1] ? `${r[0]} ${unit}` : `${r[0]}…${r[1]} ${unit}`; }
+
+/** The route over the terrain (view.profile: the whole mission as the clearance check models it): the ground filled,
+ * the height flown, the minimum clearance dashed over the ground, red where the route comes nearer the ground. */
+function renderProfile(view) {
+  const svg = $("#profile"), text = $("#profile-text");
+  svg.textContent = "";
+  const P = view.profile;
+  if (!P || !P.distance_m.length) { text.textContent = "No DEM: give terrain.dem (Setup, Terrain) to see the route over the terrain."; return; }
+  const W = 1000, H = 200, pad = 4;
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`); svg.setAttribute("preserveAspectRatio", "none");
+  const d = P.distance_m, a = P.amsl_m, g = P.ground_m, m = P.min_clearance_m;
+  const lo = Math.min(...g), hi = Math.max(...a, ...g.map((v) => v + m)), span = Math.max(hi - lo, 1), len = Math.max(d[d.length - 1], 1);
+  const X = (v) => (v / len) * W, Y = (v) => H - pad - ((v - lo) / span) * (H - 2 * pad);
+  const path = (ys) => d.map((v, i) => `${i ? "L" : "M"}${X(v).toFixed(1)},${Y(ys[i]).toFixed(1)}`).join("");
+  const ns = "http://www.w3.org/2000/svg";
+  const add = (dd, cls) => { const p = document.createElementNS(ns, "path"); p.setAttribute("d", dd); p.setAttribute("class", cls); svg.appendChild(p); return p; };
+  add(`${path(g)}L${W},${H}L0,${H}Z`, "ground");
+  add(path(g.map((v) => v + m)), "min-clearance");
+  add(path(a), "flown");
+  let low = Infinity, where = 0, below = 0;
+  for (let i = 0; i < d.length; i++) {
+    if (!P.checked[i]) continue;  // the legs to and from the ground
+    const c = a[i] - g[i];
+    if (c < low) { low = c; where = d[i]; }
+    if (i && P.checked[i - 1] && c < m - 0.05 && a[i - 1] - g[i - 1] < m - 0.05) {
+      add(`M${X(d[i - 1]).toFixed(1)},${Y(a[i - 1]).toFixed(1)}L${X(d[i]).toFixed(1)},${Y(a[i]).toFixed(1)}`, "below");
+      below++;
+    }
+  }
+  text.textContent = `${(len / 1000).toFixed(2)} km flown; ground ${lo.toFixed(0)} to ${Math.max(...g).toFixed(0)} m AMSL; `
+    + `lowest clearance ${low.toFixed(1)} m at ${(where / 1000).toFixed(2)} km (minimum ${m} m)`
+    + (below ? `; below the minimum on ${below} stretch(es), in red` : "");
+}
 
 function renderSummary(view) {
   const s = view.summary;
