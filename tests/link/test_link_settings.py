@@ -268,3 +268,37 @@ def test_the_documented_table_is_the_table_read() -> None:
     documented = {(name.strip().strip("`"), who.strip(), check.strip().strip("`")) for name, who, _, check in rows}
     read = {(s.name, {"ardupilot": "ArduPilot", "px4": "PX4"}[s.firmware], s.check) for s in SETTINGS}
     assert documented == read
+
+
+@pytest.mark.sitl
+def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and_takes_it_with(tmp_path: Path) -> None:
+    """ArduCopter SITL: TERRAIN_ENABLE = 0 refuses the terrain-frame mission (nothing sent), 1 takes it and
+    verifies it. The checks read the SITL's own parameters on its second MAVLink port (TCP 5762)."""
+    from aerosurvey.errors import InputError
+    from aerosurvey.link.sitl import SitlVehicle, default_params, find_binary
+
+    try:
+        binary = find_binary("copter", None)
+    except InputError as exc:
+        pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
+    m = in_terrain_frame(survey_mission(4))
+    plan = write(tmp_path, m)
+    work = tmp_path / "sitl"
+    work.mkdir()
+    sv = SitlVehicle(binary, "copter", m.home, 1.0, list(default_params("copter")), work)
+    sv.start()
+    try:
+        for name, value in (("TERRAIN_ENABLE", 0), ("CAM1_TYPE", 1), ("BATT_FS_LOW_ACT", 2)):
+            sv.set_param(name, value)
+        args = ["upload", str(plan), "--connect", "tcp:127.0.0.1:5762", "--launch-distance", "off"]
+        res = CliRunner().invoke(main, args)
+        assert res.exit_code == 3, res.output
+        assert res.output.strip().startswith("Error: survey.plan: TERRAIN_ENABLE = 0 but the mission flies 5 item(s) in "
+                                             "the terrain frame")
+        sv.set_param("TERRAIN_ENABLE", 1)
+        res = CliRunner().invoke(main, args)
+        assert res.exit_code == 0, res.output
+        assert "terrain: TERRAIN_ENABLE = 1 for 5 item(s) in the terrain frame" in res.output.splitlines()
+        assert any(line.startswith("verified: 10 mission items read back") for line in res.output.splitlines())
+    finally:
+        sv.stop()
