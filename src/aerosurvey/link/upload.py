@@ -69,12 +69,14 @@ class DownloadFailed(LinkError):
 
 
 class UploadFailed(LinkError):
-    """An upload did not finish; `confirmed` items were confirmed by the vehicle in its last attempt
-    (None: the transport does not tell)."""
+    """An upload did not finish. `confirmed`: the most items the vehicle confirmed, in order, in any
+    attempt (None: the transport does not tell); `count`: the items it said it holds when asked
+    after the failure (None: it did not say)."""
 
-    def __init__(self, message: str, confirmed: int | None) -> None:
+    def __init__(self, message: str, confirmed: int | None, count: int | None = None) -> None:
         super().__init__(message)
         self.confirmed = confirmed
+        self.count = count
 
 
 # --- the mission model on the wire -------------------------------------------------------
@@ -411,8 +413,27 @@ def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, po
     try:
         run_transfer(link, machine, progress)
     except LinkError as exc:
-        raise UploadFailed(str(exc), machine.confirmed) from None
+        raise UploadFailed(str(exc), machine.stats.most_confirmed, vehicle_count(link, mission_type, policy)) from None
     return machine.stats
+
+
+def vehicle_count(link: Link, mission_type: int, policy: mp.Policy) -> int | None:
+    """How many items of `mission_type` the vehicle says it holds: MISSION_REQUEST_LIST (again every
+    `policy.timeout`) until its MISSION_COUNT, then our MISSION_ACK to end the transfer it began; None
+    when it says nothing within `policy.silence` (a vehicle that died, or whose link did)."""
+    end = link.now() + policy.silence
+    while link.now() < end:
+        link.send(mp.RequestList(mission_type))
+        until = min(end, link.now() + policy.timeout)
+        while link.now() < until:
+            try:
+                msg = link.recv(until)
+            except LinkError:
+                return None
+            if isinstance(msg, mp.Count) and msg.mission_type == mission_type:
+                link.send(mp.Ack(mp.ACCEPTED, mission_type))
+                return msg.count
+    return None
 
 
 def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: int | None = None,
@@ -720,12 +741,26 @@ _COMPARED_AS = {"ardupilot": "as ArduPilot stores items (fields it does not keep
 def _failed_upload(kind: int, exc: UploadFailed, n: int, said: str, done: list[TransferReport]) -> LinkError:
     """The one-line error for an upload that did not finish, saying what the vehicle is left with."""
     if kind == mp.MISSION:
-        held = "" if exc.confirmed is None else f" (it confirmed {exc.confirmed} of {n} items)"
-        return LinkError(f"{exc}{said}; the vehicle's mission is incomplete or unchanged{held}: do not fly it")
+        return LinkError(f"{exc}{said}; {_left_holding(exc, n)}: do not fly it")
     before = " and ".join(mp.TYPE_NAMES[r.mission_type] for r in done)
     whose = "fence is" if kind == mp.FENCE else "rally points are"
     return LinkError(f"the {before} {'was' if len(done) == 1 else 'were'} uploaded but the {exc}{said}; the vehicle's "
                      f"{whose} not the plan's")
+
+
+def _left_holding(exc: UploadFailed, n: int) -> str:
+    """What a failed upload left on the vehicle, in words: the count it gave when asked afterwards,
+    else the items it confirmed in order (ArduPilot writes them in place as they come), else nothing known."""
+    if exc.count is not None and not exc.confirmed:
+        return (f"the vehicle holds {exc.count} mission item(s), none confirmed of the plan's {n} (it says so when asked "
+                "after the failure)")
+    if exc.count is not None:
+        return (f"the vehicle holds {exc.count} of {n} mission items (it says so when asked after the failure; it "
+                f"confirmed the first {exc.confirmed} as the plan's)")
+    if exc.confirmed is not None:
+        return (f"the vehicle holds at least {exc.confirmed} of {n} mission items (it confirmed them in order, and "
+                "answered no count after the failure), or its earlier mission where it keeps a mission only whole")
+    return "the vehicle's mission is incomplete or unchanged"
 
 
 def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False) -> UploadReport:
