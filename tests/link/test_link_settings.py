@@ -302,3 +302,11 @@ def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and
         assert any(line.startswith("verified: 10 mission items read back") for line in res.output.splitlines())
     finally:
         sv.stop()
+
+
+def test_a_generic_autopilot_is_not_asked_for_parameters_and_the_report_says_so(tmp_path: Path) -> None:
+    m = survey_mission(4)
+    model = VehicleModel(home=m.home)  # neither ArduPilot nor PX4: MAV_AUTOPILOT_GENERIC
+    lines = uploaded(write(tmp_path, m), model)
+    assert "settings: not read (the vehicle reports generic, whose parameter names are not known)" in lines
+    assert not any(k.startswith("got PARAM_REQUEST_READ") for k in model.log)

@@ -36,10 +36,11 @@ from aerosurvey.link.upload import (
     check_settings,
     check_vehicle,
     mission_wire_items,
+    settings_to_read,
     upload_mission,
     upload_plan,
 )
-from aerosurvey.link.vehicle_settings import CHECKS, PlanFigures, settings_for
+from aerosurvey.link.vehicle_settings import CHECKS, PlanFigures
 from aerosurvey.mission.items import Mission
 from aerosurvey.report.summary import RuleCount
 
@@ -295,7 +296,7 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
             where = check_vehicle(facts, link.vehicle, position, limit)
             if mission.firmware == "px4":
                 check_px4(mission, facts.file, rally)
-            params = link.read_params(settings_for(mission.firmware, facts.vehicle), policy.silence)
+            params = link.read_params(settings_to_read(facts, link.vehicle), policy.silence)
             settings = check_settings(facts, mission, link.vehicle, params, accepted)
             if mission.firmware != "px4":
                 with TransferProgress(sys.stderr) as progress:

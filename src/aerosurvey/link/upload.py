@@ -663,6 +663,14 @@ def check_px4_legs(m: Mission, file: str, params: dict[str, float]) -> str:
     return found.line
 
 
+def settings_to_read(facts: MissionFacts, vehicle: Vehicle) -> tuple[str, ...]:
+    """The parameters `check_settings` compares (`vehicle_settings.SETTINGS`); none for an autopilot
+    that is neither ArduPilot nor PX4, whose names are not known."""
+    if vehicle.autopilot not in (AUTOPILOT_ARDUPILOT, AUTOPILOT_PX4):
+        return ()
+    return vs.settings_for(facts.firmware, facts.vehicle)
+
+
 def check_settings(facts: MissionFacts, m: Mission, vehicle: Vehicle, params: dict[str, float],
                    accept: frozenset[str]) -> list[str]:
     """Refuse (Refused, one line: the parameter, its value, what the mission needs) a mission the
