@@ -176,6 +176,9 @@ def test_an_ardupilot_battery_failsafe_below_the_plans_reserve_is_refused(plan_f
                                         params={"BATT_LOW_MAH": 1250.0, "BATT_CAPACITY": 5000.0}))
     assert "battery-failsafe: BATT_LOW_MAH = 1250 of BATT_CAPACITY = 5000 mAh (25%), at or above the plan's 25% reserve" \
         in lines
+    lines = uploaded(plan, VehicleModel(storage="ardupilot", home=home_of(plan), params={"BATT_LOW_MAH": 0.0}))
+    assert ("battery-failsafe: BATT_FS_LOW_ACT = 2, BATT_LOW_MAH = 0, BATT_CAPACITY = 3300: by voltage only, which cannot "
+            "be compared with the plan's 25% reserve") in lines
     assert refused(plan, VehicleModel(storage="ardupilot", home=home_of(plan), params={"BATT_FS_LOW_ACT": 0})) == (
         "Error: mission.plan: BATT_FS_LOW_ACT = 0 (no action): nothing brings the vehicle back on a low battery; the plan "
         "keeps 25% in reserve: set a battery failsafe (or give --accept battery-failsafe)")

@@ -339,9 +339,11 @@ def _battery(m: Mission, values: Values, plan: PlanFigures) -> Finding:
             return Finding(BATTERY, "not checked", f"battery-failsafe: BATT_FS_LOW_ACT = {action:g}; the plan's reserve is "
                                                    "not known (no manifest), so its level is not compared")
         if not low or not capacity:
-            return Finding(BATTERY, "not checked", f"battery-failsafe: BATT_FS_LOW_ACT = {action:g}, BATT_LOW_MAH = "
-                                                   f"{low if low is not None else '?'}: by voltage only, which cannot be "
-                                                   f"compared with the plan's {_share(plan.reserve)} reserve")
+            said = ", ".join(f"{n} = {v:g}" if v is not None else f"no {n}" for n, v in (("BATT_LOW_MAH", low),
+                                                                                          ("BATT_CAPACITY", capacity)))
+            return Finding(BATTERY, "not checked", f"battery-failsafe: BATT_FS_LOW_ACT = {action:g}, {said}: by voltage "
+                                                   f"only, which cannot be compared with the plan's "
+                                                   f"{_share(plan.reserve)} reserve")
         level = low / capacity
         said = f"BATT_LOW_MAH = {low:g} of BATT_CAPACITY = {capacity:g} mAh ({level:.0%})"
         fix = f"raise BATT_LOW_MAH to at least {math.ceil(plan.reserve * capacity)}"
