@@ -6,6 +6,7 @@
     python benchmarks/upload_bench.py --sitl /path/to/arducopter --sitl-defaults copter.parm
     python benchmarks/upload_bench.py --share          # 200 simulated runs at 10 % and 30 % loss, 2 ms and 100 ms each way
     python benchmarks/upload_bench.py --share --runs 50 --losses 0.3 --latencies 0.1 --jobs 2
+    python benchmarks/upload_bench.py --tail --runs 50 --drop 0.3 --jobs 10   # real sockets: median, p90, p95, worst
 
 Every case runs exactly what `aerosurvey upload` runs after its checks, with the command's
 defaults: `upload_mission(link, mission, Policy())` (the command's --timeout and --retries
@@ -44,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import os
 import socket
 import subprocess
@@ -223,6 +225,42 @@ def run_share(n_items: int, drops: list[float], latencies: list[float], runs: in
         raise SystemExit(f"{bad} run(s) reported verified while the vehicle's store differs from the plan")
 
 
+def tail_run(args: tuple[int, float, float, int]) -> tuple[float, str, int, int, int]:
+    """One upload and read-back on real loopback sockets through the lossy relay: (wall seconds, how it
+    ended, upload restarts, read-back restarts, whether the final ACK was lost)."""
+    n_items, drop, vehicle_resend, seed = args
+    try:
+        r = run_fake("tail", n_items, mp.Policy(), vehicle_resend, drop, seed)
+    except (LinkError, SystemExit) as exc:
+        return math.nan, f"failed: {str(exc)[:80]}", 0, 0, 0
+    return r["seconds"], "verified", r["up_restarts"], r["down_restarts"], int(r["up_ack_lost"])
+
+
+def run_tail(n_items: int, drop: float, vehicle_resend: float, runs: int, jobs: int, limit: float) -> None:
+    """`runs` uploads and read-backs (seeds 1 … runs) on real sockets through the lossy relay, `jobs` at a
+    time: the median, the 90th and 95th percentiles, the worst, and how many took longer than `limit` s."""
+    import concurrent.futures
+    import statistics
+
+    tasks = [(n_items, drop, vehicle_resend, seed) for seed in range(1, runs + 1)]
+    with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
+        results = list(pool.map(tail_run, tasks))
+    times = sorted(t for t, how, *_ in results if how == "verified")
+    failed = [how for _, how, *_ in results if how != "verified"]
+
+    def pct(q: float) -> float:
+        return times[min(len(times) - 1, math.ceil(q * len(times)) - 1)] if times else math.nan
+
+    print(f"{runs} uploads and read-backs of {n_items} items on loopback UDP through the relay dropping {drop:.0%} each "
+          f"way, `aerosurvey upload`'s defaults, the fake vehicle re-requesting after {vehicle_resend:g} s, {jobs} at a time")
+    print(f"verified {len(times)}/{runs}; median {statistics.median(times):.1f} s, p90 {pct(0.9):.1f} s, "
+          f"p95 {pct(0.95):.1f} s, worst {times[-1]:.1f} s; over {limit:g} s: {sum(t > limit for t in times)}; "
+          f"upload restarts {sum(r[2] for r in results)}, read-back restarts {sum(r[3] for r in results)}, "
+          f"final ACK lost {sum(r[4] for r in results)}" + (f"; failed: {failed}" if failed else ""))
+    slow = sorted(((t, seed) for (t, how, *_), (*_, seed) in zip(results, tasks) if how == "verified"), reverse=True)[:3]
+    print("slowest (s, seed): " + ", ".join(f"{t:.1f} s seed {seed}" for t, seed in slow))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--items", type=int, default=None, help="items on the wire, home included (default 704; 650 with --sitl)")
@@ -237,8 +275,13 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=200, help="simulated runs per row for --share")
     ap.add_argument("--losses", default="0.1,0.3", help="loss rates (each way) for --share, comma-separated")
     ap.add_argument("--latencies", default="0.002,0.1", help="one-way latencies (s) for --share, comma-separated")
-    ap.add_argument("--jobs", type=int, default=1, help="processes for --share")
+    ap.add_argument("--jobs", type=int, default=1, help="processes for --share and --tail")
+    ap.add_argument("--tail", action="store_true", help="--runs real-socket runs at --drop: the tail of the times")
+    ap.add_argument("--limit", type=float, default=60.0, help="--tail counts the runs longer than this (s)")
     args = ap.parse_args()
+    if args.tail:
+        run_tail(args.items or 704, args.drop, args.vehicle_resend, args.runs, args.jobs, args.limit)
+        return
     if args.share:
         run_share(args.items or 704, [float(x) for x in args.losses.split(",")],
                   [float(x) for x in args.latencies.split(",")], args.runs, args.jobs)

@@ -157,6 +157,22 @@ def px4_format(s: Stored, mtype: int) -> Stored:
     return Stored(s.command, 6 if relative else 5, (*s.params[:3], yaw), s.x, s.y, s.z)
 
 
+#: The parameters the fake answers unless told otherwise: an ArduCopter, an ArduPlane and a PX4 set up
+#: for a survey (a camera, terrain data, a battery failsafe above a 25 % reserve, RTL above the
+#: test plans' flat ground, speed limits above their speeds). Names and units as each autopilot
+#: has them (ArduPilot's parameter docs, PX4's parameter reference); MIS_DIST_WPS is absent as
+#: from PX4 v1.14 on, MIS_DIST_1WP present as in every PX4.
+SURVEY_PARAMS: dict[str, dict[str, float | int]] = {
+    "copter": {"TERRAIN_ENABLE": 1, "CAM1_TYPE": 1, "RTL_ALT": 6000, "WPNAV_SPEED": 1000.0, "BATT_MONITOR": 4,
+               "BATT_FS_LOW_ACT": 2, "BATT_LOW_MAH": 1000.0, "BATT_CAPACITY": 3300.0},
+    "plane": {"TERRAIN_ENABLE": 1, "CAM1_TYPE": 1, "RTL_ALTITUDE": 100.0, "AIRSPEED_MAX": 25.0, "AIRSPEED_CRUISE": 16.0,
+              "BATT_MONITOR": 4, "BATT_FS_LOW_ACT": 1, "BATT_LOW_MAH": 1000.0, "BATT_CAPACITY": 3300.0},
+    "px4": {"TRIG_MODE": 4, "TRIG_INTERFACE": 3, "RTL_RETURN_ALT": 60.0, "MPC_XY_VEL_MAX": 15.0, "MPC_XY_CRUISE": 10.0,
+            "FW_AIRSPD_MAX": 25.0, "FW_AIRSPD_TRIM": 16.0, "COM_LOW_BAT_ACT": 3, "BAT_CRIT_THR": 0.3, "BAT_LOW_THR": 0.35,
+            "MIS_DIST_1WP": 10000.0},
+}
+
+
 class VehicleModel:
     """The vehicle side of the mission protocol, driven by messages and a clock it is given."""
 
@@ -166,7 +182,8 @@ class VehicleModel:
                  legacy_requests: bool = False, request_resend: float = 0.2, upload_timeout: float = 2.0,
                  early_accept_after: int | None = None, fail_item: int | None = None,
                  silent_after_request: int | None = None, px4: bool = False, fix: bool = True,
-                 mav_type: int | None = None, lose_final_acks: int = 0, params: dict[str, float | int] | None = None) -> None:
+                 mav_type: int | None = None, lose_final_acks: int = 0, params: dict[str, float | int | None] | None = None,
+                 answer_params: bool = True) -> None:
         self.mav = mavlink2.MAVLink(None, srcSystem=system, srcComponent=component)
         self.system, self.component = system, component
         self.storage = storage
@@ -189,9 +206,12 @@ class VehicleModel:
         self.fail_item = fail_item  # a mission item whose storage fails (ERROR, upload ends)
         self.silent_after_request = silent_after_request  # asks for this mission item, then never answers again
         self.lose_final_acks = lose_final_acks  # the final ACCEPTED of this many uploads never leaves the vehicle
-        # parameters it answers PARAM_REQUEST_READ for (a float REAL32, an int INT32); PX4 has MIS_DIST_1WP in every version and
-        # says nothing for a name it does not have
-        self.params = params if params is not None else {"MIS_DIST_1WP": 10000.0} if px4 else {}
+        # parameters it answers PARAM_REQUEST_READ for (a float REAL32, an int INT32): a vehicle set up for a survey
+        # (`SURVEY_PARAMS`), with `params` over them (None: the vehicle has no such parameter); it says nothing
+        # for a name it does not have, and nothing at all without `answer_params`
+        defaults = SURVEY_PARAMS["px4" if px4 else "plane" if plane else "copter"] if storage == "ardupilot" or px4 else {}
+        merged = {**defaults, **(params or {})}
+        self.params = {k: v for k, v in merged.items() if v is not None} if answer_params else {}
         self.stored: dict[int, list[Stored]] = {0: [], 1: [], 2: []}
         self.receiving: int | None = None  # mission type being uploaded
         self._staging: list[Stored] = []
@@ -284,9 +304,11 @@ class VehicleModel:
             if m.param_id not in self.params:
                 return []
             value = self.params[m.param_id]
-            if isinstance(value, int):  # MAV_PARAM_TYPE_INT32, its bytes in the float (PX4's bytewise encoding)
+            if isinstance(value, int) and self.px4:  # MAV_PARAM_TYPE_INT32, its bytes in the float (PX4's bytewise encoding)
                 return [self.mav.param_value_encode(m.param_id.encode(), struct.unpack("<f", struct.pack("<i", value))[0],
                                                     6, len(self.params), 0)]
+            if isinstance(value, int):  # ArduPilot casts an integer parameter to the float, its type says which
+                return [self.mav.param_value_encode(m.param_id.encode(), float(value), 6, len(self.params), 0)]
             return [self.mav.param_value_encode(m.param_id.encode(), value, 9, len(self.params), 0)]
         if kind == "HEARTBEAT" or not kind.startswith("MISSION_"):
             return []

@@ -52,14 +52,18 @@ def refused(plan: Path, model: VehicleModel, *options: str) -> str:
     return lines[0]
 
 
-@pytest.fixture(scope="module")
-def split_plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A copter plan folder whose battery (10 min) splits it into sorties."""
-    tmp = tmp_path_factory.mktemp("split")
-    spec = make_spec(tmp, {"battery": {"usable_min": 10.0, "reserve": 0.25}})
+def planned_folder(tmp: Path, overrides: dict) -> Path:
+    """The folder `aerosurvey plan` writes for the test spec with `overrides`."""
+    spec = make_spec(tmp, overrides)
     res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "out")])
     assert res.exit_code == 0, res.output
     return tmp / "out"
+
+
+@pytest.fixture(scope="module")
+def split_plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copter plan folder whose battery (10 min) splits it into sorties."""
+    return planned_folder(tmp_path_factory.mktemp("split"), {"battery": {"usable_min": 10.0, "reserve": 0.25}})
 
 
 def home_of(plan: Path) -> tuple[float, float, float]:

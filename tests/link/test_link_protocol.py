@@ -461,9 +461,11 @@ def test_resend_timer_follows_rfc_6298_within_its_bounds(samples: list[float]) -
         timer.measured(r)
     expected = min(1.0, max(0.01, rfc6298(samples, 0.01)))
     assert timer.value(0) == pytest.approx(expected)
-    waits = [timer.value(k) for k in range(8)]
+    waits = [timer.value(k) for k in range(20)]
     assert waits[: mp.FLAT_RESENDS + 1] == [waits[0]] * (mp.FLAT_RESENDS + 1)
-    assert all(b == min(1.0, 2 * a) for a, b in zip(waits[mp.FLAT_RESENDS:], waits[mp.FLAT_RESENDS + 1:]))
+    ceiling = min(1.0, max(4 * waits[0], 0.25))  # four timers, at least the protocol's 250 ms, at most the timeout
+    assert all(b == min(ceiling, 2 * a) for a, b in zip(waits[mp.FLAT_RESENDS:], waits[mp.FLAT_RESENDS + 1:]))
+    assert max(waits) == pytest.approx(ceiling) and waits[-1] == pytest.approx(ceiling)
 
 
 def test_upload_measures_round_trips_only_on_items_sent_once() -> None:
@@ -481,8 +483,26 @@ def test_upload_measures_round_trips_only_on_items_sent_once() -> None:
     t = up.deadline
     assert sent_items(up.poll(t)) == [2, 3]
     assert sent_items(up.poll(up.deadline)) == [2, 3, 4]  # its requests for 3 and 4 may both be lost
-    up.handle(mp.Request(3), up.deadline + 5.0)  # long after the last copy: the round trip is at least that
-    assert up.timer.samples == 3 and up.timer.srtt > 0.05
+    up.handle(mp.Request(3), up.deadline + 5.0)  # long after the last copy: the vehicle's own re-request, maybe
+    assert up.timer.samples == 2 and up.timer.srtt == pytest.approx(0.05)
+    up.handle(mp.Request(3), up.deadline + 6.0)  # its re-request of the item we sent: a copy, then answered
+    t = up.deadline - 0.5
+    up.handle(mp.Request(4), t)
+    assert up.timer.samples == 2  # Karn: the copy answered, or the one before
+    up.handle(mp.Request(5), t + 0.02)  # item 4 sent once, answered after 20 ms
+    assert up.timer.samples == 3 and up.timer.srtt == pytest.approx(0.875 * 0.05 + 0.125 * 0.02)
+
+
+def test_download_measures_a_request_answered_long_after_its_last_copy() -> None:
+    """The vehicle sends an item only when asked: an answer a whole timer after the last copy proves the round
+    trip is at least that long, and the timer follows a link that got slower."""
+    down = mp.Downloader(mp.MISSION, mp.Policy(timeout=1.0, min_timeout=0.01))
+    down.start(0.0)
+    down.handle(mp.Count(3), 0.05)
+    t = down.deadline
+    assert down.poll(t) == [mp.Request(0)]
+    down.handle(mp.Item(items(3)[0]), t + 0.6)
+    assert down.timer.samples == 2 and down.timer.srtt == pytest.approx(0.875 * 0.05 + 0.125 * 0.6)
 
 
 def test_upload_window_reaches_the_item_the_vehicle_wants_when_its_requests_are_lost() -> None:

@@ -80,14 +80,14 @@ def test_what_px4_drops_or_rewrites_is_modelled_and_what_it_stores_wrongly_is_na
              MissionItem(mav.NAV_WAYPOINT, mav.FRAME_GLOBAL, 0, 0, 0, 725.0, lat + 0.002, lon, 460.0),
              MissionItem(mav.NAV_RETURN_TO_LAUNCH, mav.FRAME_MISSION))
     m = Mission("copter", "px4", (lat, lon, 400.0), items, 10.0, 5.0)
-    model = VehicleModel(px4=True, home=m.home)
+    model = VehicleModel(px4=True, home=m.home, params={"MPC_XY_CRUISE": 5.0})  # no DO_CHANGE_SPEED: it flies that
     with FakeVehicle(model, "udp") as fv:
         res = run(write(tmp_path, m), fv.url)
     assert res.exit_code == 0, res.output
     assert res.output.splitlines()[-1].endswith("all match")
     assert model.stored[0][1].params[2] == 0.0 and model.stored[0][0].params[0] == 0.0  # dropped by the vehicle
 
-    model = VehicleModel(px4=True, home=m.home, alter={3: {"z": 470.0}})
+    model = VehicleModel(px4=True, home=m.home, alter={3: {"z": 470.0}}, params={"MPC_XY_CRUISE": 5.0})
     with FakeVehicle(model, "udp") as fv:
         res = run(write(tmp_path, m), fv.url)
     assert res.exit_code == 1, res.output
@@ -275,7 +275,6 @@ def _longest_leg(m: Mission) -> tuple[float, int, int]:
     ({"MIS_DIST_WPS": 900.0, "MIS_DIST_1WP": 900.0}, "within the vehicle's MIS_DIST_WPS = 900 m"),
     ({"MIS_DIST_1WP": 10000.0}, "the vehicle has no MIS_DIST_WPS (PX4 v1.14 and later do not limit legs)"),
     ({"MIS_DIST_WPS": 0.0, "MIS_DIST_1WP": 900.0}, "the vehicle's MIS_DIST_WPS = 0 does not limit legs"),
-    ({}, "MIS_DIST_WPS not known: the vehicle answered no parameter request"),
 ])
 def test_the_legs_are_compared_with_the_vehicles_mis_dist_wps(tmp_path: Path, params: dict, said: str) -> None:
     """PX4 v1.13 and earlier (MIS_DIST_WPS 900 m by default) take the mission, v1.14 and later have
@@ -301,8 +300,27 @@ def test_a_leg_longer_than_the_vehicles_mis_dist_wps_is_refused_before_anything_
     assert res.exit_code == 3, res.output
     assert res.output.strip().splitlines()[-1] == (
         f"Error: survey.plan: mission items {a} and {b} lie {d:,.0f} m apart but the vehicle's MIS_DIST_WPS = 400 m "
-        "(PX4 refuses such a mission at arming): plan it again with vehicle.max_leg_m = 400, or raise MIS_DIST_WPS")
+        "(PX4 refuses such a mission at arming): plan it again with vehicle.max_leg_m = 400, or raise MIS_DIST_WPS "
+        "(or give --accept leg-length)")
     assert mission_messages(model) == 0 and model.log.get("got PARAM_REQUEST_READ MIS_DIST_WPS")
+    with FakeVehicle(model, "udp") as fv:
+        res = run(write(tmp_path, m), fv.url, "--accept", "leg-length")
+    assert res.exit_code == 0, res.output
+    assert (f"leg-length: ACCEPTED by the pilot (--accept leg-length): mission items {a} and {b} lie {d:,.0f} m apart"
+            in res.output)
+
+
+def test_a_vehicle_that_answers_no_parameter_request_is_refused_naming_the_first_setting_needed(tmp_path: Path) -> None:
+    """Nothing known of its settings: the first check the mission needs refuses (the camera: it takes photos)."""
+    m = px4_mission(6)
+    model = VehicleModel(px4=True, home=m.home, answer_params=False)
+    with FakeVehicle(model, "udp") as fv:
+        res = run(write(tmp_path, m), fv.url, "--timeout", "0.2", "--retries", "4")
+    assert res.exit_code == 3, res.output
+    assert res.output.strip().splitlines()[-1] == (
+        "Error: survey.plan: TRIG_MODE not known: the vehicle answered no parameter request but the mission takes photos "
+        "with 1 item(s) (DO_SET_CAM_TRIGG_DIST): set TRIG_MODE = 4 (or give --accept camera)")
+    assert mission_messages(model) == 0
 
 
 def test_px4s_integer_parameters_are_read_from_their_bytes() -> None:

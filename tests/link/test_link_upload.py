@@ -121,7 +121,8 @@ def test_too_many_items_fails_with_what_the_vehicle_said() -> None:
         with pytest.raises(LinkError) as exc:
             upload_mission(link, survey_mission(10), mp.Policy(timeout=0.1, restarts=1, busy_wait=0.1))
     assert ("MAV_MISSION_NO_SPACE for 16 items 2 time(s); it has no room for them or it has not finished booting "
-            "(the vehicle said: Only 8 items are supported); the vehicle's mission is incomplete") in str(exc.value)
+            "(the vehicle said: Only 8 items are supported); the vehicle holds 0 mission item(s), none confirmed of the "
+            "plan's 16 (it says so when asked after the failure): do not fly it") in str(exc.value)
 
 
 def test_connection_refused_on_a_closed_port() -> None:

@@ -37,9 +37,12 @@ def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str, zone_files: t
     """Plan a survey mission from a mission spec (TOML) and write its files into the -o folder.
 
     Prints the plan's summary and the `aerosurvey check` command that shows the evidence of
-    its rules (nothing with -q). Exit code 0 when written, 1 when the final safety gate (a leg in an
-    exclusion zone, or in an official zone that blocks it: docs/airspace.md)
-    refuses a leg, 2 for bad input (nothing written then).
+    its rules (nothing with -q). Exit codes (docs/planning.md): 0 written and every
+    error-severity rule passes; 1 either written for inspection only because an error-severity
+    rule fails (the last line names them; `aerosurvey upload` then refuses it unless the pilot
+    names each), or nothing written because the final safety gate refused a leg (in an
+    exclusion zone, or in an official zone that blocks it: docs/airspace.md); 2 bad input
+    (nothing written).
     """
     # imported here, not at the top: listing this command in `aerosurvey --help` must not load the planner
     from aerosurvey.inputs import plan_from_files

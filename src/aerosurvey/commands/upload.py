@@ -2,9 +2,10 @@
 
 Exit codes: 0 uploaded and verified (or uploaded with --no-verify), 1 the link failed or the
 vehicle stores something else, 2 bad input (unreadable plan, bad option), 3 refused before
-anything was sent: the plan does not fit the vehicle (autopilot, vehicle type, launch point,
-battery, item count; for PX4 its storage, the commands and frames it takes and its
-MIS_DIST_WPS, read from it). PX4 missions
+anything was sent: the plan fails an error-severity rule, or it does not fit the vehicle
+(autopilot, vehicle type, launch point, battery, item count; for PX4 its storage and the
+commands and frames it takes) or the settings read from it (link/vehicle_settings.py), unless
+--accept names the rule or the check. PX4 missions
 go through MAVSDK (link/px4.py), ArduPilot missions through aerosurvey's own protocol. Nothing
 is reported as uploaded unless the vehicle acknowledged every item.
 """
@@ -16,7 +17,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import click
 
@@ -30,12 +31,21 @@ from aerosurvey.link.upload import (
     TransferReport,
     UploadReport,
     VerificationFailed,
+    accept_names,
+    check_rules,
+    check_settings,
     check_vehicle,
     mission_wire_items,
+    settings_to_read,
     upload_mission,
     upload_plan,
 )
+from aerosurvey.link.vehicle_settings import CHECKS, PlanFigures
 from aerosurvey.mission.items import Mission
+from aerosurvey.report.summary import RuleCount
+
+if TYPE_CHECKING:
+    from aerosurvey.manifest import Manifest
 
 _DEFAULTS = mp.Policy()  # the command's defaults are the protocol's: one place for both
 
@@ -102,9 +112,24 @@ def mission_facts(path: Path, mission: Mission, waypoints: bool, vehicle: str | 
         sorties = tuple(f for s in doc.sorties for f in s.files if f.endswith(path.suffix)) if len(doc.sorties) > 1 else ()
     else:
         est, sorties = sortie.time_s, ()
+    rules = RuleCount.of(doc.rules)
     return (MissionFacts(path.name, said, mission.firmware, launch, items, battery.get("max_mission_items"),
-                         None if est is None else est / 60.0, _battery_words(battery), sorties),
+                         None if est is None else est / 60.0, _battery_words(battery), sorties, plan_figures(doc),
+                         tuple(r["rule"] for r in doc.rules), rules.failed),
             f"checked against {mf.FILE_NAME} ({'the whole mission' if sortie is None else 'sortie ' + sortie.id})")
+
+
+def plan_figures(doc: Manifest) -> PlanFigures:
+    """What the vehicle's settings are compared with, from the manifest: the battery's reserve, the
+    highest ground under the plan above the launch point (its DEM figures), and the official zones
+    near the flights that restrict them (its airspace record; None when the plan was checked against none)."""
+    reserve = (doc.raw.get("battery") or {}).get("reserve")
+    ground_max = doc.raw["derived"]["terrain"].get("ground_max_m")
+    home = doc.home.ground_amsl_m
+    airspace = doc.raw.get("airspace")
+    zones = None if airspace is None else tuple(
+        z["name"] or z["identifier"] for z in airspace["zones"] if z["restriction"] != "NO_RESTRICTION")
+    return PlanFigures(reserve, None if ground_max is None or home is None else ground_max - home, zones)
 
 
 def _launch_distance(value: str) -> float | None:
@@ -230,16 +255,21 @@ def format_report(r: UploadReport, verified: bool, rally_asked: bool = False) ->
               help="The autopilot the vehicle runs (default: the one the plan is for). ArduPilot missions go through "
                    "aerosurvey's mission protocol, PX4 missions through MAVSDK's mission_raw plugin.")
 @click.option("--rally", is_flag=True, help="Upload the plan's rally points too (MAV_MISSION_TYPE_RALLY), and verify them.")
+@click.option("--accept", "accept", multiple=True, metavar="NAME",
+              help=f"Upload although the named check refuses ({', '.join(CHECKS)}), or although the plan fails the named "
+                   "error-severity rule; repeatable, one name each. The report says what was accepted.")
 def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str | None, launch_distance: str,
-           no_verify: bool, autopilot: str | None, rally: bool) -> None:
+           no_verify: bool, autopilot: str | None, rally: bool, accept: tuple[str, ...]) -> None:
     """Upload PLAN_FILE (.plan or .waypoints) to a vehicle, with its fence, then read it back and compare.
 
     With --rally its rally points go too. PX4 missions go through MAVSDK's mission_raw plugin.
 
-    Before sending anything it compares the vehicle with the mission (autopilot, vehicle type,
-    distance from the planned launch point, battery, item count; for PX4 also its storage, the
-    commands and frames it takes and the longest leg against its MIS_DIST_WPS) and refuses with
-    exit code 3 when they do not fit. Exit code 0
+    Before sending anything it refuses, with exit code 3, a plan that fails an error-severity rule
+    (unless --accept names each such rule), and compares the vehicle with the mission: autopilot,
+    vehicle type, distance from the planned launch point, battery, item count, for PX4 its storage
+    and the commands and frames it takes, and the settings the mission depends on, read from it
+    (terrain, camera, RTL altitude, speed limit, battery failsafe, PX4's MIS_DIST_WPS: docs/upload.md);
+    --accept NAME overrides one named check. Exit code 0
     when uploaded and verified, 1 when the link fails or the vehicle stores something else (the
     differing item, field and values are named; a partial mission is "the vehicle holds N of M
     mission items: do not fly it"), 2 for bad input. Progress goes to stderr when it is a
@@ -251,20 +281,24 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
                          f"{autopilot} and upload that", key="--autopilot")
     limit = _launch_distance(launch_distance)
     facts, source = mission_facts(plan_file, mission, waypoints, vehicle)
+    accepted = accept_names(facts, accept)
+    rules = check_rules(facts, accepted)
     policy = mp.Policy(timeout=timeout, retries=retries)
     if mission.firmware == "px4":
-        from aerosurvey.link.px4 import MavsdkTransfers, mavsdk_url, px4_checks
+        from aerosurvey.link.px4 import MavsdkTransfers, mavsdk_url
+        from aerosurvey.link.upload import check_px4
 
         mavsdk_url(url)  # a connection MAVSDK cannot open is bad input before anything else
-    legs = None
     try:
         with open_link(url, policy.silence) as link:
             assert link.vehicle is not None
             position = link.vehicle_position(policy.silence) if limit is not None else None
             where = check_vehicle(facts, link.vehicle, position, limit)
             if mission.firmware == "px4":
-                legs = px4_checks(link, mission, facts.file, rally, policy.silence)
-            else:
+                check_px4(mission, facts.file, rally)
+            params = link.read_params(settings_to_read(facts, link.vehicle), policy.silence)
+            settings = check_settings(facts, mission, link.vehicle, params, accepted)
+            if mission.firmware != "px4":
                 with TransferProgress(sys.stderr) as progress:
                     report = upload_mission(link, mission, policy, verify=not no_verify, progress=progress, rally=rally)
         if mission.firmware == "px4":  # the checks' link is closed: MAVSDK opens the same connection
@@ -278,8 +312,9 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
         raise
     click.echo(f"{facts.file}: {facts.vehicle} mission for {facts.firmware}, {source}")
     click.echo(where)
-    if legs is not None:
-        click.echo(legs)
+    click.echo(rules)
+    for line in settings:
+        click.echo(line)
     for line in format_report(report, not no_verify, rally):
         click.echo(line)
     if mission.rally and not rally:

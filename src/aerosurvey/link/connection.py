@@ -217,10 +217,12 @@ class MavLink:
                 refused += 1  # MAV_RESULT_FAILED: e.g. no position yet
         return home
 
-    def read_params(self, names: tuple[str, ...], wait: float, settle: float = 0.5) -> dict[str, float]:
+    def read_params(self, names: tuple[str, ...], wait: float, settle: float = 2.0) -> dict[str, float]:
         """The values of the parameters `names` the vehicle answered PARAM_REQUEST_READ for,
         asked again every 0.5 s until all have answered, or `settle` seconds after the first
-        answer (a vehicle answers every name it has together), or `wait` seconds in all. A vehicle
+        answer (a vehicle answers every name it has together; the names still unanswered are asked
+        again meanwhile, so that on a lossy link a lost answer is not taken for a parameter the
+        vehicle does not have), or `wait` seconds in all. A vehicle
         without a parameter does not answer for it (PX4) or sends PARAM_ERROR (unknown to
         pymavlink's dialect: ignored), so a name missing from the result was not answered.
         Integer parameters come as PX4 sends them, their bytes in the float (MAVLink's bytewise

@@ -200,6 +200,9 @@ FLAT_RESENDS = 3
 #: The timer before any round trip was measured: the MAVLink mission protocol's recommended
 #: timeout for mission items (within Policy.min_timeout and Policy.timeout)
 FIRST_TIMEOUT = 0.25
+#: The waits of a step double up to this many times the timer (or up to FIRST_TIMEOUT when that
+#: is longer), never beyond Policy.timeout: see ResendTimer
+BACKOFF_CEILING = 4.0
 
 
 class ResendTimer:
@@ -217,7 +220,13 @@ class ResendTimer:
     followed). Backing off: the first `FLAT_RESENDS` resends of a step wait one timer each (on
     a lossy radio a lost packet is most often just lost: at 30 % loss each way half the
     exchanges fail, and doubling from the first resend costs as much again as the losses), each
-    further one twice the one before, up to `timeout`. One timer is shared by the transfers on one link.
+    further one twice the one before, up to `BACKOFF_CEILING` timers (or `FIRST_TIMEOUT`, when that
+    is longer) and never beyond `timeout`. The ceiling bounds the tail on a lossy link whose
+    round trips are short: there one exchange in 30 fails five times in a row at 30 % loss each way,
+    and waits doubled to a whole second made those exchanges cost seconds each and left so few
+    tries within `Policy.silence` that a transfer restarted (from item 0, for a PX4 read-back).
+    A vehicle slower than the timer is still followed: its late answers are measured (below).
+    One timer is shared by the transfers on one link.
     """
 
     def __init__(self, policy: Policy) -> None:
@@ -244,13 +253,17 @@ class ResendTimer:
 
     def value(self, resends: int) -> float:
         """The wait after a step's `resends`-th resend (0: after sending it the first time)."""
-        return min(self.policy.timeout, self.base * 2.0 ** max(0, resends - FLAT_RESENDS))
+        base = self.base
+        ceiling = min(self.policy.timeout, max(BACKOFF_CEILING * base, FIRST_TIMEOUT))
+        return min(ceiling, base * 2.0 ** max(0, resends - FLAT_RESENDS))
 
-    def answered(self, resends: int, first_sent: float, last_sent: float, now: float) -> None:
-        """A step sent 1 + `resends` times (first and last at the times given) was answered `now`."""
+    def answered(self, resends: int, first_sent: float, last_sent: float, now: float, late: bool = True) -> None:
+        """A step sent 1 + `resends` times (first and last at the times given) was answered `now`;
+        `late`: a resent step answered a whole timer after its last copy is measured (not when the
+        vehicle also asks on its own timer, see Uploader)."""
         if resends == 0:
             self.measured(now - first_sent)
-        elif now - last_sent >= self.base:
+        elif late and now - last_sent >= self.base:
             self.measured(now - last_sent)
 
 
@@ -266,6 +279,7 @@ class Stats:
     error_acks: list[int] = field(default_factory=list)
     ack_lost: bool = False  # an upload ended without the vehicle's ACCEPTED (see Uploader)
     confirmed: int = 0  # upload: items the vehicle confirmed in the last attempt (see Uploader.confirmed)
+    most_confirmed: int = 0  # upload: the most it confirmed in any attempt (an ArduPilot keeps them: it writes in place)
 
 
 class TransferFailed(Exception):
@@ -276,6 +290,8 @@ class _Machine:
     """Shared bookkeeping: state, deadlines, the resend timer and outcome of one transfer."""
 
     kind = "transfer"
+    #: whether a resent step answered long after its last copy is a round trip (ResendTimer.answered)
+    measure_late = True
 
     @property
     def what(self) -> str:
@@ -345,8 +361,16 @@ class _Machine:
     def _answered(self, step: int, now: float) -> None:
         """The answer to `step` came: a round trip for the timer, if it tells one."""
         if self._probe is not None and self._probe[0] == step:
-            self.timer.answered(self._resends, self._probe[1], self._probe[2], now)
+            self.timer.answered(self._resends, self._probe[1], self._probe[2], now, self.measure_late)
         self._probe = None
+
+    def _copied(self, now: float) -> None:
+        """The step was sent again at the vehicle's own asking (its re-request timer): the answer that
+        follows may answer this copy, so it is timed from it, as after a resend (Karn's rule). Timed from
+        the copy before, the vehicle's own timer (ArduPilot: 1 s) would be taken for the round trip."""
+        if self._probe is not None:
+            self._probe = (self._probe[0], self._probe[1], now)
+            self._resends = max(self._resends, 1)
 
     def _resent(self, now: float) -> None:
         self._resends += 1
@@ -398,6 +422,10 @@ class Uploader(_Machine):
     """
 
     kind = "upload"
+    # the vehicle asks again on its own timer (ArduPilot after 1 s, PX4 after 250 ms): a request that
+    # comes long after our last copy may answer a copy lost long before, so it tells no round trip
+    # (taken for one, a single such request on a 4 ms link set the timer to 0.9 s for dozens of items)
+    measure_late = False
 
     def __init__(self, items: Sequence[WireItem], mission_type: int, policy: Policy,
                  confirm_by_download: bool = False, timer: ResendTimer | None = None) -> None:
@@ -473,10 +501,13 @@ class Uploader(_Machine):
             # asked again (its re-request timer, or a copy): answered, but the step timer keeps
             # running, so a vehicle that keeps asking for items we already sent still ends in a restart
             self.stats.duplicate_requests += 1
+            if seq == self._asked:
+                self._copied(now)
             return self._send([seq])
         self._answered(seq - 1, now)
         self._asked = seq
         self.stats.confirmed = seq  # above every seq asked before in this attempt
+        self.stats.most_confirmed = max(self.stats.most_confirmed, seq)
         self._last_progress = now
         self._step(seq, now)
         return self._send([seq])
@@ -485,7 +516,7 @@ class Uploader(_Machine):
         if result == ACCEPTED:
             if self._all_sent or (self._phase == "count" and not self.items):
                 self.done = True
-                self.stats.confirmed = len(self.items)
+                self.stats.confirmed = self.stats.most_confirmed = len(self.items)
             else:
                 self.stats.ignored += 1
             return []
@@ -540,8 +571,18 @@ class Uploader(_Machine):
         if silent:
             return self._restart_or_fail(now, self._silence_why(now, f"item {self._asked} of {len(self.items)}"))
         self._resent(now)
-        last = min(len(self.items) - 1, self._sent_top + 1, self._asked + RESEND_WINDOW - 1)
-        return self._send(range(self._asked, last + 1))
+        return self._send(self._window())
+
+    def _window(self) -> range:
+        """The items a late request resends (see the class): from the one last asked for, up to one
+        past the highest sent, at most RESEND_WINDOW of them; when that span is longer, every other
+        resend sends its top instead (the vehicle may have stored items of earlier windows whose
+        requests were lost, and want the one after them), never more than two windows past the
+        item last asked for."""
+        top = min(len(self.items) - 1, self._sent_top + 1, self._asked + 2 * RESEND_WINDOW - 1)
+        if top - self._asked < RESEND_WINDOW or self._resends % 2 == 1:
+            return range(self._asked, min(top, self._asked + RESEND_WINDOW - 1) + 1)
+        return range(top - RESEND_WINDOW + 1, top + 1)
 
 
 class Downloader(_Machine):

@@ -17,10 +17,11 @@ from typing import Protocol
 
 from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
 from aerosurvey.link import mission_protocol as mp
+from aerosurvey.link import vehicle_settings as vs
 from aerosurvey.link.connection import LinkError, Vehicle
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
-from aerosurvey.mission.legs import MIS_DIST_WPS, PX4_PLACE_COMMANDS, great_circle_m, longest_leg
+from aerosurvey.mission.legs import PX4_PLACE_COMMANDS, great_circle_m, longest_leg
 
 AUTOPILOT_ARDUPILOT = 3
 AUTOPILOT_PX4 = 12
@@ -68,12 +69,14 @@ class DownloadFailed(LinkError):
 
 
 class UploadFailed(LinkError):
-    """An upload did not finish; `confirmed` items were confirmed by the vehicle in its last attempt
-    (None: the transport does not tell)."""
+    """An upload did not finish. `confirmed`: the most items the vehicle confirmed, in order, in any
+    attempt (None: the transport does not tell); `count`: the items it said it holds when asked
+    after the failure (None: it did not say)."""
 
-    def __init__(self, message: str, confirmed: int | None) -> None:
+    def __init__(self, message: str, confirmed: int | None, count: int | None = None) -> None:
         super().__init__(message)
         self.confirmed = confirmed
+        self.count = count
 
 
 # --- the mission model on the wire -------------------------------------------------------
@@ -410,8 +413,27 @@ def upload_items(link: Link, items: Sequence[mp.WireItem], mission_type: int, po
     try:
         run_transfer(link, machine, progress)
     except LinkError as exc:
-        raise UploadFailed(str(exc), machine.confirmed) from None
+        raise UploadFailed(str(exc), machine.stats.most_confirmed, vehicle_count(link, mission_type, policy)) from None
     return machine.stats
+
+
+def vehicle_count(link: Link, mission_type: int, policy: mp.Policy) -> int | None:
+    """How many items of `mission_type` the vehicle says it holds: MISSION_REQUEST_LIST (again every
+    `policy.timeout`) until its MISSION_COUNT, then our MISSION_ACK to end the transfer it began; None
+    when it says nothing within `policy.silence` (a vehicle that died, or whose link did)."""
+    end = link.now() + policy.silence
+    while link.now() < end:
+        link.send(mp.RequestList(mission_type))
+        until = min(end, link.now() + policy.timeout)
+        while link.now() < until:
+            try:
+                msg = link.recv(until)
+            except LinkError:
+                return None
+            if isinstance(msg, mp.Count) and msg.mission_type == mission_type:
+                link.send(mp.Ack(mp.ACCEPTED, mission_type))
+                return msg.count
+    return None
 
 
 def download_items(link: Link, mission_type: int, policy: mp.Policy, expected: int | None = None,
@@ -551,6 +573,9 @@ class MissionFacts:
     estimated_min: float | None = None  # the file's estimated flight time
     battery: str | None = None  # what one battery of the spec gives, in words
     sorties: tuple[str, ...] = ()  # the sortie files, when this file is the whole mission and it needs several
+    plan: vs.PlanFigures = vs.PlanFigures()  # the figures the vehicle's settings are compared with
+    rules: tuple[str, ...] | None = None  # every rule the manifest evaluated (None: no manifest lists the file)
+    failed_rules: tuple[str, ...] = ()  # those that fail at error level: `plan` wrote the folder for inspection only
 
 
 def check_firmware(firmware: str, vehicle: Vehicle) -> None:
@@ -619,33 +644,73 @@ def check_px4(m: Mission, file: str, rally: bool) -> None:
                               + ")")
 
 
-#: PX4's parameters read before an upload: MIS_DIST_WPS, and one every PX4 version has, whose
-#: answer shows that the vehicle answers parameter requests when MIS_DIST_WPS gets none
-PX4_LEG_PARAMS = (MIS_DIST_WPS, "MIS_DIST_1WP")
+#: PX4's parameters the leg check reads (`vehicle_settings.SETTINGS`, check leg-length)
+PX4_LEG_PARAMS = tuple(s.name for s in vs.SETTINGS if s.check == vs.LEGS)
+
+
+def px4_longest_leg(m: Mission) -> tuple[float, int, int] | None:
+    """The longest leg between two consecutive places as PX4 reads the wire items: (metres, item, item)."""
+    return longest_leg([(it.seq, it.x * 1e-7, it.y * 1e-7) for it in mission_wire_items(m)
+                        if it.command in PX4_PLACE_COMMANDS])
 
 
 def check_px4_legs(m: Mission, file: str, params: dict[str, float]) -> str:
-    """Refuse (Refused) a mission with a leg between two consecutive places (as PX4 reads the
-    wire items) longer than the vehicle's MIS_DIST_WPS (PX4 v1.13 and earlier refuse it at
-    arming; 0 or less: no limit). `params`: what the vehicle answered for PX4_LEG_PARAMS. Returns
-    the line that says how long the longest leg is against what."""
-    places = [(it.seq, it.x * 1e-7, it.y * 1e-7) for it in mission_wire_items(m) if it.command in PX4_PLACE_COMMANDS]
-    longest = longest_leg(places)
-    if longest is None:
-        return "legs: fewer than two places, nothing to compare"
-    d, a, b = longest
-    said = f"legs: the longest, items {a} to {b}, is {d:,.0f} m"
-    limit = params.get(MIS_DIST_WPS)
-    if limit is None:
-        return said + (f"; the vehicle has no {MIS_DIST_WPS} (PX4 v1.14 and later do not limit legs)" if params else
-                       f"; {MIS_DIST_WPS} not known: the vehicle answered no parameter request")
-    if limit <= 0:
-        return f"{said}; the vehicle's {MIS_DIST_WPS} = {limit:g} does not limit legs"
-    if d > limit:
-        raise Refused(f"{file}: mission items {a} and {b} lie {d:,.0f} m apart but the vehicle's {MIS_DIST_WPS} = "
-                      f"{limit:g} m (PX4 refuses such a mission at arming): plan it again with "
-                      f"vehicle.max_leg_m = {limit:g}, or raise {MIS_DIST_WPS}")
-    return f"{said}, within the vehicle's {MIS_DIST_WPS} = {limit:g} m"
+    """Refuse (Refused) a mission with a leg longer than the vehicle's MIS_DIST_WPS (`vehicle_settings.check_legs`);
+    `params`: what the vehicle answered for PX4_LEG_PARAMS. Returns the line about the legs."""
+    found = vs.check_legs(px4_longest_leg(m), vs.Values(params))
+    if found.status == "refuse":
+        raise Refused(f"{file}: {found.line}")
+    return found.line
+
+
+def settings_to_read(facts: MissionFacts, vehicle: Vehicle) -> tuple[str, ...]:
+    """The parameters `check_settings` compares (`vehicle_settings.SETTINGS`); none for an autopilot
+    that is neither ArduPilot nor PX4, whose names are not known."""
+    if vehicle.autopilot not in (AUTOPILOT_ARDUPILOT, AUTOPILOT_PX4):
+        return ()
+    return vs.settings_for(facts.firmware, facts.vehicle)
+
+
+def check_settings(facts: MissionFacts, m: Mission, vehicle: Vehicle, params: dict[str, float],
+                   accept: frozenset[str]) -> list[str]:
+    """Refuse (Refused, one line: the parameter, its value, what the mission needs) a mission the
+    vehicle's settings would fly other than planned (`vehicle_settings`), unless the pilot names the
+    check in `accept`; returns what the report says of every check."""
+    if vehicle.autopilot not in (AUTOPILOT_ARDUPILOT, AUTOPILOT_PX4):
+        return [f"settings: not read (the vehicle reports {vehicle.autopilot_name}, whose parameter names are not known)"]
+    longest = px4_longest_leg(m) if m.firmware == vs.PX4 else None
+    verdict = vs.judge(vs.check_settings(m, facts.vehicle, params, facts.plan, longest), accept)
+    if verdict.refusal is not None:
+        raise Refused(f"{facts.file}: {verdict.refusal}")
+    return list(verdict.lines)
+
+
+def check_rules(facts: MissionFacts, accept: frozenset[str]) -> str:
+    """Refuse (Refused) a plan one of whose error-severity rules fails (`aerosurvey plan` wrote it
+    for inspection only, exit code 1) unless the pilot names every such rule in `accept`; returns the report's line."""
+    if facts.rules is None:
+        return "rules: not checked (no manifest.json beside the plan lists this file)"
+    failed = facts.failed_rules
+    if not failed:
+        return f"rules: {len(facts.rules)} evaluated, none fails at error level"
+    missing = [r for r in failed if r not in accept]
+    if missing:
+        raise Refused(f"{facts.file}: the plan fails {len(failed)} error-severity rule(s) ({', '.join(failed)}): "
+                      "`aerosurvey plan` wrote it for inspection only (`aerosurvey check` shows the evidence); upload it "
+                      f"only by naming each: {' '.join('--accept ' + r for r in missing)}")
+    return (f"rules: {len(failed)} error-severity rule(s) fail, ACCEPTED by the pilot "
+            f"({', '.join('--accept ' + r for r in failed)})")
+
+
+def accept_names(facts: MissionFacts, accept: Sequence[str]) -> frozenset[str]:
+    """The `--accept` names, each a check of `vehicle_settings.CHECKS` or a rule of the plan (InputError otherwise)."""
+    allowed = {*vs.CHECKS, *(facts.rules or ())}
+    for name in accept:
+        if name not in allowed:
+            rules = f"; the plan's rules: {', '.join(sorted(set(facts.rules)))}" if facts.rules else ""
+            raise InputError(f"--accept {name!r} is not a check of upload nor a rule of the plan: the checks are "
+                             f"{', '.join(vs.CHECKS)}{rules}", key="--accept")
+    return frozenset(accept)
 
 
 _ITEMS = {mp.MISSION: "mission items", mp.FENCE: "fence vertices", mp.RALLY: "rally points"}
@@ -684,12 +749,26 @@ _COMPARED_AS = {"ardupilot": "as ArduPilot stores items (fields it does not keep
 def _failed_upload(kind: int, exc: UploadFailed, n: int, said: str, done: list[TransferReport]) -> LinkError:
     """The one-line error for an upload that did not finish, saying what the vehicle is left with."""
     if kind == mp.MISSION:
-        held = "" if exc.confirmed is None else f" (it confirmed {exc.confirmed} of {n} items)"
-        return LinkError(f"{exc}{said}; the vehicle's mission is incomplete or unchanged{held}: do not fly it")
+        return LinkError(f"{exc}{said}; {_left_holding(exc, n)}: do not fly it")
     before = " and ".join(mp.TYPE_NAMES[r.mission_type] for r in done)
     whose = "fence is" if kind == mp.FENCE else "rally points are"
     return LinkError(f"the {before} {'was' if len(done) == 1 else 'were'} uploaded but the {exc}{said}; the vehicle's "
                      f"{whose} not the plan's")
+
+
+def _left_holding(exc: UploadFailed, n: int) -> str:
+    """What a failed upload left on the vehicle, in words: the count it gave when asked afterwards,
+    else the items it confirmed in order (ArduPilot writes them in place as they come), else nothing known."""
+    if exc.count is not None and not exc.confirmed:
+        return (f"the vehicle holds {exc.count} mission item(s), none confirmed of the plan's {n} (it says so when asked "
+                "after the failure)")
+    if exc.count is not None:
+        return (f"the vehicle holds {exc.count} of {n} mission items (it says so when asked after the failure; it "
+                f"confirmed the first {exc.confirmed} as the plan's)")
+    if exc.confirmed is not None:
+        return (f"the vehicle holds at least {exc.confirmed} of {n} mission items (it confirmed them in order, and "
+                "answered no count after the failure), or its earlier mission where it keeps a mission only whole")
+    return "the vehicle's mission is incomplete or unchanged"
 
 
 def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False) -> UploadReport:
