@@ -81,13 +81,21 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
         n += 1
 
 
+#: lines laid closer than this share of the spacing would take (nearly) the same photos twice: a
+#: range that asks them so close gets the spacing's lines instead
+_NARROW_MIN = 0.1
+
+
 def _narrow_spacing(width: float, across: float, spacing: float, per_point: int, n: int) -> float | None:
     """The spacing of `per_point` lines putting a range `width` wide in all their strips, when
     the range is narrower than a strip and the spacing would lay more lines (else None): the
-    farthest line from a point then lies (width + (k − 1)·s)/2 ≤ across/2 from it."""
+    farthest line from a point then lies (width + (k − 1)·s)/2 ≤ across/2 from it. None too
+    when that is under `_NARROW_MIN` of the spacing: a range almost a strip wide would have its
+    lines on top of one another (the same stations twice)."""
     if per_point < 2 or n <= per_point or width >= across * (1.0 - 1e-6):
         return None
-    return min(spacing, (across - width) / (per_point - 1)) * (1.0 - 1e-6)
+    close = min(spacing, (across - width) / (per_point - 1)) * (1.0 - 1e-6)
+    return close if close >= _NARROW_MIN * spacing else None
 
 
 def strip_offsets_many(vmins: np.ndarray, vmaxs: np.ndarray, across: float, spacing: float,
