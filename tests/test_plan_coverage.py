@@ -17,7 +17,7 @@ import pytest
 import rasterio
 import shapely
 from click.testing import CliRunner
-from hypothesis import example, HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import independent_coverage as ic
