@@ -25,7 +25,9 @@ per layer between the structure's base and top, the camera turned to the structu
   height cap is checked per station by the altitude step.
 - The structure is an obstacle: the rings, the lead-ins before them and the ends after them lie
   on or outside the ring (the ring starts where its tangent is a supporting line), so every leg
-  of the pattern keeps the stand-off; `CLEARANCE_ALLOWANCE_M` is what tracking may take off it.
+  of the pattern keeps the stand-off; the ways from and back to the launch point go round the
+  footprint grown by the stand-off less `CLEARANCE_ALLOWANCE_M` (what tracking may take off
+  it: `Layout.obstacle`), and a launch point inside that is refused.
 """
 
 from __future__ import annotations
@@ -231,7 +233,9 @@ class Orbit:
         passes = tuple(Pass(i + 1, strips=strips, aim=aim, rise_m=float(z) - plan_h, one_way=True)
                        for i, z in enumerate(heights))
         # what the photos cover is the structure's faces: the structure-faces rule proves them (plan/surfaces.py)
-        yield Layout(0.0, f"rings at {self.settings.standoff_m:g} m round the structure", passes, site.structure, 0.0)
+        keep_out = shapely.buffer(site.structure, (self.settings.standoff_m - CLEARANCE_ALLOWANCE_M) * k)
+        yield Layout(0.0, f"rings at {self.settings.standoff_m:g} m round the structure", passes, site.structure, 0.0,
+                     obstacle=keep_out)
 
 
 __all__ = ["CLEARANCE_ALLOWANCE_M", "Orbit", "OrbitOptions", "WallBand", "layer_heights", "ring"]
