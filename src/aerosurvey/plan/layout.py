@@ -33,6 +33,9 @@ class Layout:
     # ground where the pattern's own rule does not prove the overlaps (a corridor's bends): the
     # coverage step checks the footprints there exactly, as it does next to the zones
     check_exactly: BaseGeometry | None = None
+    # ground the ways from and back to the launch point go round (planning CRS): a structure the
+    # pattern flies round, grown by what they keep from it (the pattern's own legs keep it by design)
+    obstacle: BaseGeometry | None = None
 
 
 class Pattern(Protocol):

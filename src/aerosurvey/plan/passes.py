@@ -91,7 +91,7 @@ class Pass:
 
     An area grid's pass is parallel lines in a frame (`frame` and `segments`): the route searches
     the line order and cells. Any other pattern gives `strips`, flown in their order, back and
-    forth (each line the other way from the one before)."""
+    forth (each line the other way from the one before), or each its own way when `one_way`."""
 
     index: int  # 1 for the main pass, 2 for the cross-hatch, …
     frame: LineFrame | None = None
@@ -99,6 +99,7 @@ class Pass:
     strips: tuple[Strip, ...] = ()
     aim: Aim = NADIR
     rise_m: float = 0.0  # how far above the plan's flying height (Heights) the pass flies
+    one_way: bool = False  # strips flown each its own way only (a ring whose camera is turned to its inside)
 
     @property
     def empty(self) -> bool:

@@ -231,18 +231,18 @@ def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: flo
 def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, float] | None) -> list[Run]:
     """A pass of strips flown in their order, back and forth: each line the other way from the
     one before (its parts in order along that way), the first line the way whose first station
-    is nearer `start_near`."""
+    is nearer `start_near`; a `one_way` pass's strips each their own way."""
     by_line: dict[int, list[Strip]] = {}
     for s in p.strips:
         by_line.setdefault(s.line, []).append(s)
     lines = [sorted(v, key=lambda s: s.part) for _, v in sorted(by_line.items())]
     first = 1
-    if start_near is not None:
+    if start_near is not None and not p.one_way:
         a, b = lines[0][0].stations[0], lines[0][-1].stations[-1]
         first = 1 if math.dist(start_near, (a[0], a[1])) <= math.dist(start_near, (b[0], b[1])) else -1
     runs: list[Run] = []
     for k, parts in enumerate(lines):
-        d = first if k % 2 == 0 else -first
+        d = first if k % 2 == 0 or p.one_way else -first
         runs.extend(_strip_run(p, s, d, lead_in, base / 2.0) for s in (parts if d > 0 else parts[::-1]))
     return runs
 
@@ -302,7 +302,8 @@ def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pa
         if p.frame is not None:
             pr, chosen = order_pass(p, lead_in, k, spacing, pin or here, pinned=pin is not None)
         else:
-            pr, chosen = strip_runs(p, lead_in, base, pin or here), "strips in order, back and forth"
+            pr = strip_runs(p, lead_in, base, pin or here)
+            chosen = "strips in order, each its own way" if p.one_way else "strips in order, back and forth"
         if pin is not None:
             chosen += ", from the start chosen (flight.pass_start)"
         runs.extend(pr)

@@ -136,9 +136,15 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     home = launch_xy if launch_xy is not None else default_home(site, first, home_clearance_m(spec) * k)
     if launch_xy is None:
         check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
+    transit = detours
+    if layout.obstacle is not None:
+        if shapely.contains_xy(layout.obstacle, *home):
+            raise InputError("the launch point lies within the stand-off of the structure the pattern flies round: "
+                             "give area.launch farther from it", key="area.launch")
+        transit = Detours(shapely.union_all([g for g in (detours.blocked, layout.obstacle) if g is not None]), 0.0)
     try:
-        out = climb_out(spec, site, sensor, detours, home, first)
-        back = detours.path(last, end_of_flight(Landing.of(spec), site, home))
+        out = climb_out(spec, site, sensor, transit, home, first)
+        back = transit.path(last, end_of_flight(Landing.of(spec), site, home))
     except ValueError as exc:
         raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
     return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))

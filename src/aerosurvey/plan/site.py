@@ -67,6 +67,7 @@ class Site:
     sides_m: tuple[float, float] | None  # a corridor's ground left and right of its centreline (ground metres)
     warnings: tuple[str, ...]  # what the site step decided that the user should see (a derived centreline)
     min_clearance_m: float = 20.0  # terrain.min_clearance_m: how high above the DEM every leg keeps (mission/clearance.py)
+    structure: BaseGeometry | None = None  # [structure]'s footprint (planning CRS), a polygon
 
     def autopilot_scale(self, heading_deg: float) -> float:
         """Planning-grid metres per metre of ArduPilot's distance along a line heading (a grid
@@ -223,7 +224,8 @@ def prepare_site(spec: MissionSpec, inputs: PlanInputs, height_agl_m: float) -> 
         if spec.terrain.mode != "none":
             ground = dem.range_over(area, "area")
     return Site(planar, area_wgs84, excl, area, zones, zones_buf, k, dem, ground, simplification, centreline,
-                spec.flight.exclusion_margin_m, sides, warnings, spec.terrain.min_clearance_m)
+                spec.flight.exclusion_margin_m, sides, warnings, spec.terrain.min_clearance_m,
+                planar.forward(inputs.structure_wgs84) if inputs.structure_wgs84 is not None else None)
 
 
 def _corridor_centreline(spec: MissionSpec, asked: tuple[float | None, float | None], given: BaseGeometry,
