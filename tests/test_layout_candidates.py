@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import shapely
 from click.testing import CliRunner
-from hypothesis import HealthCheck, Phase, event, given, settings
+from hypothesis import HealthCheck, Phase, event, example, given, settings
 
 import independent_legs as il
 import zone_cases as zc
@@ -70,6 +70,10 @@ def test_trial_cases_leave_no_ground_next_to_the_zones_unseen(name: str, tmp_pat
 @settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
           phases=[Phase.explicit, Phase.reuse, Phase.generate])
 @given(params=zc.case_params(max_ha=60.0))
+# found by hypothesis: GEOS's rectangle clip built a ring of three points from this corridor's band (plan/lines.py)
+@example(params=zc.CaseParams(kind="corridor", size_ha=7.71, lat=65.0, lon=-64.086, vehicle="copter",
+                              zones=("outside", "outside", "crossing"), battery_min=17.5, launch="given", end="rtl",
+                              margin_m=30.0, height_m=80.0, heading=None, seed=79031199))
 def test_the_layout_flown_leaves_no_more_ground_unseen_than_any_other(tmp_path_factory: pytest.TempPathFactory,
                                                                       params: zc.CaseParams) -> None:
     case = zc.make_case(params)
