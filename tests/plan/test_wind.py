@@ -247,6 +247,7 @@ def test_the_plan_records_the_wind_and_what_it_takes(tmp_path):
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out), "--wind", "5@270G7"])
     assert res.exit_code == 0, res.output
+    assert "wind            5 m/s from 270 deg true, gusts 7 m/s" in res.output and "wind %" in res.output
     m = json.loads((out / "manifest.json").read_text())
     w = m["wind"]
     assert (w["speed_ms"], w["from_deg"], w["gust_ms"]) == (5.0, 270.0, 7.0)
