@@ -67,7 +67,7 @@ def test_an_area_elsewhere_is_refused_without_the_hint(tmp_path):
 
 
 def test_launch_points_and_zones_are_checked_too(tmp_path):
-    msg = _refused(_obratan(tmp_path, replace={"wind_ms = 3.0": "wind_ms = 3.0\nlaunch_points = [[14.95, 49.43], [49.43, 14.95]]"}),
+    msg = _refused(_obratan(tmp_path, replace={"reserve = 0.25": "reserve = 0.25\nlaunch_points = [[14.95, 49.43], [49.43, 14.95]]"}),
                    tmp_path)
     assert "battery.launch_points[1] at longitude 49.43000..49.43000" in msg and "look swapped" in msg
     write_geojson(tmp_path / "zone.geojson", [[[16.0, 49.0], [16.001, 49.0], [16.001, 49.001], [16.0, 49.0]]])

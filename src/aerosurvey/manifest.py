@@ -83,7 +83,8 @@ def sortie_record(plan: Plan, k: int, stem: str) -> dict[str, Any]:
     }
     budget = plan.battery
     if budget is not None and budget.reserve is not None:
-        out["time_with_wind_allowance_s"] = _f(s.horizontal_s * budget.wind_factor + s.vertical_s, 1)
+        out["still_air_time_s"] = _f(s.still_air_s, 1)
+        out["wind_used_pct"] = _f(100 * (s.battery_used - s.still_air_used), 1)
         out["battery_used_pct"] = _f(100 * s.battery_used * (1 - budget.reserve), 1)
         out["usable_used_pct"] = _f(100 * s.battery_used, 1)
     return out
@@ -313,6 +314,7 @@ def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: d
         "home": {"lon": _f(plan.launch.home[0], 8), "lat": _f(plan.launch.home[1], 8), "ground_amsl_m": _f(plan.launch.home[2], 2)},
         "estimates": {k: (_f(v, 1) if k != "photos" else int(v)) for k, v in plan.estimates.items()},
         "conditions": plan.sun,
+        "wind": None if plan.wind is None else dict(plan.wind),
         "sorties": _sorties(plan),
         "lines": lines,
         "stations": stations,
@@ -321,7 +323,7 @@ def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: d
         "battery": None if spec.battery is None else {
             "usable_min": spec.battery.usable_min, "capacity_wh": spec.battery.capacity_wh,
             "cruise_power_w": spec.battery.cruise_power_w, "climb_power_w": spec.battery.climb_power_w,
-            "reserve": spec.battery.reserve, "wind_ms": spec.battery.wind_ms,
+            "reserve": spec.battery.reserve,
             "max_mission_items": spec.battery.max_mission_items},
         "warnings": list(plan.warnings),
         "coverage": _coverage(plan),
@@ -522,6 +524,7 @@ class Manifest:
     outputs: Mapping[str, str]
     rules: tuple[Mapping[str, Any], ...]
     warnings: tuple[str, ...]
+    wind: Mapping[str, float] | None = None  # the wind planned in (`wind`); None: still air, or a plan written before it
 
     def sortie(self, sortie_id: str) -> Sortie:
         found = next((s for s in self.sorties if s.id == sortie_id), None)
@@ -579,7 +582,7 @@ def from_data(data: Any, where: str, *, check: bool = True) -> Manifest:
                          r["last_station"]) for r in data["lines"]),
         stations=Stations.from_rows(data["stations"]),
         mission_items=data["mission_items"], outputs=data["outputs"],
-        rules=tuple(data.get("rules", [])), warnings=tuple(data["warnings"]),
+        rules=tuple(data.get("rules", [])), warnings=tuple(data["warnings"]), wind=data.get("wind"),
     )
 
 

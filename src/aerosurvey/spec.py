@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -89,6 +90,7 @@ class VehicleSpec:
     climb_rate_ms: float
     descent_rate_ms: float
     max_leg_m: float | None = None  # PX4: the longest leg between two places of a mission (None: ArduPilot, no limit)
+    max_airspeed_ms: float | None = None  # copters: the air speed at the lean limit (None: not given; needed with a wind)
 
 
 @dataclass(frozen=True)
@@ -127,19 +129,34 @@ class BatterySpec:
     cruise_power_w: float | None
     climb_power_w: float | None
     reserve: float
-    wind_ms: float
     launch_points: tuple[tuple[float, float], ...]  # (lon, lat)
     launch: str  # "nearest" or the 1-based index of a launch point, as text
     max_mission_items: int
 
 
 @dataclass(frozen=True)
+class WindSpec:
+    """The wind the plan is flown in (conditions.wind, `--wind 6@240G9`): its mean speed, the TRUE bearing it blows
+    FROM (as a forecast or a METAR gives it) and its gusts (the mean speed when not given)."""
+
+    speed_ms: float
+    from_deg: float
+    gust_ms: float
+
+    def text(self) -> str:
+        """As `--wind` takes it: 6@240, or 6@240G9 with gusts."""
+        gust = f"G{self.gust_ms:g}" if self.gust_ms > self.speed_ms else ""
+        return f"{self.speed_ms:g}@{self.from_deg:g}{gust}"
+
+
+@dataclass(frozen=True)
 class ConditionsSpec:
-    """The spec's [conditions] table: the planned time window and the lowest sun elevation allowed in it."""
+    """The spec's [conditions] table: the planned time window, the lowest sun elevation allowed in it, the wind."""
 
     start: dt.datetime | None
     end: dt.datetime | None
     min_sun_elevation_deg: float
+    wind: WindSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -359,6 +376,11 @@ def _pass_start(t: _Table) -> tuple[tuple[int, tuple[float, float]], ...]:
 
 def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
     b = top.table("battery")
+    if b.has("wind_ms"):
+        # a scalar wind has no direction: every leg's time depends on it (plan/flight_time.py); not mapped to a guess
+        raise InputError(f"battery.wind_ms = {b.raw('wind_ms')!r} is no longer read: give the wind as "
+                         "conditions.wind = {{ speed_ms = ..., from_deg = ..., gust_ms = ... }} (or --wind SPEED@FROM)",
+                         key="battery.wind_ms")
     minutes = b.number("usable_min", None, lo=0.0, lo_open=True, hi=1440.0)
     wh = b.number("capacity_wh", None, lo=0.0, lo_open=True)
     cruise_w = b.number("cruise_power_w", None, lo=0.0, lo_open=True)
@@ -375,13 +397,10 @@ def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
         usable_min=minutes, capacity_wh=wh, cruise_power_w=cruise_w,
         climb_power_w=climb_w if climb_w is not None else (1.3 * cruise_w if cruise_w else None),
         reserve=b.number("reserve", 0.25, lo=0.0, hi=0.9) or 0.0,
-        wind_ms=b.number("wind_ms", 0.0, lo=0.0, hi=40.0) or 0.0,
         launch_points=points, launch=str(launch),
         max_mission_items=b.integer("max_mission_items", MAX_ITEMS[vehicle.firmware], lo=20, hi=100000),
     )
     b.done()
-    if spec.wind_ms >= vehicle.cruise_speed_ms:
-        raise bad_value("battery.wind_ms", spec.wind_ms, f"less than the cruise speed {vehicle.cruise_speed_ms:g} m/s")
     return spec
 
 
@@ -394,6 +413,45 @@ def _airspace(t: _Table, base: Path) -> AirspaceSpec:
         raise bad_value("airspace.authorisations", auth, "a list of zone identifiers the operator is authorised for")
     t.done()
     return AirspaceSpec(tuple(_path(base, z, "airspace.zones") for z in zones), tuple(a.strip() for a in auth))
+
+
+def _conditions_wind(co: _Table) -> WindSpec | None:
+    """conditions.wind: a table {speed_ms, from_deg, gust_ms} or the text --wind takes ("6@240G9")."""
+    raw = co.raw("wind")
+    if raw is None:
+        return None
+    return parse_wind(raw, "conditions.wind") if isinstance(raw, str) else _wind(co.table("wind"))
+
+
+def _wind(w: _Table) -> WindSpec:
+    speed = w.number("speed_ms", required=True, lo=0.0, hi=60.0) or 0.0
+    wind = WindSpec(speed, w.number("from_deg", required=True, lo=0.0, hi=360.0, hi_open=True) or 0.0,
+                    w.number("gust_ms", speed, lo=speed, hi=80.0) or 0.0)
+    w.done()
+    return wind
+
+
+#: `--wind`: SPEED@FROM or SPEED@FROMGGUST (m/s, degrees true the wind blows from, m/s)
+WIND_TEXT = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*@\s*(\d+(?:\.\d*)?)\s*(?:G\s*(\d+(?:\.\d*)?))?\s*$", re.IGNORECASE)
+
+
+def parse_wind(text: str, key: str = "--wind") -> WindSpec:
+    """`--wind` text (6@240, 6@240G9) read as conditions.wind is, with its limits."""
+    m = WIND_TEXT.match(text)
+    if m is None:
+        raise bad_value(key, text, "SPEED@FROM or SPEED@FROMGGUST: m/s and the true bearing it blows from, e.g. 6@240 or 6@240G9")
+    data = {"speed_ms": float(m[1]), "from_deg": float(m[2]), **({"gust_ms": float(m[3])} if m[3] else {})}
+    try:
+        return _wind(_Table(data, "conditions.wind"))
+    except InputError as exc:
+        raise InputError(f"{key} {text!r}: {exc}", key=key) from None
+
+
+def with_wind(spec: MissionSpec, text: str | None) -> MissionSpec:
+    """`spec` with the wind of the commands' --wind (over its conditions.wind)."""
+    if text is None:
+        return spec
+    return replace(spec, conditions=replace(spec.conditions, wind=parse_wind(text)))
 
 
 def with_zone_files(spec: MissionSpec, files: Sequence[Path]) -> MissionSpec:
@@ -528,7 +586,11 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         climb_rate_ms=v.number("climb_rate_ms", 2.5 if vtype == "copter" else 3.0, lo=0.1, hi=30.0) or 0.0,
         descent_rate_ms=v.number("descent_rate_ms", 1.5 if vtype == "copter" else 2.0, lo=0.1, hi=30.0) or 0.0,
         max_leg_m=v.number("max_leg_m", PX4_MAX_LEG_M, lo=10.0, hi=100000.0) if firmware == "px4" else None,
+        max_airspeed_ms=v.number("max_airspeed_ms", None, lo=0.5, hi=100.0) if vtype == "copter" else None,
     )
+    if vtype == "plane" and v.has("max_airspeed_ms"):
+        raise InputError("vehicle.max_airspeed_ms is for copters (the air speed at their lean limit); a plane flies its "
+                         "survey speed through the air", key="vehicle.max_airspeed_ms")
     v.done()
 
     f = top.table("flight")
@@ -591,6 +653,7 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         start=start,
         end=end,
         min_sun_elevation_deg=co.number("min_sun_elevation_deg", 20.0, lo=-10.0, hi=90.0) or 0.0,
+        wind=_conditions_wind(co),
     )
     co.done()
 

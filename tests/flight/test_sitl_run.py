@@ -89,7 +89,7 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
 
     monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
     mounts = []
-    monkeypatch.setattr(harness, "prepare", lambda sv, mount: mounts.append(mount))
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount, wind: mounts.append(mount))
     monkeypatch.setattr(harness, "fly", fake_fly)
     temp = tmp_path / "temp"
     temp.mkdir()
@@ -129,7 +129,7 @@ def test_a_flight_cut_short_flies_its_first_sortie_only(split_plan, tmp_path, mo
         return f
 
     monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
-    monkeypatch.setattr(harness, "prepare", lambda sv, mount: None)
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount, wind: None)
     monkeypatch.setattr(harness, "fly", fake_fly)
     rows = sitl_run.fly_sorties(doc, split_plan, sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0,
                                                                      rtl_after_photos=7), tmp_path / "report")

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import builtins
 import io
-import math
 from pathlib import Path
 from typing import Any
 
@@ -129,26 +128,18 @@ def test_overlaps_without_stereo_warn():
 
 @pytest.mark.parametrize("above", [0.0, 0.5, None])
 def test_wind_at_or_above_the_survey_speed_is_refused(above: float | None):
-    """At the survey speed, above it, and above it but below cruise (9 m/s; cruise 10): all refused."""
+    """A plane's wind at its survey air speed, above it, and above it but below cruise (9 m/s; cruise 10): all refused."""
     # motion blur limits this camera's survey speed to 3.125 m/s at 2.5 cm (exposure 1/250 s, half a
     # pixel), flown in whole cm/s (the mission's DO_CHANGE_SPEED): 3.12 m/s
-    probe = spec_of(camera={"exposure_s": 0.004})
+    probe = spec_of(camera={"exposure_s": 0.004}, vehicle={"type": "plane", "cruise_speed_ms": 10.0})
     h, gsd, _ = target_height(probe)
     probe_heights = solve_heights(probe, h, None)
     speed = solve_sensor(probe, h, gsd, probe_heights, footprint=nadir_footprint(probe, probe_heights),
                          autopilot_stretch=1.0).speed.speed_ms  # the speed alone
     assert speed == pytest.approx(3.12)
     wind = 9.0 if above is None else speed + above
-    spec = spec_of(battery={"usable_min": 27.7, "wind_ms": wind}, camera={"exposure_s": 0.004})
+    spec = spec_of(battery={"usable_min": 27.7}, camera={"exposure_s": 0.004}, vehicle={"type": "plane", "cruise_speed_ms": 10.0},
+                   conditions={"wind": {"speed_ms": wind, "from_deg": 200.0}})
     with pytest.raises(InputError) as e:
         plan_mission(spec, PlanInputs(AREA))
-    assert e.value.key == "battery.wind_ms" and f"{speed:.2f} m/s" in str(e.value)
-
-
-def test_wind_factor_rejects_a_wind_it_cannot_model():
-    from aerosurvey.plan.sorties import wind_factor
-
-    assert wind_factor(0.0, 5.0) == 1.0
-    assert math.isclose(wind_factor(3.0, 5.0), 1 / (1 - 0.36))
-    with pytest.raises(ValueError):
-        wind_factor(5.0, 5.0)
+    assert e.value.key == "conditions.wind" and f"survey air speed {speed:.2f} m/s" in str(e.value)

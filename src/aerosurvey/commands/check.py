@@ -68,8 +68,11 @@ def format_results(records: Sequence[Mapping[str, Any]]) -> list[str]:
                    "[airspace] zones (docs/airspace.md).")
 @click.option("--plan", "plan_dir", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="With a flight folder: the plan folder it flew (default: the one its log_report.json names).")
+@click.option("--wind", default=None, metavar="SPEED@FROM[GGUST]",
+              help="With a mission spec: the wind to plan it in, over its conditions.wind (m/s @ the true bearing it "
+                   "blows from, e.g. 6@240G9).")
 def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Path, ...], list_profiles: bool,
-          as_json: bool, zone_files: tuple[Path, ...], plan_dir: Path | None) -> None:
+          as_json: bool, zone_files: tuple[Path, ...], plan_dir: Path | None, wind: str | None) -> None:
     """Check a mission spec or a plan folder against rule profiles.
 
     Prints each rule's result and the plan's summary, whose rule count is the one `plan`
@@ -103,7 +106,7 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
         return
     if plan_dir is not None:
         raise InputError(f"--plan {str(plan_dir)!r} is for a flight folder (`aerosurvey log ingest` output); {str(target)!r} is none")
-    plan = open_target(target, zone_files)
+    plan = open_target(target, zone_files, wind)
     records = plan_records(plan, chosen_profiles(plan, list(profiles), list(profile_dirs)))
     summary = plan_summary(plan.view.manifest, records)
     if as_json:

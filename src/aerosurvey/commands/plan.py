@@ -33,7 +33,10 @@ log = logging.getLogger(__name__)
 @click.option("--zones", "zone_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
               help="An official UAS zone file (ED-269 or ED-318; repeatable) to check every leg against in four dimensions, "
                    "besides the spec's [airspace] zones (docs/airspace.md).")
-def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str, zone_files: tuple[Path, ...]) -> None:
+@click.option("--wind", default=None, metavar="SPEED@FROM[GGUST]",
+              help="The wind to plan in, over the spec's conditions.wind: m/s and the true bearing it blows from, "
+                   "e.g. 6@240 or 6@240G9 (gusts).")
+def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str, zone_files: tuple[Path, ...], wind: str | None) -> None:
     """Plan a survey mission from a mission spec (TOML) and write its files into the -o folder.
 
     Prints the plan's summary and the `aerosurvey check` command that shows the evidence of
@@ -48,10 +51,10 @@ def plan(spec: Path, outdir: Path, gpkg: bool, qgc: str, dji: str, zone_files: t
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import write_outputs
     from aerosurvey.report.summary import summary_text
-    from aerosurvey.spec import load_spec, with_zone_files
+    from aerosurvey.spec import load_spec, with_wind, with_zone_files
 
     t0 = time.perf_counter()
-    mission_spec = with_zone_files(load_spec(spec), zone_files)
+    mission_spec = with_wind(with_zone_files(load_spec(spec), zone_files), wind)
     with console.progress(f"planning {mission_spec.name}") as report:
         result = plan_from_files(mission_spec, console.part(report, 0.0, 0.85))
         t1 = time.perf_counter()

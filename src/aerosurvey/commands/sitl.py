@@ -57,15 +57,17 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, firmware: str | None,
     doc = read_manifest(outdir, "OUTDIR")
     vehicle = vehicle or doc.mission.vehicle
     firmware = firmware or doc.mission.firmware
+    # the wind the plan was made for, simulated steady (SIM_WIND_SPD, SIM_WIND_DIR; no turbulence)
+    wind = None if doc.wind is None else (float(doc.wind["speed_ms"]), float(doc.wind["from_deg"]))
     if firmware == "px4":
         from aerosurvey.link.px4_sitl import find_px4
 
-        _px4_fits(doc.mission.firmware, vehicle, doc.camera.trigger, defaults, rtl_after)
+        _px4_fits(doc.mission.firmware, vehicle, doc.camera.trigger, defaults, rtl_after, wind)
         settings = SitlSettings(vehicle, find_px4(px4_bin), (), speedup, timeout_factor, boot_timeout, None, "px4")
     else:
         settings = SitlSettings(vehicle, harness.find_binary(vehicle, sitl_bin),
                                 tuple(defaults) or harness.default_params(vehicle), speedup, timeout_factor, boot_timeout,
-                                rtl_after)
+                                rtl_after, wind=wind)
     report_dir = report_dir or (resume_dir or outdir) / "sitl"
     results = fly_sorties(doc, outdir, settings, report_dir, _echo_row, resume_dir)
     if rtl_after is not None:
@@ -79,7 +81,8 @@ def fly(outdir: Path, vehicle: str | None, speedup: float, firmware: str | None,
         raise harness.SitlError(f"sorties that did not fly as planned: {', '.join(bad)} (see {report_dir / 'sitl_report.txt'})")
 
 
-def _px4_fits(planned: str, vehicle: str, trigger: str, defaults: tuple[Path, ...], rtl_after: int | None) -> None:
+def _px4_fits(planned: str, vehicle: str, trigger: str, defaults: tuple[Path, ...], rtl_after: int | None,
+              wind: tuple[float, float] | None = None) -> None:
     """What PX4 SITL does not fly is bad input (InputError), before anything starts."""
     from aerosurvey.errors import InputError
 
@@ -97,6 +100,9 @@ def _px4_fits(planned: str, vehicle: str, trigger: str, defaults: tuple[Path, ..
     if defaults:
         raise InputError("--defaults are ArduPilot parameter files; PX4 SITL takes sitl/aerosurvey-px4.params",
                          key="--defaults")
+    if wind is not None:
+        raise InputError(f"--firmware px4: the plan's wind ({wind[0]:g} m/s from {wind[1]:g}°) is simulated in ArduPilot "
+                         "SITL only here; plan it without conditions.wind to fly it in PX4's SIH", key="--firmware")
     if rtl_after is not None:
         raise InputError("--rtl-after cuts an ArduPilot flight (its camera feedback arrives as it flies); not with "
                          "--firmware px4", key="--rtl-after")

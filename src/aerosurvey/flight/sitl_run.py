@@ -83,6 +83,7 @@ class SitlSettings:
     boot_timeout: float = 60.0  # seconds for SITL to listen and send its first heartbeat
     rtl_after_photos: int | None = None  # a flight cut short: the first sortie switched to RTL after this photo
     firmware: str = "ardupilot"  # "ardupilot" or "px4": which SITL `binary` is
+    wind: tuple[float, float] | None = None  # the plan's wind (speed m/s, from degrees true), simulated steady
 
 
 def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_dir: Path,
@@ -145,7 +146,7 @@ def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings,
                              list(settings.defaults), work, settings.boot_timeout)
     try:
         sv.start()
-        harness.prepare(sv, mount)
+        harness.prepare(sv, mount, settings.wind)
 
         def upload(m: Mission) -> str:
             with open_link(sv.upload_url, 30.0) as link:

@@ -300,10 +300,16 @@ def survey_params(vehicle: str, mount: bool, path: Path = PARAMS_FILE) -> list[t
     return out
 
 
-def prepare(sv: SitlVehicle, mount: bool = False) -> None:
-    """Parameters for a survey in simulation (a servo mount too when `mount`), then a reboot
-    so the camera and mount backends exist."""
-    for name, value in survey_params(sv.vehicle, mount):
+def wind_params(speed_ms: float, from_deg: float) -> list[tuple[str, float]]:
+    """SITL's wind: a steady `speed_ms` from the true bearing `from_deg` at every height (SIM_WIND_T 1: no
+    weaker wind near the ground), without turbulence: the wind the plan was made for."""
+    return [("SIM_WIND_SPD", speed_ms), ("SIM_WIND_DIR", from_deg), ("SIM_WIND_TURB", 0.0), ("SIM_WIND_T", 1.0)]
+
+
+def prepare(sv: SitlVehicle, mount: bool = False, wind: tuple[float, float] | None = None) -> None:
+    """Parameters for a survey in simulation (a servo mount too when `mount`; the wind (speed m/s, from
+    degrees true) when given), then a reboot so the camera and mount backends exist."""
+    for name, value in survey_params(sv.vehicle, mount) + (wind_params(*wind) if wind is not None else []):
         sv.set_param(name, value)
     sv.reboot()
     sv.request_messages()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -15,7 +16,8 @@ from aerosurvey.spec import MissionSpec
 
 def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], stations: Stations, kin: Kinematics,
              home_xy: tuple[float, float], heights: Heights, base: float, k: float, hover_s: float | None = None) -> dict[str, float]:
-    """Distances and times on the ground (grid lengths divided by the scale factor k); with
+    """Distances and times on the ground (grid lengths divided by the scale factor k), each leg at
+    its ground speed in the wind of `kin` (planner.in_wind); with
     hover-and-capture (`hover_s` at rest at each station) the stops at the stations too."""
     home = (home_xy[0] / k, home_xy[1] / k)
     # the detours from home and back home fly at transit speed, like the straight legs
@@ -31,7 +33,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
         survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin)
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
-    transit_kin = Kinematics(kin.vehicle, spec.vehicle.cruise_speed_ms, kin.accel_ms2, kin.turn_radius_m)
+    transit_kin = replace(kin, speed_ms=spec.vehicle.cruise_speed_ms)  # in the same wind
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
     t_climb = climb / spec.vehicle.climb_rate_ms
     t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)

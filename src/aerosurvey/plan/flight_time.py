@@ -17,13 +17,54 @@ from aerosurvey.plan.lines import LineBounds, LineSegment
 
 @dataclass(frozen=True)
 class Kinematics:
-    """What the time model needs of the vehicle."""
+    """What the time model needs of the vehicle, and the wind it flies in.
+
+    The wind is its velocity (where the air moves to) along the planning grid's x and y, m/s
+    (`plan.wind.grid_wind` turns conditions.wind, a true bearing, into it). A plane flies
+    `speed_ms` through the air; a copter holds `speed_ms` over the ground as long as the air
+    speed that takes stays within `airspeed_ms` (its lean limit), and makes good what that air
+    speed allows where it does not (`ground_speed`)."""
 
     vehicle: str
     speed_ms: float
     accel_ms2: float
     turn_radius_m: float
     jerk_ms3: float = 1.0  # copters: ArduCopter's WPNAV_JERK default
+    wind_x: float = 0.0
+    wind_y: float = 0.0
+    airspeed_ms: float = math.inf  # copters: the most air speed (vehicle.max_airspeed_ms); planes fly speed_ms
+
+    @property
+    def calm(self) -> bool:
+        return self.wind_x == 0.0 and self.wind_y == 0.0
+
+    def ground_speed(self, angle_deg: float) -> float:
+        """The speed over the ground along a track in direction `angle_deg` (atan2(dy, dx) of the
+        grid, in degrees), by the wind triangle: the air velocity a plus the wind w make a ground
+        velocity along the track u, g·u = a + w, so g = w·u + √(|a|² − (w×u)²)."""
+        a = math.radians(angle_deg)
+        c, s = math.cos(a), math.sin(a)
+        along, across = self.wind_x * c + self.wind_y * s, self.wind_y * c - self.wind_x * s
+        air = self.speed_ms if self.vehicle != "copter" else self.airspeed_ms
+        if air == math.inf:
+            return self.speed_ms
+        g = along + math.sqrt(max(air * air - across * across, 0.0))
+        if g <= 0.0:
+            raise ValueError(f"a wind of {math.hypot(self.wind_x, self.wind_y):.2f} m/s is not below the air speed "
+                             f"{air:g} m/s: no headway along {angle_deg:.1f}°")
+        return g if self.vehicle != "copter" else min(self.speed_ms, g)
+
+    def slowness(self, angle_deg: float) -> float:
+        """speed_ms over the ground speed along `angle_deg`: the still-air length that takes as long as a metre flown there."""
+        return 1.0 if self.calm else self.speed_ms / self.ground_speed(angle_deg)
+
+    def turn_slowness(self, angle_in_deg: float, angle_across_deg: float, steps: int = 36) -> float:
+        """A plane's 180° turn from `angle_in_deg` towards `angle_across_deg`: the mean slowness over
+        the track directions it sweeps (the ground track a turn flies, a metre each way)."""
+        if self.calm:
+            return 1.0
+        side = 1.0 if (angle_across_deg - angle_in_deg) % 360.0 < 180.0 else -1.0
+        return sum(self.slowness(angle_in_deg + side * 180.0 * (k + 0.5) / steps) for k in range(steps)) / steps
 
 
 def plane_turn_length(lateral: float, radius: float) -> float:
@@ -100,13 +141,16 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
         return 0.0
     ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
     turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
-    total_len = float(lengths.sum())
+    # in wind each metre counts its slowness (still-air metres that take as long; 1 in calm air)
+    slow = [1.0] * len(lengths) if k.calm else [k.slowness(a) for a in ang.tolist()]
+    total_len = float(lengths.sum()) if k.calm else float(np.dot(lengths, slow))
     i = 0
     while i < len(turn) - 1:
         if turn[i] + turn[i + 1] > 150.0:  # a reversal: corner, short leg, corner
             u = seg[i] / lengths[i]
             lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
-            total_len += plane_turn_length(lateral, k.turn_radius_m) - lengths[i + 1]
+            total_len += (plane_turn_length(lateral, k.turn_radius_m) * k.turn_slowness(float(ang[i]), float(ang[i + 1]))
+                          - lengths[i + 1] * slow[i + 1])
             i += 2
         else:
             i += 1
@@ -142,10 +186,12 @@ class RouteSegments:
     path_time's corners, each segment's length flown straight since the last corner (`running`)
     and, at each corner, the time of the straight stretch it ends (`closed`)."""
 
-    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before")
+    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before", "slow")
 
     def __init__(self, points: np.ndarray, kin: Kinematics):
         self.lengths, self.angles = kept_segments(points)
+        # each segment as CopterTime.feed counts it: its length times its slowness in the wind
+        self.slow = self.lengths if kin.calm else [x * kin.slowness(a) for x, a in zip(self.lengths, self.angles)]
         seg = np.diff(points, axis=0)
         # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
         self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > KEPT)]).tolist()
@@ -154,7 +200,7 @@ class RouteSegments:
         self.running: list[float] = []
         self.closed: dict[int, float] = {}
         at_corner = set(self.corners)
-        for k, length in enumerate(self.lengths):
+        for k, length in enumerate(self.slow):
             if k in at_corner:
                 self.closed[k] = _straight_time(self.running[-1], kin)
             self.running.append(length if k == 0 or k in at_corner else self.running[-1] + length)
@@ -162,7 +208,9 @@ class RouteSegments:
 
 class CopterTime:
     """path_time of a copter (path_time is made by it): it stops at every corner sharper than
-    CORNER_DEG and times each straight stretch by _straight_time. Fed in parts, so that
+    CORNER_DEG and times each straight stretch by _straight_time (in wind, of its still-air
+    length: each metre times its slowness, `Kinematics.slowness`; the copter slows only where
+    its lean limit is reached). Fed in parts, so that
     the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
 
     __slots__ = ("kin", "total", "run", "last")
@@ -177,7 +225,10 @@ class CopterTime:
         # the state in locals while the loop runs (the same operations in the same order; measured on
         # a 57-line boustrophedon's 170 segments: 82-88 -> 75-79 µs, /tmp/p2/feedt.py)
         total, run, last, kin, corner = self.total, self.run, self.last, self.kin, CORNER_DEG
+        calm = kin.calm
         for length, ang in zip(*segs):
+            if not calm:  # a metre flown in the wind counts as its still-air length (Kinematics.slowness)
+                length = length * kin.slowness(ang)
             if run is None:
                 run = length
             elif abs((ang - last + 180.0) % 360.0 - 180.0) > corner:
@@ -197,7 +248,7 @@ class CopterTime:
         assert self.run is not None
         ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
         for k in range(k0 + 1, rs.corners[ci] if ci < cj else k1):
-            self.run += rs.lengths[k]
+            self.run += rs.slow[k]
         if ci < cj:
             self.total += _straight_time(self.run, self.kin)
             for c in rs.corners[ci + 1:cj]:

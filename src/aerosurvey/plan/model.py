@@ -125,6 +125,8 @@ class Plan:
     estimates: Mapping[str, float]
     sun: Mapping[str, object] | None
     warnings: tuple[str, ...]
+    # the wind planned in (conditions.wind: speed_ms, from_deg, gust_ms; grid_from_deg at the area's centre); None: still air
+    wind: Mapping[str, float] | None = None
     # the official UAS zones the flights are checked against (airspace/check.py), as given; None without [airspace] zones
     airspace: Airspace | None = None
     # [structure]: which of its walls' and roof's points the photos see, and how often; None without one

@@ -30,6 +30,7 @@ from aerosurvey.plan.coverage import Coverage, coverage_shortfall
 from aerosurvey.plan.detours import Detours
 from aerosurvey.plan.estimates import estimate, sun_over_window
 from aerosurvey.plan.fence import geofence
+from aerosurvey.plan.flight_time import Kinematics
 from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.plan.landing import Landing, climb_out_m, home_clearance_m
 from aerosurvey.plan.limits import check_limits
@@ -39,7 +40,7 @@ from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.routing import RoutePlan, check_launch, default_home, end_of_flight, plan_route
 from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
-from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split, wind_factor
+from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split
 from aerosurvey.plan.surfaces import FacesCheck, Structure, check_faces
 from aerosurvey.plan.zone_edges import edge_passes
 from aerosurvey.spec import MissionSpec
@@ -91,6 +92,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
             return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
                                 autopilot_stretch=stretch, camera_turns_deg=turns)
         sensor, layouts = _under_fixed_yaw(spec, site, sensor, laying, layouts, solve, report)
+    kin, wind = in_wind(spec, site, sensor)  # (a wind the vehicle cannot make headway against refused before routing)
     flown = flown_layout(spec, site, sensor, layouts, report)
     layout, routed, home_ground, alts, coverage = flown.layout, flown.routed, flown.home_ground, flown.alts, flown.coverage
     waypoints = _with_transits(alts.waypoints, routed, site)
@@ -111,7 +113,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
                               site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                               tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
                               climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
-            return battery_sorties(spec, site, path, sites, sensor, routed.detours, start, _share(report, 0.88, 0.98))
+            return battery_sorties(spec, site, path, sites, kin, routed.detours, start, _share(report, 0.88, 0.98))
 
         try:
             budget, sorties = split_from(sites)
@@ -128,7 +130,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
                                "end, each from the nearer (battery.launch_points chooses the places)",)
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
                      site.exclusions_wgs84)
-    est = estimate(spec, routed.route, waypoints, alts.stations, sensor.kinematics, routed.home_xy,
+    est = estimate(spec, routed.route, waypoints, alts.stations, kin, routed.home_xy,
                    sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
@@ -142,7 +144,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         estimates=est, sun=sun,
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
                   + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
-        airspace=inputs.airspace,
+        airspace=inputs.airspace, wind=wind,
         faces=_faces(spec, inputs, site, alts.stations, home_ground),
     )
 
@@ -357,39 +359,60 @@ def far_launch(spec: MissionSpec, site: Site, routed: RoutePlan) -> LaunchSite |
     return LaunchSite(xy[0], xy[1], float(lon[0]), float(lat[0]), _ground(site, xy, "launch point"))
 
 
+def in_wind(spec: MissionSpec, site: Site, sensor: SensorSolution) -> tuple[Kinematics, dict[str, float] | None]:
+    """The survey's kinematics in conditions.wind (the sensor's own, still air, without one) and the wind's
+    record (`Plan.wind`): its direction, a true bearing, turned onto the planning grid at the area's centre
+    (`Planar.grid_bearing`).
+    A wind or gust the vehicle cannot make headway against is refused: a plane's survey and cruise air
+    speeds, a copter's vehicle.max_airspeed_ms (its lean limit) must be above the gusts."""
+    kin, wind, v = sensor.kinematics, spec.conditions.wind, spec.vehicle
+    if wind is None:
+        return kin, None
+    if v.type == "copter":
+        if v.max_airspeed_ms is None:
+            raise InputError(f"conditions.wind = {wind.text()} needs vehicle.max_airspeed_ms for a copter: the air speed it "
+                             "reaches at its lean limit (it holds its ground speed until then)", key="vehicle.max_airspeed_ms")
+        air, what = v.max_airspeed_ms, "vehicle.max_airspeed_ms"
+        if air < kin.speed_ms:
+            raise InputError(f"vehicle.max_airspeed_ms = {air:g} is below the survey speed {kin.speed_ms:.2f} m/s: the copter "
+                             "could not fly it even in still air", key="vehicle.max_airspeed_ms")
+    else:
+        air = min(kin.speed_ms, v.cruise_speed_ms)
+        what = "the survey air speed" if air == kin.speed_ms else "vehicle.cruise_speed_ms (the transits)"
+    if wind.gust_ms >= air:
+        gusts = "" if wind.gust_ms == wind.speed_ms else f"gusts {wind.gust_ms:g} m/s "
+        raise InputError(f"conditions.wind = {wind.text()}: {gusts}not below {what} {air:.2f} m/s: the vehicle could not "
+                         "make headway against it on every leg; fly on a calmer day", key="conditions.wind")
+    c = site.area.centroid
+    grid_from = float(site.planar.grid_bearing(wind.from_deg, c.x, c.y)) % 360.0
+    to = math.radians(grid_from + 180.0)  # the air moves towards the opposite bearing
+    record = {"speed_ms": wind.speed_ms, "from_deg": wind.from_deg, "gust_ms": wind.gust_ms, "grid_from_deg": round(grid_from, 3)}
+    return replace(kin, wind_x=wind.speed_ms * math.sin(to), wind_y=wind.speed_ms * math.cos(to),
+                   airspeed_ms=air if v.type == "copter" else kin.airspeed_ms), record
+
+
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],
-                    sensor: SensorSolution, detours: Detours, start: int = 0,
+                    kin: Kinematics, detours: Detours, start: int = 0,
                     report: Progress = no_progress) -> tuple[Budget, tuple[SortiePlan, ...]]:
     """Split the route from station `start` into sorties that each fit one battery (without a
-    [battery] table: as few as the autopilot's mission storage allows); `report` hears of the
-    balancing rounds."""
+    [battery] table: as few as the autopilot's mission storage allows), each leg timed in the wind of
+    `kin` (`in_wind`); `report` hears of the balancing rounds."""
     b = spec.battery
     if b is None:
         from aerosurvey.spec import MAX_ITEMS
 
-        budget = Budget(usable_s=math.inf, usable_j=None, cruise_w=None, climb_w=None, wind_factor=1.0,
+        budget = Budget(usable_s=math.inf, usable_j=None, cruise_w=None, climb_w=None,
                         max_items=MAX_ITEMS[spec.vehicle.firmware])
-        return budget, _sortie_plans(site, split(path, sites, budget, sensor.kinematics, detours, None, start, report=report))
-    v = sensor.speed.speed_ms
-    if b.wind_ms >= v:
-        raise InputError(
-            f"battery.wind_ms = {b.wind_ms:g} is not below the survey speed {v:.2f} m/s ({sensor.speed.reason}): "
-            "the vehicle could not make headway against it; fly on a calmer day or give the real wind",
-            key="battery.wind_ms",
-        )
+        return budget, _sortie_plans(site, split(path, sites, budget, kin, detours, None, start, report=report))
     keep = 1.0 - b.reserve
     budget = Budget(
         usable_s=b.usable_min * 60.0 * keep if b.usable_min is not None else None,
         usable_j=b.capacity_wh * 3600.0 * keep if b.capacity_wh is not None else None,
         cruise_w=b.cruise_power_w, climb_w=b.climb_power_w,
-        wind_factor=wind_factor(b.wind_ms, v), max_items=b.max_mission_items, reserve=b.reserve,
+        max_items=b.max_mission_items, reserve=b.reserve,
     )
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
-    try:
-        raw = split(path, sites, budget, sensor.kinematics, detours, fixed, start, report=report)
-    except ValueError as exc:
-        raise InputError(f"battery sorties: {exc}") from None
-    return budget, _sortie_plans(site, raw)
+    return budget, _sortie_plans(site, split(path, sites, budget, kin, detours, fixed, start, report=report))
 
 
 def _sortie_plans(site: Site, raw: list[Sortie]) -> tuple[SortiePlan, ...]:

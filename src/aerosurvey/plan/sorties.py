@@ -6,16 +6,18 @@ stations (starting mid-line when the previous sortie ended there, with a new lea
 flies back and lands. No station is skipped and none is photographed twice.
 
 The endurance model: horizontal flight time from the route's time model (copter
-acceleration and corner stops, plane turns) multiplied by a wind allowance
-1 / (1 − (w/v)²) (a round trip against and with a steady wind w), plus climb and
-descent at their rates; energy = time × power when the battery is given in Wh.
+acceleration and corner stops, plane turns), each leg at its ground speed in the wind
+(`Kinematics.ground_speed`: the wind triangle), plus climb and descent at their rates;
+energy = time × power when the battery is given in Wh. Each sortie also records what the
+same stations from the same launch point take in still air: the share of its battery the
+wind takes is the difference.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import accumulate
 
 import numpy as np
@@ -78,15 +80,14 @@ class Budget:
     usable_j: float | None
     cruise_w: float | None
     climb_w: float | None
-    wind_factor: float
     max_items: int
     reserve: float | None = None  # the share of the battery kept back (battery.reserve); None: no battery given
 
     def cost(self, horizontal_s: float, vertical_s: float) -> float:
         """Battery used, in the budget's unit."""
         if self.usable_j is not None:
-            return horizontal_s * self.wind_factor * (self.cruise_w or 0.0) + vertical_s * (self.climb_w or 0.0)
-        return horizontal_s * self.wind_factor + vertical_s
+            return horizontal_s * (self.cruise_w or 0.0) + vertical_s * (self.climb_w or 0.0)
+        return horizontal_s + vertical_s
 
     @property
     def usable(self) -> float:
@@ -110,18 +111,13 @@ class Sortie:
     last: int
     launch: int  # index into the launch sites
     waypoints: tuple[SortieWaypoint, ...]
-    horizontal_s: float  # still air; the battery use includes the wind allowance
+    horizontal_s: float  # in the planned wind (still air without one)
     vertical_s: float
     distance_m: float
     battery_used: float  # fraction of the usable battery (reserve excluded)
     items: int
-
-
-def wind_factor(wind_ms: float, speed_ms: float) -> float:
-    """Time allowance of a round trip against and with a steady wind: 1 / (1 − (w/v)²); w < v."""
-    if not 0.0 <= wind_ms < speed_ms:
-        raise ValueError(f"wind {wind_ms:g} m/s must be below the speed {speed_ms:g} m/s")
-    return 1.0 / (1.0 - (wind_ms / speed_ms) ** 2)
+    still_air_s: float  # the same flight's time in still air (horizontal and vertical)
+    still_air_used: float  # its fraction of the usable battery in still air: battery_used less it is what the wind takes
 
 
 #: A sortie waypoint's fields (x, y, alt_m, kind, run, station); SortieWaypoints are made for the chosen sorties only
@@ -631,7 +627,15 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
         else:
             lo = mid
     sorties = []
+    calm: dict[int, Splitter] = {}  # per launch point: the sorties flown from it in still air
     for k, (a, b) in enumerate(best, start=1):
         used, li, horiz, vert, dist, wps, items = sp.evaluate(a, b)
-        sorties.append(Sortie(k, a, b, li, tuple(wps), horiz, vert, dist, used / budget.usable, items))
+        if kin.calm:
+            still_used, still_h, still_v = used, horiz, vert
+        else:  # the same stations from the same launch point in still air
+            if li not in calm:
+                calm[li] = Splitter(plan, sites, budget, replace(kin, wind_x=0.0, wind_y=0.0), detours, li)
+            still_used, _, still_h, still_v, _ = calm[li].cost(a, b)
+        sorties.append(Sortie(k, a, b, li, tuple(wps), horiz, vert, dist, used / budget.usable, items,
+                              still_h + still_v, still_used / budget.usable))
     return sorties

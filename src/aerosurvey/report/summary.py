@@ -53,6 +53,7 @@ class SortieFigures:
     battery_pct: float  # of the whole battery, the reserve included
     first_station: str
     last_station: str
+    wind_pct: float | None = None  # of the usable battery, what the wind takes (None: a plan written before conditions.wind)
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,7 @@ class Summary:
     distance_km: float
     time_min: float
     sorties: tuple[SortieFigures, ...]
+    wind: str | None  # the wind planned in ("5 m/s from 270 deg true, gusts 7 m/s"), None in still air
     sun_elevation_deg: tuple[float, float] | None
     mission_items: int
     rules: RuleCount
@@ -117,13 +119,22 @@ def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]
         route=tuple(d["route_strategy"]),
         distance_km=round(e["total_distance_m"] / 1000, 2), time_min=round(e["total_time_s"] / 60, 1),
         sorties=tuple(SortieFigures(s["id"], s["photos"], round(s["time_s"] / 60, 1), round(s["distance_m"] / 1000, 2),
-                                    round(s["battery_used_pct"], 1), s["first_station"], s["last_station"])
+                                    round(s["battery_used_pct"], 1), s["first_station"], s["last_station"],
+                                    None if "wind_used_pct" not in s else round(s["wind_used_pct"], 1))
                       for s in manifest["sorties"]),
+        wind=_wind_text(manifest.get("wind")),
         sun_elevation_deg=None if sun is None else (round(sun["min_elevation_deg"], 2), round(sun["max_elevation_deg"], 2)),
         mission_items=int(manifest["mission_items"]), rules=RuleCount.of(rules),
         clearance=None if "clearance" not in manifest else (float(manifest["clearance"]["min_clearance_m"]),
                                                              tuple(manifest["clearance"]["flights"])),
     )
+
+
+def _wind_text(wind: Mapping[str, float] | None) -> str | None:
+    if wind is None:
+        return None
+    gusts = f", gusts {wind['gust_ms']:g} m/s" if wind["gust_ms"] > wind["speed_ms"] else ""
+    return f"{wind['speed_ms']:g} m/s from {wind['from_deg']:g} deg true{gusts}"
 
 
 def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
@@ -150,10 +161,14 @@ def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
         "  route           " + "; ".join(f"pass {i}: {how}" for i, how in enumerate(s.route, start=1)),
         f"  flight          {s.distance_km:.2f} km, {s.time_min:.1f} min estimated",
     ]
+    if s.wind is not None:
+        lines.append(f"  wind            {s.wind} (each leg timed at its ground speed)")
     if s.sorties:
-        lines.append("  sorties         id   photos  time min  dist km  battery %  first station -> last station")
+        windy = s.wind is not None and all(x.wind_pct is not None for x in s.sorties)
+        lines.append("  sorties         id   photos  time min  dist km  battery %" + ("  wind %" if windy else "")
+                     + "  first station -> last station")
         lines += [f"                  {x.id} {x.photos:7d} {x.time_min:9.1f} {x.distance_km:8.2f} {x.battery_pct:10.1f}  "
-                  f"{x.first_station} -> {x.last_station}" for x in s.sorties]
+                  + (f"{x.wind_pct:6.1f}  " if windy else "") + f"{x.first_station} -> {x.last_station}" for x in s.sorties]
     if s.clearance is not None:
         least, flights = s.clearance
         lines.append(f"  clearance       the lowest above the DEM along the legs, per flight (terrain.min_clearance_m {least:g} m)")

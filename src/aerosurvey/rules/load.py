@@ -50,12 +50,15 @@ def airspace_check(plan: Plan, spec: MissionSpec) -> tuple[dict[str, Any] | None
     return airspace_record(report, spec), (report.rule_record(),)
 
 
-def open_target(path: Path, zones: tuple[Path, ...] = ()) -> Target:
+def open_target(path: Path, zones: tuple[Path, ...] = (), wind: str | None = None) -> Target:
     """What `check` and `gcp` read: a plan folder, or a mission spec planned in memory (with `zones`, official
-    zone files besides its [airspace] zones: `check --zones`)."""
+    zone files besides its [airspace] zones: `check --zones`; with `wind` over its conditions.wind: `check --wind`)."""
     from aerosurvey.plan.coverage import PLANNER_PROFILE, planner_rules
 
     if path.is_dir():
+        if wind is not None:
+            raise InputError(f"--wind is for a mission spec: {str(path)!r} is a plan folder, planned in the wind it was "
+                             "planned in (re-plan it with `aerosurvey plan SPEC --wind SPEED@FROM`)", key="--wind")
         if zones:
             raise InputError(f"--zones is for a mission spec: {str(path)!r} is a plan folder, planned with the zones it was "
                              "planned with (re-plan it with `aerosurvey plan SPEC --zones FILE`)", key="--zones")
@@ -65,9 +68,9 @@ def open_target(path: Path, zones: tuple[Path, ...] = ()) -> Target:
         return Target(view, list(doc.mission.profiles), dict(doc.rule_overrides), path, tuple(planner))
     if path.suffix.lower() == ".toml":
         from aerosurvey.inputs import plan_from_files
-        from aerosurvey.spec import load_spec, with_zone_files
+        from aerosurvey.spec import load_spec, with_wind, with_zone_files
 
-        spec = with_zone_files(load_spec(path), zones)
+        spec = with_wind(with_zone_files(load_spec(path), zones), wind)
         plan = plan_from_files(spec)
         manifest, features = plan_documents(plan, spec)
         airspace, airspace_rule = airspace_check(plan, spec)

@@ -1,0 +1,274 @@
+"""The wind as a vector (conditions.wind): each leg's time from the wind triangle, checked against
+an independent integration of the track written here (the vehicle stepped along its legs, its
+air velocity steered so that air velocity + wind carries it along the leg), and the plan's
+records and refusals."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aerosurvey.cli import main
+from aerosurvey.errors import InputError
+from aerosurvey.inputs import plan_from_files
+from aerosurvey.plan.flight_time import Kinematics, path_time, plane_turn_length
+from aerosurvey.spec import load_spec, parse_wind
+from conftest import make_spec
+
+DT = 0.5  # seconds per integration step (a leg's last step ends on its end)
+
+
+def _steer(direction: np.ndarray, wind: np.ndarray, air: float) -> np.ndarray:
+    """The ground velocity of a vehicle flying `air` m/s through the air with its track along the unit
+    vector `direction`: the nose turned by the angle d off the track, found by bisection, where the
+    air velocity's and the wind's parts across the track cancel (air·sin d + w·n = 0)."""
+    n = np.array([-direction[1], direction[0]])
+    lo, hi = -math.pi / 2, math.pi / 2
+    for _ in range(40):
+        mid = (lo + hi) / 2
+        if air * math.sin(mid) + float(wind @ n) > 0:
+            hi = mid
+        else:
+            lo = mid
+    c, s = math.cos(lo), math.sin(lo)
+    nose = np.array([c * direction[0] - s * direction[1], s * direction[0] + c * direction[1]])
+    return air * nose + wind
+
+
+def _copter_velocity(direction: np.ndarray, wind: np.ndarray, speed: float, most_air: float) -> np.ndarray:
+    """A copter told to fly `speed` over the ground along `direction`: that, where the air speed it takes
+    (|ground − wind|) is within `most_air`; else the fastest ground speed along it that is (bisection)."""
+    if np.hypot(*(speed * direction - wind)) <= most_air:
+        return speed * direction
+    lo, hi = 0.0, speed
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        if np.hypot(*(mid * direction - wind)) <= most_air:
+            lo = mid
+        else:
+            hi = mid
+    return lo * direction
+
+
+def _fly(points: np.ndarray, velocity) -> float:
+    """Seconds to fly the polyline by stepping its position: at each step the velocity `velocity(towards)`
+    gives for the unit vector from where it is to a point 5 m ahead on the leg (pursuit), until its
+    projection passes each leg's end."""
+    t = 0.0
+    pos = points[0].astype(float)
+    for a, b in zip(points[:-1], points[1:]):
+        leg = b - a
+        length = float(np.hypot(*leg))
+        u = leg / length
+        pos = a.astype(float)
+        while True:
+            along = float((pos - a) @ u)
+            if along >= length - 1e-6:
+                break
+            carrot = a + u * min(along + 5.0, length + 5.0)
+            d = carrot - pos
+            v = velocity(d / np.hypot(*d))
+            step = DT
+            ahead = float(v @ u)
+            if along + ahead * step > length:  # the last part of a step
+                step = (length - along) / ahead
+            pos = pos + v * step
+            t += step
+    return t
+
+
+def _wind(speed: float, towards_deg: float) -> np.ndarray:
+    a = math.radians(towards_deg)
+    return np.array([speed * math.cos(a), speed * math.sin(a)])
+
+
+def _gentle_polyline(start_deg: float, turns: list[float], lengths: list[float]) -> np.ndarray:
+    """A polyline whose corners turn by less than 75° (no plane reversal among them)."""
+    pts, ang = [np.zeros(2)], start_deg
+    for turn, length in zip([0.0, *turns], lengths):
+        ang += turn
+        pts.append(pts[-1] + length * np.array([math.cos(math.radians(ang)), math.sin(math.radians(ang))]))
+    return np.asarray(pts)
+
+
+legs = st.integers(1, 4).flatmap(lambda n: st.tuples(st.lists(st.floats(-70, 70), min_size=n - 1, max_size=n - 1),
+                                                       st.lists(st.floats(100, 400), min_size=n, max_size=n)))
+
+
+@settings(max_examples=10, deadline=None)
+@given(air=st.floats(12, 25), share=st.floats(0, 0.8), towards=st.floats(0, 360), start=st.floats(0, 360), shape=legs)
+def test_a_planes_legs_take_the_integrated_time(air, share, towards, start, shape):
+    pts = _gentle_polyline(start, *shape)
+    wind = _wind(share * air, towards)
+    kin = Kinematics("plane", air, 2.5, 60.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    flown = _fly(pts, lambda u: _steer(u, wind, air))
+    assert path_time(pts, kin) == pytest.approx(flown, rel=2e-3, abs=0.05)
+
+
+@settings(max_examples=10, deadline=None)
+@given(speed=st.floats(5, 15), margin=st.floats(0, 10), share=st.floats(0, 0.9), towards=st.floats(0, 360),
+       start=st.floats(0, 360), shape=legs)
+def test_a_copters_legs_take_the_integrated_time_more_than_in_still_air(speed, margin, share, towards, start, shape):
+    """Over the same polyline, the wind adds to a copter's time what the integrated track adds to
+    cruising it in still air (the stops at the corners as in still air)."""
+    most_air = speed + margin  # (a copter that cannot fly its speed in still air is refused: see below)
+    pts = _gentle_polyline(start, *shape)
+    wind = _wind(share * most_air, towards)
+    calm = Kinematics("copter", speed, 2.5, 0.0, airspeed_ms=most_air)
+    windy = Kinematics("copter", speed, 2.5, 0.0, wind_x=float(wind[0]), wind_y=float(wind[1]), airspeed_ms=most_air)
+    flown = _fly(pts, lambda u: _copter_velocity(u, wind, speed, most_air))
+    cruised = float(np.hypot(*np.diff(pts, axis=0).T).sum()) / speed
+    added = path_time(pts, windy) - path_time(pts, calm)
+    assert added == pytest.approx(flown - cruised, rel=2e-3, abs=0.05)
+    assert added >= -1e-9
+
+
+@settings(max_examples=10, deadline=None)
+@given(air=st.floats(14, 25), share=st.floats(0, 0.8), towards=st.floats(0, 360), heading=st.floats(0, 360),
+       left=st.booleans())
+def test_a_planes_turn_takes_the_integrated_time(air, share, towards, heading, left):
+    """A reversal between lines 2R apart is a half circle over the ground: flown along it, the
+    nose steered so that air velocity + wind follows its tangent, it takes what path_time gives the turn."""
+    radius = 60.0
+    wind = _wind(share * air, towards)
+    kin = Kinematics("plane", air, 2.5, radius, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    h = math.radians(heading)
+    u = np.array([math.cos(h), math.sin(h)])
+    side = np.array([-u[1], u[0]]) * (1.0 if left else -1.0)
+    # the turn: a line, the connector 2R across, the line back (path_time replaces the connector by the turn)
+    line = 200.0
+    pts = np.array([-line * u, np.zeros(2), 2 * radius * side, 2 * radius * side - line * u])
+    straight = _fly(pts[:2], lambda d: _steer(d, wind, air)) + _fly(pts[2:], lambda d: _steer(d, wind, air))
+    centre = radius * side
+    arc, t = 360, 0.0
+    for k in range(arc):  # the half circle, each of its pieces flown along its tangent
+        a0 = math.pi * k / arc
+        a1 = math.pi * (k + 1) / arc
+        p0 = centre - radius * (math.cos(a0) * side - math.sin(a0) * u)
+        p1 = centre - radius * (math.cos(a1) * side - math.sin(a1) * u)
+        d = p1 - p0
+        g = _steer(d / np.hypot(*d), wind, air)
+        t += float(np.hypot(*d)) / float(np.hypot(*g))
+    assert plane_turn_length(2 * radius, radius) == pytest.approx(math.pi * radius)
+    assert path_time(pts, kin) == pytest.approx(straight + t, rel=3e-3)
+
+
+@pytest.mark.parametrize("vehicle", ["plane", "copter"])
+def test_an_out_and_back_is_never_faster_in_wind(vehicle):
+    """Flown out and back along any direction, a wind below the air speed only adds time."""
+    speed = 16.0 if vehicle == "plane" else 10.0
+    calm = Kinematics(vehicle, speed, 2.5, 50.0, airspeed_ms=13.0 if vehicle == "copter" else math.inf)
+    for towards in range(0, 360, 15):
+        w = _wind(6.0, towards)
+        windy = Kinematics(vehicle, speed, 2.5, 50.0, wind_x=float(w[0]), wind_y=float(w[1]), airspeed_ms=calm.airspeed_ms)
+        for a in range(0, 180, 20):
+            u = np.array([math.cos(math.radians(a)), math.sin(math.radians(a))])
+            pts = np.array([np.zeros(2), 800 * u, np.zeros(2)])
+            assert path_time(pts, windy) >= path_time(pts, calm) - 1e-9
+
+
+# ---- the spec, the flag, the plan's records and refusals ----------------------------------------
+
+def test_wind_in_the_spec_and_on_the_command_line(tmp_path):
+    spec = load_spec(make_spec(tmp_path, {"conditions": {"wind": {"speed_ms": 6, "from_deg": 240, "gust_ms": 9}},
+                                          "vehicle": {"max_airspeed_ms": 15.0}}))
+    w = spec.conditions.wind
+    assert (w.speed_ms, w.from_deg, w.gust_ms) == (6.0, 240.0, 9.0) and spec.vehicle.max_airspeed_ms == 15.0
+    assert load_spec(make_spec(tmp_path, {"conditions": {"wind": "6@240G9"}})).conditions.wind == w
+    assert parse_wind("6@240") == parse_wind("6 @ 240") and parse_wind("6@240").gust_ms == 6.0
+    assert parse_wind("4.5@0G7.5").text() == "4.5@0G7.5"
+
+
+@pytest.mark.parametrize("table,needle", [
+    ({"conditions": {"wind": {"speed_ms": 6}}}, "conditions.wind.from_deg is missing"),
+    ({"conditions": {"wind": {"speed_ms": 6, "from_deg": 360}}}, "conditions.wind.from_deg = 360"),
+    ({"conditions": {"wind": {"speed_ms": -1, "from_deg": 10}}}, "conditions.wind.speed_ms = -1"),
+    ({"conditions": {"wind": {"speed_ms": 6, "from_deg": 10, "gust_ms": 5}}}, "conditions.wind.gust_ms = 5"),
+    ({"conditions": {"wind": {"speed_ms": 6, "from_deg": 10, "dir": 5}}}, "unknown key(s) in [conditions.wind]: dir"),
+    ({"conditions": {"wind": "six@240"}}, "conditions.wind = 'six@240'"),
+    ({"conditions": {"wind": 6}}, "conditions.wind = 6"),
+    ({"battery": {"usable_min": 20, "wind_ms": 3.0}}, "battery.wind_ms = 3.0 is no longer read"),
+    ({"vehicle": {"type": "plane", "max_airspeed_ms": 20}}, "vehicle.max_airspeed_ms is for copters"),
+    ({"vehicle": {"max_airspeed_ms": 0}}, "vehicle.max_airspeed_ms = 0"),
+])
+def test_bad_winds_are_refused_in_one_line(tmp_path, table, needle):
+    with pytest.raises(InputError) as e:
+        load_spec(make_spec(tmp_path, table))
+    assert needle in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("text", ["6", "6@", "@240", "6@240G", "6@240X9", "-6@240", "6@240G3", "6@361"])
+def test_bad_wind_flags_are_refused(text):
+    with pytest.raises(InputError) as e:
+        parse_wind(text)
+    assert "--wind" in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("vehicle,wind,needle", [
+    ({"type": "copter"}, "6@240G9", "needs vehicle.max_airspeed_ms for a copter"),
+    ({"type": "copter", "max_airspeed_ms": 9.0}, "1@240", "vehicle.max_airspeed_ms = 9 is below the survey speed 10.00 m/s"),
+    ({"type": "copter", "cruise_speed_ms": 6.0, "max_airspeed_ms": 8.0}, "8@240", "8@240: not below vehicle.max_airspeed_ms 8.00 m/s"),
+    ({"type": "copter", "cruise_speed_ms": 6.0, "max_airspeed_ms": 8.0}, "6@240G9",
+     "gusts 9 m/s not below vehicle.max_airspeed_ms 8.00 m/s"),
+    ({"type": "plane", "cruise_speed_ms": 16.0}, "6@240G16", "gusts 16 m/s not below the survey air speed"),
+])
+def test_a_wind_the_vehicle_cannot_make_good_is_refused(tmp_path, vehicle, wind, needle):
+    spec = make_spec(tmp_path, {"vehicle": vehicle, "conditions": {"wind": wind}})
+    with pytest.raises(InputError) as e:
+        plan_from_files(load_spec(spec))
+    assert needle in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_copter_within_its_lean_limit_flies_as_in_still_air(tmp_path):
+    """Its air speed never reaches the limit (speed + wind below it): the same sorties, times and battery, none of it the wind's."""
+    table = {"battery": {"usable_min": 6.0}, "vehicle": {"cruise_speed_ms": 10.0, "max_airspeed_ms": 16.5}}
+    calm = plan_from_files(load_spec(make_spec(tmp_path, table)))
+    windy = plan_from_files(load_spec(make_spec(tmp_path, {**table, "conditions": {"wind": "6@200"}})))
+    assert len(calm.sorties) == len(windy.sorties) >= 2
+    for (a, _), (b, _) in zip(calm.sorties, windy.sorties):
+        assert (a.first, a.last, a.horizontal_s, a.vertical_s) == (b.first, b.last, b.horizontal_s, b.vertical_s)
+        assert b.battery_used == b.still_air_used
+    assert calm.estimates == windy.estimates
+
+
+def test_the_plan_records_the_wind_and_what_it_takes(tmp_path):
+    """`plan --wind` over the spec's: the manifest's wind (its grid bearing: the true one less the
+    meridian convergence, S-JTSK here), each sortie's still-air time and the battery share the wind
+    takes; more sorties than in still air for a copter at its lean limit, each within the battery."""
+    base = {"mission": {"crs": "EPSG:5514"}, "battery": {"usable_min": 8.0},
+            "vehicle": {"cruise_speed_ms": 10.0, "max_airspeed_ms": 11.0}, "flight": {"heading": 90.0}}
+    spec = make_spec(tmp_path, {**base, "conditions": {"wind": "2@90"}})
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out), "--wind", "5@270G7"])
+    assert res.exit_code == 0, res.output
+    assert "wind            5 m/s from 270 deg true, gusts 7 m/s" in res.output and "wind %" in res.output
+    m = json.loads((out / "manifest.json").read_text())
+    w = m["wind"]
+    assert (w["speed_ms"], w["from_deg"], w["gust_ms"]) == (5.0, 270.0, 7.0)
+    assert w["grid_from_deg"] == pytest.approx((270.0 - m["crs"]["convergence_deg"]) % 360.0, abs=0.05)
+    usable = 8.0 * 60 * 0.75
+    for s in m["sorties"]:
+        assert s["time_s"] <= usable + 0.05
+        assert s["still_air_time_s"] < s["time_s"]  # lines across the wind: every one of them flown upwind once
+        assert s["wind_used_pct"] == pytest.approx(100 * (s["time_s"] - s["still_air_time_s"]) / usable, abs=0.1)
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp_path / "calm"), "--wind", "0@0"])
+    assert res.exit_code == 0, res.output
+    calm = json.loads((tmp_path / "calm" / "manifest.json").read_text())
+    assert len(calm["sorties"]) < len(m["sorties"])
+    assert all(s["wind_used_pct"] == 0.0 for s in calm["sorties"])
+
+
+def test_check_takes_the_wind_for_a_spec_only(tmp_path):
+    spec = make_spec(tmp_path, {"vehicle": {"max_airspeed_ms": 11.0}})
+    res = CliRunner().invoke(main, ["check", str(spec), "--wind", "12@10"])
+    assert res.exit_code == 2 and "not below vehicle.max_airspeed_ms" in res.output
+    out = tmp_path / "out"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
+    res = CliRunner().invoke(main, ["check", str(out), "--wind", "3@10"])
+    assert res.exit_code == 2 and "--wind is for a mission spec" in res.output
