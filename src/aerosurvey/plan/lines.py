@@ -81,9 +81,9 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
         n += 1
 
 
-#: lines laid closer than this share of the spacing would take (nearly) the same photos twice: a
+#: lines laid closer than this share of the spacing would take the same photos twice (to the centimetre): a
 #: range that asks them so close gets the spacing's lines instead
-_NARROW_MIN = 0.1
+_NARROW_MIN = 0.01
 
 
 def _narrow_spacing(width: float, across: float, spacing: float, per_point: int, n: int) -> float | None:
