@@ -150,7 +150,7 @@ def test_only_the_sorties_asked_fly_and_an_unknown_one_is_bad_input(split_plan, 
         return harness.Flight(name)
 
     monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
-    monkeypatch.setattr(harness, "prepare", lambda sv, mount: None)
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount, wind: None)
     monkeypatch.setattr(harness, "fly", fake_fly)
     settings = sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0)
     rows = sitl_run.fly_sorties(doc, split_plan, settings, tmp_path / "report", only=(routes[1].name,))
