@@ -96,3 +96,21 @@ def test_bad_input_is_refused_in_one_line(planned):
     (planned / "spec.toml").write_text((planned / "spec.toml").read_text() + "\n# changed\n")
     res = CliRunner().invoke(main, ["brief", str(planned / "out"), "--at", "2026-05-15T09:00+02:00"])
     assert res.exit_code == 2 and "is not the spec" in res.output
+
+
+def test_a_wind_of_the_day_is_planned_in_and_one_too_strong_is_no_go(tmp_path):
+    spec = make_spec(tmp_path, {"battery": {"usable_min": 20, "reserve": 0.25},
+                                "vehicle": {"cruise_speed_ms": 10.0, "max_airspeed_ms": 12.0}})
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp_path / "out")]).exit_code == 0
+    at = ["--at", "2026-05-15T09:00+02:00", "--json"]
+    calm = json.loads(CliRunner().invoke(main, ["brief", str(tmp_path / "out"), *at]).output)
+    windy = CliRunner().invoke(main, ["brief", str(tmp_path / "out"), *at, "--wind", "6@240"])
+    assert windy.exit_code == 0, windy.output
+    got = json.loads(windy.output)
+    wind = next(i for i in got["items"] if i["topic"] == "wind")
+    assert wind["verdict"] == "go" and wind["text"].startswith("6 m/s from 240° true")
+    assert dt.datetime.fromisoformat(got["end"]) > dt.datetime.fromisoformat(calm["end"])  # the flights take longer
+    gale = CliRunner().invoke(main, ["brief", str(tmp_path / "out"), *at, "--wind", "13@240"])
+    assert gale.exit_code == 1
+    item = next(i for i in json.loads(gale.output.split("\nError")[0])["items"] if i["topic"] == "plan")
+    assert item["verdict"] == "no-go" and "conditions.wind" in item["text"]

@@ -35,7 +35,7 @@ _SCAN = dt.timedelta(minutes=5)
 
 @dataclass(frozen=True)
 class Item:
-    topic: str  # airspace, batteries, daylight, vehicle
+    topic: str  # plan, airspace, wind, batteries, daylight
     verdict: str  # one of VERDICTS
     text: str
 
@@ -140,9 +140,9 @@ def airspace_items(verdicts: Sequence[tuple[str, str]] | None, notes: Sequence[s
 
 def make_brief(start: dt.datetime, end: dt.datetime, lon: float, lat: float, threshold_deg: float,
                sorties: Sequence[Sortie], reserve: float | None, airspace: list[Item],
-               vehicle: Sequence[Item] = ()) -> Brief:
-    return Brief(start, end, (*airspace, battery_item(sorties, reserve),
-                              daylight_item(lon, lat, start, end, threshold_deg), *vehicle))
+               others: Sequence[Item] = ()) -> Brief:
+    return Brief(start, end, (*airspace, *others, battery_item(sorties, reserve),
+                              daylight_item(lon, lat, start, end, threshold_deg)))
 
 
 def manifest_sorties(manifest: Mapping[str, Any]) -> list[Sortie]:
@@ -152,20 +152,53 @@ def manifest_sorties(manifest: Mapping[str, Any]) -> list[Sortie]:
             or [Sortie("mission", float(manifest["estimates"]["total_time_s"]), None, None)])
 
 
+def plan_sorties(plan: Plan) -> list[Sortie]:
+    """The flights of a plan as its manifest records them (`manifest.sortie_record`)."""
+    from aerosurvey import ids
+    from aerosurvey.manifest import sortie_record
+
+    records = [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
+    return manifest_sorties({"sorties": records, "estimates": plan.estimates})
+
+
+def wind_item(plan: Plan, sorties: Sequence[Sortie], records: Sequence[Mapping[str, Any]]) -> Item | None:
+    """The wind the flights were planned in and the battery it takes (None: still air)."""
+    w = plan.wind
+    if not w:
+        return None
+    gusts = f", gusts {w['gust_ms']:g}" if w["gust_ms"] != w["speed_ms"] else ""
+    extra = max((float(r.get("wind_used_pct") or 0.0) for r in records), default=0.0)
+    return Item("wind", "go", f"{w['speed_ms']:g} m/s from {w['from_deg']:g}° true{gusts}: the flights are timed in it "
+                              f"(the wind takes up to {extra:.0f} % of a battery more than still air)")
+
+
 def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: float,
               replan: Callable[[dt.datetime, dt.datetime], Plan]) -> Brief:
     """The brief of the plan of `manifest` flown from `at`: `replan(start, end)` makes the plan
-    again for that window (from the command's spec files, or the page's spec), whose official
-    zones are then checked in it (airspace/check.py, as `plan` checks them)."""
+    again for that window (from the command's spec files, or the page's spec, in the wind the caller
+    gives), whose flights and official zones are then those of the brief (airspace/check.py, as
+    `plan` checks them). The window is the manifest's flights' first; when the plan made again
+    flies longer (another wind), it is made once more for the longer window."""
+    from aerosurvey import ids
     from aerosurvey.airspace.check import check_airspace
     from aerosurvey.errors import InputError
+    from aerosurvey.manifest import sortie_record
     from aerosurvey.outputs import mission_programs
 
     sorties = manifest_sorties(manifest)
     first, last = flying_window(at, sorties, battery_change_min)
     threshold = float(manifest["conditions"]["threshold_deg"]) if manifest.get("conditions") else 0.0
+    extra: list[Item] = []
     try:
         plan = replan(first, last)
+        sorties = plan_sorties(plan)
+        longer = flying_window(at, sorties, battery_change_min)[1]
+        if longer > last:
+            last = longer
+            plan = replan(first, last)
+            sorties = plan_sorties(plan)
+        records = [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
+        extra = [i for i in (wind_item(plan, sorties, records),) if i is not None]
         report = check_airspace(plan, mission_programs(plan))
         zones = airspace_items(None if report is None else [(v.verdict, v.text()) for v in report.verdicts],
                                () if report is None else report.notes)
@@ -173,7 +206,8 @@ def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: 
         if isinstance(given, (int, float)):
             threshold = float(given)
     except InputError as exc:
-        zones = [Item("airspace", "no-go", f"the plan cannot be made for this window: {exc}")]
+        zones = [Item("plan", "no-go", f"the plan cannot be made for this window and wind: {exc}")]
     battery = manifest.get("battery") or {}
     home = manifest["home"]
-    return make_brief(first, last, float(home["lon"]), float(home["lat"]), threshold, sorties, battery.get("reserve"), zones)
+    return make_brief(first, last, float(home["lon"]), float(home["lat"]), threshold, sorties, battery.get("reserve"),
+                      zones, extra)

@@ -48,11 +48,14 @@ def _spec_of(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Pa
 @click.option("--at", "at", default=None, help="The first launch, ISO 8601 with its UTC offset (default: now).")
 @click.option("--zones", "zone_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
               help="An official UAS zone file (ED-269 or ED-318; repeatable) besides the spec's [airspace] zones.")
+@click.option("--wind", default=None, metavar="SPEED@FROM[GGUST]",
+              help="The wind of the day, over the spec's conditions.wind (m/s @ the true bearing it blows from, e.g. "
+                   "6@240G9): the flights are timed and the batteries counted in it.")
 @click.option("--battery-change-min", type=click.FloatRange(0, 120), default=5.0, show_default=True,
               help="Minutes between one flight's landing and the next one's launch.")
 @click.option("--json", "as_json", is_flag=True, help="Print the brief as JSON.")
-def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tuple[Path, ...], battery_change_min: float,
-          as_json: bool) -> None:
+def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tuple[Path, ...], wind: str | None,
+          battery_change_min: float, as_json: bool) -> None:
     """What a pilot checks before launch, for the day and time of the flight: go or no-go.
 
     For the flights of PLAN_DIR at --at: the official zones that apply then, with their verdicts
@@ -64,10 +67,10 @@ def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tu
     from aerosurvey.brief import brief_for
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.manifest import read_manifest
-    from aerosurvey.spec import load_spec, with_zone_files
+    from aerosurvey.spec import load_spec, with_wind, with_zone_files
 
     doc = read_manifest(plan_dir, "PLAN_DIR")
-    spec = with_zone_files(load_spec(_spec_of(plan_dir, spec_path, doc.raw["inputs"]["spec"])), zone_files)
+    spec = with_wind(with_zone_files(load_spec(_spec_of(plan_dir, spec_path, doc.raw["inputs"]["spec"])), zone_files), wind)
     result = brief_for(doc.raw, _when(at), battery_change_min,
                        lambda a, b: plan_from_files(replace(spec, conditions=replace(spec.conditions, start=a, end=b))))
     if as_json:
