@@ -124,8 +124,33 @@ def test_energy_budget(tmp_path):
     ({"capacity_wh": 50.0}, "needs battery.cruise_power_w"),
     ({"usable_min": 10.0, "reserve": 0.95}, "battery.reserve = 0.95"),
     ({"usable_min": 10.0, "launch": 3}, "battery.launch = 3"),
-    ({"usable_min": 10.0, "wind_ms": 3.0}, "battery.wind_ms = 3.0 is no longer read: give the wind as conditions.wind"),
+    ({"usable_min": 10.0, "wind_ms": 60.0}, "battery.wind_ms = 60"),
 ])
 def test_bad_battery_tables(tmp_path, table, needle):
     with pytest.raises(InputError, match=needle.replace(".", r"\.").replace("(", r"\(")):
         load_spec(make_spec(tmp_path, {"battery": table}))
+
+
+def test_a_wind_of_unknown_direction_is_an_allowance_and_not_given_with_a_known_one(tmp_path):
+    """battery.wind_ms (the specs of before conditions.wind): every sortie's level flight costs 1 / (1 − (w/v)²) more,
+    the battery share it takes recorded as the wind's; with conditions.wind too, refused in one line."""
+    import json
+
+    from click.testing import CliRunner
+
+    from aerosurvey.cli import main
+
+    shares = {}
+    for w in (0.0, 3.0):
+        (tmp_path / str(w)).mkdir()
+        spec = make_spec(tmp_path / str(w), {"battery": {"usable_min": 8.0, "wind_ms": w}})
+        res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp_path / str(w) / "out")])
+        assert res.exit_code == 0, res.output
+        shares[w] = json.loads((tmp_path / str(w) / "out" / "manifest.json").read_text())["sorties"]
+    assert len(shares[3.0]) >= len(shares[0.0])
+    assert all(s["wind_used_pct"] > 0 for s in shares[3.0]) and all(s["wind_used_pct"] == 0 for s in shares[0.0])
+    (tmp_path / "both").mkdir()
+    both = make_spec(tmp_path / "both", {"battery": {"usable_min": 8.0, "wind_ms": 3.0},
+                                         "conditions": {"wind": "3@270"}, "vehicle": {"max_airspeed_ms": 12.0}})
+    res = CliRunner().invoke(main, ["plan", str(both), "-o", str(tmp_path / "both" / "out")])
+    assert res.exit_code == 2 and "battery.wind_ms = 3 and conditions.wind = 3@270 are both given" in res.output

@@ -132,6 +132,9 @@ class BatterySpec:
     launch_points: tuple[tuple[float, float], ...]  # (lon, lat)
     launch: str  # "nearest" or the 1-based index of a launch point, as text
     max_mission_items: int
+    #: a wind of unknown direction (m/s): an allowance on every sortie's level flight (planner.battery_sorties);
+    #: conditions.wind, a wind with its direction, times every leg instead
+    wind_ms: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -376,11 +379,6 @@ def _pass_start(t: _Table) -> tuple[tuple[int, tuple[float, float]], ...]:
 
 def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
     b = top.table("battery")
-    if b.has("wind_ms"):
-        # a scalar wind has no direction: every leg's time depends on it (plan/flight_time.py); not mapped to a guess
-        raise InputError(f"battery.wind_ms = {b.raw('wind_ms')!r} is no longer read: give the wind as "
-                         "conditions.wind = {{ speed_ms = ..., from_deg = ..., gust_ms = ... }} (or --wind SPEED@FROM)",
-                         key="battery.wind_ms")
     minutes = b.number("usable_min", None, lo=0.0, lo_open=True, hi=1440.0)
     wh = b.number("capacity_wh", None, lo=0.0, lo_open=True)
     cruise_w = b.number("cruise_power_w", None, lo=0.0, lo_open=True)
@@ -399,6 +397,7 @@ def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
         reserve=b.number("reserve", 0.25, lo=0.0, hi=0.9) or 0.0,
         launch_points=points, launch=str(launch),
         max_mission_items=b.integer("max_mission_items", MAX_ITEMS[vehicle.firmware], lo=20, hi=100000),
+        wind_ms=b.number("wind_ms", 0.0, lo=0.0, hi=50.0) or 0.0,
     )
     b.done()
     return spec

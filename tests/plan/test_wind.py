@@ -193,7 +193,7 @@ def test_wind_in_the_spec_and_on_the_command_line(tmp_path):
     ({"conditions": {"wind": {"speed_ms": 6, "from_deg": 10, "dir": 5}}}, "unknown key(s) in [conditions.wind]: dir"),
     ({"conditions": {"wind": "six@240"}}, "conditions.wind = 'six@240'"),
     ({"conditions": {"wind": 6}}, "conditions.wind = 6"),
-    ({"battery": {"usable_min": 20, "wind_ms": 3.0}}, "battery.wind_ms = 3.0 is no longer read"),
+    ({"battery": {"usable_min": 20, "wind_ms": -1}}, "battery.wind_ms = -1"),
     ({"vehicle": {"type": "plane", "max_airspeed_ms": 20}}, "vehicle.max_airspeed_ms is for copters"),
     ({"vehicle": {"max_airspeed_ms": 0}}, "vehicle.max_airspeed_ms = 0"),
 ])

@@ -391,6 +391,25 @@ def in_wind(spec: MissionSpec, site: Site, sensor: SensorSolution) -> tuple[Kine
                    airspeed_ms=air if v.type == "copter" else kin.airspeed_ms), record
 
 
+def wind_allowance(spec: MissionSpec, kin: Kinematics) -> float:
+    """battery.wind_ms, a wind of unknown direction: level flight costs 1 / (1 − (w/v)²) times its still-air time, the
+    time of legs flown out and back along a wind w (the worst direction for back-and-forth lines), at the survey
+    speed v. A known wind is conditions.wind, which times every leg by its direction instead: not both."""
+    b = spec.battery
+    w = 0.0 if b is None else b.wind_ms
+    if w <= 0.0:
+        return 1.0
+    if spec.conditions.wind is not None:
+        raise InputError(f"battery.wind_ms = {w:g} and conditions.wind = {spec.conditions.wind.text()} are both given: "
+                         "battery.wind_ms is an allowance for a wind of unknown direction; keep conditions.wind",
+                         key="battery.wind_ms")
+    v = kin.speed_ms
+    if w >= v:
+        raise InputError(f"battery.wind_ms = {w:g} is not below the survey speed {v:.2f} m/s: the vehicle could not make "
+                         "headway against it; fly on a calmer day or give the real wind (conditions.wind)", key="battery.wind_ms")
+    return 1.0 / (1.0 - (w / v) ** 2)
+
+
 def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tuple[LaunchSite, ...],
                     kin: Kinematics, detours: Detours, start: int = 0,
                     report: Progress = no_progress) -> tuple[Budget, tuple[SortiePlan, ...]]:
@@ -409,7 +428,7 @@ def battery_sorties(spec: MissionSpec, site: Site, path: FlightPath, sites: tupl
         usable_s=b.usable_min * 60.0 * keep if b.usable_min is not None else None,
         usable_j=b.capacity_wh * 3600.0 * keep if b.capacity_wh is not None else None,
         cruise_w=b.cruise_power_w, climb_w=b.climb_power_w,
-        max_items=b.max_mission_items, reserve=b.reserve,
+        max_items=b.max_mission_items, reserve=b.reserve, allowance=wind_allowance(spec, kin),
     )
     fixed = None if b.launch == "nearest" else int(b.launch) - 1
     return budget, _sortie_plans(site, split(path, sites, budget, kin, detours, fixed, start, report=report))

@@ -82,12 +82,14 @@ class Budget:
     climb_w: float | None
     max_items: int
     reserve: float | None = None  # the share of the battery kept back (battery.reserve); None: no battery given
+    #: battery.wind_ms's allowance for a wind of unknown direction: horizontal flight costs this many times more
+    allowance: float = 1.0
 
     def cost(self, horizontal_s: float, vertical_s: float) -> float:
         """Battery used, in the budget's unit."""
         if self.usable_j is not None:
-            return horizontal_s * (self.cruise_w or 0.0) + vertical_s * (self.climb_w or 0.0)
-        return horizontal_s + vertical_s
+            return horizontal_s * self.allowance * (self.cruise_w or 0.0) + vertical_s * (self.climb_w or 0.0)
+        return horizontal_s * self.allowance + vertical_s
 
     @property
     def usable(self) -> float:
@@ -630,11 +632,12 @@ def split(plan: FlightPath, sites: tuple[LaunchSite, ...], budget: Budget, kin: 
     calm: dict[int, Splitter] = {}  # per launch point: the sorties flown from it in still air
     for k, (a, b) in enumerate(best, start=1):
         used, li, horiz, vert, dist, wps, items = sp.evaluate(a, b)
-        if kin.calm:
+        if kin.calm and budget.allowance == 1.0:
             still_used, still_h, still_v = used, horiz, vert
-        else:  # the same stations from the same launch point in still air
+        else:  # the same stations from the same launch point in still air, without an allowance
             if li not in calm:
-                calm[li] = Splitter(plan, sites, budget, replace(kin, wind_x=0.0, wind_y=0.0), detours, li)
+                calm[li] = Splitter(plan, sites, replace(budget, allowance=1.0), replace(kin, wind_x=0.0, wind_y=0.0),
+                                    detours, li)
             still_used, _, still_h, still_v, _ = calm[li].cost(a, b)
         sorties.append(Sortie(k, a, b, li, tuple(wps), horiz, vert, dist, used / budget.usable, items,
                               still_h + still_v, still_used / budget.usable))

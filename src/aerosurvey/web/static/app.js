@@ -795,8 +795,8 @@ function renderFly(view) {
     const parts = [facts, launch];
     if (b.usable_used_pct !== undefined) {
       const bat = document.createElement("div"); bat.className = "battery";
-      bat.textContent = `battery: ${b.usable_used_pct.toFixed(1)} % of the usable charge (${b.battery_used_pct.toFixed(1)} % of the pack), `
-        + `${(b.time_with_wind_allowance_s / 60).toFixed(1)} min with the wind allowance`;
+      bat.textContent = `battery: ${b.usable_used_pct.toFixed(1)} % of the usable charge (${b.battery_used_pct.toFixed(1)} % of the pack)`
+        + (b.wind_used_pct ? `, of which the wind takes ${b.wind_used_pct.toFixed(1)} %` : "");
       parts.push(bat);
     }
     const files = document.createElement("div"); files.className = "files";
