@@ -210,7 +210,8 @@ def test_random_plans_split_into_sorties_that_fit(tmp_path_factory, vehicle, zon
         write_geojson(tmp / "zone.geojson", [ZONE])
         table["area"] = {"exclusions": ["zone.geojson"]}
     if terrain != "none":
-        write_dem(str(tmp / "dem.tif"), 32633, 499500.0, 5472600.0, 180, 180, 10.0, 400.0, 25.0)
+        # 1 km round the area on every side: every leg is checked against it, a plane's turns and circles included
+        write_dem(str(tmp / "dem.tif"), 32633, 499000.0, 5473100.0, 280, 280, 10.0, 400.0, 25.0)
         table["terrain"] = {"dem": "dem.tif", "mode": terrain}
         table["vehicle"]["max_height_agl_m"] = 120
     spec = make_spec(tmp, table)
