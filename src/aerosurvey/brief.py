@@ -152,16 +152,16 @@ def manifest_sorties(manifest: Mapping[str, Any]) -> list[Sortie]:
             or [Sortie("mission", float(manifest["estimates"]["total_time_s"]), None, None)])
 
 
-def plan_sorties(plan: Plan) -> list[Sortie]:
-    """The flights of a plan as its manifest records them (`manifest.sortie_record`)."""
+def plan_records(plan: Plan) -> dict[str, Any]:
+    """A plan's flights as its manifest records them (`manifest.sortie_record`): its `sorties` and `estimates`."""
     from aerosurvey import ids
     from aerosurvey.manifest import sortie_record
 
-    records = [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
-    return manifest_sorties({"sorties": records, "estimates": plan.estimates})
+    return {"sorties": [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)],
+            "estimates": plan.estimates}
 
 
-def wind_item(plan: Plan, sorties: Sequence[Sortie], records: Sequence[Mapping[str, Any]]) -> Item | None:
+def wind_item(plan: Plan, records: Sequence[Mapping[str, Any]]) -> Item | None:
     """The wind the flights were planned in and the battery it takes (None: still air)."""
     w = plan.wind
     if not w:
@@ -179,10 +179,8 @@ def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: 
     gives), whose flights and official zones are then those of the brief (airspace/check.py, as
     `plan` checks them). The window is the manifest's flights' first; when the plan made again
     flies longer (another wind), it is made once more for the longer window."""
-    from aerosurvey import ids
     from aerosurvey.airspace.check import check_airspace
     from aerosurvey.errors import InputError
-    from aerosurvey.manifest import sortie_record
     from aerosurvey.outputs import mission_programs
 
     sorties = manifest_sorties(manifest)
@@ -191,14 +189,14 @@ def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: 
     extra: list[Item] = []
     try:
         plan = replan(first, last)
-        sorties = plan_sorties(plan)
-        longer = flying_window(at, sorties, battery_change_min)[1]
+        flights = plan_records(plan)
+        longer = flying_window(at, manifest_sorties(flights), battery_change_min)[1]
         if longer > last:
             last = longer
             plan = replan(first, last)
-            sorties = plan_sorties(plan)
-        records = [sortie_record(plan, k, ids.sortie_file_stem(k)) for k in range(1, len(plan.sorties) + 1)]
-        extra = [i for i in (wind_item(plan, sorties, records),) if i is not None]
+            flights = plan_records(plan)
+        sorties = manifest_sorties(flights)
+        extra = [i for i in (wind_item(plan, flights["sorties"]),) if i is not None]
         report = check_airspace(plan, mission_programs(plan))
         zones = airspace_items(None if report is None else [(v.verdict, v.text()) for v in report.verdicts],
                                () if report is None else report.notes)

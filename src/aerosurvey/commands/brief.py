@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 import json
 from pathlib import Path
 
@@ -30,10 +29,12 @@ def _when(value: str | None) -> dt.datetime:
 def _spec_of(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Path:
     """The spec the plan was made from: --spec, else the manifest's path beside the plan folder or here; its sha256
     must be the manifest's (the brief is of that plan, not of a spec changed since)."""
+    from aerosurvey.manifest import sha256_file
+
     candidates = [given] if given is not None else [plan_dir.parent / recorded["path"], Path(recorded["path"])]
     for path in candidates:
         if path is not None and path.is_file():
-            if hashlib.sha256(path.read_bytes()).hexdigest() != recorded["sha256"]:
+            if sha256_file(path) != recorded["sha256"]:
                 raise InputError(f"{path} is not the spec {plan_dir} was planned from (its sha256 differs from the "
                                  "manifest's): re-plan it, or give the spec it was made from with --spec")
             return path
