@@ -1,5 +1,6 @@
-"""`campaign ingest`: logs filed under the block whose mission they record, a "flown" event each; a log
-of no block is reported, nothing filed; a second ingest of a log adds no event."""
+"""`campaign ingest`: logs filed under the block whose mission they record (blocks planned with the default
+outputs), a "flown" event each, each log read once; a log of no block is reported, nothing filed; a second
+ingest of a log adds no event."""
 
 from __future__ import annotations
 
@@ -32,8 +33,9 @@ def campaign(tmp_path_factory) -> Path:
     blocks = cc.write_blocks(folder / "blocks.geojson", 3, size_deg=(0.003, 0.002))
     out = folder / "campaign"
     res = CliRunner().invoke(main, ["campaign", "plan", str(blocks), "-o", str(out), "--spec", str(cc.write_template(folder)),
-                                    "--outputs", "manifest,pilot,geojson", "--workers", "1"])
+                                    "--workers", "1"])  # the default outputs: no plan.geojson
     assert res.exit_code == 0, res.output
+    assert not list(out.glob("blocks/*/plan.geojson"))
     return out
 
 
@@ -90,3 +92,40 @@ def test_events_recorded_by_hand(campaign):
         ("planned", ""), ("uploaded", "pilot A"), ("qa", "RMSE 2.1 cm"), ("accepted", "")]
     res = CliRunner().invoke(main, ["campaign", "status", str(campaign)])
     assert "1 accepted" in res.output and "t00:" not in res.output
+
+
+def test_each_log_read_once(campaign, tmp_path, monkeypatch):
+    """Each flight's readers (camera events, modes, mission) run once per flight, and the log file is
+    opened once by each of them, however many candidate blocks its mission is compared with."""
+    import aerosurvey.flight.dataflash as dataflash
+    import aerosurvey.flight.ingest as ingest_module
+
+    folders = cc.block_folders(campaign)
+    calls: list[tuple[str, str]] = []
+
+    def counted(name, real):
+        def wrapper(path, *args, **kwargs):
+            calls.append((name, Path(path).name))
+            return real(path, *args, **kwargs)
+        return wrapper
+
+    for name in ("read_events", "read_modes", "read_mission"):
+        monkeypatch.setattr(ingest_module, name, counted(name, getattr(ingest_module, name)))
+    opened: list[str] = []
+    real_init = dataflash.DataFlashLog.__init__
+
+    def counting_init(self, path, *args, **kwargs):
+        opened.append(Path(path).name)
+        real_init(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(dataflash.DataFlashLog, "__init__", counting_init)
+    logs = [synthetic_log(folders["t00"], tmp_path / "a.bin"),
+            synthetic_log(folders["t02"], tmp_path / "b.bin"),
+            synthetic_log(folders["t00"], tmp_path / "c.bin", shift_deg=0.5)]  # far: compared with 3 blocks, filed under none
+    res = CliRunner().invoke(main, ["campaign", "ingest", str(campaign), *map(str, logs)])
+    assert res.exit_code == 1, res.output
+    assert "a.bin: block t00" in res.output and "b.bin: block t02" in res.output and "c.bin: not filed" in res.output
+    assert "(t02 (" in res.output.split("c.bin: not filed", 1)[1]  # its mission was compared with the candidates'
+    for log in ("a.bin", "b.bin", "c.bin"):
+        assert sorted(n for n, f in calls if f == log) == ["read_events", "read_mission", "read_modes"], (log, calls)
+        assert opened.count(log) == 3, (log, opened)

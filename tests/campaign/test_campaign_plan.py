@@ -48,7 +48,8 @@ def test_every_block_planned_once_with_its_overrides(reference):
     assert sorted(folders) == [f"t{i:02d}" for i in range(N_BLOCKS)]
     manifests = {n: json.loads((f / "manifest.json").read_text()) for n, f in folders.items()}
     for name, folder in folders.items():
-        assert sorted(p.name for p in folder.iterdir()) == ["block.json", "manifest.json", "mission.plan", "mission.waypoints"]
+        assert sorted(p.name for p in folder.iterdir()) == ["block.json", "manifest.json", "mission.plan", "mission.waypoints",
+                                                             "outline.geojson"]
         assert manifests[name]["mission"]["name"] == name
     assert manifests["t00"]["targets"]["gsd_cm"] == pytest.approx(2.5)
     assert manifests["t01"]["targets"]["gsd_cm"] == pytest.approx(2.0)
@@ -85,8 +86,8 @@ def test_outputs_choose_the_files(inputs, tmp_path):
     out = tmp_path / "campaign"
     campaign_plan(blocks, inputs[1], out, "--outputs", "pilot,preview,gpkg", "--workers", "1")
     for folder in cc.block_folders(out).values():
-        assert sorted(p.name for p in folder.iterdir()) == ["block.json", "mission.plan", "mission.waypoints", "plan.gpkg",
-                                                           "preview.svg"]
+        assert sorted(p.name for p in folder.iterdir()) == ["block.json", "mission.plan", "mission.waypoints", "outline.geojson",
+                                                           "plan.gpkg", "preview.svg"]
     res = CliRunner().invoke(main, ["campaign", "plan", str(blocks), "-o", str(tmp_path / "x"), "--spec", str(inputs[1]),
                                     "--outputs", "pilot,photos"])
     assert res.exit_code == 2 and "--outputs = 'pilot,photos' is not allowed" in res.output
@@ -220,7 +221,8 @@ def test_second_attempt_of_a_block_drops_its_copy(inputs, tmp_path, monkeypatch)
     assert result.status == first["result"].status == "planned" and result.record == first["result"].record
     folders = list((out / "blocks").iterdir())
     assert [p.name for p in folders] == [jobs[0].folder]
-    assert sorted(p.name for p in folders[0].iterdir()) == ["block.json", "manifest.json", "mission.plan", "mission.waypoints"]
+    assert sorted(p.name for p in folders[0].iterdir()) == ["block.json", "manifest.json", "mission.plan", "mission.waypoints",
+                                                             "outline.geojson"]
 
 
 def test_an_attempt_ending_in_an_exception_is_a_failed_block(inputs, tmp_path):

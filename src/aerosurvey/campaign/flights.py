@@ -1,11 +1,12 @@
 """`campaign ingest`: a day's flight logs and photo folders filed under their blocks.
 
-Each flight is read once without a plan for its camera events (`flight.ingest.ingest`); the
+Each flight is read once (`flight.ingest.read_record`: its camera events and modes;
+`logged_mission`: the mission it records), and what was read is passed along: the
 blocks nearest its events are its candidates, the one most events lie nearest first. A log that
-records its mission is its block's when `flight.ingest.mission_check` recognises the block's
+records its mission is its block's when `flight.ingest.compare_mission` recognises the block's
 mission, whole or a sortie, in it (changed or not); a flight that records no mission (a folder
-of photos) is the block's its events lie nearest to. The flight is then ingested against the
-block's plan folder as `log ingest --plan` does (the sortie recognised there) into
+of photos) is the block's its events lie nearest to. The flight is then matched to the
+block's plan as `log ingest --plan` matches it (`flight.ingest.against_plan`; the sortie recognised there) into
 CAMPAIGN/flights/BLOCK/FLIGHT/, and a "flown" event names it. A flight of no block is reported,
 nothing filed.
 """
@@ -15,10 +16,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from aerosurvey.campaign.job import BLOCKS_DIR
+from aerosurvey.campaign.job import BLOCKS_DIR, OUTLINE_FILE, RESULT_FILE
 from aerosurvey.campaign.register import BlockRow, Event, status_of
 from aerosurvey.errors import AerosurveyError, InputError
+
+if TYPE_CHECKING:
+    from aerosurvey.rules.planview import PlanView
 
 FLIGHTS_DIR = "flights"
 #: blocks whose missions a log is compared with, nearest first
@@ -50,36 +55,35 @@ def candidates(rows: Sequence[BlockRow], lon: Sequence[float], lat: Sequence[flo
     return [planned[i] for i in order[:CANDIDATES] if votes[i] > 0]
 
 
-def file_flight(campaign: Path, flight: Path, rows: Sequence[BlockRow]) -> Filed:
-    """Find the block of one flight and ingest it there (see the module's doc)."""
-    from aerosurvey.flight.ingest import ingest, mission_check, write_ingest
+def file_flight(campaign: Path, flight: Path, rows: Sequence[BlockRow], vehicle: str | None) -> Filed:
+    """Find the block of one flight and ingest it there (see the module's doc). The flight is read once
+    (its camera events and modes, its mission): what is read is compared with each candidate block's
+    missions and matched to the chosen block's stations; `vehicle` (the campaign's, `campaign_vehicle`)
+    names the modes of a log that does not say its vehicle."""
+    from aerosurvey.flight.ingest import against_plan, compare_mission, logged_mission, read_record, write_ingest
     from aerosurvey.flight.mission_flown import CHANGED, NOT_COMPARED, NOT_RECORDED, PLAN
-    from aerosurvey.rules.planview import PlanView
 
     if not flight.exists():
         raise InputError(f"flight {str(flight)!r} does not exist")
-    events = ingest(flight).events
+    read = read_record(flight, vehicle)
+    logged = logged_mission(flight)
+    events = read.events
     near = candidates(rows, events.lon.tolist(), events.lat.tolist())
     if not near:
         return Filed(flight.name, None, f"none of its {len(events)} camera events lies near a planned block")
-    chosen: tuple[BlockRow, PlanView] | None = None
+    chosen = None
     tried = []
     for row in near:
-        folder = campaign / BLOCKS_DIR / row.folder
-        try:
-            view = PlanView.from_outdir(folder, f"block {row.name}")
-        except InputError as exc:
-            raise InputError(f"block {row.name}: {exc}; `campaign ingest` needs each block's manifest.json and plan.geojson: "
-                             "plan the campaign with --outputs manifest,pilot,geojson") from None
-        check = mission_check(flight, view.document)
+        view = block_view(campaign, row)
+        check = compare_mission(logged, view.document)
         if check.names_sortie or check.verdict in (NOT_RECORDED, NOT_COMPARED):
-            chosen = (row, view)
+            chosen = (row, view, check)
             break
         tried.append(f"{row.name} ({check.verdict})")
     if chosen is None:
         return Filed(flight.name, None, f"its mission is none of the nearest blocks' ({', '.join(tried)})")
-    row, view = chosen
-    result = ingest(flight, view)
+    row, view, check = chosen
+    result = against_plan(flight, read, view, check)
     out = campaign / FLIGHTS_DIR / row.name / flight.name
     report = write_ingest(result, out)
     sortie = report.get("plan", {}).get("sortie")
@@ -89,6 +93,32 @@ def file_flight(campaign: Path, flight: Path, rows: Sequence[BlockRow]) -> Filed
     return Filed(flight.name, row.name, detail, out)
 
 
+def block_view(campaign: Path, row: BlockRow) -> PlanView:
+    """What `log ingest --plan` reads of a block's plan: its manifest.json and the area and zones of its
+    outline.geojson (every block folder has one; a folder of the first layout, plan.geojson)."""
+    from aerosurvey.rules.planview import PlanView
+
+    folder = campaign / BLOCKS_DIR / row.folder
+    if not (folder / "manifest.json").is_file():
+        raise InputError(f"block {row.name}: {folder / 'manifest.json'} is missing; `campaign ingest` needs each block's "
+                         "manifest: plan the campaign with manifest among --outputs (as the default is)")
+    features = OUTLINE_FILE if (folder / OUTLINE_FILE).is_file() else "plan.geojson"
+    return PlanView.from_outdir(folder, f"block {row.name}", features)
+
+
+def campaign_vehicle(campaign: Path, rows: Sequence[BlockRow]) -> str | None:
+    """The vehicle the campaign's blocks are planned for (one template: one vehicle), from the first planned
+    block's block.json; None when no block says (every block failed, or block folders of the first layout)."""
+    import json
+
+    for row in rows:
+        result = campaign / BLOCKS_DIR / row.folder / RESULT_FILE
+        if row.status != "failed" and result.is_file():
+            vehicle = json.loads(result.read_text(encoding="utf-8")).get("vehicle")
+            return str(vehicle) if vehicle else None
+    return None
+
+
 def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[BlockRow], events: Sequence[Event],
                    now: str) -> tuple[list[Filed], list[BlockRow], list[Event]]:
     """File each flight; the register's rows and events after it (a "flown" event per flight filed,
@@ -96,9 +126,10 @@ def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[Block
     by_name = {r.name: r for r in rows}
     events = list(events)
     filed = []
+    vehicle = campaign_vehicle(campaign, rows)
     for flight in flights:
         try:
-            f = file_flight(campaign, flight, rows)
+            f = file_flight(campaign, flight, rows, vehicle)
         except AerosurveyError as exc:
             f = Filed(flight.name, None, str(exc))
         filed.append(f)

@@ -29,9 +29,13 @@ from aerosurvey.errors import AerosurveyError, InputError
 from aerosurvey.spec import MissionSpec
 
 #: the version of the block folders' layout and of block.json; part of every key
-FORMAT = 1
+#: (2: outline.geojson and block.json's vehicle)
+FORMAT = 2
 BLOCKS_DIR = "blocks"
 RESULT_FILE = "block.json"
+#: written in every block folder whatever --outputs says: plan.geojson's area and zone features, what
+#: `campaign ingest` reads of the block besides manifest.json (rules/planview.py: PlanView.from_outdir)
+OUTLINE_FILE = "outline.geojson"
 TEMP_SUFFIX = ".tmp"
 
 #: what `--outputs` chooses from: a group → whether an output file of `aerosurvey plan` belongs to it
@@ -167,6 +171,7 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
     refuses come back as a "failed" result; nothing is written for them."""
     from aerosurvey.inputs import plan_from_files
     from aerosurvey.outputs import render_outputs
+    from aerosurvey.report.features import outline_features
 
     blocks = Path(campaign) / BLOCKS_DIR
     final = blocks / job.folder
@@ -183,7 +188,7 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
     s = rendered.summary
     record: dict[str, Any] = {"format": FORMAT, "name": job.name, "key": job.key, "status": "rules-fail" if s.rules.failed else "planned",
               "area_ha": s.area_ha, "photos": s.photos, "time_min": s.time_min, "distance_km": s.distance_km,
-              "sorties": len(s.sorties), "gsd_cm": s.gsd_target_cm, "heading_deg": s.heading_deg,
+              "sorties": len(s.sorties), "gsd_cm": s.gsd_target_cm, "heading_deg": s.heading_deg, "vehicle": spec.vehicle.type,
               "rules": {"evaluated": s.rules.evaluated, "passed": s.rules.passed, "failing": list(s.rules.failing),
                         "failed": list(s.rules.failed)},
               "warnings": len(rendered.warnings), "files": chosen}
@@ -193,6 +198,8 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
         for name in chosen:
             data = outputs[name]
             (temp / name).write_bytes(data.encode("utf-8") if isinstance(data, str) else data)
+        outline = {"type": "FeatureCollection", "features": outline_features(plan)}
+        (temp / OUTLINE_FILE).write_text(json.dumps(outline, separators=(",", ":")) + "\n", encoding="utf-8")
         (temp / RESULT_FILE).write_text(json.dumps(record, indent=1, sort_keys=True) + "\n", encoding="utf-8")
         os.chmod(temp, 0o755)  # mkdtemp makes 0700
         try:

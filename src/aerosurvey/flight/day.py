@@ -222,7 +222,7 @@ def ingest_day(paths: Sequence[Path], view: PlanView, *, tolerance_m: float | No
 
         name = f"record {k} of {len(paths)} ({path.name!r})"
         try:
-            read = read_record(path, view, fixed_camera=fixed_camera, progress=step)
+            read = read_record(path, doc.mission.vehicle, fixed_camera=fixed_camera, progress=step)
             mission = mission_check(path, doc)
             median = check_same_plan(read.events, view, path.name, None)
             seen = recognise(read.events, mission, doc)

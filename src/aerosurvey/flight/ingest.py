@@ -49,7 +49,7 @@ from aerosurvey.flight.mission_flown import (
     planned_mission,
     recognise,
 )
-from aerosurvey.flight.mission_log import read_mission
+from aerosurvey.flight.mission_log import MissionRecord, read_mission
 from aerosurvey.flight.modes import modes_report, read_modes
 from aerosurvey.flight.photos import PhotoFlight, read_photo_flight
 from aerosurvey.manifest import Manifest, Stations, sha256_file
@@ -160,11 +160,21 @@ def planned_missions(doc: Manifest) -> tuple[list[PlannedMission], list[str], li
 
 
 def mission_check(flight_log: Path, doc: Manifest) -> MissionCheck:
-    """The mission the log records against the plan folder's missions (`mission_flown.recognise`);
-    a folder of photos records none (a DJI flight's photos do not carry the mission)."""
-    if flight_log.is_dir():
+    """The mission the log records against the plan folder's missions (`compare_mission`)."""
+    return compare_mission(logged_mission(flight_log), doc)
+
+
+def logged_mission(flight_log: Path) -> MissionRecord | None:
+    """The mission a flight log records (`mission_log.read_mission`); None for a folder of photos."""
+    return None if flight_log.is_dir() else read_mission(flight_log)
+
+
+def compare_mission(record: MissionRecord | None, doc: Manifest) -> MissionCheck:
+    """The mission a log records (`logged_mission`) against the plan folder's missions
+    (`mission_flown.recognise`); a folder of photos (None) records none (a DJI flight's photos do
+    not carry the mission)."""
+    if record is None:
         return not_compared(NOT_RECORDED, "", "a folder of photos records no mission")
-    record = read_mission(flight_log)
     flown = record.flown
     if flown is None:
         return not_compared(NOT_RECORDED, record.source, record.note)
@@ -240,10 +250,20 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
         raise InputError(f"--sortie {sortie!r}: a sortie is of a plan; give --plan too", key="--sortie")
     if sortie is not None and view is not None:
         view.document.sortie(sortie)  # an unknown sortie is refused before the log is read
-    read = read_record(flight_log, view, images_dir=images_dir, fixed_camera=fixed_camera, progress=report_progress)
+    read = read_record(flight_log, view.document.mission.vehicle if view is not None else None, images_dir=images_dir,
+                       fixed_camera=fixed_camera, progress=report_progress)
     if view is None:
         return Ingested(read.events, read.mode, None, read.images, None, None, read.report, [], record=read.record)
-    mission = mission_check(flight_log, view.document)
+    return against_plan(flight_log, read, view, mission_check(flight_log, view.document), sortie, tolerance_m=tolerance_m,
+                        fixed_camera=fixed_camera, dem_path=dem_path, progress=report_progress)
+
+
+def against_plan(flight_log: Path, read: Read, view: PlanView, mission: MissionCheck, sortie: str | None = None, *,
+                 tolerance_m: float | None = None, fixed_camera: bool = False, dem_path: Path | None = None,
+                 progress: Progress = no_progress) -> Ingested:
+    """A record read (`read_record`) and its mission compared (`compare_mission`) matched to the plan as
+    `ingest` matches it: refused when of another sortie than `sortie` or of another plan (`check_same_plan`),
+    else `on_plan` with the sortie its mission names (else `sortie`)."""
     if mission.names_sortie and sortie is not None and mission.sortie != sortie:
         of = f"sortie {mission.sortie}'s" if mission.sortie else "the whole mission's"
         raise InputError(f"flight log {flight_log.name!r} is not of --sortie {sortie}: the mission its vehicle was given is {of} "
@@ -251,12 +271,13 @@ def ingest(flight_log: Path, view: PlanView | None = None, *, sortie: str | None
                          + (f"--sortie {mission.sortie}" if mission.sortie else "no --sortie"), key="--sortie")
     median = check_same_plan(read.events, view, flight_log.name, sortie)
     return on_plan(flight_log, read, view, mission, mission.sortie if mission.names_sortie else sortie, median,
-                   tolerance_m=tolerance_m, fixed_camera=fixed_camera, dem_path=dem_path, progress=report_progress)
+                   tolerance_m=tolerance_m, fixed_camera=fixed_camera, dem_path=dem_path, progress=progress)
 
 
-def read_record(flight_log: Path, view: PlanView | None, *, images_dir: Path | None = None, fixed_camera: bool = False,
+def read_record(flight_log: Path, vehicle: str | None, *, images_dir: Path | None = None, fixed_camera: bool = False,
                 progress: Progress = no_progress) -> Read:
-    """Read a flight record (a log, or a folder of photos) and the images given with it; nothing is matched to the plan."""
+    """Read a flight record (a log, or a folder of photos) and the images given with it; nothing is matched to the plan.
+    `vehicle` (the plan's: copter or plane; None without a plan) names the flight modes of a log that does not say."""
     progress("reading the log", 0.0)
     record = None
     if flight_log.is_dir():
@@ -267,7 +288,7 @@ def read_record(flight_log: Path, view: PlanView | None, *, images_dir: Path | N
         ev, info = read_events(flight_log)
     progress("camera events read", 0.4)
     report: dict[str, Any] = {"log": flight_log.name, "events": len(ev), "source": ev.source, "read": info}
-    modes = read_modes(flight_log, view.document.mission.vehicle if view is not None else None)
+    modes = read_modes(flight_log, vehicle)
     mode = modes.at(ev.time_s)
     report["modes"] = modes_report(modes, mode)
     img = None

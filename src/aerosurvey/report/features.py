@@ -125,18 +125,24 @@ def _line_coords(plan: Plan) -> list[list[list[float]]]:
             for i, (first, last, _) in enumerate(run_stations(plan))]
 
 
+def outline_features(plan: Plan) -> list[dict[str, Any]]:
+    """plan.geojson's first features: the area (role "area") and each exclusion zone (role "exclusion"),
+    WGS84; what the rules' PlanView reads of a plan besides its manifest."""
+    area = plan.site.area_wgs84
+    area_ha = round(plan.site.area.area / 1e4, 4)
+    feats: list[dict[str, Any]] = [{"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": area_ha},
+                                    "geometry": {"type": area.geom_type, "coordinates": _coords(area)}}]
+    for i, z in enumerate(plan.site.exclusions_wgs84, start=1):
+        feats.append({"type": "Feature", "id": f"exclusion-{i}", "properties": {"role": "exclusion", "id": f"exclusion-{i}"},
+                      "geometry": {"type": z.geom_type, "coordinates": _coords(z)}})
+    return feats
+
+
 def _features(plan: Plan, table: StationTable) -> tuple[dict[str, Any], PointLayer, int]:
     """Every feature but the stations and footprints, the stations as columns (those the
     manifest's `table` also has taken from it), and the index of the features where the
     stations (and after them the footprints) belong."""
-    feats: list[dict[str, Any]] = []
-    area = plan.site.area_wgs84
-    area_ha = round(plan.site.area.area / 1e4, 4)
-    feats.append({"type": "Feature", "id": "area", "properties": {"role": "area", "id": "area", "area_ha": area_ha},
-                  "geometry": {"type": area.geom_type, "coordinates": _coords(area)}})
-    for i, z in enumerate(plan.site.exclusions_wgs84, start=1):
-        feats.append({"type": "Feature", "id": f"exclusion-{i}", "properties": {"role": "exclusion", "id": f"exclusion-{i}"},
-                      "geometry": {"type": z.geom_type, "coordinates": _coords(z)}})
+    feats = outline_features(plan)
     st = plan.stations
     from aerosurvey.mission.builder import run_id
 

@@ -96,12 +96,13 @@ class PlanView:
         )
 
     @classmethod
-    def from_outdir(cls, outdir: Path, option: str = "plan folder") -> PlanView:
-        """From a folder written by `aerosurvey plan`; `option` names it in errors (e.g. --plan)."""
+    def from_outdir(cls, outdir: Path, option: str = "plan folder", features_file: str = "plan.geojson") -> PlanView:
+        """From a folder written by `aerosurvey plan`; `option` names it in errors (e.g. --plan). `features_file` is the
+        GeoJSON file holding the area and zones (a campaign's block folder has them in outline.geojson)."""
         doc = mf.read_manifest(outdir, option)
-        g = outdir / "plan.geojson"
+        g = outdir / features_file
         if not g.is_file():
-            raise InputError(f"{outdir}: plan.geojson is missing; give a folder written by `aerosurvey plan`")
+            raise InputError(f"{outdir}: {features_file} is missing; give a folder written by `aerosurvey plan`")
         try:
             features = json.loads(g.read_text(encoding="utf-8"))
         except (ValueError, UnicodeDecodeError) as exc:
