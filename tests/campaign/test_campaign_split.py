@@ -81,7 +81,7 @@ def test_union_of_the_blocks_covered_as_one_area(tmp_path):
     res = CliRunner().invoke(main, ["campaign", "split", str(area_file), "-o", str(blocks_file), "--max-ha", "8",
                                     "--spec", str(template), "--heading", "35"])
     assert res.exit_code == 0, res.output
-    _, _, wkb, (names, headings) = pyogrio.raw.read(blocks_file)
+    _, _, wkb, (names, headings, _cuts) = pyogrio.raw.read(blocks_file)
     assert len(names) >= 4 and np.allclose(headings, 35.0, atol=0.05)
     out = tmp_path / "campaign"
     res = CliRunner().invoke(main, ["campaign", "plan", str(blocks_file), "-o", str(out), "--spec", str(template),
@@ -118,3 +118,69 @@ def test_abutting_blocks_grown_into_their_neighbours(tmp_path):
     assert shapely.union_all(list(grown.values())).symmetric_difference(union).area < 1e-6 * union.area
     shared = cc.prove_union_coverage(out, grown, union)
     assert shared >= 7  # the grid's 7 shared edges, each a band (and corners where four meet)
+
+
+def _sorties_of_blocks(tmp_path, name: str, feats: list, template) -> dict[str, int]:
+    """Each feature planned by `campaign plan` (the default outputs): name → the sorties its manifest lists."""
+    blocks_file = tmp_path / f"{name}.geojson"
+    blocks_file.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    out = tmp_path / name
+    res = CliRunner().invoke(main, ["campaign", "plan", str(blocks_file), "-o", str(out), "--spec", str(template),
+                                    "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    return {n: len(json.loads((f / "manifest.json").read_text())["sorties"]) for n, f in cc.block_folders(out).items()}
+
+
+@pytest.mark.parametrize("kind,seed,heading,n", [("concave", 7, 35.0, 2), ("convex", 21, 120.0, 3), ("holed", 5, 80.0, 2)])
+def test_max_sorties_blocks_each_within_n_and_cut_only_when_needed(tmp_path, kind, seed, heading, n):
+    """`campaign split --max-sorties N` of a random area: every block, planned as a campaign, takes at most N sorties
+    (its manifest's), together they are the area, and every cut was needed: the blocks of the cell each block was cut
+    from (the blocks file's `cut` paths) merged, planned with their heading, take more than N sorties."""
+    rings = random_polygon(kind, seed, 800.0)
+    area_file = write_geojson(tmp_path / "area.geojson", rings)
+    template = cc.write_template(tmp_path, battery={"usable_min": 12.0})
+    blocks_file = tmp_path / "blocks.geojson"
+    res = CliRunner().invoke(main, ["campaign", "split", str(area_file), "-o", str(blocks_file), "--max-sorties", str(n),
+                                    "--spec", str(template), "--heading", str(heading)])
+    assert res.exit_code == 0, res.output
+    blocks = json.loads(blocks_file.read_text())["features"]
+    assert len(blocks) >= 2
+    sorties = _sorties_of_blocks(tmp_path, "campaign", blocks, template)
+    assert sorted(sorties) == sorted(f["properties"]["name"] for f in blocks)
+    assert all(1 <= s <= n for s in sorties.values()), sorties
+    polys = {f["properties"]["name"]: shapely.geometry.shape(f["geometry"]) for f in blocks}
+    area = shapely.Polygon(rings[0], rings[1:])
+    assert shapely.union_all(list(polys.values())).symmetric_difference(area).area < 1e-4 * area.area
+    # the cell each block was cut from: its blocks merged, each part of it planned with their mean heading
+    cuts = {f["properties"]["name"]: f["properties"]["cut"] for f in blocks}
+    heads = {f["properties"]["name"]: f["properties"]["heading"] for f in blocks}
+    parents = sorted({c[:-1] for c in cuts.values() if c})
+    feats, of_parent = [], {}
+    for k, parent in enumerate(parents):
+        members = [b for b, c in cuts.items() if c.startswith(parent)]
+        merged = shapely.union_all([polys[b] for b in members])
+        for j, part in enumerate(shapely.get_parts(merged)):
+            name = f"p{k:03d}-{j}"
+            of_parent[name] = parent
+            feats.append({"type": "Feature", "properties": {"name": name, "heading": float(np.mean([heads[b] for b in members]))},
+                          "geometry": shapely.geometry.mapping(part)})
+    merged_sorties = _sorties_of_blocks(tmp_path, "merged", feats, template)
+    for parent in parents:
+        most = max(s for name, s in merged_sorties.items() if of_parent[name] == parent)
+        assert most > n, f"cell {parent!r} was cut though it takes {most} sorties, within {n}"
+
+
+def test_max_sorties_needs_a_battery_and_one_size(tmp_path):
+    area_file = write_geojson(tmp_path / "area.geojson", random_polygon("convex", 3, 300.0))
+    template = cc.write_template(tmp_path)
+
+    def split(*args: str) -> str:
+        res = CliRunner().invoke(main, ["campaign", "split", str(area_file), "-o", str(tmp_path / "b.gpkg"), "--spec",
+                                        str(template), *args])
+        return f"{res.exit_code} {res.output}"
+
+    assert split("--max-sorties", "2").startswith("2 ") and "--max-sorties needs the template's [battery] table" in split(
+        "--max-sorties", "2")
+    assert "give one of --max-ha and --max-sorties" in split()
+    assert "give one of --max-ha and --max-sorties" in split("--max-ha", "5", "--max-sorties", "2")
+    assert not (tmp_path / "b.gpkg").exists()

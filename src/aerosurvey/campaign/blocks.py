@@ -94,9 +94,9 @@ def _value(raw: Any, key: str, kind: type, where: str) -> Any:
     return value
 
 
-def write_blocks(path: Path, polygons_wgs84: list[Any], names: list[str], headings: list[float]) -> None:
-    """Write a blocks file (GeoPackage for .gpkg, else GeoJSON) in WGS84 with the attributes name and
-    heading, whole: into a temporary file renamed into place."""
+def write_blocks(path: Path, polygons_wgs84: list[Any], names: list[str], headings: list[float], cuts: list[str]) -> None:
+    """Write a blocks file (GeoPackage for .gpkg, else GeoJSON) in WGS84 with the attributes name,
+    heading and cut (`split.cut_area`'s path; not read back), whole: into a temporary file renamed into place."""
     import numpy as np
     import pyogrio
     import shapely
@@ -108,5 +108,6 @@ def write_blocks(path: Path, polygons_wgs84: list[Any], names: list[str], headin
         raise InputError(f"blocks file {str(path)!r}: give a .gpkg or .geojson name")
     with staged_file(path) as tmp:
         pyogrio.raw.write(tmp, np.array(shapely.to_wkb(polygons_wgs84), dtype=object),
-                          [np.array(names, dtype=object), np.array(headings, dtype=float)], ["name", "heading"],
+                          [np.array(names, dtype=object), np.array(headings, dtype=float), np.array(cuts, dtype=object)],
+                          ["name", "heading", "cut"],
                           layer="blocks", driver=driver, geometry_type="Polygon", crs="EPSG:4326")

@@ -1,11 +1,20 @@
 """An area cut into blocks a crew flies in a day: straight cuts along and across the flight lines.
 
-Pure: the area in a planning CRS (metres), the lines' grid bearing, the largest block and the
+The area in a planning CRS (metres), the lines' grid bearing, the limit a block keeps and the
 overlaps in; the blocks out. In a frame turned so that the lines run along x, the area's bounding
 rectangle is halved, again and again, across its longer side at the place that halves the area
-in it, until every block is at most `max_m2`: a cut along the lines (y = c) keeps every line
+in it, until every block keeps the limit: at most `max_m2` (`--max-ha`), or planned within N
+sorties (`--max-sorties`: each candidate block planned as `campaign plan` plans it, the
+template's battery model splitting its sorties). A cut along the lines (y = c) keeps every line
 whole in its block, a cut across them (x = c) shortens the lines, and each block's lines stay
 parallel to its long sides, so each keeps its own efficient grid.
+
+What the halving guarantees against needlessly small blocks: a cell is cut only when it does not
+keep the limit, so every block is one of the two halves (by area) of a cell that does not, and
+the blocks of that cell (a block and its sibling's blocks: the block's cut path less its last
+digit, written as the blocks file's `cut`) merged would break the limit. Blocks are thus more
+than about half of the limit (by area; by sorties, as a sortie count grows with the area), not
+the largest that would keep it.
 
 The overlap at each cut: each block reaches across the cut by half of it, so neighbours share a
 band as wide as the overlap. Across a cut along the lines, `overlap_across_m` (the ground two
@@ -19,7 +28,8 @@ area's would, and their photos share at least what neighbouring strips or photos
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import shapely
 import shapely.affinity
@@ -38,33 +48,51 @@ def split_area(area: BaseGeometry, heading_deg: float, max_m2: float, overlap_ac
     """The blocks (polygons, in the area's CRS) of `area` for lines at grid bearing `heading_deg`,
     each at most `max_m2` with its overlaps; see the module's doc. An InputError when `max_m2` is
     too small for the overlaps (a block would be mostly overlap)."""
+    cut = cut_area(area, heading_deg, lambda piece: bool(piece.area <= max_m2), overlap_across_m, overlap_along_m,
+                   f"--max-ha {max_m2 / 1e4:g}")
+    return [b for b, _ in cut]
+
+
+def cut_area(area: BaseGeometry, heading_deg: float, fits: Callable[[BaseGeometry], bool], overlap_across_m: float,
+             overlap_along_m: float, limit: str) -> list[tuple[BaseGeometry, str]]:
+    """The blocks of `area` (see the module's doc), each with its cut path: the cell is halved until `fits`
+    (given the cell's piece of the area with its overlaps, in the area's CRS) says the piece fits. The
+    path is a "0" or "1" per halving (the lower or upper half: "" the whole area), so the blocks
+    whose path starts with a block's path less its last digit are the cell that did not fit before
+    its last cut. `limit` names the limit in the InputError of a cell that does not fit and has no
+    room left for a cut (a block would be mostly overlap)."""
     turn = 90.0 - heading_deg  # the lines' direction as a mathematical angle: turned by -turn they run along x
     origin = area.centroid
     turned = shapely.affinity.rotate(area, -turn, origin=origin)
     half = (overlap_along_m / 2, overlap_across_m / 2)
-    cells: list[tuple[float, float, float, float]] = []
-    todo = [turned.bounds]
+
+    def back(g: BaseGeometry) -> BaseGeometry:
+        return shapely.affinity.rotate(g, turn, origin=origin)
+
+    cells: list[tuple[tuple[float, float, float, float], str]] = []
+    todo = [(turned.bounds, "")]
     while todo:
-        cell = todo.pop()
+        cell, path = todo.pop()
         piece = shapely.intersection(turned, _grown(cell, half))
-        if piece.area <= max_m2:
-            if not piece.is_empty:
-                cells.append(cell)
+        if piece.is_empty:
+            continue
+        if fits(back(piece)):
+            cells.append((cell, path))
             continue
         x0, y0, x1, y1 = cell
         room_x, room_y = x1 - x0 > 4 * half[0], y1 - y0 > 4 * half[1]  # a cut there leaves more than overlap
         if not (room_x or room_y):
-            raise InputError(f"--max-ha {max_m2 / 1e4:g} is too small: blocks that small would be mostly the overlap at their "
-                             f"cuts ({2 * half[1]:.0f} m across the lines, {2 * half[0]:.0f} m along them); allowed: a few times "
-                             f"{4 * half[0] * 4 * half[1] / 1e4:.2f} ha or more")
+            raise InputError(f"{limit} is too small: blocks that small would be mostly the overlap at their "
+                             f"cuts ({2 * half[1]:.0f} m across the lines, {2 * half[0]:.0f} m along them); allowed: a limit "
+                             f"blocks of a few times {4 * half[0] * 4 * half[1] / 1e4:.2f} ha or more meet")
         # halve the longer side (a cut along the lines when the cell is taller), or the one with room for a cut
         along = room_y and ((y1 - y0) >= (x1 - x0) or not room_x)
-        todo += reversed(_halves(turned, cell, along))
+        lower, upper = _halves(turned, cell, along)
+        todo += [(upper, path + "1"), (lower, path + "0")]
     blocks = []
-    for cell in cells:
+    for cell, path in cells:
         piece = shapely.intersection(turned, _grown(cell, half))
-        blocks += [shapely.affinity.rotate(p, turn, origin=origin) for p in shapely.get_parts(piece)
-                   if p.geom_type == "Polygon" and p.area > 0]
+        blocks += [(back(p), path) for p in shapely.get_parts(piece) if p.geom_type == "Polygon" and p.area > 0]
     return blocks
 
 
@@ -103,12 +131,24 @@ def long_side_bearing(area: BaseGeometry) -> float:
     return math.degrees(math.atan2(bx - ax, by - ay)) % 180.0
 
 
-def blocks_of_area(area_wgs84: BaseGeometry, spec: MissionSpec, max_ha: float,
-                   heading_deg: float | None) -> tuple[list[BaseGeometry], list[float]]:
-    """The blocks of an area (WGS84) for the spec's camera, height and overlaps, and each one's true
-    heading (degrees): `heading_deg` (a true bearing), the spec's flight.heading, else along the
-    area's length. The overlaps are at the nominal height (spec.targets; over higher ground the
-    footprint shrinks, and so does the overlap on the ground); the cuts are straight in the planning CRS."""
+@dataclass(frozen=True)
+class MaxSorties:
+    """`campaign split --max-sorties`: each block plans within `sorties` sorties of the template (its TOML
+    text, and the folder its paths are taken from) with the block's heading."""
+
+    sorties: int
+    template: str
+    base: str
+
+
+def blocks_of_area(area_wgs84: BaseGeometry, spec: MissionSpec, heading_deg: float | None, max_ha: float | None = None,
+                   max_sorties: MaxSorties | None = None) -> tuple[list[BaseGeometry], list[float], list[str]]:
+    """The blocks of an area (WGS84) for the spec's camera, height and overlaps, each one's true
+    heading (degrees) and its cut path (`cut_area`): `heading_deg` (a true bearing), the spec's
+    flight.heading, else along the area's length. Each block is at most `max_ha` (with its overlaps),
+    or plans within `max_sorties`' sorties (planned as `campaign plan` plans it, its heading given). The
+    overlaps are at the nominal height (spec.targets; over higher ground the footprint shrinks, and so
+    does the overlap on the ground); the cuts are straight in the planning CRS."""
     from aerosurvey.area import planning_crs
 
     planar = planning_crs(spec.crs, area_wgs84)
@@ -119,10 +159,44 @@ def blocks_of_area(area_wgs84: BaseGeometry, spec: MissionSpec, max_ha: float,
     across, along = cut_overlaps_m(spec)
     lon, lat = planar.lonlat(c.x, c.y)
     scale = planar.scale_factor(float(lon), float(lat))
-    blocks = split_area(area, grid, max_ha * 1e4 * scale**2, across * scale, along * scale)
-    centres = [b.centroid for b in blocks]
-    headings = planar.true_bearing(grid, [p.x for p in centres], [p.y for p in centres]) % 180.0
-    return [planar.inverse(b) for b in blocks], [round(float(h), 4) for h in headings]
+
+    def heading_of(g: BaseGeometry) -> float:
+        p = g.centroid
+        return round(float(planar.true_bearing(grid, p.x, p.y)) % 180.0, 4)
+
+    if max_sorties is not None:
+        if spec.battery is None:
+            raise InputError("--max-sorties needs the template's [battery] table: the sorties are split by its battery model")
+        fits = _within_sorties(max_sorties, planar.inverse, heading_of)
+        limit = f"--max-sorties {max_sorties.sorties}"
+    elif max_ha is not None:
+        max_m2 = max_ha * 1e4 * scale**2
+        fits, limit = (lambda piece: bool(piece.area <= max_m2)), f"--max-ha {max_ha:g}"
+    else:
+        raise InputError("campaign split needs --max-ha or --max-sorties: the size of a block")
+    blocks = cut_area(area, grid, fits, across * scale, along * scale, limit)
+    return [planar.inverse(b) for b, _ in blocks], [heading_of(b) for b, _ in blocks], [path for _, path in blocks]
+
+
+def _within_sorties(limit: MaxSorties, to_wgs84: Callable[[BaseGeometry], BaseGeometry],
+                    heading_of: Callable[[BaseGeometry], float]) -> Callable[[BaseGeometry], bool]:
+    """Whether each polygon of a piece (planning CRS) plans within the limit's sorties."""
+    from pathlib import Path
+
+    from aerosurvey.campaign.job import block_spec
+    from aerosurvey.inputs import plan_from_files
+
+    def fits(piece: BaseGeometry) -> bool:
+        for part in shapely.get_parts(piece):
+            if part.geom_type != "Polygon" or part.area <= 0:
+                continue
+            block = Block("piece", shapely.to_wkb(to_wgs84(part)), (("heading", heading_of(part)),))
+            plan = plan_from_files(block_spec(limit.template, Path(limit.base), block, "EPSG:4326"))
+            if len(plan.sorties) > limit.sorties:  # with a [battery] table, one sortie or more
+                return False
+        return True
+
+    return fits
 
 
 def cut_overlaps_m(spec: MissionSpec) -> tuple[float, float]:

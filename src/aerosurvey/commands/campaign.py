@@ -152,28 +152,40 @@ def _now() -> str:
 @campaign.command("split")
 @click.argument("area", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="The blocks file to write (.gpkg or .geojson): one polygon per block, with its name and heading.")
-@click.option("--max-ha", type=click.FloatRange(min=0, min_open=True), required=True,
+              help="The blocks file to write (.gpkg or .geojson): one polygon per block, with its name, heading and cut path.")
+@click.option("--max-ha", type=click.FloatRange(min=0, min_open=True), default=None,
               help="The largest block, hectares, its overlaps included.")
+@click.option("--max-sorties", type=click.IntRange(min=1), default=None,
+              help="The most sorties a block may take (planned with the template and its heading, the template's [battery] "
+                   "splitting the sorties); instead of --max-ha.")
 @click.option("--spec", "template", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The campaign's spec template: its camera, height and overlaps give the overlap at each cut.")
 @click.option("--heading", type=click.FloatRange(0, 360, max_open=True), default=None,
               help="The flight lines' true bearing, degrees (default: the template's flight.heading, else along the area's length).")
 @click.option("--prefix", default="b", show_default=True, help="Block names: PREFIX0001, PREFIX0002 …")
-def split(area: Path, out: Path, max_ha: float, template: Path, heading: float | None, prefix: str) -> None:
-    """Cut AREA into blocks of at most --max-ha along straight cuts aligned with the flight lines, neighbours
-    overlapping at each cut by what neighbouring strips (or photos) of one area share (docs/campaign.md)."""
+def split(area: Path, out: Path, max_ha: float | None, max_sorties: int | None, template: Path, heading: float | None,
+          prefix: str) -> None:
+    """Cut AREA into blocks of at most --max-ha, or each flown in at most --max-sorties sorties, along straight cuts
+    aligned with the flight lines, neighbours overlapping at each cut by what neighbouring strips (or photos) of one
+    area share (docs/campaign.md)."""
     import shapely
 
     from aerosurvey.area import read_area
     from aerosurvey.campaign.blocks import Block, write_blocks
     from aerosurvey.campaign.job import block_spec, read_template
-    from aerosurvey.campaign.split import blocks_of_area
+    from aerosurvey.campaign.split import MaxSorties, blocks_of_area
+    from aerosurvey.errors import InputError
 
+    if (max_ha is None) == (max_sorties is None):
+        raise InputError("give one of --max-ha and --max-sorties: the size of a block", key="--max-ha")
     region = read_area(area, None, "EPSG:4326", "area")
     text, _ = read_template(template)
-    spec = block_spec(text, template.resolve().parent, Block("area", shapely.to_wkb(region), ()), "EPSG:4326")
-    polygons, headings = blocks_of_area(region, spec, max_ha, heading)
+    base = template.resolve().parent
+    spec = block_spec(text, base, Block("area", shapely.to_wkb(region), ()), "EPSG:4326")
+    by_sorties = MaxSorties(max_sorties, text, str(base)) if max_sorties is not None else None
+    with console.progress(f"campaign split {area.name}"):
+        polygons, headings, cuts = blocks_of_area(region, spec, heading, max_ha, by_sorties)
     names = [f"{prefix}{i:04d}" for i in range(1, len(polygons) + 1)]
-    write_blocks(out, polygons, names, headings)
-    console.echo(f"{len(polygons)} blocks of at most {max_ha:g} ha written to {out}")
+    write_blocks(out, polygons, names, headings, cuts)
+    size = f"at most {max_ha:g} ha" if max_ha is not None else f"each flown in at most {max_sorties} sorties"
+    console.echo(f"{len(polygons)} blocks {size} written to {out}")
