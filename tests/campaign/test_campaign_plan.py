@@ -249,3 +249,26 @@ def test_an_attempt_ending_in_an_exception_is_a_failed_block(inputs, tmp_path):
     assert "the worker process running it died" in results[2].message
     assert "Dask gave up after distributed.scheduler.allowed-failures" in results[3].message
     assert (tally.done, tally.failed, tally.remaining) == (2, 3, 0)
+
+
+def test_the_templates_limits_refuse_a_block_recorded_failed(tmp_path):
+    """The template's [limits] hold for every block as for one plan: a block beyond them (t01, at a GSD that needs
+    about six times the photos) is failed in the register with the limit named, the others are planned, and the
+    rerun tries it again (a limit raised in the template is a new key, so it is planned then)."""
+    blocks = cc.write_blocks(tmp_path / "blocks.geojson", 3, props={1: {"gsd_cm": 1.0}})
+    free = tmp_path / "free"
+    campaign_plan(blocks, cc.write_template(tmp_path), free, "--workers", "1")
+    photos = {r["name"]: r["photos"] for r in cc.register(free)[0]}
+    assert photos["t01"] > 3 * photos["t00"]
+    limit = (photos["t01"] + photos["t00"]) // 2
+    limited = tmp_path / "limits"
+    limited.mkdir()
+    out = tmp_path / "campaign"
+    text = campaign_plan(blocks, cc.write_template(limited, limits={"max_photos": limit}), out, "--workers", "1", code=1)
+    assert "1 block(s) failed (t01)" in text
+    rows = {r["name"]: r for r in cc.register(out)[0]}
+    assert {n: r["status"] for n, r in rows.items()} == {"t00": "planned", "t01": "failed", "t02": "planned"}
+    assert f"more than limits.max_photos = {limit:,}" in rows["t01"]["message"] and rows["t01"]["photos"] == 0
+    status = CliRunner().invoke(main, ["campaign", "status", str(out)]).output
+    assert "t01: failed (the plan would take about" in status and "limits.max_photos" in status
+    assert sorted(cc.block_folders(out)) == ["t00", "t02"]

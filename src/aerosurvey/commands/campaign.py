@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from pathlib import Path
@@ -132,14 +133,65 @@ def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
 @click.argument("block")
 @click.argument("event")
 @click.option("--detail", default="", help="What the event says (who, which file, the QA figures …).")
-def record(campaign_dir: Path, block: str, event: str, detail: str) -> None:
+@click.option("--accuracy", type=click.Path(path_type=Path), default=None,
+              help="With qa: the accuracy.json `aerosurvey qa accuracy -o DIR` wrote for the block (or DIR): filed under "
+                   "CAMPAIGN/qa/, its RMSE per axis, points and verdict in the event's detail; `campaign report` learns from it.")
+def record(campaign_dir: Path, block: str, event: str, detail: str, accuracy: Path | None) -> None:
     """Record an event of BLOCK's life in the register by hand: uploaded, compliance, re-fly, qa or accepted."""
     from aerosurvey.campaign.register import read_register, with_event, write_register
+    from aerosurvey.errors import InputError
 
     rows, events = read_register(campaign_dir)
-    rows, events = with_event(rows, events, block, event, _now(), detail)
+    if accuracy is not None:
+        from aerosurvey.campaign.verdicts import file_accuracy
+
+        if event != "qa":
+            raise InputError(f"--accuracy is given with event = {event!r}: it files a QA verdict, give the event qa",
+                             key="--accuracy")
+        rows, events = with_event(rows, events, block, event, _now(), detail)  # the block and the event checked first
+        figures = file_accuracy(campaign_dir, next(r for r in rows if r.name == block), accuracy)
+        text = figures.text() + (f"; {detail}" if detail else "")
+        events = [*events[:-1], dataclasses.replace(events[-1], detail=text)]
+    else:
+        rows, events = with_event(rows, events, block, event, _now(), detail)
     write_register(campaign_dir, rows, events)
     console.echo(f"{block}: {event} recorded; status {next(r.status for r in rows if r.name == block)}")
+
+
+@campaign.command("report")
+@click.argument("campaign_dir", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--class-h", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="The horizontal class to compare with, cm (default: the one the blocks' accuracy tests asked).")
+@click.option("--class-v", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="The vertical class to compare with, cm (default: the one the blocks' accuracy tests asked).")
+@click.option("--json", "as_json", is_flag=True, help="Print the JSON report instead of the text.")
+@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Also write the JSON report to this file.")
+def report(campaign_dir: Path, class_h: float | None, class_v: float | None, as_json: bool, out: Path | None) -> None:
+    """What the campaign learns: the accuracy its accepted blocks achieved (their QA verdicts filed by `campaign
+    record` with its accuracy.json) against GSD, control density and relief, with the spread, beside the class asked,
+    and the largest GSD the campaign's own spread says meets it (docs/campaign.md)."""
+    import json
+
+    from aerosurvey import __version__, schemas
+    from aerosurvey.campaign.learn import SCHEMA, VERSION, asked_classes, learn, report_text
+    from aerosurvey.campaign.register import read_register
+    from aerosurvey.campaign.verdicts import accepted_figures
+    from aerosurvey.fileio import atomic_write_text
+
+    rows, _ = read_register(campaign_dir)
+    accepted, blocks = accepted_figures(campaign_dir, rows)
+    ch, cv = asked_classes(blocks, class_h, class_v)
+    body = learn(blocks, ch, cv)
+    doc = {"schema": SCHEMA, "schema_version": VERSION, "aerosurvey_version": __version__, "campaign": campaign_dir.name,
+           "accepted": accepted, "learned": len(blocks), **body}
+    err = schemas.first_error("campaign_report", doc)
+    if err is not None:
+        raise ValueError(f"the campaign report does not match its schema: {err}")  # a bug, found before writing
+    text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
+    if out is not None:
+        atomic_write_text(out, text)
+    console.echo((text if as_json else report_text(body, accepted, len(blocks))).rstrip("\n"))
 
 
 def _now() -> str:
