@@ -169,3 +169,33 @@ def test_bad_verdicts_get_one_line(campaign, tmp_path):
         text = record("qa", "--accuracy", str(bad))
         assert text.startswith("2 ") and says in text and len(text.strip().splitlines()) == 1, text
     assert cc.register(campaign) == before
+
+
+def test_relief_under_each_block_from_its_dem(tmp_path):
+    """With a DEM in the template each block's relief is the range of the ground under it: on a plane rising 10 m
+    per 0.001 degree of latitude, a block 0.002 degrees tall has about 20 m (more by the margin the plan reads round it)."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    dem = tmp_path / "dem.tif"
+    res = 0.0001
+    rows, cols = 200, 300
+    lat = 49.41 - (np.arange(rows) + 0.5) * res
+    z = np.repeat((300.0 + 10_000.0 * (lat - 49.4))[:, None], cols, axis=1).astype("float32")
+    with rasterio.open(dem, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="float32", crs="EPSG:4326",
+                       transform=from_origin(14.995, 49.41, res, res)) as ds:
+        ds.write(z, 1)
+    blocks = cc.write_blocks(tmp_path / "blocks.geojson", 2, size_deg=(0.003, 0.002))
+    out = tmp_path / "campaign"
+    template = cc.write_template(tmp_path, terrain={"dem": str(dem)})
+    res_ = CliRunner().invoke(main, ["campaign", "plan", str(blocks), "-o", str(out), "--spec", str(template), "--workers", "1"])
+    assert res_.exit_code == 0, res_.output
+    for name in ("t00", "t01"):
+        acc = _accuracy(tmp_path, name, (1.0, 1.0, 2.0), 4, 5.0, 10.0)
+        for args in (("qa", "--accuracy", str(acc)), ("accepted",)):
+            assert CliRunner().invoke(main, ["campaign", "record", str(out), name, *args]).exit_code == 0
+    doc = json.loads(CliRunner().invoke(main, ["campaign", "report", str(out), "--json"]).output)
+    assert [b["name"] for b in doc["blocks"]] == ["t00", "t01"]
+    for b in doc["blocks"]:
+        assert 19.0 <= b["relief_m"] <= 30.0, b
+    assert "relief m" in CliRunner().invoke(main, ["campaign", "report", str(out)]).output
