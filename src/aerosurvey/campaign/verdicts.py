@@ -16,7 +16,7 @@ from pathlib import Path
 from aerosurvey.campaign.job import BLOCKS_DIR
 from aerosurvey.campaign.learn import BlockAccuracy
 from aerosurvey.campaign.register import BlockRow
-from aerosurvey.qa.accuracy_file import FILE, AccuracyFigures, read_accuracy
+from aerosurvey.qa.accuracy_file import FILE, read_accuracy
 
 QA_DIR = "qa"
 
@@ -25,16 +25,15 @@ def verdict_path(campaign: Path, row: BlockRow) -> Path:
     return campaign / QA_DIR / row.folder / FILE
 
 
-def file_accuracy(campaign: Path, row: BlockRow, accuracy: Path) -> AccuracyFigures:
-    """Check an accuracy.json (or the folder of one) and copy it under the block's QA folder, whole."""
+def file_accuracy(campaign: Path, row: BlockRow, accuracy: Path) -> None:
+    """Copy an accuracy.json (or the one in a folder), read with `read_accuracy` before, under the block's QA
+    folder, whole."""
     from aerosurvey.fileio import atomic_write_bytes
 
-    figures = read_accuracy(accuracy)
     source = accuracy / FILE if accuracy.is_dir() else accuracy
     target = verdict_path(campaign, row)
     target.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(target, source.read_bytes())
-    return figures
 
 
 def relief_m(campaign: Path, row: BlockRow) -> float | None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import os
 from pathlib import Path
@@ -142,18 +141,18 @@ def record(campaign_dir: Path, block: str, event: str, detail: str, accuracy: Pa
     from aerosurvey.errors import InputError
 
     rows, events = read_register(campaign_dir)
-    if accuracy is not None:
+    if accuracy is None:
+        rows, events = with_event(rows, events, block, event, _now(), detail)
+    else:
         from aerosurvey.campaign.verdicts import file_accuracy
+        from aerosurvey.qa.accuracy_file import read_accuracy
 
         if event != "qa":
             raise InputError(f"--accuracy is given with event = {event!r}: it files a QA verdict, give the event qa",
                              key="--accuracy")
-        rows, events = with_event(rows, events, block, event, _now(), detail)  # the block and the event checked first
-        figures = file_accuracy(campaign_dir, next(r for r in rows if r.name == block), accuracy)
-        text = figures.text() + (f"; {detail}" if detail else "")
-        events = [*events[:-1], dataclasses.replace(events[-1], detail=text)]
-    else:
-        rows, events = with_event(rows, events, block, event, _now(), detail)
+        figures = read_accuracy(accuracy)
+        rows, events = with_event(rows, events, block, event, _now(), figures.text() + (f"; {detail}" if detail else ""))
+        file_accuracy(campaign_dir, next(r for r in rows if r.name == block), accuracy)
     write_register(campaign_dir, rows, events)
     console.echo(f"{block}: {event} recorded; status {next(r.status for r in rows if r.name == block)}")
 
