@@ -13,7 +13,8 @@ Each measurement runs in a fresh process:
   each (time.process_time); the ideal for W workers is their sum / W;
 - pool, dask: the campaign on a local process pool / a LocalCluster (W single-threaded worker
   processes; its start is timed apart), wall time from the first block handed out to the last
-  result, and the peak RSS of the workers (the pool's children; each Dask worker's own);
+  result, the peak RSS of the workers (the pool's children; each Dask worker's own) and of the
+  driver (the process running the campaign: flat in the number of blocks when it holds no plan);
 - largest: the largest block planned alone in a fresh process: its peak RSS.
 Prints the ratios: wall / (sum of single-block CPU / W) (goal 1.2, issue 38) and worker peak RSS /
 the largest block's (goal 1.5).
@@ -120,7 +121,7 @@ def mode_pool(folder: Path, workers: int) -> dict:
     wall = time.perf_counter() - t
     ru = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {"wall_s": wall, "done": tally.done, "failed": tally.failed, "worker_maxrss_mb": ru.ru_maxrss / 1024,
-            "worker_cpu_s": ru.ru_utime + ru.ru_stime}
+            "worker_cpu_s": ru.ru_utime + ru.ru_stime, "driver_maxrss_mb": _maxrss_mb(resource.RUSAGE_SELF)}
 
 
 def mode_dask(folder: Path, workers: int) -> dict:
@@ -146,7 +147,8 @@ def mode_dask(folder: Path, workers: int) -> dict:
         usage = client.run(lambda: [*(lambda r: (r.ru_maxrss / 1024, r.ru_utime + r.ru_stime))(
             resource.getrusage(resource.RUSAGE_SELF))])
     return {"wall_s": wall, "start_s": t1 - t0, "done": tally.done, "failed": tally.failed,
-            "worker_maxrss_mb": max(u[0] for u in usage.values()), "worker_cpu_s": sum(u[1] for u in usage.values()) - cpu0}
+            "worker_maxrss_mb": max(u[0] for u in usage.values()), "worker_cpu_s": sum(u[1] for u in usage.values()) - cpu0,
+            "driver_maxrss_mb": _maxrss_mb(resource.RUSAGE_SELF)}
 
 
 def register_figures(n: int, folder: Path) -> str:
@@ -222,7 +224,8 @@ def main() -> None:
             print(f"{mode}: wall {r['wall_s']:.1f} s = {r['wall_s'] / ideal:.2f} x ideal{start}; workers' CPU "
                   f"{r['worker_cpu_s']:.1f} s = {r['worker_cpu_s'] / cpu.sum():.2f} x the single-block sum; {r['done']} done, "
                   f"{r['failed']} failed; worker peak RSS {r['worker_maxrss_mb']:.0f} MB = "
-                  f"{r['worker_maxrss_mb'] / big['maxrss_mb']:.2f} x the largest block's")
+                  f"{r['worker_maxrss_mb'] / big['maxrss_mb']:.2f} x the largest block's; driver peak RSS "
+                  f"{r['driver_maxrss_mb']:.0f} MB")
 
 
 if __name__ == "__main__":
