@@ -1287,3 +1287,78 @@ def test_brief_for_a_time_chosen_on_the_page(page):
     page.fill("#brief-at", "")
     page.click("#make-brief")
     page.wait_for_function("document.querySelector('[data-for=\"brief\"]').textContent.includes('choose the date')")
+
+
+# ---- a DEM uploaded on the page, and the zones' height bands on the profile ---------------------------------------
+
+@pytest.mark.parametrize("size", [(375, 812), (1024, 768), (1366, 768)])
+def test_a_dem_uploaded_on_the_page_is_planned_over_with_the_zones_bands(site, size):
+    """The DEM picked by keyboard from *Setup* (a GeoTIFF the test writes: a plane rising eastwards) is stored, set as
+    terrain.dem and planned: the profile's ground is the plane's, an official zone over the area is drawn as a band
+    on the profile; a broken file is refused next to the field, naming it. No sideways scroll, the summary in view."""
+    from webutil import BASE_M, SLOPE, UTM, dem_bytes
+
+    import independent_airspace as ia
+
+    w, h = size
+    tmp = site["tmp"] / f"dem-{w}"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    strip = [(14.957, 49.425), (14.959, 49.425), (14.959, 49.440), (14.957, 49.440), (14.957, 49.425)]
+    ia.write_ed269(tmp / "zones.json", [ia.Zone("HIGH", "CONDITIONAL", (150.0, "m", "AGL"), (300.0, "m", "AGL"), ring=strip)])
+    spec.write_text(spec.read_text() + '\n[airspace]\nzones = ["zones.json"]\n')
+    data, x0 = dem_bytes()
+    (tmp / "upload").mkdir()
+    (tmp / "upload" / "terrain.tif").write_bytes(data)
+    (tmp / "upload" / "broken.tif").write_bytes(data[: len(data) // 2])
+    with _own_server_page(site, spec) as (pg, _):
+        errors: list[str] = []
+        console: list[str] = []
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.on("console", lambda m: console.append(m.text) if m.type == "error" else None)
+        pg.on("filechooser", lambda chooser: None)  # file choosers intercepted from now on (see the keyboard test)
+        pg.evaluate("1")
+        pg.set_viewport_size({"width": w, "height": h})
+        assert pg.evaluate("window.aerosurvey.view.profile") is None
+        _tab(pg, "setup")
+        pg.focus("[data-key='terrain.dem']")
+        chooser = _chooser_by_key(pg, "#pick-dem", "Enter")
+        _replan_and_wait(pg, lambda: chooser.set_files(str(tmp / "upload" / "terrain.tif")))
+        pg.wait_for_function("window.aerosurvey.view.profile !== null", timeout=60000)
+        assert pg.input_value("[data-key='terrain.dem']") == "dem/terrain.tif"
+        assert (tmp / "dem" / "terrain.tif").read_bytes() == data
+        view = pg.evaluate("window.aerosurvey.view")
+        pts = _waypoint_route_text(pg.evaluate(f"fetch('/api/plans/{view['plan_id']}/files/mission.waypoints').then(r => r.text())"))
+        xs, _ = pyproj.Transformer.from_crs("EPSG:4326", UTM, always_xy=True).transform(*zip(*pts))
+        ground = view["profile"]["ground_m"]
+        lo, hi = BASE_M + SLOPE * (min(xs) - x0), BASE_M + SLOPE * (max(xs) - x0)
+        assert min(ground) == pytest.approx(lo, abs=0.05) and max(ground) == pytest.approx(hi, abs=0.05)
+        assert f"ground {lo:.0f} to {hi:.0f} m AMSL" in pg.text_content("#profile-text")
+        bands = view["profile"]["bands"]
+        assert bands and all("zone HIGH" in b["name"] for b in bands)
+        assert _count(pg, "#profile path.zone-band.official") == len(bands)
+        assert "zone HIGH" in pg.text_content("#profile-text")
+        # a file cut short: refused next to the field, naming it; the plan over the good DEM stays
+        plans = pg.evaluate("window.aerosurvey.stats.plans")
+        pg.set_input_files("#dem-file", str(tmp / "upload" / "broken.tif"))
+        box = pg.locator(".err[data-for~='terrain.dem']")
+        pg.wait_for_function("document.querySelector(\".err[data-for~='terrain.dem']\").textContent.includes('broken.tif')",
+                             timeout=30000)
+        assert "GeoTIFF (.tif, .tiff) with a CRS" in box.text_content()
+        assert pg.input_value("[data-key='terrain.dem']") == "dem/terrain.tif"
+        assert not (tmp / "dem" / "broken.tif").exists() and pg.evaluate("window.aerosurvey.stats.plans") == plans
+        wide = pg.evaluate("w => Array.from(document.querySelectorAll('body *')).filter(e => e.getBoundingClientRect().right > w + 1)"
+                           ".map(e => e.tagName + ' ' + e.textContent.slice(0, 100))", w)  # what sticks out, if anything
+        assert pg.evaluate("document.scrollingElement.scrollWidth") <= w, wide
+        s = pg.locator("#summary").bounding_box()
+        assert s is not None and s["y"] >= 0 and s["y"] + s["height"] <= h and s["x"] >= 0
+        pg.screenshot(path=str(SHOTS / f"dem-upload-{w}x{h}.png"))
+        assert errors == [], errors
+        # the one console error is Chromium's own line for the refusal's HTTP 400
+        assert console == ["Failed to load resource: the server responded with a status of 400 (Bad Request)"], console
+
+
+def _waypoint_route_text(text: str) -> list[tuple[float, float]]:
+    """Every point of a QGC WPL 110 text with a position (home and the items not at 0, 0), as (lon, lat)."""
+    rows = [line.split("\t") for line in text.splitlines()[1:]]
+    return [(float(r[9]), float(r[8])) for r in rows if float(r[8]) != 0 or float(r[9]) != 0]

@@ -4,6 +4,7 @@ Endpoints (all JSON unless said otherwise), each a small handler in a module of 
   GET    /                           the page                                   (routes_spec)
   GET    /api/state                  the starting spec, cameras, rule profiles, settings
   POST   /api/area                   multipart `file`: an area file, read in memory → a spec over it (area as WKT)
+  POST   /api/dem                    multipart `file`: a GeoTIFF DEM, checked, stored in the mission's folder → its path
   POST   /api/spec/toml              {"spec": {...}} → the spec as TOML (attachment); a zip with the files it names
   POST   /api/spec/save              {"spec": {...}} → written over the spec file the server was started with
   POST   /api/plan                   {"spec": {...}} → 202 {"job": id}; a plan runs as a job  (routes_plan)
@@ -45,6 +46,7 @@ ROUTES: list[BaseRoute] = [
     Route("/", routes_spec.index),
     Route("/api/state", routes_spec.api_state),
     Route("/api/area", routes_spec.upload_area, methods=["POST"]),
+    Route("/api/dem", routes_spec.upload_dem, methods=["POST"]),
     Route("/api/spec/toml", routes_spec.spec_toml, methods=["POST"]),
     Route("/api/spec/save", routes_spec.spec_save, methods=["POST"]),
     Route("/api/plan", routes_plan.submit_plan, methods=["POST"]),

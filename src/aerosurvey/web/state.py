@@ -151,6 +151,18 @@ async def form_in_memory(request: Request, limit: int, what: str, key: str, max_
         raise InputError(f"{what}: {exc.message}", key=key) from None
 
 
+async def one_file(request: Request, limit: int, what: str, key: str, max_fields: int) -> tuple[str, bytes, FormData]:
+    """The multipart form's one file (field `file`) read in memory (`form_in_memory`): its base name, its bytes and the
+    form (closed) with its other fields. InputError (naming `what`, for spec key `key`) without one."""
+    form = await form_in_memory(request, limit, what, key, max_files=1, max_fields=max_fields)
+    upload = form.get("file")
+    if not isinstance(upload, UploadFile):
+        raise InputError(f"{what}: send the file as the multipart field 'file'", key=key)
+    data = await upload.read()  # in memory: the form parser does not spool to disk
+    await form.close()
+    return Path(upload.filename or "").name, data, form
+
+
 def save_upload(upload: UploadFile, folder: Path) -> Path:
     """Copy an uploaded file (spooled by the form parser) into `folder` under its own base name.
 

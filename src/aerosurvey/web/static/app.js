@@ -618,11 +618,13 @@ function renderProfile(view) {
   const W = 1000, H = 200, pad = 4;
   svg.setAttribute("viewBox", `0 0 ${W} ${H}`); svg.setAttribute("preserveAspectRatio", "none");
   const d = P.distance_m, a = P.amsl_m, g = P.ground_m, m = P.min_clearance_m;
-  const lo = Math.min(...g), hi = Math.max(...a, ...g.map((v) => v + m)), span = Math.max(hi - lo, 1), len = Math.max(d[d.length - 1], 1);
+  const lo = Math.min(...g), top = Math.max(...a, ...g.map((v) => v + m)), len = Math.max(d[d.length - 1], 1);
+  const hi = profileTop(P.bands, lo, top), span = Math.max(hi - lo, 1);
   const X = (v) => (v / len) * W, Y = (v) => H - pad - ((v - lo) / span) * (H - 2 * pad);
   const path = (ys) => d.map((v, i) => `${i ? "L" : "M"}${X(v).toFixed(1)},${Y(ys[i]).toFixed(1)}`).join("");
   const ns = "http://www.w3.org/2000/svg";
   const add = (dd, cls) => { const p = document.createElementNS(ns, "path"); p.setAttribute("d", dd); p.setAttribute("class", cls); svg.appendChild(p); return p; };
+  renderZoneBands(svg, P.bands, X, Y, lo, hi);
   add(`${path(g)}L${W},${H}L0,${H}Z`, "ground");
   add(path(g.map((v) => v + m)), "min-clearance");
   add(path(a), "flown");
@@ -638,7 +640,41 @@ function renderProfile(view) {
   }
   text.textContent = `${(len / 1000).toFixed(2)} km flown; ground ${lo.toFixed(0)} to ${Math.max(...g).toFixed(0)} m AMSL; `
     + `lowest clearance ${low.toFixed(1)} m at ${(where / 1000).toFixed(2)} km (minimum ${m} m)`
-    + (below ? `; below the minimum on ${below} stretch(es), in red` : "");
+    + (below ? `; below the minimum on ${below} stretch(es), in red` : "")
+    + P.bands.map((b) => `; ${b.name} (${b.band}) from ${(b.distance_m[0] / 1000).toFixed(2)} to `
+      + `${(b.distance_m[b.distance_m.length - 1] / 1000).toFixed(2)} km`).join("");
+}
+
+/** The profile's top: the route's, raised to show the lower limits of the zones' bands up to twice its height range
+ * (a band starting far above the route is drawn from the top). */
+function profileTop(bands, lo, top) {
+  const lowers = bands.flatMap((b) => b.lower_m);
+  return lowers.length ? Math.max(top, Math.min(Math.max(...lowers) + 10, top + (top - lo))) : top;
+}
+
+/** The zones the route crosses (view.profile.bands): each band a shaded box along its stretch, from its lower to its
+ * upper limit (to the top without a ceiling), clipped to the drawing, labelled with the zone and its band. */
+function renderZoneBands(svg, bands, X, Y, lo, hi) {
+  const ns = "http://www.w3.org/2000/svg";
+  const clip = (v) => Math.min(Math.max(v, lo), hi);
+  for (const b of bands) {
+    const d = b.distance_m, up = b.upper_m || d.map(() => hi);
+    const pts = [...d.map((v, i) => [X(v), Y(clip(up[i]))]), ...d.map((v, i) => [X(v), Y(clip(b.lower_m[i]))]).reverse()];
+    const box = document.createElementNS(ns, "path");
+    box.setAttribute("d", pts.map(([x, y], i) => `${i ? "L" : "M"}${x.toFixed(1)},${y.toFixed(1)}`).join("") + "Z");
+    box.setAttribute("class", `zone-band ${b.kind}`);
+    const title = document.createElementNS(ns, "title");
+    title.textContent = `${b.name}: ${b.band}`;
+    box.appendChild(title);
+    svg.appendChild(box);
+    const label = document.createElementNS(ns, "text");
+    const x = X(d[0]);
+    label.setAttribute("x", x.toFixed(1)); label.setAttribute("y", "14");
+    if (x > svg.viewBox.baseVal.width / 2) label.setAttribute("text-anchor", "end");  // kept inside the drawing
+    label.setAttribute("class", "zone-label");
+    label.textContent = b.name.split(" (")[0];
+    svg.appendChild(label);
+  }
 }
 
 function renderSummary(view) {
@@ -1079,6 +1115,25 @@ function updateBasemap() {
 }
 
 // ---- uploads -----------------------------------------------------------------------------------
+/** A GeoTIFF DEM picked on the page: the server checks it as the loader opens a DEM and stores it in the mission's
+ * folder (dem/NAME.tif); its path becomes terrain.dem and the mission is planned over it. */
+async function uploadDem(file) {
+  clearError("terrain.dem");
+  const fd = new FormData();
+  fd.append("file", file, file.name);
+  setStatus(`uploading ${file.name}…`);
+  try {
+    const r = await api("POST", "/api/dem", fd);
+    setKey(S.spec, "terrain.dem", r.path);
+    fillForm();
+    setStatus(`DEM ${file.name} stored as ${r.path} (${r.size[0]} × ${r.size[1]} cells, ${r.crs})`);
+    replan();
+  } catch (e) {
+    showError("terrain.dem", e.message);
+    setStatus(`DEM ${file.name} refused`);
+  }
+}
+
 async function uploadArea(file) {
   clearError("area.file");
   const fd = new FormData();
@@ -1259,6 +1314,8 @@ async function start() {
   $("#flight-files").addEventListener("change", (e) => { loadFlight(Array.from(e.target.files)); e.target.value = ""; });
   $("#pick-area").addEventListener("click", () => $("#area-file").click());  // the file inputs are hidden: buttons open them
   $("#pick-flight").addEventListener("click", () => $("#flight-files").click());
+  $("#pick-dem").addEventListener("click", () => $("#dem-file").click());
+  $("#dem-file").addEventListener("change", (e) => { if (e.target.files[0]) uploadDem(e.target.files[0]); e.target.value = ""; });
   const drop = $("#drop");
   drop.addEventListener("keydown", (e) => {  // the drop zone itself, focused: Enter or Space picks a file
     if (e.target === drop && (e.key === "Enter" || e.key === " ")) { e.preventDefault(); $("#area-file").click(); }
