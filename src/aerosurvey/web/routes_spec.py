@@ -50,7 +50,8 @@ def _state(state: ServerState) -> dict[str, Any]:
             # a page without a spec: the settings an area drawn on it starts from
             "defaults": {k: v for k, v in service.default_spec({}, "drawn-area").items() if k != "area"},
             "basemap": state.basemap.info.as_dict() if state.basemap else None,
-            "lan": state.shares is not None}
+            "lan": state.shares is not None,
+            "campaign": state.campaign.name if state.campaign else None}
 
 
 async def upload_area(request: Request) -> Response:

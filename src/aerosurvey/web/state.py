@@ -45,6 +45,7 @@ class ServerState:
     upload_limit: int
     basemap: Basemap | None = None  # the offline basemap file (--basemap), served as tiles
     shares: Shares | None = None  # files shared on the local network (serve --lan), None without it
+    campaign: Path | None = None  # the campaign folder shown on the page (serve --campaign), read-only
     plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
     serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
     keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB

@@ -1257,6 +1257,96 @@ async function saveSpec() {
   } catch (e) { showError(e.key, e.message); $("#save-status").textContent = ""; }
 }
 
+// ---- a campaign (serve --campaign): its blocks coloured by status, each opening its plan (read-only) -----------
+const STATUS_COLOURS = { failed: "#757575", "rules-fail": "#c62828", planned: "#1565c0", uploaded: "#00838f", flown: "#ef6c00",
+  compliance: "#f9a825", "re-fly": "#6a1b9a", qa: "#00897b", accepted: "#2e7d32" };
+function statusColour(status) { return STATUS_COLOURS[status] || "#455a64"; }
+/** A block: its status's colour (filled faintly), thicker when opened, its name once zoomed in. */
+function blockStyle(f, resolution) {
+  const c = statusColour(f.get("status")), open = S.block && S.block.name === f.get("name");
+  return new olb.Style({
+    stroke: new olb.Stroke({ color: c, width: open ? 4 : 2 }), fill: new olb.Fill({ color: `${c}${open ? "66" : "33"}` }),
+    text: resolution < 5 ? new olb.Text({ text: f.get("name"), font: "11px system-ui, sans-serif", fill: new olb.Fill({ color: "#1d2630" }),
+      stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) : undefined,
+  });
+}
+const blockRouteStyle = new olb.Style({ stroke: new olb.Stroke({ color: "#1d2630", width: 2, lineDash: [6, 3] }) });
+
+async function startCampaign() {
+  const c = await api("GET", "/api/campaign");
+  S.campaign = c;
+  L.campaign = vector("campaign", blockStyle, 1);
+  L.blockRoute = vector("block-route", blockRouteStyle, 9);
+  map.addLayer(L.campaign); map.addLayer(L.blockRoute);
+  L.campaign.getSource().addFeatures(geojson.readFeatures(c.blocks, { dataProjection: WGS84, featureProjection: WEB }));
+  const toggle = $("#layer-toggles input[data-layer='campaign']");
+  toggle.closest("label").hidden = false;
+  toggle.addEventListener("change", () => L.campaign.setVisible(toggle.checked));
+  $("#campaign-name").textContent = `Campaign ${c.name}: ${c.blocks.features.length} blocks`;
+  const legend = $("#campaign-legend"); legend.textContent = "";
+  for (const status of c.statuses) {
+    const li = document.createElement("li"), sw = document.createElement("span");
+    sw.className = "swatch"; sw.style.background = statusColour(status);
+    li.dataset.status = status;
+    li.append(sw, `${status} ${c.counts[status]}`);
+    legend.appendChild(li);
+  }
+  const sel = $("#campaign-block"); sel.textContent = "";
+  const none = document.createElement("option"); none.value = ""; none.textContent = "(choose a block)"; sel.appendChild(none);
+  for (const f of c.blocks.features) {
+    const o = document.createElement("option");
+    o.value = f.properties.name; o.textContent = `${f.properties.name} (${f.properties.status})`;
+    sel.appendChild(o);
+  }
+  sel.addEventListener("change", () => { if (sel.value) openBlock(sel.value); });
+  map.on("click", (e) => {
+    if (S.tool !== "edit") return;
+    const f = map.forEachFeatureAtPixel(e.pixel, (x) => x, { layerFilter: (l) => l === L.campaign });
+    if (f) openBlock(f.get("name"));
+  });
+  $("#tabs button[data-tab='campaign']").hidden = false;
+  showTab("campaign");
+  if (!S.spec.area) map.getView().fit(L.campaign.getSource().getExtent(), { padding: [30, 30, 30, 30] });
+}
+
+/** A block's plan from its folder: its summary, its files to download and its route (mission.waypoints) on the map. */
+async function openBlock(name) {
+  const err = $(".err[data-for='campaign']"); err.textContent = "";
+  const box = $("#block-plan"); box.textContent = "";
+  L.blockRoute.getSource().clear();
+  const f = L.campaign.getSource().getFeatures().find((x) => x.get("name") === name);
+  S.block = { name };
+  L.campaign.changed();
+  $("#campaign-block").value = name;
+  const p = f.getProperties();
+  const dl = document.createElement("dl");
+  const rows = [["block", name], ["status", p.status], ["next", p.next || "nothing: accepted"]];
+  if (p.message) rows.push(["message", p.message]);
+  if (p.status !== "failed") rows.push(["plan", `${p.area_ha.toFixed(1)} ha, ${p.photos} photos, ${p.time_min.toFixed(1)} min, ${p.sorties} sorties`]);
+  if (p.rules_failing) rows.push(["rules failing", p.rules_failing]);
+  for (const [k, v] of rows) { const dt = document.createElement("dt"), dd = document.createElement("dd"); dt.textContent = k; dd.textContent = v; dl.append(dt, dd); }
+  box.appendChild(dl);
+  map.getView().fit(f.getGeometry().getExtent(), { padding: [40, 40, 40, 40], maxZoom: 18, duration: 0 });
+  try {
+    S.block = await api("GET", `/api/campaign/blocks/${encodeURIComponent(name)}`);
+  } catch (e) {
+    err.textContent = e.message;
+    return;
+  }
+  const ul = document.createElement("ul");
+  for (const file of S.block.files) {
+    const li = document.createElement("li"), a = document.createElement("a");
+    a.href = `/api/campaign/blocks/${encodeURIComponent(name)}/files/${encodeURIComponent(file)}`;
+    a.textContent = file; a.setAttribute("download", file); a.dataset.file = file;
+    li.appendChild(a); ul.appendChild(li);
+  }
+  box.append(`files of blocks/${S.block.folder}:`, ul);
+  if (S.block.route) {
+    L.blockRoute.getSource().addFeature(geojson.readFeature({ type: "Feature", geometry: S.block.route, properties: { name } },
+      { dataProjection: WGS84, featureProjection: WEB }));
+  }
+}
+
 // ---- tabs ----------------------------------------------------------------------------------------
 function showTab(name) {
   for (const b of $$("#tabs button")) { b.classList.toggle("on", b.dataset.tab === name); b.setAttribute("aria-selected", String(b.dataset.tab === name)); }
@@ -1271,6 +1361,7 @@ async function start() {
   S.preview = st.preview;
   S.basemap = st.basemap;
   S.lan = Boolean(st.lan);
+  S.campaignName = st.campaign;  // serve --campaign: its blocks are shown once the page has started
   S.defaults = st.defaults;
   const saved = localStorage.getItem("aerosurvey.tileUrl");
   S.tileUrl = st.tile_url || saved || "";
@@ -1363,4 +1454,4 @@ async function start() {
   }
 }
 
-start().catch((e) => { setStatus("could not start"); showError(null, e.message); });
+start().then(() => S.campaignName && startCampaign()).catch((e) => { setStatus("could not start"); showError(null, e.message); });
