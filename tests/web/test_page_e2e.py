@@ -1362,3 +1362,13 @@ def _waypoint_route_text(text: str) -> list[tuple[float, float]]:
     """Every point of a QGC WPL 110 text with a position (home and the items not at 0, 0), as (lon, lat)."""
     rows = [line.split("\t") for line in text.splitlines()[1:]]
     return [(float(r[9]), float(r[8])) for r in rows if float(r[8]) != 0 or float(r[9]) != 0]
+
+
+def test_a_wind_table_is_shown_as_the_wind_option_writes_it(page):
+    """The example's conditions.wind table ({speed_ms = 3.0, from_deg = 270}) is shown as `--wind` text (not as
+    "[object Object]"); typed over, the new wind is planned."""
+    _tab(page, "setup")
+    assert page.input_value("[data-key='conditions.wind']") == "3@270"
+    _replan_and_wait(page, lambda: page.fill("[data-key='conditions.wind']", "5@90G8"))
+    assert page.evaluate("window.aerosurvey.spec.conditions.wind") == "5@90G8"
+    assert page.text_content("#general-error") == ""

@@ -53,12 +53,18 @@ function setKey(spec, key, value) {
 }
 
 // ---- form ----------------------------------------------------------------------------------
+/** A spec value as its field shows it: a wind table ({speed_ms, from_deg, gust_ms}) as the text --wind takes (6@240G9),
+ * which the spec reads the same. */
+function fieldText(v) {
+  if (v && typeof v === "object" && "speed_ms" in v && "from_deg" in v) return `${v.speed_ms}@${v.from_deg}${v.gust_ms ? `G${v.gust_ms}` : ""}`;
+  return String(v);
+}
 function fillForm() {
   for (const el of $$("[data-key]")) {
     const v = getKey(S.spec, el.dataset.key);
     if (el.dataset.type === "bool") el.checked = v === true;
     else if (el.tagName === "SELECT" && el.dataset.key === "camera.model" && v && typeof v === "object") el.value = "__inline__";
-    else el.value = v === undefined || v === null ? "" : String(v);
+    else el.value = v === undefined || v === null ? "" : fieldText(v);
   }
   const t = S.spec.targets || {};
   const mode = t.height_m !== undefined ? "height_m" : "gsd_cm";
