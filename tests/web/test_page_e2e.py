@@ -57,6 +57,7 @@ class _Tiles(http.server.BaseHTTPRequestHandler):
         _Tiles.asked.append(self.path)
         self.send_response(200)
         self.send_header("Content-Type", "image/png")
+        self.send_header("Access-Control-Allow-Origin", "*")  # as public tile servers send it (the page asks with CORS)
         self.send_header("Content-Length", str(len(self.png)))
         self.end_headers()
         self.wfile.write(self.png)
@@ -94,11 +95,29 @@ def page(site):
     pg.errors = []
     pg.on("request", lambda r: pg.requests.append(r.url))
     pg.on("pageerror", lambda e: pg.errors.append(str(e)))
+    pg.console = _console_errors(pg)
     pg.goto(site["server"].url)
     pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
     yield pg
     assert pg.errors == [], pg.errors
+    _only_refusals(pg.console)
     ctx.close()
+
+
+#: Chromium's own console line for a request answered with an HTTP error (a refused upload, a tile the file has not):
+#: the page reports those itself; any other console error is a defect
+REFUSED = re.compile(r"Failed to load resource: the server responded with a status of (4\d\d) \(")
+
+
+def _console_errors(pg) -> list[str]:
+    """The console's error lines from now on."""
+    lines: list[str] = []
+    pg.on("console", lambda m: lines.append(m.text) if m.type == "error" else None)
+    return lines
+
+
+def _only_refusals(lines: list[str]) -> None:
+    assert all(REFUSED.match(t) for t in lines), [t for t in lines if not REFUSED.match(t)]
 
 
 def _count(pg, selector: str) -> int:
@@ -376,9 +395,11 @@ def _own_server_page(site, spec: Path | None, ready: str = "window.aerosurvey.vi
         pg.requests, pg.served = [], []
         pg.on("request", lambda r: pg.requests.append(r.url))
         pg.on("response", lambda r: pg.served.append((r.url, r.status)) if "/api/basemap/" in r.url else None)
+        pg.console = _console_errors(pg)
         pg.goto(server.url)
         pg.wait_for_function(ready, timeout=60000)
         yield pg, server
+        _only_refusals(pg.console)
     finally:
         ctx.close()
         server.stop()
@@ -1313,9 +1334,7 @@ def test_a_dem_uploaded_on_the_page_is_planned_over_with_the_zones_bands(site, s
     (tmp / "upload" / "broken.tif").write_bytes(data[: len(data) // 2])
     with _own_server_page(site, spec) as (pg, _):
         errors: list[str] = []
-        console: list[str] = []
         pg.on("pageerror", lambda e: errors.append(str(e)))
-        pg.on("console", lambda m: console.append(m.text) if m.type == "error" else None)
         pg.on("filechooser", lambda chooser: None)  # file choosers intercepted from now on (see the keyboard test)
         pg.evaluate("1")
         pg.set_viewport_size({"width": w, "height": h})
@@ -1355,7 +1374,7 @@ def test_a_dem_uploaded_on_the_page_is_planned_over_with_the_zones_bands(site, s
         pg.screenshot(path=str(SHOTS / f"dem-upload-{w}x{h}.png"))
         assert errors == [], errors
         # the one console error is Chromium's own line for the refusal's HTTP 400
-        assert console == ["Failed to load resource: the server responded with a status of 400 (Bad Request)"], console
+        assert pg.console == ["Failed to load resource: the server responded with a status of 400 (Bad Request)"], pg.console
 
 
 def _waypoint_route_text(text: str) -> list[tuple[float, float]]:
