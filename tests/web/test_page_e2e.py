@@ -1391,3 +1391,14 @@ def test_a_wind_table_is_shown_as_the_wind_option_writes_it(page):
     _replan_and_wait(page, lambda: page.fill("[data-key='conditions.wind']", "5@90G8"))
     assert page.evaluate("window.aerosurvey.spec.conditions.wind") == "5@90G8"
     assert page.text_content("#general-error") == ""
+
+
+def test_a_value_off_the_fields_step_is_not_marked_as_an_error(page):
+    """The example's max_airspeed_ms = 10.4 in a field stepping by 0.5 is planned as it is: not outlined in red (the
+    browser's :invalid); a value the planner refuses is."""
+    _tab(page, "setup")
+    field = "[data-key='vehicle.max_airspeed_ms']"
+    assert page.input_value(field) == "10.4" and page.evaluate(f"document.querySelector(\"{field}\").matches(':invalid')")
+    assert page.evaluate(f"getComputedStyle(document.querySelector(\"{field}\")).outlineStyle") == "none"
+    _refused(page, "vehicle.max_airspeed_ms", "-3")
+    assert page.evaluate(f"getComputedStyle(document.querySelector(\"{field}\")).outlineStyle") == "solid"
