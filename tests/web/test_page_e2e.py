@@ -1356,7 +1356,8 @@ def test_a_dem_uploaded_on_the_page_is_planned_over_with_the_zones_bands(site, s
         bands = view["profile"]["bands"]
         assert bands and all("zone HIGH" in b["name"] for b in bands)
         assert _count(pg, "#profile path.zone-band.official") == len(bands)
-        assert "zone HIGH" in pg.text_content("#profile-text")
+        assert f"(150 m AGL to 300 m AGL): crossed {len(bands)} time(s)" in pg.text_content("#profile-text")
+        assert _count(pg, "#profile text.zone-label") == 1  # the zone named once
         # a file cut short: refused next to the field, naming it; the plan over the good DEM stays
         plans = pg.evaluate("window.aerosurvey.stats.plans")
         pg.set_input_files("#dem-file", str(tmp / "upload" / "broken.tif"))

@@ -647,8 +647,18 @@ function renderProfile(view) {
   text.textContent = `${(len / 1000).toFixed(2)} km flown; ground ${lo.toFixed(0)} to ${Math.max(...g).toFixed(0)} m AMSL; `
     + `lowest clearance ${low.toFixed(1)} m at ${(where / 1000).toFixed(2)} km (minimum ${m} m)`
     + (below ? `; below the minimum on ${below} stretch(es), in red` : "")
-    + P.bands.map((b) => `; ${b.name} (${b.band}) from ${(b.distance_m[0] / 1000).toFixed(2)} to `
-      + `${(b.distance_m[b.distance_m.length - 1] / 1000).toFixed(2)} km`).join("");
+    + zonesCrossed(P.bands);
+}
+
+/** The zones the route crosses, one each: its band, how many stretches and how far inside. */
+function zonesCrossed(bands) {
+  const by = new Map();
+  for (const b of bands) {
+    const z = by.get(b.name) || { band: b.band, n: 0, m: 0 };
+    z.n++; z.m += b.distance_m[b.distance_m.length - 1] - b.distance_m[0];
+    by.set(b.name, z);
+  }
+  return [...by].map(([name, z]) => `; ${name} (${z.band}): crossed ${z.n} time(s), ${(z.m / 1000).toFixed(2)} km inside`).join("");
 }
 
 /** The profile's top: the route's, raised to show the lower limits of the zones' bands up to twice its height range
@@ -663,6 +673,7 @@ function profileTop(bands, lo, top) {
 function renderZoneBands(svg, bands, X, Y, lo, hi) {
   const ns = "http://www.w3.org/2000/svg";
   const clip = (v) => Math.min(Math.max(v, lo), hi);
+  const labelled = new Map();  // each zone's name once, at its first stretch, one line a zone
   for (const b of bands) {
     const d = b.distance_m, up = b.upper_m || d.map(() => hi);
     const pts = [...d.map((v, i) => [X(v), Y(clip(up[i]))]), ...d.map((v, i) => [X(v), Y(clip(b.lower_m[i]))]).reverse()];
@@ -673,9 +684,11 @@ function renderZoneBands(svg, bands, X, Y, lo, hi) {
     title.textContent = `${b.name}: ${b.band}`;
     box.appendChild(title);
     svg.appendChild(box);
+    if (labelled.has(b.name)) continue;
+    labelled.set(b.name, labelled.size);
     const label = document.createElementNS(ns, "text");
     const x = X(d[0]);
-    label.setAttribute("x", x.toFixed(1)); label.setAttribute("y", "14");
+    label.setAttribute("x", x.toFixed(1)); label.setAttribute("y", String(14 + 14 * (labelled.size - 1)));
     if (x > svg.viewBox.baseVal.width / 2) label.setAttribute("text-anchor", "end");  // kept inside the drawing
     label.setAttribute("class", "zone-label");
     label.textContent = b.name.split(" (")[0];
