@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -126,18 +126,30 @@ def read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) 
 _GDAL_CACHE_MB = 8
 
 
+def open_dem(path: Path, name: str | None = None) -> Any:
+    """The DEM at `path` opened by rasterio (close it); InputError naming it (`name`, else the path) when GDAL cannot
+    open it as a raster or it has no CRS."""
+    import rasterio
+    import rasterio.errors
+
+    name = str(path) if name is None else name
+    try:
+        ds = rasterio.open(path)
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputError(f"terrain.dem: {name!r} cannot be opened as a raster: {exc}", key="terrain.dem") from None
+    if ds.crs is None:
+        ds.close()
+        raise InputError(f"terrain.dem: {name!r} has no CRS; give the DEM a georeference (e.g. gdal_edit.py -a_srs)",
+                         key="terrain.dem")
+    return ds
+
+
 def _read_dem_window(path: Path, around_wgs84: shapely.Geometry, reach_m: float) -> DemGrid:
     import rasterio
     import rasterio.errors
     import rasterio.windows
 
-    try:
-        ds = rasterio.open(path)
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputError(f"terrain.dem: {str(path)!r} cannot be opened as a raster: {exc}") from None
-    with ds:
-        if ds.crs is None:
-            raise InputError(f"terrain.dem: {str(path)!r} has no CRS; give the DEM a georeference (e.g. gdal_edit.py -a_srs)")
+    with open_dem(path) as ds:
         crs_wkt = ds.crs.to_wkt()
         t = transformer("EPSG:4326", crs_wkt)
         g = shapely.transform(around_wgs84, lambda xy: np.column_stack(t.transform(xy[:, 0], xy[:, 1])))

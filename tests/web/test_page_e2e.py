@@ -57,6 +57,7 @@ class _Tiles(http.server.BaseHTTPRequestHandler):
         _Tiles.asked.append(self.path)
         self.send_response(200)
         self.send_header("Content-Type", "image/png")
+        self.send_header("Access-Control-Allow-Origin", "*")  # as public tile servers send it (the page asks with CORS)
         self.send_header("Content-Length", str(len(self.png)))
         self.end_headers()
         self.wfile.write(self.png)
@@ -94,11 +95,29 @@ def page(site):
     pg.errors = []
     pg.on("request", lambda r: pg.requests.append(r.url))
     pg.on("pageerror", lambda e: pg.errors.append(str(e)))
+    pg.console = _console_errors(pg)
     pg.goto(site["server"].url)
     pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
     yield pg
     assert pg.errors == [], pg.errors
+    _only_refusals(pg.console)
     ctx.close()
+
+
+#: Chromium's own console line for a request answered with an HTTP error (a refused upload, a tile the file has not):
+#: the page reports those itself; any other console error is a defect
+REFUSED = re.compile(r"Failed to load resource: the server responded with a status of (4\d\d) \(")
+
+
+def _console_errors(pg) -> list[str]:
+    """The console's error lines from now on."""
+    lines: list[str] = []
+    pg.on("console", lambda m: lines.append(m.text) if m.type == "error" else None)
+    return lines
+
+
+def _only_refusals(lines: list[str]) -> None:
+    assert all(REFUSED.match(t) for t in lines), [t for t in lines if not REFUSED.match(t)]
 
 
 def _count(pg, selector: str) -> int:
@@ -376,9 +395,11 @@ def _own_server_page(site, spec: Path | None, ready: str = "window.aerosurvey.vi
         pg.requests, pg.served = [], []
         pg.on("request", lambda r: pg.requests.append(r.url))
         pg.on("response", lambda r: pg.served.append((r.url, r.status)) if "/api/basemap/" in r.url else None)
+        pg.console = _console_errors(pg)
         pg.goto(server.url)
         pg.wait_for_function(ready, timeout=60000)
         yield pg, server
+        _only_refusals(pg.console)
     finally:
         ctx.close()
         server.stop()
@@ -1287,3 +1308,98 @@ def test_brief_for_a_time_chosen_on_the_page(page):
     page.fill("#brief-at", "")
     page.click("#make-brief")
     page.wait_for_function("document.querySelector('[data-for=\"brief\"]').textContent.includes('choose the date')")
+
+
+# ---- a DEM uploaded on the page, and the zones' height bands on the profile ---------------------------------------
+
+@pytest.mark.parametrize("size", [(375, 812), (1024, 768), (1366, 768)])
+def test_a_dem_uploaded_on_the_page_is_planned_over_with_the_zones_bands(site, size):
+    """The DEM picked by keyboard from *Setup* (a GeoTIFF the test writes: a plane rising eastwards) is stored, set as
+    terrain.dem and planned: the profile's ground is the plane's, an official zone over the area is drawn as a band
+    on the profile; a broken file is refused next to the field, naming it. No sideways scroll, the summary in view."""
+    from webutil import BASE_M, SLOPE, UTM, dem_bytes
+
+    import independent_airspace as ia
+
+    w, h = size
+    tmp = site["tmp"] / f"dem-{w}"
+    tmp.mkdir()
+    spec = copy_mission(tmp)
+    strip = [(14.957, 49.425), (14.959, 49.425), (14.959, 49.440), (14.957, 49.440), (14.957, 49.425)]
+    ia.write_ed269(tmp / "zones.json", [ia.Zone("HIGH", "CONDITIONAL", (150.0, "m", "AGL"), (300.0, "m", "AGL"), ring=strip)])
+    spec.write_text(spec.read_text() + '\n[airspace]\nzones = ["zones.json"]\n')
+    data, x0 = dem_bytes()
+    (tmp / "upload").mkdir()
+    (tmp / "upload" / "terrain.tif").write_bytes(data)
+    (tmp / "upload" / "broken.tif").write_bytes(data[: len(data) // 2])
+    with _own_server_page(site, spec) as (pg, _):
+        errors: list[str] = []
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.on("filechooser", lambda chooser: None)  # file choosers intercepted from now on (see the keyboard test)
+        pg.evaluate("1")
+        pg.set_viewport_size({"width": w, "height": h})
+        assert pg.evaluate("window.aerosurvey.view.profile") is None
+        _tab(pg, "setup")
+        pg.focus("[data-key='terrain.dem']")
+        chooser = _chooser_by_key(pg, "#pick-dem", "Enter")
+        _replan_and_wait(pg, lambda: chooser.set_files(str(tmp / "upload" / "terrain.tif")))
+        pg.wait_for_function("window.aerosurvey.view.profile !== null", timeout=60000)
+        assert pg.input_value("[data-key='terrain.dem']") == "dem/terrain.tif"
+        assert (tmp / "dem" / "terrain.tif").read_bytes() == data
+        view = pg.evaluate("window.aerosurvey.view")
+        pts = _waypoint_route_text(pg.evaluate(f"fetch('/api/plans/{view['plan_id']}/files/mission.waypoints').then(r => r.text())"))
+        xs, _ = pyproj.Transformer.from_crs("EPSG:4326", UTM, always_xy=True).transform(*zip(*pts))
+        ground = view["profile"]["ground_m"]
+        lo, hi = BASE_M + SLOPE * (min(xs) - x0), BASE_M + SLOPE * (max(xs) - x0)
+        assert min(ground) == pytest.approx(lo, abs=0.05) and max(ground) == pytest.approx(hi, abs=0.05)
+        assert f"ground {lo:.0f} to {hi:.0f} m AMSL" in pg.text_content("#profile-text")
+        bands = view["profile"]["bands"]
+        assert bands and all("zone HIGH" in b["name"] for b in bands)
+        assert _count(pg, "#profile path.zone-band.official") == len(bands)
+        assert f"(150 m AGL to 300 m AGL): crossed {len(bands)} time(s)" in pg.text_content("#profile-text")
+        assert _count(pg, "#profile text.zone-label") == 1  # the zone named once
+        # a file cut short: refused next to the field, naming it; the plan over the good DEM stays
+        plans = pg.evaluate("window.aerosurvey.stats.plans")
+        pg.set_input_files("#dem-file", str(tmp / "upload" / "broken.tif"))
+        box = pg.locator(".err[data-for~='terrain.dem']")
+        pg.wait_for_function("document.querySelector(\".err[data-for~='terrain.dem']\").textContent.includes('broken.tif')",
+                             timeout=30000)
+        assert "GeoTIFF (.tif, .tiff) with a CRS" in box.text_content()
+        assert pg.input_value("[data-key='terrain.dem']") == "dem/terrain.tif"
+        assert not (tmp / "dem" / "broken.tif").exists() and pg.evaluate("window.aerosurvey.stats.plans") == plans
+        wide = pg.evaluate("w => Array.from(document.querySelectorAll('body *')).filter(e => e.getBoundingClientRect().right > w + 1)"
+                           ".map(e => e.tagName + ' ' + e.textContent.slice(0, 100))", w)  # what sticks out, if anything
+        assert pg.evaluate("document.scrollingElement.scrollWidth") <= w, wide
+        s = pg.locator("#summary").bounding_box()
+        assert s is not None and s["y"] >= 0 and s["y"] + s["height"] <= h and s["x"] >= 0
+        pg.screenshot(path=str(SHOTS / f"dem-upload-{w}x{h}.png"))
+        assert errors == [], errors
+        # the one console error is Chromium's own line for the refusal's HTTP 400
+        assert pg.console == ["Failed to load resource: the server responded with a status of 400 (Bad Request)"], pg.console
+
+
+def _waypoint_route_text(text: str) -> list[tuple[float, float]]:
+    """Every point of a QGC WPL 110 text with a position (home and the items not at 0, 0), as (lon, lat)."""
+    rows = [line.split("\t") for line in text.splitlines()[1:]]
+    return [(float(r[9]), float(r[8])) for r in rows if float(r[8]) != 0 or float(r[9]) != 0]
+
+
+def test_a_wind_table_is_shown_as_the_wind_option_writes_it(page):
+    """The example's conditions.wind table ({speed_ms = 3.0, from_deg = 270}) is shown as `--wind` text (not as
+    "[object Object]"); typed over, the new wind is planned."""
+    _tab(page, "setup")
+    assert page.input_value("[data-key='conditions.wind']") == "3@270"
+    _replan_and_wait(page, lambda: page.fill("[data-key='conditions.wind']", "5@90G8"))
+    assert page.evaluate("window.aerosurvey.spec.conditions.wind") == "5@90G8"
+    assert page.text_content("#general-error") == ""
+
+
+def test_a_value_off_the_fields_step_is_not_marked_as_an_error(page):
+    """The example's max_airspeed_ms = 10.4 in a field stepping by 0.5 is planned as it is: not outlined in red (the
+    browser's :invalid); a value the planner refuses is."""
+    _tab(page, "setup")
+    field = "[data-key='vehicle.max_airspeed_ms']"
+    assert page.input_value(field) == "10.4" and page.evaluate(f"document.querySelector(\"{field}\").matches(':invalid')")
+    assert page.evaluate(f"getComputedStyle(document.querySelector(\"{field}\")).outlineStyle") == "none"
+    _refused(page, "vehicle.max_airspeed_ms", "-3")
+    assert page.evaluate(f"getComputedStyle(document.querySelector(\"{field}\")).outlineStyle") == "solid"

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import shutil
 
+import numpy as np
 import pytest
+import shapely
 from webutil import REPO, client, copy_mission, run_plan
 
 
@@ -38,3 +41,71 @@ def test_without_a_dem_there_is_no_profile(tmp_path):
     with client(copy_mission(tmp_path)) as c:
         done = run_plan(c, c.get("/api/state").json()["spec"])
         assert done["result"]["profile"] is None
+
+
+def _spans_inside(legs, zone) -> list[tuple[float, float]]:
+    """The stretches of the route (distance flown from its start, metres) inside `zone`: each leg cut by the polygon
+    (shapely), touching stretches joined."""
+    spans, run = [], 0.0
+    for leg in legs:
+        line = shapely.LineString([leg.a, leg.b])
+        length = line.length
+        if length > 0:
+            for part in getattr(cut := line.intersection(zone), "geoms", [cut]):
+                if part.length > 0:
+                    a, b = (line.project(shapely.Point(c)) for c in (part.coords[0], part.coords[-1]))
+                    spans.append((run + min(a, b), run + max(a, b)))
+        run += length
+    joined: list[list[float]] = []
+    for a, b in sorted(spans):
+        if joined and a <= joined[-1][1] + 1e-6:
+            joined[-1][1] = max(joined[-1][1], b)
+        else:
+            joined.append([a, b])
+    return [(a, b) for a, b in joined]
+
+
+def test_the_zones_height_bands_lie_where_the_route_crosses_them(tmp_path):
+    """Two official zones over the forest block (one from 150 m above the ground to 900 m above sea level, one from
+    the surface to 400 m above sea level): the profile's bands lie where the exported route (mission.waypoints,
+    rebuilt by the independent leg reader) is inside each zone's outline, with the limits converted to sea level."""
+    import independent_airspace as ia
+    from independent_legs import Local
+
+    spec = copy_mission(tmp_path, "forest-dem")
+    shutil.copy(REPO / "missions" / "areas" / "forest-block-dem.tif", tmp_path / "areas")
+    strip = [(8.7350, 50.8400), (8.7370, 50.8400), (8.7370, 50.8480), (8.7350, 50.8480), (8.7350, 50.8400)]
+    box = [(8.7390, 50.8430), (8.7400, 50.8430), (8.7400, 50.8445), (8.7390, 50.8445), (8.7390, 50.8430)]
+    zones = [ia.Zone("STRIP", "CONDITIONAL", (150.0, "m", "AGL"), (900.0, "m", "AMSL"), ring=strip),
+             ia.Zone("BOX", "NO_RESTRICTION", None, (400.0, "m", "AMSL"), ring=box)]
+    ia.write_ed269(tmp_path / "zones.json", zones)
+    with client(spec) as c:
+        state = c.get("/api/state").json()["spec"]
+        done = run_plan(c, {**state, "airspace": {"zones": ["zones.json"]}})
+        assert done["state"] == "done", done
+        view = done["result"]
+        wpl = tmp_path / "mission.waypoints"
+        wpl.write_bytes(c.get(f"/api/plans/{view['plan_id']}/files/mission.waypoints").content)
+    p = view["profile"]
+    local = Local(8.7375, 50.8437)
+    legs, _ = ia.flight_legs(wpl, local)
+    assert p["distance_m"][-1] == pytest.approx(sum(math.dist(leg.a, leg.b) for leg in legs), abs=1.0)
+    bands = p["bands"]
+    for zone in zones:
+        want = _spans_inside(legs, local.geom(shapely.Polygon(zone.ring)))
+        got = [b for b in bands if f"zone {zone.ident}" in b["name"]]
+        assert want and len(got) == len(want), (zone.ident, len(got), len(want))
+        for b, (a, e) in zip(got, want):
+            d = b["distance_m"]
+            assert d[0] == pytest.approx(a, abs=1.0) and d[-1] == pytest.approx(e, abs=1.0)
+            assert all(y >= x for x, y in zip(d, d[1:]))
+            ground = np.interp(d, p["distance_m"], p["ground_m"])
+            if zone.ident == "STRIP":  # 150 m above the ground under each point to 900 m above sea level
+                assert np.allclose(np.array(b["lower_m"]) - ground, 150.0, atol=0.02)
+                assert b["upper_m"] == [900.0] * len(d)
+            else:  # from the surface (the ground) to 400 m above sea level
+                assert np.allclose(b["lower_m"], ground, atol=0.02)
+                assert b["upper_m"] == [400.0] * len(d)
+            assert b["kind"] == "official" and "m" in b["band"]
+    assert sorted(b["distance_m"][0] for b in bands) == [b["distance_m"][0] for b in bands]
+    assert all(b["kind"] == "official" for b in bands)  # the route flies round no exclusion zone here

@@ -134,7 +134,7 @@ def free_port() -> int:
 class Server:
     """The real app under uvicorn on a free loopback port, in a thread of this process."""
 
-    def __init__(self, spec: Path | None, basemap: Path | None = None, lan: bool = False):
+    def __init__(self, spec: Path | None, basemap: Path | None = None, lan: bool = False, campaign: Path | None = None):
         import uvicorn
 
         from aerosurvey.web.app import create_app
@@ -142,7 +142,8 @@ class Server:
         self.port = free_port()
         hosts = [f"127.0.0.1:{self.port}", f"localhost:{self.port}"]
         # with `lan`, files are shared at the loopback address itself (the test is the phone too)
-        app = create_app(spec, allowed_hosts=hosts, basemap=basemap, lan=f"127.0.0.1:{self.port}" if lan else None)
+        app = create_app(spec, allowed_hosts=hosts, basemap=basemap, lan=f"127.0.0.1:{self.port}" if lan else None,
+                         campaign=campaign)
         self.server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning"))
         self.thread = threading.Thread(target=self.server.run, daemon=True)
         self.thread.start()
@@ -155,3 +156,35 @@ class Server:
     def stop(self) -> None:
         self.server.should_exit = True
         self.thread.join(timeout=10)
+
+
+#: the Obrataň example lies in UTM zone 33 north
+UTM = "EPSG:32633"
+#: the synthetic DEM: a plane rising eastwards, BASE_M at X0, SLOPE metres a metre
+BASE_M, SLOPE = 420.0, 0.02
+
+
+def dem_bytes(crs: str | None = UTM, driver: str = "GTiff", size: int = 300) -> tuple[bytes, float]:
+    """A DEM round the Obrataň example (a 6 km square of 20 m cells): a plane BASE_M + SLOPE · (x − x0) in UTM;
+    its bytes and x0. Written by rasterio into memory."""
+    import numpy as np
+    import pyproj
+    import rasterio
+    from rasterio.io import MemoryFile
+    from rasterio.transform import from_origin
+
+    x0, y0 = pyproj.Transformer.from_crs("EPSG:4326", UTM, always_xy=True).transform(14.95, 49.43)
+    left, top = x0 - 3000.0, y0 + 3000.0
+    cell = 6000.0 / size
+    xs = left + (np.arange(size) + 0.5) * cell  # cell centres
+    z = np.tile(BASE_M + SLOPE * (xs - x0), (size, 1)).astype("float32")
+    profile = {"driver": driver, "width": size, "height": size, "count": 1, "dtype": "float32",
+               "transform": from_origin(left, top, cell, cell)}
+    if crs is not None:
+        profile["crs"] = crs
+    if driver == "GTiff":
+        profile |= {"tiled": True, "blockxsize": 64, "blockysize": 64, "compress": "deflate"}
+    with rasterio.Env(), MemoryFile() as mem:
+        with mem.open(**profile) as ds:
+            ds.write(z, 1)
+        return bytes(mem.read()), float(x0)

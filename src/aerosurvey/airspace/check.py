@@ -147,7 +147,7 @@ def check_airspace(plan: Plan, programs: Mapping[str, FlightProgram]) -> Airspac
     return check_legs_4d(plan, airspace, legs, homes)
 
 
-def _leg_geometries(legs: Sequence[Leg3]) -> np.ndarray:
+def leg_geometries(legs: Sequence[Leg3]) -> np.ndarray:
     a = np.array([leg.leg.start for leg in legs], float).reshape(-1, 2)
     b = np.array([leg.leg.end for leg in legs], float).reshape(-1, 2)
     geoms = shapely.linestrings(np.stack([a, b], axis=1))
@@ -166,7 +166,7 @@ def check_legs_4d(plan: Plan, airspace: Airspace, legs: Sequence[Leg3],
         notes.append("no planned window ([conditions] start and end): every zone is taken as applying at any time")
     if not legs:
         return AirspaceReport(airspace, (), tuple(notes))
-    geoms = _leg_geometries(legs)
+    geoms = leg_geometries(legs)
     # the zones near the flights, found in longitude/latitude, then projected
     env = shapely.buffer(shapely.envelope(shapely.union_all(geoms)), NEAR_M * k)
     env_ll = site.planar.inverse(env)
@@ -184,7 +184,7 @@ def check_legs_4d(plan: Plan, airspace: Airspace, legs: Sequence[Leg3],
     entered = set(int(z) for z in zone_i)
     # the legs that may meet a zone that applies and restricts: where each lies inside the outline
     keep = np.array([applies[z] and airspace.blocks(zones[z]) is not None for z in zone_i.tolist()], bool).reshape(-1)
-    pieces = _pieces(geoms, np.asarray(outlines, dtype=object), leg_i[keep], zone_i[keep])
+    pieces = leg_pieces(geoms, np.asarray(outlines, dtype=object), leg_i[keep], zone_i[keep])
     found: dict[int, list[Meeting]] = {}
     for (li, zi), parts in pieces.items():
         m = _meeting(legs[li], parts, zones[zi], plan, homes[legs[li].leg.flight])
@@ -226,7 +226,7 @@ def check_legs_4d(plan: Plan, airspace: Airspace, legs: Sequence[Leg3],
     return AirspaceReport(airspace, tuple(verdicts), tuple(notes))
 
 
-def _pieces(geoms: np.ndarray, outlines: np.ndarray, leg_i: np.ndarray,
+def leg_pieces(geoms: np.ndarray, outlines: np.ndarray, leg_i: np.ndarray,
             zone_i: np.ndarray) -> dict[tuple[int, int], list[tuple[float, float]]]:
     """For each (leg, zone) pair: the parts of the leg inside the outline, as fractions (t0, t1) along it; a point leg
     (vertical) inside: (0, 1). One vectorised intersection for every pair."""
@@ -272,8 +272,8 @@ def _meeting(leg: Leg3, pieces: list[tuple[float, float]], zone: Geozone, plan: 
         base = np.full(len(t), home_ground) if relative else ground  # what the altitude frame is above
         lo = leg.alt_start[0] + t * (leg.alt_end[0] - leg.alt_start[0])
         hi = leg.alt_start[1] + t * (leg.alt_end[1] - leg.alt_start[1])
-        lower = _in_frame(zone.lower, ground, base, site.dem is None, upper=False)
-        upper = _in_frame(zone.upper, ground, base, site.dem is None, upper=True)
+        lower = limit_in_frame(zone.lower, ground, base, site.dem is None, upper=False)
+        upper = limit_in_frame(zone.upper, ground, base, site.dem is None, upper=True)
         hit = _first_meeting(upper - lo, hi - lower)
         if hit is None:
             continue
@@ -290,7 +290,7 @@ def _meeting(leg: Leg3, pieces: list[tuple[float, float]], zone: Geozone, plan: 
     return None
 
 
-def _in_frame(limit: Limit | None, ground: np.ndarray, base: np.ndarray, no_dem: bool, upper: bool) -> np.ndarray:
+def limit_in_frame(limit: Limit | None, ground: np.ndarray, base: np.ndarray, no_dem: bool, upper: bool) -> np.ndarray:
     """A limit as an altitude in the leg's frame at each sample (above `base`); ±_BIG where it is not there or unknown."""
     none = np.full(len(ground), _BIG if upper else -_BIG)
     if limit is None:

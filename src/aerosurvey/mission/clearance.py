@@ -30,13 +30,17 @@ come down to the ground under them.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
 
+from aerosurvey.airspace.check import leg_geometries, leg_pieces, limit_in_frame
 from aerosurvey.airspace.legs import Leg3, flight_legs
+from aerosurvey.airspace.model import Limit
 from aerosurvey.area import Planar
 from aerosurvey.mission.program import FlightProgram
 from aerosurvey.plan.terrain import Dem
@@ -209,26 +213,62 @@ def _start_in_end_frame(leg3: Leg3, ground_start: float, home: float) -> float:
 
 
 @dataclass(frozen=True)
+class ProfileZone:
+    """A zone the profile shows where the route crosses its outline: a drawn or spec exclusion zone (from the ground,
+    no ceiling) or an official zone with its height band (airspace/model.py; a limit None: the surface, no ceiling)."""
+
+    name: str
+    kind: str  # "exclusion" or "official"
+    outline: BaseGeometry  # planning CRS
+    band: str  # the band as the zone states it, for the label
+    lower: Limit | None = None
+    upper: Limit | None = None
+
+
+@dataclass(frozen=True)
+class ZoneBand:
+    """The route inside a zone's outline from `distance_m[0]` to `distance_m[-1]` (distance flown) and the zone's
+    band there above mean sea level, as the airspace check converts its limits (`limit_in_frame`: an AGL limit over
+    the DEM's ground, a WGS84 height as the widest span of sea-level heights it can be); `upper_m` None: no ceiling."""
+
+    name: str
+    kind: str
+    band: str
+    distance_m: tuple[float, ...]
+    lower_m: tuple[float, ...]
+    upper_m: tuple[float, ...] | None
+
+    def record(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": self.kind, "band": self.band, "distance_m": [round(v, 1) for v in self.distance_m],
+                "lower_m": [round(v, 2) for v in self.lower_m],
+                "upper_m": None if self.upper_m is None else [round(v, 2) for v in self.upper_m]}
+
+
+@dataclass(frozen=True)
 class Profile:
     """The route of one flight over the terrain, leg after leg as `terrain_clearance` models it (turns
     drawn straight): the ground distance flown, the height flown above mean sea level (the DEM's
-    datum) and the DEM's ground under it, at most about `samples` points and every leg's ends."""
+    datum) and the DEM's ground under it, at most about `samples` points and every leg's ends; the
+    zones' height bands where the route crosses their outlines."""
 
     distance_m: tuple[float, ...]
     amsl_m: tuple[float, ...]
     ground_m: tuple[float, ...]
     checked: tuple[bool, ...]  # the minimum clearance holds there (not on the legs to and from the ground)
     min_clearance_m: float
+    bands: tuple[ZoneBand, ...] = ()
 
     def record(self) -> dict[str, Any]:
         return {"distance_m": [round(v, 1) for v in self.distance_m], "amsl_m": [round(v, 2) for v in self.amsl_m],
                 "ground_m": [round(v, 2) for v in self.ground_m], "checked": list(self.checked),
-                "min_clearance_m": self.min_clearance_m}
+                "min_clearance_m": self.min_clearance_m, "bands": [b.record() for b in self.bands]}
 
 
 def terrain_profile(program: FlightProgram, flight: str, dem: Dem, planar: Planar, grid_scale: float,
-                    min_clearance_m: float, rtl_loiter: float, samples: int = 1500) -> Profile:
-    """`program`'s route over `dem` for a profile drawing (the page's): the same legs and heights as the check."""
+                    min_clearance_m: float, rtl_loiter: float, samples: int = 1500,
+                    zones: Sequence[ProfileZone] = ()) -> Profile:
+    """`program`'s route over `dem` for a profile drawing (the page's): the same legs and heights as the check, and
+    the bands of the `zones` whose outlines it crosses."""
     legs = flight_legs(program, flight, planar, rtl_loiter, grid_scale)
     home = program.home[2]
     lengths = [math.dist(leg3.leg.start, leg3.leg.end) / grid_scale for leg3 in legs]
@@ -260,8 +300,49 @@ def terrain_profile(program: FlightProgram, flight: str, dem: Dem, planar: Plana
         amsl.append(g + h if frame == "terrain" else home + h)
         checked += [leg3.leg.what not in GROUND_LEGS and leg3.leg.start != leg3.leg.end] * len(t)
         at += len(t)
-    return Profile(tuple(map(float, np.concatenate(along))), tuple(map(float, np.concatenate(amsl))),
-                   tuple(map(float, ground)), tuple(checked), min_clearance_m)
+    distance = np.concatenate(along)
+    bands = _zone_bands(legs, lengths, zones, distance, ground)
+    return Profile(tuple(map(float, distance)), tuple(map(float, np.concatenate(amsl))),
+                   tuple(map(float, ground)), tuple(checked), min_clearance_m, bands)
+
+
+def _zone_bands(legs: Sequence[Leg3], lengths: Sequence[float], zones: Sequence[ProfileZone], distance: np.ndarray,
+                ground: np.ndarray) -> tuple[ZoneBand, ...]:
+    """Each stretch of the route inside a zone's outline (the airspace check's pieces of the legs, joined where one
+    leg's piece runs on into the next's), with the zone's band over the profile's ground there."""
+    if not zones:
+        return ()
+    geoms = leg_geometries(legs)
+    outlines = np.asarray([z.outline for z in zones], dtype=object)
+    leg_i, zone_i = shapely.STRtree(outlines).query(geoms, predicate="intersects")
+    starts = np.concatenate([[0.0], np.cumsum(lengths)])
+    stretches: dict[int, list[tuple[float, float]]] = {}
+    for (li, zi), parts in leg_pieces(geoms, outlines, leg_i, zone_i).items():
+        stretches.setdefault(zi, []).extend((starts[li] + t0 * lengths[li], starts[li] + t1 * lengths[li]) for t0, t1 in parts)
+    bands = []
+    for zi in sorted(stretches):
+        z = zones[zi]
+        for a, b in _joined(stretches[zi]):
+            inside = distance[(distance > a) & (distance < b)]
+            d = np.unique(np.concatenate([[a], inside, [b]]))
+            g = np.interp(d, distance, ground)
+            base = np.zeros(len(d))
+            lower = g if z.lower is None else limit_in_frame(z.lower, g, base, no_dem=False, upper=False)
+            upper = None if z.upper is None else limit_in_frame(z.upper, g, base, no_dem=False, upper=True)
+            bands.append(ZoneBand(z.name, z.kind, z.band, tuple(map(float, d)), tuple(map(float, lower)),
+                                  None if upper is None else tuple(map(float, upper))))
+    return tuple(sorted(bands, key=lambda band: band.distance_m[0]))
+
+
+def _joined(spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Distance spans joined where they touch or overlap; spans of no length (a vertical leg, an outline touched) left out."""
+    out: list[tuple[float, float]] = []
+    for a, b in sorted(spans):
+        if out and a <= out[-1][1] + 1e-6:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return [(a, b) for a, b in out if b - a > 1e-6]
 
 
 def _lowest(leg3: Leg3, along_m: float, lon: float, lat: float, ground: float, amsl: float) -> Lowest:

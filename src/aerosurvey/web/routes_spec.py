@@ -3,6 +3,7 @@
   GET    /                 the page
   GET    /api/state        the starting spec, its geometry (WKT), cameras, rule profiles, settings
   POST   /api/area         multipart `file`: an area file, read in memory → a spec over it (area as WKT)
+  POST   /api/dem          multipart `file`: a GeoTIFF DEM, checked and stored in the mission's folder → its path
   POST   /api/spec/toml    {"spec": {...}, "zones"?} → the spec as TOML (attachment); a zip of it and the files it names
   POST   /api/spec/save    {"spec": {...}, "zones"?} → written over the spec file the server was started with;
                            a drawn area and drawn zones go to GeoJSON files beside it
@@ -15,14 +16,14 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from starlette.datastructures import UploadFile
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 
-from aerosurvey.errors import AerosurveyError, InputError
+from aerosurvey.errors import AerosurveyError
 from aerosurvey.web import service
+from aerosurvey.web.dem import store_uploaded_dem
 from aerosurvey.web.specfile import geometry_preview, save_with_geometry, spec_download
-from aerosurvey.web.state import ServerState, attachment, blocking, error, form_in_memory, server, spec_body, zip_texts, zones_body
+from aerosurvey.web.state import ServerState, attachment, blocking, error, one_file, server, spec_body, zip_texts, zones_body
 
 
 async def index(request: Request) -> Response:
@@ -49,20 +50,16 @@ def _state(state: ServerState) -> dict[str, Any]:
             # a page without a spec: the settings an area drawn on it starts from
             "defaults": {k: v for k, v in service.default_spec({}, "drawn-area").items() if k != "area"},
             "basemap": state.basemap.info.as_dict() if state.basemap else None,
-            "lan": state.shares is not None}
+            "lan": state.shares is not None,
+            "campaign": state.campaign.name if state.campaign else None}
 
 
 async def upload_area(request: Request) -> Response:
     state = server(request)
     try:
-        form = await form_in_memory(request, state.upload_limit, "area upload", "area.file", max_files=1, max_fields=10)
-        upload = form.get("file")
-        if not isinstance(upload, UploadFile):
-            raise InputError("area upload: send the area file as the multipart field 'file'", key="area.file")
-        data = await upload.read()  # in memory: the form parser does not spool to disk
+        name, data, form = await one_file(request, state.upload_limit, "area upload", "area.file", max_fields=10)
+        name = name or "area"
         current = form.get("spec")
-        await form.close()
-        name = Path(upload.filename or "area").name
         got = await blocking(service.read_uploaded_area, name, data, state.upload_limit // 2)
     except AerosurveyError as exc:
         return error(exc)
@@ -72,6 +69,16 @@ async def upload_area(request: Request) -> Response:
         base_spec = state.spec
     return JSONResponse({"spec": service.with_new_area(base_spec, got.area, Path(name).stem), "file_name": name,
                          "area": {"bounds": list(got.bounds), "vertices": got.vertices}})
+
+
+async def upload_dem(request: Request) -> Response:
+    """A GeoTIFF DEM from the page, stored in the mission's folder (web/dem.py): its path for `terrain.dem`."""
+    state = server(request)
+    try:
+        name, data, _ = await one_file(request, state.upload_limit, "DEM upload", "terrain.dem", max_fields=2)
+        return JSONResponse(await blocking(store_uploaded_dem, state.workspace.base, name or "dem.tif", data))
+    except AerosurveyError as exc:
+        return error(exc)
 
 
 async def spec_toml(request: Request) -> Response:

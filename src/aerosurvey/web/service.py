@@ -474,8 +474,8 @@ def _view(plan: Plan, frame: MapFrame, manifest: mf.Manifest, features: dict[str
 
 
 def _profile(plan: Plan) -> dict[str, Any] | None:
-    """The whole mission's route over the DEM (mission/clearance.py's legs and heights) for the page's profile; None
-    without a DEM."""
+    """The whole mission's route over the DEM (mission/clearance.py's legs and heights) for the page's profile, with
+    the height bands of the zones it crosses; None without a DEM."""
     site = plan.site
     if site.dem is None:
         return None
@@ -484,7 +484,33 @@ def _profile(plan: Plan) -> dict[str, Any] | None:
     from aerosurvey.plan.landing import PLANE_RTL_LOITER_M
 
     return terrain_profile(flight_program(plan), "mission", site.dem, site.planar, site.grid_scale, site.min_clearance_m,
-                           PLANE_RTL_LOITER_M * site.grid_scale).record()
+                           PLANE_RTL_LOITER_M * site.grid_scale, zones=_profile_zones(plan)).record()
+
+
+def _profile_zones(plan: Plan) -> list[Any]:
+    """The exclusion zones (from the ground, no ceiling) and the official zones whose outlines reach into the plan's
+    geofence (which holds everything flown), in the planning CRS."""
+    import shapely
+
+    from aerosurvey.airspace.outline import outlines_wgs84
+    from aerosurvey.mission.clearance import ProfileZone
+
+    site = plan.site
+    zones = [ProfileZone("exclusion zone", "exclusion", g, "the surface to no ceiling") for g in _parts(site.zones)]
+    if plan.airspace is not None:
+        fence = shapely.MultiPolygon([shapely.Polygon([(lon, lat) for lat, lon in ring]) for ring in plan.launch.fence.inclusion])
+        outlines = outlines_wgs84(plan.airspace.zones)
+        for i in shapely.STRtree(outlines).query(fence, predicate="intersects"):
+            z = plan.airspace.zones[int(i)]
+            zones.append(ProfileZone(f"{z.label}, {z.restriction}", "official", site.planar.forward(outlines[int(i)]),
+                                     z.band_text(), z.lower, z.upper))
+    return zones
+
+
+def _parts(geom: Any) -> list[Any]:
+    if geom is None or geom.is_empty:
+        return []
+    return list(getattr(geom, "geoms", [geom]))
 
 
 def _polygons(feats: list[dict[str, Any]]) -> list[Any]:

@@ -45,6 +45,7 @@ class ServerState:
     upload_limit: int
     basemap: Basemap | None = None  # the offline basemap file (--basemap), served as tiles
     shares: Shares | None = None  # files shared on the local network (serve --lan), None without it
+    campaign: Path | None = None  # the campaign folder shown on the page (serve --campaign), read-only
     plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
     serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
     keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB
@@ -149,6 +150,18 @@ async def form_in_memory(request: Request, limit: int, what: str, key: str, max_
         return await parser.parse()
     except MultiPartException as exc:
         raise InputError(f"{what}: {exc.message}", key=key) from None
+
+
+async def one_file(request: Request, limit: int, what: str, key: str, max_fields: int) -> tuple[str, bytes, FormData]:
+    """The multipart form's one file (field `file`) read in memory (`form_in_memory`): its base name, its bytes and the
+    form (closed) with its other fields. InputError (naming `what`, for spec key `key`) without one."""
+    form = await form_in_memory(request, limit, what, key, max_files=1, max_fields=max_fields)
+    upload = form.get("file")
+    if not isinstance(upload, UploadFile):
+        raise InputError(f"{what}: send the file as the multipart field 'file'", key=key)
+    data = await upload.read()  # in memory: the form parser does not spool to disk
+    await form.close()
+    return Path(upload.filename or "").name, data, form
 
 
 def save_upload(upload: UploadFile, folder: Path) -> Path:

@@ -53,12 +53,18 @@ function setKey(spec, key, value) {
 }
 
 // ---- form ----------------------------------------------------------------------------------
+/** A spec value as its field shows it: a wind table ({speed_ms, from_deg, gust_ms}) as the text --wind takes (6@240G9),
+ * which the spec reads the same. */
+function fieldText(v) {
+  if (v && typeof v === "object" && "speed_ms" in v && "from_deg" in v) return `${v.speed_ms}@${v.from_deg}${v.gust_ms ? `G${v.gust_ms}` : ""}`;
+  return String(v);
+}
 function fillForm() {
   for (const el of $$("[data-key]")) {
     const v = getKey(S.spec, el.dataset.key);
     if (el.dataset.type === "bool") el.checked = v === true;
     else if (el.tagName === "SELECT" && el.dataset.key === "camera.model" && v && typeof v === "object") el.value = "__inline__";
-    else el.value = v === undefined || v === null ? "" : String(v);
+    else el.value = v === undefined || v === null ? "" : fieldText(v);
   }
   const t = S.spec.targets || {};
   const mode = t.height_m !== undefined ? "height_m" : "gsd_cm";
@@ -618,11 +624,13 @@ function renderProfile(view) {
   const W = 1000, H = 200, pad = 4;
   svg.setAttribute("viewBox", `0 0 ${W} ${H}`); svg.setAttribute("preserveAspectRatio", "none");
   const d = P.distance_m, a = P.amsl_m, g = P.ground_m, m = P.min_clearance_m;
-  const lo = Math.min(...g), hi = Math.max(...a, ...g.map((v) => v + m)), span = Math.max(hi - lo, 1), len = Math.max(d[d.length - 1], 1);
+  const lo = Math.min(...g), top = Math.max(...a, ...g.map((v) => v + m)), len = Math.max(d[d.length - 1], 1);
+  const hi = profileTop(P.bands, lo, top), span = Math.max(hi - lo, 1);
   const X = (v) => (v / len) * W, Y = (v) => H - pad - ((v - lo) / span) * (H - 2 * pad);
   const path = (ys) => d.map((v, i) => `${i ? "L" : "M"}${X(v).toFixed(1)},${Y(ys[i]).toFixed(1)}`).join("");
   const ns = "http://www.w3.org/2000/svg";
   const add = (dd, cls) => { const p = document.createElementNS(ns, "path"); p.setAttribute("d", dd); p.setAttribute("class", cls); svg.appendChild(p); return p; };
+  renderZoneBands(svg, P.bands, X, Y, lo, hi);
   add(`${path(g)}L${W},${H}L0,${H}Z`, "ground");
   add(path(g.map((v) => v + m)), "min-clearance");
   add(path(a), "flown");
@@ -638,7 +646,54 @@ function renderProfile(view) {
   }
   text.textContent = `${(len / 1000).toFixed(2)} km flown; ground ${lo.toFixed(0)} to ${Math.max(...g).toFixed(0)} m AMSL; `
     + `lowest clearance ${low.toFixed(1)} m at ${(where / 1000).toFixed(2)} km (minimum ${m} m)`
-    + (below ? `; below the minimum on ${below} stretch(es), in red` : "");
+    + (below ? `; below the minimum on ${below} stretch(es), in red` : "")
+    + zonesCrossed(P.bands);
+}
+
+/** The zones the route crosses, one each: its band, how many stretches and how far inside. */
+function zonesCrossed(bands) {
+  const by = new Map();
+  for (const b of bands) {
+    const z = by.get(b.name) || { band: b.band, n: 0, m: 0 };
+    z.n++; z.m += b.distance_m[b.distance_m.length - 1] - b.distance_m[0];
+    by.set(b.name, z);
+  }
+  return [...by].map(([name, z]) => `; ${name} (${z.band}): crossed ${z.n} time(s), ${(z.m / 1000).toFixed(2)} km inside`).join("");
+}
+
+/** The profile's top: the route's, raised to show the lower limits of the zones' bands up to twice its height range
+ * (a band starting far above the route is drawn from the top). */
+function profileTop(bands, lo, top) {
+  const lowers = bands.flatMap((b) => b.lower_m);
+  return lowers.length ? Math.max(top, Math.min(Math.max(...lowers) + 10, top + (top - lo))) : top;
+}
+
+/** The zones the route crosses (view.profile.bands): each band a shaded box along its stretch, from its lower to its
+ * upper limit (to the top without a ceiling), clipped to the drawing, labelled with the zone and its band. */
+function renderZoneBands(svg, bands, X, Y, lo, hi) {
+  const ns = "http://www.w3.org/2000/svg";
+  const clip = (v) => Math.min(Math.max(v, lo), hi);
+  const labelled = new Map();  // each zone's name once, at its first stretch, one line a zone
+  for (const b of bands) {
+    const d = b.distance_m, up = b.upper_m || d.map(() => hi);
+    const pts = [...d.map((v, i) => [X(v), Y(clip(up[i]))]), ...d.map((v, i) => [X(v), Y(clip(b.lower_m[i]))]).reverse()];
+    const box = document.createElementNS(ns, "path");
+    box.setAttribute("d", pts.map(([x, y], i) => `${i ? "L" : "M"}${x.toFixed(1)},${y.toFixed(1)}`).join("") + "Z");
+    box.setAttribute("class", `zone-band ${b.kind}`);
+    const title = document.createElementNS(ns, "title");
+    title.textContent = `${b.name}: ${b.band}`;
+    box.appendChild(title);
+    svg.appendChild(box);
+    if (labelled.has(b.name)) continue;
+    labelled.set(b.name, labelled.size);
+    const label = document.createElementNS(ns, "text");
+    const x = X(d[0]);
+    label.setAttribute("x", x.toFixed(1)); label.setAttribute("y", String(14 + 14 * (labelled.size - 1)));
+    if (x > svg.viewBox.baseVal.width / 2) label.setAttribute("text-anchor", "end");  // kept inside the drawing
+    label.setAttribute("class", "zone-label");
+    label.textContent = b.name.split(" (")[0];
+    svg.appendChild(label);
+  }
 }
 
 function renderSummary(view) {
@@ -1079,6 +1134,25 @@ function updateBasemap() {
 }
 
 // ---- uploads -----------------------------------------------------------------------------------
+/** A GeoTIFF DEM picked on the page: the server checks it as the loader opens a DEM and stores it in the mission's
+ * folder (dem/NAME.tif); its path becomes terrain.dem and the mission is planned over it. */
+async function uploadDem(file) {
+  clearError("terrain.dem");
+  const fd = new FormData();
+  fd.append("file", file, file.name);
+  setStatus(`uploading ${file.name}…`);
+  try {
+    const r = await api("POST", "/api/dem", fd);
+    setKey(S.spec, "terrain.dem", r.path);
+    fillForm();
+    setStatus(`DEM ${file.name} stored as ${r.path} (${r.size[0]} × ${r.size[1]} cells, ${r.crs})`);
+    replan();
+  } catch (e) {
+    showError("terrain.dem", e.message);
+    setStatus(`DEM ${file.name} refused`);
+  }
+}
+
 async function uploadArea(file) {
   clearError("area.file");
   const fd = new FormData();
@@ -1202,6 +1276,96 @@ async function saveSpec() {
   } catch (e) { showError(e.key, e.message); $("#save-status").textContent = ""; }
 }
 
+// ---- a campaign (serve --campaign): its blocks coloured by status, each opening its plan (read-only) -----------
+const STATUS_COLOURS = { failed: "#757575", "rules-fail": "#c62828", planned: "#1565c0", uploaded: "#00838f", flown: "#ef6c00",
+  compliance: "#f9a825", "re-fly": "#6a1b9a", qa: "#00897b", accepted: "#2e7d32" };
+function statusColour(status) { return STATUS_COLOURS[status] || "#455a64"; }
+/** A block: its status's colour (filled faintly), thicker when opened, its name once zoomed in. */
+function blockStyle(f, resolution) {
+  const c = statusColour(f.get("status")), open = S.block && S.block.name === f.get("name");
+  return new olb.Style({
+    stroke: new olb.Stroke({ color: c, width: open ? 4 : 2 }), fill: new olb.Fill({ color: `${c}${open ? "66" : "33"}` }),
+    text: resolution < 5 ? new olb.Text({ text: f.get("name"), font: "11px system-ui, sans-serif", fill: new olb.Fill({ color: "#1d2630" }),
+      stroke: new olb.Stroke({ color: "#fff", width: 3 }) }) : undefined,
+  });
+}
+const blockRouteStyle = new olb.Style({ stroke: new olb.Stroke({ color: "#1d2630", width: 2, lineDash: [6, 3] }) });
+
+async function startCampaign() {
+  const c = await api("GET", "/api/campaign");
+  S.campaign = c;
+  L.campaign = vector("campaign", blockStyle, 1);
+  L.blockRoute = vector("block-route", blockRouteStyle, 9);
+  map.addLayer(L.campaign); map.addLayer(L.blockRoute);
+  L.campaign.getSource().addFeatures(geojson.readFeatures(c.blocks, { dataProjection: WGS84, featureProjection: WEB }));
+  const toggle = $("#layer-toggles input[data-layer='campaign']");
+  toggle.closest("label").hidden = false;
+  toggle.addEventListener("change", () => L.campaign.setVisible(toggle.checked));
+  $("#campaign-name").textContent = `Campaign ${c.name}: ${c.blocks.features.length} blocks`;
+  const legend = $("#campaign-legend"); legend.textContent = "";
+  for (const status of c.statuses) {
+    const li = document.createElement("li"), sw = document.createElement("span");
+    sw.className = "swatch"; sw.style.background = statusColour(status);
+    li.dataset.status = status;
+    li.append(sw, `${status} ${c.counts[status]}`);
+    legend.appendChild(li);
+  }
+  const sel = $("#campaign-block"); sel.textContent = "";
+  const none = document.createElement("option"); none.value = ""; none.textContent = "(choose a block)"; sel.appendChild(none);
+  for (const f of c.blocks.features) {
+    const o = document.createElement("option");
+    o.value = f.properties.name; o.textContent = `${f.properties.name} (${f.properties.status})`;
+    sel.appendChild(o);
+  }
+  sel.addEventListener("change", () => { if (sel.value) openBlock(sel.value); });
+  map.on("click", (e) => {
+    if (S.tool !== "edit") return;
+    const f = map.forEachFeatureAtPixel(e.pixel, (x) => x, { layerFilter: (l) => l === L.campaign });
+    if (f) openBlock(f.get("name"));
+  });
+  $("#tabs button[data-tab='campaign']").hidden = false;
+  showTab("campaign");
+  if (!S.spec.area) map.getView().fit(L.campaign.getSource().getExtent(), { padding: [30, 30, 30, 30] });
+}
+
+/** A block's plan from its folder: its summary, its files to download and its route (mission.waypoints) on the map. */
+async function openBlock(name) {
+  const err = $(".err[data-for='campaign']"); err.textContent = "";
+  const box = $("#block-plan"); box.textContent = "";
+  L.blockRoute.getSource().clear();
+  const f = L.campaign.getSource().getFeatures().find((x) => x.get("name") === name);
+  S.block = { name };
+  L.campaign.changed();
+  $("#campaign-block").value = name;
+  const p = f.getProperties();
+  const dl = document.createElement("dl");
+  const rows = [["block", name], ["status", p.status], ["next", p.next || "nothing: accepted"]];
+  if (p.message) rows.push(["message", p.message]);
+  if (p.status !== "failed") rows.push(["plan", `${p.area_ha.toFixed(1)} ha, ${p.photos} photos, ${p.time_min.toFixed(1)} min, ${p.sorties} sorties`]);
+  if (p.rules_failing) rows.push(["rules failing", p.rules_failing]);
+  for (const [k, v] of rows) { const dt = document.createElement("dt"), dd = document.createElement("dd"); dt.textContent = k; dd.textContent = v; dl.append(dt, dd); }
+  box.appendChild(dl);
+  map.getView().fit(f.getGeometry().getExtent(), { padding: [40, 40, 40, 40], maxZoom: 18, duration: 0 });
+  try {
+    S.block = await api("GET", `/api/campaign/blocks/${encodeURIComponent(name)}`);
+  } catch (e) {
+    err.textContent = e.message;
+    return;
+  }
+  const ul = document.createElement("ul");
+  for (const file of S.block.files) {
+    const li = document.createElement("li"), a = document.createElement("a");
+    a.href = `/api/campaign/blocks/${encodeURIComponent(name)}/files/${encodeURIComponent(file)}`;
+    a.textContent = file; a.setAttribute("download", file); a.dataset.file = file;
+    li.appendChild(a); ul.appendChild(li);
+  }
+  box.append(`files of blocks/${S.block.folder}:`, ul);
+  if (S.block.route) {
+    L.blockRoute.getSource().addFeature(geojson.readFeature({ type: "Feature", geometry: S.block.route, properties: { name } },
+      { dataProjection: WGS84, featureProjection: WEB }));
+  }
+}
+
 // ---- tabs ----------------------------------------------------------------------------------------
 function showTab(name) {
   for (const b of $$("#tabs button")) { b.classList.toggle("on", b.dataset.tab === name); b.setAttribute("aria-selected", String(b.dataset.tab === name)); }
@@ -1216,6 +1380,7 @@ async function start() {
   S.preview = st.preview;
   S.basemap = st.basemap;
   S.lan = Boolean(st.lan);
+  S.campaignName = st.campaign;  // serve --campaign: its blocks are shown once the page has started
   S.defaults = st.defaults;
   const saved = localStorage.getItem("aerosurvey.tileUrl");
   S.tileUrl = st.tile_url || saved || "";
@@ -1259,6 +1424,8 @@ async function start() {
   $("#flight-files").addEventListener("change", (e) => { loadFlight(Array.from(e.target.files)); e.target.value = ""; });
   $("#pick-area").addEventListener("click", () => $("#area-file").click());  // the file inputs are hidden: buttons open them
   $("#pick-flight").addEventListener("click", () => $("#flight-files").click());
+  $("#pick-dem").addEventListener("click", () => $("#dem-file").click());
+  $("#dem-file").addEventListener("change", (e) => { if (e.target.files[0]) uploadDem(e.target.files[0]); e.target.value = ""; });
   const drop = $("#drop");
   drop.addEventListener("keydown", (e) => {  // the drop zone itself, focused: Enter or Space picks a file
     if (e.target === drop && (e.key === "Enter" || e.key === " ")) { e.preventDefault(); $("#area-file").click(); }
@@ -1306,4 +1473,4 @@ async function start() {
   }
 }
 
-start().catch((e) => { setStatus("could not start"); showError(null, e.message); });
+start().then(() => S.campaignName && startCampaign()).catch((e) => { setStatus("could not start"); showError(null, e.message); });
