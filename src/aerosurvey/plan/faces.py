@@ -23,10 +23,15 @@ line and two heights: the faces' case of one bench at 90°).
   apart than the spacing), flown bench by bench from `pattern.start`, each lane its own pass
   (its height: `Pass.rise_m`, above the toe line's ground, which is the launch point's: no
   DEM), back and forth. Stations a photo base apart along a lane reaching past both ends of the
-  toe line by half a photo less half a base, so the ends are seen as the middle is.
-- The faces are an obstacle: every station is the stand-off from its face's plane; the ways
-  from and back to the launch point go round the toe line grown by the stand-off less
-  `orbit.CLEARANCE_ALLOWANCE_M` (`Layout.obstacle`).
+  toe line by half a photo less half a base, so the ends are seen as the middle is, or farther:
+  until the lane's lead-in and end keep the obstacle's distance (below).
+- Every lane keeps the stand-off from the whole solid: where a lower crest juts nearer (a berm
+  narrower than the stand-off's level reach) the lane moves out along its face's normal
+  (`lane_place`; the summary's heading line gives the farthest lane's distance).
+- The faces are an obstacle: the ways from and back to the launch point go round the faces'
+  plan (the toe line to the last crest) grown by the stand-off less
+  `orbit.CLEARANCE_ALLOWANCE_M` (`Layout.obstacle`), and a launch point inside it is refused;
+  the tests measure every leg's distance from the solid in 3-D.
 - Not offered: vertical lanes; a bent toe line (one straight line per plan).
 """
 
@@ -118,6 +123,27 @@ def lane_positions(slope_m: float, spacing_m: float) -> np.ndarray:
     n = max(1, math.ceil(slope_m / spacing_m - 1e-9))
     out: np.ndarray = slope_m * (np.arange(n) + 0.5) / n
     return out
+
+
+def lane_place(t: Terrace, bench: int, middle: float, band_middle: float, standoff: float) -> tuple[float, float, float]:
+    """Where a lane flies in the faces' section: (metres behind the toe line, height, its distance
+    from its face's plane). Its band's middle `middle` metres up bench `bench`'s face (`band_middle`:
+    the band's middle up the face from the camera's perpendicular, a metre of stand-off's worth), at
+    `standoff` from the face's plane, or farther out along the face's normal where a lower crest
+    juts nearer than that (a berm narrower than the stand-off's level reach): every lane keeps the
+    stand-off from the whole solid."""
+    a = math.radians(t.angle_deg)
+    toe_d, toe_z = t.toe(bench)
+    off = standoff
+    for _ in range(100):
+        foot = middle - band_middle * off  # the camera's perpendicular meets the face this far up it
+        d, z = toe_d + foot * math.cos(a) - off * math.sin(a), toe_z + foot * math.sin(a) + off * math.cos(a)
+        short = standoff - t.clearance(d, z)
+        if short <= 1e-3:
+            return d, z, off
+        off += short
+    raise InputError(f"pattern.standoff_m = {standoff:g}: no lane of bench {bench + 1} keeps it from the lower benches; "
+                     "allowed: a wider berm or a smaller stand-off", key="pattern.standoff_m")
 
 
 @dataclass(frozen=True)
@@ -221,17 +247,19 @@ class Faces:
         lanes = [(i, float(m)) for i in range(o.benches) for m in lane_positions(slope, sensor.spacing_m)]
         if o.start == "top":
             lanes = lanes[::-1]
-        reach = max(band.width_m / 2.0 - sensor.base_m / 2.0, 0.0) * k
+        # past the toe line's ends: half a photo less half a base (the ends seen as the middle is),
+        # and so far that the lead-ins and ends keep the stand-off less the allowance off the faces
+        lead = min(sensor.lead_in_m, sensor.base_m / 2.0)
+        reach = max(band.width_m / 2.0 - sensor.base_m / 2.0, o.standoff_m - CLEARANCE_ALLOWANCE_M + 1.0 - lead, 0.0) * k
         autopilot_m = autopilot_distance(site.planar)
 
         aim = Aim(band.pitch_deg, bearing_deg=float(np.degrees(np.arctan2(into[0], into[1])) % 360.0))
         plan_h = sensor.heights.nominal_agl_m
         passes = []
+        farthest = o.standoff_m
         for n, (bench, middle) in enumerate(lanes):
-            toe_d, toe_z = t.toe(bench)
-            foot = middle - band.middle_m  # the camera's perpendicular meets the face this far up it
-            d = toe_d + foot * math.cos(a) - o.standoff_m * math.sin(a)  # behind the toe line (in front: < 0)
-            z = toe_z + foot * math.sin(a) + o.standoff_m * math.cos(a)
+            d, z, off = lane_place(t, bench, middle, band.middle_m / o.standoff_m, o.standoff_m)
+            farthest = max(farthest, off)
             start = np.asarray(t.a) + into * d * k
             path = extend(np.array([start, start + along * length * k]), reach, reach)
             if n % 2:
@@ -244,11 +272,17 @@ class Faces:
                 raise InputError(f"lane {n + 1} of the faces lies inside the exclusion zones: nothing of it can be flown",
                                  key="pattern.standoff_m")
             passes.append(Pass(n + 1, strips=strips, aim=aim, rise_m=z - plan_h, one_way=True))
+        # the ways from and back to the launch point keep the stand-off less the allowance off the
+        # faces' plan (toe line to last crest): the lanes reach that far past its ends
+        depth = t.profile()[0][-1] * k
+        plan = shapely.Polygon([t.a, t.b, t.b + into * depth, t.a + into * depth]) if depth > 0 \
+            else shapely.LineString([t.a, t.b])
+        keep_out = shapely.buffer(plan, (o.standoff_m - CLEARANCE_ALLOWANCE_M) * k)
         toe = shapely.LineString([t.a, t.b])
-        keep_out = shapely.buffer(toe, (o.standoff_m - CLEARANCE_ALLOWANCE_M) * k)
         # what the photos cover is the faces: the structure-faces rule proves them (plan/surfaces.py)
         yield Layout(float(np.degrees(np.arctan2(along[0], along[1])) % 360.0),
-                     f"lanes along the toe line at {o.standoff_m:g} m from the faces", tuple(passes), toe.buffer(0.01 * k), 0.0,
+                     f"lanes along the toe line at {o.standoff_m:g}" + (f"..{farthest:.1f}" if farthest > o.standoff_m else "")
+                     + " m from the faces", tuple(passes), toe.buffer(0.01 * k), 0.0,
                      obstacle=keep_out, surface=SurfaceAsked(t, o.min_images, o.max_gsd_m))
 
 

@@ -180,6 +180,14 @@ class Terrace:
             z += [z0, z0 + self.height_m]
         return np.array(d), np.array(z)
 
+    def clearance(self, d: float, z: float) -> float:
+        """How far (metres) a place in the section (metres behind the toe line, height) is from the
+        solid's section (its profile closed 10 km below and behind)."""
+        pd, pz = self.profile()
+        far = 1e4
+        ring = [(0.0, self.base_m - far), *zip(pd.tolist(), pz.tolist()), (far, float(pz[-1])), (far, self.base_m - far)]
+        return float(shapely.distance(shapely.Polygon(ring), shapely.Point(d, z)))
+
     def height_at(self, d: FloatArray) -> FloatArray:
         """The solid's top at each distance behind the toe line (−inf in front of it; a vertical face's
         place: its top)."""
