@@ -490,7 +490,6 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
     partial = set(station_run[~inside].tolist()) & set(station_run[inside].tolist())
     flown = frozenset(int(k) for k in set(station_run[inside].tolist()) - partial)
     framed = {p.index for p in plan.layout.passes if p.frame is not None}
-    aims = {p.index: p.aim for p in plan.layout.passes}
     out: dict[int, PassShape | None] = {}
     plain: list[str] = []
     for p in sorted(set(passes)):
@@ -506,9 +505,10 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
             if not even:
                 plain.append(f"pass {p}: its lines are not evenly spaced, as QGroundControl would lay them on an edit")
             continue
-        if not aims[p].nadir:
+        aim = next(q.aim for q in plan.layout.passes if q.index == p)
+        if not aim.nadir:
             out[p] = None
-            plain.append(f"pass {p}: its camera looks at {aims[p].pitch_deg:g}°, not straight down as a Corridor Scan "
+            plain.append(f"pass {p}: its camera looks at {aim.pitch_deg:g}°, not straight down as a Corridor Scan "
                          "lays its photos")
             continue
         found = corridor_geometry(plan, p, frame, flown)
