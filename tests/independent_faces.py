@@ -162,8 +162,10 @@ def bench_caster(toe_a: np.ndarray, toe_b: np.ndarray, solid: shapely.Polygon, s
         sec = shapely.points(d, seg[:, 2])
         inside = shapely.contains(solid, sec)
         end = np.minimum(np.abs(u), np.abs(u - length))
-        near = (out < 2 * step) & ((shapely.distance(outline, sec) < 2 * step) | (inside & (end < 2 * step)))
-        return inside & (out == 0), near
+        edge = shapely.distance(outline, sec)
+        near = (out < 2 * step) & ((edge < 2 * step) | (inside & (end < 2 * step)))
+        deep = inside & (out == 0) & (edge >= 2 * step) & (end >= 2 * step)  # surely inside: no graze
+        return inside & (out == 0), near & ~deep.any()
 
     return march(sensor, cams, p, n, samples, judge)
 
