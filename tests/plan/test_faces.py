@@ -23,13 +23,16 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+import zipfile
 from pathlib import Path
 
 import numpy as np
+import pyproj
 import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from lxml import etree
 from tests.conftest import make_spec, write_geojson
 from tests.plan.test_orbit import CAMERA, TO_XY, _face_gsd, _lonlat, _photos
 
@@ -197,3 +200,36 @@ def test_random_benches(tmp_path_factory, length: float, turn: float, angle: flo
     j = _judge(out, toe, pattern, math.sqrt(length * height * benches / math.sin(math.radians(angle)) / 150.0))
     assert j["short_m2"] == 0.0, j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+
+
+def test_the_exports_turn_the_camera_to_the_faces(tmp_path: Path) -> None:
+    """mission.plan: plain items (no Corridor Scan: its photos are nadir), a DO_MOUNT_CONTROL per
+    lane; mission.kmz: on every lane waypoint the aircraft faces the wall (a DJI gimbal yaws a few
+    degrees only), the gimbal pitched as the plan's; the bearing square to the toe line, on the
+    side the wall rises, both found here from the toe line's coordinates."""
+    toe = WALL
+    out, m = _plan(tmp_path, toe, {"kind": "facade", "standoff_m": 12.0, "top_m": 20.0, "side": "left"})
+    pitch = m["pattern"]["parameters"]["pitch_deg"]
+    items = json.loads((out / "mission.plan").read_text())["mission"]["items"]
+    assert all(i["type"] == "SimpleItem" for i in items)
+    mounts = [i["params"] for i in items if i["command"] == 205]
+    assert len(mounts) == m["pattern"]["parameters"]["lanes"] and all(p[0] == pitch for p in mounts)
+    assert sorted({abs(p[2]) for p in mounts}) == [90.0]
+    # the wall rises left of the line: the camera looks 90° left of its true bearing (pyproj.Geod)
+    lon, lat = _lonlat_arrays(toe)
+    geod = pyproj.Geod(ellps="WGS84")
+    along = geod.inv(lon[0], lat[0], lon[1], lat[1])[0]
+    want = (along - 90.0) % 360.0
+    with zipfile.ZipFile(out / "mission.kmz") as z:
+        doc = etree.fromstring(z.read("wpmz/waylines.wpml"))
+    ns = {"k": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/1.0.2"}
+    angles = [float(e.text) for e in doc.iterfind(".//wpml:waypointHeadingAngle", ns)]
+    assert len(angles) == 3 * m["pattern"]["parameters"]["lanes"]  # lead-in, first station, line end
+    assert all(abs((a - want + 180.0) % 360.0 - 180.0) < 0.1 for a in angles), (angles[:3], want)
+    pitches = {float(e.text) for e in doc.iterfind(".//wpml:gimbalPitchRotateAngle", ns)}
+    assert pitches == {-90.0, pitch}  # straight down at take-off, then the lanes'
+
+
+def _lonlat_arrays(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    lonlat = np.array(_lonlat(xy))
+    return lonlat[:, 0], lonlat[:, 1]
