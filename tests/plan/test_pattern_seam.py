@@ -124,6 +124,9 @@ def test_the_page_is_offered_every_registered_pattern_with_its_fields(diagonals)
     table = {p["kind"]: p for p in registry.field_table()}
     assert set(table) == set(registry.PATTERNS)
     assert table["diagonals"]["fields"][0]["key"] == "count" and table["diagonals"]["fields"][0]["max"] == 5.0
+    keys = {kind: [f["key"] for f in table[kind]["fields"]] for kind in ("facade", "faces")}
+    assert {"standoff_m", "base_m", "top_m", "side", "pitch_deg", "max_gsd_cm"} <= set(keys["facade"])
+    assert {"face_angle_deg", "face_height_m", "benches", "berm_m"} <= set(keys["faces"]) and table["faces"]["area_is_centreline"]
 
 
 def test_an_unknown_kind_is_refused_naming_the_registry(tmp_path: Path) -> None:
@@ -139,7 +142,7 @@ SRC = Path(__file__).resolve().parents[2] / "src" / "aerosurvey"
 def test_no_kind_is_named_outside_its_module() -> None:
     """A kind's name in quotes (as code compares it) appears only in its own pattern module and the
     registry's docstring; messages may name a kind (pattern.kind = 'area'), comparisons may not."""
-    own = {"area": "area_grid.py", "corridor": "corridor.py", "oblique": "oblique.py"}
+    own = {"area": "area_grid.py", "corridor": "corridor.py", "oblique": "oblique.py", "facade": "faces.py", "faces": "faces.py"}
     for path in SRC.rglob("*.py"):
         text = path.read_text(encoding="utf-8")
         for kind, module in own.items():

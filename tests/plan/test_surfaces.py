@@ -18,8 +18,8 @@ from hypothesis import strategies as st
 from shapely import affinity
 
 from aerosurvey.plan.capture import Attitudes, Optics, Photos
-from aerosurvey.plan.surfaces import Structure, face_coverage, face_gsd, face_points, seen
-from independent_faces import caster, project
+from aerosurvey.plan.surfaces import Structure, Terrace, face_coverage, face_gsd, face_points, seen
+from independent_faces import bench_caster, bench_samples, caster, project, section
 
 OPTICS = Optics(width_mm=13.2, height_mm=8.7984, focal_mm=8.8, pixel_mm=0.0024, width_px=5500, height_px=3666)
 SENSOR = (OPTICS.width_mm, OPTICS.height_mm, OPTICS.focal_mm)  # the caster's: image width and height, focal length (mm)
@@ -162,3 +162,56 @@ def test_the_forward_overlap_on_a_wall_is_the_footprint_less_the_base() -> None:
     # another run's photos are no forward neighbours
     split = face_coverage(photos, OPTICS, s, face_points(s, 1.0), run=(xs > 100).astype(int))
     assert len(split.forward_overlap) == n - 2
+
+
+@settings(max_examples=12, deadline=None)
+@given(angle=st.floats(30.0, 90.0), height=st.floats(4.0, 25.0), benches=st.integers(1, 3), berm=st.floats(0.0, 8.0),
+       turn=st.floats(0.0, 360.0), length=st.floats(15.0, 80.0), count=st.integers(4, 10), seed=st.integers(0, 2**31 - 1))
+def test_the_bench_faces_a_photo_sees_are_the_ray_casters(angle: float, height: float, benches: int, berm: float, turn: float,
+                                                          length: float, count: int, seed: int) -> None:
+    """Cameras in front of and above random benches, each aimed near a face point, some low enough
+    for the lower crests to hide the upper faces."""
+    rng = np.random.default_rng(seed)
+    t = math.radians(turn)
+    a, b = np.array([0.0, 0.0]), np.array([math.sin(t), math.cos(t)]) * length
+    s = Terrace((0.0, 0.0), (float(b[0]), float(b[1])), 0.0, angle, height, benches, berm)
+    pts = s.points(max(height, length) / 6.0)
+    solid = section(0.0, angle, height, benches, berm)
+    along = (b - a) / length
+    front = -np.array([along[1], -along[0]])
+    cams = []
+    for _ in range(count):
+        low = rng.uniform() < 0.5  # below the first crest, near: an upper face behind it
+        xy = a + along * float(rng.uniform(-0.3, 1.3)) * length + front * float(rng.uniform(2.0, 12.0 if low else 40.0))
+        z = float(rng.uniform(0.5, height) if low else rng.uniform(0.5, benches * height + 30.0))
+        upper = np.flatnonzero(pts.face == benches - 1)
+        m = int(rng.choice(upper)) if low else int(rng.integers(len(pts)))
+        d = np.array([pts.x[m] - xy[0], pts.y[m] - xy[1], pts.z[m] - z])
+        yaw = math.degrees(math.atan2(d[0], d[1])) + float(rng.uniform(-15, 15))
+        pitch = math.degrees(math.atan2(d[2], math.hypot(d[0], d[1]))) + float(rng.uniform(-10, 10))
+        cams.append((float(xy[0]), float(xy[1]), z, yaw % 360.0, min(max(pitch, -89.0), 70.0)))  # looking up at a face too
+    c = np.array(cams)
+    photos = Photos(c[:, 0], c[:, 1], c[:, 2], Attitudes(c[:, 3], c[:, 4], np.zeros(len(c))))
+    ours = seen(photos, OPTICS, s, pts)
+    p = np.column_stack([pts.x, pts.y, pts.z])
+    theirs, graze = bench_caster(a, b, solid, SENSOR, cams, p, pts.normal)
+    differ = (ours != theirs) & ~graze
+    assert not differ.any(), f"{int(differ.sum())} pairs differ, e.g. {np.argwhere(differ)[:3].tolist()}"
+    assume((theirs & ~graze).any())
+    # the samples' area is the faces' and the caster's samples lie on the same planes
+    ref, nrm, area = bench_samples(a, b, 0.0, angle, height, benches, berm, max(height, length) / 6.0)
+    assert pts.area_m2.sum() == pytest.approx(area.sum(), rel=1e-9) and np.allclose(pts.normal, nrm[0], atol=1e-12)
+    # the GSD on the face, where seen
+    i, j = np.nonzero(ours)
+    g = face_gsd(photos, OPTICS, pts, i, j)
+    for k in rng.choice(len(i), size=min(len(i), 40), replace=False):
+        rel = c[i[k], :3] - p[j[k]]
+        if rel @ pts.normal[j[k]] > 0.2 * np.linalg.norm(rel):
+            assert g[k] == pytest.approx(_jacobian_gsd(cams[i[k]], p[j[k]], pts.normal[j[k]]), rel=2e-3)
+
+
+def test_a_camera_inside_the_benches_is_refused() -> None:
+    s = Terrace((0.0, 0.0), (0.0, 50.0), 0.0, 60.0, 10.0, 2, 5.0)  # faces rise to the east
+    photos = Photos(np.array([8.0]), np.array([20.0]), np.array([5.0]), Attitudes(np.zeros(1), np.zeros(1), np.zeros(1)))
+    with pytest.raises(ValueError, match="inside"):
+        seen(photos, OPTICS, s, s.points(5.0))

@@ -16,6 +16,7 @@ from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
+from aerosurvey.plan.surfaces import Surface
 
 if TYPE_CHECKING:
     from aerosurvey.plan.bounds import GridBounds
@@ -36,6 +37,18 @@ class Layout:
     # ground the ways from and back to the launch point go round (planning CRS): a structure the
     # pattern flies round, grown by what they keep from it (the pattern's own legs keep it by design)
     obstacle: BaseGeometry | None = None
+    # faces the pattern photographs (not the ground): the structure-faces rule proves their coverage
+    surface: SurfaceAsked | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceAsked:
+    """A pattern's own surface (a `Terrace`'s faces) and what each of its points needs: `min_images`
+    photos, each with a GSD on the face at most `max_gsd_m` (None: any)."""
+
+    surface: Surface
+    min_images: int
+    max_gsd_m: float | None
 
 
 class Pattern(Protocol):

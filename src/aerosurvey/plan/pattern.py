@@ -4,6 +4,8 @@
     corridor   strips along a centreline, bending with it                        (corridor.py)
     oblique    the area grid flown with the camera tilted (double grid, five directions) (oblique.py)
     orbit      rings round the [structure] at a stand-off, layer by layer (orbit.py)
+    facade     lanes along a wall from a line and two heights, at a stand-off     (faces.py)
+    faces      lanes along inclined bench faces above a toe line (quarry, pit, dam) (faces.py)
 
 A pattern is a class (`layout.PatternKind`): its kind, title and [pattern] fields, how its
 options are read from the spec, how it lays its strips over a site, and what the later steps
@@ -22,13 +24,14 @@ from typing import Any
 from aerosurvey.errors import InputError
 from aerosurvey.plan.area_grid import AreaGrid, strip_geometry
 from aerosurvey.plan.corridor import Corridor
+from aerosurvey.plan.faces import Facade, Faces
 from aerosurvey.plan.layout import Field, Layout, Pattern, PatternKind
 from aerosurvey.plan.oblique import Oblique
 from aerosurvey.plan.orbit import Orbit
 from aerosurvey.spec import MissionSpec
 
 #: `[pattern] kind` → the pattern
-PATTERNS: Mapping[str, type[PatternKind]] = {p.kind: p for p in (AreaGrid, Corridor, Oblique, Orbit)}
+PATTERNS: Mapping[str, type[PatternKind]] = {p.kind: p for p in (AreaGrid, Corridor, Oblique, Orbit, Facade, Faces)}
 
 
 def kind_of(kind: str) -> type[PatternKind]:

@@ -145,13 +145,20 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
                   + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
         airspace=inputs.airspace, wind=wind,
-        faces=_faces(spec, inputs, site, alts.stations, home_ground),
+        faces=_faces(spec, inputs, site, alts.stations, home_ground, layout),
     )
 
 
-def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home_ground: float) -> FacesCheck | None:
-    """[structure]'s faces as the stations' photos see them: the photos' heights on the structure's
-    datum (its ground: the DEM's at its footprint, or the launch point's without a DEM)."""
+def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home_ground: float,
+           layout: Layout) -> FacesCheck | None:
+    """The faces as the stations' photos see them: the pattern's own surface (`Layout.surface`, its
+    heights above the launch point's ground), else [structure]'s, the photos' heights on the
+    structure's datum (its ground: the DEM's at its footprint, or the launch point's without a DEM)."""
+    optics = Optics.of(spec.camera.camera, spec.camera.mount)
+    if layout.surface is not None:
+        photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
+        a = layout.surface
+        return check_faces(a.surface, home_ground, photos, st.ids, st.run, optics, site.grid_scale, a.min_images, a.max_gsd_m)
     if spec.structure is None or inputs.structure_wgs84 is None:
         return None
     footprint = site.planar.forward(inputs.structure_wgs84)
@@ -160,8 +167,8 @@ def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home
     z = np.where(np.isfinite(st.ground_m), st.ground_m + st.agl_m - ground, st.agl_m)
     s = spec.structure
     photos = Photos.looking(st.x, st.y, z, st.camera_yaw_deg, st.pitch_deg)
-    return check_faces(Structure(footprint, s.base_m, s.top_m), ground, photos, st.ids, st.run,
-                       Optics.of(spec.camera.camera, spec.camera.mount), site.grid_scale, s.min_images, s.max_gsd_m)
+    return check_faces(Structure(footprint, s.base_m, s.top_m), ground, photos, st.ids, st.run, optics, site.grid_scale,
+                       s.min_images, s.max_gsd_m)
 
 
 #: how many times the layout is laid again for a fixed yaw before the plan is refused (each time

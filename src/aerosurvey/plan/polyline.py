@@ -15,12 +15,27 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.passes import Strip
+from aerosurvey.plan.photogrammetry import ardupilot_distance_m
+
+if TYPE_CHECKING:
+    from aerosurvey.area import Planar
+
+
+def autopilot_distance(planar: Planar) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """`stations_along`'s `autopilot_m` for places in a planning CRS: ArduPilot's distance between
+    the points a and b ((n, 2) each)."""
+    def autopilot_m(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        lon, lat = planar.lonlat(np.r_[a[:, 0], b[:, 0]], np.r_[a[:, 1], b[:, 1]])
+        return np.asarray(ardupilot_distance_m(lon[:len(a)], lat[:len(a)], lon[len(a):], lat[len(a):]), float)
+
+    return autopilot_m
 
 
 def arc_lengths(path: np.ndarray) -> np.ndarray:

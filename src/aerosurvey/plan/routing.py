@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.detours import Detours, climb_out_path
@@ -37,16 +38,20 @@ class RoutePlan:
     transit_back: tuple[tuple[float, float], ...]  # from the last waypoint home
 
 
-def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0) -> tuple[float, float]:
+def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0,
+                 obstacle: BaseGeometry | None = None) -> tuple[float, float]:
     """No launch point given: the area's edge nearest the first waypoint, `clearance` and a
-    metre more outside every zone's margin; where zones take the whole edge, the nearest such
-    place around the area."""
+    metre more outside every zone's margin and a metre outside `obstacle` (what a pattern's
+    structure keeps the ways off, `Layout.obstacle`); where those take the whole edge, the
+    nearest such place around the area."""
     area = site.area
     edge = area.exterior if area.geom_type == "Polygon" else area.boundary
-    if site.zones_buffered is None:
+    parts = [] if site.zones_buffered is None else [shapely.buffer(site.zones_buffered, clearance + 1.0, quad_segs=4)]
+    parts += [] if obstacle is None else [shapely.buffer(obstacle, 1.0, quad_segs=4)]
+    if not parts:
         allowed = edge
     else:
-        keep_out = shapely.buffer(site.zones_buffered, clearance + 1.0, quad_segs=4)
+        keep_out = shapely.union_all(parts)
         allowed = shapely.difference(edge, keep_out)
         if allowed.is_empty:
             allowed = shapely.difference(shapely.buffer(area, 3.0 * clearance + 200.0, quad_segs=4), keep_out)
@@ -133,7 +138,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         raise InputError(f"routing failed: {exc}") from None
     first = (route.waypoints[0].x, route.waypoints[0].y)
     last = (route.waypoints[-1].x, route.waypoints[-1].y)
-    home = launch_xy if launch_xy is not None else default_home(site, first, home_clearance_m(spec) * k)
+    home = launch_xy if launch_xy is not None else default_home(site, first, home_clearance_m(spec) * k, layout.obstacle)
     if launch_xy is None:
         check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
     transit = detours

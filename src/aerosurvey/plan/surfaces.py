@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar, Protocol
 
 import numpy as np
 import shapely
@@ -61,6 +62,203 @@ class Structure:
         poly = orient(self.footprint, 1.0)
         rings = [np.asarray(poly.exterior.coords, float), *(np.asarray(r.coords, float) for r in poly.interiors)]
         return np.concatenate([r[:-1] for r in rings]), np.concatenate([r[1:] for r in rings])
+
+    words: ClassVar[str] = "the structure's walls and roof"
+    key: ClassVar[str] = "structure.top_m"
+
+    @property
+    def where(self) -> str:
+        return f"structure.base_m {self.base_m:g} .. top_m {self.top_m:g}, or below its base"
+
+    def area_m2(self, grid_scale: float = 1.0) -> float:
+        return float(self.footprint.area / grid_scale ** 2 + self.footprint.length / grid_scale * (self.top_m - self.base_m))
+
+    def points(self, spacing_m: float, grid_scale: float = 1.0) -> FacePoints:
+        return face_points(self, spacing_m, grid_scale)
+
+    def inside(self, x: FloatArray, y: FloatArray, z: FloatArray) -> np.ndarray:
+        """Whether each place (planning CRS, heights on the structure's datum) is inside the prism or below its base."""
+        out: np.ndarray = (shapely.contains_xy(self.footprint, x, y) & (z <= self.top_m)) | (z < self.base_m)
+        return out
+
+    def blocked(self, cx: FloatArray, cy: FloatArray, cz: FloatArray, pts: FacePoints, j: np.ndarray,
+                grid_scale: float = 1.0) -> np.ndarray | None:
+        """Whether the structure lies between each camera and face point j (None: a convex prism
+        hides no face turned towards a camera)."""
+        if self.footprint.equals(self.footprint.convex_hull):
+            return None
+        a, b = self.walls()
+        step = max(1, PAIRS_PER_BATCH // max(len(a), 1))
+        return np.concatenate([np.zeros(0, bool), *(_blocked(self, a, b, cx[lo:lo + step], cy[lo:lo + step], cz[lo:lo + step],
+                                                              pts, j[lo:lo + step], grid_scale)
+                                                     for lo in range(0, len(j), step))])
+
+
+class Surface(Protocol):
+    """Faces the photos must see (a `Structure`'s walls and roof, a `Terrace`'s inclined faces): their
+    sampled points, what of the space is solid, and what lies between a camera and a face point."""
+
+    words: ClassVar[str]  # what the faces rule calls them
+    key: ClassVar[str]  # the spec's key an error about a station inside the solid names
+
+    @property
+    def where(self) -> str:
+        """The solid's extent in the spec's words."""
+        ...
+
+    def area_m2(self, grid_scale: float = 1.0) -> float: ...
+
+    def points(self, spacing_m: float, grid_scale: float = 1.0) -> FacePoints: ...
+
+    def inside(self, x: FloatArray, y: FloatArray, z: FloatArray) -> np.ndarray: ...
+
+    def blocked(self, cx: FloatArray, cy: FloatArray, cz: FloatArray, pts: FacePoints, j: np.ndarray,
+                grid_scale: float = 1.0) -> np.ndarray | None: ...
+
+
+@dataclass(frozen=True)
+class Terrace:
+    """Inclined faces of benches standing on a straight toe line: an open pit's, a quarry's or a
+    dam's (a facade: one bench at 90°). The toe line runs from `a` to `b` (planning CRS) at `base_m`;
+    the faces rise on its right (walking from a to b). Bench i's toe lies i · (height / tan angle +
+    berm) behind the line and i · height above the base; each face rises `height_m` at `angle_deg`
+    from the horizontal, a level berm `berm_m` deep behind it, the last crest a level plateau
+    behind. The solid is what lies below that profile between the toe line's ends (beyond them the
+    faces stand alone); in front of the toe line is open floor, which hides nothing from cameras
+    above it. Its faces (`points`) are the inclined ones; the berms and the plateau only hide."""
+
+    a: tuple[float, float]
+    b: tuple[float, float]
+    base_m: float
+    angle_deg: float
+    height_m: float
+    benches: int = 1
+    berm_m: float = 0.0
+
+    words: ClassVar[str] = "the faces"
+    key: ClassVar[str] = "pattern.standoff_m"
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.angle_deg <= 90.0 and self.height_m > 0 and self.benches >= 1 and self.berm_m >= 0
+                and math.dist(self.a, self.b) > 0):
+            raise ValueError(f"a terrace has a toe line of some length, faces 0..90° high above 0 m, benches ≥ 1, berms ≥ 0: {self}")
+
+    @property
+    def where(self) -> str:
+        return (f"{self.benches} face(s) {self.height_m:g} m high at {self.angle_deg:g}° behind the toe line, "
+                f"berms {self.berm_m:g} m")
+
+    @property
+    def run_m(self) -> float:
+        """How far back a face reaches (metres): its height over the tangent of its angle."""
+        return 0.0 if self.angle_deg == 90.0 else self.height_m / math.tan(math.radians(self.angle_deg))
+
+    def toe(self, i: int) -> tuple[float, float]:
+        """(metres behind the toe line, height) of bench i's toe."""
+        return i * (self.run_m + self.berm_m), self.base_m + i * self.height_m
+
+    def axes(self, grid_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, float]:
+        """(along, into): the toe line's unit direction and the level unit direction into the solid
+        (its right), planning CRS; and the toe line's length (metres)."""
+        d = np.subtract(self.b, self.a)
+        length = float(np.hypot(*d))
+        along = d / length
+        return along, np.array([along[1], -along[0]]), length / grid_scale
+
+    def local(self, x: FloatArray, y: FloatArray, grid_scale: float = 1.0) -> tuple[FloatArray, FloatArray]:
+        """(metres along the toe line from a, metres behind it) of planning-CRS places."""
+        along, into, _ = self.axes(grid_scale)
+        rx, ry = np.asarray(x, float) - self.a[0], np.asarray(y, float) - self.a[1]
+        return (rx * along[0] + ry * along[1]) / grid_scale, (rx * into[0] + ry * into[1]) / grid_scale
+
+    def profile(self) -> tuple[FloatArray, FloatArray]:
+        """The section's corners (metres behind the toe line, height): toe, crest, … the last crest."""
+        d, z = [], []
+        for i in range(self.benches):
+            d0, z0 = self.toe(i)
+            d += [d0, d0 + self.run_m]
+            z += [z0, z0 + self.height_m]
+        return np.array(d), np.array(z)
+
+    def clearance(self, d: float, z: float) -> float:
+        """How far (metres) a place in the section (metres behind the toe line, height) is from the
+        solid's section (its profile closed 10 km below and behind)."""
+        pd, pz = self.profile()
+        far = 1e4
+        ring = [(0.0, self.base_m - far), *zip(pd.tolist(), pz.tolist()), (far, float(pz[-1])), (far, self.base_m - far)]
+        return float(shapely.distance(shapely.Polygon(ring), shapely.Point(d, z)))
+
+    def height_at(self, d: FloatArray) -> FloatArray:
+        """The solid's top at each distance behind the toe line (−inf in front of it; a vertical face's
+        place: its top)."""
+        pd, pz = self.profile()
+        d = np.asarray(d, float)
+        out = np.interp(d, pd, pz, right=pz[-1])  # on a vertical face np.interp may take either end: its top
+        on = np.isclose(d[..., None], pd, rtol=0.0, atol=1e-9)
+        out = np.where(on.any(axis=-1), np.max(np.where(on, pz, -np.inf), axis=-1), out)
+        return np.where(d < 0.0, -np.inf, out)
+
+    def area_m2(self, grid_scale: float = 1.0) -> float:
+        return self.benches * self.axes(grid_scale)[2] * self.height_m / math.sin(math.radians(self.angle_deg))
+
+    def normal(self, grid_scale: float = 1.0) -> np.ndarray:
+        """The faces' outward unit normal (east, north, up)."""
+        _, into, _ = self.axes(grid_scale)
+        a = math.radians(self.angle_deg)
+        return np.array([-into[0] * math.sin(a), -into[1] * math.sin(a), math.cos(a)])
+
+    def points(self, spacing_m: float, grid_scale: float = 1.0) -> FacePoints:
+        """Points on the inclined faces about `spacing_m` apart (true metres), each standing for its cell."""
+        if not spacing_m > 0:
+            raise ValueError(f"face points' spacing must be above 0, not {spacing_m}")
+        along, into, length = self.axes(grid_scale)
+        a = math.radians(self.angle_deg)
+        slope = self.height_m / math.sin(a)
+        n_along, n_up = max(1, math.ceil(length / spacing_m)), max(1, math.ceil(slope / spacing_m))
+        uu, tt = np.meshgrid((np.arange(n_along) + 0.5) / n_along * length, (np.arange(n_up) + 0.5) / n_up * slope,
+                             indexing="ij")
+        u, t = np.tile(uu.ravel(), self.benches), np.tile(tt.ravel(), self.benches)
+        face = np.repeat(np.arange(self.benches), uu.size)
+        toes = np.array([self.toe(i) for i in range(self.benches)])[face]
+        d, z = toes[:, 0] + t * math.cos(a), toes[:, 1] + t * math.sin(a)
+        x = self.a[0] + (u * along[0] + d * into[0]) * grid_scale
+        y = self.a[1] + (u * along[1] + d * into[1]) * grid_scale
+        return FacePoints(x, y, z, np.repeat(self.normal(grid_scale)[None], len(u), axis=0), face.astype(np.intp),
+                          np.full(len(u), length / n_along * slope / n_up))
+
+    def inside(self, x: FloatArray, y: FloatArray, z: FloatArray) -> np.ndarray:
+        u, d = self.local(x, y)
+        out: np.ndarray = (u >= 0) & (u <= self.axes()[2]) & (np.asarray(z, float) <= self.height_at(d))
+        return out
+
+    def blocked(self, cx: FloatArray, cy: FloatArray, cz: FloatArray, pts: FacePoints, j: np.ndarray,
+                grid_scale: float = 1.0) -> np.ndarray:
+        """Whether the segment from each camera to face point j (moved FACE_OFFSET_M off its face) runs
+        below the profile between the toe line's ends. Along the segment, its height less the
+        profile's is linear between the places it passes a corner of the profile or an end of the
+        line: its lowest is at one of those, so they are all that is tested (exact)."""
+        _, _, length = self.axes(grid_scale)
+        u0, d0 = self.local(cx, cy, grid_scale)
+        u1, d1 = self.local(pts.x[j] + pts.normal[j, 0] * FACE_OFFSET_M * grid_scale,
+                            pts.y[j] + pts.normal[j, 1] * FACE_OFFSET_M * grid_scale, grid_scale)
+        z0, z1 = np.asarray(cz, float), pts.z[j] + pts.normal[j, 2] * FACE_OFFSET_M
+        du = u1 - u0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ends = np.sort(np.column_stack([-u0 / du, (length - u0) / du]), axis=1)
+        inside_ends = (u0 >= 0) & (u0 <= length)
+        lo = np.where(du == 0, np.where(inside_ends, 0.0, np.inf), np.clip(ends[:, 0], 0.0, 1.0))
+        hi = np.where(du == 0, np.where(inside_ends, 1.0, -np.inf), np.clip(ends[:, 1], 0.0, 1.0))
+        pd, pz = self.profile()
+        top = np.array([pz[np.isclose(pd, v, rtol=0.0, atol=1e-9)].max() for v in pd])  # a vertical face: its top
+        with np.errstate(divide="ignore", invalid="ignore"):
+            at = (pd[None] - d0[:, None]) / (d1 - d0)[:, None]  # where the segment passes each corner
+        corner = (at >= lo[:, None]) & (at <= hi[:, None]) & ((z0[:, None] + at * (z1 - z0)[:, None]) < top[None] - 1e-9)
+        below: np.ndarray = corner.any(axis=1)
+        for lam in (lo, hi):
+            ok = lam <= hi
+            lam = np.where(ok, lam, 0.0)
+            below |= ok & (z0 + lam * (z1 - z0) < self.height_at(d0 + lam * (d1 - d0)) - 1e-9)
+        return below
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,13 +325,12 @@ def _roof_cells(footprint: Polygon, side: float) -> np.ndarray:
     return out
 
 
-def seen(photos: Photos, optics: Optics, s: Structure, pts: FacePoints, grid_scale: float = 1.0) -> np.ndarray:
+def seen(photos: Photos, optics: Optics, s: Surface, pts: FacePoints, grid_scale: float = 1.0) -> np.ndarray:
     """(n photos, m points): whether each photo sees each face point (in its image, the face turned
-    to the camera, nothing of the structure between). ValueError when a camera is inside the
-    structure or below its base."""
+    to the camera, nothing of the surface's solid between). ValueError when a camera is inside the
+    solid (a structure: or below its base)."""
     cx, cy, cz = (np.asarray(v, float) for v in (photos.x, photos.y, photos.z))
-    inside = shapely.contains_xy(s.footprint, cx, cy) & (cz <= s.top_m)
-    if inside.any() or (cz < s.base_m).any():
+    if s.inside(cx, cy, cz).any():
         raise ValueError("a camera is inside the structure or below its base")
     out = np.zeros((len(cx), len(pts)), bool)
     rows = max(1, PAIRS_PER_BATCH // max(len(pts), 1))
@@ -145,14 +342,10 @@ def seen(photos: Photos, optics: Optics, s: Structure, pts: FacePoints, grid_sca
                   + (cy[sl, None] - pts.y[None]) / grid_scale * pts.normal[None, :, 1]
                   + (cz[sl, None] - pts.z[None]) * pts.normal[None, :, 2]) > 0
         out[sl] = image_points(part, optics, pts.x, pts.y, pts.z, grid_scale).seen & facing
-    if s.footprint.equals(s.footprint.convex_hull):
-        return out  # a convex prism hides no face turned towards a camera
     i, j = np.nonzero(out)
-    a, b = s.walls()
-    step = max(1, PAIRS_PER_BATCH // max(len(a), 1))
-    for lo in range(0, len(i), step):
-        ii, jj = i[lo:lo + step], j[lo:lo + step]
-        out[ii, jj] = ~_blocked(s, a, b, cx[ii], cy[ii], cz[ii], pts, jj, grid_scale)
+    hidden = s.blocked(cx[i], cy[i], cz[i], pts, j, grid_scale)
+    if hidden is not None:
+        out[i, j] = ~hidden
     return out
 
 
@@ -220,7 +413,7 @@ class FaceCoverage:
         return float(self.points.area_m2.sum())
 
 
-def face_coverage(photos: Photos, optics: Optics, s: Structure, pts: FacePoints, grid_scale: float = 1.0,
+def face_coverage(photos: Photos, optics: Optics, s: Surface, pts: FacePoints, grid_scale: float = 1.0,
                   max_gsd_m: float = math.inf, run: np.ndarray | None = None) -> FaceCoverage:
     """The photos seeing each face point, counting only those at most `max_gsd_m` there, and the
     finest GSD among all that see it; with `run` (each photo's run, the photos in flight order)
@@ -253,7 +446,7 @@ class FacesCheck:
     the ground under it its heights stand on, what each face point needs (`min_images` photos, each
     at most `max_gsd_m` there) and what the plan's photos give."""
 
-    structure: Structure
+    structure: Surface
     ground_m: float
     min_images: int
     max_gsd_m: float | None
@@ -271,19 +464,17 @@ class FacesCheck:
         return float(self.coverage.points.area_m2[self.short].sum())
 
 
-def check_faces(s: Structure, ground_m: float, photos: Photos, station_ids: list[str], run: np.ndarray, optics: Optics,
+def check_faces(s: Surface, ground_m: float, photos: Photos, station_ids: list[str], run: np.ndarray, optics: Optics,
                 grid_scale: float, min_images: int, max_gsd_m: float | None) -> FacesCheck:
-    """Which of the structure's face points the photos (heights on the structure's datum) see
-    `min_images` times; InputError naming a station inside the structure or below its base."""
-    inside = (shapely.contains_xy(s.footprint, photos.x, photos.y) & (photos.z <= s.top_m)) | (photos.z < s.base_m)
+    """Which of the surface's face points the photos (heights on its datum) see `min_images` times;
+    InputError naming a station inside its solid (a structure: or below its base)."""
+    inside = s.inside(np.asarray(photos.x, float), np.asarray(photos.y, float), np.asarray(photos.z, float))
     if inside.any():
         k = int(np.argmax(inside))
-        raise InputError(f"station {station_ids[k]} is {photos.z[k]:.1f} m above the structure's ground inside the structure "
-                         f"(structure.base_m {s.base_m:g} .. top_m {s.top_m:g}) or below its base: the vehicle would hit it",
-                         key="structure.top_m")
-    area = s.footprint.area / grid_scale ** 2 + s.footprint.length / grid_scale * (s.top_m - s.base_m)
-    spacing = max(1.0, math.sqrt(area / FACE_POINTS))
-    pts = face_points(s, spacing, grid_scale)
+        raise InputError(f"station {station_ids[k]} is {photos.z[k]:.1f} m above the ground inside {s.words} "
+                         f"({s.where}): the vehicle would hit it", key=s.key)
+    spacing = max(1.0, math.sqrt(s.area_m2(grid_scale) / FACE_POINTS))
+    pts = s.points(spacing, grid_scale)
     cov = face_coverage(photos, optics, s, pts, grid_scale, math.inf if max_gsd_m is None else max_gsd_m, run)
     return FacesCheck(s, ground_m, min_images, max_gsd_m, cov, station_ids)
 
@@ -301,7 +492,7 @@ def faces_rule(c: FacesCheck, profile: str) -> dict[str, object]:
         if len(seen_at) else "; no photo sees the structure"
     return {"profile": profile, "rule": FACES_RULE, "status": "pass" if cov.area_m2 > 0 and c.short_m2 == 0 else "fail",
             "severity": "error",
-            "statement": f"every point of the structure's walls and roof is seen by at least {c.min_images} photos{gsd}",
+            "statement": f"every point of {c.structure.words} is seen by at least {c.min_images} photos{gsd}",
             "measured": f"{c.short_m2:.2f} m² of {cov.area_m2:.2f} m² seen by fewer{finest}",
             "required": "0 m² (of more than 0 m² checked)", "evidence": [f"{len(cov.points)} points on the faces, "
                                                                         f"{int(short.sum())} short", *_overlap_words(c)],

@@ -480,7 +480,8 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
     runs. A pass stays plain items when its flight flies part of a run (an edit would lay the
     whole line, beyond the sortie's battery), when its lines are not evenly spaced (an oblique
     grid's bands flown as one pass, or a sortie's lines with a gap: QGroundControl lays them
-    evenly), or when its strips are not the offsets of one polyline."""
+    evenly), when its strips are not the offsets of one polyline, or when they are and its camera
+    is not straight down (a Corridor Scan's photos are)."""
     runs = plan.route.runs
     station_run = np.asarray(plan.stations.run)
     first, last = (0, len(station_run) - 1) if stations is None else stations
@@ -503,6 +504,12 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
             out[p] = PassShape((ring, st), None, alternate) if even else None
             if not even:
                 plain.append(f"pass {p}: its lines are not evenly spaced, as QGroundControl would lay them on an edit")
+            continue
+        aim = next(q.aim for q in plan.layout.passes if q.index == p)
+        if not aim.nadir:
+            out[p] = None
+            plain.append(f"pass {p}: its camera looks at {aim.pitch_deg:g}°, not straight down as a Corridor Scan "
+                         "lays its photos")
             continue
         found = corridor_geometry(plan, p, frame, flown)
         out[p] = None if found is None else PassShape(None, found, alternate)

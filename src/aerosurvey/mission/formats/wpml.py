@@ -20,7 +20,9 @@ What is written:
   above the launch point. A program in the terrain frame has no DJI counterpart for waypoint
   routes (aboveGroundLevel is FlightHub 2's, realTimeFollowSurface the M3E's mapping
   templates'): `refusal` says so and no .kmz is written.
-- heading: waypointHeadingMode "followWayline", or "smoothTransition" at one angle for a fixed yaw;
+- heading: waypointHeadingMode "followWayline", or "smoothTransition" at one angle for a fixed yaw,
+  or, on the waypoints of a run whose camera is turned from the nose (a facade's lanes: a DJI
+  gimbal yaws only a few degrees from the nose), at the bearing the camera looks to;
   "towardPOI" (waypointPoiPoint: latitude, longitude, height) on the waypoints of a run whose
   camera looks at a point, each with a gimbalRotate to the pitch towards it from there.
 - every waypoint "toPointAndStopWithDiscontinuityCurvature": straight legs, the ones the
@@ -121,16 +123,16 @@ def _mission_config(doc: etree._Element, p: FlightProgram, a: DjiAircraft) -> No
     _w(payload, "payloadPositionIndex", PAYLOAD_POSITION)
 
 
-def _heading(parent: etree._Element, p: FlightProgram, tag: str, roi: Roi | None = None) -> None:
+def _heading(parent: etree._Element, p: FlightProgram, tag: str, roi: Roi | None = None, look: float | None = None) -> None:
     h = _w(parent, tag)
     if roi is not None:
         _w(h, "waypointHeadingMode", "towardPOI")
         _w(h, "waypointPoiPoint", f"{_num(roi.lat)},{_num(roi.lon)},{_num(roi.alt_m)}")
-    elif p.fixed_yaw_deg is None:
-        _w(h, "waypointHeadingMode", "followWayline")
-    else:
+    elif (angle := look if look is not None else p.fixed_yaw_deg) is not None:
         _w(h, "waypointHeadingMode", "smoothTransition")
-        _w(h, "waypointHeadingAngle", _wrap180(p.fixed_yaw_deg))
+        _w(h, "waypointHeadingAngle", _wrap180(angle))
+    else:
+        _w(h, "waypointHeadingMode", "followWayline")
     _w(h, "waypointHeadingPathMode", "followBadArc")
 
 
@@ -305,7 +307,14 @@ def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTempl
         _w(folder, "autoFlightSpeed", p.speed_ms)
     ends = _capture_ends(p)
     gid = 0
+    turned: float | None = None  # the bearing the camera looks at, where it is not along the nose
     for i, w in enumerate(p.waypoints):
+        for act in w.actions:
+            if isinstance(act, Gimbal):
+                turned = act.bearing_deg if act.yaw_deg != 0 else None
+        # a DJI gimbal turns only a few degrees from the nose: on a run whose camera looks
+        # elsewhere the aircraft faces where it looks
+        look = turned if w.run >= 0 else None
         pm = etree.SubElement(folder, f"{{{KML_NS}}}Placemark")
         pt = etree.SubElement(pm, f"{{{KML_NS}}}Point")
         etree.SubElement(pt, f"{{{KML_NS}}}coordinates").text = f"{_num(w.lon)},{_num(w.lat)}"
@@ -318,14 +327,14 @@ def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTempl
             _w(pm, "ellipsoidHeight", w.alt_m)
             _w(pm, "height", w.alt_m)
             _w(pm, "useGlobalSpeed", 1)
-            _w(pm, "useGlobalHeadingParam", int(roi is None))
-            if roi is not None:
-                _heading(pm, p, "waypointHeadingParam", roi)
+            _w(pm, "useGlobalHeadingParam", int(roi is None and look is None))
+            if roi is not None or look is not None:
+                _heading(pm, p, "waypointHeadingParam", roi, look)
             _w(pm, "useGlobalTurnParam", 1)
         else:
             _w(pm, "executeHeight", w.alt_m)
             _w(pm, "waypointSpeed", p.speed_ms)
-            _heading(pm, p, "waypointHeadingParam", roi)
+            _heading(pm, p, "waypointHeadingParam", roi, look)
             turn = _w(pm, "waypointTurnParam")
             _w(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
             _w(turn, "waypointTurnDampingDist", 0)

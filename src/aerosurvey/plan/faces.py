@@ -1,0 +1,327 @@
+"""Faces and facades: lanes along inclined faces (an open pit's, a quarry's or a dam's benches)
+or a vertical wall that cannot be circled, at a stand-off measured square to the face, the
+camera turned square to it. One module, two registry entries: `faces` (a toe line, face
+angle, face height, benches, berm depth: Mission Planner's FaceMap) and `facade` (a wall from a
+line and two heights: the faces' case of one bench at 90°).
+
+- The area file holds the toe line (the wall's foot): one straight line, two points. The faces
+  rise on its right, walking from its first point to its second (`pattern.side = "left"` turns
+  that round); the lanes are flown in front of them. The surface is `surfaces.Terrace`: the
+  structure-faces rule proves its coverage on the faces themselves, from every station's photo.
+- The camera looks square at the faces' normal seen from above (`Aim.bearing_deg`), pitched by
+  `pattern.pitch_deg`: by default square to the face, −(90° − face angle), but no higher than
+  the photos' ground footprints allow (plan.geojson, plan.gpkg and `check` need every image
+  corner `capture.MIN_DEPRESSION_DEG` below the horizon: `orbit.WallBand.highest_pitch_deg`), so
+  a facade's camera is pitched down, not level (docs/planning.md says what that costs).
+- What a photo covers of a face is exact in the face's section (`FaceBand`): an image row is a
+  level line on the face (the image's right is level and along the face), the rows at ±v (half
+  the vertical angle) from the axis meet the face s · tan(δ ∓ v) from the foot of the camera's
+  perpendicular, δ the axis' angle from the face's normal; the band's narrowest width along the
+  face is at its row nearest along the axis.
+- Lanes: the band less `targets.side_overlap` is the lane spacing; each face of slope length L
+  gets ceil(L / spacing) lanes, their bands' middles spread evenly over it (never further
+  apart than the spacing), flown bench by bench from `pattern.start`, each lane its own pass
+  (its height: `Pass.rise_m`, above the toe line's ground, which is the launch point's: no
+  DEM), back and forth. Stations a photo base apart along a lane reaching past both ends of the
+  toe line by half a photo less half a base, so the ends are seen as the middle is, or farther:
+  until the lane's lead-in and end keep the obstacle's distance (below).
+- Every lane keeps the stand-off from the whole solid: where a lower crest juts nearer (a berm
+  narrower than the stand-off's level reach) the lane moves out along its face's normal
+  (`lane_place`; the summary's heading line gives the farthest lane's distance).
+- The faces are an obstacle: the ways from and back to the launch point go round the faces'
+  plan (the toe line to the last crest) grown by the stand-off less
+  `orbit.CLEARANCE_ALLOWANCE_M` (`Layout.obstacle`), and a launch point inside it is refused;
+  the tests measure every leg's distance from the solid in 3-D.
+- Not offered: vertical lanes; a bent toe line (one straight line per plan).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+import shapely
+
+from aerosurvey.errors import InputError
+from aerosurvey.plan import photogrammetry as pg
+from aerosurvey.plan.bounds import GridBounds
+from aerosurvey.plan.layout import Field, Layout, SurfaceAsked
+from aerosurvey.plan.orbit import CLEARANCE_ALLOWANCE_M, MAX_RAY_DEPRESSION_DEG, WallBand
+from aerosurvey.plan.passes import Aim, Pass, Strip
+from aerosurvey.plan.polyline import autopilot_distance, extend, stations_along, strips_clear_of
+from aerosurvey.plan.progress import Progress
+from aerosurvey.plan.sensor import Footprint, SensorSolution
+from aerosurvey.plan.site import Site
+from aerosurvey.plan.surfaces import Terrace
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.model import Heights, Plan
+    from aerosurvey.spec import FlightSpec, MissionSpec
+
+
+@dataclass(frozen=True)
+class FacesOptions:
+    standoff_m: float
+    angle_deg: float  # the faces' angle from the horizontal
+    height_m: float  # each face's
+    benches: int
+    berm_m: float
+    base_m: float  # the lowest toe's height above the toe line's ground
+    side: str  # "right" or "left": where the faces rise, walking along the toe line
+    start: str  # "bottom" or "top"
+    pitch_deg: float | None  # None: square to the face, or the highest the footprints allow
+    min_images: int
+    max_gsd_m: float | None
+
+
+@dataclass(frozen=True)
+class FaceBand:
+    """What a photo covers of a face square in front of it at the stand-off: the slope positions
+    (metres up the face from the foot of the camera's perpendicular) its image's bottom and top
+    rows meet, and its narrowest width along the face."""
+
+    pitch_deg: float
+    bottom_m: float
+    top_m: float
+    width_m: float
+
+    @property
+    def height_m(self) -> float:
+        return self.top_m - self.bottom_m
+
+    @property
+    def middle_m(self) -> float:
+        return (self.top_m + self.bottom_m) / 2.0
+
+    @classmethod
+    def of(cls, spec: MissionSpec) -> FaceBand:
+        o = spec.pattern.options
+        assert isinstance(o, FacesOptions), o
+        tu, tv = WallBand.tangents(spec)
+        v = math.degrees(math.atan(tv))
+        highest = WallBand.highest_pitch_deg(spec)
+        pitch = min(o.angle_deg - 90.0, highest) if o.pitch_deg is None else o.pitch_deg
+        delta = pitch + 90.0 - o.angle_deg  # the axis above the face's inward normal
+        if pitch > highest or abs(delta) + v > MAX_RAY_DEPRESSION_DEG:
+            raise InputError(f"pattern.pitch_deg = {pitch:g} is not allowed for this camera and face angle "
+                             f"{o.angle_deg:g}°: allowed {o.angle_deg - 90.0 - MAX_RAY_DEPRESSION_DEG + v:.1f} .. "
+                             f"{min(highest, o.angle_deg - 90.0 + MAX_RAY_DEPRESSION_DEG - v):.1f} (the image's corners at "
+                             f"least 5° below the horizon, every ray at most {MAX_RAY_DEPRESSION_DEG:g}° off the face's normal)",
+                             key="pattern.pitch_deg")
+        s, d, h = o.standoff_m, math.radians(delta), math.radians(v)
+        # a row β off the axis meets the face at range s / cos(δ + β), cos β of that along the axis
+        depth = min(math.cos(h) / math.cos(d - h), math.cos(h) / math.cos(d + h)) * s
+        return cls(pitch, s * math.tan(d - h), s * math.tan(d + h), 2.0 * tu * depth)
+
+
+def lane_positions(slope_m: float, spacing_m: float) -> np.ndarray:
+    """The bands' middles up a face of slope length `slope_m`: ceil(slope / spacing) of them, spread
+    evenly (each band's share of the face at most the spacing)."""
+    n = max(1, math.ceil(slope_m / spacing_m - 1e-9))
+    out: np.ndarray = slope_m * (np.arange(n) + 0.5) / n
+    return out
+
+
+def lane_place(t: Terrace, bench: int, middle: float, band_middle: float, standoff: float) -> tuple[float, float, float]:
+    """Where a lane flies in the faces' section: (metres behind the toe line, height, its distance
+    from its face's plane). Its band's middle `middle` metres up bench `bench`'s face (`band_middle`:
+    the band's middle up the face from the camera's perpendicular, a metre of stand-off's worth), at
+    `standoff` from the face's plane, or farther out along the face's normal where a lower crest
+    juts nearer than that (a berm narrower than the stand-off's level reach): every lane keeps the
+    stand-off from the whole solid."""
+    a = math.radians(t.angle_deg)
+    toe_d, toe_z = t.toe(bench)
+    off = standoff
+    for _ in range(100):
+        foot = middle - band_middle * off  # the camera's perpendicular meets the face this far up it
+        d, z = toe_d + foot * math.cos(a) - off * math.sin(a), toe_z + foot * math.sin(a) + off * math.cos(a)
+        short = standoff - t.clearance(d, z)
+        if short <= 1e-3:
+            return d, z, off
+        off += short
+    raise InputError(f"pattern.standoff_m = {standoff:g}: no lane of bench {bench + 1} keeps it from the lower benches; "
+                     "allowed: a wider berm or a smaller stand-off", key="pattern.standoff_m")
+
+
+@dataclass(frozen=True)
+class Faces:
+    settings: FacesOptions
+    band: FaceBand
+
+    kind: ClassVar[str] = "faces"
+    title: ClassVar[str] = "faces (inclined benches above a toe line: open pit, quarry, dam)"
+    area_is_centreline: ClassVar[bool] = True
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("standoff_m", "Stand-off (m)", "number", 20.0, lo=CLEARANCE_ALLOWANCE_M + 1.0, hi=500.0,
+              hint="Distance from each face to its lanes, square to the face"),
+        Field("face_angle_deg", "Face angle (°)", "number", 70.0, lo=20.0, hi=90.0, hint="Each face's slope from the horizontal"),
+        Field("face_height_m", "Face height (m)", "number", 15.0, lo=0.0, hi=500.0, lo_open=True, hint="Each bench's face"),
+        Field("benches", "Benches", "number", 1, lo=1, hi=20),
+        Field("berm_m", "Berm depth (m)", "number", 0.0, lo=0.0, hi=500.0, hint="The level step behind each face"),
+        Field("side", "Faces rise on the", "choice", "right",
+              choices=(("right", "right of the toe line"), ("left", "left of the toe line")),
+              hint="Walking along the toe line from its first point"),
+        Field("start", "Start", "choice", "bottom", choices=(("bottom", "the lowest lane"), ("top", "the highest lane"))),
+        Field("pitch_deg", "Camera pitch (°)", "number", None, lo=-90.0, hi=0.0,
+              hint="Gimbal pitch (-90 straight down); default: square to the face, as high as the ground footprints allow"),
+        Field("min_images", "Photos per face point", "number", 2, lo=1, hi=100),
+        Field("max_gsd_cm", "GSD on the face at most (cm)", "number", None, lo=0.0, hi=1000.0, lo_open=True, scale=0.01),
+    )
+
+    @classmethod
+    def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
+        """The ground the site holds: in front of the toe line to the lanes, behind it to the last crest."""
+        o = spec.pattern.options
+        assert isinstance(o, FacesOptions), o
+        front = o.standoff_m
+        back = max(1.0, o.benches * o.height_m / math.tan(math.radians(o.angle_deg)) + (o.benches - 1) * o.berm_m)
+        return (front, back) if o.side == "right" else (back, front)
+
+    @classmethod
+    def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> FacesOptions:
+        benches = values["benches"]
+        if benches != int(benches):
+            raise InputError(f"pattern.benches = {benches!r} is not allowed; allowed: a whole number 1..20", key="pattern.benches")
+        pitch = values.get("pitch_deg")
+        return FacesOptions(float(values["standoff_m"]), float(values["face_angle_deg"]), float(values["face_height_m"]),
+                            int(benches), float(values["berm_m"]), 0.0, str(values["side"]), str(values["start"]),
+                            None if pitch is None else float(pitch), _min_images(values), values["max_gsd_cm"])
+
+    @classmethod
+    def from_spec(cls, spec: MissionSpec) -> Faces:
+        assert isinstance(spec.pattern.options, FacesOptions)
+        if spec.terrain.mode != "none":
+            raise InputError(f"terrain.mode = {spec.terrain.mode!r} is not allowed with pattern.kind = {cls.kind!r} (its lanes "
+                             "are heights above the launch point's ground); allowed: 'none'", key="terrain.mode")
+        return cls(spec.pattern.options, FaceBand.of(spec))
+
+    @classmethod
+    def footprint(cls, spec: MissionSpec, heights: Heights) -> Footprint:
+        """A photo on a face at the stand-off: its narrowest width along the face (the photo base is
+        laid from it), its band's height up the face (the lane spacing)."""
+        band = FaceBand.of(spec)
+        return Footprint(across_m=band.height_m, along_m=band.width_m)
+
+    @classmethod
+    def bounds(cls, spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> GridBounds:
+        """The lanes, and on each a photo a base apart along the toe line: the fewest any lanes of
+        these bands fly."""
+        o = spec.pattern.options
+        assert isinstance(o, FacesOptions) and site.centreline is not None
+        slope = o.height_m / math.sin(math.radians(o.angle_deg))
+        lanes = o.benches * len(lane_positions(slope, sensor.spacing_m))
+        per_lane = math.ceil(site.centreline.length / site.grid_scale / sensor.base_m - 1e-9)
+        return GridBounds(slope * o.benches, lanes, lanes * per_lane)
+
+    @classmethod
+    def parameters(cls, plan: Plan) -> dict[str, Any]:
+        o = plan.pattern.options
+        assert isinstance(o, FacesOptions)
+        return {"standoff_m": o.standoff_m, "face_angle_deg": o.angle_deg, "face_height_m": o.height_m,
+                "benches": o.benches, "berm_m": o.berm_m, "base_m": o.base_m, "side": o.side, "start": o.start,
+                "pitch_deg": plan.layout.passes[0].aim.pitch_deg, "lanes": len(plan.layout.passes),
+                "clearance_allowance_m": CLEARANCE_ALLOWANCE_M}
+
+    def terrace(self, site: Site) -> Terrace:
+        """The faces in the planning CRS, from the site's toe line."""
+        line = site.centreline
+        xy = np.asarray(line.coords, float) if isinstance(line, shapely.LineString) else np.zeros((0, 2))
+        if len(xy) != 2:
+            raise InputError(f"area.file holds {'a line of ' + str(len(xy)) + ' points' if len(xy) else 'no single line'}: "
+                             f"pattern.kind = {self.kind!r} takes the toe line as one straight line of 2 points",
+                             key="area.file")
+        a, b = (tuple(map(float, p)) for p in (xy if self.settings.side == "right" else xy[::-1]))
+        o = self.settings
+        return Terrace((a[0], a[1]), (b[0], b[1]), o.base_m, o.angle_deg, o.height_m, o.benches, o.berm_m)
+
+    def layouts(self, site: Site, sensor: SensorSolution, report: Progress) -> Iterator[Layout]:
+        k = site.grid_scale
+        o, band = self.settings, self.band
+        t = self.terrace(site)
+        along, into, length = t.axes(k)
+        a = math.radians(o.angle_deg)
+        slope = o.height_m / math.sin(a)
+        lanes = [(i, float(m)) for i in range(o.benches) for m in lane_positions(slope, sensor.spacing_m)]
+        if o.start == "top":
+            lanes = lanes[::-1]
+        # past the toe line's ends: half a photo less half a base (the ends seen as the middle is),
+        # and so far that the lead-ins and ends keep the stand-off less the allowance off the faces
+        lead = min(sensor.lead_in_m, sensor.base_m / 2.0)
+        reach = max(band.width_m / 2.0 - sensor.base_m / 2.0, o.standoff_m - CLEARANCE_ALLOWANCE_M + 1.0 - lead, 0.0) * k
+        autopilot_m = autopilot_distance(site.planar)
+
+        aim = Aim(band.pitch_deg, bearing_deg=float(np.degrees(np.arctan2(into[0], into[1])) % 360.0))
+        plan_h = sensor.heights.nominal_agl_m
+        passes = []
+        farthest = o.standoff_m
+        for n, (bench, middle) in enumerate(lanes):
+            d, z, off = lane_place(t, bench, middle, band.middle_m / o.standoff_m, o.standoff_m)
+            farthest = max(farthest, off)
+            start = np.asarray(t.a) + into * d * k
+            path = extend(np.array([start, start + along * length * k]), reach, reach)
+            if n % 2:
+                path = path[::-1]
+            span = float(np.hypot(*(path[-1] - path[0])))
+            at = stations_along(path, autopilot_m, sensor.base_m, span, sensor.trigger_distance_m,
+                                sensor.speed.speed_ms / pg.TRIGGER_CHECK_HZ)
+            strips: tuple[Strip, ...] = tuple(strips_clear_of(0, 0, 0, path, at, site.zones_buffered, 0.0))
+            if not strips:
+                raise InputError(f"lane {n + 1} of the faces lies inside the exclusion zones: nothing of it can be flown",
+                                 key="pattern.standoff_m")
+            passes.append(Pass(n + 1, strips=strips, aim=aim, rise_m=z - plan_h, one_way=True))
+        # the ways from and back to the launch point keep the stand-off less the allowance off the
+        # faces' plan (toe line to last crest): the lanes reach that far past its ends
+        depth = t.profile()[0][-1] * k
+        plan = shapely.Polygon([t.a, t.b, t.b + into * depth, t.a + into * depth]) if depth > 0 \
+            else shapely.LineString([t.a, t.b])
+        keep_out = shapely.buffer(plan, (o.standoff_m - CLEARANCE_ALLOWANCE_M) * k)
+        toe = shapely.LineString([t.a, t.b])
+        # what the photos cover is the faces: the structure-faces rule proves them (plan/surfaces.py)
+        yield Layout(float(np.degrees(np.arctan2(along[0], along[1])) % 360.0),
+                     f"lanes along the toe line at {o.standoff_m:g}" + (f"..{farthest:.1f}" if farthest > o.standoff_m else "")
+                     + " m from the faces", tuple(passes), toe.buffer(0.01 * k), 0.0,
+                     obstacle=keep_out, surface=SurfaceAsked(t, o.min_images, o.max_gsd_m))
+
+
+def _min_images(values: Mapping[str, Any]) -> int:
+    n = values["min_images"]
+    if n != int(n):
+        raise InputError(f"pattern.min_images = {n!r} is not allowed; allowed: a whole number 1..100", key="pattern.min_images")
+    return int(n)
+
+
+@dataclass(frozen=True)
+class Facade(Faces):
+    """A vertical wall from the toe line (its foot) between two heights: one face at 90°."""
+
+    kind: ClassVar[str] = "facade"
+    title: ClassVar[str] = "facade (a wall that cannot be circled, from a line and two heights)"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Faces.fields[0],
+        Field("base_m", "Wall base (m)", "number", 0.0, lo=0.0, hi=1000.0, hint="Above the ground at the line"),
+        Field("top_m", "Wall top (m)", "number", None, lo=0.0, hi=1000.0, lo_open=True, hint="Above the ground at the line"),
+        *Faces.fields[5:],
+    )
+
+    @classmethod
+    def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
+        o = spec.pattern.options
+        assert isinstance(o, FacesOptions), o
+        return (o.standoff_m, 1.0) if o.side == "right" else (1.0, o.standoff_m)
+
+    @classmethod
+    def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> FacesOptions:
+        base, top = float(values["base_m"]), values["top_m"]
+        if top is None or float(top) <= base:
+            raise InputError(f"pattern.top_m = {top!r} is not allowed; allowed: a height above pattern.base_m ({base:g} m)",
+                             key="pattern.top_m")
+        pitch = values.get("pitch_deg")
+        return FacesOptions(float(values["standoff_m"]), 90.0, float(top) - base, 1, 0.0, base, str(values["side"]),
+                            str(values["start"]), None if pitch is None else float(pitch), _min_images(values),
+                            values["max_gsd_cm"])
+
+
+__all__ = ["FaceBand", "Facade", "Faces", "FacesOptions", "lane_positions"]

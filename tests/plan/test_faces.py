@@ -1,0 +1,235 @@
+"""The facade and faces patterns, judged from the exported mission alone.
+
+The examples of a long wall and a quarry of three benches (missions/long-wall.toml,
+missions/quarry-3-benches.toml) are planned end to end through the command line. From
+`mission.waypoints` each photo's place, height and aim are rebuilt as tests/plan/test_orbit.py
+does (the distance trigger replayed by tests/independent_coverage.py; the mount's pitch and yaw
+relative to the nose from DO_MOUNT_CONTROL). The solid is built here from the spec's numbers as a
+section polygon (tests/independent_faces.py, shared by nothing in src/), its faces sampled on the
+caster's own grid, each sample counted for the photos that see it with a GSD on the face at most
+`max_gsd_cm`. Judged:
+
+- every face sample is seen by at least `min_images` such photos (grazing samples counted only
+  if seen, as in the orbit's test);
+- every leg of the flight (launch, every waypoint in order at its height, then the landing flown
+  level to the launch point and down) keeps at least `standoff_m − 2 m` from the solid, in 3-D;
+- the planner's own structure-faces rule passes, and fails when a face is out of every photo.
+
+Hypothesis property tests do the same for random walls, bench geometries and stand-offs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from lxml import etree
+from tests.conftest import make_spec, write_geojson
+from tests.plan.test_orbit import CAMERA, TO_XY, _face_gsd, _lonlat, _photos
+
+import independent_coverage as ic
+from aerosurvey.camera import get_camera
+from aerosurvey.cli import main
+from aerosurvey.plan.capture import Optics, Photos
+from aerosurvey.plan.surfaces import Terrace, check_faces, faces_rule
+from independent_faces import bench_caster, bench_samples, distance_to_benches, section
+
+ALLOWANCE_M = 2.0
+LAND, RTL = 21, 20
+
+
+def _plan(tmp: Path, toe: np.ndarray, pattern: dict, min_images: int = 2, max_gsd_cm: float | None = None,
+          code: int = 0, **over: dict) -> tuple[Path, dict]:
+    write_geojson(tmp / "line.geojson", _lonlat(toe), "LineString")
+    pattern = {**pattern, "min_images": min_images, **({"max_gsd_cm": max_gsd_cm} if max_gsd_cm else {})}
+    spec = make_spec(tmp, {"pattern": pattern, "camera": {"model": CAMERA, "trigger": "distance"}, **over})
+    text = spec.read_text().replace('file = "area.geojson"', 'file = "line.geojson"')
+    spec.write_text(text)
+    out = tmp / "out"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)])
+    assert res.exit_code == code, res.output
+    return out, json.loads((out / "manifest.json").read_text())
+
+
+def _geometry(pattern: dict) -> tuple[float, float, float, int, float]:
+    """(base, angle, height, benches, berm) of a facade or faces [pattern]."""
+    if pattern["kind"] == "facade":
+        base = pattern.get("base_m", 0.0)
+        return base, 90.0, pattern["top_m"] - base, 1, 0.0
+    return 0.0, pattern["face_angle_deg"], pattern["face_height_m"], pattern.get("benches", 1), pattern.get("berm_m", 0.0)
+
+
+def _judge(out: Path, toe: np.ndarray, pattern: dict, cell: float, min_images: int = 2, max_gsd_m: float = math.inf) -> dict:
+    cams, rows, home = _photos(out)
+    a, b = (toe[0], toe[1]) if pattern.get("side", "right") == "right" else (toe[1], toe[0])
+    base, angle, height, benches, berm = _geometry(pattern)
+    solid = section(base, angle, height, benches, berm)
+    cam = get_camera(CAMERA)
+    sensor = (cam.sensor_width_mm, cam.sensor_height_mm, cam.focal_mm)
+    pixel = cam.sensor_width_mm / cam.image_width_px
+    pts, nrm, area = bench_samples(a, b, base, angle, height, benches, berm, cell)
+    vis, graze = bench_caster(a, b, solid, sensor, cams, pts, nrm, samples=300)
+    gsd = np.full(vis.shape, np.inf)
+    for i, j in zip(*np.nonzero(vis)):
+        gsd[i, j] = _face_gsd(sensor, pixel, cams[i], pts[j], nrm[j])
+    fine = vis & (gsd <= max_gsd_m)
+    counts = fine.sum(axis=0)
+    # the legs in 3-D: launch → every waypoint at its height → level to the launch point → down
+    hx, hy = TO_XY.transform(home[0], home[1])
+    xyz = [np.array([hx, hy, 0.0])]
+    for r in rows:
+        if int(r[3]) == ic.NAV_WAYPOINT:
+            x, y = TO_XY.transform(r[9], r[8])
+            xyz.append(np.array([x, y, r[10]]))
+    assert int(rows[-1][3]) in (LAND, RTL), rows[-1]
+    xyz += [np.array([hx, hy, xyz[-1][2]]), xyz[0]]
+    along = [p + (q - p) * f[:, None] for p, q in zip(xyz[:-1], xyz[1:])
+             for f in [np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(q - p) / 0.25) + 2))]]
+    nearest = float(distance_to_benches(a, b, solid, np.vstack(along)).min())
+    seen_gsd = np.where(vis, gsd, np.inf).min(axis=0)
+    return {"short_m2": float(area[counts < min_images].sum()), "area_m2": float(area.sum()), "photos": len(cams),
+            "fewest": int(counts.min()), "worst_gsd_cm": float(seen_gsd.max() * 100), "nearest_leg_m": nearest,
+            "grazing_short": int(((fine & ~graze).sum(axis=0) < min_images).sum())}
+
+
+def _rule(manifest: dict) -> dict:
+    return next(r for r in manifest["rules"] if r["rule"] == "structure-faces")
+
+
+WALL = np.array([[-90.0, -20.0], [90.0, 10.0]])  # 182 m
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize(("name", "example"), [("a long wall", "long-wall"), ("a quarry of three benches", "quarry-3-benches")])
+def test_the_examples_faces_are_covered_by_the_exported_mission_and_kept_off(tmp_path: Path, name: str, example: str) -> None:
+    spec = tomllib.loads((REPO / "missions" / f"{example}.toml").read_text())
+    pattern = spec["pattern"]
+    coords = json.loads((REPO / "missions" / spec["area"]["file"]).read_text())["features"][0]["geometry"]["coordinates"]
+    toe = np.column_stack(TO_XY.transform(*np.array(coords).T))
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["plan", str(REPO / "missions" / f"{example}.toml"), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    m = json.loads((out / "manifest.json").read_text())
+    assert _rule(m)["status"] == "pass", _rule(m)
+    max_gsd_cm = pattern["max_gsd_cm"]
+    j = _judge(out, toe, pattern, 2.5, max_gsd_m=max_gsd_cm / 100)
+    print(name, j, m["pattern"]["parameters"])
+    assert j["short_m2"] == 0.0 and j["fewest"] >= pattern["min_images"], j
+    assert j["worst_gsd_cm"] <= max_gsd_cm, j
+    assert j["nearest_leg_m"] >= pattern["standoff_m"] - ALLOWANCE_M, j
+    # lanes: per face, ceil(slope length / spacing), one pass each
+    spacing = m["pattern"]["passes"][0]["line_spacing_m"]
+    _, angle, height, benches, _ = _geometry(pattern)
+    lanes = benches * math.ceil(height / math.sin(math.radians(angle)) / spacing - 1e-9)
+    assert m["pattern"]["parameters"]["lanes"] == lanes == len(m["pattern"]["passes"])
+
+
+def test_a_face_no_photo_sees_fails_the_rule() -> None:
+    """Photos turned away from the faces: the rule fails, naming the whole area short."""
+    t = Terrace((0.0, 0.0), (50.0, 0.0), 0.0, 70.0, 10.0, 2, 5.0)  # faces rise to the south
+    n = 20
+    photos = Photos.looking(np.linspace(-10, 60, n), np.full(n, 15.0), np.full(n, 8.0), np.zeros(n), np.full(n, -30.0))
+    optics = Optics.of(get_camera(CAMERA), "landscape")
+    c = check_faces(t, 0.0, photos, [f"S{i}" for i in range(n)], np.zeros(n, np.intp), optics, 1.0, 2, None)
+    rule = faces_rule(c, "plan")
+    assert rule["status"] == "fail" and "no photo sees" in str(rule["measured"]), rule
+    assert c.short_m2 == pytest.approx(2 * 50.0 * 10.0 / math.sin(math.radians(70.0))), rule
+
+
+def test_too_few_photos_a_point_fails_the_rule(tmp_path: Path) -> None:
+    out, m = _plan(tmp_path, WALL, {"kind": "facade", "standoff_m": 12.0, "top_m": 10.0}, min_images=40, code=1)
+    rule = _rule(m)
+    assert rule["status"] == "fail" and float(rule["measured"].split(" m² of ")[0]) > 0, rule
+
+
+@pytest.mark.parametrize(("pattern", "words"), [
+    ({"kind": "facade", "standoff_m": 12.0}, "pattern.top_m = None is not allowed"),
+    ({"kind": "facade", "standoff_m": 12.0, "top_m": 5.0, "base_m": 6.0}, "pattern.top_m = 5.0 is not allowed"),
+    ({"kind": "faces", "benches": 2.5}, "pattern.benches = 2.5 is not allowed"),
+    ({"kind": "faces", "face_angle_deg": 95.0}, "pattern.face_angle_deg"),
+    ({"kind": "faces", "pitch_deg": -5.0}, "pattern.pitch_deg = -5 is not allowed"),
+    ({"kind": "facade", "top_m": 20.0, "standoff_m": 1.0}, "pattern.standoff_m"),
+])
+def test_bad_settings_are_refused_in_one_line_naming_them(tmp_path: Path, pattern: dict, words: str) -> None:
+    with pytest.raises(AssertionError, match=words) as e:
+        _plan(tmp_path, WALL, pattern)
+    assert len(str(e.value).split("\n")[0]) > 0
+
+
+def test_a_bent_toe_line_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(AssertionError, match="one straight line of 2 points"):
+        _plan(tmp_path, np.array([[-50.0, 0.0], [0.0, 10.0], [50.0, 0.0]]), {"kind": "facade", "top_m": 20.0})
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(length=st.floats(20.0, 120.0), turn=st.floats(0.0, 180.0), top=st.floats(4.0, 40.0), standoff=st.floats(6.0, 25.0),
+       side=st.sampled_from(["left", "right"]))
+def test_random_walls(tmp_path_factory, length: float, turn: float, top: float, standoff: float, side: str) -> None:
+    tmp = tmp_path_factory.mktemp("wall")
+    t = math.radians(turn)
+    toe = np.array([[-math.sin(t), -math.cos(t)], [math.sin(t), math.cos(t)]]) * length / 2
+    pattern = {"kind": "facade", "standoff_m": standoff, "top_m": top, "side": side}
+    out, m = _plan(tmp, toe, pattern)
+    assert _rule(m)["status"] == "pass", _rule(m)
+    j = _judge(out, toe, pattern, math.sqrt(length * top / 150.0))
+    assert j["short_m2"] == 0.0, j
+    assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(length=st.floats(30.0, 100.0), turn=st.floats(0.0, 180.0), angle=st.floats(35.0, 90.0), height=st.floats(5.0, 20.0),
+       benches=st.integers(1, 3), berm=st.floats(0.0, 12.0), standoff=st.floats(8.0, 25.0))
+def test_random_benches(tmp_path_factory, length: float, turn: float, angle: float, height: float, benches: int,
+                        berm: float, standoff: float) -> None:
+    tmp = tmp_path_factory.mktemp("benches")
+    t = math.radians(turn)
+    toe = np.array([[-math.sin(t), -math.cos(t)], [math.sin(t), math.cos(t)]]) * length / 2
+    pattern = {"kind": "faces", "standoff_m": standoff, "face_angle_deg": angle, "face_height_m": height,
+               "benches": benches, "berm_m": berm}
+    out, m = _plan(tmp, toe, pattern)
+    assert _rule(m)["status"] == "pass", _rule(m)
+    j = _judge(out, toe, pattern, math.sqrt(length * height * benches / math.sin(math.radians(angle)) / 150.0))
+    assert j["short_m2"] == 0.0, j
+    assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+
+
+def test_the_exports_turn_the_camera_to_the_faces(tmp_path: Path) -> None:
+    """mission.plan: plain items (no Corridor Scan: its photos are nadir), a DO_MOUNT_CONTROL per
+    lane; mission.kmz: on every lane waypoint the aircraft faces the wall (a DJI gimbal yaws a few
+    degrees only), the gimbal pitched as the plan's; the bearing square to the toe line, on the
+    side the wall rises, both found here from the toe line's coordinates."""
+    toe = WALL
+    out, m = _plan(tmp_path, toe, {"kind": "facade", "standoff_m": 12.0, "top_m": 20.0, "side": "left"})
+    pitch = m["pattern"]["parameters"]["pitch_deg"]
+    items = json.loads((out / "mission.plan").read_text())["mission"]["items"]
+    assert all(i["type"] == "SimpleItem" for i in items)
+    mounts = [i["params"] for i in items if i["command"] == 205]
+    assert len(mounts) == m["pattern"]["parameters"]["lanes"] and all(p[0] == pitch for p in mounts)
+    assert sorted({abs(p[2]) for p in mounts}) == [90.0]
+    # the wall rises left of the line: the camera looks 90° left of its true bearing (pyproj.Geod)
+    lon, lat = _lonlat_arrays(toe)
+    geod = pyproj.Geod(ellps="WGS84")
+    along = geod.inv(lon[0], lat[0], lon[1], lat[1])[0]
+    want = (along - 90.0) % 360.0
+    with zipfile.ZipFile(out / "mission.kmz") as z:
+        doc = etree.fromstring(z.read("wpmz/waylines.wpml"))
+    ns = {"k": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/1.0.2"}
+    angles = [float(e.text) for e in doc.iterfind(".//wpml:waypointHeadingAngle", ns)]
+    assert len(angles) == 3 * m["pattern"]["parameters"]["lanes"]  # lead-in, first station, line end
+    assert all(abs((a - want + 180.0) % 360.0 - 180.0) < 0.1 for a in angles), (angles[:3], want)
+    pitches = {float(e.text) for e in doc.iterfind(".//wpml:gimbalPitchRotateAngle", ns)}
+    assert pitches == {-90.0, pitch}  # straight down at take-off, then the lanes'
+
+
+def _lonlat_arrays(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    lonlat = np.array(_lonlat(xy))
+    return lonlat[:, 0], lonlat[:, 1]
