@@ -150,6 +150,7 @@ def _first_mount_and_trigger(path: Path) -> tuple[int | None, int, list[float] |
 
 
 @pytest.mark.parametrize("spec_of, pass_of_cut", [
+    (lambda tmp: make_spec(tmp, {"flight": {"heading": 0.0}}), 1),  # nadir: straight down, the mount may look elsewhere
     (lambda tmp: REPO / "missions" / "oblique-block.toml", 2),  # double grid at -45°, cut in its second pass
     # five directions, cut in the nadir pass: the mount may still look where another flight left it
     (lambda tmp: make_spec(tmp, {"pattern": {"kind": "oblique", "scheme": "five-direction", "pitch_deg": -45.0},
@@ -159,7 +160,7 @@ def _first_mount_and_trigger(path: Path) -> tuple[int | None, int, list[float] |
                                  "flight": {"heading": 0.0}, "targets": {"gsd_cm": 1.5}},
                            area=[[15.000, 49.400], [15.002, 49.400], [15.002, 49.4012], [15.000, 49.4012], [15.000, 49.400]]), 4),
 ])
-def test_a_resumed_oblique_flight_sets_the_gimbal_before_its_first_photo(tmp_path: Path, spec_of, pass_of_cut: int) -> None:
+def test_a_resumed_flight_sets_the_gimbal_before_its_first_photo(tmp_path: Path, spec_of, pass_of_cut: int) -> None:
     """The resumed mission's first mount command comes before its camera starts and points the
     camera as the plan does at the station it resumes from: the pitch below the horizon and the
     yaw relative to the nose (the station's camera bearing less its flight heading)."""

@@ -54,3 +54,8 @@ def test_gaps_found_and_reflown(tmp_path):
     assert len(gx) > 10
     counts = ic.footprint_counts(photos, gx, gy, (23.5, 15.6, 6000, 4000, 16.0), "landscape")
     assert counts.min() >= need
+    # the re-fly points the gimbal straight down, yaw along the nose, before its first photo: the mount may be
+    # where another flight left it
+    mount = next(i for i, r in enumerate(rows) if int(r[3]) == 205)
+    assert mount < next(i for i, r in enumerate(rows) if int(r[3]) == 206 and r[4] > 0)
+    assert (rows[mount][4], rows[mount][6]) == (-90.0, 0.0)

@@ -73,6 +73,16 @@ class _FakeVehicle:
         _FakeVehicle.started.append("stop")
 
 
+def _stand_in(monkeypatch, fake_fly) -> list[bool]:
+    """The harness replaced: SITL by `_FakeVehicle`, a flight by `fake_fly`; whether each sortie was
+    prepared with a mount, in order."""
+    monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
+    mounts: list[bool] = []
+    monkeypatch.setattr(harness, "prepare", lambda sv, mount, wind: mounts.append(mount))
+    monkeypatch.setattr(harness, "fly", fake_fly)
+    return mounts
+
+
 def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path, monkeypatch):
     doc = mf.read_manifest(split_plan)
     routes = {r.name: r for r in sitl_run.sortie_routes(doc, split_plan)}
@@ -87,10 +97,7 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
         f.armed_ms, f.disarmed_ms, f.completed = 1, 1 + round(est * 1000), True
         return f
 
-    monkeypatch.setattr(harness, "SitlVehicle", _FakeVehicle)
-    mounts = []
-    monkeypatch.setattr(harness, "prepare", lambda sv, mount, wind: mounts.append(mount))
-    monkeypatch.setattr(harness, "fly", fake_fly)
+    mounts = _stand_in(monkeypatch, fake_fly)
     temp = tmp_path / "temp"
     temp.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(temp))
@@ -101,8 +108,10 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     assert all(r["completed"] and r["triggers_match"] and r["max_trigger_offset_m"] == 0.0 for r in rows)
     assert all(r["time_ratio"] == 1.0 for r in rows)
     assert _FakeVehicle.started == ["start", "stop"] * len(routes)
-    assert mounts == [False] * len(routes)  # a nadir plan flies without a mount
-    assert all("mount_pitch_deg" not in r for r in rows)
+    # every flight points the gimbal (a nadir plan's straight down at its first run): SITL flies it with a mount,
+    # whose pitch the log gives at each photo; the fake flight writes no log, so no aim is known and none passes
+    assert mounts == [True] * len(routes)
+    assert all(r["mount_pitch_deg"] == [] and r["max_aim_error_deg"] is None and r["aim_ok"] is False for r in rows)
     report = json.loads((tmp_path / "report" / "sitl_report.json").read_text())
     assert [r["photos_planned"] for r in report["sorties"]] == [len(r.stations) for r in routes.values()]
     assert sorted(p.name for p in (tmp_path / "report").glob("*.BIN")) == sorted(f"{n}.BIN" for n in routes)
@@ -212,3 +221,24 @@ def test_the_flown_aim_is_judged_against_the_plan():
     assert sitl_run.aim_error_deg([-90.0, -42.9], (-90.0, -45.0)) == 2.1
     assert sitl_run.aim_error_deg([None, -45.0], (-45.0, -45.0)) is None
     assert sitl_run.aim_error_deg([], (-45.0,)) is None
+
+
+def test_a_camera_intervalometer_plan_is_judged_on_neither_photos_nor_aim(tmp_path, monkeypatch):
+    """camera.trigger = "camera": SITL takes no picture, so there is no photo whose aim the log gives;
+    the row says neither was judged, and the flight is not failed for it (it is for its gimbal otherwise)."""
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}, "camera": {"trigger": "camera", "interval_s": 2.0}})
+    plan = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
+    doc = mf.read_manifest(plan)
+
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+        f = harness.Flight(name)
+        f.track.append((0, 0.0, 0.0, 100.0))
+        f.armed_ms, f.disarmed_ms, f.completed = 1, 1 + round(est * 1000), True
+        return f
+
+    mounts = _stand_in(monkeypatch, fake_fly)
+    rows = sitl_run.fly_sorties(doc, plan, sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0),
+                                tmp_path / "report", lambda row: None)
+    assert mounts and all(mounts)  # the gimbal is pointed (straight down) all the same
+    assert rows and all(r["triggers_match"] is None and "aim_ok" not in r and "mount_pitch_deg" not in r for r in rows)

@@ -97,8 +97,12 @@ def ardupilot_pack(command: int, frame: int, p: tuple[float, float, float, float
         params = (_f32(p[0]), 0.0, float(u8(p[2])), 0.0)
     elif command == 115:
         params = (_f32(p[0]), _f32(p[1]), float(i8(p[2])), float(u8(p[3])))
+    elif command == 205:  # mount_control: pitch, roll, yaw as floats; the mount mode (param7) comes back too (ArduCopter 4.7 SITL)
+        params = (_f32(p[0]), _f32(p[1]), _f32(p[2]), 0.0)
     else:
         raise Unsupported(mp.UNSUPPORTED)
+    if command == 205:
+        return Stored(command, 0, params, 0, 0, float(int(z)))
     if not location:
         return Stored(command, 0, params, 0, 0, 0.0)
     if frame in (0, 2, 5):

@@ -118,13 +118,26 @@ def _tilted(plan: Plan, runs: dict[int, float], yaw_offset: dict[int, float] | N
     return replace(plan, altitudes=replace(plan.altitudes, stations=replace(st, pitch_deg=pitch, camera_yaw_deg=bearing)))
 
 
-def test_a_nadir_plan_has_no_gimbal_items(tmp_path: Path) -> None:
-    plan = _plan(tmp_path)
-    assert (plan.stations.pitch_deg == -90).all()
-    for firmware in ("ardupilot", "px4"):
+def test_a_nadir_plan_sets_the_gimbal_down_at_every_flights_first_run(tmp_path: Path) -> None:
+    """A flight may take off with the mount where another left it (an oblique sortie's -45° and yaw
+    offset): every flight of a nadir plan, the whole mission and each sortie, points it straight
+    down, yaw along the nose, once, right after its first lead-in waypoint."""
+    plan = _plan(tmp_path, {"battery": {"usable_min": 6.0, "reserve": 0.2}})
+    assert (plan.stations.pitch_deg == -90).all() and len(plan.sorties) >= 2
+    for firmware, cmd in (("ardupilot", M.MAV_CMD_DO_MOUNT_CONTROL), ("px4", M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW)):
         p = replace(plan, vehicle=replace(plan.vehicle, firmware=firmware))
-        cmds = {it.command for it in build_mission(p).items}
-        assert not cmds & {M.MAV_CMD_DO_MOUNT_CONTROL, M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW}
+        for k in (None, *range(len(p.sorties))):
+            items = _read_back(tmp_path, dumps_wpl(build_mission(p, k)))
+            mounts = [i for i, it in enumerate(items) if it.command in (M.MAV_CMD_DO_MOUNT_CONTROL,
+                                                                         M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW)]
+            assert len(mounts) == 1, (firmware, k)
+            g = items[mounts[0]]
+            assert g.command == cmd and g.param1 == -90.0
+            # yaw relative to the nose: ArduPilot's param3, PX4's param2
+            assert (g.param3 if firmware == "ardupilot" else g.param2) == 0.0
+            first_wp = next(i for i, it in enumerate(items) if it.command == M.MAV_CMD_NAV_WAYPOINT)
+            first_cam = next(i for i, it in enumerate(items) if it.command == M.MAV_CMD_DO_SET_CAM_TRIGG_DIST)
+            assert first_wp < mounts[0] < first_cam
 
 
 def test_gimbal_items_where_the_pitch_changes_with_the_documented_params(tmp_path: Path) -> None:

@@ -315,9 +315,9 @@ def test_hover_gimbal_and_the_budget(tmp_path: Path) -> None:
             assert funcs[-2:] == ["hover", "takePhoto"]
             assert float(pm.findtext(".//wpml:hoverTime", namespaces=NS)) == 1.5
         pitches = [float(e.text) for e in root.iterfind(".//wpml:gimbalPitchRotateAngle", NS)]
-        # straight down at the start (the waylines' first action), set again at run 0 (a plan that tilts the
-        # camera sets it at its first run), tilted for run 1, down again after
-        assert pitches == [-90.0, -90.0, -60.0, -90.0]
+        # straight down at the first run (the first waypoint: every flight sets the camera's aim at its start),
+        # tilted for run 1, down again after
+        assert pitches == [-90.0, -60.0, -90.0]
     # the budget: numbers in the refusal
     many = replace(program, waypoints=program.waypoints * (65536 // len(program.waypoints) + 1))
     assert f"{len(many.waypoints)} waypoints, more than the 65535" in (wpml.refusal(many) or "")
@@ -535,3 +535,21 @@ def test_template_choice_on_a_terrain_following_plan(tmp_path: Path) -> None:
     assert "terrain.mode = 'follow'" in str(template_choice(follow, program, whole=True))
     assert "part of the pass" in str(template_choice(plan, program, whole=False))
     assert "asked for" in str(template_choice(plan, program, whole=True, asked="waypoint"))
+
+
+def test_a_nadir_flight_points_the_gimbal_down_at_its_first_waypoint(tmp_path: Path) -> None:
+    """Every DJI flight of a nadir plan (the mission and each sortie) turns the gimbal straight down at
+    its first waypoint, once: the aircraft may take off with it where another flight left it."""
+    plan = plan_from_files(load_spec(_spec(tmp_path, {"battery": {"usable_min": 6.0, "reserve": 0.2}})))
+    assert (plan.stations.pitch_deg == -90).all() and len(plan.sorties) >= 2
+    for k in (None, *range(len(plan.sorties))):
+        path = tmp_path / f"{k}.kmz"
+        path.write_bytes(wpml.kmz_bytes(flight_program(plan, k), M3E))
+        root = _kmz(path)["wpmz/waylines.wpml"]
+        marks = root.findall(".//k:Placemark", NS)
+        rotates = [(i, a) for i, pm in enumerate(marks) for a in pm.iterfind(".//wpml:action", NS)
+                   if a.findtext("wpml:actionActuatorFunc", namespaces=NS) == "gimbalRotate"]
+        assert len(rotates) == 1 and rotates[0][0] == 0, k
+        prm = rotates[0][1].find("wpml:actionActuatorFuncParam", NS)
+        assert float(prm.findtext("wpml:gimbalPitchRotateAngle", namespaces=NS)) == -90.0
+        assert prm.findtext("wpml:gimbalYawRotateEnable", namespaces=NS) == "0"

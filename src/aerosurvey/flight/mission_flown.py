@@ -27,12 +27,13 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from aerosurvey import ids
+from aerosurvey.flight.mission_log import ULOG_SOURCE
 from aerosurvey.link import mission_protocol as mp
 from aerosurvey.link.upload import (
     PLAIN_XY_COMMANDS,
@@ -86,6 +87,16 @@ def storage_rules(autopilot: str, plane: bool) -> Callable[[mp.WireItem], mp.Wir
     if autopilot == "px4":
         return px4_stored
     return lambda it: it
+
+
+def _ulog_recorded(stored: Callable[[mp.WireItem], mp.WireItem]) -> Callable[[mp.WireItem], mp.WireItem]:
+    """What navigator_mission_item records of a stored item: of one without a position
+    (MAV_FRAME_MISSION) no parameters 5 and 6 (a gimbal command's flags): x = y = 0, as the
+    reader gives them."""
+    def rule(it: mp.WireItem) -> mp.WireItem:
+        s = stored(it)
+        return replace(s, x=0, y=0) if s.frame == mav.FRAME_MISSION else s
+    return rule
 
 
 def _place(it: mp.WireItem) -> tuple[float, float] | None:
@@ -550,6 +561,8 @@ def recognise(candidates: Sequence[PlannedMission], flown: Sequence[mp.WireItem]
     recorded after the first photo, each compared with the one before it. Without candidates,
     NOT_COMPARED. `stations`: the plan's (rows of lat, lon), where its photo runs start."""
     stored = storage_rules(autopilot, plane)
+    if source == ULOG_SOURCE:
+        stored = _ulog_recorded(stored)
     skip_home = autopilot == "ardupilot"
     if not candidates:
         return not_compared(NOT_COMPARED, source, note, len(flown), total)

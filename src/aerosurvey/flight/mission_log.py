@@ -37,6 +37,8 @@ from aerosurvey.mission import mavlink_ids as mav
 
 #: the frame of an item whose log does not record it
 NO_FRAME = -1
+#: the ULog topic of the items PX4's navigator made current (`from_ulog`'s source)
+ULOG_SOURCE = "navigator_mission_item"
 
 
 @dataclass(frozen=True)
@@ -251,7 +253,7 @@ def from_ulog(path: Path) -> MissionRecord:
     note = ("navigator_mission_item: the items PX4's navigator made current, not the mission uploaded (items never "
             "reached are not recorded); positions as float32 degrees, the parameters 1-4 of items with a position not "
             "recorded")
-    return MissionRecord("navigator_mission_item", "px4", True, flown, later, superseded, note)
+    return MissionRecord(ULOG_SOURCE, "px4", True, flown, later, superseded, note)
 
 
 def read_mission(path: Path) -> MissionRecord:

@@ -114,13 +114,14 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
         row = harness.compare(flight, list(route.stations), list(route.runs), route.estimated_s)
         if settings.rtl_after_photos is not None:
             row["rtl_after_photos"] = settings.rtl_after_photos if flight.cut_ms is not None else None
-        if mount:
+        if doc.camera.trigger == "camera":
+            # the camera's own intervalometer is not simulated: no picture, so neither the photos nor their aim are judged
+            row["triggers_match"] = None
+        elif mount:
             # the camera's pitch flown at each picture against its station's: the flight fails beyond the tolerance
             row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else []
             row["max_aim_error_deg"] = aim_error_deg(row["mount_pitch_deg"], route.pitches)
             row["aim_ok"] = row["max_aim_error_deg"] is not None and row["max_aim_error_deg"] <= AIM_TOLERANCE_DEG
-        if doc.camera.trigger == "camera":
-            row["triggers_match"] = None  # the camera's own intervalometer is not simulated
         results.append(row)
         on_sortie(row)
     report_dir.mkdir(parents=True, exist_ok=True)

@@ -19,10 +19,9 @@ Actions, done in their order when the vehicle reaches their waypoint:
 
 - `Gimbal`: the camera's pitch (gimbal convention, −90 looks straight down) and its yaw
   relative to the vehicle's nose (and the true bearing it looks to), at the first waypoint
-  of a run whose pitch (or, tilted, whose yaw) differs from the run before. A nadir-only plan takes the mount to point straight
-  down at take-off and has no gimbal action at all; a plan that tilts the camera anywhere sets
-  it at the first run of every flight, nadir or not, since a flight (a sortie, a resumed
-  flight) may take off with the mount where another flight left it.
+  of a run whose pitch (or, tilted, whose yaw) differs from the run before, and at the first
+  run of every flight, nadir or not: a flight (a sortie, a resumed flight, a re-fly) may take
+  off with the mount where another flight left it (an oblique sortie's −45° and yaw offset).
 - `Roi` / `RoiEnd`: a run whose camera looks at a point (`Aim.point`) has it at every waypoint
   from its first to its line end, instead of a `Gimbal` action (MAVLink: DO_SET_ROI_LOCATION
   once, DO_SET_ROI_NONE at the line end; DJI: the towardPOI heading and the pitch towards the
@@ -280,8 +279,8 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
         wps, at = _with_stations(plan, wps, first, last, every)
     start, stop = _camera_actions(plan)
     yaw_fixed = plan.launch.fixed_yaw_deg
-    # the mount's state at take-off: straight down in a nadir-only plan, else not known
-    gimbal: Gimbal | None = Gimbal(NADIR_PITCH_DEG, 0.0, 0.0) if bool(np.all(st.pitch_deg == NADIR_PITCH_DEG)) else None
+    # the mount's state at take-off is not known: the first run of every flight sets it
+    gimbal: Gimbal | None = None
     first_of_run = {}
     for i, w in enumerate(wps):
         if w.run >= 0 and w.kind in ("lead_in", "line_start", "station") and w.run not in first_of_run:
@@ -312,7 +311,7 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
             pitch, bearing = float(st.pitch_deg[k]), look_of_run[w.run]
             nose = heading if yaw_fixed is None else float(yaw_fixed)
             want = Gimbal(pitch, round(_wrap180(bearing - nose), 6), bearing)
-            # a yaw alone matters only to a tilted camera: a nadir-only plan has no gimbal action
+            # a yaw alone matters only to a tilted camera
             if gimbal is None or want.pitch_deg != gimbal.pitch_deg or (pitch != NADIR_PITCH_DEG
                                                                          and want.yaw_deg != gimbal.yaw_deg):
                 actions.append(want)

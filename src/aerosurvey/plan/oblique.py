@@ -8,8 +8,13 @@
                     relative to the nose, set at each run)
 
 Spacing and base come from the rectangle every photo of the scheme holds (`oblique_footprint`:
-the tilted trapezoid's near-edge width and depth), so the asked overlaps hold in the tilted
-photos. A tilted photo sees the ground ahead of the camera: the middle of its depth lies
+the tilted trapezoid's near-edge width and its depth, made shallower where photos are shifted
+along it so that the overlap holds by area too), so the asked overlaps hold in the tilted
+photos, among the photos of each look direction (what reconstruction matches): a double grid's
+lines alternate their look with the direction of flight, so its lines are laid at half the
+spacing (`Footprint.lines_per_look`) and neighbouring lines looking the same way (every second
+line) overlap as asked; the five-direction passes look one way on every line. A tilted photo
+sees the ground ahead of the camera: the middle of its depth lies
 `oblique_centre_m` ahead, so the lines are laid over the area grown by that much (a footprint
 moved by at most that covers what the untilted rectangle would). The far-edge GSD is the plan's
 coarsest (`SensorSolution.gsd_max_m`). Next to the zones the coverage step checks the tilted
@@ -101,7 +106,9 @@ class Oblique:
                              f"{far * 100:.2f} cm from {heights.max_agl_m:.1f} m above ground at pitch {o.pitch_deg:g}°; "
                              f"fly at most {heights.max_agl_m * o.max_far_gsd_m / far:.1f} m high, or pitch the camera further down",
                              key="pattern.max_far_gsd_cm")
-        return Footprint(across, along, far)
+        # a double grid's lines are flown back and forth with the camera along the flight: the photos
+        # looking one way are those of every second line
+        return Footprint(across, along, far, lines_per_look=2 if o.scheme == "double-grid" else 1)
 
     @classmethod
     def bounds(cls, spec: MissionSpec, site: Site, sensor: SensorSolution, layout: Layout) -> GridBounds:
@@ -154,7 +161,8 @@ def oblique_footprint(spec: MissionSpec, options: ObliqueOptions, low_agl_m: flo
     the nadir photos of the five-direction scheme), at the lowest height; and the coarsest GSD,
     at the far edge of an oblique photo from the highest. From the capture model: the tilted
     photo's trapezoid is `depth` deep from its near to its far edge and `near` wide at its near
-    edge, which bound the rectangle inside it."""
+    edge, which bound the rectangle inside it; where photos are shifted along their depth the
+    rectangle is made shallower (`area_depth`), so that the asked overlap holds by area too."""
     from aerosurvey.plan.capture import Optics, Photos, edge_gsd
 
     cam, mount = spec.camera.camera, spec.camera.mount
@@ -171,15 +179,35 @@ def oblique_footprint(spec: MissionSpec, options: ObliqueOptions, low_agl_m: flo
                          key="pattern.pitch_deg") from None
     depth = float(min(c[0, 1], c[1, 1]) - max(c[2, 1], c[3, 1]))
     near = float(c[3, 0] - c[2, 0])
-    sides = [depth, near]
-    if options.scheme == "five-direction":
-        sides += [float(v) for v in pg.footprint(low_agl_m, spec.camera.camera, spec.camera.mount)]
+    far = float(c[0, 0] - c[1, 0])
+    # along its depth two photos overlap by area less than their rectangles do (the far part, the
+    # wider, is what a shift leaves out): the depth a rectangle would need for the asked overlap to
+    # hold by area too
+    side_depth = area_depth(near, far, depth, spec.targets.side_overlap)
+    forward_depth = area_depth(near, far, depth, spec.targets.forward_overlap)
+    if options.scheme == "double-grid":  # a photo looks along its line: its depth along, its near edge across
+        across, along = near, forward_depth
+    else:
+        nadir = [float(v) for v in pg.footprint(low_agl_m, spec.camera.camera, spec.camera.mount)]
+        across, along = min(near, side_depth, *nadir), min(near, forward_depth, *nadir)
     zero = np.zeros(1)
     high = Photos.looking(zero, zero, np.array([high_agl_m]), zero, np.array([options.pitch_deg]))
     far_gsd = float(edge_gsd(high, Optics.of(cam, mount), 0.0).far_m[0])
-    if options.scheme == "double-grid":  # a photo looks along its line: its depth along, its near edge across
-        return near, depth, far_gsd
-    return min(sides), min(sides), far_gsd
+    return across, along, far_gsd
+
+
+def area_depth(near_m: float, far_m: float, depth_m: float, overlap: float) -> float:
+    """The depth of the rectangle whose rule (shift = (1 − overlap) · depth) keeps `overlap` by
+    area between two trapezoids `near_m` wide at the near edge, `far_m` at the far one, `depth_m`
+    deep, shifted along their depth: the shifted one leaves out the far strip, so the part kept
+    is the near part `y` deep with ∫₀ʸ w = overlap · area (w growing linearly from near to far)."""
+    slope = (far_m - near_m) / depth_m
+    area = depth_m * (near_m + far_m) / 2.0
+    if slope <= 1e-12:
+        y = overlap * depth_m
+    else:  # slope/2 · y² + near · y − overlap · area = 0
+        y = (-near_m + math.sqrt(near_m * near_m + 2.0 * slope * overlap * area)) / slope
+    return (depth_m - y) / (1.0 - overlap)
 
 
 def _sees_ground(corners: Callable[[float], np.ndarray], pitch: float) -> bool:

@@ -22,6 +22,11 @@ class Footprint:
     across_m: float
     along_m: float
     far_gsd_m: float | None = None  # None: the camera looks straight down (the GSD is the height's)
+    # how many lines apart the nearest two lines whose photos look the same way lie: the side
+    # overlap must hold between them (what reconstruction matches), so the line spacing is laid
+    # that many times closer than one line's photos would need (an oblique double grid's lines
+    # alternate their look with the direction of flight: 2)
+    lines_per_look: int = 1
 
 
 def nadir_footprint(spec: MissionSpec, heights: Heights) -> Footprint:
@@ -136,7 +141,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
     if camera_turns_deg:
         turned = [pg.turned_footprint(across, along, t) for t in camera_turns_deg]
         across, along = min(a for a, _ in turned), min(b for _, b in turned)
-    spacing = pg.line_spacing(across, spec.targets.side_overlap)
+    spacing = pg.line_spacing(across, spec.targets.side_overlap) / footprint.lines_per_look
     # whole centimetres, rounded down: the mission carries the trigger distance to 1 cm, and
     # the stations must lie exactly where the autopilot's distance trigger will fire
     base = math.floor(pg.trigger_distance(along, spec.targets.forward_overlap) / autopilot_stretch * 100.0) / 100.0

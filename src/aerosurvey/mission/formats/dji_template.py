@@ -28,6 +28,7 @@ from aerosurvey.mission.formats import DJI_TEMPLATES
 from aerosurvey.mission.formats.qgc_survey import corridor_geometry
 from aerosurvey.mission.program import FlightProgram, Gimbal, Roi
 from aerosurvey.plan.model import Plan
+from aerosurvey.plan.passes import NADIR_PITCH_DEG
 
 _GEOD = Geod(ellps="WGS84")
 
@@ -86,7 +87,7 @@ def _why_not(plan: Plan, p: FlightProgram, whole: bool) -> str | None:
                 "(wpml:shootType)")
     if p.fixed_yaw_deg is not None:
         return "flight.fixed_yaw_deg: a mapping template's fixed heading (wpml:mappingHeadingParam) is the M3E's only"
-    if any(isinstance(a, (Gimbal, Roi)) for w in p.waypoints for a in w.actions):
+    if any(isinstance(a, Roi) or isinstance(a, Gimbal) and a.pitch_deg != NADIR_PITCH_DEG for w in p.waypoints for a in w.actions):
         return "the camera is tilted: a mapping template photographs straight down"
     if _first_line(p) is None:
         return "no photo run"

@@ -27,9 +27,9 @@ What is written:
   camera looks at a point, each with a gimbalRotate to the pitch towards it from there.
 - every waypoint "toPointAndStopWithDiscontinuityCurvature": straight legs, the ones the
   final gate checked, and a stop at each waypoint.
-- actions (wpml:actionGroup, ids from 0 across the file): at the first waypoint a gimbalRotate
-  to −90° (straight down, the program's starting pitch); the program's gimbal changes as
-  gimbalRotate (pitch, and the yaw as a compass bearing when it is not along the nose); a
+- actions (wpml:actionGroup, ids from 0 across the file): the program's gimbal settings (at
+  the first run of the flight, −90° straight down for a nadir plan, and wherever the aim
+  changes) as gimbalRotate (pitch, and the yaw as a compass bearing when it is not along the nose); a
   distance or time trigger as takePhoto in a group from the run's first station to its line
   end with actionTrigger multipleDistance or multipleTiming; hover-and-shoot as a reachPoint
   group of hover (hoverTime, when above 0) and takePhoto. takePhoto's fileSuffix is the
@@ -67,8 +67,8 @@ PAYLOAD_POSITION = 0
 
 
 def _groups(p: FlightProgram) -> int:
-    """Action groups the waylines hold: the first waypoint's gimbal, and one per gimbal, hover shot and camera start."""
-    return 1 + sum(isinstance(a, (Gimbal, HoverShoot, CameraStart)) for w in p.waypoints for a in w.actions)
+    """Action groups the waylines hold: one per gimbal, hover shot and camera start."""
+    return sum(isinstance(a, (Gimbal, HoverShoot, CameraStart)) for w in p.waypoints for a in w.actions)
 
 
 def refusal(p: FlightProgram) -> str | None:
@@ -182,9 +182,6 @@ def _take_photo(g: etree._Element, suffix: str) -> None:
 def _actions(pm: etree._Element, p: FlightProgram, i: int, ends: dict[int, int], gid: int) -> int:
     """The action groups of waypoint `i` into placemark `pm`; returns the next group id."""
     w = p.waypoints[i]
-    if i == 0:  # the program starts with the camera straight down
-        _gimbal_rotate(_group(pm, gid, 0, 0, "reachPoint"), -90.0, None)
-        gid += 1
     for a in w.actions:
         if isinstance(a, Gimbal):
             _gimbal_rotate(_group(pm, gid, i, i, "reachPoint"), a.pitch_deg, a.bearing_deg if a.yaw_deg != 0 else None)
