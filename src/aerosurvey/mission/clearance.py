@@ -18,6 +18,9 @@ them (the start converted into that frame where the two differ):
 
 The ground is the DEM's bilinear surface between cell centres (`Dem.sample`), and the lowest
 clearance along a leg is found exactly on it (`Dem.lowest_along`), at the DEM's own resolution.
+The report holds each flight's lowest clearance and every leg under its minimum, so the DEM's
+cells are read only under the legs that may be either: the others are told apart by bounds from
+the DEM's block height ranges (`Dem.margin_bounds`, `_may_matter`), which read no cell.
 
 A RTL leg holds the lowest of the heights RTL may fly at. A plane turns at its turn radius from
 each waypoint towards the next, then flies straight to it (when the next lies inside that

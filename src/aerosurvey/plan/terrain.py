@@ -5,6 +5,8 @@ clearance along straight segments, area statistics, and the waypoint thinning us
 The loader (`aerosurvey.inputs`) reads the window round where the plan flies; nothing here opens a
 file. The window is held in compressed tiles (`DemGrid`); the last CACHE_TILES tiles unpacked are
 kept, and every reader of many points groups them by tile, so each tile is unpacked once per call.
+The lowest clearance along segments bounds the ground by the window's block height ranges
+(`DemGrid.blocks`) first, and reads cells only where those bounds cannot decide.
 Heights are metres above the DEM's vertical datum, float32 as most DEMs hold them.
 """
 
