@@ -126,7 +126,7 @@ def test_a_large_window_is_held_compressed_and_unpacked_a_tile_at_a_time() -> No
                               pyproj.CRS.from_epsg(32633).to_wkt(), (0, 0), (n, n),
                               (WEST, NORTH - n * CELL, WEST + n * CELL, NORTH))
     assert len(made) == len(set(made)) == 12 * 12
-    assert sum(len(t) for t in grid.tiles.values()) < 0.5 * n * n * 4
+    assert sum(len(group) for t in grid.tiles.values() for group in t) < 0.5 * n * n * 4
     dem = Dem(grid, planar("EPSG:32633"))
     rng = np.random.default_rng(3)
     x = WEST + rng.uniform(10.0, n * CELL - 10.0, 5000)
@@ -146,3 +146,66 @@ def test_a_large_window_is_held_compressed_and_unpacked_a_tile_at_a_time() -> No
     assert np.abs(margin - 10.0).max() < 0.05
     assert len(dem._tiles) <= CACHE_TILES
     assert peak < 32e6, peak  # the window is 144 MB
+
+
+def _dense_margin(h: np.ndarray, a: np.ndarray, b: np.ndarray, ceiling: np.ndarray) -> tuple[float, float]:
+    """The lowest margin under the ceiling along a segment by the test's own sampler (20,001 points), and how far the
+    true lowest may lie under it (twice the largest change between two samples)."""
+    t = np.linspace(0.0, 1.0, 20_001)
+    dense = ceiling[0] + t * (ceiling[1] - ceiling[0]) - _bilinear(h, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+    return float(dense.min()), 2.0 * float(np.abs(np.diff(dense)).max() + 1e-9)
+
+
+@st.composite
+def hills_with_spikes(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gentle hills over a 2 km window (400 × 400 cells: 7 × 7 blocks; the blocks' ranges then bound the ground within
+    a metre or two), one to three cells or short ridges raised anywhere, and long segments (up to ~2.8 km: many chunks,
+    many blocks) under ceilings from under the hills to far above, each a ground leg (no minimum) or not; some run
+    over a spike."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    n_cells = 400
+    yy, xx = np.mgrid[0:n_cells, 0:n_cells]
+    h = 300.0 + 4.0 * np.sin(xx / 150.0 + rng.uniform(0, 6)) * np.cos(yy / 170.0) + rng.normal(0.0, 0.05, xx.shape)
+    spikes = []
+    for _ in range(draw(st.integers(1, 3))):
+        r, c, length = draw(st.integers(0, n_cells - 1)), draw(st.integers(0, n_cells - 1)), draw(st.integers(1, 4))
+        h[r, c:c + length] += draw(st.floats(5.0, 90.0))
+        spikes.append((WEST + (c + 0.5) * CELL, NORTH - (r + 0.5) * CELL))
+    n = draw(st.integers(2, 10))
+    side = n_cells * CELL
+    pts = [[draw(st.floats(WEST + 3.0, WEST + side - 3.0)), draw(st.floats(NORTH - side + 3.0, NORTH - 3.0))]
+           for _ in range(2 * n)]
+    for k, (x, y) in enumerate(spikes[:draw(st.integers(0, len(spikes)))]):  # segments over spikes
+        pts[k], pts[n + k] = [max(WEST + 3.0, x - 700.0), y + k], [min(WEST + side - 3.0, x + 700.0), y - k]
+    a, b = np.array(pts[:n]), np.array(pts[n:])
+    ceiling = np.array([[draw(st.floats(300.0, 400.0)), draw(st.floats(300.0, 400.0))] for _ in range(n)])
+    ground_leg = np.array([draw(st.booleans()) for _ in range(n)])
+    return h.astype(np.float32).astype(np.float64), a, b, ceiling, ground_leg
+
+
+@settings(max_examples=40, deadline=None)
+@given(hills_with_spikes())
+def test_the_pruned_search_finds_every_leg_under_its_minimum_and_the_flights_lowest(case) -> None:
+    """The chunks and legs whose cells are not read (their bounds from the blocks' height ranges clear another's) hide
+    nothing: along every segment the lowest margin is the dense sampler's, its bounds hold it, every segment under its
+    minimum is read, and so is the flight's lowest (off the ground legs when it has another)."""
+    from aerosurvey.mission.clearance import GROUND_LEGS, _may_matter
+
+    h, a, b, ceiling, ground_leg = case
+    dem = Dem(DemGrid.of_array("test.tif", h, (CELL, 0.0, WEST, 0.0, -CELL, NORTH), pyproj.CRS.from_epsg(32633).to_wkt(),
+                                (0, 0), h.shape, (WEST, NORTH - h.shape[0] * CELL, WEST + h.shape[1] * CELL, NORTH)),
+              planar("EPSG:32633"))
+    m = 20.0
+    dense = [_dense_margin(h, a[s], b[s], ceiling[s]) for s in range(len(a))]
+    margin, _, _ = dem.lowest_along(a, b, ceiling, "test legs")
+    lo, hi = dem.margin_bounds(a, b, ceiling, "test legs")
+    for s, (d, slack) in enumerate(dense):
+        assert d - slack <= margin[s] <= d + 1e-6
+        assert lo[s] <= margin[s] + 1e-6 and hi[s] >= margin[s] - 1e-6
+    whats = [GROUND_LEGS[0] if g else "line" for g in ground_leg]
+    read = set(_may_matter((lo, hi), whats, [], m).tolist())
+    assert {s for s, (d, slack) in enumerate(dense) if d < -slack} <= read
+    counted = [s for s in range(len(a)) if not ground_leg[s]] or list(range(len(a)))
+    clearance = {s: dense[s][0] + (0.0 if ground_leg[s] else m) for s in counted}
+    lowest = min(clearance.values())
+    assert min(clearance[s] for s in read if s in clearance) <= lowest + max(slack for _, slack in dense)

@@ -18,6 +18,9 @@ them (the start converted into that frame where the two differ):
 
 The ground is the DEM's bilinear surface between cell centres (`Dem.sample`), and the lowest
 clearance along a leg is found exactly on it (`Dem.lowest_along`), at the DEM's own resolution.
+The report holds each flight's lowest clearance and every leg under its minimum, so the DEM's
+cells are read only under the legs that may be either: the others are told apart by bounds from
+the DEM's block height ranges (`Dem.margin_bounds`, `_may_matter`), which read no cell.
 
 A RTL leg holds the lowest of the heights RTL may fly at. A plane turns at its turn radius from
 each waypoint towards the next, then flies straight to it (when the next lies inside that
@@ -150,8 +153,12 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
                  turn_radius: float) -> list[Lowest]:
     """Each checked leg's lowest clearance."""
     home = program.home[2]
+    # the ground under the starts of the legs that change altitude frame (`_start_in_end_frame`); the others' is not read
     starts = np.array([leg.leg.start for leg in legs], float).reshape(-1, 2)
-    ground0 = dem.sample(starts[:, 0], starts[:, 1], f"{legs[0].leg.flight}'s legs") if legs else np.zeros(0)
+    ground0 = np.full(len(legs), np.nan)
+    change = [i for i, leg in enumerate(legs) if leg.frames[0] != leg.frames[1]]
+    if change:
+        ground0[change] = dem.sample(starts[change, 0], starts[change, 1], f"{legs[0].leg.flight}'s legs")
     straight = _Pieces([], [], [], [], [])
     level: list[tuple[int, float, float, int]] = []  # terrain-frame legs: (leg, along, height above terrain, x-y index)
     level_xy: list[tuple[float, float]] = []
@@ -181,13 +188,16 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
     out: dict[int, Lowest] = {}
     what = f"{legs[0].leg.flight}'s legs" if legs else "legs"
     if straight.a:
-        margin, frac, ground = dem.lowest_along(np.array(straight.a), np.array(straight.b), np.array(straight.ceiling), what)
-        a, b = np.array(straight.a), np.array(straight.b)
+        a, b, ceiling = np.array(straight.a), np.array(straight.b), np.array(straight.ceiling)
+        read = _may_matter(dem.margin_bounds(a, b, ceiling, what), [legs[i].leg.what for i in straight.leg],
+                           [(legs[i].leg.what, agl) for i, _, agl, _ in level], m)
+        a, b, ceiling = a[read], b[read], ceiling[read]
+        margin, frac, ground = dem.lowest_along(a, b, ceiling, what)
         x, y = a[:, 0] + frac * (b - a)[:, 0], a[:, 1] + frac * (b - a)[:, 1]
         lon, lat = planar.lonlat(x, y)
-        along = np.array(straight.along)
+        along = np.array(straight.along)[read]
         for j in np.argsort(margin, kind="stable"):
-            i = straight.leg[j]
+            i = straight.leg[read[j]]
             if i not in out:
                 s = float(along[j, 0] + frac[j] * (along[j, 1] - along[j, 0]))
                 flown = float(margin[j] + ground[j] + (0.0 if legs[i].leg.what in GROUND_LEGS else m))
@@ -200,6 +210,24 @@ def _legs_lowest(program: FlightProgram, legs: list[Leg3], dem: Dem, planar: Pla
             if i not in out or agl < out[i].clearance_m:
                 out[i] = _lowest(legs[i], s, float(lon[p]), float(lat[p]), float(g[p]), float(g[p]) + agl)
     return [out[i] for i in sorted(out)]
+
+
+def _may_matter(bounds: tuple[np.ndarray, np.ndarray], whats: list[str], level: list[tuple[str, float]],
+                m: float) -> np.ndarray:
+    """The pieces (indices) whose lowest clearance the report may hold, from bounds of their lowest margins under the
+    ceiling (the clearance less the piece's minimum: `whats`, their legs' tags) and the clearances of the terrain-frame
+    legs (`level`: their tags and clearances): a piece that may pass under its minimum (a margin under 0), or that may
+    be its flight's lowest: `terrain_clearance` takes that off the ground legs when the flight has another, and a piece
+    whose clearance is surely above another's cannot be it. The others' ground is not read."""
+    lo, hi = bounds
+    ground = np.array([w in GROUND_LEGS for w in whats])
+    need = np.where(ground, 0.0, m)
+    # the legs the flight's lowest is taken from: off the ground legs, when the flight has another
+    off_ground = not ground.all() or any(w not in GROUND_LEGS for w, _ in level)
+    counted = ~ground if off_ground else np.ones(len(whats), bool)
+    surely = min(float(np.min(hi + need, where=counted, initial=np.inf)),
+                 min((agl for w, agl in level if not off_ground or w not in GROUND_LEGS), default=np.inf))
+    return np.flatnonzero((lo < 0) | (counted & (lo + need <= surely)))
 
 
 def _start_in_end_frame(leg3: Leg3, ground_start: float, home: float) -> float:

@@ -5,6 +5,8 @@ clearance along straight segments, area statistics, and the waypoint thinning us
 The loader (`aerosurvey.inputs`) reads the window round where the plan flies; nothing here opens a
 file. The window is held in compressed tiles (`DemGrid`); the last CACHE_TILES tiles unpacked are
 kept, and every reader of many points groups them by tile, so each tile is unpacked once per call.
+The lowest clearance along segments bounds the ground by the window's block height ranges
+(`DemGrid.blocks`) first, and reads cells only where those bounds cannot decide.
 Heights are metres above the DEM's vertical datum, float32 as most DEMs hold them.
 """
 
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from dataclasses import dataclass
 
 import numpy as np
 import pyproj
@@ -29,6 +32,26 @@ CHUNK_M = 200.0
 BATCH = 10_000
 #: the last CACHE_TILES tiles unpacked are kept (1 MB float32 each)
 CACHE_TILES = 4
+#: the blocks' height ranges bound the bilinear ground (float64 sums of float32 cells) to within rounding: widened by this
+BOUND_SLACK_M = 1e-6
+
+
+@dataclass(frozen=True)
+class _Chunks:
+    """Segments cut into chunks straight in the DEM's cells (`Dem._chunks`): chunk k is the fraction f0[k]..f1[k] of
+    segment seg[k] (in order; `first`: each segment's first chunk), from cell (u0, v0) to (u1, v1), starting at planning
+    (x, y)."""
+
+    seg: np.ndarray
+    first: np.ndarray
+    f0: np.ndarray
+    f1: np.ndarray
+    u0: np.ndarray
+    v0: np.ndarray
+    u1: np.ndarray
+    v1: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
 
 
 class Dem:
@@ -137,6 +160,40 @@ class Dem:
         self._nodata(z, x, y, what)
         return z
 
+    def _chunks(self, a: np.ndarray, b: np.ndarray, what: str) -> _Chunks:
+        """Segments from `a` to `b` ((n, 2) planning CRS) cut into chunks of at most CHUNK_M, their ends in the cells."""
+        n = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / CHUNK_M)).astype(np.int64)
+        first = np.cumsum(n) - n
+        seg = np.repeat(np.arange(len(a)), n)
+        f0 = (np.arange(int(n.sum())) - np.repeat(first, n)) / n[seg]
+        f1 = f0 + 1.0 / n[seg]
+        ends = np.concatenate([f0, f1])
+        sx = np.concatenate([seg, seg])
+        px, py = a[sx, 0] + ends * (b - a)[sx, 0], a[sx, 1] + ends * (b - a)[sx, 1]
+        cc, rr = self._cells(px, py, what)
+        m = len(f0)
+        return _Chunks(seg, first, f0, f1, cc[:m], rr[:m], cc[m:], rr[m:], px[:m], py[:m])
+
+    def _chunk_bounds(self, ch: _Chunks, ceiling: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of each chunk's lowest margin under `ceiling`, from the blocks' height ranges (no tile unpacked): the
+        lower ceiling of its two ends less the highest height of the blocks its ground is read from (the cells round it),
+        and that ceiling less their lowest height (a bound of the margin at that end)."""
+        k0, k1 = ceiling[ch.seg, 0], ceiling[ch.seg, 1]
+        top = np.minimum(k0 + ch.f0 * (k1 - k0), k0 + ch.f1 * (k1 - k0))
+        cells = [np.floor(np.minimum(p0, p1)).astype(np.int64) for p0, p1 in ((ch.v0, ch.v1), (ch.u0, ch.u1))]
+        cells += [np.floor(np.maximum(p0, p1)).astype(np.int64) + 1 for p0, p1 in ((ch.v0, ch.v1), (ch.u0, ch.u1))]
+        lo, hi = self.grid.block_range(cells[0], cells[2], cells[1], cells[3])
+        return top - hi - BOUND_SLACK_M, top - lo + BOUND_SLACK_M
+
+    def margin_bounds(self, a: np.ndarray, b: np.ndarray, ceiling: np.ndarray,
+                      what: str) -> tuple[np.ndarray, np.ndarray]:
+        """A lower and an upper bound of each segment's lowest margin as `lowest_along` finds it (same arguments), from
+        the blocks' height ranges (`DemGrid.blocks`): no tile unpacked."""
+        a, b, ceiling = (np.asarray(v, float).reshape(-1, 2) for v in (a, b, ceiling))
+        ch = self._chunks(a, b, what)
+        lo, hi = self._chunk_bounds(ch, ceiling)
+        return np.minimum.reduceat(lo, ch.first), np.minimum.reduceat(hi, ch.first)
+
     def lowest_along(self, a: np.ndarray, b: np.ndarray, ceiling: np.ndarray,
                      what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For straight segments from `a` to `b` ((n, 2) planning CRS) under a ceiling running straight
@@ -147,38 +204,33 @@ class Dem:
         ground is bilinear, so along a straight line it is a quadratic; the lowest margin lies where
         the segment crosses a row or column of cell centres, at an end, or where the quadratic's slope
         equals the ceiling's. The segment is taken straight in the DEM's cells between points
-        transformed exactly every CHUNK_M planning metres."""
-        a = np.asarray(a, float).reshape(-1, 2)
-        b = np.asarray(b, float).reshape(-1, 2)
-        ceiling = np.asarray(ceiling, float).reshape(-1, 2)
-        n = np.maximum(1, np.ceil(np.hypot(*(b - a).T) / CHUNK_M)).astype(np.int64)
-        seg = np.repeat(np.arange(len(a)), n)
-        f0 = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / n[seg]
-        f1 = f0 + 1.0 / n[seg]
-        ends = np.concatenate([f0, f1])
-        sx = np.concatenate([seg, seg])
-        px, py = a[sx, 0] + ends * (b - a)[sx, 0], a[sx, 1] + ends * (b - a)[sx, 1]
-        cc, rr = self._cells(px, py, what)
-        m = len(f0)
-        u0, u1, v0, v1 = cc[:m], cc[m:], rr[:m], rr[m:]
+        transformed exactly every CHUNK_M planning metres. A chunk whose margin is surely above another
+        chunk's of its segment (`_chunk_bounds`) cannot hold the lowest: its cells are not read."""
+        a, b, ceiling = (np.asarray(v, float).reshape(-1, 2) for v in (a, b, ceiling))
+        ch = self._chunks(a, b, what)
+        lo, hi = self._chunk_bounds(ch, ceiling)
+        read = np.flatnonzero(lo <= np.minimum.reduceat(hi, ch.first)[ch.seg])
+        m = len(ch.seg)
         margin = np.full(m, np.inf)
         where = np.zeros(m)
         ground = np.zeros(m)
         # chunks in batches of about BATCH pieces, tile by tile: memory stays bounded whatever the legs' length, and
         # each batch reads few tiles
         across = -(-self.grid.shape[1] // TILE)
+        u0, v0, u1, v1 = ch.u0[read], ch.v0[read], ch.u1[read], ch.v1[read]
         tiles = np.floor(np.clip(v0, 0, None) / TILE) * across + np.floor(np.clip(u0, 0, None) / TILE)
         by_tile = np.argsort(tiles, kind="stable")
         pieces = (np.abs(u1 - u0) + np.abs(v1 - v0) + 2)[by_tile]
         batch = np.searchsorted(np.cumsum(pieces), np.arange(1, 2 + int(pieces.sum()) // BATCH) * BATCH)
-        for lo, hi in zip(np.r_[0, batch], np.r_[batch, m]):
-            if hi > lo:
-                sl = by_tile[int(lo):int(hi)]
+        for lo_at, hi_at in zip(np.r_[0, batch], np.r_[batch, len(read)]):
+            if hi_at > lo_at:
+                sl = read[by_tile[int(lo_at):int(hi_at)]]
                 margin[sl], where[sl], ground[sl] = self._lowest_on_chunks(
-                    u0[sl], v0[sl], u1[sl], v1[sl], ceiling[seg[sl]], f0[sl], f1[sl], px[sl], py[sl], what)
-        # the lowest chunk of each segment
-        order = np.lexsort((margin, seg))
-        first = order[np.searchsorted(seg[order], np.arange(len(a)))]
+                    ch.u0[sl], ch.v0[sl], ch.u1[sl], ch.v1[sl], ceiling[ch.seg[sl]], ch.f0[sl], ch.f1[sl], ch.x[sl],
+                    ch.y[sl], what)
+        # the lowest chunk of each segment (each has one read: the chunk of its lowest upper bound)
+        order = np.lexsort((margin, ch.seg))
+        first = order[ch.first]
         return margin[first], where[first], ground[first]
 
     def _lowest_on_chunks(self, u0: np.ndarray, v0: np.ndarray, u1: np.ndarray, v1: np.ndarray, ceiling: np.ndarray,
