@@ -23,6 +23,9 @@ per layer between the structure's base and top, the camera turned to the structu
 - Heights: a layer at z above the structure's ground flies `z − the plan's height` above the
   plan's height (`Pass.rise_m`, the structure's ground is the launch point's: no DEM); the
   height cap is checked per station by the altitude step.
+- Each pass says it goes round the structure (`Pass.ring`: the ring and the stand-off), which
+  the exporters lay as their client's structure scan (QGroundControl's Structure Scan item); a
+  ring the exclusion zones cut into pieces says nothing of the kind.
 - The structure is an obstacle: the rings, the lead-ins before them and the ends after them lie
   on or outside the ring (the ring starts where its tangent is a supporting line), so every leg
   of the pattern keeps the stand-off; the ways from and back to the launch point go round the
@@ -47,7 +50,7 @@ from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.bounds import GridBounds, minimum_width
 from aerosurvey.plan.capture import MIN_DEPRESSION_DEG
 from aerosurvey.plan.layout import Field, Layout
-from aerosurvey.plan.passes import Aim, Pass, Strip
+from aerosurvey.plan.passes import Aim, Pass, Ring, Strip
 from aerosurvey.plan.polyline import stations_along, strips_clear_of
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.sensor import Footprint, SensorSolution
@@ -230,7 +233,9 @@ class Orbit:
             heights = heights[::-1]
         aim = Aim(self.band.pitch_deg, turn_deg=90.0)  # right of a clockwise ring: the structure
         plan_h = sensor.heights.nominal_agl_m
-        passes = tuple(Pass(i + 1, strips=strips, aim=aim, rise_m=float(z) - plan_h, one_way=True)
+        # a ring the zones cut into pieces is no longer flown round in one go
+        around = Ring(path[:-1], self.settings.standoff_m) if len(strips) == 1 else None
+        passes = tuple(Pass(i + 1, strips=strips, aim=aim, rise_m=float(z) - plan_h, one_way=True, ring=around)
                        for i, z in enumerate(heights))
         # what the photos cover is the structure's faces: the structure-faces rule proves them (plan/surfaces.py)
         keep_out = shapely.buffer(site.structure, (self.settings.standoff_m - CLEARANCE_ALLOWANCE_M) * k)
