@@ -531,7 +531,7 @@ def _structure_polygon(ring: np.ndarray, standoff: float, frame: str) -> tuple[n
     """The structure polygon (lon/lat, open) and the distance to it (DistanceToSurface) whose
     offset on QGroundControl's plane `frame` (at the polygon's vertex 0) is the ring `ring`
     (lon/lat, open, clockwise): the ring's edges moved in by `_inset` (the stand-off, or a
-    hair less where the ring's chords round a corner: 14.83 m for 15 m with 16 chords a
+    hair less where the ring's chords round a corner: 14.67 m for 15 m with 5 chords a
     quarter circle, the polygon's corners rounded by the difference). None where `_inset` is."""
     origin, inset = ring[0], None
     for _ in range(3):  # the plane's origin is vertex 0 of the polygon, which depends a little on the plane
