@@ -1,5 +1,6 @@
 """QGroundControl's side of a .plan, rebuilt from its sources for the tests and benchmarks: its
-loader's rules (keys, JSON types, versions) and its Survey generator, ported from reading
+loader's rules (keys, JSON types, versions), its Survey generator and its Structure Scan
+generator, ported from reading
 QGroundControl's master branch (the files as stored at commit 00d5b5e018e54e303cb650790bd1b6e08f818bd0:
 SurveyComplexItem.cc, TransectStyleComplexItem.cc/.h, CameraCalc.cc, CameraSpec.cc,
 QGCMapPolygon.cc, MissionItem.cc, QGCGeo.cc). Written here in our own words; it shares no code
@@ -15,6 +16,18 @@ farthest crossings with the polygon's edges (the pair found first, edges in poly
 turn every line to the first line's direction; apply the entry location and the alternate
 order; reverse every second line. Camera shots as _recalcCameraShots counts them from
 transects: per transect, ceil(its length / AdjustedFootprintFrontal).
+
+The Structure Scan port (StructureScanComplexItem.cc as stored at commit
+00d5b5e018e54e303cb650790bd1b6e08f818bd0: load, appendMissionItems, _rebuildFlightPolygon,
+_recalcLayerInfo, _recalcCameraShots; QGCMapPolygon::offset and nedPolygon at the same commit,
+with Qt's QLineF::angle/setAngle/setLength, whose angles run counter-clockwise in a y-down
+frame): the structure polygon put on the plane at its vertex 0 (QPointF(east, north)), each edge
+offset by DistanceToSurface to the side QLineF's angle − 90° points, consecutive offset edges
+intersected; layers max(⌈max(StructureHeight − ScanBottomAlt, 0) / AdjustedFootprintFrontal⌉, 1),
+the first half a layer above ScanBottomAlt (below StructureHeight when StartFromTop), a layer
+apart; the uploaded items (entrance, ROI_WPNEXT_OFFSET, per layer the vertices 0..n−1, 0 with
+the trigger on after the first at AdjustedFootprintSide and off after the last, ROI_NONE, exit);
+camera shots int(the closed flight polygon's length / AdjustedFootprintSide) × layers.
 """
 
 from __future__ import annotations
@@ -131,6 +144,20 @@ def survey_problems(it: dict[str, Any], where: str) -> list[str]:
     return out + _shape_and_transects(it, "polygon", 3, " (QGroundControl draws nothing)", where)
 
 
+def structure_scan_problems(it: dict[str, Any], where: str) -> list[str]:
+    """StructureScanComplexItem::load (version 3), CameraCalc::load, QGCMapPolygon::loadFromJson."""
+    out = validate_keys(it, [("version", NUMBER, True), ("type", STRING, True), ("complexItemType", STRING, True),
+                             ("polygon", ARRAY, True), ("ScanBottomAlt", NUMBER, True), ("StructureHeight", NUMBER, True),
+                             ("Layers", NUMBER, True), ("CameraCalc", OBJECT, True), ("EntranceAltitude", NUMBER, True),
+                             ("GimbalPitch", NUMBER, True), ("StartFromTop", BOOL, True)], where)
+    if it.get("version") != 3:
+        out.append(f"{where}: StructureScan version {it.get('version')!r}, 3 expected")
+    out += _coords(it.get("polygon", []), f"{where} polygon", altitude=False)
+    if len(it.get("polygon", [])) < 3:
+        out.append(f"{where}: polygon has fewer than 3 vertices")
+    return out + camera_calc_problems(it.get("CameraCalc"), f"{where} CameraCalc")
+
+
 def _shape_and_transects(it: dict[str, Any], key: str, fewest: int, why: str, where: str) -> list[str]:
     """QGCMapPolyline/QGCMapPolygon::loadFromJson of the item's `key` (2-D vertices, at least
     `fewest`), then its TransectStyleComplexItem."""
@@ -184,6 +211,8 @@ def plan_problems(doc: Any) -> list[str]:
             out += survey_problems(it, where)
         elif it["type"] == "ComplexItem" and it.get("complexItemType") == "CorridorScan":
             out += corridor_problems(it, where)
+        elif it["type"] == "ComplexItem" and it.get("complexItemType") == "StructureScan":
+            out += structure_scan_problems(it, where)
         else:
             out.append(f"{where}: {it.get('type')!r}/{it.get('complexItemType')!r} is not written by aerosurvey")
     return out
@@ -526,3 +555,88 @@ def compare(survey: dict[str, Any], ours: list[list[tuple[float, float]]], frame
         "max_end_m": max(ends), "median_end_m": float(np.median(ends)),
         "qgc_shots": gen.camera_shots, "written_shots": int(survey["TransectStyleComplexItem"]["CameraShots"]),
     }
+
+
+# ------------------------------------------------------------------ the Structure Scan generator
+
+
+def _qt_line_angle(p1: tuple[float, float], p2: tuple[float, float]) -> float:
+    """QLineF::angle: degrees counter-clockwise from +x with y pointing down."""
+    a = math.degrees(math.atan2(-(p2[1] - p1[1]), p2[0] - p1[0]))
+    return a + 360.0 if a < 0 else a
+
+
+def _qt_set_length(p1, p2, length):
+    d = math.hypot(p2[0] - p1[0], p2[1] - p1[1])
+    return p1, (p1[0] + (p2[0] - p1[0]) * length / d, p1[1] + (p2[1] - p1[1]) * length / d)
+
+
+def _qt_set_angle(p1, p2, angle):
+    length = math.hypot(p2[0] - p1[0], p2[1] - p1[1])
+    r = math.radians(angle)
+    return p1, (p1[0] + math.cos(r) * length, p1[1] - math.sin(r) * length)
+
+
+def _qt_intersect(a, b):
+    (x1, y1), (x2, y2) = a
+    (x3, y3), (x4, y4) = b
+    den = (x1 - x2) * (y3 - y4) - (y1 - y2) * (x3 - x4)
+    if den == 0:
+        return None
+    t = ((x1 - x3) * (y3 - y4) - (y1 - y3) * (x3 - x4)) / den
+    return (x1 + t * (x2 - x1), y1 + t * (y2 - y1))
+
+
+def qgc_offset(poly: list[tuple[float, float]], distance: float, frame: str) -> list[tuple[float, float]]:
+    """QGCMapPolygon::offset of (lat, lon) vertices: the offset polygon's (lat, lon) vertices."""
+    lat0, lon0 = poly[0]
+    ned = [(0.0, 0.0)] + [tuple(map(float, to_plane(np.array([a]), np.array([b]), lat0, lon0, frame)[0]))
+                          for a, b in poly[1:]]  # QPointF(x east, y north); vertex 0 set to 0, 0
+    edges = []
+    for i in range(len(ned)):
+        p1, p2 = ned[i], ned[0 if i == len(ned) - 1 else i + 1]
+        w = _qt_set_length(p1, p2, distance)
+        w = _qt_set_angle(*w, _qt_line_angle(*w) - 90.0)
+        start = w[1]
+        w = _qt_set_length(p2, p1, distance)
+        w = _qt_set_angle(*w, _qt_line_angle(*w) + 90.0)
+        edges.append((start, w[1]))
+    out = []
+    for i in range(len(edges)):
+        v = _qt_intersect(edges[i - 1], edges[i])
+        assert v is not None, "QGroundControl stops offsetting here (parallel edges)"
+        out.append(from_plane(v[0], v[1], lat0, lon0, frame))  # convertNedToGeo(y north, x east)
+    return out
+
+
+@dataclass
+class StructureScan:
+    ring: list[tuple[float, float]]  # the flight polygon, (lat, lon)
+    layers: list[float]  # the layers' altitudes above home, in flight order
+    trigger_m: float
+    camera_shots: int
+    items: list[tuple[int, float, float, float, float, float, float, float]]  # (command, p1..p4, x, y, z) as uploaded
+
+
+def regenerate_structure_scan(item: dict[str, Any], frame: str = "ellipsoid") -> StructureScan:
+    """What QGroundControl makes of a Structure Scan item it loads (`frame`: its plane, FRAMES)."""
+    cam = item["CameraCalc"]
+    ring = qgc_offset([tuple(p) for p in item["polygon"]], float(cam["DistanceToSurface"]), frame)
+    frontal, side = float(cam["AdjustedFootprintFrontal"]), float(cam["AdjustedFootprintSide"])
+    layers = max(math.ceil(max(float(item["StructureHeight"]) - float(item["ScanBottomAlt"]), 0.0) / frontal), 1)
+    top = bool(item["StartFromTop"])
+    alt = float(item["StructureHeight"]) - frontal / 2.0 if top else float(item["ScanBottomAlt"]) + frontal / 2.0
+    alts = [alt - k * frontal if top else alt + k * frontal for k in range(layers)]
+    nan = float("nan")
+    entrance = float(item["EntranceAltitude"])
+    items = [(16, 0.0, 0.0, 0.0, nan, ring[0][0], ring[0][1], entrance),
+             (196, 0.0, 0.0, 0.0, 0.0, float(item["GimbalPitch"]), 0.0, 90.0)]
+    for z in alts:
+        for j, (a, b) in enumerate(ring + [ring[0]]):
+            items.append((16, 0.0, 0.0, 0.0, nan, a, b, z))
+            if j == 0:
+                items.append((206, side, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0))
+        items.append((206, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    items += [(197, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (16, 0.0, 0.0, 0.0, nan, ring[0][0], ring[0][1], entrance)]
+    perimeter = sum(sphere_distance(ring[i], ring[(i + 1) % len(ring)]) for i in range(len(ring)))
+    return StructureScan(ring, alts, side, int(perimeter / side) * layers, items)

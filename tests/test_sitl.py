@@ -16,6 +16,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
+import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
@@ -466,3 +468,79 @@ def test_a_copter_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
         assert row["completed"], row
         assert row["triggers_flown"] == row["photos_planned"], row
         assert abs(row["time_ratio"] - 1.0) <= 0.05, row
+
+
+@pytest.mark.sitl
+@pytest.mark.xfail(strict=True, reason="the camera's bearing is up to 14.6° off the plan's in this flight (the copter's "
+                   "nose turns smoothly round the ring, the plan chord by chord): docs/planning.md, orbit")
+def test_an_orbit_aims_every_photo_at_the_structure(tmp_path):
+    """A small orbit (a 10 × 10 m tower 10 m high, rings 12 m off it: 2 layers) flown in
+    ArduCopter SITL with the harness's servo mount (tilt, roll and pan). At every picture (CAM)
+    the camera's line of sight (the vehicle's attitude turned by the servo angles in the mount's
+    order, pan, roll, tilt: MNT YawB, Roll, Pitch) is within 2° of its station's planned aim, in
+    pitch and in bearing (the manifest's pitch_deg and camera_yaw_deg); the pictures are the planned
+    photos; the flown track (POS) keeps the stand-off less the 2 m tracking allowance from the
+    footprint. Not judged (printed): the flight time, 1.70× the estimate in this flight (the
+    ring flown at 1.81 m/s for 5.34 planned: ArduCopter slows at each of its waypoints), and the
+    photos' offsets from their stations (up to 1.52 m, a photo base 3.74 m).
+    Fails (xfail, strict): the bearing, up to 14.6° off (the pitch 0.02°, the track 11.65 m off the
+    footprint, every photo taken). Planned with `--qgc items`: the sortie's .plan then holds our items (with
+    DO_MOUNT_CONTROL), as the .waypoints does; the default .plan's Structure Scan item holds none
+    (QGroundControl flies what it generates, which aims the camera with DO_SET_ROI_WPNEXT_OFFSET)."""
+    from scipy.spatial.transform import Rotation
+
+    from conftest import make_spec, write_geojson
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    centre = (15.003, 49.40175)
+    to_xy = pyproj.Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={centre[1]} +lon_0={centre[0]} +datum=WGS84",
+                                        always_xy=True)
+    footprint = shapely.box(-5.0, -5.0, 5.0, 5.0)
+    lon, lat = to_xy.transform(*np.asarray(footprint.exterior.coords).T, direction="INVERSE")
+    write_geojson(tmp_path / "tower.geojson", [[[float(a), float(b)] for a, b in zip(lon, lat)]])
+    standoff = 12.0
+    spec = make_spec(tmp_path, {"pattern": {"kind": "orbit", "standoff_m": standoff},
+                                "structure": {"file": "tower.geojson", "top_m": 10.0},
+                                "camera": {"model": "dji-mavic-3-enterprise", "trigger": "distance"}})
+    out = tmp_path / "orbit"
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(out), "--qgc", "items"])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["sitl", "fly", str(out), "--sitl-bin", binary, "--speedup", "20"])
+    assert res.exit_code == 0, res.output
+    report = json.loads((out / "sitl" / "sitl_report.json").read_text())
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["pattern"]["parameters"]["layers"] == 2
+    rows = report["sorties"]
+    for row in rows:
+        assert row["completed"] and row["triggers_flown"] == row["photos_planned"], row
+        assert len(_log(out / "sitl" / row["log"], ["CAM"])) == row["photos_planned"], row["sortie"]
+    assert sum(r["photos_planned"] for r in rows) == len(manifest["stations"])
+    planned = iter(manifest["stations"])
+    worst_pitch, worst_bearing, nearest = 0.0, 0.0, math.inf
+    for row in rows:
+        log = out / "sitl" / row["log"]
+        mounts = _log(log, ["MNT"])
+        for cam in _log(log, ["CAM"]):
+            station = next(planned)
+            before = [x for x in mounts if x.TimeUS <= cam.TimeUS]
+            assert before, f"{row['sortie']}: a picture before the mount's first message"
+            mount = before[-1]
+            body = Rotation.from_euler("ZYX", [cam.Y, cam.P, cam.R], degrees=True)
+            turn = Rotation.from_euler("ZXY", [mount.YawB, mount.Roll, mount.Pitch], degrees=True)
+            sight = (body * turn).apply([1.0, 0.0, 0.0])  # north, east, down
+            pitch = math.degrees(math.asin(-sight[2]))
+            bearing = math.degrees(math.atan2(sight[1], sight[0])) % 360.0
+            worst_pitch = max(worst_pitch, abs(pitch - station["pitch_deg"]))
+            worst_bearing = max(worst_bearing, abs((bearing - station["camera_yaw_deg"] + 180.0) % 360.0 - 180.0))
+        track = np.array([to_xy.transform(m.Lng, m.Lat) for m in _log(log, ["POS"])])
+        nearest = min(nearest, float(shapely.distance(shapely.points(track), footprint).min()))
+    # not judged here (docs/planning.md, orbit): the flown time against the estimate and the photos' offsets from
+    # their stations (ArduCopter slows at each of the ring's waypoints)
+    print({"photos": len(manifest["stations"]), "worst_pitch_deg": worst_pitch, "worst_bearing_deg": worst_bearing,
+           "nearest_m": nearest, "time_ratio": [r["time_ratio"] for r in rows],
+           "line_speed_ms": [r["line_speed_ms"] for r in rows], "max_trigger_offset_m": [r["max_trigger_offset_m"] for r in rows]})
+    assert next(planned, None) is None
+    assert worst_pitch <= 2.0 and worst_bearing <= 2.0, (worst_pitch, worst_bearing)
+    assert nearest >= standoff - 2.0, nearest

@@ -213,10 +213,13 @@ def _broken(change) -> str:
 
 @pytest.mark.parametrize("change, message", [
     (lambda d: d["mission"]["items"].insert(1, {"type": "ComplexItem", "complexItemType": "survey", "version": 5}),
-     r"p.plan: mission item 2 is a ComplexItem \('survey'\) without stored items; aerosurvey reads SimpleItems and "
-     r"the stored Items of Survey and Corridor Scan items only\. Convert it to simple items in QGroundControl first"),
+     r"p.plan: mission item 2 is a ComplexItem \('survey'\) without stored items; aerosurvey reads SimpleItems, "
+     r"the stored Items of Survey and Corridor Scan items and what Structure Scan items generate\. Convert it to "
+     r"simple items in QGroundControl first"),
     (lambda d: d["mission"]["items"].insert(1, {"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3}),
-     r"p.plan: mission item 2 is a ComplexItem \('StructureScan'\) without stored items"),
+     r"p.plan: mission item 2 \(StructureScan\): field 'polygon' is missing"),
+    (lambda d: d["mission"]["items"].insert(1, {"type": "ComplexItem", "complexItemType": "FWLandingPattern", "version": 2}),
+     r"p.plan: mission item 2 is a ComplexItem \('FWLandingPattern'\) without stored items"),
     (lambda d: d["mission"]["items"].insert(1, {"type": "ComplexItem", "complexItemType": "survey",
                                                 "TransectStyleComplexItem": {"Items": [{"type": "SimpleItem"}]}}),
      r"p.plan: mission item 2 \(survey\) item 1: field 'command' is missing"),

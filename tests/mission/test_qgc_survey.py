@@ -168,7 +168,7 @@ class _Pass:
         self.stations = SimpleNamespace(run=list(range(len(runs))))  # a station on each run
         self.waypoints = waypoints
         self.sensor = SimpleNamespace(spacing_m=spacing)
-        self.layout = SimpleNamespace(passes=[SimpleNamespace(index=1, frame=object())])  # parallel lines in a frame
+        self.layout = SimpleNamespace(passes=[SimpleNamespace(index=1, frame=object(), ring=None)])  # parallel lines in a frame
 
 
 def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, starts: list[float], lengths: list[float],

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import shapely
-from hypothesis import given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.plan.bounds import grid_bounds, minimum_width, narrowest
@@ -144,3 +144,38 @@ def test_a_corridor_one_footprint_spans_is_bound_by_one_strip(tmp_path):
     assert flown_lines == 1
     assert m["derived"]["bounds"]["strips"] == 1
     assert m["derived"]["bounds"]["photos"] <= len(m["stations"])
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(width=st.floats(20.0, 200.0), bend=st.floats(0.0, 60.0), gsd=st.sampled_from([1.5, 2.0, 2.5]))
+@example(width=80.0, bend=35.0, gsd=2.5)
+def test_a_narrow_bent_corridor_polygon_is_never_below_its_bound(tmp_path_factory, width, bend, gsd):
+    """Corridor polygons (a bent centreline grown by half the width, flat ends), from narrower than
+    a footprint (the issue's 80 m wide bent corridor: one strip down the middle) to a few strips
+    wide: the plan flies at least the bound's strips and photos."""
+    import json
+
+    import pyproj
+    from click.testing import CliRunner
+    from tests.conftest import write_geojson
+
+    from aerosurvey.cli import main
+
+    tmp = tmp_path_factory.mktemp("corridor")
+    b = math.radians(bend)
+    line = shapely.LineString([(0.0, 0.0), (600.0, 0.0), (600.0 + 600.0 * math.cos(b), 600.0 * math.sin(b))])
+    poly = shapely.buffer(line, width / 2.0, cap_style="flat", join_style="mitre")
+    back = pyproj.Transformer.from_crs("+proj=aeqd +lat_0=49.4 +lon_0=15.0 +datum=WGS84", "EPSG:4326", always_xy=True)
+    lon, lat = back.transform(*np.asarray(poly.exterior.coords).T)
+    write_geojson(tmp / "corridor.geojson", [[[float(a), float(c)] for a, c in zip(lon, lat)]])
+    spec = tmp / "spec.toml"
+    spec.write_text('[mission]\nname = "narrow"\n[area]\nfile = "corridor.geojson"\n[pattern]\nkind = "corridor"\n'
+                    f'[camera]\nmodel = "sony-a6000-16mm"\n[targets]\ngsd_cm = {gsd}\nforward_overlap = 0.75\nside_overlap = 0.6\n'
+                    '[vehicle]\ntype = "copter"\ncruise_speed_ms = 10.0\n')
+    res = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "o")])
+    assert res.exit_code in (0, 1), res.output
+    m = json.loads((tmp / "o" / "manifest.json").read_text())
+    bound = m["derived"]["bounds"]
+    flown = len({ln["line"] for ln in m["lines"]})
+    assert flown >= bound["strips"], (flown, bound, m["derived"]["footprint_across_m"])
+    assert len(m["stations"]) >= bound["photos"], (len(m["stations"]), bound)

@@ -85,6 +85,18 @@ class Strip:
 
 
 @dataclass(frozen=True, eq=False)
+class Ring:
+    """A pass flown round a structure: its one strip goes once round `path`, the structure's
+    outline grown by `standoff_m` (ground metres), flown clockwise seen from above (the structure
+    on the right) from the strip's first station, and the camera is turned to the structure. What
+    a writer needs to lay the ring again as its client does (QGroundControl's Structure Scan:
+    mission/formats/qgc_survey.py)."""
+
+    path: np.ndarray  # (n ≥ 3, 2) planning CRS: the ring's vertices from the first station, open (not repeated)
+    standoff_m: float
+
+
+@dataclass(frozen=True, eq=False)
 class Pass:
     """A group of strips flown one after another, with the camera held at one aim, at one height
     (the plan's, raised by `rise_m`), and the hint the route step needs to order them.
@@ -100,6 +112,7 @@ class Pass:
     aim: Aim = NADIR
     rise_m: float = 0.0  # how far above the plan's flying height (Heights) the pass flies
     one_way: bool = False  # strips flown each its own way only (a ring whose camera is turned to its inside)
+    ring: Ring | None = None  # the pass goes round a structure (its one strip is this ring)
 
     @property
     def empty(self) -> bool:

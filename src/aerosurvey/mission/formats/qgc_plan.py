@@ -38,10 +38,15 @@ spacing, turnaround and CameraCalc (version 2) its own generator rebuilds the pa
 it is (docs/clients/qgroundcontrol.md). The items keep their doJumpId (their sequence number)
 and tag.
 
+Structure Scan items (an orbit's rings, `QgcStructureScan`): complexItemType "StructureScan",
+version 3, the structure polygon, layers and CameraCalc; they hold no items: QGroundControl
+always flies what it generates from them.
+
 Reading: our own files and QGroundControl-written plans of SimpleItems, and Survey and
-Corridor Scan items, read as the `Items` they hold (what QGroundControl uploads for them).
-Other ComplexItems (structure scans, landing patterns) and circular fences have no place
-in aerosurvey's mission model and are refused with what to do.
+Corridor Scan items, read as the `Items` they hold (what QGroundControl uploads for them);
+Structure Scan items as the items QGroundControl generates for them (`_structure_scan_items`).
+Other ComplexItems (landing patterns) and circular fences have no place in aerosurvey's
+mission model and are refused with what to do.
 `mission.cruiseSpeed`/`hoverSpeed` are optional in QGroundControl and read as 0.0 when
 absent; a missing `vehicleType` reads as a copter (QGroundControl's multirotor default).
 """
@@ -61,13 +66,15 @@ from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission, MissionItem
 
 if TYPE_CHECKING:
-    from aerosurvey.mission.formats.qgc_survey import QgcSurvey
+    from aerosurvey.mission.formats.qgc_survey import QgcCamera, QgcStructureScan, QgcSurvey
 
 PLAN_FILE_VERSION = 1
 SURVEY_VERSION = 5
 CORRIDOR_VERSION = 2
 TRANSECT_STYLE_VERSION = 2
 CAMERA_CALC_VERSION = 2
+STRUCTURE_SCAN_VERSION = 3
+STRUCTURE_SCAN_ITEM = "StructureScan"
 #: complex items whose stored `Items` the reader takes (TransectStyleComplexItem's children)
 _TRANSECT_ITEMS = ("survey", "CorridorScan")
 MISSION_VERSION = 2
@@ -165,22 +172,18 @@ def _fence_polygons(m: Mission) -> list[dict[str, Any]]:
     return out
 
 
-def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
-    """A Survey (or, for a corridor, a Corridor Scan) complex item as QGroundControl saves it
-    (SurveyComplexItem::_saveCommon, CorridorScanComplexItem::_saveCommon,
-    TransectStyleComplexItem::_save, CameraCalc::save, CameraSpec::save)."""
-    where = f"survey item of pass {s.pass_index}"
-    c = s.camera
-
+def _camera_calc(c: QgcCamera, side_m: float, frontal_m: float, distance_m: float, mode: int,
+                 where: str) -> dict[str, Any]:
+    """CameraCalc::save (version 2) of a custom camera, CameraSpec::save."""
     def num(v: float, name: str) -> float | int:
         return _finite(v, f"{where} {name}")
 
-    camera_calc = {
-        "AdjustedFootprintFrontal": num(s.trigger_m, "trigger distance"),
-        "AdjustedFootprintSide": num(s.spacing_m, "spacing"),
+    return {
+        "AdjustedFootprintFrontal": num(frontal_m, "frontal footprint"),
+        "AdjustedFootprintSide": num(side_m, "side footprint"),
         "CameraName": "Custom Camera",
-        "DistanceMode": s.distance_mode,
-        "DistanceToSurface": num(s.distance_m, "distance to surface"),
+        "DistanceMode": mode,
+        "DistanceToSurface": num(distance_m, "distance to surface"),
         "FixedOrientation": False,
         "FocalLength": num(c.focal_mm, "focal length"),
         "FrontalOverlap": num(c.frontal_overlap, "frontal overlap"),
@@ -195,6 +198,39 @@ def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
         "ValueSetIsDistance": True,
         "version": CAMERA_CALC_VERSION,
     }
+
+
+def _structure_scan_dict(s: QgcStructureScan) -> dict[str, Any]:
+    """A Structure Scan complex item as QGroundControl saves it (StructureScanComplexItem::save):
+    no items, only what it generates them from (qgc_survey.QgcStructureScan)."""
+    where = f"structure scan item of passes {', '.join(map(str, s.passes))}"
+    if len(s.polygon) < 3:
+        raise InputError(f"{where} polygon has {len(s.polygon)} vertices; a structure polygon needs at least 3")
+    return {
+        "CameraCalc": _camera_calc(s.camera, s.trigger_m, s.layer_m, s.standoff_m, 1, where),
+        "EntranceAltitude": _finite(s.entrance_m, f"{where} entrance altitude"),
+        "GimbalPitch": _finite(s.pitch_deg, f"{where} gimbal pitch"),
+        "Layers": s.layers,
+        "ScanBottomAlt": _finite(s.bottom_m, f"{where} scan bottom altitude"),
+        "StartFromTop": s.from_top,
+        "StructureHeight": _finite(s.height_m, f"{where} structure height"),
+        "complexItemType": STRUCTURE_SCAN_ITEM,
+        "polygon": _lat_lons(s.polygon, f"{where} polygon"),
+        "type": "ComplexItem",
+        "version": STRUCTURE_SCAN_VERSION,
+    }
+
+
+def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
+    """A Survey (or, for a corridor, a Corridor Scan) complex item as QGroundControl saves it
+    (SurveyComplexItem::_saveCommon, CorridorScanComplexItem::_saveCommon,
+    TransectStyleComplexItem::_save, CameraCalc::save, CameraSpec::save)."""
+    where = f"survey item of pass {s.pass_index}"
+
+    def num(v: float, name: str) -> float | int:
+        return _finite(v, f"{where} {name}")
+
+    camera_calc = _camera_calc(s.camera, s.spacing_m, s.trigger_m, s.distance_m, s.distance_mode, where)
     transect: dict[str, Any] = {
         "CameraCalc": camera_calc,
         "CameraShots": s.camera_shots,
@@ -238,9 +274,9 @@ def _survey_dict(s: QgcSurvey, items: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dict[str, Any]:
+def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey | QgcStructureScan, ...] = ()) -> dict[str, Any]:
     """The plan as the JSON object QGroundControl reads (see the module docstring for the keys);
-    the items of each of `surveys` go into one Survey complex item."""
+    the items of each of `surveys` go into one Survey (Corridor Scan, Structure Scan) complex item."""
     if m.firmware not in _FIRMWARE:
         raise InputError(f"mission firmware = {m.firmware!r} is not allowed: one of {', '.join(_FIRMWARE)}")
     if m.vehicle not in _VEHICLE:
@@ -251,12 +287,14 @@ def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dic
         _check_item(it, f"mission item {seq}")
     params = _json_numbers([(*it.params, it.x, it.y, it.z) for it in m.items],
                            lambda i: f"mission item {i // 7 + 1} {_PARAM_NAMES[i % 7]}")
+    if surveys:  # made there: the module is loaded
+        from aerosurvey.mission.formats.qgc_survey import QgcStructureScan
     items: list[dict[str, Any]] = [_item_dict(it, seq, p) for seq, (it, p) in enumerate(zip(m.items, params), start=1)]
     for s in sorted(surveys, key=lambda s: s.first, reverse=True):  # from the end: earlier indices stay valid
         if not 0 <= s.first <= s.last < len(m.items):
-            raise InputError(f"survey item of pass {s.pass_index} holds items {s.first + 1}-{s.last + 1}, "
-                             f"not items of this mission (1-{len(m.items)})")
-        items[s.first:s.last + 1] = [_survey_dict(s, items[s.first:s.last + 1])]
+            raise InputError(f"complex item of items {s.first + 1}-{s.last + 1}: not items of this mission (1-{len(m.items)})")
+        items[s.first:s.last + 1] = [_structure_scan_dict(s) if isinstance(s, QgcStructureScan) else
+                                     _survey_dict(s, items[s.first:s.last + 1])]
     for seq, it in enumerate(m.items, start=1):
         if it.command == _DO_JUMP and not (float(it.param1).is_integer() and 1 <= it.param1 <= len(m.items)):
             raise InputError(f"mission item {seq} DO_JUMP param1 = {it.param1!r} is not allowed: "
@@ -288,7 +326,7 @@ def mission_to_plan_dict(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> dic
     }
 
 
-def dumps_plan(m: Mission, surveys: tuple[QgcSurvey, ...] = ()) -> str:
+def dumps_plan(m: Mission, surveys: tuple[QgcSurvey | QgcStructureScan, ...] = ()) -> str:
     """The plan as JSON text: sorted keys, indent 4, newline at the end, so equal missions give
     equal bytes. Every float in `mission_to_plan_dict` has passed `_json_numbers`
     (NaN is None there, infinity refused), as `dumps_indented` requires."""
@@ -349,13 +387,68 @@ def _read_items(d: Any, i: int, source: str) -> list[tuple[MissionItem, int | No
         stored = _list(_get(inner, "Items", f"{where} field 'TransectStyleComplexItem'"),
                        f"{where} field 'TransectStyleComplexItem' field 'Items'")
         return [_read_item(e, f"{where} ({d['complexItemType']}) item {k}") for k, e in enumerate(stored, start=1)]
+    if kind == "ComplexItem" and d.get("complexItemType") == STRUCTURE_SCAN_ITEM:
+        return [(it, None) for it in _structure_scan_items(d, f"{where} ({STRUCTURE_SCAN_ITEM})")]
     if kind == "ComplexItem":
         raise InputError(
             f"{where} is a ComplexItem ({d.get('complexItemType', 'unknown kind')!r}) without stored items; aerosurvey "
-            "reads SimpleItems and the stored Items of Survey and Corridor Scan items only. "
+            "reads SimpleItems, the stored Items of Survey and Corridor Scan items and what Structure Scan items generate. "
             "Convert it to simple items in QGroundControl first: upload the plan to the vehicle (or SITL), "
             "download it again and save; QGroundControl then writes every waypoint as a SimpleItem")
     return [_read_item(d, where)]
+
+
+def _structure_scan_items(d: dict[str, Any], where: str) -> list[MissionItem]:
+    """What QGroundControl uploads for a Structure Scan item (StructureScanComplexItem::
+    appendMissionItems; the polygon offset as QGCMapPolygon::offset does on 5.1's plane): an
+    entrance waypoint at the flight polygon's vertex 0, the camera turned 90° right of the next
+    waypoint at the gimbal pitch, each layer round the vertices from 0 to 0 again with the
+    distance trigger on after the first and off after the last, the camera freed, the exit."""
+    from aerosurvey.mission.formats.qgc_survey import QGC_FRAMES, offset_polygon, tangent_plane
+
+    version = _get(d, "version", where)
+    if not _is(version, STRUCTURE_SCAN_VERSION):
+        raise InputError(f"{where} field 'version' = {version!r} is not allowed: {STRUCTURE_SCAN_VERSION}")
+    poly = _list(_get(d, "polygon", where), f"{where} field 'polygon'")
+    if len(poly) < 3:
+        raise InputError(f"{where} field 'polygon' has {len(poly)} vertices; a structure polygon needs at least 3")
+    lat_lon = np.array([[_number(v, f"{where} field 'polygon' vertex {k} {name}") for name, v in zip(_LAT_LON, p)]
+                        if isinstance(p, list) and len(p) == 2 else [math.nan, math.nan] for k, p in enumerate(poly, 1)])
+    if not np.isfinite(lat_lon).all():
+        raise InputError(f"{where} field 'polygon' holds a vertex that is not [latitude, longitude]")
+    cam = _object(_get(d, "CameraCalc", where), f"{where} field 'CameraCalc'")
+    side, frontal, distance = (_number(_get(cam, k, f"{where} field 'CameraCalc'"), f"{where} field 'CameraCalc' field {k!r}")
+                               for k in ("AdjustedFootprintSide", "AdjustedFootprintFrontal", "DistanceToSurface"))
+    bottom, height, entrance, pitch = (_number(_get(d, k, where), f"{where} field {k!r}")
+                                       for k in ("ScanBottomAlt", "StructureHeight", "EntranceAltitude", "GimbalPitch"))
+    from_top = _get(d, "StartFromTop", where)
+    if not isinstance(from_top, bool):
+        raise InputError(f"{where} field 'StartFromTop' = {from_top!r} is not allowed: true or false")
+    if not frontal > 0:
+        raise InputError(f"{where} field 'CameraCalc' field 'AdjustedFootprintFrontal' = {frontal!r} is not allowed: "
+                         "a layer height above 0 m")
+    layers = max(math.ceil(max(height - bottom, 0.0) / frontal), 1)  # _recalcLayerInfo
+    written = _get(d, "Layers", where)
+    if not _is(written, layers):
+        raise InputError(f"{where} field 'Layers' = {written!r} is not allowed: QGroundControl recounts it as "
+                         f"{layers} from StructureHeight, ScanBottomAlt and AdjustedFootprintFrontal")
+    tr = tangent_plane(float(lat_lon[0, 0]), float(lat_lon[0, 1]), QGC_FRAMES["survey"])
+    en = np.column_stack(tr.transform(lat_lon[:, 1], lat_lon[:, 0]))
+    flight = offset_polygon(en, distance)
+    lon, lat = tr.transform(flight[:, 0], flight[:, 1], direction="INVERSE")
+    ring = [(float(a), float(b)) for a, b in zip(lat, lon)]
+    wp, rel = mav.NAV_WAYPOINT, mav.FRAME_GLOBAL_RELATIVE_ALT
+    out = [MissionItem(wp, rel, 0.0, 0.0, 0.0, math.nan, *ring[0], entrance),
+           MissionItem(mav.DO_SET_ROI_WPNEXT_OFFSET, mav.FRAME_MISSION, 0.0, 0.0, 0.0, 0.0, pitch, 0.0, 90.0)]
+    for k in range(layers):
+        z = height - frontal * (k + 0.5) if from_top else bottom + frontal * (k + 0.5)
+        for j, (a, b) in enumerate([*ring, ring[0]]):
+            out.append(MissionItem(wp, rel, 0.0, 0.0, 0.0, math.nan, a, b, z))
+            if j == 0:
+                out.append(MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, side, 0.0, 1.0))
+        out.append(MissionItem(mav.DO_SET_CAM_TRIGG_DIST, mav.FRAME_MISSION, 0.0, 0.0, 0.0))
+    out += [MissionItem(mav.DO_SET_ROI_NONE, mav.FRAME_MISSION), MissionItem(wp, rel, 0.0, 0.0, 0.0, math.nan, *ring[0], entrance)]
+    return out
 
 
 def _read_item(d: Any, where: str) -> tuple[MissionItem, int | None]:

@@ -1,5 +1,7 @@
 """QGroundControl Survey items for a mission's photo passes: which items each one holds and
-the settings QGroundControl regenerates the pass from when the pilot edits it.
+the settings QGroundControl regenerates the pass from when the pilot edits it; and the one
+Structure Scan item of the rings round a structure a flight flies (`QgcStructureScan`, from
+the passes' `ring`: docs/clients/qgroundcontrol.md "Structures").
 
 A Survey complex item (SurveyComplexItem, its TransectStyleComplexItem and CameraCalc in
 QGroundControl's sources) stores two things: the mission items QGroundControl uploads as they
@@ -35,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from types import MappingProxyType
 
@@ -121,8 +123,9 @@ def survey_blocks(m: Mission) -> list[tuple[int, int, int]]:
 
 
 @lru_cache(maxsize=64)
-def _to_tangent(lat0: float, lon0: float, frame: str) -> Transformer:
-    """lon/lat -> metres east/north on QGroundControl's plane `frame` (a value of QGC_FRAMES) at (lat0, lon0)."""
+def tangent_plane(lat0: float, lon0: float, frame: str) -> Transformer:
+    """lon/lat -> metres east/north on QGroundControl's plane `frame` (a value of QGC_FRAMES) at (lat0, lon0):
+    QGCGeo::convertGeoToNed."""
     if frame == "sphere":
         return Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={float(lat0)!r} +lon_0={float(lon0)!r} "
                                     f"+R={QGC_SPHERE_M} +units=m +no_defs", always_xy=True)
@@ -298,7 +301,7 @@ def survey_geometry(plan: Plan, pass_index: int, frame: str,
     lines = _pass_lines(plan, pass_index, frozenset(range(len(plan.route.runs))) if flown is None else flown)
     origin = lines.points[0]
     for _ in range(3):  # the plane's origin is vertex 0, which depends a little on the bearing measured on it
-        tr = _to_tangent(float(origin[1]), float(origin[0]), frame)
+        tr = tangent_plane(float(origin[1]), float(origin[0]), frame)
         st = _strips(plan, lines, tr)
         e, n = _ring(st, (st.spacing / 2.0, st.spacing / 2.0))[0]
         vertex0 = np.array(tr.transform(e, n, direction="INVERSE"))
@@ -414,7 +417,7 @@ def corridor_geometry(plan: Plan, pass_index: int, frame: str,
     if any((ln, pt) not in paths for ln in lines for pt in parts):
         return None
     origin = paths[(lines[0], parts[0])][0]
-    tr = _to_tangent(float(origin[1]), float(origin[0]), frame)
+    tr = tangent_plane(float(origin[1]), float(origin[0]), frame)
     en = {k: np.column_stack(tr.transform(v[:, 0], v[:, 1])) for k, v in paths.items()}
     pieces = []  # per part, the middle of the lines' paths, each the way the first line's path of that part runs
     for pt in parts:
@@ -448,6 +451,163 @@ def corridor_geometry(plan: Plan, pass_index: int, frame: str,
     return np.column_stack([lon, lat]), len(lines) * spacing * (1.0 - 1e-9), spacing, entry
 
 
+#: how far below the top of the layers' span a Structure Scan's StructureHeight is written (so
+#: QGroundControl's layer count, ⌈(height − bottom) / layer⌉, cannot round up to one layer more)
+_SPAN_SHORT_M = 0.001
+
+
+@dataclass(frozen=True)
+class QgcStructureScan:
+    """One Structure Scan item (StructureScanComplexItem): the flight's rings round a structure.
+
+    QGroundControl stores no items for it: it flies what it generates from these settings
+    (`appendMissionItems`): the structure polygon offset `standoff_m` outwards (each edge moved
+    to its left on its plane, consecutive edges met: `offset_polygon`), an entrance waypoint at
+    its vertex 0 at `entrance_m`, the camera turned 90° right of the next waypoint at
+    `pitch_deg`, then per layer the vertices from 0 round to 0 again with the distance trigger
+    (`trigger_m`, AdjustedFootprintSide) on after the first, layers `layer_m`
+    (AdjustedFootprintFrontal) apart from half a layer above `bottom_m`, or below `height_m`
+    when `from_top`, ⌈(height − bottom) / layer⌉ of them, then the exit at vertex 0."""
+
+    first: int  # items first..last of Mission.items: the flight's ring passes, one after another
+    last: int
+    passes: tuple[int, ...]  # in flight order
+    polygon: tuple[tuple[float, float], ...]  # (latitude, longitude), open, clockwise seen from above
+    standoff_m: float  # DistanceToSurface: the ring's distance from the polygon (`_structure_polygon`)
+    layer_m: float
+    trigger_m: float
+    bottom_m: float  # ScanBottomAlt, above home
+    height_m: float  # StructureHeight, above home
+    layers: int
+    from_top: bool
+    entrance_m: float
+    pitch_deg: float
+    camera: QgcCamera
+    camera_shots: int
+
+
+def offset_polygon(en: np.ndarray, d: float) -> np.ndarray:
+    """QGCMapPolygon::offset on its plane: each edge of the open ring `en` (east, north) moved
+    `d` to its left (outwards for a clockwise ring), vertex i where the moved edges i − 1 and i
+    meet. Offsetting by −d undoes offsetting by d: each moved edge lies on its own line again."""
+    a = np.asarray(en, float)
+    t = np.roll(a, -1, axis=0) - a
+    t = t / np.hypot(t[:, 0], t[:, 1])[:, None]
+    left = np.column_stack([-t[:, 1], t[:, 0]])
+    p = a + d * left  # a point of each moved edge i, its direction t[i]
+    q, u = np.roll(p, 1, axis=0), np.roll(t, 1, axis=0)  # edge i − 1
+    den = u[:, 0] * t[:, 1] - u[:, 1] * t[:, 0]
+    k = ((p[:, 0] - q[:, 0]) * t[:, 1] - (p[:, 1] - q[:, 1]) * t[:, 0]) / den
+    out: np.ndarray = q + k[:, None] * u
+    return out
+
+
+#: the share of the largest inset a ring's chords allow that its structure polygon is inset by
+_INSET_SHARE = 0.99
+
+
+def _inset(en: np.ndarray, standoff: float) -> float | None:
+    """How far inside the ring `en` (open, clockwise, on QGroundControl's plane) its structure
+    polygon lies: the stand-off, or less where the ring rounds a corner in chords: moving the
+    edges in by s shortens an edge of length L between turns φ1, φ2 (right, positive) by
+    s·(tan(φ1/2) + tan(φ2/2)), so the inset stays a share (`_INSET_SHARE`) of the least s that
+    makes an edge vanish, and every edge of the polygon keeps its direction (QGroundControl's
+    offset moves each edge to its left: an edge turned round would move the wrong way). None when
+    two edges in a row are parallel (QGroundControl's offset stops there)."""
+    t = np.roll(en, -1, axis=0) - en
+    length = np.hypot(t[:, 0], t[:, 1])
+    u = t / length[:, None]
+    prev = np.roll(u, 1, axis=0)
+    cross = prev[:, 0] * u[:, 1] - prev[:, 1] * u[:, 0]  # the turn at each vertex: negative to the right
+    if np.any(np.abs(cross) < 1e-9):
+        return None
+    half = np.tan(np.arctan2(-cross, np.sum(prev * u, axis=1)) / 2.0)  # tan(φ/2), φ the right turn at each vertex
+    shrink = half + np.roll(half, -1)  # edge i runs from vertex i to i + 1
+    limit = np.where(shrink > 0, length / np.where(shrink > 0, shrink, 1.0), np.inf)
+    return float(min(standoff, _INSET_SHARE * float(limit.min())))
+
+
+def _structure_polygon(ring: np.ndarray, standoff: float, frame: str) -> tuple[np.ndarray, float] | None:
+    """The structure polygon (lon/lat, open) and the distance to it (DistanceToSurface) whose
+    offset on QGroundControl's plane `frame` (at the polygon's vertex 0) is the ring `ring`
+    (lon/lat, open, clockwise): the ring's edges moved in by `_inset` (the stand-off, or a
+    hair less where the ring's chords round a corner: 14.67 m for 15 m with 5 chords a
+    quarter circle, the polygon's corners rounded by the difference). None where `_inset` is."""
+    origin, inset = ring[0], None
+    for _ in range(3):  # the plane's origin is vertex 0 of the polygon, which depends a little on the plane
+        tr = tangent_plane(float(origin[1]), float(origin[0]), frame)
+        en = np.column_stack(tr.transform(ring[:, 0], ring[:, 1]))
+        inset = _inset(en, standoff)
+        if inset is None:
+            return None
+        poly = offset_polygon(en, -inset)
+        lon, lat = tr.transform(poly[:, 0], poly[:, 1], direction="INVERSE")
+        vertex0 = np.array([lon[0], lat[0]])
+        if float(np.abs(vertex0 - origin).max()) < 1e-9:
+            break
+        origin = vertex0
+    assert inset is not None
+    return np.column_stack([lon, lat]), inset
+
+
+def _qgc_camera(plan: Plan, distance: float, side_m: float, frontal_m: float) -> QgcCamera:
+    """CameraCalc's camera at `distance` from the surface, with the overlaps for which
+    QGroundControl's footprint × (1 − overlap) gives `side_m` and `frontal_m`."""
+    cam = plan.camera.camera
+    gsd_cm = distance * cam.sensor_width_mm * 100.0 / (cam.image_width_px * cam.focal_mm)
+    landscape = plan.camera.mount == "landscape"
+    side_px, front_px = (cam.image_width_px, cam.image_height_px) if landscape else (cam.image_height_px, cam.image_width_px)
+    return QgcCamera(cam.sensor_width_mm, cam.sensor_height_mm, cam.image_width_px, cam.image_height_px, cam.focal_mm,
+                     landscape, cam.min_cycle_s, gsd_cm, 100.0 * (1.0 - frontal_m / (front_px * gsd_cm / 100.0)),
+                     100.0 * (1.0 - side_m / (side_px * gsd_cm / 100.0)))
+
+
+def _scan_shape(plan: Plan, passes: list[int], flown: frozenset[int], frame: str) -> QgcStructureScan | str:
+    """The Structure Scan item (its items not yet placed: first = last = -1) of the flight's ring
+    passes `passes` (pass indices), or why they stay plain items."""
+    by_index = {p.index: p for p in plan.layout.passes}
+    runs = plan.route.runs
+    order = [runs[k].pass_index for k in sorted(flown) if runs[k].pass_index in passes]
+    order = [p for i, p in enumerate(order) if i == 0 or order[i - 1] != p]
+    first = by_index[order[0]]
+    ring = first.ring
+    assert ring is not None
+    why = "the structure scan: "
+    if len(order) != len(set(order)):
+        return why + "its rings are not flown one after another, as QGroundControl flies its layers"
+    if any(by_index[p].ring is not ring for p in order):
+        return why + "the passes go round different rings; QGroundControl's item flies one"
+    if any(by_index[p].aim != first.aim for p in order) or first.aim.look != "along" or first.aim.turn_deg != 90.0:
+        return why + "the camera is not turned 90° right of the flight at one pitch, as QGroundControl aims it"
+    if plan.altitudes.frame == "terrain" or plan.sensor.heights.mode == "follow":
+        return why + "its heights follow the terrain; QGroundControl flies the layers above home"
+    xy = ring.path
+    if float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])) > 0:
+        return why + "its ring is flown anticlockwise; QGroundControl flies a structure's ring clockwise"
+    lon, lat = plan.site.planar.lonlat(xy[:, 0], xy[:, 1])
+    found = _structure_polygon(np.column_stack([lon, lat]), ring.standoff_m, frame)
+    if found is None:
+        return why + "two edges in a row of its ring are parallel, where QGroundControl's offset of a polygon stops"
+    polygon, distance = found
+    station_run = np.asarray(plan.stations.run)
+    z = [float(np.mean(plan.stations.alt_rel_m[np.isin(station_run, [k for k in flown if runs[k].pass_index == p])]))
+         for p in order]
+    steps = np.diff(z)
+    layer = float(np.mean(np.abs(steps))) if len(z) > 1 else plan.sensor.spacing_m
+    if len(z) > 1 and (float(np.ptp(np.abs(steps))) > 0.01 or not (np.all(steps > 0) or np.all(steps < 0))):
+        return why + "its layers are not evenly spaced one way, as QGroundControl lays them"
+    trigger = plan.sensor.trigger_distance_m if plan.sensor.trigger_distance_m is not None else plan.sensor.base_m
+    camera = _qgc_camera(plan, distance, trigger, layer)
+    if not (0.0 <= camera.frontal_overlap < 100.0 and 0.0 <= camera.side_overlap < 100.0):
+        return why + (f"its layers {layer:.2f} m and photos {trigger:.2f} m apart need overlaps {camera.frontal_overlap:.0f} "
+                      f"and {camera.side_overlap:.0f} % of a square-on photo, outside QGroundControl's 0-100 %")
+    bottom = min(z) - layer / 2.0
+    shots = int(np.isin(station_run, [k for k in flown if runs[k].pass_index in order]).sum())
+    return QgcStructureScan(-1, -1, tuple(order), tuple((float(b), float(a)) for a, b in polygon), distance, layer,
+                            trigger, bottom, bottom + len(z) * layer - _SPAN_SHORT_M, len(z), len(z) > 1 and z[1] < z[0],
+                            z[0], first.aim.pitch_deg, camera, shots)
+
+
 @dataclass(frozen=True)
 class PassShape:
     """What one pass's complex item is drawn from: a Survey item's polygon and lines
@@ -457,6 +617,7 @@ class PassShape:
     grid: tuple[np.ndarray, _Strips] | None
     corridor: tuple[np.ndarray, float, float, int] | None
     alternate: bool
+    scan: QgcStructureScan | None = None  # a ring pass: the Structure Scan item of all the flight's rings
 
 
 @dataclass(frozen=True)
@@ -492,7 +653,15 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
     framed = {p.index for p in plan.layout.passes if p.frame is not None}
     out: dict[int, PassShape | None] = {}
     plain: list[str] = []
-    for p in sorted(set(passes)):
+    ringed = sorted({p.index for p in plan.layout.passes if p.ring is not None} & set(passes))
+    if ringed:  # the rings round a structure: one Structure Scan item, or plain items all
+        cut = sorted({runs[k].pass_index for k in partial} & set(ringed))
+        scan = (f"the structure scan: the flight flies part of the ring of pass {cut[0]}, which QGroundControl "
+                "would fly whole") if cut else _scan_shape(plan, ringed, flown, frame)
+        if isinstance(scan, str):
+            plain.append(scan)
+        out |= {p: None if isinstance(scan, str) else PassShape(None, None, False, scan) for p in ringed}
+    for p in sorted(set(passes) - set(ringed)):
         if any(runs[k].pass_index == p for k in partial):
             out[p] = None
             plain.append(f"pass {p}: the flight flies part of a line, which an edit in QGroundControl would lay whole")
@@ -518,11 +687,11 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
     return SurveyShapes(MappingProxyType(out), tuple(plain), first, last)
 
 
-def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission) -> tuple[QgcSurvey, ...]:
+def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission) -> tuple[QgcSurvey | QgcStructureScan, ...]:
     """A Survey item for each of the mission's pass blocks of parallel lines, or a Corridor Scan
     item for a pass of strips, where `shapes` (`survey_shapes`, made for the stations the
-    mission flies) has the pass's shape. Any other pass stays plain items."""
-    cam = plan.camera.camera
+    mission flies) has the pass's shape, and one Structure Scan item for the blocks of the
+    rings round a structure. Any other pass stays plain items."""
     run_ids = [ids.run_id(r.pass_index, r.line, r.part) for r in plan.route.runs]
     station_run = np.asarray(plan.stations.run)[shapes.first_station:shapes.last_station + 1]
     if plan.altitudes.frame == "terrain":
@@ -531,13 +700,22 @@ def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission) -> tuple[QgcSurve
         mode = DISTANCE_CALC_ABOVE_TERRAIN
     else:
         mode = DISTANCE_RELATIVE
-    out: list[QgcSurvey] = []
-    for p, a, b in survey_blocks(m):
+    out: list[QgcSurvey | QgcStructureScan] = []
+    blocks = survey_blocks(m)
+    for p, a, b in blocks:
         polygon: tuple[tuple[float, float], ...] = ()
         polyline: tuple[tuple[float, float], ...] = ()
         width, angle = 0.0, 0.0
         shape = shapes.passes.get(p)
         if shape is None:  # the pass stays plain items
+            continue
+        if shape.scan is not None:
+            if p == shape.scan.passes[0]:  # the item holds the blocks of its passes, which follow one another
+                last = [q for q in blocks if q[0] in shape.scan.passes]
+                if [q[0] for q in last] != list(shape.scan.passes) or any(
+                        m.items[j].tag != "detour" for (_, _, b0), (_, a1, _) in zip(last[:-1], last[1:]) for j in range(b0 + 1, a1)):
+                    raise ValueError(f"the structure scan's passes {shape.scan.passes} are not flown one after another here")
+                out.append(replace(shape.scan, first=a, last=last[-1][2]))
             continue
         if shape.corridor is not None:
             # strips bend (a corridor's): a Survey item would regenerate straight lines (the road
@@ -558,14 +736,8 @@ def survey_items(plan: Plan, shapes: SurveyShapes, m: Mission) -> tuple[QgcSurve
             distance = next(it.z for it in items if it.command == mav.NAV_WAYPOINT and ids.pass_of(it.tag) is not None)
         else:
             distance = plan.sensor.heights.nominal_agl_m
-        gsd_cm = distance * cam.sensor_width_mm * 100.0 / (cam.image_width_px * cam.focal_mm)
-        landscape = plan.camera.mount == "landscape"
-        side_px, front_px = (cam.image_width_px, cam.image_height_px) if landscape else (cam.image_height_px, cam.image_width_px)
         trigger = plan.sensor.trigger_distance_m if plan.sensor.trigger_distance_m is not None else plan.sensor.base_m
-        camera = QgcCamera(cam.sensor_width_mm, cam.sensor_height_mm, cam.image_width_px, cam.image_height_px, cam.focal_mm,
-                           landscape, cam.min_cycle_s, gsd_cm,
-                           100.0 * (1.0 - trigger / (front_px * gsd_cm / 100.0)),
-                           100.0 * (1.0 - spacing / (side_px * gsd_cm / 100.0)))
+        camera = _qgc_camera(plan, distance, spacing, trigger)
         out.append(QgcSurvey(
             first=a, last=b, pass_index=p, polygon=polygon, angle_deg=angle, entry_location=entry,
             fly_alternate=not polyline and shape.alternate, spacing_m=spacing, trigger_m=trigger,
