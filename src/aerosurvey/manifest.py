@@ -123,6 +123,28 @@ def _coverage(plan: Plan) -> dict[str, Any]:
             "uncovered_m2": round(c.uncovered_m2, 2), "parts": c.parts}
 
 
+#: the version of the manifest's `faces` record: a change of its fields bumps it
+FACES_VERSION = 1
+
+
+def _faces(plan: Plan) -> dict[str, Any] | None:
+    """A structure's faces as the plan's photos see them (plan.faces, surfaces.FacesCheck), and the
+    heights the photos are taken at: the figures a plan of a structure is judged by, where the
+    nadir figures of `derived` (one height, the GSD on the ground) say nothing of its walls."""
+    f = plan.faces
+    if f is None:
+        return None
+    seen = f.coverage.images > 0
+    gsd = f.coverage.finest_gsd_m[seen] * 100.0
+    agl = plan.stations.agl_m
+    return {"version": FACES_VERSION, "area_m2": round(f.coverage.area_m2, 2), "short_m2": round(f.short_m2, 2),
+            "min_images": f.min_images, "fewest_images": int(f.coverage.images.min()) if len(f.coverage.images) else 0,
+            "max_gsd_cm": None if f.max_gsd_m is None else _f(f.max_gsd_m * 100.0, 4),
+            "gsd_cm": [_f(float(gsd.min()), 4), _f(float(gsd.max()), 4)] if len(gsd) else None,
+            "station_agl_m": [_f(float(agl.min())), _f(float(agl.max()))] if len(agl) else None,
+            "nadir_photos": int(np.count_nonzero(plan.stations.pitch_deg == -90.0))}
+
+
 #: the version of the manifest's `airspace` record: a change of its fields bumps it (docs/airspace.md)
 AIRSPACE_VERSION = 1
 
@@ -327,6 +349,7 @@ def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: d
             "max_mission_items": spec.battery.max_mission_items},
         "warnings": list(plan.warnings),
         "coverage": _coverage(plan),
+        **({} if plan.faces is None else {"faces": _faces(plan)}),
     }
 
 

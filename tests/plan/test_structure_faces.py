@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 import shapely
 from click.testing import CliRunner
-from tests.conftest import make_spec, write_geojson
+from tests.conftest import REPO, make_spec, write_geojson
 
 import independent_coverage as ic
 from aerosurvey.camera import get_camera
@@ -111,3 +111,33 @@ def test_a_bad_structure_is_refused_naming_it(tmp_path: Path, table: dict, words
     _tower(tmp_path)
     code, text = _run("plan", make_spec(tmp_path, {"structure": table}), "-o", tmp_path / "out")
     assert code == 2 and words in text, text
+
+
+def test_the_summary_gives_the_faces_beside_the_ground_and_alone_without_a_nadir_photo(tmp_path: Path) -> None:
+    """The manifest's `faces` record is the structure-faces rule's figures; the summary prints it
+    beside the nadir height and GSD of a grid, and in their place for a facade (no photo straight
+    down), whose photos' heights lie within the mission's waypoint heights (flat ground)."""
+    _tower(tmp_path)
+    spec = make_spec(tmp_path, {"structure": {"file": "tower.geojson", "top_m": 30.0}})
+    code, text = _run("plan", spec, "-o", tmp_path / "grid")
+    assert code in (0, 1), text
+    m = json.loads((tmp_path / "grid" / "manifest.json").read_text())
+    short, total = (float(v) for v in re.match(r"([\d.]+) m² of ([\d.]+) m²", _faces_rule(m)["measured"]).groups())
+    f = m["faces"]
+    assert f["short_m2"] == pytest.approx(short, abs=0.01) and f["area_m2"] == pytest.approx(total, abs=0.01)
+    assert f["nadir_photos"] == m["estimates"]["photos"] and f["gsd_cm"][0] <= f["gsd_cm"][1]
+    assert "  height AGL " in text and "  faces " in text and "  GSD on faces " in text
+
+    code, text = _run("plan", REPO / "missions" / "long-wall.toml", "-o", tmp_path / "wall")
+    assert code == 0, text
+    m = json.loads((tmp_path / "wall" / "manifest.json").read_text())
+    f = m["faces"]
+    assert f["nadir_photos"] == 0 and f["short_m2"] == 0 and f["fewest_images"] >= f["min_images"]
+    assert "  height AGL " not in text and "none straight down" in text
+    _, rows = ic.read_wpl(tmp_path / "wall" / "mission.waypoints")
+    alts = [r[10] for r in rows if r[3] == 16]
+    assert min(alts) - 0.01 <= f["station_agl_m"][0] <= f["station_agl_m"][1] <= max(alts) + 0.01
+
+    code, text = _run("plan", REPO / "missions" / "obratan-72ha.toml", "-o", tmp_path / "ground")
+    assert "faces" not in json.loads((tmp_path / "ground" / "manifest.json").read_text())
+    assert "  faces " not in text

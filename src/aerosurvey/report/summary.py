@@ -94,6 +94,8 @@ class Summary:
     rules: RuleCount
     # the terrain clearance (manifest "clearance"): the minimum and each flight's lowest; None without a DEM
     clearance: tuple[float, tuple[Mapping[str, Any], ...]] | None = None
+    # a structure's faces as the photos see them (manifest "faces"), None for a plan of the ground only
+    faces: Mapping[str, Any] | None = None
 
 
 def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]) -> Summary:
@@ -127,6 +129,7 @@ def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]
         mission_items=int(manifest["mission_items"]), rules=RuleCount.of(rules),
         clearance=None if "clearance" not in manifest else (float(manifest["clearance"]["min_clearance_m"]),
                                                              tuple(manifest["clearance"]["flights"])),
+        faces=manifest.get("faces"),
     )
 
 
@@ -142,10 +145,8 @@ def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
     height = ("flat ground, no DEM" if s.terrain_mode == "none"
               else f"terrain mode {s.terrain_mode}; {s.height_range_m[0]:.1f}..{s.height_range_m[1]:.1f} m above the ground")
     cruise, cycle, blur = s.speed_limits_ms
-    lines = [
-        f"mission {s.name}: {s.area_ha:.2f} ha in {s.crs}, camera {s.camera}",
-        f"  height AGL      {s.height_agl_m:.1f} m ({height})",
-        f"  GSD             {s.gsd_cm[0]:.2f}..{s.gsd_cm[1]:.2f} cm (target {s.gsd_target_cm:.2f} cm)",
+    lines = [f"mission {s.name}: {s.area_ha:.2f} ha in {s.crs}, camera {s.camera}", *_height_and_gsd(s, height)]
+    lines += [
         f"  footprint       {s.footprint_m[0]:.1f} m across x {s.footprint_m[1]:.1f} m along",
         f"  line spacing    {s.spacing_m:.1f} m, photo base {s.photo_base_m:.2f} m"
         + (f", trigger distance {s.trigger_distance_m:.2f} m" if s.trigger_distance_m is not None else "")
@@ -179,6 +180,25 @@ def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
     hint = f" (`{check_command}` for the evidence)" if check_command else ""
     lines.append(f"  rules           {s.rules.text()}{hint}")
     return lines
+
+
+def _height_and_gsd(s: Summary, height: str) -> list[str]:
+    """The height and GSD lines: the nadir figures, and a structure's faces as its photos see them;
+    a plan that takes no photo straight down (an orbit, a facade) is given by its faces alone."""
+    f = s.faces
+    nadir = [f"  height AGL      {s.height_agl_m:.1f} m ({height})",
+             f"  GSD             {s.gsd_cm[0]:.2f}..{s.gsd_cm[1]:.2f} cm (target {s.gsd_target_cm:.2f} cm)"]
+    if f is None:
+        return nadir
+    agl = "" if f["station_agl_m"] is None else f"{f['station_agl_m'][0]:.1f}..{f['station_agl_m'][1]:.1f} m"
+    gsd = "no point seen" if f["gsd_cm"] is None else f"{f['gsd_cm'][0]:.2f}..{f['gsd_cm'][1]:.2f} cm"
+    limit = "" if f["max_gsd_cm"] is None else f", at most {f['max_gsd_cm']:.2f} cm counted"
+    faces = [f"  faces           {f['area_m2']:.0f} m2, each point asked {f['min_images']} photos{limit}: fewest "
+             f"{f['fewest_images']}, {f['short_m2']:.2f} m2 short",
+             f"  GSD on faces    {gsd}"]
+    if f["nadir_photos"]:
+        return nadir + faces
+    return [f"  photos taken    {agl} above the ground ({height}), none straight down", *faces]
 
 
 def summary_json(s: Summary) -> dict[str, Any]:
