@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.camera import Camera
@@ -19,6 +19,7 @@ from aerosurvey.plan.capture import (
     Attitudes,
     Optics,
     Photos,
+    bounded_footprints,
     edge_gsd,
     footprint_corners,
     footprint_polygons,
@@ -100,6 +101,31 @@ def test_gsd_is_h_p_over_f_at_nadir_and_grows_to_the_far_edge_when_tilted() -> N
 def test_a_ray_near_the_horizon_is_refused() -> None:
     with pytest.raises(ValueError, match="below it"):
         footprint_corners(photos(0.0, -20.0), Optics.of(CAM, "landscape"), 0.0)
+
+
+@given(st.floats(0, 360), st.floats(-90.0, 15.0), st.sampled_from(["landscape", "portrait"]), st.floats(5.0, 300.0))
+@settings(max_examples=200, deadline=None)
+def test_a_photo_has_a_ground_footprint_iff_every_corner_is_5_degrees_below_the_horizon(yaw: float, pitch: float, mount: str,
+                                                                                     z: float) -> None:
+    """Random pitches across the threshold (about -33.7° for this camera landscape, -41.6° portrait).
+    A corner ray in the camera is (x, f, y) (x across, y up the image, f along the axis); pitched
+    by p it rises f·sin p + y·cos p over its length √(x² + f² + y²): its elevation. The top
+    corners (y = +half the image's height) are the highest."""
+    across, along = (W, H_SENSOR) if mount == "landscape" else (H_SENSOR, W)
+    p = math.radians(pitch)
+    top = math.degrees(math.asin((F * math.sin(p) + along / 2 * math.cos(p)) / math.hypot(across / 2, F, along / 2)))
+    assume(abs(top + 5.0) > 1e-6)
+    ph = Photos.looking(np.array([10.0, 10.0]), np.array([-3.0, -3.0]), np.array([z, z]), np.array([yaw, yaw]),
+                        np.array([pitch, -90.0]))
+    optics = Optics.of(CAM, mount)
+    assert bounded_footprints(ph, optics).tolist() == [top < -5.0, True]
+    if top < -5.0:
+        c = footprint_corners(ph, optics, 0.0)[0]
+        assert np.isfinite(c).all() and shapely.Polygon(c).area > 0
+    else:
+        with pytest.raises(ValueError, match="below it"):
+            footprint_corners(ph, optics, 0.0)
+        assert footprint_corners(ph.take(np.array([1])), optics, 0.0).shape == (1, 4, 2)
 
 
 class Slope:

@@ -133,6 +133,43 @@ def test_the_examples_faces_are_covered_by_the_exported_mission_and_kept_off(tmp
     assert m["pattern"]["parameters"]["lanes"] == lanes == len(m["pattern"]["passes"])
 
 
+#: plan.geojson's reason for a photo with no ground footprint (docs/planning.md, "Facade")
+NO_FOOTPRINT = "none: the image reaches the horizon"
+
+
+@pytest.mark.parametrize(("pitch", "ground"), [(None, False), (0.0, False), (-45.0, True)])
+def test_a_square_facade_writes_its_photos_points_not_ground_footprints_and_check_runs(tmp_path: Path, pitch: float | None,
+                                                                                    ground: bool) -> None:
+    """The long wall's default is square to the wall: the camera level. Its photos reach the
+    horizon: plan.geojson gives each a feature of role "no-footprint", the photo's point and the
+    reason, no ground polygon (each role stays of one geometry type); at -45°
+    every corner is more than 5° below the horizon (half the vertical angle is about 27°) and
+    each photo has its ground polygon. `check` runs on both."""
+    spec = tomllib.loads((REPO / "missions" / "long-wall.toml").read_text())
+    coords = json.loads((REPO / "missions" / spec["area"]["file"]).read_text())["features"][0]["geometry"]["coordinates"]
+    toe = np.column_stack(TO_XY.transform(*np.array(coords).T))
+    pattern = {k: v for k, v in spec["pattern"].items() if k not in ("min_images", "max_gsd_cm")}
+    out, m = _plan(tmp_path, toe, {**pattern, **({} if pitch is None else {"pitch_deg": pitch})})
+    assert m["pattern"]["parameters"]["pitch_deg"] == (-45.0 if ground else 0.0)
+    feats = json.loads((out / "plan.geojson").read_text())["features"]
+    stations = {f["id"]: f["geometry"]["coordinates"] for f in feats if f["properties"]["role"] == "station"}
+    footprints = {f["properties"]["station"]: f for f in feats if f["properties"]["role"] in ("footprint", "no-footprint")}
+    assert stations and footprints.keys() == stations.keys() and len(footprints) == len(stations)
+    for sid, f in footprints.items():
+        assert f["id"] == f["properties"]["id"] == f"{sid}-fp"
+        assert f["properties"]["role"] == ("footprint" if ground else "no-footprint"), f
+        if ground:
+            assert f["geometry"]["type"] == "Polygon" and "footprint" not in f["properties"], f
+            ring = np.array(f["geometry"]["coordinates"][0])
+            assert len(ring) == 5 and np.isfinite(ring).all()
+        else:
+            assert f["geometry"] == {"type": "Point", "coordinates": stations[sid]}, f
+            assert f["properties"]["footprint"].startswith(NO_FOOTPRINT), f
+    res = CliRunner().invoke(main, ["check", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "faces" in res.output
+
+
 def test_a_face_no_photo_sees_fails_the_rule() -> None:
     """Photos turned away from the faces: the rule fails, naming the whole area short."""
     t = Terrace((0.0, 0.0), (50.0, 0.0), 0.0, 70.0, 10.0, 2, 5.0)  # faces rise to the south
@@ -156,7 +193,7 @@ def test_too_few_photos_a_point_fails_the_rule(tmp_path: Path) -> None:
     ({"kind": "facade", "standoff_m": 12.0, "top_m": 5.0, "base_m": 6.0}, "pattern.top_m = 5.0 is not allowed"),
     ({"kind": "faces", "benches": 2.5}, "pattern.benches = 2.5 is not allowed"),
     ({"kind": "faces", "face_angle_deg": 95.0}, "pattern.face_angle_deg"),
-    ({"kind": "faces", "pitch_deg": -5.0}, "pattern.pitch_deg = -5 is not allowed"),
+    ({"kind": "faces", "pitch_deg": -89.0}, "pattern.pitch_deg = -89 is not allowed"),
     ({"kind": "facade", "top_m": 20.0, "standoff_m": 1.0}, "pattern.standoff_m"),
 ])
 def test_bad_settings_are_refused_in_one_line_naming_them(tmp_path: Path, pattern: dict, words: str) -> None:

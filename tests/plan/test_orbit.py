@@ -172,6 +172,35 @@ def test_start_top_flies_the_layers_downwards(tmp_path: Path) -> None:
     assert z == sorted(z, reverse=True) and len(set(np.round(z, 1))) > 1
 
 
+def test_a_level_orbit_claims_no_ground_and_sees_the_walls(tmp_path: Path) -> None:
+    """pitch_deg = 0: every photo reaches the horizon, so plan.geojson writes its point (role
+    "no-footprint", with the reason) and no ground polygon; the walls are covered, judged by the
+    independent caster; the roof is not (a level ring does not look down on it): the
+    structure-faces rule fails by no more than the roof, and `check` says so (exit 1)."""
+    footprint, top = _box(20.0, 20.0), 30.0
+    with pytest.raises(AssertionError, match="1 error-severity rule"):
+        _plan(tmp_path, footprint, top, 15.0, pitch_deg=0.0)
+    out = tmp_path / "out"
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["pattern"]["parameters"]["pitch_deg"] == 0.0
+    assert [r["rule"] for r in m["rules"] if r["status"] == "fail"] == ["structure-faces"]
+    assert 0.0 < float(_rule(m)["measured"].split(" m² of ")[0]) <= footprint.area + 1.0, _rule(m)
+    roles = [f["properties"] for f in json.loads((out / "plan.geojson").read_text())["features"]]
+    points = [p for p in roles if p["role"] == "no-footprint"]
+    assert not [p for p in roles if p["role"] == "footprint"]
+    assert len(points) == len([p for p in roles if p["role"] == "station"]) > 0
+    assert all(p["footprint"].startswith("none: the image reaches the horizon") for p in points)
+    cams, _, _ = _photos(out)
+    cam = get_camera(CAMERA)
+    sensor = (cam.sensor_width_mm, cam.sensor_height_mm, cam.focal_mm)
+    pts, nrm, _ = prism_samples(footprint, 0.0, top, 2.5)
+    walls = np.abs(nrm[:, 2]) < 0.5
+    vis, _ = caster(footprint, 0.0, top, sensor, cams, pts[walls], nrm[walls], samples=300)
+    assert vis.sum(axis=0).min() >= 2, vis.sum(axis=0).min()
+    code, text = _run("check", out)
+    assert code == 1 and "structure-faces" in text, text
+
+
 def test_an_orbit_without_a_structure_is_refused(tmp_path: Path) -> None:
     code, text = _run("plan", make_spec(tmp_path, {"pattern": {"kind": "orbit"}}), "-o", tmp_path / "out")
     assert code == 2 and "pattern.kind = 'orbit' needs a [structure] table" in text, text
@@ -179,7 +208,7 @@ def test_an_orbit_without_a_structure_is_refused(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("extra", "words"), [
-    ({"pitch_deg": -10.0}, "pattern.pitch_deg = -10 is not allowed"),
+    ({"pitch_deg": -79.0}, "pattern.pitch_deg = -79 is not allowed"),
     ({"standoff_m": 1.0}, "pattern.standoff_m"),
     ({"start": "middle"}, "pattern.start"),
     ({"launch": (0.0, 14.0)}, "the launch point lies within the stand-off"),

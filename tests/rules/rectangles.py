@@ -17,4 +17,4 @@ def rect_footprints(x, y, heading_rad, across, along) -> Footprints:
     centre = np.stack([x, y], axis=-1)
     signs = [(1, 1), (-1, 1), (-1, -1), (1, -1)]  # (right, ahead)
     corners = np.stack([centre + r * right * w[:, None] / 2 + a * fwd * ln[:, None] / 2 for r, a in signs], axis=1)
-    return Footprints(x, y, h, corners)
+    return Footprints(np.arange(len(x)), x, y, h, corners)

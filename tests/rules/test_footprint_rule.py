@@ -13,7 +13,7 @@ from aerosurvey.camera import database
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.rules.footprints import ViewCamera, footprints
+from aerosurvey.rules.footprints import ViewCamera, footprints, forward_overlaps
 from aerosurvey.rules.load import plan_documents
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.spec import load_spec
@@ -84,3 +84,36 @@ def test_unknown_mount_in_a_manifest_is_an_input_error(planned):
     view.manifest["camera"]["mount"] = "Portrait"
     with pytest.raises(InputError, match="camera.mount = 'Portrait'"):
         footprints(view)
+
+
+def test_level_photos_count_for_no_ground_point(planned):
+    """Photos whose image reaches the horizon (every third turned level, pitch 0) have no ground
+    footprint: the rules' footprints drop them by index, every count is the count of the others'
+    nadir rectangles (made here from the station, the heading and the planner's footprint size),
+    and the overlaps are measured among the others only."""
+    spec, plan = planned
+    manifest, features = plan_documents(plan, spec)
+    nadir = PlanView.from_documents(json.loads(json.dumps(manifest)), features, "test")
+    level = np.arange(len(nadir.x)) % 3 == 1
+    view = dataclasses.replace(nadir, pitch_deg=np.where(level, 0.0, nadir.pitch_deg))
+    fp = footprints(view)
+    np.testing.assert_array_equal(fp.station, np.flatnonzero(~level))
+    k = plan.site.grid_scale
+    across, along = (np.asarray(a, float) * k for a in pg.footprint(view.agl, spec.camera.camera, spec.camera.mount))
+    rng = np.random.default_rng(7)
+    px = rng.uniform(view.x.min(), view.x.max(), 300)
+    py = rng.uniform(view.y.min(), view.y.max(), 300)
+    # each point in the frame of each photo's image: across (right) and along (its top) the heading
+    h = np.radians(np.asarray(view.camera_yaw_deg, float))[:, None]
+    dx, dy = px[None, :] - np.asarray(view.x)[:, None], py[None, :] - np.asarray(view.y)[:, None]
+    inside = ((np.abs(dx * np.cos(h) - dy * np.sin(h)) < across[:, None] / 2 - 1e-6)
+              & (np.abs(dx * np.sin(h) + dy * np.cos(h)) < along[:, None] / 2 - 1e-6))
+    edge = ((np.abs(np.abs(dx * np.cos(h) - dy * np.sin(h)) - across[:, None] / 2) < 1e-3)
+            | (np.abs(np.abs(dx * np.sin(h) + dy * np.cos(h)) - along[:, None] / 2) < 1e-3)).any(axis=0)
+    want = inside[~level].sum(axis=0)
+    np.testing.assert_array_equal(fp.count_at(px, py)[~edge], want[~edge])
+    assert (want < inside.sum(axis=0)).any()  # some points lost a level photo
+    overlaps = dict(forward_overlaps(view, fp))
+    assert overlaps and all(np.isfinite(v) for v in overlaps.values())
+    # two photos a base apart either side of a level one: 1 − 2·base / along
+    assert min(overlaps.values()) == pytest.approx(1 - 2 * plan.sensor.base_m * k / along.min(), abs=0.01)

@@ -38,9 +38,11 @@ from aerosurvey.spec import MOUNTS
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
 
 #: A ray must point at least this far below the horizon (degrees) to meet the ground: a
-#: footprint edge closer to the horizon is unbounded for mapping.
+#: footprint edge closer to the horizon is unbounded for mapping. A photo with an image corner
+#: closer to it (a level or upward-looking camera) has no ground footprint (`bounded_footprints`).
 MIN_DEPRESSION_DEG = 5.0
 
 #: Refinements of a ray's meeting with a DEM (each moves it to the ground height found at the
@@ -138,6 +140,12 @@ class Photos:
         att = Attitudes(yaw, np.broadcast_to(np.asarray(pitch_deg, float), yaw.shape).copy(), np.zeros(yaw.shape))
         return cls(np.asarray(x, float), np.asarray(y, float), np.asarray(agl_m, float), att)
 
+    def take(self, which: IntArray | BoolArray) -> Photos:
+        """The photos `which` selects (indices or a mask)."""
+        a = self.attitude
+        return Photos(self.x[which], self.y[which], self.z[which],
+                      Attitudes(a.yaw_deg[which], a.pitch_deg[which], a.roll_deg[which]))
+
 
 #: Image points (u, v) in units of the imaging area's half sides: the four corners, in the
 #: order top-right, top-left, bottom-left, bottom-right (top = the image's top edge): on the
@@ -169,9 +177,27 @@ def ray_directions(optics: Optics, attitude: Attitudes, uv: FloatArray) -> Float
     return np.stack([e, n, z2], axis=-1)
 
 
+def _below_horizon(d: FloatArray) -> BoolArray:
+    """Whether each unit ray `d` points at least MIN_DEPRESSION_DEG below the horizon."""
+    below: BoolArray = d[..., 2] <= -np.sin(np.radians(MIN_DEPRESSION_DEG))
+    return below
+
+
+def bounded_footprints(photos: Photos, optics: Optics) -> BoolArray:
+    """Which photos have a bounded ground footprint: the one place that says so. A photo has one
+    when the ray through every corner of its image points at least MIN_DEPRESSION_DEG below the
+    horizon (the corners decide for the whole image: a ray's up component plus sin(margin) times
+    its length is convex over the image plane, so it is greatest at a corner). The others (a
+    level or upward-looking camera: a facade photographed square) see the horizon or near it:
+    they have no ground footprint (`footprint_corners` refuses them), plan.geojson writes their
+    point with the reason, and the coverage step and the rules' footprints count them for no
+    ground point."""
+    bounded: BoolArray = np.all(_below_horizon(ray_directions(optics, photos.attitude, CORNERS)), axis=1)
+    return bounded
+
+
 def _check_below_horizon(d: FloatArray) -> None:
-    limit = -np.sin(np.radians(MIN_DEPRESSION_DEG))
-    if (d[..., 2] > limit).any():
+    if not _below_horizon(d).all():
         worst = float(np.degrees(np.arcsin(np.clip(d[..., 2].max(), -1, 1))))
         raise ValueError(f"a ray of the image points {worst:+.1f}° from the horizon; the camera must look at least "
                          f"{MIN_DEPRESSION_DEG:g}° below it at every edge of the image (lower the pitch)")
@@ -205,7 +231,8 @@ def ground_points(photos: Photos, optics: Optics, uv: FloatArray, ground: float 
 def footprint_corners(photos: Photos, optics: Optics, ground: float | FloatArray | Ground,
                       grid_scale: float = 1.0) -> FloatArray:
     """(n, 4, 2) corners of each photo's footprint in the planning CRS (see `CORNERS` for their
-    order): a rectangle at nadir over flat ground, a trapezoid when tilted."""
+    order): a rectangle at nadir over flat ground, a trapezoid when tilted. Only for photos that
+    have one (`bounded_footprints`; ValueError for the others)."""
     return ground_points(photos, optics, CORNERS, ground, grid_scale)[..., :2]
 
 

@@ -22,7 +22,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.capture import Optics, Photos, footprint_corners
+from aerosurvey.plan.capture import Optics, Photos, bounded_footprints, footprint_corners
 from aerosurvey.plan.model import Stations
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
@@ -123,7 +123,9 @@ def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, st
     if rest.is_empty:
         return Coverage(required.area / k2, near.area / k2, shapely.Polygon(), 0.0)
     photos = Photos.looking(stations.x, stations.y, stations.agl_m, stations.camera_yaw_deg, stations.pitch_deg)
-    corners = footprint_corners(photos, Optics.of(spec.camera.camera, spec.camera.mount), 0.0, k)
+    optics = Optics.of(spec.camera.camera, spec.camera.mount)
+    # a photo with no ground footprint (a level camera's) sees no ground point
+    corners = footprint_corners(photos.take(bounded_footprints(photos, optics)), optics, 0.0, k)
     lo, hi = corners.min(axis=1), corners.max(axis=1)
     meet = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])).query(rest, predicate="intersects")
     fps = shapely.buffer(shapely.polygons(corners[meet]), -EDGE_TOLERANCE_M * k, join_style="mitre")

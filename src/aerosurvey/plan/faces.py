@@ -9,10 +9,11 @@ line and two heights: the faces' case of one bench at 90°).
   that round); the lanes are flown in front of them. The surface is `surfaces.Terrace`: the
   structure-faces rule proves its coverage on the faces themselves, from every station's photo.
 - The camera looks square at the faces' normal seen from above (`Aim.bearing_deg`), pitched by
-  `pattern.pitch_deg`: by default square to the face, −(90° − face angle), but no higher than
-  the photos' ground footprints allow (plan.geojson, plan.gpkg and `check` need every image
-  corner `capture.MIN_DEPRESSION_DEG` below the horizon: `orbit.WallBand.highest_pitch_deg`), so
-  a facade's camera is pitched down, not level (docs/planning.md says what that costs).
+  `pattern.pitch_deg`: by default square to the face, −(90° − face angle) (a facade's camera
+  level, a 70° face's −20°). A photo whose image reaches within `capture.MIN_DEPRESSION_DEG` of
+  the horizon has no ground footprint (`capture.bounded_footprints`): plan.geojson writes its
+  point with the reason, and the ground coverage counts it for no ground point; the faces are
+  the structure-faces rule's.
 - What a photo covers of a face is exact in the face's section (`FaceBand`): an image row is a
   level line on the face (the image's right is level and along the face), the rows at ±v (half
   the vertical angle) from the axis meet the face s · tan(δ ∓ v) from the foot of the camera's
@@ -72,7 +73,7 @@ class FacesOptions:
     base_m: float  # the lowest toe's height above the toe line's ground
     side: str  # "right" or "left": where the faces rise, walking along the toe line
     start: str  # "bottom" or "top"
-    pitch_deg: float | None  # None: square to the face, or the highest the footprints allow
+    pitch_deg: float | None  # None: square to the face
     min_images: int
     max_gsd_m: float | None
 
@@ -102,15 +103,13 @@ class FaceBand:
         assert isinstance(o, FacesOptions), o
         tu, tv = WallBand.tangents(spec)
         v = math.degrees(math.atan(tv))
-        highest = WallBand.highest_pitch_deg(spec)
-        pitch = min(o.angle_deg - 90.0, highest) if o.pitch_deg is None else o.pitch_deg
+        pitch = o.angle_deg - 90.0 if o.pitch_deg is None else o.pitch_deg
         delta = pitch + 90.0 - o.angle_deg  # the axis above the face's inward normal
-        if pitch > highest or abs(delta) + v > MAX_RAY_DEPRESSION_DEG:
+        if pitch > 0.0 or abs(delta) + v > MAX_RAY_DEPRESSION_DEG:
             raise InputError(f"pattern.pitch_deg = {pitch:g} is not allowed for this camera and face angle "
                              f"{o.angle_deg:g}°: allowed {o.angle_deg - 90.0 - MAX_RAY_DEPRESSION_DEG + v:.1f} .. "
-                             f"{min(highest, o.angle_deg - 90.0 + MAX_RAY_DEPRESSION_DEG - v):.1f} (the image's corners at "
-                             f"least 5° below the horizon, every ray at most {MAX_RAY_DEPRESSION_DEG:g}° off the face's normal)",
-                             key="pattern.pitch_deg")
+                             f"{min(0.0, o.angle_deg - 90.0 + MAX_RAY_DEPRESSION_DEG - v):.1f} (level at the highest, "
+                             f"every ray at most {MAX_RAY_DEPRESSION_DEG:g}° off the face's normal)", key="pattern.pitch_deg")
         s, d, h = o.standoff_m, math.radians(delta), math.radians(v)
         # a row β off the axis meets the face at range s / cos(δ + β), cos β of that along the axis
         depth = min(math.cos(h) / math.cos(d - h), math.cos(h) / math.cos(d + h)) * s
@@ -166,7 +165,7 @@ class Faces:
               hint="Walking along the toe line from its first point"),
         Field("start", "Start", "choice", "bottom", choices=(("bottom", "the lowest lane"), ("top", "the highest lane"))),
         Field("pitch_deg", "Camera pitch (°)", "number", None, lo=-90.0, hi=0.0,
-              hint="Gimbal pitch (-90 straight down); default: square to the face, as high as the ground footprints allow"),
+              hint="Gimbal pitch (-90 straight down, 0 level); default: square to the face"),
         Field("min_images", "Photos per face point", "number", 2, lo=1, hi=100),
         Field("max_gsd_cm", "GSD on the face at most (cm)", "number", None, lo=0.0, hi=1000.0, lo_open=True, scale=0.01),
     )

@@ -9,12 +9,15 @@ per layer between the structure's base and top, the camera turned to the structu
   planned). It starts at its northmost point and
   is flown clockwise seen from above, one way only (`Pass.one_way`), so the camera turned 90°
   right of the flight (`Aim.turn_deg`) looks square at the wall in front of it.
-- The camera is pitched down by `pattern.pitch_deg`. A level camera is not offered: the
-  photos' ground footprints (plan.geojson, plan.gpkg, `check`) need every edge of the image at
-  least `capture.MIN_DEPRESSION_DEG` below the horizon, so the pitch is at most −(half the
-  image's vertical angle + that), the default. On a wall at the stand-off s a photo then covers
-  the heights from s·tan(−pitch − v) to s·tan(−pitch + v) below the camera (v: half the
-  vertical angle): the band (`WallBand`).
+- The camera is pitched by `pattern.pitch_deg`, level (0) at the highest. By default it is
+  pitched down as far as keeps a ground footprint for every photo (every edge of the image at
+  least `capture.MIN_DEPRESSION_DEG` below the horizon: −(half the image's vertical angle +
+  that)), so the highest layer looks down on the roof. A higher pitch, level included, is
+  allowed: its photos have no ground footprint (`capture.bounded_footprints`: plan.geojson
+  writes their points with the reason, and no ground coverage is claimed for them), and the
+  structure-faces rule proves the walls. On a wall at the stand-off s a photo covers the
+  heights from s·tan(−pitch − v) to s·tan(−pitch + v) below the camera (v: half the vertical
+  angle; negative: above it): the band (`WallBand`).
 - Layers: the band less `targets.side_overlap` is the layer spacing; layers = ceil((top −
   base) / spacing), the first band's middle half a spacing above the base (QGroundControl's
   StructureScan), each flown where its band's middle is at its height, from `pattern.start`
@@ -77,14 +80,15 @@ MAX_RAY_DEPRESSION_DEG = 80.0
 class OrbitOptions:
     standoff_m: float
     start: str  # "bottom" or "top"
-    pitch_deg: float | None  # None: the highest the footprints allow (`WallBand.highest_pitch_deg`)
+    pitch_deg: float | None  # None: the highest that keeps a ground footprint (`WallBand.highest_pitch_deg`)
 
 
 @dataclass(frozen=True)
 class WallBand:
     """What a photo covers of a wall square in front of it at the stand-off, the camera pitched
-    down: the heights (metres below the camera) its image's top and bottom rows meet, and its
-    width along the wall where it is narrowest (the top row, nearest along the camera's axis)."""
+    down or level: the heights (metres below the camera, negative above it) its image's top and
+    bottom rows meet, and its width along the wall where it is narrowest (the top row, nearest
+    along the camera's axis)."""
 
     pitch_deg: float
     top_below_m: float
@@ -109,8 +113,9 @@ class WallBand:
     @classmethod
     def highest_pitch_deg(cls, spec: MissionSpec) -> float:
         """The highest pitch (whole degrees) that keeps the image's corners MIN_DEPRESSION_DEG below
-        the horizon: a ray through a top corner points sin(q − v) / (cos v · √(1 + tu² + tv²)) down
-        (q the axis' depression, v half the vertical angle)."""
+        the horizon (a ground footprint for every photo; the orbit's default): a ray through a top
+        corner points sin(q − v) / (cos v · √(1 + tu² + tv²)) down (q the axis' depression, v half
+        the vertical angle)."""
         tu, tv = cls.tangents(spec)
         v = math.atan(tv)
         lift = math.asin(math.sin(math.radians(MIN_DEPRESSION_DEG)) * math.cos(v) * math.sqrt(1.0 + tu * tu + tv * tv))
@@ -122,13 +127,11 @@ class WallBand:
         assert isinstance(o, OrbitOptions)
         tu, tv = cls.tangents(spec)
         v = math.degrees(math.atan(tv))
-        highest = cls.highest_pitch_deg(spec)
-        pitch = highest if o.pitch_deg is None else o.pitch_deg
-        if pitch > highest or -pitch + v > MAX_RAY_DEPRESSION_DEG:
+        pitch = cls.highest_pitch_deg(spec) if o.pitch_deg is None else o.pitch_deg
+        if pitch > 0.0 or -pitch + v > MAX_RAY_DEPRESSION_DEG:
             raise InputError(f"pattern.pitch_deg = {pitch:g} is not allowed for this camera: allowed "
-                             f"{v - MAX_RAY_DEPRESSION_DEG:.1f} .. {highest:g} (the image's corners at least "
-                             f"{MIN_DEPRESSION_DEG:g}° below the horizon, its foot at most {MAX_RAY_DEPRESSION_DEG:g}°)",
-                             key="pattern.pitch_deg")
+                             f"{v - MAX_RAY_DEPRESSION_DEG:.1f} .. 0 (the image's foot at most "
+                             f"{MAX_RAY_DEPRESSION_DEG:g}° below the horizon)", key="pattern.pitch_deg")
         s = o.standoff_m
         up, down = math.radians(-pitch - v), math.radians(-pitch + v)
         # an image row meets a wall square to the camera along a level line; the top row's at
@@ -171,7 +174,7 @@ class Orbit:
         Field("start", "Start", "choice", "bottom", choices=(("bottom", "the lowest layer"), ("top", "the highest layer")),
               hint="Which layer is flown first"),
         Field("pitch_deg", "Camera pitch (°)", "number", None, lo=-80.0, hi=0.0,
-              hint="Gimbal pitch (-90 straight down); default: the highest the photos' ground footprints allow"),
+              hint="Gimbal pitch (-90 straight down, 0 level); default: the highest that keeps the photos' ground footprints"),
     )
 
     @classmethod

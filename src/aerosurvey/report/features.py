@@ -17,8 +17,16 @@ from aerosurvey import ids
 from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
-from aerosurvey.plan.capture import Optics, Photos, footprint_corners
+from aerosurvey.plan.capture import MIN_DEPRESSION_DEG, Optics, Photos, bounded_footprints, footprint_corners
 from aerosurvey.plan.planner import Plan
+
+#: the `footprint` property of a photo with no ground footprint (`capture.bounded_footprints`):
+#: its feature (role "no-footprint", so each role stays of one geometry type) is the photo's point
+NO_FOOTPRINT = f"none: the image reaches the horizon (a corner less than {MIN_DEPRESSION_DEG:g}° below it)"
+
+#: the photos' footprint corners in WGS84 (`footprint_lonlat`): longitudes, latitudes (four a
+#: photo that has a footprint) and which photos have one
+FootprintLonLat = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def _r(v: float, nd: int = 8) -> float:
@@ -48,13 +56,13 @@ def plan_features(plan: Plan, with_footprints: bool = True) -> dict[str, Any]:
     fc, stations, at = _features(plan, table)
     more = stations.features()
     if with_footprints:
-        more += json.loads("[" + _footprints_text(plan, table) + "]")
+        more += json.loads("[" + _footprints_text(plan) + "]")
     fc["features"][at:at] = more
     return fc
 
 
 def plan_geojson(plan: Plan, table: StationTable | None = None,
-                 corners: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[dict[str, Any], PointLayer, str]:
+                 corners: FootprintLonLat | None = None) -> tuple[dict[str, Any], PointLayer, str]:
     """The FeatureCollection without stations and footprints, the stations as a PointLayer
     (what the rules read), and the text of plan.geojson: `plan_features`
     as `jsontext.dumps_compact` writes it, and a newline (a test checks it).
@@ -69,7 +77,7 @@ def plan_geojson(plan: Plan, table: StationTable | None = None,
     fc, stations, at = _features(plan, table)
     feats = fc["features"]
     head = dumps_compact({"type": fc["type"], "name": fc["name"]})[:-1]
-    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, table, corners), dumps_compact(feats[at:])[1:-1]]
+    parts = [dumps_compact(feats[:at])[1:-1], stations.geojson(), _footprints_text(plan, corners), dumps_compact(feats[at:])[1:-1]]
     # one join, the parts comma-separated in it: the stations' and footprints' texts (megabytes) copied once
     pieces = [head, ',"features":[']
     for p in (p for p in parts if p):
@@ -80,36 +88,54 @@ def plan_geojson(plan: Plan, table: StationTable | None = None,
     return fc, stations, "".join(pieces)
 
 
-def footprint_lonlat(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
-    """The photos' footprint corners in WGS84, four a photo in ring order, as flat longitude and
-    latitude arrays (not checked: `plan_geojson` says which is not finite): each on flat ground at
-    the station's height above ground."""
+def footprint_lonlat(plan: Plan) -> FootprintLonLat:
+    """The footprint corners in WGS84 of the photos that have one (`capture.bounded_footprints`),
+    four a photo in ring order, as flat longitude and latitude arrays (not checked: `plan_geojson`
+    says which is not finite), each on flat ground at the station's height above ground; and the
+    mask of those photos."""
     st = plan.stations
     photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
-    corners = footprint_corners(photos, Optics.of(plan.camera.camera, plan.camera.mount), 0.0, plan.site.grid_scale)
-    return plan.site.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel())
+    optics = Optics.of(plan.camera.camera, plan.camera.mount)
+    bounded = bounded_footprints(photos, optics)
+    corners = footprint_corners(photos.take(bounded), optics, 0.0, plan.site.grid_scale)
+    return (*plan.site.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel()), bounded)
 
 
-def _footprints_text(plan: Plan, table: StationTable, corners: tuple[np.ndarray, np.ndarray] | None = None) -> str:
+def _footprints_text(plan: Plan, corners: FootprintLonLat | None = None) -> str:
     """The GeoJSON Features of the photos' footprints (`footprint_lonlat`), comma-separated, in
-    WGS84, corners rounded to 8 decimals, the ring closed."""
+    WGS84, corners rounded to 8 decimals, the ring closed; after them, for each photo with no
+    ground footprint, a feature of role "no-footprint": its point, the property `footprint`
+    giving the reason (`NO_FOOTPRINT`)."""
     st = plan.stations
     if not len(st.ids):
         return ""
-    clon, clat = corners if corners is not None else footprint_lonlat(plan)
+    clon, clat, bounded = corners if corners is not None else footprint_lonlat(plan)
     _finite("footprint", clon, clat)
     # "x,y" of each corner, four a footprint in order; the ring closes on its first corner
     pairs = pair_texts(np.round(clon, 8), np.round(clat, 8))
     c0, c1, c2, c3 = (pairs[j::4] for j in range(4))
     ring: list[str | list[str]] = ['},"geometry":{"type":"Polygon","coordinates":[[[', c0, "],[", c1, "],[", c2, "],[", c3,
                                    "],[", c0, "]]]}}"]
+    none = np.flatnonzero(~bounded)
+    point: list[str | list[str]] = [f',"footprint":{dumps_compact(NO_FOOTPRINT)}}},"geometry":{{"type":"Point","coordinates":[',
+                                    pair_texts(np.round(st.lon[none], 8), np.round(st.lat[none], 8)), "]}}"]
     sids = list(st.ids)
+    texts = [_footprint_rows(sids, np.flatnonzero(bounded), "footprint", ring), _footprint_rows(sids, none, "no-footprint", point)]
+    return ",".join(t for t in texts if t)
+
+
+def _footprint_rows(station_ids: list[str], which: np.ndarray, role: str, geometry: list[str | list[str]]) -> str:
+    """Footprint Features of the stations `which`, comma-separated: id, `role`, station, then
+    `geometry` (the rest of each feature's text: texts, and columns of one text a station)."""
+    sids = [station_ids[i] for i in which.tolist()]
+    if not sids:
+        return ""
     if quoted_as_is(sids):  # station ids as they are (no JSON text made for each, nor a "-fp" id)
-        return join_rows(['{"type":"Feature","id":"', sids, '-fp","properties":{"role":"footprint","id":"', sids,
-                          '-fp","station":"', sids, '"', *ring], len(sids), ",")
+        return join_rows(['{"type":"Feature","id":"', sids, '-fp","properties":{"role":"' + role + '","id":"', sids,
+                          '-fp","station":"', sids, '"', *geometry], len(sids), ",")
     fids = string_texts([f"{sid}-fp" for sid in sids])
-    return join_rows(['{"type":"Feature","id":', fids, ',"properties":{"role":"footprint","id":', fids, ',"station":',
-                      string_texts(table.column("id")), *ring], len(sids), ",")
+    return join_rows(['{"type":"Feature","id":', fids, ',"properties":{"role":"' + role + '","id":', fids, ',"station":',
+                      string_texts(sids), *geometry], len(sids), ",")
 
 
 def _line_coords(plan: Plan) -> list[list[list[float]]]:

@@ -43,7 +43,7 @@ import datetime as dt
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -52,6 +52,9 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.plan.planner import Plan
+
+if TYPE_CHECKING:
+    from aerosurvey.report.features import FootprintLonLat
 
 #: The time written into gpkg_contents and the styles' update_time: fixed, so outputs are reproducible.
 FIXED_TIME = "2000-01-01T00:00:00Z"
@@ -185,16 +188,17 @@ def plan_layers(plan: Plan, control_points: Sequence[Any] = ()) -> list[Layer]:
     return layers
 
 
-def footprints_layer(plan: Plan, corners: tuple[np.ndarray, np.ndarray] | None = None) -> Layer:
-    """The photos' footprints on flat ground (plan.geojson's); `corners`, their
+def footprints_layer(plan: Plan, corners: FootprintLonLat | None = None) -> Layer:
+    """The photos' footprints on flat ground (plan.geojson's), of the photos that have one (a
+    level camera's have none: their stations are in the layer 'stations'); `corners`, their
     `report.features.footprint_lonlat`, if the caller has them."""
     from aerosurvey.report.features import footprint_lonlat
 
-    clon, clat = corners if corners is not None else footprint_lonlat(plan)
+    clon, clat, bounded = corners if corners is not None else footprint_lonlat(plan)
     rings = np.stack([clon.reshape(-1, 4), clat.reshape(-1, 4)], axis=-1)
     rings = np.concatenate([rings, rings[:, :1]], axis=1) if len(rings) else rings
     return Layer("footprints", "Polygon", shapely.polygons(rings) if len(rings) else np.array([], dtype=object),
-                 (("station", _text(plan.stations.ids)),), STYLES["footprints"])
+                 (("station", _text([s for s, b in zip(plan.stations.ids, bounded.tolist()) if b])),), STYLES["footprints"])
 
 
 def _route_layer(plan: Plan, with_z: bool) -> Layer:

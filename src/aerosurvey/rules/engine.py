@@ -94,7 +94,7 @@ class Evidence:
         region = self.view.area
         if self.view.exclusions is not None:
             # ground under a zone and next to it cannot be photographed from above it
-            reach = float(np.hypot(self.footprints.across, self.footprints.along).max()) / 2
+            reach = float(np.hypot(self.footprints.across, self.footprints.along).max(initial=0.0)) / 2
             margin = float(self.view.manifest.get("derived", {}).get("exclusion_margin_m", 10.0))
             region = shapely.difference(region, shapely.buffer(self.view.exclusions, reach + margin))
         gx, gy = fpm.sample_grid(region)

@@ -61,9 +61,12 @@ class ViewCamera:
 
 @dataclass(frozen=True, eq=False)
 class Footprints:
-    """Photo footprints in the planning CRS from the capture model (plan/capture.py): centres,
-    compass heading, and the corners of each (image top-right, top-left, bottom-left, bottom-right)."""
+    """Photo footprints in the planning CRS from the capture model (plan/capture.py) of the view's
+    photos that have one (`capture.bounded_footprints`; a level camera's photos have none and
+    count for no ground point): their station indices in the view, centres, compass heading,
+    and the corners of each (image top-right, top-left, bottom-left, bottom-right)."""
 
+    station: IntArray
     x: FloatArray
     y: FloatArray
     heading_rad: FloatArray  # compass bearing in radians
@@ -107,8 +110,9 @@ def footprints(view: PlanView) -> Footprints:
     k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))  # ground metres to grid metres
     cam = ViewCamera.of(view)
     photos = capture.Photos.looking(view.x, view.y, np.asarray(view.agl, float), view.camera_yaw_deg, view.pitch_deg)
-    corners = capture.footprint_corners(photos, cam.optics, 0.0, k)
-    return Footprints(np.asarray(view.x, float), np.asarray(view.y, float), np.radians(view.heading_deg), corners)
+    at = np.flatnonzero(capture.bounded_footprints(photos, cam.optics))
+    corners = capture.footprint_corners(photos.take(at), cam.optics, 0.0, k)
+    return Footprints(at, photos.x[at], photos.y[at], np.radians(np.asarray(view.heading_deg, float)[at]), corners)
 
 
 def sample_grid(geom: BaseGeometry, target_points: int = 4000) -> tuple[FloatArray, FloatArray]:
@@ -121,10 +125,12 @@ def sample_grid(geom: BaseGeometry, target_points: int = 4000) -> tuple[FloatArr
     return gx[keep], gy[keep]
 
 
-def runs(view: PlanView) -> dict[str, IntArray]:
-    """Station indices of each run, in flight order (a flown photo on no planned line is in none)."""
+def runs(view: PlanView, fp: Footprints | None = None) -> dict[str, IntArray]:
+    """Station indices of each run, in flight order (a flown photo on no planned line is in none);
+    with `fp`, indices into its footprints instead, of the runs' photos that have one."""
     out: dict[str, list[int]] = {}
-    for i, r in enumerate(view.run_ids):
+    run_ids = view.run_ids if fp is None else [view.run_ids[i] for i in fp.station.tolist()]
+    for i, r in enumerate(run_ids):
         if r is not None:
             out.setdefault(r, []).append(i)
     return {k: np.asarray(v, np.intp) for k, v in out.items()}
@@ -133,7 +139,7 @@ def runs(view: PlanView) -> dict[str, IntArray]:
 def forward_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, float]]:
     """(run id, lowest overlap between consecutive photos of that run)."""
     out = []
-    for rid, idx in runs(view).items():
+    for rid, idx in runs(view, fp).items():
         if len(idx) < 2:
             continue
         d = np.hypot(np.diff(fp.x[idx]), np.diff(fp.y[idx]))
@@ -153,7 +159,7 @@ def side_overlaps(view: PlanView, fp: Footprints) -> list[tuple[str, str, float]
     heading (all the runs of one direction of a pass: 4 headings for the 34 runs of the Obrataň
     example) share those measures, made once for all stations of every run (elementwise, the same
     floats as run by run) instead of once for every pair of runs (10-20 ms there, 544 pairs)."""
-    rs = runs(view)
+    rs = runs(view, fp)
     if not rs:
         return []
     ids = list(rs)
