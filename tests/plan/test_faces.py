@@ -101,6 +101,10 @@ def _judge(out: Path, toe: np.ndarray, pattern: dict, cell: float, min_images: i
             "grazing_short": int(((fine & ~graze).sum(axis=0) < min_images).sum())}
 
 
+def _planned_photos(out: Path) -> int:
+    return sum(1 for f in json.loads((out / "plan.geojson").read_text())["features"] if f["properties"]["role"] == "station")
+
+
 def _rule(manifest: dict) -> dict:
     return next(r for r in manifest["rules"] if r["rule"] == "structure-faces")
 
@@ -124,6 +128,7 @@ def test_the_examples_faces_are_covered_by_the_exported_mission_and_kept_off(tmp
     j = _judge(out, toe, pattern, 2.5, max_gsd_m=max_gsd_cm / 100)
     print(name, j, m["pattern"]["parameters"])
     assert j["short_m2"] == 0.0 and j["fewest"] >= pattern["min_images"], j
+    assert j["photos"] == _planned_photos(out), j  # every planned station is a photo the trigger takes
     assert j["worst_gsd_cm"] <= max_gsd_cm, j
     assert j["nearest_leg_m"] >= pattern["standoff_m"] - ALLOWANCE_M, j
     # lanes: per face, ceil(slope length / spacing), one pass each
@@ -218,7 +223,7 @@ def test_random_walls(tmp_path_factory, length: float, turn: float, top: float, 
     out, m = _plan(tmp, toe, pattern)
     assert _rule(m)["status"] == "pass", _rule(m)
     j = _judge(out, toe, pattern, math.sqrt(length * top / 150.0))
-    assert j["short_m2"] == 0.0, j
+    assert j["short_m2"] == 0.0 and j["photos"] == _planned_photos(out), j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
 
 
@@ -235,7 +240,7 @@ def test_random_benches(tmp_path_factory, length: float, turn: float, angle: flo
     out, m = _plan(tmp, toe, pattern)
     assert _rule(m)["status"] == "pass", _rule(m)
     j = _judge(out, toe, pattern, math.sqrt(length * height * benches / math.sin(math.radians(angle)) / 150.0))
-    assert j["short_m2"] == 0.0, j
+    assert j["short_m2"] == 0.0 and j["photos"] == _planned_photos(out), j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
 
 

@@ -25,7 +25,8 @@ line and two heights: the faces' case of one bench at 90°).
   (its height: `Pass.rise_m`, above the toe line's ground, which is the launch point's: no
   DEM), back and forth. Stations a photo base apart along a lane reaching past both ends of the
   toe line by half a photo less half a base, so the ends are seen as the middle is, or farther:
-  until the lane's lead-in and end keep the obstacle's distance (below).
+  until the lane's lead-in and end keep the obstacle's distance (below); the last a whole base
+  after the one before it (the distance trigger takes no photo nearer).
 - Every lane keeps the stand-off from the whole solid: where a lower crest juts nearer (a berm
   narrower than the stand-off's level reach) the lane moves out along its face's normal
   (`lane_place`; the summary's heading line gives the farthest lane's distance).
@@ -264,6 +265,9 @@ class Faces:
             if n % 2:
                 path = path[::-1]
             span = float(np.hypot(*(path[-1] - path[0])))
+            # room past the end for the last station a whole base on: the distance trigger takes no
+            # photo nearer (a station clamped to the end would be planned and never taken)
+            path = extend(path, 0.0, 1.5 * sensor.base_m * k)
             at = stations_along(path, autopilot_m, sensor.base_m, span, sensor.trigger_distance_m,
                                 sensor.speed.speed_ms / pg.TRIGGER_CHECK_HZ)
             strips: tuple[Strip, ...] = tuple(strips_clear_of(0, 0, 0, path, at, site.zones_buffered, 0.0))
