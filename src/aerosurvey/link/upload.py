@@ -702,14 +702,15 @@ def check_rules(facts: MissionFacts, accept: frozenset[str]) -> str:
             f"({', '.join('--accept ' + r for r in failed)})")
 
 
-def accept_names(facts: MissionFacts, accept: Sequence[str]) -> frozenset[str]:
-    """The `--accept` names, each a check of `vehicle_settings.CHECKS` or a rule of the plan (InputError otherwise)."""
-    allowed = {*vs.CHECKS, *(facts.rules or ())}
+def accept_names(facts: MissionFacts, accept: Sequence[str], checks: Sequence[str] = ()) -> frozenset[str]:
+    """The `--accept` names, each a check of `vehicle_settings.CHECKS`, of `checks` (the upload's others) or a rule of
+    the plan (InputError otherwise)."""
+    allowed = {*vs.CHECKS, *checks, *(facts.rules or ())}
     for name in accept:
         if name not in allowed:
             rules = f"; the plan's rules: {', '.join(sorted(set(facts.rules)))}" if facts.rules else ""
             raise InputError(f"--accept {name!r} is not a check of upload nor a rule of the plan: the checks are "
-                             f"{', '.join(vs.CHECKS)}{rules}", key="--accept")
+                             f"{', '.join((*vs.CHECKS, *checks))}{rules}", key="--accept")
     return frozenset(accept)
 
 
