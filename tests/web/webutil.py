@@ -36,7 +36,11 @@ def client(spec: Path | None, **kw: Any) -> TestClient:
 
 def run_plan(c: TestClient, spec: dict[str, Any], timeout: float = 120.0) -> dict[str, Any]:
     """Submit a plan and wait for its job to end; returns the final job status."""
-    r = c.post("/api/plan", json={"spec": spec})
+    return wait_job(c, c.post("/api/plan", json={"spec": spec}), timeout)
+
+
+def wait_job(c: TestClient, r: Any, timeout: float = 120.0) -> dict[str, Any]:
+    """Wait for the job a request `r` submitted (202) to end; returns the final job status."""
     assert r.status_code == 202, r.text
     job = r.json()["job"]
     end = time.monotonic() + timeout

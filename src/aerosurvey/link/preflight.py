@@ -328,7 +328,8 @@ def run_upload(url: str, prep: Prepared, policy: mp.Policy, launch_distance: flo
                rally: bool = False, send: bool = True, progress: Progress | None = None) -> Outcome:
     """Connect to `url`, check the vehicle (`check_connected`) and, with `send`, upload the mission and read it
     back (ArduPilot through aerosurvey's protocol, PX4 through MAVSDK on the same connection once the checks'
-    link is closed). Without `send` nothing is written to the vehicle."""
+    link is closed). Without `send` nothing is written to the vehicle, and every refusal is collected in the
+    result (`Checked.refusals`) instead of raised."""
     px4 = prep.mission.firmware == "px4"
     if px4:
         from aerosurvey.link.px4 import mavsdk_url
@@ -336,7 +337,7 @@ def run_upload(url: str, prep: Prepared, policy: mp.Policy, launch_distance: flo
         mavsdk_url(url)  # a connection MAVSDK cannot open is bad input before anything else
     report = None
     with open_link(url, policy.silence) as link:
-        checked = check_connected(link, prep, policy, launch_distance, rally)
+        checked = check_connected(link, prep, policy, launch_distance, rally, collect=not send)
         if send and not px4:
             report = upload_mission(link, prep.mission, policy, verify=verify, progress=progress, rally=rally)
     if send and px4:

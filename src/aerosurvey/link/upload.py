@@ -12,7 +12,7 @@ import math
 import struct
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
@@ -138,6 +138,23 @@ def mission_wire_items(m: Mission) -> list[mp.WireItem]:
     for it in m.items:
         out.append(item_to_wire(it, len(out), f"mission item {len(out)}"))
     return out
+
+
+def held_mission(m: Mission, held: Sequence[mp.WireItem]) -> Mission:
+    """The mission items a vehicle holds (a read-back) as a Mission beside the planned `m`: x/y back to degrees
+    (the parameters themselves for PLAIN_XY_COMMANDS); ArduPilot's item 0 is its home (the planned home while it
+    has none)."""
+    items = list(held)
+    home = m.home
+    if home_on_wire(m) and items:
+        h = items.pop(0)
+        if h.x or h.y:
+            home = (h.x * 1e-7, h.y * 1e-7, h.z)
+    return replace(m, home=home, items=tuple(
+        MissionItem(it.command, it.frame, it.param1, it.param2, it.param3, it.param4,
+                    float(it.x) if it.command in PLAIN_XY_COMMANDS else it.x * 1e-7,
+                    float(it.y) if it.command in PLAIN_XY_COMMANDS else it.y * 1e-7, it.z, bool(it.autocontinue))
+        for it in items))
 
 
 def fence_wire_items(m: Mission) -> list[mp.WireItem]:
@@ -468,6 +485,7 @@ class TransferReport:
     verified: bool = False
     verify_seconds: float = 0.0
     download_stats: mp.Stats | None = None
+    held: list[mp.WireItem] | None = None  # the items read back: what the vehicle holds
 
 
 @dataclass
@@ -814,7 +832,7 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
         actual, dstats, found = _verify(transfers, rep, wanted[rep.mission_type], storage, plane,
                                         skip if rep.mission_type == mp.MISSION else frozenset())
         rep.verify_seconds = time.monotonic() - t0
-        rep.download_stats = dstats
+        rep.download_stats, rep.held = dstats, actual
         mismatches += found
         if rep.mission_type == mp.MISSION and skip and actual:
             h = actual[0]
