@@ -138,7 +138,7 @@ def free_port() -> int:
 class Server:
     """The real app under uvicorn on a free loopback port, in a thread of this process."""
 
-    def __init__(self, spec: Path | None, basemap: Path | None = None, lan: bool = False):
+    def __init__(self, spec: Path | None, basemap: Path | None = None, lan: bool = False, vehicle: str | None = None):
         import uvicorn
 
         from aerosurvey.web.app import create_app
@@ -146,7 +146,8 @@ class Server:
         self.port = free_port()
         hosts = [f"127.0.0.1:{self.port}", f"localhost:{self.port}"]
         # with `lan`, files are shared at the loopback address itself (the test is the phone too)
-        app = create_app(spec, allowed_hosts=hosts, basemap=basemap, lan=f"127.0.0.1:{self.port}" if lan else None)
+        app = create_app(spec, allowed_hosts=hosts, basemap=basemap, lan=f"127.0.0.1:{self.port}" if lan else None,
+                         vehicle=vehicle)
         self.server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning"))
         self.thread = threading.Thread(target=self.server.run, daemon=True)
         self.thread.start()

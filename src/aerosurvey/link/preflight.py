@@ -344,7 +344,7 @@ def run_upload(url: str, prep: Prepared, policy: mp.Policy, launch_distance: flo
         from aerosurvey.link.px4 import MavsdkTransfers
 
         with MavsdkTransfers(url, checked.vehicle, policy.timeout, policy.silence, verify) as transfers:
-            report = upload_plan(transfers, prep.mission, verify=verify, rally=rally)
+            report = upload_plan(transfers, prep.mission, verify=verify, rally=rally, progress=progress)
     return Outcome(checked, report)
 
 

@@ -790,7 +790,8 @@ def _left_holding(exc: UploadFailed, n: int) -> str:
     return "the vehicle's mission is incomplete or unchanged"
 
 
-def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False) -> UploadReport:
+def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False,
+                progress: Progress | None = None) -> UploadReport:
     """Upload the mission (its fence when it has one, its rally points when `rally` and it has
     some), then read each back and compare, through `transfers`.
 
@@ -799,6 +800,7 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
     `verify`, an upload whose final ACCEPTED was lost (`stats.ack_lost`) is settled by the
     read-back instead of being sent again. A vehicle that holds only part of a mission type is
     reported as "the vehicle holds N of M mission items: do not fly it".
+    `progress`: told when each transfer starts and ends, for transfers that do not report their own (MAVSDK's).
     """
     vehicle = transfers.vehicle
     check_firmware(m.firmware, vehicle)
@@ -813,11 +815,16 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
     for kind, items in wanted.items():
         t0 = time.monotonic()
         started = transfers.now()
+        coarse = progress if transfers.via != VIA_PROTOCOL else None
+        if coarse is not None:
+            coarse(f"{mp.TYPE_NAMES[kind]} upload through {transfers.via}", 0, len(items))
         try:
             stats = transfers.upload(kind, items)
         except UploadFailed as exc:
             raise _failed_upload(kind, exc, len(items), transfers.said(started), done) from None
         done.append(TransferReport(kind, len(items), time.monotonic() - t0, stats))
+        if coarse is not None:
+            coarse(f"{mp.TYPE_NAMES[kind]} upload through {transfers.via}", len(items), len(items))
     reps = {r.mission_type: r for r in done}
     report = UploadReport(vehicle, reps[mp.MISSION], reps.get(mp.FENCE), _COMPARED_AS[storage], rally=reps.get(mp.RALLY),
                           via=transfers.via)
