@@ -41,9 +41,9 @@ def browser():
 @pytest.mark.parametrize("firmware", ["ardupilot", "px4"])
 @pytest.mark.parametrize("size", list(SIZES))
 def test_check_and_upload_from_the_map_by_keyboard(browser, tmp_path, firmware, size):
-    if firmware == "px4":  # the small test mission (38 items): PX4 stores at most 2,000
+    if firmware == "px4":  # the small test mission: the 50 ha one has 2,093 items as PX4 flies them, and PX4 stores 2,000
         spec = make_spec(tmp_path, {"vehicle": {"firmware": "px4"}})
-    else:  # a 1 cm GSD over 50 ha: a mission of 2,093 items, whose upload lasts long enough to be watched
+    else:  # a 1 cm GSD over 50 ha: a mission of 114 items, whose upload at 10 % loss lasts long enough to be watched
         spec = make_spec(tmp_path, {"targets": {"gsd_cm": 1.0}},
                          area=[[15.000, 49.400], [15.012, 49.400], [15.012, 49.4045], [15.000, 49.4045], [15.000, 49.400]])
     model = VehicleModel(px4=True) if firmware == "px4" else VehicleModel(storage="ardupilot")
