@@ -1381,7 +1381,7 @@ async function start() {
   });
   map.on("pointermove", onPointer);
   $("#make-brief").addEventListener("click", makeBrief);
-  await vehicleStart();
+  vehicleStart().catch((e) => showError("vehicle", e.message));  // the page starts whatever the vehicle's state
   map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); else if (S.tool === "start") startAt(e.pixel); });
   setTool("edit");
 
