@@ -173,12 +173,13 @@ def wind_item(plan: Plan, records: Sequence[Mapping[str, Any]]) -> Item | None:
 
 
 def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: float,
-              replan: Callable[[dt.datetime, dt.datetime], Plan]) -> Brief:
+              replan: Callable[[dt.datetime, dt.datetime], Plan], vehicle: Sequence[Item] = ()) -> Brief:
     """The brief of the plan of `manifest` flown from `at`: `replan(start, end)` makes the plan
     again for that window (from the command's spec files, or the page's spec, in the wind the caller
     gives), whose flights and official zones are then those of the brief (airspace/check.py, as
     `plan` checks them). The window is the manifest's flights' first; when the plan made again
-    flies longer (another wind), it is made once more for the longer window."""
+    flies longer (another wind), it is made once more for the longer window. `vehicle`: the connected
+    vehicle's checks (link/preflight.py `vehicle_items`), listed after the airspace."""
     from aerosurvey.airspace.check import check_airspace
     from aerosurvey.errors import InputError
     from aerosurvey.outputs import mission_programs
@@ -208,4 +209,4 @@ def brief_for(manifest: Mapping[str, Any], at: dt.datetime, battery_change_min: 
     battery = manifest.get("battery") or {}
     home = manifest["home"]
     return make_brief(first, last, float(home["lon"]), float(home["lat"]), threshold, sorties, battery.get("reserve"),
-                      zones, extra)
+                      zones, [*vehicle, *extra])

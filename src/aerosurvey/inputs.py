@@ -105,6 +105,22 @@ def _check_order(zones: Sequence[Geozone], path: Path, area_wgs84: BaseGeometry)
                          "give [longitude, latitude]", key="airspace.zones")
 
 
+def planned_spec(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Path:
+    """The spec the plan was made from: --spec, else the manifest's path beside the plan folder or here; its sha256
+    must be the manifest's (a brief or an upload's zone check is of that plan, not of a spec changed since)."""
+    from aerosurvey.manifest import sha256_file
+
+    candidates = [given] if given is not None else [plan_dir.parent / recorded["path"], Path(recorded["path"])]
+    for path in candidates:
+        if path is not None and path.is_file():
+            if sha256_file(path) != recorded["sha256"]:
+                raise InputError(f"{path} is not the spec {plan_dir} was planned from (its sha256 differs from the "
+                                 "manifest's): re-plan it, or give the spec it was made from with --spec")
+            return path
+    raise InputError(f"the spec {plan_dir} was planned from ({recorded['path']!r}) is not found beside it or here: "
+                     "give it with --spec")
+
+
 def plan_from_files(spec: MissionSpec, progress: Progress | None = None) -> Plan:
     """Load the spec's files and plan: what `aerosurvey plan` and the other commands call."""
     from aerosurvey.plan.planner import plan_mission

@@ -36,7 +36,11 @@ def client(spec: Path | None, **kw: Any) -> TestClient:
 
 def run_plan(c: TestClient, spec: dict[str, Any], timeout: float = 120.0) -> dict[str, Any]:
     """Submit a plan and wait for its job to end; returns the final job status."""
-    r = c.post("/api/plan", json={"spec": spec})
+    return wait_job(c, c.post("/api/plan", json={"spec": spec}), timeout)
+
+
+def wait_job(c: TestClient, r: Any, timeout: float = 120.0) -> dict[str, Any]:
+    """Wait for the job a request `r` submitted (202) to end; returns the final job status."""
     assert r.status_code == 202, r.text
     job = r.json()["job"]
     end = time.monotonic() + timeout
@@ -134,7 +138,8 @@ def free_port() -> int:
 class Server:
     """The real app under uvicorn on a free loopback port, in a thread of this process."""
 
-    def __init__(self, spec: Path | None, basemap: Path | None = None, lan: bool = False, campaign: Path | None = None):
+    def __init__(self, spec: Path | None, basemap: Path | None = None, lan: bool = False, campaign: Path | None = None,
+                 vehicle: str | None = None):
         import uvicorn
 
         from aerosurvey.web.app import create_app
@@ -143,7 +148,7 @@ class Server:
         hosts = [f"127.0.0.1:{self.port}", f"localhost:{self.port}"]
         # with `lan`, files are shared at the loopback address itself (the test is the phone too)
         app = create_app(spec, allowed_hosts=hosts, basemap=basemap, lan=f"127.0.0.1:{self.port}" if lan else None,
-                         campaign=campaign)
+                         campaign=campaign, vehicle=vehicle)
         self.server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning"))
         self.thread = threading.Thread(target=self.server.run, daemon=True)
         self.thread.start()

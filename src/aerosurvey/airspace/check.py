@@ -135,14 +135,15 @@ class AirspaceReport:
                 for v in self.verdicts]
 
 
-def check_airspace(plan: Plan, programs: Mapping[str, FlightProgram]) -> AirspaceReport | None:
-    """The verdict of every zone near the flights of `programs` (file stem → program); None when the plan has no zones."""
+def check_airspace(plan: Plan, programs: Mapping[str, FlightProgram], rtl_m: float | None = None) -> AirspaceReport | None:
+    """The verdict of every zone near the flights of `programs` (file stem → program); None when the plan has no zones.
+    `rtl_m`: the vehicle's own RTL altitude above home, when known (`flight_legs`)."""
     airspace = plan.airspace
     if airspace is None:
         return None
     site = plan.site
     legs = [leg for stem, p in programs.items()
-            for leg in flight_legs(p, stem, site.planar, PLANE_RTL_LOITER_M * site.grid_scale, site.grid_scale)]
+            for leg in flight_legs(p, stem, site.planar, PLANE_RTL_LOITER_M * site.grid_scale, site.grid_scale, rtl_m)]
     homes = {stem: p.home for stem, p in programs.items()}
     return check_legs_4d(plan, airspace, legs, homes)
 

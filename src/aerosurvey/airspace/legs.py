@@ -34,8 +34,10 @@ def _level(a: float) -> tuple[float, float]:
     return (a, a)
 
 
-def flight_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter: float, grid_scale: float) -> list[Leg3]:
-    """The legs of `program` (named `flight`) with their heights; `rtl_loiter` is a plane's circle after RTL (grid metres)."""
+def flight_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter: float, grid_scale: float,
+                rtl_m: float | None = None) -> list[Leg3]:
+    """The legs of `program` (named `flight`) with their heights; `rtl_loiter` is a plane's circle after RTL (grid
+    metres); `rtl_m` the vehicle's own RTL altitude above home when it is known (None: it returns where it is)."""
     out: list[Leg3] = []
     alt = 0.0  # on the ground at the launch point
     frame = "relative"  # of `alt`: take-off, landing and RTL altitudes are above the launch point, waypoints in the program's frame
@@ -76,7 +78,7 @@ def flight_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter:
                 out.append(Leg3(Leg(leg.flight, leg.seq, "descent", leg.end, leg.end), _level(alt), _level(0.0), (frame, "relative")))
             alt, frame = 0.0, "relative"
         elif leg.what == "rtl":
-            back = _rtl_altitude(program, alt)
+            back = _rtl_altitude(program, alt, rtl_m)
             rtl_span = (min(alt, back), max(alt, back))
             out.append(Leg3(leg, rtl_span, rtl_span, (frame, "relative")))
             if program.vehicle == "copter":
@@ -88,12 +90,16 @@ def flight_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter:
     return out
 
 
-def _rtl_altitude(program: FlightProgram, alt: float) -> float:
-    """The altitude RTL flies to: a rally point's, or where it is when it returns home."""
+def _rtl_altitude(program: FlightProgram, alt: float, rtl_m: float | None) -> float:
+    """The altitude RTL flies to: a rally point's, else where it is when it returns home. With the vehicle's own
+    RTL altitude `rtl_m`, a copter climbs to it when lower (ArduCopter and PX4 climb to at least it, rally point
+    or home) and a plane returns home at it (a plane flies to a rally point at the point's altitude)."""
     lat0, lon0, _ = program.home
     last = (program.waypoints[-1].lat, program.waypoints[-1].lon) if program.waypoints else (lat0, lon0)
     to = rtl_target(program.vehicle, (lat0, lon0), [(r[0], r[1]) for r in program.rally], last)
-    for r in program.rally:
-        if (r[0], r[1]) == to:
-            return r[2]
-    return alt
+    rally = next((r[2] for r in program.rally if (r[0], r[1]) == to), None)
+    if rtl_m is None:
+        return alt if rally is None else rally
+    if program.vehicle == "copter":
+        return max(alt, rtl_m, rally or 0.0)
+    return rtl_m if rally is None else rally

@@ -12,8 +12,8 @@ from aerosurvey import console
 from aerosurvey.errors import CheckFailed, InputError
 
 
-def _when(value: str | None) -> dt.datetime:
-    """--at: ISO 8601 with a UTC offset; default the machine's clock now (the one place the brief reads it)."""
+def flight_start(value: str | None) -> dt.datetime:
+    """--at (brief, upload): ISO 8601 with a UTC offset; default the machine's clock now (the one place the brief reads it)."""
     if value is None:
         return dt.datetime.now(dt.UTC).astimezone().replace(microsecond=0)
     try:
@@ -24,22 +24,6 @@ def _when(value: str | None) -> dt.datetime:
         raise InputError(f"--at = {value!r} is not allowed: a date and time in ISO 8601 with its UTC offset, "
                          "e.g. 2026-05-14T09:00+02:00")
     return t
-
-
-def _spec_of(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Path:
-    """The spec the plan was made from: --spec, else the manifest's path beside the plan folder or here; its sha256
-    must be the manifest's (the brief is of that plan, not of a spec changed since)."""
-    from aerosurvey.manifest import sha256_file
-
-    candidates = [given] if given is not None else [plan_dir.parent / recorded["path"], Path(recorded["path"])]
-    for path in candidates:
-        if path is not None and path.is_file():
-            if sha256_file(path) != recorded["sha256"]:
-                raise InputError(f"{path} is not the spec {plan_dir} was planned from (its sha256 differs from the "
-                                 "manifest's): re-plan it, or give the spec it was made from with --spec")
-            return path
-    raise InputError(f"the spec {plan_dir} was planned from ({recorded['path']!r}) is not found beside it or here: "
-                     "give it with --spec")
 
 
 @click.command()
@@ -54,9 +38,15 @@ def _spec_of(plan_dir: Path, given: Path | None, recorded: dict[str, str]) -> Pa
                    "6@240G9): the flights are timed and the batteries counted in it.")
 @click.option("--battery-change-min", type=click.FloatRange(0, 120), default=5.0, show_default=True,
               help="Minutes between one flight's landing and the next one's launch.")
+@click.option("--connect", "url", default=None,
+              help="A vehicle to check as `aerosurvey upload` checks it before the first flight (type, position, "
+                   "battery, settings), read only: nothing is sent to it (pymavlink connection string).")
+@click.option("--launch-distance", "launch_distance", default="200", show_default=True,
+              help="With --connect: the farthest (m) the vehicle may be from the first flight's launch point; 'off': "
+                   "not compared.")
 @click.option("--json", "as_json", is_flag=True, help="Print the brief as JSON.")
 def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tuple[Path, ...], wind: str | None,
-          battery_change_min: float, as_json: bool) -> None:
+          battery_change_min: float, url: str | None, launch_distance: str, as_json: bool) -> None:
     """What a pilot checks before launch, for the day and time of the flight: go or no-go.
 
     For the flights of PLAN_DIR at --at: the official zones that apply then, with their verdicts
@@ -66,14 +56,22 @@ def brief(plan_dir: Path, spec_path: Path | None, at: str | None, zone_files: tu
     from dataclasses import replace
 
     from aerosurvey.brief import brief_for
-    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.inputs import plan_from_files, planned_spec
     from aerosurvey.manifest import read_manifest
     from aerosurvey.spec import load_spec, with_wind, with_zone_files
 
     doc = read_manifest(plan_dir, "PLAN_DIR")
-    spec = with_wind(with_zone_files(load_spec(_spec_of(plan_dir, spec_path, doc.raw["inputs"]["spec"])), zone_files), wind)
-    result = brief_for(doc.raw, _when(at), battery_change_min,
-                       lambda a, b: plan_from_files(replace(spec, conditions=replace(spec.conditions, start=a, end=b))))
+    vehicle = []
+    if url is not None:
+        from aerosurvey.commands.upload import launch_distance_limit
+        from aerosurvey.link.mission_protocol import Policy
+        from aerosurvey.link.preflight import vehicle_items
+
+        vehicle = vehicle_items(plan_dir, doc, url, Policy(), launch_distance_limit(launch_distance))
+    spec = with_wind(with_zone_files(load_spec(planned_spec(plan_dir, spec_path, doc.raw["inputs"]["spec"])), zone_files), wind)
+    result = brief_for(doc.raw, flight_start(at), battery_change_min,
+                       lambda a, b: plan_from_files(replace(spec, conditions=replace(spec.conditions, start=a, end=b))),
+                       vehicle)
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=1, ensure_ascii=False))
     else:

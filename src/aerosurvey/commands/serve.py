@@ -34,8 +34,11 @@ log = logging.getLogger(__name__)
 @click.option("--campaign", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="A campaign folder (`aerosurvey campaign plan`): the page shows its blocks on the map coloured by "
                    "status, each opening its plan (read-only).")
+@click.option("--connect", "vehicle", default=None,
+              help="A vehicle the page checks a mission file against and uploads it to, as `aerosurvey upload` does "
+                   "(pymavlink connection string, e.g. tcp:127.0.0.1:5760); nothing is sent but by the pilot's click.")
 def serve(spec: Path | None, host: str, port: int, tile_url: str, basemap: Path | None, max_upload_mb: int, lan: bool,
-          lan_address: str | None, campaign: Path | None) -> None:
+          lan_address: str | None, campaign: Path | None, vehicle: str | None) -> None:
     """Plan, check and download a survey mission in the browser (http://127.0.0.1:8765 by default)."""
     import socket
 
@@ -75,7 +78,7 @@ def serve(spec: Path | None, host: str, port: int, tile_url: str, basemap: Path 
                     "from another origin is refused)", host)
         allowed = None
     app = create_app(spec, tile_url=tile_url, allowed_hosts=allowed, upload_limit=max_upload_mb * 1024 * 1024,
-                     basemap=basemap, lan=shared, campaign=campaign)
+                     basemap=basemap, lan=shared, campaign=campaign, vehicle=vehicle)
     shown = "127.0.0.1" if is_loopback(host) else host
     click.echo(f"aerosurvey: open http://{shown}:{port}/ (Ctrl+C to stop)")
     if shared is not None:

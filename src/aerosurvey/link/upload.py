@@ -12,7 +12,7 @@ import math
 import struct
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from aerosurvey.errors import AerosurveyError, CheckFailed, InputError
@@ -138,6 +138,23 @@ def mission_wire_items(m: Mission) -> list[mp.WireItem]:
     for it in m.items:
         out.append(item_to_wire(it, len(out), f"mission item {len(out)}"))
     return out
+
+
+def held_mission(m: Mission, held: Sequence[mp.WireItem]) -> Mission:
+    """The mission items a vehicle holds (a read-back) as a Mission beside the planned `m`: x/y back to degrees
+    (the parameters themselves for PLAIN_XY_COMMANDS); ArduPilot's item 0 is its home (the planned home while it
+    has none)."""
+    items = list(held)
+    home = m.home
+    if home_on_wire(m) and items:
+        h = items.pop(0)
+        if h.x or h.y:
+            home = (h.x * 1e-7, h.y * 1e-7, h.z)
+    return replace(m, home=home, items=tuple(
+        MissionItem(it.command, it.frame, it.param1, it.param2, it.param3, it.param4,
+                    float(it.x) if it.command in PLAIN_XY_COMMANDS else it.x * 1e-7,
+                    float(it.y) if it.command in PLAIN_XY_COMMANDS else it.y * 1e-7, it.z, bool(it.autocontinue))
+        for it in items))
 
 
 def fence_wire_items(m: Mission) -> list[mp.WireItem]:
@@ -468,6 +485,7 @@ class TransferReport:
     verified: bool = False
     verify_seconds: float = 0.0
     download_stats: mp.Stats | None = None
+    held: list[mp.WireItem] | None = None  # the items read back: what the vehicle holds
 
 
 @dataclass
@@ -702,14 +720,15 @@ def check_rules(facts: MissionFacts, accept: frozenset[str]) -> str:
             f"({', '.join('--accept ' + r for r in failed)})")
 
 
-def accept_names(facts: MissionFacts, accept: Sequence[str]) -> frozenset[str]:
-    """The `--accept` names, each a check of `vehicle_settings.CHECKS` or a rule of the plan (InputError otherwise)."""
-    allowed = {*vs.CHECKS, *(facts.rules or ())}
+def accept_names(facts: MissionFacts, accept: Sequence[str], checks: Sequence[str] = ()) -> frozenset[str]:
+    """The `--accept` names, each a check of `vehicle_settings.CHECKS`, of `checks` (the upload's others) or a rule of
+    the plan (InputError otherwise)."""
+    allowed = {*vs.CHECKS, *checks, *(facts.rules or ())}
     for name in accept:
         if name not in allowed:
             rules = f"; the plan's rules: {', '.join(sorted(set(facts.rules)))}" if facts.rules else ""
             raise InputError(f"--accept {name!r} is not a check of upload nor a rule of the plan: the checks are "
-                             f"{', '.join(vs.CHECKS)}{rules}", key="--accept")
+                             f"{', '.join((*vs.CHECKS, *checks))}{rules}", key="--accept")
     return frozenset(accept)
 
 
@@ -771,7 +790,8 @@ def _left_holding(exc: UploadFailed, n: int) -> str:
     return "the vehicle's mission is incomplete or unchanged"
 
 
-def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False) -> UploadReport:
+def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bool = False,
+                progress: Progress | None = None) -> UploadReport:
     """Upload the mission (its fence when it has one, its rally points when `rally` and it has
     some), then read each back and compare, through `transfers`.
 
@@ -780,6 +800,7 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
     `verify`, an upload whose final ACCEPTED was lost (`stats.ack_lost`) is settled by the
     read-back instead of being sent again. A vehicle that holds only part of a mission type is
     reported as "the vehicle holds N of M mission items: do not fly it".
+    `progress`: told when each transfer starts and ends, for transfers that do not report their own (MAVSDK's).
     """
     vehicle = transfers.vehicle
     check_firmware(m.firmware, vehicle)
@@ -794,11 +815,16 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
     for kind, items in wanted.items():
         t0 = time.monotonic()
         started = transfers.now()
+        coarse = progress if transfers.via != VIA_PROTOCOL else None
+        if coarse is not None:
+            coarse(f"{mp.TYPE_NAMES[kind]} upload through {transfers.via}", 0, len(items))
         try:
             stats = transfers.upload(kind, items)
         except UploadFailed as exc:
             raise _failed_upload(kind, exc, len(items), transfers.said(started), done) from None
         done.append(TransferReport(kind, len(items), time.monotonic() - t0, stats))
+        if coarse is not None:
+            coarse(f"{mp.TYPE_NAMES[kind]} upload through {transfers.via}", len(items), len(items))
     reps = {r.mission_type: r for r in done}
     report = UploadReport(vehicle, reps[mp.MISSION], reps.get(mp.FENCE), _COMPARED_AS[storage], rally=reps.get(mp.RALLY),
                           via=transfers.via)
@@ -813,7 +839,7 @@ def upload_plan(transfers: Transfers, m: Mission, verify: bool = True, rally: bo
         actual, dstats, found = _verify(transfers, rep, wanted[rep.mission_type], storage, plane,
                                         skip if rep.mission_type == mp.MISSION else frozenset())
         rep.verify_seconds = time.monotonic() - t0
-        rep.download_stats = dstats
+        rep.download_stats, rep.held = dstats, actual
         mismatches += found
         if rep.mission_type == mp.MISSION and skip and actual:
             h = actual[0]

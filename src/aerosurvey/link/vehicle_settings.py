@@ -237,8 +237,19 @@ def _return_altitude(m: Mission) -> float | None:
     return max(it.z for it in places)
 
 
+def _rtl_names(firmware: str, vehicle: str) -> list[str]:
+    return ["RTL_RETURN_ALT"] if firmware == PX4 else ["RTL_ALT"] if vehicle == "copter" else ["RTL_ALTITUDE", "ALT_HOLD_RTL"]
+
+
+def rtl_altitude(firmware: str, vehicle: str, params: Mapping[str, float]) -> float | None:
+    """The altitude above home (m) the vehicle returns at on RTL, from its parameters (raw values); None when it
+    returns at the altitude it is at (0 or less) or does not say."""
+    got = Values(params).first(*_rtl_names(firmware, vehicle))
+    return got[1] if got is not None and got[1] > 0 else None
+
+
 def _rtl(m: Mission, vehicle: str, values: Values, plan: PlanFigures) -> Finding:
-    names = ["RTL_RETURN_ALT"] if m.firmware == PX4 else ["RTL_ALT"] if vehicle == "copter" else ["RTL_ALTITUDE", "ALT_HOLD_RTL"]
+    names = _rtl_names(m.firmware, vehicle)
     got = values.first(*names)
     if got is None:
         return Finding(RTL, "refuse", f"{_missing(values, names)}: the altitude the vehicle returns at cannot be compared "

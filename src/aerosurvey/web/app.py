@@ -17,6 +17,8 @@ Endpoints (all JSON unless said otherwise), each a small handler in a module of 
   GET    /api/basemap/{z}/{x}/{y}    a tile of the offline basemap file (--basemap)            (routes_basemap)
   GET    /api/campaign               the campaign's blocks by status (--campaign), read-only   (routes_campaign)
   GET    /api/campaign/blocks/{name} a block's plan from its folder; /files/{file} one of its files
+  GET    /api/vehicle                the vehicle of `serve --connect` (routes_vehicle)
+  POST   /api/plans/{pid}/vehicle/{n}  {"send": bool} → 202 {"job": id}: a mission file checked against it, or uploaded
 Errors are {"error": message, "key": spec key or null} with 400 (bad input), 403 (another origin), 404, 409,
 413 (too large), 421 (another host), 429 (too many plans waiting) or 500.
 Handlers run on the event loop; file I/O and computing run on worker threads.
@@ -35,12 +37,13 @@ from starlette.applications import Starlette
 from starlette.routing import BaseRoute, Mount, Route
 from starlette.staticfiles import StaticFiles
 
-from aerosurvey.web import routes_basemap, routes_campaign, routes_flight, routes_plan, routes_spec, service
+from aerosurvey.web import routes_basemap, routes_campaign, routes_flight, routes_plan, routes_spec, routes_vehicle, service
 from aerosurvey.web.basemap import open_basemap
 from aerosurvey.web.jobs import JobRunner
 from aerosurvey.web.lan import LanGate, Shares
 from aerosurvey.web.limits import BodyLimit, HostCheck
 from aerosurvey.web.state import ServerState, blocking
+from aerosurvey.web.vehicle import VehicleLink
 
 UPLOAD_LIMIT = 50 * 1024 * 1024
 
@@ -66,17 +69,21 @@ ROUTES: list[BaseRoute] = [
     Route("/api/campaign", routes_campaign.campaign),
     Route("/api/campaign/blocks/{name}", routes_campaign.block),
     Route("/api/campaign/blocks/{name}/files/{file}", routes_campaign.file),
+    Route("/api/vehicle", routes_vehicle.vehicle_state),
+    Route("/api/plans/{plan_id}/vehicle/{name}", routes_vehicle.vehicle_submit, methods=["POST"]),
 ]
 
 
 def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts: list[str] | None = None,
                upload_limit: int = UPLOAD_LIMIT, workers: int = 2, basemap: Path | None = None,
-               lan: str | None = None, campaign: Path | None = None) -> Starlette:
+               lan: str | None = None, campaign: Path | None = None, vehicle: str | None = None) -> Starlette:
     """The app; `allowed_hosts` None accepts any Host header (tests), else only those (DNS rebinding).
     `basemap`: a local .mbtiles or .pmtiles file of raster or vector tiles the page draws under the plan.
     `lan`: "ADDRESS:PORT" on the local network where shared files are served to other machines, and
     nothing else (web/lan.py); None: nothing is shared. `campaign`: a campaign folder whose blocks the page shows
-    (read-only; its register is read here first, so a folder that is not one is refused at the start)."""
+    (read-only; its register is read here first, so a folder that is not one is refused at the start).
+    `vehicle`: the pymavlink connection of the vehicle the page checks and uploads to (web/vehicle.py);
+    None: no vehicle."""
     spec = {}
     if spec_path is not None:
         spec_path = spec_path.resolve()
@@ -91,7 +98,8 @@ def create_app(spec_path: Path | None = None, tile_url: str = "", allowed_hosts:
     base = spec_path.parent if spec_path is not None else uploads
     ws = service.Workspace(base=base, uploads=uploads, roots=[base], spec_file=spec_path)
     state = ServerState(spec_path, spec, ws, tile_url, JobRunner(workers=workers), upload_limit, tiles,
-                        shares=Shares(f"http://{lan}") if lan is not None else None, campaign=campaign)
+                        shares=Shares(f"http://{lan}") if lan is not None else None, campaign=campaign,
+                        vehicle=VehicleLink(vehicle) if vehicle is not None else None)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:

@@ -30,6 +30,7 @@ from aerosurvey.web import service
 from aerosurvey.web.basemap import Basemap
 from aerosurvey.web.jobs import JobRunner
 from aerosurvey.web.lan import Shares
+from aerosurvey.web.vehicle import VehicleLink
 
 P = ParamSpec("P")
 T = TypeVar("T")
@@ -46,6 +47,7 @@ class ServerState:
     basemap: Basemap | None = None  # the offline basemap file (--basemap), served as tiles
     shares: Shares | None = None  # files shared on the local network (serve --lan), None without it
     campaign: Path | None = None  # the campaign folder shown on the page (serve --campaign), read-only
+    vehicle: VehicleLink | None = None  # the vehicle of `serve --connect`, None without it
     plans: OrderedDict[str, service.PlanBundle] = field(default_factory=OrderedDict)
     serial: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
     keep_plans: int = 8  # each holds every file of a plan: a large plan is tens of MB

@@ -536,6 +536,7 @@ function pointFeature(x, y, props) { const f = new olb.Feature({ geometry: new o
 
 function render(view) {
   S.view = view;
+  vehicleFiles(view);
   registerPlanCrs(view.frame);
   const V = view.layers;
   const put = (layer, feats) => { const s = layer.getSource(); s.clear(true); s.addFeatures(feats); };
@@ -799,6 +800,95 @@ async function makeBrief() {
     }
     out.append(head, list);
   } catch (e) { showError("brief", e.message); }
+}
+
+// ---- the vehicle (serve --connect): checks, upload, read-back -------------------------------------
+const vehicleStyles = {
+  vehicle: new olb.Style({ image: new olb.CircleStyle({ radius: 8, fill: new olb.Fill({ color: "#1565c0" }), stroke: new olb.Stroke({ color: "#fff", width: 2 }) }) }),
+  home: new olb.Style({ image: new olb.CircleStyle({ radius: 6, fill: new olb.Fill({ color: "#fff" }), stroke: new olb.Stroke({ color: "#1565c0", width: 3 }) }) }),
+};
+const vehicleLayer = vector("vehicle", (f) => vehicleStyles[f.get("role")], 14);
+L.vehicle = vehicleLayer;  // window.aerosurvey.layers.vehicle
+map.addLayer(vehicleLayer);
+const V = { checked: null, busy: false };  // the file whose check passed, a job under way
+
+async function vehicleStart() {
+  const r = await api("GET", "/api/vehicle");
+  if (!r.url) return;
+  $("#vehicle-box").hidden = false;
+  $("#vehicle-url").textContent = `Vehicle: ${r.url}. A check only reads it; nothing is sent until you click Upload.`;
+  $("#vehicle-check").addEventListener("click", () => vehicleRun(false));
+  $("#vehicle-upload").addEventListener("click", () => vehicleRun(true));
+  $("#vehicle-file").addEventListener("change", vehicleReset);
+}
+
+/** The plan's mission files in the vehicle's file list (a new plan: checked again before an upload). */
+function vehicleFiles(view) {
+  const sel = $("#vehicle-file"), was = sel.value;
+  sel.textContent = "";
+  for (const n of view.files.filter((f) => f.endsWith(".plan"))) {
+    const o = document.createElement("option"); o.value = n; o.textContent = n; sel.appendChild(o);
+  }
+  if ([...sel.options].some((o) => o.value === was)) sel.value = was;
+  vehicleReset();
+}
+
+function vehicleReset() {
+  V.checked = null;
+  $("#vehicle-upload").disabled = true;
+}
+
+async function vehicleRun(send) {
+  if (V.busy || !S.view) return;
+  const file = $("#vehicle-file").value;
+  clearError("vehicle");
+  $("#vehicle-checks").textContent = ""; $("#vehicle-verdict").textContent = ""; $("#vehicle-verdict").className = "";
+  $("#vehicle-held").hidden = true;
+  V.busy = true; $("#vehicle-check").disabled = true; $("#vehicle-upload").disabled = true;
+  $("#vehicle-progress").hidden = false; $("#vehicle-progress-bar").value = 0;
+  $("#vehicle-stage").textContent = send ? "connecting, checking" : "connecting";
+  try {
+    const job = (await api("POST", `/api/plans/${S.view.plan_id}/vehicle/${encodeURIComponent(file)}`, { send })).job;
+    for (;;) {
+      const st = await api("GET", `/api/jobs/${job}?wait=0.25`);
+      $("#vehicle-progress-bar").value = st.progress;
+      $("#vehicle-stage").textContent = `${st.stage} ${Math.round(st.progress * 100)} %`;
+      if (st.state === "done") { vehicleShow(st.result, st.elapsed_s); break; }
+      if (st.state !== "queued" && st.state !== "running") {
+        const v = $("#vehicle-verdict"); v.className = "no-go";
+        v.textContent = send ? "NOT UPLOADED: do not fly it" : "NO-GO";
+        showError("vehicle", st.error ? st.error.message : `the job ended ${st.state}`);
+        break;
+      }
+    }
+  } catch (e) { showError("vehicle", e.message); }
+  V.busy = false; $("#vehicle-check").disabled = false;
+  $("#vehicle-upload").disabled = V.checked !== $("#vehicle-file").value;
+}
+
+function vehicleShow(r, seconds) {
+  const list = $("#vehicle-checks");
+  for (const line of r.refusals) { const li = document.createElement("li"); li.className = "no-go"; li.textContent = `NO-GO ${line}`; list.appendChild(li); }
+  for (const line of r.sent ? r.report : r.checks) { const li = document.createElement("li"); li.textContent = line; list.appendChild(li); }
+  const v = $("#vehicle-verdict");
+  if (r.sent) {
+    v.className = r.verified ? "go" : "no-go";
+    v.textContent = r.verified ? `VERIFIED: ${r.file} uploaded, read back and compared in ${seconds.toFixed(1)} s` : `${r.file} uploaded, not verified`;
+  } else {
+    v.className = r.refusals.length ? "no-go" : "go";
+    v.textContent = r.refusals.length ? `NO-GO: ${r.refusals.length} check(s) refuse ${r.file}` : `GO: every check passes for ${r.file}; Upload sends it`;
+  }
+  V.checked = !r.sent && !r.refusals.length ? r.file : V.checked;
+  const src = vehicleLayer.getSource(); src.clear();
+  const at = (latlon, role) => src.addFeature(new olb.Feature({ geometry: new olb.Point(olb.fromLonLat([latlon[1], latlon[0]])), role }));
+  if (r.position) at(r.position, "vehicle");
+  at(r.held_home || r.launch, "home");
+  if (r.held_waypoints) {
+    const a = $("#vehicle-held");
+    if (a.href) URL.revokeObjectURL(a.href);
+    a.href = URL.createObjectURL(new Blob([r.held_waypoints], { type: "text/plain" }));
+    a.download = `${r.file.replace(/\.plan$/, "")}-vehicle.waypoints`; a.hidden = false;
+  }
 }
 
 /** A button that shares one file on the local network (serve --lan) and shows its QR code in its fly block. */
@@ -1458,6 +1548,7 @@ async function start() {
   });
   map.on("pointermove", onPointer);
   $("#make-brief").addEventListener("click", makeBrief);
+  vehicleStart().catch((e) => showError("vehicle", e.message));  // the page starts whatever the vehicle's state
   map.on("click", (e) => { if (S.tool === "delete") deleteAt(e.pixel); else if (S.tool === "start") startAt(e.pixel); });
   setTool("edit");
 
