@@ -85,14 +85,19 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     footprint = pattern.footprint(spec, heights)
     sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch)
     limit_warnings = check_limits(spec, site, sensor)
+    # the heading search, the line order and every time after them in conditions.wind (a wind the vehicle
+    # cannot make headway against refused before any line is laid)
+    kin, wind = in_wind(spec, site, sensor)
+    sensor = replace(sensor, kinematics=kin)
     laying = pattern.from_spec(spec)
     layouts = laying.layouts(site, sensor, report)
     if spec.flight.fixed_yaw_deg is not None:
         def solve(turns: tuple[float, ...]) -> SensorSolution:
-            return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
-                                autopilot_stretch=stretch, camera_turns_deg=turns)
+            turned = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
+                                  autopilot_stretch=stretch, camera_turns_deg=turns)
+            return replace(turned, kinematics=in_wind(spec, site, turned)[0])
         sensor, layouts = _under_fixed_yaw(spec, site, sensor, laying, layouts, solve, report)
-    kin, wind = in_wind(spec, site, sensor)  # (a wind the vehicle cannot make headway against refused before routing)
+        kin = sensor.kinematics
     flown = flown_layout(spec, site, sensor, layouts, report)
     layout, routed, home_ground, alts, coverage = flown.layout, flown.routed, flown.home_ground, flown.alts, flown.coverage
     waypoints = _with_transits(alts.waypoints, routed, site)
