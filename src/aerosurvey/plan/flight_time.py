@@ -71,6 +71,16 @@ class Kinematics:
             return 1.0
         return self.speed_ms / (self.speed_ms + math.hypot(self.wind_x, self.wind_y))
 
+    def crab_deg(self, angle_deg: float) -> float:
+        """How far a plane flying along `angle_deg` (atan2(dy, dx) of the grid, in degrees) turns its nose into
+        the wind, either way: asin(crosswind / air speed) (`ground_speed`'s air velocity off the track). 0 for a
+        copter, whose nose points along its track while it leans into the wind."""
+        if self.calm or self.vehicle == "copter":
+            return 0.0
+        a = math.radians(angle_deg)
+        across = self.wind_y * math.cos(a) - self.wind_x * math.sin(a)
+        return math.degrees(math.asin(min(abs(across) / self.speed_ms, 1.0)))
+
     def slowness(self, angle_deg: float) -> float:
         """speed_ms over the ground speed along `angle_deg`: the still-air length that takes as long as a metre flown there."""
         return 1.0 if self.calm else self.speed_ms / self.ground_speed(angle_deg)
