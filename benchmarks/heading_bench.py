@@ -66,7 +66,7 @@ def search(spec_path: Path) -> Callable[[bool], tuple[float, float, int]]:
             costed += 1
             zf = fr.geom_to_frame(site.zones_buffered) if site.zones_buffered is not None else None
             segs = build_lines(fr.geom_to_frame(covered), zf, strips(fr.heading_deg))
-            return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+            return quick_cost(segs, lead, sensor.kinematics, fr) if segs else math.inf
 
         if not bounded:
             return (*best_heading(covered, cost), costed)

@@ -454,10 +454,17 @@ def _fly_in_wind(tmp_path: Path, wind: str, binary: str) -> list[dict]:
     return report["sorties"]
 
 
+#: issue 36's 8 m/s target for the copter, not met: in the one run of 8@135 every photo was triggered but no sortie was
+#: reported completed ("EOF on TCP socket"); 8@315 not run. Kept as the target, expected to fail until diagnosed.
+_COPTER_8MS = pytest.mark.xfail(strict=False, reason="8 m/s: no sortie reported completed in the one run (EOF on TCP socket)")
+
+
 @pytest.mark.sitl
-@pytest.mark.parametrize("wind", ["0@0", "5@0", "5@90", "5@225"])
+@pytest.mark.parametrize("wind", ["0@0", "5@0", "5@90", "5@225", pytest.param("8@135", marks=_COPTER_8MS),
+                                  pytest.param("8@315", marks=_COPTER_8MS)])
 def test_a_copter_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
-    """Still air, and 5 m/s of wind from the north, the east and the south-west: every sortie completes
+    """Still air, 5 m/s of wind from the north, the east and the south-west, and 8 m/s (most of the quad's
+    10.4 m/s at its lean limit) from the south-east and the north-west: every sortie completes
     with its photos, in the estimate of the wind triangle within 5 % (flown / estimated, printed)."""
     binary = _binary("copter")
     if binary is None:
@@ -544,3 +551,92 @@ def test_an_orbit_aims_every_photo_at_the_structure(tmp_path):
     assert next(planned, None) is None
     assert worst_pitch <= 2.0 and worst_bearing <= 2.0, (worst_pitch, worst_bearing)
     assert nearest >= standoff - 2.0, nearest
+
+
+def _plane_in_wind(tmp_path: Path, wind: str, binary: str) -> tuple[dict, list[dict], Path]:
+    """A plane's block (about 30 ha, lines east-west, across a wind from the north or south) planned in `wind`
+    with two sorties and its camera fixed to the body (a plane's default), flown in ArduPlane SITL in that wind."""
+    from conftest import make_spec
+
+    ring = [[15.000, 49.400], [15.009, 49.400], [15.009, 49.4027], [15.000, 49.4027], [15.000, 49.400]]
+    # each sortie lands (an approach into the wind), as kubad-abad's: SITL then flies the descent the estimate
+    # counts (a sortie ended by RTL is over when the plane is back over home, still at its height)
+    landing = {"end": "land", "wind_from_deg": float(wind.split("@")[1]), "approach_m": 400.0}
+    spec = make_spec(tmp_path, {"flight": {"heading": 90.0, **landing}, "battery": {"usable_min": 9.0},
+                                "vehicle": {"type": "plane", "cruise_speed_ms": 16.0},
+                                "targets": {"gsd_cm": 2.5, "side_overlap": 0.6, "forward_overlap": 0.75},
+                                "conditions": {"wind": wind}}, area=ring)
+    out = tmp_path / f"plan-{wind.replace('@', '-')}"
+    manifest, report = plan_and_fly(spec, out, "--sitl-bin", binary, "--speedup", "20")
+    assert manifest["wind"]["speed_ms"] == float(wind.split("@")[0])
+    assert len(report["sorties"]) == len(manifest["sorties"]) >= 2
+    return manifest, report["sorties"], out
+
+
+def _flown_side_overlaps(manifest: dict, logs: list[Path]) -> list[float]:
+    """Per photo with a neighbour on the next line: the share of its ground that neighbour sees too, from the
+    flown CAM records (position, height above home, roll, pitch and yaw): each photo the sensor's rectangle on
+    flat ground (sensor size × height / focal length, the long side across the nose), turned by the flown yaw,
+    its centre moved by the roll and pitch (height × tan); the lines told apart by their northing (lines east-west),
+the neighbour the photo of the next line nearest along it."""
+    import numpy as np
+
+    cam = manifest["camera"]
+    w, h = cam["sensor_mm"]
+    rows = []
+    for log in logs:
+        rows += [(m.Lat, m.Lng, m.RelAlt, m.R, m.P, m.Y) for m in _log(log, ["CAM"])]
+    lat0 = math.radians(float(np.mean([r[0] for r in rows])))
+    k = math.pi / 180.0 * 6_371_000.0
+    photos = []
+    for lat, lon, alt, roll, pitch, yaw in rows:
+        x, y = (lon - 15.0) * k * math.cos(lat0), (lat - 49.4) * k
+        across, along = w * alt / cam["focal_mm"], h * alt / cam["focal_mm"]
+        c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))  # the nose: (s, c) east and north
+        nose, right = np.array([s, c]), np.array([c, -s])
+        # rolled right, the camera under the body looks to the left; nose up, behind
+        centre = np.array([x, y]) - right * alt * math.tan(math.radians(roll)) - nose * alt * math.tan(math.radians(pitch))
+        corners = [centre + a * nose * along / 2 + b * right * across / 2 for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        photos.append(shapely.Polygon(corners))
+    ys = np.array([p.centroid.y for p in photos])
+    order = np.argsort(ys)
+    groups: list[list[int]] = [[int(order[0])]]
+    for i in order[1:]:  # a new line where the northing jumps by more than a third of the spacing
+        if ys[i] - ys[groups[-1][-1]] > manifest["derived"]["line_spacing_m"] / 3.0:
+            groups.append([])
+        groups[-1].append(int(i))
+    shares = []
+    for a, b in zip(groups[:-1], groups[1:]):
+        xb = np.array([photos[j].centroid.x for j in b])
+        for i in a:
+            x = photos[i].centroid.x
+            if xb.min() <= x <= xb.max():  # a neighbour on both sides along the next line
+                j = b[int(np.argmin(np.abs(xb - x)))]
+                shares.append(float(photos[i].intersection(photos[j]).area / photos[i].area))
+    return shares
+
+
+@pytest.mark.sitl
+@pytest.mark.xfail(strict=False, reason="issue 36's plane target, not met: with a landing end 5@0 flew S01 0.981, S02 1.155 "
+                   "of the estimate, and the flown side overlap's median was 0.585 (215 of 300 photos under 0.6): the "
+                   "plane's take-off and transit airspeed (17.7 m/s flown, 12.5 timed) and its cross-track error are not "
+                   "in the model; 5@225, 8@45 and 8@270 not run")
+@pytest.mark.parametrize("wind", ["5@0", "5@90", "5@225", "8@45", "8@270"])
+def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
+    """ArduPlane in 5 and 8 m/s of wind: every sortie completes with its photos in the wind triangle's
+    estimate within 5 % (flown / estimated, printed), and its body-fixed camera under the crab keeps the
+    side overlap asked between neighbouring lines (from the CAM records' positions and attitudes; median,
+    and the share of photos below it printed)."""
+    binary = _binary("plane")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL plane binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    manifest, rows, out = _plane_in_wind(tmp_path, wind, binary)
+    shares = sorted(_flown_side_overlaps(manifest, [out / "sitl" / r["log"] for r in rows]))
+    crab = [p.get("crab_deg") for p in manifest["pattern"]["passes"]]
+    print(wind, crab, [(r["sortie"], r["flown_time_s"], r["estimated_time_s"], r["time_ratio"]) for r in rows],
+          "side overlap median", shares[len(shares) // 2], "below 0.6:", sum(s < 0.6 for s in shares), "of", len(shares))
+    for row in rows:
+        assert row["completed"], row
+        assert row["triggers_flown"] == row["photos_planned"], row
+        assert abs(row["time_ratio"] - 1.0) <= 0.05, row
+    assert shares[len(shares) // 2] >= 0.6

@@ -245,6 +245,7 @@ def _pattern(plan: Plan) -> dict[str, Any]:
     trigger = _f(plan.sensor.trigger_distance_m) if plan.sensor.trigger_distance_m is not None else None
     passes = [{"pass": ps.index, "pitch_deg": ps.aim.pitch_deg,
                "look_deg": _f(ps.aim.bearing_deg) if ps.aim.bearing_deg is not None else None, **_aim_extras(ps),
+               **({"crab_deg": _f(c)} if (c := plan.crab_deg(ps)) is not None else {}),
                "footprint_across_m": _f(plan.sensor.across_m), "footprint_along_m": _f(plan.sensor.along_m),
                "line_spacing_m": _f(plan.sensor.spacing_m), "photo_base_m": _f(plan.sensor.base_m), "trigger_distance_m": trigger}
               for ps in plan.layout.passes if not ps.empty]
@@ -295,7 +296,7 @@ def build_manifest(plan: Plan, spec: MissionSpec, mission_items: int, outputs: d
         "camera": {"id": cam.id, "name": cam.name, "sensor_mm": [cam.sensor_width_mm, cam.sensor_height_mm],
                    "image_px": [cam.image_width_px, cam.image_height_px], "focal_mm": cam.focal_mm,
                    "pixel_pitch_um": _f(cam.pixel_pitch_um, 4), "mount": plan.camera.mount,
-                   "trigger": plan.camera.trigger, "min_cycle_s": plan.camera.min_cycle_s,
+                   "gimbal": plan.camera.gimbal, "trigger": plan.camera.trigger, "min_cycle_s": plan.camera.min_cycle_s,
                    "exposure_s": plan.camera.exposure_s, "source": cam.source},
         "targets": {"gsd_cm": _f(plan.sensor.gsd_target_m * 100, 4), "forward_overlap": spec.targets.forward_overlap,
                     "side_overlap": spec.targets.side_overlap,

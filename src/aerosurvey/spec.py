@@ -19,6 +19,8 @@ from aerosurvey.camera import Camera, camera_from_mapping, get_camera
 from aerosurvey.errors import InputError, bad_value
 
 MOUNTS = ("landscape", "portrait")
+#: camera.gimbal: fixed to the airframe (turns with a plane's crab) or stabilised (its image top along the track)
+GIMBALS = ("body", "stabilised")
 TRIGGERS = ("distance", "time", "camera", "hover")
 VEHICLES = ("copter", "plane")
 FIRMWARES = ("ardupilot", "px4")
@@ -43,6 +45,8 @@ class CameraSpec:
 
     camera: Camera
     mount: str
+    # body: fixed to the airframe, turned with a plane's crab; stabilised: a gimbal holds its image top along the track
+    gimbal: str
     # distance: autopilot by distance; time: autopilot by interval; camera: own intervalometer;
     # hover: stop and shoot at each station
     trigger: str
@@ -539,9 +543,12 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         raise bad_value("camera.model", model, "a camera id from `aerosurvey cameras` or an inline table with the sensor")
     trigger = c.choice("trigger", "distance", TRIGGERS)
     interval = c.number("interval_s", None, lo=0.0, lo_open=True)
+    vehicle_raw = top.data.get("vehicle")
+    plane = isinstance(vehicle_raw, Mapping) and vehicle_raw.get("type") == "plane"  # (the type is checked with [vehicle])
     camera = CameraSpec(
         camera=cam,
         mount=c.choice("mount", "landscape", MOUNTS),
+        gimbal=c.choice("gimbal", "body" if plane else "stabilised", GIMBALS),
         trigger=trigger,
         interval_s=interval,
         settle_s=c.number("settle_s", 1.0, lo=0.0, hi=30.0) or 0.0,

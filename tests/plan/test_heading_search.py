@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -82,6 +83,11 @@ def random_case(seed: int, kind: str, vehicle: str, n_zones: int, far: bool
         radius = speed**2 / (9.80665 * math.tan(math.radians(float(rng.uniform(20.0, 40.0)))))
         kin = Kinematics("plane", speed, 2.0, radius)
         lead = float(rng.choice([0.0, rng.uniform(20.0, 300.0)]))
+    if rng.random() < 0.5:  # half the cases in a wind of up to 0.8 of the air speed (a copter's up to 5 m/s above its speed)
+        air = kin.speed_ms + (float(rng.uniform(0.0, 5.0)) if vehicle == "copter" else 0.0)
+        w, towards = float(rng.uniform(0.0, 0.8)) * air, float(rng.uniform(0.0, 2.0 * math.pi))
+        kin = replace(kin, wind_x=w * math.cos(towards), wind_y=w * math.sin(towards),
+                      airspeed_ms=air if vehicle == "copter" else math.inf)
     base = along * (1.0 - forward)
     turn = kin.turn_radius_m
     g = StripGeometry(across, along, across * (1.0 - side), base, max(1, math.floor(1.0 / (1.0 - side) + 1e-9)),
@@ -97,7 +103,7 @@ def costs(covered: BaseGeometry, zones: BaseGeometry | None, g: StripGeometry, l
     def cost(fr: LineFrame) -> float:
         zf = fr.geom_to_frame(zones) if zones is not None else None
         segs = build_lines(fr.geom_to_frame(covered), zf, g)
-        return quick_cost(segs, lead, kin) if segs else math.inf
+        return quick_cost(segs, lead, kin, fr) if segs else math.inf
 
     outline = Outline.of(covered, zones)
 
@@ -136,7 +142,7 @@ def test_the_bound_never_exceeds_the_cost(case: tuple[int, str, str, int, bool],
     lb = line_bounds(Outline.of(covered, zones), [fr], g)
     _, vmin, _, vmax = area_f.bounds
     assert np.array_equal(lb.v, strip_offsets(vmin, vmax, g.across, g.spacing, g.side_per_point))
-    exact = quick_cost(segs, lead, kin) if segs else math.inf
+    exact = quick_cost(segs, lead, kin, fr) if segs else math.inf
     assert quick_cost_lower_bounds(lb, lead, g.base, kin)[0] <= exact
     runs_unasked = line_bounds(Outline.of(covered, zones), [fr], g, single_runs=False)
     assert quick_cost_lower_bounds(runs_unasked, lead, g.base, kin)[0] <= exact

@@ -150,10 +150,10 @@ def test_page_draws_the_plan_of_the_manifest(page, site):
     features = json.loads((site["cli"] / "plan.geojson").read_text())["features"]
     lines = [f for f in features if f["properties"]["role"] == "line"]
     assert _features(page, "lines") == len(lines) == 34
-    assert _features(page, "stations") == len(manifest["stations"]) == 1592
+    assert _features(page, "stations") == len(manifest["stations"]) == 1593
     assert _features(page, "gcps") >= 4 and _features(page, "checks") >= 24
     assert _count(page, "#sortie-legend span") == len(manifest["sorties"]) == 5
-    assert page.text_content("[data-summary='photos']").startswith("1592")
+    assert page.text_content("[data-summary='photos']").startswith("1593")
     # the cursor readout: WGS84 and the plan's CRS (proj4 with the server's definition)
     box = page.locator("#map").bounding_box()
     page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)

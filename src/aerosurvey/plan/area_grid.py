@@ -154,7 +154,7 @@ class AreaGrid:
             fr = LineFrame(h)
             segs = build_lines(fr.geom_to_frame(piece), None,
                                strip_geometry(sensor, 0, k, site.autopilot_scale(h)))
-            return quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+            return quick_cost(segs, lead, sensor.kinematics, fr) if segs else math.inf
 
         # the transit between the pieces: at most from one's centre to the other's
         splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
@@ -213,7 +213,7 @@ class AreaGrid:
                 tried += 1
                 report("choosing the heading", 0.05 + 0.6 * min(1.0, tried / n_cand))
                 _, segs = lines_for(fr.heading_deg)
-                priced[fr.heading_deg] = quick_cost(segs, lead, sensor.kinematics) if segs else math.inf
+                priced[fr.heading_deg] = quick_cost(segs, lead, sensor.kinematics, fr) if segs else math.inf
                 return priced[fr.heading_deg]
 
             outline = Outline.of(covered, site.zones_buffered)
@@ -253,7 +253,7 @@ class AreaGrid:
                 g_h = strips(h)
                 cands = cut_candidates(fr.geom_to_frame(simple), g_h.spacing, g_h.base)
                 banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, g_h, segs,
-                                           lambda s: quick_cost(s, lead, sensor.kinematics), most, cands)
+                                           lambda s: quick_cost(s, lead, sensor.kinematics, fr), most, cands)
             return banded[h]
 
         # bands end runs inside the area, at their cuts: not where each run must end beyond it
@@ -279,7 +279,8 @@ class AreaGrid:
             chosen += f"; lines laid in {split} bands across the notches{each} (a shorter flight than one grid)"
         # the other headings priced, fastest first (where the search chose a notch's edge, the grid's best too)
         others = [h for c, h in sorted((c, h) for h, c in priced.items()) if h != heading and math.isfinite(c)]
-        return _Laid(heading, chosen, passes, quick_cost(main, lead, sensor.kinematics) if main else math.inf,
+        main_cost = quick_cost(main, lead, sensor.kinematics, lines_for(heading)[0]) if main else math.inf
+        return _Laid(heading, chosen, passes, main_cost,
                      sum(s.n for _, segs in passes for s in segs), others, split > 0, searched)
 
 

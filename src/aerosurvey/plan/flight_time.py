@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineBounds, LineSegment
 
 
@@ -53,6 +54,32 @@ class Kinematics:
             raise ValueError(f"a wind of {math.hypot(self.wind_x, self.wind_y):.2f} m/s is not below the air speed "
                              f"{air:g} m/s: no headway along {angle_deg:.1f}°")
         return g if self.vehicle != "copter" else min(self.speed_ms, g)
+
+    def in_frame(self, frame: LineFrame) -> Kinematics:
+        """These kinematics with the wind turned into `frame`'s coordinates (its lines along +x), where
+        `quick_cost` and the heading search time a heading's lines."""
+        if self.calm:
+            return self
+        (x,), (y,) = frame.to_frame(np.array([self.wind_x]), np.array([self.wind_y]))
+        return replace(self, wind_x=float(x), wind_y=float(y))
+
+    @property
+    def least_slowness(self) -> float:
+        """The least `slowness` along any direction: a plane's, straight downwind, v / (v + |w|); a copter's is 1
+        (it never flies faster over the ground than speed_ms)."""
+        if self.calm or self.vehicle == "copter":
+            return 1.0
+        return self.speed_ms / (self.speed_ms + math.hypot(self.wind_x, self.wind_y))
+
+    def crab_deg(self, angle_deg: float) -> float:
+        """How far a plane flying along `angle_deg` (atan2(dy, dx) of the grid, in degrees) turns its nose into
+        the wind, either way: asin(crosswind / air speed) (`ground_speed`'s air velocity off the track). 0 for a
+        copter, whose nose points along its track while it leans into the wind."""
+        if self.calm or self.vehicle == "copter":
+            return 0.0
+        a = math.radians(angle_deg)
+        across = self.wind_y * math.cos(a) - self.wind_x * math.sin(a)
+        return math.degrees(math.asin(min(abs(across) / self.speed_ms, 1.0)))
 
     def slowness(self, angle_deg: float) -> float:
         """speed_ms over the ground speed along `angle_deg`: the still-air length that takes as long as a metre flown there."""
@@ -116,6 +143,9 @@ def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinemati
     return stations * hold_s + stops * (_straight_time(base, k) - base / k.speed_ms)
 
 
+#: path_time takes a turn by this little (degrees) for a leg straight on from the one before: no corner
+STRAIGHT_ON_DEG = 1e-3
+
 #: path_time drops segments this short or shorter (planning-grid units / grid scale)
 KEPT = 1e-9
 
@@ -146,7 +176,9 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     total_len = float(lengths.sum()) if k.calm else float(np.dot(lengths, slow))
     i = 0
     while i < len(turn) - 1:
-        if turn[i] + turn[i + 1] > 150.0:  # a reversal: corner, short leg, corner
+        # a reversal: corner, short leg, corner (a leg straight on from the one before, as a line from its
+        # lead-in, is no corner: paired with the next corner it would replace the line itself by a turn)
+        if turn[i] > STRAIGHT_ON_DEG and turn[i + 1] > STRAIGHT_ON_DEG and turn[i] + turn[i + 1] > 150.0:
             u = seg[i] / lengths[i]
             lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
             total_len += (plane_turn_length(lateral, k.turn_radius_m) * k.turn_slowness(float(ang[i]), float(ang[i + 1]))
@@ -273,11 +305,13 @@ def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
     return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
 
 
-def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics) -> float:
-    """Estimated time of a boustrophedon over the segments, in their own line frame.
+def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics, frame: LineFrame) -> float:
+    """Estimated time of a boustrophedon over the segments, in their own line `frame` (the wind of `k`,
+    on the planning grid, turned into it).
 
-    Used to compare headings: it needs only the run ends (time is the same in any frame).
+    Used to compare headings: it needs only the run ends.
     """
+    k = k.in_frame(frame)
     by_line: dict[int, list[LineSegment]] = {}
     for s in segments:
         by_line.setdefault(s.line, []).append(s)
@@ -330,7 +364,7 @@ def connector_stops(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float
 
 
 def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kinematics) -> np.ndarray:
-    """Per heading of `lb`: a proven lower bound of `quick_cost(build_lines(...), lead_in, k)`.
+    """Per heading of `lb`: a proven lower bound of `quick_cost(build_lines(...), lead_in, k, frame)`.
 
     The path quick_cost times is, line after line (those with runs, by ordinate), the line's
     part P (lead-in, stations, half a base past the last run, all on the line, backwards
@@ -357,16 +391,22 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two
     corners add up to more than 150°, by the turn `plane_turn_length` over its lateral offset,
     never shorter than that offset; it pairs corners from the first on, skipping the corner
-    after a pair). A connector's offset is Δv (the leg before it runs along the line), so it
+    after a pair, and a leg straight on from the one before, within STRAIGHT_ON_DEG, makes no
+    corner to pair). A connector's offset is Δv (the leg before it runs along the line), so it
     counts at least Δv. A connector that surely turns by at most 150° out of the line before
     it ("gentle", from the bounds of both lines' ends, either way they are flown) is surely
-    replaced by the turn over Δv: its first corner is skipped only when paired with the 0°
-    corner before it. Its second corner is then skipped, so the lead-in after it (lead_in > 0)
+    replaced by the turn over Δv: its first corner is not skipped, as the 0° corner before it
+    pairs with none. Its second corner is then skipped, so the lead-in after it (lead_in > 0)
     is not replaced. A sure line with gentle connectors in and out (or only surely empty lines
     beyond it) thus keeps its first lead-in and its last run: with no reversal within (a line
     of one run has none) nothing of it is replaced, λ; else its first reversal replaces the
     leg before it and the lead-in after it by the turn over 0 each: at least
     lead_in + base/2 + 2·turn(0).
+
+    In wind (`k` on the planning grid: quick_cost turns it into each heading's frame) a plane flies
+    every metre, and every turn, in at least `least_slowness` of its still-air time, whatever its
+    direction: its bound is scaled by that. A copter's runs are timed by their lengths times their
+    slowness (≥ 1) and a run's time grows with its length, with the same corners: its bound holds as it is.
     """
     frames = int(lb.heading.max()) + 1 if len(lb.heading) else 0
     exists = np.flatnonzero(lb.exists)
@@ -394,7 +434,7 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
         own = dv[joined] / speed + gain[len(lam):]
         total += per_heading(i[joined], np.where(stops[joined], own, np.minimum(own, 2.0 * dv[joined] / speed)))
         total += per_heading(i[~joined], dv[~joined] / speed + min(m, gap / speed))
-        return total * (1.0 - 1e-7)
+        return total * (1.0 - 1e-7)  # (in wind a copter's every metre takes at least as long: least_slowness is 1)
     # plane: connectors that surely turn by at most 150° out of the line before them, whichever
     # way that line is flown (see the docstring)
     cot30 = math.sqrt(3.0) * (1.0 - 1e-6)
@@ -416,4 +456,4 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     short = lead_in + base / 2.0 + 2.0 * plane_turn_length(0.0, k.turn_radius_m)
     length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
     length += per_heading(i, np.where(gentle, plane_turn_lengths(dv, k.turn_radius_m), dv))
-    return length / speed * (1.0 - 1e-7)
+    return length / speed * k.least_slowness * (1.0 - 1e-7)

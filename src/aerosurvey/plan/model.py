@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from aerosurvey.plan.coverage import Coverage
     from aerosurvey.plan.landing import Landing
     from aerosurvey.plan.layout import Layout
-    from aerosurvey.plan.passes import Route
+    from aerosurvey.plan.passes import Pass, Route
     from aerosurvey.plan.sensor import SensorSolution
     from aerosurvey.plan.site import Site
     from aerosurvey.plan.sorties import Budget, LaunchSite, Sortie
@@ -131,6 +131,14 @@ class Plan:
     airspace: Airspace | None = None
     # [structure]: which of its walls' and roof's points the photos see, and how often; None without one
     faces: FacesCheck | None = None
+
+    def crab_deg(self, p: Pass) -> float | None:
+        """How far the camera of pass `p` is turned by the plane's crab against its lines (camera.gimbal =
+        "body", a plane in the wind, a pass looking along the flight); None where it is not."""
+        kin = self.sensor.kinematics
+        if self.camera.gimbal != "body" or kin.vehicle != "plane" or kin.calm or p.frame is None or p.aim.look != "along":
+            return None
+        return kin.crab_deg(90.0 - p.frame.heading_deg)
 
     @property
     def stations(self) -> Stations:

@@ -85,14 +85,20 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     footprint = pattern.footprint(spec, heights)
     sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch)
     limit_warnings = check_limits(spec, site, sensor)
+    # the heading search, the line order and every time after them in conditions.wind (a wind the vehicle
+    # cannot make headway against refused before any line is laid)
+    kin, wind = in_wind(spec, site, sensor)
+    sensor = replace(sensor, kinematics=kin)
     laying = pattern.from_spec(spec)
     layouts = laying.layouts(site, sensor, report)
-    if spec.flight.fixed_yaw_deg is not None:
+    turned = _camera_turn(spec, site, kin)
+    if turned is not None:
         def solve(turns: tuple[float, ...]) -> SensorSolution:
-            return solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
-                                autopilot_stretch=stretch, camera_turns_deg=turns)
-        sensor, layouts = _under_fixed_yaw(spec, site, sensor, laying, layouts, solve, report)
-    kin, wind = in_wind(spec, site, sensor)  # (a wind the vehicle cannot make headway against refused before routing)
+            solved = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
+                                  autopilot_stretch=stretch, camera_turns_deg=turns)
+            return replace(solved, kinematics=in_wind(spec, site, solved)[0])
+        sensor, layouts = _under_turned_camera(sensor, laying, layouts, site, solve, report, *turned)
+        kin = sensor.kinematics
     flown = flown_layout(spec, site, sensor, layouts, report)
     layout, routed, home_ground, alts, coverage = flown.layout, flown.routed, flown.home_ground, flown.alts, flown.coverage
     waypoints = _with_transits(alts.waypoints, routed, site)
@@ -171,8 +177,8 @@ def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home
                        s.min_images, s.max_gsd_m)
 
 
-#: how many times the layout is laid again for a fixed yaw before the plan is refused (each time
-#: with the camera's turns against every line heading the layouts so far used)
+#: how many times the layout is laid again for a camera turned against the lines (a fixed yaw, a crab)
+#: before the plan is refused (each time with its turns against every line heading the layouts so far used)
 FIXED_YAW_ROUNDS = 3
 
 
@@ -183,18 +189,35 @@ def _line_headings(layout: Layout) -> np.ndarray:
     return np.round(np.concatenate(out) % 180.0, 6) if out else np.zeros(0)
 
 
-def _under_fixed_yaw(spec: MissionSpec, site: Site, sensor: SensorSolution, pattern: Pattern, layouts: Iterator[Layout],
-                     solve: Callable[[tuple[float, ...]], SensorSolution],
-                     report: Progress) -> tuple[SensorSolution, Iterator[Layout]]:
-    """The sensor solution and layouts of a copter holding one yaw (flight.fixed_yaw_deg, a true bearing):
-    a camera that looks along the nose (every pass whose look is not set) is turned against the lines by the
-    yaw minus their heading, so spacing and base are laid from the ground it surely photographs across and
-    along each line (`photogrammetry.turned_footprint`). A first layout whose lines run in a direction the
-    solution was not made for (its heading search chose another) is laid again with that direction too; of
-    the pattern's alternatives only those whose lines run in the directions the solution was made for follow it."""
-    assert spec.flight.fixed_yaw_deg is not None
-    c = site.area.centroid
-    nose = float(site.planar.grid_bearing(spec.flight.fixed_yaw_deg, c.x, c.y))
+def _camera_turn(spec: MissionSpec, site: Site, kin: Kinematics) -> tuple[Callable[[float], float], InputError] | None:
+    """How far a camera looking along the flight is turned against lines of a grid heading, where it is,
+    and the refusal when the layout does not settle (`_under_turned_camera`): a copter's held at one yaw
+    (flight.fixed_yaw_deg, a true bearing) by the yaw minus the heading; a plane's fixed to the body
+    (camera.gimbal = "body") in conditions.wind by its crab (`Kinematics.crab_deg`). None: along the lines."""
+    if spec.flight.fixed_yaw_deg is not None:
+        c = site.area.centroid
+        nose = float(site.planar.grid_bearing(spec.flight.fixed_yaw_deg, c.x, c.y))
+        return (lambda h: round((nose - h) % 180.0, 6)), InputError(
+            f"flight.fixed_yaw_deg = {spec.flight.fixed_yaw_deg:g}: the line heading changes each time the spacing is laid "
+            "for the camera turned against it; fix the lines' heading (flight.heading_deg)", key="flight.fixed_yaw_deg")
+    if spec.camera.gimbal == "body" and kin.vehicle == "plane" and not kin.calm:
+        assert spec.conditions.wind is not None
+        return (lambda h: round(kin.crab_deg(90.0 - h), 6)), InputError(
+            f"camera.gimbal = 'body' in conditions.wind = {spec.conditions.wind.text()}: the line heading changes each time "
+            "the spacing is laid for the camera turned by the crab; fix the lines' heading (flight.heading)", key="camera.gimbal")
+    return None
+
+
+def _under_turned_camera(sensor: SensorSolution, pattern: Pattern, layouts: Iterator[Layout], site: Site,
+                         solve: Callable[[tuple[float, ...]], SensorSolution], report: Progress,
+                         turn: Callable[[float], float], refusal: InputError) -> tuple[SensorSolution, Iterator[Layout]]:
+    """The sensor solution and layouts of a camera turned against the lines by `turn` of their grid heading
+    (`_camera_turn`): a camera that looks along the flight (every pass whose look is not set) then photographs
+    a turned footprint, so spacing and base are laid from the ground it surely photographs across and along
+    each line (`photogrammetry.turned_footprint`). A first layout whose lines run in a direction the solution
+    was not made for (its heading search chose another) is laid again with that direction too; of the
+    pattern's alternatives only those whose lines run in the directions the solution was made for follow it.
+    A layout that has not settled after FIXED_YAW_ROUNDS is `refusal`."""
     known: set[float] = set()
 
     def solved(first: Layout) -> Iterator[Layout]:  # the alternatives of the last round's layouts, laid for its solution
@@ -207,13 +230,12 @@ def _under_fixed_yaw(spec: MissionSpec, site: Site, sensor: SensorSolution, patt
         if wanted <= known:
             return sensor, solved(layout)
         known |= wanted
-        sensor = solve(tuple(sorted(round((nose - h) % 180.0, 6) for h in known)))
+        sensor = solve(tuple(sorted({turn(h) for h in known})))
         layouts = pattern.layouts(site, sensor, report)
         layout = next(layouts)
     if {float(h) for h in _line_headings(layout)} <= known:
         return sensor, solved(layout)
-    raise InputError(f"flight.fixed_yaw_deg = {spec.flight.fixed_yaw_deg:g}: the line heading changes each time the spacing is "
-                     f"laid for the camera turned against it; fix the lines' heading (flight.heading_deg)", key="flight.fixed_yaw_deg")
+    raise refusal
 
 
 def _share(report: Progress, start: float, end: float) -> Progress:

@@ -267,7 +267,9 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
         away = 0.0
         if start_near is not None:
             d = math.dist(start_near, (float(ends[0, 0]), float(ends[0, 1])))
-            away, cost = (round(d, 3), cost) if pinned else (0.0, cost + d / k.speed_ms)
+            # the way there in the wind: its length times its slowness (1 in still air)
+            there = k.slowness(math.degrees(math.atan2(float(ends[0, 1]) - start_near[1], float(ends[0, 0]) - start_near[0])))
+            away, cost = (round(d, 3), cost) if pinned else (0.0, cost + d * there / k.speed_ms)
         # a later candidate wins by a microsecond a second or more: orders that tie up to the
         # rounding of the runs' ends (a millimetre) keep the first, whichever way the rounding falls
         if best is None or away < best[0] or (away == best[0] and cost < best[1] * (1.0 - 1e-6) - 1e-9):

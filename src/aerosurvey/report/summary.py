@@ -96,6 +96,8 @@ class Summary:
     clearance: tuple[float, tuple[Mapping[str, Any], ...]] | None = None
     # a structure's faces as the photos see them (manifest "faces"), None for a plan of the ground only
     faces: Mapping[str, Any] | None = None
+    # per pass whose body-fixed camera turns with the plane's crab (manifest pattern.passes crab_deg): (pass, degrees)
+    crab_deg: tuple[tuple[int, float], ...] = ()
 
 
 def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]) -> Summary:
@@ -130,6 +132,7 @@ def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]
         clearance=None if "clearance" not in manifest else (float(manifest["clearance"]["min_clearance_m"]),
                                                              tuple(manifest["clearance"]["flights"])),
         faces=manifest.get("faces"),
+        crab_deg=tuple((int(p["pass"]), round(p["crab_deg"], 1)) for p in manifest["pattern"]["passes"] if "crab_deg" in p),
     )
 
 
@@ -164,6 +167,10 @@ def summary_text(s: Summary, check_command: str | None = None) -> list[str]:
     ]
     if s.wind is not None:
         lines.append(f"  wind            {s.wind} (each leg timed at its ground speed)")
+    if s.crab_deg:
+        lines.append("  crab            " + "; ".join(f"pass {i}: {c:.1f} deg" for i, c in s.crab_deg)
+                     + f" (the camera fixed to the body turns with it: line spacing {s.spacing_m:.1f} m and photo base "
+                     f"{s.photo_base_m:.2f} m keep the overlaps under it)")
     if s.sorties:
         windy = s.wind is not None and all(x.wind_pct is not None for x in s.sorties)
         lines.append("  sorties         id   photos  time min  dist km  battery %" + ("  wind %" if windy else "")

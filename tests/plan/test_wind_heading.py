@@ -1,0 +1,127 @@
+"""The line heading chosen in the wind (conditions.wind): the heading search's choice flies its lines in
+no more time than any other candidate heading's, timed here by an independent integration of the
+track (each line flown straight, its ground speed from the air velocity steered against the wind, and
+each turn a half circle over the ground flown piece by piece along its tangent), and a wind of 0 leaves
+the choice as in still air."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from shapely.geometry.base import BaseGeometry
+from tests.plan.test_wind import _steer
+
+from aerosurvey.plan.flight_time import Kinematics, path_time, quick_cost, quick_cost_lower_bounds
+from aerosurvey.plan.frame import LineFrame
+from aerosurvey.plan.heading import best_heading, candidate_headings
+from aerosurvey.plan.lines import LineSegment, Outline, StripGeometry, build_lines, line_bounds
+
+AIR = 18.0  # m/s, the plane's air speed
+SPACING = 90.0  # between lines; the turn radius is half of it, so every turn is a half circle over the ground
+LEAD = 60.0
+G = StripGeometry(150.0, 100.0, SPACING, 40.0, 1, 2, 0, 40.0 / 2.0 + SPACING / 2.0 + 1.0)
+
+
+def _ground_speed(direction: np.ndarray, wind: np.ndarray) -> float:
+    """The speed over the ground along the unit vector `direction` of a plane flying AIR through the air,
+    its nose steered against the wind (test_wind's `_steer`)."""
+    return float(_steer(direction, wind, AIR) @ direction)
+
+
+def _flown_time(segments: list[LineSegment], heading: float, wind: np.ndarray) -> float:
+    """The boustrophedon over a convex area's lines (one run a line), first line flown along +x of the
+    frame, the next back: each line from its lead-in to half a base past its last station, then a half
+    circle of radius SPACING / 2 onto the next line, integrated in 360 pieces along its tangent."""
+    h = math.radians(heading)
+    along = np.array([math.sin(h), math.cos(h)])  # +x of the frame on the grid (x east, y north)
+    left = np.array([-along[1], along[0]])  # +v of the frame
+    lines = sorted(segments, key=lambda s: s.v)
+    pieces, radius = 360, SPACING / 2.0
+
+    def turn(d: float) -> float:  # the half circle from the track d·along round towards +v
+        return sum((math.pi * radius / pieces) / _ground_speed(d * math.cos(a) * along + math.sin(a) * left, wind)
+                   for a in (math.pi * (k + 0.5) / pieces for k in range(pieces)))
+
+    speed = {1.0: _ground_speed(along, wind), -1.0: _ground_speed(-along, wind)}
+    turns = {1.0: turn(1.0), -1.0: turn(-1.0)}
+    t = 0.0
+    for i, s in enumerate(lines):
+        d = 1.0 if i % 2 == 0 else -1.0
+        t += (s.x1 - s.x0 + LEAD + s.base / 2.0) / speed[d]
+        if i + 1 < len(lines):
+            assert math.isclose(lines[i + 1].v - s.v, SPACING, rel_tol=1e-9)
+            t += turns[d]
+    return t
+
+
+def _search(area: BaseGeometry, kin: Kinematics) -> float:
+    """The heading the area grid's search chooses: quick_cost of each candidate's lines, pruned by its lower bound."""
+    def cost(fr: LineFrame) -> float:
+        segs = build_lines(fr.geom_to_frame(area), None, G)
+        return quick_cost(segs, LEAD, kin, fr) if segs else math.inf
+
+    outline = Outline.of(area, None)
+
+    def bound(frames: list[LineFrame]) -> list[float]:
+        return [float(b) for b in quick_cost_lower_bounds(line_bounds(outline, frames, G, single_runs=True), LEAD,
+                                                           G.base, kin)]
+
+    return best_heading(area, cost, bound=bound)[0]
+
+
+def _wind(speed: float, towards_deg: float) -> np.ndarray:
+    """The wind's velocity on the grid (x east, y north), blowing towards the bearing `towards_deg`."""
+    a = math.radians(towards_deg)
+    return np.array([speed * math.sin(a), speed * math.cos(a)])
+
+
+AREA = shapely.Polygon([(0, 0), (1400, 250), (1250, 900), (-100, 600)])  # a convex quadrilateral, ~1.1 km²
+
+
+@settings(max_examples=8, deadline=None)
+@given(share=st.floats(0.45, 0.75), towards=st.floats(0.0, 360.0))
+def test_the_chosen_heading_flies_no_longer_than_any_other_in_a_strong_wind(share, towards):
+    wind = _wind(share * AIR, towards)
+    kin = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    chosen = _search(AREA, kin)
+    flown = {h: _flown_time(build_lines(LineFrame(h).geom_to_frame(AREA), None, G), h, wind)
+             for h in {*candidate_headings(AREA), chosen}}
+    best = min(flown.values())
+    assert flown[chosen] <= best * (1.0 + 3e-3), (chosen, flown[chosen], min(flown, key=flown.__getitem__), best)
+
+
+def test_a_strong_wind_along_the_still_air_lines_turns_them():
+    """The test above can fail: the still-air heading flies its lines straight into and with the wind, which
+    the integrated track shows slower than the heading chosen in that wind."""
+    calm = Kinematics("plane", AIR, 2.0, SPACING / 2.0)
+    still = _search(AREA, calm)
+    wind = _wind(0.7 * AIR, still)
+    windy = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    chosen = _search(AREA, windy)
+    assert abs((chosen - still + 90.0) % 180.0 - 90.0) > 20.0
+    flown = {h: _flown_time(build_lines(LineFrame(h).geom_to_frame(AREA), None, G), h, wind) for h in (still, chosen)}
+    assert flown[chosen] < 0.95 * flown[still]
+
+
+def test_no_wind_chooses_as_still_air():
+    calm = Kinematics("plane", AIR, 2.0, SPACING / 2.0)
+    zero = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=0.0, wind_y=-0.0)
+    assert _search(AREA, zero) == _search(AREA, calm)
+
+
+def test_a_line_after_a_steep_backward_connector_is_flown_not_turned():
+    """A line whose lead-in follows a connector turning back by more than 150° (the next line's ends far behind
+    this one's) is flown at its length: the 0° corner between its lead-in and its run pairs with no corner."""
+    lead, line, offset, back = 60.0, 1000.0, SPACING, 400.0  # the connector turns by 180° − atan(90 / 400) ≈ 167°
+    pts = np.array([(-lead, 0.0), (0.0, 0.0), (line, 0.0),  # line 1 flown +x
+                    (line - back, offset), (line - back - lead, offset), (line - back - 2 * lead, offset),  # line 2, back
+                    (line - back - 2 * lead - 300.0, offset)])
+    kin = Kinematics("plane", AIR, 2.0, SPACING / 2.0)
+    # each line at its length, the reversal a half circle over the offset (2R), the connector replaced by it
+    expected = (lead + line + math.pi * SPACING / 2.0 + 2 * lead + 300.0) / AIR
+    assert path_time(pts, kin) == pytest.approx(expected, rel=1e-9)
