@@ -307,6 +307,51 @@ def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and
         sv.stop()
 
 
+@pytest.mark.sitl
+def test_ardupilot_sitl_refuses_each_setting_set_wrong_and_takes_the_mission_with_it_corrected(tmp_path: Path) -> None:
+    """ArduCopter SITL, one boot: the camera (CAM1_TYPE = 0), the mission speed (a mission commanding no speed
+    flown at WPNAV_SPEED 10 m/s for its planned 5) and the battery failsafe (BATT_FS_LOW_ACT = 0) each refuse
+    the upload with nothing sent, naming the parameter and its value as SITL answers it; each set right, the
+    mission uploads and verifies. The SITL's own parameters, read on its second MAVLink port (TCP 5762)."""
+    from aerosurvey.errors import InputError
+    from aerosurvey.link.sitl import SitlVehicle, default_params, find_binary
+
+    try:
+        binary = find_binary("copter", None)
+    except InputError as exc:
+        pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
+    m = survey_mission(4)
+    m = dataclasses.replace(m, items=tuple(it for it in m.items if it.command != mav.DO_CHANGE_SPEED))  # planned at 5 m/s
+    plan = write(tmp_path, m)
+    work = tmp_path / "sitl"
+    work.mkdir()
+    sv = SitlVehicle(binary, "copter", m.home, 1.0, list(default_params("copter")), work)
+    sv.start()
+    right = (("CAM1_TYPE", 1), ("WPNAV_SPEED", 500), ("BATT_MONITOR", 4), ("BATT_FS_LOW_ACT", 2))
+    wrong = (("CAM1_TYPE", 0, "CAM1_TYPE = 0 (no camera) but the mission takes photos"),
+             ("WPNAV_SPEED", 1000, "WPNAV_SPEED = 1000 (10 m/s) but the mission commands no speed and was planned at 5 m/s"),
+             ("BATT_FS_LOW_ACT", 0, "BATT_FS_LOW_ACT = 0 (no action): nothing brings the vehicle back on a low battery"))
+    args = ["upload", str(plan), "--connect", "tcp:127.0.0.1:5762", "--launch-distance", "off"]
+    try:
+        for name, value in right:
+            sv.set_param(name, value)
+        for name, value, said in wrong:
+            sv.set_param(name, value)
+            res = CliRunner().invoke(main, args)
+            assert res.exit_code == 3, res.output
+            assert res.output.strip().startswith(f"Error: survey.plan: {said}"), res.output
+            assert "verified" not in res.output
+            sv.set_param(name, dict(right)[name])
+        res = CliRunner().invoke(main, args)
+        assert res.exit_code == 0, res.output
+        lines = res.output.splitlines()
+        assert any(line.startswith("camera: CAM1_TYPE = 1") for line in lines), lines
+        assert "speed: WPNAV_SPEED = 500 (5 m/s), the planned 5 m/s (no DO_CHANGE_SPEED)" in lines
+        assert any(line.startswith("verified: ") for line in lines), lines
+    finally:
+        sv.stop()
+
+
 def test_a_generic_autopilot_is_not_asked_for_parameters_and_the_report_says_so(tmp_path: Path) -> None:
     m = survey_mission(4)
     model = VehicleModel(home=m.home)  # neither ArduPilot nor PX4: MAV_AUTOPILOT_GENERIC
