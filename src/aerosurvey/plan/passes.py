@@ -159,6 +159,15 @@ class Run:
         return np.full(len(self.station_xy), self.heading_deg)
 
 
+def aims_per_place(runs: tuple[Run, ...]) -> int:
+    """How many aims every run shoots at each of its places (its station rows at a place): one
+    number for the whole route (ValueError when the runs differ)."""
+    counts = {len(r.aims) for r in runs}
+    if len(counts) > 1:
+        raise ValueError(f"the runs shoot {sorted(counts)} aims at a place: one count for a route")
+    return counts.pop() if counts else 1
+
+
 @dataclass(frozen=True)
 class Waypoint:
     x: float
