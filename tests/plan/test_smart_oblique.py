@@ -27,6 +27,7 @@ import independent_coverage as ic
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.outputs import write_outputs
+from aerosurvey.plan.flight_time import GIMBAL_SLEW_S, Kinematics, hover_time
 from aerosurvey.spec import load_spec
 
 NAV_WAYPOINT, DO_DIGICAM_CONTROL, DO_MOUNT_CONTROL = 16, 203, 205
@@ -178,3 +179,34 @@ def test_a_plane_and_a_trigger_in_flight_are_refused_in_one_line(tmp_path: Path,
         plan_from_files(load_spec(_spec(tmp_path, shapely.box(0, 0, 120, 90), -45.0, 30.0, **extra)))
     text = str(e.value)
     assert "\n" not in text and key in text and "smart-oblique" in text, text
+
+
+def test_sorties_end_on_a_stations_last_look_within_the_item_limit(tmp_path: Path) -> None:
+    """A battery of a few minutes: every sortie file shoots whole stations (five photos a place, the
+    first straight down) and holds no more items than ArduPilot's 650."""
+    spec = _spec(tmp_path, shapely.box(0, 0, 240, 200), -45.0, 30.0)
+    spec.write_text(spec.read_text() + "[battery]\nusable_min = 6\nreserve = 0.2\n")
+    loaded = load_spec(spec)
+    out = tmp_path / "out"
+    write_outputs(plan_from_files(loaded), loaded, out)
+    files = sorted(out.glob("sortie-*.waypoints"))
+    assert len(files) > 1
+    found, where, problems = photos(out)
+    assert not problems, problems
+    for path in files:
+        _, rows = ic.read_wpl(path)
+        assert len(rows) <= 650, (path.name, len(rows))
+        assert sum(int(r[3]) == DO_DIGICAM_CONTROL for r in rows) % 5 == 0, path.name
+    for k in range(0, len(found), 5):
+        assert found[k].pitch == -90 and all(math.dist(a["place"], where[k]["place"]) < 0.01 for a in where[k:k + 5])
+
+
+@settings(max_examples=30, deadline=None)
+@given(places=hs.integers(1, 400), runs=hs.integers(1, 20), base=hs.floats(5.0, 80.0), hold=hs.floats(0.0, 5.0),
+       speed=hs.floats(3.0, 15.0))
+def test_each_further_look_adds_its_hold_and_the_gimbal_turn(places: int, runs: int, base: float, hold: float, speed: float) -> None:
+    """Five aims at a place against one: the same stops, and four more holds and gimbal turns a place."""
+    k = Kinematics("copter", speed, 2.5, 0.0)
+    one = hover_time(places, min(runs, places), base, hold, k)
+    five = hover_time(5 * places, min(runs, places), base, hold, k, 5)
+    assert five - one == pytest.approx(4 * places * (hold + GIMBAL_SLEW_S), rel=1e-9, abs=1e-9)
