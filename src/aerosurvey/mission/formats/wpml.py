@@ -32,7 +32,10 @@ What is written:
   changes) as gimbalRotate (pitch, and the yaw as a compass bearing when it is not along the nose); a
   distance or time trigger as takePhoto in a group from the run's first station to its line
   end with actionTrigger multipleDistance or multipleTiming; hover-and-shoot as a reachPoint
-  group of hover (hoverTime, when above 0) and takePhoto. takePhoto's fileSuffix is the
+  group of hover (hoverTime, when above 0) and takePhoto; a place shot at several aims (a
+  smart oblique: the program's hover waypoints one after another at one place) is one
+  waypoint with one group, each shot's hover and takePhoto and the gimbalRotate to the next
+  aim between them. takePhoto's fileSuffix is the
   station id (hover) or the run id, so photos name where they were taken.
 
 The budget (mission/targets.py): at most 65535 waypoints and 65536 action groups per
