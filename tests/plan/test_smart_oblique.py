@@ -199,6 +199,14 @@ def test_sorties_end_on_a_stations_last_look_within_the_item_limit(tmp_path: Pat
         assert sum(int(r[3]) == DO_DIGICAM_CONTROL for r in rows) % 5 == 0, path.name
     for k in range(0, len(found), 5):
         assert found[k].pitch == -90 and all(math.dist(a["place"], where[k]["place"]) < 0.01 for a in where[k:k + 5])
+    # the manifest's passes: one for each look, with the aim its stations have
+    manifest = json.loads((out / "manifest.json").read_text())
+    passes = {p["pass"]: p for p in manifest["pattern"]["passes"]}
+    assert sorted(passes) == [1, 2, 3, 4, 5]
+    for s in manifest["stations"]:
+        p = passes[int(re.match(r"P(\d+)-", s["id"])[1])]
+        assert s["pitch_deg"] == pytest.approx(p["pitch_deg"])
+        assert p["look_deg"] is None if p["pitch_deg"] == -90 else _off(s["camera_yaw_deg"], p["look_deg"]) < 1.0, (s, p)
 
 
 @settings(max_examples=30, deadline=None)

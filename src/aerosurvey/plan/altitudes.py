@@ -21,7 +21,7 @@ from aerosurvey import ids
 from aerosurvey.area import Planar
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.passes import Aim, Route, Run
+from aerosurvey.plan.passes import Aim, Route, Run, look_pass
 from aerosurvey.plan.terrain import Dem, thin_profile
 
 
@@ -162,14 +162,13 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
 
 def _station_ids(runs: tuple[Run, ...]) -> list[str]:
     """Each station row's id: a run's own for its first aim, and for each further look the same
-    line and station numbers in the look's pass (`ids.look_pass_index`)."""
-    passes = max((r.pass_index for r in runs), default=1)
-
+    line and station numbers in the look's pass (`passes.look_pass`)."""
     def lines(r: Run) -> list[tuple[int, int, list[int]]]:
         stations = np.asarray(r.station_index, int).tolist()
         if not r.looks:
             return [(r.pass_index, r.line, stations)]
-        return [(ids.look_pass_index(r.pass_index, j, passes), r.line, [s]) for s in stations for j in range(len(r.aims))]
+        numbers = [look_pass(runs, r.pass_index, j) for j in range(len(r.aims))]
+        return [(p, r.line, [s]) for s in stations for p in numbers]
 
     return ids.station_ids_of_lines(line for r in runs for line in lines(r))
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aerosurvey import ids
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 
@@ -166,6 +167,12 @@ def aims_per_place(runs: tuple[Run, ...]) -> int:
     if len(counts) > 1:
         raise ValueError(f"the runs shoot {sorted(counts)} aims at a place: one count for a route")
     return counts.pop() if counts else 1
+
+
+def look_pass(runs: tuple[Run, ...], pass_index: int, look: int) -> int:
+    """The pass number of look `look` (0: the pass's own aim) of pass `pass_index` in a route of
+    `runs` (`ids.look_pass_index`, after the route's highest pass number)."""
+    return ids.look_pass_index(pass_index, look, max((r.pass_index for r in runs), default=pass_index))
 
 
 @dataclass(frozen=True)
