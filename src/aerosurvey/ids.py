@@ -40,6 +40,15 @@ def station_id(pass_index: int, line: int, station: int) -> str:
     return f"{line_id(pass_index, line)}-S{station + 1:04d}"
 
 
+def look_pass_index(pass_index: int, look: int, passes: int) -> int:
+    """The pass number of a pass's `look` (0 its first aim, `Pass.looks` from 1) in a plan whose
+    highest pass number is `passes`: the first aim keeps its pass's, the others follow every pass
+    (one pass of five looks: P1 … P5, the numbers five passes would have)."""
+    if not 0 < pass_index <= passes or look < 0:
+        raise ValueError(f"look ids: pass {pass_index} of {passes}, look {look}")
+    return pass_index + look * passes
+
+
 def station_ids_of_lines(lines: Iterable[tuple[int, int, list[int]]]) -> list[str]:
     """`station_id` of each station of many (pass, line, stations), one after another: each
     station number's text is made once (a plan has thousands of stations, but only as many

@@ -16,7 +16,7 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -238,17 +238,19 @@ def _aim_extras(ps: Pass) -> dict[str, Any]:
 
 def _pattern(plan: Plan) -> dict[str, Any]:
     """The pattern and its parameters, and each pass's camera attitude and sensor solution."""
+    from aerosurvey.plan.passes import look_pass
     from aerosurvey.plan.pattern import kind_of
 
     p = plan.pattern
     params = kind_of(p.kind).parameters(plan)
     trigger = _f(plan.sensor.trigger_distance_m) if plan.sensor.trigger_distance_m is not None else None
-    passes = [{"pass": ps.index, "pitch_deg": ps.aim.pitch_deg,
-               "look_deg": _f(ps.aim.bearing_deg) if ps.aim.bearing_deg is not None else None, **_aim_extras(ps),
+    # a pass shooting several aims at each station (`Pass.looks`): each look a pass of its own, as its stations' ids number it
+    passes = [{"pass": look_pass(plan.route.runs, ps.index, j), "pitch_deg": aim.pitch_deg,
+               "look_deg": _f(aim.bearing_deg) if aim.bearing_deg is not None else None, **_aim_extras(replace(ps, aim=aim)),
                **({"crab_deg": _f(c)} if (c := plan.crab_deg(ps)) is not None else {}),
                "footprint_across_m": _f(plan.sensor.across_m), "footprint_along_m": _f(plan.sensor.along_m),
                "line_spacing_m": _f(plan.sensor.spacing_m), "photo_base_m": _f(plan.sensor.base_m), "trigger_distance_m": trigger}
-              for ps in plan.layout.passes if not ps.empty]
+              for ps in plan.layout.passes if not ps.empty for j, aim in enumerate(ps.aims)]
     hover = plan.sensor.hover_s
     return {"kind": p.kind, "parameters": params, "hover_s": _f(hover) if hover is not None else None, "passes": passes}
 

@@ -185,7 +185,7 @@ def _synthetic_plan(lat: float, lon: float, bearing: float, spacing: float, star
         ends = [starts[line], starts[line] + lengths[line]]
         if (k % 2 == 1) != first_reversed:
             ends = ends[::-1]
-        runs.append(SimpleNamespace(pass_index=1, line=line))
+        runs.append(SimpleNamespace(pass_index=1, line=line, looks=()))
         for kind, u in zip(("line_start", "line_end"), ends, strict=True):
             e, nn = u * along + (line * spacing if offsets is None else offsets[line]) * across
             la, lo = qgc.from_plane(float(e), float(nn), lat, lon, frame)

@@ -169,14 +169,15 @@ def neighbour_overlaps(found: list[Shot], area_local: shapely.Geometry) -> dict[
     return out
 
 
-def _plan(folder: Path, area_local: shapely.Geometry, scheme: str, pitch: float, heading: float) -> Path:
+def write_area(folder: Path, area_local: shapely.Geometry) -> str:
+    """The area (local metres) as `folder`/area.geojson; the spec's [mission] and [area] tables naming it."""
     ll = shapely.transform(area_local, lambda a: np.column_stack(LOCAL.inv.transform(a[:, 0], a[:, 1])))
     (folder / "area.geojson").write_text(shapely.to_geojson(ll))
-    (folder / "spec.toml").write_text(f"""
-[mission]
-name = "oblique"
-[area]
-file = "area.geojson"
+    return f'[mission]\nname = "{folder.name}"\n[area]\nfile = "area.geojson"\n'
+
+
+def _plan(folder: Path, area_local: shapely.Geometry, scheme: str, pitch: float, heading: float) -> Path:
+    (folder / "spec.toml").write_text(write_area(folder, area_local) + f"""
 [pattern]
 kind = "oblique"
 scheme = "{scheme}"

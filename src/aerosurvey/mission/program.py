@@ -32,7 +32,11 @@ Actions, done in their order when the vehicle reaches their waypoint:
   seconds from a run's first station to its line end (camera.trigger "distance" or "time";
   the camera's own intervalometer, "camera", has none).
 - `HoverShoot`: camera.trigger "hover": stop at the station, hold `hold_s` seconds
-  (camera.settle_s), take one photo. Every station of a run is then a waypoint.
+  (camera.settle_s), take one photo. Every station of a run is then a waypoint. A run that
+  shoots several aims at each place (`Run.looks`: a station row for each) has a waypoint for
+  each row at the place, and after each photo a `Gimbal` to the next row's aim: the autopilot
+  starts it as the hold ends and the photo is taken, and the next waypoint's hold
+  (camera.settle_s, and `flight_time.GIMBAL_SLEW_S` at the same place) covers the turn.
 - `CameraRestart` (PX4, camera.trigger "distance"): the distance trigger started again at a
   station, with a photo at once, at every `PX4_RESTART_EVERY`-th station of a run (those
   stations are then waypoints). PX4's camera_trigger (src/drivers/camera_trigger,
@@ -58,6 +62,7 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.plan.altitudes import look_at_height, station_pitches
+from aerosurvey.plan.flight_time import GIMBAL_SLEW_S
 from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG
 from aerosurvey.plan.model import Plan, RouteWaypoint
 from aerosurvey.plan.passes import NADIR_PITCH_DEG
@@ -293,6 +298,7 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
     true_look = planar.true_bearing(st.camera_yaw_deg[k_of_run], st.x[k_of_run], st.y[k_of_run])
     heading_of_run = {r: float(true_heading[j]) for j, r in enumerate(station_of_run)}
     look_of_run = {r: float(true_look[j]) for j, r in enumerate(station_of_run)}
+    row_of = {sid: n for n, sid in enumerate(st.ids)} if hover else {}
     out = []
     for i, w in enumerate(wps):
         actions: list[Action] = []
@@ -317,7 +323,18 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
                 actions.append(want)
             gimbal = want
         if hover and w.station in at and w.kind in AT_STATION:
-            actions.append(HoverShoot(plan.camera.settle_s))
+            n = row_of[w.station]
+            aims = plan.route.runs[w.run].aims
+            look = (n - station_of_run[w.run]) % len(aims)
+            # a further aim at the place: its waypoint's hold covers the gimbal's turn too
+            actions.append(HoverShoot(plan.camera.settle_s + (GIMBAL_SLEW_S if look else 0.0)))
+            if len(aims) > 1 and n + 1 < len(st.ids) and st.run[n + 1] == w.run:
+                # the next aim set as this photo is taken (ArduPilot starts the DO items after a waypoint when
+                # its hold ends): the next waypoint, at the same place or the next, holds while the gimbal turns
+                nose = heading if yaw_fixed is None else float(yaw_fixed)
+                bearing = float(planar.true_bearing(st.camera_yaw_deg[n + 1], st.x[n + 1], st.y[n + 1]))
+                gimbal = Gimbal(float(st.pitch_deg[n + 1]), round(_wrap180(bearing - nose), 6), bearing)
+                actions.append(gimbal)
         elif w.kind == "line_start" and start is not None:
             actions.append(start)
         elif restart and w.station in at and w.kind in AT_STATION and isinstance(start, CameraStart):

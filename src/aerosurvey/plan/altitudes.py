@@ -12,6 +12,7 @@ photos more than the terrain tolerance above their height is reported with the f
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +21,7 @@ from aerosurvey import ids
 from aerosurvey.area import Planar
 from aerosurvey.errors import InputError
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.passes import Aim, Route, Run
+from aerosurvey.plan.passes import Aim, Route, Run, look_pass
 from aerosurvey.plan.terrain import Dem, thin_profile
 
 
@@ -64,19 +65,22 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     a camera that looks along the nose (a run without its own look) faces that yaw, turned into the
     grid at each station."""
     runs = route.runs
-    sid = ids.station_ids_of_lines((r.pass_index, r.line, np.asarray(r.station_index, int).tolist()) for r in runs)
-    counts = [len(r.station_index) for r in runs]
-    xy = np.concatenate([np.asarray(r.station_xy, float).reshape(-1, 2) for r in runs]) if runs else np.zeros((0, 2))
+    sid = _station_ids(runs)
+    # a run shooting several aims at each station (`Run.looks`) has a row for each: station by station, aim by aim
+    counts = [len(r.station_index) * len(r.aims) for r in runs]
+    xy = np.concatenate([np.repeat(np.asarray(r.station_xy, float).reshape(-1, 2), len(r.aims), axis=0) for r in runs]) \
+        if runs else np.zeros((0, 2))
     x, y = xy[:, 0].copy(), xy[:, 1].copy()
     run_idx = np.repeat(np.arange(len(runs)), counts)
-    hd = np.concatenate([r.headings() for r in runs]) if runs else np.zeros(0)
+    hd = np.concatenate([np.repeat(r.headings(), len(r.aims)) for r in runs]) if runs else np.zeros(0)
     if fixed_yaw_deg is not None and runs:  # a camera looking along the flight looks along the nose
         nose = planar.grid_bearing(np.full(len(x), fixed_yaw_deg), x, y)
         along_nose = np.repeat(np.array([r.aim.look == "along" for r in runs]), counts)
         hd_camera = np.where(along_nose, nose, hd)
     else:
         hd_camera = hd
-    look = np.concatenate([r.aim.bearings(xy[a:b], hd_camera[a:b]) for r, a, b in _spans(runs, counts)]) if runs else np.zeros(0)
+    look = np.concatenate([_by_aim(r, xy[a:b], hd_camera[a:b], Aim.bearings)
+                           for r, a, b in _spans(runs, counts)]) if runs else np.zeros(0)
     rise = np.repeat(np.asarray([r.rise_m for r in runs], float), counts)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
@@ -95,8 +99,8 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     if mode == "follow" and slopes is not None:
         alt_rel, agl, warnings = _within_slopes(runs, run_idx, x, y, alt_rel, ground, home_ground, slopes, tolerance_m)
         _under_cap(runs, run_idx, agl, cap_agl_m, slopes)
-    pitch = np.concatenate([station_pitches(r.aim, xy[a:b], alt_rel[a:b]) for r, a, b in _spans(runs, counts)]) \
-        if runs else np.zeros(0)
+    pitch = np.concatenate([_by_aim(r, xy[a:b], alt_rel[a:b], station_pitches)
+                            for r, a, b in _spans(runs, counts)]) if runs else np.zeros(0)
     start_of_run = np.searchsorted(run_idx, np.arange(len(runs)))
     end_of_run = np.searchsorted(run_idx, np.arange(len(runs)), side="right")
     pts: list[tuple[float, float, float, str, int, str]] = []
@@ -154,6 +158,26 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     wps = tuple(RouteWaypoint(float(p[0]), float(p[1]), float(lo), float(la), float(al), p[3], p[4], p[5])
                 for p, lo, la, al in zip(pts, wlon, wlat, alts))
     return Altitudes(stations, wps, "terrain" if mode == "terrain-frame" else "relative", tolerance_m, warnings)
+
+
+def _station_ids(runs: tuple[Run, ...]) -> list[str]:
+    """Each station row's id: a run's own for its first aim, and for each further look the same
+    line and station numbers in the look's pass (`passes.look_pass`)."""
+    def lines(r: Run) -> list[tuple[int, int, list[int]]]:
+        stations = np.asarray(r.station_index, int).tolist()
+        if not r.looks:
+            return [(r.pass_index, r.line, stations)]
+        numbers = [look_pass(runs, r.pass_index, j) for j in range(len(r.aims))]
+        return [(p, r.line, [s]) for s in stations for p in numbers]
+
+    return ids.station_ids_of_lines(line for r in runs for line in lines(r))
+
+
+def _by_aim(run: Run, xy: np.ndarray, values: np.ndarray, of: Callable[[Aim, np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
+    """A value of each of a run's station rows (`xy` and `values` theirs, station by station, aim
+    by aim): `of(aim, xy, values)` over each aim's rows."""
+    k = len(run.aims)
+    return np.stack([np.asarray(of(aim, xy[j::k], values[j::k]), float) for j, aim in enumerate(run.aims)], axis=1).reshape(-1)
 
 
 def _spans(runs: tuple[Run, ...], counts: list[int]) -> list[tuple[Run, int, int]]:

@@ -9,7 +9,7 @@ import numpy as np
 
 from aerosurvey.plan.flight_time import Kinematics, descent_time, hover_time, path_time
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
-from aerosurvey.plan.passes import Route
+from aerosurvey.plan.passes import Route, aims_per_place
 from aerosurvey.plan.sun import elevation_over_window
 from aerosurvey.spec import MissionSpec
 
@@ -30,7 +30,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
     if hover_s is not None:
-        survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin)
+        survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin, aims_per_place(route.runs))
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
     transit_kin = replace(kin, speed_ms=spec.vehicle.cruise_speed_ms)  # in the same wind

@@ -135,12 +135,22 @@ def _straight_time(d: float, k: Kinematics) -> float:
     return 2.0 * math.sqrt(d / a) + ramp
 
 
-def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics) -> float:
+#: what each further aim shot at rest at a station adds to its hold (a pass's `looks`): the gimbal
+#: turned to the next aim, at most 90° (a look's yaw step; nadir to oblique is 45° of pitch) at
+#: 90°/s, under the 120°/s a DJI gimbal is driven at most (DJI Mobile SDK, DJIGimbalRotation's
+#: yaw angle velocity range); ArduPilot SITL's servo mount turns at once
+GIMBAL_SLEW_S = 1.0
+
+
+def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics, aims: int = 1) -> float:
     """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
     `stations` photos it stops (braking and accelerating again over the `base` between two
-    stations of a run, `_straight_time` against cruising it) and rests `hold_s`."""
-    stops = max(stations - runs, 0)
-    return stations * hold_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+    stations of a run, `_straight_time` against cruising it) and rests `hold_s`. With `aims` photos
+    at each place (the camera turned between them), `stations` counts them all: the stops are a
+    place's, and each further aim rests `hold_s` and `GIMBAL_SLEW_S` more."""
+    places = stations // aims
+    stops = max(places - runs, 0)
+    return stations * hold_s + (stations - places) * GIMBAL_SLEW_S + stops * (_straight_time(base, k) - base / k.speed_ms)
 
 
 #: path_time takes a turn by this little (degrees) for a leg straight on from the one before: no corner

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aerosurvey import ids
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 
@@ -99,7 +100,9 @@ class Ring:
 @dataclass(frozen=True, eq=False)
 class Pass:
     """A group of strips flown one after another, with the camera held at one aim, at one height
-    (the plan's, raised by `rise_m`), and the hint the route step needs to order them.
+    (the plan's, raised by `rise_m`), and the hint the route step needs to order them. With
+    `looks` the camera is turned at each station through `aim` and then each look, one photo
+    each: every look is a station of its own (`ids.look_pass_index` numbers its pass).
 
     An area grid's pass is parallel lines in a frame (`frame` and `segments`): the route searches
     the line order and cells. Any other pattern gives `strips`, flown in their order, back and
@@ -113,10 +116,16 @@ class Pass:
     rise_m: float = 0.0  # how far above the plan's flying height (Heights) the pass flies
     one_way: bool = False  # strips flown each its own way only (a ring whose camera is turned to its inside)
     ring: Ring | None = None  # the pass goes round a structure (its one strip is this ring)
+    looks: tuple[Aim, ...] = ()  # further aims shot in turn at each station after `aim` (the camera turned at rest)
 
     @property
     def empty(self) -> bool:
         return not self.segments and not self.strips
+
+    @property
+    def aims(self) -> tuple[Aim, ...]:
+        """The aims shot in turn at each station: `aim`, then the `looks`."""
+        return (self.aim, *self.looks)
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,12 +146,33 @@ class Run:
     station_heading_deg: np.ndarray | None = None  # (n,) where the run bends; None: heading_deg throughout
     aim: Aim = NADIR
     rise_m: float = 0.0  # its pass's
+    looks: tuple[Aim, ...] = ()  # its pass's
+
+    @property
+    def aims(self) -> tuple[Aim, ...]:
+        """The aims shot in turn at each station: `aim`, then the `looks`."""
+        return (self.aim, *self.looks)
 
     def headings(self) -> np.ndarray:
         """The direction of flight at each station."""
         if self.station_heading_deg is not None:
             return self.station_heading_deg
         return np.full(len(self.station_xy), self.heading_deg)
+
+
+def aims_per_place(runs: tuple[Run, ...]) -> int:
+    """How many aims every run shoots at each of its places (its station rows at a place): one
+    number for the whole route (ValueError when the runs differ)."""
+    counts = {len(r.aims) for r in runs}
+    if len(counts) > 1:
+        raise ValueError(f"the runs shoot {sorted(counts)} aims at a place: one count for a route")
+    return counts.pop() if counts else 1
+
+
+def look_pass(runs: tuple[Run, ...], pass_index: int, look: int) -> int:
+    """The pass number of look `look` (0: the pass's own aim) of pass `pass_index` in a route of
+    `runs` (`ids.look_pass_index`, after the route's highest pass number)."""
+    return ids.look_pass_index(pass_index, look, max((r.pass_index for r in runs), default=pass_index))
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@
     orbit      rings round the [structure] at a stand-off, layer by layer (orbit.py)
     facade     lanes along a wall from a line and two heights, at a stand-off     (faces.py)
     faces      lanes along inclined bench faces above a toe line (quarry, pit, dam) (faces.py)
+    smart-oblique  the area grid flown once, nadir and four obliques shot at rest at each station (smart_oblique.py)
 
 A pattern is a class (`layout.PatternKind`): its kind, title and [pattern] fields, how its
 options are read from the spec, how it lays its strips over a site, and what the later steps
@@ -28,10 +29,11 @@ from aerosurvey.plan.faces import Facade, Faces
 from aerosurvey.plan.layout import Field, Layout, Pattern, PatternKind
 from aerosurvey.plan.oblique import Oblique
 from aerosurvey.plan.orbit import Orbit
+from aerosurvey.plan.smart_oblique import SmartOblique
 from aerosurvey.spec import MissionSpec
 
 #: `[pattern] kind` → the pattern
-PATTERNS: Mapping[str, type[PatternKind]] = {p.kind: p for p in (AreaGrid, Corridor, Oblique, Orbit, Facade, Faces)}
+PATTERNS: Mapping[str, type[PatternKind]] = {p.kind: p for p in (AreaGrid, Corridor, Oblique, SmartOblique, Orbit, Facade, Faces)}
 
 
 def kind_of(kind: str) -> type[PatternKind]:

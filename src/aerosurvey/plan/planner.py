@@ -35,6 +35,7 @@ from aerosurvey.plan.inputs import PlanInputs
 from aerosurvey.plan.landing import Landing, climb_out_m, home_clearance_m
 from aerosurvey.plan.limits import check_limits
 from aerosurvey.plan.model import Heights, Launch, Plan, RouteWaypoint, SortiePlan, Stations
+from aerosurvey.plan.passes import aims_per_place
 from aerosurvey.plan.pattern import Layout, Pattern, kind_of
 from aerosurvey.plan.progress import Progress, no_progress
 from aerosurvey.plan.routing import RoutePlan, check_launch, default_home, end_of_flight, plan_route
@@ -118,7 +119,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
             path = FlightPath(alts.stations, routed.route.runs, alts.waypoints, sensor.lead_in_m, sensor.base_m,
                               site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                               tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
-                              climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s)
+                              climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s,
+                              aims_per_place(routed.route.runs))
             return battery_sorties(spec, site, path, sites, kin, routed.detours, start, _share(report, 0.88, 0.98))
 
         try:

@@ -99,7 +99,7 @@ def _build_runs(p: Pass, legs: list[Leg], lead_in: float, offsets: dict[tuple[in
     for i, ((s, direction), a, b) in enumerate(zip(legs, first_at.tolist(), last_at.tolist())):
         heading = (fr.heading_deg + (0.0 if direction > 0 else 180.0)) % 360.0
         runs.append(Run(p.index, s.line, s.part, direction, heading, xy[a:b + 1].copy(), idx[a:b + 1].copy(),
-                        (lead_x[i], lead_y[i]), (end_x[i], end_y[i]), aim=p.aim, rise_m=p.rise_m))
+                        (lead_x[i], lead_y[i]), (end_x[i], end_y[i]), aim=p.aim, rise_m=p.rise_m, looks=p.looks))
     return runs
 
 
@@ -225,7 +225,7 @@ def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: flo
                (float(first[0] - ux * lead_in), float(first[1] - uy * lead_in)),
                (float(last[0] + vx * half_base), float(last[1] + vy * half_base)),
                np.array(bends, float).reshape(-1, 2), np.array(after, np.int64), np.array(heads),
-               p.aim, p.rise_m)
+               p.aim, p.rise_m, p.looks)
 
 
 def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, float] | None) -> list[Run]:

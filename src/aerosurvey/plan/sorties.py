@@ -61,6 +61,7 @@ class FlightPath:
     ends: tuple[tuple[float, float], ...]  # per launch site: where the way home ends (a landing plane's approach, else the site)
     climb: float = 0.0  # planning-grid metres a plane climbs straight ahead after take-off
     hover_s: float | None = None  # hover-and-capture: seconds at rest at each station
+    aims: int = 1  # station rows at each place (`passes.aims_per_place`): a sortie ends after a place's last
 
 
 @dataclass(frozen=True)
@@ -511,8 +512,10 @@ class Splitter:
         else:  # the highest survey waypoint: max() over them all is the first of the highest, as here
             climb = max(p0.alt_max, *self._highest(i, j), alt1)
         per_trigger = 0 if self.plan.trigger in ("camera", "hover") else 2
-        # hover-and-capture: a waypoint and a shot at every station (at most, where a waypoint is one already)
-        shots = 2 * (b - a + 1) if self.plan.trigger == "hover" else 0
+        # hover-and-capture: a waypoint and a shot at every station (at most, where a waypoint is one already), and with
+        # several aims at a place the gimbal turned after each shot but a run's last
+        rows = b - a + 1
+        shots = 2 * rows + (rows - (r1 - r0 + 1) if self.plan.aims > 1 else 0) if self.plan.trigger == "hover" else 0
         candidates = [self.fixed_launch] if self.fixed_launch is not None else self._nearest_sites(a, b)
         best: tuple[float, int, float, float, int] | None = None
         v = self.plan.vehicle
@@ -537,7 +540,7 @@ class Splitter:
                 t_back = path_time(np.asarray([p1.last, *back_leg]) / gs, self.kin)
                 vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
             if self.plan.hover_s is not None:
-                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin)
+                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims)
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
@@ -577,24 +580,29 @@ class Splitter:
         `most` sorties would be needed (the search stops there: the budget bisection needs to know
         no more)."""
         out: list[tuple[int, int]] = []
+        k = self.plan.aims  # a sortie ends with a place's last row: the places' numbers are searched
+
+        def last_row(place: int) -> int:
+            return min(place * k + k - 1, self.n - 1)
+
         a = start
         while a < self.n:
             if most is not None and len(out) == most:
                 return []
-            if not self.fits(a, a, budget):
+            if not self.fits(a, last_row(a // k), budget):
                 return []
-            lo, hi = a, self.n - 1
-            if self.fits(a, hi, budget):
+            lo, hi = a // k, (self.n - 1) // k
+            if self.fits(a, last_row(hi), budget):
                 lo = hi
             else:
                 while hi - lo > 1:
                     mid = (lo + hi) // 2
-                    if self.fits(a, mid, budget):
+                    if self.fits(a, last_row(mid), budget):
                         lo = mid
                     else:
                         hi = mid
-            out.append((a, lo))
-            a = lo + 1
+            out.append((a, last_row(lo)))
+            a = last_row(lo) + 1
         return out
 
 

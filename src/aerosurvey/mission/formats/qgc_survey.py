@@ -661,7 +661,14 @@ def survey_shapes(plan: Plan, passes: Iterable[int], frame: str,
         if isinstance(scan, str):
             plain.append(scan)
         out |= {p: None if isinstance(scan, str) else PassShape(None, None, False, scan) for p in ringed}
-    for p in sorted(set(passes) - set(ringed)):
+    # the passes of the stations shot at several aims a place (`Run.looks`, each look a pass of its own): one
+    # waypoint a shot, a gimbal turn between, which no complex item holds
+    looking = sorted({ids.parse_station_id(sid).pass_index for sid, k in zip(plan.stations.ids, station_run.tolist())
+                      if runs[k].looks} & set(passes)) if any(r.looks for r in runs) else []
+    for p in looking:
+        out[p] = None
+        plain.append(f"pass {p}: its camera is turned at each station through several aims, one photo each")
+    for p in sorted(set(passes) - set(ringed) - set(looking)):
         if any(runs[k].pass_index == p for k in partial):
             out[p] = None
             plain.append(f"pass {p}: the flight flies part of a line, which an edit in QGroundControl would lay whole")

@@ -32,7 +32,10 @@ What is written:
   changes) as gimbalRotate (pitch, and the yaw as a compass bearing when it is not along the nose); a
   distance or time trigger as takePhoto in a group from the run's first station to its line
   end with actionTrigger multipleDistance or multipleTiming; hover-and-shoot as a reachPoint
-  group of hover (hoverTime, when above 0) and takePhoto. takePhoto's fileSuffix is the
+  group of hover (hoverTime, when above 0) and takePhoto; a place shot at several aims (a
+  smart oblique: the program's hover waypoints one after another at one place) is one
+  waypoint with one group, each shot's hover and takePhoto and the gimbalRotate to the next
+  aim between them. takePhoto's fileSuffix is the
   station id (hover) or the run id, so photos name where they were taken.
 
 The budget (mission/targets.py): at most 65535 waypoints and 65536 action groups per
@@ -48,7 +51,7 @@ from lxml import etree
 
 from aerosurvey.mission.formats.dji_template import MappingTemplate
 from aerosurvey.mission.formats.wpl import format_number
-from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot, Roi
+from aerosurvey.mission.program import CameraStart, CameraStop, FlightProgram, Gimbal, HoverShoot, Roi, Waypoint
 from aerosurvey.mission.targets import (
     DJI_MAX_ACTION_GROUPS,
     DJI_MAX_SPEED_MS,
@@ -179,22 +182,25 @@ def _take_photo(g: etree._Element, suffix: str) -> None:
     _w(prm, "useGlobalPayloadLensIndex", 1)
 
 
-def _actions(pm: etree._Element, p: FlightProgram, i: int, ends: dict[int, int], gid: int) -> int:
-    """The action groups of waypoint `i` into placemark `pm`; returns the next group id."""
+def _hover_shoot(g: etree._Element, a: HoverShoot, suffix: str) -> None:
+    if a.hold_s > 0:
+        _w(_action(g, "hover"), "hoverTime", a.hold_s)
+    _take_photo(g, suffix)
+
+
+def _actions(pm: etree._Element, p: FlightProgram, i: int, k: int, ends: dict[int, int], gid: int) -> int:
+    """The action groups of waypoint `i` into placemark `pm` (index `k`); returns the next group id."""
     w = p.waypoints[i]
     for a in w.actions:
         if isinstance(a, Gimbal):
-            _gimbal_rotate(_group(pm, gid, i, i, "reachPoint"), a.pitch_deg, a.bearing_deg if a.yaw_deg != 0 else None)
+            _gimbal_rotate(_group(pm, gid, k, k, "reachPoint"), a.pitch_deg, a.bearing_deg if a.yaw_deg != 0 else None)
         elif isinstance(a, Roi):  # the aircraft heads to the point (towardPOI), the gimbal pitches to it
-            _gimbal_rotate(_group(pm, gid, i, i, "reachPoint"), a.pitch_deg, None)
+            _gimbal_rotate(_group(pm, gid, k, k, "reachPoint"), a.pitch_deg, None)
         elif isinstance(a, HoverShoot):
-            g = _group(pm, gid, i, i, "reachPoint")
-            if a.hold_s > 0:
-                _w(_action(g, "hover"), "hoverTime", a.hold_s)
-            _take_photo(g, w.tag)
+            _hover_shoot(_group(pm, gid, k, k, "reachPoint"), a, w.tag)
         elif isinstance(a, CameraStart):
             trigger, param = ("multipleDistance", a.distance_m) if a.distance_m is not None else ("multipleTiming", a.interval_s)
-            _take_photo(_group(pm, gid, i, ends[i], trigger, param), w.run_id)
+            _take_photo(_group(pm, gid, k, ends[k], trigger, param), w.run_id)
         else:
             continue  # a camera stop is the end index of its start's group
         gid += 1
@@ -302,20 +308,25 @@ def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTempl
         _w(folder, "executeHeightMode", "relativeToStartPoint")
         _w(folder, "waylineId", 0)
         _w(folder, "autoFlightSpeed", p.speed_ms)
-    ends = _capture_ends(p)
+    places = _places(p)
+    at = {i: k for k, rows in enumerate(places) for i in rows}
+    ends = {at[i]: at[j] for i, j in _capture_ends(p).items()}
     gid = 0
     turned: float | None = None  # the bearing the camera looks at, where it is not along the nose
-    for i, w in enumerate(p.waypoints):
+    for k, rows in enumerate(places):
+        i = rows[0]
+        w = p.waypoints[i]
         for act in w.actions:
-            if isinstance(act, Gimbal):
+            if isinstance(act, Gimbal) and len(rows) == 1:
                 turned = act.bearing_deg if act.yaw_deg != 0 else None
         # a DJI gimbal turns only a few degrees from the nose: on a run whose camera looks
-        # elsewhere the aircraft faces where it looks
-        look = turned if w.run >= 0 else None
+        # elsewhere the aircraft faces where it looks (a place shot at several aims: the
+        # aircraft follows the wayline, each gimbalRotate gives its compass bearing)
+        look = turned if w.run >= 0 and len(rows) == 1 else None
         pm = etree.SubElement(folder, f"{{{KML_NS}}}Placemark")
         pt = etree.SubElement(pm, f"{{{KML_NS}}}Point")
         etree.SubElement(pt, f"{{{KML_NS}}}coordinates").text = f"{_num(w.lon)},{_num(w.lat)}"
-        _w(pm, "index", i)
+        _w(pm, "index", k)
         roi = next((a for a in w.actions if isinstance(a, Roi)), None)
         if is_template:
             _w(pm, "useGlobalHeight", 0)
@@ -335,8 +346,40 @@ def _document(p: FlightProgram, a: DjiAircraft, name: str, mapping: MappingTempl
             turn = _w(pm, "waypointTurnParam")
             _w(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
             _w(turn, "waypointTurnDampingDist", 0)
-        gid = _actions(pm, p, i, ends, gid)
+        gid = _actions(pm, p, i, k, ends, gid) if len(rows) == 1 else _shots(pm, p, rows, k, gid)
     return root
+
+
+def _places(p: FlightProgram) -> list[list[int]]:
+    """The program's waypoints by place: one placemark for each, the waypoints of a place shot at
+    several aims (hover-and-shoot waypoints one after another at the same place and altitude, the
+    gimbal turned between them) together."""
+    out: list[list[int]] = []
+    for i, w in enumerate(p.waypoints):
+        if out and _shoots(w) and _shoots(prev := p.waypoints[out[-1][-1]]) and (w.lat, w.lon, w.alt_m) == (prev.lat, prev.lon, prev.alt_m):
+            out[-1].append(i)
+        else:
+            out.append([i])
+    return out
+
+
+def _shoots(w: Waypoint) -> bool:
+    return any(isinstance(a, HoverShoot) for a in w.actions)
+
+
+def _shots(pm: etree._Element, p: FlightProgram, rows: list[int], k: int, gid: int) -> int:
+    """The one action group of placemark `k`, a place shot at several aims (program waypoints `rows`):
+    in the program's order each shot's hover and takePhoto, and the gimbalRotate to the next aim
+    between them (its yaw a compass bearing); returns the next group id."""
+    g = _group(pm, gid, k, k, "reachPoint")
+    for i in rows:
+        w = p.waypoints[i]
+        for a in w.actions:
+            if isinstance(a, Gimbal):
+                _gimbal_rotate(g, a.pitch_deg, a.bearing_deg)
+            elif isinstance(a, HoverShoot):
+                _hover_shoot(g, a, w.tag)
+    return gid + 1
 
 
 def _xml(root: etree._Element) -> bytes:
