@@ -308,3 +308,23 @@ def write_ed318(path: Path, zones: list[Zone]) -> Path:
                                 "metadata": {"provider": [{"text": "the test", "lang": "en-GB"}]},
                                 "features": [ed318_feature(z) for z in zones]}))
     return path
+
+
+def stretches_inside(legs: list, zone: shapely.Polygon) -> list[tuple[float, float]]:
+    """The route's stretches inside `zone` (distance flown, metres), each leg cut by the polygon, touching ones joined."""
+    spans, run = [], 0.0
+    for leg in legs:
+        line = shapely.LineString([leg.a, leg.b])
+        if line.length > 0:
+            for part in getattr(cut := line.intersection(zone), "geoms", [cut]):
+                if part.length > 0:
+                    a, b = (line.project(shapely.Point(c)) for c in (part.coords[0], part.coords[-1]))
+                    spans.append((run + min(a, b), run + max(a, b)))
+        run += line.length
+    joined: list[list[float]] = []
+    for a, b in sorted(spans):
+        if joined and a <= joined[-1][1] + 1e-6:
+            joined[-1][1] = max(joined[-1][1], b)
+        else:
+            joined.append([a, b])
+    return [(a, b) for a, b in joined]

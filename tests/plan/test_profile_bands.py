@@ -45,24 +45,6 @@ def forest(tmp_path_factory):
     return plan, local, legs
 
 
-def _inside(legs, zone) -> list[tuple[float, float]]:
-    """The route's stretches inside `zone` (distance flown, metres), each leg cut by the polygon, touching ones joined."""
-    spans, run = [], 0.0
-    for leg in legs:
-        line = shapely.LineString([leg.a, leg.b])
-        if line.length > 0:
-            for part in getattr(cut := line.intersection(zone), "geoms", [cut]):
-                if part.length > 0:
-                    a, b = (line.project(shapely.Point(c)) for c in (part.coords[0], part.coords[-1]))
-                    spans.append((run + min(a, b), run + max(a, b)))
-        run += line.length
-    joined: list[list[float]] = []
-    for a, b in sorted(spans):
-        if joined and a <= joined[-1][1] + 1e-6:
-            joined[-1][1] = max(joined[-1][1], b)
-        else:
-            joined.append([a, b])
-    return [(a, b) for a, b in joined]
 
 
 limits = st.one_of(st.none(), st.builds(Limit, st.floats(0, 900).map(lambda v: round(v, 1)),
@@ -101,7 +83,7 @@ def test_bands_lie_where_the_route_is_inside_each_zone(forest, drawn):
     for i, (_, lower, upper) in enumerate(drawn):
         got = [b for b in p.bands if b.name == f"Z{i}"]
         # stretches under 1 m (a corner clipped) are where the two projections may disagree on touching
-        want = [s for s in _inside(legs, outlines[i]) if s[1] - s[0] > 1.0]
+        want = [s for s in ia.stretches_inside(legs, outlines[i]) if s[1] - s[0] > 1.0]
         got_long = [b for b in got if b.distance_m[-1] - b.distance_m[0] > 1.0]
         assert len(got_long) == len(want), (i, [(b.distance_m[0], b.distance_m[-1]) for b in got], want)
         for b, (a, e) in zip(got_long, want):

@@ -43,26 +43,6 @@ def test_without_a_dem_there_is_no_profile(tmp_path):
         assert done["result"]["profile"] is None
 
 
-def _spans_inside(legs, zone) -> list[tuple[float, float]]:
-    """The stretches of the route (distance flown from its start, metres) inside `zone`: each leg cut by the polygon
-    (shapely), touching stretches joined."""
-    spans, run = [], 0.0
-    for leg in legs:
-        line = shapely.LineString([leg.a, leg.b])
-        length = line.length
-        if length > 0:
-            for part in getattr(cut := line.intersection(zone), "geoms", [cut]):
-                if part.length > 0:
-                    a, b = (line.project(shapely.Point(c)) for c in (part.coords[0], part.coords[-1]))
-                    spans.append((run + min(a, b), run + max(a, b)))
-        run += length
-    joined: list[list[float]] = []
-    for a, b in sorted(spans):
-        if joined and a <= joined[-1][1] + 1e-6:
-            joined[-1][1] = max(joined[-1][1], b)
-        else:
-            joined.append([a, b])
-    return [(a, b) for a, b in joined]
 
 
 def test_the_zones_height_bands_lie_where_the_route_crosses_them(tmp_path):
@@ -92,7 +72,7 @@ def test_the_zones_height_bands_lie_where_the_route_crosses_them(tmp_path):
     assert p["distance_m"][-1] == pytest.approx(sum(math.dist(leg.a, leg.b) for leg in legs), abs=1.0)
     bands = p["bands"]
     for zone in zones:
-        want = _spans_inside(legs, local.geom(shapely.Polygon(zone.ring)))
+        want = ia.stretches_inside(legs, local.geom(shapely.Polygon(zone.ring)))
         got = [b for b in bands if f"zone {zone.ident}" in b["name"]]
         assert want and len(got) == len(want), (zone.ident, len(got), len(want))
         for b, (a, e) in zip(got, want):
