@@ -112,8 +112,9 @@ def test_the_default_area_flies_in_px4_as_planned(tmp_path):
 def test_the_obratan_example_flies_its_first_sortie_in_px4_as_planned(tmp_path):
     """missions/obratan-72ha.toml planned for PX4, its first sortie flown (a slice of the example:
     its five sorties take 13.5 minutes at a 10x speed-up on a 2-core machine): its six lines of up
-    to 61 photos, where the trigger's 50 ms check once lost the last photo of the 61-photo line
-    (354 of 355), now one photo per station, each within PHOTO_TOLERANCE_M, in the estimated time."""
+    to 58 photos (61 before its heading was chosen in its wind), where the trigger's 50 ms check
+    once lost the last photo of the 61-photo line (354 of 355), now one photo per station, each
+    within PHOTO_TOLERANCE_M, in the estimated time."""
     from aerosurvey.flight.sitl_run import SitlSettings, fly_sorties
     from aerosurvey.link.px4_sitl import find_px4
     from aerosurvey.manifest import read_manifest
@@ -128,7 +129,8 @@ def test_the_obratan_example_flies_its_first_sortie_in_px4_as_planned(tmp_path):
     manifest = json.loads((out / "manifest.json").read_text())
     # a sortie of some 340-355 photos (its split follows the example's 3 m/s wind), with the long lines
     assert [r["sortie"] for r in rows] == ["S01"] and rows[0]["photos_planned"] >= 300
-    assert max(line["photos"] for line in manifest["lines"][:6]) >= 60  # the long lines are in this sortie
+    # the long lines are in this sortie: 58 photos on its longest since the heading is chosen in the wind (61 in the plan)
+    assert max(line["photos"] for line in manifest["lines"][:6]) >= 55
     _assert_flown(manifest, json.loads((out / "sitl" / "sitl_report.json").read_text()), out)
 
 
