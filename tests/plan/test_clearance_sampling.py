@@ -25,9 +25,10 @@ def _grid(heights: np.ndarray) -> DemGrid:
 
 
 def _bilinear(h: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The test's own sampler: cell centres at WEST + (i + 0.5)·CELL, NORTH − (j + 0.5)·CELL."""
-    u = (x - WEST) / CELL - 0.5
-    v = (NORTH - y) / CELL - 0.5
+    """The test's own sampler: cell centres at WEST + (i + 0.5)·CELL, NORTH − (j + 0.5)·CELL; in the outer half cell
+    (beyond the outermost centres) the outer row's or column's height, as a raster holds its edge, not extrapolated."""
+    u = np.clip((x - WEST) / CELL - 0.5, 0.0, h.shape[1] - 1)
+    v = np.clip((NORTH - y) / CELL - 0.5, 0.0, h.shape[0] - 1)
     i = np.clip(np.floor(u).astype(int), 0, h.shape[1] - 2)
     j = np.clip(np.floor(v).astype(int), 0, h.shape[0] - 2)
     fu, fv = u - i, v - j
@@ -101,6 +102,17 @@ def test_a_one_cell_ridge_between_two_samples_a_cell_apart_is_found() -> None:
     # a sampler a cell apart straddling the ridge misses it: the leg looks clear
     xs = np.arange(WEST + 100.0, WEST + 300.0 + 1e-9, CELL)
     assert (340.0 - _bilinear(h, xs, np.full(len(xs), NORTH - 150.0))).min() > 0
+
+
+def test_in_the_outer_half_cell_the_edge_height_is_held() -> None:
+    """Beyond the outermost cell centres the ground is the edge cell's (a raster's edge, not a slope carried on): a leg
+    starting a metre from the corner over a 50 m corner spike reads the spike's height there, not more."""
+    h = np.full((ROWS, COLS), 300.0)
+    h[0, 0] = 350.0
+    dem = Dem(_grid(h), planar("EPSG:32633"))
+    margin, frac, ground = dem.lowest_along(np.array([[WEST + 1.0, NORTH - 1.0]]), np.array([[WEST + 100.0, NORTH - 1.0]]),
+                                            np.array([[340.0, 340.0]]), "a leg")
+    assert frac[0] <= 1.5 / 99.0 and ground[0] == 350.0 and margin[0] == -10.0
 
 
 def test_a_large_window_is_held_compressed_and_unpacked_a_tile_at_a_time() -> None:

@@ -11,7 +11,6 @@ acceleration, the rests).
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import pytest
@@ -21,6 +20,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.outputs import write_outputs
 from aerosurvey.spec import load_spec
+from independent_motion import stop_to_stop_time
 
 NAV_WAYPOINT, DO_DIGICAM_CONTROL = 16, 203
 AREA = {"type": "Polygon", "coordinates": [[[15.300, 49.500], [15.306, 49.500], [15.306, 49.503], [15.300, 49.503], [15.300, 49.500]]]}
@@ -86,7 +86,7 @@ def test_the_stops_cost_their_time(tmp_path: Path) -> None:
     v, a, jerk = 8.0, 2.0, 1.0
     b = hover.sensor.base_m
     cycle = hover.camera.min_cycle_s
-    leg = (b / v + v / a + a / jerk) if b >= v * (v / a + a / jerk) else 2 * math.sqrt(b / a) + a / jerk
+    leg = stop_to_stop_time(b, v, a, jerk)
     extra = n * (1.5 + cycle) + (n - runs) * (leg - b / v)
     got = hover.estimates["survey_time_s"] - through.estimates["survey_time_s"]
     assert got == pytest.approx(extra, rel=0.02, abs=1.0)

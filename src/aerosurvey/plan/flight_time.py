@@ -120,19 +120,36 @@ def plane_turn_lengths(lateral: np.ndarray, radius: float) -> np.ndarray:
 CORNER_DEG = 30.0
 
 
-def _straight_time(d: float, k: Kinematics) -> float:
-    """Copter from rest to rest over d metres: top speed v, acceleration a, jerk J.
+def _speed_change_time(u: float, a: float, j: float) -> float:
+    """Seconds a copter takes from rest to `u` m/s (or back) with acceleration at most `a` reached at jerk `j`: the
+    acceleration ramps up at j, holds a, ramps down (an S-curve, symmetric, so it covers u/2 times this); a change
+    too small to reach a ramps up and straight down again. j = 0: no jerk limit."""
+    if j <= 0.0:
+        return u / a
+    return u / a + a / j if u >= a * a / j else 2.0 * math.sqrt(u / j)
 
-    With jerk-limited (S-curve) acceleration each of the two speed changes costs
-    (v/a + a/J)/2 more than cruising the same distance, so t = d/v + v/a + a/J.
-    """
+
+def _straight_time(d: float, k: Kinematics) -> float:
+    """Copter from rest to rest over d metres: top speed v, acceleration a, jerk J (`_speed_change_time`).
+
+    Long enough to cruise, the two speed changes take 2T(v) and cover v·T(v), so t = d/v + T(v)
+    (= d/v + v/a + a/J once v ≥ a²/J). Shorter, it turns back at the peak speed u whose two changes
+    cover d, u·T(u) = d, and t = 2T(u): with a reached (u ≥ a²/J), u²/a + u·a/J = d, so
+    t = a/J + √((a/J)² + 4d/a); with a not reached, 2u√(u/J) = d; with no jerk limit, u²/a = d. The
+    time rises with d, smoothly up to where the legs become long enough to cruise."""
     v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
     if d <= 0:
         return 0.0
-    ramp = a / j if j > 0 else 0.0
-    if d >= v * (v / a + ramp):
-        return d / v + v / a + ramp
-    return 2.0 * math.sqrt(d / a) + ramp
+    top = _speed_change_time(v, a, j)
+    if d >= v * top:
+        return d / v + top
+    if j <= 0.0:
+        return 2.0 * math.sqrt(d / a)
+    r = a / j
+    if d >= 2.0 * a * r * r:  # the peak speed reaches a²/J: u·T(u) there is a·r·2r
+        return r + math.sqrt(r * r + 4.0 * d / a)
+    u = (0.5 * d * math.sqrt(j)) ** (2.0 / 3.0)
+    return 4.0 * math.sqrt(u / j)
 
 
 #: what each further aim shot at rest at a station adds to its hold (a pass's `looks`): the gimbal
@@ -339,15 +356,17 @@ def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics, frame
 
 def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
     """Per run length d: the least G(x) = t(x) − x/v of a copter's straight run
-    (`_straight_time`) over every x ≥ d; and the least over every x > 0. G is v/a + a/J from
-    D = v(v/a + a/J) on and 2√(x/a) + a/J − x/v (concave) below D, so the least is at d, just
-    below D, or past D."""
-    v, a, j = k.speed_ms, k.accel_ms2, k.jerk_ms3
-    ramp = a / j if j > 0 else 0.0
-    big, top = v * (v / a + ramp), v / a + ramp
-    below_big = min(2.0 * math.sqrt(big / a) + ramp - big / v, top)
-    here = 2.0 * np.sqrt(np.maximum(d, 0.0) / a) + ramp - np.maximum(d, 0.0) / v
-    return np.where(d >= big, top, np.minimum(here, below_big)), min(ramp, below_big)
+    (`_straight_time`) over every x ≥ d; and the least over every x > 0. G is T(v)
+    (`_speed_change_time`) from D = v·T(v) on, and concave below D (t is: its slope 2/(2u + a²/J)
+    falls as the peak speed u rises, 2/(3u) below u = a²/J), rising from 0 at x = 0 to T(v) at D:
+    so the least over x ≥ d is min(G(d), T(v)), and over x > 0 it is 0."""
+    v = k.speed_ms
+    top = _speed_change_time(v, k.accel_ms2, k.jerk_ms3)
+    d = np.maximum(np.asarray(d, float), 0.0)
+    here = np.full(len(d), top)
+    short = np.flatnonzero(d < v * top)
+    here[short] = [min(_straight_time(x, k) - x / v, top) for x in d[short].tolist()]
+    return here, 0.0
 
 
 def _connector_ahead(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float,
