@@ -178,7 +178,7 @@ def test_a_sortie_log_takes_the_sorties_before_it_as_flown(tmp_path):
     ids = [s["id"] for s in manifest["stations"]]
     s02 = manifest["sorties"][1]
     first, last = ids.index(s02["first_station"]), ids.index(s02["last_station"])
-    assert last - first > 20
+    assert last - first >= 15  # the log photographs its first 15 stations: some of S02 is left
     st = manifest["stations"]
     flown = [(100.0 + 2.0 * j, st[i]["lat"], st[i]["lon"], 400.0, st[i]["alt_rel_m"]) for j, i in enumerate(range(first, first + 15))]
     output, doc = _ingest_and_resume(tmp_path, spec, plan, survey_log(flown, [(90.0, AUTO, GCS_COMMAND)]),

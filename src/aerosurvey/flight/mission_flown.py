@@ -229,6 +229,8 @@ class Comparison:
     #: the log's mission is the plan's first items (survey waypoints among them) and none of the
     #: others: what an upload that stopped leaves (ArduPilot keeps the items it received)
     partial_upload: bool = False
+    #: of the log's photo runs, how many start where none of this mission's do (a run it does not fly)
+    photo_starts_elsewhere: int = 0
 
     @property
     def share(self) -> float:
@@ -244,9 +246,12 @@ class Comparison:
     @property
     def of_sortie(self) -> bool:
         """The log's mission photographs this mission's stations: every item as planned, every survey
-        waypoint at its place (what changed is elsewhere: altitudes, speed, take-off, landing), or
-        the mission's first items (an upload that stopped)."""
-        return not self.differences or self.partial_upload or 0 < self.survey_waypoints == self.found
+        waypoint at its place and no photo run of its own (what changed is elsewhere: altitudes, speed,
+        take-off, landing), or the mission's first items (an upload that stopped). A mission that flies
+        a sortie's runs and more (a resumed mission over two sorties) is not that sortie's: its photos
+        are matched to all the plan's stations."""
+        return not self.differences or self.partial_upload or (0 < self.survey_waypoints == self.found
+                                                               and self.photo_starts_elsewhere == 0)
 
     @property
     def verdict(self) -> str:
@@ -463,8 +468,10 @@ def compare(planned: PlannedMission, logged: Sequence[mp.WireItem], complete: bo
     partial = 0 < prefix == same < len(plan_items) and any(ids.pass_of(planned.tags[i]) is not None for i in kept[:prefix])
     starts = photo_starts(log_items)
     at_stations = sum(_nearest_m(p, stations) <= POSITION_TOL_M for p in starts) if stations is not None else 0
+    own = np.array(photo_starts(plan_items), float).reshape(-1, 2)
+    elsewhere = sum(_nearest_m(p, own) > POSITION_TOL_M for p in starts)
     return Comparison(planned, len(plan_items), len(log_items), complete, same, tuple(diffs), unrecorded, survey, found,
-                      med, top, len(starts), at_stations, partial)
+                      med, top, len(starts), at_stations, partial, elsewhere)
 
 
 @dataclass(frozen=True)
