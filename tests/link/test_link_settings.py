@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 from click.testing import CliRunner
@@ -23,6 +26,9 @@ from aerosurvey.cli import main
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan
 from aerosurvey.mission.items import Mission
+
+if TYPE_CHECKING:
+    from aerosurvey.link.sitl import SitlVehicle
 
 
 def upload(plan: Path, model: VehicleModel, *options: str):
@@ -273,10 +279,9 @@ def test_the_documented_table_is_the_table_read() -> None:
     assert documented == read
 
 
-@pytest.mark.sitl
-def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and_takes_it_with(tmp_path: Path) -> None:
-    """ArduCopter SITL: TERRAIN_ENABLE = 0 refuses the terrain-frame mission (nothing sent), 1 takes it and
-    verifies it. The checks read the SITL's own parameters on its second MAVLink port (TCP 5762)."""
+@contextmanager
+def ardupilot_copter_sitl(tmp_path: Path, home: tuple[float, float, float]) -> Iterator[SitlVehicle]:
+    """ArduCopter SITL at `home` (skipped with the reason when no binary is found), stopped at the end."""
     from aerosurvey.errors import InputError
     from aerosurvey.link.sitl import SitlVehicle, default_params, find_binary
 
@@ -284,27 +289,49 @@ def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and
         binary = find_binary("copter", None)
     except InputError as exc:
         pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
-    m = in_terrain_frame(survey_mission(4))
-    plan = write(tmp_path, m)
     work = tmp_path / "sitl"
     work.mkdir()
-    sv = SitlVehicle(binary, "copter", m.home, 1.0, list(default_params("copter")), work)
-    sv.start()
+    sv = SitlVehicle(binary, "copter", home, 1.0, list(default_params("copter")), work)
     try:
+        sv.start()
+        yield sv
+    finally:
+        sv.stop()
+
+
+def held_mission_count(sv: SitlVehicle) -> int:
+    """MISSION_COUNT as ArduPilot SITL answers MISSION_REQUEST_LIST on its first port (0 before it has a home,
+    then home counts as one)."""
+    sv.conn.mav.mission_request_list_send(sv.conn.target_system, sv.conn.target_component)
+    m = sv.conn.recv_match(type="MISSION_COUNT", blocking=True, timeout=10.0)
+    assert m is not None, "SITL did not answer MISSION_REQUEST_LIST"
+    return int(m.count)
+
+
+def sitl_upload(plan: Path, sv: SitlVehicle):
+    """`aerosurvey upload` to the SITL's second MAVLink port, the launch distance not compared."""
+    return CliRunner().invoke(main, ["upload", str(plan), "--connect", sv.upload_url, "--launch-distance", "off"])
+
+
+@pytest.mark.sitl
+def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and_takes_it_with(tmp_path: Path) -> None:
+    """ArduCopter SITL: TERRAIN_ENABLE = 0 refuses the terrain-frame mission (nothing sent), 1 takes it and
+    verifies it. The checks read the SITL's own parameters on its second MAVLink port (TCP 5762)."""
+    m = in_terrain_frame(survey_mission(4))
+    plan = write(tmp_path, m)
+    with ardupilot_copter_sitl(tmp_path, m.home) as sv:
         for name, value in (("TERRAIN_ENABLE", 0), ("CAM1_TYPE", 1), ("BATT_FS_LOW_ACT", 2)):
             sv.set_param(name, value)
-        args = ["upload", str(plan), "--connect", "tcp:127.0.0.1:5762", "--launch-distance", "off"]
-        res = CliRunner().invoke(main, args)
+        res = sitl_upload(plan, sv)
         assert res.exit_code == 3, res.output
         assert res.output.strip().startswith("Error: survey.plan: TERRAIN_ENABLE = 0 but the mission flies 5 item(s) in "
                                              "the terrain frame")
+        assert held_mission_count(sv) <= 1  # home at most: nothing sent
         sv.set_param("TERRAIN_ENABLE", 1)
-        res = CliRunner().invoke(main, args)
+        res = sitl_upload(plan, sv)
         assert res.exit_code == 0, res.output
         assert "terrain: TERRAIN_ENABLE = 1 for 5 item(s) in the terrain frame" in res.output.splitlines()
         assert any(line.startswith("verified: 10 mission items read back") for line in res.output.splitlines())
-    finally:
-        sv.stop()
 
 
 @pytest.mark.sitl
@@ -313,43 +340,63 @@ def test_ardupilot_sitl_refuses_each_setting_set_wrong_and_takes_the_mission_wit
     flown at WPNAV_SPEED 10 m/s for its planned 5) and the battery failsafe (BATT_FS_LOW_ACT = 0) each refuse
     the upload with nothing sent, naming the parameter and its value as SITL answers it; each set right, the
     mission uploads and verifies. The SITL's own parameters, read on its second MAVLink port (TCP 5762)."""
-    from aerosurvey.errors import InputError
-    from aerosurvey.link.sitl import SitlVehicle, default_params, find_binary
-
-    try:
-        binary = find_binary("copter", None)
-    except InputError as exc:
-        pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
     m = survey_mission(4)
     m = dataclasses.replace(m, items=tuple(it for it in m.items if it.command != mav.DO_CHANGE_SPEED))  # planned at 5 m/s
     plan = write(tmp_path, m)
-    work = tmp_path / "sitl"
-    work.mkdir()
-    sv = SitlVehicle(binary, "copter", m.home, 1.0, list(default_params("copter")), work)
-    sv.start()
     right = (("CAM1_TYPE", 1), ("WPNAV_SPEED", 500), ("BATT_MONITOR", 4), ("BATT_FS_LOW_ACT", 2))
     wrong = (("CAM1_TYPE", 0, "CAM1_TYPE = 0 (no camera) but the mission takes photos"),
              ("WPNAV_SPEED", 1000, "WPNAV_SPEED = 1000 (10 m/s) but the mission commands no speed and was planned at 5 m/s"),
              ("BATT_FS_LOW_ACT", 0, "BATT_FS_LOW_ACT = 0 (no action): nothing brings the vehicle back on a low battery"))
-    args = ["upload", str(plan), "--connect", "tcp:127.0.0.1:5762", "--launch-distance", "off"]
-    try:
+    with ardupilot_copter_sitl(tmp_path, m.home) as sv:
         for name, value in right:
             sv.set_param(name, value)
         for name, value, said in wrong:
             sv.set_param(name, value)
-            res = CliRunner().invoke(main, args)
+            res = sitl_upload(plan, sv)
             assert res.exit_code == 3, res.output
             assert res.output.strip().startswith(f"Error: survey.plan: {said}"), res.output
-            assert "verified" not in res.output
+            assert held_mission_count(sv) <= 1  # home at most: nothing sent
             sv.set_param(name, dict(right)[name])
-        res = CliRunner().invoke(main, args)
+        res = sitl_upload(plan, sv)
         assert res.exit_code == 0, res.output
         lines = res.output.splitlines()
         assert any(line.startswith("camera: CAM1_TYPE = 1") for line in lines), lines
         assert "speed: WPNAV_SPEED = 500 (5 m/s), the planned 5 m/s (no DO_CHANGE_SPEED)" in lines
         assert any(line.startswith("verified: ") for line in lines), lines
-    finally:
-        sv.stop()
+
+
+@pytest.mark.sitl
+def test_ardupilot_sitl_refuses_an_rtl_altitude_into_the_ground_and_takes_the_mission_with_it_raised(
+        plan_folder: Path, tmp_path: Path) -> None:
+    """ArduCopter SITL, the plan folder `aerosurvey plan` wrote, its manifest's ground rising 70 m above the
+    launch point: RTL_ALT = 6000 (60 m, as SITL answers it in cm) refuses the upload, naming RTL_ALT, its value
+    and the 100 m the return needs (70 m of ground and 30 m of clearance), with nothing sent; RTL_ALT = 10000
+    takes the mission and verifies it."""
+    def hill(doc: dict) -> None:
+        doc["home"]["ground_amsl_m"] = 400.0
+        doc["derived"]["terrain"]["ground_max_m"] = 470.0
+
+    plan = copy_folder(plan_folder, tmp_path / "plan", hill)
+    m = loads_plan(plan.read_text())
+    right = (("CAM1_TYPE", 1), ("WPNAV_SPEED", round(m.hover_speed * 100)), ("BATT_MONITOR", 4), ("BATT_FS_LOW_ACT", 2),
+             ("BATT_CAPACITY", 5000), ("BATT_LOW_MAH", 1250))  # the plan keeps 25 % in reserve
+    with ardupilot_copter_sitl(tmp_path, m.home) as sv:
+        for name, value in (*right, ("RTL_ALT", 6000)):
+            sv.set_param(name, value)
+        res = sitl_upload(plan, sv)
+        assert res.exit_code == 3, res.output
+        assert res.output.strip() == (
+            "Error: mission.plan: RTL_ALT = 6000 (60 m) but the plan's ground rises 70 m above the launch point, and a "
+            "return at 60 m clears it by less than 30 m: set RTL_ALT to fit, or plan again (or give --accept rtl-altitude)")
+        assert held_mission_count(sv) <= 1  # home at most: nothing sent
+        sv.set_param("RTL_ALT", 10000)
+        res = sitl_upload(plan, sv)
+        assert res.exit_code == 0, res.output
+        lines = res.output.splitlines()
+        assert any(line.startswith("rtl-altitude: RTL_ALT = 10000 (100 m): clears the highest ground under the plan "
+                                   "(70 m above the launch point) by 30 m") for line in lines), lines
+        assert any(line.startswith("verified: ") for line in lines), lines
+        assert held_mission_count(sv) > 1
 
 
 def test_a_generic_autopilot_is_not_asked_for_parameters_and_the_report_says_so(tmp_path: Path) -> None:
