@@ -357,7 +357,7 @@ def test_ardupilot_sitl_refuses_an_rtl_altitude_into_the_ground_and_takes_the_mi
     """ArduCopter SITL, the plan folder `aerosurvey plan` wrote, its manifest's ground rising 70 m above the
     launch point: RTL_ALT = 6000 (60 m, as SITL answers it in cm) refuses the upload, naming RTL_ALT, its value
     and the 100 m the return needs (70 m of ground and 30 m of clearance), with nothing sent; RTL_ALT = 10000
-    takes the mission and verifies it."""
+    takes the mission and verifies it. The plan's 25 % reserve: BATT_LOW_MAH 500 of 5000 mAh refuses, 1250 passes."""
     def hill(doc: dict) -> None:
         doc["home"]["ground_amsl_m"] = 400.0
         doc["derived"]["terrain"]["ground_max_m"] = 470.0
@@ -369,11 +369,16 @@ def test_ardupilot_sitl_refuses_an_rtl_altitude_into_the_ground_and_takes_the_mi
              "RTL_ALT": 10000}
     wrong = (("RTL_ALT", 6000, "RTL_ALT = 6000 (60 m) but the plan's ground rises 70 m above the launch point, and a "
                                "return at 60 m clears it by less than 30 m: set RTL_ALT to fit, or plan again (or give "
-                               "--accept rtl-altitude)"),)
+                               "--accept rtl-altitude)"),
+             ("BATT_LOW_MAH", 500, "BATT_LOW_MAH = 500 of BATT_CAPACITY = 5000 mAh (10%) but the plan keeps 25% in "
+                                   "reserve: the failsafe would act only after the reserve is spent; raise BATT_LOW_MAH "
+                                   "to at least 1250 (or give --accept battery-failsafe)"))
     with ardupilot_copter_sitl(tmp_path, m.home) as sv:
         lines = refused_then_taken(sv, plan, right, wrong)
     assert any(line.startswith("rtl-altitude: RTL_ALT = 10000 (100 m): clears the highest ground under the plan "
                                "(70 m above the launch point) by 30 m") for line in lines), lines
+    assert "battery-failsafe: BATT_LOW_MAH = 1250 of BATT_CAPACITY = 5000 mAh (25%), at or above the plan's 25% " \
+           "reserve" in lines
 
 
 @contextmanager
