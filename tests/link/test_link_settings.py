@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 from click.testing import CliRunner
@@ -23,6 +26,10 @@ from aerosurvey.cli import main
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.formats.qgc_plan import dumps_plan, loads_plan
 from aerosurvey.mission.items import Mission
+
+if TYPE_CHECKING:
+    from aerosurvey.link.px4_sitl import Px4Vehicle
+    from aerosurvey.link.sitl import SitlVehicle
 
 
 def upload(plan: Path, model: VehicleModel, *options: str):
@@ -273,10 +280,9 @@ def test_the_documented_table_is_the_table_read() -> None:
     assert documented == read
 
 
-@pytest.mark.sitl
-def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and_takes_it_with(tmp_path: Path) -> None:
-    """ArduCopter SITL: TERRAIN_ENABLE = 0 refuses the terrain-frame mission (nothing sent), 1 takes it and
-    verifies it. The checks read the SITL's own parameters on its second MAVLink port (TCP 5762)."""
+@contextmanager
+def ardupilot_copter_sitl(tmp_path: Path, home: tuple[float, float, float]) -> Iterator[SitlVehicle]:
+    """ArduCopter SITL at `home` (skipped with the reason when no binary is found), stopped at the end."""
     from aerosurvey.errors import InputError
     from aerosurvey.link.sitl import SitlVehicle, default_params, find_binary
 
@@ -284,27 +290,46 @@ def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and
         binary = find_binary("copter", None)
     except InputError as exc:
         pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
-    m = in_terrain_frame(survey_mission(4))
-    plan = write(tmp_path, m)
     work = tmp_path / "sitl"
     work.mkdir()
-    sv = SitlVehicle(binary, "copter", m.home, 1.0, list(default_params("copter")), work)
-    sv.start()
+    sv = SitlVehicle(binary, "copter", home, 1.0, list(default_params("copter")), work)
     try:
-        for name, value in (("TERRAIN_ENABLE", 0), ("CAM1_TYPE", 1), ("BATT_FS_LOW_ACT", 2)):
-            sv.set_param(name, value)
-        args = ["upload", str(plan), "--connect", "tcp:127.0.0.1:5762", "--launch-distance", "off"]
-        res = CliRunner().invoke(main, args)
-        assert res.exit_code == 3, res.output
-        assert res.output.strip().startswith("Error: survey.plan: TERRAIN_ENABLE = 0 but the mission flies 5 item(s) in "
-                                             "the terrain frame")
-        sv.set_param("TERRAIN_ENABLE", 1)
-        res = CliRunner().invoke(main, args)
-        assert res.exit_code == 0, res.output
-        assert "terrain: TERRAIN_ENABLE = 1 for 5 item(s) in the terrain frame" in res.output.splitlines()
-        assert any(line.startswith("verified: 10 mission items read back") for line in res.output.splitlines())
+        sv.start()
+        yield sv
     finally:
         sv.stop()
+
+
+def held_mission_count(sv: SitlVehicle) -> int:
+    """MISSION_COUNT as the SITL answers MISSION_REQUEST_LIST on the harness's link (ArduPilot: 0 before it has
+    a home, then home counts as one), the transfer then ended with MISSION_ACK. Asked again every second: PX4's
+    ground station link streams at 50 Hz, and an answer behind a full socket buffer is lost."""
+    for _ in range(10):
+        sv.conn.mav.mission_request_list_send(sv.conn.target_system, sv.conn.target_component)
+        m = sv.conn.recv_match(type="MISSION_COUNT", blocking=True, timeout=1.0)
+        if m is not None:
+            sv.conn.mav.mission_ack_send(sv.conn.target_system, sv.conn.target_component, 0)  # MAV_MISSION_ACCEPTED
+            return int(m.count)
+    raise AssertionError("the SITL did not answer MISSION_REQUEST_LIST in 10 s")
+
+
+def sitl_upload(plan: Path, sv: SitlVehicle):
+    """`aerosurvey upload` to the SITL's second MAVLink port, the launch distance not compared."""
+    return CliRunner().invoke(main, ["upload", str(plan), "--connect", sv.upload_url, "--launch-distance", "off"])
+
+
+@pytest.mark.sitl
+def test_ardupilot_sitl_without_terrain_data_refuses_a_terrain_frame_mission_and_takes_it_with(tmp_path: Path) -> None:
+    """ArduCopter SITL: TERRAIN_ENABLE = 0 refuses the terrain-frame mission (nothing sent), 1 takes it and
+    verifies it. The checks read the SITL's own parameters on its second MAVLink port (TCP 5762)."""
+    m = in_terrain_frame(survey_mission(4))
+    plan = write(tmp_path, m)
+    right = {"TERRAIN_ENABLE": 1, "CAM1_TYPE": 1, "BATT_FS_LOW_ACT": 2}
+    wrong = (("TERRAIN_ENABLE", 0, "TERRAIN_ENABLE = 0 but the mission flies 5 item(s) in the terrain frame"),)
+    with ardupilot_copter_sitl(tmp_path, m.home) as sv:
+        lines = refused_then_taken(sv, plan, right, wrong)
+    assert "terrain: TERRAIN_ENABLE = 1 for 5 item(s) in the terrain frame" in lines
+    assert any(line.startswith("verified: 10 mission items read back") for line in lines)
 
 
 @pytest.mark.sitl
@@ -313,43 +338,151 @@ def test_ardupilot_sitl_refuses_each_setting_set_wrong_and_takes_the_mission_wit
     flown at WPNAV_SPEED 10 m/s for its planned 5) and the battery failsafe (BATT_FS_LOW_ACT = 0) each refuse
     the upload with nothing sent, naming the parameter and its value as SITL answers it; each set right, the
     mission uploads and verifies. The SITL's own parameters, read on its second MAVLink port (TCP 5762)."""
-    from aerosurvey.errors import InputError
-    from aerosurvey.link.sitl import SitlVehicle, default_params, find_binary
-
-    try:
-        binary = find_binary("copter", None)
-    except InputError as exc:
-        pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
     m = survey_mission(4)
     m = dataclasses.replace(m, items=tuple(it for it in m.items if it.command != mav.DO_CHANGE_SPEED))  # planned at 5 m/s
     plan = write(tmp_path, m)
-    work = tmp_path / "sitl"
-    work.mkdir()
-    sv = SitlVehicle(binary, "copter", m.home, 1.0, list(default_params("copter")), work)
-    sv.start()
-    right = (("CAM1_TYPE", 1), ("WPNAV_SPEED", 500), ("BATT_MONITOR", 4), ("BATT_FS_LOW_ACT", 2))
+    right = {"CAM1_TYPE": 1, "WPNAV_SPEED": 500, "BATT_MONITOR": 4, "BATT_FS_LOW_ACT": 2}
     wrong = (("CAM1_TYPE", 0, "CAM1_TYPE = 0 (no camera) but the mission takes photos"),
              ("WPNAV_SPEED", 1000, "WPNAV_SPEED = 1000 (10 m/s) but the mission commands no speed and was planned at 5 m/s"),
              ("BATT_FS_LOW_ACT", 0, "BATT_FS_LOW_ACT = 0 (no action): nothing brings the vehicle back on a low battery"))
-    args = ["upload", str(plan), "--connect", "tcp:127.0.0.1:5762", "--launch-distance", "off"]
+    with ardupilot_copter_sitl(tmp_path, m.home) as sv:
+        lines = refused_then_taken(sv, plan, right, wrong)
+    assert any(line.startswith("camera: CAM1_TYPE = 1") for line in lines), lines
+    assert "speed: WPNAV_SPEED = 500 (5 m/s), the planned 5 m/s (no DO_CHANGE_SPEED)" in lines
+
+
+@pytest.mark.sitl
+def test_ardupilot_sitl_refuses_an_rtl_altitude_into_the_ground_and_takes_the_mission_with_it_raised(
+        plan_folder: Path, tmp_path: Path) -> None:
+    """ArduCopter SITL, the plan folder `aerosurvey plan` wrote, its manifest's ground rising 70 m above the
+    launch point: RTL_ALT = 6000 (60 m, as SITL answers it in cm) refuses the upload, naming RTL_ALT, its value
+    and the 100 m the return needs (70 m of ground and 30 m of clearance), with nothing sent; RTL_ALT = 10000
+    takes the mission and verifies it. The plan's 25 % reserve: BATT_LOW_MAH 500 of 5000 mAh refuses, 1250 passes."""
+    def hill(doc: dict) -> None:
+        doc["home"]["ground_amsl_m"] = 400.0
+        doc["derived"]["terrain"]["ground_max_m"] = 470.0
+
+    plan = copy_folder(plan_folder, tmp_path / "plan", hill)
+    m = loads_plan(plan.read_text())
+    right = {"CAM1_TYPE": 1, "WPNAV_SPEED": round(m.hover_speed * 100), "BATT_MONITOR": 4, "BATT_FS_LOW_ACT": 2,
+             "BATT_CAPACITY": 5000, "BATT_LOW_MAH": 1250,  # the plan keeps 25 % in reserve
+             "RTL_ALT": 10000}
+    wrong = (("RTL_ALT", 6000, "RTL_ALT = 6000 (60 m) but the plan's ground rises 70 m above the launch point, and a "
+                               "return at 60 m clears it by less than 30 m: set RTL_ALT to fit, or plan again (or give "
+                               "--accept rtl-altitude)"),
+             ("BATT_LOW_MAH", 500, "BATT_LOW_MAH = 500 of BATT_CAPACITY = 5000 mAh (10%) but the plan keeps 25% in "
+                                   "reserve: the failsafe would act only after the reserve is spent; raise BATT_LOW_MAH "
+                                   "to at least 1250 (or give --accept battery-failsafe)"))
+    with ardupilot_copter_sitl(tmp_path, m.home) as sv:
+        lines = refused_then_taken(sv, plan, right, wrong)
+    assert any(line.startswith("rtl-altitude: RTL_ALT = 10000 (100 m): clears the highest ground under the plan "
+                               "(70 m above the launch point) by 30 m") for line in lines), lines
+    assert "battery-failsafe: BATT_LOW_MAH = 1250 of BATT_CAPACITY = 5000 mAh (25%), at or above the plan's 25% " \
+           "reserve" in lines
+
+
+@contextmanager
+def px4_sitl(tmp_path: Path, home: tuple[float, float, float]) -> Iterator[Px4Vehicle]:
+    """PX4 SIH SITL at `home` with the harness's survey parameters (skipped with the reason when no binary is
+    found), stopped at the end."""
+    from aerosurvey.errors import InputError
+    from aerosurvey.link.px4_sitl import PARAMS_FILE, Px4Vehicle, find_px4
+    from aerosurvey.link.sitl import survey_params
+
     try:
-        for name, value in right:
-            sv.set_param(name, value)
-        for name, value, said in wrong:
-            sv.set_param(name, value)
-            res = CliRunner().invoke(main, args)
-            assert res.exit_code == 3, res.output
-            assert res.output.strip().startswith(f"Error: survey.plan: {said}"), res.output
-            assert "verified" not in res.output
-            sv.set_param(name, dict(right)[name])
-        res = CliRunner().invoke(main, args)
-        assert res.exit_code == 0, res.output
-        lines = res.output.splitlines()
-        assert any(line.startswith("camera: CAM1_TYPE = 1") for line in lines), lines
-        assert "speed: WPNAV_SPEED = 500 (5 m/s), the planned 5 m/s (no DO_CHANGE_SPEED)" in lines
-        assert any(line.startswith("verified: ") for line in lines), lines
+        binary = find_px4(None)
+    except InputError as exc:
+        pytest.skip(f"no PX4 SITL binary: {exc}")
+    work = tmp_path / "px4"
+    work.mkdir()
+    sv = Px4Vehicle(binary, home, 1.0, survey_params("copter", False, PARAMS_FILE), work)
+    try:
+        sv.start()
+        yield sv
     finally:
         sv.stop()
+
+
+def refused_then_taken(sv: SitlVehicle, plan: Path, right: dict[str, float],
+                       wrong: Sequence[tuple[str, float, str]]) -> list[str]:
+    """With every parameter of `right` set, each (name, value, line) of `wrong` set in turn refuses the upload of
+    `plan` with the one line starting `line`, the mission the vehicle holds unchanged, and is set right again;
+    then the upload goes through and is verified. Its output's lines."""
+    for name, value in right.items():
+        sv.set_param(name, value)
+    held = held_mission_count(sv)
+    for name, value, said in wrong:
+        sv.set_param(name, value)
+        res = sitl_upload(plan, sv)
+        assert res.exit_code == 3, res.output
+        assert res.output.strip().startswith(f"Error: {plan.name}: {said}"), res.output
+        assert len(res.output.strip().splitlines()) == 1, res.output
+        # nothing sent (ArduPilot's count goes from 0 to 1, its home, when it gets a position)
+        assert held_mission_count(sv) <= max(held, 1)
+        sv.set_param(name, right[name])
+    res = sitl_upload(plan, sv)
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    assert any(line.startswith("verified: ") for line in lines), lines
+    sent = next(line for line in lines if line.startswith("mission: ")).split()[1]
+    assert held_mission_count(sv) == int(sent), lines
+    return lines
+
+
+@pytest.mark.sitl
+def test_px4_sitl_refuses_each_setting_set_wrong_and_takes_the_mission_with_it_corrected(tmp_path: Path) -> None:
+    """PX4 SIH SITL, one boot, its parameters set over MAVLink (integers' bytes in the float, as PX4 takes them)
+    and read by the upload's checks on its API link: the camera (TRIG_MODE 0, and 1: by time), the speed limit
+    (MPC_XY_VEL_MAX below the mission's DO_CHANGE_SPEED), the battery failsafe (COM_LOW_BAT_ACT 0, BAT_CRIT_THR
+    below the plan's 20 % reserve) and the RTL altitude (RTL_RETURN_ALT 60 m under a manifest whose ground rises
+    70 m above the launch point) each refuse the upload of the plan folder's mission with nothing sent; each set
+    right, it uploads and verifies. A mission commanding no speed is refused at MPC_XY_CRUISE 10 m/s for its
+    planned 5 and taken at 5. This PX4 (v1.14 and later) has no MIS_DIST_WPS: the report says so."""
+    def hill(doc: dict) -> None:
+        doc["home"]["ground_amsl_m"] = 400.0
+        doc["derived"]["terrain"]["ground_max_m"] = 470.0
+
+    (tmp_path / "planned").mkdir()
+    folder = planned_folder(tmp_path / "planned", {"battery": {"usable_min": 60.0, "reserve": 0.2},
+                                                    "vehicle": {"firmware": "px4"}})
+    plan = copy_folder(folder, tmp_path / "plan", hill)
+    m = loads_plan(plan.read_text())
+    speed = max(it.param2 for it in m.items if it.command == mav.DO_CHANGE_SPEED)
+    slow = dataclasses.replace(survey_mission(4, firmware="px4"), items=tuple(
+        it for it in survey_mission(4, firmware="px4").items if it.command != mav.DO_CHANGE_SPEED))  # planned at 5 m/s
+    (tmp_path / "slow").mkdir()
+    slow_plan = write(tmp_path / "slow", slow)
+    right = {"TRIG_MODE": 4, "MPC_XY_VEL_MAX": max(12.0, speed), "MPC_XY_CRUISE": 5.0, "COM_LOW_BAT_ACT": 3,
+             "BAT_CRIT_THR": 0.2, "RTL_RETURN_ALT": 100.0}
+    wrong = (("TRIG_MODE", 0, "TRIG_MODE = 0 (the camera trigger is disabled) but the mission takes photos"),
+             ("TRIG_MODE", 1, "TRIG_MODE = 1 (not by distance on command: the mission's DO_SET_CAM_TRIGG_DIST would "
+                              "not switch it) but the mission takes photos"),
+             ("MPC_XY_VEL_MAX", speed - 1.0, f"MPC_XY_VEL_MAX = {speed - 1.0:g} m/s but the mission commands {speed:g} "
+                                             "m/s (DO_CHANGE_SPEED)"),
+             ("COM_LOW_BAT_ACT", 0, "COM_LOW_BAT_ACT = 0 (a warning only): nothing brings the vehicle back on a low "
+                                    "battery; the plan keeps 20% in reserve: set it to 3 (or give --accept "
+                                    "battery-failsafe)"),
+             ("BAT_CRIT_THR", 0.07, "BAT_CRIT_THR = 0.07 (7%, COM_LOW_BAT_ACT = 3) but the plan keeps 20% in reserve: "
+                                    "the failsafe would act only after the reserve is spent; raise BAT_CRIT_THR to at "
+                                    "least 0.2 (or give --accept battery-failsafe)"),
+             ("RTL_RETURN_ALT", 60.0, "RTL_RETURN_ALT = 60 m but the plan's ground rises 70 m above the launch point, "
+                                      "and a return at 60 m clears it by less than 30 m: set RTL_RETURN_ALT to fit, or "
+                                      "plan again (or give --accept rtl-altitude)"))
+    with px4_sitl(tmp_path, m.home) as sv:
+        lines = refused_then_taken(sv, plan, right, wrong)
+        assert any(line.startswith("camera: TRIG_MODE = 4, TRIG_INTERFACE = 3, and the mission takes photos")
+                   for line in lines), lines
+        assert f"speed: the mission commands {speed:g} m/s, within MPC_XY_VEL_MAX = {max(12.0, speed):g} m/s" in lines
+        assert "battery-failsafe: BAT_CRIT_THR = 0.2 (20%, COM_LOW_BAT_ACT = 3), at or above the plan's 20% reserve" \
+            in lines
+        assert any(line.startswith("rtl-altitude: RTL_RETURN_ALT = 100 m: clears the highest ground under the plan "
+                                   "(70 m above the launch point) by 30 m") for line in lines), lines
+        legs = [line for line in lines if line.startswith("legs: ")]
+        assert len(legs) == 1 and legs[0].endswith("; the vehicle has no MIS_DIST_WPS (PX4 v1.14 and later do not "
+                                                   "limit legs)"), lines
+        lines = refused_then_taken(sv, slow_plan, right, (
+            ("MPC_XY_CRUISE", 10.0, "MPC_XY_CRUISE = 10 m/s but the mission commands no speed and was planned at 5 m/s"),))
+        assert "speed: MPC_XY_CRUISE = 5 m/s, the planned 5 m/s (no DO_CHANGE_SPEED)" in lines
 
 
 def test_a_generic_autopilot_is_not_asked_for_parameters_and_the_report_says_so(tmp_path: Path) -> None:
@@ -358,3 +491,19 @@ def test_a_generic_autopilot_is_not_asked_for_parameters_and_the_report_says_so(
     lines = uploaded(write(tmp_path, m), model)
     assert "settings: not read (the vehicle reports generic, whose parameter names are not known)" in lines
     assert not any(k.startswith("got PARAM_REQUEST_READ") for k in model.log)
+
+
+@pytest.mark.parametrize(("param_type", "fmt", "value"), [(6, "<i", 4), (6, "<i", -1), (5, "<I", 3_000_000_000),
+                                                          (2, "<b", -7), (1, "<B", 200)])
+def test_a_px4_integer_parameter_is_set_with_its_bytes_in_the_float(param_type: int, fmt: str, value: int) -> None:
+    """PARAM_SET to PX4 carries an integer's own bytes in the float (MAVLink's bytewise encoding: PX4 copies
+    them), and the value read back is the integer; ArduPilot and PX4's floats carry the value itself."""
+    import struct
+
+    from aerosurvey.link.connection import param_value, param_wire_value
+
+    wire = param_wire_value(value, param_type, 12)
+    assert struct.pack("<f", wire)[:struct.calcsize(fmt)] == struct.pack(fmt, value)  # the integer's own bytes first
+    assert param_value(wire, param_type, 12) == value
+    assert param_wire_value(value, param_type, 3) == value  # ArduPilot
+    assert param_wire_value(0.07, 9, 12) == 0.07  # MAV_PARAM_TYPE_REAL32

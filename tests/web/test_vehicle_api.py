@@ -95,3 +95,45 @@ def test_without_a_vehicle_the_page_says_how_to_connect(tmp_path):
         assert c.get("/api/vehicle").json() == {"url": None}
         r = c.post("/api/plans/p1/vehicle/mission.plan", json={"send": True})
         assert r.status_code == 404 and "serve --connect" in r.json()["error"]
+
+
+FRIDAY = "2026-05-15T09:00:00+02:00"
+
+
+def brief_of(c, pid: str) -> tuple[dict, list[dict]]:
+    """The page's brief for FRIDAY, and its vehicle items."""
+    r = c.post(f"/api/plans/{pid}/brief", json={"at": FRIDAY})
+    assert r.status_code == 200, r.text
+    got = r.json()
+    return got, [i for i in got["items"] if i["topic"] == "vehicle"]
+
+
+def test_the_brief_has_the_vehicles_checks_and_a_refusing_setting_makes_it_no_go(page):
+    """As `aerosurvey brief --connect`: the first flight checked as `upload` checks it, a line per check, read
+    only; a setting that refuses is a no-go item naming it and makes the brief no-go."""
+    c, pid, model, _ = page
+    got, items = brief_of(c, pid)
+    assert items and all(i["verdict"] == "go" for i in items), items
+    assert got["verdict"] in ("go", "advise"), got  # the spec has no official zone file: the airspace is advice
+    assert items[0]["text"].endswith("checked as `aerosurvey upload mission.plan` checks it (nothing sent)")
+    assert any(i["text"].startswith("launch point: the vehicle is 0 m from") for i in items), items
+    for check in ("camera", "rtl-altitude", "speed", "battery-failsafe"):
+        assert any(i["text"].startswith(check) for i in items), (check, items)
+    setting = {"TRIG_MODE": 0} if "TRIG_MODE" in model.params else {"CAM1_TYPE": 0}  # the PX4 flavour has TRIG_MODE
+    model.params.update(setting)
+    got, items = brief_of(c, pid)
+    assert got["verdict"] == "no-go", got
+    refused = [i["text"] for i in items if i["verdict"] == "no-go"]
+    assert len(refused) == 1 and f"{next(iter(setting))} = 0" in refused[0] and "--accept camera" in refused[0], refused
+    assert model.log.get(f"got PARAM_REQUEST_READ {next(iter(setting))}", 0) > 0
+    assert mission_messages(model) == 0  # a brief sends no mission message
+
+
+def test_a_vehicle_the_server_cannot_reach_makes_the_brief_no_go(tmp_path):
+    spec = make_spec(tmp_path, {})
+    with client(spec, vehicle="tcp:127.0.0.1:9") as c:
+        done = run_plan(c, c.get("/api/state").json()["spec"])
+        assert done["state"] == "done", done
+        got, items = brief_of(c, done["result"]["plan_id"])
+    assert got["verdict"] == "no-go"
+    assert len(items) == 1 and items[0]["verdict"] == "no-go" and items[0]["text"].startswith("tcp:127.0.0.1:9: "), items

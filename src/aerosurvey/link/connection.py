@@ -243,7 +243,7 @@ class MavLink:
                 continue
             name = m.param_id if isinstance(m.param_id, str) else m.param_id.decode(errors="replace")
             if name in names:
-                got[name] = _param_value(float(m.param_value), int(m.param_type), self.vehicle.autopilot)
+                got[name] = param_value(float(m.param_value), int(m.param_type), self.vehicle.autopilot)
                 first = self.now() if first is None else first
         return got
 
@@ -278,12 +278,21 @@ _INT_PARAM_FORMATS = {1: "<B3x", 2: "<b3x", 3: "<H2x", 4: "<h2x", 5: "<I", 6: "<
 _AUTOPILOT_PX4 = 12
 
 
-def _param_value(value: float, param_type: int, autopilot: int) -> float:
+def param_value(value: float, param_type: int, autopilot: int) -> float:
     """A PARAM_VALUE's value: PX4 puts an integer's bytes into the float (bytewise encoding)."""
     fmt = _INT_PARAM_FORMATS.get(param_type)
     if fmt is None or autopilot != _AUTOPILOT_PX4:
         return value
     return float(struct.unpack(fmt, struct.pack("<f", value))[0])
+
+
+def param_wire_value(value: float, param_type: int, autopilot: int) -> float:
+    """The float a PARAM_SET carries for `value`, as `param_value` reads it back: PX4 copies the float's
+    bytes into an integer parameter (bytewise encoding), ArduPilot casts the float."""
+    fmt = _INT_PARAM_FORMATS.get(param_type)
+    if fmt is None or autopilot != _AUTOPILOT_PX4:
+        return value
+    return float(struct.unpack("<f", struct.pack(fmt, int(value)))[0])
 
 
 # pymavlink's network and other non-serial prefixes (mavutil.mavlink_connection); anything else

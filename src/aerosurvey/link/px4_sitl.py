@@ -25,11 +25,14 @@ import os
 import shutil
 import socket
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from aerosurvey.errors import InputError
-from aerosurvey.link.connection import LinkError, MavLink, connect
+from aerosurvey.link.connection import LinkError, MavLink, connect, param_value, param_wire_value
 from aerosurvey.link.sitl import SitlError, SitlVehicle, port_free, survey_params
+from aerosurvey.link.upload import AUTOPILOT_PX4
 
 SITL_DIR = Path(__file__).resolve().parents[3] / "sitl"
 PARAMS_FILE = SITL_DIR / "aerosurvey-px4.params"
@@ -172,6 +175,37 @@ class Px4Vehicle(SitlVehicle):
                 raise self.error(f"PX4 SITL has no parameter {name} (or did not answer for it)")
             if abs(got[name] - value) > 1e-4 * max(1.0, abs(value)):
                 raise self.error(f"PX4 SITL did not take parameter {name} = {value:g}: it holds {got[name]:g}")
+
+    def set_param(self, name: str, value: float, timeout: float = 10.0) -> None:
+        """PARAM_SET as PX4 takes it, on the ground station link: in the type PX4 answers the parameter with,
+        an integer's bytes in the float (PX4 copies the float's bytes whatever the type sent); done when PX4
+        answers with the value."""
+        ts, tc = self.conn.target_system, self.conn.target_component
+        deadline = time.monotonic() + timeout
+        now = self._answer(name, lambda: self.conn.mav.param_request_read_send(ts, tc, name.encode(), -1), deadline)
+        if now is None:
+            raise self.error(f"PX4 SITL has no parameter {name} (or did not answer for it)")
+        kind = int(now.param_type)
+        wire = param_wire_value(value, kind, AUTOPILOT_PX4)
+
+        def held(m: Any) -> bool:
+            return abs(param_value(float(m.param_value), kind, AUTOPILOT_PX4) - value) <= 1e-4 * max(1.0, abs(value))
+
+        if self._answer(name, lambda: self.conn.mav.param_set_send(ts, tc, name.encode(), wire, kind), deadline,
+                        held) is None:
+            raise self.error(f"PX4 SITL did not take parameter {name} = {value:g}")
+
+    def _answer(self, name: str, ask: Callable[[], None], deadline: float,
+                wanted: Callable[[Any], bool] = lambda m: True) -> Any:
+        """The first PARAM_VALUE for `name` that is `wanted`, asked for by `ask` every second; None at `deadline`."""
+        while time.monotonic() < deadline:
+            ask()
+            until = min(deadline, time.monotonic() + 1.0)
+            while (left := until - time.monotonic()) > 0:
+                m = self.conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=left)
+                if m is not None and m.param_id == name and wanted(m):
+                    return m
+        return None
 
     def request_messages(self) -> None:
         """The track, mission progress and battery as for ArduPilot, and the 50 Hz streams PX4

@@ -6,6 +6,7 @@
   GET    /api/plans/{pid}/files/{n}  one mission file (attachment)
   GET    /api/plans/{pid}/archive.zip  all of them
   POST   /api/plans/{pid}/brief      {"at": ISO 8601 with offset, "battery_change_min"?} → `aerosurvey brief` of the plan
+                                     (with `serve --connect`, the vehicle's checks as `brief --connect` makes them)
   POST   /api/plans/{pid}/share/{n}  one file shared on the local network (serve --lan): its URL and QR code
   GET    /lan/{token}/{n}            a shared file, the one request answered to other machines (web/lan.py)
 """
@@ -104,7 +105,7 @@ async def brief(request: Request) -> Response:
     if not 0.0 <= change <= 120.0:
         return error(InputError("brief: battery_change_min must be a number of minutes from 0 to 120", key="brief"))
     try:
-        return JSONResponse(await blocking(service.bundle_brief, bundle, state.workspace, at, change))
+        return JSONResponse(await blocking(service.bundle_brief, bundle, state.workspace, at, change, state.vehicle))
     except InputError as exc:
         return error(exc)
 

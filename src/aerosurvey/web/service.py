@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from aerosurvey.plan.planner import Plan
     from aerosurvey.rules.planview import PlanView
     from aerosurvey.spec import MissionSpec
+    from aerosurvey.web.vehicle import VehicleLink
 
 #: Spec keys that name files; the page may only point them inside the allowed folders.
 PATH_KEYS = (("area", "file"), ("terrain", "dem"))
@@ -356,19 +357,23 @@ def plan_bundle(spec_data: dict[str, Any], ws: Workspace, progress: Progress, zo
     return PlanBundle(view, files, frame, copy.deepcopy(spec_data), zones, manifest, plan_view, dict(rendered.binary))
 
 
-def bundle_brief(bundle: PlanBundle, ws: Workspace, at: dt.datetime, battery_change_min: float) -> dict[str, Any]:
-    """`aerosurvey brief` of the page's plan flown from `at`: its spec (and drawn zones) planned again for the window."""
+def bundle_brief(bundle: PlanBundle, ws: Workspace, at: dt.datetime, battery_change_min: float,
+                 vehicle: VehicleLink | None = None) -> dict[str, Any]:
+    """`aerosurvey brief` of the page's plan flown from `at`: its spec (and drawn zones) planned again for the window;
+    with the server's `vehicle`, its checks as `aerosurvey brief --connect` makes them (web/vehicle.py)."""
     from aerosurvey.brief import brief_for
     from aerosurvey.plan.planner import plan_mission
+    from aerosurvey.web.vehicle import brief_items
 
     if bundle.manifest is None:
         raise InputError("brief: a resumed flight has no plan of its own; brief the plan", key="brief")
+    checks = brief_items(vehicle, bundle, ws.uploads) if vehicle is not None else []
 
     def replan(start: dt.datetime, end: dt.datetime) -> Any:
         window = {**(bundle.spec.get("conditions") or {}), "start": start.isoformat(), "end": end.isoformat()}
         return plan_mission(*spec_and_inputs({**bundle.spec, "conditions": window}, ws, bundle.zones))
 
-    return brief_for(bundle.manifest.raw, at, battery_change_min, replan).as_dict()
+    return brief_for(bundle.manifest.raw, at, battery_change_min, replan, checks).as_dict()
 
 
 def plan_documents(files: dict[str, str], where: str) -> tuple[mf.Manifest, dict[str, Any], PlanView]:
