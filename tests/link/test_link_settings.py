@@ -289,7 +289,7 @@ def ardupilot_copter_sitl(tmp_path: Path, home: tuple[float, float, float]) -> I
     try:
         binary = find_binary("copter", None)
     except InputError as exc:
-        pytest.skip(f"no ArduPilot SITL copter binary: {exc}")
+        pytest.skip(str(exc))
     work = tmp_path / "sitl"
     work.mkdir()
     sv = SitlVehicle(binary, "copter", home, 1.0, list(default_params("copter")), work)
@@ -392,7 +392,7 @@ def px4_sitl(tmp_path: Path, home: tuple[float, float, float]) -> Iterator[Px4Ve
     try:
         binary = find_px4(None)
     except InputError as exc:
-        pytest.skip(f"no PX4 SITL binary: {exc}")
+        pytest.skip(str(exc))
     work = tmp_path / "px4"
     work.mkdir()
     sv = Px4Vehicle(binary, home, 1.0, survey_params("copter", False, PARAMS_FILE), work)
