@@ -8,6 +8,10 @@ import os
 from pathlib import Path
 from typing import Any
 
+# pymavlink picks its wire version when first imported: MAVLink 2, as the vehicles and aerosurvey's link
+# speak it, whichever test module imports it first (mavwp built MAVLink 1 messages when a plan test did)
+os.environ.setdefault("MAVLINK20", "1")
+
 import numpy as np
 import pytest
 import shapely

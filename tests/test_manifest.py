@@ -62,8 +62,16 @@ def test_every_example_manifest_validates_and_reads(name, tmp_path):
     assert np.allclose(doc.stations.x, [s["x"] for s in raw["stations"]])
     assert [s.id for s in doc.sorties] == [s["id"] for s in raw["sorties"]]
     assert [ln.id for ln in doc.lines] == [ln["id"] for ln in raw["lines"]]
-    # the GSD of each station from the photogrammetry module, as the writer put it
-    assert np.allclose(doc.camera.gsd_cm(doc.stations.agl_m), doc.stations.gsd_cm, atol=6e-4)
+    # the GSD of each station at its image centre: H·p/f stretched by 1/sin² of the camera's depression (the slant
+    # range and the ray's slant on the ground), none for a level camera; worked here from the manifest's camera
+    cam = raw["camera"]
+    pixel_mm = cam["sensor_mm"][0] / cam["image_px"][0]
+    agl = np.array([s["agl_m"] for s in raw["stations"]], float)
+    down = np.sin(np.radians(-np.array([s["pitch_deg"] for s in raw["stations"]], float)))
+    written = np.array([np.nan if s["gsd_cm"] is None else s["gsd_cm"] for s in raw["stations"]], float)
+    assert np.array_equal(np.isnan(written), down <= 0.0)
+    look = down > 0.0
+    assert np.allclose(written[look], 100.0 * agl[look] * pixel_mm / cam["focal_mm"] / down[look] ** 2, rtol=3e-3, atol=6e-4)
     for s in raw["sorties"]:
         part = doc.sortie_stations(s["id"])
         assert (part.ids[0], part.ids[-1], len(part)) == (s["first_station"], s["last_station"], s["photos"])

@@ -104,9 +104,10 @@ def _input(path: Path | None, base: Path) -> dict[str, Any] | None:
     return {"path": rel, "sha256": sha256_file(path)}
 
 
-def _gsd_cm(agl_m: np.ndarray, cam: Camera) -> np.ndarray:
-    """GSD in cm at heights above ground, by the photogrammetry module."""
-    return np.asarray(pg.gsd_from_height(agl_m, cam), float) * 100.0
+def _gsd_cm(agl_m: np.ndarray, pitch_deg: np.ndarray, cam: Camera) -> np.ndarray:
+    """GSD in cm at the image centre of photos taken at heights above ground with the camera at a pitch, by the
+    photogrammetry module (`gsd_at_centre_m`: NaN for a level camera)."""
+    return pg.gsd_at_centre_m(agl_m, pitch_deg, cam.pixel_pitch_mm, cam.focal_mm) * 100.0
 
 
 def _run_id(plan: Plan, run: int) -> str:
@@ -214,7 +215,7 @@ def station_table(plan: Plan) -> StationTable:
         return Column(None if not math.isfinite(v) else v for v in r.tolist())
 
     run_ids = [_run_id(plan, i) for i in range(len(plan.route.runs))]  # once a run, not once a station
-    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), plan.camera.camera)
+    gsd_cm = _gsd_cm(np.asarray(st.agl_m, float), np.asarray(st.pitch_deg, float), plan.camera.camera)
     # the ids' JSON texts made here, once: plan.geojson writes them twice (feature id, property) and the manifest once
     return StationTable((Column(st.ids, string_texts(st.ids)), Column.of_array(np.arange(1, len(st.ids) + 1)),
                          Column.of_codes(run_ids, st.run),
@@ -413,9 +414,9 @@ class CameraInfo:
         return Camera(self.id or "manifest", self.name, self.sensor_mm[0], self.sensor_mm[1], self.image_px[0],
                       self.image_px[1], self.focal_mm, self.min_cycle_s, self.exposure_s, source=self.source)
 
-    def gsd_cm(self, agl_m: np.ndarray) -> np.ndarray:
-        """GSD (cm) at heights above ground, by aerosurvey.plan.photogrammetry."""
-        return _gsd_cm(np.asarray(agl_m, float), self.model())
+    def gsd_cm(self, agl_m: np.ndarray, pitch_deg: np.ndarray) -> np.ndarray:
+        """GSD (cm) at the image centre of photos at heights above ground with the camera at a pitch (`_gsd_cm`)."""
+        return _gsd_cm(np.asarray(agl_m, float), np.asarray(pitch_deg, float), self.model())
 
 
 @dataclass(frozen=True)

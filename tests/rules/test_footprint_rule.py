@@ -53,7 +53,7 @@ def test_rules_footprint_is_the_planners(planned, cam_id, mount):
     # rule differ by up to 0.3 % (DJI Zenmuse P1: 5460 px x 4.38 um = 23.93 mm, sensor 24 mm)
     np.testing.assert_allclose(fp.across, np.asarray(across) * k, rtol=2e-9)
     np.testing.assert_allclose(fp.along, np.asarray(along) * k, rtol=2e-9)
-    np.testing.assert_array_equal(ViewCamera.of(view).gsd_m(view.agl), pg.gsd_from_height(view.agl, cam))
+    np.testing.assert_array_equal(ViewCamera.of(view).gsd_m(view.agl, view.pitch_deg), pg.gsd_from_height(view.agl, cam))
 
 
 @pytest.mark.parametrize("mount", MOUNTS)

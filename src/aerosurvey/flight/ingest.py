@@ -372,7 +372,7 @@ def flown_figures(view: PlanView, flown: PlanView, coverage: bool = True) -> Fig
         else Evidence(flown, LayoutSettings())
     fwd = evidence.forward_overlaps
     side = evidence.side_overlaps
-    gsd = doc.camera.gsd_cm(flown.agl)
+    gsd = doc.camera.gsd_cm(flown.agl, flown.pitch_deg)
     realized = {
         "forward_overlap_min": min((v for _, v in fwd), default=None),
         "side_overlap_min": min((v for _, _, v in side), default=None),

@@ -31,6 +31,20 @@ def gsd_from_height(height_m: FloatOrArray, camera: Camera) -> FloatOrArray:
     return gsd_m(height_m, camera.pixel_pitch_mm, camera.focal_mm)
 
 
+def gsd_at_centre_m(height_m: FloatOrArray, pitch_deg: FloatOrArray, pixel_pitch_mm: float,
+                    focal_mm: float) -> np.ndarray:
+    """GSD (metres per pixel) at the image centre on level ground, of a camera `height_m` above it pitched
+    `pitch_deg` (gimbal convention: −90 straight down), in its coarser direction, along the tilt: the slant
+    range H / sin|pitch| times p / f, stretched by 1 / sin|pitch| where the ray meets the ground obliquely,
+    so H·p/f / sin²|pitch| (`gsd_m` straight down; twice it at −45°). NaN where the centre ray does not
+    meet the ground (pitch 0 or above: a level camera photographs a wall, not the ground)."""
+    s = np.sin(np.radians(-np.asarray(pitch_deg, float)))
+    nadir = np.asarray(gsd_m(np.asarray(height_m, float), pixel_pitch_mm, focal_mm), float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out: np.ndarray = np.where(s > 0.0, nadir / (s * s), np.nan)
+    return out
+
+
 def height_from_gsd(gsd_m: float, camera: Camera) -> float:
     """H = GSD · f / p."""
     return gsd_m * camera.focal_mm / camera.pixel_pitch_mm

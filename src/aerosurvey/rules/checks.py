@@ -16,7 +16,7 @@ import numpy.typing as npt
 import shapely
 
 from aerosurvey.errors import InputError
-from aerosurvey.rules.footprints import ViewCamera
+from aerosurvey.rules.footprints import ViewCamera, coarsest_gsd_m
 from aerosurvey.rules.planview import PlanView
 from aerosurvey.rules.profile import ParamValue
 
@@ -174,10 +174,14 @@ def _side(view: PlanView, p: Params, ev: Evidence) -> Outcome:
 @check("gsd_max", max_cm=NUM)
 def _gsd(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     most = p.num("max_cm")
-    gsd_all = ViewCamera.of(view).gsd_m(view.agl) * 100
-    gsd = float(gsd_all.max())
+    gsd_all = ViewCamera.of(view).gsd_m(view.agl, view.pitch_deg) * 100
+    if not np.isfinite(gsd_all).any():
+        return Outcome("not-checkable", "no photo's centre meets the ground (a level camera)", f"<= {most:g} cm",
+                       ["the ground GSD is that of photos looking down; the faces' GSD is the structure-faces rule's"])
+    gsd = float(np.nanmax(gsd_all))
     where: list[Where] = [{"station": view.station_ids[i]} for i in _flatnonzero(gsd_all > most + 1e-9)]
-    return Outcome("pass" if gsd <= most + 1e-9 else "fail", f"{gsd:.2f} cm (coarsest photo)", f"<= {most:g} cm", where=where)
+    return Outcome("pass" if gsd <= most + 1e-9 else "fail", f"{gsd:.2f} cm (coarsest photo)", f"<= {most:g} cm",
+                   where=where)
 
 
 @check("images_beyond_boundary", min=int)
@@ -256,7 +260,7 @@ def _gcp_count(view: PlanView, p: Params, ev: Evidence) -> Outcome:
 @check("target_size", factor=NUM)
 def _target(view: PlanView, p: Params, ev: Evidence) -> Outcome:
     factor = p.num("factor")
-    gsd = float(ViewCamera.of(view).gsd_m(view.agl).max())
+    gsd = coarsest_gsd_m(view)
     return Outcome("info", f"targets of at least {factor * gsd * 100:.1f} cm", f"{factor:g} x GSD ({gsd * 100:.2f} cm)")
 
 

@@ -21,7 +21,7 @@ import pyproj
 from aerosurvey.errors import InputError
 from aerosurvey.reproject import planar
 from aerosurvey.rules.control_points import ControlPoint, Role, seen_by
-from aerosurvey.rules.footprints import FloatArray, ViewCamera, footprints
+from aerosurvey.rules.footprints import FloatArray, coarsest_gsd_m, footprints
 from aerosurvey.rules.planview import PlanView
 
 
@@ -32,8 +32,7 @@ def _lonlat(view: PlanView, pts: list[ControlPoint]) -> tuple[FloatArray, FloatA
 
 def target_size_cm(view: PlanView, factor: float = 3.5) -> float:
     """Side of a GCP target: `factor` times the coarsest photo's GSD, in cm to 1 mm."""
-    gsd_cm = float(ViewCamera.of(view).gsd_m(view.agl).max()) * 100
-    return round(factor * gsd_cm, 1)
+    return round(factor * coarsest_gsd_m(view) * 100, 1)
 
 
 def to_geojson(view: PlanView, pts: list[ControlPoint]) -> str:

@@ -50,13 +50,24 @@ class ViewCamera:
             raise InputError(f"manifest camera.mount = {mount!r}; allowed: {', '.join(MOUNTS)}")
         return cls(camera, str(mount))
 
-    def gsd_m(self, agl_m: FloatArray) -> FloatArray:
-        """GSD of each photo taken `agl_m` above ground, as the planner computes it."""
-        return pg.gsd_m(agl_m, self.camera.pixel_pitch_mm, self.camera.focal_mm)
+    def gsd_m(self, agl_m: FloatArray, pitch_deg: FloatArray) -> FloatArray:
+        """GSD of each photo taken `agl_m` above ground with its camera at `pitch_deg`, at the image centre
+        (`photogrammetry.gsd_at_centre_m`; NaN for a level camera, whose centre ray meets no ground)."""
+        return pg.gsd_at_centre_m(agl_m, pitch_deg, self.camera.pixel_pitch_mm, self.camera.focal_mm)
 
     @property
     def optics(self) -> capture.Optics:
         return capture.Optics.of(self.camera, self.mount)
+
+
+def coarsest_gsd_m(view: PlanView) -> float:
+    """The coarsest GSD of the view's photos at their centres (`ViewCamera.gsd_m`): what a ground target must be
+    seen at. With no photo looking down to the ground (a level camera), the GSD straight down from the highest."""
+    cam = ViewCamera.of(view)
+    gsd = cam.gsd_m(view.agl, view.pitch_deg)
+    if np.isfinite(gsd).any():
+        return float(np.nanmax(gsd))
+    return float(np.max(cam.gsd_m(view.agl, np.full(len(view.agl), -90.0))))
 
 
 @dataclass(frozen=True, eq=False)
