@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -181,3 +182,42 @@ def test_formula_with_another_unary_operator_is_bad_input(text):
     with pytest.raises(InputError, match="may use only"):
         evaluate_formula(text, n_images=903)
     assert evaluate_formula("-n_images + 1000", n_images=903) == 97
+
+
+def _gsd_profile(folder: Path, max_cm: float) -> Path:
+    d = folder / "profiles"
+    d.mkdir(exist_ok=True)
+    (d / "acme.toml").write_text(USER_PROFILE.replace("max_cm = 2.0", f"max_cm = {max_cm}"))
+    return d
+
+
+def test_the_gsd_of_a_tilted_photo_is_taken_at_its_centre_not_straight_down(tmp_path):
+    """The oblique example's photos at −45°: at the image centre the ground is √2 farther and met at 45°, so the
+    GSD there is twice the straight-down figure of the same height (worked here from the manifest's camera and
+    stations). A limit between the two fails on the tilted photos, naming them, and passes above the centre GSD."""
+    out = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(REPO / "missions" / "oblique-block.toml"), "-o", str(out)]).exit_code in (0, 1)
+    raw = json.loads((out / "manifest.json").read_text())
+    cam = raw["camera"]
+    per_m = 100.0 * cam["sensor_mm"][0] / cam["image_px"][0] / cam["focal_mm"]
+    tilted = [s for s in raw["stations"] if s["pitch_deg"] > -89.0]
+    assert tilted, "the example tilts its camera"
+    down = [s["agl_m"] * per_m for s in raw["stations"]]
+    centre = [s["agl_m"] * per_m / math.sin(math.radians(-s["pitch_deg"])) ** 2 for s in raw["stations"]]
+    limit = round((max(down) + max(centre)) / 2.0, 2)
+    assert max(down) < limit < max(centre)
+    code, res = _check(out, "--profile", "acme-spec", "--profile-dir", str(_gsd_profile(tmp_path, limit)))
+    rule = res["acme-gsd"]
+    assert rule["status"] == "fail" and rule["measured"] == f"{max(centre):.2f} cm (coarsest photo)"
+    named = {w["station"] for w in rule["where"]}
+    assert named == {s["id"] for s, c in zip(raw["stations"], centre) if c > limit + 1e-6} and named <= {s["id"] for s in tilted}
+    code, res = _check(out, "--profile", "acme-spec", "--profile-dir", str(_gsd_profile(tmp_path, round(max(centre) + 0.01, 2))))
+    assert res["acme-gsd"]["status"] == "pass"
+
+
+def test_the_ground_gsd_of_a_plan_whose_photos_all_look_level_is_not_checkable(tmp_path):
+    out = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(REPO / "missions" / "long-wall.toml"), "-o", str(out)]).exit_code in (0, 1)
+    assert all(s["pitch_deg"] == 0.0 and s["gsd_cm"] is None for s in json.loads((out / "manifest.json").read_text())["stations"])
+    _, res = _check(out, "--profile", "acme-spec", "--profile-dir", str(_gsd_profile(tmp_path, 2.0)))
+    assert res["acme-gsd"]["status"] == "not-checkable"
