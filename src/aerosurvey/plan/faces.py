@@ -51,7 +51,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
 from aerosurvey.plan.bounds import GridBounds
 from aerosurvey.plan.layout import Field, Layout, SurfaceAsked
-from aerosurvey.plan.orbit import CLEARANCE_ALLOWANCE_M, MAX_RAY_DEPRESSION_DEG, WallBand
+from aerosurvey.plan.orbit import CLEARANCE_ALLOWANCE_M, MAX_RAY_DEPRESSION_DEG, WallBand, band_on_face
 from aerosurvey.plan.passes import Aim, Pass, Strip
 from aerosurvey.plan.polyline import autopilot_distance, extend, stations_along, strips_clear_of
 from aerosurvey.plan.progress import Progress
@@ -111,10 +111,7 @@ class FaceBand:
                              f"{o.angle_deg:g}°: allowed {o.angle_deg - 90.0 - MAX_RAY_DEPRESSION_DEG + v:.1f} .. "
                              f"{min(0.0, o.angle_deg - 90.0 + MAX_RAY_DEPRESSION_DEG - v):.1f} (level at the highest, "
                              f"every ray at most {MAX_RAY_DEPRESSION_DEG:g}° off the face's normal)", key="pattern.pitch_deg")
-        s, d, h = o.standoff_m, math.radians(delta), math.radians(v)
-        # a row β off the axis meets the face at range s / cos(δ + β), cos β of that along the axis
-        depth = min(math.cos(h) / math.cos(d - h), math.cos(h) / math.cos(d + h)) * s
-        return cls(pitch, s * math.tan(d - h), s * math.tan(d + h), 2.0 * tu * depth)
+        return cls(pitch, *band_on_face(o.standoff_m, o.angle_deg, pitch, (tu, tv)))
 
 
 def lane_positions(slope_m: float, spacing_m: float) -> np.ndarray:

@@ -132,11 +132,23 @@ class WallBand:
             raise InputError(f"pattern.pitch_deg = {pitch:g} is not allowed for this camera: allowed "
                              f"{v - MAX_RAY_DEPRESSION_DEG:.1f} .. 0 (the image's foot at most "
                              f"{MAX_RAY_DEPRESSION_DEG:g}° below the horizon)", key="pattern.pitch_deg")
-        s = o.standoff_m
-        up, down = math.radians(-pitch - v), math.radians(-pitch + v)
-        # an image row meets a wall square to the camera along a level line; the top row's at
-        # s / cos(up) from the camera, cos(v) of that along the axis: its width is 2·tu times that
-        return cls(pitch, s * math.tan(up), s * math.tan(down), 2.0 * tu * s * math.cos(math.radians(v)) / math.cos(up))
+        bottom, top, width = band_on_face(o.standoff_m, 90.0, pitch, (tu, tv))
+        return cls(pitch, -top, -bottom, width)
+
+
+def band_on_face(standoff_m: float, face_deg: float, pitch_deg: float, tangents: tuple[float, float]) -> tuple[float, float, float]:
+    """What a photo covers of a plane face at `face_deg` from the horizontal, square in front of it at
+    `standoff_m`, the camera's axis at `pitch_deg` (level at 0) and the tangents of half its image's
+    horizontal and vertical angles `tangents` (`WallBand.tangents`): the slope positions (metres up the
+    face from the foot of the camera's perpendicular on it) its image's bottom and top rows meet, and its
+    narrowest width along the face. The axis lies δ = pitch + 90° − face angle above the face's inward
+    normal; a row β off the axis meets the face at range s / cos(δ + β), cos β of that along the axis, and
+    an image row meets the face along a level line, 2·tan(horizontal half angle) times that wide (the
+    narrowest: the row nearest along the axis). One model for walls (90°) and inclined faces."""
+    tu, tv = tangents
+    s, d, h = standoff_m, math.radians(pitch_deg + 90.0 - face_deg), math.atan(tv)
+    depth = min(math.cos(h) / math.cos(d - h), math.cos(h) / math.cos(d + h)) * s
+    return s * math.tan(d - h), s * math.tan(d + h), 2.0 * tu * depth
 
 
 def layer_heights(base_m: float, top_m: float, spacing_m: float) -> np.ndarray:
