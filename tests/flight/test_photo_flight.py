@@ -566,3 +566,42 @@ def test_a_refly_of_a_dji_photo_flight_is_dji_waylines_over_the_gap(tmp_path, dj
     half_width = 0.5 * M3E["sensor_mm"][0] * float(np.median(s["rel"])) / M3E["focal_mm"]  # the image's ground half width
     for x, y in zip(lx, ly):
         assert route.distance(shapely.Point(x, y)) < half_width
+
+
+def test_a_smart_oblique_look_not_photographed_is_the_look_missed(tmp_path):
+    """A DJI smart oblique (five looks at each station: nadir, four at −45°) flown by its photos in S-JTSK, one
+    look of one station not taken: that look is the station missed, and every other photo is matched to the look
+    its gimbal recorded (not to the next look in flight order). The stations' true bearings are worked here from
+    the manifest's grid bearings (a point a metre along each, taken to WGS84 by pyproj, its geodesic azimuth)."""
+    spec = make_spec(tmp_path, {"mission": {"name": "smart", "crs": "EPSG:5514"}, "pattern": {"kind": "smart-oblique"},
+                                "camera": {"model": "dji-mavic-3-enterprise", "trigger": "hover"}},
+                     area=_square(60.0))
+    plan = tmp_path / "plan"
+    code, text = _run("plan", spec, "-o", plan)
+    assert code in (0, 1), text
+    m = json.loads((plan / "manifest.json").read_text())
+    st = m["stations"]
+    to_wgs = pyproj.Transformer.from_crs("EPSG:5514", "EPSG:4326", always_xy=True)
+    shots, ids = [], []
+    for i, s in enumerate(st):
+        b = math.radians(s["camera_yaw_deg"])
+        lon2, lat2 = to_wgs.transform(s["x"] + math.sin(b), s["y"] + math.cos(b))
+        true = GEOD.inv(s["lon"], s["lat"], lon2, lat2)[0]
+        shots.append(pw.Shot(s["lat"], s["lon"], m["home"]["ground_amsl_m"] + s["alt_rel_m"], s["alt_rel_m"],
+                             T0 + dt.timedelta(seconds=3 * i), gimbal_yaw=(true + 180.0) % 360.0 - 180.0,
+                             gimbal_pitch=s["pitch_deg"]))
+        ids.append(s["id"])
+    looks = sorted({s["pitch_deg"] for s in st[:5]}) + [len({(s["x"], s["y"]) for s in st[:5]})]
+    assert looks == [-90.0, -45.0, 1], looks  # the first station: five looks at one place
+    gone = 3 * 5 + 2  # the third look of the fourth station
+    assert st[gone]["pitch_deg"] == -45.0 and st[gone + 1]["pitch_deg"] == -45.0
+    del shots[gone]
+    kept = ids[:gone] + ids[gone + 1:]
+    _write(tmp_path / "DCIM", shots)
+    flight = tmp_path / "flown"
+    code, text = _run("log", "ingest", tmp_path / "DCIM", "--plan", plan, "-o", flight)
+    assert code in (0, 1), text
+    rep = json.loads((flight / "log_report.json").read_text())
+    assert rep["missed_stations"] == [ids[gone]] and rep["matched"] == len(shots)
+    rows = [ln for ln in (flight / "events.csv").read_text().splitlines() if not ln.startswith("#")]
+    assert [r["station"] for r in csv.DictReader(rows)] == kept

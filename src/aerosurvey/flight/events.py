@@ -893,14 +893,46 @@ class Match:
     far: list[int]  # matched events farther than the tolerance
 
 
+@dataclass(frozen=True)
+class Aims:
+    """Where the camera looked: each planned station's aim and each event's recorded one (a photo flight's
+    gimbal), as pitch (−90 straight down) and bearing, both bearings on the same grid; NaN: not recorded."""
+
+    station_pitch_deg: np.ndarray
+    station_bearing_deg: np.ndarray
+    event_pitch_deg: np.ndarray
+    event_bearing_deg: np.ndarray
+
+    @staticmethod
+    def _sight(pitch_deg: np.ndarray, bearing_deg: np.ndarray) -> np.ndarray:
+        p, b = np.radians(pitch_deg), np.radians(bearing_deg)
+        return np.stack([np.cos(p) * np.sin(b), np.cos(p) * np.cos(b), np.sin(p)], axis=-1)
+
+    def nearest(self, event: int, candidates: np.ndarray) -> int:
+        """Of the candidate stations (indices), the one whose line of sight lies nearest the event's (the
+        first when the event's aim is not recorded)."""
+        mine = self._sight(self.event_pitch_deg[event], self.event_bearing_deg[event])
+        if not np.isfinite(mine).all():
+            return int(candidates[0])
+        theirs = self._sight(self.station_pitch_deg[candidates], self.station_bearing_deg[candidates])
+        return int(candidates[int(np.argmax(theirs @ mine))])
+
+
+#: metres within which stations count as one place (the looks of a smart oblique's station share it)
+SAME_PLACE_M = 0.05
+
+
 def match_to_stations(ev: Events, stations: list[dict[str, Any]], tolerance_m: float, window: int = 60,
-                      unmatched: np.ndarray | None = None) -> Match:
+                      unmatched: np.ndarray | None = None, aims: Aims | None = None) -> Match:
     """Match events to planned stations, both in flight order.
 
     Each event takes the nearest station among the next `window` not yet matched ones,
     within 3 × tolerance; stations passed over are missed, events with none near are
     extra triggers, as are the events `unmatched` marks (photos on the ground). Order is
     kept, so a photo over a cross-hatch crossing cannot take a station of the other pass.
+    Where several stations share the nearest place (the looks of a smart oblique's station)
+    and `aims` records where the event's camera looked, it takes the one aimed nearest that:
+    a look not photographed is then the station missed, not the place's last.
     """
     k = math.pi / 180.0
     lat0 = float(np.nanmean(ev.lat)) if len(ev) else 0.0
@@ -919,6 +951,8 @@ def match_to_stations(ev: Events, stations: list[dict[str, Any]], tolerance_m: f
             continue
         d = np.hypot(sx[j:hi] - ex[i], sy[j:hi] - ey[i])
         q = int(np.argmin(d))
+        if aims is not None:
+            q = aims.nearest(i, j + np.flatnonzero(d <= d[q] + SAME_PLACE_M)) - j
         if d[q] <= gap:
             station[i] = stations[j + q]["id"]
             dist[i] = float(d[q])

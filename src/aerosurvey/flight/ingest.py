@@ -37,7 +37,7 @@ from aerosurvey.flight.coverage import (
     planned_aim,
     write_count_raster,
 )
-from aerosurvey.flight.events import Events, Match, match_to_stations, read_events
+from aerosurvey.flight.events import Aims, Events, Match, match_to_stations, read_events
 from aerosurvey.flight.handoff import camera_poses, geo_txt, metashape_csv, pix4d_csv
 from aerosurvey.flight.images import ImageMatch, geotag_images, list_images, match_images
 from aerosurvey.flight.mission_flown import (
@@ -54,6 +54,7 @@ from aerosurvey.flight.modes import modes_report, read_modes
 from aerosurvey.flight.photos import PhotoFlight, read_photo_flight
 from aerosurvey.manifest import Manifest, Stations, sha256_file
 from aerosurvey.plan.progress import Progress, no_progress
+from aerosurvey.reproject import planar
 from aerosurvey.rules.engine import Evidence, LayoutSettings, evaluate
 from aerosurvey.rules.flown import on_view, plan_evidence
 from aerosurvey.rules.planview import PlanView
@@ -215,6 +216,17 @@ def check_same_plan(ev: Events, view: PlanView, log_name: str, sortie: str | Non
     return med
 
 
+def recorded_aims(ev: Events, stations: Stations, crs: str) -> Aims | None:
+    """The stations' aims and the events' recorded ones on the planning grid, when the events record their
+    camera's own attitude (a photo flight's gimbal, Events.camera_attitude); else None."""
+    if not ev.camera_attitude:
+        return None
+    grid = planar(crs)
+    x, y = grid.xy(ev.lon, ev.lat)
+    return Aims(np.asarray(stations.pitch_deg, float), np.asarray(stations.camera_yaw_deg, float),
+                np.asarray(ev.pitch, float), np.asarray(grid.grid_bearing(ev.yaw, x, y), float))
+
+
 def _dem_ground(dem_path: Path | None, view: PlanView | None) -> DemGround | None:
     if dem_path is None:
         return None
@@ -322,7 +334,8 @@ def on_plan(flight_log: Path, read: Read, view: PlanView, mission: MissionCheck,
         stations = doc.stations.take(np.unique(nearest[nearest >= 0]))
     tol = tolerance_m if tolerance_m is not None else doc.derived.photo_base_m / 4
     rows = [{"id": sid, "lon": lon, "lat": lat} for sid, lon, lat in zip(stations.ids, stations.lon.tolist(), stations.lat.tolist())]
-    match = match_to_stations(ev, rows, tol, unmatched=on_the_ground(ev.rel_alt_m, stations.alt_rel_m))
+    match = match_to_stations(ev, rows, tol, unmatched=on_the_ground(ev.rel_alt_m, stations.alt_rel_m),
+                              aims=recorded_aims(ev, stations, view.crs))
     progress("flown footprints and overlaps", 0.55)
     report["plan"] = {"mission": doc.mission.name, "folder": doc.where, "sortie": sortie, "median_distance_m": round(median, 3)}
     report.update({"planned": len(stations), "matched": len(ev) - len(match.extra), "missed_stations": match.missed,
