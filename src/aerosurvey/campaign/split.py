@@ -2,19 +2,20 @@
 
 The area in a planning CRS (metres), the lines' grid bearing, the limit a block keeps and the
 overlaps in; the blocks out. In a frame turned so that the lines run along x, the area's bounding
-rectangle is halved, again and again, across its longer side at the place that halves the area
-in it, until every block keeps the limit: at most `max_m2` (`--max-ha`), or planned within N
+rectangle is cut, again and again, across its longer side, until every block keeps the limit: where
+a slab of the cell thin enough keeps it, the cut leaves the thickest slab that does below it (found
+by bisection to CUT_PRECISION of the side), else it halves the area in the cell; at most `max_m2` (`--max-ha`), or planned within N
 sorties (`--max-sorties`: each candidate block planned as `campaign plan` plans it, the
 template's battery model splitting its sorties). A cut along the lines (y = c) keeps every line
 whole in its block, a cut across them (x = c) shortens the lines, and each block's lines stay
 parallel to its long sides, so each keeps its own efficient grid.
 
-What the halving guarantees against needlessly small blocks: a cell is cut only when it does not
-keep the limit, so every block is one of the two halves (by area) of a cell that does not, and
-the blocks of that cell (a block and its sibling's blocks: the block's cut path less its last
-digit, written as the blocks file's `cut`) merged would break the limit. Blocks are thus more
-than about half of the limit (by area; by sorties, as a sortie count grows with the area), not
-the largest that would keep it.
+What the cuts guarantee against needlessly small blocks: a cell is cut only when it does not
+keep the limit, so the blocks of a cell that was cut (a block and its sibling's blocks: the
+block's cut path less its last digit, written as the blocks file's `cut`) merged would break the
+limit; and the part below a cut is as thick as keeps the limit (a slab a CUT_PRECISION of the side
+thicker would not), so a strip of a long area is cut into blocks each as large as the limit allows
+but its last, where halving left blocks of about half to all of it.
 
 The overlap at each cut: each block reaches across the cut by half of it, so neighbours share a
 band as wide as the overlap. Across a cut along the lines, `overlap_across_m` (the ground two
@@ -41,6 +42,9 @@ from aerosurvey.spec import MissionSpec
 
 #: bisection steps for the place of a cut (the area halved to 2^-40 of the cell's width)
 _STEPS = 40
+#: the largest slab below a cut that keeps the limit is found to this share of the cell's side (each step a
+#: `fits` call: with --max-sorties, a plan)
+CUT_PRECISION = 0.005
 
 
 def split_area(area: BaseGeometry, heading_deg: float, max_m2: float, overlap_across_m: float,
@@ -85,9 +89,9 @@ def cut_area(area: BaseGeometry, heading_deg: float, fits: Callable[[BaseGeometr
             raise InputError(f"{limit} is too small: blocks that small would be mostly the overlap at their "
                              f"cuts ({2 * half[1]:.0f} m across the lines, {2 * half[0]:.0f} m along them); allowed: a limit "
                              f"blocks of a few times {4 * half[0] * 4 * half[1] / 1e4:.2f} ha or more meet")
-        # halve the longer side (a cut along the lines when the cell is taller), or the one with room for a cut
+        # cut the longer side (a cut along the lines when the cell is taller), or the one with room for a cut
         along = room_y and ((y1 - y0) >= (x1 - x0) or not room_x)
-        lower, upper = _halves(turned, cell, along)
+        lower, upper = _largest_below(turned, cell, along, half, lambda c: fits(back(c))) or _halves(turned, cell, along)
         todo += [(upper, path + "1"), (lower, path + "0")]
     blocks = []
     for cell, path in cells:
@@ -99,6 +103,33 @@ def cut_area(area: BaseGeometry, heading_deg: float, fits: Callable[[BaseGeometr
 def _grown(cell: tuple[float, float, float, float], half: tuple[float, float]) -> BaseGeometry:
     x0, y0, x1, y1 = cell
     return shapely.box(x0 - half[0], y0 - half[1], x1 + half[0], y1 + half[1])
+
+
+def _largest_below(turned: BaseGeometry, cell: tuple[float, float, float, float], along: bool,
+                   half: tuple[float, float], fits: Callable[[BaseGeometry], bool]) -> list[tuple[float, float, float, float]] | None:
+    """The cell cut at y = c (`along` the lines) or x = c where the part below is the thickest that keeps the limit
+    (`fits`, given that part's piece of the area with its overlaps), each part wider than the overlap; None when
+    the thinnest such part does not keep it (the caller halves the cell)."""
+    x0, y0, x1, y1 = cell
+    lo, hi = (y0, y1) if along else (x0, x1)
+    margin = 2 * (half[1] if along else half[0])
+
+    def below(c: float) -> tuple[float, float, float, float]:
+        return (x0, y0, x1, c) if along else (x0, y0, c, y1)
+
+    def keeps(c: float) -> bool:
+        return bool(fits(shapely.intersection(turned, _grown(below(c), half))))
+
+    good, bad = lo + margin, hi - margin
+    if not keeps(good):
+        return None
+    if keeps(bad):
+        good = bad
+    while bad - good > CUT_PRECISION * (hi - lo):
+        c = (good + bad) / 2
+        good, bad = (c, bad) if keeps(c) else (good, c)
+    upper = (x0, good, x1, y1) if along else (good, y0, x1, y1)
+    return [below(good), upper]
 
 
 def _halves(turned: BaseGeometry, cell: tuple[float, float, float, float],
