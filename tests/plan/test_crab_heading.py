@@ -69,13 +69,15 @@ def _quadrilateral(draw) -> list[list[float]]:
     return ring + [ring[0]]
 
 
-# the search prices each heading's lines and the turns between them, flown in order (`quick_cost`): compared here on
-# the plans' survey times (the lines and turns as the route flies them: it may take a skip-line order or cells, which
-# the estimate does not). The ways from and back to the launch point (the area's edge nearest the route's start) are
-# not the heading's: one case (9 m/s from 12 degrees) flew its survey in 779.1 s against 780.7 s along the wind, but
-# its way out and back took 99.1 s against 65.0 s. Measured on 85 random quadrilaterals with winds up to 0.6 of the
-# air speed, the auto heading's survey time was at most 0.996 of the better fixed one's (the old search: up to 1.8x)
-TOLERANCE = 0.02
+# the search prices each heading's lines and the turns between them in one order (`quick_cost`: the plain
+# boustrophedon from the lowest line), and compared here are the plans' survey times (the lines and turns as the route
+# flies them: of both ends to start from and, for a plane, skip-line orders, the fastest, which in a wind can be a few
+# per cent faster than the order priced). One case (7.0 m/s from 80.6 degrees) priced 72 degrees at 1,691.0 s and
+# 81 degrees at 1,718.7 s, but the route flew 81 degrees' lines in 1,623.1 s (1.038x). The ways from and back to the
+# launch point are not the heading's either (the area's edge nearest the route's start). Measured on 76 random
+# quadrilaterals with winds up to 0.6 of the air speed, the auto heading's survey time was at most 1.038 of the better
+# fixed one's (its total, on 124: at most 1.036; the search before this change: totals up to 1.83x)
+TOLERANCE = 0.06
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
