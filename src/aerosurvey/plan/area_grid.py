@@ -5,6 +5,7 @@ search of the line order and cells.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.bounds import GridBounds, covered, grid_bounds, narrowest
-from aerosurvey.plan.flight_time import quick_cost, quick_cost_lower_bounds
+from aerosurvey.plan.flight_time import Kinematics, quick_cost, quick_cost_lower_bounds
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.layout import Field, Layout
@@ -146,15 +147,13 @@ class AreaGrid:
         grid `whole` with no more photos; else [whole]."""
         k = site.grid_scale
         speed = sensor.kinematics.speed_ms
-        lead = sensor.lead_in_m * k
 
         def rough(piece: BaseGeometry) -> float:
             """A piece's time estimate with lines along its narrowest direction (no search)."""
             h = narrowest(piece)[1]
-            fr = LineFrame(h)
-            segs = build_lines(fr.geom_to_frame(piece), None,
-                               strip_geometry(sensor, 0, k, site.autopilot_scale(h)))
-            return quick_cost(segs, lead, sensor.kinematics, fr) if segs else math.inf
+            fr, own = LineFrame(h), sensor.at_heading(h)
+            segs = build_lines(fr.geom_to_frame(piece), None, strip_geometry(own, 0, k, site.autopilot_scale(h)))
+            return quick_cost(segs, own.lead_in_m * k, own.kinematics, fr) if segs else math.inf
 
         # the transit between the pieces: at most from one's centre to the other's
         splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
@@ -182,26 +181,32 @@ class AreaGrid:
               at_heading: float | None = None, in_bands: bool = True) -> _Laid:
         """Parallel lines over `covered` (planning CRS) at the fastest or the fixed heading (the
         spec's, or `at_heading`), in bands across its notches where that flies shorter (`cheapest_cells`;
-        not with `in_bands` False)."""
+        not with `in_bands` False). Each heading is priced with its lines laid by its own solution
+        (`SensorSolution.at_heading`: with a camera turned by the heading, the spacing its own turn
+        needs), and the chosen one laid with `sensor`."""
         k = site.grid_scale
         fixed = self.heading_deg if at_heading is None else at_heading
 
-        def strips(h: float) -> StripGeometry:
-            return strip_geometry(sensor, self.images_beyond_boundary, k, site.autopilot_scale(h))
+        scale = functools.cache(site.autopilot_scale)  # a heading's lines are looked up (and keyed) often
 
-        # the heading search's lower bounds take the longest base of any heading (the fewest photos)
-        g = max((strips(h) for h in (0.0, 90.0)), key=lambda s: s.base)
-        lead = sensor.lead_in_m * k
+        def strips(h: float, s: SensorSolution) -> StripGeometry:
+            return strip_geometry(s, self.images_beyond_boundary, k, scale(h))
 
-        laid: dict[float, tuple[LineFrame, list[LineSegment]]] = {}
+        laid: dict[tuple[float, StripGeometry], tuple[LineFrame, list[LineSegment]]] = {}
 
-        def lines_for(h: float) -> tuple[LineFrame, list[LineSegment]]:
-            # the heading search lays every candidate; the chosen one is not laid again
-            if h not in laid:
+        def lines_for(h: float, s: SensorSolution) -> tuple[LineFrame, list[LineSegment]]:
+            # the heading search lays every candidate; lines laid as they were priced are not laid again
+            key = (h, strips(h, s))
+            if key not in laid:
                 fr = LineFrame(h)
                 zf = fr.geom_to_frame(site.zones_buffered) if site.zones_buffered is not None else None
-                laid[h] = (fr, build_lines(fr.geom_to_frame(covered), zf, strips(h)))
-            return laid[h]
+                laid[key] = (fr, build_lines(fr.geom_to_frame(covered), zf, key[1]))
+            return laid[key]
+
+        def timer(h: float, s: SensorSolution) -> Callable[[list[LineSegment]], float]:
+            """quick_cost of runs of heading h flown with solution s (its lead-in and kinematics)."""
+            fr = LineFrame(h)
+            return lambda segs: quick_cost(segs, s.lead_in_m * k, s.kinematics, fr) if segs else math.inf
 
         priced: dict[float, float] = {}
         if fixed is None:
@@ -212,21 +217,36 @@ class AreaGrid:
                 nonlocal tried
                 tried += 1
                 report("choosing the heading", 0.05 + 0.6 * min(1.0, tried / n_cand))
-                _, segs = lines_for(fr.heading_deg)
-                priced[fr.heading_deg] = quick_cost(segs, lead, sensor.kinematics, fr) if segs else math.inf
-                return priced[fr.heading_deg]
+                h = fr.heading_deg
+                own = sensor.at_heading(h)
+                priced[h] = timer(h, own)(lines_for(h, own)[1])
+                return priced[h]
 
             outline = Outline.of(covered, site.zones_buffered)
             plane = sensor.kinematics.vehicle != "copter"  # only the plane's bound asks which lines have one run
 
             # line_bounds holds (frames, edges) arrays: frames a batch at a time keeps them small
             per_batch = max(1, BOUND_BATCH_ELEMENTS // (len(outline.start) + len(outline.shells) + len(outline.zone_radius)))
+            scales = [scale(h) for h in (0.0, 90.0)]
+
+            def bounded_as(h: float) -> tuple[StripGeometry, float, Kinematics]:
+                """What a heading's lower bound is computed with: its own solution, with the longest base of any heading
+                (the fewest photos); with a camera not turned by the heading, the same for every heading."""
+                own = sensor.at_heading(h)
+                g = max((strip_geometry(own, self.images_beyond_boundary, k, sc) for sc in scales), key=lambda s: s.base)
+                return g, own.lead_in_m * k, own.kinematics
 
             def bound(frames: list[LineFrame]) -> list[float]:
-                out: list[float] = []
-                for i in range(0, len(frames), per_batch):
-                    lb = line_bounds(outline, frames[i:i + per_batch], g, single_runs=plane)
-                    out += [float(b) for b in quick_cost_lower_bounds(lb, lead, g.base, sensor.kinematics)]
+                out = [0.0] * len(frames)
+                alike: dict[tuple[StripGeometry, float, Kinematics], list[int]] = {}
+                for i, fr in enumerate(frames):
+                    alike.setdefault(bounded_as(fr.heading_deg), []).append(i)
+                for (g, lead, kin), at in alike.items():
+                    for b in range(0, len(at), per_batch):
+                        batch = at[b:b + per_batch]
+                        lb = line_bounds(outline, [frames[i] for i in batch], g, single_runs=plane)
+                        for i, low in zip(batch, quick_cost_lower_bounds(lb, lead, g.base, kin)):
+                            out[i] = float(low)
                 return out
 
             heading, _ = best_heading(covered, cost, bound=bound)
@@ -236,42 +256,48 @@ class AreaGrid:
         searched = heading
         zones = site.zones_buffered
 
-        banded: dict[float, tuple[float, list[float], list[list[LineSegment]]]] = {}
-
-        # no more photos than the single grid at its heading: the time estimate flies lines in
-        # order, the route searches more, so a layout priced cheaper with more photos may fly longer
-        most = sum(s.n for s in lines_for(heading)[1])
+        banded: dict[tuple[float, StripGeometry, int], tuple[float, list[float], list[list[LineSegment]]]] = {}
 
         # where to cut and which headings to try, from the outline without its small wiggles
         # (Douglas-Peucker keeps a subset of the vertices: a notch's corners stay where they are)
         simple = shapely.simplify(covered, sensor.spacing_m * k / 4.0, preserve_topology=True)
 
-        def cells_for(h: float) -> tuple[float, list[float], list[list[LineSegment]]]:
-            if h not in banded:
-                fr, segs = lines_for(h)
+        def cells_for(h: float, s: SensorSolution, most: int) -> tuple[float, list[float], list[list[LineSegment]]]:
+            """Heading h's runs laid with solution s in bands, with at most `most` photos (`cheapest_cells`)."""
+            fr, segs = lines_for(h, s)
+            g_h = strips(h, s)
+            if (h, g_h, most) not in banded:
                 zf = fr.geom_to_frame(zones) if zones is not None else None
-                g_h = strips(h)
                 cands = cut_candidates(fr.geom_to_frame(simple), g_h.spacing, g_h.base)
-                banded[h] = cheapest_cells(fr.geom_to_frame(covered), zf, g_h, segs,
-                                           lambda s: quick_cost(s, lead, sensor.kinematics, fr), most, cands)
-            return banded[h]
+                banded[h, g_h, most] = cheapest_cells(fr.geom_to_frame(covered), zf, g_h, segs, timer(h, s), most, cands)
+            return banded[h, g_h, most]
+
+        def photos(h: float, s: SensorSolution) -> int:
+            return sum(seg.n for seg in lines_for(h, s)[1])
 
         # bands end runs inside the area, at their cuts: not where each run must end beyond it
         banding = in_bands and _concave(covered) and not self.images_beyond_boundary
         if banding and fixed is None and not self.cross_hatch:
             # cut into bands, a heading along one of the area's own long edges (a notch's side)
-            # may fly shorter than the single grid's best heading: the cheapest kept
+            # may fly shorter than the single grid's best heading: the cheapest kept, each priced by its own
+            # solution with no more photos than the single grid at its heading (the time estimate flies lines in
+            # order, the route searches more, so a layout priced cheaper with more photos may fly longer)
             report("cells across the notches", 0.62)
-            fewer = [h for h in edge_headings(simple) if sum(s.n for b in cells_for(h)[2] for s in b) <= most]
-            heading = min((heading, *fewer), key=lambda h: (cells_for(h)[0], h != heading, h))
+            most = photos(heading, sensor.at_heading(heading))
+
+            def own_cells(h: float) -> tuple[float, list[float], list[list[LineSegment]]]:
+                return cells_for(h, sensor.at_heading(h), most)
+
+            fewer = [h for h in edge_headings(simple) if sum(seg.n for b in own_cells(h)[2] for seg in b) <= most]
+            heading = min((heading, *fewer), key=lambda h: (own_cells(h)[0], h != heading, h))
         headings = [heading] + ([(heading + 90.0) % 180.0] if self.cross_hatch else [])
         passes: list[tuple[LineFrame, list[LineSegment]]] = []
         split = 0
         main: list[LineSegment] = []
         for h in headings:
-            _, cuts, bands = cells_for(h) if banding else (0.0, [], [lines_for(h)[1]])
+            _, cuts, bands = cells_for(h, sensor, photos(searched, sensor)) if banding else (0.0, [], [lines_for(h, sensor)[1]])
             split = max(split, len(cuts) + 1 if cuts else 0)
-            fr = lines_for(h)[0]
+            fr = lines_for(h, sensor)[0]
             passes += [(fr, segs) for segs in bands] if self.several_passes else [(fr, joined(bands))]
             main = main or joined(bands)
         if split:
@@ -279,8 +305,7 @@ class AreaGrid:
             chosen += f"; lines laid in {split} bands across the notches{each} (a shorter flight than one grid)"
         # the other headings priced, fastest first (where the search chose a notch's edge, the grid's best too)
         others = [h for c, h in sorted((c, h) for h, c in priced.items()) if h != heading and math.isfinite(c)]
-        main_cost = quick_cost(main, lead, sensor.kinematics, lines_for(heading)[0]) if main else math.inf
-        return _Laid(heading, chosen, passes, main_cost,
+        return _Laid(heading, chosen, passes, timer(heading, sensor)(main),
                      sum(s.n for _, segs in passes for s in segs), others, split > 0, searched)
 
 

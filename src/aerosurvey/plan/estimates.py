@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -33,7 +32,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
         survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin, aims_per_place(route.runs))
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
-    transit_kin = replace(kin, speed_ms=spec.vehicle.cruise_speed_ms)  # in the same wind
+    transit_kin = kin.cruising(spec.vehicle.cruise_speed_ms)
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
     t_climb = climb / spec.vehicle.climb_rate_ms
     t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)

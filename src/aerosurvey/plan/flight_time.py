@@ -63,6 +63,11 @@ class Kinematics:
         (x,), (y,) = frame.to_frame(np.array([self.wind_x]), np.array([self.wind_y]))
         return replace(self, wind_x=float(x), wind_y=float(y))
 
+    def cruising(self, speed_ms: float) -> Kinematics:
+        """These kinematics at the transits' speed (vehicle.cruise_speed_ms) in the same wind: the ways from and
+        back to the launch point."""
+        return replace(self, speed_ms=speed_ms)
+
     @property
     def least_slowness(self) -> float:
         """The least `slowness` along any direction: a plane's, straight downwind, v / (v + |w|); a copter's is 1

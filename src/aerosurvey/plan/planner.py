@@ -13,6 +13,7 @@ Each step is a function of frozen data from the steps before it and can be calle
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
@@ -91,14 +92,24 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     kin, wind = in_wind(spec, site, sensor)
     sensor = replace(sensor, kinematics=kin)
     laying = pattern.from_spec(spec)
-    layouts = laying.layouts(site, sensor, report)
     turned = _camera_turn(spec, site, kin)
-    if turned is not None:
+    if turned is None:
+        layouts = laying.layouts(site, sensor, report)
+    else:
+        turn, refusal = turned
+
+        @functools.cache
         def solve(turns: tuple[float, ...]) -> SensorSolution:
             solved = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
                                   autopilot_stretch=stretch, camera_turns_deg=turns)
-            return replace(solved, kinematics=in_wind(spec, site, solved)[0])
-        sensor, layouts = _under_turned_camera(sensor, laying, layouts, site, solve, report, *turned)
+            return replace(solved, kinematics=in_wind(spec, site, solved)[0], own_turn=own)
+
+        def own(heading_deg: float) -> SensorSolution:  # each heading at its own turn (the heading search's prices)
+            return solve((turn(heading_deg),))
+
+        sensor = replace(sensor, own_turn=own)
+        layouts = laying.layouts(site, sensor, report)
+        sensor, layouts = _under_turned_camera(sensor, laying, layouts, site, solve, report, turn, refusal)
         kin = sensor.kinematics
     flown = flown_layout(spec, site, sensor, layouts, report)
     layout, routed, home_ground, alts, coverage = flown.layout, flown.routed, flown.home_ground, flown.alts, flown.coverage
@@ -216,9 +227,11 @@ def _under_turned_camera(sensor: SensorSolution, pattern: Pattern, layouts: Iter
     """The sensor solution and layouts of a camera turned against the lines by `turn` of their grid heading
     (`_camera_turn`): a camera that looks along the flight (every pass whose look is not set) then photographs
     a turned footprint, so spacing and base are laid from the ground it surely photographs across and along
-    each line (`photogrammetry.turned_footprint`). A first layout whose lines run in a direction the solution
-    was not made for (its heading search chose another) is laid again with that direction too; of the
-    pattern's alternatives only those whose lines run in the directions the solution was made for follow it.
+    each line (`photogrammetry.turned_footprint`). The heading search prices each heading at its own turn
+    (`SensorSolution.at_heading`), so its choice does not change with the solution; a first layout whose lines
+    run in a direction the solution was not made for (the first round's is the unturned camera's) is laid again
+    with that direction too; of the pattern's alternatives only those whose lines run in the directions the
+    solution was made for follow it.
     A layout that has not settled after FIXED_YAW_ROUNDS is `refusal`."""
     known: set[float] = set()
 

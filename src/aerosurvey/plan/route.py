@@ -10,7 +10,8 @@ detours in detours.py.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -247,10 +248,37 @@ def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, fl
     return runs
 
 
+def _way_time(a: tuple[float, float], b: tuple[float, float], k: Kinematics) -> float:
+    """A straight way from a to b at k's speed, in the wind: its length times its slowness (1 in still air)."""
+    d = math.dist(a, b)
+    return 0.0 if d <= 0.0 else d * k.slowness(math.degrees(math.atan2(b[1] - a[1], b[0] - a[0]))) / k.speed_ms
+
+
+@dataclass(frozen=True, eq=False)
+class Transits:
+    """The ways from the launch point to the flight's first pass and home from its last (`routing.plan_route`),
+    flown with `kin` (the transits' speed in the wind, `Kinematics.cruising`). A plane climbs and descends while it
+    flies them (`estimates.estimate`): each takes at least its climb (descent) time."""
+
+    kin: Kinematics
+    home_from: Callable[[tuple[float, float]], tuple[float, float]]  # where the way home ends, of a flight from there
+    climb_s: float = 0.0  # a plane's climb to the survey height (0: a copter's is vertical, flown apart)
+    descent_s: float = 0.0
+
+    def out_s(self, home: tuple[float, float], first: tuple[float, float]) -> float:
+        return max(_way_time(home, first, self.kin), self.climb_s)
+
+    def home_s(self, last: tuple[float, float], flight_start: tuple[float, float]) -> float:
+        return max(_way_time(last, self.home_from(flight_start), self.kin), self.descent_s)
+
+
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
-               start_near: tuple[float, float] | None, pinned: bool = False) -> tuple[list[Run], str]:
+               start_near: tuple[float, float] | None, pinned: bool = False, transits: Transits | None = None,
+               flight_start: tuple[float, float] | None = None, last: bool = False) -> tuple[list[Run], str]:
     """The fastest way through a pass: every line across the whole area (camera off over
-    notches and holes) or cell by cell where the lines split, each from its best corner.
+    notches and holes) or cell by cell where the lines split, each from its best corner; the way
+    there from `start_near` included (from the launch point, where `flight_start`, the flight's first
+    place, is None, as `transits` flies it) and, for the flight's `last` pass, the way home (`transits`).
     `pinned`: `start_near` is where the pilot chose the pass to start (`flight.pass_start`): of
     the candidates, those whose first run starts nearest to it, and of them the fastest.
 
@@ -264,12 +292,17 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
         nonlocal best
         ends = _run_ends(p, legs, lead_in)
         cost = path_time(ends, k)
+        first, end = (float(ends[0, 0]), float(ends[0, 1])), (float(ends[-1, 0]), float(ends[-1, 1]))
         away = 0.0
         if start_near is not None:
-            d = math.dist(start_near, (float(ends[0, 0]), float(ends[0, 1])))
-            # the way there in the wind: its length times its slowness (1 in still air)
-            there = k.slowness(math.degrees(math.atan2(float(ends[0, 1]) - start_near[1], float(ends[0, 0]) - start_near[0])))
-            away, cost = (round(d, 3), cost) if pinned else (0.0, cost + d * there / k.speed_ms)
+            if pinned:
+                away = round(math.dist(start_near, first), 3)
+            elif flight_start is None and transits is not None:
+                cost += transits.out_s(start_near, first)
+            else:
+                cost += _way_time(start_near, first, k)
+        if last and transits is not None:
+            cost += transits.home_s(end, flight_start or first)
         # a later candidate wins by a microsecond a second or more: orders that tie up to the
         # rounding of the runs' ends (a millimetre) keep the first, whichever way the rounding falls
         if best is None or away < best[0] or (away == best[0] and cost < best[1] * (1.0 - 1e-6) - 1e-9):
@@ -289,20 +322,24 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
 
 def build_route(passes: list[Pass], lead_in: float, k: Kinematics, spacing_by_pass: list[float],
                 start_near: tuple[float, float] | None, detours: Detours, report: Progress = no_progress,
-                base: float = 0.0, starts: Mapping[int, tuple[float, float]] | None = None) -> Route:
+                base: float = 0.0, starts: Mapping[int, tuple[float, float]] | None = None,
+                transits: Transits | None = None) -> Route:
     """Order every pass, join them, and insert detours wherever a leg would enter a zone
     (`report` hears how many of the legs that need one have theirs). `starts`: by pass index,
     the place the pilot chose a pass to start at (its first run starts at the line end nearest
-    to it); the others start where they are fastest from the place before them."""
+    to it); the others start where they are fastest from the place before them, with the ways from
+    and back to the launch point (`transits`) where they are the first and the last (an area grid's)."""
     runs: list[Run] = []
     how: list[str] = []
     here = start_near
-    for p, spacing in zip(passes, spacing_by_pass):
+    last = max((i for i, p in enumerate(passes) if not p.empty), default=-1)
+    for i, (p, spacing) in enumerate(zip(passes, spacing_by_pass)):
         if p.empty:
             continue
         pin = (starts or {}).get(p.index)
         if p.frame is not None:
-            pr, chosen = order_pass(p, lead_in, k, spacing, pin or here, pinned=pin is not None)
+            pr, chosen = order_pass(p, lead_in, k, spacing, pin or here, pin is not None, transits,
+                                    runs[0].lead_in_xy if runs else None, i == last)
         else:
             pr = strip_runs(p, lead_in, base, pin or here)
             chosen = "strips in order, each its own way" if p.one_way else "strips in order, back and forth"

@@ -12,6 +12,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.detours import Detours, climb_out_path
+from aerosurvey.plan.flight_time import descent_time
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
     Landing,
@@ -22,7 +23,7 @@ from aerosurvey.plan.landing import (
 from aerosurvey.plan.passes import Route
 from aerosurvey.plan.pattern import Layout
 from aerosurvey.plan.progress import Progress, no_progress
-from aerosurvey.plan.route import build_route
+from aerosurvey.plan.route import Transits, build_route
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
 from aerosurvey.spec import MissionSpec
@@ -43,7 +44,17 @@ def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0,
     """No launch point given: the area's edge nearest the first waypoint, `clearance` and a
     metre more outside every zone's margin and a metre outside `obstacle` (what a pattern's
     structure keeps the ways off, `Layout.obstacle`); where those take the whole edge, the
-    nearest such place around the area."""
+    nearest such place around the area (`launch_places`)."""
+    return nearest(launch_places(site, clearance, obstacle), first)
+
+
+def nearest(places: BaseGeometry, xy: tuple[float, float]) -> tuple[float, float]:
+    near = shapely.get_point(shapely.shortest_line(places, shapely.Point(xy)), 0)
+    return (float(near.x), float(near.y))
+
+
+def launch_places(site: Site, clearance: float = 0.0, obstacle: BaseGeometry | None = None) -> BaseGeometry:
+    """Where `default_home` may put the launch point (see there)."""
     area = site.area
     edge = area.exterior if area.geom_type == "Polygon" else area.boundary
     parts = [] if site.zones_buffered is None else [shapely.buffer(site.zones_buffered, clearance + 1.0, quad_segs=4)]
@@ -58,8 +69,7 @@ def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0,
             if allowed.is_empty:
                 raise InputError("no launch point can be found outside the exclusion zones and their margins near the area: "
                                  "give area.launch", key="area.launch")
-    near = shapely.get_point(shapely.shortest_line(allowed, shapely.Point(first)), 0)
-    return (float(near.x), float(near.y))
+    return allowed
 
 
 def climb_out(spec: MissionSpec, site: Site, sensor: SensorSolution, detours: Detours, home: tuple[float, float],
@@ -130,15 +140,24 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
                              f"{', '.join(map(str, numbers))}", key="flight.pass_start")
         sx, sy = site.planar.xy(np.array([lon]), np.array([lat]))
         starts[n] = (float(sx[0]), float(sy[0]))
+    landing = Landing.of(spec)
+    places = launch_xy if launch_xy is not None else launch_places(site, home_clearance_m(spec) * k, layout.obstacle)
+
+    def home_from(first: tuple[float, float]) -> tuple[float, float]:  # where the way home of a flight from `first` ends
+        return end_of_flight(landing, site, places if isinstance(places, tuple) else nearest(places, first))
+
+    kin, v, climb = sensor.kinematics, spec.vehicle, sensor.heights.max_agl_m
+    plane = kin.vehicle == "plane"  # a plane climbs and descends on its ways out and home (estimates.estimate)
+    transits = Transits(kin.cruising(v.cruise_speed_ms), home_from, climb / v.climb_rate_ms if plane else 0.0,
+                        descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0)
     try:
-        route = build_route(list(layout.passes), sensor.lead_in_m * k, sensor.kinematics,
-                            [sensor.spacing_m * k] * len(layout.passes), launch_xy, detours, report, sensor.base_m * k,
-                            starts)
+        route = build_route(list(layout.passes), sensor.lead_in_m * k, kin, [sensor.spacing_m * k] * len(layout.passes),
+                            launch_xy, detours, report, sensor.base_m * k, starts, transits)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc}") from None
     first = (route.waypoints[0].x, route.waypoints[0].y)
     last = (route.waypoints[-1].x, route.waypoints[-1].y)
-    home = launch_xy if launch_xy is not None else default_home(site, first, home_clearance_m(spec) * k, layout.obstacle)
+    home = places if isinstance(places, tuple) else nearest(places, first)
     if launch_xy is None:
         check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
     transit = detours
@@ -149,7 +168,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         transit = Detours(shapely.union_all([g for g in (detours.blocked, layout.obstacle) if g is not None]), 0.0)
     try:
         out = climb_out(spec, site, sensor, transit, home, first)
-        back = transit.path(last, end_of_flight(Landing.of(spec), site, home))
+        back = transit.path(last, end_of_flight(landing, site, home))
     except ValueError as exc:
         raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
     return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))

@@ -5,7 +5,8 @@ trigger, from the spec and the relief under the area. The first step of the pipe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
@@ -57,6 +58,14 @@ class SensorSolution:
     kinematics: Kinematics
     warnings: tuple[str, ...]
     hover_s: float | None = None  # hover-and-capture: seconds at rest at each station (settling, the shot)
+    # a camera turned against the lines by their heading (a plane's body-fixed camera by its crab, a copter's held
+    # yaw: planner._camera_turn): the solution lines of one grid heading alone need, at that heading's own turn
+    own_turn: Callable[[float], SensorSolution] | None = field(default=None, compare=False, repr=False)
+
+    def at_heading(self, heading_deg: float) -> SensorSolution:
+        """The solution lines of grid heading `heading_deg` would be laid with if they were the only ones: with a
+        camera turned by the heading, its own turn's (the heading search prices each candidate so); else this one."""
+        return self if self.own_turn is None else self.own_turn(heading_deg)
 
 
 def target_height(spec: MissionSpec) -> tuple[float, float, tuple[str, ...]]:
