@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import independent_coverage as ic
@@ -20,6 +20,9 @@ from conftest import make_spec, random_polygon, write_geojson
 
 
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+# a plane in a light wind (0.6 m/s across its lines) whose body-fixed camera's crab of a degree or two was refused as
+# "the line heading changes each time the spacing is laid" (CI, 2026-11-28)
+@example(kind="concave", seed=469, size=234.0, minutes=6.0, reserve=0.25, wind=0.625, wind_from=42.0, vehicle="plane")
 @given(kind=st.sampled_from(["convex", "concave", "holed"]), seed=st.integers(0, 10_000), size=st.floats(200, 400),
        minutes=st.floats(6, 30), reserve=st.floats(0.1, 0.4), wind=st.floats(0, 5), wind_from=st.floats(0, 359.9),
        vehicle=st.sampled_from(["copter", "plane"]))
