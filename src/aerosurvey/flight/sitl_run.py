@@ -123,11 +123,8 @@ def fly_sorties(doc: Manifest, plan_dir: Path, settings: SitlSettings, report_di
             row["triggers_match"] = None
         elif mount:
             # the camera's pitch flown at each picture against its station's: the flight fails beyond the tolerance
-            flown = mount_pitch_at_photos(report_dir / flight.log) if flight.log else []
-            row["mount_pitch_deg"] = flown
-            # a picture the log lost (SITL drops log messages when its writer falls behind) would pair the later ones
-            # with the wrong stations: the aim is then not known
-            row["max_aim_error_deg"] = aim_error_deg(flown, route.pitches) if len(flown) == len(flight.triggers) else None
+            row["mount_pitch_deg"] = mount_pitch_at_photos(report_dir / flight.log) if flight.log else []
+            row["max_aim_error_deg"] = aim_error_deg(row["mount_pitch_deg"], route.pitches)
             row["aim_ok"] = row["max_aim_error_deg"] is not None and row["max_aim_error_deg"] <= AIM_TOLERANCE_DEG
         results.append(row)
         on_sortie(row)
