@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aerosurvey import manifest as mf
 from aerosurvey.cli import main
@@ -108,10 +110,10 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     assert all(r["completed"] and r["triggers_match"] and r["max_trigger_offset_m"] == 0.0 for r in rows)
     assert all(r["time_ratio"] == 1.0 for r in rows)
     assert _FakeVehicle.started == ["start", "stop"] * len(routes)
-    # a nadir plan only sets the gimbal straight down at its first run: SITL flies it without a mount and its aim
-    # is not judged (sitl/README.md: at -90 degrees the mount's logged angles are not read reliably)
-    assert mounts == [False] * len(routes)
-    assert all("mount_pitch_deg" not in r and "aim_ok" not in r for r in rows)
+    # a nadir plan sets the gimbal straight down at every flight's first run: SITL flies it with a mount and its aim
+    # is judged; the stand-in's log has no picture, so no aim is known and none passes
+    assert mounts == [True] * len(routes)
+    assert all(r["mount_pitch_deg"] == [] and r["max_aim_error_deg"] is None and r["aim_ok"] is False for r in rows)
     report = json.loads((tmp_path / "report" / "sitl_report.json").read_text())
     assert [r["photos_planned"] for r in report["sorties"]] == [len(r.stations) for r in routes.values()]
     assert sorted(p.name for p in (tmp_path / "report").glob("*.BIN")) == sorted(f"{n}.BIN" for n in routes)
@@ -184,34 +186,119 @@ def test_the_survey_parameters_add_a_mount_only_when_asked():
     assert plane["THR_FAILSAFE"] == 0 and plane["MNT1_TYPE"] == 1 and "AUTO_OPTIONS" not in plane
 
 
-def test_the_camera_pitch_at_each_picture_turns_the_servo_angles_by_the_vehicle_attitude(tmp_path):
-    """A servo mount logs its angles relative to the body, driven pan, then roll, then tilt: a
-    vehicle pitched 20° nose down with the servo at -25° looks 45° down; rolled 10° with the
-    servo rolled back -10°, still 45°; panned 90° (looking to the right) while pitched 20° nose
-    down, the lean is taken off the roll servo and the camera still looks 45° down (turned in
-    yaw-pitch-roll order it would read -41.6°)."""
-    from dfwriter import mount_log
+#: the harness's servo mount (sitl/aerosurvey-sitl.parm) as the log's PARM messages record it: tilt on output 9, pan
+#: on 10, roll on 11, each driven over 1100 to 1900 µs across its MNT1_ limits
+HARNESS_MOUNT = {"SERVO9_FUNCTION": 7.0, "SERVO10_FUNCTION": 6.0, "SERVO11_FUNCTION": 8.0,
+                 **{f"SERVO{c}_{k}": v for c in (9, 10, 11) for k, v in (("MIN", 1100.0), ("MAX", 1900.0), ("REVERSED", 0.0))},
+                 "MNT1_PITCH_MIN": -135.0, "MNT1_PITCH_MAX": 45.0, "MNT1_ROLL_MIN": -30.0, "MNT1_ROLL_MAX": 30.0,
+                 "MNT1_YAW_MIN": -180.0, "MNT1_YAW_MAX": 180.0}
+
+
+def _sight_pitch(vehicle: tuple[float, float, float], pan: float, roll: float, tilt: float) -> float:
+    """The camera's pitch against the horizon, by scipy: the vehicle's attitude (roll, pitch, yaw;
+    intrinsic yaw-pitch-roll, "ZYX") turned by the servos, pan, roll, tilt (intrinsic "ZXY")."""
     from scipy.spatial.transform import Rotation
 
+    r, p, y = vehicle
+    sight = (Rotation.from_euler("ZYX", [y, p, r], degrees=True)
+             * Rotation.from_euler("ZXY", [pan, roll, tilt], degrees=True)).apply([1.0, 0.0, 0.0])
+    return float(np.degrees(np.arcsin(-sight[2])))
+
+
+def _degrees(pwm: int, least: float, most: float) -> float:
+    return least + (pwm - 1100) / 800.0 * (most - least)
+
+
+def test_the_camera_pitch_at_each_picture_turns_the_servo_outputs_by_the_vehicle_attitude(tmp_path):
+    """Pictures of ArduCopter 4.7 SITL flights (CAM, MNT and RCOU as logged; tilt, pan, roll on
+    outputs 9, 10, 11): each servo's angle is read from its output through the log's parameters, and
+    the camera's line of sight is the vehicle's attitude turned by them, pan, roll, tilt. MNT's Euler
+    angles are not read: at a nadir hover (the vehicle 0.39° nose up, the tilt at -90.45°) MNT logged
+    Roll 179.9, Pitch -89.61, YawB 180 (ArduPilot's yaw-pitch-roll decoding of the servo angles, past
+    -90 the other solution), which read pan-roll-tilt looks up, +89.2°."""
+    from dfwriter import mount_log
+
     log = tmp_path / "m.BIN"
-    # (time_s, vehicle roll, pitch, yaw) per picture; (time_s, roll, pitch, yaw_body) per mount message
-    cams = [(0.5, 0.0, 0.0, 90.0), (2.0, 0.0, -20.0, 270.0), (3.0, 10.0, -20.0, 45.0), (4.0, 3.0, -7.0, 10.0),
-            (5.0, 0.0, -20.0, 30.0), (6.0, 0.0, 15.0, 200.0)]
-    mnts = [(1.0, 0.0, -45.0, 0.0), (2.0, 0.0, -25.0, 0.0), (2.9, -10.0, -25.0, 0.0), (3.5, 5.0, -30.0, 12.0),
-            (4.5, 20.0, -45.0, 90.0), (5.5, 15.0, -45.0, -90.0)]
-    log.write_bytes(mount_log(cams, mnts))
+    # (time_s, vehicle roll, pitch, yaw) per picture, and the MNT and RCOU messages logged before and after it
+    cams = [(0.5, 0.0, 0.0, 0.0), (116.87, 0.06, 0.39, 359.60), (144.199797, 0.08, 6.54, 269.86), (150.0, 13.0, -20.0, 45.0)]
+    mnts = [(116.84, 179.935, -89.610, 180.0), (144.199797, 179.910, -83.452, -180.0), (149.95, -13.0, -70.0, 0.0)]
+    pwm = [(116.82, {9: 1298, 10: 1500, 11: 1500}), (116.92, {9: 1298, 10: 1500, 11: 1500}),
+           (144.139821, {9: 1275, 10: 1500, 11: 1500}), (144.239781, {9: 1270, 10: 1500, 11: 1500}),
+           # panned 90° right (1700 µs), rolled and tilted: the picture half way between two outputs
+           (149.95, {9: 1400, 10: 1700, 11: 1300}), (150.05, {9: 1420, 10: 1700, 11: 1260})]
+    log.write_bytes(mount_log(cams, mnts, pwm, HARNESS_MOUNT))
     got = sitl_run.mount_pitch_at_photos(log)
     assert got[0] is None  # before the mount's first message
-    assert got[1] == pytest.approx(-45.0, abs=0.01)
-    assert got[4] == pytest.approx(-45.0, abs=0.01) and got[5] == pytest.approx(-45.0, abs=0.01)
-    # scipy's intrinsic rotations: the body yaw-pitch-roll ("ZYX"), the mount pan-roll-tilt ("ZXY")
-    expected = [(Rotation.from_euler("ZYX", [c[3], c[2], c[1]], degrees=True)
-                 * Rotation.from_euler("ZXY", [m[3], m[1], m[2]], degrees=True)).apply([1.0, 0.0, 0.0])
-                for c, m in zip(cams[1:], mnts[1:])]
-    assert got[1:] == pytest.approx([float(np.degrees(np.arcsin(-v[2]))) for v in expected], abs=0.01)
-    wrong = (Rotation.from_euler("ZYX", [30.0, -20.0, 0.0], degrees=True)
-             * Rotation.from_euler("ZYX", [90.0, -45.0, 20.0], degrees=True)).apply([1.0, 0.0, 0.0])
-    assert float(np.degrees(np.arcsin(-wrong[2]))) == pytest.approx(-41.64, abs=0.01)  # the yaw-pitch-roll reading
+    # the nadir hover: the tilt servo at -90.45° under a vehicle 0.39° nose up looks 0.08° off straight down
+    assert got[1] == pytest.approx(_sight_pitch(cams[1][1:], 0.0, 0.0, _degrees(1298, -135.0, 45.0)), abs=0.01)
+    assert got[1] == pytest.approx(-89.92, abs=0.01)  # what the flight's report read
+    assert _sight_pitch(cams[1][1:], 180.0, 179.935, -89.610) == pytest.approx(89.21, abs=0.01)  # MNT read pan-roll-tilt
+    # braking at a line end in 5 m/s of wind, 6.54° nose up and pitching up 12°/s: the tilt, -95.62° and 100 ms later
+    # -96.75°, at the picture 60 % of the way (-96.30°; MNT: -96.55°) holds the camera within 0.3° of straight down
+    assert got[2] == pytest.approx(_sight_pitch(cams[2][1:], 0.0, 0.0, -96.30), abs=0.01)
+    assert got[2] == pytest.approx(-89.75, abs=0.01)  # what the flight's report read
+    # between two outputs 100 ms apart (RCOU's rate in SITL), each servo's angle at the picture's time
+    assert got[3] == pytest.approx(_sight_pitch(cams[3][1:], 90.0, _degrees(1280, -30.0, 30.0), _degrees(1410, -135.0, 45.0)),
+                                   abs=0.01)
+
+
+def test_a_servo_at_its_stop_reads_where_it_stopped(tmp_path):
+    """ArduPilot's own tilt limit (MNT1_PITCH_MIN -90) in the same 5 m/s of wind: at the line end the
+    vehicle 6.61° nose up, the tilt servo stopped at -90 (1100 µs), so the camera looked 6.6° off
+    straight down, as read (the harness's mount now tilts to -135: sitl/aerosurvey-sitl.parm)."""
+    from dfwriter import mount_log
+
+    log = tmp_path / "m.BIN"
+    params = {**HARNESS_MOUNT, "MNT1_PITCH_MIN": -90.0, "MNT1_PITCH_MAX": 20.0}
+    log.write_bytes(mount_log([(144.20, 0.08, 6.61, 269.85)], [(144.14, 0.0, -89.98, 0.0)],
+                              [(144.14, {9: 1100, 10: 1500, 11: 1500})], params))
+    assert sitl_run.mount_pitch_at_photos(log) == [pytest.approx(-83.39, abs=0.01)]
+
+
+def test_the_aim_is_not_known_without_the_servos_outputs_or_the_parameters_that_map_them(tmp_path):
+    """No RCOU, no PARM, no tilt servo among the outputs, a limit of the tilt or of the roll servo
+    missing, or no MNT: every picture's aim is unknown (None), which fails the flight's aim
+    (`aim_error_deg`), never a guess. A mount without a roll or pan servo holds that axis at 0°."""
+    from dfwriter import mount_log
+
+    cams, mnts = [(1.0, 0.0, 10.0, 0.0)], [(0.9, 0.0, -90.0, 0.0)]
+    pwm = [(0.9, {9: 1300, 10: 1500, 11: 1200})]  # tilt -90°, pan 0°, roll -22.5°
+    no_tilt = {**HARNESS_MOUNT, "SERVO9_FUNCTION": 0.0}
+    no_limit = {k: v for k, v in HARNESS_MOUNT.items() if k != "MNT1_PITCH_MIN"}
+    no_roll_limit = {k: v for k, v in HARNESS_MOUNT.items() if k != "MNT1_ROLL_MAX"}
+    log = tmp_path / "m.BIN"
+    for mounts, outputs, params in ((mnts, [], HARNESS_MOUNT), (mnts, pwm, {}), (mnts, pwm, no_tilt),
+                                    (mnts, pwm, no_limit), (mnts, pwm, no_roll_limit), ([], pwm, HARNESS_MOUNT)):
+        log.write_bytes(mount_log(cams, mounts, outputs, params))
+        assert sitl_run.mount_pitch_at_photos(log) == [None]
+    log.write_bytes(mount_log(cams, mnts, pwm, HARNESS_MOUNT))
+    assert sitl_run.mount_pitch_at_photos(log) == [pytest.approx(_sight_pitch((0.0, 10.0, 0.0), 0.0, -22.5, -90.0), abs=0.01)]
+    # no roll servo: the camera is not rolled; under a vehicle 10° nose up a tilt of -90° looks 80° down
+    log.write_bytes(mount_log(cams, mnts, pwm, {**HARNESS_MOUNT, "SERVO11_FUNCTION": 0.0}))
+    assert sitl_run.mount_pitch_at_photos(log) == [pytest.approx(-80.0, abs=0.01)]
+    # a reversed servo runs from its maximum angle at SERVOn_MIN: 1300 µs is then 0° of tilt, not -90°: the camera
+    # looks ahead, 10° up with the vehicle's nose
+    log.write_bytes(mount_log(cams, mnts, pwm, {**HARNESS_MOUNT, "SERVO9_REVERSED": 1.0, "SERVO11_FUNCTION": 0.0}))
+    assert sitl_run.mount_pitch_at_photos(log) == [pytest.approx(10.0, abs=0.01)]
+
+
+@settings(max_examples=60, deadline=None)
+@given(vehicle=st.tuples(st.floats(-35.0, 35.0), st.floats(-35.0, 35.0), st.floats(0.0, 360.0)),
+       outputs=st.tuples(st.integers(1100, 1900), st.integers(1100, 1900), st.integers(1100, 1900)),
+       near_nadir=st.booleans())
+def test_the_camera_pitch_is_the_servo_chain_at_any_attitude(tmp_path_factory, vehicle, outputs, near_nadir):
+    """Any vehicle attitude and any servo outputs, the tilt often at or next to straight down (1290
+    to 1310 µs: -92.25° to -87.75°, 1300 µs exactly -90°): the reading is scipy's pan-roll-tilt chain of
+    the servo angles within 0.01°."""
+    from dfwriter import mount_log
+
+    tilt, pan, roll = outputs
+    if near_nadir:
+        tilt = 1290 + tilt % 21
+    log = tmp_path_factory.mktemp("chain") / "m.BIN"
+    log.write_bytes(mount_log([(1.0, *vehicle)], [(0.9, 0.0, 0.0, 0.0)], [(1.0, {9: tilt, 10: pan, 11: roll})], HARNESS_MOUNT))
+    want = _sight_pitch(vehicle, _degrees(pan, -180.0, 180.0), _degrees(roll, -30.0, 30.0), _degrees(tilt, -135.0, 45.0))
+    assert sitl_run.mount_pitch_at_photos(log) == [pytest.approx(want, abs=0.01)]
 
 
 def test_the_flown_aim_is_judged_against_the_plan():
@@ -240,5 +327,5 @@ def test_a_camera_intervalometer_plan_is_judged_on_neither_photos_nor_aim(tmp_pa
     mounts = _stand_in(monkeypatch, fake_fly)
     rows = sitl_run.fly_sorties(doc, plan, sitl_run.SitlSettings("copter", Path("/bin/true"), (), 10.0, 3.0),
                                 tmp_path / "report", lambda row: None)
-    assert mounts and not any(mounts)  # straight down only: flown without a mount (sitl/README.md)
+    assert mounts and all(mounts)  # the gimbal set straight down: flown with the mount, but no picture to judge
     assert rows and all(r["triggers_match"] is None and "aim_ok" not in r and "mount_pitch_deg" not in r for r in rows)

@@ -22,7 +22,6 @@ from aerosurvey.link import sitl as harness
 from aerosurvey.manifest import WHOLE_MISSION_FILE, Manifest
 from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission
-from aerosurvey.plan.passes import NADIR_PITCH_DEG
 
 
 @dataclass(frozen=True)
@@ -35,6 +34,10 @@ class SortieRoute:
     runs: tuple[tuple[int, int], ...]  # (first, last) index within `stations`, per photo run
     estimated_s: float
     pitches: tuple[float, ...] = ()  # each station's planned camera pitch (-90 = nadir), in flight order
+
+
+#: the mission commands that point a camera: a flight with one of them flies with the harness's mount
+GIMBAL_COMMANDS = frozenset({mav.DO_MOUNT_CONTROL, mav.DO_GIMBAL_MANAGER_PITCHYAW, mav.DO_SET_ROI_LOCATION})
 
 
 def _runs(run_of: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
@@ -142,13 +145,10 @@ def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings,
     from aerosurvey.link.mission_protocol import Policy
     from aerosurvey.link.upload import upload_mission
 
-    # a mission that tilts or turns the camera from straight down flies with a mount, whose angles the log then
-    # records and the flight's aim is judged by. A mission that only sets it straight down (every flight's first
-    # run since the gimbal is set at each start) flies without one, as it did before that item: at −90° the
-    # harness's pan-roll-tilt reading of the log's mount angles is not reliable (a hover flight read +89.7° at
-    # photos of a nadir flight, 173° off), so a nadir flight's aim is not judged in SITL (docs/flight-logs.md)
-    mount = any(item.command == mav.DO_MOUNT_CONTROL and (item.param1, item.param2, item.param3) != (NADIR_PITCH_DEG, 0.0, 0.0)
-                for item in mission.items)
+    # a mission that points the camera (every flight's first run sets it, straight down too) flies with a servo mount,
+    # whose servo outputs the log then records and the flight's aim is judged by (`mount_pitch_at_photos`); the
+    # harness's mount tilts past straight down, so a nadir camera is held there while the vehicle leans nose up
+    mount = any(item.command in GIMBAL_COMMANDS for item in mission.items)
     sv = harness.SitlVehicle(settings.binary, settings.vehicle, mission.home, settings.speedup,
                              list(settings.defaults), work, settings.boot_timeout)
     try:
@@ -232,37 +232,77 @@ def _speed(mission: Mission) -> float:
     return max((it.param2 for it in mission.items if it.command == mav.DO_CHANGE_SPEED), default=0.0)
 
 
+#: a servo mount's three servos: ArduPilot's servo function (SERVOn_FUNCTION: SRV_Channel::k_mount_pan, _tilt,
+#: _roll) and the MNT1_ limits (degrees) its travel spans
+MOUNT_SERVOS = {"pan": (6, "MNT1_YAW"), "tilt": (7, "MNT1_PITCH"), "roll": (8, "MNT1_ROLL")}  # in this order
+#: RCOU logs the first 14 outputs (C1 … C14)
+LOGGED_OUTPUTS = 14
+
+
 def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     """The camera's pitch against the horizon (degrees, -90 = nadir) at each picture of a SITL
-    DataFlash log with the harness's servo mount, None before the mount's first message.
+    DataFlash log with the harness's servo mount, None before the mount's first message (MNT) or
+    when the log does not say where its servos were.
 
-    A servo mount has no attitude feedback: its MNT log message gives, as Roll/Pitch/YawB, the
-    angles it drives its servos to, relative to the vehicle's body (seen in ArduCopter 4.7 SITL:
-    MNT Pitch = the target -45° minus the vehicle's pitch). The camera's attitude is then the
-    vehicle's (the CAM message's R, P, Y at the picture: ZYX Euler, yaw-pitch-roll) turned by
-    the servos in the mount's own order: pan, then roll, then tilt (yaw-roll-pitch). That is the
-    chain AP_Mount_Servo::update_angle_outputs drives: the pan servo takes the yaw relative to
-    the body, and the vehicle's lean, turned into the panned frame (rotated by minus the pan),
-    comes off the roll and tilt servos. Turned in yaw-pitch-roll order instead, a camera panned
-    90° and held 45° down while the vehicle leans 20° forward would read -41.6°.
+    A servo mount has no attitude feedback: it drives three servos, relative to the vehicle's
+    body, chained pan, then roll, then tilt (yaw-roll-pitch): AP_Mount_Servo::update_angle_outputs
+    gives the pan the yaw relative to the body and takes the vehicle's lean, turned into the
+    panned frame, off the roll and tilt. Each servo's angle is read from its own output (RCOU:
+    the PWM of the channel whose SERVOn_FUNCTION is the mount's pan, tilt or roll, mapped back
+    through SERVOn_MIN/MAX/REVERSED onto the MNT1_ limits, as SRV_Channels::move_servo maps the
+    angle; the values from the log's PARM), interpolated to the picture's time; the camera's
+    attitude is the vehicle's at the picture (the CAM message's R, P, Y: yaw-pitch-roll) turned
+    by them. Not from MNT's Roll/Pitch/YawB: ArduPilot logs the servo angles as yaw-pitch-roll
+    Euler angles of a quaternion made from them, which at a tilt of -90° loses the roll (a nadir
+    hover read +89.8°: Roll and YawB 180) and past it (a tilt beyond -90 that holds the camera
+    straight down while the vehicle leans nose up) comes back as the other solution.
     """
     import numpy as np
 
     from aerosurvey.flight.dataflash import DataFlashLog
 
     with DataFlashLog(log_path) as log:
-        cam, mnt = log.messages("CAM"), log.messages("MNT")
+        cam, mnt, out, parm = (log.messages(name) for name in ("CAM", "MNT", "RCOU", "PARM"))
     if not cam:
         return []
-    if not mnt:
-        return [None] * len(cam["TimeUS"])
-    at = np.searchsorted(mnt["TimeUS"], cam["TimeUS"], side="right") - 1
-    k = np.maximum(at, 0)
+    n = len(cam["TimeUS"])
+    # the last value of each parameter the log records
+    params = dict(zip((bytes(name).decode("ascii", "replace") for name in parm.get("Name", ())),
+                      np.asarray(parm.get("Value", ()), np.float64).tolist()))
+    pan, tilt, roll = (_servo_angle(params, out, function, limits, cam["TimeUS"], axis != "tilt")
+                       for axis, (function, limits) in MOUNT_SERVOS.items())
+    if not mnt or pan is None or tilt is None or roll is None:
+        return [None] * n
     body = _turn("z", cam["Y"]) @ _turn("y", cam["P"]) @ _turn("x", cam["R"])
-    camera = body @ _turn("z", mnt["YawB"][k]) @ _turn("x", mnt["Roll"][k]) @ _turn("y", mnt["Pitch"][k])
+    camera = body @ _turn("z", pan) @ _turn("x", roll) @ _turn("y", tilt)
     # the elevation of the camera's x axis, its line of sight (gimbal convention: pitch about y)
     pitch = np.degrees(np.arcsin(np.clip(-camera[:, 2, 0], -1.0, 1.0)))
-    return [round(float(p), 2) if a >= 0 else None for p, a in zip(pitch, at)]
+    after = cam["TimeUS"] >= mnt["TimeUS"][0]
+    return [round(float(p), 2) if a else None for p, a in zip(pitch, after)]
+
+
+def _servo_angle(params: dict[str, float], out: dict[str, Any], function: int, limits: str, at_us: Any,
+                 optional: bool) -> Any:
+    """The angle (degrees) of the mount servo with SERVOn_FUNCTION `function` at the times `at_us`,
+    from its logged output; 0 when no logged output has that function and the servo is `optional`
+    (a mount without it holds that axis at 0); None when it is not, or the log lacks the output or a
+    value the mapping needs."""
+    import numpy as np
+
+    channel = next((c for c in range(1, LOGGED_OUTPUTS + 1) if params.get(f"SERVO{c}_FUNCTION") == function), None)
+    if channel is None:
+        return np.zeros(len(at_us)) if optional else None
+    names = (f"SERVO{channel}_MIN", f"SERVO{channel}_MAX", f"{limits}_MIN", f"{limits}_MAX")
+    if f"C{channel}" not in out or not len(out["TimeUS"]) or any(k not in params for k in names):
+        return None
+    low, high, least, most = (params[k] for k in names)
+    if high <= low or most <= least:
+        return None
+    v = (np.asarray(out[f"C{channel}"], np.float64) - low) / (high - low)
+    if params.get(f"SERVO{channel}_REVERSED", 0.0):
+        v = 1.0 - v
+    degrees = least + np.clip(v, 0.0, 1.0) * (most - least)
+    return np.interp(np.asarray(at_us, np.float64), np.asarray(out["TimeUS"], np.float64), degrees)
 
 
 #: the flown camera pitch may differ from the planned by this much (degrees) before the flight fails
