@@ -187,7 +187,7 @@ def hills_with_spikes(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarr
     side = n_cells * CELL
     pts = [[draw(st.floats(WEST + 3.0, WEST + side - 3.0)), draw(st.floats(NORTH - side + 3.0, NORTH - 3.0))]
            for _ in range(2 * n)]
-    for k, (x, y) in enumerate(spikes[:draw(st.integers(0, len(spikes)))]):  # segments over spikes
+    for k, (x, y) in enumerate(spikes[:draw(st.integers(0, min(len(spikes), n)))]):  # segments over spikes (n at most)
         pts[k], pts[n + k] = [max(WEST + 3.0, x - 700.0), y + k], [min(WEST + side - 3.0, x + 700.0), y - k]
     a, b = np.array(pts[:n]), np.array(pts[n:])
     ceiling = np.array([[draw(st.floats(300.0, 400.0)), draw(st.floats(300.0, 400.0))] for _ in range(n)])
