@@ -332,6 +332,19 @@ def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
     return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
 
 
+def plane_transit_time(leg_out: np.ndarray, leg_back: np.ndarray, climb_m: float, climb_rate_ms: float,
+                       descent_rate_ms: float, k: Kinematics) -> tuple[float, float, float, float]:
+    """A plane's way out and way home (polylines, planning-grid units / grid scale) at `k`'s speed in its
+    wind (the survey speed: the mission's DO_CHANGE_SPEED follows the take-off), and the climb to
+    `climb_m` and the descent from it that these legs leave over: a plane climbs while it flies out and
+    descends while it flies home. (out s, home s, climb s, descent s); the one model of both for the
+    mission's estimate and the battery split."""
+    t_out, t_back = path_time(leg_out, k), path_time(leg_back, k)
+    climb = max(0.0, climb_m / climb_rate_ms - t_out)
+    descent = max(0.0, descent_time(climb_m, descent_rate_ms, "plane") - t_back)
+    return t_out, t_back, climb, descent
+
+
 def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics, frame: LineFrame) -> float:
     """Estimated time of a boustrophedon over the segments, in their own line `frame` (the wind of `k`,
     on the planning grid, turned into it).

@@ -35,6 +35,7 @@ from aerosurvey.plan.flight_time import (
     hover_time,
     kept_segments,
     path_time,
+    plane_transit_time,
 )
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Run
@@ -536,9 +537,10 @@ class Splitter:
             h = max(climb + (self.plan.home_ground_m - self.sites[li].ground_m), 1.0)
             vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             if v.type == "plane" and p1 is not None:  # climb and descent overlap the transits out and back
-                t_out = path_time(np.asarray([*out_leg, p0.first]) / gs, self.kin)
-                t_back = path_time(np.asarray([p1.last, *back_leg]) / gs, self.kin)
-                vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
+                _, _, t_climb, t_descent = plane_transit_time(np.asarray([*out_leg, p0.first]) / gs,
+                                                              np.asarray([p1.last, *back_leg]) / gs, h,
+                                                              v.climb_rate_ms, v.descent_rate_ms, self.kin)
+                vert = t_climb + t_descent
             if self.plan.hover_s is not None:
                 horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims)
             used = self.budget.cost(horiz, vert)
