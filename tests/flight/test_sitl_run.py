@@ -60,7 +60,7 @@ class _FakeVehicle:
     started: list[str] = []
     folders: list[Path] = []
 
-    def __init__(self, binary, vehicle, home, speedup, defaults, work, boot_timeout):
+    def __init__(self, binary, vehicle, home, speedup, defaults, work, boot_timeout, heading_deg=0.0):
         self.work = work
         _FakeVehicle.folders.append(work)
 
@@ -242,3 +242,23 @@ def test_a_camera_intervalometer_plan_is_judged_on_neither_photos_nor_aim(tmp_pa
                                 tmp_path / "report", lambda row: None)
     assert mounts and not any(mounts)  # straight down only: flown without a mount (sitl/README.md)
     assert rows and all(r["triggers_match"] is None and "aim_ok" not in r and "mount_pitch_deg" not in r for r in rows)
+
+
+@pytest.mark.parametrize("to", [(0.001, 0.0), (0.0, 0.001), (-0.0008, -0.0012), (0.0005, -0.002)])
+def test_a_plane_is_launched_towards_its_first_place_after_the_take_off(to):
+    """ArduPlane climbs out along the heading it is launched on; the plan's climb-out heads for the first place
+    after the take-off (the speed item has none): the harness launches the SITL plane there (pyproj's bearing)."""
+    from pyproj import Geod
+
+    from aerosurvey.mission import mavlink_ids as mav
+    from aerosurvey.mission.items import Mission, MissionItem
+
+    home = (49.4, 15.0, 0.0)
+    dlat, dlon = to
+    items = (MissionItem(mav.NAV_TAKEOFF, x=home[0], y=home[1], z=100.0), MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION),
+             MissionItem(mav.NAV_WAYPOINT, x=home[0] + dlat, y=home[1] + dlon, z=100.0),
+             MissionItem(mav.NAV_WAYPOINT, x=home[0], y=home[1] + 0.01, z=100.0))
+    bearing = Geod(ellps="WGS84").inv(home[1], home[0], home[1] + dlon, home[0] + dlat)[0] % 360.0
+    got = harness.launch_heading_deg(Mission("plane", "ardupilot", home, items, 16.0, 12.5))
+    assert abs((got - bearing + 180.0) % 360.0 - 180.0) < 0.5
+    assert harness.launch_heading_deg(Mission("plane", "ardupilot", home, items[:2], 16.0, 12.5)) == 0.0

@@ -150,7 +150,8 @@ def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings,
     mount = any(item.command == mav.DO_MOUNT_CONTROL and (item.param1, item.param2, item.param3) != (NADIR_PITCH_DEG, 0.0, 0.0)
                 for item in mission.items)
     sv = harness.SitlVehicle(settings.binary, settings.vehicle, mission.home, settings.speedup,
-                             list(settings.defaults), work, settings.boot_timeout)
+                             list(settings.defaults), work, settings.boot_timeout,
+                             heading_deg=harness.launch_heading_deg(mission) if settings.vehicle == "plane" else 0.0)
     try:
         sv.start()
         harness.prepare(sv, mount, settings.wind)
