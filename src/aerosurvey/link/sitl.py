@@ -317,17 +317,24 @@ def prepare(sv: SitlVehicle, mount: bool = False, wind: tuple[float, float] | No
     sv.request_messages()
 
 
+#: a landing plane has touched down below this height above home (m)
+TOUCHDOWN_M = 1.0
+
+
 def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
         upload: Callable[[Mission], str], rtl_after_photos: int | None = None) -> Flight:
     """Upload (with verification), arm, fly AUTO to the end, and record what happened.
 
     With `rtl_after_photos`, a flight cut short: switched to RTL as the camera feedback of that
     photo arrives (ArduPilot keeps triggering by distance in RTL, CAM_AUTO_ONLY = 0), and over
-    once it is back (a copter landed and disarmed, a plane over home)."""
+    once it is back (a copter landed and disarmed, a plane over home). A plane whose mission lands is
+    over at its touchdown (below TOUCHDOWN_M), where the estimate ends: over home it still had its
+    approach's last 150 m and its descent to fly (20 to 30 s in ArduPlane SITL, 5 m/s of wind)."""
     from pymavlink import mavutil
 
     flight = Flight(name)
     flight.upload_note = upload(mission)
+    lands = bool(mission.items) and mission.items[-1].command == mav.NAV_LAND
     sv.start_mission()
     # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
     wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
@@ -368,9 +375,10 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
                 flight.completed = reached_last
                 break
         if sv.vehicle == "plane" and (reached_last or flight.cut_ms is not None) and flight.track:
-            # a plane's RTL loiters: the sortie is over when it is back over home
-            _, lat, lon, _ = flight.track[-1]
-            if _dist(lat, lon, sv.home[0], sv.home[1]) < 150.0:
+            # a plane's RTL loiters: the sortie is over when it is back over home; one that lands, at the touchdown
+            _, lat, lon, rel_alt = flight.track[-1]
+            if (rel_alt < TOUCHDOWN_M if lands and flight.cut_ms is None
+                    else _dist(lat, lon, sv.home[0], sv.home[1]) < 150.0):
                 flight.disarmed_ms = flight.track[-1][0]
                 flight.completed = reached_last
                 break
