@@ -62,7 +62,7 @@ class _FakeVehicle:
     started: list[str] = []
     folders: list[Path] = []
 
-    def __init__(self, binary, vehicle, home, speedup, defaults, work, boot_timeout):
+    def __init__(self, binary, vehicle, home, speedup, defaults, work, boot_timeout, heading_deg=0.0):
         self.work = work
         _FakeVehicle.folders.append(work)
 
@@ -329,3 +329,63 @@ def test_a_camera_intervalometer_plan_is_judged_on_neither_photos_nor_aim(tmp_pa
                                 tmp_path / "report", lambda row: None)
     assert mounts and all(mounts)  # the gimbal set straight down: flown with the mount, but no picture to judge
     assert rows and all(r["triggers_match"] is None and "aim_ok" not in r and "mount_pitch_deg" not in r for r in rows)
+
+
+@pytest.mark.parametrize("to", [(0.001, 0.0), (0.0, 0.001), (-0.0008, -0.0012), (0.0005, -0.002)])
+def test_a_plane_is_launched_towards_its_first_place_after_the_take_off(to):
+    """ArduPlane climbs out along the heading it is launched on; the plan's climb-out heads for the first place
+    after the take-off (the speed item has none): the harness launches the SITL plane there (pyproj's bearing)."""
+    from pyproj import Geod
+
+    from aerosurvey.mission import mavlink_ids as mav
+    from aerosurvey.mission.items import Mission, MissionItem
+
+    home = (49.4, 15.0, 0.0)
+    dlat, dlon = to
+    items = (MissionItem(mav.NAV_TAKEOFF, x=home[0], y=home[1], z=100.0), MissionItem(mav.DO_CHANGE_SPEED, mav.FRAME_MISSION),
+             MissionItem(mav.NAV_WAYPOINT, x=home[0] + dlat, y=home[1] + dlon, z=100.0),
+             MissionItem(mav.NAV_WAYPOINT, x=home[0], y=home[1] + 0.01, z=100.0))
+    bearing = Geod(ellps="WGS84").inv(home[1], home[0], home[1] + dlon, home[0] + dlat)[0] % 360.0
+    got = harness.launch_heading_deg(Mission("plane", "ardupilot", home, items, 16.0, 12.5))
+    assert abs((got - bearing + 180.0) % 360.0 - 180.0) < 0.5
+    assert harness.launch_heading_deg(Mission("plane", "ardupilot", home, items[:2], 16.0, 12.5)) == 0.0
+
+
+class _Track:
+    """A SITL vehicle's link that replays a plane's positions
+    (time ms, metres north of home, height above home) at 15.0 E, the last item reached after the second."""
+
+    def __init__(self, points):
+        from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+        self.vehicle, self.home, self.speedup = "plane", (49.4, 15.0, 0.0), 20.0
+        self.messages = [mavlink.MAVLink_global_position_int_message(ms, int(round((49.4 + north / 111_195.0) * 1e7)),
+                                                                     int(15.0e7), 0, int(alt * 1000), 0, 0, 0, 0)
+                         for ms, north, alt in points]
+        self.messages.insert(2, mavlink.MAVLink_mission_current_message(5))  # after the take-off and the way out
+        self.conn = self
+
+    def start_mission(self):
+        pass
+
+    def check_running(self, when):
+        raise AssertionError(f"the flight did not end {when}")
+
+    def recv_match(self, blocking, timeout):
+        return self.messages.pop(0) if self.messages else None
+
+
+@pytest.mark.parametrize("lands", [True, False])
+def test_a_landing_plane_is_over_at_its_touchdown_and_one_ending_in_rtl_over_home(lands):
+    """The estimate of a sortie that lands ends at the touchdown; of one that ends in RTL, back over home."""
+    from aerosurvey.mission import mavlink_ids as mav
+    from aerosurvey.mission.items import Mission, MissionItem
+
+    end = MissionItem(mav.NAV_LAND, x=49.4, y=15.0) if lands else MissionItem(mav.NAV_RETURN_TO_LAUNCH)
+    items = (MissionItem(mav.NAV_TAKEOFF, x=49.4, y=15.0, z=100.0), MissionItem(mav.NAV_WAYPOINT, x=49.41, y=15.0, z=100.0),
+             MissionItem(mav.DO_LAND_START, mav.FRAME_MISSION), MissionItem(mav.NAV_WAYPOINT, x=49.404, y=15.0, z=30.0), end)
+    mission = Mission("plane", "ardupilot", (49.4, 15.0, 0.0), items, 16.0, 12.5)
+    points = [(0, 0.0, 0.0), (10_000, 400.0, 30.0), (40_000, 149.0, 11.0), (50_000, 75.0, 5.0), (60_000, 5.0, 0.4), (61_000, 0.0, 0.0)]
+    flight = harness.fly(_Track(points), mission, "S01", 600.0, 5, 3.0, lambda m: "uploaded")
+    assert flight.completed
+    assert flight.disarmed_ms == (60_000 if lands else 40_000)

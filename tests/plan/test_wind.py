@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from aerosurvey.cli import main
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
-from aerosurvey.plan.flight_time import Kinematics, path_time, plane_turn_length
+from aerosurvey.plan.flight_time import Kinematics, path_time, plane_transit_time, plane_turn_length
 from aerosurvey.spec import load_spec, parse_wind
 from conftest import make_spec
 
@@ -273,3 +273,38 @@ def test_check_takes_the_wind_for_a_spec_only(tmp_path):
     assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
     res = CliRunner().invoke(main, ["check", str(out), "--wind", "3@10"])
     assert res.exit_code == 2 and "--wind is for a mission spec" in res.output
+
+
+sharp_legs = st.integers(1, 4).flatmap(lambda n: st.tuples(st.lists(st.floats(-175, 175), min_size=n - 1, max_size=n - 1),
+                                                             st.lists(st.floats(30, 700), min_size=n, max_size=n)))
+
+
+@settings(max_examples=10, deadline=None)
+# ArduPlane SITL's way home from the last line's east end to a landing approach 400 m south of home, then
+# into a wind from the north to the touchdown: timed as a 9 s turn before, flown in 65 s + 53 s
+@example(air=12.5, share=0.4, towards=270.0, start=0.0, shape=([172.0, -98.0], [1.0, 688.0, 400.0]),
+         climb=102.0, rate=3.0)
+@given(air=st.floats(12, 25), share=st.floats(0, 0.8), towards=st.floats(0, 360), start=st.floats(0, 360),
+       shape=sharp_legs, climb=st.floats(10, 300), rate=st.floats(1, 8))
+def test_a_planes_ways_out_and_home_take_the_wind_triangle_time_of_their_legs(air, share, towards, start, shape, climb,
+                                                                              rate):
+    """A plane's way out or home, whatever its corners (a landing's approach turns back on the way home), is
+    its legs flown straight in the wind (each at the ground speed the steered nose makes along it); the climb
+    (descent) is what the way out (home) leaves of it."""
+    pts = _gentle_polyline(start, *shape)
+    wind = _wind(share * air, towards)
+    kin = Kinematics("plane", air, 2.5, 60.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
+
+    def legs(p: np.ndarray) -> float:
+        t = 0.0
+        for a, b in zip(p[:-1], p[1:]):
+            u = (b - a) / np.hypot(*(b - a))
+            t += float(np.hypot(*(b - a))) / float(_steer(u, wind, air) @ u)
+        return t
+
+    flown_out, flown_back = legs(pts), legs(pts[::-1])
+    t_out, t_back, t_climb, t_descent = plane_transit_time(pts, pts[::-1], climb, rate, rate / 2, kin)
+    assert t_out == pytest.approx(flown_out, rel=1e-6)
+    assert t_back == pytest.approx(flown_back, rel=1e-6)
+    assert t_climb == pytest.approx(max(0.0, climb / rate - flown_out), rel=1e-6, abs=1e-6)
+    assert t_descent == pytest.approx(max(0.0, climb / (rate / 2) - flown_back), rel=1e-6, abs=1e-6)

@@ -150,7 +150,8 @@ def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings,
     # harness's mount tilts past straight down, so a nadir camera is held there while the vehicle leans nose up
     mount = any(item.command in GIMBAL_COMMANDS for item in mission.items)
     sv = harness.SitlVehicle(settings.binary, settings.vehicle, mission.home, settings.speedup,
-                             list(settings.defaults), work, settings.boot_timeout)
+                             list(settings.defaults), work, settings.boot_timeout,
+                             heading_deg=harness.launch_heading_deg(mission) if settings.vehicle == "plane" else 0.0)
     try:
         sv.start()
         harness.prepare(sv, mount, settings.wind)

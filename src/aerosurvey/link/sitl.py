@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from aerosurvey.errors import CheckFailed, InputError
+from aerosurvey.mission import mavlink_ids as mav
 from aerosurvey.mission.items import Mission
 
 PARAMS_FILE = Path(__file__).resolve().parents[3] / "sitl" / "aerosurvey-sitl.parm"
@@ -124,9 +125,10 @@ class SitlVehicle:
     """One SITL process and a control connection to it."""
 
     def __init__(self, binary: Path, vehicle: str, home: tuple[float, float, float], speedup: float,
-                 defaults: list[Path], workdir: Path, boot_timeout: float = 60.0):
+                 defaults: list[Path], workdir: Path, boot_timeout: float = 60.0, heading_deg: float = 0.0):
         # SITL runs in `workdir`: paths the caller gave relative to its own folder are made absolute first
         self.binary, self.vehicle, self.home, self.speedup = binary.absolute(), vehicle, home, speedup
+        self.heading_deg = heading_deg  # where the vehicle faces at home (a plane takes off that way)
         self.defaults = [p.absolute() for p in defaults]
         self.workdir = workdir
         self.boot_timeout = boot_timeout
@@ -157,7 +159,7 @@ class SitlVehicle:
         self.instance = free_instance()
         url = f"tcp:127.0.0.1:{SERIAL0_PORT + 10 * self.instance}"
         cmd = [str(self.binary), "--model", model, "--speedup", f"{self.speedup:g}", f"-I{self.instance}",
-               "--home", f"{lat:.8f},{lon:.8f},{alt:.2f},0"]
+               "--home", f"{lat:.8f},{lon:.8f},{alt:.2f},{self.heading_deg:.1f}"]
         if self.defaults:
             cmd += ["--defaults", ",".join(str(p) for p in self.defaults)]
         self.launch(cmd)
@@ -315,17 +317,24 @@ def prepare(sv: SitlVehicle, mount: bool = False, wind: tuple[float, float] | No
     sv.request_messages()
 
 
+#: a landing plane has touched down below this height above home (m)
+TOUCHDOWN_M = 1.0
+
+
 def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
         upload: Callable[[Mission], str], rtl_after_photos: int | None = None) -> Flight:
     """Upload (with verification), arm, fly AUTO to the end, and record what happened.
 
     With `rtl_after_photos`, a flight cut short: switched to RTL as the camera feedback of that
     photo arrives (ArduPilot keeps triggering by distance in RTL, CAM_AUTO_ONLY = 0), and over
-    once it is back (a copter landed and disarmed, a plane over home)."""
+    once it is back (a copter landed and disarmed, a plane over home). A plane whose mission lands is
+    over at its touchdown (below TOUCHDOWN_M), where the estimate ends: over home it still had its
+    approach's last 150 m and its descent to fly (20 to 30 s in ArduPlane SITL, 5 m/s of wind)."""
     from pymavlink import mavutil
 
     flight = Flight(name)
     flight.upload_note = upload(mission)
+    lands = bool(mission.items) and mission.items[-1].command == mav.NAV_LAND
     sv.start_mission()
     # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
     wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
@@ -366,15 +375,29 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
                 flight.completed = reached_last
                 break
         if sv.vehicle == "plane" and (reached_last or flight.cut_ms is not None) and flight.track:
-            # a plane's RTL loiters: the sortie is over when it is back over home
-            _, lat, lon, _ = flight.track[-1]
-            if _dist(lat, lon, sv.home[0], sv.home[1]) < 150.0:
+            # a plane's RTL loiters: the sortie is over when it is back over home; one that lands, at the touchdown
+            _, lat, lon, rel_alt = flight.track[-1]
+            if (rel_alt < TOUCHDOWN_M if lands and flight.cut_ms is None
+                    else _dist(lat, lon, sv.home[0], sv.home[1]) < 150.0):
                 flight.disarmed_ms = flight.track[-1][0]
                 flight.completed = reached_last
                 break
     if not flight.completed and flight.cut_ms is None:
         flight.messages.append(f"not completed within the time limit (armed={armed}, reached the last item={reached_last})")
     return flight
+
+
+def launch_heading_deg(mission: Mission) -> float:
+    """The true bearing from home to the mission's first place after its take-off, where a plane is
+    launched: ArduPlane climbs out along the heading it is launched on, and the plan's climb-out heads
+    for that place (`detours.climb_out_path`, which the zones are checked along and the estimate times);
+    0 (north) for a mission without one."""
+    lat, lon, _ = mission.home
+    first = next((it for it in mission.items if it.has_position and it.command != mav.NAV_TAKEOFF), None)
+    if first is None:
+        return 0.0
+    k = math.pi / 180.0
+    return math.degrees(math.atan2((first.y - lon) * math.cos(lat * k), first.x - lat)) % 360.0
 
 
 def _dist(lat1: float, lon1: float, lat2: float, lon2: float) -> float:

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from aerosurvey.plan.flight_time import Kinematics, descent_time, hover_time, path_time
+from aerosurvey.plan.flight_time import Kinematics, descent_time, hover_time, path_time, plane_transit_time
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Route, aims_per_place
 from aerosurvey.plan.sun import elevation_over_window
@@ -32,14 +32,15 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
         survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin, aims_per_place(route.runs))
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
-    transit_kin = kin.cruising(spec.vehicle.cruise_speed_ms)
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
-    t_climb = climb / spec.vehicle.climb_rate_ms
-    t_descent = descent_time(climb, spec.vehicle.descent_rate_ms, spec.vehicle.type)
-    t_out = path_time(leg_out, transit_kin)
-    t_back = path_time(leg_back, transit_kin)
+    v = spec.vehicle
     if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
-        t_climb, t_descent = max(0.0, t_climb - t_out), max(0.0, t_descent - t_back)
+        t_out, t_back, t_climb, t_descent = plane_transit_time(leg_out, leg_back, climb, v.climb_rate_ms,
+                                                               v.descent_rate_ms, kin)
+    else:
+        transit_kin = kin.cruising(v.cruise_speed_ms)
+        t_out, t_back = path_time(leg_out, transit_kin), path_time(leg_back, transit_kin)
+        t_climb, t_descent = climb / v.climb_rate_ms, descent_time(climb, v.descent_rate_ms, v.type)
     photo_len = float(sum((r.station_xy.shape[0] - 1) * base for r in route.runs))
     return {
         "survey_distance_m": round(survey_len, 1),

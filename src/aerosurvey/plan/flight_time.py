@@ -64,9 +64,10 @@ class Kinematics:
         return replace(self, wind_x=float(x), wind_y=float(y))
 
     def cruising(self, speed_ms: float) -> Kinematics:
-        """These kinematics at the transits' speed (vehicle.cruise_speed_ms) in the same wind: the ways from and
-        back to the launch point."""
-        return replace(self, speed_ms=speed_ms)
+        """These kinematics on the ways from and back to the launch point, in the same wind: a copter's at the
+        transits' speed (vehicle.cruise_speed_ms); a plane's as they are, at the survey speed (its mission's
+        DO_CHANGE_SPEED follows the take-off: `plane_transit_time`)."""
+        return self if self.vehicle == "plane" else replace(self, speed_ms=speed_ms)
 
     @property
     def least_slowness(self) -> float:
@@ -335,6 +336,28 @@ def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
         return alt_m / rate_ms
     slow = min(alt_m, LAND_SLOW_ALT_M)
     return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
+
+
+def plane_transit_time(leg_out: np.ndarray, leg_back: np.ndarray, climb_m: float, climb_rate_ms: float,
+                       descent_rate_ms: float, k: Kinematics) -> tuple[float, float, float, float]:
+    """A plane's way out and way home (polylines, planning-grid units / grid scale) at `k`'s speed in its
+    wind (the survey speed: the mission's DO_CHANGE_SPEED follows the take-off), and the climb to
+    `climb_m` and the descent from it that these legs leave over: a plane climbs while it flies out and
+    descends while it flies home. (out s, home s, climb s, descent s); the one model of both for the
+    mission's estimate and the battery split.
+
+    Each leg is straight at its ground speed: a reversal between lines (`path_time`) is no shape of
+    these ways (the way home to a landing's approach point and on to the touchdown into the wind was
+    read as one, and a 688 m leg timed as a 9 s turn: ArduPlane SITL, 5 m/s from 0°, flew 65 s)."""
+    t_out, t_back = _legs_time(leg_out, k), _legs_time(leg_back, k)
+    climb = max(0.0, climb_m / climb_rate_ms - t_out)
+    descent = max(0.0, descent_time(climb_m, descent_rate_ms, "plane") - t_back)
+    return t_out, t_back, climb, descent
+
+
+def _legs_time(points: np.ndarray, k: Kinematics) -> float:
+    """The time along a polyline flown leg by leg, each straight at its ground speed (no turn)."""
+    return sum(path_time(points[i:i + 2], k) for i in range(len(points) - 1))
 
 
 def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics, frame: LineFrame) -> float:

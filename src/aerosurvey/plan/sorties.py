@@ -35,6 +35,7 @@ from aerosurvey.plan.flight_time import (
     hover_time,
     kept_segments,
     path_time,
+    plane_transit_time,
 )
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Run
@@ -520,25 +521,26 @@ class Splitter:
         best: tuple[float, int, float, float, int] | None = None
         v = self.plan.vehicle
         gs = self.plan.grid_scale
+        # a plane's survey is timed apart from its ways out and home (`plane_transit_time`)
+        survey = None if p1 is None or v.type != "plane" else np.asarray([(w[0], w[1]) for w in self.waypoints(a, b)]) / gs
         for li in candidates:
             out_via = self._way_out(li, p0)
+            h = max(climb + (self.plan.home_ground_m - self.sites[li].ground_m), 1.0)
+            vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
             if p1 is None:
                 _, _, back_via, segs = self._last(li, r1, b)
                 t = CopterTime(self.kin, *self._into_state(li, p0, i, j, r1))
                 t.feed(segs)
                 horiz = t.time()
-            else:
+            elif survey is None:
+                _, back_via, _, _ = self._legs(li, p0, p1)
+                horiz = self._copter_time(li, p0, i, j, self._tail(li, p0, i, j, p1))
+            else:  # a plane climbs and descends while it flies out and home
                 _, back_via, out_leg, back_leg = self._legs(li, p0, p1)
-                if self.kin.vehicle == "copter":
-                    horiz = self._copter_time(li, p0, i, j, self._tail(li, p0, i, j, p1))
-                else:
-                    horiz = path_time(self._points(li, a, b), self.kin)
-            h = max(climb + (self.plan.home_ground_m - self.sites[li].ground_m), 1.0)
-            vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
-            if v.type == "plane" and p1 is not None:  # climb and descent overlap the transits out and back
-                t_out = path_time(np.asarray([*out_leg, p0.first]) / gs, self.kin)
-                t_back = path_time(np.asarray([p1.last, *back_leg]) / gs, self.kin)
-                vert = max(0.0, h / v.climb_rate_ms - t_out) + max(0.0, descent_time(h, v.descent_rate_ms, v.type) - t_back)
+                t_out, t_back, t_climb, t_descent = plane_transit_time(np.asarray([*out_leg, p0.first]) / gs,
+                                                                       np.asarray([p1.last, *back_leg]) / gs, h,
+                                                                       v.climb_rate_ms, v.descent_rate_ms, self.kin)
+                horiz, vert = path_time(survey, self.kin) + t_out + t_back, t_climb + t_descent
             if self.plan.hover_s is not None:
                 horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims)
             used = self.budget.cost(horiz, vert)
