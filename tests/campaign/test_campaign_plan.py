@@ -286,6 +286,13 @@ def test_chunk_size_shares_a_task_and_feeds_every_worker():
     assert chunk_size(1000, 2) == CHUNK_MAX and chunk_size(20, 2) == 2 and chunk_size(7, 2) == 1
 
 
+def test_a_chunk_of_no_block_is_refused(inputs, tmp_path):
+    from aerosurvey.campaign.run import pool_results
+
+    with pytest.raises(ValueError, match="chunk = 0: 1 or more blocks a task"):
+        next(pool_results(2, chunk=0)(_jobs(inputs), str(tmp_path)))
+
+
 @pytest.mark.parametrize("executor", ["pool", "dask"])
 def test_tasks_of_several_blocks_give_the_same_campaign(inputs, reference, tmp_path, executor):
     """Chunks that do not divide the blocks evenly (3 and 7 of 20): every block planned once, its result

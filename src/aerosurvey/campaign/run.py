@@ -51,7 +51,11 @@ def chunk_size(blocks: int, workers: int) -> int:
     return max(1, min(CHUNK_MAX, blocks // (4 * workers)))
 
 
-def _chunks(jobs: list[BlockJob], size: int) -> Iterator[list[BlockJob]]:
+def _chunks(jobs: list[BlockJob], size: int | None, workers: int) -> Iterator[list[BlockJob]]:
+    """The jobs in tasks of `size` (`chunk_size` if None) blocks, the last perhaps fewer."""
+    size = chunk_size(len(jobs), workers) if size is None else size
+    if size < 1:
+        raise ValueError(f"chunk = {size}: 1 or more blocks a task")
     return (jobs[i:i + size] for i in range(0, len(jobs), size))
 
 
@@ -71,7 +75,7 @@ def pool_results(workers: int, chunk: int | None = None) -> Executor:
         import aerosurvey.inputs
         import aerosurvey.outputs  # noqa: F401
 
-        todo = _chunks(jobs, chunk or chunk_size(len(jobs), workers))
+        todo = _chunks(jobs, chunk, workers)
         window = 2 * workers
         while True:
             with futures.ProcessPoolExecutor(max_workers=workers) as pool:
@@ -100,7 +104,7 @@ def dask_results(client: Any, chunk: int | None = None) -> Executor:
         from distributed import as_completed
 
         workers = max(1, sum(client.nthreads().values()))
-        todo = _chunks(jobs, chunk or chunk_size(len(jobs), workers))
+        todo = _chunks(jobs, chunk, workers)
         by_key: dict[str, list[BlockJob]] = {}
 
         def submit(c: list[BlockJob]) -> Any:
