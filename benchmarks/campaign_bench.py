@@ -134,15 +134,17 @@ def mode_pool(folder: Path, workers: int) -> dict:
 def mode_dask(folder: Path, workers: int) -> dict:
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
-    from aerosurvey.campaign.run import dask_results, run_campaign
+    from aerosurvey.campaign.run import LOCAL_CLUSTER_CONFIG, dask_results, run_campaign
 
     logging.getLogger("distributed").setLevel(logging.WARNING)
     out = Path(tempfile.mkdtemp(dir=folder))
     jobs = _jobs(folder)
     t0 = time.perf_counter()
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
+    with dask.config.set(LOCAL_CLUSTER_CONFIG), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
             Client(cluster) as client:
         # the workers' imports, as a pool's fork has them; their CPU time so far
         client.run(lambda: [__import__(m) for m in ("aerosurvey.inputs", "aerosurvey.outputs", "aerosurvey.campaign.job")])

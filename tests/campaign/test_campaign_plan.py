@@ -341,3 +341,21 @@ def test_a_block_done_before_its_task_failed_is_done(inputs, tmp_path):
     assert results[0].record == json.loads((tmp_path / "c" / "blocks" / jobs[0].folder / "block.json").read_text())
     assert all("the worker process running it died" in r.message for r in results[1:])
     assert (tally.done, tally.failed) == (1, 2)
+
+
+def test_the_local_cluster_runs_its_workers_without_the_profiler(inputs, tmp_path):
+    """`--dask local` starts its workers without Dask's statistical profiler (its hour of history grows a
+    worker's memory with the run's length); the campaign runs on them."""
+    import dask
+    from distributed import default_client
+
+    from aerosurvey.campaign.run import executor, run_campaign
+
+    def profiler(dask_worker):
+        return dask.config.get("distributed.worker.profile.enabled"), len(dask_worker.profile_history)
+
+    with executor(2, dask="local") as run:
+        results, tally = run_campaign(_jobs(inputs)[:3], tmp_path / "c", run)
+        time.sleep(1.5)  # a profiler would have summed up a second by now
+        assert list(default_client().run(profiler).values()) == [(False, 0), (False, 0)]
+    assert tally.done == 3

@@ -191,6 +191,12 @@ def _failure(exc: BaseException) -> str:
 
 
 
+#: Dask settings of the LocalCluster `--dask local` starts: no statistical profiler in the workers (it
+#: samples every thread's stack every 10 ms and keeps an hour of 1-second summaries, ~36 kB a
+#: second of a worker planning blocks, pickled: the workers' memory would grow with the run's length)
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False}
+
+
 @contextlib.contextmanager
 def executor(workers: int, dask: str | None = None, scheduler: str | None = None) -> Iterator[Executor]:
     """The executor `campaign plan` asked for: Dask on a LocalCluster of `workers` single-threaded
@@ -220,7 +226,10 @@ def executor(workers: int, dask: str | None = None, scheduler: str | None = None
         return
     if not log.isEnabledFor(logging.DEBUG):  # the cluster's start and stop are news at -vv only
         logging.getLogger("distributed").setLevel(logging.WARNING)
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,  # type: ignore[no-untyped-call]
-                           dashboard_address=":0")
+    import dask
+
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):  # the workers' nannies pass it on to them
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,  # type: ignore[no-untyped-call]
+                               dashboard_address=":0")
     with cluster, Client(cluster) as client:  # type: ignore[no-untyped-call]
         yield dask_results(client)
