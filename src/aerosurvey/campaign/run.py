@@ -226,9 +226,9 @@ def executor(workers: int, dask: str | None = None, scheduler: str | None = None
         return
     if not log.isEnabledFor(logging.DEBUG):  # the cluster's start and stop are news at -vv only
         logging.getLogger("distributed").setLevel(logging.WARNING)
-    import dask
+    from dask import config as dask_config  # (`dask` is the option's value here)
 
-    with dask.config.set(LOCAL_CLUSTER_CONFIG):  # the workers' nannies pass it on to them
+    with dask_config.set(LOCAL_CLUSTER_CONFIG):  # the workers' nannies pass it on to them
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,  # type: ignore[no-untyped-call]
                                dashboard_address=":0")
     with cluster, Client(cluster) as client:  # type: ignore[no-untyped-call]
