@@ -16,6 +16,8 @@ Each measurement runs in a fresh process:
   result, the peak RSS of the workers (the pool's children; each Dask worker's own) and of the
   driver (the process running the campaign: flat in the number of blocks when it holds no plan);
 - largest: the largest block planned alone in a fresh process: its peak RSS.
+The driver's CPU time while the campaign runs is printed too: on 2 cores it competes with the
+workers (a LocalCluster's scheduler runs in the driver's process).
 Prints the ratios: wall / (sum of single-block CPU / W) (goal 1.2, issue 38) and worker peak RSS /
 the largest block's (goal 1.5).
 """
@@ -85,6 +87,11 @@ def _jobs(folder: Path) -> list:
     return make_jobs(blocks, crs, folder / "template.toml", DEFAULT_OUTPUTS)
 
 
+def _cpu_s(who: int) -> float:
+    ru = resource.getrusage(who)
+    return ru.ru_utime + ru.ru_stime
+
+
 def _maxrss_mb(who: int) -> float:
     return resource.getrusage(who).ru_maxrss / 1024
 
@@ -116,39 +123,41 @@ def mode_pool(folder: Path, workers: int) -> dict:
 
     out = Path(tempfile.mkdtemp(dir=folder))
     jobs = _jobs(folder)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), _cpu_s(resource.RUSAGE_SELF)
     results, tally = run_campaign(jobs, out, pool_results(workers))
-    wall = time.perf_counter() - t
+    wall, driver_cpu = time.perf_counter() - t, _cpu_s(resource.RUSAGE_SELF) - c
     ru = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {"wall_s": wall, "done": tally.done, "failed": tally.failed, "worker_maxrss_mb": ru.ru_maxrss / 1024,
-            "worker_cpu_s": ru.ru_utime + ru.ru_stime, "driver_maxrss_mb": _maxrss_mb(resource.RUSAGE_SELF)}
+            "worker_cpu_s": ru.ru_utime + ru.ru_stime, "driver_cpu_s": driver_cpu, "driver_maxrss_mb": _maxrss_mb(resource.RUSAGE_SELF)}
 
 
 def mode_dask(folder: Path, workers: int) -> dict:
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
-    from aerosurvey.campaign.run import dask_results, run_campaign
+    from aerosurvey.campaign.run import LOCAL_CLUSTER_CONFIG, dask_results, run_campaign
 
     logging.getLogger("distributed").setLevel(logging.WARNING)
     out = Path(tempfile.mkdtemp(dir=folder))
     jobs = _jobs(folder)
     t0 = time.perf_counter()
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
+    with dask.config.set(LOCAL_CLUSTER_CONFIG), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
             Client(cluster) as client:
         # the workers' imports, as a pool's fork has them; their CPU time so far
         client.run(lambda: [__import__(m) for m in ("aerosurvey.inputs", "aerosurvey.outputs", "aerosurvey.campaign.job")])
         cpu_before = client.run(lambda: (lambda r: r.ru_utime + r.ru_stime)(resource.getrusage(resource.RUSAGE_SELF)))
-        t1 = time.perf_counter()
+        t1, c1 = time.perf_counter(), _cpu_s(resource.RUSAGE_SELF)
         results, tally = run_campaign(jobs, out, dask_results(client))
-        wall = time.perf_counter() - t1
+        wall, driver_cpu = time.perf_counter() - t1, _cpu_s(resource.RUSAGE_SELF) - c1
         cpu0 = sum(cpu_before.values())
         usage = client.run(lambda: [*(lambda r: (r.ru_maxrss / 1024, r.ru_utime + r.ru_stime))(
             resource.getrusage(resource.RUSAGE_SELF))])
     return {"wall_s": wall, "start_s": t1 - t0, "done": tally.done, "failed": tally.failed,
             "worker_maxrss_mb": max(u[0] for u in usage.values()), "worker_cpu_s": sum(u[1] for u in usage.values()) - cpu0,
-            "driver_maxrss_mb": _maxrss_mb(resource.RUSAGE_SELF)}
+            "driver_cpu_s": driver_cpu, "driver_maxrss_mb": _maxrss_mb(resource.RUSAGE_SELF)}
 
 
 def register_figures(n: int, folder: Path) -> str:
@@ -222,7 +231,8 @@ def main() -> None:
             r = _child(mode, folder, "--workers", str(a.workers))
             start = f", cluster start {r['start_s']:.1f} s apart" if "start_s" in r else ""
             print(f"{mode}: wall {r['wall_s']:.1f} s = {r['wall_s'] / ideal:.2f} x ideal{start}; workers' CPU "
-                  f"{r['worker_cpu_s']:.1f} s = {r['worker_cpu_s'] / cpu.sum():.2f} x the single-block sum; {r['done']} done, "
+                  f"{r['worker_cpu_s']:.1f} s = {r['worker_cpu_s'] / cpu.sum():.2f} x the single-block sum; the driver's CPU "
+                  f"{r['driver_cpu_s']:.1f} s{' (the scheduler runs in it)' if mode == 'dask' else ''}; {r['done']} done, "
                   f"{r['failed']} failed; worker peak RSS {r['worker_maxrss_mb']:.0f} MB = "
                   f"{r['worker_maxrss_mb'] / big['maxrss_mb']:.2f} x the largest block's; driver peak RSS "
                   f"{r['driver_maxrss_mb']:.0f} MB")

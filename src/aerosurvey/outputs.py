@@ -116,12 +116,12 @@ def _rules(spec: MissionSpec, manifest: dict[str, Any], stations: mf.StationTabl
            features: dict[str, Any]) -> tuple[list[RuleResult], list[ControlPoint], Evidence | None]:
     """Evaluate the spec's rule profiles on the plan as later readers will see it (the
     manifest with its station rows, made here only when there are profiles to read them)."""
+    if not spec.profiles:  # the rules' modules are not loaded for a plan without profiles
+        return [], [], None
     from aerosurvey.rules.engine import Evidence, evaluate, layout_settings
     from aerosurvey.rules.planview import PlanView
     from aerosurvey.rules.profile import apply_overrides, select_profiles
 
-    if not spec.profiles:
-        return [], [], None
     view = PlanView.from_documents({**manifest, "stations": stations.rows()}, features, "the plan",
                                    check=False)  # just made by the writer
     profiles = apply_overrides(select_profiles(list(spec.profiles)), spec.rule_overrides)

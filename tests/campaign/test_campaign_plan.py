@@ -272,3 +272,90 @@ def test_the_templates_limits_refuse_a_block_recorded_failed(tmp_path):
     status = CliRunner().invoke(main, ["campaign", "status", str(out)]).output
     assert "t01: failed (the plan would take about" in status and "limits.max_photos" in status
     assert sorted(cc.block_folders(out)) == ["t00", "t02"]
+
+
+def test_chunk_size_shares_a_task_and_feeds_every_worker():
+    from aerosurvey.campaign.run import CHUNK_MAX, chunk_size
+
+    for blocks in (0, 1, 7, 8, 20, 63, 64, 65, 1000, 10_000):
+        for workers in (1, 2, 3, 16):
+            size = chunk_size(blocks, workers)
+            assert 1 <= size <= CHUNK_MAX
+            if size > 1:  # several blocks a task only while every worker still gets four tasks or more
+                assert -(-blocks // size) >= 4 * workers
+    assert chunk_size(1000, 2) == CHUNK_MAX and chunk_size(20, 2) == 2 and chunk_size(7, 2) == 1
+
+
+def test_a_chunk_of_no_block_is_refused(inputs, tmp_path):
+    from aerosurvey.campaign.run import pool_results
+
+    with pytest.raises(ValueError, match="chunk = 0: 1 or more blocks a task"):
+        next(pool_results(2, chunk=0)(_jobs(inputs), str(tmp_path)))
+
+
+@pytest.mark.parametrize("executor", ["pool", "dask"])
+def test_tasks_of_several_blocks_give_the_same_campaign(inputs, reference, tmp_path, executor):
+    """Chunks that do not divide the blocks evenly (3 and 7 of 20): every block planned once, its result
+    given back in the jobs' order; the folders and the register as the reference's."""
+    import contextlib
+
+    from aerosurvey.campaign.run import dask_results, pool_results, run_campaign
+
+    out = tmp_path / "campaign"
+    jobs = _jobs(inputs)
+    with contextlib.ExitStack() as stack:
+        if executor == "pool":
+            run = pool_results(2, chunk=3)
+        else:
+            from distributed import Client, LocalCluster
+
+            cluster = stack.enter_context(LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"))
+            run = dask_results(stack.enter_context(Client(cluster)), chunk=7)
+        results, tally = run_campaign(jobs, out, run)
+    assert (tally.done, tally.failed, tally.skipped) == (N_BLOCKS, 0, 0)
+    assert [(r.name, r.key, r.status) for r in results] == [(j.name, j.key, "planned") for j in jobs]
+    assert sorted(cc.block_folders(out)) == [j.name for j in jobs]
+    text = campaign_plan(*inputs, out, "--workers", "2")  # plans nothing: writes the register
+    assert f"{N_BLOCKS} done ({N_BLOCKS} earlier), 0 failed, 0 remaining" in text
+    cc.same_campaign(out, reference)
+
+
+def test_a_block_done_before_its_task_failed_is_done(inputs, tmp_path):
+    """A task whose worker died after some of its blocks were renamed into place: those are done (their
+    block.json read), the others failed."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from aerosurvey.campaign.job import plan_block
+    from aerosurvey.campaign.run import run_campaign
+
+    jobs = _jobs(inputs)[:3]
+
+    def executor(todo, campaign):
+        planned = plan_block(todo[0], campaign)  # the first block's folder in place, then the worker dies
+        assert planned.status == "planned"
+        for job in todo:
+            yield job, BrokenProcessPool("gone")
+
+    results, tally = run_campaign(jobs, tmp_path / "c", executor)
+    assert [r.status for r in results] == ["planned", "failed", "failed"]
+    assert results[0].record == json.loads((tmp_path / "c" / "blocks" / jobs[0].folder / "block.json").read_text())
+    assert all("the worker process running it died" in r.message for r in results[1:])
+    assert (tally.done, tally.failed) == (1, 2)
+
+
+def test_the_local_cluster_runs_its_workers_without_the_profiler(inputs, tmp_path):
+    """`--dask local` starts its workers without Dask's statistical profiler (its hour of history grows a
+    worker's memory with the run's length); the campaign runs on them."""
+    import dask
+    from distributed import default_client
+
+    from aerosurvey.campaign.run import executor, run_campaign
+
+    def profiler(dask_worker):
+        return dask.config.get("distributed.worker.profile.enabled"), len(dask_worker.profile_history)
+
+    with executor(2, dask="local") as run:
+        results, tally = run_campaign(_jobs(inputs)[:3], tmp_path / "c", run)
+        time.sleep(1.5)  # a profiler would have summed up a second by now
+        assert list(default_client().run(profiler).values()) == [(False, 0), (False, 0)]
+    assert tally.done == 3

@@ -20,6 +20,7 @@ import os
 import shutil
 import tempfile
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -211,6 +212,19 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
     finally:
         shutil.rmtree(temp, ignore_errors=True)
     return BlockResult(job.name, job.key, record["status"], record)
+
+
+def plan_blocks(jobs: Sequence[BlockJob], campaign: str) -> list[BlockResult | Exception]:
+    """`plan_block` of each job in turn: one executor task for several blocks (a task costs a Dask
+    worker and scheduler a few milliseconds of CPU, a small block ~50 ms). A block whose attempt
+    raises has the exception as its outcome, and the next block is planned."""
+    outcomes: list[BlockResult | Exception] = []
+    for job in jobs:
+        try:
+            outcomes.append(plan_block(job, campaign))
+        except Exception as exc:  # the block's own error, passed on as its outcome
+            outcomes.append(exc)
+    return outcomes
 
 
 def read_result(job: BlockJob, folder: Path) -> BlockResult:

@@ -1,18 +1,20 @@
 """The campaign's driver: the blocks not yet done handed to an executor, results streamed back.
 
-Executors run `job.plan_block` on picklable jobs and yield (job, result or the exception the
-attempt ended with) as attempts finish, with a bounded number of blocks in flight: the driver
-holds the jobs and the small result records, never a plan.
+Executors run `job.plan_blocks` on chunks of picklable jobs (a task plans up to CHUNK_MAX blocks
+one after the other, `chunk_size`) and yield (job, result or the exception the attempt ended with)
+as tasks finish, with a bounded number of tasks in flight: the driver holds the jobs and the small
+result records, never a plan.
 
 - `pool_results`: a local process pool (concurrent.futures). A worker process that dies breaks
   the pool: the blocks it held come back failed and a new pool takes the rest.
 - `dask_results`: Dask distributed (`Client.submit`, `as_completed`). The scheduler reruns a
   task whose worker died, and gives up with KilledWorker once the task has been on
   `distributed.scheduler.allowed-failures` (default 3) workers that died; the block then comes back
-  failed. Each task's key is the block's key, so one block is one task.
+  failed. Each task's key is its first block's key, so each block is in one task.
 
 Whichever ran it, a block is done when its folder is renamed into place (job.py), so a rerun
-plans exactly the blocks that are not.
+plans exactly the blocks that are not; a block of a task that ended with an exception (its worker
+died) whose folder is in place is done, the others failed.
 """
 
 from __future__ import annotations
@@ -24,10 +26,11 @@ from collections.abc import Callable, Iterator
 from concurrent import futures
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
-from aerosurvey.campaign.job import BLOCKS_DIR, RESULT_FILE, BlockJob, BlockResult, clean_temporary, plan_block, read_result
+from aerosurvey.campaign.job import BLOCKS_DIR, RESULT_FILE, BlockJob, BlockResult, clean_temporary, plan_blocks, read_result
 from aerosurvey.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -36,36 +39,56 @@ Outcome = tuple[BlockJob, "BlockResult | BaseException"]
 Executor = Callable[[list[BlockJob], str], Iterator[Outcome]]
 
 
-def pool_results(workers: int) -> Executor:
-    """An executor on a local process pool of `workers` processes."""
+#: the most blocks one task plans (`chunk_size`)
+CHUNK_MAX = 8
+
+
+def chunk_size(blocks: int, workers: int) -> int:
+    """How many blocks one task plans: up to CHUNK_MAX, so a task's cost to the executor (a few
+    milliseconds on a Dask worker and its scheduler, measured in benchmarks/campaign_bench.py) is
+    shared by several blocks, and few enough that each worker gets at least four tasks (the last
+    tasks leave the other workers idle for less)."""
+    return max(1, min(CHUNK_MAX, blocks // (4 * workers)))
+
+
+def _chunks(jobs: list[BlockJob], size: int | None, workers: int) -> Iterator[list[BlockJob]]:
+    """The jobs in tasks of `size` (`chunk_size` if None) blocks, the last perhaps fewer."""
+    size = chunk_size(len(jobs), workers) if size is None else size
+    if size < 1:
+        raise ValueError(f"chunk = {size}: 1 or more blocks a task")
+    return (jobs[i:i + size] for i in range(0, len(jobs), size))
+
+
+def _outcomes(chunk: list[BlockJob], result: Callable[[], list[BlockResult | Exception]]) -> list[Outcome]:
+    """Each job of a task's chunk with its outcome: the task's, or the exception the whole task ended with."""
+    try:
+        return list(zip(chunk, result(), strict=True))
+    except Exception as exc:  # the task's end (a worker that died), the outcome of each of its blocks
+        return [(job, exc) for job in chunk]
+
+
+def pool_results(workers: int, chunk: int | None = None) -> Executor:
+    """An executor on a local process pool of `workers` processes, `chunk` blocks a task (`chunk_size` if None)."""
 
     def run(jobs: list[BlockJob], campaign: str) -> Iterator[Outcome]:
         # the planner imported once here, before the workers fork: each has it without importing it again
         import aerosurvey.inputs
         import aerosurvey.outputs  # noqa: F401
 
-        todo = iter(jobs)
+        todo = _chunks(jobs, chunk, workers)
         window = 2 * workers
         while True:
             with futures.ProcessPoolExecutor(max_workers=workers) as pool:
-                running: dict[futures.Future[BlockResult], BlockJob] = {}
+                running = {pool.submit(plan_blocks, c, campaign): c for c in islice(todo, window)}
                 broken = False
-                for job in _take(todo, window):
-                    running[pool.submit(plan_block, job, campaign)] = job
                 while running:
                     done, _ = futures.wait(running, return_when=futures.FIRST_COMPLETED)
                     for f in done:
-                        job = running.pop(f)
-                        try:
-                            yield job, f.result()
-                        except BrokenProcessPool as exc:
-                            broken = True
-                            yield job, exc
-                        except Exception as exc:  # the block's own error, passed on as its outcome
-                            yield job, exc
-                        if not broken:
-                            for nxt in _take(todo, 1):
-                                running[pool.submit(plan_block, nxt, campaign)] = nxt
+                        outcomes = _outcomes(running.pop(f), f.result)
+                        broken = broken or isinstance(f.exception(), BrokenProcessPool)
+                        if not broken:  # the next task handed out before the driver takes these results
+                            running |= {pool.submit(plan_blocks, c, campaign): c for c in islice(todo, 1)}
+                        yield from outcomes
             if not broken:
                 return
             log.warning("a worker process died: the blocks it held are reported failed, a new pool takes the rest")
@@ -73,41 +96,31 @@ def pool_results(workers: int) -> Executor:
     return run
 
 
-def dask_results(client: Any) -> Executor:
-    """An executor on a Dask distributed client (a LocalCluster's or a scheduler's)."""
+def dask_results(client: Any, chunk: int | None = None) -> Executor:
+    """An executor on a Dask distributed client (a LocalCluster's or a scheduler's), `chunk` blocks a
+    task (`chunk_size` if None)."""
 
     def run(jobs: list[BlockJob], campaign: str) -> Iterator[Outcome]:
         from distributed import as_completed
 
         workers = max(1, sum(client.nthreads().values()))
-        todo = iter(jobs)
-        by_key: dict[str, BlockJob] = {}
+        todo = _chunks(jobs, chunk, workers)
+        by_key: dict[str, list[BlockJob]] = {}
 
-        def submit(job: BlockJob) -> Any:
-            by_key[f"block-{job.key}"] = job
-            return client.submit(plan_block, job, campaign, key=f"block-{job.key}", pure=False, retries=0)
+        def submit(c: list[BlockJob]) -> Any:
+            key = f"blocks-{c[0].key}"  # a block is in one task: its first block's key names it
+            by_key[key] = c
+            return client.submit(plan_blocks, c, campaign, key=key, pure=False, retries=0)
 
-        stream = as_completed([submit(j) for j in _take(todo, 2 * workers)], with_results=False)  # type: ignore[no-untyped-call]
+        stream = as_completed([submit(c) for c in islice(todo, 2 * workers)], with_results=False)  # type: ignore[no-untyped-call]
         for f in stream:
-            job = by_key.pop(f.key)
-            try:
-                yield job, f.result()
-            except Exception as exc:  # KilledWorker, or the block's own error
-                yield job, exc
+            outcomes = _outcomes(by_key.pop(f.key), f.result)  # KilledWorker: each of its blocks
             f.release()
-            for nxt in _take(todo, 1):
+            for nxt in islice(todo, 1):  # the next task handed out before the driver takes these results
                 stream.add(submit(nxt))  # type: ignore[no-untyped-call]
+            yield from outcomes
 
     return run
-
-
-def _take(it: Iterator[BlockJob], n: int) -> list[BlockJob]:
-    out = []
-    for job in it:
-        out.append(job)
-        if len(out) == n:
-            break
-    return out
 
 
 @dataclass
@@ -154,7 +167,9 @@ def run_campaign(jobs: list[BlockJob], campaign: Path, executor: Executor,
     report(tally.text(), tally.skipped / max(1, tally.total))
     for job, outcome in executor(todo, str(campaign)):
         if isinstance(outcome, BaseException):
-            outcome = BlockResult(job.name, job.key, "failed", message=_failure(outcome))
+            done = blocks / job.folder  # renamed into place before the task's worker died
+            outcome = read_result(job, done) if (done / RESULT_FILE).is_file() else \
+                BlockResult(job.name, job.key, "failed", message=_failure(outcome))
         if outcome.status == "failed":
             tally.failed += 1
             log.warning("block %s failed: %s", job.name, outcome.message)
@@ -174,6 +189,12 @@ def _failure(exc: BaseException) -> str:
         return "the worker process running it died; rerun `campaign plan` to plan it again"
     return f"{name}: {exc}"
 
+
+
+#: Dask settings of the LocalCluster `--dask local` starts: no statistical profiler in the workers (it
+#: samples every thread's stack every 10 ms and keeps an hour of 1-second summaries, ~36 kB a
+#: second of a worker planning blocks, pickled: the workers' memory would grow with the run's length)
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 
 @contextlib.contextmanager
@@ -205,7 +226,10 @@ def executor(workers: int, dask: str | None = None, scheduler: str | None = None
         return
     if not log.isEnabledFor(logging.DEBUG):  # the cluster's start and stop are news at -vv only
         logging.getLogger("distributed").setLevel(logging.WARNING)
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,  # type: ignore[no-untyped-call]
-                           dashboard_address=":0")
+    from dask import config as dask_config  # (`dask` is the option's value here)
+
+    with dask_config.set(LOCAL_CLUSTER_CONFIG):  # the workers' nannies pass it on to them
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,  # type: ignore[no-untyped-call]
+                               dashboard_address=":0")
     with cluster, Client(cluster) as client:  # type: ignore[no-untyped-call]
         yield dask_results(client)
