@@ -305,9 +305,9 @@ def _stays(fix_t: np.ndarray, dist: np.ndarray, t: float) -> bool:
 def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the event's time minus the time the GPS track passed its place, its distance from the
     track (m), the track's speed there (m/s)) of each event: its position projected on the
-    nearest segment between two fixes within LAG_WINDOW_S of its time; NaN where there is none,
-    where the nearest point is a segment's end (the event lies beyond it: the track's end, a
-    gap), where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
+    nearest segment between two fixes within LAG_WINDOW_S of its time (or the fix between two
+    segments, a corner, where that is nearest); NaN where there is none, where the nearest point
+    is the end of the track searched or a gap's edge (the event lies beyond it), where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
     damage took the fixes between), or where the track stayed at the event's place at its time
     (`_stays`: it was there, at whatever time it first came)."""
     gt = track.t
@@ -334,7 +334,12 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
         u = np.clip(((ex[i] - ax) * dx + (ey[i] - ay) * dy) / np.where(ok, length2, 1.0), 0.0, 1.0)
         d = np.where(ok, np.hypot(ax + u * dx - ex[i], ay + u * dy - ey[i]), np.inf)
         k = int(np.argmin(d))
-        if not np.isfinite(d[k]) or u[k] in (0.0, 1.0):  # beyond the segment: a gap, or the track's end
+        if not np.isfinite(d[k]):
+            continue
+        # nearest at a segment's end: a fix between two segments (a corner of the track) is a place of the
+        # track like any other; the end of the track searched, or a gap's edge, is not (the event lies beyond)
+        beyond = (u[k] == 0.0 and (k == 0 or not ok[k - 1])) or (u[k] == 1.0 and (k == len(ok) - 1 or not ok[k + 1]))
+        if beyond:
             continue
         dt_out[i] = t[i] - (gt[a + k] + u[k] * dur[k])
         d_out[i] = d[k]
