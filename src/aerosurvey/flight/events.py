@@ -307,8 +307,9 @@ def _on_track(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, track: _Track) ->
     track (m), the track's speed there (m/s)) of each event: its position projected on the
     nearest segment between two fixes within LAG_WINDOW_S of its time (or the fix between two
     segments, a corner, where that is nearest); NaN where there is none, where the nearest point
-    is the end of the track searched or a gap's edge (the event lies beyond it), where the segment spans a gap in the fixes (more than 2.5 periods of the GPS:
-    damage took the fixes between), or where the track stayed at the event's place at its time
+    is the end of the track searched or a gap's edge (the event lies beyond it), where the
+    segment spans a gap in the fixes (more than 2.5 periods of the GPS: damage took the fixes
+    between), or where the track stayed at the event's place at its time
     (`_stays`: it was there, at whatever time it first came)."""
     gt = track.t
     n = len(t)
