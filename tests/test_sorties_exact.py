@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 import aerosurvey.plan.planner as planner
@@ -191,6 +191,10 @@ SITES = [[14.9985, 49.4017], [15.0075, 49.4017]]
 
 
 @settings(max_examples=14, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+# a plane launched on the area's west edge, the one site east of the zone: after the way home its RTL flew on to that
+# site, the nearest rally point, through the zone (the gate refused the plan; CI, 2026-11-29)
+@example(vehicle="plane", zone=True, sites=1, terrain="follow", camera=False, minutes=5.0, heading=19.0, wind=4.0,
+         wind_from=0.0)
 @given(vehicle=st.sampled_from(["copter", "plane"]), zone=st.booleans(), sites=st.sampled_from([0, 1, 2]),
        terrain=st.sampled_from(["none", "fixed", "follow"]), camera=st.booleans(), minutes=st.floats(5, 16),
        heading=st.one_of(st.just("auto"), st.floats(0, 179)), wind=st.floats(0, 4), wind_from=st.floats(0, 359.9))

@@ -210,6 +210,11 @@ def flight_program(plan: Plan, sortie: int | None = None, name: str | None = Non
     h = plan.sensor.heights.nominal_agl_m
     rally = tuple((round(st.lat, 8), round(st.lon, 8), round(st.ground_m - ground + h, 2))
                   for st in (*plan.launch.sites, *plan.launch.rally))
+    if vehicle == "plane" and rally and min(_metres((r[0], r[1]), (lat, lon)) for r in rally) > 1.0:
+        # ArduPlane's RTL goes to the nearest rally point, never home when there is one: this flight's launch
+        # point (on the area's edge, no site) is one too, or the RTL that follows the way home would fly on to
+        # the nearest site, wherever the zones lie
+        rally = ((round(lat, 8), round(lon, 8), round(h, 2)), *rally)
     if not land and waypoints:
         # RTL goes to the nearest rally point (and home, for a copter) from where it starts: when that is
         # another launch site, the flight first comes home (its way home is clear of the zones: the
