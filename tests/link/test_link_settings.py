@@ -203,13 +203,15 @@ def test_a_px4_battery_failsafe_below_the_plans_reserve_is_refused(tmp_path: Pat
     assert "battery-failsafe: BAT_CRIT_THR = 0.2 (20%, COM_LOW_BAT_ACT = 3), at or above the plan's 20% reserve" in lines
 
 
+def _hill(doc: dict) -> None:
+    """The manifest's DEM figures of a plan whose highest ground lies 70 m above the launch point."""
+    doc["home"]["ground_amsl_m"] = 400.0
+    doc["derived"]["terrain"]["ground_max_m"] = 470.0
+
+
 def test_an_rtl_altitude_into_the_ground_under_the_plan_is_refused(plan_folder: Path, tmp_path: Path) -> None:
     """The manifest's DEM figures: the highest ground 70 m above the launch point."""
-    def hill(doc: dict) -> None:
-        doc["home"]["ground_amsl_m"] = 400.0
-        doc["derived"]["terrain"]["ground_max_m"] = 470.0
-
-    plan = copy_folder(plan_folder, tmp_path / "plan", hill)
+    plan = copy_folder(plan_folder, tmp_path / "plan", _hill)
     model = VehicleModel(storage="ardupilot", home=home_of(plan), params={"RTL_ALT": 6000})
     assert refused(plan, model) == (
         "Error: mission.plan: RTL_ALT = 6000 (60 m) but the plan's ground rises 70 m above the launch point, and a return "
@@ -358,11 +360,7 @@ def test_ardupilot_sitl_refuses_an_rtl_altitude_into_the_ground_and_takes_the_mi
     launch point: RTL_ALT = 6000 (60 m, as SITL answers it in cm) refuses the upload, naming RTL_ALT, its value
     and the 100 m the return needs (70 m of ground and 30 m of clearance), with nothing sent; RTL_ALT = 10000
     takes the mission and verifies it. The plan's 25 % reserve: BATT_LOW_MAH 500 of 5000 mAh refuses, 1250 passes."""
-    def hill(doc: dict) -> None:
-        doc["home"]["ground_amsl_m"] = 400.0
-        doc["derived"]["terrain"]["ground_max_m"] = 470.0
-
-    plan = copy_folder(plan_folder, tmp_path / "plan", hill)
+    plan = copy_folder(plan_folder, tmp_path / "plan", _hill)
     m = loads_plan(plan.read_text())
     right = {"CAM1_TYPE": 1, "WPNAV_SPEED": round(m.hover_speed * 100), "BATT_MONITOR": 4, "BATT_FS_LOW_ACT": 2,
              "BATT_CAPACITY": 5000, "BATT_LOW_MAH": 1250,  # the plan keeps 25 % in reserve
@@ -438,14 +436,10 @@ def test_px4_sitl_refuses_each_setting_set_wrong_and_takes_the_mission_with_it_c
     70 m above the launch point) each refuse the upload of the plan folder's mission with nothing sent; each set
     right, it uploads and verifies. A mission commanding no speed is refused at MPC_XY_CRUISE 10 m/s for its
     planned 5 and taken at 5. This PX4 (v1.14 and later) has no MIS_DIST_WPS: the report says so."""
-    def hill(doc: dict) -> None:
-        doc["home"]["ground_amsl_m"] = 400.0
-        doc["derived"]["terrain"]["ground_max_m"] = 470.0
-
     (tmp_path / "planned").mkdir()
     folder = planned_folder(tmp_path / "planned", {"battery": {"usable_min": 60.0, "reserve": 0.2},
                                                     "vehicle": {"firmware": "px4"}})
-    plan = copy_folder(folder, tmp_path / "plan", hill)
+    plan = copy_folder(folder, tmp_path / "plan", _hill)
     m = loads_plan(plan.read_text())
     speed = max(it.param2 for it in m.items if it.command == mav.DO_CHANGE_SPEED)
     slow = dataclasses.replace(survey_mission(4, firmware="px4"), items=tuple(
