@@ -119,12 +119,8 @@ def campaign_vehicle(campaign: Path, rows: Sequence[BlockRow]) -> str | None:
     return None
 
 
-def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[BlockRow], events: Sequence[Event],
-                   now: str) -> tuple[list[Filed], list[BlockRow], list[Event]]:
-    """File each flight; the register's rows and events after it (a "flown" event per flight filed,
-    none again for a flight filed before under the same block)."""
-    by_name = {r.name: r for r in rows}
-    events = list(events)
+def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[BlockRow]) -> list[Filed]:
+    """File each flight under its block of the register's `rows` (what was filed, or why not)."""
     filed = []
     vehicle = campaign_vehicle(campaign, rows)
     for flight in flights:
@@ -133,9 +129,19 @@ def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[Block
         except AerosurveyError as exc:
             f = Filed(flight.name, None, str(exc))
         filed.append(f)
-        if f.block is None:
+    return filed
+
+
+def with_flown(rows: Sequence[BlockRow], events: Sequence[Event], filed: Sequence[Filed],
+               now: str) -> tuple[list[BlockRow], list[Event]]:
+    """The register (as it is when it is written) with a "flown" event per flight filed, none again for a flight
+    filed before under the same block, and its blocks' statuses."""
+    by_name = {r.name: r for r in rows}
+    events = list(events)
+    for f in filed:
+        row = by_name.get(f.block) if f.block is not None else None
+        if row is None:
             continue
-        row = by_name[f.block]
         again = any(e.key == row.key and e.event == "flown" and e.detail.startswith(f"{f.flight}:") for e in events)
         if not again:
             events.append(Event(row.name, row.key, "flown", now, f.detail))
@@ -143,4 +149,4 @@ def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[Block
     for e in events:
         of_key.setdefault(e.key, []).append(e)
     out_rows = [replace(r, status=status_of(r.status, of_key.get(r.key, []))) for r in rows]
-    return filed, out_rows, events
+    return out_rows, events

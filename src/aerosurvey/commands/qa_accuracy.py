@@ -134,6 +134,10 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
             atomic_write_text(stage / "accuracy.txt", text)
             atomic_write_text(stage / "accuracy.html", render(result, pts))
     click.echo(_dumps(result) if as_json else text, nl=False)
+    if campaign is not None:  # a campaign block's folder: its QA verdict filed in the register
+        from aerosurvey.commands.block_events import record_block_event
+
+        record_block_event(campaign, "qa", "", accuracy=outdir)
     v = result["verdict"]
     if v["status"] != "valid":
         raise NotTested(f"{result['standard_name']}: {v['status']}, no verdict: {'; '.join(v['reasons'])}")

@@ -40,6 +40,11 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, dji
     plan = r.plan
     import shapely  # loaded by the command, not by `aerosurvey --help`
 
-    click.echo(f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than {r.need} "
-               f"photos; re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
+    from aerosurvey.commands.block_events import record_block_event
+
+    gaps = (f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than {r.need} "
+            "photos")
+    click.echo(f"{gaps}; re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
                f"{plan.estimates['total_time_s'] / 60:.1f} min; wrote {', '.join(sorted({*r.files, *r.binary}))} to {outdir}")
+    record_block_event(plan_dir, "re-fly", f"{outdir}: {len(plan.stations.ids)} photos in {len(plan.route.runs)} runs over "
+                                           f"{gaps} (flight {log_dir})")

@@ -26,8 +26,8 @@ import click
 from aerosurvey.commands.brief import flight_start
 from aerosurvey.errors import InputError
 from aerosurvey.link import mission_protocol as mp
-from aerosurvey.link.preflight import AIRSPACE, outcome_lines, prepare, run_upload
-from aerosurvey.link.upload import LAUNCH_DISTANCE_M, VerificationFailed
+from aerosurvey.link.preflight import AIRSPACE, Prepared, outcome_lines, prepare, run_upload
+from aerosurvey.link.upload import LAUNCH_DISTANCE_M, UploadReport, VerificationFailed
 from aerosurvey.link.vehicle_settings import CHECKS
 
 _DEFAULTS = mp.Policy()  # the command's defaults are the protocol's: one place for both
@@ -158,3 +158,16 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
         raise
     for line in outcome_lines(prep, out, not no_verify, rally):
         click.echo(line)
+    if out.report is not None:  # uploaded (send is on): a campaign block's folder records it
+        from aerosurvey.commands.block_events import record_block_event
+
+        record_block_event(plan_file.parent, "uploaded", uploaded_detail(plan_file, prep, out.report, not no_verify))
+
+
+def uploaded_detail(plan_file: Path, prep: Prepared, r: UploadReport, verified: bool) -> str:
+    """The "uploaded" event's detail: the file, the mission, the items sent, the vehicle, verified or not."""
+    sent = "".join(f", {t.items} {what}" for what, t in (("fence vertices", r.fence), ("rally points", r.rally))
+                   if t is not None)
+    return (f"{plan_file.name}: {prep.facts.vehicle} mission for {prep.facts.firmware}, {r.mission.items} mission items"
+            f"{sent} to system {r.vehicle.system} ({r.vehicle.autopilot_name}); "
+            + ("verified (read back and compared)" if verified else "not verified (--no-verify)"))
