@@ -331,3 +331,23 @@ def test_event_recorded_while_campaign_ingest_reads_survives(campaign, tmp_path,
     assert run("campaign", "ingest", campaign, log)[0] == 0
     events = [(e["block"], e["event"], e["detail"].split(":")[0]) for e in cc.register(campaign)[1] if e["event"] != "planned"]
     assert events == [("t02", "qa", "while ingesting"), ("t01", "flown", "day.bin")]
+
+
+def test_damaged_register_after_check_and_qa_is_named_and_their_files_are_written(campaign, tmp_path):
+    block = cc.block_folders(campaign)["t01"]
+    log = synthetic_log(block, tmp_path / "full.bin")
+    assert run("campaign", "ingest", campaign, log)[0] == 0
+    flight = campaign / "flights" / "t01" / "full.bin"
+    register = campaign / "register.gpkg"
+    register.write_bytes(b"\x00" * 1000)
+    error = f"Error: '{register.resolve()}' cannot be read as a campaign register"
+    code, out, err = run("check", flight)
+    assert code == 2 and (flight / "failing_places.geojson").is_file(), out + err
+    assert "1 rules as flown: 1 passed, 0 failed" in out
+    assert [ln for ln in err.splitlines() if not ln.startswith("warning: no rule profile")] == [err.splitlines()[-1]]
+    assert err.splitlines()[-1].startswith(error), err
+    out_dir = tmp_path / "qa"
+    code, out, err = run("qa", "accuracy", points_csv(tmp_path / "pts.csv"), "--campaign", block, "-o", out_dir)
+    assert code == 2 and (out_dir / "accuracy.json").is_file(), out + err
+    assert len(err.strip().splitlines()) == 1 and err.startswith(error), err
+    assert register.read_bytes() == b"\x00" * 1000
