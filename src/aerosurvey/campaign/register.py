@@ -249,7 +249,8 @@ def record(campaign: Path, block: str | None, event: str, detail: str, now: str,
             if row.status in ("failed", "rules-fail"):
                 raise NotRecorded(f"block {row.name!r} is {row.status} in the campaign's register")
             name = row.name
-        assert name is not None
+        if name is None:
+            raise ValueError("record: give the block's name or its folder")  # a caller's bug
         rows, events = with_event(rows, events, name, event, now, detail)
         out.append(next(r for r in rows if r.name == name))
         if file is not None:
