@@ -214,6 +214,21 @@ def test_check_and_refly_of_a_flight_record_compliance_and_re_fly(planned, campa
     assert ha == pytest.approx(area_m2 / 1e4, abs=0.002, rel=0.01)
     assert status_line(campaign, "t01").startswith("t01: re-fly; next: fly the re-fly mission")
 
+    # the same flight against a copy of the block's folder outside the campaign: the same results, nothing recorded
+    plain = Path(shutil.copytree(block, tmp_path / "plain"))
+    before = (campaign / "register.gpkg").read_bytes()
+    code, out, err = run("check", flight, "--json", "--plan", plain)
+    assert code == 1 and json.loads(out) == result, out + err
+    assert "recorded" not in err
+    code, out, err = run("refly", flight, "--plan", plain, "--spec", block_spec(planned.parent, "t01", tmp_path), "-o",
+                         tmp_path / "refly-plain")
+    assert code == 0 and err == "", out + err
+    assert (tmp_path / "refly-plain" / "gaps.geojson").read_text() == (out_dir / "gaps.geojson").read_text()
+    code, out, err = run("qa", "accuracy", points_csv(tmp_path / "pts.csv"), "--campaign", plain, "-o", tmp_path / "qa")
+    assert code in (0, 3) and "recorded" not in err and "campaign" not in err, out + err
+    assert (campaign / "register.gpkg").read_bytes() == before
+    assert not list(plain.glob("register.*")) and not list(tmp_path.glob("register.*"))
+
 
 # --- qa accuracy -------------------------------------------------------------------------------------------------------
 
