@@ -82,7 +82,8 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
 
     A flight folder (`log ingest` output, with the plan) is checked planned vs flown, without a
     profile on the planner's own rule too; the places a rule fails on the flown photos go to its
-    failing_places.geojson.
+    failing_places.geojson. A flight of a campaign block's plan records a "compliance" event in the
+    campaign's register (docs/campaign.md).
 
     Exit code 0 when every error-level rule passes, 1 when one fails (named on stderr), 2 for bad input.
     """

@@ -25,7 +25,8 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, dji
     """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos.
 
     The re-fly is a plan of its own over the gaps, with every file `plan` writes for the spec's
-    camera and vehicle: with a DJI camera, the .kmz waylines DJI Pilot 2 flies."""
+    camera and vehicle: with a DJI camera, the .kmz waylines DJI Pilot 2 flies. A --plan that is a campaign
+    block's folder records a "re-fly" event in the campaign's register (docs/campaign.md)."""
     # the planner and rasterio are heavy: imported when the command runs
     from aerosurvey.flight.refly import plan_refly, write_refly
     from aerosurvey.rules.planview import PlanView

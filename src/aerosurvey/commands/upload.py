@@ -141,6 +141,9 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
     differing item, field and values are named; a partial mission is "the vehicle holds N of M
     mission items: do not fly it"), 2 for bad input. Progress goes to stderr when it is a
     terminal and the upload takes more than a second.
+
+    A PLAN_FILE in a campaign block's folder records an "uploaded" event in the campaign's
+    register once uploaded (docs/campaign.md).
     """
     limit = launch_distance_limit(launch_distance)
     if at is not None and not zone_files:
