@@ -44,6 +44,21 @@ def write_blocks(path: Path, n: int, size_deg: tuple[float, float] = (0.0015, 0.
     return path
 
 
+def planned_campaign(folder: Path, n: int, *options: str) -> Path:
+    """FOLDER/campaign: `n` blocks of 0.003 x 0.002 degrees (blocks.geojson) planned with the template
+    (template.toml) through the command line on one worker, with `options`."""
+    from click.testing import CliRunner
+
+    from aerosurvey.cli import main
+
+    blocks = write_blocks(folder / "blocks.geojson", n, size_deg=(0.003, 0.002))
+    out = folder / "campaign"
+    res = CliRunner().invoke(main, ["campaign", "plan", str(blocks), "-o", str(out), "--spec", str(write_template(folder)),
+                                    "--workers", "1", *options])
+    assert res.exit_code == 0, res.output
+    return out
+
+
 def block_folders(campaign: Path) -> dict[str, Path]:
     """Block name → its folder (asserting there is exactly one folder per name, no temporary one)."""
     folders = sorted((campaign / "blocks").iterdir())

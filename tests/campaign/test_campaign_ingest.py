@@ -15,13 +15,16 @@ from tests.flight.dfwriter import mission_log
 from aerosurvey.cli import main
 
 
-def synthetic_log(block: Path, path: Path, shift_deg: float = 0.0) -> Path:
+def synthetic_log(block: Path, path: Path, shift_deg: float = 0.0, missed: int = 0) -> Path:
     """A DataFlash log of the block's mission (its .waypoints items written as CMD messages) with a
-    camera event at each planned station, everything moved east by `shift_deg`."""
+    camera event at each planned station but those of its first `missed` lines, everything moved east
+    by `shift_deg`."""
     rows = [ln.split("\t") for ln in (block / "mission.waypoints").read_text().splitlines()[1:]]
     items = [(int(r[3]), int(r[2]), *(float(v) for v in r[4:8]), float(r[8]), float(r[9]) + shift_deg, float(r[10]))
              for r in rows]
     stations = json.loads((block / "manifest.json").read_text())["stations"]
+    lines = list(dict.fromkeys(s["line"] for s in stations))[:missed]
+    stations = [s for s in stations if s["line"] not in lines]
     events = [(10.0 + i, s["lat"], s["lon"] + shift_deg, 300.0 + s["alt_rel_m"], s["alt_rel_m"]) for i, s in enumerate(stations)]
     path.write_bytes(mission_log([(1.0, items)], events))
     return path
@@ -29,12 +32,7 @@ def synthetic_log(block: Path, path: Path, shift_deg: float = 0.0) -> Path:
 
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("ingest")
-    blocks = cc.write_blocks(folder / "blocks.geojson", 3, size_deg=(0.003, 0.002))
-    out = folder / "campaign"
-    res = CliRunner().invoke(main, ["campaign", "plan", str(blocks), "-o", str(out), "--spec", str(cc.write_template(folder)),
-                                    "--workers", "1"])  # the default outputs: no plan.geojson
-    assert res.exit_code == 0, res.output
+    out = cc.planned_campaign(tmp_path_factory.mktemp("ingest"), 3)  # the default outputs: no plan.geojson
     assert not list(out.glob("blocks/*/plan.geojson"))
     return out
 

@@ -32,12 +32,14 @@ CANDIDATES = 3
 
 @dataclass(frozen=True)
 class Filed:
-    """Where a flight went: `block` None when it is of no block (`detail` says why)."""
+    """Where a flight went: `block` None when it is of no block (`detail` says why); `key` the key of the block's
+    plan it was matched to."""
 
     flight: str
     block: str | None
     detail: str
     folder: Path | None = None
+    key: str = ""
 
 
 def candidates(rows: Sequence[BlockRow], lon: Sequence[float], lat: Sequence[float]) -> list[BlockRow]:
@@ -90,7 +92,7 @@ def file_flight(campaign: Path, flight: Path, rows: Sequence[BlockRow], vehicle:
     how = "by its mission" if result.mission is not None and result.mission.verdict in (PLAN, CHANGED) else "by its photos' places"
     detail = (f"{flight.name}: {'sortie ' + sortie if sortie else 'the whole mission'}, recognised {how}; "
               f"{report.get('matched', 0)} of {report.get('planned', 0)} stations photographed")
-    return Filed(flight.name, row.name, detail, out)
+    return Filed(flight.name, row.name, detail, out, row.key)
 
 
 def block_view(campaign: Path, row: BlockRow) -> PlanView:
@@ -119,12 +121,8 @@ def campaign_vehicle(campaign: Path, rows: Sequence[BlockRow]) -> str | None:
     return None
 
 
-def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[BlockRow], events: Sequence[Event],
-                   now: str) -> tuple[list[Filed], list[BlockRow], list[Event]]:
-    """File each flight; the register's rows and events after it (a "flown" event per flight filed,
-    none again for a flight filed before under the same block)."""
-    by_name = {r.name: r for r in rows}
-    events = list(events)
+def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[BlockRow]) -> list[Filed]:
+    """File each flight under its block of the register's `rows` (what was filed, or why not)."""
     filed = []
     vehicle = campaign_vehicle(campaign, rows)
     for flight in flights:
@@ -133,14 +131,23 @@ def ingest_flights(campaign: Path, flights: Sequence[Path], rows: Sequence[Block
         except AerosurveyError as exc:
             f = Filed(flight.name, None, str(exc))
         filed.append(f)
+    return filed
+
+
+def with_flown(rows: Sequence[BlockRow], events: Sequence[Event], filed: Sequence[Filed],
+               now: str) -> tuple[list[BlockRow], list[Event]]:
+    """The register (as it is when it is written) with a "flown" event per flight filed, under the key of the plan
+    it was matched to (a block planned again meanwhile keeps its new status), none again for a flight filed before
+    under the same block and key, and its blocks' statuses."""
+    events = list(events)
+    for f in filed:
         if f.block is None:
             continue
-        row = by_name[f.block]
-        again = any(e.key == row.key and e.event == "flown" and e.detail.startswith(f"{f.flight}:") for e in events)
+        again = any(e.key == f.key and e.event == "flown" and e.detail.startswith(f"{f.flight}:") for e in events)
         if not again:
-            events.append(Event(row.name, row.key, "flown", now, f.detail))
+            events.append(Event(f.block, f.key, "flown", now, f.detail))
     of_key: dict[str, list[Event]] = {}
     for e in events:
         of_key.setdefault(e.key, []).append(e)
     out_rows = [replace(r, status=status_of(r.status, of_key.get(r.key, []))) for r in rows]
-    return filed, out_rows, events
+    return out_rows, events

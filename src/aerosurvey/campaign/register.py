@@ -9,20 +9,25 @@ Two layers (docs/campaign.md):
 
 A block's status is the latest of its events for its current key (`status_of`): a block whose
 inputs change gets a new key, and starts again from its new plan. The file is written whole into
-a temporary file and renamed into place.
+a temporary file and renamed into place, each read-modify-write under one lock (`update_register`,
+fcntl.flock on CAMPAIGN/register.lock), so no event recorded at the same time is lost. `block_of`
+tells whether a plan folder is a block's (CAMPAIGN/blocks/NAME.KEY/): the commands that upload,
+check, re-fly and QA a plan record their event for it (`record`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aerosurvey.campaign.job import BlockJob, BlockResult
+from aerosurvey.campaign.job import BLOCKS_DIR, BlockJob, BlockResult
 from aerosurvey.errors import InputError
 
 FILE = "register.gpkg"
+LOCK = "register.lock"
 FORMAT = 1
 #: the events of a block's life, in order; "failed" is a planning attempt that ended without a plan
 EVENTS = ("failed", "planned", "uploaded", "flown", "compliance", "re-fly", "qa", "accepted")
@@ -174,6 +179,86 @@ def after_planning(jobs: Sequence[BlockJob], results: Sequence[BlockResult], eve
 
 #: the events `campaign record` records by hand (planned, failed and flown come from plan and ingest)
 RECORDED = ("uploaded", "compliance", "re-fly", "qa", "accepted")
+
+
+def now_utc() -> str:
+    """The time an event is recorded at: UTC, ISO 8601, whole seconds."""
+    import datetime as dt
+
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+@contextmanager
+def locked(campaign: Path) -> Iterator[None]:
+    """The campaign's register lock (an exclusive fcntl.flock on CAMPAIGN/register.lock), held around every
+    read-modify-write of the register; released when the lock file is closed."""
+    import fcntl
+
+    with open(campaign / LOCK, "ab") as f:
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+        yield
+
+
+Change = Callable[[list[BlockRow], list[Event]], tuple[list[BlockRow], list[Event]]]
+
+
+def update_register(campaign: Path, change: Change, *, new: bool = False) -> tuple[list[BlockRow], list[Event]]:
+    """Under the lock: read the register (none yet is empty when `new`), apply `change` to its rows and events,
+    write it; the rows and events written. Every writer of the register goes through here."""
+    with locked(campaign):
+        rows, events = read_register(campaign) if not new or (campaign / FILE).exists() else ([], [])
+        rows, events = change(rows, events)
+        write_register(campaign, rows, events)
+    return rows, events
+
+
+def block_of(plan_dir: Path) -> tuple[Path, BlockRow | None] | None:
+    """The campaign a plan folder is a block folder of, CAMPAIGN/blocks/NAME.KEY/ with CAMPAIGN/register.gpkg,
+    and the register's row of that folder (None when it holds none: the block was planned again under a new
+    key since); None for any other folder. Reads the register (an InputError naming it when it is damaged)."""
+    folder = plan_dir.resolve()
+    campaign = folder.parent.parent
+    if folder.parent.name != BLOCKS_DIR or not (campaign / FILE).is_file():
+        return None
+    rows, _ = read_register(campaign)
+    return campaign, _row_of_folder(rows, folder.name)
+
+
+def _row_of_folder(rows: Sequence[BlockRow], folder: str) -> BlockRow | None:
+    return next((r for r in rows if r.folder == folder and folder.endswith(f".{r.key}")), None)
+
+
+class NotRecorded(Exception):
+    """A command's event for a block folder that the register holds no longer, or holds as not planned."""
+
+
+def record(campaign: Path, block: str | None, event: str, detail: str, now: str, *, folder: str | None = None,
+           file: Callable[[BlockRow], None] | None = None) -> BlockRow:
+    """Add an event for a block, by its name or (`folder`) by its folder, under the register's lock; `file`, when
+    given, is called with the block's row before the register is written (a QA verdict filed). The block's row
+    after it. For a folder the register no longer holds, or a block not planned: NotRecorded, nothing written."""
+    out: list[BlockRow] = []
+
+    def change(rows: list[BlockRow], events: list[Event]) -> tuple[list[BlockRow], list[Event]]:
+        name = block
+        if folder is not None:
+            row = _row_of_folder(rows, folder)
+            if row is None:
+                raise NotRecorded(f"the campaign's register holds no block of folder {folder!r} (planned again "
+                                  "since, under a new key)")
+            if row.status in ("failed", "rules-fail"):
+                raise NotRecorded(f"block {row.name!r} is {row.status} in the campaign's register")
+            name = row.name
+        if name is None:
+            raise ValueError("record: give the block's name or its folder")  # a caller's bug
+        rows, events = with_event(rows, events, name, event, now, detail)
+        out.append(next(r for r in rows if r.name == name))
+        if file is not None:
+            file(out[0])
+        return rows, events
+
+    update_register(campaign, change)
+    return out[0]
 
 
 def with_event(rows: Sequence[BlockRow], events: Sequence[Event], block: str, event: str, now: str,

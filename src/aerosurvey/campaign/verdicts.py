@@ -15,7 +15,7 @@ from pathlib import Path
 
 from aerosurvey.campaign.job import BLOCKS_DIR
 from aerosurvey.campaign.learn import BlockAccuracy
-from aerosurvey.campaign.register import BlockRow
+from aerosurvey.campaign.register import BlockRow, record
 from aerosurvey.qa.accuracy_file import FILE, read_accuracy
 
 QA_DIR = "qa"
@@ -34,6 +34,16 @@ def file_accuracy(campaign: Path, row: BlockRow, accuracy: Path) -> None:
     target = verdict_path(campaign, row)
     target.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(target, source.read_bytes())
+
+
+def record_verdict(campaign: Path, block: str | None, accuracy: Path, detail: str, now: str, *,
+                   folder: str | None = None) -> BlockRow:
+    """File a block's QA verdict (by its name, or its folder: `register.record`): a "qa" event whose detail is the
+    figures of the accuracy.json (or of the one in a folder), `detail` after them, and the file copied under the
+    block's QA folder, both under the register's lock. The one place a verdict is filed."""
+    figures = read_accuracy(accuracy)
+    return record(campaign, block, "qa", figures.text() + (f"; {detail}" if detail else ""), now, folder=folder,
+                  file=lambda row: file_accuracy(campaign, row, accuracy))
 
 
 def relief_m(campaign: Path, row: BlockRow) -> float | None:

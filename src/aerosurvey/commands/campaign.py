@@ -47,7 +47,7 @@ def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int 
     """
     from aerosurvey.campaign.blocks import read_blocks
     from aerosurvey.campaign.job import make_jobs, parse_outputs
-    from aerosurvey.campaign.register import after_planning, read_register, write_register
+    from aerosurvey.campaign.register import after_planning, now_utc, update_register
     from aerosurvey.campaign.run import executor, run_campaign
     from aerosurvey.errors import CheckFailed
 
@@ -64,15 +64,14 @@ def plan(blocks: Path, outdir: Path, template: Path, outputs: str, workers: int 
     with executor(workers if workers is not None else os.cpu_count() or 1, dask, scheduler) as run, \
             console.progress(f"campaign {outdir.name}: {len(jobs)} blocks") as report:
         results, tally = run_campaign(jobs, outdir, run, report)
-    events = read_register(outdir)[1] if (outdir / "register.gpkg").exists() else []
-    now = _now()
-    rows, events = after_planning(jobs, results, events, now)
-    path = write_register(outdir, rows, events)
+    now = now_utc()
+    # the events as they are now, under the lock: those recorded while the blocks were planned are kept
+    update_register(outdir, lambda _, events: after_planning(jobs, results, events, now), new=True)
     counts: dict[str, int] = {}
     for r in results:
         counts[r.status] = counts.get(r.status, 0) + 1
     console.echo(f"{len(jobs)} blocks: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) + f" ({tally.text()})")
-    console.echo(f"register: {path}")
+    console.echo(f"register: {outdir / 'register.gpkg'}")
     failed = [r.name for r in results if r.status == "failed"]
     if failed:
         shown = ", ".join(failed[:5]) + (f" and {len(failed) - 5} more" if len(failed) > 5 else "")
@@ -110,15 +109,16 @@ def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
 
     Exit code 0 when every flight is filed, 1 when some is of no block (the rest are filed), 2 for bad input.
     """
-    from aerosurvey.campaign.flights import ingest_flights
-    from aerosurvey.campaign.register import read_register, write_register
+    from aerosurvey.campaign.flights import ingest_flights, with_flown
+    from aerosurvey.campaign.register import now_utc, read_register, update_register
     from aerosurvey.errors import CheckFailed
 
-    rows, events = read_register(campaign_dir)
-    now = _now()
+    rows, _ = read_register(campaign_dir)
+    now = now_utc()
     with console.progress(f"campaign ingest: {len(flights)} flights"):
-        filed, rows, events = ingest_flights(campaign_dir, list(flights), rows, events, now)
-    write_register(campaign_dir, rows, events)
+        filed = ingest_flights(campaign_dir, list(flights), rows)
+    # the register as it is now, under the lock: events recorded while the flights were read are kept
+    update_register(campaign_dir, lambda rows, events: with_flown(rows, events, filed, now))
     for f in filed:
         console.echo(f"{f.flight}: {'block ' + f.block + ': ' + f.detail if f.block else 'not filed: ' + f.detail}")
     lost = [f.flight for f in filed if f.block is None]
@@ -136,25 +136,24 @@ def ingest(campaign_dir: Path, flights: tuple[Path, ...]) -> None:
               help="With qa: the accuracy.json `aerosurvey qa accuracy -o DIR` wrote for the block (or DIR): filed under "
                    "CAMPAIGN/qa/, its RMSE per axis, points and verdict in the event's detail; `campaign report` learns from it.")
 def record(campaign_dir: Path, block: str, event: str, detail: str, accuracy: Path | None) -> None:
-    """Record an event of BLOCK's life in the register by hand: uploaded, compliance, re-fly, qa or accepted."""
-    from aerosurvey.campaign.register import read_register, with_event, write_register
+    """Record an event of BLOCK's life in the register by hand: uploaded, compliance, re-fly, qa or accepted.
+
+    `upload`, `check FLIGHT`, `refly` and `qa accuracy` (its plan folder a block's, its verdict written with -o)
+    record theirs when they work on a block's folder; `accepted` is a person's decision, recorded here only."""
+    from aerosurvey.campaign.register import now_utc, read_register, record
     from aerosurvey.errors import InputError
 
-    rows, events = read_register(campaign_dir)
+    read_register(campaign_dir)  # a campaign folder without a register: its own error, before the lock file is made
     if accuracy is None:
-        rows, events = with_event(rows, events, block, event, _now(), detail)
+        row = record(campaign_dir, block, event, detail, now_utc())
     else:
-        from aerosurvey.campaign.verdicts import file_accuracy
-        from aerosurvey.qa.accuracy_file import read_accuracy
+        from aerosurvey.campaign.verdicts import record_verdict
 
         if event != "qa":
             raise InputError(f"--accuracy is given with event = {event!r}: it files a QA verdict, give the event qa",
                              key="--accuracy")
-        figures = read_accuracy(accuracy)
-        rows, events = with_event(rows, events, block, event, _now(), figures.text() + (f"; {detail}" if detail else ""))
-        file_accuracy(campaign_dir, next(r for r in rows if r.name == block), accuracy)
-    write_register(campaign_dir, rows, events)
-    console.echo(f"{block}: {event} recorded; status {next(r.status for r in rows if r.name == block)}")
+        row = record_verdict(campaign_dir, block, accuracy, detail, now_utc())
+    console.echo(f"{block}: {event} recorded; status {row.status}")
 
 
 @campaign.command("report")
@@ -191,13 +190,6 @@ def report(campaign_dir: Path, class_h: float | None, class_v: float | None, as_
     if out is not None:
         atomic_write_text(out, text)
     console.echo((text if as_json else report_text(body, accepted, len(blocks))).rstrip("\n"))
-
-
-def _now() -> str:
-    """The time an event is recorded at: UTC, ISO 8601, whole seconds."""
-    import datetime as dt
-
-    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
 
 
 @campaign.command("split")

@@ -82,7 +82,8 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
 
     A flight folder (`log ingest` output, with the plan) is checked planned vs flown, without a
     profile on the planner's own rule too; the places a rule fails on the flown photos go to its
-    failing_places.geojson.
+    failing_places.geojson. A flight of a campaign block's plan records a "compliance" event in the
+    campaign's register (docs/campaign.md).
 
     Exit code 0 when every error-level rule passes, 1 when one fails (named on stderr), 2 for bad input.
     """
@@ -100,9 +101,13 @@ def check(target: Path | None, profiles: tuple[str, ...], profile_dirs: tuple[Pa
     from aerosurvey.flight import DAY_FILE
 
     if (target / "log_report.json").is_file() or (target / DAY_FILE).is_file():  # a `log ingest` folder: planned vs flown
+        from aerosurvey.commands.block_events import record_block_event
         from aerosurvey.flight.compliance import check_flight
 
-        check_flight(target, plan_dir, lambda t: chosen_profiles(t, list(profiles), list(profile_dirs)), as_json)
+        flown = check_flight(target, plan_dir, lambda t: chosen_profiles(t, list(profiles), list(profile_dirs)), as_json)
+        record_block_event(flown.plan_folder, "compliance", f"{target.resolve().name}: {flown.text()}")
+        if flown.failed:
+            raise SystemExit(1)
         return
     if plan_dir is not None:
         raise InputError(f"--plan {str(plan_dir)!r} is for a flight folder (`aerosurvey log ingest` output); {str(target)!r} is none")

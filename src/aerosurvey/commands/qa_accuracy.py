@@ -51,7 +51,8 @@ def _dumps(data: object) -> str:
 @click.option("--area-km2", type=_POS, default=None, help="Project area, for the required number of check points.")
 @click.option("--area-ha", type=_POS, default=None, help="Project area in hectares (instead of --area-km2).")
 @click.option("--campaign", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="A plan folder (aerosurvey plan/gcp output): project area, proposed GCPs and check points, GSD.")
+              help="A plan folder (aerosurvey plan/gcp output): project area, proposed GCPs and check points, GSD. A "
+                   "campaign block's folder: with -o, the verdict is filed in the campaign's register.")
 @click.option("--ref-sigma-xy", type=_NONNEG, default=None,
               help="Reference survey: standard deviation of one horizontal coordinate, m (ASPRS 2023, bayes).")
 @click.option("--ref-sigma-z", type=_NONNEG, default=None, help="Reference survey: height standard deviation, m.")
@@ -134,6 +135,10 @@ def accuracy(points: Path, standard: str, units: str | None, crs: str | None, de
             atomic_write_text(stage / "accuracy.txt", text)
             atomic_write_text(stage / "accuracy.html", render(result, pts))
     click.echo(_dumps(result) if as_json else text, nl=False)
+    if campaign is not None:  # a campaign block's folder: its QA verdict filed in the register
+        from aerosurvey.commands.block_events import record_block_event
+
+        record_block_event(campaign, "qa", "", accuracy=outdir)
     v = result["verdict"]
     if v["status"] != "valid":
         raise NotTested(f"{result['standard_name']}: {v['status']}, no verdict: {'; '.join(v['reasons'])}")

@@ -25,7 +25,8 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, dji
     """Plan a re-fly over the cells of LOG_DIR/coverage.tif seen by too few photos.
 
     The re-fly is a plan of its own over the gaps, with every file `plan` writes for the spec's
-    camera and vehicle: with a DJI camera, the .kmz waylines DJI Pilot 2 flies."""
+    camera and vehicle: with a DJI camera, the .kmz waylines DJI Pilot 2 flies. A --plan that is a campaign
+    block's folder records a "re-fly" event in the campaign's register (docs/campaign.md)."""
     # the planner and rasterio are heavy: imported when the command runs
     from aerosurvey.flight.refly import plan_refly, write_refly
     from aerosurvey.rules.planview import PlanView
@@ -40,6 +41,11 @@ def refly(log_dir: Path, plan_dir: Path, spec_path: Path, min_gap_m2: float, dji
     plan = r.plan
     import shapely  # loaded by the command, not by `aerosurvey --help`
 
-    click.echo(f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than {r.need} "
-               f"photos; re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
+    from aerosurvey.commands.block_events import record_block_event
+
+    gaps = (f"{shapely.area(r.gaps) / 1e4:.3f} ha in {len(shapely.get_parts(r.gaps))} gap(s) seen by fewer than {r.need} "
+            "photos")
+    click.echo(f"{gaps}; re-fly: {len(plan.route.runs)} runs, {len(plan.stations.ids)} photos, "
                f"{plan.estimates['total_time_s'] / 60:.1f} min; wrote {', '.join(sorted({*r.files, *r.binary}))} to {outdir}")
+    record_block_event(plan_dir, "re-fly", f"{outdir}: {len(plan.stations.ids)} photos in {len(plan.route.runs)} runs over "
+                                           f"{gaps} (flight {log_dir})")

@@ -26,8 +26,8 @@ import click
 from aerosurvey.commands.brief import flight_start
 from aerosurvey.errors import InputError
 from aerosurvey.link import mission_protocol as mp
-from aerosurvey.link.preflight import AIRSPACE, outcome_lines, prepare, run_upload
-from aerosurvey.link.upload import LAUNCH_DISTANCE_M, VerificationFailed
+from aerosurvey.link.preflight import AIRSPACE, Prepared, outcome_lines, prepare, run_upload
+from aerosurvey.link.upload import LAUNCH_DISTANCE_M, UploadReport, VerificationFailed
 from aerosurvey.link.vehicle_settings import CHECKS
 
 _DEFAULTS = mp.Policy()  # the command's defaults are the protocol's: one place for both
@@ -141,6 +141,9 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
     differing item, field and values are named; a partial mission is "the vehicle holds N of M
     mission items: do not fly it"), 2 for bad input. Progress goes to stderr when it is a
     terminal and the upload takes more than a second.
+
+    A PLAN_FILE in a campaign block's folder records an "uploaded" event in the campaign's
+    register once uploaded (docs/campaign.md).
     """
     limit = launch_distance_limit(launch_distance)
     if at is not None and not zone_files:
@@ -158,3 +161,16 @@ def upload(plan_file: Path, url: str, timeout: float, retries: int, vehicle: str
         raise
     for line in outcome_lines(prep, out, not no_verify, rally):
         click.echo(line)
+    if out.report is not None:  # uploaded (send is on): a campaign block's folder records it
+        from aerosurvey.commands.block_events import record_block_event
+
+        record_block_event(plan_file.parent, "uploaded", uploaded_detail(plan_file, prep, out.report, not no_verify))
+
+
+def uploaded_detail(plan_file: Path, prep: Prepared, r: UploadReport, verified: bool) -> str:
+    """The "uploaded" event's detail: the file, the mission, the items sent, the vehicle, verified or not."""
+    sent = "".join(f", {t.items} {what}" for what, t in (("fence vertices", r.fence), ("rally points", r.rally))
+                   if t is not None)
+    return (f"{plan_file.name}: {prep.facts.vehicle} mission for {prep.facts.firmware}, {r.mission.items} mission items"
+            f"{sent} to system {r.vehicle.system} ({r.vehicle.autopilot_name}); "
+            + ("verified (read back and compared)" if verified else "not verified (--no-verify)"))

@@ -132,14 +132,28 @@ def write_places(folder: Path, layer: dict[str, Any]) -> None:
         atomic_write_text(stage / PLACES_FILE, json.dumps(layer, indent=1) + "\n")
 
 
-def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> None:
-    """`aerosurvey check FLIGHT_FOLDER`: print each rule planned / flown, write the failing places;
-    exit 1 when an error-level rule fails on the flown photos, or when `log ingest` found that the
-    vehicle flew another mission (its rules are then not judged against this plan). Without a
-    profile chosen, the planner's own rule (`planner_profile`), as `check PLAN_FOLDER` does."""
+@dataclass(frozen=True)
+class FlownVerdict:
+    """What `check FLIGHT_FOLDER` found: the plan folder flown, the rules judged on the flown photos, how many
+    passed, the error-level ones that failed (the command exits 1 when there is one)."""
+
+    plan_folder: Path
+    rules: int
+    passed: int
+    failed: tuple[str, ...]
+
+    def text(self) -> str:
+        return (f"{self.rules} rules as flown: {self.passed} passed, {len(self.failed)} failed"
+                + (f" at error level: {', '.join(self.failed)}" if self.failed else ""))
+
+
+def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> FlownVerdict:
+    """`aerosurvey check FLIGHT_FOLDER`: print each rule planned / flown, write the failing places; the
+    verdict (the command exits 1 when an error-level rule fails on the flown photos). CheckFailed when
+    `log ingest` found that the vehicle flew another mission (its rules are then not judged against this
+    plan). Without a profile chosen, the planner's own rule (`planner_profile`), as `check PLAN_FOLDER` does."""
     if (folder / DAY_FILE).is_file():
-        check_day(folder, plan_dir, choose, as_json)
-        return
+        return check_day(folder, plan_dir, choose, as_json)
     flight = open_flight(folder, plan_dir)
     if flight.other_mission is not None:
         raise CheckFailed(flight.other_mission)
@@ -155,8 +169,12 @@ def check_flight(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as
         before = sum(r.outcome.status == "fail" and r.severity == "error" for r in (j.planned for j in judged))
         click.echo(f"{len(judged)} rules as flown: {sum(j.status == 'pass' for j in judged)} passed, {len(bad)} failed "
                    f"({before} failed as planned); {len(layer['features'])} failing place(s) in {folder / PLACES_FILE}")
-    if bad:
-        raise SystemExit(1)
+    return verdict(flight.plan_folder, judged)
+
+
+def verdict(plan_folder: Path, judged: list[Judged]) -> FlownVerdict:
+    return FlownVerdict(plan_folder, len(judged), sum(j.status == "pass" for j in judged),
+                        tuple(r.rule for r in failed_errors([j.flown for j in judged])))
 
 
 def _echo_judged(flight: Flight, judged: list[Judged], title: str = "") -> None:
@@ -196,10 +214,10 @@ def day_flights(folder: Path, plan_dir: Path | None) -> tuple[list[Flight], Flig
     return sorties, group(list(range(len(flights))), None)
 
 
-def check_day(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> None:
+def check_day(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_json: bool) -> FlownVerdict:
     """`aerosurvey check DAY_FOLDER`: each sortie's and the whole day's rules planned / flown, on
-    the union of the records' photos; the whole day's failing places into the folder; exit 1
-    when an error-level rule fails on the whole day's photos (a sortie's failures are shown)."""
+    the union of the records' photos; the whole day's failing places into the folder; the whole
+    day's verdict (exit 1 when an error-level rule fails on its photos; a sortie's failures are shown)."""
     sorties, whole = day_flights(folder, plan_dir)
     profiles = choose(whole.target) or [planner_profile()]
     judged = [(f, *judge_flight(f, profiles)) for f in [*sorties, whole]]
@@ -219,5 +237,4 @@ def check_day(folder: Path, plan_dir: Path | None, choose: ChooseProfiles, as_js
             failed = failed_errors([j.flown for j in js])
             click.echo(f"{len(js)} rules as flown: {sum(j.status == 'pass' for j in js)} passed, {len(failed)} failed")
         click.echo(f"{len(layer['features'])} failing place(s) of the whole day in {folder / PLACES_FILE}")
-    if bad:
-        raise SystemExit(1)
+    return verdict(whole.plan_folder, whole_judged)
