@@ -29,8 +29,9 @@ from aerosurvey.cli import main
 
 @pytest.fixture(scope="module")
 def planned(tmp_path_factory) -> Path:
-    """Three blocks planned with plan.geojson among the outputs (`check FLIGHT` and `refly` read it)."""
-    return cc.planned_campaign(tmp_path_factory.mktemp("events"), 3, "--outputs", "manifest,pilot,geojson")
+    """Three blocks planned with the default outputs (manifest and pilots' files: `check FLIGHT` and `refly`
+    read the area and zones from outline.geojson)."""
+    return cc.planned_campaign(tmp_path_factory.mktemp("events"), 3)
 
 
 @pytest.fixture
@@ -318,7 +319,7 @@ def test_event_recorded_while_campaign_plan_runs_survives(planned, campaign, tmp
     monkeypatch.setattr(register, "after_planning", writing)
     blocks = cc.write_blocks(tmp_path / "more.geojson", 4, size_deg=(0.003, 0.002))  # t00-t02 as planned, t03 new
     code, out, err = run("campaign", "plan", blocks, "-o", campaign, "--spec", planned.parent / "template.toml",
-                         "--workers", "1", "--outputs", "manifest,pilot,geojson")
+                         "--workers", "1")
     proc = writing.proc  # type: ignore[attr-defined]
     assert proc.wait(timeout=60) == 0, proc.stdout.read() if proc.stdout else ""
     assert code == 0, out + err

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from aerosurvey.campaign.job import BLOCKS_DIR, OUTLINE_FILE, RESULT_FILE
+from aerosurvey.campaign.job import BLOCKS_DIR, RESULT_FILE
 from aerosurvey.campaign.register import BlockRow, Event, status_of
 from aerosurvey.errors import AerosurveyError, InputError
 
@@ -96,16 +96,15 @@ def file_flight(campaign: Path, flight: Path, rows: Sequence[BlockRow], vehicle:
 
 
 def block_view(campaign: Path, row: BlockRow) -> PlanView:
-    """What `log ingest --plan` reads of a block's plan: its manifest.json and the area and zones of its
-    outline.geojson (every block folder has one; a folder of the first layout, plan.geojson)."""
+    """What `log ingest --plan` reads of a block's plan: its manifest.json and its area and zones (PlanView.from_outdir:
+    plan.geojson, or the outline.geojson every block folder has)."""
     from aerosurvey.rules.planview import PlanView
 
     folder = campaign / BLOCKS_DIR / row.folder
     if not (folder / "manifest.json").is_file():
         raise InputError(f"block {row.name}: {folder / 'manifest.json'} is missing; `campaign ingest` needs each block's "
                          "manifest: plan the campaign with manifest among --outputs (as the default is)")
-    features = OUTLINE_FILE if (folder / OUTLINE_FILE).is_file() else "plan.geojson"
-    return PlanView.from_outdir(folder, f"block {row.name}", features)
+    return PlanView.from_outdir(folder, f"block {row.name}")
 
 
 def campaign_vehicle(campaign: Path, rows: Sequence[BlockRow]) -> str | None:

@@ -96,13 +96,16 @@ class PlanView:
         )
 
     @classmethod
-    def from_outdir(cls, outdir: Path, option: str = "plan folder", features_file: str = "plan.geojson") -> PlanView:
-        """From a folder written by `aerosurvey plan`; `option` names it in errors (e.g. --plan). `features_file` is the
-        GeoJSON file holding the area and zones (a campaign's block folder has them in outline.geojson)."""
+    def from_outdir(cls, outdir: Path, option: str = "plan folder") -> PlanView:
+        """From a folder written by `aerosurvey plan`; `option` names it in errors (e.g. --plan). The area and zones
+        come from its plan.geojson, or, in a campaign's block folder planned without it, from outline.geojson
+        (plan.geojson's area and zone features, which every block folder holds whatever `--outputs` chose)."""
+        from aerosurvey.campaign.job import OUTLINE_FILE
+
         doc = mf.read_manifest(outdir, option)
-        g = outdir / features_file
-        if not g.is_file():
-            raise InputError(f"{outdir}: {features_file} is missing; give a folder written by `aerosurvey plan`")
+        g = next((outdir / n for n in ("plan.geojson", OUTLINE_FILE) if (outdir / n).is_file()), None)
+        if g is None:
+            raise InputError(f"{outdir}: plan.geojson is missing; give a folder written by `aerosurvey plan`")
         try:
             features = json.loads(g.read_text(encoding="utf-8"))
         except (ValueError, UnicodeDecodeError) as exc:
