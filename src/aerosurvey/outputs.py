@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aerosurvey import ids, resumefile
+from aerosurvey import ids
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
 from aerosurvey.fileio import atomic_write_bytes, staged_directory
@@ -257,6 +257,8 @@ def render_resume(plan: Plan, stations_done: int, counted: tuple[str, ...], plan
     """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
     .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
     station the flight resumes from, what was counted as done and why, and what each sortie flies."""
+    from aerosurvey import resumefile  # `resume` only: not loaded by `plan`
+
     programs = _sortie_programs(plan, ids.resume_file_stem)
     final_gate(plan, programs)
     airspace_gate(plan, programs)
