@@ -164,16 +164,18 @@ def ray_directions(optics: Optics, attitude: Attitudes, uv: FloatArray) -> Float
     cam = np.stack([u, np.full_like(u, optics.focal_mm), v], axis=-1)  # (k, 3) or (n, k, 3)
     cam /= np.linalg.norm(cam, axis=-1, keepdims=True)
     cam = cam if cam.ndim == 3 else cam[None]
-    r, p, y = (np.radians(a)[:, None] for a in (attitude.roll_deg, attitude.pitch_deg, attitude.yaw_deg))
+    # each angle's cosine and sine once a photo
+    (cr, sr), (cp, sp), (cy, sy) = ((np.cos(a), np.sin(a)) for a in (np.radians(b)[:, None] for b in (
+        attitude.roll_deg, attitude.pitch_deg, attitude.yaw_deg)))
     x0, y0, z0 = cam[..., 0], cam[..., 1], cam[..., 2]
     # pitch: about the east axis, positive raising the axis above the horizon
-    y1, z1 = y0 * np.cos(p) - z0 * np.sin(p), y0 * np.sin(p) + z0 * np.cos(p)
+    y1, z1 = y0 * cp - z0 * sp, y0 * sp + z0 * cp
     x1 = np.broadcast_to(x0, y1.shape)
     # roll: about the (level) north axis, positive turning the axis' lower end to the right (east)
-    x2, z2 = x1 * np.cos(r) - z1 * np.sin(r), x1 * np.sin(r) + z1 * np.cos(r)
+    x2, z2 = x1 * cr - z1 * sr, x1 * sr + z1 * cr
     # yaw: clockwise from north
-    e = x2 * np.cos(y) + y1 * np.sin(y)
-    n = -x2 * np.sin(y) + y1 * np.cos(y)
+    e = x2 * cy + y1 * sy
+    n = -x2 * sy + y1 * cy
     return np.stack([e, n, z2], axis=-1)
 
 
