@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -41,17 +41,40 @@ from aerosurvey.report.summary import Summary, plan_summary
 log = logging.getLogger(__name__)
 
 
+class _Decoded(Mapping[str, str]):
+    """File name → text, read from the file's UTF-8 bytes when asked for."""
+
+    def __init__(self, data: Mapping[str, bytes]) -> None:
+        self._data = data
+
+    def __getitem__(self, name: str) -> str:
+        return self._data[name].decode("utf-8")
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+
 @dataclass(frozen=True)
 class Rendered:
-    files: dict[str, str]
+    """Every output of a plan as the bytes written. The text files are held as their UTF-8 bytes
+    (`text_bytes`), each encoded once, as soon as it is made, for its hash in the manifest and its
+    file, its text then let go: a 100 km² plan's texts are 64 MB, and each held once (`files` reads
+    them as text)."""
+
+    text_bytes: dict[str, bytes]  # file name → UTF-8 bytes of the text outputs
     rules: list[dict[str, Any]]  # every rule result, the planner's own included (manifest "rules")
     warnings: list[str]
     summary: Summary
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
     binary: dict[str, bytes] = field(default_factory=dict)  # file name → bytes of the binary outputs (plan.gpkg when asked)
-    # file name → bytes of every output as written: the texts encoded (UTF-8) once, for their hash in the manifest and for
-    # the file (64 MB for a 100 km² plan: encoding them twice cost ~25 ms), and the binary outputs
-    encoded: dict[str, bytes] = field(default_factory=dict)
+
+    @property
+    def files(self) -> Mapping[str, str]:
+        """File name → text of the text outputs."""
+        return _Decoded(self.text_bytes)
 
 
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
@@ -140,7 +163,7 @@ def plan_text(plan: Plan, shapes: SurveyShapes | None, m: Mission) -> str:
 
 def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
                    dji: str = DJI_TEMPLATES[0]) -> Rendered:
-    """File name → text of every output of `plan`, planned from `spec` (the manifest last: it lists the others' hashes);
+    """Every output of `plan`, planned from `spec` (the manifest last: it lists the others' hashes);
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
     is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`), `dji`
     which template the DJI .kmz files hold (`dji_kmz_files`)."""
@@ -155,11 +178,10 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     stations_table = mf.station_table(plan)
     corners = footprint_lonlat(plan)
     fc, _, geojson = plan_geojson(plan, stations_table, corners)
-    files = {
-        "plan.geojson": geojson,
-    }
-    files.update(_mission_files(plan, {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()},
-                                qgc))
+    files = {"plan.geojson": geojson.encode("utf-8")}  # each text's bytes, made once (`Rendered`)
+    del geojson  # held as its bytes only
+    missions = {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()}
+    files |= {name: text.encode("utf-8") for name, text in _mission_files(plan, missions, qgc).items()}
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, spec, len(mission.items), {}, with_stations=False)
     if airspace is not None:
@@ -174,23 +196,22 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     manifest["rules"] = [r.as_dict() for r in results] + planner_rules(plan) + planner_airspace_rule(airspace) \
         + ([clearance.rule_record()] if clearance is not None else [])
     summary = plan_summary(manifest, manifest["rules"])
-    files["preview.svg"] = render_svg(plan, summary, points)
+    files["preview.svg"] = render_svg(plan, summary, points).encode("utf-8")
     binary, dji_warnings = dji_kmz_files(plan, programs, dji)
     warnings += dji_warnings
     # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
     # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
     layers = plan_layers(plan, points)
-    files["plan.kml"] = layers_to_kml(layers, plan.name)
+    files["plan.kml"] = layers_to_kml(layers, plan.name).encode("utf-8")
     if gpkg:
         binary["plan.gpkg"] = gpkg_bytes([*layers, footprints_layer(plan, corners)])
-    encoded = {name: text.encode("utf-8") for name, text in files.items()} | binary
-    manifest["outputs"] = {name: _sha256(encoded[name]) for name in sorted(encoded)}
+    written = files | binary
+    manifest["outputs"] = {name: _sha256(written[name]) for name in sorted(written)}
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
-    files["manifest.json"] = mf.dumps(manifest, stations_table)
-    encoded["manifest.json"] = files["manifest.json"].encode("utf-8")
-    return Rendered(files, manifest["rules"], warnings, summary, evidence, binary, encoded)
+    files["manifest.json"] = mf.dumps(manifest, stations_table).encode("utf-8")
+    return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
 
 
 def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI_TEMPLATES[0]) -> tuple[dict[str, bytes], list[str]]:
@@ -279,6 +300,6 @@ def write_outputs(plan: Plan, spec: MissionSpec, outdir: Path, gpkg: bool = Fals
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
     rendered = render_outputs(plan, spec, gpkg, qgc, dji)
     with staged_directory(outdir) as stage:
-        for name, data in rendered.encoded.items():
+        for name, data in (rendered.text_bytes | rendered.binary).items():
             atomic_write_bytes(stage / name, data)
     return rendered
