@@ -178,10 +178,10 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     stations_table = mf.station_table(plan)
     corners = footprint_lonlat(plan)
     fc, _, geojson = plan_geojson(plan, stations_table, corners)
-    files = {"plan.geojson": geojson.encode("utf-8")}  # each text's bytes, made once (`Rendered`)
+    text_bytes = {"plan.geojson": geojson.encode("utf-8")}  # each text encoded once, as soon as it is made (`Rendered`)
     del geojson  # held as its bytes only
     missions = {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()}
-    files |= {name: text.encode("utf-8") for name, text in _mission_files(plan, missions, qgc).items()}
+    text_bytes |= {name: text.encode("utf-8") for name, text in _mission_files(plan, missions, qgc).items()}
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, spec, len(mission.items), {}, with_stations=False)
     if airspace is not None:
@@ -196,22 +196,22 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     manifest["rules"] = [r.as_dict() for r in results] + planner_rules(plan) + planner_airspace_rule(airspace) \
         + ([clearance.rule_record()] if clearance is not None else [])
     summary = plan_summary(manifest, manifest["rules"])
-    files["preview.svg"] = render_svg(plan, summary, points).encode("utf-8")
+    text_bytes["preview.svg"] = render_svg(plan, summary, points).encode("utf-8")
     binary, dji_warnings = dji_kmz_files(plan, programs, dji)
     warnings += dji_warnings
     # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
     # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
     layers = plan_layers(plan, points)
-    files["plan.kml"] = layers_to_kml(layers, plan.name).encode("utf-8")
+    text_bytes["plan.kml"] = layers_to_kml(layers, plan.name).encode("utf-8")
     if gpkg:
         binary["plan.gpkg"] = gpkg_bytes([*layers, footprints_layer(plan, corners)])
-    written = files | binary
+    written = text_bytes | binary
     manifest["outputs"] = {name: _sha256(written[name]) for name in sorted(written)}
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
-    files["manifest.json"] = mf.dumps(manifest, stations_table).encode("utf-8")
-    return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
+    text_bytes["manifest.json"] = mf.dumps(manifest, stations_table).encode("utf-8")
+    return Rendered(text_bytes, manifest["rules"], warnings, summary, evidence, binary)
 
 
 def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI_TEMPLATES[0]) -> tuple[dict[str, bytes], list[str]]:
