@@ -153,6 +153,8 @@ def uncovered_rule(c: Coverage) -> dict[str, Any]:
 def planner_rules(plan: Plan) -> list[dict[str, Any]]:
     """The planner's own rule results, as the manifest records them: the uncovered ground, and with a
     [structure] its faces (plan/surfaces.py)."""
-    from aerosurvey.plan.surfaces import faces_rule
+    if plan.faces is None:
+        return [uncovered_rule(plan.coverage)]
+    from aerosurvey.plan.surfaces import faces_rule  # faces only: not loaded by every plan
 
-    return [uncovered_rule(plan.coverage), *([faces_rule(plan.faces, PLANNER_PROFILE)] if plan.faces is not None else [])]
+    return [uncovered_rule(plan.coverage), faces_rule(plan.faces, PLANNER_PROFILE)]
