@@ -115,6 +115,11 @@ def test_planning_loads_only_what_planning_needs(tmp_path):
     assert sorted(mods & set(NOT_FOR_PLANNING)) == []
     assert "numpy.ma" not in modules  # np.median loads it (12-17 ms): the rules take statistics.median
     assert "jsonschema" not in mods  # the manifest just written is not checked again in the same process (~80 ms)
+    # the other patterns' modules (plan/pattern.py loads a pattern when asked for), the faces' model (a structure's
+    # plans only), `resume`'s writer
+    others = {"aerosurvey.plan.oblique", "aerosurvey.plan.smart_oblique", "aerosurvey.plan.orbit", "aerosurvey.plan.faces",
+              "aerosurvey.plan.surfaces", "aerosurvey.resumefile"}
+    assert "aerosurvey.plan.area_grid" in modules and sorted(modules & others) == []
 
 
 def test_registry_is_the_pyproject_entry_points():

@@ -26,13 +26,13 @@ def test_planning_and_rendering_leave_the_collector_on(monkeypatch) -> None:
     from aerosurvey.report import features
 
     seen = []
-    corners = features.footprint_corners
+    corners = features.bounded_footprint_corners
 
     def record(*args, **kwargs):
         seen.append(gc.isenabled())
         return corners(*args, **kwargs)
 
-    monkeypatch.setattr(features, "footprint_corners", record)
+    monkeypatch.setattr(features, "bounded_footprint_corners", record)
     assert gc.isenabled()
     fc = plan_features(plan_from_files(load_spec(ROOT / "missions" / "obratan-72ha.toml")))
     roles = [f["properties"]["role"] for f in fc["features"]]

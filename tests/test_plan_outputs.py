@@ -83,6 +83,28 @@ def test_outputs_load_and_join(tmp_path):
     assert [r["rule"] for r in manifest["rules"]][0] == "cz-camera-sensor"
 
 
+def test_manifest_hashes_every_file_written_and_rendered_texts_are_the_files(tmp_path):
+    """Each output is encoded once, for its hash and its file (outputs.Rendered): the manifest lists
+    every file written but itself, by the SHA-256 of the bytes on disk, and `Rendered.files` reads
+    back each text file exactly as written."""
+    import hashlib
+
+    from aerosurvey.inputs import plan_from_files
+    from aerosurvey.outputs import write_outputs
+    from aerosurvey.spec import load_spec
+
+    spec = load_spec(REPO / "missions" / "kubad-abad-fixed-wing.toml")  # sorties: more files
+    out = tmp_path / "o"
+    rendered = write_outputs(plan_from_files(spec), spec, out)
+    written = {p.name: p.read_bytes() for p in out.iterdir() if not p.name.startswith(".")}
+    listed = json.loads(written["manifest.json"])["outputs"]
+    assert set(listed) == set(written) - {"manifest.json"} and any(n.startswith("sortie-") for n in listed)
+    assert listed == {n: hashlib.sha256(b).hexdigest() for n, b in written.items() if n != "manifest.json"}
+    assert set(rendered.files) | set(rendered.binary) == set(written)
+    for name, text in rendered.files.items():
+        assert text == written[name].decode("utf-8"), name
+
+
 def test_exclusions_in_geojson(tmp_path):
     from conftest import make_spec, write_geojson
 

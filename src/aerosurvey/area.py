@@ -12,7 +12,6 @@ import functools
 import io
 import itertools
 import re
-import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -442,6 +441,8 @@ def read_area_data(shown: str, files: Mapping[str, bytes], name: str) -> BaseGeo
         except UnicodeDecodeError as exc:
             raise InputError(f"{name}: {shown!r} is not UTF-8 text: {exc}") from None
         return _in_wgs84(_from_wkt(text, name), _WGS84, name)
+    import zipfile  # for uploads only: not loaded by every command that reads an area (~4 ms)
+
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zf:  # stored: a copy, no compression work
         for n in names:

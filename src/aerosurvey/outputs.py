@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import hashlib
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aerosurvey import ids, resumefile
+from aerosurvey import ids
 from aerosurvey import manifest as mf
 from aerosurvey.errors import CheckFailed
-from aerosurvey.fileio import atomic_write_bytes, atomic_write_text, staged_directory
+from aerosurvey.fileio import atomic_write_bytes, staged_directory
 from aerosurvey.mission.builder import mavlink_mission
 from aerosurvey.mission.formats import DJI_TEMPLATES, QGC_LAYOUTS
 from aerosurvey.mission.formats.kml import layers_to_kml
@@ -41,14 +41,40 @@ from aerosurvey.report.summary import Summary, plan_summary
 log = logging.getLogger(__name__)
 
 
+class _Decoded(Mapping[str, str]):
+    """File name → text, read from the file's UTF-8 bytes when asked for."""
+
+    def __init__(self, data: Mapping[str, bytes]) -> None:
+        self._data = data
+
+    def __getitem__(self, name: str) -> str:
+        return self._data[name].decode("utf-8")
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+
 @dataclass(frozen=True)
 class Rendered:
-    files: dict[str, str]
+    """Every output of a plan as the bytes written. The text files are held as their UTF-8 bytes
+    (`text_bytes`), each encoded once, as soon as it is made, for its hash in the manifest and its
+    file, its text then let go: a 100 km² plan's texts are 64 MB, and each held once (`files` reads
+    them as text)."""
+
+    text_bytes: dict[str, bytes]  # file name → UTF-8 bytes of the text outputs
     rules: list[dict[str, Any]]  # every rule result, the planner's own included (manifest "rules")
     warnings: list[str]
     summary: Summary
     evidence: Any = None  # the rules' Evidence (footprints, proposed control points) when profiles were evaluated
     binary: dict[str, bytes] = field(default_factory=dict)  # file name → bytes of the binary outputs (plan.gpkg when asked)
+
+    @property
+    def files(self) -> Mapping[str, str]:
+        """File name → text of the text outputs."""
+        return _Decoded(self.text_bytes)
 
 
 def item_limit_warnings(plan: Plan, mission: Mission) -> list[str]:
@@ -137,7 +163,7 @@ def plan_text(plan: Plan, shapes: SurveyShapes | None, m: Mission) -> str:
 
 def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str = QGC_LAYOUTS[0],
                    dji: str = DJI_TEMPLATES[0]) -> Rendered:
-    """File name → text of every output of `plan`, planned from `spec` (the manifest last: it lists the others' hashes);
+    """Every output of `plan`, planned from `spec` (the manifest last: it lists the others' hashes);
     with `gpkg`, plan.gpkg too (report/gpkg.py; it costs more than the rest together, so it
     is made when asked); `qgc` is how the .plan files hold the passes (`plan_text`), `dji`
     which template the DJI .kmz files hold (`dji_kmz_files`)."""
@@ -152,11 +178,10 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     stations_table = mf.station_table(plan)
     corners = footprint_lonlat(plan)
     fc, _, geojson = plan_geojson(plan, stations_table, corners)
-    files = {
-        "plan.geojson": geojson,
-    }
-    files.update(_mission_files(plan, {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()},
-                                qgc))
+    text_bytes = {"plan.geojson": geojson.encode("utf-8")}  # each text encoded once, as soon as it is made (`Rendered`)
+    del geojson  # held as its bytes only
+    missions = {stem: mission if stem == "mission" else mavlink_mission(p) for stem, p in programs.items()}
+    text_bytes |= {name: text.encode("utf-8") for name, text in _mission_files(plan, missions, qgc).items()}
     warnings = list(plan.warnings) + item_limit_warnings(plan, mission)
     manifest = mf.build_manifest(plan, spec, len(mission.items), {}, with_stations=False)
     if airspace is not None:
@@ -171,23 +196,22 @@ def render_outputs(plan: Plan, spec: MissionSpec, gpkg: bool = False, qgc: str =
     manifest["rules"] = [r.as_dict() for r in results] + planner_rules(plan) + planner_airspace_rule(airspace) \
         + ([clearance.rule_record()] if clearance is not None else [])
     summary = plan_summary(manifest, manifest["rules"])
-    files["preview.svg"] = render_svg(plan, summary, points)
+    text_bytes["preview.svg"] = render_svg(plan, summary, points).encode("utf-8")
     binary, dji_warnings = dji_kmz_files(plan, programs, dji)
     warnings += dji_warnings
     # plan.kml and plan.gpkg: the same layers, the rules' proposed control points among them;
     # the footprints only in the GeoPackage (thousands of rectangles clutter Google Earth)
     layers = plan_layers(plan, points)
-    files["plan.kml"] = layers_to_kml(layers, plan.name)
+    text_bytes["plan.kml"] = layers_to_kml(layers, plan.name).encode("utf-8")
     if gpkg:
         binary["plan.gpkg"] = gpkg_bytes([*layers, footprints_layer(plan, corners)])
-    hashes = {name: _sha256(text.encode("utf-8")) for name, text in files.items()}
-    hashes |= {name: _sha256(data) for name, data in binary.items()}
-    manifest["outputs"] = dict(sorted(hashes.items()))
+    written = text_bytes | binary
+    manifest["outputs"] = {name: _sha256(written[name]) for name in sorted(written)}
     if plan.coverage.uncovered_m2 > 0:
         warnings.append(f"rule uncovered-ground (plan) fails: measured {plan.coverage.uncovered_m2:.0f} m², required 0 m²")
     manifest["warnings"] = warnings
-    files["manifest.json"] = mf.dumps(manifest, stations_table)
-    return Rendered(files, manifest["rules"], warnings, summary, evidence, binary)
+    text_bytes["manifest.json"] = mf.dumps(manifest, stations_table).encode("utf-8")
+    return Rendered(text_bytes, manifest["rules"], warnings, summary, evidence, binary)
 
 
 def dji_kmz_files(plan: Plan, programs: dict[str, FlightProgram], dji: str = DJI_TEMPLATES[0]) -> tuple[dict[str, bytes], list[str]]:
@@ -254,6 +278,8 @@ def render_resume(plan: Plan, stations_done: int, counted: tuple[str, ...], plan
     """File name → text of a resumed flight (`planner.resume_mission`): each sortie's .plan and
     .waypoints (resume-01 …), every leg through the final gate, and resume.json saying which
     station the flight resumes from, what was counted as done and why, and what each sortie flies."""
+    from aerosurvey import resumefile  # `resume` only: not loaded by `plan`
+
     programs = _sortie_programs(plan, ids.resume_file_stem)
     final_gate(plan, programs)
     airspace_gate(plan, programs)
@@ -274,8 +300,6 @@ def write_outputs(plan: Plan, spec: MissionSpec, outdir: Path, gpkg: bool = Fals
     """Render everything first, then move it into `outdir`; an error leaves `outdir` untouched."""
     rendered = render_outputs(plan, spec, gpkg, qgc, dji)
     with staged_directory(outdir) as stage:
-        for name, text in rendered.files.items():
-            atomic_write_text(stage / name, text)
-        for name, data in rendered.binary.items():
+        for name, data in (rendered.text_bytes | rendered.binary).items():
             atomic_write_bytes(stage / name, data)
     return rendered

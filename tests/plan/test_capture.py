@@ -19,6 +19,7 @@ from aerosurvey.plan.capture import (
     Attitudes,
     Optics,
     Photos,
+    bounded_footprint_corners,
     bounded_footprints,
     edge_gsd,
     footprint_corners,
@@ -126,6 +127,23 @@ def test_a_photo_has_a_ground_footprint_iff_every_corner_is_5_degrees_below_the_
         with pytest.raises(ValueError, match="below it"):
             footprint_corners(ph, optics, 0.0)
         assert footprint_corners(ph.take(np.array([1])), optics, 0.0).shape == (1, 4, 2)
+
+
+@given(st.lists(st.tuples(st.floats(0, 360), st.floats(-90.0, 15.0), st.floats(-30.0, 30.0), st.floats(5.0, 300.0)),
+                min_size=0, max_size=12),
+       st.sampled_from(["landscape", "portrait"]), st.floats(0.999, 1.001))
+@settings(max_examples=100, deadline=None)
+def test_bounded_footprint_corners_are_the_footprints_of_the_photos_that_have_one(looks, mount: str, k: float) -> None:
+    """Photos looking anywhere from straight down to above the horizon, some with a footprint
+    and some without (or none at all): the mask is `bounded_footprints`' and the corners are
+    `footprint_corners` of exactly those photos, in their order."""
+    yaw, pitch, roll, z = (np.array([t[i] for t in looks], float) for i in range(4))
+    ph = Photos(np.arange(len(looks), dtype=float) * 50.0, -np.arange(len(looks), dtype=float), z, Attitudes(yaw, pitch, roll))
+    optics = Optics.of(CAM, mount)
+    corners, bounded = bounded_footprint_corners(ph, optics, 0.0, k)
+    assert bounded.dtype == bool and bounded.tolist() == bounded_footprints(ph, optics).tolist()
+    assert corners.shape == (int(bounded.sum()), 4, 2)
+    assert np.array_equal(corners, footprint_corners(ph.take(np.flatnonzero(bounded)), optics, 0.0, k))
 
 
 class Slope:

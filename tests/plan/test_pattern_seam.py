@@ -129,6 +129,14 @@ def test_the_page_is_offered_every_registered_pattern_with_its_fields(diagonals)
     assert {"face_angle_deg", "face_height_m", "benches", "berm_m"} <= set(keys["faces"]) and table["faces"]["area_is_centreline"]
 
 
+def test_each_registry_entry_is_the_pattern_of_its_kind() -> None:
+    """The registry names each pattern's module (imported when the pattern is first asked for):
+    the class found there says the kind it is registered under."""
+    assert list(registry.PATTERNS) == ["area", "corridor", "oblique", "smart-oblique", "orbit", "facade", "faces"]
+    for kind, pattern in registry.PATTERNS.items():
+        assert pattern.kind == kind and registry.kind_of(kind) is pattern
+
+
 def test_an_unknown_kind_is_refused_naming_the_registry(tmp_path: Path) -> None:
     spec = make_spec(tmp_path, {"pattern": {"kind": "spiral"}})
     code, text = _run("plan", spec, "-o", tmp_path / "out")

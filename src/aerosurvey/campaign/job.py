@@ -184,7 +184,7 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
         rendered = render_outputs(plan, spec, gpkg="gpkg" in job.outputs)
     except AerosurveyError as exc:
         return BlockResult(job.name, job.key, "failed", message=str(exc))
-    outputs: dict[str, str | bytes] = {**rendered.files, **rendered.binary}
+    outputs = rendered.text_bytes | rendered.binary
     chosen = sorted(n for n in outputs if output_group(n) in job.outputs)
     s = rendered.summary
     record: dict[str, Any] = {"format": FORMAT, "name": job.name, "key": job.key, "status": "rules-fail" if s.rules.failed else "planned",
@@ -197,8 +197,7 @@ def plan_block(job: BlockJob, campaign: str) -> BlockResult:
     temp = Path(tempfile.mkdtemp(prefix=f".{job.folder}.", suffix=TEMP_SUFFIX, dir=blocks))
     try:
         for name in chosen:
-            data = outputs[name]
-            (temp / name).write_bytes(data.encode("utf-8") if isinstance(data, str) else data)
+            (temp / name).write_bytes(outputs[name])
         outline = {"type": "FeatureCollection", "features": outline_features(plan)}
         (temp / OUTLINE_FILE).write_text(json.dumps(outline, separators=(",", ":")) + "\n", encoding="utf-8")
         (temp / RESULT_FILE).write_text(json.dumps(record, indent=1, sort_keys=True) + "\n", encoding="utf-8")

@@ -164,16 +164,18 @@ def ray_directions(optics: Optics, attitude: Attitudes, uv: FloatArray) -> Float
     cam = np.stack([u, np.full_like(u, optics.focal_mm), v], axis=-1)  # (k, 3) or (n, k, 3)
     cam /= np.linalg.norm(cam, axis=-1, keepdims=True)
     cam = cam if cam.ndim == 3 else cam[None]
-    r, p, y = (np.radians(a)[:, None] for a in (attitude.roll_deg, attitude.pitch_deg, attitude.yaw_deg))
+    # each angle's cosine and sine once a photo
+    (cr, sr), (cp, sp), (cy, sy) = ((np.cos(a), np.sin(a)) for a in (np.radians(b)[:, None] for b in (
+        attitude.roll_deg, attitude.pitch_deg, attitude.yaw_deg)))
     x0, y0, z0 = cam[..., 0], cam[..., 1], cam[..., 2]
     # pitch: about the east axis, positive raising the axis above the horizon
-    y1, z1 = y0 * np.cos(p) - z0 * np.sin(p), y0 * np.sin(p) + z0 * np.cos(p)
+    y1, z1 = y0 * cp - z0 * sp, y0 * sp + z0 * cp
     x1 = np.broadcast_to(x0, y1.shape)
     # roll: about the (level) north axis, positive turning the axis' lower end to the right (east)
-    x2, z2 = x1 * np.cos(r) - z1 * np.sin(r), x1 * np.sin(r) + z1 * np.cos(r)
+    x2, z2 = x1 * cr - z1 * sr, x1 * sr + z1 * cr
     # yaw: clockwise from north
-    e = x2 * np.cos(y) + y1 * np.sin(y)
-    n = -x2 * np.sin(y) + y1 * np.cos(y)
+    e = x2 * cy + y1 * sy
+    n = -x2 * sy + y1 * cy
     return np.stack([e, n, z2], axis=-1)
 
 
@@ -192,7 +194,12 @@ def bounded_footprints(photos: Photos, optics: Optics) -> BoolArray:
     they have no ground footprint (`footprint_corners` refuses them), plan.geojson writes their
     point with the reason, and the coverage step and the rules' footprints count them for no
     ground point."""
-    bounded: BoolArray = np.all(_below_horizon(ray_directions(optics, photos.attitude, CORNERS)), axis=1)
+    return _bounded(ray_directions(optics, photos.attitude, CORNERS))
+
+
+def _bounded(corner_rays: FloatArray) -> BoolArray:
+    """Which photos have a bounded ground footprint (`bounded_footprints`), from their corners' (n, 4, 3) rays."""
+    bounded: BoolArray = np.all(_below_horizon(corner_rays), axis=1)
     return bounded
 
 
@@ -208,7 +215,11 @@ def ground_points(photos: Photos, optics: Optics, uv: FloatArray, ground: float 
     """(n, k, 3) points (x, y in the planning CRS, z) where the rays through image points `uv`
     meet the ground: flat at a height (one, or one per photo), or a `Ground`. ValueError when
     a ray does not point far enough below the horizon, or a camera is not above the ground."""
-    d = ray_directions(optics, photos.attitude, uv)
+    return _meet_ground(photos, ray_directions(optics, photos.attitude, uv), ground, grid_scale)
+
+
+def _meet_ground(photos: Photos, d: FloatArray, ground: float | FloatArray | Ground, grid_scale: float) -> FloatArray:
+    """`ground_points` of the photos' (n, k, 3) unit rays `d`."""
     _check_below_horizon(d)
     cx, cy, cz = (np.asarray(a, float)[:, None] for a in (photos.x, photos.y, photos.z))
     if isinstance(ground, int | float | np.ndarray):
@@ -234,6 +245,15 @@ def footprint_corners(photos: Photos, optics: Optics, ground: float | FloatArray
     order): a rectangle at nadir over flat ground, a trapezoid when tilted. Only for photos that
     have one (`bounded_footprints`; ValueError for the others)."""
     return ground_points(photos, optics, CORNERS, ground, grid_scale)[..., :2]
+
+
+def bounded_footprint_corners(photos: Photos, optics: Optics, ground: float | FloatArray | Ground,
+                              grid_scale: float = 1.0) -> tuple[FloatArray, BoolArray]:
+    """`footprint_corners` of the photos that have a footprint, and which photos those are
+    (`bounded_footprints`), the corners' rays made once for both (51,316 photos: ~15 ms a time)."""
+    d = ray_directions(optics, photos.attitude, CORNERS)
+    bounded = _bounded(d)
+    return _meet_ground(photos.take(bounded), d[bounded], ground, grid_scale)[..., :2], bounded
 
 
 def footprint_polygons(photos: Photos, optics: Optics, ground: float | FloatArray | Ground,

@@ -22,7 +22,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.capture import Optics, Photos, bounded_footprints, footprint_corners
+from aerosurvey.plan.capture import Optics, Photos, bounded_footprint_corners
 from aerosurvey.plan.model import Stations
 from aerosurvey.plan.sensor import SensorSolution
 from aerosurvey.plan.site import Site
@@ -125,7 +125,7 @@ def coverage_shortfall(spec: MissionSpec, site: Site, sensor: SensorSolution, st
     photos = Photos.looking(stations.x, stations.y, stations.agl_m, stations.camera_yaw_deg, stations.pitch_deg)
     optics = Optics.of(spec.camera.camera, spec.camera.mount)
     # a photo with no ground footprint (a level camera's) sees no ground point
-    corners = footprint_corners(photos.take(bounded_footprints(photos, optics)), optics, 0.0, k)
+    corners, _ = bounded_footprint_corners(photos, optics, 0.0, k)
     lo, hi = corners.min(axis=1), corners.max(axis=1)
     meet = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])).query(rest, predicate="intersects")
     fps = shapely.buffer(shapely.polygons(corners[meet]), -EDGE_TOLERANCE_M * k, join_style="mitre")
@@ -153,6 +153,8 @@ def uncovered_rule(c: Coverage) -> dict[str, Any]:
 def planner_rules(plan: Plan) -> list[dict[str, Any]]:
     """The planner's own rule results, as the manifest records them: the uncovered ground, and with a
     [structure] its faces (plan/surfaces.py)."""
-    from aerosurvey.plan.surfaces import faces_rule
+    if plan.faces is None:
+        return [uncovered_rule(plan.coverage)]
+    from aerosurvey.plan.surfaces import faces_rule  # faces only: not loaded by every plan
 
-    return [uncovered_rule(plan.coverage), *([faces_rule(plan.faces, PLANNER_PROFILE)] if plan.faces is not None else [])]
+    return [uncovered_rule(plan.coverage), faces_rule(plan.faces, PLANNER_PROFILE)]

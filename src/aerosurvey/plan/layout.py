@@ -16,11 +16,11 @@ from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.progress import Progress
 from aerosurvey.plan.sensor import Footprint, SensorSolution
 from aerosurvey.plan.site import Site
-from aerosurvey.plan.surfaces import Surface
 
 if TYPE_CHECKING:
     from aerosurvey.plan.bounds import GridBounds
     from aerosurvey.plan.model import Heights, Plan
+    from aerosurvey.plan.surfaces import Surface
     from aerosurvey.spec import FlightSpec, MissionSpec
 
 

@@ -15,25 +15,55 @@ the manifest's parameters). Everything that depends on the kind asks the entry h
 spec's allowed kinds and fields, the sensor's footprint, the bounds, the manifest (and the
 kinds its reader accepts), the web page's fields. Adding a pattern is its module and one
 entry in `PATTERNS` (docs/planning.md: "How to add a flight pattern").
+
+An entry names where its pattern is ("module:Class"), and the module is imported when the
+pattern is first asked for: a plan loads only its own pattern's module (the others' imports
+and dataclasses cost ~10 ms at every `aerosurvey plan`). The kinds are known without any.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import importlib
+from collections.abc import Iterator, MutableMapping
 from typing import Any
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.area_grid import AreaGrid, strip_geometry
-from aerosurvey.plan.corridor import Corridor
-from aerosurvey.plan.faces import Facade, Faces
 from aerosurvey.plan.layout import Field, Layout, Pattern, PatternKind
-from aerosurvey.plan.oblique import Oblique
-from aerosurvey.plan.orbit import Orbit
-from aerosurvey.plan.smart_oblique import SmartOblique
 from aerosurvey.spec import MissionSpec
 
-#: `[pattern] kind` → the pattern
-PATTERNS: Mapping[str, type[PatternKind]] = {p.kind: p for p in (AreaGrid, Corridor, Oblique, SmartOblique, Orbit, Facade, Faces)}
+
+class Registry(MutableMapping[str, type[PatternKind]]):
+    """`[pattern] kind` → its pattern; an entry given as "module:Class" is imported when first asked for."""
+
+    def __init__(self, entries: dict[str, type[PatternKind] | str]) -> None:
+        self._entries = dict(entries)
+
+    def __getitem__(self, kind: str) -> type[PatternKind]:
+        entry = self._entries[kind]
+        if isinstance(entry, str):
+            module, _, name = entry.partition(":")
+            entry = self._entries[kind] = getattr(importlib.import_module(module), name)
+        return entry
+
+    def __setitem__(self, kind: str, pattern: type[PatternKind]) -> None:
+        self._entries[kind] = pattern
+
+    def __delitem__(self, kind: str) -> None:
+        del self._entries[kind]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+
+#: `[pattern] kind` → the pattern (each class's `kind` is its key: tests/plan/test_pattern_seam.py)
+PATTERNS = Registry({"area": AreaGrid, "corridor": "aerosurvey.plan.corridor:Corridor",
+                     "oblique": "aerosurvey.plan.oblique:Oblique", "smart-oblique": "aerosurvey.plan.smart_oblique:SmartOblique",
+                     "orbit": "aerosurvey.plan.orbit:Orbit", "facade": "aerosurvey.plan.faces:Facade",
+                     "faces": "aerosurvey.plan.faces:Faces"})
 
 
 def kind_of(kind: str) -> type[PatternKind]:
@@ -59,5 +89,4 @@ def field_table() -> list[dict[str, Any]]:
              "fields": [field(f) for f in p.fields]} for p in PATTERNS.values()]
 
 
-__all__ = ["PATTERNS", "AreaGrid", "Corridor", "Layout", "Oblique", "Pattern", "field_table", "kind_of", "pattern_for",
-           "strip_geometry"]
+__all__ = ["PATTERNS", "AreaGrid", "Layout", "Pattern", "Registry", "field_table", "kind_of", "pattern_for", "strip_geometry"]

@@ -18,6 +18,7 @@ import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 from itertools import islice
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
@@ -43,9 +44,11 @@ from aerosurvey.plan.routing import RoutePlan, check_launch, default_home, end_o
 from aerosurvey.plan.sensor import SensorSolution, reach_beyond_area_m, solve_heights, solve_sensor, target_height
 from aerosurvey.plan.site import Site, prepare_site
 from aerosurvey.plan.sorties import Budget, FlightPath, LaunchSite, Sortie, split
-from aerosurvey.plan.surfaces import FacesCheck, Structure, check_faces
 from aerosurvey.plan.zone_edges import edge_passes
 from aerosurvey.spec import MissionSpec
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.surfaces import FacesCheck
 
 __all__ = ["Flown", "Heights", "Plan", "PlanInputs", "Progress", "RouteWaypoint", "Stations", "flown_layout", "fly_layout",
            "plan_mission", "resume_mission"]
@@ -173,13 +176,16 @@ def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home
     """The faces as the stations' photos see them: the pattern's own surface (`Layout.surface`, its
     heights above the launch point's ground), else [structure]'s, the photos' heights on the
     structure's datum (its ground: the DEM's at its footprint, or the launch point's without a DEM)."""
+    if layout.surface is None and (spec.structure is None or inputs.structure_wgs84 is None):
+        return None
+    from aerosurvey.plan.surfaces import Structure, check_faces  # faces only: not loaded by every plan
+
     optics = Optics.of(spec.camera.camera, spec.camera.mount)
     if layout.surface is not None:
         photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
         a = layout.surface
         return check_faces(a.surface, home_ground, photos, st.ids, st.run, optics, site.grid_scale, a.min_images, a.max_gsd_m)
-    if spec.structure is None or inputs.structure_wgs84 is None:
-        return None
+    assert spec.structure is not None and inputs.structure_wgs84 is not None
     footprint = site.planar.forward(inputs.structure_wgs84)
     at = footprint.representative_point()
     ground = float(site.dem.sample(np.array([at.x]), np.array([at.y]), "the structure")[0]) if site.dem is not None else home_ground

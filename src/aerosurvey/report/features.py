@@ -17,7 +17,7 @@ from aerosurvey import ids
 from aerosurvey.jsontext import Column, dumps_compact, join_rows, pair_texts, quoted_as_is, string_texts
 from aerosurvey.manifest import StationTable, run_stations, station_table
 from aerosurvey.mission.formats.points import PointLayer
-from aerosurvey.plan.capture import MIN_DEPRESSION_DEG, Optics, Photos, bounded_footprints, footprint_corners
+from aerosurvey.plan.capture import MIN_DEPRESSION_DEG, Optics, Photos, bounded_footprint_corners
 from aerosurvey.plan.planner import Plan
 
 #: the `footprint` property of a photo with no ground footprint (`capture.bounded_footprints`):
@@ -96,8 +96,7 @@ def footprint_lonlat(plan: Plan) -> FootprintLonLat:
     st = plan.stations
     photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
     optics = Optics.of(plan.camera.camera, plan.camera.mount)
-    bounded = bounded_footprints(photos, optics)
-    corners = footprint_corners(photos.take(bounded), optics, 0.0, plan.site.grid_scale)
+    corners, bounded = bounded_footprint_corners(photos, optics, 0.0, plan.site.grid_scale)
     return (*plan.site.planar.lonlat(corners[..., 0].ravel(), corners[..., 1].ravel()), bounded)
 
 

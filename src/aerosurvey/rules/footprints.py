@@ -121,8 +121,8 @@ def footprints(view: PlanView) -> Footprints:
     k = float(view.manifest.get("derived", {}).get("grid_scale", 1.0))  # ground metres to grid metres
     cam = ViewCamera.of(view)
     photos = capture.Photos.looking(view.x, view.y, np.asarray(view.agl, float), view.camera_yaw_deg, view.pitch_deg)
-    at = np.flatnonzero(capture.bounded_footprints(photos, cam.optics))
-    corners = capture.footprint_corners(photos.take(at), cam.optics, 0.0, k)
+    corners, bounded = capture.bounded_footprint_corners(photos, cam.optics, 0.0, k)
+    at = np.flatnonzero(bounded)
     return Footprints(at, photos.x[at], photos.y[at], np.radians(np.asarray(view.heading_deg, float)[at]), corners)
 
 

@@ -16,7 +16,6 @@ The format has no geofence, speeds or names: those are in the .plan file only.
 from __future__ import annotations
 
 import math
-from decimal import Decimal
 
 from aerosurvey.errors import InputError
 from aerosurvey.mission import mavlink_ids as mav
@@ -36,6 +35,8 @@ def format_number(v: float) -> str:
     if text[-2:] == ".0":  # whole numbers, both zeros included ("-0.0" is "0")
         return "0" if text == "-0.0" else text[:-2]
     if "e" in text:
+        from decimal import Decimal  # for the rare exponent forms only: not loaded by every plan
+
         text = format(Decimal(text), "f")
         return text[:-2] if text.endswith(".0") else text
     return text  # "nan" and "inf" as repr writes them
