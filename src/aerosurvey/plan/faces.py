@@ -34,6 +34,9 @@ line and two heights: the faces' case of one bench at 90°).
   plan (the toe line to the last crest) grown by the stand-off less
   `orbit.CLEARANCE_ALLOWANCE_M` (`Layout.obstacle`), and a launch point inside it is refused;
   the tests measure every leg's distance from the solid in 3-D.
+- The camera is panned square to the lanes against a nose that turns round at each lane
+  (`nose_turns_camera`): a copter's lead-in lasts the nose's turn (`sensor.NOSE_TURN_S`), so a
+  lane's first photo is shot at its bearing (flown in SITL: tests/test_sitl.py).
 - Not offered: vertical lanes; a bent toe line (one straight line per plan).
 """
 
@@ -151,6 +154,7 @@ class Faces:
     kind: ClassVar[str] = "faces"
     title: ClassVar[str] = "faces (inclined benches above a toe line: open pit, quarry, dam)"
     area_is_centreline: ClassVar[bool] = True
+    nose_turns_camera: ClassVar[bool] = True  # the camera panned square to the lanes, flown back and forth
     fields: ClassVar[tuple[Field, ...]] = (
         Field("standoff_m", "Stand-off (m)", "number", 20.0, lo=CLEARANCE_ALLOWANCE_M + 1.0, hi=500.0,
               hint="Distance from each face to its lanes, square to the face"),
