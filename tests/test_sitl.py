@@ -7,6 +7,7 @@ harness passes paths, reports a SITL that fails and cleans up after it.
 
 from __future__ import annotations
 
+import bisect
 import json
 import math
 import os
@@ -217,7 +218,8 @@ def _sights(log: Path) -> list[np.ndarray]:
     """The camera's line of sight (north, east, down) at each picture (CAM) of a SITL log, read
     here on its own: the vehicle's attitude (CAM R, P, Y) turned by the servo mount's three servos
     in its order, pan, roll, tilt (scipy), each servo's angle from its output (RCOU, logged every
-    100 ms: interpolated to the picture's time) over its travel, the mount's MNT1_ limits across
+    100 ms: interpolated to the picture's time, or the one before it where the servo jumped to the next aim in
+    between) over its travel, the mount's MNT1_ limits across
     SERVOn_MIN..MAX (the log's PARM; none reversed)."""
     from scipy.spatial.transform import Rotation
 
@@ -231,8 +233,16 @@ def _sights(log: Path) -> list[np.ndarray]:
         assert params[f"SERVO{channel}_REVERSED"] == 0
         low, high = params[f"SERVO{channel}_MIN"], params[f"SERVO{channel}_MAX"]
         least, most = params[f"MNT1_{axis}_MIN"], params[f"MNT1_{axis}_MAX"]
-        pwm = np.array([getattr(m, f"C{channel}") for m in outputs], float)
-        return np.interp(at, [m.TimeUS for m in outputs], least + (pwm - low) / (high - low) * (most - least))
+        angle = least + (np.array([getattr(m, f"C{channel}") for m in outputs], float) - low) / (high - low) * (most - least)
+        times = [m.TimeUS for m in outputs]
+        out = []
+        for t in at:
+            i = min(max(bisect.bisect_right(times, t) - 1, 0), len(times) - 2)
+            # interpolated, unless the servo jumped by more than 10° in those 100 ms: the next aim, commanded
+            # as the picture was taken (hover-and-capture at several aims), and the output before it holds
+            jumped = abs(angle[i + 1] - angle[i]) > 10.0
+            out.append(angle[i] if jumped else float(np.interp(t, times, angle)))
+        return np.array(out)
 
     pan, roll, tilt = servo(6, "YAW"), servo(8, "ROLL"), servo(7, "PITCH")
     return [(Rotation.from_euler("ZYX", [c.Y, c.P, c.R], degrees=True)
@@ -301,25 +311,32 @@ def test_the_oblique_example_points_the_camera_as_planned(tmp_path):
     assert _sortie_pitches(manifest, rows) == [{-45.0}] * len(rows)
 
 
+def _copter_block(tmp_path: Path, name: str, box: tuple[float, float, float, float], tables: str) -> tuple[str, Path]:
+    """(the SITL copter binary, a spec named `name` over the lon/lat box (west, south, east, north) with the
+    spec's other `tables` as TOML text); the test skips without a binary."""
+    from conftest import write_geojson
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    w, s, e, n = box
+    write_geojson(tmp_path / "area.geojson", [[[w, s], [e, s], [e, n], [w, n], [w, s]]])
+    spec = tmp_path / f"{name}.toml"
+    spec.write_text(f'[mission]\nname = "{name}"\n[area]\nfile = "area.geojson"\n{tables}')
+    return binary, spec
+
+
 @pytest.mark.sitl
 def test_a_five_direction_plan_looks_every_way_as_planned(tmp_path):
     """A small five-direction oblique block (a nadir pass and four looks 45° down, the mount
     panned 0°, ±90° and 180° from the nose): every picture's line of sight within 2° of its
     station's pitch, in the mount's own order. (Turned yaw-pitch-roll, the side-looking passes
     read down to -40.1° in this flight: the vehicle's lean taken off the roll servo.)"""
-    from conftest import write_geojson
-
-    binary = _binary("copter")
-    if binary is None:
-        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
-    write_geojson(tmp_path / "area.geojson", [[[15.3560, 49.5400], [15.3572, 49.5400], [15.3572, 49.5406],
-                                               [15.3560, 49.5406], [15.3560, 49.5400]]])
-    spec = tmp_path / "five.toml"
-    spec.write_text('[mission]\nname = "five"\n[area]\nfile = "area.geojson"\n'
-                    '[pattern]\nkind = "oblique"\nscheme = "five-direction"\npitch_deg = -45\n'
-                    '[camera]\nmodel = "sony-a6000-16mm"\ntrigger = "distance"\n'
-                    '[targets]\nheight_m = 80\nforward_overlap = 0.75\nside_overlap = 0.6\n'
-                    '[vehicle]\ntype = "copter"\ncruise_speed_ms = 8.0\nmax_height_agl_m = 120\n')
+    binary, spec = _copter_block(tmp_path, "five", (15.3560, 49.5400, 15.3572, 49.5406),
+                                 '[pattern]\nkind = "oblique"\nscheme = "five-direction"\npitch_deg = -45\n'
+                                 '[camera]\nmodel = "sony-a6000-16mm"\ntrigger = "distance"\n'
+                                 '[targets]\nheight_m = 80\nforward_overlap = 0.75\nside_overlap = 0.6\n'
+                                 '[vehicle]\ntype = "copter"\ncruise_speed_ms = 8.0\nmax_height_agl_m = 120\n')
     out = tmp_path / "five"
     manifest, report = _plan_and_fly(spec, out, binary)
     looks = {(s["pitch_deg"], round((s["camera_yaw_deg"] - s["heading_deg"]) % 360.0)) for s in manifest["stations"]}
@@ -664,3 +681,151 @@ def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
         assert abs(row["time_ratio"] - 1.0) <= 0.05, row
         assert row["aim_ok"], row  # nadir, held there while the copter leans into the wind
     assert shares[len(shares) // 2] >= 0.6
+
+
+# ---- facades, quarry faces and the smart oblique (issue 34): the camera turned to each station's aim --------------
+
+def _aim_errors(manifest: dict, rows: list[dict], out: Path) -> tuple[float, float]:
+    """The largest differences (degrees) between the camera's line of sight at each picture (`_sights`,
+    the sorties' logs in order) and its station's planned pitch and bearing (the manifest's pitch_deg and
+    camera_yaw_deg; no bearing for a picture within 1° of straight down)."""
+    planned = iter(manifest["stations"])
+    worst_pitch = worst_bearing = 0.0
+    for row in rows:
+        for sight in _sights(out / "sitl" / row["log"]):  # north, east, down
+            station = next(planned)
+            pitch = math.degrees(math.asin(-sight[2]))
+            worst_pitch = max(worst_pitch, abs(pitch - station["pitch_deg"]))
+            if station["pitch_deg"] > -89.0:
+                bearing = math.degrees(math.atan2(sight[1], sight[0]))
+                worst_bearing = max(worst_bearing, abs((bearing - station["camera_yaw_deg"] + 180.0) % 360.0 - 180.0))
+    assert next(planned, None) is None, "more stations than pictures"
+    return worst_pitch, worst_bearing
+
+
+def _assert_every_photo_in_time(rows: list[dict], out: Path) -> None:
+    """Every sortie completed with every planned photo (the report's count and the log's CAM messages),
+    the harness's aim check passed, in the estimated time within 5 %."""
+    for row in rows:
+        assert row["completed"] and row["triggers_flown"] == row["photos_planned"], row
+        assert len(_log(out / "sitl" / row["log"], ["CAM"])) == row["photos_planned"], row["sortie"]
+        assert row["aim_ok"], row
+        assert abs(row["time_ratio"] - 1.0) <= 0.05, row
+
+
+#: the toe line's middle, and the toe line in metres east and north of it (a wall or faces rising south of it)
+_TOE_CENTRE = (15.003, 49.40175)
+_TOE = ((-35.0, 0.0), (35.0, 0.0))
+
+
+def _solid_distance(xyz: np.ndarray, height_m: float, angle_deg: float, benches: int, berm_m: float) -> np.ndarray:
+    """3-D distances (metres) of points (east, north, up from the toe line's ground) from the faces
+    rising south of `_TOE`: between its ends the solid below the benches' profile (each face `height_m`
+    high at `angle_deg`, a berm `berm_m` deep behind each, the last crest level on), nothing past the ends."""
+    run = height_m / math.tan(math.radians(angle_deg)) if angle_deg < 90.0 else 0.0
+    profile = [(0.0, -100.0), (0.0, 0.0)]
+    for i in range(benches):
+        toe = i * (run + berm_m)
+        profile += [(toe, i * height_m), (toe + run, (i + 1) * height_m)]
+    section = shapely.Polygon(profile + [(1000.0, benches * height_m), (1000.0, -100.0)])
+    (x0, _), (x1, _) = _TOE
+    past_end = np.maximum(0.0, np.maximum(x0 - xyz[:, 0], xyz[:, 0] - x1))
+    across = shapely.distance(section, shapely.points(-xyz[:, 1], xyz[:, 2]))
+    out: np.ndarray = np.hypot(past_end, across)
+    return out
+
+
+def _fly_faces(tmp_path: Path, pattern: str, standoff_m: float) -> tuple[dict, list[dict], Path, np.ndarray]:
+    """Plan the faces of `pattern` (the [pattern] table's text, besides standoff_m) on `_TOE`, a DJI Mavic 3E
+    triggered by distance, and fly it in ArduCopter SITL; (the manifest, the report's rows, the plan folder,
+    the flown track: east, north, up from home, every POS of every sortie)."""
+    from conftest import write_geojson
+
+    binary = _binary("copter")
+    if binary is None:
+        pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
+    to_xy = pyproj.Transformer.from_crs("EPSG:4326", f"+proj=aeqd +lat_0={_TOE_CENTRE[1]} +lon_0={_TOE_CENTRE[0]} "
+                                        "+datum=WGS84", always_xy=True)
+    lon, lat = to_xy.transform(*np.asarray(_TOE).T, direction="INVERSE")
+    write_geojson(tmp_path / "toe.geojson", [[float(a), float(b)] for a, b in zip(lon, lat)], "LineString")
+    spec = tmp_path / "faces.toml"
+    spec.write_text(f'[mission]\nname = "faces"\n[area]\nfile = "toe.geojson"\n'
+                    f'[pattern]\nstandoff_m = {standoff_m}\n{pattern}\n'
+                    '[camera]\nmodel = "dji-mavic-3-enterprise"\ntrigger = "distance"\n'
+                    f'[targets]\nheight_m = {standoff_m}\nforward_overlap = 0.75\nside_overlap = 0.6\n'
+                    '[vehicle]\ntype = "copter"\ncruise_speed_ms = 5.0\nmax_height_agl_m = 120\n')
+    out = tmp_path / "faces"
+    manifest, report = _plan_and_fly(spec, out, binary)
+    track = []
+    for row in report["sorties"]:
+        for m in _log(out / "sitl" / row["log"], ["POS"]):
+            track.append((*to_xy.transform(m.Lng, m.Lat), m.RelHomeAlt))
+    return manifest, report["sorties"], out, np.array(track)
+
+
+def _assert_faces_flown(manifest: dict, rows: list[dict], out: Path, track: np.ndarray, standoff_m: float,
+                        solid: tuple[float, float, int, float]) -> None:
+    """Every photo taken in the estimated time within 5 %, each picture's line of sight within 2° of its
+    station's pitch and bearing, the track never nearer the solid than the stand-off less the allowance."""
+    from aerosurvey.plan.orbit import CLEARANCE_ALLOWANCE_M
+
+    assert sum(r["photos_planned"] for r in rows) == len(manifest["stations"])
+    worst_pitch, worst_bearing = _aim_errors(manifest, rows, out)
+    nearest = float(_solid_distance(track, *solid).min())
+    print({"photos": len(manifest["stations"]), "lanes": len(manifest["lines"]), "worst_pitch_deg": worst_pitch,
+           "worst_bearing_deg": worst_bearing, "nearest_m": nearest,
+           "time": [(r["flown_time_s"], r["estimated_time_s"], r["time_ratio"]) for r in rows],
+           "max_trigger_offset_m": [r["max_trigger_offset_m"] for r in rows]})
+    _assert_every_photo_in_time(rows, out)
+    assert worst_pitch <= 2.0 and worst_bearing <= 2.0, (worst_pitch, worst_bearing)
+    assert nearest >= standoff_m - CLEARANCE_ALLOWANCE_M, nearest
+
+
+@pytest.mark.sitl
+def test_a_facade_is_flown_lane_by_lane_with_the_camera_square_to_the_wall(tmp_path):
+    """A 70 m wall 18 m high, lanes 10 m in front of it flown back and forth (the copter's nose along each
+    lane, the mount panned a quarter turn one way or the other to look at the wall): every photo taken,
+    each picture's line of sight within 2° of its station's aim (level, square to the wall), the flown
+    track (POS) never nearer the wall than the stand-off less the allowance, the time within 5 %."""
+    manifest, rows, out, track = _fly_faces(tmp_path, 'kind = "facade"\nbase_m = 0\ntop_m = 18', 10.0)
+    assert {s["pitch_deg"] for s in manifest["stations"]} == {0.0} and len(manifest["lines"]) >= 4
+    _assert_faces_flown(manifest, rows, out, track, 10.0, (18.0, 90.0, 1, 0.0))
+
+
+@pytest.mark.sitl
+def test_quarry_faces_are_flown_bench_by_bench_with_the_camera_square_to_them(tmp_path):
+    """Two 10 m benches at 70° with a 6 m berm on a 70 m toe line, lanes 15 m off the faces (farther where
+    the lower crest juts nearer), the camera pitched −20° square to them: as the facade."""
+    pattern = 'kind = "faces"\nface_angle_deg = 70\nface_height_m = 10\nbenches = 2\nberm_m = 6'
+    manifest, rows, out, track = _fly_faces(tmp_path, pattern, 15.0)
+    assert {s["pitch_deg"] for s in manifest["stations"]} == {-20.0} and len(manifest["lines"]) >= 4
+    _assert_faces_flown(manifest, rows, out, track, 15.0, (10.0, 70.0, 2, 6.0))
+
+
+@pytest.mark.sitl
+def test_a_smart_oblique_shoots_five_looks_at_every_station(tmp_path):
+    """A 1 ha block flown as a smart oblique (the copter stops at each place and shoots nadir and four
+    obliques 60° down, the gimbal turned between them), in two sorties: every look's photo taken (five a
+    place), each picture's line of sight within 2° of its look's pitch and bearing, each sortie in the
+    estimated time within 5 %."""
+    binary, spec = _copter_block(tmp_path, "smart", (15.000, 49.400, 15.0014, 49.4009),
+                                 '[pattern]\nkind = "smart-oblique"\npitch_deg = -60\n'
+                                 '[camera]\nmodel = "sony-a6000-16mm"\ntrigger = "hover"\n'
+                                 '[targets]\nheight_m = 60\nforward_overlap = 0.6\nside_overlap = 0.4\n'
+                                 '[vehicle]\ntype = "copter"\ncruise_speed_ms = 8.0\nmax_height_agl_m = 120\n'
+                                 '[battery]\nusable_min = 15.0\n')
+    out = tmp_path / "smart"
+    manifest, report = _plan_and_fly(spec, out, binary)
+    rows = report["sorties"]
+    places: dict[tuple[float, float], set[tuple[float, int]]] = {}
+    for s in manifest["stations"]:
+        look = round((s["camera_yaw_deg"] - s["heading_deg"]) % 360.0) if s["pitch_deg"] > -89.0 else 0
+        places.setdefault((round(s["x"], 1), round(s["y"], 1)), set()).add((s["pitch_deg"], look))
+    assert len(rows) >= 2 and len(places) >= 30
+    assert all(v == {(-90.0, 0), (-60.0, 0), (-60.0, 90), (-60.0, 180), (-60.0, 270)} for v in places.values())
+    assert sum(r["photos_planned"] for r in rows) == len(manifest["stations"]) == 5 * len(places)
+    worst_pitch, worst_bearing = _aim_errors(manifest, rows, out)
+    print({"places": len(places), "worst_pitch_deg": worst_pitch, "worst_bearing_deg": worst_bearing,
+           "time": [(r["flown_time_s"], r["estimated_time_s"], r["time_ratio"]) for r in rows]})
+    _assert_every_photo_in_time(rows, out)
+    assert worst_pitch <= 2.0 and worst_bearing <= 2.0, (worst_pitch, worst_bearing)

@@ -389,3 +389,30 @@ def test_a_landing_plane_is_over_at_its_touchdown_and_one_ending_in_rtl_over_hom
     flight = harness.fly(_Track(points), mission, "S01", 600.0, 5, 3.0, lambda m: "uploaded")
     assert flight.completed
     assert flight.disarmed_ms == (60_000 if lands else 40_000)
+
+
+def test_a_new_aim_commanded_as_the_picture_is_taken_does_not_leak_into_it(tmp_path):
+    """A smart oblique in ArduCopter SITL (outputs as logged): the mount is turned to the next aim by the
+    DO_MOUNT_CONTROL after each photo, so the output logged after the picture is already the next aim's,
+    tilted 30° or panned 90° on. The picture reads the output before it (interpolated, the nadir read
+    -73.6° and the next oblique -79.5°)."""
+    from dfwriter import mount_log
+
+    log = tmp_path / "m.BIN"
+    cams = [(126.894222, 0.1, 0.2, 179.8), (128.896754, 0.2, 0.0, 179.8)]
+    mnts = [(126.85, 179.9, -89.8, 180.0), (128.85, -0.2, -60.0, 0.0)]
+    pwm = [(126.839244, {9: 1299, 10: 1500, 11: 1500}), (126.939204, {9: 1432, 10: 1500, 11: 1498}),
+           (128.839277, {9: 1433, 10: 1500, 11: 1497}), (128.939237, {9: 1434, 10: 1700, 11: 1500})]
+    log.write_bytes(mount_log(cams, mnts, pwm, HARNESS_MOUNT))
+    got = sitl_run.mount_pitch_at_photos(log)
+
+    def between(a: tuple[float, dict[int, int]], b: tuple[float, dict[int, int]], t: float, c: int) -> float:
+        return a[1][c] + (t - a[0]) / (b[0] - a[0]) * (b[1][c] - a[1][c])
+
+    # each servo on its own: the one that jumped (tilt, then pan) at its output before, the others interpolated
+    roll = _degrees(between(pwm[0], pwm[1], cams[0][0], 11), -30.0, 30.0)
+    assert got[0] == pytest.approx(_sight_pitch(cams[0][1:], 0.0, roll, _degrees(1299, -135.0, 45.0)), abs=0.01)
+    roll = _degrees(between(pwm[2], pwm[3], cams[1][0], 11), -30.0, 30.0)
+    tilt = _degrees(between(pwm[2], pwm[3], cams[1][0], 9), -135.0, 45.0)
+    assert got[1] == pytest.approx(_sight_pitch(cams[1][1:], 0.0, roll, tilt), abs=0.01)
+    assert got[0] == pytest.approx(-89.9, abs=0.3) and got[1] == pytest.approx(-60.0, abs=0.3)

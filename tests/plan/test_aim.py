@@ -67,6 +67,7 @@ class Rings:
     kind: ClassVar[str] = "rings"
     title: ClassVar[str] = "rings (a test's scratch pattern)"
     area_is_centreline: ClassVar[bool] = False
+    nose_turns_camera: ClassVar[bool] = False
     fields: ClassVar[tuple[Field, ...]] = (
         Field("radius_m", "Radius (m)", "number", 90.0, lo=10.0, hi=500.0),
         Field("pitch_deg", "Pitch (°)", "number", -30.0, lo=-80.0, hi=0.0),

@@ -200,6 +200,11 @@ def test_too_few_photos_a_point_fails_the_rule(tmp_path: Path) -> None:
     ({"kind": "faces", "face_angle_deg": 95.0}, "pattern.face_angle_deg"),
     ({"kind": "faces", "pitch_deg": -89.0}, "pattern.pitch_deg = -89 is not allowed"),
     ({"kind": "facade", "top_m": 20.0, "standoff_m": 1.0}, "pattern.standoff_m"),
+    # at 8 m the image reaches 4.2 m below the level camera: a lowest lane at 12 m sees the wall from 7.8 m up
+    ({"kind": "facade", "top_m": 18.0, "standoff_m": 8.0, "min_height_m": 12.0},
+     "pattern.min_height_m = 12: the lowest lane raised to it sees the face only from 7.7[0-9] m up its slope, not its "
+     "foot; allowed: at most 4.2[0-9] m"),
+    ({"kind": "facade", "top_m": 18.0, "min_height_m": -1.0}, "pattern.min_height_m"),
 ])
 def test_bad_settings_are_refused_in_one_line_naming_them(tmp_path: Path, pattern: dict, words: str) -> None:
     with pytest.raises(AssertionError, match=words) as e:
@@ -225,6 +230,7 @@ def test_random_walls(tmp_path_factory, length: float, turn: float, top: float, 
     j = _judge(out, toe, pattern, math.sqrt(length * top / 150.0))
     assert j["short_m2"] == 0.0 and j["photos"] == _planned_photos(out), j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+    assert min(s["alt_rel_m"] for s in m["stations"]) >= LEAST_HEIGHT_M - 0.01
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -242,6 +248,38 @@ def test_random_benches(tmp_path_factory, length: float, turn: float, angle: flo
     j = _judge(out, toe, pattern, math.sqrt(length * height * benches / math.sin(math.radians(angle)) / 150.0))
     assert j["short_m2"] == 0.0 and j["photos"] == _planned_photos(out), j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+    assert min(s["alt_rel_m"] for s in m["stations"]) >= LEAST_HEIGHT_M - 0.01
+
+
+#: the lowest lane's height above the toe line's ground by default (docs/mission-spec.md, pattern.min_height_m)
+LEAST_HEIGHT_M = 2.0
+
+
+@pytest.mark.parametrize(("pattern", "least"), [
+    ({"kind": "facade", "standoff_m": 10.0, "top_m": 18.0}, LEAST_HEIGHT_M),  # a low wall: its lowest lane laid at 1.8 m
+    ({"kind": "facade", "standoff_m": 10.0, "top_m": 18.0, "min_height_m": 4.0}, 4.0),
+    # a steep low first bench close in: its lowest lane laid at 2.03 m
+    ({"kind": "faces", "standoff_m": 8.0, "face_angle_deg": 85.0, "face_height_m": 8.0, "benches": 2, "berm_m": 4.0,
+      "min_height_m": 3.0}, 3.0),
+])
+def test_the_lowest_lane_is_raised_to_the_least_height_and_still_sees_the_foot(tmp_path: Path, pattern: dict,
+                                                                               least: float) -> None:
+    """A lane laid below `min_height_m` above the toe line's ground flies at it, the rest where they were; from
+    the exported mission every face sample (the foot's too) is still seen by two photos, no leg nearer than the
+    allowance."""
+    toe = np.array([[-35.0, 0.0], [35.0, 0.0]])
+    (tmp_path / "low").mkdir()
+    _, low = _plan(tmp_path / "low", toe, {**pattern, "min_height_m": 0.0})
+    laid = sorted({s["alt_rel_m"] for s in low["stations"]})
+    assert laid[0] < least  # the lowest lane would be laid lower
+    out, m = _plan(tmp_path, toe, pattern)
+    flown = sorted({s["alt_rel_m"] for s in m["stations"]})
+    assert flown[0] == pytest.approx(least, abs=0.01) and flown[1:] == laid[1:], (laid, flown)
+    assert _rule(m)["status"] == "pass", _rule(m)
+    _, angle, height, benches, _ = _geometry(pattern)
+    j = _judge(out, toe, pattern, math.sqrt(70.0 * height * benches / math.sin(math.radians(angle)) / 150.0))
+    assert j["short_m2"] == 0.0 and j["fewest"] >= 2 and j["photos"] == _planned_photos(out), j
+    assert j["nearest_leg_m"] >= pattern["standoff_m"] - ALLOWANCE_M, j
 
 
 def test_the_exports_turn_the_camera_to_the_faces(tmp_path: Path) -> None:

@@ -41,6 +41,7 @@ class Diagonals:
     kind: ClassVar[str] = "diagonals"
     title: ClassVar[str] = "diagonal strips (a test's scratch pattern)"
     area_is_centreline: ClassVar[bool] = False
+    nose_turns_camera: ClassVar[bool] = False
     fields: ClassVar[tuple[Field, ...]] = (Field("count", "Strips", "number", 2.0, lo=1.0, hi=5.0),)
 
     @classmethod

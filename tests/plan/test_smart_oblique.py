@@ -27,7 +27,7 @@ import independent_coverage as ic
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
 from aerosurvey.outputs import write_outputs
-from aerosurvey.plan.flight_time import GIMBAL_SLEW_S, Kinematics, hover_time
+from aerosurvey.plan.flight_time import GIMBAL_SLEW_S, Kinematics, hover_time, look_hold_s
 from aerosurvey.spec import load_spec
 
 NAV_WAYPOINT, DO_DIGICAM_CONTROL, DO_MOUNT_CONTROL = 16, 203, 205
@@ -211,10 +211,14 @@ def test_sorties_end_on_a_stations_last_look_within_the_item_limit(tmp_path: Pat
 
 @settings(max_examples=30, deadline=None)
 @given(places=hs.integers(1, 400), runs=hs.integers(1, 20), base=hs.floats(5.0, 80.0), hold=hs.floats(0.0, 5.0),
-       speed=hs.floats(3.0, 15.0))
-def test_each_further_look_adds_its_hold_and_the_gimbal_turn(places: int, runs: int, base: float, hold: float, speed: float) -> None:
-    """Five aims at a place against one: the same stops, and four more holds and gimbal turns a place."""
+       settle=hs.floats(0.0, 5.0), cycle=hs.floats(0.1, 5.0), speed=hs.floats(3.0, 15.0))
+def test_each_further_look_adds_its_hold(places: int, runs: int, base: float, hold: float, settle: float, cycle: float,
+                                         speed: float) -> None:
+    """Five aims at a place against one: the same stops, and four more holds a place, each the settling and the
+    gimbal's turn or the camera's cycle, whichever is longer (the flight program's waypoint hold)."""
     k = Kinematics("copter", speed, 2.5, 0.0)
+    look = look_hold_s(settle, cycle)
+    assert look >= cycle and look >= settle + GIMBAL_SLEW_S and look in (cycle, settle + GIMBAL_SLEW_S)
     one = hover_time(places, min(runs, places), base, hold, k)
-    five = hover_time(5 * places, min(runs, places), base, hold, k, 5)
-    assert five - one == pytest.approx(4 * places * (hold + GIMBAL_SLEW_S), rel=1e-9, abs=1e-9)
+    five = hover_time(5 * places, min(runs, places), base, hold, k, 5, look)
+    assert five - one == pytest.approx(4 * places * look, rel=1e-9, abs=1e-9)

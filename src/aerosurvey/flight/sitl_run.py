@@ -239,6 +239,11 @@ MOUNT_SERVOS = {"pan": (6, "MNT1_YAW"), "tilt": (7, "MNT1_PITCH"), "roll": (8, "
 #: RCOU logs the first 14 outputs (C1 … C14)
 LOGGED_OUTPUTS = 14
 
+#: a mount servo's largest move between two outputs logged 100 ms apart while it holds one aim: its
+#: stabilisation follows the vehicle's rotation (about 1.2° braking hard at a line end, 12°/s nose up); a larger
+#: move is a new aim commanded
+MOUNT_STEP_DEG = 10.0
+
 
 def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     """The camera's pitch against the horizon (degrees, -90 = nadir) at each picture of a SITL
@@ -251,7 +256,9 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     panned frame, off the roll and tilt. Each servo's angle is read from its own output (RCOU:
     the PWM of the channel whose SERVOn_FUNCTION is the mount's pan, tilt or roll, mapped back
     through SERVOn_MIN/MAX/REVERSED onto the MNT1_ limits, as SRV_Channels::move_servo maps the
-    angle; the values from the log's PARM), interpolated to the picture's time; the camera's
+    angle; the values from the log's PARM), interpolated to the picture's time (RCOU every 100
+    ms), or the output before it where the servo stepped to a new aim in between (`MOUNT_STEP_DEG`: a
+    hover-and-capture's next aim, commanded as the photo is taken, would else leak into it); the camera's
     attitude is the vehicle's at the picture (the CAM message's R, P, Y: yaw-pitch-roll) turned
     by them. Not from MNT's Roll/Pitch/YawB: ArduPilot logs the servo angles as yaw-pitch-roll
     Euler angles of a quaternion made from them, which at a tilt of -90° loses the roll (a nadir
@@ -303,7 +310,13 @@ def _servo_angle(params: dict[str, float], out: dict[str, Any], function: int, l
     if params.get(f"SERVO{channel}_REVERSED", 0.0):
         v = 1.0 - v
     degrees = least + np.clip(v, 0.0, 1.0) * (most - least)
-    return np.interp(np.asarray(at_us, np.float64), np.asarray(out["TimeUS"], np.float64), degrees)
+    times, at = np.asarray(out["TimeUS"], np.float64), np.asarray(at_us, np.float64)
+    before = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 1)
+    after = np.minimum(before + 1, len(times) - 1)
+    # a servo that moved more than MOUNT_STEP_DEG between the outputs either side was turned to a new aim (a
+    # hover-and-capture's next, commanded as the picture is taken): the output before the picture holds
+    stepped = np.abs(degrees[after] - degrees[before]) > MOUNT_STEP_DEG
+    return np.where(stepped, degrees[before], np.interp(at, times, degrees))
 
 
 #: the flown camera pitch may differ from the planned by this much (degrees) before the flight fails

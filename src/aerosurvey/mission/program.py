@@ -36,7 +36,8 @@ Actions, done in their order when the vehicle reaches their waypoint:
   shoots several aims at each place (`Run.looks`: a station row for each) has a waypoint for
   each row at the place, and after each photo a `Gimbal` to the next row's aim: the autopilot
   starts it as the hold ends and the photo is taken, and the next waypoint's hold
-  (camera.settle_s, and `flight_time.GIMBAL_SLEW_S` at the same place) covers the turn.
+  (camera.settle_s; at the same place `flight_time.look_hold_s`: the settling and
+  `GIMBAL_SLEW_S`, at least the camera's cycle) covers the turn.
 - `CameraRestart` (PX4, camera.trigger "distance"): the distance trigger started again at a
   station, with a photo at once, at every `PX4_RESTART_EVERY`-th station of a run (those
   stations are then waypoints). PX4's camera_trigger (src/drivers/camera_trigger,
@@ -62,7 +63,7 @@ import shapely
 
 from aerosurvey import ids
 from aerosurvey.plan.altitudes import look_at_height, station_pitches
-from aerosurvey.plan.flight_time import GIMBAL_SLEW_S
+from aerosurvey.plan.flight_time import look_hold_s
 from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG
 from aerosurvey.plan.model import Plan, RouteWaypoint
 from aerosurvey.plan.passes import NADIR_PITCH_DEG
@@ -331,8 +332,9 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
             n = row_of[w.station]
             aims = plan.route.runs[w.run].aims
             look = (n - station_of_run[w.run]) % len(aims)
-            # a further aim at the place: its waypoint's hold covers the gimbal's turn too
-            actions.append(HoverShoot(plan.camera.settle_s + (GIMBAL_SLEW_S if look else 0.0)))
+            # a further aim at the place: its waypoint's hold covers the gimbal's turn and the camera's cycle
+            actions.append(HoverShoot(look_hold_s(plan.camera.settle_s, plan.camera.min_cycle_s) if look
+                                      else plan.camera.settle_s))
             if len(aims) > 1 and n + 1 < len(st.ids) and st.run[n + 1] == w.run:
                 # the next aim set as this photo is taken (ArduPilot starts the DO items after a waypoint when
                 # its hold ends): the next waypoint, at the same place or the next, holds while the gimbal turns

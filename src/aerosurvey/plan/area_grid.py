@@ -72,6 +72,7 @@ class AreaGrid:
     kind: ClassVar[str] = "area"
     title: ClassVar[str] = "area grid"
     area_is_centreline: ClassVar[bool] = False
+    nose_turns_camera: ClassVar[bool] = False
     fields: ClassVar[tuple[Field, ...]] = ()  # its heading and cross-hatch are [flight]'s
 
     @classmethod

@@ -74,6 +74,7 @@ class Corridor:
     kind: ClassVar[str] = "corridor"
     title: ClassVar[str] = "corridor along a centreline"
     area_is_centreline: ClassVar[bool] = True
+    nose_turns_camera: ClassVar[bool] = False
     fields: ClassVar[tuple[Field, ...]] = (
         Field("width_m", "Corridor width (m)", "number", None, lo=0.0, hi=20000.0, lo_open=True,
               hint="Ground photographed across the corridor, centred on the centreline"),

@@ -34,6 +34,12 @@ line and two heights: the faces' case of one bench at 90°).
   plan (the toe line to the last crest) grown by the stand-off less
   `orbit.CLEARANCE_ALLOWANCE_M` (`Layout.obstacle`), and a launch point inside it is refused;
   the tests measure every leg's distance from the solid in 3-D.
+- The camera is panned square to the lanes against a nose that turns round at each lane
+  (`nose_turns_camera`): a copter's lead-in lasts the nose's turn (`sensor.NOSE_TURN_S`), so a
+  lane's first photo is shot at its bearing (flown in SITL: tests/test_sitl.py).
+- The lowest lane flies at least `pattern.min_height_m` (default `MIN_HEIGHT_M`, 2 m) above the
+  toe line's ground: a lane laid lower moves up its face at its distance from it (`raised_lane`);
+  where its photos would then no longer reach the face's foot, the plan is refused in one line.
 - Not offered: vertical lanes; a bent toe line (one straight line per plan).
 """
 
@@ -77,6 +83,13 @@ class FacesOptions:
     pitch_deg: float | None  # None: square to the face
     min_images: int
     max_gsd_m: float | None
+    min_height_m: float  # every lane at least this high above the toe line's ground
+
+
+#: the lowest lane's least height above the toe line's ground by default (`pattern.min_height_m`): a copter's
+#: height hold keeps within about a metre of its target (barometer and GNSS), and nearer the ground its
+#: downwash raises dust into the photos; 2 m leaves a metre's margin over that error
+MIN_HEIGHT_M = 2.0
 
 
 @dataclass(frozen=True)
@@ -143,6 +156,25 @@ def lane_place(t: Terrace, bench: int, middle: float, band_middle: float, stando
                      "allowed: a wider berm or a smaller stand-off", key="pattern.standoff_m")
 
 
+def raised_lane(t: Terrace, bench: int, middle: float, band: FaceBand, o: FacesOptions) -> tuple[float, float, float]:
+    """`lane_place` of a lane, moved up its face (at its distance from the face) until it flies at least
+    `o.min_height_m` above the toe line's ground; refused in one line when its photos would then no
+    longer reach the face's foot (a lower lane photographs the foot only from below that height)."""
+    per_m = band.middle_m / o.standoff_m
+    d, z, off = lane_place(t, bench, middle, per_m, o.standoff_m)
+    if z >= o.min_height_m - 1e-9:
+        return d, z, off
+    raised = middle + (o.min_height_m - z) / math.sin(math.radians(o.angle_deg))
+    d, z, off = lane_place(t, bench, raised, per_m, o.standoff_m)
+    bottom = raised - (band.middle_m - band.bottom_m) * off / o.standoff_m  # the band's lowest row up the face
+    if bottom > 1e-6:
+        lowest = z - bottom * math.sin(math.radians(o.angle_deg))
+        raise InputError(f"pattern.min_height_m = {o.min_height_m:g}: the lowest lane raised to it sees the face only from "
+                         f"{bottom:.2f} m up its slope, not its foot; allowed: at most {lowest:.2f} m at this stand-off "
+                         "and pitch (or a lower pattern.pitch_deg)", key="pattern.min_height_m")
+    return d, z, off
+
+
 @dataclass(frozen=True)
 class Faces:
     settings: FacesOptions
@@ -151,6 +183,7 @@ class Faces:
     kind: ClassVar[str] = "faces"
     title: ClassVar[str] = "faces (inclined benches above a toe line: open pit, quarry, dam)"
     area_is_centreline: ClassVar[bool] = True
+    nose_turns_camera: ClassVar[bool] = True  # the camera panned square to the lanes, flown back and forth
     fields: ClassVar[tuple[Field, ...]] = (
         Field("standoff_m", "Stand-off (m)", "number", 20.0, lo=CLEARANCE_ALLOWANCE_M + 1.0, hi=500.0,
               hint="Distance from each face to its lanes, square to the face"),
@@ -166,6 +199,8 @@ class Faces:
               hint="Gimbal pitch (-90 straight down, 0 level); default: square to the face"),
         Field("min_images", "Photos per face point", "number", 2, lo=1, hi=100),
         Field("max_gsd_cm", "GSD on the face at most (cm)", "number", None, lo=0.0, hi=1000.0, lo_open=True, scale=0.01),
+        Field("min_height_m", "Lowest lane at least (m)", "number", MIN_HEIGHT_M, lo=0.0, hi=500.0,
+              hint="Above the ground at the toe line: a lower lane is raised, if its photos still reach the foot"),
     )
 
     @classmethod
@@ -185,7 +220,8 @@ class Faces:
         pitch = values.get("pitch_deg")
         return FacesOptions(float(values["standoff_m"]), float(values["face_angle_deg"]), float(values["face_height_m"]),
                             int(benches), float(values["berm_m"]), 0.0, str(values["side"]), str(values["start"]),
-                            None if pitch is None else float(pitch), _min_images(values), values["max_gsd_cm"])
+                            None if pitch is None else float(pitch), _min_images(values), values["max_gsd_cm"],
+                            float(values["min_height_m"]))
 
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> Faces:
@@ -220,6 +256,7 @@ class Faces:
         return {"standoff_m": o.standoff_m, "face_angle_deg": o.angle_deg, "face_height_m": o.height_m,
                 "benches": o.benches, "berm_m": o.berm_m, "base_m": o.base_m, "side": o.side, "start": o.start,
                 "pitch_deg": plan.layout.passes[0].aim.pitch_deg, "lanes": len(plan.layout.passes),
+                "min_height_m": o.min_height_m,
                 "clearance_allowance_m": CLEARANCE_ALLOWANCE_M}
 
     def terrace(self, site: Site) -> Terrace:
@@ -255,7 +292,7 @@ class Faces:
         passes = []
         farthest = o.standoff_m
         for n, (bench, middle) in enumerate(lanes):
-            d, z, off = lane_place(t, bench, middle, band.middle_m / o.standoff_m, o.standoff_m)
+            d, z, off = raised_lane(t, bench, middle, band, o)
             farthest = max(farthest, off)
             start = np.asarray(t.a) + into * d * k
             path = extend(np.array([start, start + along * length * k]), reach, reach)
@@ -321,7 +358,7 @@ class Facade(Faces):
         pitch = values.get("pitch_deg")
         return FacesOptions(float(values["standoff_m"]), 90.0, float(top) - base, 1, 0.0, base, str(values["side"]),
                             str(values["start"]), None if pitch is None else float(pitch), _min_images(values),
-                            values["max_gsd_cm"])
+                            values["max_gsd_cm"], float(values["min_height_m"]))
 
 
 __all__ = ["FaceBand", "Facade", "Faces", "FacesOptions", "lane_positions"]

@@ -165,15 +165,23 @@ def _straight_time(d: float, k: Kinematics) -> float:
 GIMBAL_SLEW_S = 1.0
 
 
-def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics, aims: int = 1) -> float:
+def look_hold_s(settle_s: float, cycle_s: float) -> float:
+    """The hold before each further aim's photo at a place (the flight program's waypoint hold): the
+    gimbal's turn and the settling, at least the camera's cycle (the photo before it was taken as
+    the hold began)."""
+    return max(settle_s + GIMBAL_SLEW_S, cycle_s)
+
+
+def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics, aims: int = 1,
+               look_s: float = 0.0) -> float:
     """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
     `stations` photos it stops (braking and accelerating again over the `base` between two
     stations of a run, `_straight_time` against cruising it) and rests `hold_s`. With `aims` photos
     at each place (the camera turned between them), `stations` counts them all: the stops are a
-    place's, and each further aim rests `hold_s` and `GIMBAL_SLEW_S` more."""
+    place's, its first aim rests `hold_s` and each further aim `look_s` (`look_hold_s`)."""
     places = stations // aims
     stops = max(places - runs, 0)
-    return stations * hold_s + (stations - places) * GIMBAL_SLEW_S + stops * (_straight_time(base, k) - base / k.speed_ms)
+    return places * hold_s + (stations - places) * look_s + stops * (_straight_time(base, k) - base / k.speed_ms)
 
 
 #: path_time takes a turn by this little (degrees) for a leg straight on from the one before: no corner

@@ -89,6 +89,9 @@ class PatternKind(Protocol):
     # the area file holds a centreline (a line) rather than the area's polygons, which the
     # pattern may also take (a corridor polygon)
     area_is_centreline: ClassVar[bool]
+    # the camera looks off the track at a bearing the copter's nose sets (a tilted camera panned against the
+    # nose, nose along the track): each run's lead-in lasts the nose's turn onto the run (`sensor.lead_in_m`)
+    nose_turns_camera: ClassVar[bool]
 
     @classmethod
     def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:

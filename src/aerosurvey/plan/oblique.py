@@ -75,6 +75,7 @@ class Oblique:
     kind: ClassVar[str] = "oblique"
     title: ClassVar[str] = "oblique"
     area_is_centreline: ClassVar[bool] = False
+    nose_turns_camera: ClassVar[bool] = False
     fields: ClassVar[tuple[Field, ...]] = (
         Field("scheme", "Scheme", "choice", "double-grid",
               choices=(("double-grid", "double grid (two headings, camera along the flight)"),

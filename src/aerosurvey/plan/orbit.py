@@ -180,6 +180,7 @@ class Orbit:
     kind: ClassVar[str] = "orbit"
     title: ClassVar[str] = "orbit (structure scan: rings round the [structure])"
     area_is_centreline: ClassVar[bool] = False
+    nose_turns_camera: ClassVar[bool] = False
     fields: ClassVar[tuple[Field, ...]] = (
         Field("standoff_m", "Stand-off (m)", "number", 15.0, lo=CLEARANCE_ALLOWANCE_M + 1.0, hi=500.0,
               hint="Distance from the structure's footprint to the rings"),

@@ -214,6 +214,15 @@ def stop_distance(speed_ms: float, accel_ms2: float) -> float:
     return speed_ms**2 / (2.0 * accel_ms2)
 
 
+def distance_from_rest(speed_ms: float, accel_ms2: float, seconds: float) -> float:
+    """The most a copter covers in `seconds` from rest, accelerating at `accel_ms2` up to `speed_ms` (the
+    jerk limit only slows it): a lead-in this long lasts at least that time."""
+    t = speed_ms / accel_ms2
+    if seconds <= t:
+        return 0.5 * accel_ms2 * seconds**2
+    return stop_distance(speed_ms, accel_ms2) + speed_ms * (seconds - t)
+
+
 # --- The same formulas on plain numbers -------------------------------------------------
 # For code that has a camera's numbers but no Camera: the rules read them from a plan's
 # manifest (camera.sensor_mm, image_px, focal_mm). The Camera-taking functions above give

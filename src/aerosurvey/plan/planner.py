@@ -88,7 +88,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     stretch = site.autopilot_stretch()
     pattern = kind_of(spec.pattern.kind)
     footprint = pattern.footprint(spec, heights)
-    sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch)
+    sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch,
+                          nose_turns=pattern.nose_turns_camera)
     limit_warnings = check_limits(spec, site, sensor)
     # the heading search, the line order and every time after them in conditions.wind (a wind the vehicle
     # cannot make headway against refused before any line is laid)
@@ -104,7 +105,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         @functools.cache
         def solve(turns: tuple[float, ...]) -> SensorSolution:
             solved = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint,
-                                  autopilot_stretch=stretch, camera_turns_deg=turns)
+                                  autopilot_stretch=stretch, camera_turns_deg=turns, nose_turns=pattern.nose_turns_camera)
             return replace(solved, kinematics=in_wind(spec, site, solved)[0], own_turn=own)
 
         def own(heading_deg: float) -> SensorSolution:  # each heading at its own turn (the heading search's prices)
@@ -134,7 +135,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
                               site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                               tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
                               climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s,
-                              aims_per_place(routed.route.runs))
+                              sensor.hover_look_s, aims_per_place(routed.route.runs))
             return battery_sorties(spec, site, path, sites, kin, routed.detours, start, _share(report, 0.88, 0.98))
 
         try:
@@ -153,7 +154,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
                      site.exclusions_wgs84)
     est = estimate(spec, routed.route, waypoints, alts.stations, kin, routed.home_xy,
-                   sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s)
+                   sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s, sensor.hover_look_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
     return Plan(

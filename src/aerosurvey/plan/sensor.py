@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
-from aerosurvey.plan.flight_time import Kinematics
+from aerosurvey.plan.flight_time import Kinematics, look_hold_s
 from aerosurvey.plan.model import Heights
 from aerosurvey.spec import MissionSpec
 
@@ -58,6 +58,7 @@ class SensorSolution:
     kinematics: Kinematics
     warnings: tuple[str, ...]
     hover_s: float | None = None  # hover-and-capture: seconds at rest at each station (settling, the shot)
+    hover_look_s: float = 0.0  # hover-and-capture: the hold of each further aim at a place (`flight_time.look_hold_s`)
     # a camera turned against the lines by their heading (a plane's body-fixed camera by its crab, a copter's held
     # yaw: planner._camera_turn): the solution lines of one grid heading alone need, at that heading's own turn
     own_turn: Callable[[float], SensorSolution] | None = field(default=None, compare=False, repr=False)
@@ -123,18 +124,29 @@ def solve_heights(spec: MissionSpec, h_target: float, ground: tuple[float, float
     return Heights("none", h_target, h_target, h_target, h_target, None, None, None)
 
 
-def lead_in_m(spec: MissionSpec, speed_ms: float, radius_m: float) -> float:
-    """Straight approach before the first photo of a line: a copter's stopping distance, a plane's settling."""
+#: seconds a copter's nose takes to turn onto a run flown back from the one before and settle there: ArduCopter
+#: slews its yaw target at ATC_SLEW_YAW (60°/s by default: 3 s for 180°), and in SITL the nose then closes in on
+#: the run's heading slowly: 1.8° short at a facade lane's first photo 4.4 s after the turn began, 1.0° two
+#: photos later (docs/planning.md, "Facades and quarry faces")
+NOSE_TURN_S = 6.0
+
+
+def lead_in_m(spec: MissionSpec, speed_ms: float, radius_m: float, nose_turns: bool = False) -> float:
+    """Straight approach before the first photo of a line: a copter's stopping distance, a plane's settling.
+    `nose_turns`: a copter's camera looks where its nose turns it (`PatternKind.nose_turns_camera`), and the
+    approach also lasts `NOSE_TURN_S` from rest (`pg.distance_from_rest`: at most that far in that time)."""
     if spec.flight.lead_in_m is not None:
         return spec.flight.lead_in_m
     if spec.vehicle.type == "copter":
-        return max(5.0, pg.stop_distance(speed_ms, spec.vehicle.acceleration_ms2))
+        a = spec.vehicle.acceleration_ms2
+        turn = pg.distance_from_rest(speed_ms, a, NOSE_TURN_S) if nose_turns and spec.flight.fixed_yaw_deg is None else 0.0
+        return max(5.0, pg.stop_distance(speed_ms, a), turn)
     return max(radius_m, pg.plane_lead_in(speed_ms, spec.vehicle.nav_period_s))
 
 
 def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights: Heights,
                  warnings: tuple[str, ...] = (), *, footprint: Footprint, autopilot_stretch: float,
-                 camera_turns_deg: tuple[float, ...] = ()) -> SensorSolution:
+                 camera_turns_deg: tuple[float, ...] = (), nose_turns: bool = False) -> SensorSolution:
     """Footprint, spacing, base, speed and trigger for the heights the terrain mode decided.
     `footprint`: the ground a photo of the pattern surely photographs (`PatternKind.footprint`).
     `camera_turns_deg`: the angles a camera held at a fixed yaw is turned by against the lines; the
@@ -167,12 +179,13 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         v = min(speed.speed_ms, base / interval)
         speed = pg.SpeedLimit(v, speed.reason if v == speed.speed_ms else f"trigger interval {interval:g} s",
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
-    hover = None
+    hover, look = None, 0.0
     if spec.camera.trigger == "hover":
         # photos taken at rest: neither motion blur nor the camera's cycle limits the speed between them
         speed = pg.SpeedLimit(spec.vehicle.cruise_speed_ms, "vehicle cruise speed (hover-and-capture: photos at rest)",
                               speed.cruise_ms, speed.cycle_limit_ms, speed.blur_limit_ms)
         hover = hover_rest_s(spec)
+        look = look_hold_s(spec.camera.settle_s, spec.camera.min_cycle_s)
     trigger_cmd = None
     if spec.camera.trigger == "distance":
         # whole centimetres a second, rounded down: the mission commands the speed to 1 cm/s, and
@@ -183,7 +196,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         except ValueError as exc:
             raise InputError(f"{exc}: fly slower or ask for a larger photo base") from None
     radius = pg.turn_radius(speed.speed_ms, spec.vehicle.bank_angle_deg) if spec.vehicle.type == "plane" else 0.0
-    lead = lead_in_m(spec, speed.speed_ms, radius)
+    lead = lead_in_m(spec, speed.speed_ms, radius, nose_turns)
     return SensorSolution(
         heights=heights, gsd_target_m=gsd_target, gsd_min_m=gsd_min, gsd_max_m=gsd_max, across_m=across, along_m=along,
         spacing_m=spacing, base_m=base, trigger_distance_m=trigger_cmd, trigger_interval_s=interval, speed=speed,
@@ -191,7 +204,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         side_images_per_point=pg.images_per_point(spec.targets.side_overlap),
         forward_images_per_point=pg.images_per_point(spec.targets.forward_overlap),
         kinematics=Kinematics(spec.vehicle.type, speed.speed_ms, spec.vehicle.acceleration_ms2, radius),
-        warnings=warnings, hover_s=hover,
+        warnings=warnings, hover_s=hover, hover_look_s=look,
     )
 
 
@@ -209,6 +222,6 @@ def reach_beyond_area_m(spec: MissionSpec) -> float:
     across, along = pg.footprint(h, cam, spec.camera.mount)
     v = spec.vehicle.cruise_speed_ms
     radius = pg.turn_radius(v, spec.vehicle.bank_angle_deg) if spec.vehicle.type == "plane" else 0.0
-    lead = lead_in_m(spec, v, radius)
+    lead = lead_in_m(spec, v, radius, nose_turns=True)
     beyond = (spec.targets.images_beyond_boundary + 1) * along
     return spec.targets.coverage_margin_m + max(across, beyond) + lead + 2.0 * radius + 100.0

@@ -62,6 +62,7 @@ class FlightPath:
     ends: tuple[tuple[float, float], ...]  # per launch site: where the way home ends (a landing plane's approach, else the site)
     climb: float = 0.0  # planning-grid metres a plane climbs straight ahead after take-off
     hover_s: float | None = None  # hover-and-capture: seconds at rest at each station
+    hover_look_s: float = 0.0  # hover-and-capture: the hold of each further aim at a place
     aims: int = 1  # station rows at each place (`passes.aims_per_place`): a sortie ends after a place's last
 
 
@@ -542,7 +543,8 @@ class Splitter:
                                                                        v.climb_rate_ms, v.descent_rate_ms, self.kin)
                 horiz, vert = path_time(survey, self.kin) + t_out + t_back, t_climb + t_descent
             if self.plan.hover_s is not None:
-                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims)
+                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims,
+                                   self.plan.hover_look_s)
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
