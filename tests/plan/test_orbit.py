@@ -176,7 +176,12 @@ def _judge(out: Path, footprint: shapely.Polygon, top: float, cell: float, min_i
     near = np.array([shapely.ops.nearest_points(footprint, shapely.Point(p))[0].coords[0] for p in at])
     look = np.degrees(np.arctan2(near[:, 0] - at[:, 0], near[:, 1] - at[:, 1]))
     look_off = float(np.abs((np.array([s["camera_yaw_deg"] for s in stations]) - look + 180.0) % 360.0 - 180.0).max())
-    return {"look_off_deg": look_off, "reach_m": (float(np.hypot(*(near - at).T).min()), float(np.hypot(*(near - at).T).max())),
+    # the mission's look at each photo (replayed above) against the look at the nearest point from where it is taken
+    taken = np.array([c[:2] for c in cams])
+    seen = np.array([shapely.ops.nearest_points(footprint, shapely.Point(p))[0].coords[0] for p in taken])
+    look_there = np.degrees(np.arctan2(seen[:, 0] - taken[:, 0], seen[:, 1] - taken[:, 1]))
+    aim_off = float(np.abs((np.array([c[3] for c in cams]) - look_there + 180.0) % 360.0 - 180.0).max())
+    return {"look_off_deg": look_off, "aim_off_deg": aim_off, "reach_m": (float(np.hypot(*(near - at).T).min()), float(np.hypot(*(near - at).T).max())),
             "short_m2": float(area[counts < min_images].sum()), "short_sure_m2": float(area[sure < min_images].sum()),
             "area_m2": float(area.sum()), "min_images": int(counts.min()), "nearest_leg_m": nearest, "photos": len(cams),
             "heights": sorted({round(c[2], 1) for c in cams})}
@@ -184,8 +189,11 @@ def _judge(out: Path, footprint: shapely.Polygon, top: float, cell: float, min_i
 
 def _assert_looks_at_the_nearest_point(j: dict, standoff: float) -> None:
     """Every station looks at the footprint's nearest point (square to a wall, or at a corner), the
-    stand-off away (less the chords' 0.25 m sag round a corner)."""
+    stand-off away (less the chords' 0.25 m sag round a corner), and so does every photo the
+    mission takes, from where it is taken."""
     assert j["look_off_deg"] < 0.05, j["look_off_deg"]
+    # the mission's: ArduPilot keeps an earth-frame yaw in whole degrees
+    assert j["aim_off_deg"] <= 0.5 + 0.05, j["aim_off_deg"]
     least, most = j["reach_m"]
     assert standoff - 0.25 - 0.02 <= least and most <= standoff + 0.02, j["reach_m"]
 
