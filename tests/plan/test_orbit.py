@@ -181,7 +181,8 @@ def _judge(out: Path, footprint: shapely.Polygon, top: float, cell: float, min_i
     seen = np.array([shapely.ops.nearest_points(footprint, shapely.Point(p))[0].coords[0] for p in taken])
     look_there = np.degrees(np.arctan2(seen[:, 0] - taken[:, 0], seen[:, 1] - taken[:, 1]))
     aim_off = float(np.abs((np.array([c[3] for c in cams]) - look_there + 180.0) % 360.0 - 180.0).max())
-    return {"look_off_deg": look_off, "aim_off_deg": aim_off, "reach_m": (float(np.hypot(*(near - at).T).min()), float(np.hypot(*(near - at).T).max())),
+    reach = np.hypot(*(near - at).T)
+    return {"look_off_deg": look_off, "aim_off_deg": aim_off, "reach_m": (float(reach.min()), float(reach.max())),
             "short_m2": float(area[counts < min_images].sum()), "short_sure_m2": float(area[sure < min_images].sum()),
             "area_m2": float(area.sum()), "min_images": int(counts.min()), "nearest_leg_m": nearest, "photos": len(cams),
             "heights": sorted({round(c[2], 1) for c in cams})}
