@@ -226,12 +226,15 @@ def station_table(plan: Plan) -> StationTable:
 
 def _aim_extras(ps: Pass) -> dict[str, Any]:
     """A pass's aim and height beyond a pitch and a bearing, written only where they are set: a look
-    turned from the flight (`turn_deg`), at a point (`look_at`, planning CRS), a raised pass (`rise_m`)."""
+    turned from the flight (`turn_deg`), at a point (`look_at`, planning CRS), at an outline's nearest point
+    (`look_at_outline`, its vertices), a raised pass (`rise_m`)."""
     out: dict[str, Any] = {}
     if ps.aim.turn_deg:
         out["turn_deg"] = _f(ps.aim.turn_deg)
     if ps.aim.point is not None:
         out["look_at"] = [_f(ps.aim.point[0]), _f(ps.aim.point[1])]
+    if ps.aim.outline is not None:
+        out["look_at_outline"] = [[_f(x), _f(y)] for x, y in ps.aim.outline]
     if ps.rise_m:
         out["rise_m"] = _f(ps.rise_m)
     return out

@@ -30,7 +30,7 @@ import independent_coverage as ic
 import independent_qgc as iq
 from aerosurvey.mission.formats.qgc_plan import loads_plan
 
-MOUNT_CONTROL = 205
+GIMBAL_PITCHYAW, ROI = 1000, 195
 
 
 def _scan_item(out: Path) -> tuple[dict, list[dict]]:
@@ -70,12 +70,16 @@ def _judge(out: Path) -> dict:
     vertex, to_ours, to_qgc = 0.0, 0.0, 0.0
     for path in ours:
         flown = path[:-1, :2]  # the first station and the bends: the ring's vertices from its start
+        if len(flown) > 1 and np.hypot(*(flown[-1] - flown[0])) < 0.01:
+            flown = flown[:-1]  # a ring flown round to its first station: a bend there again before its end
         assert len(flown) <= len(ring)
         vertex = max(vertex, float(np.hypot(*(flown - ring[:len(flown)]).T).max()))
         to_ours = max(to_ours, float(shapely.distance(shapely.points(ring), shapely.LineString(path[:, :2])).max()))
         to_qgc = max(to_qgc, float(shapely.distance(shapely.points(flown), closed).max()))
     trigger = [r[4] for r in rows if int(r[3]) == ic.DO_SET_CAM_TRIGG_DIST and r[4] > 0]
-    mount = [(r[4], r[6]) for r in rows if int(r[3]) == MOUNT_CONTROL]
+    # ours: the gimbal held square to each side (an earth-frame yaw), a region of interest at each corner
+    mount = [r[4] for r in rows if int(r[3]) == GIMBAL_PITCHYAW]
+    corners = sum(int(r[3]) == ROI for r in rows)
     photos = len(ic.replay_triggers(rows, TO_XY, None, home[2]).x)
     # the photos ArduPilot's distance trigger takes on QGroundControl's items (from the home, at the speed set before them)
     speed = [r for r in rows if int(r[3]) == ic.DO_CHANGE_SPEED][:1]
@@ -85,7 +89,7 @@ def _judge(out: Path) -> dict:
             "height_m": max(abs(a - float(np.mean(p[:, 2]))) for a, p in zip(qgc.layers, ours)) if qgc.layers else math.inf,
             "vertex_m": vertex, "qgc_from_ours_m": to_ours, "ours_from_qgc_m": to_qgc,
             "trigger": (qgc.trigger_m, set(trigger)), "shots": (qgc.camera_shots, qgc_photos, photos),
-            "mount": (float(item["GimbalPitch"]), set(mount)), "item": item, "qgc": qgc}
+            "mount": (float(item["GimbalPitch"]), set(mount), corners), "item": item, "qgc": qgc}
 
 
 def _check(j: dict) -> None:
@@ -97,8 +101,10 @@ def _check(j: dict) -> None:
     assert len(ours_trigger) == 1 and next(iter(ours_trigger)) == pytest.approx(qgc_trigger, abs=1e-9), j["trigger"]
     _, qgc_photos, photos = j["shots"]
     assert abs(qgc_photos - photos) <= layers, j["shots"]
-    pitch, mounts = j["mount"]
-    assert mounts == {(pitch, 90.0)}, j["mount"]  # ours turned 90° right of the flight, as QGroundControl's ROI offset
+    # ours at the item's pitch, square to the walls as QGroundControl's ROI offset (90° right of the next waypoint)
+    # is on the sides; round a corner ours looks at the corner, QGroundControl's square to each chord
+    pitch, mounts, corners = j["mount"]
+    assert mounts == {pitch} and corners >= 3 * layers, j["mount"]
 
 
 @pytest.mark.parametrize(("name", "footprint", "top", "standoff", "extra"), [

@@ -256,6 +256,35 @@ def test_an_aim_looks_along_at_a_bearing_or_at_a_point(x, y, px, py, heading, tu
         assert same(float(Aim(pitch, point=(px, py)).bearings(xy, hd)[0]), math.degrees(math.atan2(to.real, to.imag)))
 
 
+@settings(max_examples=200, deadline=None)
+@given(w=st.floats(0.5, 500.0), d=st.floats(0.5, 500.0), turn=st.floats(0.0, 180.0), cx=st.floats(-1e4, 1e4),
+       cy=st.floats(-1e4, 1e4), away=st.floats(0.1, 300.0), towards=st.floats(0.0, 360.0))
+def test_an_aim_at_an_outline_looks_at_its_nearest_point(w, d, turn, cx, cy, away, towards) -> None:
+    """A rotated rectangle (convex: one nearest point to a place outside it) and a place `away`
+    metres off it: the look is the bearing to the nearest point found here, edge by edge."""
+    t = math.radians(turn)
+    rot = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
+    corners = np.array([[-w, -d], [w, -d], [w, d], [-w, d]]) / 2.0 @ rot.T + [cx, cy]
+    # a place: from the centre towards `towards`, out to the outline, then `away` further
+    u = np.array([math.sin(math.radians(towards)), math.cos(math.radians(towards))])
+    local = u @ rot  # the direction in the rectangle's own axes
+    reach = min(w / 2.0 / abs(local[0]) if abs(local[0]) > 1e-9 else math.inf,
+                d / 2.0 / abs(local[1]) if abs(local[1]) > 1e-9 else math.inf)
+    place = np.array([cx, cy]) + u * (reach + away)
+    best, nearest = math.inf, None
+    for a, b in zip(corners, np.roll(corners, -1, axis=0)):
+        k = float(np.clip((place - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+        q = a + k * (b - a)
+        if math.dist(q, place) < best:
+            best, nearest = math.dist(q, place), q
+    assert nearest is not None
+    want = math.degrees(math.atan2(nearest[0] - place[0], nearest[1] - place[1]))
+    aim = Aim(-30.0, outline=tuple((float(x), float(y)) for x, y in corners))
+    got = float(aim.bearings(place[None, :], np.zeros(1))[0])
+    assert abs((got - want + 180.0) % 360.0 - 180.0) < 1e-4 * max(1.0, 1.0 / best), (got, want, best)
+    assert aim.look == "outline"
+
+
 def test_an_aim_is_one_look() -> None:
     with pytest.raises(ValueError):
         Aim(-30.0, bearing_deg=10.0, point=(0.0, 0.0))
@@ -265,3 +294,7 @@ def test_an_aim_is_one_look() -> None:
         Aim(-90.0, point=(0.0, 0.0))
     with pytest.raises(ValueError):
         Aim(-95.0)
+    with pytest.raises(ValueError):
+        Aim(-30.0, point=(0.0, 0.0), outline=((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)))
+    with pytest.raises(ValueError):
+        Aim(-30.0, outline=((0.0, 0.0), (1.0, 0.0)))

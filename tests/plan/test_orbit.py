@@ -2,9 +2,9 @@
 
 A box tower and an L-shaped building are planned end to end through the command line. From
 `mission.waypoints` (parsed here; the distance trigger replayed by tests/independent_coverage.py)
-each photo's place, height and aim are rebuilt: the direction of flight at the photo turned by
-the mount's yaw (DO_MOUNT_CONTROL, relative to the nose: a copter faces along its track), at the
-mount's pitch. The ray caster of tests/independent_faces.py (shared by nothing in src/) samples
+each photo's place, height and aim are rebuilt from the mount's setting on the leg it is taken on
+(`_photos`: a yaw relative to the nose, a copter facing along its track; a compass bearing; or
+a region of interest). The ray caster of tests/independent_faces.py (shared by nothing in src/) samples
 the structure's walls and roof on its own grid and counts the photos that see each sample with a
 GSD on the face at most [structure] max_gsd_cm, the GSD found here by meeting the rays through
 the neighbouring pixels with the face's plane. Judged:
@@ -43,7 +43,8 @@ from independent_faces import caster, frame, prism_samples
 
 CENTRE = (15.003, 49.40175)  # inside make_spec's area
 ALLOWANCE_M = 2.0
-MOUNT_CONTROL, RTL = 205, 20
+MOUNT_CONTROL, RTL, GIMBAL_PITCHYAW, ROI, ROI_NONE = 205, 20, 1000, 195, 197
+YAW_LOCK = 16  # GIMBAL_MANAGER_FLAGS
 CAMERA = "dji-mavic-3-enterprise"
 TO_XY = ic.local_projection(*CENTRE)
 TO_LONLAT = pyproj.Transformer.from_crs(TO_XY.target_crs, "EPSG:4326", always_xy=True)
@@ -82,21 +83,52 @@ def _plan(tmp: Path, footprint: shapely.Polygon, top: float, standoff: float, ma
 
 
 def _photos(out: Path) -> tuple[list[tuple[float, float, float, float, float]], list[list[float]], tuple]:
-    """The photos (x, y, z, yaw, pitch) from the .waypoints, the rows, the home."""
+    """The photos (x, y, z, yaw, pitch) from the .waypoints, the rows, the home. Each photo's aim is
+    the mount's setting on the leg it is taken on (ArduPilot runs the DO items after a waypoint as
+    it leaves it): DO_MOUNT_CONTROL, a yaw relative to the nose (a copter faces along the leg);
+    DO_GIMBAL_MANAGER_PITCHYAW with the yaw lock flag, a compass bearing; DO_SET_ROI_LOCATION,
+    the camera on that point from wherever the photo is taken."""
     home, rows = ic.read_wpl(out / "mission.waypoints")
     photos = ic.replay_triggers(rows, TO_XY, None, home[2])
-    # the mount's last setting before each trigger-on block
-    mount, aims = None, []
+    # (start, end, mount on it, the trigger-on block it is flown in); the last waypoint's place
+    legs, mount, at, block = [], None, None, -1
     for r in rows:
-        if int(r[3]) == MOUNT_CONTROL:
-            mount = (r[4], r[6])  # pitch, yaw (relative to the nose)
-        elif int(r[3]) == ic.DO_SET_CAM_TRIGG_DIST and r[4] > 0:
-            assert mount is not None, "photos with the mount where the last flight left it"
-            aims.append(mount)
+        cmd = int(r[3])
+        if cmd == ic.NAV_WAYPOINT:
+            here = np.array(TO_XY.transform(r[9], r[8]))
+            if at is not None:
+                legs.append((at, here, mount, block))
+            at = here
+        elif cmd == ic.DO_SET_CAM_TRIGG_DIST and r[4] > 0:
+            block += 1
+        elif cmd == MOUNT_CONTROL:
+            mount = ("nose", r[4], r[6])  # pitch, yaw relative to the nose
+        elif cmd == GIMBAL_PITCHYAW:
+            assert int(r[8]) & YAW_LOCK, r
+            mount = ("bearing", r[4], r[5])
+        elif cmd == ROI:
+            mount = ("roi", *TO_XY.transform(r[9], r[8]), r[10])
+        elif cmd == ROI_NONE:
+            mount = None
+    starts = np.array([a for a, _, _, _ in legs])
+    ends = np.array([b for _, b, _, _ in legs])
+    blocks = np.array([k for _, _, _, k in legs])
     cams = []
-    for x, y, z, h, run in zip(photos.x, photos.y, photos.agl, photos.heading, photos.run):
-        pitch, yaw = aims[run]
-        cams.append((float(x), float(y), float(z), (90.0 - math.degrees(h) + yaw) % 360.0, pitch))
+    for x, y, z, run in zip(photos.x, photos.y, photos.agl, photos.run):
+        p = np.array([x, y])
+        # the leg of its block the photo lies on
+        t = np.clip(np.einsum("ij,ij->i", p - starts, ends - starts) / np.maximum(np.sum((ends - starts) ** 2, 1), 1e-12), 0, 1)
+        k = int(np.argmin(np.hypot(*(starts + t[:, None] * (ends - starts) - p).T) + np.where(blocks == run, 0.0, np.inf)))
+        a, b, m, _ = legs[k]
+        assert m is not None, "photos with the mount where the last flight left it"
+        if m[0] == "nose":
+            cams.append((float(x), float(y), float(z), (math.degrees(math.atan2(*(b - a))) + m[2]) % 360.0, m[1]))
+        elif m[0] == "bearing":
+            cams.append((float(x), float(y), float(z), m[2] % 360.0, m[1]))
+        else:
+            d = np.array(m[1:3]) - p
+            pitch = math.degrees(math.atan2(m[3] - z, float(np.hypot(*d))))
+            cams.append((float(x), float(y), float(z), math.degrees(math.atan2(d[0], d[1])) % 360.0, pitch))
     return cams, rows, home
 
 
@@ -137,9 +169,34 @@ def _judge(out: Path, footprint: shapely.Polygon, top: float, cell: float, min_i
         xy.append(xy[0])
     legs = shapely.linestrings(np.stack([np.array(xy[:-1]), np.array(xy[1:])], axis=1))
     nearest = float(shapely.distance(legs, footprint).min())
-    return {"short_m2": float(area[counts < min_images].sum()), "short_sure_m2": float(area[sure < min_images].sum()),
+    # the plan's look: each station's bearing (camera_yaw_deg) to the footprint's nearest point, which is the stand-off
+    # away (less a chord's sag round a corner)
+    stations = json.loads((out / "manifest.json").read_text())["stations"]
+    at = np.array([TO_XY.transform(s["lon"], s["lat"]) for s in stations])
+    near = np.array([shapely.ops.nearest_points(footprint, shapely.Point(p))[0].coords[0] for p in at])
+    look = np.degrees(np.arctan2(near[:, 0] - at[:, 0], near[:, 1] - at[:, 1]))
+    look_off = float(np.abs((np.array([s["camera_yaw_deg"] for s in stations]) - look + 180.0) % 360.0 - 180.0).max())
+    # the mission's look at each photo (replayed above) against the look at the nearest point from where it is taken
+    taken = np.array([c[:2] for c in cams])
+    seen = np.array([shapely.ops.nearest_points(footprint, shapely.Point(p))[0].coords[0] for p in taken])
+    look_there = np.degrees(np.arctan2(seen[:, 0] - taken[:, 0], seen[:, 1] - taken[:, 1]))
+    aim_off = float(np.abs((np.array([c[3] for c in cams]) - look_there + 180.0) % 360.0 - 180.0).max())
+    reach = np.hypot(*(near - at).T)
+    return {"look_off_deg": look_off, "aim_off_deg": aim_off, "reach_m": (float(reach.min()), float(reach.max())),
+            "short_m2": float(area[counts < min_images].sum()), "short_sure_m2": float(area[sure < min_images].sum()),
             "area_m2": float(area.sum()), "min_images": int(counts.min()), "nearest_leg_m": nearest, "photos": len(cams),
             "heights": sorted({round(c[2], 1) for c in cams})}
+
+
+def _assert_looks_at_the_nearest_point(j: dict, standoff: float) -> None:
+    """Every station looks at the footprint's nearest point (square to a wall, or at a corner), the
+    stand-off away (less the chords' 0.25 m sag round a corner), and so does every photo the
+    mission takes, from where it is taken."""
+    assert j["look_off_deg"] < 0.05, j["look_off_deg"]
+    # the mission's: ArduPilot keeps an earth-frame yaw in whole degrees
+    assert j["aim_off_deg"] <= 0.5 + 0.05, j["aim_off_deg"]
+    least, most = j["reach_m"]
+    assert standoff - 0.25 - 0.02 <= least and most <= standoff + 0.02, j["reach_m"]
 
 
 def _rule(manifest: dict) -> dict:
@@ -158,6 +215,7 @@ def test_the_orbit_covers_the_faces_and_keeps_off_the_structure(tmp_path: Path, 
     print(name, j)
     assert j["short_m2"] == 0.0, j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+    _assert_looks_at_the_nearest_point(j, standoff)
     # layers: ceil(height / spacing), one pass each, bottom first
     spacing = m["pattern"]["passes"][0]["line_spacing_m"]
     layers = math.ceil(top / spacing)
@@ -234,3 +292,4 @@ def test_random_boxes_and_standoffs(tmp_path_factory, w: float, d: float, turn: 
     j = _judge(out, footprint, top, math.sqrt((footprint.area + footprint.length * top) / 200.0))
     assert j["short_m2"] == 0.0, j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+    _assert_looks_at_the_nearest_point(j, standoff)

@@ -28,7 +28,8 @@ AUTOPILOT_PX4 = 12
 PLANE_TYPES = frozenset({1, *range(19, 26)})  # MAV_TYPE fixed wing and VTOLs: ArduPlane builds
 COPTER_TYPES = frozenset({2, 3, 4, 13, 14, 15})  # MAV_TYPE multirotors and helicopters: ArduCopter builds
 
-_COMMAND_NAMES = {v: k for k, v in vars(mav).items() if k.isupper() and not k.startswith(("FRAME_", "AUTOPILOT_", "TYPE_"))}
+_COMMAND_NAMES = {v: k for k, v in vars(mav).items()
+                  if k.isupper() and not k.startswith(("FRAME_", "AUTOPILOT_", "TYPE_", "GIMBAL_MANAGER_FLAGS_"))}
 
 
 def command_name(command: int) -> str:
@@ -196,7 +197,7 @@ def rally_wire_items(m: Mission) -> list[mp.WireItem]:
 # through this model checks every field ArduPilot keeps and says which ones it does not.
 
 _LOCATION_COMMANDS = frozenset({mav.NAV_WAYPOINT, mav.NAV_LAND, mav.NAV_TAKEOFF, mav.DO_LAND_START,
-                                mav.NAV_VTOL_TAKEOFF, mav.NAV_VTOL_LAND})
+                                mav.NAV_VTOL_TAKEOFF, mav.NAV_VTOL_LAND, mav.DO_SET_ROI_LOCATION})
 _FRAME_STORED = {0: 0, 2: 0, 5: 0, 3: 3, 6: 3, 10: 10, 11: 10}
 
 
@@ -220,7 +221,7 @@ def _ardupilot_params(it: mp.WireItem, plane: bool) -> tuple[float, float, float
         return (_trunc(p1), 0.0, 0.0, 0.0)
     if c == mav.NAV_LAND:
         return (_trunc(p1), 0.0, 0.0, -1.0 if p4 < 0 else 1.0)
-    if c in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_VTOL_TAKEOFF, mav.DO_LAND_START):
+    if c in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_VTOL_TAKEOFF, mav.DO_LAND_START, mav.DO_SET_ROI_LOCATION):
         return (0.0, 0.0, 0.0, 0.0)
     if c == mav.CONDITION_YAW:
         return (f32(p1), f32(p2), _trunc(p3), _trunc(p4))
@@ -230,6 +231,8 @@ def _ardupilot_params(it: mp.WireItem, plane: bool) -> tuple[float, float, float
         return (f32(p1), 0.0, _trunc(p3), 0.0)
     if c == mav.DO_MOUNT_CONTROL:  # pitch, roll, yaw as floats (the mode, param7, too: `ardupilot_stored`)
         return (f32(p1), f32(p2), f32(p3), 0.0)
+    if c == mav.DO_GIMBAL_MANAGER_PITCHYAW:  # pitch and the rates int8, yaw int16: whole degrees (the flags: `ardupilot_stored`)
+        return (_byte(p1, signed=True), _trunc(p2), _byte(p3, signed=True), _byte(p4, signed=True))
     if c == mav.DO_DIGICAM_CONTROL:  # session, zoom position, zoom step (signed), focus lock: a byte each
         return (_byte(p1), _byte(p2), _byte(p3, signed=True), _byte(p4))
     if c in (mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION, mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION):
@@ -255,8 +258,10 @@ def ardupilot_stored(it: mp.WireItem, plane: bool) -> mp.WireItem:
         return mp.WireItem(it.seq, it.command, frame, *params, it.x, it.y, z, 1, 0, it.mission_type)
     # DO_DIGICAM_CONTROL keeps its shooting command (x) and command id (y), a byte each;
     # DO_MOUNT_CONTROL its mount mode (z; ArduCopter 4.7 SITL returns it)
-    x, y = (it.x & 0xFF, it.y & 0xFF) if it.command == mav.DO_DIGICAM_CONTROL else (0, 0)
-    z = _trunc(it.z) if it.command == mav.DO_MOUNT_CONTROL else 0.0
+    # DO_GIMBAL_MANAGER_PITCHYAW its flags (x) and gimbal id (z), a byte each
+    x, y = (it.x & 0xFF, it.y & 0xFF) if it.command == mav.DO_DIGICAM_CONTROL else (it.x & 0xFF, 0) \
+        if it.command == mav.DO_GIMBAL_MANAGER_PITCHYAW else (0, 0)
+    z = _trunc(it.z) if it.command == mav.DO_MOUNT_CONTROL else _byte(it.z) if it.command == mav.DO_GIMBAL_MANAGER_PITCHYAW else 0.0
     return mp.WireItem(it.seq, it.command, 0, *params, x, y, z, 1, 0, it.mission_type)
 
 

@@ -20,6 +20,10 @@ The program's other actions (MAVLink common.xml for the parameters):
   MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW (param1 pitch, param2 yaw, param3/4 rates NaN (not
   set), param5 flags ROLL_LOCK|PITCH_LOCK: pitch against the horizon, yaw relative to the
   vehicle; param7 0: every gimbal).
+- gimbal held on an earth-frame bearing (`Gimbal.earth`, along a ring's side):
+  MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW with GIMBAL_MANAGER_FLAGS_YAW_LOCK too, param2 the true
+  bearing; ArduPilot (4.3 on) runs it in a mission and stores pitch and yaw in whole degrees
+  (pitch int8, yaw int16, rates int8: 0, not set), so they are given rounded.
 - hover and shoot: NAV_WAYPOINT with param1 = the hold time, then one photo: ArduPilot
   MAV_CMD_DO_DIGICAM_CONTROL with param5 (shoot) 1 (every ArduPilot version takes it in a
   mission; IMAGE_START_CAPTURE only from 4.4); PX4 MAV_CMD_IMAGE_START_CAPTURE (param1 0: all
@@ -96,6 +100,13 @@ def _wp(p: FlightProgram, w: Waypoint, hold_s: float) -> MissionItem:
 
 
 def _gimbal(p: FlightProgram, g: Gimbal, tag: str) -> MissionItem:
+    if g.earth:
+        # ArduPilot keeps the angles in whole degrees (AP_Mission: pitch int8, yaw int16, the rates int8): given so here
+        whole = p.firmware == "ardupilot"
+        pitch, yaw = (float(round(g.pitch_deg)), float(round(g.bearing_deg) % 360)) if whole else (g.pitch_deg, round(g.bearing_deg, 2))
+        rate = 0.0 if whole else math.nan
+        return MissionItem(mav.DO_GIMBAL_MANAGER_PITCHYAW, mav.FRAME_MISSION, pitch, yaw, rate, rate,
+                           float(GIMBAL_FLAGS | mav.GIMBAL_MANAGER_FLAGS_YAW_LOCK), 0.0, 0.0, tag=tag)
     if p.firmware == "px4":
         return MissionItem(mav.DO_GIMBAL_MANAGER_PITCHYAW, mav.FRAME_MISSION, g.pitch_deg, round(g.yaw_deg, 2), math.nan, math.nan,
                            float(GIMBAL_FLAGS), 0.0, 0.0, tag=tag)
@@ -177,6 +188,7 @@ def mavlink_mission(p: FlightProgram) -> Mission:
         for a in w.actions:
             if isinstance(a, Gimbal):
                 items.append(_gimbal(p, a, f"{rid}:gimbal"))
+                roi = None  # the mount leaves the region of interest for the angles
             elif isinstance(a, Roi):
                 # given once, ArduPilot and PX4 hold the mount (and a copter's nose) on it until DO_SET_ROI_NONE
                 if (a.lat, a.lon, a.alt_m) != roi:

@@ -28,6 +28,18 @@ Actions, done in their order when the vehicle reaches their waypoint:
   point at each waypoint); the point's altitude is where the run's first station sees it at
   the aim's pitch (`altitudes.look_at_height`). After it the mount's state is not known: the
   next run sets its gimbal, nadir or not.
+- A run whose camera looks at an outline's nearest point (`Aim.outline`, a ring round a
+  structure) gets, at each waypoint from its lead-in to its line end where the look of the leg
+  to the next waypoint changes, that leg's look: where both ends of the leg see the same point
+  of the outline (a corner, the leg a chord of the ring's round join) a `Roi` at that corner, at
+  the height that gives the aim's pitch from the leg's end (on the ring), at every such waypoint; else (along a side) a `Gimbal` held
+  on the side's bearing in the earth frame (`Gimbal.earth`), the look from the leg's middle. At a
+  side's end both looks are the same bearing, so the camera turns continuously round the ring,
+  whatever the nose does (ArduCopter's turns smoothly round the ring, the chords' by steps). A
+  `Gimbal` on the line end's look (earth frame) when a `Roi` holds the mount there. The lead-in (no photo on it)
+  holds the first station's look as an earth-frame bearing: the camera is there when the first
+  photo is taken (a region of interest from the lead-in swept the camera round a corner and
+  left it 1.7° behind at the first photo in SITL).
 - `CameraStart` / `CameraStop`: photos every `distance_m` metres or every `interval_s`
   seconds from a run's first station to its line end (camera.trigger "distance" or "time";
   the camera's own intervalometer, "camera", has none).
@@ -56,6 +68,7 @@ the camera stays on through it, as through a "terrain" waypoint.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,13 +79,15 @@ from aerosurvey.plan.altitudes import look_at_height, station_pitches
 from aerosurvey.plan.flight_time import look_hold_s
 from aerosurvey.plan.landing import PLANE_TAKEOFF_PITCH_DEG
 from aerosurvey.plan.model import Plan, RouteWaypoint
-from aerosurvey.plan.passes import NADIR_PITCH_DEG
+from aerosurvey.plan.passes import NADIR_PITCH_DEG, Aim
 from aerosurvey.plan.photogrammetry import ardupilot_distance_m
 
 #: waypoint kinds on a photo run between its first station and its line end (the camera is on)
 ON_LINE = ("line_start", "terrain", "bend", "station", "line_end")
 #: waypoint kinds that can sit on a station (and shoot there)
 AT_STATION = ("line_start", "terrain", "bend", "station")
+#: two places of an outline closer than this (planning metres) are one: its corner
+OUTLINE_CORNER_M = 1e-3
 #: PX4's camera_trigger checks its distance every 50 ms (Run's poll_interval_usec; v1.16)
 PX4_TRIGGER_CHECK_S = 0.05
 #: PX4 starts its distance trigger again at every this-many-th station of a run (measured in SITL: sitl/README.md)
@@ -84,6 +99,7 @@ class Gimbal:
     pitch_deg: float  # gimbal convention: −90 straight down, 0 level
     yaw_deg: float  # relative to the vehicle's nose, positive to the right, −180..180
     bearing_deg: float  # the true bearing the camera looks to (0..360)
+    earth: bool = False  # the camera held on `bearing_deg` however the nose turns (else at `yaw_deg` from it)
 
 
 @dataclass(frozen=True)
@@ -292,6 +308,7 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
     yaw_fixed = plan.launch.fixed_yaw_deg
     # the mount's state at take-off is not known: the first run of every flight sets it
     gimbal: Gimbal | None = None
+    held: Gimbal | Roi | None = None  # an outline's look held on the run (`_outline_look`)
     first_of_run = {}
     for i, w in enumerate(wps):
         if w.run >= 0 and w.kind in ("lead_in", "line_start", "station") and w.run not in first_of_run:
@@ -310,7 +327,23 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
         actions: list[Action] = []
         heading = heading_of_run.get(w.run, 0.0) if w.run >= 0 else 0.0
         aim = plan.route.runs[w.run].aim if w.run >= 0 else None
-        if aim is not None and aim.point is not None and w.run in station_of_run and i >= first_of_run.get(w.run, len(wps)) \
+        if aim is not None and aim.outline is not None and w.run in station_of_run \
+                and first_of_run.get(w.run, len(wps)) <= i < len(wps) - 1 and w.kind in ("lead_in", *ON_LINE):
+            if w.kind != "line_end":
+                want_look: Gimbal | Roi | None = _outline_look(plan, aim, w, wps[i + 1], shift)
+            elif isinstance(held, Roi):
+                # the mount off the region of interest onto a known bearing (the line end's look): no DO_SET_ROI_NONE,
+                # whose stored form ArduPilot changes
+                came = np.degrees(np.arctan2(w.x - wps[i - 1].x, w.y - wps[i - 1].y))
+                want_look = _outline_bearing(plan, aim, np.array([[w.x, w.y]]), float(came))
+            else:
+                want_look = None
+            # a region of interest at every waypoint that has one, as for a point (one MAVLink item for them all)
+            if want_look is not None and (isinstance(want_look, Roi) or want_look != held):
+                actions.append(want_look)
+                held = want_look
+            gimbal = None  # the earth-frame yaw or the region of interest leaves the mount so
+        elif aim is not None and aim.point is not None and w.run in station_of_run and i >= first_of_run.get(w.run, len(wps)) \
                 and w.kind in ("lead_in", *ON_LINE):
             k = station_of_run[w.run]
             z = look_at_height(aim, np.array([st.x[k], st.y[k]]), float(st.alt_rel_m[k]))
@@ -351,10 +384,42 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
             actions.append(stop)
         if w.kind == "line_end" and aim is not None and aim.point is not None:
             actions.append(RoiEnd())
+        if w.kind == "line_end":
+            held = None
         alt = w.alt_m + shift
         out.append(Waypoint(round(w.lat, 8), round(w.lon, 8), round(alt, 2), w.kind, w.run, _tag(plan, w),
                             run_id(plan, w.run) if w.run >= 0 else "", heading, tuple(actions)))
     return tuple(out)
+
+
+def _outline_look(plan: Plan, aim: Aim, w: RouteWaypoint, to: RouteWaypoint, shift: float) -> Gimbal | Roi:
+    """The look of an outline's aim on the leg from `w` to `to`, from the leg's middle: a region
+    of interest at the outline's corner nearest to it, else the earth-frame bearing square to the
+    side it runs along; on a lead-in (no photo on it), the look from its end as an earth-frame
+    bearing. See the module's docstring."""
+    ends = np.array([[w.x, w.y], [to.x, to.y]])
+    at = ends[1:] if w.kind == "lead_in" else ends.mean(axis=0, keepdims=True)
+    near = aim.nearest(at)[0]
+    planar = plan.site.planar
+    assert aim.outline is not None
+    if w.kind != "lead_in" and float(np.min(np.hypot(*(np.asarray(aim.outline) - near).T))) < OUTLINE_CORNER_M:
+        lon, lat = planar.lonlat(near[:1], near[1:])
+        # the height that gives the aim's pitch from the ring, the stand-off from the corner: the leg's farther end (a
+        # chord's ends are the ring's vertices; a ring's end lies on its first chord, inside it)
+        d = float(np.max(np.hypot(*(ends - near).T))) / plan.site.grid_scale
+        z = w.alt_m + d * math.tan(math.radians(aim.pitch_deg))
+        return Roi(round(float(lat[0]), 8), round(float(lon[0]), 8), round(z + shift, 2), round(aim.pitch_deg, 4))
+    return _outline_bearing(plan, aim, at, float(np.degrees(np.arctan2(*(ends[1] - ends[0])))))
+
+
+def _outline_bearing(plan: Plan, aim: Aim, at: np.ndarray, grid_heading: float) -> Gimbal:
+    """The camera held in the earth frame on the look of an outline's aim from `at` (1, 2), the
+    vehicle flying `grid_heading` there."""
+    planar = plan.site.planar
+    grid = float(aim.bearings(at, np.zeros(1))[0])
+    bearing = float(planar.true_bearing(np.array([grid]), at[:, 0], at[:, 1])[0])
+    heading = float(planar.true_bearing(np.array([grid_heading % 360.0]), at[:, 0], at[:, 1])[0])
+    return Gimbal(aim.pitch_deg, round(_wrap180(bearing - heading), 6), round(bearing % 360.0, 6), earth=True)
 
 
 def _camera_actions(plan: Plan) -> tuple[CameraStart | None, CameraStop | None]:

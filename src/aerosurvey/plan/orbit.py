@@ -7,8 +7,13 @@ per layer between the structure's base and top, the camera turned to the structu
   are as long as that allows: ArduCopter slows at every waypoint (in SITL round a 10 m tower
   12 m off, 16 chords a quarter circle flew the ring at 0.81 m/s, 4 at 1.81 m/s, for 5.34 m/s
   planned). It starts at its northmost point and
-  is flown clockwise seen from above, one way only (`Pass.one_way`), so the camera turned 90°
-  right of the flight (`Aim.turn_deg`) looks square at the wall in front of it.
+  is flown clockwise seen from above, one way only (`Pass.one_way`). The camera looks at the
+  footprint's nearest point (`Aim.outline`): square to the wall along a side of the ring, at the
+  corner round a round join, continuously round the ring (at a side's end both are the same
+  bearing). The copter's nose turns smoothly round the ring where the chords turn it by steps, so
+  a camera turned 90° right of the flight was up to 14° off next to the ring's vertices in SITL;
+  the flight program holds an earth-frame yaw along each side and a region of interest at the
+  corner round each join (mission/program.py).
 - The camera is pitched by `pattern.pitch_deg`, level (0) at the highest. By default it is
   pitched down as far as keeps a ground footprint for every photo (every edge of the image at
   least `capture.MIN_DEPRESSION_DEG` below the horizon: −(half the image's vertical angle +
@@ -251,7 +256,10 @@ class Orbit:
         heights = layer_heights(self.base_m, self.top_m, sensor.spacing_m) + self.band.middle_below_m
         if self.settings.start == "top":
             heights = heights[::-1]
-        aim = Aim(self.band.pitch_deg, turn_deg=90.0)  # right of a clockwise ring: the structure
+        # square to the wall on a side of the ring, at the corner round a join: every point of the ring is the
+        # stand-off from that nearest point, so the pitch is the band's all round
+        outline = tuple((float(x), float(y)) for x, y in np.asarray(site.structure.exterior.coords)[:-1])
+        aim = Aim(self.band.pitch_deg, outline=outline)
         plan_h = sensor.heights.nominal_agl_m
         # a ring the zones cut into pieces is no longer flown round in one go
         around = Ring(path[:-1], self.settings.standoff_m) if len(strips) == 1 else None

@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 
 from aerosurvey import ids
 from aerosurvey.plan.frame import LineFrame
@@ -18,7 +19,7 @@ from aerosurvey.plan.lines import LineSegment
 @dataclass(frozen=True)
 class Aim:
     """Where the camera looks: its pitch (gimbal convention: −90 straight down, 0 level) and its
-    look, one of three:
+    look, one of four:
 
     - along the flight, turned by `turn_deg` (0 ahead, 90 to the right, −90 to the left): the
       camera follows the track through its bends (a mount's yaw relative to the nose);
@@ -26,17 +27,24 @@ class Aim:
       true bearing at each place, `Planar.true_bearing`);
     - at a point `point` (planning CRS): the camera turned to it from every station, pitched so
       that from the run's first station it looks at `pitch_deg` (the point's height is where that
-      ray meets its vertical: the region of interest an autopilot is given)."""
+      ray meets its vertical: the region of interest an autopilot is given);
+    - at the nearest point of an outline `outline` (a polygon's vertices, planning CRS): square to
+      its side where a station faces a side, at its corner round a corner (a structure's footprint
+      seen from a ring at a stand-off round it: the look turns continuously round the ring, at one
+      pitch, the distance being the stand-off everywhere)."""
 
     pitch_deg: float = -90.0
     turn_deg: float = 0.0
     bearing_deg: float | None = None
     point: tuple[float, float] | None = None
+    outline: tuple[tuple[float, float], ...] | None = None
 
     def __post_init__(self) -> None:
-        if self.bearing_deg is not None and self.point is not None:
-            raise ValueError(f"an aim looks at a bearing or at a point, not both: {self}")
-        if self.turn_deg and (self.bearing_deg is not None or self.point is not None):
+        if (self.bearing_deg is not None) + (self.point is not None) + (self.outline is not None) > 1:
+            raise ValueError(f"an aim looks at a bearing, at a point or at an outline, one of them: {self}")
+        if self.outline is not None and len(self.outline) < 3:
+            raise ValueError(f"an aim's outline is a polygon of three vertices or more: {self}")
+        if self.turn_deg and (self.bearing_deg is not None or self.point is not None or self.outline is not None):
             raise ValueError(f"an aim is turned from the flight only when it looks along it: {self}")
         if not -90.0 <= self.pitch_deg <= 30.0 or not math.isfinite(self.pitch_deg):
             raise ValueError(f"an aim's pitch is -90..30 degrees: {self}")
@@ -45,7 +53,9 @@ class Aim:
 
     @property
     def look(self) -> str:
-        """"along", "bearing" or "point"."""
+        """"along", "bearing", "point" or "outline"."""
+        if self.outline is not None:
+            return "outline"
         return "point" if self.point is not None else "bearing" if self.bearing_deg is not None else "along"
 
     @property
@@ -55,13 +65,21 @@ class Aim:
     def bearings(self, xy: np.ndarray, headings: np.ndarray) -> np.ndarray:
         """The grid bearing the camera looks to at each station (`xy` (n, 2), `headings` the
         direction of flight there, grid bearings)."""
-        if self.point is not None:
-            d = np.asarray(self.point, float) - np.asarray(xy, float).reshape(-1, 2)
+        if self.point is not None or self.outline is not None:
+            at = np.asarray(xy, float).reshape(-1, 2)
+            d = (np.asarray(self.point, float) if self.point is not None else self.nearest(at)) - at
             out: np.ndarray = np.degrees(np.arctan2(d[:, 0], d[:, 1])) % 360.0
             return out
         if self.bearing_deg is not None:
             return np.full(len(headings), self.bearing_deg % 360.0)
         return (np.asarray(headings, float) + self.turn_deg) % 360.0
+
+    def nearest(self, xy: np.ndarray) -> np.ndarray:
+        """The nearest point of the aim's outline to each place `xy` (n, 2) outside it."""
+        assert self.outline is not None
+        lines = shapely.shortest_line(shapely.points(np.asarray(xy, float).reshape(-1, 2)), shapely.Polygon(self.outline))
+        out: np.ndarray = shapely.get_coordinates(lines).reshape(-1, 2, 2)[:, 1]
+        return out
 
 
 #: the camera's pitch looking straight down

@@ -219,9 +219,13 @@ def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: flo
     else:
         xy, idx, heads = s.stations[::-1], s.station_index[::-1], (np.asarray(s.heading_deg, float)[::-1] + 180.0) % 360.0
         bends, after = s.path[1:-1][::-1], (n - 2 - s.bend_after)[::-1]
-    ux, uy = _unit(float(heads[0]))
-    vx, vy = _unit(float(heads[-1]))
     first, last = xy[0], xy[-1]
+    # a ring flown round to its first station goes on round it to its end, as it began: a bend at the last station
+    round_again = p.ring is not None and n > 1 and math.dist(first, last) < 1e-6
+    if round_again:
+        bends, after = np.vstack([np.reshape(bends, (-1, 2)), last]), np.append(after, n - 1)
+    ux, uy = _unit(float(heads[0]))
+    vx, vy = (ux, uy) if round_again else _unit(float(heads[-1]))
     return Run(p.index, s.line, s.part, direction, float(heads[0]), np.array(xy, float), np.array(idx),
                (float(first[0] - ux * lead_in), float(first[1] - uy * lead_in)),
                (float(last[0] + vx * half_base), float(last[1] + vy * half_base)),

@@ -577,8 +577,8 @@ def _scan_shape(plan: Plan, passes: list[int], flown: frozenset[int], frame: str
         return why + "its rings are not flown one after another, as QGroundControl flies its layers"
     if any(by_index[p].ring is not ring for p in order):
         return why + "the passes go round different rings; QGroundControl's item flies one"
-    if any(by_index[p].aim != first.aim for p in order) or first.aim.look != "along" or first.aim.turn_deg != 90.0:
-        return why + "the camera is not turned 90° right of the flight at one pitch, as QGroundControl aims it"
+    if any(by_index[p].aim != first.aim for p in order) or first.aim.look != "outline":
+        return why + "the camera is not turned to the structure at one pitch, as QGroundControl aims it"
     if plan.altitudes.frame == "terrain" or plan.sensor.heights.mode == "follow":
         return why + "its heights follow the terrain; QGroundControl flies the layers above home"
     xy = ring.path
