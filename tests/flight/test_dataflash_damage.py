@@ -173,6 +173,10 @@ def test_junk_fmt_records(tmp_path: Path, base: Path, at: float, random_bytes: b
 # 305 bytes: three FMT records and the start of a fourth, cut after its (short) column names, copied just
 # before a CAM message: an identical FMT copy whose 89 bytes took the CAM (found by a run on 2026-11-28)
 @example(base=PLANE, a=0.0, size=305, after_itself=False, to=0.9413715868230008)
+# the log's first 2,871 bytes copied before it, cut 23 bytes into CAM's FMT record: the log's first bytes read
+# as CAM's column names (kept for its layout), and the log's own CAM FMT, intact, was ignored as a redefinition:
+# no CAM decoded (found by a run on 2026-11-29); an intact copy now names the columns
+@example(base=COPTER, a=0.0, size=2871, after_itself=False, to=0.0)
 @given(base=bases, a=st.floats(0, 1), size=st.integers(1, 200_000), after_itself=st.booleans(), to=st.floats(0, 1))
 def test_duplicated_chunks(tmp_path: Path, base: Path, a: float, size: int, after_itself: bool, to: float) -> None:
     """A chunk of the log copied again, right after itself or anywhere else (before it, inside

@@ -12,7 +12,8 @@ Damage can also look like data. An FMT record is taken only when its name, forma
 characters and length all hold together (random bytes after an FMT header
 almost never do); one that redefines a type already defined with another layout, or gives
 a second type an existing name, is ignored and reported, so a junk record cannot take the
-GPS type away. After a stretch of damage the reader takes a header it finds only when
+GPS type away; but one whose column names were damaged (kept for its layout) takes its names from
+an intact copy of the same layout. After a stretch of damage the reader takes a header it finds only when
 another header (or the end of the file) follows the message it frames, so two bytes that
 happen to read 0xA3 0x95 inside damage are not taken for a message. `repeated()` finds the
 messages of a type that repeat an earlier one byte for byte (a duplicated chunk).
@@ -50,6 +51,7 @@ class Format:
     dtype: np.dtype | None = None
     scale: dict[str, float] = field(default_factory=dict)
     undecoded: frozenset[str] = frozenset()  # columns whose format character was damaged (`_repair_format`)
+    damaged_columns: bool = False  # its column names were damaged: kept for its layout, named by an intact copy
 
 
 def _dtype(fmt: str, columns: list[str]) -> tuple[np.dtype, dict[str, float]] | None:
@@ -185,7 +187,11 @@ class DataFlashLog:
         fmt_s = _cstr(repaired[0] if repaired else fmt).decode("ascii", "replace")
         columns = cols_s.split(",") if cols_s else []
         old = self.formats.get(typ)
-        clash = old is not None and (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns)
+        bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
+        # an intact copy of a record kept for its layout with damaged column names (a copied chunk cut inside
+        # it, the log's first bytes read as its names) names its columns
+        names = old is not None and old.damaged_columns and not bad and (old.length, old.name, old.fmt) == (length, name_s, fmt_s)
+        clash = not names and old is not None and (old.length, old.name, old.fmt, old.columns) != (length, name_s, fmt_s, columns)
         if (old is not None or self.type_of(name_s) is not None) and \
                 (not self._followed(o + FMT_LEN) or self._inner_message(o, o + FMT_LEN) is not None):
             # a record of a type already defined (ignored, or a copy that changes nothing), followed
@@ -201,11 +207,13 @@ class DataFlashLog:
             undecoded = frozenset([col])
             self._skip(o + 3 + 6 + at, 1, f"{why}: character {at + 1} damaged; the record's length and other characters "
                        f"still frame its messages, column {col} is not decoded", "format")
-        bad = [i for i, b in enumerate(_cstr(cols)) if b < 0x20 or b > 0x7E]
         if bad:
             self._skip(o + 3 + 22 + bad[0], bad[-1] - bad[0] + 1, f"FMT record for {name_s}: damaged column names "
                        f"{cols_s!r}; kept for its layout, which holds", "format")
         if old is not None:
+            if names:
+                self._set_columns(old, columns)
+                old.damaged_columns = False
             if not clash and not undecoded:
                 old.undecoded = frozenset()  # an intact copy of a repaired record: every column decodes
             if clash:
@@ -220,13 +228,19 @@ class DataFlashLog:
         # FMT-for-FMT names four columns for "BBnNZ"; some EKF5 records list 10 names for 13
         # fields) and records with no fields at all (STRT). Their length still frames the
         # messages, so the type is kept; it just cannot be decoded into named columns.
-        f = Format(typ, length, name_s, fmt_s, columns, undecoded=undecoded)
-        dt = _dtype(fmt_s, columns) if fmt_s and len(columns) == len(fmt_s) else None
-        if dt is not None and dt[0].itemsize == length - 3:
-            f.dtype, f.scale = dt
+        f = Format(typ, length, name_s, fmt_s, [], undecoded=undecoded, damaged_columns=bool(bad))
+        self._set_columns(f, columns)
         self.formats[typ] = f
         self._names[name_s] = f
         return True
+
+    @staticmethod
+    def _set_columns(f: Format, columns: list[str]) -> None:
+        """Name a format's columns, and decode it when they match its format characters and length."""
+        f.columns = columns
+        dt = _dtype(f.fmt, columns) if f.fmt and len(columns) == len(f.fmt) else None
+        if dt is not None and dt[0].itemsize == f.length - 3:
+            f.dtype, f.scale = dt
 
     def _scan(self) -> None:
         buf, n = self._buf, self.size
