@@ -483,14 +483,8 @@ def _fly_in_wind(tmp_path: Path, wind: str, binary: str) -> list[dict]:
     return report["sorties"]
 
 
-#: issue 36's 8 m/s target for the copter, not met: in the one run of 8@135 every photo was triggered but no sortie was
-#: reported completed ("EOF on TCP socket"); 8@315 not run. Kept as the target, expected to fail until diagnosed.
-_COPTER_8MS = pytest.mark.xfail(strict=False, reason="8 m/s: no sortie reported completed in the one run (EOF on TCP socket)")
-
-
 @pytest.mark.sitl
-@pytest.mark.parametrize("wind", ["0@0", "5@0", "5@90", "5@225", pytest.param("8@135", marks=_COPTER_8MS),
-                                  pytest.param("8@315", marks=_COPTER_8MS)])
+@pytest.mark.parametrize("wind", ["0@0", "5@0", "5@90", "5@225", "8@135", "8@315"])
 def test_a_copter_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     """Still air, 5 m/s of wind from the north, the east and the south-west, and 8 m/s (most of the quad's
     10.4 m/s at its lean limit) from the south-east and the north-west: every sortie completes
