@@ -500,14 +500,8 @@ def _fly_in_wind(tmp_path: Path, wind: str, binary: str) -> list[dict]:
     return report["sorties"]
 
 
-#: issue 36's 8 m/s target for the copter, not met: in the one run of 8@135 every photo was triggered but no sortie was
-#: reported completed ("EOF on TCP socket"); 8@315 not run. Kept as the target, expected to fail until diagnosed.
-_COPTER_8MS = pytest.mark.xfail(strict=False, reason="8 m/s: no sortie reported completed in the one run (EOF on TCP socket)")
-
-
 @pytest.mark.sitl
-@pytest.mark.parametrize("wind", ["0@0", "5@0", "5@90", "5@225", pytest.param("8@135", marks=_COPTER_8MS),
-                                  pytest.param("8@315", marks=_COPTER_8MS)])
+@pytest.mark.parametrize("wind", ["0@0", "5@0", "5@90", "5@225", "8@135", "8@315"])
 def test_a_copter_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     """Still air, 5 m/s of wind from the north, the east and the south-west, and 8 m/s (most of the quad's
     10.4 m/s at its lean limit) from the south-east and the north-west: every sortie completes
@@ -601,6 +595,11 @@ def test_an_orbit_aims_every_photo_at_the_structure(tmp_path):
     assert nearest >= standoff - 2.0, nearest
 
 
+#: ArduPlane SITL's take-off (NAV_TAKEOFF at full throttle): 102 m in 14.8 s, at its AIRSPEED_CRUISE (22 m/s) until
+#: the mission's DO_CHANGE_SPEED; its landing approach at 18.4 m/s of air speed (TECS_LAND_ARSPD; docs/planning.md, "Wind")
+SITL_PLANE_CLIMB_RATE_MS, SITL_PLANE_CRUISE_SPEED_MS, SITL_PLANE_LANDING_SPEED_MS = 6.9, 22.0, 18.4
+
+
 def _plane_in_wind(tmp_path: Path, wind: str, binary: str) -> tuple[dict, list[dict], Path]:
     """A plane's block (about 30 ha, lines east-west, across a wind from the north or south) planned in `wind`
     with two sorties and its camera fixed to the body (a plane's default), flown in ArduPlane SITL in that wind."""
@@ -611,7 +610,9 @@ def _plane_in_wind(tmp_path: Path, wind: str, binary: str) -> tuple[dict, list[d
     # counts (a sortie ended by RTL is over when the plane is back over home, still at its height)
     landing = {"end": "land", "wind_from_deg": float(wind.split("@")[1]), "approach_m": 400.0}
     spec = make_spec(tmp_path, {"flight": {"heading": 90.0, **landing}, "battery": {"usable_min": 9.0},
-                                "vehicle": {"type": "plane", "cruise_speed_ms": 16.0},
+                                "vehicle": {"type": "plane", "cruise_speed_ms": SITL_PLANE_CRUISE_SPEED_MS,
+                                            "climb_rate_ms": SITL_PLANE_CLIMB_RATE_MS,
+                                            "landing_speed_ms": SITL_PLANE_LANDING_SPEED_MS},
                                 "targets": {"gsd_cm": 2.5, "side_overlap": 0.6, "forward_overlap": 0.75},
                                 "conditions": {"wind": wind}}, area=ring)
     out = tmp_path / f"plan-{wind.replace('@', '-')}"
@@ -622,11 +623,13 @@ def _plane_in_wind(tmp_path: Path, wind: str, binary: str) -> tuple[dict, list[d
 
 
 def _flown_side_overlaps(manifest: dict, logs: list[Path]) -> list[float]:
-    """Per photo with a neighbour on the next line: the share of its ground that neighbour sees too, from the
-    flown CAM records (position, height above home, roll, pitch and yaw): each photo the sensor's rectangle on
-    flat ground (sensor size × height / focal length, the long side across the nose), turned by the flown yaw,
-    its centre moved by the roll and pitch (height × tan); the lines told apart by their northing (lines east-west),
-the neighbour the photo of the next line nearest along it."""
+    """Per photo with neighbours on the next line: the share of its ground the next line's photos see too (the
+    side overlap), from the flown CAM records (position, height above home, roll, pitch and yaw): each photo the
+    sensor's rectangle on flat ground (sensor size × height / focal length, the long side across the nose), turned
+    by the flown yaw, its centre moved by the roll and pitch (height × tan); the lines told apart by their northing
+    (lines east-west), the next line's photos as one footprint. The nearest photo of the next line alone lies up to
+    half a photo base along the line from it, which with 75 % forward overlap takes up to 12 % off the share (6 %
+    at the median: 0.555 to 0.589 where these shares gave 0.604 to 0.762, the same ArduPlane SITL flights in 5 m/s)."""
     import numpy as np
 
     cam = manifest["camera"]
@@ -656,20 +659,18 @@ the neighbour the photo of the next line nearest along it."""
     shares = []
     for a, b in zip(groups[:-1], groups[1:]):
         xb = np.array([photos[j].centroid.x for j in b])
+        seen = shapely.union_all([photos[j] for j in b])
         for i in a:
-            x = photos[i].centroid.x
-            if xb.min() <= x <= xb.max():  # a neighbour on both sides along the next line
-                j = b[int(np.argmin(np.abs(xb - x)))]
-                shares.append(float(photos[i].intersection(photos[j]).area / photos[i].area))
+            if xb.min() <= photos[i].centroid.x <= xb.max():  # a neighbour on both sides along the next line
+                shares.append(float(photos[i].intersection(seen).area / photos[i].area))
     return shares
 
 
 @pytest.mark.sitl
-@pytest.mark.xfail(strict=False, reason="issue 36's plane target, not met: flown / estimated 5@0 1.015, 1.035, 0.935; "
-                   "5@90 1.084, 1.006, 0.811; 5@225 0.971, 0.937; side overlap medians 0.589, 0.555, 0.564: ArduPlane's "
-                   "take-off (full throttle, up to 27.5 m/s of air speed, a first place nearer than the climb overshot "
-                   "and flown back to), its wider turns between lines and its WP_RADIUS corner cutting are not in the "
-                   "model (docs/planning.md); 8@45 and 8@270 not run")
+@pytest.mark.xfail(strict=False, reason="issue 36's plane target, not met in every flight: flown / estimated 5@0 1.018, "
+                   "1.007, 0.978 (S03: 121 photos triggered for 120); 5@90 0.945, 0.971; 5@225 0.983, 0.963; side "
+                   "overlap medians 0.763, 0.605, 0.708 (docs/planning.md, Wind); 8@45 0.931, 1.003, 0.914, 0.933, its "
+                   "side overlap median 0.790 but 93 of 345 photos under 0.6; 8@270 not run")
 @pytest.mark.parametrize("wind", ["5@0", "5@90", "5@225", "8@45", "8@270"])
 def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     """ArduPlane in 5 and 8 m/s of wind: every sortie completes with its photos in the wind triangle's
@@ -683,7 +684,8 @@ def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     shares = sorted(_flown_side_overlaps(manifest, [out / "sitl" / r["log"] for r in rows]))
     crab = [p.get("crab_deg") for p in manifest["pattern"]["passes"]]
     print(wind, crab, [(r["sortie"], r["flown_time_s"], r["estimated_time_s"], r["time_ratio"]) for r in rows],
-          "side overlap median", shares[len(shares) // 2], "below 0.6:", sum(s < 0.6 for s in shares), "of", len(shares))
+          "side overlap median", shares[len(shares) // 2], "below 0.6:", sum(s < 0.6 for s in shares), "of", len(shares),
+          "deciles", [round(shares[len(shares) * q // 10], 3) for q in range(10)])
     for row in rows:
         assert row["completed"], row
         assert row["triggers_flown"] == row["photos_planned"], row

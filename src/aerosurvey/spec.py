@@ -95,6 +95,7 @@ class VehicleSpec:
     descent_rate_ms: float
     max_leg_m: float | None = None  # PX4: the longest leg between two places of a mission (None: ArduPilot, no limit)
     max_airspeed_ms: float | None = None  # copters: the air speed at the lean limit (None: not given; needed with a wind)
+    landing_speed_ms: float | None = None  # planes: the landing approach's air speed (None: the survey speed)
 
 
 @dataclass(frozen=True)
@@ -593,10 +594,14 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         descent_rate_ms=v.number("descent_rate_ms", 1.5 if vtype == "copter" else 2.0, lo=0.1, hi=30.0) or 0.0,
         max_leg_m=v.number("max_leg_m", PX4_MAX_LEG_M, lo=10.0, hi=100000.0) if firmware == "px4" else None,
         max_airspeed_ms=v.number("max_airspeed_ms", None, lo=0.5, hi=100.0) if vtype == "copter" else None,
+        landing_speed_ms=v.number("landing_speed_ms", None, lo=0.5, hi=100.0) if vtype == "plane" else None,
     )
     if vtype == "plane" and v.has("max_airspeed_ms"):
         raise InputError("vehicle.max_airspeed_ms is for copters (the air speed at their lean limit); a plane flies its "
                          "survey speed through the air", key="vehicle.max_airspeed_ms")
+    if vtype == "copter" and v.has("landing_speed_ms"):
+        raise InputError("vehicle.landing_speed_ms is for planes (the air speed of their landing approach); a copter "
+                         "lands straight down", key="vehicle.landing_speed_ms")
     v.done()
 
     f = top.table("flight")

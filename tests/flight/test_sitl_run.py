@@ -89,7 +89,7 @@ def test_fly_loop_flies_every_sortie_and_writes_the_report(split_plan, tmp_path,
     doc = mf.read_manifest(split_plan)
     routes = {r.name: r for r in sitl_run.sortie_routes(doc, split_plan)}
 
-    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None, wind=None):
         assert rtl_after_photos is None
         f = harness.Flight(name)
         for lat, lon in routes[name].stations:  # every planned photo, exactly where planned
@@ -128,7 +128,7 @@ def test_a_flight_cut_short_flies_its_first_sortie_only(split_plan, tmp_path, mo
     first = sitl_run.sortie_routes(doc, split_plan)[0]
     asked = []
 
-    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None, wind=None):
         asked.append((name, rtl_after_photos))
         f = harness.Flight(name)
         for lat, lon in first.stations[:rtl_after_photos]:
@@ -156,7 +156,7 @@ def test_only_the_sorties_asked_fly_and_an_unknown_one_is_bad_input(split_plan, 
     routes = sitl_run.sortie_routes(doc, split_plan)
     flown = []
 
-    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None, wind=None):
         flown.append(name)
         return harness.Flight(name)
 
@@ -318,7 +318,7 @@ def test_a_camera_intervalometer_plan_is_judged_on_neither_photos_nor_aim(tmp_pa
     assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(plan)]).exit_code == 0
     doc = mf.read_manifest(plan)
 
-    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None):
+    def fake_fly(sv, mission, name, est, last_item, timeout_factor, upload, rtl_after_photos=None, wind=None):
         f = harness.Flight(name)
         f.track.append((0, 0.0, 0.0, 100.0))
         f.armed_ms, f.disarmed_ms, f.completed = 1, 1 + round(est * 1000), True

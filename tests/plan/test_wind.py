@@ -197,6 +197,9 @@ def test_wind_in_the_spec_and_on_the_command_line(tmp_path):
     ({"battery": {"usable_min": 20, "wind_ms": -1}}, "battery.wind_ms = -1"),
     ({"vehicle": {"type": "plane", "max_airspeed_ms": 20}}, "vehicle.max_airspeed_ms is for copters"),
     ({"vehicle": {"max_airspeed_ms": 0}}, "vehicle.max_airspeed_ms = 0"),
+    ({"vehicle": {"landing_speed_ms": 15}}, "vehicle.landing_speed_ms is for planes"),
+    ({"vehicle": {"type": "plane", "landing_speed_ms": 0}}, "vehicle.landing_speed_ms = 0"),
+    ({"vehicle": {"type": "plane", "landing_speed_ms": "fast"}}, "vehicle.landing_speed_ms = 'fast'"),
 ])
 def test_bad_winds_are_refused_in_one_line(tmp_path, table, needle):
     with pytest.raises(InputError) as e:
@@ -283,14 +286,16 @@ sharp_legs = st.integers(1, 4).flatmap(lambda n: st.tuples(st.lists(st.floats(-1
 # ArduPlane SITL's way home from the last line's east end to a landing approach 400 m south of home, then
 # into a wind from the north to the touchdown: timed as a 9 s turn before, flown in 65 s + 53 s
 @example(air=12.5, share=0.4, towards=270.0, start=0.0, shape=([172.0, -98.0], [1.0, 688.0, 400.0]),
-         climb=102.0, rate=3.0)
+         climb=102.0, rate=3.0, takeoff=22.0)
 @given(air=st.floats(12, 25), share=st.floats(0, 0.8), towards=st.floats(0, 360), start=st.floats(0, 360),
-       shape=sharp_legs, climb=st.floats(10, 300), rate=st.floats(1, 8))
+       shape=sharp_legs, climb=st.floats(10, 300), rate=st.floats(1, 8), takeoff=st.floats(25, 35))
 def test_a_planes_ways_out_and_home_take_the_wind_triangle_time_of_their_legs(air, share, towards, start, shape, climb,
-                                                                              rate):
+                                                                              rate, takeoff):
     """A plane's way out or home, whatever its corners (a landing's approach turns back on the way home), is
-    its legs flown straight in the wind (each at the ground speed the steered nose makes along it); the climb
-    (descent) is what the way out (home) leaves of it."""
+    its legs flown straight in the wind (each at the ground speed the steered nose makes along it). The way out
+    starts after the take-off: the climb's time at `takeoff` m/s of air speed straight along the first leg; a
+    first leg shorter than that climb-out is flown back at least (its overshoot's turn besides). The descent is
+    what the way home leaves of it."""
     pts = _gentle_polyline(start, *shape)
     wind = _wind(share * air, towards)
     kin = Kinematics("plane", air, 2.5, 60.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
@@ -302,9 +307,55 @@ def test_a_planes_ways_out_and_home_take_the_wind_triangle_time_of_their_legs(ai
             t += float(np.hypot(*(b - a))) / float(_steer(u, wind, air) @ u)
         return t
 
-    flown_out, flown_back = legs(pts), legs(pts[::-1])
-    t_out, t_back, t_climb, t_descent = plane_transit_time(pts, pts[::-1], climb, rate, rate / 2, kin)
-    assert t_out == pytest.approx(flown_out, rel=1e-6)
-    assert t_back == pytest.approx(flown_back, rel=1e-6)
-    assert t_climb == pytest.approx(max(0.0, climb / rate - flown_out), rel=1e-6, abs=1e-6)
-    assert t_descent == pytest.approx(max(0.0, climb / (rate / 2) - flown_back), rel=1e-6, abs=1e-6)
+    first = float(np.hypot(*(pts[1] - pts[0])))
+    u = (pts[1] - pts[0]) / first
+    climb_out = climb / rate * float(_steer(u, wind, takeoff) @ u)
+    t_out, t_back, t_climb, t_descent = plane_transit_time(pts, pts[::-1], climb, rate, takeoff, rate / 2, kin)
+    if climb_out <= first:
+        assert t_out == pytest.approx(legs(np.vstack([pts[0] + climb_out * u, pts[1:]])), rel=1e-6, abs=1e-6)
+    else:
+        back = legs(np.array([pts[0] + climb_out * u, pts[1]]))
+        assert t_out >= (back + legs(pts[1:])) * (1 - 1e-9)
+    assert t_back == pytest.approx(legs(pts[::-1]), rel=1e-6)
+    assert t_climb == pytest.approx(climb / rate, rel=1e-9)
+    assert t_descent == pytest.approx(max(0.0, climb / (rate / 2) - legs(pts[::-1])), rel=1e-6, abs=1e-6)
+
+
+def test_a_planes_landing_approach_is_flown_at_its_landing_speed():
+    """5 m/s of wind from the east, 12.5 m/s over the lines: the way home west 300 m (17.5 m/s over the ground),
+    then the approach east 400 m to the touchdown into the wind, at 18.4 m/s of air speed (13.4 over the ground);
+    without a landing speed at 12.5 (7.5)."""
+    kin = Kinematics("plane", 12.5, 2.5, 30.0, wind_x=-5.0)
+    home = np.array([[300.0, 0.0], [-400.0, 0.0], [0.0, 0.0]])
+    out = np.array([[0.0, 0.0], [1000.0, 0.0]])
+    assert plane_transit_time(out, home, 100.0, 7.0, 22.0, 1.0, kin, 18.4)[1] == pytest.approx(700.0 / 17.5 + 400.0 / 13.4)
+    assert plane_transit_time(out, home, 100.0, 7.0, 22.0, 1.0, kin)[1] == pytest.approx(700.0 / 17.5 + 400.0 / 7.5)
+
+
+@pytest.mark.parametrize("first_m", [0.0, 185.0, 370.0])
+def test_a_plane_overshoots_a_first_place_nearer_than_its_climb_out_and_turns_back_to_it(first_m):
+    """Still air, 12.5 m/s over the lines, a 30 m turn radius; the take-off at 27 m/s of air speed and 7 m/s up
+    to 98 m: 14 s and 378 m straight ahead. A first place nearer is reached after the climb, a turn back onto the
+    same line (an omega turn: 180° and four times 60°, 7π/3 R long) and the way back; one farther takes the rest
+    of its leg at 12.5 m/s."""
+    kin = Kinematics("plane", 12.5, 2.5, 30.0)
+    out = np.array([[0.0, 0.0], [0.0, first_m]])
+    home = np.array([[0.0, first_m], [0.0, 0.0]])
+    t_out, _, t_climb, _ = plane_transit_time(out, home, 98.0, 7.0, 27.0, 2.0, kin)
+    assert t_climb == pytest.approx(14.0)
+    assert t_out == pytest.approx((7.0 * math.pi / 3.0 * 30.0 + 378.0 - first_m) / 12.5)
+    far = np.array([[0.0, 0.0], [0.0, 600.0]])
+    assert plane_transit_time(far, far[::-1], 98.0, 7.0, 27.0, 2.0, kin)[0] == pytest.approx(222.0 / 12.5)
+
+
+@pytest.mark.parametrize("beyond_m", [0.0, 30.0, 143.0])
+def test_a_plane_flies_on_towards_the_next_lead_in_before_it_turns(beyond_m):
+    """Still air, 12.5 m/s, a 27.6 m turn radius, ArduPlane turning 44.8 m short of a waypoint: a line east ends,
+    the next line's lead-in waypoint lies `beyond_m` farther east and 60 m north, its line runs west 152 m to its
+    start. The plane flies on east until 44.8 m short of the lead-in (none when it is nearer), turns (two quarter
+    circles and the 4.8 m between: π R + 60 − 2 R) and flies the lead-in (ArduPlane SITL, 5 m/s of wind: the
+    reversal 28 to 32 s where the turn at the line's end gave 18.7 to 29.3 s)."""
+    kin = Kinematics("plane", 12.5, 2.5, 27.6, reach_m=44.8)
+    pts = np.array([[0.0, 0.0], [500.0, 0.0], [500.0 + beyond_m, 60.0], [500.0 + beyond_m - 152.0, 60.0]])
+    expected = 500.0 + max(0.0, beyond_m - 44.8) + math.pi * 27.6 + 60.0 - 2 * 27.6 + 152.0
+    assert path_time(pts, kin) == pytest.approx(expected / 12.5)

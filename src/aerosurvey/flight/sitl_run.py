@@ -162,7 +162,8 @@ def _fly_ardupilot(route: SortieRoute, mission: Mission, settings: SitlSettings,
             return f"{rep.mission.items} items uploaded and verified"
 
         flight = harness.fly(sv, mission, route.name, route.estimated_s, len(mission.items),
-                             settings.timeout_factor, upload, rtl_after_photos=settings.rtl_after_photos)
+                             settings.timeout_factor, upload, rtl_after_photos=settings.rtl_after_photos,
+                             wind=settings.wind)
     finally:
         sv.stop()
     logs = sorted((work / "logs").glob("*.BIN")) if (work / "logs").exists() else []

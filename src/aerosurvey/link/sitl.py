@@ -309,9 +309,9 @@ def wind_params(speed_ms: float, from_deg: float) -> list[tuple[str, float]]:
 
 
 def prepare(sv: SitlVehicle, mount: bool = False, wind: tuple[float, float] | None = None) -> None:
-    """Parameters for a survey in simulation (a servo mount too when `mount`; the wind (speed m/s, from
-    degrees true) when given), then a reboot so the camera and mount backends exist."""
-    for name, value in survey_params(sv.vehicle, mount) + (wind_params(*wind) if wind is not None else []):
+    """Parameters for a survey in simulation (a servo mount too when `mount`; still air when a wind is to be
+    flown: `fly` sets it as the mission starts), then a reboot so the camera and mount backends exist."""
+    for name, value in survey_params(sv.vehicle, mount) + (wind_params(0.0, wind[1]) if wind is not None else []):
         sv.set_param(name, value)
     sv.reboot()
     sv.request_messages()
@@ -322,8 +322,14 @@ TOUCHDOWN_M = 1.0
 
 
 def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_item: int, timeout_factor: float,
-        upload: Callable[[Mission], str], rtl_after_photos: int | None = None) -> Flight:
+        upload: Callable[[Mission], str], rtl_after_photos: int | None = None,
+        wind: tuple[float, float] | None = None) -> Flight:
     """Upload (with verification), arm, fly AUTO to the end, and record what happened.
+
+    The `wind` (speed m/s, from degrees true) is set as the mission starts: SITL's plane on the ground slides
+    with the wind until it is launched (in 5 m/s of wind, up to 323 m from home by the time it was armed, the
+    take-off then started there), so from the reboot to the start the air is still; and it is stilled again once
+    a copter is below TOUCHDOWN_M after its last item (in 8 m/s a landed quad was never disarmed).
 
     With `rtl_after_photos`, a flight cut short: switched to RTL as the camera feedback of that
     photo arrives (ArduPilot keeps triggering by distance in RTL, CAM_AUTO_ONLY = 0), and over
@@ -335,12 +341,16 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
     flight = Flight(name)
     flight.upload_note = upload(mission)
     lands = bool(mission.items) and mission.items[-1].command == mav.NAV_LAND
+    for param, value in wind_params(*wind) if wind is not None else []:
+        sv.set_param(param, value)
     sv.start_mission()
     # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
     wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
     sim_start: int | None = None
     armed = True
     reached_last = False
+    # a copter landed in SITL's wind is pushed on by it: the land detector (at most 1 m/s² felt) never disarms it
+    windy_landing = wind is not None and wind[0] > 0.0 and sv.vehicle == "copter"
     while time.monotonic() < wall_limit:
         if flight.track and sim_start is not None and flight.track[-1][0] - sim_start > timeout_factor * est_time_s * 1000:
             break
@@ -361,6 +371,11 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
                 flight.armed_ms = m.time_boot_ms
                 sim_start = m.time_boot_ms
             flight.track.append((m.time_boot_ms, m.lat * 1e-7, m.lon * 1e-7, m.relative_alt / 1000.0))
+            if windy_landing and reached_last and m.relative_alt / 1000.0 < TOUCHDOWN_M:
+                assert wind is not None
+                for param, value in wind_params(0.0, wind[1]):
+                    sv.set_param(param, value)
+                windy_landing = False
         elif t == "BATTERY_STATUS" and m.current_consumed >= 0:
             flight.battery_mah = float(m.current_consumed)
         elif t == "MISSION_CURRENT" and m.seq >= last_item:

@@ -39,7 +39,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     v = spec.vehicle
     if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
         t_out, t_back, t_climb, t_descent = plane_transit_time(leg_out, leg_back, climb, v.climb_rate_ms,
-                                                               v.descent_rate_ms, kin)
+                                                               v.cruise_speed_ms, v.descent_rate_ms, kin)
     else:
         transit_kin = kin.cruising(v.cruise_speed_ms)
         t_out, t_back = path_time(leg_out, transit_kin), path_time(leg_back, transit_kin)

@@ -34,6 +34,7 @@ class Kinematics:
     wind_x: float = 0.0
     wind_y: float = 0.0
     airspeed_ms: float = math.inf  # copters: the most air speed (vehicle.max_airspeed_ms); planes fly speed_ms
+    reach_m: float = 0.0  # planes: how far short of a waypoint ArduPlane turns for the next (one L1 distance)
 
     @property
     def calm(self) -> bool:
@@ -222,8 +223,10 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
         if turn[i] > STRAIGHT_ON_DEG and turn[i + 1] > STRAIGHT_ON_DEG and turn[i] + turn[i + 1] > 150.0:
             u = seg[i] / lengths[i]
             lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
+            # the plane flies on towards the next waypoint (a lead-in beyond the line's end) until `reach_m` short of it
+            beyond = max(0.0, float(u[0] * seg[i + 1][0] + u[1] * seg[i + 1][1]) - k.reach_m)
             total_len += (plane_turn_length(lateral, k.turn_radius_m) * k.turn_slowness(float(ang[i]), float(ang[i + 1]))
-                          - lengths[i + 1] * slow[i + 1])
+                          + beyond * slow[i] - lengths[i + 1] * slow[i + 1])
             i += 2
         else:
             i += 1
@@ -347,20 +350,53 @@ def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
 
 
 def plane_transit_time(leg_out: np.ndarray, leg_back: np.ndarray, climb_m: float, climb_rate_ms: float,
-                       descent_rate_ms: float, k: Kinematics) -> tuple[float, float, float, float]:
+                       takeoff_speed_ms: float, descent_rate_ms: float, k: Kinematics,
+                       landing_speed_ms: float | None = None) -> tuple[float, float, float, float]:
     """A plane's way out and way home (polylines, planning-grid units / grid scale) at `k`'s speed in its
-    wind (the survey speed: the mission's DO_CHANGE_SPEED follows the take-off), and the climb to
-    `climb_m` and the descent from it that these legs leave over: a plane climbs while it flies out and
-    descends while it flies home. (out s, home s, climb s, descent s); the one model of both for the
+    wind (the survey speed: the mission's DO_CHANGE_SPEED follows the take-off), its take-off and the
+    descent the way home leaves over. (out s, home s, climb s, descent s); the one model of both for the
     mission's estimate and the battery split.
+
+    The take-off (`plane_takeoff`): the climb to `climb_m` at `climb_rate_ms` at the air speed
+    `takeoff_speed_ms`, straight ahead along the way out's first leg; the way out is what is left after it.
+    The descent overlaps the way home: what the way home leaves of it. With `landing_speed_ms`, the way home's
+    last leg is a landing approach, flown at that air speed (ArduPlane's TECS_LAND_ARSPD: SITL flew its 400 m at
+    18.4 m/s into 5 m/s of wind, 30 s where the survey's 12.5 m/s gave 53 s).
 
     Each leg is straight at its ground speed: a reversal between lines (`path_time`) is no shape of
     these ways (the way home to a landing's approach point and on to the touchdown into the wind was
     read as one, and a 688 m leg timed as a 9 s turn: ArduPlane SITL, 5 m/s from 0°, flew 65 s)."""
-    t_out, t_back = _legs_time(leg_out, k), _legs_time(leg_back, k)
-    climb = max(0.0, climb_m / climb_rate_ms - t_out)
+    climb, after_climb = plane_takeoff(leg_out[:2], climb_m, climb_rate_ms, takeoff_speed_ms, k)
+    t_out, t_back = after_climb + _legs_time(leg_out[1:], k), _legs_time(leg_back, k)
+    if landing_speed_ms is not None:
+        approach = leg_back[-2:]
+        t_back += _legs_time(approach, replace(k, speed_ms=landing_speed_ms)) - _legs_time(approach, k)
     descent = max(0.0, descent_time(climb_m, descent_rate_ms, "plane") - t_back)
     return t_out, t_back, climb, descent
+
+
+def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
+                  k: Kinematics) -> tuple[float, float]:
+    """A plane's take-off towards the end of `first_leg` (two points; it is launched along it): the climb to
+    `climb_m` at `climb_rate_ms`, straight ahead at the air speed `takeoff_speed_ms` in `k`'s wind (ArduPlane's
+    NAV_TAKEOFF, at full throttle and its AIRSPEED_CRUISE until the mission's DO_CHANGE_SPEED), and the time from
+    the climb's end to the leg's end at `k`'s speed. (climb s, after it s)
+
+    A leg longer than the climb-out is flown on at its ground speed. A shorter one is overshot: the plane turns
+    back onto the leg's line (a reversal onto a line 0 apart, `plane_turn_length`) and flies back to its end.
+    ArduPlane SITL (AIRSPEED_CRUISE 22 m/s) climbed to 102 m in 14.8 s over 383 m with 5 m/s of wind behind
+    it, and in 14.0 s over 259 m with 3.5 m/s against it (27 and 18.2 m/s over the ground at 22 m/s of air
+    speed: 400 and 255 m), each past a first place 185 and 174 m ahead, timed before at the survey speed from
+    the launch."""
+    climb = climb_m / climb_rate_ms
+    d = first_leg[-1] - first_leg[0]
+    length = math.hypot(float(d[0]), float(d[1]))
+    ahead = math.degrees(math.atan2(float(d[1]), float(d[0])))
+    climb_out = climb * replace(k, speed_ms=takeoff_speed_ms).ground_speed(ahead)
+    if length >= climb_out:
+        return climb, (length - climb_out) * k.slowness(ahead) / k.speed_ms
+    turn = plane_turn_length(0.0, k.turn_radius_m) * k.turn_slowness(ahead, ahead + 90.0)
+    return climb, (turn + (climb_out - length) * k.slowness(ahead + 180.0)) / k.speed_ms
 
 
 def _legs_time(points: np.ndarray, k: Kinematics) -> float:

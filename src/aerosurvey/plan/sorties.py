@@ -538,9 +538,12 @@ class Splitter:
                 horiz = self._copter_time(li, p0, i, j, self._tail(li, p0, i, j, p1))
             else:  # a plane climbs and descends while it flies out and home
                 _, back_via, out_leg, back_leg = self._legs(li, p0, p1)
+                lands = self.plan.ends[li] != (self.sites[li].x, self.sites[li].y)  # through a landing's approach
                 t_out, t_back, t_climb, t_descent = plane_transit_time(np.asarray([*out_leg, p0.first]) / gs,
                                                                        np.asarray([p1.last, *back_leg]) / gs, h,
-                                                                       v.climb_rate_ms, v.descent_rate_ms, self.kin)
+                                                                       v.climb_rate_ms, v.cruise_speed_ms,
+                                                                       v.descent_rate_ms, self.kin,
+                                                                       v.landing_speed_ms if lands else None)
                 horiz, vert = path_time(survey, self.kin) + t_out + t_back, t_climb + t_descent
             if self.plan.hover_s is not None:
                 horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims,
