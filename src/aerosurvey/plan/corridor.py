@@ -8,6 +8,9 @@ point in ⌊1/(1−side)⌋ strips), or one strip down the middle when one footp
 Each strip bends where the centreline does, with mitred corners, so the outside of a bend is
 flown to its corner; it runs on past both ends of the centreline as far as the forward overlap
 and the images-beyond-the-boundary rule ask (`station_span`, as for an area grid's line ends).
+A bend sharper than SPLIT_BEND_DEG splits the strips, each running on past it as past an end; a
+sharp bend the centreline turns in several short steps (as one derived from a corridor polygon
+does) is made one corner first (`_sharp_corners`).
 
 Photo stations are where the autopilot takes the photos (plan/polyline.py: along a strip that
 bends, as ArduPilot's distance trigger fires).
@@ -153,7 +156,8 @@ class Corridor:
             strips: list[Strip] = []
             for line, v in enumerate(offsets.tolist()):
                 numbered = 0  # stations of the line so far, for ids
-                stretches = _split_at_sharp_bends(np.asarray(shapely.get_coordinates(piece), float))
+                stretches = _split_at_sharp_bends(_sharp_corners(np.asarray(shapely.get_coordinates(piece), float),
+                                                                 max(left, right)))
                 for j, stretch in enumerate(stretches):
                     path = _offset(shapely.LineString(stretch), v)
                     arc = arc_lengths(path)
@@ -190,12 +194,51 @@ def strip_ordinates(left: float, right: float, across: float, spacing: float, pe
     return strip_offsets(-right, left, across, spacing, per_point)
 
 
-def _split_at_sharp_bends(xy: np.ndarray) -> list[np.ndarray]:
-    """The polyline cut at each vertex where its direction turns by more than SPLIT_BEND_DEG."""
+def _turns_deg(xy: np.ndarray) -> np.ndarray:
+    """The change of direction at each inner vertex of the polyline, degrees (positive: to the right)."""
     d = np.diff(xy, axis=0)
     bearing = np.arctan2(d[:, 0], d[:, 1])
-    turn = np.degrees(np.abs((np.diff(bearing) + np.pi) % (2 * np.pi) - np.pi))
-    cuts = (np.flatnonzero(turn > SPLIT_BEND_DEG) + 1).tolist()
+    return np.degrees((np.diff(bearing) + np.pi) % (2 * np.pi) - np.pi)
+
+
+def _sharp_corners(xy: np.ndarray, short: float) -> np.ndarray:
+    """The polyline with each sharp bend rounded over segments shorter than `short` made one corner
+    again: a run of inner vertices joined by such segments whose turns add up to more than
+    SPLIT_BEND_DEG is replaced by the point where the segments before and after it meet (a
+    centreline derived from a corridor polygon turns a sharp bend in a few short steps, each under
+    SPLIT_BEND_DEG, and the strips were then flown round it mitred, leaving the outside of the bend
+    to one photo). A run whose segments meet farther than `short` from it (a hairpin) is kept."""
+    seg = np.hypot(*np.diff(xy, axis=0).T)
+    turns = _turns_deg(xy)
+    out = [xy[0]]
+    i = 1
+    while i < len(xy) - 1:
+        j = i
+        while j + 1 < len(xy) - 1 and seg[j] < short:
+            j += 1  # vertices i..j joined by short segments
+        corner = _meeting_point(xy[i - 1], xy[i], xy[j], xy[j + 1]) if j > i and abs(turns[i - 1:j].sum()) > SPLIT_BEND_DEG else None
+        if corner is not None and np.hypot(*(corner - xy[i])) < short and np.hypot(*(corner - xy[j])) < short:
+            out.append(corner)
+        else:
+            out.extend(xy[i:j + 1])
+        i = j + 1
+    out.append(xy[-1])
+    return np.asarray(out)
+
+
+def _meeting_point(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray | None:
+    """Where the line through a0, a1 meets the line through b0, b1 (None when they are parallel)."""
+    da, db = a1 - a0, b1 - b0
+    det = da[0] * db[1] - da[1] * db[0]
+    if abs(det) < 1e-12 * np.hypot(*da) * np.hypot(*db):
+        return None
+    s = float(((b0[0] - a0[0]) * db[1] - (b0[1] - a0[1]) * db[0]) / det)
+    return np.asarray(a0 + s * da, float)
+
+
+def _split_at_sharp_bends(xy: np.ndarray) -> list[np.ndarray]:
+    """The polyline cut at each vertex where its direction turns by more than SPLIT_BEND_DEG."""
+    cuts = (np.flatnonzero(np.abs(_turns_deg(xy)) > SPLIT_BEND_DEG) + 1).tolist()
     return [xy[a:b + 1] for a, b in zip([0, *cuts], [*cuts, len(xy) - 1])]
 
 
