@@ -287,12 +287,18 @@ def flown_layout(spec: MissionSpec, site: Site, sensor: SensorSolution, layouts:
     else the one that leaves least (the earlier of equals); at most MAX_LAYOUTS are flown. The
     pattern orders them by its time estimate, which prices the lines, not the ground next to a zone
     that lines cut short leave to one photo: so no layout that gives up ground wins over one that
-    sees it all, and the alternatives are laid and flown only when the first leaves ground unseen."""
+    sees it all, and the alternatives are laid and flown only when the first leaves ground unseen. An
+    alternative whose flight is refused (InputError) is passed over; the first's refusal is the plan's."""
     best: Flown | None = None
     for i, layout in enumerate(islice(layouts, MAX_LAYOUTS)):
         if i:
             report("another layout: the faster ones leave ground next to the zones unseen", 0.72)
-        flown = fly_layout(spec, site, sensor, layout, report if i == 0 else no_progress)
+        try:
+            flown = fly_layout(spec, site, sensor, layout, report if i == 0 else no_progress)
+        except InputError:
+            if i == 0:
+                raise  # the pattern's own choice: its refusal is the plan's
+            continue  # an alternative that cannot be flown as it is (its launch point's landing approach crosses a zone)
         if best is None or flown.coverage.uncovered_m2 < best.coverage.uncovered_m2:
             best = flown
         if best.coverage.uncovered_m2 <= 0:
