@@ -35,9 +35,8 @@ def _ground_speed(direction: np.ndarray, wind: np.ndarray) -> float:
 
 def _flown_time(segments: list[LineSegment], heading: float, wind: np.ndarray) -> float:
     """The boustrophedon over a convex area's lines (one run a line), first line flown along +x of the
-    frame, the next back: each line from its lead-in to half a base past its last station, on along it until
-    abreast of the next line's lead-in when that lies further (ArduPlane flies towards the lead-in's waypoint),
-    then a half circle of radius SPACING / 2 onto the next line, integrated in 360 pieces along its tangent."""
+    frame, the next back: each line from its lead-in to half a base past its last station, then a half
+    circle of radius SPACING / 2 onto the next line, integrated in 360 pieces along its tangent."""
     h = math.radians(heading)
     along = np.array([math.sin(h), math.cos(h)])  # +x of the frame on the grid (x east, y north)
     left = np.array([-along[1], along[0]])  # +v of the frame
@@ -55,12 +54,8 @@ def _flown_time(segments: list[LineSegment], heading: float, wind: np.ndarray) -
         d = 1.0 if i % 2 == 0 else -1.0
         t += (s.x1 - s.x0 + LEAD + s.base / 2.0) / speed[d]
         if i + 1 < len(lines):
-            nxt = lines[i + 1]
-            assert math.isclose(nxt.v - s.v, SPACING, rel_tol=1e-9)
-            # on along the line until abreast of the next line's lead-in, as ArduPlane flies towards that waypoint
-            # (its L1 reach is 0 in these kinematics), then the half circle
-            end, start = (s.x1 + s.base / 2.0, nxt.x1 + LEAD) if d > 0 else (s.x0 - s.base / 2.0, nxt.x0 - LEAD)
-            t += max(0.0, d * (start - end)) / speed[d] + turns[d]
+            assert math.isclose(lines[i + 1].v - s.v, SPACING, rel_tol=1e-9)
+            t += turns[d]
     return t
 
 

@@ -207,7 +207,9 @@ def _sharp_corners(xy: np.ndarray, short: float) -> np.ndarray:
     SPLIT_BEND_DEG is replaced by the point where the segments before and after it meet (a
     centreline derived from a corridor polygon turns a sharp bend in a few short steps, each under
     SPLIT_BEND_DEG, and the strips were then flown round it mitred, leaving the outside of the bend
-    to one photo). A run whose segments meet farther than `short` from it (a hairpin) is kept."""
+    to one photo). Only a bend turning one way by less than 180° is rounded so: a run that turns both
+    ways, or loops, is the centreline's own shape and is kept, as is a run whose segments meet farther
+    than `short` from it (a hairpin)."""
     seg = np.hypot(*np.diff(xy, axis=0).T)
     turns = _turns_deg(xy)
     out = [xy[0]]
@@ -216,7 +218,9 @@ def _sharp_corners(xy: np.ndarray, short: float) -> np.ndarray:
         j = i
         while j + 1 < len(xy) - 1 and seg[j] < short:
             j += 1  # vertices i..j joined by short segments
-        corner = _meeting_point(xy[i - 1], xy[i], xy[j], xy[j + 1]) if j > i and abs(turns[i - 1:j].sum()) > SPLIT_BEND_DEG else None
+        run = turns[i - 1:j]  # the turns at vertices i..j
+        rounded = j > i and SPLIT_BEND_DEG < abs(run.sum()) < 180.0 and (np.all(run > 0) or np.all(run < 0))
+        corner = _meeting_point(xy[i - 1], xy[i], xy[j], xy[j + 1]) if rounded else None
         if corner is not None and np.hypot(*(corner - xy[i])) < short and np.hypot(*(corner - xy[j])) < short:
             out.append(corner)
         else:

@@ -34,7 +34,6 @@ class Kinematics:
     wind_x: float = 0.0
     wind_y: float = 0.0
     airspeed_ms: float = math.inf  # copters: the most air speed (vehicle.max_airspeed_ms); planes fly speed_ms
-    reach_m: float = 0.0  # planes: how far short of a waypoint ArduPlane turns for the next (one L1 distance)
 
     @property
     def calm(self) -> bool:
@@ -223,10 +222,8 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
         if turn[i] > STRAIGHT_ON_DEG and turn[i + 1] > STRAIGHT_ON_DEG and turn[i] + turn[i + 1] > 150.0:
             u = seg[i] / lengths[i]
             lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
-            # the plane flies on towards the next waypoint (a lead-in beyond the line's end) until `reach_m` short of it
-            beyond = max(0.0, float(u[0] * seg[i + 1][0] + u[1] * seg[i + 1][1]) - k.reach_m)
             total_len += (plane_turn_length(lateral, k.turn_radius_m) * k.turn_slowness(float(ang[i]), float(ang[i + 1]))
-                          + beyond * slow[i] - lengths[i + 1] * slow[i + 1])
+                          - lengths[i + 1] * slow[i + 1])
             i += 2
         else:
             i += 1
