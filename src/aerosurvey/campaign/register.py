@@ -212,16 +212,14 @@ def update_register(campaign: Path, change: Change, *, new: bool = False) -> tup
     return rows, events
 
 
-def block_of(plan_dir: Path) -> tuple[Path, BlockRow | None] | None:
-    """The campaign a plan folder is a block folder of, CAMPAIGN/blocks/NAME.KEY/ with CAMPAIGN/register.gpkg,
-    and the register's row of that folder (None when it holds none: the block was planned again under a new
-    key since); None for any other folder. Reads the register (an InputError naming it when it is damaged)."""
+def block_of(plan_dir: Path) -> Path | None:
+    """The campaign a plan folder is a block folder of, CAMPAIGN/blocks/NAME.KEY/ with CAMPAIGN/register.gpkg; None
+    for any other folder. Reads no register: `record` finds the folder's row under the register's lock."""
     folder = plan_dir.resolve()
     campaign = folder.parent.parent
     if folder.parent.name != BLOCKS_DIR or not (campaign / FILE).is_file():
         return None
-    rows, _ = read_register(campaign)
-    return campaign, _row_of_folder(rows, folder.name)
+    return campaign
 
 
 def _row_of_folder(rows: Sequence[BlockRow], folder: str) -> BlockRow | None:

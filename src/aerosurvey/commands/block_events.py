@@ -25,10 +25,9 @@ def record_block_event(plan_dir: Path, event: str, detail: str, accuracy: Path |
     (without one, nothing is recorded and a warning says so)."""
     from aerosurvey.campaign.register import NotRecorded, block_of, now_utc, record
 
-    found = block_of(plan_dir)
-    if found is None:
+    campaign = block_of(plan_dir)
+    if campaign is None:
         return
-    campaign, _ = found
     folder = plan_dir.resolve().name
     if event == "qa" and accuracy is None:
         log.warning("campaign %s: qa event not recorded: give -o DIR, the verdict filed is the accuracy.json written "
