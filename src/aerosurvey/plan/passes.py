@@ -139,6 +139,11 @@ class Pass:
     one_way: bool = False  # strips flown each its own way only (a ring whose camera is turned to its inside)
     ring: Ring | None = None  # the pass goes round a structure (its one strip is this ring)
     looks: tuple[Aim, ...] = ()  # further aims shot in turn at each station after `aim` (the camera turned at rest)
+    # its strips' straight approach and how far past its last station each run ends, where the route's (a copter's
+    # stopping distance or the nose's turn; half a photo base, the distance trigger's) do not hold: a wall's lane flown
+    # up or down, shot at rest, ends at its last station and the next is flown to from there; None: the route's
+    lead_in_m: float | None = None
+    end_m: float | None = None
 
     @property
     def empty(self) -> bool:

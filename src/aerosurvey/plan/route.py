@@ -238,7 +238,11 @@ def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: flo
 def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, float] | None) -> list[Run]:
     """A pass of strips flown in their order, back and forth: each line the other way from the
     one before (its parts in order along that way), the first line the way whose first station
-    is nearer `start_near`; a `one_way` pass's strips each their own way."""
+    is nearer `start_near`; a `one_way` pass's strips each their own way. Each run's lead-in is
+    `lead_in` long and it ends half of `base` past its last station, or as the pass's own
+    (`Pass.lead_in_m`, `Pass.end_m`) where it has them."""
+    lead_in = lead_in if p.lead_in_m is None else p.lead_in_m
+    end = base / 2.0 if p.end_m is None else p.end_m
     by_line: dict[int, list[Strip]] = {}
     for s in p.strips:
         by_line.setdefault(s.line, []).append(s)
@@ -250,7 +254,7 @@ def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, fl
     runs: list[Run] = []
     for k, parts in enumerate(lines):
         d = first if k % 2 == 0 or p.one_way else -first
-        runs.extend(_strip_run(p, s, d, lead_in, base / 2.0) for s in (parts if d > 0 else parts[::-1]))
+        runs.extend(_strip_run(p, s, d, lead_in, end) for s in (parts if d > 0 else parts[::-1]))
     return runs
 
 
