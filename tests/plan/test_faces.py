@@ -43,6 +43,7 @@ from aerosurvey.cli import main
 from aerosurvey.plan.capture import Optics, Photos
 from aerosurvey.plan.surfaces import Terrace, check_faces, faces_rule
 from independent_faces import bench_caster, bench_samples, distance_to_benches, section
+from independent_motion import stop_to_stop_time
 
 ALLOWANCE_M = 2.0
 LAND, RTL = 21, 20
@@ -355,7 +356,8 @@ def _kmz_heights(out: Path) -> list[float]:
 def _judge_vertical(out: Path, toe: np.ndarray, pattern: dict, m: dict, cell: float, max_gsd_cm: float | None = None) -> dict:
     """A wall flown in vertical lanes, from the exported files: coverage, GSD and stand-off from the
     .waypoints' photos at their heights; every lane's photos at one place, one above another; the
-    DJI waylines flying the same heights as the .waypoints, waypoint by waypoint."""
+    DJI waylines and mission.plan's plain items flying the same heights as the .waypoints, waypoint
+    by waypoint."""
     j = _judge(out, toe, pattern, cell, max_gsd_m=math.inf if max_gsd_cm is None else max_gsd_cm / 100)
     assert j["short_m2"] == 0.0 and j["fewest"] >= 2 and j["photos"] == _planned_photos(out), j
     assert j["nearest_leg_m"] >= pattern["standoff_m"] - ALLOWANCE_M, j
@@ -367,6 +369,10 @@ def _judge_vertical(out: Path, toe: np.ndarray, pattern: dict, m: dict, cell: fl
     assert len(cams) // len(places) >= 2  # photos one above another at each place
     wpl = [r[10] for r in rows[1:] if int(r[3]) == ic.NAV_WAYPOINT]
     assert _kmz_heights(out) == pytest.approx(wpl, abs=0.01)
+    # mission.plan: plain items (no complex item lays stations at heights of their own), the same heights
+    items = json.loads((out / "mission.plan").read_text())["mission"]["items"]
+    assert all(i["type"] == "SimpleItem" for i in items)
+    assert [i["params"][6] for i in items if i["command"] == ic.NAV_WAYPOINT] == pytest.approx(wpl, abs=0.01)
     return j
 
 
@@ -451,3 +457,37 @@ def test_vertical_lanes_bad_settings_are_refused_in_one_line(tmp_path: Path, pat
     with pytest.raises(AssertionError, match=words) as e:
         _plan(tmp_path, WALL, pattern)
     assert "Traceback" not in str(e.value), e.value
+
+
+def test_vertical_lanes_are_timed_as_climbs_holds_and_level_ways_from_rest(tmp_path: Path) -> None:
+    """The survey time of a wall flown up and down, rebuilt from mission.waypoints alone by stepping the
+    motion (tests/independent_motion.py): the copter comes to rest at every waypoint that holds, and at
+    each end of a leg straight up or down, flown at the climb or descent rate asked (WPNAV_ACCEL_Z
+    1 m/s², jerk 1 m/s³); the level legs between two rests one straight run; each hold and the
+    camera's cycle after it. The plan's estimate agrees within 2 %."""
+    climb, descent, speed, accel, jerk = 2.0, 1.0, 5.0, 2.0, 1.0
+    out, m = _plan(tmp_path, np.array([[-20.0, 0.0], [20.0, 0.0]]),
+                   {"kind": "facade", "standoff_m": 10.0, "top_m": 12.0, "lanes": "vertical"},
+                   vehicle={"type": "copter", "cruise_speed_ms": speed, "acceleration_ms2": accel,
+                            "climb_rate_ms": climb, "descent_rate_ms": descent})
+    assert m["derived"]["speed_ms"] == speed
+    _, rows = ic.read_wpl(out / "mission.waypoints")
+    wps = [(np.array([*TO_XY.transform(r[9], r[8]), r[10]]), r[4]) for r in rows[2:] if int(r[3]) == ic.NAV_WAYPOINT]
+    total, level = 0.0, 0.0
+    for (a, _), (b, hold) in zip(wps, wps[1:]):
+        dz, dh = b[2] - a[2], math.hypot(*(b[:2] - a[:2]))
+        if abs(dz) > 1e-3:
+            assert dh < 0.01, (a, b)  # a lane: straight up or down
+            total += stop_to_stop_time(level, speed, accel, jerk) if level else 0.0
+            total += stop_to_stop_time(abs(dz), climb if dz > 0 else descent, 1.0, jerk)
+            level = 0.0
+        else:
+            level += dh
+        if hold > 0:
+            total += stop_to_stop_time(level, speed, accel, jerk) if level else 0.0
+            total += hold + m["camera"]["min_cycle_s"]
+            level = 0.0
+    total += stop_to_stop_time(level, speed, accel, jerk) if level else 0.0
+    assert sum(1 for _, h in wps if h > 0) == len(m["stations"])
+    print(m["estimates"]["survey_time_s"], total)
+    assert m["estimates"]["survey_time_s"] == pytest.approx(total, rel=0.02), (m["estimates"], total)

@@ -11,9 +11,9 @@ from aerosurvey.plan.flight_time import (
     Kinematics,
     descent_time,
     hover_time,
+    lanes_in_place,
     path_time,
     plane_transit_time,
-    rises_in_place,
 )
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Route, aims_per_place
@@ -37,15 +37,12 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     leg_out = np.vstack([[home], xy[: n_out + 1]])
     leg_back = np.vstack([xy[len(xy) - n_back - 1:], [home]])
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
-    rises = rises_in_place(stations.x, stations.y, stations.alt_rel_m, stations.run)
-    # a copter comes to rest where it climbs or descends at one place (a lane flown up or down): the level way is
-    # timed from rest to rest between those places
-    climbing = set(stations.run[rises != 0.0].tolist())
-    cuts = [i - n_out for i, w in enumerate(wps) if w.kind == "line_start" and w.run in climbing and n_out < i < len(xy) - n_back]
-    survey_time = sum(path_time(pts[a:b + 1], kin) for a, b in zip([0, *cuts], [*cuts, len(pts) - 1]))
+    survey_time = path_time(pts, kin)
     if hover_s is not None:
+        rises, arrivals = lanes_in_place(stations.x, stations.y, stations.alt_rel_m, stations.run, k)
         survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin, aims_per_place(route.runs),
-                                  hover_look_s, rises, Climbs(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms))
+                                  hover_look_s, rises, Climbs(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms),
+                                  arrivals)
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m

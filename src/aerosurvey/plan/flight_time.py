@@ -194,26 +194,36 @@ class Climbs:
         return float(sum(_straight_time(abs(d), up if d > 0 else down) for d in np.asarray(rises, float).tolist()))
 
 
-def rises_in_place(x: np.ndarray, y: np.ndarray, z: np.ndarray, run: np.ndarray) -> np.ndarray:
-    """Each station row's vertical move from the row before where both are one run's at one place
-    and at different heights (a lane flown up or down a wall), else 0: (n,) metres, + up. The rows'
-    places `x`, `y`, heights `z`, runs `run`, in flight order."""
+def lanes_in_place(x: np.ndarray, y: np.ndarray, z: np.ndarray, run: np.ndarray,
+                   grid_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Where station rows follow one another on a run at one place and at different heights (a lane
+    flown up or down a wall): (rises, arrivals), each (n,), in flight order. `rises`: each row's
+    vertical move from the row before in such a lane, else 0 (metres, + up); `arrivals`: for the
+    first row of a run with such a move, the level distance from the row before it (the lane before's
+    last station: the way between them is flown from rest to rest), else 0. The rows' places `x`, `y`
+    (planning CRS, `grid_scale` planning metres a metre), heights `z`, runs `run`."""
     x, y, z, run = (np.asarray(a) for a in (x, y, z, run))
-    dz = np.diff(z.astype(float))
-    same = (run[1:] == run[:-1]) & (np.hypot(np.diff(x.astype(float)), np.diff(y.astype(float))) < 1e-6)
-    out: np.ndarray = np.r_[0.0, np.where(same, dz, 0.0)] if len(z) else np.zeros(0)
-    return out
+    if not len(z):
+        return np.zeros(0), np.zeros(0)
+    step = np.hypot(np.diff(x.astype(float)), np.diff(y.astype(float))) / grid_scale
+    same_run = run[1:] == run[:-1]
+    rises = np.r_[0.0, np.where(same_run & (step < 1e-6), np.diff(z.astype(float)), 0.0)]
+    climbing = np.isin(run, run[rises != 0.0])
+    arrivals = np.r_[0.0, np.where(~same_run & climbing[1:], step, 0.0)]
+    return rises, arrivals
 
 
 def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics, aims: int = 1,
-               look_s: float = 0.0, rises: np.ndarray | None = None, climbs: Climbs | None = None) -> float:
+               look_s: float = 0.0, rises: np.ndarray | None = None, climbs: Climbs | None = None,
+               arrivals: np.ndarray | None = None) -> float:
     """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
     `stations` photos it stops (braking and accelerating again over the `base` between two
     stations of a run, `_straight_time` against cruising it) and rests `hold_s`. With `aims` photos
     at each place (the camera turned between them), `stations` counts them all: the stops are a
     place's, its first aim rests `hold_s` and each further aim `look_s` (`look_hold_s`). A station
-    straight above or below the one before (`rises`, the stations' `rises_in_place`: a lane flown up
-    or down) is reached by its climb or descent (`climbs`) instead of a level base."""
+    straight above or below the one before (`rises`, of `lanes_in_place`: a lane flown up or down)
+    is reached by its climb or descent (`climbs`) instead of a level base, and the level way to such
+    a lane from the one before (`arrivals`) is flown from rest to rest, not straight on."""
     places = stations // aims
     moves = np.zeros(0) if rises is None else np.asarray(rises, float)[np.asarray(rises, float) != 0.0]
     stops = max(places - runs - len(moves), 0)
@@ -221,6 +231,8 @@ def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinemati
     if len(moves):
         assert climbs is not None, "a lane flown up or down is timed at the climb and descent rates"
         out += climbs.time(moves)
+    for d in ([] if arrivals is None else np.asarray(arrivals, float)[np.asarray(arrivals, float) > 0.0].tolist()):
+        out += _straight_time(d, k) - d / k.speed_ms
     return out
 
 
