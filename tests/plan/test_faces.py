@@ -376,8 +376,8 @@ def _judge_vertical(out: Path, toe: np.ndarray, pattern: dict, m: dict, cell: fl
     return j
 
 
-@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(length=st.floats(12.0, 50.0), turn=st.floats(0.0, 180.0), top=st.floats(4.0, 20.0), standoff=st.floats(6.0, 16.0),
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(length=st.floats(12.0, 80.0), turn=st.floats(0.0, 180.0), top=st.floats(4.0, 30.0), standoff=st.floats(6.0, 20.0),
        side=st.sampled_from(["left", "right"]), start=st.sampled_from(["bottom", "top"]))
 def test_random_walls_in_vertical_lanes(tmp_path_factory, length: float, turn: float, top: float, standoff: float, side: str,
                                         start: str) -> None:
