@@ -378,19 +378,22 @@ def _judge_vertical(out: Path, toe: np.ndarray, pattern: dict, m: dict, cell: fl
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(length=st.floats(12.0, 80.0), turn=st.floats(0.0, 180.0), top=st.floats(4.0, 30.0), standoff=st.floats(6.0, 20.0),
-       side=st.sampled_from(["left", "right"]), start=st.sampled_from(["bottom", "top"]))
+       side=st.sampled_from(["left", "right"]), start=st.sampled_from(["bottom", "top"]),
+       pitch=st.sampled_from([None, -10.0, -25.0]))
 def test_random_walls_in_vertical_lanes(tmp_path_factory, length: float, turn: float, top: float, standoff: float, side: str,
-                                        start: str) -> None:
-    """Walls flown up and down (`pattern.lanes = "vertical"`), judged from the exported mission: every
-    face sample seen by two photos at least, each at most the GSD asked (twice a pixel's size square
-    to the wall at the stand-off: the image's corners see it slanted), no leg nearer the wall than
-    the stand-off less the allowance, no photo lower than the least height."""
+                                        start: str, pitch: float | None) -> None:
+    """Walls flown up and down (`pattern.lanes = "vertical"`, the camera level or pitched down), judged
+    from the exported mission: every face sample seen by two photos at least, each at most the GSD
+    asked (twice a pixel's size square to the wall at the stand-off: the image's corners see it
+    slanted), no leg nearer the wall than the stand-off less the allowance, no photo lower than the
+    least height."""
     tmp = tmp_path_factory.mktemp("vwall")
     t = math.radians(turn)
     toe = np.array([[-math.sin(t), -math.cos(t)], [math.sin(t), math.cos(t)]]) * length / 2
     cam = get_camera(CAMERA)
     gsd_cm = round(2.0 * standoff * cam.sensor_width_mm / cam.image_width_px / cam.focal_mm * 100.0, 3)
-    pattern = {"kind": "facade", "standoff_m": standoff, "top_m": top, "side": side, "start": start, "lanes": "vertical"}
+    pattern = {"kind": "facade", "standoff_m": standoff, "top_m": top, "side": side, "start": start, "lanes": "vertical",
+               **({} if pitch is None else {"pitch_deg": pitch})}
     out, m = _plan(tmp, toe, pattern, max_gsd_cm=gsd_cm)
     assert _rule(m)["status"] == "pass", _rule(m)
     _judge_vertical(out, toe, pattern, m, math.sqrt(length * top / 120.0), gsd_cm)
