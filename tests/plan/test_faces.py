@@ -439,9 +439,12 @@ def test_the_long_wall_in_vertical_lanes(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("over", "words"), [
-    ({"vehicle": {"type": "plane", "cruise_speed_ms": 18.0}}, "(pattern.lanes = 'vertical'|camera.trigger = 'hover' is for copters)"),
+    ({"vehicle": {"type": "plane", "cruise_speed_ms": 18.0}}, "camera.trigger = 'hover' is for copters"),
+    ({"vehicle": {"type": "plane", "cruise_speed_ms": 18.0}, "camera": {"trigger": "distance"}},
+     "pattern.lanes = 'vertical' climbs and descends in front of the wall: vehicle.type = 'plane' cannot; allowed: 'copter'"),
     ({"camera": {"trigger": "distance"}}, "pattern.lanes = 'vertical' shoots at rest at every station .* camera.trigger = "
      "'distance'; allowed: 'hover'"),
+    ({"camera": {"trigger": "time"}}, "camera.trigger = 'time'; allowed: 'hover'"),
 ])
 def test_vertical_lanes_refuse_what_cannot_fly_them(tmp_path: Path, over: dict, words: str) -> None:
     with pytest.raises(AssertionError, match=words):
