@@ -746,9 +746,10 @@ def _solid_distance(xyz: np.ndarray, height_m: float, angle_deg: float, benches:
     return out
 
 
-def _fly_faces(tmp_path: Path, pattern: str, standoff_m: float) -> tuple[dict, list[dict], Path, np.ndarray]:
+def _fly_faces(tmp_path: Path, pattern: str, standoff_m: float,
+               trigger: str = "distance") -> tuple[dict, list[dict], Path, np.ndarray]:
     """Plan the faces of `pattern` (the [pattern] table's text, besides standoff_m) on `_TOE`, a DJI Mavic 3E
-    triggered by distance, and fly it in ArduCopter SITL; (the manifest, the report's rows, the plan folder,
+    triggered by `trigger`, and fly it in ArduCopter SITL; (the manifest, the report's rows, the plan folder,
     the flown track: east, north, up from home, every POS of every sortie)."""
     from conftest import write_geojson
 
@@ -762,7 +763,7 @@ def _fly_faces(tmp_path: Path, pattern: str, standoff_m: float) -> tuple[dict, l
     spec = tmp_path / "faces.toml"
     spec.write_text(f'[mission]\nname = "faces"\n[area]\nfile = "toe.geojson"\n'
                     f'[pattern]\nstandoff_m = {standoff_m}\n{pattern}\n'
-                    '[camera]\nmodel = "dji-mavic-3-enterprise"\ntrigger = "distance"\n'
+                    f'[camera]\nmodel = "dji-mavic-3-enterprise"\ntrigger = "{trigger}"\n'
                     f'[targets]\nheight_m = {standoff_m}\nforward_overlap = 0.75\nside_overlap = 0.6\n'
                     '[vehicle]\ntype = "copter"\ncruise_speed_ms = 5.0\nmax_height_agl_m = 120\n')
     out = tmp_path / "faces"
@@ -801,6 +802,23 @@ def test_a_facade_is_flown_lane_by_lane_with_the_camera_square_to_the_wall(tmp_p
     manifest, rows, out, track = _fly_faces(tmp_path, 'kind = "facade"\nbase_m = 0\ntop_m = 18', 10.0)
     assert {s["pitch_deg"] for s in manifest["stations"]} == {0.0} and len(manifest["lines"]) >= 4
     _assert_faces_flown(manifest, rows, out, track, 10.0, (18.0, 90.0, 1, 0.0))
+
+
+@pytest.mark.sitl
+def test_a_facade_is_flown_in_vertical_lanes_with_the_camera_square_to_the_wall(tmp_path):
+    """A 70 m wall 8 m high, lanes 10 m in front of it flown up one and down the next (`pattern.lanes =
+    "vertical"`), a photo at rest at every station (hover-and-capture; the copter's nose along the wall as it
+    came from the lane before, the mount panned a quarter turn to the wall): every photo taken, each
+    picture's line of sight within 2° of its station's aim, the track never nearer the wall than the
+    stand-off less the allowance, the time within 5 %."""
+    manifest, rows, out, track = _fly_faces(tmp_path, 'kind = "facade"\nbase_m = 0\ntop_m = 8\nlanes = "vertical"', 10.0,
+                                            "hover")
+    places: dict[tuple[float, float], list[float]] = {}
+    for s in manifest["stations"]:
+        places.setdefault((round(s["x"], 2), round(s["y"], 2)), []).append(s["alt_rel_m"])
+    assert {s["pitch_deg"] for s in manifest["stations"]} == {0.0} and len(places) >= 8
+    assert all(len(set(z)) == len(z) >= 3 for z in places.values()), places  # one above another
+    _assert_faces_flown(manifest, rows, out, track, 10.0, (8.0, 90.0, 1, 0.0))
 
 
 @pytest.mark.sitl

@@ -29,12 +29,13 @@ from pathlib import Path
 import numpy as np
 import pyproj
 import pytest
+import tomli_w
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from lxml import etree
 from tests.conftest import make_spec, write_geojson
-from tests.plan.test_orbit import CAMERA, TO_XY, _face_gsd, _lonlat, _photos
+from tests.plan.test_orbit import CAMERA, MOUNT_CONTROL, TO_XY, _face_gsd, _lonlat, _photos
 
 import independent_coverage as ic
 from aerosurvey.camera import get_camera
@@ -42,6 +43,7 @@ from aerosurvey.cli import main
 from aerosurvey.plan.capture import Optics, Photos
 from aerosurvey.plan.surfaces import Terrace, check_faces, faces_rule
 from independent_faces import bench_caster, bench_samples, distance_to_benches, section
+from independent_motion import stop_to_stop_time
 
 ALLOWANCE_M = 2.0
 LAND, RTL = 21, 20
@@ -51,7 +53,10 @@ def _plan(tmp: Path, toe: np.ndarray, pattern: dict, min_images: int = 2, max_gs
           code: int = 0, **over: dict) -> tuple[Path, dict]:
     write_geojson(tmp / "line.geojson", _lonlat(toe), "LineString")
     pattern = {**pattern, "min_images": min_images, **({"max_gsd_cm": max_gsd_cm} if max_gsd_cm else {})}
-    spec = make_spec(tmp, {"pattern": pattern, "camera": {"model": CAMERA, "trigger": "distance"}, **over})
+    # lanes flown up and down the wall shoot at rest at every station
+    trigger = "hover" if pattern.get("lanes") == "vertical" else "distance"
+    over = {**over, "camera": {"model": CAMERA, "trigger": trigger, **over.get("camera", {})}}
+    spec = make_spec(tmp, {"pattern": pattern, **over})
     text = spec.read_text().replace('file = "area.geojson"', 'file = "line.geojson"')
     spec.write_text(text)
     out = tmp / "out"
@@ -68,8 +73,34 @@ def _geometry(pattern: dict) -> tuple[float, float, float, int, float]:
     return 0.0, pattern["face_angle_deg"], pattern["face_height_m"], pattern.get("benches", 1), pattern.get("berm_m", 0.0)
 
 
+def _hover_photos(out: Path) -> tuple[list[tuple[float, float, float, float, float]], list[list[float]], tuple]:
+    """The photos (x, y, z, yaw, pitch) of a hover-and-capture mission from the .waypoints: one at each
+    NAV_WAYPOINT a DO_DIGICAM_CONTROL follows, at its place and height, the camera at the last
+    DO_MOUNT_CONTROL's pitch and its yaw from the nose; the nose faces along the last leg that moved
+    the copter level (ArduCopter holds its yaw on a leg straight up or down), as the rows, the home."""
+    home, rows = ic.read_wpl(out / "mission.waypoints")
+    cams, mount, here, nose = [], None, None, None
+    for i, r in enumerate(rows[1:], start=1):
+        cmd = int(r[3])
+        if cmd == ic.NAV_WAYPOINT:
+            there = np.array([*TO_XY.transform(r[9], r[8]), r[10]])
+            if here is not None and math.hypot(*(there[:2] - here[:2])) > 0.05:
+                nose = math.degrees(math.atan2(*(there[:2] - here[:2])))
+            here = there
+            if i + 1 < len(rows) and int(rows[i + 1][3]) == DIGICAM:
+                assert mount is not None and nose is not None, "a photo with the mount or the nose unknown"
+                cams.append((float(here[0]), float(here[1]), float(here[2]), (nose + mount[1]) % 360.0, mount[0]))
+        elif cmd == MOUNT_CONTROL:
+            mount = (r[4], r[6])  # pitch, yaw relative to the nose
+    return cams, rows, home
+
+
+#: MAV_CMD_DO_DIGICAM_CONTROL: one photo
+DIGICAM = 203
+
+
 def _judge(out: Path, toe: np.ndarray, pattern: dict, cell: float, min_images: int = 2, max_gsd_m: float = math.inf) -> dict:
-    cams, rows, home = _photos(out)
+    cams, rows, home = (_hover_photos if pattern.get("lanes") == "vertical" else _photos)(out)
     a, b = (toe[0], toe[1]) if pattern.get("side", "right") == "right" else (toe[1], toe[0])
     base, angle, height, benches, berm = _geometry(pattern)
     solid = section(base, angle, height, benches, berm)
@@ -313,3 +344,156 @@ def test_the_exports_turn_the_camera_to_the_faces(tmp_path: Path) -> None:
 def _lonlat_arrays(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lonlat = np.array(_lonlat(xy))
     return lonlat[:, 0], lonlat[:, 1]
+
+
+def _kmz_heights(out: Path) -> list[float]:
+    """Each waypoint's height in mission.kmz's waylines (wpml:executeHeight), in order."""
+    with zipfile.ZipFile(out / "mission.kmz") as z:
+        doc = etree.fromstring(z.read("wpmz/waylines.wpml"))
+    return [float(e.text) for e in doc.iterfind(".//wpml:executeHeight", {"wpml": "http://www.dji.com/wpmz/1.0.2"})]
+
+
+def _judge_vertical(out: Path, toe: np.ndarray, pattern: dict, m: dict, cell: float, max_gsd_cm: float | None = None) -> dict:
+    """A wall flown in vertical lanes, from the exported files: coverage, GSD and stand-off from the
+    .waypoints' photos at their heights; every lane's photos at one place, one above another; the
+    DJI waylines and mission.plan's plain items flying the same heights as the .waypoints, waypoint
+    by waypoint."""
+    j = _judge(out, toe, pattern, cell, max_gsd_m=math.inf if max_gsd_cm is None else max_gsd_cm / 100)
+    assert j["short_m2"] == 0.0 and j["fewest"] >= 2 and j["photos"] == _planned_photos(out), j
+    assert j["nearest_leg_m"] >= pattern["standoff_m"] - ALLOWANCE_M, j
+    if max_gsd_cm is not None:
+        assert j["worst_gsd_cm"] <= max_gsd_cm, j
+    cams, rows, _ = _hover_photos(out)
+    places = {(round(c[0], 1), round(c[1], 1)) for c in cams}
+    assert len(places) == m["pattern"]["parameters"]["lanes"] == len(m["pattern"]["passes"]), places
+    assert len(cams) // len(places) >= 2  # photos one above another at each place
+    wpl = [r[10] for r in rows[1:] if int(r[3]) == ic.NAV_WAYPOINT]
+    assert _kmz_heights(out) == pytest.approx(wpl, abs=0.01)
+    # mission.plan: plain items (no complex item lays stations at heights of their own), the same heights
+    items = json.loads((out / "mission.plan").read_text())["mission"]["items"]
+    assert all(i["type"] == "SimpleItem" for i in items)
+    assert [i["params"][6] for i in items if i["command"] == ic.NAV_WAYPOINT] == pytest.approx(wpl, abs=0.01)
+    return j
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(length=st.floats(12.0, 80.0), turn=st.floats(0.0, 180.0), top=st.floats(4.0, 30.0), standoff=st.floats(6.0, 20.0),
+       side=st.sampled_from(["left", "right"]), start=st.sampled_from(["bottom", "top"]),
+       pitch=st.sampled_from([None, -10.0, -25.0]))
+def test_random_walls_in_vertical_lanes(tmp_path_factory, length: float, turn: float, top: float, standoff: float, side: str,
+                                        start: str, pitch: float | None) -> None:
+    """Walls flown up and down (`pattern.lanes = "vertical"`, the camera level or pitched down), judged
+    from the exported mission: every face sample seen by two photos at least, each at most the GSD
+    asked (twice a pixel's size square to the wall at the stand-off: the image's corners see it
+    slanted), no leg nearer the wall than the stand-off less the allowance, no photo lower than the
+    least height."""
+    tmp = tmp_path_factory.mktemp("vwall")
+    t = math.radians(turn)
+    toe = np.array([[-math.sin(t), -math.cos(t)], [math.sin(t), math.cos(t)]]) * length / 2
+    cam = get_camera(CAMERA)
+    gsd_cm = round(2.0 * standoff * cam.sensor_width_mm / cam.image_width_px / cam.focal_mm * 100.0, 3)
+    pattern = {"kind": "facade", "standoff_m": standoff, "top_m": top, "side": side, "start": start, "lanes": "vertical",
+               **({} if pitch is None else {"pitch_deg": pitch})}
+    out, m = _plan(tmp, toe, pattern, max_gsd_cm=gsd_cm)
+    assert _rule(m)["status"] == "pass", _rule(m)
+    _judge_vertical(out, toe, pattern, m, math.sqrt(length * top / 120.0), gsd_cm)
+    assert min(s["alt_rel_m"] for s in m["stations"]) >= LEAST_HEIGHT_M - 0.01
+    assert m["pattern"]["parameters"]["lane_direction"] == "vertical"
+
+
+def _vertical_long_wall(tmp: Path) -> tuple[Path, dict, np.ndarray, dict]:
+    """missions/long-wall.toml with `pattern.lanes = "vertical"` and `camera.trigger = "hover"`, planned
+    through the command line: the output folder, the manifest, the toe line (local metres), the spec."""
+    spec = tomllib.loads((REPO / "missions" / "long-wall.toml").read_text())
+    area = REPO / "missions" / spec["area"]["file"]
+    coords = json.loads(area.read_text())["features"][0]["geometry"]["coordinates"]
+    spec["area"]["file"] = str(area)
+    spec["pattern"]["lanes"] = "vertical"
+    spec["camera"]["trigger"] = "hover"
+    (tmp / "spec.toml").write_text(tomli_w.dumps(spec))
+    res = CliRunner().invoke(main, ["plan", str(tmp / "spec.toml"), "-o", str(tmp / "out")])
+    assert res.exit_code == 0, res.output
+    m = json.loads((tmp / "out" / "manifest.json").read_text())
+    return tmp / "out", m, np.column_stack(TO_XY.transform(*np.array(coords).T)), spec
+
+
+def test_the_long_wall_in_vertical_lanes(tmp_path: Path) -> None:
+    """missions/long-wall.toml flown up and down: covered as asked, judged from the exported files;
+    the lanes a spacing apart along the wall (from the photo's width on it), the stations a base
+    apart up each (from its height), from the least height at the foot to past the top."""
+    out, m, toe, spec = _vertical_long_wall(tmp_path)
+    pattern = spec["pattern"]
+    assert _rule(m)["status"] == "pass", _rule(m)
+    j = _judge_vertical(out, toe, pattern, m, 2.5, pattern["max_gsd_cm"])
+    print(j, m["pattern"]["parameters"], m["pattern"]["passes"][0])
+    ps = m["pattern"]["passes"][0]
+    cams, _, _ = _hover_photos(out)
+    xy = np.array(sorted({(round(c[0], 3), round(c[1], 3)) for c in cams}, key=lambda p: p[0]))
+    gaps = np.hypot(*np.diff(xy, axis=0).T)
+    assert gaps.max() <= ps["line_spacing_m"] + 0.01 and gaps.min() > 0.9 * ps["line_spacing_m"], gaps
+    z = np.array(sorted({round(c[2], 2) for c in cams}))
+    assert np.diff(z).max() <= ps["photo_base_m"] + 0.01, z
+    assert z[0] == pytest.approx(LEAST_HEIGHT_M, abs=0.01) and z[-1] > pattern["top_m"]
+    length = float(np.hypot(*(toe[1] - toe[0])))
+    assert length < float(np.hypot(*(xy[-1] - xy[0]))) < length + ps["line_spacing_m"] * 3
+
+
+@pytest.mark.parametrize(("over", "words"), [
+    ({"vehicle": {"type": "plane", "cruise_speed_ms": 18.0}}, "camera.trigger = 'hover' is for copters"),
+    ({"vehicle": {"type": "plane", "cruise_speed_ms": 18.0}, "camera": {"trigger": "distance"}},
+     "pattern.lanes = 'vertical' climbs and descends in front of the wall: vehicle.type = 'plane' cannot; allowed: 'copter'"),
+    ({"camera": {"trigger": "distance"}}, "pattern.lanes = 'vertical' shoots at rest at every station .* camera.trigger = "
+     "'distance'; allowed: 'hover'"),
+    ({"camera": {"trigger": "time"}}, "camera.trigger = 'time'; allowed: 'hover'"),
+])
+def test_vertical_lanes_refuse_what_cannot_fly_them(tmp_path: Path, over: dict, words: str) -> None:
+    with pytest.raises(AssertionError, match=words):
+        _plan(tmp_path, WALL, {"kind": "facade", "standoff_m": 12.0, "top_m": 10.0, "lanes": "vertical"}, **over)
+
+
+@pytest.mark.parametrize(("pattern", "words"), [
+    ({"kind": "faces", "lanes": "vertical"}, "lanes"),
+    ({"kind": "facade", "top_m": 10.0, "lanes": "diagonal"}, "pattern.lanes"),
+    # at 8 m the image reaches 4.2 m below the level camera: a lowest station at 12 m sees the wall from 7.8 m up
+    ({"kind": "facade", "top_m": 18.0, "standoff_m": 8.0, "min_height_m": 12.0, "lanes": "vertical"},
+     "pattern.min_height_m = 12: the lowest station raised to it sees the wall only from 7.7[0-9] m above its foot; "
+     "allowed: at most 4.2[0-9] m"),
+])
+def test_vertical_lanes_bad_settings_are_refused_in_one_line(tmp_path: Path, pattern: dict, words: str) -> None:
+    with pytest.raises(AssertionError, match=words) as e:
+        _plan(tmp_path, WALL, pattern)
+    assert "Traceback" not in str(e.value), e.value
+
+
+def test_vertical_lanes_are_timed_as_climbs_holds_and_level_ways_from_rest(tmp_path: Path) -> None:
+    """The survey time of a wall flown up and down, rebuilt from mission.waypoints alone by stepping the
+    motion (tests/independent_motion.py): the copter comes to rest at every waypoint that holds, and at
+    each end of a leg straight up or down, flown at the climb or descent rate asked (WPNAV_ACCEL_Z
+    1 m/s², jerk 1 m/s³); the level legs between two rests one straight run; each hold and the
+    camera's cycle after it. The plan's estimate agrees within 2 %."""
+    climb, descent, speed, accel, jerk = 2.0, 1.0, 5.0, 2.0, 1.0
+    out, m = _plan(tmp_path, np.array([[-20.0, 0.0], [20.0, 0.0]]),
+                   {"kind": "facade", "standoff_m": 10.0, "top_m": 12.0, "lanes": "vertical"},
+                   vehicle={"type": "copter", "cruise_speed_ms": speed, "acceleration_ms2": accel,
+                            "climb_rate_ms": climb, "descent_rate_ms": descent})
+    assert m["derived"]["speed_ms"] == speed
+    _, rows = ic.read_wpl(out / "mission.waypoints")
+    wps = [(np.array([*TO_XY.transform(r[9], r[8]), r[10]]), r[4]) for r in rows[2:] if int(r[3]) == ic.NAV_WAYPOINT]
+    total, level = 0.0, 0.0
+    for (a, _), (b, hold) in zip(wps, wps[1:]):
+        dz, dh = b[2] - a[2], math.hypot(*(b[:2] - a[:2]))
+        if abs(dz) > 1e-3:
+            assert dh < 0.01, (a, b)  # a lane: straight up or down
+            total += stop_to_stop_time(level, speed, accel, jerk) if level else 0.0
+            total += stop_to_stop_time(abs(dz), climb if dz > 0 else descent, 1.0, jerk)
+            level = 0.0
+        else:
+            level += dh
+        if hold > 0:
+            total += stop_to_stop_time(level, speed, accel, jerk) if level else 0.0
+            total += hold + m["camera"]["min_cycle_s"]
+            level = 0.0
+    total += stop_to_stop_time(level, speed, accel, jerk) if level else 0.0
+    assert sum(1 for _, h in wps if h > 0) == len(m["stations"])
+    print(m["estimates"]["survey_time_s"], total)
+    assert m["estimates"]["survey_time_s"] == pytest.approx(total, rel=0.02), (m["estimates"], total)

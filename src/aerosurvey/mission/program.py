@@ -471,8 +471,9 @@ def _with_stations(plan: Plan, wps: tuple[RouteWaypoint, ...], first: int, last:
             path = shapely.LineString([(p.x, p.y) for p in line])
             at_vertex = [path.project(shapely.Point(p.x, p.y)) for p in line]
             at_station = shapely.line_locate_point(path, shapely.points(st.x[extra], st.y[extra]))
-            # by the distance along the line; a station never lies on a line waypoint it is not tagged with
-            merged = sorted([(d, 0, p) for d, p in zip(at_vertex, line)]
+            # by the distance along the line (the line end after every station: a lane flown up or down ends at its
+            # last station); a station never lies on a line waypoint it is not tagged with
+            merged = sorted([(d, 2 if p.kind == "line_end" else 0, p) for d, p in zip(at_vertex, line)]
                             + [(float(d), 1, _station_waypoint(plan, n)) for n, d in zip(extra, at_station)],
                             key=lambda t: (t[0], t[1]))
             out.extend(p for _, _, p in merged)

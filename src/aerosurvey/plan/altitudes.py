@@ -81,7 +81,7 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
         hd_camera = hd
     look = np.concatenate([_by_aim(r, xy[a:b], hd_camera[a:b], Aim.bearings)
                            for r, a, b in _spans(runs, counts)]) if runs else np.zeros(0)
-    rise = np.repeat(np.asarray([r.rise_m for r in runs], float), counts)
+    rise = np.concatenate([np.repeat(r.rises(), len(r.aims)) for r in runs]) if runs else np.zeros(0)
     ground = dem.sample(x, y, "photo stations") if dem is not None else np.full(len(x), np.nan)
     mode = heights.mode
     warnings: tuple[str, ...] = ()
@@ -105,15 +105,17 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
     end_of_run = np.searchsorted(run_idx, np.arange(len(runs)), side="right")
     pts: list[tuple[float, float, float, str, int, str]] = []
 
-    def alt_at(px: float, py: float, what: str, run: int) -> float:
+    def alt_at(px: float, py: float, what: str, i: int) -> float:
+        """The altitude at (px, py) of a waypoint flown at station row `i`'s rise (a lead-in at its run's first, a
+        line end at its last)."""
         if mode == "follow":
             assert dem is not None
             g = float(dem.sample(np.array([px]), np.array([py]), what)[0])
-            return g + heights.nominal_agl_m + runs[run].rise_m - home_ground
+            return g + heights.nominal_agl_m + float(rise[i]) - home_ground
         if mode == "fixed":
             assert heights.fixed_alt_amsl_m is not None
-            return heights.fixed_alt_amsl_m - home_ground + runs[run].rise_m
-        return heights.nominal_agl_m + runs[run].rise_m
+            return heights.fixed_alt_amsl_m - home_ground + float(rise[i])
+        return heights.nominal_agl_m + float(rise[i])
 
     for w in route.waypoints:
         if w.kind == "line_start":
@@ -137,11 +139,11 @@ def assign_altitudes(route: Route, heights: Heights, dem: Dem | None, home_groun
             continue  # placed with its run's line start
         elif w.kind == "line_end":
             b = end_of_run[w.run]
-            end_alt = float(alt_rel[b - 1]) if mode == "follow" else alt_at(w.x, w.y, "line ends", w.run)
+            end_alt = float(alt_rel[b - 1]) if mode == "follow" else alt_at(w.x, w.y, "line ends", b - 1)
             pts.append((w.x, w.y, end_alt, "line_end", w.run, ""))
         elif w.kind == "lead_in":
             a = start_of_run[w.run]
-            pts.append((w.x, w.y, float(alt_rel[a]) if mode == "follow" else alt_at(w.x, w.y, "lead-ins", w.run), "lead_in", w.run, ""))
+            pts.append((w.x, w.y, float(alt_rel[a]) if mode == "follow" else alt_at(w.x, w.y, "lead-ins", a), "lead_in", w.run, ""))
         else:
             pts.append((w.x, w.y, math.nan, w.kind, w.run, ""))
     # detours keep the higher of their neighbours' altitudes

@@ -6,7 +6,15 @@ from typing import Any
 
 import numpy as np
 
-from aerosurvey.plan.flight_time import Kinematics, descent_time, hover_time, path_time, plane_transit_time
+from aerosurvey.plan.flight_time import (
+    Climbs,
+    Kinematics,
+    descent_time,
+    hover_time,
+    lanes_in_place,
+    path_time,
+    plane_transit_time,
+)
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Route, aims_per_place
 from aerosurvey.plan.sun import elevation_over_window
@@ -31,8 +39,10 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
     if hover_s is not None:
+        rises, arrivals = lanes_in_place(stations.x, stations.y, stations.alt_rel_m, stations.run, k)
         survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin, aims_per_place(route.runs),
-                                  hover_look_s)
+                                  hover_look_s, rises, Climbs(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms),
+                                  arrivals)
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m

@@ -40,7 +40,18 @@ line and two heights: the faces' case of one bench at 90°).
 - The lowest lane flies at least `pattern.min_height_m` (default `MIN_HEIGHT_M`, 2 m) above the
   toe line's ground: a lane laid lower moves up its face at its distance from it (`raised_lane`);
   where its photos would then no longer reach the face's foot, the plan is refused in one line.
-- Not offered: vertical lanes; a bent toe line (one straight line per plan).
+- A facade's lanes may be flown up and down the wall instead (`pattern.lanes = "vertical"`:
+  `Faces._vertical`): side by side at the stand-off, evenly at most a spacing apart along the wall
+  (the photo's width on it less the side overlap: `footprint` swaps the band's sides), reaching past
+  the toe line's ends by half a photo less half a spacing; on each, stations at most a photo base
+  apart (the band's height less the forward overlap), the lowest where its band reaches half a
+  photo less half a base below the foot, raised to `min_height_m` (refused in one line where its band
+  then misses the foot), the highest where its band reaches as far past the top; up one lane, down the next, each its own
+  pass, its stations' heights `Strip.rise_m`. A distance trigger counts level distance only, so they
+  are shot at rest (camera.trigger "hover", copters only; refused in one line otherwise): a lane ends
+  at its last station and the next lane's run starts at its first (`Pass.lead_in_m`, `Pass.end_m`),
+  the nose along the wall as the first lane's lead-in turned it and kept on the climbs.
+- Not offered: vertical lanes on benched faces; a bent toe line (one straight line per plan).
 """
 
 from __future__ import annotations
@@ -84,6 +95,7 @@ class FacesOptions:
     min_images: int
     max_gsd_m: float | None
     min_height_m: float  # every lane at least this high above the toe line's ground
+    lanes: str = "horizontal"  # a facade's lanes: "horizontal" (along the wall) or "vertical" (up and down it)
 
 
 #: the lowest lane's least height above the toe line's ground by default (`pattern.min_height_m`): a copter's
@@ -236,6 +248,10 @@ class Faces:
         """A photo on a face at the stand-off: its narrowest width along the face (the photo base is
         laid from it), its band's height up the face (the lane spacing)."""
         band = FaceBand.of(spec)
+        o = spec.pattern.options
+        assert isinstance(o, FacesOptions), o
+        if o.lanes == "vertical":  # lanes side by side along the wall, stations up them
+            return Footprint(across_m=band.width_m, along_m=band.height_m)
         return Footprint(across_m=band.height_m, along_m=band.width_m)
 
     @classmethod
@@ -245,6 +261,10 @@ class Faces:
         o = spec.pattern.options
         assert isinstance(o, FacesOptions) and site.centreline is not None
         slope = o.height_m / math.sin(math.radians(o.angle_deg))
+        if o.lanes == "vertical":
+            length = site.centreline.length / site.grid_scale
+            lanes = math.ceil(length / sensor.spacing_m - 1e-9)
+            return GridBounds(length, lanes, lanes * math.ceil(o.height_m / sensor.base_m - 1e-9))
         lanes = o.benches * len(lane_positions(slope, sensor.spacing_m))
         per_lane = math.ceil(site.centreline.length / site.grid_scale / sensor.base_m - 1e-9)
         return GridBounds(slope * o.benches, lanes, lanes * per_lane)
@@ -256,7 +276,7 @@ class Faces:
         return {"standoff_m": o.standoff_m, "face_angle_deg": o.angle_deg, "face_height_m": o.height_m,
                 "benches": o.benches, "berm_m": o.berm_m, "base_m": o.base_m, "side": o.side, "start": o.start,
                 "pitch_deg": plan.layout.passes[0].aim.pitch_deg, "lanes": len(plan.layout.passes),
-                "min_height_m": o.min_height_m,
+                "min_height_m": o.min_height_m, "lane_direction": o.lanes,
                 "clearance_allowance_m": CLEARANCE_ALLOWANCE_M}
 
     def terrace(self, site: Site) -> Terrace:
@@ -276,6 +296,9 @@ class Faces:
         o, band = self.settings, self.band
         t = self.terrace(site)
         along, into, length = t.axes(k)
+        if o.lanes == "vertical":
+            yield self._vertical(site, sensor, t)
+            return
         a = math.radians(o.angle_deg)
         slope = o.height_m / math.sin(a)
         lanes = [(i, float(m)) for i in range(o.benches) for m in lane_positions(slope, sensor.spacing_m)]
@@ -309,18 +332,70 @@ class Faces:
                 raise InputError(f"lane {n + 1} of the faces lies inside the exclusion zones: nothing of it can be flown",
                                  key="pattern.standoff_m")
             passes.append(Pass(n + 1, strips=strips, aim=aim, rise_m=z - plan_h, one_way=True))
-        # the ways from and back to the launch point keep the stand-off less the allowance off the
-        # faces' plan (toe line to last crest): the lanes reach that far past its ends
+        yield self._layout(t, k, f"lanes along the toe line at {o.standoff_m:g}"
+                           + (f"..{farthest:.1f}" if farthest > o.standoff_m else "") + " m from the faces", tuple(passes))
+
+    def _layout(self, t: Terrace, k: float, how: str, passes: tuple[Pass, ...]) -> Layout:
+        """The layout of the lanes `passes`: the ways from and back to the launch point keep the
+        stand-off less the allowance off the faces' plan (toe line to last crest), the lanes reach
+        that far past its ends; what the photos cover is the faces: the structure-faces rule proves
+        them (plan/surfaces.py)."""
+        o = self.settings
+        along, into, _ = t.axes(k)
         depth = t.profile()[0][-1] * k
         plan = shapely.Polygon([t.a, t.b, t.b + into * depth, t.a + into * depth]) if depth > 0 \
             else shapely.LineString([t.a, t.b])
         keep_out = shapely.buffer(plan, (o.standoff_m - CLEARANCE_ALLOWANCE_M) * k)
         toe = shapely.LineString([t.a, t.b])
-        # what the photos cover is the faces: the structure-faces rule proves them (plan/surfaces.py)
-        yield Layout(float(np.degrees(np.arctan2(along[0], along[1])) % 360.0),
-                     f"lanes along the toe line at {o.standoff_m:g}" + (f"..{farthest:.1f}" if farthest > o.standoff_m else "")
-                     + " m from the faces", tuple(passes), toe.buffer(0.01 * k), 0.0,
-                     obstacle=keep_out, surface=SurfaceAsked(t, o.min_images, o.max_gsd_m))
+        return Layout(float(np.degrees(np.arctan2(along[0], along[1])) % 360.0), how, passes, toe.buffer(0.01 * k), 0.0,
+                      obstacle=keep_out, surface=SurfaceAsked(t, o.min_images, o.max_gsd_m))
+
+    def _vertical(self, site: Site, sensor: SensorSolution, t: Terrace) -> Layout:
+        """A wall's lanes flown up and down it (`pattern.lanes = "vertical"`), side by side at the
+        stand-off: see the module's docstring."""
+        k = site.grid_scale
+        o, band = self.settings, self.band
+        along, into, length = t.axes(k)
+        spacing, base = sensor.spacing_m, sensor.base_m
+        # along the wall: past both ends by half a photo less half a spacing, lanes evenly at most a spacing apart
+        reach = max(band.width_m / 2.0 - spacing / 2.0, 0.0)
+        span = length + 2.0 * reach
+        count = math.ceil(span / spacing - 1e-9) + 1
+        at = -reach + span * np.arange(count) / (count - 1)
+        gap = span / (count - 1)
+        # up the wall: the lowest photo's band reaching below the foot by half a photo less half a base, raised
+        # to pattern.min_height_m while it still sees the foot; the highest's as far past the top
+        top = o.base_m + o.height_m
+        past = band.height_m / 2.0 - base / 2.0
+        low = max(o.base_m - past - band.middle_m, o.min_height_m)
+        if low + band.bottom_m > o.base_m + 1e-6:
+            raise InputError(f"pattern.min_height_m = {o.min_height_m:g}: the lowest station raised to it sees the wall only "
+                             f"from {low + band.bottom_m - o.base_m:.2f} m above its foot; allowed: at most "
+                             f"{o.base_m - band.bottom_m:.2f} m at this stand-off and pitch (or a lower pattern.pitch_deg)",
+                             key="pattern.min_height_m")
+        high = max(top + past - band.middle_m, low)
+        n = math.ceil((high - low) / base - 1e-9) + 1
+        z = low + (high - low) * np.arange(n) / max(n - 1, 1)
+        if o.start == "top":
+            z = z[::-1]
+        bearing = float(np.degrees(np.arctan2(along[0], along[1])) % 360.0)
+        aim = Aim(band.pitch_deg, bearing_deg=float(np.degrees(np.arctan2(into[0], into[1])) % 360.0))
+        plan_h = sensor.heights.nominal_agl_m
+        passes = []
+        for i, a in enumerate(at.tolist()):
+            xy = np.asarray(t.a) + (into * -o.standoff_m + along * a) * k
+            if site.zones_buffered is not None and shapely.intersects(site.zones_buffered, shapely.Point(xy)):
+                raise InputError(f"lane {i + 1} of the facade lies inside the exclusion zones: the wall there cannot be "
+                                 "photographed", key="pattern.standoff_m")
+            heights = z if i % 2 == 0 else z[::-1]
+            strip = Strip(0, 0, np.array([xy, xy]), np.repeat(xy[None], n, axis=0), np.arange(n), np.full(n, bearing),
+                          np.zeros(0, np.int64), heights - low)
+            # shot at rest: a lane ends at its last station, and the next is flown to straight from there, the nose
+            # along the wall as the first lane's lead-in turned it
+            passes.append(Pass(i + 1, strips=(strip,), aim=aim, rise_m=low - plan_h, one_way=True,
+                               lead_in_m=None if i == 0 else 0.0, end_m=0.0))
+        return self._layout(t, k, f"{count} lanes up and down the wall at {o.standoff_m:g} m from it, {gap:.2f} m apart",
+                            tuple(passes))
 
 
 def _min_images(values: Mapping[str, Any]) -> int:
@@ -341,7 +416,23 @@ class Facade(Faces):
         Field("base_m", "Wall base (m)", "number", 0.0, lo=0.0, hi=1000.0, hint="Above the ground at the line"),
         Field("top_m", "Wall top (m)", "number", None, lo=0.0, hi=1000.0, lo_open=True, hint="Above the ground at the line"),
         *Faces.fields[5:],
+        Field("lanes", "Lanes", "choice", "horizontal",
+              choices=(("horizontal", "along the wall, one above another"), ("vertical", "up and down the wall, side by side")),
+              hint="Vertical: a copter stopping at each station (camera.trigger = 'hover')"),
     )
+
+    @classmethod
+    def from_spec(cls, spec: MissionSpec) -> Faces:
+        o = spec.pattern.options
+        assert isinstance(o, FacesOptions), o
+        if o.lanes == "vertical" and spec.vehicle.type != "copter":
+            raise InputError(f"pattern.lanes = 'vertical' climbs and descends in front of the wall: vehicle.type = "
+                             f"{spec.vehicle.type!r} cannot; allowed: 'copter'", key="vehicle.type")
+        if o.lanes == "vertical" and spec.camera.trigger != "hover":
+            raise InputError(f"pattern.lanes = 'vertical' shoots at rest at every station (an autopilot's distance trigger "
+                             f"counts level distance only: a lane flown up or down takes no photo by it): camera.trigger = "
+                             f"{spec.camera.trigger!r}; allowed: 'hover'", key="camera.trigger")
+        return super().from_spec(spec)
 
     @classmethod
     def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
@@ -358,7 +449,7 @@ class Facade(Faces):
         pitch = values.get("pitch_deg")
         return FacesOptions(float(values["standoff_m"]), 90.0, float(top) - base, 1, 0.0, base, str(values["side"]),
                             str(values["start"]), None if pitch is None else float(pitch), _min_images(values),
-                            values["max_gsd_cm"], float(values["min_height_m"]))
+                            values["max_gsd_cm"], float(values["min_height_m"]), str(values["lanes"]))
 
 
 __all__ = ["FaceBand", "Facade", "Faces", "FacesOptions", "lane_positions"]

@@ -172,16 +172,68 @@ def look_hold_s(settle_s: float, cycle_s: float) -> float:
     return max(settle_s + GIMBAL_SLEW_S, cycle_s)
 
 
+#: ArduCopter's vertical acceleration in missions (WPNAV_ACCEL_Z: 1 m/s² by default): a copter's climb from one
+#: station to the next above it, its jerk the level legs' (WPNAV_JERK, `Kinematics.jerk_ms3`'s default)
+CLIMB_ACCEL_MS2 = 1.0
+
+
+@dataclass(frozen=True)
+class Climbs:
+    """A copter's climbs and descents from rest to rest (a lane flown up or down a wall, a station
+    above the one before): at most `up_ms` up and `down_ms` down (vehicle.climb_rate_ms and
+    descent_rate_ms, ArduCopter's WPNAV_SPEED_UP and WPNAV_SPEED_DN) and `CLIMB_ACCEL_MS2`, as
+    `_straight_time` flies a level leg (ArduCopter's waypoint S-curve in 3-D, jerk WPNAV_JERK)."""
+
+    up_ms: float
+    down_ms: float
+
+    def time(self, rises: np.ndarray) -> float:
+        """Seconds of the vertical moves `rises` (metres, + up), each from rest to rest."""
+        up = Kinematics("copter", self.up_ms, CLIMB_ACCEL_MS2, 0.0)
+        down = replace(up, speed_ms=self.down_ms)
+        return float(sum(_straight_time(abs(d), up if d > 0 else down) for d in np.asarray(rises, float).tolist()))
+
+
+def lanes_in_place(x: np.ndarray, y: np.ndarray, z: np.ndarray, run: np.ndarray,
+                   grid_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Where station rows follow one another on a run at one place and at different heights (a lane
+    flown up or down a wall): (rises, arrivals), each (n,), in flight order. `rises`: each row's
+    vertical move from the row before in such a lane, else 0 (metres, + up); `arrivals`: for the
+    first row of a run with such a move, the level distance from the row before it (the lane before's
+    last station: the way between them is flown from rest to rest), else 0. The rows' places `x`, `y`
+    (planning CRS, `grid_scale` planning metres a metre), heights `z`, runs `run`."""
+    x, y, z, run = (np.asarray(a) for a in (x, y, z, run))
+    if not len(z):
+        return np.zeros(0), np.zeros(0)
+    step = np.hypot(np.diff(x.astype(float)), np.diff(y.astype(float))) / grid_scale
+    same_run = run[1:] == run[:-1]
+    rises = np.r_[0.0, np.where(same_run & (step < 1e-6), np.diff(z.astype(float)), 0.0)]
+    climbing = np.isin(run, run[rises != 0.0])
+    arrivals = np.r_[0.0, np.where(~same_run & climbing[1:], step, 0.0)]
+    return rises, arrivals
+
+
 def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics, aims: int = 1,
-               look_s: float = 0.0) -> float:
+               look_s: float = 0.0, rises: np.ndarray | None = None, climbs: Climbs | None = None,
+               arrivals: np.ndarray | None = None) -> float:
     """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
     `stations` photos it stops (braking and accelerating again over the `base` between two
     stations of a run, `_straight_time` against cruising it) and rests `hold_s`. With `aims` photos
     at each place (the camera turned between them), `stations` counts them all: the stops are a
-    place's, its first aim rests `hold_s` and each further aim `look_s` (`look_hold_s`)."""
+    place's, its first aim rests `hold_s` and each further aim `look_s` (`look_hold_s`). A station
+    straight above or below the one before (`rises`, of `lanes_in_place`: a lane flown up or down)
+    is reached by its climb or descent (`climbs`) instead of a level base, and the level way to such
+    a lane from the one before (`arrivals`) is flown from rest to rest, not straight on."""
     places = stations // aims
-    stops = max(places - runs, 0)
-    return places * hold_s + (stations - places) * look_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+    moves = np.zeros(0) if rises is None else np.asarray(rises, float)[np.asarray(rises, float) != 0.0]
+    stops = max(places - runs - len(moves), 0)
+    out = places * hold_s + (stations - places) * look_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+    if len(moves):
+        assert climbs is not None, "a lane flown up or down is timed at the climb and descent rates"
+        out += climbs.time(moves)
+    for d in ([] if arrivals is None else np.asarray(arrivals, float)[np.asarray(arrivals, float) > 0.0].tolist()):
+        out += _straight_time(d, k) - d / k.speed_ms
+    return out
 
 
 #: path_time takes a turn by this little (degrees) for a leg straight on from the one before: no corner

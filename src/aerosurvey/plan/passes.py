@@ -101,6 +101,9 @@ class Strip:
     station_index: np.ndarray  # (n,) index of each station along its line, for ids
     heading_deg: np.ndarray  # (n,) the strip's direction at each station (compass bearing), in line order
     bend_after: np.ndarray  # (m − 2,) for each bend, the station (index into `stations`) it follows
+    # (n,) each station's height above its pass's (`Pass.rise_m`), in line order: a lane flown up or
+    # down in front of a wall; None: every station at its pass's height
+    rise_m: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,9 +121,10 @@ class Ring:
 @dataclass(frozen=True, eq=False)
 class Pass:
     """A group of strips flown one after another, with the camera held at one aim, at one height
-    (the plan's, raised by `rise_m`), and the hint the route step needs to order them. With
-    `looks` the camera is turned at each station through `aim` and then each look, one photo
-    each: every look is a station of its own (`ids.look_pass_index` numbers its pass).
+    (the plan's, raised by `rise_m`; a strip's stations each further by its `Strip.rise_m`), and
+    the hint the route step needs to order them. With `looks` the camera is turned at each station
+    through `aim` and then each look, one photo each: every look is a station of its own
+    (`ids.look_pass_index` numbers its pass).
 
     An area grid's pass is parallel lines in a frame (`frame` and `segments`): the route searches
     the line order and cells. Any other pattern gives `strips`, flown in their order, back and
@@ -135,6 +139,11 @@ class Pass:
     one_way: bool = False  # strips flown each its own way only (a ring whose camera is turned to its inside)
     ring: Ring | None = None  # the pass goes round a structure (its one strip is this ring)
     looks: tuple[Aim, ...] = ()  # further aims shot in turn at each station after `aim` (the camera turned at rest)
+    # its strips' straight approach and how far past its last station each run ends, where the route's (a copter's
+    # stopping distance or the nose's turn; half a photo base, the distance trigger's) do not hold: a wall's lane flown
+    # up or down, shot at rest, ends at its last station and the next is flown to from there; None: the route's
+    lead_in_m: float | None = None
+    end_m: float | None = None
 
     @property
     def empty(self) -> bool:
@@ -165,6 +174,7 @@ class Run:
     aim: Aim = NADIR
     rise_m: float = 0.0  # its pass's
     looks: tuple[Aim, ...] = ()  # its pass's
+    station_rise_m: np.ndarray | None = None  # (n,) flight order: each station's height above `rise_m` (its strip's); None: 0
 
     @property
     def aims(self) -> tuple[Aim, ...]:
@@ -176,6 +186,12 @@ class Run:
         if self.station_heading_deg is not None:
             return self.station_heading_deg
         return np.full(len(self.station_xy), self.heading_deg)
+
+    def rises(self) -> np.ndarray:
+        """How far above the plan's flying height (Heights) each station is, in flight order: the
+        pass's `rise_m`, and a lane flown up or down its own station's."""
+        out = np.full(len(self.station_xy), self.rise_m)
+        return out if self.station_rise_m is None else out + self.station_rise_m
 
 
 def aims_per_place(runs: tuple[Run, ...]) -> int:

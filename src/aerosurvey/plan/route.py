@@ -213,12 +213,14 @@ def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: flo
     """A strip flown one way: its stations, bends and headings in flight order, the lead-in
     `lead_in` before the first station along its direction there, the end `half_base` past the last."""
     n = len(s.stations)
+    rise = None if s.rise_m is None else np.asarray(s.rise_m, float)
     if direction > 0:
         xy, idx, heads = s.stations, s.station_index, np.asarray(s.heading_deg, float)
         bends, after = s.path[1:-1], s.bend_after
     else:
         xy, idx, heads = s.stations[::-1], s.station_index[::-1], (np.asarray(s.heading_deg, float)[::-1] + 180.0) % 360.0
         bends, after = s.path[1:-1][::-1], (n - 2 - s.bend_after)[::-1]
+        rise = None if rise is None else rise[::-1]
     first, last = xy[0], xy[-1]
     # a ring flown round to its first station goes on round it to its end, as it began: a bend at the last station
     round_again = p.ring is not None and n > 1 and math.dist(first, last) < 1e-6
@@ -230,13 +232,17 @@ def _strip_run(p: Pass, s: Strip, direction: int, lead_in: float, half_base: flo
                (float(first[0] - ux * lead_in), float(first[1] - uy * lead_in)),
                (float(last[0] + vx * half_base), float(last[1] + vy * half_base)),
                np.array(bends, float).reshape(-1, 2), np.array(after, np.int64), np.array(heads),
-               p.aim, p.rise_m, p.looks)
+               p.aim, p.rise_m, p.looks, None if rise is None else rise.copy())
 
 
 def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, float] | None) -> list[Run]:
     """A pass of strips flown in their order, back and forth: each line the other way from the
     one before (its parts in order along that way), the first line the way whose first station
-    is nearer `start_near`; a `one_way` pass's strips each their own way."""
+    is nearer `start_near`; a `one_way` pass's strips each their own way. Each run's lead-in is
+    `lead_in` long and it ends half of `base` past its last station, or as the pass's own
+    (`Pass.lead_in_m`, `Pass.end_m`) where it has them."""
+    lead_in = lead_in if p.lead_in_m is None else p.lead_in_m
+    end = base / 2.0 if p.end_m is None else p.end_m
     by_line: dict[int, list[Strip]] = {}
     for s in p.strips:
         by_line.setdefault(s.line, []).append(s)
@@ -248,7 +254,7 @@ def strip_runs(p: Pass, lead_in: float, base: float, start_near: tuple[float, fl
     runs: list[Run] = []
     for k, parts in enumerate(lines):
         d = first if k % 2 == 0 or p.one_way else -first
-        runs.extend(_strip_run(p, s, d, lead_in, base / 2.0) for s in (parts if d > 0 else parts[::-1]))
+        runs.extend(_strip_run(p, s, d, lead_in, end) for s in (parts if d > 0 else parts[::-1]))
     return runs
 
 

@@ -26,6 +26,7 @@ from aerosurvey.errors import InputError
 from aerosurvey.plan.detours import Detours, climb_out_path, clip_approach
 from aerosurvey.plan.flight_time import (
     KEPT,
+    Climbs,
     CopterTime,
     Kinematics,
     RouteSegments,
@@ -34,6 +35,7 @@ from aerosurvey.plan.flight_time import (
     descent_time,
     hover_time,
     kept_segments,
+    lanes_in_place,
     path_time,
     plane_transit_time,
 )
@@ -216,6 +218,8 @@ class Splitter:
         self.station_x: list[float] = st.x.tolist()
         self.station_y: list[float] = st.y.tolist()
         self.station_alt: list[float] = st.alt_rel_m.tolist()
+        # a lane flown up or down: its climbs and descents, and the level way to it flown from rest to rest
+        self.rises, self.arrivals = lanes_in_place(st.x, st.y, st.alt_rel_m, st.run, plan.grid_scale)
         self.n = len(st.ids)
         self.run_start: list[int] = np.searchsorted(st.run, np.arange(len(plan.runs))).tolist()
         self.run_end: list[int] = (np.searchsorted(st.run, np.arange(len(plan.runs)), side="right") - 1).tolist()
@@ -547,7 +551,8 @@ class Splitter:
                 horiz, vert = path_time(survey, self.kin) + t_out + t_back, t_climb + t_descent
             if self.plan.hover_s is not None:
                 horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims,
-                                   self.plan.hover_look_s)
+                                   self.plan.hover_look_s, self.rises[a + 1:b + 1], Climbs(v.climb_rate_ms, v.descent_rate_ms),
+                                   self.arrivals[a + 1:b + 1])
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
