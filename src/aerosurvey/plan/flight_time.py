@@ -227,20 +227,21 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     # in wind each metre counts its slowness (still-air metres that take as long; 1 in calm air)
     slow = [1.0] * len(lengths) if k.calm else [k.slowness(a) for a in ang.tolist()]
     total_len = float(lengths.sum()) if k.calm else float(np.dot(lengths, slow))
-    i = 0
-    while i < len(turn) - 1:
-        # a reversal: corner, short leg, corner (a leg straight on from the one before, as a line from its
-        # lead-in, is no corner: paired with the next corner it would replace the line itself by a turn)
-        if turn[i] > STRAIGHT_ON_DEG and turn[i + 1] > STRAIGHT_ON_DEG and turn[i] + turn[i + 1] > 150.0:
-            u = seg[i] / lengths[i]
-            arc, stretch = plane_reversal(np.array([abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])]),
-                                          np.array([u[0] * seg[i + 1][0] + u[1] * seg[i + 1][1]]),
-                                          k.turn_radius_m, k.reach_m)
-            total_len += (float(arc[0]) * k.turn_slowness(float(ang[i]), float(ang[i + 1])) + float(stretch[0]) * slow[i]
-                          - lengths[i + 1] * slow[i + 1])
-            i += 2
-        else:
-            i += 1
+    # a reversal: corner, short leg, corner (a leg straight on from the one before, as a line from its
+    # lead-in, is no corner: paired with the next corner it would replace the line itself by a turn)
+    corner = turn > STRAIGHT_ON_DEG
+    pairs: list[int] = []
+    for i in np.flatnonzero(corner[:-1] & corner[1:] & (turn[:-1] + turn[1:] > 150.0)).tolist():
+        if not pairs or i > pairs[-1] + 1:  # the corner after a pair pairs with none
+            pairs.append(i)
+    if pairs:
+        at = np.asarray(pairs)
+        u, after = seg[at] / lengths[at, None], seg[at + 1]
+        arc, stretch = plane_reversal(np.abs(u[:, 0] * after[:, 1] - u[:, 1] * after[:, 0]),
+                                      u[:, 0] * after[:, 0] + u[:, 1] * after[:, 1], k.turn_radius_m, k.reach_m)
+        sweep = [1.0] * len(pairs) if k.calm else [k.turn_slowness(float(ang[i]), float(ang[i + 1])) for i in pairs]
+        before, connector = np.asarray(slow)[at], np.asarray(slow)[at + 1]
+        total_len += float(np.dot(arc, sweep) + np.dot(stretch, before) - np.dot(lengths[at + 1], connector))
     return total_len / k.speed_ms
 
 
