@@ -69,14 +69,13 @@ def _quadrilateral(draw) -> list[list[float]]:
     return ring + [ring[0]]
 
 
-# the search prices each heading's lines and the turns between them in one order (`quick_cost`: the plain
-# boustrophedon from the lowest line), and compared here are the plans' survey times (the lines and turns as the route
-# flies them: of both ends to start from and, for a plane, skip-line orders, the fastest, which in a wind can be a few
-# per cent faster than the order priced). One case (7.0 m/s from 80.6 degrees) priced 72 degrees at 1,691.0 s and
-# 81 degrees at 1,718.7 s, but the route flew 81 degrees' lines in 1,623.1 s (1.038x). The ways from and back to the
-# launch point are not the heading's either (the area's edge nearest the route's start). Measured on 76 random
-# quadrilaterals with winds up to 0.6 of the air speed, the auto heading's survey time was at most 1.038 of the better
-# fixed one's (its total, on 124: at most 1.036; the search before this change: totals up to 1.83x)
+# the search prices each heading's lines and the turns between them over the ways the route flies them (`quick_cost`:
+# the fastest of `line_orders`, from either end, the first line either way), but compared here are the plans' survey
+# times, each laid and solved for its own crab: the ways from and back to the launch point are not the heading's (the
+# area's edge nearest the route's start), nor are a concave area's cells. When the search priced the plain order from
+# the lowest line alone, one case (7.0 m/s from 80.6 degrees) priced 72 degrees at 1,691.0 s and 81 degrees at
+# 1,718.7 s, but the route flew 81 degrees' lines in 1,623.1 s (1.038x); measured then on 76 random quadrilaterals
+# with winds up to 0.6 of the air speed, the auto heading's survey time was at most 1.038 of the better fixed one's
 TOLERANCE = 0.06
 
 

@@ -81,8 +81,9 @@ def random_case(seed: int, kind: str, vehicle: str, n_zones: int, far: bool
     else:
         speed = float(rng.uniform(13.0, 25.0))
         radius = speed**2 / (9.80665 * math.tan(math.radians(float(rng.uniform(20.0, 40.0)))))
-        kin = Kinematics("plane", speed, 2.0, radius)
+        # ArduPlane's L1 reach: up to a third of the lead-in (sensor.py: the lead-in is three of it)
         lead = float(rng.choice([0.0, rng.uniform(20.0, 300.0)]))
+        kin = Kinematics("plane", speed, 2.0, radius, reach_m=float(rng.uniform(0.0, lead / 3.0)))
     if rng.random() < 0.5:  # half the cases in a wind of up to 0.8 of the air speed (a copter's up to 5 m/s above its speed)
         air = kin.speed_ms + (float(rng.uniform(0.0, 5.0)) if vehicle == "copter" else 0.0)
         w, towards = float(rng.uniform(0.0, 0.8)) * air, float(rng.uniform(0.0, 2.0 * math.pi))

@@ -63,7 +63,7 @@ def test_steps_one_by_one_with_plain_data():
     alts = assign_altitudes(routed.route, sensor.heights, None, 0.0, site.planar, spec.terrain.tolerance_m)
     assert len(alts.stations.ids) == sum(len(r.station_xy) for r in routed.route.runs)
     assert np.allclose(alts.stations.alt_rel_m, sensor.heights.nominal_agl_m)
-    est = estimate(spec, routed.route, alts.waypoints, alts.stations, sensor.kinematics, routed.home_xy,
+    est = estimate(spec, routed.route, alts.waypoints, alts.stations, sensor.kinematics, routed.home_xy, routed.end_xy,
                    sensor.heights, sensor.base_m, site.grid_scale)
     assert est["photos"] == len(alts.stations.ids) and est["total_time_s"] > est["survey_time_s"] > 0
 

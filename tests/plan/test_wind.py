@@ -346,3 +346,15 @@ def test_a_plane_overshoots_a_first_place_nearer_than_its_climb_out_and_turns_ba
     assert t_out == pytest.approx((7.0 * math.pi / 3.0 * 30.0 + 378.0 - first_m) / 12.5)
     far = np.array([[0.0, 0.0], [0.0, 600.0]])
     assert plane_transit_time(far, far[::-1], 98.0, 7.0, 27.0, 2.0, kin)[0] == pytest.approx(222.0 / 12.5)
+
+
+@pytest.mark.parametrize("beyond_m", [0.0, 30.0, 143.0])
+def test_a_plane_flies_on_towards_the_next_lead_in_before_it_turns(beyond_m):
+    """Still air, 12.5 m/s, a 27.6 m turn radius, ArduPlane turning 44.8 m short of a waypoint: a line east ends,
+    the next line's lead-in waypoint lies `beyond_m` farther east and 60 m north, its line runs west 152 m to its
+    start. The plane flies on east until 44.8 m short of the lead-in (none when it is nearer), turns (two quarter
+    circles and the 4.8 m between: π R + 60 − 2 R) and flies the lead-in."""
+    kin = Kinematics("plane", 12.5, 2.5, 27.6, reach_m=44.8)
+    pts = np.array([[0.0, 0.0], [500.0, 0.0], [500.0 + beyond_m, 60.0], [500.0 + beyond_m - 152.0, 60.0]])
+    expected = 500.0 + max(0.0, beyond_m - 44.8) + math.pi * 27.6 + 60.0 - 2 * 27.6 + 152.0
+    assert path_time(pts, kin) == pytest.approx(expected / 12.5)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from shapely.geometry.base import BaseGeometry
 from tests.plan.test_wind import _steer
@@ -20,10 +20,13 @@ from aerosurvey.plan.flight_time import Kinematics, path_time, quick_cost, quick
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.heading import best_heading, candidate_headings
 from aerosurvey.plan.lines import LineSegment, Outline, StripGeometry, build_lines, line_bounds
+from aerosurvey.plan.passes import Pass
+from aerosurvey.plan.route import order_pass
 
 AIR = 18.0  # m/s, the plane's air speed
 SPACING = 90.0  # between lines; the turn radius is half of it, so every turn is a half circle over the ground
 LEAD = 60.0
+REACH = 20.0  # how far short of the next line's lead-in waypoint the plane turns (one L1 distance: a third of LEAD)
 G = StripGeometry(150.0, 100.0, SPACING, 40.0, 1, 2, 0, 40.0 / 2.0 + SPACING / 2.0 + 1.0)
 
 
@@ -34,42 +37,51 @@ def _ground_speed(direction: np.ndarray, wind: np.ndarray) -> float:
 
 
 def _flown_time(segments: list[LineSegment], heading: float, wind: np.ndarray) -> float:
-    """The boustrophedon over a convex area's lines (one run a line), first line flown along +x of the
-    frame, the next back: each line from its lead-in to half a base past its last station, then a half
-    circle of radius SPACING / 2 onto the next line, integrated in 360 pieces along its tangent."""
+    """The boustrophedon over a convex area's lines (one run a line), from the lowest line or the highest, its
+    first line flown along +x of the frame or back, the next the other way (the fastest of the four, as the route
+    chooses): each line from its lead-in to half a base past its last station, on along it until REACH short of
+    abreast of the next line's lead-in where that lies farther (ArduPlane flies towards that waypoint and turns
+    one L1 distance short of it), then a half circle of radius SPACING / 2 onto the next line, integrated in 360
+    pieces along its tangent."""
     h = math.radians(heading)
     along = np.array([math.sin(h), math.cos(h)])  # +x of the frame on the grid (x east, y north)
     left = np.array([-along[1], along[0]])  # +v of the frame
-    lines = sorted(segments, key=lambda s: s.v)
     pieces, radius = 360, SPACING / 2.0
 
-    def turn(d: float) -> float:  # the half circle from the track d·along round towards +v
-        return sum((math.pi * radius / pieces) / _ground_speed(d * math.cos(a) * along + math.sin(a) * left, wind)
+    def turn(d: float, side: float) -> float:  # the half circle from the track d·along round towards side·v
+        return sum((math.pi * radius / pieces) / _ground_speed(d * math.cos(a) * along + side * math.sin(a) * left, wind)
                    for a in (math.pi * (k + 0.5) / pieces for k in range(pieces)))
 
     speed = {1.0: _ground_speed(along, wind), -1.0: _ground_speed(-along, wind)}
-    turns = {1.0: turn(1.0), -1.0: turn(-1.0)}
-    t = 0.0
-    for i, s in enumerate(lines):
-        d = 1.0 if i % 2 == 0 else -1.0
-        t += (s.x1 - s.x0 + LEAD + s.base / 2.0) / speed[d]
-        if i + 1 < len(lines):
-            assert math.isclose(lines[i + 1].v - s.v, SPACING, rel_tol=1e-9)
-            t += turns[d]
-    return t
+    turns = {(d, side): turn(d, side) for d in (1.0, -1.0) for side in (1.0, -1.0)}
+
+    def flown(lines: list[LineSegment], first: float) -> float:
+        t = 0.0
+        for i, s in enumerate(lines):
+            d = first if i % 2 == 0 else -first
+            t += (s.x1 - s.x0 + LEAD + s.base / 2.0) / speed[d]
+            if i + 1 < len(lines):
+                nxt = lines[i + 1]
+                assert math.isclose(abs(nxt.v - s.v), SPACING, rel_tol=1e-9)
+                end, start = (s.x1 + s.base / 2.0, nxt.x1 + LEAD) if d > 0 else (s.x0 - s.base / 2.0, nxt.x0 - LEAD)
+                t += max(0.0, d * (start - end) - REACH) / speed[d] + turns[d, math.copysign(1.0, nxt.v - s.v)]
+        return t
+
+    up = sorted(segments, key=lambda s: s.v)
+    return min(flown(lines, first) for lines in (up, up[::-1]) for first in (1.0, -1.0))
 
 
-def _search(area: BaseGeometry, kin: Kinematics) -> float:
+def _search(area: BaseGeometry, kin: Kinematics, g: StripGeometry = G, lead: float = LEAD) -> float:
     """The heading the area grid's search chooses: quick_cost of each candidate's lines, pruned by its lower bound."""
     def cost(fr: LineFrame) -> float:
-        segs = build_lines(fr.geom_to_frame(area), None, G)
-        return quick_cost(segs, LEAD, kin, fr) if segs else math.inf
+        segs = build_lines(fr.geom_to_frame(area), None, g)
+        return quick_cost(segs, lead, kin, fr) if segs else math.inf
 
     outline = Outline.of(area, None)
 
     def bound(frames: list[LineFrame]) -> list[float]:
-        return [float(b) for b in quick_cost_lower_bounds(line_bounds(outline, frames, G, single_runs=True), LEAD,
-                                                           G.base, kin)]
+        return [float(b) for b in quick_cost_lower_bounds(line_bounds(outline, frames, g, single_runs=True), lead,
+                                                           g.base, kin)]
 
     return best_heading(area, cost, bound=bound)[0]
 
@@ -87,7 +99,7 @@ AREA = shapely.Polygon([(0, 0), (1400, 250), (1250, 900), (-100, 600)])  # a con
 @given(share=st.floats(0.45, 0.75), towards=st.floats(0.0, 360.0))
 def test_the_chosen_heading_flies_no_longer_than_any_other_in_a_strong_wind(share, towards):
     wind = _wind(share * AIR, towards)
-    kin = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    kin = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=REACH)
     chosen = _search(AREA, kin)
     flown = {h: _flown_time(build_lines(LineFrame(h).geom_to_frame(AREA), None, G), h, wind)
              for h in {*candidate_headings(AREA), chosen}}
@@ -95,13 +107,54 @@ def test_the_chosen_heading_flies_no_longer_than_any_other_in_a_strong_wind(shar
     assert flown[chosen] <= best * (1.0 + 3e-3), (chosen, flown[chosen], min(flown, key=flown.__getitem__), best)
 
 
+def _route_estimate(area: BaseGeometry, heading: float, g: StripGeometry, lead: float, kin: Kinematics) -> float:
+    """The route's own estimate of a heading's lines: the line order and start `route.order_pass` chooses, its
+    waypoints (each run's lead-in, first station and end) timed by `path_time`, as `estimates.estimate` times the
+    survey."""
+    fr = LineFrame(heading)
+    segs = build_lines(fr.geom_to_frame(area), None, g)
+    runs, _ = order_pass(Pass(1, fr, tuple(segs)), lead, kin, g.spacing, None)
+    return path_time(np.array([p for r in runs for p in (r.lead_in_xy, tuple(r.station_xy[0]), r.end_xy)]), kin)
+
+
+@st.composite
+def _quadrilateral(draw) -> shapely.Polygon:
+    """Four corners at random bearings (in their order) and distances (300-1000 m) round the origin."""
+    bearings = sorted(draw(st.lists(st.floats(0.0, 2.0 * math.pi, exclude_max=True), min_size=4, max_size=4)))
+    radii = draw(st.lists(st.floats(300.0, 1000.0), min_size=4, max_size=4))
+    return shapely.Polygon([(r * math.cos(b), r * math.sin(b)) for b, r in zip(bearings, radii)])
+
+
+# the search's choice and the route's estimate may differ by the rounding of the same sums taken in the line frame
+# and on the grid: 1e-6
+@settings(max_examples=10, deadline=None)
+@given(area=_quadrilateral(), spacing_r=st.floats(0.4, 2.5), share=st.floats(0.0, 0.6), towards=st.floats(0.0, 360.0))
+def test_the_chosen_heading_is_the_fastest_by_the_routes_own_estimate(area, spacing_r, share, towards):
+    """A plane at 18 m/s (turn radius R at 30° of bank, ArduPlane's L1 reach and three of it as lead-in) in a wind
+    up to 0.6 of its air speed, its lines 0.4 to 2.5 R apart (closer than 2R the route flies skip-line orders):
+    the heading the search chooses is one whose route, as the route step orders it, the estimate times no
+    longer than that of any other candidate heading. (Pricing the plain order from the lowest line alone, the search
+    chose headings whose routes the estimate timed up to 1.164 times another candidate's: 74 random cases of these.)"""
+    assume(area.is_valid and area.area > 1e4)
+    radius = AIR**2 / (9.80665 * math.tan(math.radians(30.0)))
+    reach = 0.75 * 17.0 * AIR / math.pi
+    spacing = spacing_r * radius
+    g = StripGeometry(2.5 * spacing, 100.0, spacing, 40.0, 2, 2, 0, 40.0 / 2.0 + radius + 1.0)
+    wind = _wind(share * AIR, towards)
+    kin = Kinematics("plane", AIR, 2.0, radius, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=reach)
+    chosen = _search(area, kin, g, 3.0 * reach)
+    timed = {h: _route_estimate(area, h, g, 3.0 * reach, kin) for h in {*candidate_headings(area), chosen}}
+    fastest = min(timed, key=timed.__getitem__)
+    assert timed[chosen] <= timed[fastest] * (1.0 + 1e-6), (chosen, timed[chosen], fastest, timed[fastest])
+
+
 def test_a_strong_wind_along_the_still_air_lines_turns_them():
     """The test above can fail: the still-air heading flies its lines straight into and with the wind, which
     the integrated track shows slower than the heading chosen in that wind."""
-    calm = Kinematics("plane", AIR, 2.0, SPACING / 2.0)
+    calm = Kinematics("plane", AIR, 2.0, SPACING / 2.0, reach_m=REACH)
     still = _search(AREA, calm)
     wind = _wind(0.7 * AIR, still)
-    windy = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    windy = Kinematics("plane", AIR, 2.0, SPACING / 2.0, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=REACH)
     chosen = _search(AREA, windy)
     assert abs((chosen - still + 90.0) % 180.0 - 90.0) > 20.0
     flown = {h: _flown_time(build_lines(LineFrame(h).geom_to_frame(AREA), None, G), h, wind) for h in (still, chosen)}

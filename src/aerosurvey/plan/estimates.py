@@ -15,6 +15,7 @@ from aerosurvey.plan.flight_time import (
     path_time,
     plane_transit_time,
 )
+from aerosurvey.plan.landing import way_home
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Route, aims_per_place
 from aerosurvey.plan.sun import elevation_over_window
@@ -22,10 +23,11 @@ from aerosurvey.spec import MissionSpec
 
 
 def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], stations: Stations, kin: Kinematics,
-             home_xy: tuple[float, float], heights: Heights, base: float, k: float, hover_s: float | None = None,
-             hover_look_s: float = 0.0) -> dict[str, float]:
+             home_xy: tuple[float, float], end_xy: tuple[float, float], heights: Heights, base: float, k: float,
+             hover_s: float | None = None, hover_look_s: float = 0.0) -> dict[str, float]:
     """Distances and times on the ground (grid lengths divided by the scale factor k), each leg at
-    its ground speed in the wind of `kin` (planner.in_wind); with
+    its ground speed in the wind of `kin` (planner.in_wind); the way home to `end_xy` (a landing plane's
+    approach waypoint, else the launch point) and on to the touchdown, as each sortie's (`landing.way_home`); with
     hover-and-capture (`hover_s` at rest at each place, `hover_look_s` at each further aim there) the stops
     at the stations too."""
     home = (home_xy[0] / k, home_xy[1] / k)
@@ -35,7 +37,8 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     xy = np.asarray([(w.x, w.y) for w in wps]) / k
     pts = xy[n_out: len(xy) - n_back]
     leg_out = np.vstack([[home], xy[: n_out + 1]])
-    leg_back = np.vstack([xy[len(xy) - n_back - 1:], [home]])
+    via = [(float(x), float(y)) for x, y in xy[len(xy) - n_back:]]
+    leg_back = np.vstack([xy[len(xy) - n_back - 1], *way_home(via, (end_xy[0] / k, end_xy[1] / k), home)])
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     survey_time = path_time(pts, kin)
     if hover_s is not None:
@@ -49,7 +52,8 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     v = spec.vehicle
     if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
         t_out, t_back, t_climb, t_descent = plane_transit_time(leg_out, leg_back, climb, v.climb_rate_ms,
-                                                               v.cruise_speed_ms, v.descent_rate_ms, kin)
+                                                               v.cruise_speed_ms, v.descent_rate_ms, kin,
+                                                               v.landing_speed_ms if end_xy != home_xy else None)
     else:
         transit_kin = kin.cruising(v.cruise_speed_ms)
         t_out, t_back = path_time(leg_out, transit_kin), path_time(leg_back, transit_kin)

@@ -34,6 +34,7 @@ class Kinematics:
     wind_x: float = 0.0
     wind_y: float = 0.0
     airspeed_ms: float = math.inf  # copters: the most air speed (vehicle.max_airspeed_ms); planes fly speed_ms
+    reach_m: float = 0.0  # planes: how far short of a waypoint ArduPlane turns for the next (one L1 distance)
 
     @property
     def calm(self) -> bool:
@@ -113,11 +114,22 @@ def plane_turn_length(lateral: float, radius: float) -> float:
     return radius * (math.pi + 4 * alpha)
 
 
+def plane_reversal(lateral: np.ndarray, ahead: np.ndarray, radius: float,
+                   reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """A plane's reversal from a line onto the next one, the one price of it (`path_time`, so `quick_cost`, and
+    `quick_cost_lower_bounds`): the connector to the next line's lead-in waypoint lies `lateral` across the line
+    and runs `ahead` along it. ArduPlane flies on along the line towards that waypoint until `reach` short of it
+    (its L1 turn distance, `Kinematics.reach_m`), then turns onto the next line (`plane_turn_lengths`).
+    (turn length, the stretch flown on before it); elementwise, and the stretch grows with `ahead`."""
+    return plane_turn_lengths(lateral, radius), np.maximum(np.asarray(ahead, float) - reach, 0.0)
+
+
 def plane_turn_lengths(lateral: np.ndarray, radius: float) -> np.ndarray:
     """`plane_turn_length` of many non-negative distances at once (numpy's arccos may differ
     from math.acos by an ulp: for bounds, not for the route's own times)."""
     d = np.asarray(lateral, float)
-    bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + d) / (4.0 * radius))))
+    with np.errstate(divide="ignore", invalid="ignore"):  # no turn radius: no bulb (d ≥ 2R)
+        bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + d) / (4.0 * radius))))
     out: np.ndarray = np.where(d >= 2.0 * radius, math.pi * radius + (d - 2.0 * radius), bulb)
     return out
 
@@ -267,18 +279,21 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     # in wind each metre counts its slowness (still-air metres that take as long; 1 in calm air)
     slow = [1.0] * len(lengths) if k.calm else [k.slowness(a) for a in ang.tolist()]
     total_len = float(lengths.sum()) if k.calm else float(np.dot(lengths, slow))
-    i = 0
-    while i < len(turn) - 1:
-        # a reversal: corner, short leg, corner (a leg straight on from the one before, as a line from its
-        # lead-in, is no corner: paired with the next corner it would replace the line itself by a turn)
-        if turn[i] > STRAIGHT_ON_DEG and turn[i + 1] > STRAIGHT_ON_DEG and turn[i] + turn[i + 1] > 150.0:
-            u = seg[i] / lengths[i]
-            lateral = abs(u[0] * seg[i + 1][1] - u[1] * seg[i + 1][0])
-            total_len += (plane_turn_length(lateral, k.turn_radius_m) * k.turn_slowness(float(ang[i]), float(ang[i + 1]))
-                          - lengths[i + 1] * slow[i + 1])
-            i += 2
-        else:
-            i += 1
+    # a reversal: corner, short leg, corner (a leg straight on from the one before, as a line from its
+    # lead-in, is no corner: paired with the next corner it would replace the line itself by a turn)
+    corner = turn > STRAIGHT_ON_DEG
+    pairs: list[int] = []
+    for i in np.flatnonzero(corner[:-1] & corner[1:] & (turn[:-1] + turn[1:] > 150.0)).tolist():
+        if not pairs or i > pairs[-1] + 1:  # the corner after a pair pairs with none
+            pairs.append(i)
+    if pairs:
+        at = np.asarray(pairs)
+        u, after = seg[at] / lengths[at, None], seg[at + 1]
+        arc, stretch = plane_reversal(np.abs(u[:, 0] * after[:, 1] - u[:, 1] * after[:, 0]),
+                                      u[:, 0] * after[:, 0] + u[:, 1] * after[:, 1], k.turn_radius_m, k.reach_m)
+        sweep = [1.0] * len(pairs) if k.calm else [k.turn_slowness(float(ang[i]), float(ang[i + 1])) for i in pairs]
+        before, connector = np.asarray(slow)[at], np.asarray(slow)[at + 1]
+        total_len += float(np.dot(arc, sweep) + np.dot(stretch, before) - np.dot(lengths[at + 1], connector))
     return total_len / k.speed_ms
 
 
@@ -453,9 +468,33 @@ def _legs_time(points: np.ndarray, k: Kinematics) -> float:
     return sum(path_time(points[i:i + 2], k) for i in range(len(points) - 1))
 
 
+def line_orders(n_lines: int, spacing: float, turn_radius: float, vehicle: str) -> list[list[int]]:
+    """Candidate line orders: plain boustrophedon, and for planes whose turn diameter is
+    larger than the spacing, interleaved skip-line orders (0, k, 1, k+1, …) so that most
+    turns are at least 2R wide. The route flies the fastest of them (`route.order_pass`), each from
+    either end and either way, and the heading search prices the same (`quick_cost`)."""
+    orders = [list(range(n_lines))]
+    if vehicle == "plane" and spacing < 2.0 * turn_radius and n_lines > 2:
+        kmax = min(n_lines - 1, math.ceil(2.0 * turn_radius / spacing) + 1)
+        for k in range(2, kmax + 1):
+            order: list[int] = []
+            for block in range(0, n_lines, 2 * k):
+                lo = list(range(block, min(block + k, n_lines)))
+                hi = list(range(block + k, min(block + 2 * k, n_lines)))
+                for i in range(max(len(lo), len(hi))):
+                    if i < len(lo):
+                        order.append(lo[i])
+                    if i < len(hi):
+                        order.append(hi[i])
+            orders.append(order)
+    return orders
+
+
 def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics, frame: LineFrame) -> float:
-    """Estimated time of a boustrophedon over the segments, in their own line `frame` (the wind of `k`,
-    on the planning grid, turned into it).
+    """Estimated time of the fastest way over the segments the route considers (`route.order_pass`): each
+    of `line_orders` (the lines' spacing read off their ordinates), from either end and with the first line
+    flown either way, every line from its lead-in to half a base past its last station, in their own line
+    `frame` (the wind of `k`, on the planning grid, turned into it).
 
     Used to compare headings: it needs only the run ends.
     """
@@ -463,16 +502,20 @@ def quick_cost(segments: list[LineSegment], lead_in: float, k: Kinematics, frame
     by_line: dict[int, list[LineSegment]] = {}
     for s in segments:
         by_line.setdefault(s.line, []).append(s)
-    pts: list[tuple[float, float]] = []
-    for i, line in enumerate(sorted(by_line)):
-        segs = sorted(by_line[line], key=lambda s: s.x0)
-        d = 1 if i % 2 == 0 else -1
-        if d < 0:
-            segs.reverse()
-        for s in segs:
-            first, last = (s.x0, s.x1) if d > 0 else (s.x1, s.x0)
-            pts.extend([(first - d * lead_in, s.v), (first, s.v), (last + d * s.base / 2.0, s.v)])
-    return path_time(np.asarray(pts), k)
+    lines = [sorted(by_line[line], key=lambda s: s.x0) for line in sorted(by_line)]
+    spacing = (lines[-1][0].v - lines[0][0].v) / (len(lines) - 1) if len(lines) > 1 else math.inf
+    best = math.inf
+    for order in line_orders(len(lines), spacing, k.turn_radius_m, k.vehicle):
+        for ordered in (order, order[::-1]):
+            for first_dir in (1, -1):
+                pts: list[tuple[float, float]] = []
+                for i, line in enumerate(ordered):
+                    d = first_dir if i % 2 == 0 else -first_dir
+                    for s in lines[line] if d > 0 else lines[line][::-1]:
+                        first, last = (s.x0, s.x1) if d > 0 else (s.x1, s.x0)
+                        pts.extend([(first - d * lead_in, s.v), (first, s.v), (last + d * s.base / 2.0, s.v)])
+                best = min(best, path_time(np.asarray(pts), k))
+    return best
 
 
 def _least_gain(d: np.ndarray, k: Kinematics) -> tuple[np.ndarray, float]:
@@ -504,8 +547,8 @@ def _connector_ahead(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: floa
 def connector_stops(lb: LineBounds, i: np.ndarray, j: np.ndarray, lead_in: float, base: float) -> np.ndarray:
     """Per pair of sure lines (i, j) of a heading: is a copter surely stopped at both corners of
     the connector from line i to line j (each turn sharper than CORNER_DEG), whichever way the two
-    lines are flown (see quick_cost_lower_bounds)?"""
-    dv = lb.v[j] - lb.v[i]
+    lines are flown (see quick_cost_lower_bounds)? (j, i): the connector from line j back to line i."""
+    dv = np.abs(lb.v[j] - lb.v[i])
     cot = 1.0 / math.tan(math.radians(CORNER_DEG)) * (1.0 - 1e-6)
     stops = np.ones(len(i), bool)
     for lo, hi in _connector_ahead(lb, i, j, lead_in, base):
@@ -538,20 +581,22 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     Between two sure lines with unsure ones between them there is at least one connector and
     they add up to the ordinate difference; each connector has G ≥ m or the extra length ≥ Δv.
 
-    Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two
-    corners add up to more than 150°, by the turn `plane_turn_length` over its lateral offset,
-    never shorter than that offset; it pairs corners from the first on, skipping the corner
-    after a pair, and a leg straight on from the one before, within STRAIGHT_ON_DEG, makes no
-    corner to pair). A connector's offset is Δv (the leg before it runs along the line), so it
-    counts at least Δv. A connector that surely turns by at most 150° out of the line before
-    it ("gentle", from the bounds of both lines' ends, either way they are flown) is surely
-    replaced by the turn over Δv: its first corner is not skipped, as the 0° corner before it
-    pairs with none. Its second corner is then skipped, so the lead-in after it (lead_in > 0)
-    is not replaced. A sure line with gentle connectors in and out (or only surely empty lines
-    beyond it) thus keeps its first lead-in and its last run: with no reversal within (a line
-    of one run has none) nothing of it is replaced, λ; else its first reversal replaces the
-    leg before it and the lead-in after it by the turn over 0 each: at least
-    lead_in + base/2 + 2·turn(0).
+    The lines are flown in any of `line_orders`, from either end, the first line either way (quick_cost
+    prices the fastest): the copter's connectors join the same neighbouring lines in the plain order and its
+    reverse, so a connector's corners are checked both ways (`connector_stops` of (i, j) and of (j, i)).
+
+    Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two corners add up to
+    more than 150°, by `plane_reversal`: the turn over its lateral offset and the stretch flown on before it).
+    With lead_in > 0 every line's part begins with its lead-in straight on into its first station (no corner),
+    so the corners pair as laid: each connector between two lines (flown opposite ways, its two corners add
+    up to 180°) is replaced by its reversal, and nothing of a line's part is; within a line, a connector back
+    to the next run's lead-in (180° and 180°) is replaced by the turn over 0. A line of one run (lb.single)
+    counts λ; one of more runs λ (its runs joined straight on) or at least two runs' lead-ins and half bases
+    and the turn over 0 between them. Of any order, the connectors between lines are at least (sure lines − 1)
+    (C), their lateral offsets add up to at least the sure lines' span, and a reversal's turn is at least πR,
+    growing by a metre a metre beyond an offset of 2R (`plane_turn_lengths`; its stretch at least 0): they
+    count at least C·πR + max(0, span − 2R·C). With lead_in = 0 the corners may pair otherwise: a connector
+    counts at least its offset (the leg before it runs along a line), so together at least the span.
 
     In wind (`k` on the planning grid: quick_cost turns it into each heading's frame) a plane flies
     every metre, and every turn, in at least `least_slowness` of its still-air time, whatever its
@@ -580,30 +625,25 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
         total = per_heading(exists, lam / speed + np.minimum(gain[:len(lam)], 3.0 * m))
         # a joined connector whose corners are surely both sharper than 30°, whichever way the two
         # lines are flown, is a run of its own (see the docstring)
-        stops = connector_stops(lb, i, j, lead_in, base)
+        stops = connector_stops(lb, i, j, lead_in, base) & connector_stops(lb, j, i, lead_in, base)
         own = dv[joined] / speed + gain[len(lam):]
         total += per_heading(i[joined], np.where(stops[joined], own, np.minimum(own, 2.0 * dv[joined] / speed)))
         total += per_heading(i[~joined], dv[~joined] / speed + min(m, gap / speed))
         return total * (1.0 - 1e-7)  # (in wind a copter's every metre takes at least as long: least_slowness is 1)
-    # plane: connectors that surely turn by at most 150° out of the line before them, whichever
-    # way that line is flown (see the docstring)
-    cot30 = math.sqrt(3.0) * (1.0 - 1e-6)
-    (ahead_right, _), (ahead_left, _) = _connector_ahead(lb, i, j, lead_in, base)
-    gentle = joined & (ahead_right >= -dv * cot30) & (ahead_left >= -dv * cot30) & (lead_in > 1e-6)
-    # each heading's first and last sure line: are all lines before (after) it surely empty?
-    start = np.flatnonzero(np.r_[True, hid[1:] != hid[:-1]])
-    end = np.r_[start[1:], len(hid)] - 1
-    before_start = np.where(start > 0, unknown[np.maximum(start - 1, 0)], 0)[hid[exists]]
-    known_before = unknown[exists] == before_start
-    known_after = unknown[exists] == unknown[end][hid[exists]]
-    # a sure line's connectors in and out, where it has them
-    first = np.r_[True, hid[exists[1:]] != hid[exists[:-1]]] if len(exists) else np.zeros(0, bool)  # no sure line: none
-    last = np.r_[first[1:], True] if len(exists) else np.zeros(0, bool)
-    into, out = np.zeros(len(exists), bool), np.zeros(len(exists), bool)
-    into[~first] = gentle
-    out[~last] = gentle
-    as_laid = (np.where(first, known_before, into) & np.where(last, known_after, out) & (lead_in > 1e-6))
-    short = lead_in + base / 2.0 + 2.0 * plane_turn_length(0.0, k.turn_radius_m)
-    length = per_heading(exists[as_laid], np.where(lb.single[exists], lam, np.minimum(lam, short))[as_laid])
-    length += per_heading(i, np.where(gentle, plane_turn_lengths(dv, k.turn_radius_m), dv))
+    # plane: the sure lines' parts and the reversals between them, whatever the order (see the docstring)
+    radius = k.turn_radius_m
+    if not len(exists):
+        return np.zeros(frames)
+    first = np.flatnonzero(np.r_[True, hid[exists[1:]] != hid[exists[:-1]]])
+    last = np.r_[first[1:], len(exists)] - 1
+    span = per_heading(exists[first], v[exists[last]] - v[exists[first]])
+    if lead_in <= 1e-6:
+        return span / speed * k.least_slowness * (1.0 - 1e-7)
+    zero = np.zeros(1)
+    back, _ = plane_reversal(zero, zero, radius, k.reach_m)  # within a line, back onto it
+    least, _ = plane_reversal(np.full(1, 2.0 * radius), zero, radius, k.reach_m)  # πR
+    joined_runs = 2.0 * (lead_in + base / 2.0) + float(back[0])
+    length = per_heading(exists, np.where(lb.single[exists], lam, np.minimum(lam, joined_runs)))
+    connectors = per_heading(exists[first], last - first)
+    length += connectors * float(least[0]) + np.maximum(0.0, span - 2.0 * radius * connectors)
     return length / speed * k.least_slowness * (1.0 - 1e-7)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from aerosurvey.spec import MissionSpec
@@ -44,6 +45,17 @@ class Landing:
         back = math.radians((self.wind_from_deg + 180.0) % 360.0)
         d_north, d_east = self.approach_m * math.cos(back), self.approach_m * math.sin(back)
         return lon + d_east / (111_320.0 * math.cos(math.radians(lat))), lat + d_north / 111_320.0
+
+
+XY = tuple[float, float]
+
+
+def way_home(via: Sequence[XY], end: XY, home: XY) -> list[XY]:
+    """A flight's way home after its last place, the one path of the whole mission's estimate and of each sortie's:
+    the detours `via` to where the way home ends (`end`: a landing plane's approach waypoint, else the launch point),
+    then on to the touchdown at `home` where that is another place (the approach, flown at the landing speed:
+    `flight_time.plane_transit_time`)."""
+    return [*via, *([end] if end != home else []), home]
 
 
 def lands_with_approach(spec: MissionSpec) -> bool:

@@ -206,7 +206,13 @@ def plane_lead_in(speed_ms: float, nav_period_s: float, damping: float = 0.75) -
     and 5-6 m off (then within a quarter base) with 150-220 m, i.e. from about three L1
     distances on.
     """
-    return 3.0 * damping * nav_period_s * speed_ms / math.pi
+    return 3.0 * l1_distance(speed_ms, nav_period_s, damping)
+
+
+def l1_distance(speed_ms: float, nav_period_s: float, damping: float = 0.75) -> float:
+    """How far ahead ArduPlane's L1 controller looks: ζ·P·v/π (NAVL1_DAMPING ζ, NAVL1_PERIOD P); it turns for the
+    next waypoint about this far short of the one it flies to (`Kinematics.reach_m`)."""
+    return damping * nav_period_s * speed_ms / math.pi
 
 
 def stop_distance(speed_ms: float, accel_ms2: float) -> float:

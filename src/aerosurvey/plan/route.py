@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aerosurvey.plan.detours import Detours, clip_lead_in
-from aerosurvey.plan.flight_time import Kinematics, path_time
+from aerosurvey.plan.flight_time import Kinematics, line_orders, path_time, plane_takeoff
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 from aerosurvey.plan.passes import Pass, Route, Run, Strip, Waypoint
@@ -183,27 +183,6 @@ def _cells_route(p: Pass, todo: list[list[LineSegment]], lead_in: float,
     return legs
 
 
-def line_orders(n_lines: int, spacing: float, turn_radius: float, vehicle: str) -> list[list[int]]:
-    """Candidate line orders: plain boustrophedon, and for planes whose turn diameter is
-    larger than the spacing, interleaved skip-line orders (0, k, 1, k+1, …) so that most
-    turns are at least 2R wide."""
-    orders = [list(range(n_lines))]
-    if vehicle == "plane" and spacing < 2.0 * turn_radius and n_lines > 2:
-        kmax = min(n_lines - 1, math.ceil(2.0 * turn_radius / spacing) + 1)
-        for k in range(2, kmax + 1):
-            order: list[int] = []
-            for block in range(0, n_lines, 2 * k):
-                lo = list(range(block, min(block + k, n_lines)))
-                hi = list(range(block + k, min(block + 2 * k, n_lines)))
-                for i in range(max(len(lo), len(hi))):
-                    if i < len(lo):
-                        order.append(lo[i])
-                    if i < len(hi):
-                        order.append(hi[i])
-            orders.append(order)
-    return orders
-
-
 def _unit(bearing_deg: float) -> tuple[float, float]:
     h = math.radians(bearing_deg)
     return math.sin(h), math.cos(h)
@@ -268,15 +247,23 @@ def _way_time(a: tuple[float, float], b: tuple[float, float], k: Kinematics) -> 
 class Transits:
     """The ways from the launch point to the flight's first pass and home from its last (`routing.plan_route`),
     flown with `kin` (the transits' speed in the wind, `Kinematics.cruising`). A plane climbs and descends while it
-    flies them (`estimates.estimate`): each takes at least its climb (descent) time."""
+    flies them (`estimates.estimate`): its way out is its take-off along it (`flight_time.plane_takeoff`: the climb
+    to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms`) and the rest of it, and its way home
+    takes at least its descent time."""
 
     kin: Kinematics
     home_from: Callable[[tuple[float, float]], tuple[float, float]]  # where the way home ends, of a flight from there
-    climb_s: float = 0.0  # a plane's climb to the survey height (0: a copter's is vertical, flown apart)
+    climb_m: float = 0.0  # a plane's climb to the survey height (0: a copter's is vertical, flown apart)
+    climb_rate_ms: float = 1.0
+    takeoff_speed_ms: float = 0.0
     descent_s: float = 0.0
 
     def out_s(self, home: tuple[float, float], first: tuple[float, float]) -> float:
-        return max(_way_time(home, first, self.kin), self.climb_s)
+        if self.climb_m <= 0.0:
+            return _way_time(home, first, self.kin)
+        climb, after = plane_takeoff(np.array([home, first]), self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms,
+                                     self.kin)
+        return climb + after
 
     def home_s(self, last: tuple[float, float], flight_start: tuple[float, float]) -> float:
         return max(_way_time(last, self.home_from(flight_start), self.kin), self.descent_s)

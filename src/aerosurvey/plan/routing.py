@@ -37,6 +37,7 @@ class RoutePlan:
     detours: Detours
     transit_out: tuple[tuple[float, float], ...]  # detour corners from home to the first waypoint
     transit_back: tuple[tuple[float, float], ...]  # from the last waypoint home
+    end_xy: tuple[float, float]  # where the way home ends: a landing plane's approach waypoint, else home_xy
 
 
 def default_home(site: Site, first: tuple[float, float], clearance: float = 0.0,
@@ -148,8 +149,8 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
 
     kin, v, climb = sensor.kinematics, spec.vehicle, sensor.heights.max_agl_m
     plane = kin.vehicle == "plane"  # a plane climbs and descends on its ways out and home (estimates.estimate)
-    transits = Transits(kin.cruising(v.cruise_speed_ms), home_from, climb / v.climb_rate_ms if plane else 0.0,
-                        descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0)
+    transits = Transits(kin.cruising(v.cruise_speed_ms), home_from, climb if plane else 0.0, v.climb_rate_ms,
+                        v.cruise_speed_ms, descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, kin, [sensor.spacing_m * k] * len(layout.passes),
                             launch_xy, detours, report, sensor.base_m * k, starts, transits)
@@ -168,7 +169,8 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         transit = Detours(shapely.union_all([g for g in (detours.blocked, layout.obstacle) if g is not None]), 0.0)
     try:
         out = climb_out(spec, site, sensor, transit, home, first)
-        back = transit.path(last, end_of_flight(landing, site, home))
+        end = end_of_flight(landing, site, home)
+        back = transit.path(last, end)
     except ValueError as exc:
         raise InputError(f"routing failed: {exc} (from the launch point to the survey or back)") from None
-    return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back))
+    return RoutePlan(route, home, launch_xy is not None, detours, tuple(out), tuple(back), end)

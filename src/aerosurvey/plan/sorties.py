@@ -39,6 +39,7 @@ from aerosurvey.plan.flight_time import (
     path_time,
     plane_transit_time,
 )
+from aerosurvey.plan.landing import way_home
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
 from aerosurvey.plan.passes import Run
 from aerosurvey.plan.progress import Progress, no_progress
@@ -342,7 +343,7 @@ class Splitter:
         """(way out, way home, polyline out: the site and the way out, polyline home: the way home, the end, the site)."""
         out_via, back_via = self._ways(li, p0, p1)
         home, end = (self.sites[li].x, self.sites[li].y), self.plan.ends[li]
-        return out_via, back_via, [home, *out_via], [*back_via, *([end] if end != home else []), home]
+        return out_via, back_via, [home, *out_via], way_home(back_via, end, home)
 
     def _points(self, li: int, a: int, b: int) -> np.ndarray:
         """The sortie's polyline from launch site li, divided by the grid scale (as the old costing made it)."""
@@ -430,7 +431,7 @@ class Splitter:
             assert at == sorted(at), "a run's terrain waypoints follow its stations"
             chain = [(lead[0], lead[1]), (start[0], start[1]), *((w.x, w.y) for w in terr)]
             home, end = (self.sites[li].x, self.sites[li].y), plan.ends[li]
-            after = [*([end] if end != home else []), home]
+            after = way_home([], end, home)
             # every b's own segments (see _Ends): the points as _make_run_waypoints makes them
             bs = np.arange(a, e)
             q = (np.asarray(chain, float) / gs)[np.searchsorted(np.asarray(at, np.int64), bs) + 1]

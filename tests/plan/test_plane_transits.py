@@ -1,0 +1,85 @@
+"""A plane's ways out and home as the route step and the whole mission's estimate time them, against an independent
+integration of the track (`test_wind`'s `_steer`: the air velocity steered against the wind along each leg): the way
+out (`route.Transits`, where a pass starts) climbs at the take-off's air speed along its first leg and flies the
+rest at the survey speed; the whole mission's way home (manifest `estimates`) flies through the landing's approach
+waypoint and the approach at the landing speed, as each sortie's does."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tests.plan.test_wind import _steer
+
+from aerosurvey.inputs import plan_from_files
+from aerosurvey.plan.flight_time import Kinematics
+from aerosurvey.plan.route import Transits
+from aerosurvey.spec import load_spec
+from conftest import make_spec
+
+SURVEY, TAKEOFF, LANDING = 12.5, 22.0, 18.4  # air speeds, m/s: the survey's, the climb-out's, the approach's
+CLIMB_M, CLIMB_RATE = 100.0, 5.0
+
+
+def _ground_speed(direction: np.ndarray, wind: np.ndarray, air: float) -> float:
+    return float(_steer(direction, wind, air) @ direction)
+
+
+@settings(max_examples=40, deadline=None)
+@given(towards=st.floats(0.0, 2.0 * math.pi), w=st.floats(0.0, 8.0), bearing=st.floats(0.0, 2.0 * math.pi),
+       length=st.floats(700.0, 3000.0))
+def test_the_routes_way_out_climbs_at_the_take_off_speed(towards, w, bearing, length):
+    """A leg longer than the climb-out (20 s at up to 30 m/s over the ground): 20 s of climb at 22 m/s through the
+    air along the leg, the rest of it at the survey's 12.5 m/s (before: the whole leg at the survey speed, at least
+    the climb's 20 s)."""
+    wind = np.array([w * math.cos(towards), w * math.sin(towards)])
+    u = np.array([math.cos(bearing), math.sin(bearing)])
+    kin = Kinematics("plane", SURVEY, 2.0, 27.6, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    transits = Transits(kin, lambda first: (0.0, 0.0), CLIMB_M, CLIMB_RATE, TAKEOFF)
+    climb_s = CLIMB_M / CLIMB_RATE
+    climbed = climb_s * _ground_speed(u, wind, TAKEOFF)
+    expected = climb_s + (length - climbed) / _ground_speed(u, wind, SURVEY)
+    assert transits.out_s((0.0, 0.0), (float(u[0] * length), float(u[1] * length))) == pytest.approx(expected, rel=1e-6)
+
+
+def test_the_whole_missions_way_home_flies_the_landing_approach(tmp_path):
+    """A plane landing into a wind from the east (its approach waypoint 800 m west of home, downwind) in 5 m/s
+    from the east, its lines ending east of home: the whole mission's estimate times the way home from the last
+    line's end to the approach waypoint at the survey speed and the approach at the landing speed, as the sorties
+    do (before: straight to the launch point at the survey speed)."""
+    area = [[15.0, 49.4], [15.012, 49.4], [15.012, 49.405], [15.0, 49.405], [15.0, 49.4]]
+    over = {"vehicle": {"type": "plane", "cruise_speed_ms": TAKEOFF, "climb_rate_ms": 6.9, "landing_speed_ms": LANDING},
+            "flight": {"heading": 90.0, "end": "land", "wind_from_deg": 90.0, "approach_m": 800.0},
+            "targets": {"gsd_cm": 2.5, "side_overlap": 0.6, "forward_overlap": 0.75},
+            "conditions": {"wind": "5@90"}, "area": {"launch": [15.006, 49.3985]}}
+    plan = plan_from_files(load_spec(make_spec(tmp_path, over, area=area)))
+    k = plan.site.grid_scale
+    to = math.radians(plan.wind["grid_from_deg"] + 180.0)
+    wind = 5.0 * np.array([math.sin(to), math.cos(to)])
+    survey = plan.sensor.kinematics.speed_ms
+    home = np.asarray(plan.launch.home_xy) / k
+    # the approach waypoint 800 m downwind of home, along the wind's grid bearing (the meridian convergence here
+    # is under 0.1°: under 1.4 m)
+    approach = home + 800.0 * np.array([math.sin(to), math.cos(to)])
+    wps = plan.waypoints
+    last = max(i for i, w in enumerate(wps) if w.kind != "transit")
+    way = [np.array([w.x, w.y]) / k for w in wps[last:]] + [approach]
+
+    def leg_time(a: np.ndarray, b: np.ndarray, air: float) -> float:
+        d = float(np.hypot(*(b - a)))
+        return 0.0 if d == 0.0 else d / _ground_speed((b - a) / d, wind, air)
+
+    back = sum(leg_time(a, b, survey) for a, b in zip(way, way[1:])) + leg_time(approach, home, LANDING)
+    first = next(np.array([w.x, w.y]) / k for w in wps)
+    u = (first - home) / float(np.hypot(*(first - home)))
+    climb_s = max(s for s in plan.altitudes.stations.alt_rel_m) / 6.9
+    climbed = climb_s * _ground_speed(u, wind, TAKEOFF)
+    assert climbed < float(np.hypot(*(first - home)))  # the first leg is longer than the climb-out
+    after_climb = (float(np.hypot(*(first - home))) - climbed) / _ground_speed(u, wind, survey)
+    assert plan.estimates["climb_time_s"] == pytest.approx(climb_s, abs=0.05)
+    assert plan.estimates["transit_time_s"] == pytest.approx(after_climb + back, abs=0.15)
+    straight = sum(leg_time(a, b, survey) for a, b in zip(way[:-1], [*way[1:-1], home]))
+    assert abs(straight - back) > 5.0  # the approach counts
