@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 import shapely
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from tests.conftest import make_spec
 
@@ -81,6 +81,11 @@ TOLERANCE = 0.06
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(area=_quadrilateral(), share=st.floats(0.0, 0.6), from_deg=st.floats(0.0, 360.0, exclude_max=True))
+# a random case: the first round laid two pieces, the second one heading (26.3 degrees) for the spacing solved for all
+# three directions, 30.8 m where its own is 55.1 m (2,899.3 s against 1,845.0 s): the settled layout is laid again for
+# its own directions (planner._under_turned_camera)
+@example(area=[[15.00861081050498, 49.4], [15.004141119075515, 49.4], [15.00282095778261, 49.40860794502196],
+               [14.99593219041704, 49.39949516008396], [15.00861081050498, 49.4]], share=0.4496787678684726, from_deg=0.0)
 def test_auto_is_never_worse_than_along_or_across_the_wind(area, share, from_deg):
     poly = shapely.Polygon(area)
     assume(poly.is_valid and poly.area > 0.0)

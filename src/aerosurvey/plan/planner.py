@@ -14,6 +14,7 @@ Each step is a function of frozen data from the steps before it and can be calle
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
@@ -246,17 +247,31 @@ def _under_turned_camera(sensor: SensorSolution, pattern: Pattern, layouts: Iter
         yield first
         yield from (lay for lay in layouts if {float(h) for h in _line_headings(lay)} <= known)
 
+    def exact(first: Layout) -> tuple[SensorSolution, Iterator[Layout]]:
+        """A settled layout whose solution was made for more directions than its lines run in (a layout
+        of an earlier round, passed over) is laid again for its own directions alone: the spacing is then
+        no tighter than they need (the first of those layouts whose lines run in them; else as settled)."""
+        own = {float(h) for h in _line_headings(first)}
+        if own == known:
+            return sensor, solved(first)
+        again = solve(tuple(sorted({turn(h) for h in own})))
+        fitting = (lay for lay in pattern.layouts(site, again, report) if {float(h) for h in _line_headings(lay)} <= own)
+        better = next(fitting, None)
+        if better is None:
+            return sensor, solved(first)
+        return again, itertools.chain((better,), fitting)
+
     layout = next(layouts)
     for _ in range(FIXED_YAW_ROUNDS):
         wanted = {float(h) for h in _line_headings(layout)}
         if wanted <= known:
-            return sensor, solved(layout)
+            return exact(layout)
         known |= wanted
         sensor = solve(tuple(sorted({turn(h) for h in known})))
         layouts = pattern.layouts(site, sensor, report)
         layout = next(layouts)
     if {float(h) for h in _line_headings(layout)} <= known:
-        return sensor, solved(layout)
+        return exact(layout)
     raise refusal
 
 
