@@ -154,7 +154,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
                      site.exclusions_wgs84)
     est = estimate(spec, routed.route, waypoints, alts.stations, kin, routed.home_xy,
-                   sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s, sensor.hover_look_s)
+                   sensor.heights, sensor.base_m, sensor.lead_in_m, site.grid_scale, sensor.hover_s, sensor.hover_look_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
     return Plan(
