@@ -625,6 +625,31 @@ def test_an_orbit_aims_every_photo_at_the_structure(tmp_path):
     assert abs(ring_ratio - 1.0) <= 0.05, (rings, manifest["estimates"]["survey_time_s"])
 
 
+@pytest.mark.sitl
+def test_an_orbit_cut_by_a_zone_flies_its_pieces_round_the_zone_and_the_structure(tmp_path):
+    """The orbit of `test_an_orbit_aims_every_photo_at_the_structure` with an exclusion zone east of the tower
+    (20 × 8 m, 15 m off its east wall: its 10 m margin, flight.exclusion_margin_m's default, takes the ring's east
+    side): each ring is flown in two pieces, and the route joins them round the zone and round the structure (a
+    straight join crossed the tower 3 m off its wall). Every photo taken, each picture's aim within 2° (as there),
+    the flown track (every POS) outside the zone's margin less the 2 m tracking allowance
+    (`orbit.CLEARANCE_ALLOWANCE_M`) and the stand-off less that allowance from the footprint."""
+    from aerosurvey.plan.orbit import CLEARANCE_ALLOWANCE_M
+
+    zone, margin = shapely.box(20.0, -4.0, 40.0, 4.0), 10.0
+    flown = _fly_orbit(tmp_path, zone)
+    manifest, rows = flown["manifest"], flown["rows"]
+    from_zone = float(shapely.distance(flown["track"], zone).min())
+    nearest = float(shapely.distance(flown["track"], _TOWER).min())
+    print({"photos": len(manifest["stations"]), "runs": len(manifest["lines"]),
+           "worst_pitch_deg": flown["worst_pitch_deg"], "worst_bearing_deg": flown["worst_bearing_deg"],
+           "from_zone_m": from_zone, "nearest_m": nearest, "time_ratio": [r["time_ratio"] for r in rows]})
+    assert len(manifest["lines"]) == 4  # two pieces a ring
+    assert flown["worst_pitch_deg"] <= 2.0 and flown["worst_bearing_deg"] <= 2.0, flown
+    assert not shapely.intersects(flown["track"], zone).any()
+    assert from_zone >= margin - CLEARANCE_ALLOWANCE_M, from_zone
+    assert nearest >= _TOWER_STANDOFF - CLEARANCE_ALLOWANCE_M, nearest
+
+
 #: ArduPlane SITL's take-off (NAV_TAKEOFF at full throttle): 102 m in 14.8 s, at its AIRSPEED_CRUISE (22 m/s) until
 #: the mission's DO_CHANGE_SPEED; its landing approach at 18.4 m/s of air speed (TECS_LAND_ARSPD; docs/planning.md, "Wind")
 SITL_PLANE_CLIMB_RATE_MS, SITL_PLANE_CRUISE_SPEED_MS, SITL_PLANE_LANDING_SPEED_MS = 6.9, 22.0, 18.4
