@@ -45,3 +45,31 @@ def stop_to_stop_time(d: float, speed: float, accel: float, jerk: float) -> floa
         else:
             hi = mid
     return 2.0 * _speed_up(0.5 * (lo + hi), accel, jerk)[0]
+
+
+def _speed_change(d: float, speed: float, accel: float, jerk: float) -> float:
+    """Seconds a stop-to-stop run over `d` metres takes to reach its peak speed (and to brake from it): the
+    speed-up of `stop_to_stop_time`'s motion, to the top speed or to the peak speed of a run too short to cruise."""
+    t, x = _speed_up(speed, accel, jerk)
+    if 2.0 * x <= d:
+        return t
+    return 0.5 * stop_to_stop_time(d, speed, accel, jerk)
+
+
+def flown_through_time(legs: list[float], speed: float, accel: float, jerk: float) -> float:
+    """Seconds from rest to rest along waypoints `legs` metres apart, flown through as ArduCopter's
+    S-curves do (AP_Math/SCurve.cpp, SCurve::advance_target_along_track): every leg is its own
+    stop-to-stop motion, and the next leg starts once this one brakes and has no more time left than
+    the next one's speed-up takes (the two motions add up meanwhile). On a timeline: each leg's start,
+    its braking's start and its end."""
+    start = 0.0
+    end = 0.0
+    for i, d in enumerate(legs):
+        whole = stop_to_stop_time(d, speed, accel, jerk)
+        if i:
+            # the previous leg brakes over its last `brake` seconds; this one starts when the time left of it
+            # is no more than this one's speed-up
+            brake = _speed_change(legs[i - 1], speed, accel, jerk)
+            start = end - min(brake, _speed_change(d, speed, accel, jerk))
+        end = start + whole
+    return end

@@ -71,11 +71,15 @@ def _plan(tmp: Path, footprint: shapely.Polygon, top: float, standoff: float, ma
           **extra: object) -> tuple[Path, dict]:
     ring = np.asarray(footprint.exterior.coords)
     write_geojson(tmp / "structure.geojson", [_lonlat(ring)])
-    pattern = {"kind": "orbit", "standoff_m": standoff, **{k: v for k, v in extra.items() if k != "launch"}}
+    pattern = {"kind": "orbit", "standoff_m": standoff, **{k: v for k, v in extra.items() if k not in ("launch", "zone")}}
     structure = {"file": "structure.geojson", "top_m": top, **({"max_gsd_cm": max_gsd_cm} if max_gsd_cm else {})}
     over: dict = {"pattern": pattern, "structure": structure, "camera": {"model": CAMERA, "trigger": "distance"}}
     if "launch" in extra:
         over["area"] = {"file": "area.geojson", "launch": _lonlat(np.array([extra["launch"]]))[0]}
+    if "zone" in extra:
+        assert isinstance(extra["zone"], shapely.Polygon)
+        write_geojson(tmp / "zone.geojson", [_lonlat(np.asarray(extra["zone"].exterior.coords))])
+        over.setdefault("area", {}).update({"exclusions": ["zone.geojson"]})
     out = tmp / "out"
     code, text = _run("plan", make_spec(tmp, over), "-o", out)
     assert code == 0, text
@@ -221,6 +225,25 @@ def test_the_orbit_covers_the_faces_and_keeps_off_the_structure(tmp_path: Path, 
     layers = math.ceil(top / spacing)
     assert m["pattern"]["parameters"]["layers"] == layers == len(m["pattern"]["passes"])
     assert len(j["heights"]) == layers and j["heights"] == sorted(j["heights"])
+
+
+def test_a_ring_cut_by_a_zone_is_joined_round_the_zone_and_the_structure(tmp_path: Path) -> None:
+    """A zone 15 m east of a 10 m tower, its 10 m margin across the ring's east side (12 m off): each ring is flown
+    in two pieces, and every leg (the joins of the pieces too: a straight one crossed the tower 3 m off its wall)
+    keeps the stand-off less the allowance from the footprint and the margin from the zone; every photo looks at the
+    footprint's nearest point from where it is taken (the last piece ends round the ring's first chord, as an uncut
+    ring does). Flown in ArduCopter SITL: tests/test_sitl.py."""
+    tower, zone, margin = _box(10.0, 10.0), shapely.box(20.0, -4.0, 40.0, 4.0), 10.0
+    out, m = _plan(tmp_path, tower, 10.0, 12.0, max_gsd_cm=None, zone=zone)
+    assert len(m["lines"]) == 2 * len(m["pattern"]["passes"]) == 4
+    j = _judge(out, tower, 10.0, 2.5)
+    print(j)
+    assert j["nearest_leg_m"] >= 12.0 - ALLOWANCE_M, j
+    _assert_looks_at_the_nearest_point(j, 12.0)
+    home, rows = ic.read_wpl(out / "mission.waypoints")
+    xy = np.array([TO_XY.transform(home[0], home[1])] + [TO_XY.transform(r[9], r[8]) for r in rows if int(r[3]) == ic.NAV_WAYPOINT])
+    legs = shapely.linestrings(np.stack([xy[:-1], xy[1:]], axis=1))
+    assert float(shapely.distance(legs, zone).min()) >= margin - 1e-6
 
 
 def test_start_top_flies_the_layers_downwards(tmp_path: Path) -> None:

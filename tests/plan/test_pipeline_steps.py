@@ -64,7 +64,7 @@ def test_steps_one_by_one_with_plain_data():
     assert len(alts.stations.ids) == sum(len(r.station_xy) for r in routed.route.runs)
     assert np.allclose(alts.stations.alt_rel_m, sensor.heights.nominal_agl_m)
     est = estimate(spec, routed.route, alts.waypoints, alts.stations, sensor.kinematics, routed.home_xy, routed.end_xy,
-                   sensor.heights, sensor.base_m, site.grid_scale)
+                   sensor.heights, sensor.base_m, sensor.lead_in_m, site.grid_scale)
     assert est["photos"] == len(alts.stations.ids) and est["total_time_s"] > est["survey_time_s"] > 0
 
 

@@ -219,6 +219,6 @@ def test_each_further_look_adds_its_hold(places: int, runs: int, base: float, ho
     k = Kinematics("copter", speed, 2.5, 0.0)
     look = look_hold_s(settle, cycle)
     assert look >= cycle and look >= settle + GIMBAL_SLEW_S and look in (cycle, settle + GIMBAL_SLEW_S)
-    one = hover_time(places, min(runs, places), base, hold, k)
-    five = hover_time(5 * places, min(runs, places), base, hold, k, 5, look)
+    one = hover_time(places, min(runs, places), base, 0.0, hold, k)
+    five = hover_time(5 * places, min(runs, places), base, 0.0, hold, k, 5, look)
     assert five - one == pytest.approx(4 * places * look, rel=1e-9, abs=1e-9)

@@ -36,10 +36,12 @@ Actions, done in their order when the vehicle reaches their waypoint:
   on the side's bearing in the earth frame (`Gimbal.earth`), the look from the leg's middle. At a
   side's end both looks are the same bearing, so the camera turns continuously round the ring,
   whatever the nose does (ArduCopter's turns smoothly round the ring, the chords' by steps). A
-  `Gimbal` on the line end's look (earth frame) when a `Roi` holds the mount there. The lead-in (no photo on it)
-  holds the first station's look as an earth-frame bearing: the camera is there when the first
-  photo is taken (a region of interest from the lead-in swept the camera round a corner and
-  left it 1.7° behind at the first photo in SITL).
+  `Gimbal` on the line end's look (earth frame) when a `Roi` holds the mount there, or, when another
+  such run follows, on that run's first look (its lead-in's), so the camera turns on the way there.
+  The lead-in (no photo on it) holds the first station's look as an earth-frame bearing: the camera
+  is there when the first photo is taken (a region of interest from the lead-in swept the camera
+  round a corner and left it 1.7° behind at the first photo in SITL; a lead-in a zone cut to
+  nothing left it 87° off).
 - `CameraStart` / `CameraStop`: photos every `distance_m` metres or every `interval_s`
   seconds from a run's first station to its line end (camera.trigger "distance" or "time";
   the camera's own intervalometer, "camera", has none).
@@ -329,8 +331,14 @@ def _waypoints(plan: Plan, wps: tuple[RouteWaypoint, ...], shift: float, first: 
         aim = plan.route.runs[w.run].aim if w.run >= 0 else None
         if aim is not None and aim.outline is not None and w.run in station_of_run \
                 and first_of_run.get(w.run, len(wps)) <= i < len(wps) - 1 and w.kind in ("lead_in", *ON_LINE):
+            after = min((j for j in first_of_run.values() if j > i), default=len(wps))  # the next run's first waypoint
+            nxt = wps[after] if after < len(wps) - 1 else None
             if w.kind != "line_end":
                 want_look: Gimbal | Roi | None = _outline_look(plan, aim, w, wps[i + 1], shift)
+            elif nxt is not None and nxt.kind == "lead_in" and (next_aim := plan.route.runs[nxt.run].aim).outline is not None:
+                # the camera turned to the next run's first look on the way there (its lead-in may be cut short by a
+                # zone: a piece of a ring the zones cut took its first photo as the gimbal was told to turn 87°)
+                want_look = _outline_look(plan, next_aim, nxt, wps[after + 1], shift)
             elif isinstance(held, Roi):
                 # the mount off the region of interest onto a known bearing (the line end's look): no DO_SET_ROI_NONE,
                 # whose stored form ArduPilot changes

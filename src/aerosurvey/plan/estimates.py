@@ -23,13 +23,13 @@ from aerosurvey.spec import MissionSpec
 
 
 def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], stations: Stations, kin: Kinematics,
-             home_xy: tuple[float, float], end_xy: tuple[float, float], heights: Heights, base: float, k: float,
-             hover_s: float | None = None, hover_look_s: float = 0.0) -> dict[str, float]:
+             home_xy: tuple[float, float], end_xy: tuple[float, float], heights: Heights, base: float, lead: float,
+             k: float, hover_s: float | None = None, hover_look_s: float = 0.0) -> dict[str, float]:
     """Distances and times on the ground (grid lengths divided by the scale factor k), each leg at
     its ground speed in the wind of `kin` (planner.in_wind); the way home to `end_xy` (a landing plane's
     approach waypoint, else the launch point) and on to the touchdown, as each sortie's (`landing.way_home`); with
     hover-and-capture (`hover_s` at rest at each place, `hover_look_s` at each further aim there) the stops
-    at the stations too."""
+    at the stations too, the first of each run after its `lead`-metre lead-in."""
     home = (home_xy[0] / k, home_xy[1] / k)
     # the detours from home and back home fly at transit speed, like the straight legs
     n_out = next((i for i, w in enumerate(wps) if w.kind != "transit"), len(wps))
@@ -43,7 +43,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     survey_time = path_time(pts, kin)
     if hover_s is not None:
         rises, arrivals = lanes_in_place(stations.x, stations.y, stations.alt_rel_m, stations.run, k)
-        survey_time += hover_time(len(stations.ids), len(route.runs), base, hover_s, kin, aims_per_place(route.runs),
+        survey_time += hover_time(len(stations.ids), len(route.runs), base, lead, hover_s, kin, aims_per_place(route.runs),
                                   hover_look_s, rises, Climbs(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms),
                                   arrivals)
     transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())

@@ -225,26 +225,38 @@ def lanes_in_place(x: np.ndarray, y: np.ndarray, z: np.ndarray, run: np.ndarray,
     return rises, arrivals
 
 
-def hover_time(stations: int, runs: int, base: float, hold_s: float, k: Kinematics, aims: int = 1,
+def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float, k: Kinematics, aims: int = 1,
                look_s: float = 0.0, rises: np.ndarray | None = None, climbs: Climbs | None = None,
                arrivals: np.ndarray | None = None) -> float:
-    """What hover-and-capture adds to a copter's time over runs flown straight through: at each of
-    `stations` photos it stops (braking and accelerating again over the `base` between two
-    stations of a run, `_straight_time` against cruising it) and rests `hold_s`. With `aims` photos
-    at each place (the camera turned between them), `stations` counts them all: the stops are a
-    place's, its first aim rests `hold_s` and each further aim `look_s` (`look_hold_s`). A station
+    """What hover-and-capture adds to a copter's time over runs flown straight through (`path_time`
+    of the route): at each of `stations` photos it stops (braking and accelerating again over the
+    `base` between two stations of a run, `_straight_time` against cruising it) and rests `hold_s`.
+    With `aims` photos at each place (the camera turned between them), `stations` counts them all:
+    the stops are a place's, its first aim rests `hold_s` and each further aim `look_s`
+    (`look_hold_s`). A run's first station is a stop too (ArduCopter flies on through no waypoint
+    with a hold): the route's run, from its `lead`-metre lead-in on into its line, brakes and speeds
+    up once more than its stops do (a speed change less its overlap with the lead-in, `path_time`;
+    the line's first leg taken at least as long as the lead-in), which comes off. A station
     straight above or below the one before (`rises`, of `lanes_in_place`: a lane flown up or down)
     is reached by its climb or descent (`climbs`) instead of a level base, and the level way to such
     a lane from the one before (`arrivals`) is flown from rest to rest, not straight on."""
     places = stations // aims
     moves = np.zeros(0) if rises is None else np.asarray(rises, float)[np.asarray(rises, float) != 0.0]
     stops = max(places - runs - len(moves), 0)
-    out = places * hold_s + (stations - places) * look_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+    change = _speed_change_time(k.speed_ms, k.accel_ms2, k.jerk_ms3)
+    into_line = change - min(_straight_time(lead, k) / 2.0, change)
+    out = (places * hold_s + (stations - places) * look_s + stops * (_straight_time(base, k) - base / k.speed_ms)
+           - runs * into_line)
     if len(moves):
         assert climbs is not None, "a lane flown up or down is timed at the climb and descent rates"
         out += climbs.time(moves)
+    # path_time flies the level way to a lane on from the way before it (the lanes' places lie in a line along the
+    # wall, a lane's climb unseen in plan): begun as that one brakes, by half the shorter's time at most (`CopterTime`,
+    # the way before as long as this one or longer: the lanes are evenly apart, the first's lead-in longer); from
+    # rest to rest it takes that overlap more
+    top = 2.0 * change
     for d in ([] if arrivals is None else np.asarray(arrivals, float)[np.asarray(arrivals, float) > 0.0].tolist()):
-        out += _straight_time(d, k) - d / k.speed_ms
+        out += min(_straight_time(d, k), top) / 2.0
     return out
 
 
@@ -258,8 +270,17 @@ KEPT = 1e-9
 def path_time(points: np.ndarray, k: Kinematics) -> float:
     """Flight time along a polyline.
 
-    Copter: it stops at every corner sharper than CORNER_DEG and flies straight runs
-    with the acceleration model. Plane: constant speed; a reversal between two lines is
+    Copter: it stops at every corner sharper than CORNER_DEG and flies on through the others
+    as ArduCopter's S-curves do (AP_Math/SCurve.cpp): each leg (from a waypoint to the next) is a
+    stop-to-stop run of its own (`_straight_time`: its speed-up, cruise and braking, or turning
+    back at its peak speed when too short to cruise), and the next leg starts as this one brakes,
+    once the time left of it is no more than the next one's speed-up
+    (SCurve::advance_target_along_track): the two overlap by the shorter of the braking and the
+    speed-up. Long legs overlap by a whole speed change, and a stretch of them takes as long as one
+    run of their total length; a short leg is flown at its own peak speed, whatever the speed
+    asked: in ArduCopter SITL (WPNAV_ACCEL 2.5 m/s², WPNAV_JERK 1 m/s³) an orbit's ring of 4.68 m
+    chords turning 22.5° flew 1.63 m/s for 5.34 m/s commanded, a chord each 2.87 s (docs/planning.md,
+    "An orbit round a structure"). Plane: constant speed; a reversal between two lines is
     flown as the turn of :func:`plane_turn_length` instead of the straight connection.
     """
     if len(points) < 2:
@@ -323,10 +344,10 @@ def kept_segments(points: np.ndarray) -> Segments:
 
 class RouteSegments:
     """The kept segments of the whole runs and the detours between them, in flight order, with
-    path_time's corners, each segment's length flown straight since the last corner (`running`)
-    and, at each corner, the time of the straight stretch it ends (`closed`)."""
+    path_time's corners, each segment's time in its stretch before it (`before`: CopterTime's
+    `run` with it the last leg) and, at each corner, the time of the stretch it ends (`closed`)."""
 
-    __slots__ = ("lengths", "angles", "corners", "running", "closed", "kept_before", "slow")
+    __slots__ = ("lengths", "angles", "corners", "before", "closed", "kept_before", "slow")
 
     def __init__(self, points: np.ndarray, kin: Kinematics):
         self.lengths, self.angles = kept_segments(points)
@@ -337,68 +358,78 @@ class RouteSegments:
         self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > KEPT)]).tolist()
         turn = np.abs((np.diff(np.asarray(self.angles)) + 180.0) % 360.0 - 180.0)
         self.corners: list[int] = (np.flatnonzero(turn > CORNER_DEG) + 1).tolist()
-        self.running: list[float] = []
+        self.before: list[float] = []
         self.closed: dict[int, float] = {}
         at_corner = set(self.corners)
-        for k, length in enumerate(self.slow):
+        times = [_straight_time(x, kin) for x in self.slow]
+        top = 2.0 * _speed_change_time(kin.speed_ms, kin.accel_ms2, kin.jerk_ms3)
+        for k in range(len(self.slow)):
             if k in at_corner:
-                self.closed[k] = _straight_time(self.running[-1], kin)
-            self.running.append(length if k == 0 or k in at_corner else self.running[-1] + length)
+                self.closed[k] = self.before[-1] + times[k - 1]
+            # the same operations as CopterTime.feed's
+            self.before.append(0.0 if k == 0 or k in at_corner else
+                               self.before[-1] + (times[k - 1] - min(times[k - 1], times[k], top) / 2.0))
 
 
 class CopterTime:
     """path_time of a copter (path_time is made by it): it stops at every corner sharper than
-    CORNER_DEG and times each straight stretch by _straight_time (in wind, of its still-air
-    length: each metre times its slowness, `Kinematics.slowness`; the copter slows only where
-    its lean limit is reached). Fed in parts, so that
-    the stretches between corners of the whole runs are timed once for all sorties (`route`)."""
+    CORNER_DEG, and flies on through a gentler one (or straight on) as ArduCopter's S-curves do
+    (`path_time`: each leg a stop-to-stop `_straight_time`, the next begun as it slows). In
+    wind each leg counts its still-air length (each metre times its slowness,
+    `Kinematics.slowness`; the copter slows only where its lean limit is reached). Fed in parts,
+    so that the stretches between corners of the whole runs are timed once for all sorties
+    (`route`). Its state: the stretches ended so far (`total`), the current stretch's time before
+    its last leg (`run`), that leg's direction (`last`) and length (`leg`, None before the first)."""
 
-    __slots__ = ("kin", "total", "run", "last")
+    __slots__ = ("kin", "total", "run", "last", "leg", "top")
 
-    def __init__(self, kin: Kinematics, total: float = 0.0, run: float | None = None, last: float = 0.0):
+    def __init__(self, kin: Kinematics, total: float = 0.0, run: float = 0.0, last: float = 0.0,
+                 leg: float | None = None):
         self.kin = kin
-        self.total = total  # the stretches ended so far
-        self.run = run  # flown straight since the last corner (None before the first kept segment)
-        self.last = last  # direction of the last kept segment
+        self.total, self.run, self.last, self.leg = total, run, last, leg
+        # twice the time of a speed change to cruise: no leg's overlap with the next is longer than half of it
+        self.top = 2.0 * _speed_change_time(kin.speed_ms, kin.accel_ms2, kin.jerk_ms3)
+
+    def state(self) -> tuple[float, float, float, float | None]:
+        """What a CopterTime made of it goes on from (`CopterTime(kin, *state)`)."""
+        return self.total, self.run, self.last, self.leg
 
     def feed(self, segs: Segments) -> None:
-        # the state in locals while the loop runs (the same operations in the same order; measured on
-        # a 57-line boustrophedon's 170 segments: 82-88 -> 75-79 µs, /tmp/p2/feedt.py)
-        total, run, last, kin, corner = self.total, self.run, self.last, self.kin, CORNER_DEG
+        # the state in locals while the loop runs (the same operations in the same order as RouteSegments')
+        total, run, last, leg, kin, corner, top = self.total, self.run, self.last, self.leg, self.kin, CORNER_DEG, self.top
         calm = kin.calm
+        t_leg = 0.0 if leg is None else _straight_time(leg, kin)
         for length, ang in zip(*segs):
             if not calm:  # a metre flown in the wind counts as its still-air length (Kinematics.slowness)
                 length = length * kin.slowness(ang)
-            if run is None:
-                run = length
+            t = _straight_time(length, kin)
+            if leg is None:
+                pass
             elif abs((ang - last + 180.0) % 360.0 - 180.0) > corner:
-                total += _straight_time(run, kin)
-                run = length
+                total += run + t_leg
+                run = 0.0
             else:
-                run += length
-            last = ang
-        self.total, self.run, self.last = total, run, last
+                run += t_leg - min(t_leg, t, top) / 2.0
+            leg, t_leg, last = length, t, ang
+        self.total, self.run, self.last, self.leg = total, run, last, leg
 
     def route(self, rs: RouteSegments, k0: int, k1: int) -> None:
-        """Feed the route's kept segments k0..k1-1: the first as any other, then one by one up to
-        the first corner, the stretches between corners by their times, the last by its length."""
+        """Feed the route's kept segments k0..k1-1: one by one up to the first corner, the
+        stretches between corners by their times, the last one's time before its last leg."""
         if k0 >= k1:
             return
-        self.feed(([rs.lengths[k0]], [rs.angles[k0]]))
-        assert self.run is not None
         ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
-        for k in range(k0 + 1, rs.corners[ci] if ci < cj else k1):
-            self.run += rs.slow[k]
+        end = rs.corners[ci] if ci < cj else k1
+        self.feed((rs.lengths[k0:end], rs.angles[k0:end]))
         if ci < cj:
-            self.total += _straight_time(self.run, self.kin)
+            assert self.leg is not None
+            self.total += self.run + _straight_time(self.leg, self.kin)
             for c in rs.corners[ci + 1:cj]:
                 self.total += rs.closed[c]
-            self.run = rs.running[k1 - 1]
-        self.last = rs.angles[k1 - 1]
+            self.run, self.leg, self.last = rs.before[k1 - 1], rs.slow[k1 - 1], rs.angles[k1 - 1]
 
     def time(self) -> float:
-        return 0.0 if self.run is None else self.total + _straight_time(self.run, self.kin)
-
+        return 0.0 if self.leg is None else self.total + self.run + _straight_time(self.leg, self.kin)
 
 
 #: A copter lands its last metres slowly (ArduCopter: below LAND_ALT_LOW = 10 m at LAND_SPEED = 0.5 m/s).
@@ -565,7 +596,9 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     sure to exist, P runs from before its first station to past its last one: it is at least
     λ = extent + lead_in + base/2 long.
 
-    Copter (t = d/v + G(d) per stop-to-stop run, G ≥ least_gain): every leg is along the line
+    Copter (t = d/v + G(d) per stop-to-stop run, G ≥ least_gain; a stretch between stops flown on
+    through its waypoints takes at least a run of its whole length: tests/plan/test_copter_chain.py):
+    every leg is along the line
     but the connectors, so a stop within P is a reversal (two corners of 180°: ≥ 3 runs, G ≥ 3m,
     m = least_gain(0)); otherwise P lies in one run of length ≥ λ. A connector's two corners
     add up to 180°, so at least one is a stop: either both are (the connector is a run of

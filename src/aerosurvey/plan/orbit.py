@@ -4,9 +4,10 @@ per layer between the structure's base and top, the camera turned to the structu
 - The ring is the footprint grown by `pattern.standoff_m` with round joins (a buffer): every
   vertex of it is the stand-off from the footprint, its chords round a corner at most
   `RING_SAG_M` inside it, and round a corner the camera keeps looking at the corner. The chords
-  are as long as that allows: ArduCopter slows at every waypoint (in SITL round a 10 m tower
-  12 m off, 16 chords a quarter circle flew the ring at 0.81 m/s, 4 at 1.81 m/s, for 5.34 m/s
-  planned). It starts at its northmost point and
+  are as long as that allows: ArduCopter flies a chain of short legs at the peak speed of a
+  stop-to-stop run over one (in SITL round a 10 m tower 12 m off, 16 chords a quarter circle
+  flew the ring at 0.81 m/s, 4 at 1.81 m/s, for 5.34 m/s planned; `flight_time.path_time`
+  times it so). It starts at its northmost point and
   is flown clockwise seen from above, one way only (`Pass.one_way`). The camera looks at the
   footprint's nearest point (`Aim.outline`): square to the wall along a side of the ring, at the
   corner round a round join, continuously round the ring (at a side's end both are the same

@@ -154,8 +154,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
                                "end, each from the nearer (battery.launch_points chooses the places)",)
     fence = geofence(site.planar, [(w.x, w.y) for w in waypoints] + [(s.x, s.y) for s in (*sites, *rally)],
                      site.exclusions_wgs84)
-    est = estimate(spec, routed.route, waypoints, alts.stations, kin, routed.home_xy, routed.end_xy,
-                   sensor.heights, sensor.base_m, site.grid_scale, sensor.hover_s, sensor.hover_look_s)
+    est = estimate(spec, routed.route, waypoints, alts.stations, kin, routed.home_xy, routed.end_xy, sensor.heights,
+                   sensor.base_m, sensor.lead_in_m, site.grid_scale, sensor.hover_s, sensor.hover_look_s)
     sun, sun_warnings = sun_over_window(spec, home[0], home[1])
     report("planned", 1.0)
     return Plan(

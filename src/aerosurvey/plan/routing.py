@@ -132,7 +132,16 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         lx, ly = site.planar.xy(np.array([spec.area.launch[0]]), np.array([spec.area.launch[1]]))
         launch_xy = (float(lx[0]), float(ly[0]))
         check_launch(spec, site, launch_xy, f"area.launch = {list(spec.area.launch)}", "area.launch")
-    detours = Detours(site.zones, spec.flight.exclusion_margin_m)
+    zones = Detours(site.zones, spec.flight.exclusion_margin_m)
+    # the ways from and back to the launch point go round the zones and the structure the pattern flies round
+    transit = zones if layout.obstacle is None else \
+        Detours(shapely.union_all([g for g in (zones.blocked, layout.obstacle) if g is not None]), 0.0)
+    # where the runs keep off that structure (an orbit's rings, cut into pieces by the zones too), so do the ways the
+    # route lays between them (a straight join of two pieces of a ring crossed it); a quarry's upper lanes lie over
+    # its lower faces in plan, and their joins go round the zones only
+    runs_clear = not any(shapely.intersects(layout.obstacle, shapely.LineString(s.path))
+                         for p in layout.passes for s in p.strips if len(s.path) > 1) if layout.obstacle is not None else True
+    detours = transit if runs_clear else zones
     numbers = sorted(p.index for p in layout.passes if not p.empty)
     starts = {}
     for n, (lon, lat) in spec.flight.pass_start:
@@ -161,12 +170,9 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     home = places if isinstance(places, tuple) else nearest(places, first)
     if launch_xy is None:
         check_launch(spec, site, home, "the launch point chosen on the area's edge", "area.launch")
-    transit = detours
-    if layout.obstacle is not None:
-        if shapely.contains_xy(layout.obstacle, *home):
-            raise InputError("the launch point lies within the stand-off of the structure the pattern flies round: "
-                             "give area.launch farther from it", key="area.launch")
-        transit = Detours(shapely.union_all([g for g in (detours.blocked, layout.obstacle) if g is not None]), 0.0)
+    if layout.obstacle is not None and shapely.contains_xy(layout.obstacle, *home):
+        raise InputError("the launch point lies within the stand-off of the structure the pattern flies round: "
+                         "give area.launch farther from it", key="area.launch")
     try:
         out = climb_out(spec, site, sensor, transit, home, first)
         end = end_of_flight(landing, site, home)

@@ -131,8 +131,8 @@ class Sortie:
 #: A sortie waypoint's fields (x, y, alt_m, kind, run, station); SortieWaypoints are made for the chosen sorties only
 _Wp = tuple[float, float, float, str, int, str]
 _XY = tuple[float, float]
-#: CopterTime's state (total, run, last)
-_State = tuple[float, float | None, float]
+#: CopterTime's state (`CopterTime.state`)
+_State = tuple[float, float, float, float | None]
 class _Piece:
     """Stations lo..hi of one run as a sortie flies them (made once for each)."""
 
@@ -370,7 +370,7 @@ class Splitter:
         if key not in self._before_last:
             t = CopterTime(self.kin, *self._routed_state(li, p0, i, j))
             t.feed(self._into(li, p0, i, j, r))
-            self._before_last[key] = (t.total, t.run, t.last)
+            self._before_last[key] = t.state()
         return self._before_last[key]
 
     def _routed_state(self, li: int, p0: _Piece, i: int, j: int) -> _State:
@@ -382,14 +382,14 @@ class Splitter:
             h = CopterTime(self.kin)
             h.feed(kept_segments(np.asarray([*self._leg_out(li, p0), *((w[0], w[1]) for w in p0.wps), *into])
                                  / self.plan.grid_scale))
-            state = self._heads[kh] = (h.total, h.run, h.last)
+            state = self._heads[kh] = h.state()
         if i < j:
             routed = self._routed.get((kh, j))
             if routed is None:  # every sortie of this head ending in the run at j
                 t = CopterTime(self.kin, *state)
                 rs = self._route()
                 t.route(rs, rs.kept_before[i], rs.kept_before[j - 1])
-                routed = self._routed[(kh, j)] = (t.total, t.run, t.last)
+                routed = self._routed[(kh, j)] = t.state()
             state = routed
         return state
 
@@ -551,9 +551,9 @@ class Splitter:
                                                                        v.landing_speed_ms if lands else None)
                 horiz, vert = path_time(survey, self.kin) + t_out + t_back, t_climb + t_descent
             if self.plan.hover_s is not None:
-                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.hover_s, self.kin, self.plan.aims,
-                                   self.plan.hover_look_s, self.rises[a + 1:b + 1], Climbs(v.climb_rate_ms, v.descent_rate_ms),
-                                   self.arrivals[a + 1:b + 1])
+                horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.lead_in_m, self.plan.hover_s, self.kin,
+                                    self.plan.aims, self.plan.hover_look_s, self.rises[a + 1:b + 1],
+                                    Climbs(v.climb_rate_ms, v.descent_rate_ms), self.arrivals[a + 1:b + 1])
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
