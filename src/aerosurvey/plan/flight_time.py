@@ -347,12 +347,12 @@ class RouteSegments:
     path_time's corners, each segment's time in its stretch before it (`before`: CopterTime's
     `run` with it the last leg) and, at each corner, the time of the stretch it ends (`closed`)."""
 
-    __slots__ = ("lengths", "angles", "corners", "before", "closed", "kept_before", "slow")
+    __slots__ = ("lengths", "angles", "corners", "before", "closed", "kept_before", "times", "calm")
 
     def __init__(self, points: np.ndarray, kin: Kinematics):
         self.lengths, self.angles = kept_segments(points)
-        # each segment as CopterTime.feed counts it: its length times its slowness in the wind
-        self.slow = self.lengths if kin.calm else [x * kin.slowness(a) for x, a in zip(self.lengths, self.angles)]
+        # each segment's time as CopterTime.feed counts it (`leg_times`): in the wind and in still air
+        self.times, self.calm = leg_times(self.lengths, self.angles, kin)
         seg = np.diff(points, axis=0)
         # kept_before[i]: how many kept segments come before segment i (from point i to point i + 1)
         self.kept_before: list[int] = np.concatenate([[0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]) > KEPT)]).tolist()
@@ -361,56 +361,63 @@ class RouteSegments:
         self.before: list[float] = []
         self.closed: dict[int, float] = {}
         at_corner = set(self.corners)
-        times = [_straight_time(x, kin) for x in self.slow]
+        times, calm = self.times, self.calm
         top = 2.0 * _speed_change_time(kin.speed_ms, kin.accel_ms2, kin.jerk_ms3)
-        for k in range(len(self.slow)):
+        for k in range(len(times)):
             if k in at_corner:
                 self.closed[k] = self.before[-1] + times[k - 1]
             # the same operations as CopterTime.feed's
             self.before.append(0.0 if k == 0 or k in at_corner else
-                               self.before[-1] + (times[k - 1] - min(times[k - 1], times[k], top) / 2.0))
+                               self.before[-1] + (times[k - 1] - min(calm[k - 1], calm[k], top) / 2.0))
+
+
+def leg_times(lengths: list[float], angles: list[float], kin: Kinematics) -> tuple[list[float], list[float]]:
+    """A copter's time of each leg (`lengths`, directions `angles` in degrees) from rest to rest, in the wind
+    of `kin` and in still air: `_straight_time` of its still-air flight, and in the wind each metre of its cruise
+    slowed to take as long as `Kinematics.slowness` still-air metres (the copter slows only where its lean limit
+    is reached: at its cruise; its speed changes, and so how far a leg overlaps the next, as in still air)."""
+    calm = [_straight_time(x, kin) for x in lengths]
+    if kin.calm:
+        return calm, calm
+    return [t + x * (kin.slowness(a) - 1.0) / kin.speed_ms for t, x, a in zip(calm, lengths, angles)], calm
 
 
 class CopterTime:
     """path_time of a copter (path_time is made by it): it stops at every corner sharper than
     CORNER_DEG, and flies on through a gentler one (or straight on) as ArduCopter's S-curves do
     (`path_time`: each leg a stop-to-stop `_straight_time`, the next begun as it slows). In
-    wind each leg counts its still-air length (each metre times its slowness,
-    `Kinematics.slowness`; the copter slows only where its lean limit is reached). Fed in parts,
-    so that the stretches between corners of the whole runs are timed once for all sorties
-    (`route`). Its state: the stretches ended so far (`total`), the current stretch's time before
-    its last leg (`run`), that leg's direction (`last`) and length (`leg`, None before the first)."""
+    wind each leg's cruise is slowed (`leg_times`). Fed in parts, so that the stretches between
+    corners of the whole runs are timed once for all sorties (`route`). Its state: the stretches
+    ended so far (`total`), the current stretch's time before its last leg (`run`), that leg's
+    direction (`last`) and its times in the wind and in still air (`leg`, None before the first)."""
 
     __slots__ = ("kin", "total", "run", "last", "leg", "top")
 
     def __init__(self, kin: Kinematics, total: float = 0.0, run: float = 0.0, last: float = 0.0,
-                 leg: float | None = None):
+                 leg: tuple[float, float] | None = None):
         self.kin = kin
         self.total, self.run, self.last, self.leg = total, run, last, leg
         # twice the time of a speed change to cruise: no leg's overlap with the next is longer than half of it
         self.top = 2.0 * _speed_change_time(kin.speed_ms, kin.accel_ms2, kin.jerk_ms3)
 
-    def state(self) -> tuple[float, float, float, float | None]:
+    def state(self) -> tuple[float, float, float, tuple[float, float] | None]:
         """What a CopterTime made of it goes on from (`CopterTime(kin, *state)`)."""
         return self.total, self.run, self.last, self.leg
 
     def feed(self, segs: Segments) -> None:
         # the state in locals while the loop runs (the same operations in the same order as RouteSegments')
-        total, run, last, leg, kin, corner, top = self.total, self.run, self.last, self.leg, self.kin, CORNER_DEG, self.top
-        calm = kin.calm
-        t_leg = 0.0 if leg is None else _straight_time(leg, kin)
-        for length, ang in zip(*segs):
-            if not calm:  # a metre flown in the wind counts as its still-air length (Kinematics.slowness)
-                length = length * kin.slowness(ang)
-            t = _straight_time(length, kin)
+        total, run, last, leg, corner, top = self.total, self.run, self.last, self.leg, CORNER_DEG, self.top
+        t_leg, c_leg = (0.0, 0.0) if leg is None else leg
+        times, calm = leg_times(*segs, self.kin)
+        for t, c, ang in zip(times, calm, segs[1]):
             if leg is None:
                 pass
             elif abs((ang - last + 180.0) % 360.0 - 180.0) > corner:
                 total += run + t_leg
                 run = 0.0
             else:
-                run += t_leg - min(t_leg, t, top) / 2.0
-            leg, t_leg, last = length, t, ang
+                run += t_leg - min(c_leg, c, top) / 2.0
+            leg, t_leg, c_leg, last = (t, c), t, c, ang
         self.total, self.run, self.last, self.leg = total, run, last, leg
 
     def route(self, rs: RouteSegments, k0: int, k1: int) -> None:
@@ -423,13 +430,13 @@ class CopterTime:
         self.feed((rs.lengths[k0:end], rs.angles[k0:end]))
         if ci < cj:
             assert self.leg is not None
-            self.total += self.run + _straight_time(self.leg, self.kin)
+            self.total += self.run + self.leg[0]
             for c in rs.corners[ci + 1:cj]:
                 self.total += rs.closed[c]
-            self.run, self.leg, self.last = rs.before[k1 - 1], rs.slow[k1 - 1], rs.angles[k1 - 1]
+            self.run, self.leg, self.last = rs.before[k1 - 1], (rs.times[k1 - 1], rs.calm[k1 - 1]), rs.angles[k1 - 1]
 
     def time(self) -> float:
-        return 0.0 if self.leg is None else self.total + self.run + _straight_time(self.leg, self.kin)
+        return 0.0 if self.leg is None else self.total + self.run + self.leg[0]
 
 
 #: A copter lands its last metres slowly (ArduCopter: below LAND_ALT_LOW = 10 m at LAND_SPEED = 0.5 m/s).

@@ -132,7 +132,7 @@ class Sortie:
 _Wp = tuple[float, float, float, str, int, str]
 _XY = tuple[float, float]
 #: CopterTime's state (`CopterTime.state`)
-_State = tuple[float, float, float, float | None]
+_State = tuple[float, float, float, tuple[float, float] | None]
 class _Piece:
     """Stations lo..hi of one run as a sortie flies them (made once for each)."""
 
