@@ -52,10 +52,25 @@ def load_inputs(spec: MissionSpec) -> PlanInputs:
     return PlanInputs(area, zones, dem, load_airspace(spec, area), load_structure(spec))
 
 
+#: the sides of a round structure's footprint (`structure.centre`, `structure.radius_m`): a polygon round the circle,
+#: so the structure the plan keeps off and covers holds the round one (its sides 0.12 % of the radius outside it)
+CIRCLE_SIDES = 64
+
+
 def load_structure(spec: MissionSpec) -> BaseGeometry | None:
-    """[structure]'s footprint (WGS84), one polygon; None without [structure]."""
+    """[structure]'s footprint (WGS84), one polygon; None without [structure]. A round structure's is the
+    regular polygon of CIRCLE_SIDES whose sides touch its circle, laid in an azimuthal equidistant projection
+    about its centre."""
     if spec.structure is None:
         return None
+    if spec.structure.file is None:
+        assert spec.structure.centre is not None and spec.structure.radius_m is not None
+        lon, lat = spec.structure.centre
+        k = np.arange(CIRCLE_SIDES) * 2.0 * math.pi / CIRCLE_SIDES
+        r = spec.structure.radius_m / math.cos(math.pi / CIRCLE_SIDES)
+        local = f"+proj=aeqd +lat_0={lat} +lon_0={lon} +datum=WGS84 +units=m"
+        x, y = transformer(local, "EPSG:4326").transform(r * np.sin(k), r * np.cos(k))
+        return shapely.Polygon(np.column_stack([x, y]))
     shape = read_area(spec.structure.file, None, "EPSG:4326", "structure.file")
     if shape.geom_type != "Polygon":
         raise InputError(f"structure.file {spec.structure.file.name!r} holds a {shape.geom_type} of "

@@ -179,28 +179,45 @@ class AirspaceSpec:
 @dataclass(frozen=True)
 class StructureSpec:
     """The spec's [structure] table: a structure whose faces the photos must cover (plan/surfaces.py): its
-    footprint (a polygon file, read as the area is), its base and top in metres above the ground under it,
-    the photos each point of its walls and roof must be seen by, and the coarsest GSD on a face that
-    counts (metres; None: any)."""
+    footprint (a polygon file, read as the area is; or a circle, `centre` and `radius_m`: a round tower, a
+    tank, a chimney), its base and top in metres above the ground under it, the photos each point of its
+    walls and roof must be seen by, and the coarsest GSD on a face that counts (metres; None: any)."""
 
-    file: Path
+    file: Path | None
     base_m: float
     top_m: float
     min_images: int
     max_gsd_m: float | None
+    centre: tuple[float, float] | None = None  # (longitude, latitude) of a round structure's axis
+    radius_m: float | None = None
 
 
 def _structure(t: _Table, base: Path) -> StructureSpec:
     raw = t.raw("file")
-    if raw is None:
-        raise InputError("structure.file is missing: [structure] needs the structure's footprint (a polygon file)", key="structure.file")
+    centre = t.raw("centre")
+    radius = t.number("radius_m", None, lo=0.0, lo_open=True, hi=10000.0)
+    if raw is not None and (centre is not None or radius is not None):
+        raise InputError("[structure] gives both structure.file and a circle (structure.centre, structure.radius_m); "
+                         "allowed: one of them", key="structure.file")
+    if raw is None and centre is None and radius is None:
+        raise InputError("structure.file is missing: [structure] needs the structure's footprint (a polygon file, or "
+                         "structure.centre and structure.radius_m for a round one)", key="structure.file")
+    if raw is None and (centre is None or radius is None):
+        missing = "structure.radius_m" if radius is None else "structure.centre"
+        raise InputError(f"{missing} is missing: a round structure needs structure.centre and structure.radius_m",
+                         key=missing)
+    if centre is not None and (not isinstance(centre, list) or len(centre) != 2
+                               or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in centre)
+                               or not (-180 <= centre[0] <= 180 and -90 <= centre[1] <= 90)):
+        raise bad_value("structure.centre", centre, "[longitude, latitude] in degrees")
     bottom = t.number("base_m", 0.0, lo=-1000.0, hi=10000.0) or 0.0
     top = t.number("top_m", None, lo=-1000.0, hi=10000.0)
     if top is None or top <= bottom:
         raise bad_value("structure.top_m", top, f"a height above structure.base_m ({bottom:g} m)")
     gsd_cm = t.number("max_gsd_cm", None, lo=0.0, lo_open=True, hi=1000.0)
-    spec = StructureSpec(_path(base, raw, "structure.file"), bottom, top, t.integer("min_images", 2, lo=1, hi=100),
-                         gsd_cm / 100.0 if gsd_cm is not None else None)
+    spec = StructureSpec(_path(base, raw, "structure.file") if raw is not None else None, bottom, top,
+                         t.integer("min_images", 2, lo=1, hi=100), gsd_cm / 100.0 if gsd_cm is not None else None,
+                         (float(centre[0]), float(centre[1])) if centre is not None else None, radius)
     t.done()
     return spec
 

@@ -316,3 +316,38 @@ def test_random_boxes_and_standoffs(tmp_path_factory, w: float, d: float, turn: 
     assert j["short_m2"] == 0.0, j
     assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
     _assert_looks_at_the_nearest_point(j, standoff)
+
+
+def test_a_round_tower_given_by_its_centre_and_radius_is_covered_and_kept_off(tmp_path: Path) -> None:
+    """[structure] centre and radius_m instead of a footprint file (a tank, a chimney, a round tower): judged
+    against the round tower itself (a 96-sided polygon in the test's own projection, within 5 mm of the circle), not the
+    plan's polygon."""
+    radius, top, standoff = 9.0, 24.0, 12.0
+    structure = {"centre": list(CENTRE), "radius_m": radius, "top_m": top, "max_gsd_cm": 2.0}
+    over = {"pattern": {"kind": "orbit", "standoff_m": standoff}, "structure": structure,
+            "camera": {"model": CAMERA, "trigger": "distance"}}
+    out = tmp_path / "out"
+    code, text = _run("plan", make_spec(tmp_path, over), "-o", out)
+    assert code == 0, text
+    m = json.loads((out / "manifest.json").read_text())
+    assert _rule(m)["status"] == "pass", _rule(m)
+    tower = shapely.Point(TO_XY.transform(*CENTRE)).buffer(radius, quad_segs=24)
+    j = _judge(out, tower, top, 2.5, max_gsd_m=0.02)
+    assert j["short_m2"] == 0.0, j
+    assert j["nearest_leg_m"] >= standoff - ALLOWANCE_M, j
+
+
+@pytest.mark.parametrize(("structure", "says"), [
+    ({"file": "structure.geojson", "centre": list(CENTRE), "radius_m": 5.0, "top_m": 10.0},
+     "gives both structure.file and a circle"),
+    ({"centre": list(CENTRE), "top_m": 10.0}, "structure.radius_m is missing"),
+    ({"radius_m": 5.0, "top_m": 10.0}, "structure.centre is missing"),
+    ({"centre": [15.0], "radius_m": 5.0, "top_m": 10.0}, "structure.centre"),
+    ({"centre": list(CENTRE), "radius_m": 0.0, "top_m": 10.0}, "structure.radius_m"),
+])
+def test_a_round_structure_given_wrongly_is_one_line(tmp_path: Path, structure: dict, says: str) -> None:
+    write_geojson(tmp_path / "structure.geojson", [_lonlat(np.asarray(_box(10.0, 10.0).exterior.coords))])
+    over = {"pattern": {"kind": "orbit", "standoff_m": 12.0}, "structure": structure,
+            "camera": {"model": CAMERA, "trigger": "distance"}}
+    code, text = _run("plan", make_spec(tmp_path, over), "-o", tmp_path / "out")
+    assert code == 2 and says in text and len(text.strip().splitlines()) == 1, text
