@@ -225,6 +225,12 @@ def lanes_in_place(x: np.ndarray, y: np.ndarray, z: np.ndarray, run: np.ndarray,
     return rises, arrivals
 
 
+def overlap_cap_s(k: Kinematics) -> float:
+    """Twice a speed change to cruise: in a chain of legs (`CopterTime`) no leg overlaps the next by more
+    than half of it."""
+    return 2.0 * _speed_change_time(k.speed_ms, k.accel_ms2, k.jerk_ms3)
+
+
 def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float, k: Kinematics, aims: int = 1,
                look_s: float = 0.0, rises: np.ndarray | None = None, climbs: Climbs | None = None,
                arrivals: np.ndarray | None = None) -> float:
@@ -241,7 +247,8 @@ def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float
     is reached by its climb or descent (`climbs`) instead of a level base, and the level way to such
     a lane from the one before (`arrivals`) is flown from rest to rest, not straight on."""
     places = stations // aims
-    moves = np.zeros(0) if rises is None else np.asarray(rises, float)[np.asarray(rises, float) != 0.0]
+    moves = np.zeros(0) if rises is None else np.asarray(rises, float)
+    moves = moves[moves != 0.0]
     stops = max(places - runs - len(moves), 0)
     change = _speed_change_time(k.speed_ms, k.accel_ms2, k.jerk_ms3)
     into_line = change - min(_straight_time(lead, k) / 2.0, change)
@@ -254,9 +261,9 @@ def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float
     # wall, a lane's climb unseen in plan): begun as that one brakes, by half the shorter's time at most (`CopterTime`,
     # the way before as long as this one or longer: the lanes are evenly apart, the first's lead-in longer); from
     # rest to rest it takes that overlap more
-    top = 2.0 * change
-    for d in ([] if arrivals is None else np.asarray(arrivals, float)[np.asarray(arrivals, float) > 0.0].tolist()):
-        out += min(_straight_time(d, k), top) / 2.0
+    reached = np.zeros(0) if arrivals is None else np.asarray(arrivals, float)
+    for d in reached[reached > 0.0].tolist():
+        out += min(_straight_time(d, k), overlap_cap_s(k)) / 2.0
     return out
 
 
@@ -362,7 +369,7 @@ class RouteSegments:
         self.closed: dict[int, float] = {}
         at_corner = set(self.corners)
         times, calm = self.times, self.calm
-        top = 2.0 * _speed_change_time(kin.speed_ms, kin.accel_ms2, kin.jerk_ms3)
+        top = overlap_cap_s(kin)
         for k in range(len(times)):
             if k in at_corner:
                 self.closed[k] = self.before[-1] + times[k - 1]
@@ -397,8 +404,7 @@ class CopterTime:
                  leg: tuple[float, float] | None = None):
         self.kin = kin
         self.total, self.run, self.last, self.leg = total, run, last, leg
-        # twice the time of a speed change to cruise: no leg's overlap with the next is longer than half of it
-        self.top = 2.0 * _speed_change_time(kin.speed_ms, kin.accel_ms2, kin.jerk_ms3)
+        self.top = overlap_cap_s(kin)
 
     def state(self) -> tuple[float, float, float, tuple[float, float] | None]:
         """What a CopterTime made of it goes on from (`CopterTime(kin, *state)`)."""
