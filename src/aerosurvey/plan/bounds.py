@@ -7,7 +7,8 @@ it is from the floor.
   k = `side_images_per_point` strips of width A, at the outer edges too. Lines at spacing S
   covering an ordinate range W that way number at least ⌈(W − A)/S⌉ + 2k − 1 (the k-th line
   from each end must still reach its edge), and at least k; a width under A takes k lines
-  (closer than S, so that all k strips hold it). No heading gives a smaller range
+  (closer than S, so that all k strips hold it) unless they would lie within 1 % of S of one
+  another (the same photos twice: `lines.strip_count`, the planner's own count). No heading gives a smaller range
   than W, so for a convex area no parallel-line plan at spacing S has fewer strips; a
   concave area may need fewer where whole lines fall in a notch.
 - Photos: the area over base × spacing (each photo accounts for at most one base × spacing
@@ -26,6 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
+
+from aerosurvey.plan.lines import strip_count
 
 
 @dataclass(frozen=True)
@@ -73,7 +76,7 @@ def grid_bounds(area: BaseGeometry, grid_scale: float, across_m: float, spacing_
     ground = area.area / grid_scale**2
     if one_strip_when_narrow and width < across_m:
         return GridBounds(width, passes, passes * math.ceil(ground / (base_m * across_m) - 1e-9))
-    strips = k if width < across_m else max(k, math.ceil((width - across_m) / spacing_m - 1e-9) + 2 * k - 1)
+    strips = strip_count(width, across_m, spacing_m, k)
     photos = math.ceil(ground / (base_m * spacing_m) - 1e-9)
     return GridBounds(width, passes * strips, passes * photos)
 

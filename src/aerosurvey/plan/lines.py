@@ -54,8 +54,7 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
     (across − width)/(k − 1) apart or closer: where that asks fewer lines than the spacing does,
     k lines are laid that close (more side overlap than asked, fewer lines)."""
     half = across / 2.0
-    need = vmax - vmin - across + 2.0 * (per_point - 1) * spacing
-    n = max(per_point, math.ceil(need / spacing - _EPS) + 1, 1)
+    n = _spaced_count(vmax - vmin, across, spacing, per_point)
     close = _narrow_spacing(vmax - vmin, across, spacing, per_point, n)
     if close is not None:
         return (vmin + vmax) / 2.0 + close * (np.arange(per_point) - (per_point - 1) / 2.0)
@@ -84,6 +83,20 @@ def strip_offsets(vmin: float, vmax: float, across: float, spacing: float, per_p
 #: lines laid closer than this share of the spacing would take the same photos twice (to the centimetre): a
 #: range that asks them so close gets the spacing's lines instead
 _NARROW_MIN = 0.01
+
+
+def _spaced_count(width: float, across: float, spacing: float, per_point: int) -> int:
+    """How many lines `spacing` apart put a range `width` wide in `per_point` strips (n lines see
+    `per_point` times a band of across + (n − 2·per_point + 1)·spacing)."""
+    need = width - across + 2.0 * (per_point - 1) * spacing
+    return max(per_point, math.ceil(need / spacing - _EPS) + 1, 1)
+
+
+def strip_count(width: float, across: float, spacing: float, per_point: int) -> int:
+    """How many lines `strip_offsets` lays across a range `width` wide: `per_point` closer lines where
+    `_narrow_spacing` allows them, else the spacing's lines (the strip bound of `bounds.grid_bounds`)."""
+    n = _spaced_count(width, across, spacing, per_point)
+    return per_point if _narrow_spacing(width, across, spacing, per_point, n) is not None else n
 
 
 def _narrow_spacing(width: float, across: float, spacing: float, per_point: int, n: int) -> float | None:
