@@ -221,3 +221,16 @@ def test_the_ground_gsd_of_a_plan_whose_photos_all_look_level_is_not_checkable(t
     assert all(s["pitch_deg"] == 0.0 and s["gsd_cm"] is None for s in json.loads((out / "manifest.json").read_text())["stations"])
     _, res = _check(out, "--profile", "acme-spec", "--profile-dir", str(_gsd_profile(tmp_path, 2.0)))
     assert res["acme-gsd"]["status"] == "not-checkable"
+
+
+def test_ground_profiles_judge_a_facade_without_failing_themselves(tmp_path):
+    """A facade's photos look level: the ground-mapping profiles' control point layouts find no ground to place
+    check points on (the hexagonal grid of an empty region), and their rules report it (exit 1, rules named),
+    where `check` stopped on a traceback before."""
+    out = tmp_path / "plan"
+    assert CliRunner().invoke(main, ["plan", str(REPO / "missions" / "long-wall.toml"), "-o", str(out)]).exit_code in (0, 1)
+    for profile in ("cz-land-consolidation", "asprs-2023"):
+        code, res = _check(out, "--profile", profile)
+        assert code == 1, profile
+        assert any(r["status"] == "fail" for r in res.values()), profile
+        assert all(r["status"] in ("pass", "fail", "warning", "info", "not-checkable") for r in res.values()), res

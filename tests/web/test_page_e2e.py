@@ -326,12 +326,7 @@ def test_flight_results_on_the_map(site):
     assert CliRunner().invoke(main, ["log", "ingest", str(log), "--plan", str(plan), "-o", str(tmp / "log")]).exit_code == 0
     CliRunner().invoke(main, ["check", str(tmp / "log"), "--profile", "cz-land-consolidation"])  # failing_places.geojson
     places = json.loads((tmp / "log" / "failing_places.geojson").read_text())["features"]
-    server = Server(spec)
-    ctx = site["browser"].new_context(viewport={"width": 1400, "height": 900})
-    try:
-        pg = ctx.new_page()
-        pg.goto(server.url)
-        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+    with _opened(site, spec) as pg:
         _tab(pg, "flight")
         pg.set_input_files("#flight-files", str(tmp / "log"))  # the folder, as a user picks it
         pg.wait_for_function("window.aerosurvey.layers.flown.getSource().getFeatures().length > 0", timeout=30000)
@@ -350,6 +345,18 @@ def test_flight_results_on_the_map(site):
         pg.locator(".err[data-for='refly resume']").wait_for(state="visible", timeout=60000)
         assert "nothing" in pg.text_content(".err[data-for='refly resume']")
         pg.screenshot(path=str(SHOTS / "07-flown.png"))
+
+
+@contextlib.contextmanager
+def _opened(site, spec: Path):
+    """A page (1400 × 900) on a server of `spec` of its own, its first plan shown."""
+    server = Server(spec)
+    ctx = site["browser"].new_context(viewport={"width": 1400, "height": 900})
+    try:
+        pg = ctx.new_page()
+        pg.goto(server.url)
+        pg.wait_for_function("window.aerosurvey.view !== null", timeout=60000)
+        yield pg
     finally:
         ctx.close()
         server.stop()
@@ -1403,3 +1410,23 @@ def test_a_value_off_the_fields_step_is_not_marked_as_an_error(page):
     assert page.evaluate(f"getComputedStyle(document.querySelector(\"{field}\")).outlineStyle") == "none"
     _refused(page, "vehicle.max_airspeed_ms", "-3")
     assert page.evaluate(f"getComputedStyle(document.querySelector(\"{field}\")).outlineStyle") == "solid"
+
+
+def test_a_facade_is_summed_up_by_its_photos_heights_and_its_faces(site):
+    """The page opened on the long wall (a facade: no photo straight down) shows the heights its photos are taken at
+    and the GSD on the faces, as `plan` prints them, in place of the stand-off's nadir height and GSD, and plans it
+    (the control points' layout found no ground for check points: it stopped the page's plan before)."""
+    tmp = site["tmp"] / "facade"
+    spec = copy_mission(tmp, "long-wall")
+    stdout = CliRunner().invoke(main, ["plan", str(spec), "-o", str(tmp / "cli")]).stdout
+    agl = re.search(r"^  photos taken\s+([\d.]+)\.\.([\d.]+) m above", stdout, re.M)
+    gsd = re.search(r"^  GSD on faces\s+([\d.]+)\.\.([\d.]+) cm", stdout, re.M)
+    assert agl and gsd, stdout
+    with _opened(site, spec) as pg:
+        assert pg.locator("#summary dd[data-summary='height AGL']").count() == 0
+        assert pg.locator("#summary dd[data-summary='GSD']").count() == 0
+        shown = pg.text_content("#summary dd[data-summary='photos taken']")
+        assert shown == f"{float(agl[1]):g}…{float(agl[2]):g} m AGL, none straight down", shown
+        faces_gsd = pg.text_content("#summary dd[data-summary='GSD on faces']")
+        assert faces_gsd == (f"{float(gsd[1]):g} cm" if gsd[1] == gsd[2] else f"{float(gsd[1]):g}…{float(gsd[2]):g} cm"), faces_gsd
+        assert re.fullmatch(r"\d+ m², 0 m² short of 2 photos \(fewest \d+\)", pg.text_content("#summary dd[data-summary='faces']"))

@@ -153,3 +153,51 @@ def test_a_failing_check_names_its_rules_on_stderr_also_with_quiet(tmp_path):
     assert res.stderr.strip().splitlines() == [f"Error: {out}: rules failing at error level: part107-height"]
     quiet = CliRunner().invoke(main, ["-q", "check", str(out), "--profile", "us-part107"])
     assert (quiet.exit_code, quiet.stdout, quiet.stderr) == (1, "", res.stderr)
+
+
+def _faces_from_text(text: str) -> dict:
+    agl = re.search(r"^  photos taken\s+([\d.]+)\.\.([\d.]+) m above the ground \([^)]*\), none straight down$", text, re.M)
+    gsd = re.search(r"^  GSD on faces\s+([\d.]+)\.\.([\d.]+) cm$", text, re.M)
+    assert agl and gsd, text
+    assert not re.search(r"^  (height AGL|GSD)\s{2,}", text, re.M), text  # no nadir figure of a plan with no nadir photo
+    return {"agl": (float(agl[1]), float(agl[2])), "gsd": (float(gsd[1]), float(gsd[2]))}
+
+
+def _faces_from_svg(svg: str) -> dict:
+    title = re.search(r">[^<>]*: photos (\d+\.\d)\.\.(\d+\.\d) m AGL, GSD on faces (\d+\.\d\d)(?:\.\.(\d+\.\d\d))? cm, \d+ runs", svg)
+    assert title, svg[:600]
+    return {"agl": (float(title[1]), float(title[2])), "gsd": (float(title[3]), float(title[4] or title[3]))}
+
+
+def _faces_from_json(s: dict) -> dict:
+    f = s["faces"]
+    assert f["nadir_photos"] == 0
+    return {"agl": tuple(f["station_agl_m"]), "gsd": tuple(f["gsd_cm"])}
+
+
+@pytest.mark.parametrize("example", ["long-wall", "quarry-3-benches"])
+def test_a_structure_is_summed_up_by_its_photos_heights_and_its_faces_everywhere(example, tmp_path):
+    """A facade and a quarry take no photo straight down: `plan`, `check`, `check --json`, preview.svg and
+    the web API give the heights the photos are taken at and the GSD on the faces (the manifest's `faces`
+    record, itself checked against the stations' heights here), never the stand-off's nadir figures."""
+    from webutil import client, copy_mission, run_plan
+
+    spec = copy_mission(tmp_path, example)
+    out = tmp_path / "out"
+    views = {"plan": _faces_from_text(_plan(spec, out).stdout)}
+    check = CliRunner().invoke(main, ["check", str(out)])
+    views["check"] = _faces_from_text(check.stdout)
+    check_json = CliRunner().invoke(main, ["check", str(out), "--json"])
+    views["check --json"] = _faces_from_json(json.loads(check_json.stdout)["summary"])
+    views["preview.svg"] = _faces_from_svg((out / "preview.svg").read_text())
+    with client(spec) as c:
+        st = run_plan(c, c.get("/api/state").json()["spec"])
+        assert st["state"] == "done", st
+        views["web"] = _faces_from_json(st["result"]["summary"])
+    manifest = json.loads((out / "manifest.json").read_text())
+    heights = [s["agl_m"] for s in manifest["stations"]]
+    expected = {"agl": (round(min(heights), 1), round(max(heights), 1)),
+                "gsd": tuple(round(g, 2) for g in manifest["faces"]["gsd_cm"])}
+    assert expected["agl"][0] < expected["agl"][1]  # the photos are taken at many heights, the stand-off's is one
+    for name, figures in views.items():
+        assert figures == expected, name

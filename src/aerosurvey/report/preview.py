@@ -16,7 +16,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.jsontext import float_texts, join_rows
 from aerosurvey.plan.planner import Plan
-from aerosurvey.report.summary import Summary
+from aerosurvey.report.summary import Summary, title_figures
 
 if TYPE_CHECKING:
     from aerosurvey.rules.control_points import ControlPoint
@@ -96,10 +96,9 @@ def render_svg(plan: Plan, summary: Summary, points: list[ControlPoint] | None =
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{_W}" height="{_H}" viewBox="0 0 {_W} {_H}" font-family="sans-serif">',
              f'<rect width="{_W}" height="{_H}" fill="#fafaf7"/>']
     s = summary
-    gsd = f"{s.gsd_cm[1]:.2f}" if s.gsd_cm[0] == s.gsd_cm[1] else f"{s.gsd_cm[0]:.2f}..{s.gsd_cm[1]:.2f}"
     n = len(s.sorties)
     sorties = "" if not n else f", {n} sortie" if n == 1 else f", {n} sorties"
-    title = escape(f"{s.name}: {s.height_agl_m:.1f} m AGL, GSD {gsd} cm, {s.runs} runs, {s.photos} photos, "
+    title = escape(f"{s.name}: {title_figures(s)}, {s.runs} runs, {s.photos} photos, "
                    f"{s.distance_km:.2f} km, {s.time_min:.1f} min{sorties}")
     parts.append(f'<text x="{_PAD}" y="30" font-size="18" font-weight="bold">{title}</text>')
     parts.append(f'<text x="{_PAD}" y="52" font-size="13">heading {s.heading_deg:.1f}° ({escape(s.heading_chosen)}), '

@@ -208,6 +208,33 @@ def _height_and_gsd(s: Summary, height: str) -> list[str]:
     return [f"  photos taken    {agl} above the ground ({height}), none straight down", *faces]
 
 
+def _span(r: Sequence[float], unit: str) -> str:
+    return f"{r[0]:.2f} {unit}" if r[0] == r[1] else f"{r[0]:.2f}..{r[1]:.2f} {unit}"
+
+
+def title_figures(s: Summary) -> str:
+    """The height and GSD in a title ("12.0 m AGL, GSD 0.53 cm"): for a plan that takes no photo straight
+    down (an orbit, a facade), the heights its photos are taken at and the GSD on the faces they see."""
+    f = s.faces
+    if f is None or f["nadir_photos"]:
+        return f"{s.height_agl_m:.1f} m AGL, GSD {_span(s.gsd_cm, 'cm')}"
+    agl = "no photo" if f["station_agl_m"] is None else f"photos {f['station_agl_m'][0]:.1f}..{f['station_agl_m'][1]:.1f} m AGL"
+    return f"{agl}, GSD on faces " + ("none seen" if f["gsd_cm"] is None else _span(f["gsd_cm"], "cm"))
+
+
+def _faces_json(f: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """A structure's faces (manifest "faces") as the summary gives them: their area, the area short of photos, the
+    heights the photos are taken at and the GSD on the faces, rounded as printed; None for a plan of the ground only."""
+    if f is None:
+        return None
+
+    def rounded(r: Sequence[float] | None, digits: int) -> list[float] | None:
+        return None if r is None else [round(r[0], digits), round(r[1], digits)]
+    return {"area_m2": round(f["area_m2"]), "short_m2": round(f["short_m2"], 2), "min_images": f["min_images"],
+            "fewest_images": f["fewest_images"], "station_agl_m": rounded(f["station_agl_m"], 1),
+            "gsd_cm": rounded(f["gsd_cm"], 2), "nadir_photos": f["nadir_photos"]}
+
+
 def summary_json(s: Summary) -> dict[str, Any]:
     """The summary as the web page's JSON (its keys are the page's)."""
     return {
@@ -216,6 +243,7 @@ def summary_json(s: Summary) -> dict[str, Any]:
         "lines": s.lines, "runs": s.runs, "photos": s.photos, "spacing_m": s.spacing_m, "photo_base_m": s.photo_base_m,
         "speed_ms": s.speed_ms, "speed_limited_by": s.speed_limited_by, "distance_km": s.distance_km,
         "time_min": s.time_min, "sorties": len(s.sorties), "mission_items": s.mission_items,
+        "faces": _faces_json(s.faces),
         "rules": {"evaluated": s.rules.evaluated, "passed": s.rules.passed, "failing": list(s.rules.failing),
                   "text": s.rules.text()},
     }

@@ -121,7 +121,9 @@ def ring_order(points: list[ControlPoint], area: BaseGeometry) -> list[ControlPo
 
 
 def hex_grid(geom: BaseGeometry, spacing: float) -> FloatArray:
-    """(n, 2) points of a hexagonal grid with `spacing` between neighbours, inside `geom`."""
+    """(n, 2) points of a hexagonal grid with `spacing` between neighbours, inside `geom` (none in an empty one)."""
+    if geom.is_empty:
+        return np.empty((0, 2))
     x0, y0, x1, y1 = geom.bounds
     dy = spacing * math.sqrt(3) / 2
     rows = np.arange(y0 + dy / 2, y1, dy)

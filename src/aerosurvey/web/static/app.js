@@ -703,10 +703,20 @@ function renderSummary(view) {
   // the summary's own rules line when the server gives one (the text `plan` and `check` print)
   const rules = s.rules && s.rules.text ? s.rules.text
     : view.rules.length ? (failing.length ? `${failing.length} of ${view.rules.length} fail` : `${view.rules.length} pass`) : "none chosen";
-  const rows = [
-    ["area", `${s.area_ha} ha (${s.crs})`],
+  // a plan that takes no photo straight down (an orbit, a facade) by the heights its photos are taken at and its faces
+  const f = s.faces;
+  const ground = !f || f.nadir_photos ? [
     ["height AGL", s.height_range_m[0] === s.height_range_m[1] ? `${s.height_agl_m} m` : fmtRange(s.height_range_m, "m")],
     ["GSD", fmtRange(s.gsd_cm, "cm")],
+  ] : [["photos taken", f.station_agl_m ? `${fmtRange(f.station_agl_m, "m")} AGL, none straight down` : "none"]];
+  const faces = !f ? [] : [
+    ["faces", `${Math.round(f.area_m2)} m², ${f.short_m2} m² short of ${f.min_images} photos (fewest ${f.fewest_images})`],
+    ["GSD on faces", f.gsd_cm ? fmtRange(f.gsd_cm, "cm") : "no point seen"],
+  ];
+  const rows = [
+    ["area", `${s.area_ha} ha (${s.crs})`],
+    ...ground,
+    ...faces,
     ["photos", `${s.photos}`],
     ["lines", `${s.lines} (${s.runs} runs)`],
     ["time", `${s.time_min} min`],
