@@ -143,6 +143,27 @@ def test_our_reader_reads_what_qgroundcontrol_uploads(tmp_path: Path) -> None:
     assert [it.command for it in mission.items[at + len(want):]] == [it["command"] for it in items[at + 1:]]
 
 
+def test_a_px4_orbit_is_written_as_the_items_px4_takes(tmp_path: Path) -> None:
+    """QGroundControl aims a Structure Scan's camera with DO_SET_ROI_WPNEXT_OFFSET (196), which PX4 answers
+    MAV_MISSION_UNSUPPORTED: planned for PX4, the rings are plain items in mission.plan (no item to regenerate),
+    the same commands as mission.waypoints, none of them 196, and `upload`'s PX4 gate takes them."""
+    from aerosurvey.link.upload import check_px4
+
+    out, _ = _plan(tmp_path, L_SHAPE, 20.0, 12.0, launch=(10.0, -60.0), firmware="px4")
+    doc = json.loads((out / "mission.plan").read_text())
+    assert iq.plan_problems(doc) == []
+    items = doc["mission"]["items"]
+    assert all(it["type"] == "SimpleItem" for it in items), [it.get("complexItemType") for it in items]
+    commands = [it["command"] for it in items]
+    assert 196 not in commands and GIMBAL_PITCHYAW in commands and ROI in commands
+    _, rows = ic.read_wpl(out / "mission.waypoints")
+    assert commands == [int(r[3]) for r in rows]
+    check_px4(loads_plan((out / "mission.plan").read_text(), "mission.plan"), "mission.plan", rally=False)
+    # planned for ArduPilot, the same rings are QGroundControl's Structure Scan item
+    (tmp_path / "ardupilot").mkdir()
+    _scan_item(_plan(tmp_path / "ardupilot", L_SHAPE, 20.0, 12.0, launch=(10.0, -60.0))[0])
+
+
 @pytest.mark.parametrize(("key", "value", "words"), [
     ("version", 2, "field 'version' = 2 is not allowed: 3"),
     ("Layers", 7, "field 'Layers' = 7 is not allowed: QGroundControl recounts it as"),

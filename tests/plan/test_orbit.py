@@ -71,9 +71,12 @@ def _plan(tmp: Path, footprint: shapely.Polygon, top: float, standoff: float, ma
           **extra: object) -> tuple[Path, dict]:
     ring = np.asarray(footprint.exterior.coords)
     write_geojson(tmp / "structure.geojson", [_lonlat(ring)])
-    pattern = {"kind": "orbit", "standoff_m": standoff, **{k: v for k, v in extra.items() if k not in ("launch", "zone")}}
+    pattern = {"kind": "orbit", "standoff_m": standoff,
+               **{k: v for k, v in extra.items() if k not in ("launch", "zone", "firmware")}}
     structure = {"file": "structure.geojson", "top_m": top, **({"max_gsd_cm": max_gsd_cm} if max_gsd_cm else {})}
     over: dict = {"pattern": pattern, "structure": structure, "camera": {"model": CAMERA, "trigger": "distance"}}
+    if "firmware" in extra:
+        over["vehicle"] = {"firmware": extra["firmware"]}
     if "launch" in extra:
         over["area"] = {"file": "area.geojson", "launch": _lonlat(np.array([extra["launch"]]))[0]}
     if "zone" in extra:

@@ -177,13 +177,9 @@ def fence_wire_items(m: Mission) -> list[mp.WireItem]:
     return out
 
 
-#: MAV_CMD_NAV_RALLY_POINT: one rally point (MAV_MISSION_TYPE_RALLY)
-NAV_RALLY_POINT = 5100
-
-
 def rally_wire_items(m: Mission) -> list[mp.WireItem]:
     """Rally points as MAV_MISSION_TYPE_RALLY items: NAV_RALLY_POINT, altitude above home (frame 3)."""
-    return [mp.WireItem(k, NAV_RALLY_POINT, mav.FRAME_GLOBAL_RELATIVE_ALT, x=deg_e7(lat, f"rally point {k + 1} latitude"),
+    return [mp.WireItem(k, mav.NAV_RALLY_POINT, mav.FRAME_GLOBAL_RELATIVE_ALT, x=deg_e7(lat, f"rally point {k + 1} latitude"),
                         y=deg_e7(lon, f"rally point {k + 1} longitude"), z=alt, mission_type=mp.RALLY)
             for k, (lat, lon, alt) in enumerate(m.rally)]
 
@@ -274,12 +270,6 @@ def ardupilot_stored(it: mp.WireItem, plane: bool) -> mp.WireItem:
 # frames (see `_SAME_FRAME`). Anything else PX4 refuses: MAV_MISSION_UNSUPPORTED for a command,
 # MAV_MISSION_UNSUPPORTED_FRAME for a frame (terrain frames included).
 
-#: Commands PX4 takes with a position (frames 0, 3, 5, 6) and without one (frame 2, MAV_FRAME_MISSION)
-PX4_POSITION_COMMANDS = frozenset({16, 17, 19, 21, 22, 31, 80, 84, 85, 195, 201, 212, 400, 4501, 5000, 5001, 5002, 5003, 5004,
-                                   NAV_RALLY_POINT})
-PX4_MISSION_FRAME_COMMANDS = frozenset({20, 80, 93, 112, 114, 177, 178, 179, 187, 189, 197, 200, 201, 203, 204, 205, 206, 211,
-                                        212, 213, 214, 260, 400, 530, 532, 534, 1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000,
-                                        42600})
 _POSITION_FRAMES = frozenset({0, 3, 5, 6})
 #: Items each mission type holds on PX4 (dataman: CONFIG_NUM_MISSION_ITMES_SUPPORTED, 2000 on flight
 #: controllers; DM_KEY_FENCE_POINTS_MAX; DM_KEY_SAFE_POINTS_MAX)
@@ -289,9 +279,9 @@ PX4_MAX_ITEMS = {mp.MISSION: 2000, mp.FENCE: 64, mp.RALLY: 32}
 def px4_refusal(it: mp.WireItem) -> str | None:
     """The MAV_MISSION_RESULT name PX4 answers `it` with when it does not take it, else None."""
     if it.frame in _POSITION_FRAMES:
-        return None if it.command in PX4_POSITION_COMMANDS else mp.result_name(mp.UNSUPPORTED)
+        return None if it.command in mav.PX4_POSITION_COMMANDS else mp.result_name(mp.UNSUPPORTED)
     if it.frame == mav.FRAME_MISSION:
-        return None if it.command in PX4_MISSION_FRAME_COMMANDS else mp.result_name(mp.UNSUPPORTED)
+        return None if it.command in mav.PX4_MISSION_FRAME_COMMANDS else mp.result_name(mp.UNSUPPORTED)
     return mp.result_name(mp.UNSUPPORTED_FRAME)
 
 
@@ -317,7 +307,7 @@ def px4_stored(it: mp.WireItem) -> mp.WireItem:
               mav.NAV_VTOL_TAKEOFF: (0.0, 0.0, 0.0, p4), mav.NAV_VTOL_LAND: (0.0, 0.0, 0.0, p4),
               mav.NAV_FENCE_POLYGON_VERTEX_INCLUSION: (float(int(p1 + 0.5)), 0.0, 0.0, 0.0),
               mav.NAV_FENCE_POLYGON_VERTEX_EXCLUSION: (float(int(p1 + 0.5)), 0.0, 0.0, 0.0),
-              NAV_RALLY_POINT: (0.0, 0.0, 0.0, 0.0)}.get(it.command)
+              mav.NAV_RALLY_POINT: (0.0, 0.0, 0.0, 0.0)}.get(it.command)
     if params is None:
         return it
     return mp.WireItem(it.seq, it.command, it.frame, *params, it.x, it.y, f32(it.z), it.autocontinue, 0, it.mission_type)

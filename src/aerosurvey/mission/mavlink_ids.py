@@ -43,3 +43,13 @@ MOUNT_MODE_MAVLINK_TARGETING = 2  # MAV_MOUNT_MODE
 GIMBAL_MANAGER_FLAGS_ROLL_LOCK = 4  # GIMBAL_MANAGER_FLAGS
 GIMBAL_MANAGER_FLAGS_PITCH_LOCK = 8
 GIMBAL_MANAGER_FLAGS_YAW_LOCK = 16  # the yaw an earth-frame bearing (else relative to the vehicle)
+NAV_RALLY_POINT = 5100  # one rally point (MAV_MISSION_TYPE_RALLY)
+
+# What PX4 takes: its MavlinkMissionManager (src/modules/mavlink/mavlink_mission.cpp,
+# parse_mavlink_mission_item) takes these commands with a position (frames 0, 3, 5, 6) and without one
+# (frame 2, MAV_FRAME_MISSION) and answers anything else MAV_MISSION_UNSUPPORTED (`link.upload.px4_refusal`)
+PX4_POSITION_COMMANDS = frozenset({16, 17, 19, 21, 22, 31, 80, 84, 85, 195, 201, 212, 400, 4501, 5000, 5001, 5002, 5003, 5004,
+                                   NAV_RALLY_POINT})
+PX4_MISSION_FRAME_COMMANDS = frozenset({20, 80, 93, 112, 114, 177, 178, 179, 187, 189, 197, 200, 201, 203, 204, 205, 206, 211,
+                                        212, 213, 214, 260, 400, 530, 532, 534, 1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000,
+                                        42600})

@@ -581,6 +581,9 @@ def _scan_shape(plan: Plan, passes: list[int], flown: frozenset[int], frame: str
         return why + "the camera is not turned to the structure at one pitch, as QGroundControl aims it"
     if plan.altitudes.frame == "terrain" or plan.sensor.heights.mode == "follow":
         return why + "its heights follow the terrain; QGroundControl flies the layers above home"
+    if plan.vehicle.firmware == "px4" and mav.DO_SET_ROI_WPNEXT_OFFSET not in mav.PX4_MISSION_FRAME_COMMANDS:
+        return why + ("QGroundControl aims its camera with DO_SET_ROI_WPNEXT_OFFSET, which PX4 refuses "
+                      "(MAV_MISSION_UNSUPPORTED)")
     xy = ring.path
     if float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])) > 0:
         return why + "its ring is flown anticlockwise; QGroundControl flies a structure's ring clockwise"
