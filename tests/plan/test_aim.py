@@ -75,6 +75,7 @@ class Rings:
     )
     # what the other scratch pattern says of the ground: nadir photos, an area grid's bounds
     centreline_sides = Diagonals.centreline_sides
+    stands_on = Diagonals.stands_on
     footprint = Diagonals.footprint
     bounds = Diagonals.bounds
 

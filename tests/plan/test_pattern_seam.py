@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from shapely.geometry.base import BaseGeometry
 from tests.conftest import make_spec
 
 from aerosurvey.cli import main
@@ -29,6 +30,7 @@ from aerosurvey.plan.layout import Field, Layout
 from aerosurvey.plan.passes import Pass
 from aerosurvey.plan.polyline import stations_along, strips_clear_of
 from aerosurvey.plan.sensor import Footprint, nadir_footprint
+from aerosurvey.plan.site import Site
 from aerosurvey.spec import FlightSpec, MissionSpec
 
 
@@ -47,6 +49,10 @@ class Diagonals:
     @classmethod
     def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
         return None, None
+
+    @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        return None
 
     @classmethod
     def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> int:

@@ -80,6 +80,10 @@ class AreaGrid:
         return None, None
 
     @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        return None  # its heights are above the area's ground
+
+    @classmethod
     def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> None:
         return None
 

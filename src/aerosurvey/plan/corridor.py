@@ -92,6 +92,10 @@ class Corridor:
         return o.left_m, o.right_m
 
     @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        return None  # its heights are above the area's ground
+
+    @classmethod
     def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> CorridorOptions:
         width, left, right = values["width_m"], values["left_m"], values["right_m"]
         if width is not None and (left is not None or right is not None):

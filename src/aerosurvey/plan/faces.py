@@ -63,6 +63,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import shapely
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan import photogrammetry as pg
@@ -216,6 +217,10 @@ class Faces:
     )
 
     @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        return site.centreline  # its lanes are above the ground along the toe line
+
+    @classmethod
     def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
         """The ground the site holds: in front of the toe line to the lanes, behind it to the last crest."""
         o = spec.pattern.options
@@ -238,9 +243,11 @@ class Faces:
     @classmethod
     def from_spec(cls, spec: MissionSpec) -> Faces:
         assert isinstance(spec.pattern.options, FacesOptions)
-        if spec.terrain.mode != "none":
+        if spec.terrain.mode not in ("none", "fixed"):
             raise InputError(f"terrain.mode = {spec.terrain.mode!r} is not allowed with pattern.kind = {cls.kind!r} (its lanes "
-                             "are heights above the launch point's ground); allowed: 'none'", key="terrain.mode")
+                             "are level, at heights above the ground at the toe line); allowed: 'fixed' (with a DEM: above "
+                             "the lowest ground along the toe line) or 'none' (no DEM: the launch point's ground)",
+                             key="terrain.mode")
         return cls(spec.pattern.options, FaceBand.of(spec))
 
     @classmethod

@@ -100,6 +100,12 @@ class PatternKind(Protocol):
         ...
 
     @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        """What the pattern's heights stand on over a DEM (terrain.mode = "fixed"): above the lowest ground under
+        this (a structure's footprint, a toe line; planning CRS); None: above the area's lowest ground, as a grid's."""
+        ...
+
+    @classmethod
     def options(cls, values: Mapping[str, Any], flight: FlightSpec) -> object:
         """The pattern's own settings from its fields' values (InputError for a combination it refuses)."""
         ...

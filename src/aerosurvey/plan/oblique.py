@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.camera import Camera
 from aerosurvey.errors import InputError
@@ -84,6 +85,10 @@ class Oblique:
         Field("max_far_gsd_cm", "Far-edge GSD limit (cm)", "number", None, lo=0.0, hi=1000.0, lo_open=True, scale=0.01,
               hint="The coarsest ground sampling a tilted photo may have at its far edge"),
     )
+
+    @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        return None  # its heights are above the area's ground
 
     @classmethod
     def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:

@@ -33,7 +33,8 @@ per layer between the structure's base and top, the camera turned to the structu
 - Stations a photo base apart along the ring (`polyline.stations_along`), the base from the
   image's width on the wall where the band is nearest and `targets.forward_overlap`.
 - Heights: a layer at z above the structure's ground flies `z − the plan's height` above the
-  plan's height (`Pass.rise_m`, the structure's ground is the launch point's: no DEM); the
+  plan's height (`Pass.rise_m`; the structure's ground: the launch point's, or over a DEM the lowest
+  under its footprint, `stands_on`); the
   height cap is checked per station by the altitude step.
 - Each pass says it goes round the structure (`Pass.ring`: the ring and the stand-off), which
   the exporters lay as their client's structure scan (QGroundControl's Structure Scan item); a
@@ -55,6 +56,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from aerosurvey.errors import InputError
@@ -197,6 +199,10 @@ class Orbit:
     )
 
     @classmethod
+    def stands_on(cls, site: Site) -> BaseGeometry | None:
+        return site.structure  # its layers are above the ground under the footprint
+
+    @classmethod
     def centreline_sides(cls, spec: MissionSpec) -> tuple[float | None, float | None]:
         return None, None
 
@@ -211,9 +217,11 @@ class Orbit:
         if spec.structure is None:
             raise InputError("pattern.kind = 'orbit' needs a [structure] table (its footprint, base_m and top_m): "
                              "the rings go round it", key="pattern.kind")
-        if spec.terrain.mode != "none":
+        if spec.terrain.mode not in ("none", "fixed"):
             raise InputError(f"terrain.mode = {spec.terrain.mode!r} is not allowed with pattern.kind = 'orbit' (its layers "
-                             "are heights above the launch point's ground); allowed: 'none'", key="terrain.mode")
+                             "are level rings at heights above the ground the structure stands on); allowed: 'fixed' (with "
+                             "a DEM: above the lowest ground under its footprint) or 'none' (no DEM: the launch point's "
+                             "ground)", key="terrain.mode")
         return cls(spec.pattern.options, WallBand.of(spec), spec.structure.base_m, spec.structure.top_m)
 
     @classmethod

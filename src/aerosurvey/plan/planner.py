@@ -85,9 +85,13 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         outlines, zone_warnings = official.outlines, official.warnings
     site = prepare_site(spec, replace(inputs, exclusions_wgs84=inputs.exclusions_wgs84 + outlines), h_target)
     report("heights over the ground", 0.03)
+    pattern = kind_of(spec.pattern.kind)
+    foot = pattern.stands_on(site) if site.ground is not None else None
+    if foot is not None:  # a structure's heights are above the ground it stands on (terrain.mode = "fixed")
+        lowest = foot_ground(site, foot)
+        site = replace(site, ground=(lowest, lowest))
     heights = solve_heights(spec, h_target, site.ground)
     stretch = site.autopilot_stretch()
-    pattern = kind_of(spec.pattern.kind)
     footprint = pattern.footprint(spec, heights)
     sensor = solve_sensor(spec, h_target, gsd_target, heights, cap_warnings, footprint=footprint, autopilot_stretch=stretch,
                           nose_turns=pattern.nose_turns_camera)
@@ -166,8 +170,8 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
         bounds=pattern.bounds(spec, site, sensor, layout),
         estimates=est, sun=sun,
-        warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor) + alts.warnings + sun_warnings
-                  + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
+        warnings=(site.warnings + sensor.warnings + limit_warnings + (_terrain_warnings(sensor) if foot is None else ())
+                  + alts.warnings + sun_warnings + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
         airspace=inputs.airspace, wind=wind,
         faces=_faces(spec, inputs, site, alts.stations, home_ground, layout),
     )
@@ -175,27 +179,32 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
 
 def _faces(spec: MissionSpec, inputs: PlanInputs, site: Site, st: Stations, home_ground: float,
            layout: Layout) -> FacesCheck | None:
-    """The faces as the stations' photos see them: the pattern's own surface (`Layout.surface`, its
-    heights above the launch point's ground), else [structure]'s, the photos' heights on the
-    structure's datum (its ground: the DEM's at its footprint, or the launch point's without a DEM)."""
-    if layout.surface is None and (spec.structure is None or inputs.structure_wgs84 is None):
-        return None
-    from aerosurvey.plan.surfaces import Structure, check_faces  # faces only: not loaded by every plan
-
-    optics = Optics.of(spec.camera.camera, spec.camera.mount)
+    """The faces as the stations' photos see them: the pattern's own surface (`Layout.surface`), else
+    [structure]'s, the photos' heights on the surface's datum: the ground it stands on (`Surface.foot`: over
+    a DEM the lowest ground under it, as `foot_ground` gives the pattern's heights; else the launch point's)."""
     if layout.surface is not None:
-        photos = Photos.looking(st.x, st.y, st.agl_m, st.camera_yaw_deg, st.pitch_deg)
-        a = layout.surface
-        return check_faces(a.surface, home_ground, photos, st.ids, st.run, optics, site.grid_scale, a.min_images, a.max_gsd_m)
-    assert spec.structure is not None and inputs.structure_wgs84 is not None
-    footprint = site.planar.forward(inputs.structure_wgs84)
-    at = footprint.representative_point()
-    ground = float(site.dem.sample(np.array([at.x]), np.array([at.y]), "the structure")[0]) if site.dem is not None else home_ground
+        surface, min_images, max_gsd_m = layout.surface.surface, layout.surface.min_images, layout.surface.max_gsd_m
+    elif spec.structure is not None and inputs.structure_wgs84 is not None:
+        from aerosurvey.plan.surfaces import Structure  # faces only: not loaded by every plan
+
+        s = spec.structure
+        surface, min_images, max_gsd_m = (Structure(site.planar.forward(inputs.structure_wgs84), s.base_m, s.top_m),
+                                          s.min_images, s.max_gsd_m)
+    else:
+        return None
+    from aerosurvey.plan.surfaces import check_faces
+
+    ground = home_ground if site.dem is None else foot_ground(site, surface.foot)
     z = np.where(np.isfinite(st.ground_m), st.ground_m + st.agl_m - ground, st.agl_m)
-    s = spec.structure
     photos = Photos.looking(st.x, st.y, z, st.camera_yaw_deg, st.pitch_deg)
-    return check_faces(Structure(footprint, s.base_m, s.top_m), ground, photos, st.ids, st.run, optics, site.grid_scale,
-                       s.min_images, s.max_gsd_m)
+    return check_faces(surface, ground, photos, st.ids, st.run, Optics.of(spec.camera.camera, spec.camera.mount),
+                       site.grid_scale, min_images, max_gsd_m)
+
+
+def foot_ground(site: Site, foot: BaseGeometry) -> float:
+    """The ground a structure stands on over the site's DEM: the lowest cell under `foot` (its footprint, a toe line)."""
+    assert site.dem is not None
+    return site.dem.range_over(foot, "structure's foot")[0]
 
 
 #: how many times the layout is laid again for a camera turned against the lines (a fixed yaw, a crab)

@@ -2,8 +2,9 @@
 (plan/capture.py: the same camera, attitude and pinhole).
 
 A structure (`Structure`) is a prism: a footprint polygon in the planning CRS standing from
-`base_m` to `top_m`, heights on the photos' datum (`Photos.z`: above the ground under the
-structure where the photos' heights are above the ground). Its faces are sampled at points
+`base_m` to `top_m`, heights on the photos' datum (`Photos.z`: above the ground the structure
+stands on, its `foot`: over a DEM the lowest ground under its footprint or toe line, else the
+launch point's). Its faces are sampled at points
 (`face_points`): each wall (an edge of the footprint's rings, its outward normal level) at the
 middle of cells about `spacing_m` wide and high, the roof (normal up) at a point of each cell of
 a square grid inside the footprint; each point stands for its cell's area, so the sampled area
@@ -30,6 +31,7 @@ from typing import ClassVar, Protocol
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from aerosurvey.errors import InputError
@@ -70,6 +72,10 @@ class Structure:
     def where(self) -> str:
         return f"structure.base_m {self.base_m:g} .. top_m {self.top_m:g}, or below its base"
 
+    @property
+    def foot(self) -> BaseGeometry:
+        return self.footprint
+
     def area_m2(self, grid_scale: float = 1.0) -> float:
         return float(self.footprint.area / grid_scale ** 2 + self.footprint.length / grid_scale * (self.top_m - self.base_m))
 
@@ -104,6 +110,11 @@ class Surface(Protocol):
     @property
     def where(self) -> str:
         """The solid's extent in the spec's words."""
+        ...
+
+    @property
+    def foot(self) -> BaseGeometry:
+        """What it stands on (planning CRS): over a DEM its heights are above the lowest ground under this."""
         ...
 
     def area_m2(self, grid_scale: float = 1.0) -> float: ...
@@ -147,6 +158,10 @@ class Terrace:
     def where(self) -> str:
         return (f"{self.benches} face(s) {self.height_m:g} m high at {self.angle_deg:g}° behind the toe line, "
                 f"berms {self.berm_m:g} m")
+
+    @property
+    def foot(self) -> BaseGeometry:
+        return shapely.LineString([self.a, self.b])
 
     @property
     def run_m(self) -> float:

@@ -67,6 +67,7 @@ class Summary:
     height_agl_m: float
     terrain_mode: str  # "none": flat ground
     height_range_m: tuple[float, float]  # lowest and highest above the ground
+    ground_min_m: float | None  # the lowest ground (AMSL) the heights are above: the area's, a structure's foot; None: no DEM
     gsd_cm: tuple[float, float]  # finest and coarsest
     gsd_target_cm: float
     footprint_m: tuple[float, float]  # across and along the line
@@ -110,6 +111,7 @@ def plan_summary(manifest: Mapping[str, Any], rules: Sequence[Mapping[str, Any]]
         name=manifest["mission"]["name"], area_ha=round(d["area_ha"], 2), crs=manifest["crs"]["planning"],
         camera=manifest["camera"]["name"], height_agl_m=round(d["height_agl_m"], 1), terrain_mode=d["terrain"]["mode"],
         height_range_m=(round(d["lowest_agl_m"], 1), round(d["highest_agl_m"], 1)),
+        ground_min_m=d["terrain"]["ground_min_m"],
         gsd_cm=(round(d["gsd_min_cm"], 2), round(d["gsd_max_cm"], 2)), gsd_target_cm=round(manifest["targets"]["gsd_cm"], 2),
         footprint_m=(round(d["footprint_across_m"], 1), round(d["footprint_along_m"], 1)),
         spacing_m=round(d["line_spacing_m"], 1), photo_base_m=round(d["photo_base_m"], 2),
@@ -205,6 +207,8 @@ def _height_and_gsd(s: Summary, height: str) -> list[str]:
              f"  GSD on faces    {gsd}"]
     if f["nadir_photos"]:
         return nadir + faces
+    if s.ground_min_m is not None:  # a structure over a DEM: its heights above the ground it stands on
+        height = f"terrain mode {s.terrain_mode}: heights above the structure's foot, {s.ground_min_m:.1f} m"
     return [f"  photos taken    {agl} above the ground ({height}), none straight down", *faces]
 
 
