@@ -21,6 +21,8 @@ import pytest
 import rasterio
 import shapely
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from rasterio.transform import from_origin
 from tests.conftest import make_spec, write_geojson
 from tests.plan.test_orbit import CAMERA, CENTRE, TO_LONLAT, _box, _lonlat
@@ -93,25 +95,27 @@ def _wpl_altitudes(out: Path) -> np.ndarray:
     return np.array([r[10] for r in rows if int(r[3]) == ic.NAV_WAYPOINT])
 
 
-def _lifted(tmp: Path, over: dict, foot: shapely.Geometry, line: np.ndarray | None = None) -> None:
+def _lifted(tmp: Path, over: dict, foot: shapely.Geometry, line: np.ndarray | None = None,
+            ground: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> None:
+    ground = ground or tilted
     flat_out, _ = _plan(tmp / "flat", over, None, line=line)
-    dem_out, text = _plan(tmp / "dem", over, tilted, line=line)
+    dem_out, text = _plan(tmp / "dem", over, ground, line=line)
     flat_m, flat_xy, flat_alt = _stations(flat_out)
     m, xy, alt = _stations(dem_out)
     assert [s["id"] for s in m["stations"]] == [s["id"] for s in flat_m["stations"]]
     np.testing.assert_allclose(xy, flat_xy, atol=0.01)
     # the foot's lowest ground by the DEM's formula: a plane is lowest at a corner of the foot (± a cell's slope)
     fx, fy = np.asarray(shapely.get_coordinates(foot)).T
-    lowest = float(tilted(*UTM.transform(*TO_LONLAT.transform(fx, fy))).min())
+    lowest = float(ground(*UTM.transform(*TO_LONLAT.transform(fx, fy))).min())
     home = _home_amsl(dem_out)
     lift = alt - flat_alt
-    assert np.ptp(lift) < 0.01, lift
+    assert np.ptp(lift) <= 0.02 + 1e-9, lift  # the manifest's altitudes to the centimetre
     assert lift[0] == pytest.approx(lowest - home, abs=0.1 * RES + 0.05)
     # every waypoint of the mission lifted alike (the lead-ins, the joins and the ways between the rings too)
     np.testing.assert_allclose(_wpl_altitudes(dem_out)[1:-1] - _wpl_altitudes(flat_out)[1:-1], lift[0], atol=0.01)
     # each station's height above the ground under it
     agl = np.array([s["agl_m"] for s in m["stations"]])
-    np.testing.assert_allclose(agl, alt + home - tilted(xy[:, 0], xy[:, 1]), atol=0.1)
+    np.testing.assert_allclose(agl, alt + home - ground(xy[:, 0], xy[:, 1]), atol=0.1)
     # the faces seen as without the DEM: the structure and the rings moved up together
     assert m["faces"]["short_m2"] == 0.0 and m["faces"]["fewest_images"] == flat_m["faces"]["fewest_images"]
     assert "heights above the structure's foot" in text and "clearance" in text
@@ -121,6 +125,29 @@ def test_an_orbits_rings_stand_on_the_ground_under_its_footprint(tmp_path: Path)
     over = _tower(tmp_path / "flat")
     _tower(tmp_path / "dem")
     _lifted(tmp_path, over, _box(10.0, 10.0))
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(w=st.floats(6.0, 30.0), d=st.floats(6.0, 30.0), turn=st.floats(0.0, 90.0), top=st.floats(6.0, 30.0),
+       standoff=st.floats(8.0, 20.0), se=st.floats(-0.05, 0.05), sn=st.floats(-0.05, 0.05))
+def test_random_towers_on_random_slopes(tmp_path_factory, w: float, d: float, turn: float, top: float, standoff: float,
+                                        se: float, sn: float) -> None:
+    """Random boxes and stand-offs on planes up to 5 % steep each way, launched 64 m south-west of the tower (from
+    farther uphill the way out would descend through the ground to the lowest ring, which the clearance refuses):
+    the rings lifted by the footprint's lowest ground less the launch point's, as above."""
+    tmp = tmp_path_factory.mktemp("slope")
+    box = _box(w, d, turn)
+    for sub in ("flat", "dem"):
+        (tmp / sub).mkdir()
+        write_geojson(tmp / sub / "tower.geojson", [_lonlat(np.asarray(box.exterior.coords))])
+    over = {"pattern": {"kind": "orbit", "standoff_m": standoff}, "structure": {"file": "tower.geojson", "top_m": top},
+            "camera": {"model": CAMERA, "trigger": "distance"},
+            "area": {"file": "area.geojson", "launch": _lonlat(np.array([[-45.0, -45.0]]))[0]}}
+
+    def plane(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+        return 400.0 + se * (e - EC) + sn * (n - NC)
+
+    _lifted(tmp, over, box, ground=plane)
 
 
 def test_a_facades_lanes_stand_on_the_lowest_ground_along_its_toe_line(tmp_path: Path) -> None:
