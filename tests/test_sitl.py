@@ -722,17 +722,19 @@ def _flown_side_overlaps(manifest: dict, logs: list[Path]) -> list[float]:
 
 
 @pytest.mark.sitl
-@pytest.mark.xfail(strict=False, reason="issue 36's plane target, not met: flown / estimated with the reversals as "
-                   "flown (flight_time.plane_reversal) 5@0 1.013, 0.971, 0.997; 5@90 0.946, 0.956; 5@225 0.983, 1.027; "
-                   "8@45 0.929, 1.010, 0.897, 1.016 (S02's camera once 5.8 deg off nadir); 8@270 0.925, 0.970 (68 "
-                   "photos triggered for 67), 0.893: a reversal at a downwind line end is timed long (docs/planning.md, "
-                   "Wind); side overlap medians 0.759, 0.604, 0.709")
-@pytest.mark.parametrize("wind", ["5@0", "5@90", "5@225", "8@45", "8@270"])
+@pytest.mark.parametrize("wind", ["5@0", "5@90", "5@225", "8@45", pytest.param("8@270", marks=pytest.mark.xfail(
+    strict=False, reason="S03 triggers 61 photos for 60 planned: its way out meets the first line's lead-in waypoint "
+    "heading away from the line, and the plane passes the line's first station 68 m off it, the camera started there "
+    "a base early (68 for 67 before); its times are within 5 % (0.998, 0.971, 0.984)"))])
 def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     """ArduPlane in 5 and 8 m/s of wind: every sortie completes with its photos in the wind triangle's
     estimate within 5 % (flown / estimated, printed), and its body-fixed camera under the crab keeps the
     side overlap asked between neighbouring lines (from the CAM records' positions and attitudes; median,
-    and the share of photos below it printed)."""
+    and the share of photos below it printed). With the reversals flown in the moving air
+    (`flight_time.plane_reversal`) and the wind set once the plane is armed: 5@0 1.009, 1.015, 0.992; 5@90
+    1.015, 1.000; 5@225 1.000, 0.993; 8@45 0.986, 0.996, 0.986, 0.992; 8@270 0.998, 0.971, 0.984 (before,
+    the reversals' turns over the ground: 5@90 0.946, 0.956; 8@45 0.929, 1.010, 0.897, 1.016; 8@270 0.925,
+    0.970, 0.893)."""
     binary = _binary("plane")
     if binary is None:
         pytest.skip("no ArduPilot SITL plane binary: set AEROSURVEY_SITL_BIN or put it on PATH")

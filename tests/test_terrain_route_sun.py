@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import datetime as dt
-import math
 import sys
 from pathlib import Path
 
@@ -14,7 +13,6 @@ from hypothesis import strategies as st
 
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
-from aerosurvey.plan.flight_time import plane_turn_length
 from aerosurvey.plan.route import line_orders
 from aerosurvey.plan.sun import sun_elevation_deg
 from aerosurvey.plan.terrain import thin_profile
@@ -116,14 +114,6 @@ def test_plane_skip_orders_offered_when_spacing_below_turn_diameter():
     assert len(line_orders(10, 40.0, 50.0, "plane")) > 1
     assert len(line_orders(10, 120.0, 50.0, "plane")) == 1
     assert len(line_orders(10, 40.0, 50.0, "copter")) == 1
-
-
-def test_plane_turn_length():
-    r = 50.0
-    assert plane_turn_length(100.0, r) == pytest.approx(math.pi * r)
-    assert plane_turn_length(300.0, r) == pytest.approx(math.pi * r + 200.0)
-    assert plane_turn_length(0.0, r) == pytest.approx(7 * math.pi / 3 * r)
-    assert plane_turn_length(40.0, r) > plane_turn_length(100.0, r)
 
 
 def test_sun_elevation_known_values():

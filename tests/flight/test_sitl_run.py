@@ -365,7 +365,7 @@ class _Track:
         self.messages.insert(2, mavlink.MAVLink_mission_current_message(5))  # after the take-off and the way out
         self.conn = self
 
-    def start_mission(self):
+    def start_mission(self, params):
         pass
 
     def check_running(self, when):

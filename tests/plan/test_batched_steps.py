@@ -331,14 +331,6 @@ def test_strip_offsets_on_the_edge_are_left_to_the_full_check(monkeypatch: pytes
     assert strip_offsets_many(np.zeros(0), np.zeros(0), 10.0, 5.0, 2) == []
 
 
-@given(st.lists(st.floats(0.0, 2000.0), max_size=20), st.floats(1.0, 500.0))
-def test_plane_turn_lengths_are_plane_turn_length(lateral: list[float], radius: float) -> None:
-    from aerosurvey.plan.flight_time import plane_turn_length, plane_turn_lengths
-
-    many = plane_turn_lengths(np.array(lateral), radius).tolist()
-    assert many == pytest.approx([plane_turn_length(d, radius) for d in lateral], rel=1e-12, abs=1e-9)
-
-
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.floats(0.0, 180.0, exclude_max=True), min_size=1, max_size=8),
        st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 6e6)), min_size=1, max_size=30))

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from aerosurvey.cli import main
 from aerosurvey.errors import InputError
 from aerosurvey.inputs import plan_from_files
-from aerosurvey.plan.flight_time import Kinematics, path_time, plane_transit_time, plane_turn_length
+from aerosurvey.plan.flight_time import Kinematics, path_time, plane_reversal, plane_transit_time
 from aerosurvey.spec import load_spec, parse_wind
 from conftest import make_spec
 
@@ -131,34 +131,67 @@ def test_a_copters_legs_take_the_integrated_time_more_than_in_still_air(speed, m
     assert added >= -1e-9
 
 
-@settings(max_examples=10, deadline=None)
-@given(air=st.floats(14, 25), share=st.floats(0, 0.8), towards=st.floats(0, 360), heading=st.floats(0, 360),
-       left=st.booleans())
-def test_a_planes_turn_takes_the_integrated_time(air, share, towards, heading, left):
-    """A reversal between lines 2R apart is a half circle over the ground: flown along it, the
-    nose steered so that air velocity + wind follows its tangent, it takes what path_time gives the turn."""
-    radius = 60.0
+def _reversal(air: float, radius: float, reach: float, wind: np.ndarray, u: np.ndarray, ahead: float, lateral: float,
+              leg: np.ndarray, side: float) -> float:
+    """Seconds from a line's end (the origin; the line along the unit vector u) to the end of the leg `leg` after a
+    waypoint `ahead` along the line and `lateral` to its left, flown by stepping: along the line (the nose steered
+    against the wind, `_steer`) until one L1 distance short of abreast of the waypoint (`reach` at the air speed,
+    in proportion to the ground speed; at once where the waypoint is nearer or behind), then a half circle through
+    the air to the left (side 1) or right (-1) at `radius`, its nose turned at air/radius rad/s from where it
+    pointed and the wind added, in 4000 steps, then straight to the leg's end (`_fly`)."""
+    ground = _steer(u, wind, air)
+    speed = float(ground @ u)
+    start = max(ahead - reach * speed / air, 0.0)
+    t, pos = start / speed, start * u
+    nose = math.atan2(*(ground - wind)[::-1])
+    steps, turn = 4000, math.pi * radius / air
+    for i in range(steps):  # the nose's direction at each step's middle
+        a = nose + side * math.pi * (i + 0.5) / steps
+        pos = pos + (air * np.array([math.cos(a), math.sin(a)]) + wind) * (turn / steps)
+    end = ahead * u + lateral * np.array([-u[1], u[0]]) + leg
+    if np.hypot(*(end - pos)) > 1e-6:
+        t += _fly(np.array([pos, end]), lambda d: _steer(d, wind, air))
+    return t + turn
+
+
+@settings(max_examples=40, deadline=None)
+@given(air=st.floats(12, 25), share=st.floats(0, 0.7), towards=st.floats(0, 360), heading=st.floats(0, 360),
+       radius=st.floats(15, 80), reach=st.floats(0, 80), ahead=st.floats(-300, 300),
+       lateral=st.one_of(st.just(0.0), st.floats(-250, 250)), back=st.floats(0, 300), off=st.floats(-30, 30))
+def test_a_planes_reversal_takes_the_integrated_time(air, share, towards, heading, radius, reach, ahead, lateral, back,
+                                                     off):
+    """plane_reversal against the reversal stepped through (`_reversal`): on to the turn, the half circle in the
+    moving air, straight on to the end of the leg after the waypoint (onto the same line, 0 across: the longer
+    of the two sides)."""
     wind = _wind(share * air, towards)
-    kin = Kinematics("plane", air, 2.5, radius, wind_x=float(wind[0]), wind_y=float(wind[1]))
+    kin = Kinematics("plane", air, 2.5, radius, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=reach)
+    h, o = math.radians(heading), math.radians(heading + 180.0 + off)
+    u, leg = np.array([math.cos(h), math.sin(h)]), back * np.array([math.cos(o), math.sin(o)])
+    flown = [_reversal(air, radius, reach, wind, u, ahead, lateral, leg, side)
+             for side in ((1.0,) if lateral > 0 else (-1.0,) if lateral < 0 else (1.0, -1.0))]
+    (timed,) = plane_reversal(np.array([ahead]), np.array([lateral]), np.array([back]), np.array([heading]),
+                              np.array([heading + 180.0 + off]), kin)
+    assert timed == pytest.approx(max(flown), rel=1e-5, abs=1e-5)
+
+
+@settings(max_examples=15, deadline=None)
+@given(air=st.floats(12, 25), share=st.floats(0, 0.7), towards=st.floats(0, 360), heading=st.floats(0, 360),
+       spacing=st.floats(20, 200), left=st.booleans(), beyond=st.floats(-100, 200))
+def test_a_planes_lines_and_reversal_take_the_integrated_time(air, share, towards, heading, spacing, left, beyond):
+    """path_time over a line, the connector to the next line's lead-in waypoint `beyond` past the line's end and
+    `spacing` across, that lead-in (150 m) and the next line (300 m): each line flown straight in the wind, the
+    connector and the lead-in as `_reversal` flies them (a 30 m turn radius, a 40 m reach)."""
+    wind = _wind(share * air, towards)
+    kin = Kinematics("plane", air, 2.5, 30.0, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=40.0)
     h = math.radians(heading)
     u = np.array([math.cos(h), math.sin(h)])
-    side = np.array([-u[1], u[0]]) * (1.0 if left else -1.0)
-    # the turn: a line, the connector 2R across, the line back (path_time replaces the connector by the turn)
-    line = 200.0
-    pts = np.array([-line * u, np.zeros(2), 2 * radius * side, 2 * radius * side - line * u])
-    straight = _fly(pts[:2], lambda d: _steer(d, wind, air)) + _fly(pts[2:], lambda d: _steer(d, wind, air))
-    centre = radius * side
-    arc, t = 360, 0.0
-    for k in range(arc):  # the half circle, each of its pieces flown along its tangent
-        a0 = math.pi * k / arc
-        a1 = math.pi * (k + 1) / arc
-        p0 = centre - radius * (math.cos(a0) * side - math.sin(a0) * u)
-        p1 = centre - radius * (math.cos(a1) * side - math.sin(a1) * u)
-        d = p1 - p0
-        g = _steer(d / np.hypot(*d), wind, air)
-        t += float(np.hypot(*d)) / float(np.hypot(*g))
-    assert plane_turn_length(2 * radius, radius) == pytest.approx(math.pi * radius)
-    assert path_time(pts, kin) == pytest.approx(straight + t, rel=3e-3)
+    across = np.array([-u[1], u[0]]) * (spacing if left else -spacing)
+    waypoint = (500.0 + beyond) * u + across
+    pts = np.array([np.zeros(2), 500.0 * u, waypoint, waypoint - 150.0 * u, waypoint - 450.0 * u])
+    flown = (_fly(pts[:2], lambda d: _steer(d, wind, air))
+             + _reversal(air, 30.0, 40.0, wind, u, beyond, spacing if left else -spacing, -150.0 * u, 1.0 if left else -1.0)
+             + _fly(pts[3:], lambda d: _steer(d, wind, air)))
+    assert path_time(pts, kin) == pytest.approx(flown, rel=1e-4)
 
 
 @pytest.mark.parametrize("vehicle", ["plane", "copter"])
@@ -336,15 +369,15 @@ def test_a_planes_landing_approach_is_flown_at_its_landing_speed():
 @pytest.mark.parametrize("first_m", [0.0, 185.0, 370.0])
 def test_a_plane_overshoots_a_first_place_nearer_than_its_climb_out_and_turns_back_to_it(first_m):
     """Still air, 12.5 m/s over the lines, a 30 m turn radius; the take-off at 27 m/s of air speed and 7 m/s up
-    to 98 m: 14 s and 378 m straight ahead. A first place nearer is reached after the climb, a turn back onto the
-    same line (an omega turn: 180° and four times 60°, 7π/3 R long) and the way back; one farther takes the rest
-    of its leg at 12.5 m/s."""
+    to 98 m: 14 s and 378 m straight ahead. A first place nearer is reached after the climb, a half circle (π R)
+    that ends 2R beside the leg, and the way straight back to it; one farther takes the rest of its leg at
+    12.5 m/s."""
     kin = Kinematics("plane", 12.5, 2.5, 30.0)
     out = np.array([[0.0, 0.0], [0.0, first_m]])
     home = np.array([[0.0, first_m], [0.0, 0.0]])
     t_out, _, t_climb, _ = plane_transit_time(out, home, 98.0, 7.0, 27.0, 2.0, kin)
     assert t_climb == pytest.approx(14.0)
-    assert t_out == pytest.approx((7.0 * math.pi / 3.0 * 30.0 + 378.0 - first_m) / 12.5)
+    assert t_out == pytest.approx((math.pi * 30.0 + math.hypot(378.0 - first_m, 60.0)) / 12.5)
     far = np.array([[0.0, 0.0], [0.0, 600.0]])
     assert plane_transit_time(far, far[::-1], 98.0, 7.0, 27.0, 2.0, kin)[0] == pytest.approx(222.0 / 12.5)
 
@@ -353,9 +386,10 @@ def test_a_plane_overshoots_a_first_place_nearer_than_its_climb_out_and_turns_ba
 def test_a_plane_flies_on_towards_the_next_lead_in_before_it_turns(beyond_m):
     """Still air, 12.5 m/s, a 27.6 m turn radius, ArduPlane turning 44.8 m short of a waypoint: a line east ends,
     the next line's lead-in waypoint lies `beyond_m` farther east and 60 m north, its line runs west 152 m to its
-    start. The plane flies on east until 44.8 m short of the lead-in (none when it is nearer), turns (two quarter
-    circles and the 4.8 m between: π R + 60 − 2 R) and flies the lead-in."""
+    start. The plane flies on east until 44.8 m short of abreast of the lead-in (none when it is nearer), turns
+    (π R, ending 2R = 55.2 m north of where it began) and flies straight to the line's start."""
     kin = Kinematics("plane", 12.5, 2.5, 27.6, reach_m=44.8)
     pts = np.array([[0.0, 0.0], [500.0, 0.0], [500.0 + beyond_m, 60.0], [500.0 + beyond_m - 152.0, 60.0]])
-    expected = 500.0 + max(0.0, beyond_m - 44.8) + math.pi * 27.6 + 60.0 - 2 * 27.6 + 152.0
+    on = max(0.0, beyond_m - 44.8)
+    expected = 500.0 + on + math.pi * 27.6 + math.hypot(152.0 - (beyond_m - on), 60.0 - 55.2)
     assert path_time(pts, kin) == pytest.approx(expected / 12.5)

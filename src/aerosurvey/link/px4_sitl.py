@@ -25,7 +25,7 @@ import os
 import shutil
 import socket
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -219,10 +219,12 @@ class Px4Vehicle(SitlVehicle):
         for msg_id in (30, 31, 32, 36, 65, 83, 85, 106):
             self.command(mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, -1)
 
-    def start_mission(self) -> None:
-        """AUTO.MISSION, then arm: PX4 takes off and flies the mission from its first item."""
+    def start_mission(self, params: Sequence[tuple[str, float]] = ()) -> None:
+        """`params` set, AUTO.MISSION, then arm: PX4 takes off and flies the mission from its first item."""
         from pymavlink import mavutil
 
+        for name, value in params:
+            self.set_param(name, value)
         self.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, *AUTO_MISSION)
         self.arm(timeout=120.0)
 

@@ -23,7 +23,7 @@ import shutil
 import socket
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -255,16 +255,20 @@ class SitlVehicle:
 
         self.command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode)
 
-    def start_mission(self) -> None:
-        """Arm and start the uploaded mission."""
+    def start_mission(self, params: Sequence[tuple[str, float]] = ()) -> None:
+        """Arm and start the uploaded mission, `params` set just before it starts (a plane's once armed)."""
         from pymavlink import mavutil
 
         if self.vehicle == "plane":
             # ArduPlane does not arm in AUTO: arm in MANUAL (throttle low), then hand over to the mission
             self.set_mode(PLANE_MODES["MANUAL"])
             self.arm(timeout=120.0)
+            for name, value in params:
+                self.set_param(name, value)
             self.set_mode(PLANE_MODES["AUTO"])
         else:
+            for name, value in params:
+                self.set_param(name, value)
             self.set_mode(COPTER_MODES["AUTO"])  # AUTO_OPTIONS = 3: arms in AUTO and takes off without throttle
             self.arm(timeout=120.0)
         self.command(mavutil.mavlink.MAV_CMD_MISSION_START, 0, 0)
@@ -326,10 +330,11 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
         wind: tuple[float, float] | None = None) -> Flight:
     """Upload (with verification), arm, fly AUTO to the end, and record what happened.
 
-    The `wind` (speed m/s, from degrees true) is set as the mission starts: SITL's plane on the ground slides
-    with the wind until it is launched (in 5 m/s of wind, up to 323 m from home by the time it was armed, the
-    take-off then started there), so from the reboot to the start the air is still; and it is stilled again once
-    a copter is below TOUCHDOWN_M after its last item (in 8 m/s a landed quad was never disarmed).
+    The `wind` (speed m/s, from degrees true) is set as the mission starts, a plane's once it is armed: SITL's
+    plane on the ground slides with the wind until it is launched (in 5 m/s of wind, up to 323 m from home by the
+    time it was armed, the take-off then started there; with the wind set before the arming, 115 m in 8 m/s while
+    ArduPlane's pre-arm checks took 20 s), so from the reboot to the start the air is still; and it is stilled
+    again once a copter is below TOUCHDOWN_M after its last item (in 8 m/s a landed quad was never disarmed).
 
     With `rtl_after_photos`, a flight cut short: switched to RTL as the camera feedback of that
     photo arrives (ArduPilot keeps triggering by distance in RTL, CAM_AUTO_ONLY = 0), and over
@@ -341,9 +346,7 @@ def fly(sv: SitlVehicle, mission: Mission, name: str, est_time_s: float, last_it
     flight = Flight(name)
     flight.upload_note = upload(mission)
     lands = bool(mission.items) and mission.items[-1].command == mav.NAV_LAND
-    for param, value in wind_params(*wind) if wind is not None else []:
-        sv.set_param(param, value)
-    sv.start_mission()
+    sv.start_mission(wind_params(*wind) if wind is not None else [])
     # the limit runs on simulated time (SITL may not reach the asked speed-up); a wall-clock cap bounds a stalled SITL
     wall_limit = time.monotonic() + 600.0 + 10.0 * est_time_s / max(sv.speedup, 1.0)
     sim_start: int | None = None

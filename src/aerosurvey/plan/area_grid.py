@@ -149,7 +149,7 @@ class AreaGrid:
 
     def _pieces(self, covered: BaseGeometry, whole: _Laid, site: Site, sensor: SensorSolution) -> list[_Laid]:
         """The area cut in two pieces, each at its own heading, where that flies shorter than the one
-        grid `whole` with no more photos; else [whole]."""
+        grid `whole` (at its own direction's solution) with no more photos; else [whole]."""
         k = site.grid_scale
         speed = sensor.kinematics.speed_ms
 
@@ -163,7 +163,10 @@ class AreaGrid:
         # the transit between the pieces: at most from one's centre to the other's
         splits = [(rough(a) + rough(b) + a.centroid.distance(b.centroid) / speed, a, b)
                   for a, b in split_candidates(covered, sensor.spacing_m * k / 4.0)]
-        best = whole.cost
+        # the one grid at the spacing its own direction needs (a camera turned by the heading: laid again for it
+        # alone, `planner._under_turned_camera`), not at this solution's, made for the pieces' directions too
+        alone = sensor.at_heading(whole.heading)
+        best = whole.cost if alone is sensor else self._grid(covered, site, alone, no_progress, at_heading=whole.heading).cost
         laid = [whole]
         # only the splits whose rough estimate beats the one grid are searched (each piece its
         # heading search): the two most promising

@@ -92,45 +92,46 @@ class Kinematics:
         """speed_ms over the ground speed along `angle_deg`: the still-air length that takes as long as a metre flown there."""
         return 1.0 if self.calm else self.speed_ms / self.ground_speed(angle_deg)
 
-    def turn_slowness(self, angle_in_deg: float, angle_across_deg: float, steps: int = 36) -> float:
-        """A plane's 180° turn from `angle_in_deg` towards `angle_across_deg`: the mean slowness over
-        the track directions it sweeps (the ground track a turn flies, a metre each way)."""
-        if self.calm:
-            return 1.0
-        side = 1.0 if (angle_across_deg - angle_in_deg) % 360.0 < 180.0 else -1.0
-        return sum(self.slowness(angle_in_deg + side * 180.0 * (k + 0.5) / steps) for k in range(steps)) / steps
+
+def plane_turn_time(k: Kinematics) -> float:
+    """Seconds of a plane's half circle at its turn radius, in the moving air (`plane_reversal`)."""
+    return math.pi * k.turn_radius_m / k.speed_ms
 
 
-def plane_turn_length(lateral: float, radius: float) -> float:
-    """Path length of a 180° turn between parallel lines `lateral` apart.
+def plane_reversal(ahead: np.ndarray, lateral: np.ndarray, back: np.ndarray, angle_in_deg: np.ndarray,
+                   angle_out_deg: np.ndarray, k: Kinematics) -> np.ndarray:
+    """Seconds a plane takes from a line's end to the end of the leg after the next waypoint (the next line's first
+    station, its lead-in flown): the one price of a plane's reversal (`path_time`, so the route's and the sorties'
+    times and `quick_cost`; `quick_cost_lower_bounds`; `plane_takeoff`'s turn back). Elementwise: the waypoint lies
+    `ahead` along the line (negative: behind) and `lateral` across it (positive: to the left), the leg after it is
+    `back` long; the line runs along `angle_in_deg`, that leg along `angle_out_deg` (atan2(dy, dx), degrees).
 
-    At least 2R apart: two quarter circles and a straight. Closer: an omega (bulb) turn
-    of total angle π + 4α with cos α = (2R + d) / 4R.
-    """
-    d = abs(lateral)
-    if d >= 2 * radius:
-        return math.pi * radius + (d - 2 * radius)
-    alpha = math.acos(min(1.0, (2 * radius + d) / (4 * radius)))
-    return radius * (math.pi + 4 * alpha)
+    ArduPlane flies on along the line until its L1 distance short of the waypoint along it, which grows with the
+    ground speed g (ζ·P·g/π: `Kinematics.reach_m` times g/v; at once where the waypoint is nearer or behind), then
+    turns towards the waypoint's side (onto the same line: either side, the longer) at its turn radius R: a half
+    circle in the moving air from the heading it held (its nose into the wind), which ends 2R across that heading
+    from where it began and, the air having moved, w·πR/v (`plane_turn_time`) downwind of that; from there it
+    makes for the next line's first station straight, at the ground speed along that way (ArduPlane SITL does not
+    fly an omega onto a line nearer than 2R: it overshoots and closes on the line from beyond it)."""
+    ahead, lateral, back = (np.asarray(x, float) for x in (ahead, lateral, back))
+    v, radius = k.speed_ms, k.turn_radius_m
+    a_in, a_out = np.radians(angle_in_deg), np.radians(angle_out_deg)
+    ux, uy = np.cos(a_in), np.sin(a_in)  # along the line; (-uy, ux) to its left
+    g_in = np.array([k.ground_speed(a) for a in np.degrees(a_in).tolist()])
+    start = np.maximum(ahead - k.reach_m * g_in / v, 0.0)  # where along the line it turns
+    turn = plane_turn_time(k)
+    nose_x, nose_y = (g_in * ux - k.wind_x) / v, (g_in * uy - k.wind_y) / v  # its air velocity's direction
+    # the next line's first station from where the turn began, carried by the wind
+    tx = (ahead - start) * ux - lateral * uy + back * np.cos(a_out) - k.wind_x * turn
+    ty = (ahead - start) * uy + lateral * ux + back * np.sin(a_out) - k.wind_y * turn
 
+    def way(side: float) -> np.ndarray:  # from the turn's end, 2R to the nose's left (side 1) or right (-1)
+        dx, dy = tx + side * 2.0 * radius * nose_y, ty - side * 2.0 * radius * nose_x
+        seconds: np.ndarray = np.hypot(dx, dy) / np.array([k.ground_speed(a) for a in np.degrees(np.arctan2(dy, dx)).tolist()])
+        return seconds
 
-def plane_reversal(lateral: np.ndarray, ahead: np.ndarray, radius: float,
-                   reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """A plane's reversal from a line onto the next one, the one price of it (`path_time`, so `quick_cost`, and
-    `quick_cost_lower_bounds`): the connector to the next line's lead-in waypoint lies `lateral` across the line
-    and runs `ahead` along it. ArduPlane flies on along the line towards that waypoint until `reach` short of it
-    (its L1 turn distance, `Kinematics.reach_m`), then turns onto the next line (`plane_turn_lengths`).
-    (turn length, the stretch flown on before it); elementwise, and the stretch grows with `ahead`."""
-    return plane_turn_lengths(lateral, radius), np.maximum(np.asarray(ahead, float) - reach, 0.0)
-
-
-def plane_turn_lengths(lateral: np.ndarray, radius: float) -> np.ndarray:
-    """`plane_turn_length` of many non-negative distances at once (numpy's arccos may differ
-    from math.acos by an ulp: for bounds, not for the route's own times)."""
-    d = np.asarray(lateral, float)
-    with np.errstate(divide="ignore", invalid="ignore"):  # no turn radius: no bulb (d ≥ 2R)
-        bulb = radius * (math.pi + 4.0 * np.arccos(np.minimum(1.0, (2.0 * radius + d) / (4.0 * radius))))
-    out: np.ndarray = np.where(d >= 2.0 * radius, math.pi * radius + (d - 2.0 * radius), bulb)
+    left, right = way(1.0), way(-1.0)
+    out: np.ndarray = start / g_in + turn + np.where(lateral > 0.0, left, np.where(lateral < 0.0, right, np.maximum(left, right)))
     return out
 
 
@@ -287,8 +288,8 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     run of their total length; a short leg is flown at its own peak speed, whatever the speed
     asked: in ArduCopter SITL (WPNAV_ACCEL 2.5 m/s², WPNAV_JERK 1 m/s³) an orbit's ring of 4.68 m
     chords turning 22.5° flew 1.63 m/s for 5.34 m/s commanded, a chord each 2.87 s (docs/planning.md,
-    "An orbit round a structure"). Plane: constant speed; a reversal between two lines is
-    flown as the turn of :func:`plane_turn_length` instead of the straight connection.
+    "An orbit round a structure"). Plane: constant speed; a reversal between two lines (a corner, a short
+    connector, a corner back) and the leg after it are flown as :func:`plane_reversal`.
     """
     if len(points) < 2:
         return 0.0
@@ -314,14 +315,14 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     for i in np.flatnonzero(corner[:-1] & corner[1:] & (turn[:-1] + turn[1:] > 150.0)).tolist():
         if not pairs or i > pairs[-1] + 1:  # the corner after a pair pairs with none
             pairs.append(i)
-    if pairs:
+    if pairs:  # the connector and the leg after it (the next line's lead-in) flown as `plane_reversal`
         at = np.asarray(pairs)
         u, after = seg[at] / lengths[at, None], seg[at + 1]
-        arc, stretch = plane_reversal(np.abs(u[:, 0] * after[:, 1] - u[:, 1] * after[:, 0]),
-                                      u[:, 0] * after[:, 0] + u[:, 1] * after[:, 1], k.turn_radius_m, k.reach_m)
-        sweep = [1.0] * len(pairs) if k.calm else [k.turn_slowness(float(ang[i]), float(ang[i + 1])) for i in pairs]
-        before, connector = np.asarray(slow)[at], np.asarray(slow)[at + 1]
-        total_len += float(np.dot(arc, sweep) + np.dot(stretch, before) - np.dot(lengths[at + 1], connector))
+        reversal = plane_reversal(u[:, 0] * after[:, 0] + u[:, 1] * after[:, 1], u[:, 0] * after[:, 1] - u[:, 1] * after[:, 0],
+                                  lengths[at + 2], ang[at], ang[at + 2], k)
+        flown = np.asarray(slow)
+        total_len += float(reversal.sum() * k.speed_ms - np.dot(lengths[at + 1], flown[at + 1])
+                           - np.dot(lengths[at + 2], flown[at + 2]))
     return total_len / k.speed_ms
 
 
@@ -491,7 +492,7 @@ def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, t
     the climb's end to the leg's end at `k`'s speed. (climb s, after it s)
 
     A leg longer than the climb-out is flown on at its ground speed. A shorter one is overshot: the plane turns
-    back onto the leg's line (a reversal onto a line 0 apart, `plane_turn_length`) and flies back to its end.
+    back onto the leg's line and flies back to its end (`plane_reversal` onto a line 0 apart, its waypoint behind).
     ArduPlane SITL (AIRSPEED_CRUISE 22 m/s) climbed to 102 m in 14.8 s over 383 m with 5 m/s of wind behind
     it, and in 14.0 s over 259 m with 3.5 m/s against it (27 and 18.2 m/s over the ground at 22 m/s of air
     speed: 400 and 255 m), each past a first place 185 and 174 m ahead, timed before at the survey speed from
@@ -503,8 +504,9 @@ def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, t
     climb_out = climb * replace(k, speed_ms=takeoff_speed_ms).ground_speed(ahead)
     if length >= climb_out:
         return climb, (length - climb_out) * k.slowness(ahead) / k.speed_ms
-    turn = plane_turn_length(0.0, k.turn_radius_m) * k.turn_slowness(ahead, ahead + 90.0)
-    return climb, (turn + (climb_out - length) * k.slowness(ahead + 180.0)) / k.speed_ms
+    (back,) = plane_reversal(np.full(1, length - climb_out), np.zeros(1), np.zeros(1), np.full(1, ahead),
+                             np.full(1, ahead + 180.0), k)
+    return climb, float(back)
 
 
 def _legs_time(points: np.ndarray, k: Kinematics) -> float:
@@ -631,23 +633,26 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     prices the fastest): the copter's connectors join the same neighbouring lines in the plain order and its
     reverse, so a connector's corners are checked both ways (`connector_stops` of (i, j) and of (j, i)).
 
-    Plane (length/v, where path_time replaces the middle leg of a reversal, a leg whose two corners add up to
-    more than 150°, by `plane_reversal`: the turn over its lateral offset and the stretch flown on before it).
-    With lead_in > 0 every line's part begins with its lead-in straight on into its first station (no corner),
-    so the corners pair as laid: each connector between two lines (flown opposite ways, its two corners add
-    up to 180°) is replaced by its reversal, and nothing of a line's part is; within a line, a connector back
-    to the next run's lead-in (180° and 180°) is replaced by the turn over 0. A line of one run (lb.single)
-    counts λ; one of more runs λ (its runs joined straight on) or at least two runs' lead-ins and half bases
-    and the turn over 0 between them. Of any order, the connectors between lines are at least (sure lines − 1)
-    (C), their lateral offsets add up to at least the sure lines' span, and a reversal's turn is at least πR,
-    growing by a metre a metre beyond an offset of 2R (`plane_turn_lengths`; its stretch at least 0): they
-    count at least C·πR + max(0, span − 2R·C). With lead_in = 0 the corners may pair otherwise: a connector
-    counts at least its offset (the leg before it runs along a line), so together at least the span.
+    Plane: path_time times each straight leg at its ground speed, at most G = v + |w| (v/`least_slowness`), and
+    replaces a reversal (a corner, the leg between, a corner, their turns adding up to more than 150°) and the leg
+    after it by `plane_reversal`: its stretch (≥ 0), its half circle T = πR/v (`plane_turn_time`) and the straight
+    way from the turn's end to the leg's end, at least a = max(0, that leg − reach·G/v − |w|·T − 2R·|w|/v) long
+    (along the line: the half circle's 2R across the nose lies at most 2R·|w|/v along it) and at least
+    |offset| − 2R − |w|·T (across it). With lead_in > 0 every line's part begins with its
+    lead-in straight on into its first station (no corner), so the corners pair as laid: each connector between
+    two lines (flown opposite ways, its two corners add up to 180°) and the next line's lead-in are a reversal;
+    within a line, a connector back to the next run's lead-in (180° and 180°) and that lead-in are one over 0.
+    From its first station on, a line of one run (lb.single) is at least extent + base/2 long; one of more runs
+    that (its runs joined straight on) or two half bases and a reversal over 0 between them (T + a/G). Of any
+    order, the reversals between lines are at least (sure lines − 1) (C; the first line's lead-in counts 0),
+    their offsets add up to at least the sure lines' span, and each is at least T + max(a, |offset| − 2R −
+    |w|·T)/G: together at least C·T + max(C·a, span − C·(2R + |w|·T))/G (more reversals only add: both terms
+    grow with C, as πR > 2R). With lead_in = 0 the corners may pair otherwise: a connector counts at least its
+    offset over G (a reversal's T + (|offset| − 2R − |w|·T)/G is no less, as v·T = πR ≥ 2R), so together at
+    least the span.
 
-    In wind (`k` on the planning grid: quick_cost turns it into each heading's frame) a plane flies
-    every metre, and every turn, in at least `least_slowness` of its still-air time, whatever its
-    direction: its bound is scaled by that. A copter's runs are timed by their lengths times their
-    slowness (≥ 1) and a run's time grows with its length, with the same corners: its bound holds as it is.
+    A copter's runs are timed by their lengths times their slowness (≥ 1) and a run's time grows with its length,
+    with the same corners: its bound holds as it is in wind.
     """
     frames = int(lb.heading.max()) + 1 if len(lb.heading) else 0
     exists = np.flatnonzero(lb.exists)
@@ -685,11 +690,14 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     span = per_heading(exists[first], v[exists[last]] - v[exists[first]])
     if lead_in <= 1e-6:
         return span / speed * k.least_slowness * (1.0 - 1e-7)
-    zero = np.zeros(1)
-    back, _ = plane_reversal(zero, zero, radius, k.reach_m)  # within a line, back onto it
-    least, _ = plane_reversal(np.full(1, 2.0 * radius), zero, radius, k.reach_m)  # πR
-    joined_runs = 2.0 * (lead_in + base / 2.0) + float(back[0])
-    length = per_heading(exists, np.where(lb.single[exists], lam, np.minimum(lam, joined_runs)))
+    # the fastest ground speed, and what a reversal and the lead-in after it take at least (see the docstring)
+    fastest, wind = speed / k.least_slowness, math.hypot(k.wind_x, k.wind_y)
+    turn = plane_turn_time(k)
+    lead_least = max(0.0, lead_in - k.reach_m * fastest / speed - wind * turn - 2.0 * radius * wind / speed)
+    across = 2.0 * radius + wind * turn
+    rest = lb.extent[exists] + base / 2.0  # a line's part from its first station on
+    line = np.where(lb.single[exists], rest * k.least_slowness / speed,
+                    np.minimum(rest * k.least_slowness / speed, base * k.least_slowness / speed + turn + lead_least / fastest))
     connectors = per_heading(exists[first], last - first)
-    length += connectors * float(least[0]) + np.maximum(0.0, span - 2.0 * radius * connectors)
-    return length / speed * k.least_slowness * (1.0 - 1e-7)
+    total = per_heading(exists, line) + connectors * turn + np.maximum(connectors * lead_least, span - connectors * across) / fastest
+    return total * (1.0 - 1e-7)
