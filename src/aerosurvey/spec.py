@@ -96,7 +96,6 @@ class VehicleSpec:
     max_leg_m: float | None = None  # PX4: the longest leg between two places of a mission (None: ArduPilot, no limit)
     max_airspeed_ms: float | None = None  # copters: the air speed at the lean limit (None: not given; needed with a wind)
     landing_speed_ms: float | None = None  # planes: the landing approach's air speed (None: the survey speed)
-    waypoint_radius_m: float = 2.0  # copters: ArduCopter's WPNAV_RADIUS, how far off a corner it rounds it
 
 
 @dataclass(frozen=True)
@@ -613,7 +612,6 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         max_leg_m=v.number("max_leg_m", PX4_MAX_LEG_M, lo=10.0, hi=100000.0) if firmware == "px4" else None,
         max_airspeed_ms=v.number("max_airspeed_ms", None, lo=0.5, hi=100.0) if vtype == "copter" else None,
         landing_speed_ms=v.number("landing_speed_ms", None, lo=0.5, hi=100.0) if vtype == "plane" else None,
-        waypoint_radius_m=v.number("waypoint_radius_m", 2.0, lo=0.05, hi=10.0) or 0.0,
     )
     if vtype == "plane" and v.has("max_airspeed_ms"):
         raise InputError("vehicle.max_airspeed_ms is for copters (the air speed at their lean limit); a plane flies its "
