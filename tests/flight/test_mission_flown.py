@@ -547,3 +547,25 @@ def test_every_edit_is_reported_as_the_item_it_touched(seed, n_lines, data):
     assert c.same == len(items) - len(changed) - len(dropped)
     survey = [k for k, (it, t) in enumerate(zip(items, tags)) if t.startswith("P1-L") and it.command == 16]
     assert c.survey_waypoints == len(survey) and c.found == len(survey) - len(set(moves) | (dropped & set(survey)))
+
+
+def test_a_mission_resumed_far_into_the_plan_has_its_photos_matched(split, tmp_path):
+    """A flight resumed after a station far into the plan (past the matcher's window from the plan's start): its
+    log names no sortie and its mission is none of the plan's, so its photos are matched to the stations they lie
+    nearest, every one of them (0 of 13 were matched before)."""
+    plan, manifest, _ = split
+    ids = [st["id"] for st in manifest["stations"]]
+    starts = {s["first_station"] for s in manifest["sorties"]}
+    after = next(a for a in ids[len(ids) // 2:] if ids[ids.index(a) + 1] not in starts)  # mid-sortie: none of the plan's
+    resumed = tmp_path / "resumed"
+    code, out = _run("resume", plan, "--spec", plan.parent / "spec.toml", "--after", after, "-o", resumed)
+    assert code == 0, out
+    first = json.loads((resumed / "resume.json").read_text())["sorties"][0]
+    span = range(ids.index(first["first_station"]), ids.index(first["last_station"]) + 1)
+    assert span.start > 60
+    stations = [manifest["stations"][i] for i in span]
+    photos = [(100.0 + 2.5 * i, st["lat"], st["lon"], st["alt_rel_m"], st["alt_rel_m"]) for i, st in enumerate(stations)]
+    code, out, rep = _ingest(tmp_path, plan, mission_log([(50.0, _waypoints(resumed / first["files"][1]))], photos))
+    assert code == 0, out
+    assert (rep["mission"]["verdict"], rep["mission"]["sortie"]) == ("changed", None)
+    assert rep["matched"] == len(photos) and rep["extras"]["count"] == 0

@@ -275,15 +275,18 @@ def against_plan(flight_log: Path, read: Read, view: PlanView, mission: MissionC
                  progress: Progress = no_progress) -> Ingested:
     """A record read (`read_record`) and its mission compared (`compare_mission`) matched to the plan as
     `ingest` matches it: refused when of another sortie than `sortie` or of another plan (`check_same_plan`),
-    else `on_plan` with the sortie its mission names (else `sortie`)."""
+    else `on_plan` with the sortie its mission names (else `sortie`; neither, a mission flying part of the plan: the
+    stations its photos lie nearest)."""
     if mission.names_sortie and sortie is not None and mission.sortie != sortie:
         of = f"sortie {mission.sortie}'s" if mission.sortie else "the whole mission's"
         raise InputError(f"flight log {flight_log.name!r} is not of --sortie {sortie}: the mission its vehicle was given is {of} "
                          f"({mission.comparison.planned.file if mission.comparison else '?'}); give "
                          + (f"--sortie {mission.sortie}" if mission.sortie else "no --sortie"), key="--sortie")
     median = check_same_plan(read.events, view, flight_log.name, sortie)
-    return on_plan(flight_log, read, view, mission, mission.sortie if mission.names_sortie else sortie, median,
-                   tolerance_m=tolerance_m, fixed_camera=fixed_camera, dem_path=dem_path, progress=progress)
+    named = mission.sortie if mission.names_sortie else sortie
+    # a mission flying part of the plan (a resumed one) may begin farther into it than the matcher's window reaches
+    return on_plan(flight_log, read, view, mission, named, median, tolerance_m=tolerance_m, fixed_camera=fixed_camera,
+                   dem_path=dem_path, nearest_only=named is None and mission.flies_part_of_plan, progress=progress)
 
 
 def read_record(flight_log: Path, vehicle: str | None, *, images_dir: Path | None = None, fixed_camera: bool = False,

@@ -494,6 +494,12 @@ class MissionCheck:
         """The log's mission is one of the plan's, whole or changed: `sortie` is the one flown (None: the whole mission)."""
         return self.verdict in (PLAN, CHANGED) and self.comparison is not None and self.comparison.of_sortie
 
+    @property
+    def flies_part_of_plan(self) -> bool:
+        """The log's mission is none of the plan's but flies part of it (a mission `aerosurvey resume` wrote?)."""
+        c = self.comparison
+        return self.verdict == CHANGED and c is not None and not c.of_sortie and c.log_share >= SAME_SHARE
+
     def text(self) -> str:
         """One line: what the vehicle flew."""
         c = self.comparison
@@ -513,9 +519,10 @@ class MissionCheck:
         every = "its photos are matched to every planned station (--sortie names the sortie whose stations they are)"
         if self.verdict == CHANGED and c.of_sortie:
             return f"the vehicle's mission is {what}, changed: {figures}"
-        if self.verdict == CHANGED and c.log_share >= SAME_SHARE:
+        if self.flies_part_of_plan:
             return (f"the vehicle's mission flies part of the plan: {c.photo_starts_at_stations} of its {c.photo_starts} "
-                    f"photo runs start at planned stations (a mission `aerosurvey resume` wrote?); {every}; nearest "
+                    "photo runs start at planned stations (a mission `aerosurvey resume` wrote?); its photos are matched to the "
+                    "planned stations they lie nearest (--sortie names the sortie whose stations they are); nearest "
                     f"{what}: {figures}")
         if self.verdict == CHANGED:
             return f"the vehicle's mission is {what}, changed, survey waypoints moved: {figures}; {every}"
