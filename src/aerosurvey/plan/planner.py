@@ -170,7 +170,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
         waypoints=waypoints, sorties=sorties, battery=budget, coverage=coverage,
         bounds=pattern.bounds(spec, site, sensor, layout),
         estimates=est, sun=sun,
-        warnings=(site.warnings + sensor.warnings + limit_warnings + (_terrain_warnings(sensor) if foot is None else ())
+        warnings=(site.warnings + sensor.warnings + limit_warnings + _terrain_warnings(sensor)
                   + alts.warnings + sun_warnings + _zone_warnings(spec, site) + zone_warnings + launch_warnings),
         airspace=inputs.airspace, wind=wind,
         faces=_faces(spec, inputs, site, alts.stations, home_ground, layout),
@@ -378,8 +378,10 @@ def _ground(site: Site, xy: tuple[float, float], what: str) -> float:
 
 
 def _terrain_warnings(sensor: SensorSolution) -> tuple[str, ...]:
+    """One fixed height over ground that rises and falls: the GSD it gives over the highest and the lowest (none
+    over level ground, a structure's foot among it)."""
     h = sensor.heights
-    if h.mode != "fixed":
+    if h.mode != "fixed" or h.ground_min_m == h.ground_max_m:
         return ()
     return (f"fixed height over terrain from {h.ground_min_m:.1f} to {h.ground_max_m:.1f} m: GSD "
             f"{sensor.gsd_min_m * 100:.2f} cm over the highest ground and {sensor.gsd_max_m * 100:.2f} cm over the lowest",)
