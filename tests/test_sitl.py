@@ -70,7 +70,7 @@ def test_each_sorties_log_names_its_sortie(tmp_path):
     if binary is None:
         pytest.skip("no ArduPilot SITL copter binary: set AEROSURVEY_SITL_BIN or put it on PATH")
     out = tmp_path / "plan"
-    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}, "battery": {"usable_min": 10.0}})
+    spec = make_spec(tmp_path, {"flight": {"heading": 0.0}, "battery": {"usable_min": 11.0}})
     assert CliRunner().invoke(main, ["plan", str(spec), "-o", str(out)]).exit_code == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert len(manifest["sorties"]) == 2
