@@ -31,21 +31,26 @@ def camera_log(events: list[tuple[float, float, float, float, float]], yaw: list
 
 
 def mount_log(cams: list[tuple[float, float, float, float]], mounts: list[tuple[float, float, float, float]],
-              outputs: list[tuple[float, dict[int, int]]] = (), params: dict[str, float] | None = None) -> bytes:
+              outputs: list[tuple[float, dict[int, int], tuple[float, float, float] | None]] = (),
+              params: dict[str, float] | None = None) -> bytes:
     """CAM messages (time_s, vehicle roll, pitch, yaw), MNT messages (time_s, roll, pitch, yaw
     relative to the body, as its Roll, Pitch and YawB), RCOU messages (time_s, {channel: PWM}; the
-    other channels 0) and PARM messages (name: value, before everything else), in time order, as
-    ArduPilot writes them (degrees)."""
+    other channels 0), each with the ATT message of the same loop (the vehicle's roll, pitch, yaw
+    then; none for None), and PARM messages (name: value, before everything else), in time order,
+    as ArduPilot writes them (degrees)."""
     out = bytearray(_fmt(128, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
     out += _fmt(200, "CAM", "QLLfffff", "TimeUS,Lat,Lng,Alt,RelAlt,R,P,Y")
     out += _fmt(201, "MNT", "QBfffffff", "TimeUS,I,DRoll,Roll,DPitch,Pitch,DYawB,YawB,DYawE")
     out += _fmt(204, "RCOU", "Q" + "H" * 14, "TimeUS," + ",".join(f"C{c}" for c in range(1, 15)))
     out += _fmt(205, "PARM", "QNff", "TimeUS,Name,Value,Default")
+    out += _fmt(206, "ATT", "Qffffff", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw")
     for name, value in (params or {}).items():
         out += HEAD + bytes([205]) + struct.pack("<Q16sff", 0, name.encode(), value, value)
     rows = [(t, 200, struct.pack("<Qiifffff", int(t * 1e6), 495000000, 153000000, 80.0, 80.0, r, p, y)) for t, r, p, y in cams]
     rows += [(t, 201, struct.pack("<QBfffffff", int(t * 1e6), 0, 0.0, r, -45.0, p, 0.0, y, 0.0)) for t, r, p, y in mounts]
-    rows += [(t, 204, struct.pack("<Q" + "H" * 14, int(t * 1e6), *(pwm.get(c, 0) for c in range(1, 15)))) for t, pwm in outputs]
+    rows += [(t, 204, struct.pack("<Q" + "H" * 14, int(t * 1e6), *(pwm.get(c, 0) for c in range(1, 15)))) for t, pwm, _ in outputs]
+    rows += [(t, 206, struct.pack("<Qffffff", int(t * 1e6), *(v for v in a for _ in range(2)))) for t, _, a in outputs
+             if a is not None]
     for _, typ, body in sorted(rows, key=lambda row: row[0]):
         out += HEAD + bytes([typ]) + body
     return bytes(out)

@@ -240,9 +240,8 @@ MOUNT_SERVOS = {"pan": (6, "MNT1_YAW"), "tilt": (7, "MNT1_PITCH"), "roll": (8, "
 #: RCOU logs the first 14 outputs (C1 … C14)
 LOGGED_OUTPUTS = 14
 
-#: a mount servo's largest move between two outputs logged 100 ms apart while it holds one aim: its
-#: stabilisation follows the vehicle's rotation (about 1.2° braking hard at a line end, 12°/s nose up); a larger
-#: move is a new aim commanded
+#: the camera's line of sight turned by more than this (degrees) between two outputs logged 100 ms apart: a new
+#: aim commanded (a servo mount's stabilisation holds it through the vehicle's rotation, within 0.3° in SITL)
 MOUNT_STEP_DEG = 10.0
 
 
@@ -257,52 +256,70 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     panned frame, off the roll and tilt. Each servo's angle is read from its own output (RCOU:
     the PWM of the channel whose SERVOn_FUNCTION is the mount's pan, tilt or roll, mapped back
     through SERVOn_MIN/MAX/REVERSED onto the MNT1_ limits, as SRV_Channels::move_servo maps the
-    angle; the values from the log's PARM), interpolated to the picture's time (RCOU every 100
-    ms), or the output before it where the servo stepped to a new aim in between (`MOUNT_STEP_DEG`: a
-    hover-and-capture's next aim, commanded as the photo is taken, would else leak into it); the camera's
-    attitude is the vehicle's at the picture (the CAM message's R, P, Y: yaw-pitch-roll) turned
-    by them. Not from MNT's Roll/Pitch/YawB: ArduPilot logs the servo angles as yaw-pitch-roll
-    Euler angles of a quaternion made from them, which at a tilt of -90° loses the roll (a nadir
-    hover read +89.8°: Roll and YawB 180) and past it (a tilt beyond -90 that holds the camera
-    straight down while the vehicle leans nose up) comes back as the other solution.
+    angle; the values from the log's PARM), and the camera's attitude at that output is the vehicle's
+    logged in the same loop (the ATT message with the RCOU's TimeUS: yaw-pitch-roll) turned by them.
+    The camera's pitch at a picture is interpolated between its pitches at the outputs either side, or
+    is the one before it where the camera turned to a new aim in between (`MOUNT_STEP_DEG`: a
+    hover-and-capture's next aim, commanded as the photo is taken, would else leak into it). Not the
+    servos' angles interpolated under the picture's own attitude (CAM): ArduPilot SITL at speedup 20
+    drops log messages when its writer falls behind (RCOU 300-400 ms apart in a quiet run), and the
+    vehicle pitching 14°/s as it brakes at a line end does not turn at a constant rate across such a gap
+    (the servos interpolated over 0.8 s read a nadir camera 1.9° off, 6.9° with the step taken on a
+    servo's move; the pitch at the outputs 0.3°, over 2 s too). Not from MNT's Roll/Pitch/YawB either:
+    ArduPilot logs the servo angles as yaw-pitch-roll Euler angles of a quaternion made from them, which
+    at a tilt of -90° loses the roll (a nadir hover read +89.8°: Roll and YawB 180) and past it (a tilt
+    beyond -90 that holds the camera straight down while the vehicle leans nose up) comes back as the
+    other solution.
     """
     import numpy as np
 
     from aerosurvey.flight.dataflash import DataFlashLog
 
     with DataFlashLog(log_path) as log:
-        cam, mnt, out, parm = (log.messages(name) for name in ("CAM", "MNT", "RCOU", "PARM"))
+        cam, mnt, out, att, parm = (log.messages(name) for name in ("CAM", "MNT", "RCOU", "ATT", "PARM"))
     if not cam:
         return []
     n = len(cam["TimeUS"])
     # the last value of each parameter the log records
     params = dict(zip((bytes(name).decode("ascii", "replace") for name in parm.get("Name", ())),
                       np.asarray(parm.get("Value", ()), np.float64).tolist()))
-    pan, tilt, roll = (_servo_angle(params, out, function, limits, cam["TimeUS"], axis != "tilt")
-                       for axis, (function, limits) in MOUNT_SERVOS.items())
-    if not mnt or pan is None or tilt is None or roll is None:
+    # the outputs whose loop logged the vehicle's attitude too, each with it
+    out_us, att_us = np.asarray(out.get("TimeUS", ()), np.float64), np.asarray(att.get("TimeUS", ()), np.float64)
+    both = np.isin(out_us, att_us)
+    if not mnt or not both.any():
         return [None] * n
-    body = _turn("z", cam["Y"]) @ _turn("y", cam["P"]) @ _turn("x", cam["R"])
+    out = {k: np.asarray(v)[both] for k, v in out.items()}
+    row = np.searchsorted(att_us, out_us[both])
+    pan, tilt, roll = (_servo_angle(params, out, function, limits, axis != "tilt")
+                       for axis, (function, limits) in MOUNT_SERVOS.items())
+    if pan is None or tilt is None or roll is None:
+        return [None] * n
+    body = _turn("z", att["Yaw"][row]) @ _turn("y", att["Pitch"][row]) @ _turn("x", att["Roll"][row])
     camera = body @ _turn("z", pan) @ _turn("x", roll) @ _turn("y", tilt)
-    # the elevation of the camera's x axis, its line of sight (gimbal convention: pitch about y)
-    pitch = np.degrees(np.arcsin(np.clip(-camera[:, 2, 0], -1.0, 1.0)))
-    after = cam["TimeUS"] >= mnt["TimeUS"][0]
-    return [round(float(p), 2) if a else None for p, a in zip(pitch, after)]
+    sight = camera[:, :, 0]  # the camera's x axis, its line of sight (gimbal convention: pitch about y)
+    held = np.degrees(np.arcsin(np.clip(-sight[:, 2], -1.0, 1.0)))  # its elevation
+    times, at = out_us[both], np.asarray(cam["TimeUS"], np.float64)
+    before = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 1)
+    after = np.minimum(before + 1, len(times) - 1)
+    turned = np.degrees(np.arccos(np.clip(np.sum(sight[before] * sight[after], axis=1), -1.0, 1.0)))
+    stepped = turned > MOUNT_STEP_DEG
+    pitch = np.where(stepped, held[before], np.interp(at, times, held))
+    known = at >= mnt["TimeUS"][0]
+    return [round(float(p), 2) if k else None for p, k in zip(pitch, known)]
 
 
-def _servo_angle(params: dict[str, float], out: dict[str, Any], function: int, limits: str, at_us: Any,
-                 optional: bool) -> Any:
-    """The angle (degrees) of the mount servo with SERVOn_FUNCTION `function` at the times `at_us`,
-    from its logged output; 0 when no logged output has that function and the servo is `optional`
-    (a mount without it holds that axis at 0); None when it is not, or the log lacks the output or a
-    value the mapping needs."""
+def _servo_angle(params: dict[str, float], out: dict[str, Any], function: int, limits: str, optional: bool) -> Any:
+    """The angle (degrees) of the mount servo with SERVOn_FUNCTION `function` at each of the logged
+    outputs `out`; 0 when no logged output has that function and the servo is `optional` (a mount
+    without it holds that axis at 0); None when it is not, or the log lacks the output or a value the
+    mapping needs."""
     import numpy as np
 
     channel = next((c for c in range(1, LOGGED_OUTPUTS + 1) if params.get(f"SERVO{c}_FUNCTION") == function), None)
     if channel is None:
-        return np.zeros(len(at_us)) if optional else None
+        return np.zeros(len(out["TimeUS"])) if optional else None
     names = (f"SERVO{channel}_MIN", f"SERVO{channel}_MAX", f"{limits}_MIN", f"{limits}_MAX")
-    if f"C{channel}" not in out or not len(out["TimeUS"]) or any(k not in params for k in names):
+    if f"C{channel}" not in out or any(k not in params for k in names):
         return None
     low, high, least, most = (params[k] for k in names)
     if high <= low or most <= least:
@@ -310,14 +327,7 @@ def _servo_angle(params: dict[str, float], out: dict[str, Any], function: int, l
     v = (np.asarray(out[f"C{channel}"], np.float64) - low) / (high - low)
     if params.get(f"SERVO{channel}_REVERSED", 0.0):
         v = 1.0 - v
-    degrees = least + np.clip(v, 0.0, 1.0) * (most - least)
-    times, at = np.asarray(out["TimeUS"], np.float64), np.asarray(at_us, np.float64)
-    before = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 1)
-    after = np.minimum(before + 1, len(times) - 1)
-    # a servo that moved more than MOUNT_STEP_DEG between the outputs either side was turned to a new aim (a
-    # hover-and-capture's next, commanded as the picture is taken): the output before the picture holds
-    stepped = np.abs(degrees[after] - degrees[before]) > MOUNT_STEP_DEG
-    return np.where(stepped, degrees[before], np.interp(at, times, degrees))
+    return least + np.clip(v, 0.0, 1.0) * (most - least)
 
 
 #: the flown camera pitch may differ from the planned by this much (degrees) before the flight fails
