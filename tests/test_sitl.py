@@ -274,9 +274,8 @@ def _assert_aimed_as_planned(manifest: dict, rows: list[dict], out: Path) -> Non
         assert targets == pytest.approx(want, abs=0.01), row["sortie"]
         worst = max(abs(p - w) for p, w in zip(pitches, want))
         assert worst <= 2.0, (row["sortie"], worst)
-        # the report interpolates the pitch, `_sights` the line of sight: apart where it passes straight down (0.03°)
-        assert row["mount_pitch_deg"] == pytest.approx(pitches, abs=0.05)
-        assert row["aim_ok"] and row["max_aim_error_deg"] == pytest.approx(worst, abs=0.05)
+        assert row["mount_pitch_deg"] == pytest.approx(pitches, abs=0.01)
+        assert row["aim_ok"] and row["max_aim_error_deg"] == pytest.approx(worst, abs=0.01)
 
 
 def _sortie_pitches(manifest: dict, rows: list[dict]) -> list[set[float]]:

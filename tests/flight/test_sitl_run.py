@@ -194,15 +194,25 @@ HARNESS_MOUNT = {"SERVO9_FUNCTION": 7.0, "SERVO10_FUNCTION": 6.0, "SERVO11_FUNCT
                  "MNT1_YAW_MIN": -180.0, "MNT1_YAW_MAX": 180.0}
 
 
-def _sight_pitch(vehicle: tuple[float, float, float], pan: float, roll: float, tilt: float) -> float:
-    """The camera's pitch against the horizon, by scipy: the vehicle's attitude (roll, pitch, yaw;
+def _sight(vehicle: tuple[float, float, float], pan: float, roll: float, tilt: float) -> np.ndarray:
+    """The camera's line of sight (north, east, down), by scipy: the vehicle's attitude (roll, pitch, yaw;
     intrinsic yaw-pitch-roll, "ZYX") turned by the servos, pan, roll, tilt (intrinsic "ZXY")."""
     from scipy.spatial.transform import Rotation
 
     r, p, y = vehicle
-    sight = (Rotation.from_euler("ZYX", [y, p, r], degrees=True)
-             * Rotation.from_euler("ZXY", [pan, roll, tilt], degrees=True)).apply([1.0, 0.0, 0.0])
-    return float(np.degrees(np.arcsin(-sight[2])))
+    sight: np.ndarray = (Rotation.from_euler("ZYX", [y, p, r], degrees=True)
+                         * Rotation.from_euler("ZXY", [pan, roll, tilt], degrees=True)).apply([1.0, 0.0, 0.0])
+    return sight
+
+
+def _pitch(sight: np.ndarray) -> float:
+    """A line of sight's pitch against the horizon (degrees)."""
+    return float(np.degrees(np.arcsin(-sight[2] / np.linalg.norm(sight))))
+
+
+def _sight_pitch(vehicle: tuple[float, float, float], pan: float, roll: float, tilt: float) -> float:
+    """The camera's pitch against the horizon (`_sight`)."""
+    return _pitch(_sight(vehicle, pan, roll, tilt))
 
 
 def _degrees(pwm: int, least: float, most: float) -> float:
@@ -213,7 +223,7 @@ def test_the_camera_pitch_at_each_picture_turns_the_servo_outputs_by_the_vehicle
     """Pictures of ArduCopter 4.7 SITL flights (CAM, MNT, RCOU and ATT as logged; tilt, pan, roll on
     outputs 9, 10, 11): each servo's angle is read from its output through the log's parameters, the
     camera's line of sight at each output is the vehicle's attitude logged in the same loop (ATT) turned
-    by them, pan, roll, tilt, and its pitch at a picture is interpolated between the outputs either side.
+    by them, pan, roll, tilt, and its line of sight at a picture is interpolated between the outputs either side.
     MNT's Euler angles are not read: at a nadir hover (the vehicle 0.39° nose up, the tilt at -90.45°) MNT
     logged Roll 179.9, Pitch -89.61, YawB 180 (ArduPilot's yaw-pitch-roll decoding of the servo angles,
     past -90 the other solution), which read pan-roll-tilt looks up, +89.2°."""
@@ -238,11 +248,12 @@ def test_the_camera_pitch_at_each_picture_turns_the_servo_outputs_by_the_vehicle
     assert _sight_pitch(cams[1][1:], 180.0, 179.935, -89.610) == pytest.approx(89.21, abs=0.01)  # MNT read pan-roll-tilt
     # the tilt, -95.62° under 5.82° nose up and 100 ms later -96.75° under 7.02°, holds the camera within 0.3° of
     # straight down
-    at_outputs = [_sight_pitch(att, 0.0, 0.0, _degrees(pw[9], -135.0, 45.0)) for _, pw, att in pwm[2:4]]
-    assert got[2] == pytest.approx(np.interp(cams[2][0], [pwm[2][0], pwm[3][0]], at_outputs), abs=0.01)
+    at_outputs = [_sight(att, 0.0, 0.0, _degrees(pw[9], -135.0, 45.0)) for _, pw, att in pwm[2:4]]
+    share = (cams[2][0] - pwm[2][0]) / (pwm[3][0] - pwm[2][0])
+    assert got[2] == pytest.approx(_pitch(at_outputs[0] + share * (at_outputs[1] - at_outputs[0])), abs=0.01)
     assert got[2] == pytest.approx(-89.75, abs=0.01)  # what the flight's report read
-    at_outputs = [_sight_pitch(att, 90.0, _degrees(pw[11], -30.0, 30.0), _degrees(pw[9], -135.0, 45.0)) for _, pw, att in pwm[4:]]
-    assert got[3] == pytest.approx(np.mean(at_outputs), abs=0.01)
+    at_outputs = [_sight(att, 90.0, _degrees(pw[11], -30.0, 30.0), _degrees(pw[9], -135.0, 45.0)) for _, pw, att in pwm[4:]]
+    assert got[3] == pytest.approx(_pitch(at_outputs[0] + at_outputs[1]), abs=0.01)
 
 
 def test_a_camera_held_through_a_gap_in_the_log_reads_as_held(tmp_path):

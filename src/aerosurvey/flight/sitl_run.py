@@ -258,8 +258,8 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     through SERVOn_MIN/MAX/REVERSED onto the MNT1_ limits, as SRV_Channels::move_servo maps the
     angle; the values from the log's PARM), and the camera's attitude at that output is the vehicle's
     logged in the same loop (the ATT message with the RCOU's TimeUS: yaw-pitch-roll) turned by them.
-    The camera's pitch at a picture is interpolated between its pitches at the outputs either side, or
-    is the one before it where the camera turned to a new aim in between (`MOUNT_STEP_DEG`: a
+    The camera's line of sight at a picture is interpolated between the outputs either side, or is the
+    one before it where the camera turned to a new aim in between (`MOUNT_STEP_DEG`: a
     hover-and-capture's next aim, commanded as the photo is taken, would else leak into it). Not the
     servos' angles interpolated under the picture's own attitude (CAM): ArduPilot SITL at speedup 20
     drops log messages when its writer falls behind (RCOU 300-400 ms apart in a quiet run), and the
@@ -297,13 +297,14 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     body = _turn("z", att["Yaw"][row]) @ _turn("y", att["Pitch"][row]) @ _turn("x", att["Roll"][row])
     camera = body @ _turn("z", pan) @ _turn("x", roll) @ _turn("y", tilt)
     sight = camera[:, :, 0]  # the camera's x axis, its line of sight (gimbal convention: pitch about y)
-    held = np.degrees(np.arcsin(np.clip(-sight[:, 2], -1.0, 1.0)))  # its elevation
     times, at = out_us[both], np.asarray(cam["TimeUS"], np.float64)
     before = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 1)
     after = np.minimum(before + 1, len(times) - 1)
     turned = np.degrees(np.arccos(np.clip(np.sum(sight[before] * sight[after], axis=1), -1.0, 1.0)))
-    stepped = turned > MOUNT_STEP_DEG
-    pitch = np.where(stepped, held[before], np.interp(at, times, held))
+    span = np.maximum(times[after] - times[before], 1.0)
+    share = np.where(turned > MOUNT_STEP_DEG, 0.0, np.clip((at - times[before]) / span, 0.0, 1.0))[:, None]
+    look = sight[before] + share * (sight[after] - sight[before])
+    pitch = np.degrees(np.arcsin(np.clip(-look[:, 2] / np.linalg.norm(look, axis=1), -1.0, 1.0)))  # its elevation
     known = at >= mnt["TimeUS"][0]
     return [round(float(p), 2) if k else None for p, k in zip(pitch, known)]
 
