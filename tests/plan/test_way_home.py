@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from tests.independent_motion import cornered_time, stop_to_stop_time
+from tests.independent_motion import stop_to_stop_time
 from tests.plan.test_wind import _copter_velocity, _fly
 
 from aerosurvey.inputs import plan_from_files
@@ -39,28 +39,21 @@ def _plan(folder, wind: str | None, pass_start: list[float] | None = None):
 
 
 def _integrated_transit(plan) -> float:
-    """The way from the launch point to the first waypoint, flown from rest at the survey speed on into the survey
-    round the corner there (what it adds to the first leg: `independent_motion.cornered_time`, WPNAV_RADIUS 2 m), and
-    the RTL from the last one home from rest to rest at the cruise speed: their still-air times, plus what the wind
-    adds to each way (the track integrated, its ground velocity at most its speed, and where that takes more air speed
-    than the lean limit allows, less)."""
+    """The way from the launch point to the first waypoint and from the last one home, each a straight leg from rest to
+    rest: its still-air stop-to-stop time, plus what the wind adds to cruising it (the track integrated, its ground
+    velocity at most the cruise speed, and where that takes more air speed than the lean limit allows, less)."""
     k = plan.site.grid_scale
     home = np.array(plan.launch.home_xy) / k
     assert plan.waypoints[0].kind != "transit" and plan.waypoints[-1].kind != "transit"  # no detours: one leg each way
-    first, second = (np.array([w.x, w.y]) / k for w in plan.waypoints[:2])
+    first = np.array([plan.waypoints[0].x, plan.waypoints[0].y]) / k
     last = np.array([plan.waypoints[-1].x, plan.waypoints[-1].y]) / k
     to = math.radians(plan.wind["grid_from_deg"] + 180.0)
     wind = plan.wind["speed_ms"] * np.array([math.sin(to), math.cos(to)])  # x east, y north of the grid
-    survey = plan.sensor.speed.speed_ms
-    out, leg = float(np.hypot(*(first - home))), float(np.hypot(*(second - first)))
-    (ax, ay), (bx, by) = first - home, second - first
-    turn = abs((math.degrees(math.atan2(by, bx) - math.atan2(ay, ax)) + 180.0) % 360.0 - 180.0)  # degrees at the first
-    way_out = cornered_time([out, leg], [turn], survey, ACCEL, JERK, 2.0) - stop_to_stop_time(leg, survey, ACCEL, JERK)
-    back = float(np.hypot(*(home - last)))
-    total = way_out + stop_to_stop_time(back, SPEED, ACCEL, JERK)
-    for a, b, speed in ((home, first, survey), (last, home, SPEED)):
-        flown = _fly(np.array([a, b]), lambda u, v=speed: _copter_velocity(u, wind, v, MOST_AIR))
-        total += flown - float(np.hypot(*(b - a))) / speed
+    total = 0.0
+    for a, b in ((home, first), (last, home)):
+        d = float(np.hypot(*(b - a)))
+        flown = _fly(np.array([a, b]), lambda u: _copter_velocity(u, wind, SPEED, MOST_AIR))
+        total += stop_to_stop_time(d, SPEED, ACCEL, JERK) + flown - d / SPEED
     return total
 
 
