@@ -51,27 +51,18 @@ def _polyline(x0: float, y0: float, moves: list[tuple[float, float]]) -> np.ndar
 @settings(max_examples=300, deadline=None)
 @given(start=st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 6e6)), moves=st.lists(_move, min_size=1, max_size=40),
        cut=st.tuples(st.floats(0, 0.999), st.floats(0, 0.999)), pad=st.tuples(st.lists(_move, max_size=5), st.lists(_move, max_size=5)),
-       speed=st.floats(2.0, 20.0), accel=st.floats(0.5, 5.0), jerk=st.sampled_from([0.0, 1.0, 5.0]), data=st.data())
-def test_copter_time_by_parts_is_path_time(start, moves, cut, pad, speed, accel, jerk, data):
-    """Head, a slice of a longer route and tail summed by CopterTime: path_time of the whole, bit for bit; the
-    points' heights (a leg steeper than level is a stop at both its ends, `flight_time.corner_overlap`; NaN: level)
-    in the polyline or not."""
+       speed=st.floats(2.0, 20.0), accel=st.floats(0.5, 5.0), jerk=st.sampled_from([0.0, 1.0, 5.0]))
+def test_copter_time_by_parts_is_path_time(start, moves, cut, pad, speed, accel, jerk):
+    """Head, a slice of a longer route and tail summed by CopterTime: path_time of the whole, bit for bit."""
     kin = Kinematics("copter", speed, accel, 0.0, jerk)
     p = _polyline(*start, moves)
     n = len(p)
-    if data.draw(st.booleans()):
-        heights = st.one_of(st.just(math.nan), st.floats(0.0, 120.0), st.sampled_from([0.0, 10.0, 100.0]))
-        p = np.column_stack([p, data.draw(st.lists(heights, min_size=n, max_size=n))])
     i = int(cut[0] * (n - 2))  # the route holds points i..j, 0 <= i < j <= n - 1
     j = i + 1 + int(cut[1] * (n - 2 - i))
     # the route the slice is taken from starts and ends elsewhere (its own corners before and after)
     before = _polyline(*start, pad[0])[::-1]
-    after = _polyline(*p[j, :2], pad[1])
-    before, after = before - before[-1] + p[i, :2], after[1:]
-    if p.shape[1] == 3:  # the route's own points before and after the slice: level
-        before, after = (np.column_stack([q, np.full(len(q), math.nan)]) for q in (before, after))
-        before[-1] = p[i]
-    route = np.vstack([before, p[i + 1:j + 1], after])
+    after = _polyline(*p[j], pad[1])
+    route = np.vstack([before - before[-1] + p[i], p[i + 1:j], after])
     o = len(before) - 1
     rs = RouteSegments(route, kin)
     t = CopterTime(kin)
@@ -88,7 +79,7 @@ def test_copter_time_by_parts_is_path_time(start, moves, cut, pad, speed, accel,
 def test_a_turn_of_exactly_30_degrees_is_no_corner():
     """A turn of exactly 30° (45° then 75.0°, as numpy computes the directions) is flown through, as in path_time."""
     p = np.array([[-100.0, -100.0], [0.0, 0.0], [0.5, 1.8660254037844388], [200.0, 0.0]])
-    lengths, angles, _ = kept_segments(p)
+    lengths, angles = kept_segments(p)
     assert angles[:2] == [45.0, 75.0]
     t = CopterTime(KIN)
     t.feed(kept_segments(p))
@@ -103,7 +94,7 @@ def test_a_turn_of_exactly_30_degrees_is_no_corner():
 def test_segments_are_path_timeskept_segments():
     """_segments keeps and measures what path_time does (a zero-length and a sub-1e-9 segment dropped)."""
     p = np.array([[0.0, 0.0], [0.0, 0.0], [3.0, 4.0], [3.0 + 1e-10, 4.0], [3.0, 10.0]])
-    lengths, angles, _ = kept_segments(p)
+    lengths, angles = kept_segments(p)
     assert lengths == [5.0, pytest.approx(6.0, abs=1e-9)]
     assert angles == pytest.approx([math.degrees(math.atan2(4, 3)), 90.0])
 
@@ -140,14 +131,13 @@ def _candidates_cost_their_whole_path(args: tuple, firsts: int, lasts: int = 60)
         for b in range(a, sp.n, max(1, sp.n // lasts)):
             used, li, horiz, vert, dist, wps, _ = sp.evaluate(a, b)
             home = (sites[li].x, sites[li].y)
-            # the waypoints' heights (a copter's leg steeper than level is a stop at its ends); the launch point's none
-            pts = np.array([(*home, math.nan), *((w.x, w.y, w.alt_m) for w in wps), (*home, math.nan)])
-            length = float(np.hypot(*np.diff(pts[:, :2], axis=0).T).sum())
+            pts = np.array([home, *((w.x, w.y) for w in wps), home])
+            length = float(np.hypot(*np.diff(pts, axis=0).T).sum())
             if kin.vehicle == "copter":
                 # ending with an RTL (straight home: no way round the zones; no landing asked), ArduCopter flies it
                 # from rest to rest at its WPNAV_SPEED, the vehicle's cruise speed; the mission's legs at the survey speed
                 rtl = args[0].end != "land" and wps[-1].kind != "transit"
-                home_m = float(np.hypot(*(pts[-1, :2] - pts[-2, :2]))) if rtl else 0.0
+                home_m = float(np.hypot(*(pts[-1] - pts[-2]))) if rtl else 0.0
                 cruise = replace(kin, speed_ms=args[0].vehicle.cruise_speed_ms)
                 assert horiz >= ((length - home_m) / kin.speed_ms + home_m / cruise.speed_ms) * (1 - 1e-3) - 1e-6, (a, b)
                 assert dist == pytest.approx(length, rel=1e-3), (a, b)

@@ -97,7 +97,6 @@ class VehicleSpec:
     max_airspeed_ms: float | None = None  # copters: the air speed at the lean limit (None: not given; needed with a wind)
     max_airspeed_diagonal_ms: float | None = None  # copters: that 45° off the nose (None: the same as on it)
     landing_speed_ms: float | None = None  # planes: the landing approach's air speed (None: the survey speed)
-    waypoint_radius_m: float = 2.0  # copters: ArduCopter's WPNAV_RADIUS, how far off a corner it rounds it
 
 
 @dataclass(frozen=True)
@@ -633,7 +632,6 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         max_airspeed_ms=v.number("max_airspeed_ms", None, lo=0.5, hi=100.0) if vtype == "copter" else None,
         max_airspeed_diagonal_ms=v.number("max_airspeed_diagonal_ms", None, lo=0.5, hi=200.0) if vtype == "copter" else None,
         landing_speed_ms=v.number("landing_speed_ms", None, lo=0.5, hi=100.0) if vtype == "plane" else None,
-        waypoint_radius_m=v.number("waypoint_radius_m", 2.0, lo=0.05, hi=10.0) or 0.0,
     )
     if vtype == "plane" and v.has("max_airspeed_ms"):
         raise InputError("vehicle.max_airspeed_ms is for copters (the air speed at their lean limit); a plane flies its "

@@ -8,15 +8,13 @@ the heading search's lower bounds rely on (`quick_cost_lower_bounds`)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aerosurvey.plan.flight_time import Kinematics, _straight_time, path_time
-from independent_motion import cornered_time, flown_through_time, stop_to_stop_time
+from independent_motion import flown_through_time, stop_to_stop_time
 
 
 def _along(legs: list[float], turn_deg: float) -> np.ndarray:
@@ -30,8 +28,7 @@ def _along(legs: list[float], turn_deg: float) -> np.ndarray:
 @given(legs=st.lists(st.floats(0.5, 120.0), min_size=1, max_size=4), turn=st.floats(0.0, 25.0),
        speed=st.floats(2.0, 14.0), accel=st.floats(0.5, 5.0), jerk=st.sampled_from([0.0, 1.0, 5.0]))
 def test_legs_flown_through_take_the_stepped_motions_time(legs, turn, speed, accel, jerk):
-    # no waypoint radius to keep to: the overlap is the speed changes' (the next test keeps to one)
-    k = Kinematics("copter", speed, accel, 0.0, jerk, corner_radius_m=math.inf)
+    k = Kinematics("copter", speed, accel, 0.0, jerk)
     flown = path_time(_along(legs, turn), k)
     assert flown == pytest.approx(flown_through_time(legs, speed, accel, jerk), rel=5e-3, abs=0.02)
     # never faster than one stop-to-stop run over the whole length, never slower than a stop at every waypoint
@@ -46,34 +43,3 @@ def test_a_ring_of_short_chords_is_flown_at_a_chords_peak_speed():
     one, twenty = (path_time(_along([4.68] * n, 22.5), k) for n in (1, 20))
     assert one == pytest.approx(stop_to_stop_time(4.68, 5.34, 2.5, 1.0), rel=5e-3)
     assert 4.68 / ((twenty - one) / 19) == pytest.approx((4.68 / 2.0) ** (2.0 / 3.0), rel=5e-3)
-
-
-def _turning(legs: list[float], turns: list[float]) -> np.ndarray:
-    """A polyline of `legs`, turning `turns[i]` degrees (left) after leg i."""
-    angles = np.radians(np.concatenate([[0.0], np.cumsum(turns)]))
-    steps = np.column_stack([np.cos(angles), np.sin(angles)]) * np.asarray(legs)[:, None]
-    return np.vstack([[0.0, 0.0], np.cumsum(steps, axis=0)])
-
-
-@settings(max_examples=12, deadline=None)
-@given(data=st.data(), speed=st.floats(2.0, 12.0), accel=st.floats(0.5, 5.0), jerk=st.sampled_from([0.0, 1.0, 5.0]),
-       radius=st.floats(0.3, 5.0))
-def test_corners_are_flown_through_as_far_as_the_waypoint_radius_lets(data, speed, accel, jerk, radius):
-    """Corners of any turn against the test's own stepped motions (`independent_motion.cornered_time`: the next
-    leg begun at the first moment the overlap's half-way point lies within WPNAV_RADIUS of the corner)."""
-    legs = data.draw(st.lists(st.floats(0.5, 120.0), min_size=1, max_size=4))
-    turns = data.draw(st.lists(st.floats(0.0, 179.0), min_size=len(legs) - 1, max_size=len(legs) - 1))
-    k = Kinematics("copter", speed, accel, 0.0, jerk, corner_radius_m=radius)
-    flown = path_time(_turning(legs, turns), k)
-    assert flown == pytest.approx(cornered_time(legs, turns, speed, accel, jerk, radius), rel=5e-3, abs=0.03)
-
-
-def test_a_reversal_overlaps_by_twice_the_time_to_cover_half_the_radius():
-    """ArduCopter's defaults (WPNAV_RADIUS 2 m, WPNAV_ACCEL 2.5 m/s², WPNAV_JERK 1 m/s³) at 5 m/s: two 200 m
-    legs turning back (180°) start the second 2·(6·1 m / J)^(1/3) = 3.63 s before the first ends (the half-way
-    point a metre off the corner on either side), where a stop would start it at the end; straight on, a whole
-    speed change 2·√(v/J) = 4.47 s before."""
-    k = Kinematics("copter", 5.0, 2.5, 0.0, 1.0)
-    one = stop_to_stop_time(200.0, 5.0, 2.5, 1.0)
-    assert 2.0 * one - path_time(_turning([200.0, 200.0], [180.0]), k) == pytest.approx(2.0 * 6.0 ** (1 / 3), rel=5e-3)
-    assert 2.0 * one - path_time(_turning([200.0, 200.0], [0.0]), k) == pytest.approx(2.0 * 5.0 ** 0.5, rel=5e-3)

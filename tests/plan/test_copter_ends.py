@@ -20,7 +20,7 @@ import independent_coverage as ic
 from aerosurvey.cli import main
 from aerosurvey.plan.flight_time import copter_landing_time, copter_takeoff_time
 from conftest import make_spec
-from independent_motion import cornered_time, stop_to_stop_time
+from independent_motion import stop_to_stop_time
 
 #: measured in ArduCopter SITL (the logs of tests/test_sitl.py's flights): arming to leaving the ground
 SPOOL_S = 3.9
@@ -72,7 +72,7 @@ def _stop_to_stop(d: float, v: float, a: float) -> float:
 
 def _plan(tmp_path, end: str) -> tuple[dict, list[list[float]]]:
     """A one-line block flown east, its launch point 280 m south of the block's west end (the way out meets the
-    line at a corner of more than 30°), the survey at 5 m/s, the vehicle's cruise speed 10 m/s."""
+    line at a corner of more than 30°: a stop), the survey at 5 m/s, the vehicle's cruise speed 10 m/s."""
     ring = [[15.000, 49.400], [15.004, 49.400], [15.004, 49.4003], [15.000, 49.4003], [15.000, 49.400]]
     spec = make_spec(tmp_path, {"flight": {"heading": 90.0, "end": end}, "area": {"launch": [15.0, 49.3975]},
                                 "vehicle": {"cruise_speed_ms": 10.0}, "targets": {"gsd_cm": 1.0}}, area=ring)
@@ -83,41 +83,26 @@ def _plan(tmp_path, end: str) -> tuple[dict, list[list[float]]]:
     return json.loads((out / "manifest.json").read_text()), rows
 
 
-def _turn(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> float:
-    """The turn at b from a to c (degrees)."""
-    u, w = (b[0] - a[0], b[1] - a[1]), (c[0] - b[0], c[1] - b[1])
-    return math.degrees(abs(math.atan2(u[0] * w[1] - u[1] * w[0], u[0] * w[0] + u[1] * w[1])))
-
-
-def _ways_m(rows: list[list[float]]) -> tuple[float, float, float, float, float, float]:
-    """From the .waypoints: the way out (home to the first place), the way home (the last place to home), the
-    turn at the first place from the way out onto the next leg (degrees), that leg, the last leg (to the last
-    place) and the turn there onto the way home."""
+def _ways_m(rows: list[list[float]]) -> tuple[float, float, float]:
+    """From the .waypoints: the way out (home to the first place), the way home (the last place to home), and
+    the turn at the first place from the way out onto the next leg (degrees)."""
     to_xy = ic.local_projection(15.0, 49.3975)
     x, y = to_xy.transform([r[9] for r in rows if r[3] == 16], [r[8] for r in rows if r[3] == 16])
-    first, second, before, last = (x[0], y[0]), (x[1], y[1]), (x[-2], y[-2]), (x[-1], y[-1])
+    first, second, last = (x[0], y[0]), (x[1], y[1]), (x[-1], y[-1])
     out, home = math.hypot(*first), math.hypot(*last)
-    return (out, home, _turn((0.0, 0.0), first, second), math.dist(first, second), math.dist(before, last),
-            _turn(before, last, (0.0, 0.0)))
-
-
-def _into(way: float, leg: float, turn: float, v: float) -> float:
-    """What a way of `way` metres adds to a leg of `leg` metres it turns onto (or off) by `turn` degrees, each from
-    rest to rest at v (acceleration 2.5 m/s², jerk 1 m/s³), the two blended round the corner as ArduCopter flies
-    it (WPNAV_RADIUS 2 m; `independent_motion.cornered_time`)."""
-    return cornered_time([way, leg], [turn], v, 2.5, 1.0, 2.0) - stop_to_stop_time(leg, v, 2.5, 1.0)
+    turn = math.degrees(abs(math.atan2(first[0] * (second[1] - first[1]) - first[1] * (second[0] - first[0]),
+                                       first[0] * (second[0] - first[0]) + first[1] * (second[1] - first[1]))))
+    return out, home, turn
 
 
 def test_the_way_out_is_flown_at_the_survey_speed_and_an_rtl_home_at_the_cruise_speed(tmp_path):
     m, rows = _plan(tmp_path, "rtl")
     v = m["derived"]["speed_ms"]
     assert v < 9.0 and rows[-1][3] == 20  # the survey slower than the cruise speed; the mission ends with RTL
-    out, home, turn, leg, _, _ = _ways_m(rows)
+    out, home, turn = _ways_m(rows)
     assert turn > 30.0 and out > 100.0 and home > 100.0
-    # the way out at v from rest (after the take-off) into the survey round the corner, the RTL at 10 m/s from
-    # rest to rest
-    assert _into(out, leg, turn, v) < _stop_to_stop(out, v, 2.5) - 1.0  # the corner flown through in part
-    assert m["estimates"]["transit_time_s"] == pytest.approx(_into(out, leg, turn, v) + _stop_to_stop(home, 10.0, 2.5),
+    # the way out at v from rest (after the take-off) to rest (the corner), the RTL at 10 m/s from rest to rest
+    assert m["estimates"]["transit_time_s"] == pytest.approx(_stop_to_stop(out, v, 2.5) + _stop_to_stop(home, 10.0, 2.5),
                                                              abs=0.3)
     assert m["estimates"]["climb_time_s"] == pytest.approx(copter_takeoff_time(rows[0][10], 2.5), abs=0.1)
 
@@ -127,7 +112,7 @@ def test_a_flight_that_lands_flies_home_at_the_survey_speed_and_lands_without_wa
     m, rows = _plan(tmp_path, "land")
     v = m["derived"]["speed_ms"]
     assert rows[-1][3] == 21  # NAV_LAND
-    out, home, turn, leg, last_leg, turn_home = _ways_m(rows)
-    assert m["estimates"]["transit_time_s"] == pytest.approx(_into(out, leg, turn, v) + _into(home, last_leg, turn_home, v),
+    out, home, _ = _ways_m(rows)
+    assert m["estimates"]["transit_time_s"] == pytest.approx(_stop_to_stop(out, v, 2.5) + _stop_to_stop(home, v, 2.5),
                                                              abs=0.3)
     assert rtl["estimates"]["descent_time_s"] - m["estimates"]["descent_time_s"] == pytest.approx(5.0, abs=0.15)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -15,7 +14,6 @@ from aerosurvey.plan.flight_time import (
     copter_takeoff_time,
     hover_time,
     lanes_in_place,
-    overlaps_at,
     path_time,
     plane_transit_time,
 )
@@ -38,38 +36,32 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     # the detours from home and back home: the way out and the way home
     n_out = next((i for i, w in enumerate(wps) if w.kind != "transit"), len(wps))
     n_back = next((i for i, w in enumerate(reversed(wps)) if w.kind != "transit"), 0)
-    xy = np.asarray([(w.x, w.y) for w in wps]).reshape(-1, 2) / k
-    # the survey's heights, where a copter's leg may climb or descend more than it goes level (`flight_time.Segments`);
-    # the ways out and home level (NaN: the take-off and the landing climb and descend apart from them)
-    survey_z = [w.alt_m if n_out <= i < len(wps) - n_back else math.nan for i, w in enumerate(wps)]
-    xyz = np.column_stack([xy, np.asarray(survey_z, float)])
-    pts = xyz[n_out: len(xy) - n_back]
-    leg_out = np.vstack([[*home, math.nan], xyz[: n_out + 1]])
+    xy = np.asarray([(w.x, w.y) for w in wps]) / k
+    pts = xy[n_out: len(xy) - n_back]
+    leg_out = np.vstack([[home], xy[: n_out + 1]])
     via = [(float(x), float(y)) for x, y in xy[len(xy) - n_back:]]
     leg_back = np.vstack([xy[len(xy) - n_back - 1], *way_home(via, (end_xy[0] / k, end_xy[1] / k), home)])
-    survey_len = float(np.hypot(*np.diff(pts[:, :2], axis=0).T).sum()) if len(pts) > 1 else 0.0
+    survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
     level_time = path_time(pts, kin)
     survey_time = level_time
     if hover_s is not None:
         rises, arrivals = lanes_in_place(stations.x, stations.y, stations.alt_rel_m, stations.run, k)
         survey_time += hover_time(len(stations.ids), len(route.runs), base, lead, hover_s, kin, aims_per_place(route.runs),
                                   hover_look_s, rises, Climbs(spec.vehicle.climb_rate_ms, spec.vehicle.descent_rate_ms),
-                                  arrivals, overlaps_at(pts, kin, [i - n_out for i, w in enumerate(wps)
-                                                                   if w.kind == "line_end" and n_out <= i < len(xy) - n_back]))
-    transit_out = float(np.hypot(*np.diff(leg_out[:, :2], axis=0).T).sum())
+                                  arrivals)
+    transit_out = float(np.hypot(*np.diff(leg_out, axis=0).T).sum())
     transit_back = float(np.hypot(*np.diff(leg_back, axis=0).T).sum())
     climb = float(np.max(stations.alt_rel_m)) if len(stations.alt_rel_m) else heights.nominal_agl_m
     v = spec.vehicle
     if kin.vehicle == "plane":  # a plane climbs and descends while it flies to and from the survey
-        t_out, t_back, t_climb, t_descent = plane_transit_time(leg_out[:, :2], leg_back, climb, v.climb_rate_ms,
+        t_out, t_back, t_climb, t_descent = plane_transit_time(leg_out, leg_back, climb, v.climb_rate_ms,
                                                                v.cruise_speed_ms, v.descent_rate_ms, kin,
                                                                v.landing_speed_ms if end_xy != home_xy else None)
     else:  # a copter flies out at the survey speed and home by RTL, or by its way round the zones and NAV_LAND
         rtl = copter_rtl(spec.flight.end, n_back > 0)
         # t_out: the ways the mission flies (out, and home round the zones), on from the survey and into it as each
         # sortie's (`sorties.Splitter`); t_back: an RTL straight home at the cruise speed from rest to rest
-        level_back = np.column_stack([leg_back, np.full(len(leg_back), math.nan)])
-        flown = np.vstack([leg_out, pts[1:], *([] if rtl else [level_back[1:]])])
+        flown = np.vstack([leg_out, pts[1:], *([] if rtl else [leg_back[1:]])])
         t_out = path_time(flown, kin) - level_time
         t_back = path_time(leg_back, kin.cruising(v.cruise_speed_ms)) if rtl else 0.0
         t_climb = copter_takeoff_time(climb, v.climb_rate_ms)

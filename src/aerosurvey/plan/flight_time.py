@@ -1,5 +1,5 @@
 """The flight-time model: what it needs of the vehicle (`Kinematics`), a plane's turn between
-lines, a copter's corners and straight runs (`path_time`; `CopterTime` and
+lines, a copter's stops at corners and its straight runs (`path_time`; `CopterTime` and
 `RouteSegments` time a route in parts for the battery split), hover-and-capture, the descent, and
 the quick estimate of a heading's boustrophedon (`quick_cost`) with its proven lower bounds.
 """
@@ -53,7 +53,6 @@ class Kinematics:
     airspeed_ms: float = math.inf  # copters: the most air speed on the nose (vehicle.max_airspeed_ms); planes fly speed_ms
     airspeed_diagonal_ms: float | None = None  # copters: the most 45° off the nose (vehicle.max_airspeed_diagonal_ms)
     reach_m: float = 0.0  # planes: how far short of a waypoint ArduPlane turns for the next (one L1 distance)
-    corner_radius_m: float = 2.0  # copters: ArduCopter's WPNAV_RADIUS (vehicle.waypoint_radius_m; `corner_overlap`)
 
     @property
     def calm(self) -> bool:
@@ -162,8 +161,7 @@ def plane_reversal(ahead: np.ndarray, lateral: np.ndarray, back: np.ndarray, ang
     return out
 
 
-#: The corners sharper than this (degrees) close RouteSegments' stretches, and the heading search's lower bounds
-#: count a copter's overlap at them as at most `corner_overlap`'s at this turn
+#: A copter stops at a corner sharper than this (degrees) and flies on through a gentler one
 CORNER_DEG = 30.0
 
 
@@ -197,46 +195,6 @@ def _straight_time(d: float, k: Kinematics) -> float:
         return r + math.sqrt(r * r + 4.0 * d / a)
     u = (0.5 * d * math.sqrt(j)) ** (2.0 / 3.0)
     return 4.0 * math.sqrt(u / j)
-
-
-def _time_to_cover(x: float, k: Kinematics) -> float:
-    """Seconds a copter's speed-up from rest takes to cover `x` metres, up to half its speed change (whatever
-    speed it speeds up to, the acceleration rises at the jerk J up to a and holds there so far): x = J·t³/6 up
-    to t = a/J, then a³/(6J²) + (a²/2J)·y + a·y²/2, y = t − a/J; with no jerk limit x = a·t²/2."""
-    a, j = k.accel_ms2, k.jerk_ms3
-    if j <= 0.0:
-        return math.sqrt(2.0 * x / a)
-    r = a / j
-    x1 = a * r * r / 6.0
-    if x <= x1:
-        return float((6.0 * x / j) ** (1.0 / 3.0))
-    b = 0.5 * a * r
-    return r + (math.sqrt(b * b + 2.0 * a * (x - x1)) - b) / a
-
-
-def corner_overlap(t_prev: float, t_next: float, turn_deg: float, k: Kinematics, top: float, steep: bool = False) -> float:
-    """Seconds a copter flies two legs at once at the waypoint between them (legs of `t_prev` and `t_next` seconds
-    from rest to rest, `_straight_time`; turning by `turn_deg`; `top` twice a speed change to cruise), as
-    ArduCopter's S-curves fly a corner (SCurve::advance_target_along_track, ArduCopter 4.x): it starts the next
-    leg while this one brakes (not before its braking, no earlier than the next one's speed-up lasts) at the
-    first moment the point half-way through the overlap lies within WPNAV_RADIUS (`corner_radius_m`) of the
-    corner. With an overlap R the legs then each lie a speed-up's first R/2 s off it (`_time_to_cover`), the
-    two sides of the corner: 2·s(R/2)·sin(turn/2) apart from it. So R is the shorter of the braking, the speed-up
-    (half each leg's time, at most half `top`) and 2·s⁻¹(radius / (2·sin(turn/2))): a leg straight on overlaps
-    by a whole speed change, a reversal by the time to cover half the radius, twice. (Its other tests never
-    bind by default: the speed half-way, each leg at most half its peak, stays below the speed asked, and the
-    acceleration below WPNAV_ACCEL_C, by default twice WPNAV_ACCEL.) A corner onto or off a `steep` leg (one that
-    climbs or descends more than it goes level, `Segments`: an orbit's way up to its next layer) is a stop: that
-    leg's speed changes are the vertical axis's (WPNAV_ACCEL_Z, 1 m/s², of WPNAV_ACCEL's 2.5), not the level
-    S-curve's this blends (in ArduCopter SITL the orbit's layer change, 8.4 m up over 7.6 m between two 180°
-    turns, took 5.1 s; blended as a level leg it is overlapped whole, timed as a stop 6.2 s)."""
-    if steep:
-        return 0.0
-    half = min(t_prev, t_next, top) / 2.0
-    side = math.sin(math.radians(turn_deg) / 2.0)
-    if side <= 0.0:
-        return half
-    return min(half, 2.0 * _time_to_cover(k.corner_radius_m / (2.0 * side), k))
 
 
 #: what each further aim shot at rest at a station adds to its hold (a pass's `looks`): the gimbal
@@ -302,7 +260,7 @@ def overlap_cap_s(k: Kinematics) -> float:
 
 def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float, k: Kinematics, aims: int = 1,
                look_s: float = 0.0, rises: np.ndarray | None = None, climbs: Climbs | None = None,
-               arrivals: np.ndarray | None = None, run_ends: float = 0.0) -> float:
+               arrivals: np.ndarray | None = None) -> float:
     """What hover-and-capture adds to a copter's time over runs flown straight through (`path_time`
     of the route): at each of `stations` photos it stops (braking and accelerating again over the
     `base` between two stations of a run, `_straight_time` against cruising it) and rests `hold_s`.
@@ -314,9 +272,7 @@ def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float
     the line's first leg taken at least as long as the lead-in), which comes off. A station
     straight above or below the one before (`rises`, of `lanes_in_place`: a lane flown up or down)
     is reached by its climb or descent (`climbs`) instead of a level base, and the level way to such
-    a lane from the one before (`arrivals`) is flown from rest to rest, not straight on. A run's last
-    station is a stop too, where path_time flies on round the corner after it: `run_ends`, the overlaps
-    path_time gave there (`overlaps_at`), come back."""
+    a lane from the one before (`arrivals`) is flown from rest to rest, not straight on."""
     places = stations // aims
     moves = np.zeros(0) if rises is None else np.asarray(rises, float)
     moves = moves[moves != 0.0]
@@ -324,7 +280,7 @@ def hover_time(stations: int, runs: int, base: float, lead: float, hold_s: float
     change = _speed_change_time(k.speed_ms, k.accel_ms2, k.jerk_ms3)
     into_line = change - min(_straight_time(lead, k) / 2.0, change)
     out = (places * hold_s + (stations - places) * look_s + stops * (_straight_time(base, k) - base / k.speed_ms)
-           - runs * into_line + run_ends)
+           - runs * into_line)
     if len(moves):
         assert climbs is not None, "a lane flown up or down is timed at the climb and descent rates"
         out += climbs.time(moves)
@@ -348,14 +304,13 @@ KEPT = 1e-9
 def path_time(points: np.ndarray, k: Kinematics) -> float:
     """Flight time along a polyline.
 
-    Copter: it flies on through every waypoint as ArduCopter's S-curves do (AP_Math/SCurve.cpp):
-    each leg (from a waypoint to the next) is a stop-to-stop run of its own (`_straight_time`: its
-    speed-up, cruise and braking, or turning back at its peak speed when too short to cruise), and
-    the next leg starts as this one brakes, once the time left of it is no more than the next one's
-    speed-up and the point half-way through the overlap lies within WPNAV_RADIUS of the corner
-    (SCurve::advance_target_along_track, `corner_overlap`): straight on and at gentle corners the
-    two overlap by the shorter of the braking and the speed-up, at a sharp corner by less (a
-    reversal at 5 m/s: 3.6 s of a 4.5 s speed change). Long legs overlap by a whole speed change, and a stretch of them takes as long as one
+    Copter: it stops at every corner sharper than CORNER_DEG and flies on through the others
+    as ArduCopter's S-curves do (AP_Math/SCurve.cpp): each leg (from a waypoint to the next) is a
+    stop-to-stop run of its own (`_straight_time`: its speed-up, cruise and braking, or turning
+    back at its peak speed when too short to cruise), and the next leg starts as this one brakes,
+    once the time left of it is no more than the next one's speed-up
+    (SCurve::advance_target_along_track): the two overlap by the shorter of the braking and the
+    speed-up. Long legs overlap by a whole speed change, and a stretch of them takes as long as one
     run of their total length; a short leg is flown at its own peak speed, whatever the speed
     asked: in ArduCopter SITL (WPNAV_ACCEL 2.5 m/s², WPNAV_JERK 1 m/s³) an orbit's ring of 4.68 m
     chords turning 22.5° flew 1.63 m/s for 5.34 m/s commanded, a chord each 2.87 s (docs/planning.md,
@@ -397,48 +352,15 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     return total_len / k.speed_ms
 
 
-def overlaps_at(points: np.ndarray, k: Kinematics, at: list[int]) -> float:
-    """The sum of the overlaps (`corner_overlap`) a copter's path_time along `points` gives at the points `at`
-    (indices, each between two segments longer than KEPT; others count 0)."""
-    lengths, angles, steep = all_segments(points)
-    out = 0.0
-    for i in at:
-        if 0 < i < len(lengths) and lengths[i - 1] > KEPT and lengths[i] > KEPT:
-            # the still-air times, as CopterTime takes the overlaps (`leg_times`)
-            t0, t1 = _straight_time(lengths[i - 1], k), _straight_time(lengths[i], k)
-            out += corner_overlap(t0, t1, abs((angles[i] - angles[i - 1] + 180.0) % 360.0 - 180.0), k, overlap_cap_s(k),
-                                  steep[i - 1] or steep[i])
-    return out
-
-
-#: The segments path_time keeps of a polyline: (lengths, directions in degrees, steep), planning-grid units / grid
-#: scale; steep: the segment climbs or descends more than it goes level (`_steep`)
-Segments = tuple[list[float], list[float], list[bool]]
-
-
-def _steep(d: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Which of the segments `d` (the points' differences, one row per coordinate) climb or descend more than they go
-    level (`lengths`): a polyline of three columns holds each point's height (NaN where not given: a level leg, as
-    the ways out and home the take-off and landing climb and descend apart from), of two none."""
-    if len(d) < 3:
-        return np.zeros(len(lengths), bool)
-    rise = np.abs(d[2])
-    out = np.zeros(len(lengths), bool)
-    np.greater(rise, lengths, where=~np.isnan(rise), out=out)
-    return out
-
-
-def segments_of(d: np.ndarray) -> Segments:
-    """The segments `d` (one row per coordinate: x, y and, if given, the height; `_steep`) measured as
-    `kept_segments` measures a polyline's, the dropped ones too (elementwise: the same floats however the
-    differences are gathered)."""
-    lengths = np.hypot(d[0], d[1])
-    return lengths.tolist(), np.degrees(np.arctan2(d[1], d[0])).tolist(), _steep(d, lengths).tolist()
+#: The segments path_time keeps of a polyline: (lengths, directions in degrees), planning-grid units / grid scale
+Segments = tuple[list[float], list[float]]
 
 
 def all_segments(points: np.ndarray) -> Segments:
-    """Every segment's length, direction (degrees) and steepness of a polyline, the dropped ones too (`segments_of`)."""
-    return segments_of((points[1:] - points[:-1]).T)
+    """Every segment's length and direction (degrees) of a polyline, the dropped ones too, as
+    `kept_segments` measures them (elementwise: the same floats whichever polyline a segment is part of)."""
+    d = (points[1:] - points[:-1]).T
+    return np.hypot(d[0], d[1]).tolist(), np.degrees(np.arctan2(d[1], d[0])).tolist()
 
 
 def kept_segments(points: np.ndarray) -> Segments:
@@ -446,11 +368,12 @@ def kept_segments(points: np.ndarray) -> Segments:
     the same numpy operations on the same values (np.diff is this subtraction): elementwise, so a
     segment's length and direction are the same floats whichever polyline it is part of."""
     d = (points[1:] - points[:-1]).T
-    lengths = np.hypot(d[0], d[1])
+    dx, dy = d[0], d[1]
+    lengths = np.hypot(dx, dy)
     keep = lengths > KEPT
     if not keep.all():
-        d, lengths = d[:, keep], lengths[keep]
-    return lengths.tolist(), np.degrees(np.arctan2(d[1], d[0])).tolist(), _steep(d, lengths).tolist()
+        dx, dy, lengths = dx[keep], dy[keep], lengths[keep]
+    return lengths.tolist(), np.degrees(np.arctan2(dy, dx)).tolist()
 
 
 class RouteSegments:
@@ -458,10 +381,10 @@ class RouteSegments:
     path_time's corners, each segment's time in its stretch before it (`before`: CopterTime's
     `run` with it the last leg) and, at each corner, the time of the stretch it ends (`closed`)."""
 
-    __slots__ = ("lengths", "angles", "steep", "corners", "before", "closed", "kept_before", "times", "calm", "overlap")
+    __slots__ = ("lengths", "angles", "corners", "before", "closed", "kept_before", "times", "calm")
 
     def __init__(self, points: np.ndarray, kin: Kinematics):
-        self.lengths, self.angles, self.steep = kept_segments(points)
+        self.lengths, self.angles = kept_segments(points)
         # each segment's time as CopterTime.feed counts it (`leg_times`): in the wind and in still air
         self.times, self.calm = leg_times(self.lengths, self.angles, kin)
         seg = np.diff(points, axis=0)
@@ -474,15 +397,12 @@ class RouteSegments:
         at_corner = set(self.corners)
         times, calm = self.times, self.calm
         top = overlap_cap_s(kin)
-        # overlap[k]: corner_overlap of segment k with the one before (0 for the first), as CopterTime.feed takes it
-        self.overlap: list[float] = [0.0] + [
-            corner_overlap(calm[k - 1], calm[k], abs((self.angles[k] - self.angles[k - 1] + 180.0) % 360.0 - 180.0),
-                           kin, top, self.steep[k - 1] or self.steep[k]) for k in range(1, len(times))]
         for k in range(len(times)):
             if k in at_corner:
-                self.closed[k] = self.before[-1] + (times[k - 1] - self.overlap[k])
+                self.closed[k] = self.before[-1] + times[k - 1]
             # the same operations as CopterTime.feed's
-            self.before.append(0.0 if k == 0 or k in at_corner else self.before[-1] + (times[k - 1] - self.overlap[k]))
+            self.before.append(0.0 if k == 0 or k in at_corner else
+                               self.before[-1] + (times[k - 1] - min(calm[k - 1], calm[k], top) / 2.0))
 
 
 def leg_times(lengths: list[float], angles: list[float], kin: Kinematics) -> tuple[list[float], list[float]]:
@@ -497,41 +417,40 @@ def leg_times(lengths: list[float], angles: list[float], kin: Kinematics) -> tup
 
 
 class CopterTime:
-    """path_time of a copter (path_time is made by it): it flies on through every corner as
-    ArduCopter's S-curves do (`path_time`: each leg a stop-to-stop `_straight_time`, the next begun
-    as it slows, by `corner_overlap`); a corner sharper than CORNER_DEG ends a stretch. In
+    """path_time of a copter (path_time is made by it): it stops at every corner sharper than
+    CORNER_DEG, and flies on through a gentler one (or straight on) as ArduCopter's S-curves do
+    (`path_time`: each leg a stop-to-stop `_straight_time`, the next begun as it slows). In
     wind each leg's cruise is slowed (`leg_times`). Fed in parts, so that the stretches between
     corners of the whole runs are timed once for all sorties (`route`). Its state: the stretches
     ended so far (`total`), the current stretch's time before its last leg (`run`), that leg's
-    direction (`last`), its times in the wind and in still air and whether it is steep (`leg`, None before the
-    first)."""
+    direction (`last`) and its times in the wind and in still air (`leg`, None before the first)."""
 
     __slots__ = ("kin", "total", "run", "last", "leg", "top")
 
     def __init__(self, kin: Kinematics, total: float = 0.0, run: float = 0.0, last: float = 0.0,
-                 leg: tuple[float, float, bool] | None = None):
+                 leg: tuple[float, float] | None = None):
         self.kin = kin
         self.total, self.run, self.last, self.leg = total, run, last, leg
         self.top = overlap_cap_s(kin)
 
-    def state(self) -> tuple[float, float, float, tuple[float, float, bool] | None]:
+    def state(self) -> tuple[float, float, float, tuple[float, float] | None]:
         """What a CopterTime made of it goes on from (`CopterTime(kin, *state)`)."""
         return self.total, self.run, self.last, self.leg
 
     def feed(self, segs: Segments) -> None:
         # the state in locals while the loop runs (the same operations in the same order as RouteSegments')
-        total, run, last, leg, kin, corner, top = self.total, self.run, self.last, self.leg, self.kin, CORNER_DEG, self.top
-        t_leg, c_leg, s_leg = (0.0, 0.0, False) if leg is None else leg
-        times, calm = leg_times(segs[0], segs[1], kin)
-        for t, c, ang, steep in zip(times, calm, segs[1], segs[2]):
-            if leg is not None:
-                turn = abs((ang - last + 180.0) % 360.0 - 180.0)
-                if turn > corner:  # a stretch of RouteSegments ends
-                    total += run + (t_leg - corner_overlap(c_leg, c, turn, kin, top, s_leg or steep))
-                    run = 0.0
-                else:
-                    run += t_leg - corner_overlap(c_leg, c, turn, kin, top, s_leg or steep)
-            leg, t_leg, c_leg, s_leg, last = (t, c, steep), t, c, steep, ang
+        total, run, last, leg, corner, top = self.total, self.run, self.last, self.leg, CORNER_DEG, self.top
+        t_leg, c_leg = (0.0, 0.0) if leg is None else leg
+        times, calm = leg_times(*segs, self.kin)
+        for t, c, ang in zip(times, calm, segs[1]):
+            if leg is None:
+                pass
+            elif abs((ang - last + 180.0) % 360.0 - 180.0) > corner:
+                total += run + t_leg
+                run = 0.0
+            else:
+                run += t_leg - min(c_leg, c, top) / 2.0
+            leg, t_leg, c_leg, last = (t, c), t, c, ang
         self.total, self.run, self.last, self.leg = total, run, last, leg
 
     def route(self, rs: RouteSegments, k0: int, k1: int) -> None:
@@ -541,14 +460,13 @@ class CopterTime:
             return
         ci, cj = bisect.bisect_right(rs.corners, k0), bisect.bisect_left(rs.corners, k1)
         end = rs.corners[ci] if ci < cj else k1
-        self.feed((rs.lengths[k0:end], rs.angles[k0:end], rs.steep[k0:end]))
+        self.feed((rs.lengths[k0:end], rs.angles[k0:end]))
         if ci < cj:
             assert self.leg is not None
-            self.total += self.run + (self.leg[0] - rs.overlap[rs.corners[ci]])
+            self.total += self.run + self.leg[0]
             for c in rs.corners[ci + 1:cj]:
                 self.total += rs.closed[c]
-            self.run, self.last = rs.before[k1 - 1], rs.angles[k1 - 1]
-            self.leg = (rs.times[k1 - 1], rs.calm[k1 - 1], rs.steep[k1 - 1])
+            self.run, self.leg, self.last = rs.before[k1 - 1], (rs.times[k1 - 1], rs.calm[k1 - 1]), rs.angles[k1 - 1]
 
     def time(self) -> float:
         return 0.0 if self.leg is None else self.total + self.run + self.leg[0]
@@ -768,9 +686,7 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
     λ = extent + lead_in + base/2 long.
 
     Copter (t = d/v + G(d) per stop-to-stop run, G ≥ least_gain; a stretch between stops flown on
-    through its waypoints takes at least a run of its whole length: tests/plan/test_copter_chain.py;
-    a "stop" here is a corner sharper than CORNER_DEG, which ArduCopter flies through in part: the two runs
-    at it overlap by `corner_overlap`, at most its value at CORNER_DEG, O, so each run's G counts O less):
+    through its waypoints takes at least a run of its whole length: tests/plan/test_copter_chain.py):
     every leg is along the line
     but the connectors, so a stop within P is a reversal (two corners of 180°: ≥ 3 runs, G ≥ 3m,
     m = least_gain(0)); otherwise P lies in one run of length ≥ λ. A connector's two corners
@@ -829,11 +745,6 @@ def quick_cost_lower_bounds(lb: LineBounds, lead_in: float, base: float, k: Kine
 
     if k.vehicle == "copter":
         gain, m = _least_gain(np.concatenate([lam, dv[joined]]), k)
-        # a run's two ends overlap the runs next to it by at most `corner_overlap` at a turn of CORNER_DEG each,
-        # half of it each run's: each run's gain counts that less (see the docstring)
-        top = overlap_cap_s(k)
-        ends = corner_overlap(top, top, CORNER_DEG, k, top)
-        gain, m = np.maximum(gain - ends, 0.0), max(m - ends, 0.0)
         same = hid[1:] == hid[:-1]
         gap = float(np.min(np.diff(v)[same])) if same.any() else 0.0  # no two lines of a heading are closer
         total = per_heading(exists, lam / speed + np.minimum(gain[:len(lam)], 3.0 * m))

@@ -204,8 +204,7 @@ def solve_sensor(spec: MissionSpec, h_target: float, gsd_target: float, heights:
         side_images_per_point=pg.images_per_point(spec.targets.side_overlap),
         forward_images_per_point=pg.images_per_point(spec.targets.forward_overlap),
         kinematics=Kinematics(spec.vehicle.type, speed.speed_ms, spec.vehicle.acceleration_ms2, radius,
-                              reach_m=pg.l1_distance(speed.speed_ms, spec.vehicle.nav_period_s) if radius else 0.0,
-                              corner_radius_m=spec.vehicle.waypoint_radius_m),
+                              reach_m=pg.l1_distance(speed.speed_ms, spec.vehicle.nav_period_s) if radius else 0.0),
         warnings=warnings, hover_s=hover, hover_look_s=look,
     )
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from itertools import accumulate
 
@@ -39,10 +38,8 @@ from aerosurvey.plan.flight_time import (
     hover_time,
     kept_segments,
     lanes_in_place,
-    overlaps_at,
     path_time,
     plane_transit_time,
-    segments_of,
 )
 from aerosurvey.plan.landing import way_home
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
@@ -137,21 +134,8 @@ class Sortie:
 #: A sortie waypoint's fields (x, y, alt_m, kind, run, station); SortieWaypoints are made for the chosen sorties only
 _Wp = tuple[float, float, float, str, int, str]
 _XY = tuple[float, float]
-#: A point of a copter's polyline with its height (`_polyline`)
-_XYZ = tuple[float, float, float]
 #: CopterTime's state (`CopterTime.state`)
-_State = tuple[float, float, float, tuple[float, float, bool] | None]
-
-
-def _polyline(points: Sequence[tuple[float, ...]], gs: float) -> np.ndarray:
-    """Points (x, y) or (x, y, height) as flight_time's polylines take them: x and y divided by the grid scale `gs`
-    (the same floats as dividing them alone), the heights kept, NaN where not given (a level leg: the ways out
-    and home, which the take-off and landing climb and descend apart from; `flight_time.Segments`)."""
-    out = np.full((len(points), 3), math.nan)
-    for n, p in enumerate(points):
-        out[n, :len(p)] = p
-    out[:, :2] /= gs
-    return out
+_State = tuple[float, float, float, tuple[float, float] | None]
 class _Piece:
     """Stations lo..hi of one run as a sortie flies them (made once for each)."""
 
@@ -180,7 +164,7 @@ class _Ends:
     __slots__ = ("lead", "chain", "chain_segments", "terrain_at", "highest", "after", "straight_home", "own",
                  "round_home", "line_ends")
 
-    def __init__(self, lead: _XYZ, chain: list[_XYZ], chain_segments: Segments, terrain_at: list[float],
+    def __init__(self, lead: _XY, chain: list[_XY], chain_segments: Segments, terrain_at: list[float],
                  highest: list[float], after: list[_XY], straight_home: Segments, own: Segments, round_home: list[bool],
                  line_ends: list[_XY]):
         self.lead = lead
@@ -199,13 +183,12 @@ class _Ends:
 _Last = tuple[int, float, list[_XY], Segments]
 
 
-def _kept(lengths: list[float], angles: list[float], steep: list[bool]) -> Segments:
+def _kept(lengths: list[float], angles: list[float]) -> Segments:
     """The segments path_time keeps of these (`kept_segments`' test)."""
     keep = [length > KEPT for length in lengths]
     if all(keep):
-        return lengths, angles, steep
-    return ([x for x, y in zip(lengths, keep) if y], [x for x, y in zip(angles, keep) if y],
-            [x for x, y in zip(steep, keep) if y])
+        return lengths, angles
+    return [x for x, y in zip(lengths, keep) if y], [x for x, y in zip(angles, keep) if y]
 
 
 #: a sortie is costed from this many launch sites at most, the nearest to its first and last stations
@@ -277,12 +260,6 @@ class Splitter:
             self.run_at.append(len(self.route_wps))
             self.route_wps.extend((w.x, w.y, w.alt_m, w.kind, w.run, w.station) for w in self.by_run.get(r, []))
         self.route_alts = [w[2] for w in self.route_wps]
-        # hover-and-capture: the overlap the route's time gives at each run's last station, a stop (`hover_time`)
-        self.end_overlap: list[float] = [0.0] * len(plan.runs)
-        if plan.hover_s is not None and kin.vehicle == "copter" and self.route_wps:
-            route_xyz = _polyline([w[:3] for w in self.route_wps], plan.grid_scale)
-            self.end_overlap = [overlaps_at(route_xyz, kin, [self.run_at[r] + len(self.by_run.get(r, [])) - 1])
-                                for r in range(len(plan.runs))]
         self.route_starts: list[int] = np.cumsum([0, *(w[3] == "line_start" for w in self.route_wps)]).tolist()
         self._route_segments: RouteSegments | None = None
         self._pieces: dict[tuple[int, int, int], _Piece] = {}
@@ -405,9 +382,10 @@ class Splitter:
         kh = (li, id(p0), i < j)
         state = self._heads.get(kh)
         if state is None:  # the sum from the start: the same for every sortie with this head
-            into = [self.route_wps[i][:3]] if i < j else []
+            into = [(self.route_wps[i][0], self.route_wps[i][1])] if i < j else []
             h = CopterTime(self.kin)
-            h.feed(kept_segments(_polyline([*self._leg_out(li, p0), *(w[:3] for w in p0.wps), *into], self.plan.grid_scale)))
+            h.feed(kept_segments(np.asarray([*self._leg_out(li, p0), *((w[0], w[1]) for w in p0.wps), *into])
+                                 / self.plan.grid_scale))
             state = self._heads[kh] = h.state()
         if i < j:
             routed = self._routed.get((kh, j))
@@ -429,10 +407,10 @@ class Splitter:
             if copter_rtl(self.plan.end, bool(back_via)):  # the RTL home is timed apart (`_rtl_time`)
                 back_leg = []
             if p1 is p0:
-                tail: list[tuple[float, ...]] = [p0.wps[-1][:3], *back_leg]
+                tail = [p0.last, *back_leg]
             else:
-                tail = [self._into_last(p0, i, j), *(w[:3] for w in p1.wps), *back_leg]
-            self._tails[kt] = kept_segments(_polyline(tail, self.plan.grid_scale))
+                tail = [self._into_last(p0, i, j), *((w[0], w[1]) for w in p1.wps), *back_leg]
+            self._tails[kt] = kept_segments(np.asarray(tail) / self.plan.grid_scale)
         return self._tails[kt]
 
     def _into(self, li: int, p0: _Piece, i: int, j: int, r: int) -> Segments:
@@ -440,14 +418,13 @@ class Splitter:
         it, or from the first piece's end where no whole run or detour lies between; measured once."""
         key = (li, r, -1 if i < j else id(p0))
         if key not in self._junctions:
-            ends = [self._into_last(p0, i, j), self._ends(li, r).lead]
-            self._junctions[key] = kept_segments(_polyline(ends, self.plan.grid_scale))
+            ends = np.asarray([self._into_last(p0, i, j), self._ends(li, r).lead], float)
+            self._junctions[key] = kept_segments(ends / self.plan.grid_scale)
         return self._junctions[key]
 
-    def _into_last(self, p0: _Piece, i: int, j: int) -> _XYZ:
-        """Where the way into the last run starts (and its height): the route's waypoint before it, or the first
-        piece's end."""
-        return self.route_wps[j - 1][:3] if i < j else p0.wps[-1][:3]
+    def _into_last(self, p0: _Piece, i: int, j: int) -> _XY:
+        """Where the way into the last run starts: the route's waypoint before it, or the first piece's end."""
+        return (self.route_wps[j - 1][0], self.route_wps[j - 1][1]) if i < j else p0.last
 
     def _ends(self, li: int, r: int) -> _Ends:
         """What run r's last pieces and ways home to site li share (`_Ends`), made once."""
@@ -458,14 +435,12 @@ class Splitter:
             terr = [w for at_, w in self.inner[r] if at_ > a]
             at = [at_ for at_, _ in self.inner[r] if at_ > a]
             assert at == sorted(at), "a run's terrain waypoints follow its stations"
-            chain: list[_XYZ] = [lead[:3], start[:3], *((w.x, w.y, w.alt_m) for w in terr)]
+            chain = [(lead[0], lead[1]), (start[0], start[1]), *((w.x, w.y) for w in terr)]
             home, end = (self.sites[li].x, self.sites[li].y), plan.ends[li]
             after = way_home([], end, home)
             # every b's own segments (see _Ends): the points as _make_run_waypoints makes them
             bs = np.arange(a, e)
-            q = _polyline(chain, gs)[np.searchsorted(np.asarray(at, np.int64), bs) + 1]
-            alt_b = (st.alt_rel_m[a:e] if plan.altitude_frame == "relative"
-                     else np.full(e - a, float(plan.heights.nominal_agl_m)))
+            q = (np.asarray(chain, float) / gs)[np.searchsorted(np.asarray(at, np.int64), bs) + 1]
             ux, uy = np.sin(self.heading[a:e]), np.cos(self.heading[a:e])
             half = plan.base_m * plan.grid_scale / 2.0
             ex, ey = st.x[a:e] + ux * half, st.y[a:e] + uy * half
@@ -474,11 +449,10 @@ class Splitter:
             nx, ny = after[0][0] / gs, after[0][1] / gs
             dx = np.concatenate([np.where(follow, sx, exg) - q[:, 0], exg - sx, nx - exg])
             dy = np.concatenate([np.where(follow, sy, eyg) - q[:, 1], eyg - sy, ny - eyg])
-            dz = np.concatenate([alt_b - q[:, 2], np.zeros(e - a), np.full(e - a, math.nan)])  # the way home level
             self._ends_of[(li, r)] = _Ends(
-                chain[0], chain, all_segments(_polyline(chain, gs)), at,
-                list(accumulate([lead[2], *(w.alt_m for w in terr)], max)), after, all_segments(_polyline(after, gs)),
-                segments_of(np.array([dx, dy, dz])),
+                chain[0], chain, all_segments(np.asarray(chain, float) / gs), at,
+                list(accumulate([lead[2], *(w.alt_m for w in terr)], max)), after, all_segments(np.asarray(after, float) / gs),
+                (np.hypot(dx, dy).tolist(), np.degrees(np.arctan2(dy, dx)).tolist()),
                 self.detours.crossing(np.column_stack([ex, ey]), end), list(zip(ex.tolist(), ey.tolist())))
         return self._ends_of[(li, r)]
 
@@ -492,24 +466,22 @@ class Splitter:
         follow = plan.heights.mode == "follow" and b > self.run_start[r]
         k, n = b - self.run_start[r], len(ends.round_home)
         back: list[_XY] = []
-        alt = self.station_alt[b] if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
         if ends.round_home[k]:
             line_end = ends.line_ends[k]
             back = self.detours.way_round(line_end, plan.ends[li])
-            own = [ends.chain[m + 1], *([(self.station_x[b], self.station_y[b], alt)] if follow else []),
-                   (*line_end, alt), back[0]]
-            lengths, angles, steep = all_segments(_polyline(own, plan.grid_scale))
-            rest = all_segments(_polyline([*back, *ends.after], plan.grid_scale))
+            own = [ends.chain[m + 1], *([(self.station_x[b], self.station_y[b])] if follow else []), line_end, back[0]]
+            lengths, angles = all_segments(np.asarray(own, float) / plan.grid_scale)
+            rest = all_segments(np.asarray([*back, *ends.after], float) / plan.grid_scale)
         else:
             at = [k, n + k, 2 * n + k] if follow else [k, 2 * n + k]
             if copter_rtl(plan.end, False):  # the RTL home is timed apart (`_rtl_time`)
                 at.pop()
-            lengths, angles, steep = [ends.own[0][x] for x in at], [ends.own[1][x] for x in at], [ends.own[2][x] for x in at]
+            lengths, angles = [ends.own[0][x] for x in at], [ends.own[1][x] for x in at]
             rest = ends.straight_home
+        alt = self.station_alt[b] if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
         chain = ends.chain_segments
         last = self._lasts[(li, b)] = (3 + m + follow, max(ends.highest[m], alt), back,
-                                       _kept(chain[0][:m + 1] + lengths + rest[0], chain[1][:m + 1] + angles + rest[1],
-                                             chain[2][:m + 1] + steep + rest[2]))
+                                       _kept(chain[0][:m + 1] + lengths + rest[0], chain[1][:m + 1] + angles + rest[1]))
         return last
 
     def _highest(self, i: int, j: int) -> list[float]:
@@ -520,7 +492,8 @@ class Splitter:
 
     def _route(self) -> RouteSegments:
         if self._route_segments is None:
-            self._route_segments = RouteSegments(_polyline([w[:3] for w in self.route_wps], self.plan.grid_scale), self.kin)
+            xy = np.asarray([(w[0], w[1]) for w in self.route_wps]).reshape(-1, 2)
+            self._route_segments = RouteSegments(xy / self.plan.grid_scale, self.kin)
         return self._route_segments
 
     def cost(self, a: int, b: int) -> tuple[float, int, float, float, int]:
@@ -594,8 +567,7 @@ class Splitter:
             if self.plan.hover_s is not None:
                 horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.lead_in_m, self.plan.hover_s, self.kin,
                                     self.plan.aims, self.plan.hover_look_s, self.rises[a + 1:b + 1],
-                                    Climbs(v.climb_rate_ms, v.descent_rate_ms), self.arrivals[a + 1:b + 1],
-                                    sum(self.end_overlap[r0:r1]))
+                                    Climbs(v.climb_rate_ms, v.descent_rate_ms), self.arrivals[a + 1:b + 1])
             used = self.budget.cost(horiz, vert)
             if best is None or used < best[0]:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
