@@ -79,11 +79,11 @@ def _run(*args: object) -> tuple[int, str]:
 
 
 class Plan:
-    """A plan of three sorties (a 9.5-minute battery) and its stations as the test reads them from manifest.json."""
+    """A plan of three sorties (a 9-minute battery) and its stations as the test reads them from manifest.json."""
 
     def __init__(self, tmp: Path, name: str = "test", area: list | None = None) -> None:
         tmp.mkdir(parents=True, exist_ok=True)
-        self.spec = make_spec(tmp, {"mission": {"name": name}, "flight": {"heading": 0.0}, "battery": {"usable_min": 9.5}},
+        self.spec = make_spec(tmp, {"mission": {"name": name}, "flight": {"heading": 0.0}, "battery": {"usable_min": 9.0}},
                               area=area)
         self.folder = tmp / "plan"
         code, text = _run("plan", self.spec, "-o", self.folder)

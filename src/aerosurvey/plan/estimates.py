@@ -9,9 +9,7 @@ import numpy as np
 from aerosurvey.plan.flight_time import (
     Climbs,
     Kinematics,
-    copter_landing_time,
-    copter_rtl,
-    copter_takeoff_time,
+    descent_time,
     hover_time,
     lanes_in_place,
     path_time,
@@ -33,7 +31,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     hover-and-capture (`hover_s` at rest at each place, `hover_look_s` at each further aim there) the stops
     at the stations too, the first of each run after its `lead`-metre lead-in."""
     home = (home_xy[0] / k, home_xy[1] / k)
-    # the detours from home and back home: the way out and the way home
+    # the detours from home and back home fly at transit speed, like the straight legs
     n_out = next((i for i, w in enumerate(wps) if w.kind != "transit"), len(wps))
     n_back = next((i for i, w in enumerate(reversed(wps)) if w.kind != "transit"), 0)
     xy = np.asarray([(w.x, w.y) for w in wps]) / k
@@ -42,8 +40,7 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
     via = [(float(x), float(y)) for x, y in xy[len(xy) - n_back:]]
     leg_back = np.vstack([xy[len(xy) - n_back - 1], *way_home(via, (end_xy[0] / k, end_xy[1] / k), home)])
     survey_len = float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
-    level_time = path_time(pts, kin)
-    survey_time = level_time
+    survey_time = path_time(pts, kin)
     if hover_s is not None:
         rises, arrivals = lanes_in_place(stations.x, stations.y, stations.alt_rel_m, stations.run, k)
         survey_time += hover_time(len(stations.ids), len(route.runs), base, lead, hover_s, kin, aims_per_place(route.runs),
@@ -57,15 +54,10 @@ def estimate(spec: MissionSpec, route: Route, wps: tuple[RouteWaypoint, ...], st
         t_out, t_back, t_climb, t_descent = plane_transit_time(leg_out, leg_back, climb, v.climb_rate_ms,
                                                                v.cruise_speed_ms, v.descent_rate_ms, kin,
                                                                v.landing_speed_ms if end_xy != home_xy else None)
-    else:  # a copter flies out at the survey speed and home by RTL, or by its way round the zones and NAV_LAND
-        rtl = copter_rtl(spec.flight.end, n_back > 0)
-        # t_out: the ways the mission flies (out, and home round the zones), on from the survey and into it as each
-        # sortie's (`sorties.Splitter`); t_back: an RTL straight home at the cruise speed from rest to rest
-        flown = np.vstack([leg_out, pts[1:], *([] if rtl else [leg_back[1:]])])
-        t_out = path_time(flown, kin) - level_time
-        t_back = path_time(leg_back, kin.cruising(v.cruise_speed_ms)) if rtl else 0.0
-        t_climb = copter_takeoff_time(climb, v.climb_rate_ms)
-        t_descent = copter_landing_time(climb, v.climb_rate_ms, v.descent_rate_ms, rtl)
+    else:
+        transit_kin = kin.cruising(v.cruise_speed_ms)
+        t_out, t_back = path_time(leg_out, transit_kin), path_time(leg_back, transit_kin)
+        t_climb, t_descent = climb / v.climb_rate_ms, descent_time(climb, v.descent_rate_ms, v.type)
     photo_len = float(sum((r.station_xy.shape[0] - 1) * base for r in route.runs))
     return {
         "survey_distance_m": round(survey_len, 1),

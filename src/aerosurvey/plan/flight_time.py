@@ -89,11 +89,9 @@ class Kinematics:
         return replace(self, wind_x=float(x), wind_y=float(y))
 
     def cruising(self, speed_ms: float) -> Kinematics:
-        """These kinematics on a copter's RTL home and a plane's ways from and back to the launch point, in the
-        same wind: a copter's at `speed_ms` (vehicle.cruise_speed_ms, which stands for ArduCopter's WPNAV_SPEED:
-        an RTL flies RTL_SPEED, 0 by default, then WPNAV_SPEED, not the mission's DO_CHANGE_SPEED; its way out
-        is flown at the survey speed, the mission's DO_CHANGE_SPEED following the take-off); a plane's as they
-        are, at the survey speed (its mission's DO_CHANGE_SPEED follows the take-off: `plane_transit_time`)."""
+        """These kinematics on the ways from and back to the launch point, in the same wind: a copter's at the
+        transits' speed (vehicle.cruise_speed_ms); a plane's as they are, at the survey speed (its mission's
+        DO_CHANGE_SPEED follows the take-off: `plane_transit_time`)."""
         return self if self.vehicle == "plane" else replace(self, speed_ms=speed_ms)
 
     @property
@@ -482,54 +480,6 @@ def descent_time(alt_m: float, rate_ms: float, vehicle: str) -> float:
         return alt_m / rate_ms
     slow = min(alt_m, LAND_SLOW_ALT_M)
     return (alt_m - slow) / rate_ms + slow / LAND_SLOW_SPEED_MS
-
-
-#: ArduCopter's take-off and landing are flown by its position controller's vertical axis: at most
-#: CLIMB_ACCEL_MS2 (WPNAV_ACCEL_Z), reached at this jerk (PSC_JERK_Z: 5 m/s³ by default)
-PSC_JERK_Z_MS3 = 5.0
-#: ArduCopter SITL left the ground 3.90-3.97 s after arming in AUTO (the motors' spool-up, MOT_SPOOL_TIME, and
-#: the take-off's throttle rise, TKOFF_SLEW_TIME): seconds from arming to the climb
-TAKEOFF_SPOOL_S = 3.9
-#: ArduCopter's RTL_ALT (1500 cm): an RTL from lower first climbs to it, and descends from there
-RTL_ALT_M = 15.0
-#: ArduCopter's RTL_LOIT_TIME (5000 ms): an RTL waits this long over home before it descends
-RTL_LOIT_TIME_S = 5.0
-#: what a copter's landing takes beyond its descent at the rates (`descent_time`) and its speed-up into it:
-#: settling over the landing point before the descent, and after the touchdown until the land detector
-#: disarms it (ArduCopter SITL: RTL and NAV_LAND alike, 1.7 s before the descent, 1.9-2.7 s after it)
-LANDING_SETTLE_S = 3.5
-
-
-def _vertical(rate_ms: float) -> Kinematics:
-    """A copter's take-off or landing descent at `rate_ms` (`PSC_JERK_Z_MS3`)."""
-    return Kinematics("copter", rate_ms, CLIMB_ACCEL_MS2, 0.0, PSC_JERK_Z_MS3)
-
-
-def copter_rtl(end: str, way_round: bool) -> bool:
-    """Whether a copter's flight ends with RTL: unless it lands (flight.end "land") or its way home goes round
-    the zones (the mission flies it and lands with NAV_LAND; `mission.program.flight_program`). Its RTL returns
-    straight home at `Kinematics.cruising`'s speed; the ways flown in the mission, at the survey speed."""
-    return end != "land" and not way_round
-
-
-def copter_takeoff_time(alt_m: float, climb_rate_ms: float) -> float:
-    """A copter's NAV_TAKEOFF to `alt_m` above its launch point, from arming: the spool-up
-    (`TAKEOFF_SPOOL_S`), then the climb from rest to rest at `climb_rate_ms` (WPNAV_SPEED_UP). ArduCopter SITL,
-    arming to the take-off's end: 47.2 s to 102.1 m, 12.8 s to 16.1 m at 2.5 m/s (47.4 s, 13.0 s so timed)."""
-    return TAKEOFF_SPOOL_S + _straight_time(alt_m, _vertical(climb_rate_ms))
-
-
-def copter_landing_time(alt_m: float, climb_rate_ms: float, descent_rate_ms: float, rtl: bool) -> float:
-    """A copter's landing from `alt_m` above its launch point once over it, until disarmed: with `rtl` (the
-    mission's RTL) a climb to RTL_ALT_M from lower and RTL_LOIT_TIME_S over home first; then the descent
-    (`descent_time`: `descent_rate_ms`, WPNAV_SPEED_DN, the last metres at LAND_SPEED) begun from rest, and
-    `LANDING_SETTLE_S`."""
-    climb = max(RTL_ALT_M - alt_m, 0.0) if rtl else 0.0
-    top = alt_m + climb
-    down = _vertical(descent_rate_ms)
-    return (_straight_time(climb, _vertical(climb_rate_ms)) + (RTL_LOIT_TIME_S if rtl else 0.0)
-            + descent_time(top, descent_rate_ms, "copter")
-            + _speed_change_time(down.speed_ms, down.accel_ms2, down.jerk_ms3) / 2.0 + LANDING_SETTLE_S)
 
 
 def plane_transit_time(leg_out: np.ndarray, leg_back: np.ndarray, climb_m: float, climb_rate_ms: float,

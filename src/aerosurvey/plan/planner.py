@@ -140,7 +140,7 @@ def _plan(spec: MissionSpec, inputs: PlanInputs, report: Progress, resume_from: 
                               site.grid_scale, alts.frame, sensor.heights, home_ground, spec.camera.trigger, spec.vehicle,
                               tuple(end_of_flight(landing, site, (s.x, s.y)) for s in sites),
                               climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale, sensor.hover_s,
-                              sensor.hover_look_s, aims_per_place(routed.route.runs), spec.flight.end)
+                              sensor.hover_look_s, aims_per_place(routed.route.runs))
             return battery_sorties(spec, site, path, sites, kin, routed.detours, start, _share(report, 0.88, 0.98))
 
         try:

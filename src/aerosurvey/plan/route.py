@@ -250,8 +250,7 @@ def _way_time(a: tuple[float, float], b: tuple[float, float], k: Kinematics) -> 
 @dataclass(frozen=True, eq=False)
 class Transits:
     """The ways from the launch point to the flight's first pass and home from its last (`routing.plan_route`),
-    flown with `kin` (in the wind), the way home with `home_kin` where that is other (a copter's RTL,
-    `Kinematics.cruising`; `flight_time.copter_rtl`). A plane climbs and descends while it
+    flown with `kin` (the transits' speed in the wind, `Kinematics.cruising`). A plane climbs and descends while it
     flies them (`estimates.estimate`): its way out is its take-off along it (`flight_time.plane_takeoff`: the climb
     to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms`) and the rest of it, and its way home
     takes at least its descent time."""
@@ -262,7 +261,6 @@ class Transits:
     climb_rate_ms: float = 1.0
     takeoff_speed_ms: float = 0.0
     descent_s: float = 0.0
-    home_kin: Kinematics | None = None  # None: `kin`
 
     def out_s(self, home: tuple[float, float], first: tuple[float, float]) -> float:
         if self.climb_m <= 0.0:
@@ -272,7 +270,7 @@ class Transits:
         return climb + after
 
     def home_s(self, last: tuple[float, float], flight_start: tuple[float, float]) -> float:
-        return max(_way_time(last, self.home_from(flight_start), self.home_kin or self.kin), self.descent_s)
+        return max(_way_time(last, self.home_from(flight_start), self.kin), self.descent_s)
 
 
 def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,

@@ -12,7 +12,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.detours import Detours, climb_out_path
-from aerosurvey.plan.flight_time import copter_rtl, descent_time
+from aerosurvey.plan.flight_time import descent_time
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
     Landing,
@@ -158,10 +158,8 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
 
     kin, v, climb = sensor.kinematics, spec.vehicle, sensor.heights.max_agl_m
     plane = kin.vehicle == "plane"  # a plane climbs and descends on its ways out and home (estimates.estimate)
-    # a copter flies out at the survey speed and home by RTL at its cruise speed unless it lands (flight_time.copter_rtl)
-    home_kin = kin.cruising(v.cruise_speed_ms) if copter_rtl(spec.flight.end, False) else kin
-    transits = Transits(kin, home_from, climb if plane else 0.0, v.climb_rate_ms,
-                        v.cruise_speed_ms, descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0, home_kin)
+    transits = Transits(kin.cruising(v.cruise_speed_ms), home_from, climb if plane else 0.0, v.climb_rate_ms,
+                        v.cruise_speed_ms, descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, kin, [sensor.spacing_m * k] * len(layout.passes),
                             launch_xy, detours, report, sensor.base_m * k, starts, transits)

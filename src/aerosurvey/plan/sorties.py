@@ -32,9 +32,7 @@ from aerosurvey.plan.flight_time import (
     RouteSegments,
     Segments,
     all_segments,
-    copter_landing_time,
-    copter_rtl,
-    copter_takeoff_time,
+    descent_time,
     hover_time,
     kept_segments,
     lanes_in_place,
@@ -69,7 +67,6 @@ class FlightPath:
     hover_s: float | None = None  # hover-and-capture: seconds at rest at each station
     hover_look_s: float = 0.0  # hover-and-capture: the hold of each further aim at a place
     aims: int = 1  # station rows at each place (`passes.aims_per_place`): a sortie ends after a place's last
-    end: str = "rtl"  # flight.end: how a copter's sortie ends (`flight_time.copter_rtl`)
 
 
 @dataclass(frozen=True)
@@ -216,7 +213,6 @@ class Splitter:
         self.budget = budget
         self.kin = kin
         self.detours = detours
-        self.rtl_kin = kin.cruising(plan.vehicle.cruise_speed_ms)  # a copter's RTL home (`flight_time.copter_rtl`)
         self.fixed_launch = fixed_launch
         st = plan.stations
         self.run_of: list[int] = st.run.tolist()
@@ -400,12 +396,10 @@ class Splitter:
     def _tail(self, li: int, p0: _Piece, i: int, j: int, p1: _Piece) -> Segments:
         """The kept segments after the route's whole runs: within one run the way home from the
         piece's end; else out of the route's last waypoint (or straight from the first piece where
-        no whole run or detour lies between), the last piece and the way home the mission flies (not an RTL)."""
+        no whole run or detour lies between), the last piece and the way home."""
         kt = (li, id(p1), -1 if i < j else id(p0))
         if kt not in self._tails:
-            _, back_via, _, back_leg = self._legs(li, p0, p1)
-            if copter_rtl(self.plan.end, bool(back_via)):  # the RTL home is timed apart (`_rtl_time`)
-                back_leg = []
+            _, _, _, back_leg = self._legs(li, p0, p1)
             if p1 is p0:
                 tail = [p0.last, *back_leg]
             else:
@@ -474,8 +468,6 @@ class Splitter:
             rest = all_segments(np.asarray([*back, *ends.after], float) / plan.grid_scale)
         else:
             at = [k, n + k, 2 * n + k] if follow else [k, 2 * n + k]
-            if copter_rtl(plan.end, False):  # the RTL home is timed apart (`_rtl_time`)
-                at.pop()
             lengths, angles = [ends.own[0][x] for x in at], [ends.own[1][x] for x in at]
             rest = ends.straight_home
         alt = self.station_alt[b] if plan.altitude_frame == "relative" else float(plan.heights.nominal_agl_m)
@@ -540,8 +532,16 @@ class Splitter:
         for li in candidates:
             out_via = self._way_out(li, p0)
             h = max(climb + (self.plan.home_ground_m - self.sites[li].ground_m), 1.0)
-            if survey is not None:  # a plane climbs and descends while it flies out and home
-                assert p1 is not None, "a plane's sortie is made of its pieces"
+            vert = h / v.climb_rate_ms + descent_time(h, v.descent_rate_ms, v.type)
+            if p1 is None:
+                _, _, back_via, segs = self._last(li, r1, b)
+                t = CopterTime(self.kin, *self._into_state(li, p0, i, j, r1))
+                t.feed(segs)
+                horiz = t.time()
+            elif survey is None:
+                _, back_via, _, _ = self._legs(li, p0, p1)
+                horiz = self._copter_time(li, p0, i, j, self._tail(li, p0, i, j, p1))
+            else:  # a plane climbs and descends while it flies out and home
                 _, back_via, out_leg, back_leg = self._legs(li, p0, p1)
                 lands = self.plan.ends[li] != (self.sites[li].x, self.sites[li].y)  # through a landing's approach
                 t_out, t_back, t_climb, t_descent = plane_transit_time(np.asarray([*out_leg, p0.first]) / gs,
@@ -550,20 +550,6 @@ class Splitter:
                                                                        v.descent_rate_ms, self.kin,
                                                                        v.landing_speed_ms if lands else None)
                 horiz, vert = path_time(survey, self.kin) + t_out + t_back, t_climb + t_descent
-            else:  # a copter: its take-off and landing as the estimate's (`estimates.estimate`)
-                if p1 is None:
-                    _, _, back_via, segs = self._last(li, r1, b)
-                    t = CopterTime(self.kin, *self._into_state(li, p0, i, j, r1))
-                    t.feed(segs)
-                    horiz, last = t.time(), self._ends(li, r1).line_ends[b - self.run_start[r1]]
-                else:
-                    _, back_via, _, _ = self._legs(li, p0, p1)
-                    horiz, last = self._copter_time(li, p0, i, j, self._tail(li, p0, i, j, p1)), p1.last
-                rtl = copter_rtl(self.plan.end, bool(back_via))
-                if rtl:
-                    horiz += self._rtl_time(li, last)
-                vert = (copter_takeoff_time(h, v.climb_rate_ms)
-                        + copter_landing_time(h, v.climb_rate_ms, v.descent_rate_ms, rtl))
             if self.plan.hover_s is not None:
                 horiz += hover_time(b - a + 1, r1 - r0 + 1, self.plan.base_m, self.plan.lead_in_m, self.plan.hover_s, self.kin,
                                     self.plan.aims, self.plan.hover_look_s, self.rises[a + 1:b + 1],
@@ -573,12 +559,6 @@ class Splitter:
                 best = (used, li, horiz, vert, 3 + len(out_via) + n_survey + len(back_via) + per_trigger * starts + shots)
         assert best is not None
         return best
-
-    def _rtl_time(self, li: int, last: _XY) -> float:
-        """A copter's RTL from its last waypoint `last` straight home to launch site li: from rest to rest at its
-        cruise speed (`flight_time.copter_rtl`; the estimate's way home, `estimates.estimate`)."""
-        home = (self.sites[li].x, self.sites[li].y)
-        return path_time(np.asarray([last, home]) / self.plan.grid_scale, self.rtl_kin)
 
     def _nearest_sites(self, a: int, b: int) -> list[int]:
         """The launch sites a sortie of stations a..b is costed from: the NEAREST_SITES with the
