@@ -25,9 +25,7 @@ def lean_drag(nose_ms: float, diagonal_ms: float | None) -> tuple[float, float]:
     on the nose, `nose_ms` (f(nose_ms) = 1), and 45° off it, `diagonal_ms` (2·f(d/√2)² = 1; None: the same
     as on the nose, lin alone, a circle). The least air speed at the limit is the nose's (d ≥ nose_ms);
     d ≤ 2^¼·nose_ms keeps both parts at least 0 (the spec's bound, `spec.DIAGONAL_GAIN_MAX`)."""
-    if diagonal_ms is None or diagonal_ms == nose_ms:
-        return 0.0, 1.0 / nose_ms
-    n, d = nose_ms, diagonal_ms
+    n, d = nose_ms, nose_ms if diagonal_ms is None else diagonal_ms
     det = n * d * (n - d / math.sqrt(2.0))  # of q·n² + l·n = 1, q·d²/√2 + l·d = 1
     return (d - n) / det, (n * n - d * d / math.sqrt(2.0)) / det
 
