@@ -95,6 +95,7 @@ class VehicleSpec:
     descent_rate_ms: float
     max_leg_m: float | None = None  # PX4: the longest leg between two places of a mission (None: ArduPilot, no limit)
     max_airspeed_ms: float | None = None  # copters: the air speed at the lean limit (None: not given; needed with a wind)
+    max_airspeed_diagonal_ms: float | None = None  # copters: that 45° off the nose (None: the same as on it)
     landing_speed_ms: float | None = None  # planes: the landing approach's air speed (None: the survey speed)
 
 
@@ -399,6 +400,24 @@ def _pass_start(t: _Table) -> tuple[tuple[int, tuple[float, float]], ...]:
     return tuple(sorted(out))
 
 
+#: the most a copter's air speed at its lean limit 45° off its nose may exceed that on its nose: 2^¼, a drag
+#: quadratic along each body axis alone; 1, the same in every direction (`plan.flight_time.lean_drag`)
+DIAGONAL_GAIN_MAX = 2.0 ** 0.25
+
+
+def _check_diagonal_airspeed(v: VehicleSpec) -> None:
+    """vehicle.max_airspeed_diagonal_ms: with max_airspeed_ms, from it to 2^¼ times it (`DIAGONAL_GAIN_MAX`)."""
+    d, n = v.max_airspeed_diagonal_ms, v.max_airspeed_ms
+    if d is None:
+        return
+    if n is None:
+        raise InputError(f"vehicle.max_airspeed_diagonal_ms = {d:g} needs vehicle.max_airspeed_ms (the air speed at the "
+                         "lean limit straight on the nose)", key="vehicle.max_airspeed_diagonal_ms")
+    if not n <= d <= DIAGONAL_GAIN_MAX * n:
+        raise bad_value("vehicle.max_airspeed_diagonal_ms", d, f"from vehicle.max_airspeed_ms ({n:g}) to 2^¼ times it "
+                        f"({DIAGONAL_GAIN_MAX * n:.3f}): a drag quadratic along each body axis at most")
+
+
 def _battery(top: _Table, vehicle: VehicleSpec) -> BatterySpec:
     b = top.table("battery")
     minutes = b.number("usable_min", None, lo=0.0, lo_open=True, hi=1440.0)
@@ -611,11 +630,16 @@ def parse_spec(data: Mapping[str, Any], base: Path, path: Path | None = None) ->
         descent_rate_ms=v.number("descent_rate_ms", 1.5 if vtype == "copter" else 2.0, lo=0.1, hi=30.0) or 0.0,
         max_leg_m=v.number("max_leg_m", PX4_MAX_LEG_M, lo=10.0, hi=100000.0) if firmware == "px4" else None,
         max_airspeed_ms=v.number("max_airspeed_ms", None, lo=0.5, hi=100.0) if vtype == "copter" else None,
+        max_airspeed_diagonal_ms=v.number("max_airspeed_diagonal_ms", None, lo=0.5, hi=200.0) if vtype == "copter" else None,
         landing_speed_ms=v.number("landing_speed_ms", None, lo=0.5, hi=100.0) if vtype == "plane" else None,
     )
     if vtype == "plane" and v.has("max_airspeed_ms"):
         raise InputError("vehicle.max_airspeed_ms is for copters (the air speed at their lean limit); a plane flies its "
                          "survey speed through the air", key="vehicle.max_airspeed_ms")
+    if vtype == "plane" and v.has("max_airspeed_diagonal_ms"):
+        raise InputError("vehicle.max_airspeed_diagonal_ms is for copters (the air speed at their lean limit 45° off the "
+                         "nose); a plane flies its survey speed through the air", key="vehicle.max_airspeed_diagonal_ms")
+    _check_diagonal_airspeed(vehicle)
     if vtype == "copter" and v.has("landing_speed_ms"):
         raise InputError("vehicle.landing_speed_ms is for planes (the air speed of their landing approach); a copter "
                          "lands straight down", key="vehicle.landing_speed_ms")

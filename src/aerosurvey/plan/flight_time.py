@@ -16,6 +16,20 @@ from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineBounds, LineSegment
 
 
+def lean_drag(nose_ms: float, diagonal_ms: float | None) -> tuple[float, float]:
+    """The drag law of a copter's lean limit, as the share of the most force its lean holds (ArduCopter's
+    ANGLE_MAX: m·g·tan of it): the air's velocity (x, y) in the copter's frame (x along its nose) drags
+    (f(|x|), f(|y|)), f(v) = quad·v² + lin·v, a drag quadratic along each body axis (ArduPilot SITL's body
+    drag, SIM_Frame.cpp) and one linear in the air speed (its rotors' momentum drag, SIM_Motor.cpp); the
+    limit holds while f(|x|)² + f(|y|)² ≤ 1. Returns (quad, lin), from the air speed at the limit straight
+    on the nose, `nose_ms` (f(nose_ms) = 1), and 45° off it, `diagonal_ms` (2·f(d/√2)² = 1; None: the same
+    as on the nose, lin alone, a circle). The least air speed at the limit is the nose's (d ≥ nose_ms);
+    d ≤ 2^¼·nose_ms keeps both parts at least 0 (the spec's bound, `spec.DIAGONAL_GAIN_MAX`)."""
+    n, d = nose_ms, nose_ms if diagonal_ms is None else diagonal_ms
+    det = n * d * (n - d / math.sqrt(2.0))  # of q·n² + l·n = 1, q·d²/√2 + l·d = 1
+    return (d - n) / det, (n * n - d * d / math.sqrt(2.0)) / det
+
+
 @dataclass(frozen=True)
 class Kinematics:
     """What the time model needs of the vehicle, and the wind it flies in.
@@ -23,8 +37,9 @@ class Kinematics:
     The wind is its velocity (where the air moves to) along the planning grid's x and y, m/s
     (`plan.wind.grid_wind` turns conditions.wind, a true bearing, into it). A plane flies
     `speed_ms` through the air; a copter holds `speed_ms` over the ground as long as the air
-    speed that takes stays within `airspeed_ms` (its lean limit), and makes good what that air
-    speed allows where it does not (`ground_speed`)."""
+    velocity that takes stays within its lean limit, and makes good what that limit allows where it
+    does not (`ground_speed`): `airspeed_ms` straight on its nose, `airspeed_diagonal_ms` 45° off it
+    (None: the same in every direction; `lean_drag`)."""
 
     vehicle: str
     speed_ms: float
@@ -33,7 +48,8 @@ class Kinematics:
     jerk_ms3: float = 1.0  # copters: ArduCopter's WPNAV_JERK default
     wind_x: float = 0.0
     wind_y: float = 0.0
-    airspeed_ms: float = math.inf  # copters: the most air speed (vehicle.max_airspeed_ms); planes fly speed_ms
+    airspeed_ms: float = math.inf  # copters: the most air speed on the nose (vehicle.max_airspeed_ms); planes fly speed_ms
+    airspeed_diagonal_ms: float | None = None  # copters: the most 45° off the nose (vehicle.max_airspeed_diagonal_ms)
     reach_m: float = 0.0  # planes: how far short of a waypoint ArduPlane turns for the next (one L1 distance)
 
     @property
@@ -43,15 +59,21 @@ class Kinematics:
     def ground_speed(self, angle_deg: float) -> float:
         """The speed over the ground along a track in direction `angle_deg` (atan2(dy, dx) of the
         grid, in degrees), by the wind triangle: the air velocity a plus the wind w make a ground
-        velocity along the track u, g·u = a + w, so g = w·u + √(|a|² − (w×u)²)."""
+        velocity along the track u, g·u = a + w, so a = (g − w·u)·u − (w×u)·u⊥. A plane's |a| is its air
+        speed: g = w·u + √(|a|² − (w×u)²). A copter's nose points along its track, so a's part along the
+        nose is g − w·u and across it w×u: it makes good the most g whose air velocity its lean limit
+        holds, f(g − w·u)² + f(w×u)² = 1 (`lean_drag`'s f), g = w·u + f⁻¹(√(1 − f(w×u)²)), at most speed_ms."""
         a = math.radians(angle_deg)
         c, s = math.cos(a), math.sin(a)
         along, across = self.wind_x * c + self.wind_y * s, self.wind_y * c - self.wind_x * s
         air = self.speed_ms if self.vehicle != "copter" else self.airspeed_ms
         if air == math.inf:
             return self.speed_ms
-        g = along + math.sqrt(max(air * air - across * across, 0.0))
-        if g <= 0.0:
+        quad, lin = lean_drag(air, self.airspeed_diagonal_ms if self.vehicle == "copter" else None)  # a plane's: a circle
+        left = 1.0 - (quad * across * across + lin * abs(across)) ** 2  # f(along the nose)² the crosswind leaves
+        f = math.sqrt(max(left, 0.0))
+        g = along + 2.0 * f / (lin + math.sqrt(lin * lin + 4.0 * quad * f))  # f⁻¹(f), the root of quad·v² + lin·v = f
+        if g <= 0.0 or left < 0.0:
             raise ValueError(f"a wind of {math.hypot(self.wind_x, self.wind_y):.2f} m/s is not below the air speed "
                              f"{air:g} m/s: no headway along {angle_deg:.1f}°")
         return g if self.vehicle != "copter" else min(self.speed_ms, g)

@@ -447,7 +447,8 @@ def in_wind(spec: MissionSpec, site: Site, sensor: SensorSolution) -> tuple[Kine
     record (`Plan.wind`): its direction, a true bearing, turned onto the planning grid at the area's centre
     (`Planar.grid_bearing`).
     A wind or gust the vehicle cannot make headway against is refused: a plane's survey and cruise air
-    speeds, a copter's vehicle.max_airspeed_ms (its lean limit) must be above the gusts."""
+    speeds, a copter's vehicle.max_airspeed_ms (its lean limit on the nose, the least in any direction:
+    `flight_time.lean_drag`) must be above the gusts."""
     kin, wind, v = sensor.kinematics, spec.conditions.wind, spec.vehicle
     if wind is None:
         return kin, None
@@ -471,7 +472,8 @@ def in_wind(spec: MissionSpec, site: Site, sensor: SensorSolution) -> tuple[Kine
     to = math.radians(grid_from + 180.0)  # the air moves towards the opposite bearing
     record = {"speed_ms": wind.speed_ms, "from_deg": wind.from_deg, "gust_ms": wind.gust_ms, "grid_from_deg": round(grid_from, 3)}
     return replace(kin, wind_x=wind.speed_ms * math.sin(to), wind_y=wind.speed_ms * math.cos(to),
-                   airspeed_ms=air if v.type == "copter" else kin.airspeed_ms), record
+                   airspeed_ms=air if v.type == "copter" else kin.airspeed_ms,
+                   airspeed_diagonal_ms=v.max_airspeed_diagonal_ms), record
 
 
 def wind_allowance(spec: MissionSpec, kin: Kinematics) -> float:
