@@ -188,3 +188,29 @@ def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb:
         if detours.clear(home, end):
             return [end, *detours.path(end, first)]
     raise ValueError("a plane taking off there climbs into an exclusion zone whichever way it heads")
+
+
+def approach_way(home: tuple[float, float], lead: tuple[float, float], first: tuple[float, float], setback: float,
+                 climb: float, reach: float, detours: Detours) -> list[tuple[float, float]]:
+    """Waypoints from the launch point to a line's lead-in `lead` (its first station `first`): `climb_out_path`, and
+    where a plane could meet the lead-in heading more than 90° off the line, first to a point `setback` behind it on
+    the line's extension (`flight_time.approach_setback_m`), so that it turns onto the line there and flies on along
+    it. It could where the way's last leg comes from ahead of the lead-in, and where that leg is the take-off's and
+    no longer than the farthest the take-off climbs (`reach`, `flight_time.plane_climb_reach_m`, or `climb`): a
+    plane that climbs past the lead-in turns back to it. Met heading away, ArduPlane SITL turned round at the lead-in
+    and passed the first station 68 m off the line (8 m/s from 270°; 104 m where its 215 m climb ended 39 m short of
+    a lead-in 220 m away), where its camera started, a base early. Not where the line's extension is blocked by a
+    zone, nor with no lead-in or setback (a copter's: 0)."""
+    way = climb_out_path(home, lead, climb, detours)
+    length = math.dist(lead, first)
+    if setback <= 0.0 or length <= 0.0:
+        return way
+    ux, uy = (first[0] - lead[0]) / length, (first[1] - lead[1]) / length
+    before = way[-1] if way else home
+    behind_it = (lead[0] - before[0]) * ux + (lead[1] - before[1]) * uy >= 0.0
+    if behind_it and (way or math.dist(home, lead) > max(climb, reach)):
+        return way
+    behind = (lead[0] - ux * setback, lead[1] - uy * setback)
+    if not detours.clear(behind, lead):
+        return way
+    return [*climb_out_path(home, behind, climb, detours), behind]
