@@ -114,17 +114,15 @@ def test_the_sitl_plane_log_against_todays_kubad_plan_is_another_mission(tmp_pat
     assert m["offset_median_m"] == pytest.approx(float(np.median(near)), abs=0.05)
     assert m["offset_max_m"] == pytest.approx(max(near), abs=0.05) and 10 < min(near) and max(near) < 30
     assert m["verdict"] == "other" and m["sortie"] is None and m["file"] == "sortie-01.plan"
-    # today's plan also flies to a point behind the first line's lead-in (item 3, issue 36) and points the gimbal down
-    # after the lead-in (item 5), which the flown mission had not
-    assert m["logged_items"] == m["logged_total"] == 71 and m["planned_items"] == 72 and m["compared_items"] == 70
+    # today's plan also points the gimbal down after the first lead-in (item 4), which the flown mission had not
+    assert m["logged_items"] == m["logged_total"] == 71 and m["planned_items"] == 71 and m["compared_items"] == 70
     differs = [d for d in m["differences"] if d["kind"] == "differs"]
     missing = [d for d in m["differences"] if d["kind"] != "differs"]
     assert m["same_items"] + len(differs) == 70
-    assert [(d["kind"], d["command"], d["planned_item"]) for d in missing] == [("missing", "NAV_WAYPOINT", 3),
-                                                                                ("missing", "DO_MOUNT_CONTROL", 5)]
+    assert [(d["kind"], d["command"], d["planned_item"]) for d in missing] == [("missing", "DO_MOUNT_CONTROL", 4)]
     assert all(d["command"] == "NAV_WAYPOINT" and d["fields"][0]["field"] == "position" for d in differs)
     assert "another mission than sortie S01 of 'kubad-abad' (sortie-01.plan), or an older version of it" in out
-    assert "0 of 39 survey waypoints at their place" in out and "item 4 (the log's 3) (NAV_WAYPOINT P1-L001-R1:lead-in): position" in out
+    assert "0 of 39 survey waypoints at their place" in out and "item 3 (NAV_WAYPOINT P1-L001-R1:lead-in): position" in out
     # every output is written all the same, and `check` on the folder fails for the same reason
     assert (folder / "events.csv").is_file() and (folder / "coverage.tif").is_file()
     code, out = _run("check", folder, "--profile", "cz-land-consolidation")

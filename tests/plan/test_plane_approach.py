@@ -1,6 +1,8 @@
 """A plane's way out onto its first line (issue 36), read from the exported missions as ArduPilot reads them: the
-nav item into each sortie's first lead-in waypoint comes from behind it (within 90° of the line's direction; the
-take-off's leg longer than its climb-out, else the plane climbing past its end turns back to it), and where it first turns
+nav item into each sortie's first lead-in waypoint comes from behind it (within 90° of the line's direction; a
+take-off's leg is met from its start where it is longer than the climb-out, from beyond its end where shorter, the
+plane turning back to it after the climb, and not within two L1 distances of it, where it may be either), and where it
+first turns
 by more than 90° onto the line's extension, it does so at least the turn's diameter 2R and one L1 distance behind
 the lead-in (R from the bank angle, L1 as ArduPlane's AP_L1_Control sets it: damping × period × speed / π).
 
@@ -22,6 +24,7 @@ from conftest import make_spec
 
 G = 9.80665
 BANK_DEG, PERIOD_S, DAMPING = 30.0, 17.0, 0.75  # the spec's bank angle and NAVL1_PERIOD; ArduPlane's NAVL1_DAMPING
+TAKEOFF_MS, CLIMB_RATE_MS = 22.0, 6.9  # the spec's cruise speed (the take-off's air speed) and climb rate
 WAYPOINT, TAKEOFF, CHANGE_SPEED, CAM_TRIGG_DIST = 16, 22, 178, 206
 
 
@@ -64,18 +67,29 @@ def _first_line_ways_in(path: Path) -> list[tuple[np.ndarray, np.ndarray, np.nda
     return out
 
 
-def _check_ways_in(path: Path, climb_out_m: float) -> int:
+def _climb_out(direction: np.ndarray, climb_s: float, wind: np.ndarray) -> float:
+    """Metres over the ground the take-off climbs along `direction` (a unit vector): `climb_s` at 22 m/s of air speed
+    (the spec's cruise speed, ArduPlane's take-off speed), its nose steered so that the wind `wind` adds up to a
+    ground velocity along it."""
+    across = float(wind @ np.array([-direction[1], direction[0]]))
+    return climb_s * (float(wind @ direction) + math.sqrt(TAKEOFF_MS**2 - across**2))
+
+
+def _check_ways_in(path: Path, climb_s: float, wind: np.ndarray) -> int:
     checked = 0
     for before, lead, start, prior, takeoff, speed in _first_line_ways_in(path):
         line = (start - lead) / np.hypot(*(start - lead))
         came = lead - before
+        l1 = DAMPING * PERIOD_S * speed / math.pi
+        if takeoff:  # the plane climbs along the leg and meets the lead-in after its climb, or turns back to it
+            climbed = _climb_out(came / np.hypot(*came), climb_s, wind)
+            # not either way (a metre's play: the planning grid's bearings and scale, the altitude's rounding)
+            assert abs(np.hypot(*came) - climbed) > 2.0 * l1 - 1.0, (path.name, before, lead, climbed)
+            came = came if np.hypot(*came) > climbed else -came
         assert float(came @ line) >= -1e-6 * np.hypot(*came), (path.name, before, lead, start)
-        # straight from the take-off: past its climb-out, else the plane climbing past the lead-in turned back to it
-        assert not takeoff or np.hypot(*came) > climb_out_m, (path.name, before, lead, start)
         checked += 1
         if prior is not None and float((before - prior) @ (lead - before)) < 0.0:  # a turn of more than 90° there
             radius = speed**2 / (G * math.tan(math.radians(BANK_DEG)))
-            l1 = DAMPING * PERIOD_S * speed / math.pi
             assert np.hypot(*came) >= 2.0 * radius + l1 - 1e-6, (path.name, before, lead)
     return checked
 
@@ -93,7 +107,7 @@ def test_a_planes_way_out_meets_its_first_line_from_behind(tmp_path_factory, wid
     k_lat, k_lon = 1 / 111_320.0, 1 / (111_320.0 * math.cos(math.radians(49.4)))
     ring = [[15.0 + x * k_lon, 49.4 + y * k_lat] for x, y in ((0, 0), (width, 0), (width, depth), (0, depth), (0, 0))]
     cx, cy = width / 2.0 + launch_m * math.cos(launch_bearing), depth / 2.0 + launch_m * math.sin(launch_bearing)
-    over = {"vehicle": {"type": "plane", "cruise_speed_ms": 22.0, "climb_rate_ms": 6.9, "bank_angle_deg": BANK_DEG,
+    over = {"vehicle": {"type": "plane", "cruise_speed_ms": TAKEOFF_MS, "climb_rate_ms": CLIMB_RATE_MS, "bank_angle_deg": BANK_DEG,
                         "nav_period_s": PERIOD_S},
             "flight": {"heading": heading}, "battery": {"usable_min": minutes},
             "targets": {"gsd_cm": 2.5, "side_overlap": 0.6, "forward_overlap": 0.75},
@@ -101,8 +115,11 @@ def test_a_planes_way_out_meets_its_first_line_from_behind(tmp_path_factory, wid
     out = tmp / "plan"
     res = CliRunner().invoke(main, ["plan", str(make_spec(tmp, over, area=ring)), "-o", str(out)])
     assert res.exit_code == 0, res.output
-    rows = _items(out / "mission.waypoints")
-    takeoff = next(r for r in rows if int(r[3]) == TAKEOFF)
-    climb_out = takeoff[10] / math.tan(math.radians(takeoff[4]))  # straight ahead at the take-off's pitch (param 1)
     files = sorted(out.glob("*.waypoints"))
-    assert sum(_check_ways_in(f, climb_out) for f in files) >= len(files)
+    to = math.radians(wind_from + 180.0)  # east and north: where the wind blows to
+    wind = wind_ms * np.array([math.sin(to), math.cos(to)])
+    checked = 0
+    for f in files:
+        takeoff = next(r for r in _items(f) if int(r[3]) == TAKEOFF)
+        checked += _check_ways_in(f, takeoff[10] / CLIMB_RATE_MS, wind)  # to the take-off's altitude
+    assert checked >= len(files)

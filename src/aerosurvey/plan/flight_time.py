@@ -499,11 +499,19 @@ def plane_transit_time(leg_out: np.ndarray, leg_back: np.ndarray, climb_m: float
 TAKEOFF_SLOWING_S = 15.0
 
 
-def plane_climb_reach_m(climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float, k: Kinematics) -> float:
-    """The farthest a plane's take-off (`plane_takeoff`) climbs over the ground: its climb's time at the air speed
-    `takeoff_speed_ms` straight downwind in `k`'s wind (ArduPlane SITL: 102 m in 14.8 s over 383 m with 5 m/s behind
-    it; 215 m in 8 m/s against it)."""
-    return climb_m / climb_rate_ms * (takeoff_speed_ms + math.hypot(k.wind_x, k.wind_y))
+def plane_climb_out_m(angle_deg: float, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
+                      k: Kinematics) -> float:
+    """How far over the ground a plane's take-off climbs along `angle_deg` (atan2(dy, dx) of the grid, degrees): its
+    climb's time at the air speed `takeoff_speed_ms` in `k`'s wind (`plane_takeoff`)."""
+    return climb_m / climb_rate_ms * replace(k, speed_ms=takeoff_speed_ms).ground_speed(angle_deg)
+
+
+def takeoff_doubt_m(k: Kinematics) -> float:
+    """How far from `plane_climb_out_m`'s end a plane's climb may end and reach its first waypoint either way (the
+    L1 distance at up to twice the air speed over the ground): a take-off leg within this of its climb-out's length
+    may be met from either side (`detours.approach_way`; ArduPlane SITL, 8 m/s against it: a 215 m climb-out
+    reached a waypoint 220 m out from 39 m short of it and turned from there)."""
+    return 2.0 * k.reach_m
 
 
 def plane_way_out(leg_out: np.ndarray, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
@@ -521,7 +529,7 @@ def plane_way_out(leg_out: np.ndarray, climb_m: float, climb_rate_ms: float, tak
     d_in, d_out = p - a, b - p
     ahead, back = math.hypot(*d_in), math.hypot(*d_out)
     if len(leg_out) == 3:  # the take-off's leg: climbed past its end, the plane turned back to it
-        climb_out = climb * replace(k, speed_ms=takeoff_speed_ms).ground_speed(math.degrees(math.atan2(d_in[1], d_in[0])))
+        climb_out = plane_climb_out_m(math.degrees(math.atan2(d_in[1], d_in[0])), climb_m, climb_rate_ms, takeoff_speed_ms, k)
         if climb_out > ahead:
             d_in, ahead = -d_in, climb_out - ahead
     if ahead <= KEPT or back <= KEPT or float(d_in @ d_out) >= 0.0:
@@ -551,8 +559,7 @@ def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, t
     d = first_leg[-1] - first_leg[0]
     length = math.hypot(float(d[0]), float(d[1]))
     ahead = math.degrees(math.atan2(float(d[1]), float(d[0])))
-    fast = replace(k, speed_ms=takeoff_speed_ms)
-    climb_out = climb * fast.ground_speed(ahead)
+    climb_out = plane_climb_out_m(ahead, climb_m, climb_rate_ms, takeoff_speed_ms, k)
     if length >= climb_out:
         return climb, _slowing_time(length - climb_out, ahead, takeoff_speed_ms, k)
     (back,) = plane_reversal(np.full(1, length - climb_out), np.zeros(1), np.zeros(1), np.full(1, ahead),

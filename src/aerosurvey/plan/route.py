@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from aerosurvey.plan.detours import Detours, approach_way, clip_lead_in
-from aerosurvey.plan.flight_time import Kinematics, line_orders, path_time, plane_climb_reach_m, plane_way_out
+from aerosurvey.plan.flight_time import Kinematics, line_orders, path_time, plane_climb_out_m, plane_way_out, takeoff_doubt_m
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 from aerosurvey.plan.passes import Pass, Route, Run, Strip, Waypoint
@@ -272,8 +272,10 @@ class Transits:
         """The way from `home` to a line's lead-in `lead` (its first station `first`)."""
         if self.climb_m <= 0.0:
             return _way_time(home, lead, self.kin)
-        reach = plane_climb_reach_m(self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.kin) * self.grid_scale
-        way = approach_way(home, lead, first, self.setback, self.climb_out, reach, self.detours)
+        gs = self.grid_scale
+        way = approach_way(home, lead, first, self.setback, self.climb_out,
+                           lambda a: plane_climb_out_m(a, self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.kin) * gs,
+                           takeoff_doubt_m(self.kin) * gs, self.detours)
         climb, after = plane_way_out(np.array([home, *way, lead]), self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms,
                                      self.kin)
         return climb + after

@@ -12,7 +12,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.detours import Detours, approach_way
-from aerosurvey.plan.flight_time import approach_setback_m, descent_time, plane_climb_reach_m
+from aerosurvey.plan.flight_time import approach_setback_m, descent_time, plane_climb_out_m, takeoff_doubt_m
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
     Landing,
@@ -82,8 +82,10 @@ def climb_out(spec: MissionSpec, site: Site, sensor: SensorSolution, detours: De
     climb = climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale
     try:
         v, kin = spec.vehicle, sensor.kinematics
-        reach = plane_climb_reach_m(sensor.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * site.grid_scale
-        return approach_way(home, lead, first, approach_setback_m(kin) * site.grid_scale, climb, reach, detours)
+        k = site.grid_scale
+        return approach_way(home, lead, first, approach_setback_m(kin) * k, climb,
+                            lambda a: plane_climb_out_m(a, sensor.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * k,
+                            takeoff_doubt_m(kin) * k, detours)
     except ValueError:
         raise InputError("a plane taking off at the launch point climbs into an exclusion zone whichever way it heads "
                          f"({climb / site.grid_scale:.0f} m at {PLANE_TAKEOFF_PITCH_DEG:g}° to the survey height): give "

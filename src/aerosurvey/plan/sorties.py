@@ -38,8 +38,9 @@ from aerosurvey.plan.flight_time import (
     kept_segments,
     lanes_in_place,
     path_time,
-    plane_climb_reach_m,
+    plane_climb_out_m,
     plane_transit_time,
+    takeoff_doubt_m,
 )
 from aerosurvey.plan.landing import way_home
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
@@ -337,10 +338,11 @@ class Splitter:
             home = (self.sites[li].x, self.sites[li].y)
             station = (first.wps[1][0], first.wps[1][1])
             plan, gs = self.plan, self.plan.grid_scale
-            reach = plane_climb_reach_m(plan.heights.max_agl_m, plan.vehicle.climb_rate_ms, plan.vehicle.cruise_speed_ms,
-                                        self.kin) * gs
-            self._out[ko] = approach_way(home, first.first, station, approach_setback_m(self.kin) * gs, plan.climb, reach,
-                                         self.detours)
+            v, kin = plan.vehicle, self.kin
+            self._out[ko] = approach_way(
+                home, first.first, station, approach_setback_m(kin) * gs, plan.climb,
+                lambda a: plane_climb_out_m(a, plan.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * gs,
+                takeoff_doubt_m(kin) * gs, self.detours)
         return self._out[ko]
 
     def _leg_out(self, li: int, first: _Piece) -> list[_XY]:
