@@ -734,7 +734,8 @@ def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     0.970, 0.893). 8@270 failed then: S03 took 61 photos for 60, its way out meeting the first line's lead-in
     heading away from the line (the plane passed the first station 68 m off it, where the camera started); with
     the way out first to a point behind the lead-in (`detours.approach_way`) and the take-off's slowing in the
-    estimate: 8@270 0.990, 0.982, 0.988, every photo."""
+    estimate (`flight_time.plane_takeoff`), every photo: 5@0 1.007, 1.018, 1.011; 5@90 0.997, 1.017; 5@225 0.999,
+    1.016; 8@45 0.988, 0.985, 0.991, 1.033; 8@270 0.995, 0.981, 0.984."""
     binary = _binary("plane")
     if binary is None:
         pytest.skip("no ArduPilot SITL plane binary: set AEROSURVEY_SITL_BIN or put it on PATH")
