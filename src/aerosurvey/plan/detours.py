@@ -210,10 +210,13 @@ def approach_way(home: tuple[float, float], lead: tuple[float, float], first: tu
     ux, uy = (first[0] - lead[0]) / length, (first[1] - lead[1]) / length
     before = way[-1] if way else home
     towards = (lead[0] - before[0]) * ux + (lead[1] - before[1]) * uy
-    if not way:
+    if not way:  # the take-off's leg
         leg = math.dist(home, lead)
         out = climb_out(math.degrees(math.atan2(lead[1] - home[1], lead[0] - home[0])))
-        towards = -1.0 if abs(leg - out) <= doubt else towards if leg > out else -towards
+        if abs(leg - out) <= doubt:
+            towards = -1.0  # either way
+        elif leg < out:
+            towards = -towards  # climbed past the lead-in, it turns back to it
     if towards >= 0.0:
         return way
     behind = (lead[0] - ux * setback, lead[1] - uy * setback)

@@ -252,10 +252,10 @@ class Transits:
     """The ways from the launch point to the flight's first pass and home from its last (`routing.plan_route`),
     flown with `kin` (the transits' speed in the wind, `Kinematics.cruising`). A plane climbs and descends while it
     flies them (`estimates.estimate`): its way out is the sorties' (`detours.approach_way` round `detours`, its climb
-    `climb_out` long and its approach point `setback` behind the first line's lead-in, planning-grid metres, `grid_scale`
-    of them a metre), flown as
-    `flight_time.plane_way_out` flies it (its take-off: the climb to `climb_m` at `climb_rate_ms` and the air speed
-    `takeoff_speed_ms`), and its way home takes at least its descent time."""
+    `climb_out` long at the take-off pitch and its approach point `setback` behind the first line's lead-in, in
+    planning-grid metres, `grid_scale` of them a metre), flown as `flight_time.plane_way_out` flies it (its take-off:
+    the climb to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms`), and its way home takes at least
+    its descent time."""
 
     kin: Kinematics
     home_from: Callable[[tuple[float, float]], tuple[float, float]]  # where the way home ends, of a flight from there
