@@ -728,10 +728,7 @@ def _flown_side_overlaps(manifest: dict, logs: list[Path]) -> list[float]:
 
 
 @pytest.mark.sitl
-@pytest.mark.parametrize("wind", ["5@0", "5@90", "5@225", "8@45", pytest.param("8@270", marks=pytest.mark.xfail(
-    strict=False, reason="S03 triggers 61 photos for 60 planned: its way out meets the first line's lead-in waypoint "
-    "heading away from the line, and the plane passes the line's first station 68 m off it, the camera started there "
-    "a base early (68 for 67 before); its times are within 5 % (0.998, 0.971, 0.984)"))])
+@pytest.mark.parametrize("wind", ["5@0", "5@90", "5@225", "8@45", "8@270"])
 def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     """ArduPlane in 5 and 8 m/s of wind: every sortie completes with its photos in the wind triangle's
     estimate within 5 % (flown / estimated, printed), and its body-fixed camera under the crab keeps the
@@ -740,7 +737,11 @@ def test_a_plane_flies_each_sortie_in_the_wind_aware_time(tmp_path, wind):
     (`flight_time.plane_reversal`) and the wind set once the plane is armed: 5@0 1.009, 1.015, 0.992; 5@90
     1.015, 1.000; 5@225 1.000, 0.993; 8@45 0.986, 0.996, 0.986, 0.992; 8@270 0.998, 0.971, 0.984 (before,
     the reversals' turns over the ground: 5@90 0.946, 0.956; 8@45 0.929, 1.010, 0.897, 1.016; 8@270 0.925,
-    0.970, 0.893)."""
+    0.970, 0.893). 8@270 failed then: S03 took 61 photos for 60, its way out meeting the first line's lead-in
+    heading away from the line (the plane passed the first station 68 m off it, where the camera started); with
+    the way out first to a point behind the lead-in (`detours.approach_way`) and the take-off's slowing in the
+    estimate (`flight_time.plane_takeoff`), every photo: 5@0 1.007, 1.018, 1.011; 5@90 0.997, 1.017; 5@225 0.999,
+    1.016; 8@45 0.988, 0.985, 0.991, 1.033; 8@270 0.995, 0.981, 0.984."""
     binary = _binary("plane")
     if binary is None:
         pytest.skip("no ArduPilot SITL plane binary: set AEROSURVEY_SITL_BIN or put it on PATH")

@@ -162,14 +162,16 @@ def _reversal(air: float, radius: float, reach: float, wind: np.ndarray, u: np.n
 def test_a_planes_reversal_takes_the_integrated_time(air, share, towards, heading, radius, reach, ahead, lateral, back,
                                                      off):
     """plane_reversal against the reversal stepped through (`_reversal`): on to the turn, the half circle in the
-    moving air, straight on to the end of the leg after the waypoint (onto the same line, 0 across: the longer
-    of the two sides)."""
+    moving air, straight on to the end of the leg after the waypoint (a waypoint on the line, 0 across: to the side
+    the leg after it goes; onto the same line: the longer of the two sides)."""
     wind = _wind(share * air, towards)
     kin = Kinematics("plane", air, 2.5, radius, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=reach)
     h, o = math.radians(heading), math.radians(heading + 180.0 + off)
     u, leg = np.array([math.cos(h), math.sin(h)]), back * np.array([math.cos(o), math.sin(o)])
+    goes = u[0] * math.sin(o) - u[1] * math.cos(o)  # the leg after the waypoint: to the line's left (> 0) or right
+    across = lateral if lateral != 0.0 else goes if abs(goes) > 1e-6 else 0.0
     flown = [_reversal(air, radius, reach, wind, u, ahead, lateral, leg, side)
-             for side in ((1.0,) if lateral > 0 else (-1.0,) if lateral < 0 else (1.0, -1.0))]
+             for side in ((1.0,) if across > 0 else (-1.0,) if across < 0 else (1.0, -1.0))]
     (timed,) = plane_reversal(np.array([ahead]), np.array([lateral]), np.array([back]), np.array([heading]),
                               np.array([heading + 180.0 + off]), kin)
     assert timed == pytest.approx(max(flown), rel=1e-5, abs=1e-5)
@@ -328,10 +330,11 @@ sharp_legs = st.integers(1, 4).flatmap(lambda n: st.tuples(st.lists(st.floats(-1
 def test_a_planes_ways_out_and_home_take_the_wind_triangle_time_of_their_legs(air, share, towards, start, shape, climb,
                                                                               rate, takeoff):
     """A plane's way out or home, whatever its corners (a landing's approach turns back on the way home), is
-    its legs flown straight in the wind (each at the ground speed the steered nose makes along it). The way out
-    starts after the take-off: the climb's time at `takeoff` m/s of air speed straight along the first leg; a
-    first leg shorter than that climb-out is flown back at least (its overshoot's turn besides). The descent is
-    what the way home leaves of it."""
+    its legs flown straight in the wind (each at the ground speed the steered nose makes along it), but for the way
+    out's last corner where it turns by more than 90° (an approach point behind the first line's lead-in), which
+    takes longer. The way out starts after the take-off: the climb's time at `takeoff` m/s of air speed straight
+    along the first leg; a first leg shorter than that climb-out is flown back at least (its overshoot's turn
+    besides). The descent is what the way home leaves of it."""
     pts = _gentle_polyline(start, *shape)
     wind = _wind(share * air, towards)
     kin = Kinematics("plane", air, 2.5, 60.0, wind_x=float(wind[0]), wind_y=float(wind[1]))
@@ -339,16 +342,32 @@ def test_a_planes_ways_out_and_home_take_the_wind_triangle_time_of_their_legs(ai
     def legs(p: np.ndarray) -> float:
         t = 0.0
         for a, b in zip(p[:-1], p[1:]):
-            u = (b - a) / np.hypot(*(b - a))
-            t += float(np.hypot(*(b - a))) / float(_steer(u, wind, air) @ u)
+            if np.hypot(*(b - a)) > 0.0:
+                u = (b - a) / np.hypot(*(b - a))
+                t += float(np.hypot(*(b - a))) / float(_steer(u, wind, air) @ u)
         return t
 
     first = float(np.hypot(*(pts[1] - pts[0])))
     u = (pts[1] - pts[0]) / first
     climb_out = climb / rate * float(_steer(u, wind, takeoff) @ u)
     t_out, t_back, t_climb, t_descent = plane_transit_time(pts, pts[::-1], climb, rate, takeoff, rate / 2, kin)
-    if climb_out <= first:
-        assert t_out == pytest.approx(legs(np.vstack([pts[0] + climb_out * u, pts[1:]])), rel=1e-6, abs=1e-6)
+    # the way out's last corner as flown: from the leg before it (the first flown back where it was climbed past)
+    came = (pts[-2] - pts[-3]) * (-1.0 if len(pts) == 3 and climb_out > first else 1.0) if len(pts) > 2 else None
+    sharp = came is not None and float(came @ (pts[-1] - pts[-2])) < 0.0
+    # the rest of the first leg after the climb: the air speed falling evenly from the take-off's to the survey's
+    # over 15 s (ArduPlane SITL: from 27.8 m/s at the climb's end to 12.5 m/s some 15 s on), stepped through
+    rest, t_rest, steps = first - climb_out, 0.0, 3000
+    for i in range(steps):
+        if rest <= 0.0:
+            break
+        g = float(_steer(u, wind, takeoff + (air - takeoff) * (i + 0.5) / steps) @ u)
+        dt = min(15.0 / steps, rest / g)
+        t_rest, rest = t_rest + dt, rest - g * dt
+    after = t_rest + (legs(np.array([pts[1] - rest * u, pts[1]])) if rest > 1e-9 else 0.0) + legs(pts[1:])
+    if climb_out < first and sharp:
+        assert t_out > after
+    elif climb_out < first:
+        assert t_out == pytest.approx(after, rel=1e-4, abs=1e-6)  # the slowing by Simpson's rule
     else:
         back = legs(np.array([pts[0] + climb_out * u, pts[1]]))
         assert t_out >= (back + legs(pts[1:])) * (1 - 1e-9)
@@ -372,7 +391,7 @@ def test_a_planes_landing_approach_is_flown_at_its_landing_speed():
 def test_a_plane_overshoots_a_first_place_nearer_than_its_climb_out_and_turns_back_to_it(first_m):
     """Still air, 12.5 m/s over the lines, a 30 m turn radius; the take-off at 27 m/s of air speed and 7 m/s up
     to 98 m: 14 s and 378 m straight ahead. A first place nearer is reached after the climb, a half circle (π R)
-    that ends 2R beside the leg, and the way straight back to it; one farther takes the rest of its leg at
+    that ends 2R beside the leg, and the way straight back to it; one farther takes the rest of its leg slowing to
     12.5 m/s."""
     kin = Kinematics("plane", 12.5, 2.5, 30.0)
     out = np.array([[0.0, 0.0], [0.0, first_m]])
@@ -381,7 +400,10 @@ def test_a_plane_overshoots_a_first_place_nearer_than_its_climb_out_and_turns_ba
     assert t_climb == pytest.approx(14.0)
     assert t_out == pytest.approx((math.pi * 30.0 + math.hypot(378.0 - first_m, 60.0)) / 12.5)
     far = np.array([[0.0, 0.0], [0.0, 600.0]])
-    assert plane_transit_time(far, far[::-1], 98.0, 7.0, 27.0, 2.0, kin)[0] == pytest.approx(222.0 / 12.5)
+    # slowing evenly from 27 to 12.5 m/s over 15 s (296 m), the rest of the leg within it: 27 t − 14.5 t²/30 = 222
+    a, b = 14.5 / 30.0, 27.0
+    within = (b - math.sqrt(b * b - 4.0 * a * 222.0)) / (2.0 * a)
+    assert plane_transit_time(far, far[::-1], 98.0, 7.0, 27.0, 2.0, kin)[0] == pytest.approx(within)
 
 
 @pytest.mark.parametrize("beyond_m", [0.0, 30.0, 143.0])

@@ -153,8 +153,18 @@ def plane_reversal(ahead: np.ndarray, lateral: np.ndarray, back: np.ndarray, ang
         return seconds
 
     left, right = way(1.0), way(-1.0)
-    out: np.ndarray = start / g_in + turn + np.where(lateral > 0.0, left, np.where(lateral < 0.0, right, np.maximum(left, right)))
+    # a waypoint on the line (lateral 0, a way out's approach point): the side the leg after it goes to
+    side = np.where(lateral != 0.0, lateral, np.where(np.abs(np.sin(a_out - a_in)) > 1e-9, np.sin(a_out - a_in), 0.0))
+    out: np.ndarray = start / g_in + turn + np.where(side > 0.0, left, np.where(side < 0.0, right, np.maximum(left, right)))
     return out
+
+
+def approach_setback_m(k: Kinematics) -> float:
+    """How far behind a line's lead-in waypoint a plane's way out first goes where it would meet that waypoint
+    heading more than 90° off the line (`detours.approach_way`): the turn's diameter 2R and the L1 distance at
+    twice the air speed over the ground (no wind allowed reaches the air speed), so that the turn onto the line,
+    begun one L1 distance short of that point, ends on the line's extension before the lead-in; 0 for a copter."""
+    return 2.0 * (k.turn_radius_m + k.reach_m) if k.vehicle == "plane" else 0.0
 
 
 #: A copter stops at a corner sharper than this (degrees) and flies on through a gentler one
@@ -497,13 +507,59 @@ def plane_transit_time(leg_out: np.ndarray, leg_back: np.ndarray, climb_m: float
     Each leg is straight at its ground speed: a reversal between lines (`path_time`) is no shape of
     these ways (the way home to a landing's approach point and on to the touchdown into the wind was
     read as one, and a 688 m leg timed as a 9 s turn: ArduPlane SITL, 5 m/s from 0°, flew 65 s)."""
-    climb, after_climb = plane_takeoff(leg_out[:2], climb_m, climb_rate_ms, takeoff_speed_ms, k)
-    t_out, t_back = after_climb + _legs_time(leg_out[1:], k), _legs_time(leg_back, k)
+    climb, t_out = plane_way_out(leg_out, climb_m, climb_rate_ms, takeoff_speed_ms, k)
+    t_back = _legs_time(leg_back, k)
     if landing_speed_ms is not None:
         approach = leg_back[-2:]
         t_back += _legs_time(approach, replace(k, speed_ms=landing_speed_ms)) - _legs_time(approach, k)
     descent = max(0.0, descent_time(climb_m, descent_rate_ms, "plane") - t_back)
     return t_out, t_back, climb, descent
+
+
+#: Seconds ArduPlane takes to slow from its take-off's air speed to the survey speed the mission's DO_CHANGE_SPEED sets
+#: after it (`plane_takeoff`): SITL, 8 m/s from 270°, 27.8 m/s at the climb's end, 17 m/s 6 s on, 12.5 m/s 15 to 17 s on
+TAKEOFF_SLOWING_S = 15.0
+
+
+def plane_climb_out_m(angle_deg: float, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
+                      k: Kinematics) -> float:
+    """How far over the ground a plane's take-off climbs along `angle_deg` (atan2(dy, dx) of the grid, degrees): its
+    climb's time at the air speed `takeoff_speed_ms` in `k`'s wind (`plane_takeoff`)."""
+    return climb_m / climb_rate_ms * replace(k, speed_ms=takeoff_speed_ms).ground_speed(angle_deg)
+
+
+def takeoff_doubt_m(k: Kinematics) -> float:
+    """How far from `plane_climb_out_m`'s end a plane's climb may end and reach its first waypoint either way (the
+    L1 distance at up to twice the air speed over the ground): a take-off leg within this of its climb-out's length
+    may be met from either side (`detours.approach_way`; ArduPlane SITL, 8 m/s against it: a 215 m climb-out
+    reached a waypoint 220 m out from 39 m short of it and turned from there)."""
+    return 2.0 * k.reach_m
+
+
+def plane_way_out(leg_out: np.ndarray, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
+                  k: Kinematics) -> tuple[float, float]:
+    """A plane's way out (a polyline from the launch point to the survey's first waypoint, planning-grid units / grid
+    scale): its take-off along the first leg (`plane_takeoff`), the other legs straight at their ground speeds, and
+    the turn at its last corner where that is sharper than 90° (an approach point set behind the first line's lead-in,
+    `detours.approach_way`) as `plane_reversal` flies it, from the leg before it (flown the other way where the
+    take-off climbed past that leg's end and turned back to it). (climb s, after it s)"""
+    climb, after = plane_takeoff(leg_out[:2], climb_m, climb_rate_ms, takeoff_speed_ms, k)
+    after += _legs_time(leg_out[1:], k)
+    if len(leg_out) < 3:
+        return climb, after
+    a, p, b = (np.asarray(x, float) for x in leg_out[-3:])
+    d_in, d_out = p - a, b - p
+    ahead, back = math.hypot(*d_in), math.hypot(*d_out)
+    if len(leg_out) == 3:  # the take-off's leg: climbed past its end, the plane turned back to it
+        climb_out = plane_climb_out_m(math.degrees(math.atan2(d_in[1], d_in[0])), climb_m, climb_rate_ms, takeoff_speed_ms, k)
+        if climb_out > ahead:
+            d_in, ahead = -d_in, climb_out - ahead
+    if ahead <= KEPT or back <= KEPT or float(d_in @ d_out) >= 0.0:
+        return climb, after
+    a_in, a_out = math.degrees(math.atan2(d_in[1], d_in[0])), math.degrees(math.atan2(d_out[1], d_out[0]))
+    (turned,) = plane_reversal(np.full(1, ahead), np.zeros(1), np.full(1, back), np.full(1, a_in), np.full(1, a_out), k)
+    straight = (ahead * k.slowness(a_in) + back * k.slowness(a_out)) / k.speed_ms
+    return climb, after + float(turned) - straight
 
 
 def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
@@ -513,7 +569,9 @@ def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, t
     NAV_TAKEOFF, at full throttle and its AIRSPEED_CRUISE until the mission's DO_CHANGE_SPEED), and the time from
     the climb's end to the leg's end at `k`'s speed. (climb s, after it s)
 
-    A leg longer than the climb-out is flown on at its ground speed. A shorter one is overshot: the plane turns
+    A leg longer than the climb-out is flown on at its ground speed, the plane slowing evenly from the take-off's air
+    speed to `k`'s over `TAKEOFF_SLOWING_S` (in 8 m/s against it, with an approach point 134 m on, the estimate
+    without the slowing was 17 to 21 s long a sortie, 0.942 to 0.951). A shorter one is overshot: the plane turns
     back onto the leg's line and flies back to its end (`plane_reversal` onto a line 0 apart, its waypoint behind).
     ArduPlane SITL (AIRSPEED_CRUISE 22 m/s) climbed to 102 m in 14.8 s over 383 m with 5 m/s of wind behind
     it, and in 14.0 s over 259 m with 3.5 m/s against it (27 and 18.2 m/s over the ground at 22 m/s of air
@@ -523,12 +581,36 @@ def plane_takeoff(first_leg: np.ndarray, climb_m: float, climb_rate_ms: float, t
     d = first_leg[-1] - first_leg[0]
     length = math.hypot(float(d[0]), float(d[1]))
     ahead = math.degrees(math.atan2(float(d[1]), float(d[0])))
-    climb_out = climb * replace(k, speed_ms=takeoff_speed_ms).ground_speed(ahead)
+    climb_out = plane_climb_out_m(ahead, climb_m, climb_rate_ms, takeoff_speed_ms, k)
     if length >= climb_out:
-        return climb, (length - climb_out) * k.slowness(ahead) / k.speed_ms
+        return climb, _slowing_time(length - climb_out, ahead, takeoff_speed_ms, k)
     (back,) = plane_reversal(np.full(1, length - climb_out), np.zeros(1), np.zeros(1), np.full(1, ahead),
                              np.full(1, ahead + 180.0), k)
     return climb, float(back)
+
+
+def _slowing_time(rest: float, angle_deg: float, takeoff_speed_ms: float, k: Kinematics) -> float:
+    """Seconds over `rest` metres along `angle_deg` after the take-off's climb: the air speed falling evenly from
+    `takeoff_speed_ms` to `k`'s over `TAKEOFF_SLOWING_S` (the ground covered by Simpson's rule over the ground speeds
+    it makes; the time within the slowing where `rest` is reached by bisection), then at `k`'s speed."""
+    slow = max(takeoff_speed_ms - k.speed_ms, 0.0)
+
+    def ground(t: float) -> float:
+        return replace(k, speed_ms=takeoff_speed_ms - slow * t / TAKEOFF_SLOWING_S).ground_speed(angle_deg)
+
+    def covered(t: float) -> float:
+        return t * (ground(0.0) + 4.0 * ground(t / 2.0) + ground(t)) / 6.0
+
+    if slow == 0.0:
+        return rest / k.ground_speed(angle_deg)
+    whole = covered(TAKEOFF_SLOWING_S)
+    if whole <= rest:
+        return TAKEOFF_SLOWING_S + (rest - whole) / k.ground_speed(angle_deg)
+    lo, hi = 0.0, TAKEOFF_SLOWING_S
+    for _ in range(40):
+        mid = (lo + hi) / 2.0
+        lo, hi = (mid, hi) if covered(mid) < rest else (lo, mid)
+    return (lo + hi) / 2.0
 
 
 def _legs_time(points: np.ndarray, k: Kinematics) -> float:

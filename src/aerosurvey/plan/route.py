@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from aerosurvey.plan.detours import Detours, clip_lead_in
-from aerosurvey.plan.flight_time import Kinematics, line_orders, path_time, plane_takeoff
+from aerosurvey.plan.detours import Detours, approach_way, clip_lead_in
+from aerosurvey.plan.flight_time import Kinematics, line_orders, path_time, plane_climb_out_m, plane_way_out, takeoff_doubt_m
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 from aerosurvey.plan.passes import Pass, Route, Run, Strip, Waypoint
@@ -251,9 +251,11 @@ def _way_time(a: tuple[float, float], b: tuple[float, float], k: Kinematics) -> 
 class Transits:
     """The ways from the launch point to the flight's first pass and home from its last (`routing.plan_route`),
     flown with `kin` (the transits' speed in the wind, `Kinematics.cruising`). A plane climbs and descends while it
-    flies them (`estimates.estimate`): its way out is its take-off along it (`flight_time.plane_takeoff`: the climb
-    to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms`) and the rest of it, and its way home
-    takes at least its descent time."""
+    flies them (`estimates.estimate`): its way out is the sorties' (`detours.approach_way` round `detours`, its climb
+    `climb_out` long at the take-off pitch and its approach point `setback` behind the first line's lead-in, in
+    planning-grid metres, `grid_scale` of them a metre), flown as `flight_time.plane_way_out` flies it (its take-off:
+    the climb to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms`), and its way home takes at least
+    its descent time."""
 
     kin: Kinematics
     home_from: Callable[[tuple[float, float]], tuple[float, float]]  # where the way home ends, of a flight from there
@@ -261,11 +263,20 @@ class Transits:
     climb_rate_ms: float = 1.0
     takeoff_speed_ms: float = 0.0
     descent_s: float = 0.0
+    climb_out: float = 0.0
+    setback: float = 0.0
+    grid_scale: float = 1.0
+    detours: Detours = field(default_factory=lambda: Detours(None, 0.0))
 
-    def out_s(self, home: tuple[float, float], first: tuple[float, float]) -> float:
+    def out_s(self, home: tuple[float, float], lead: tuple[float, float], first: tuple[float, float]) -> float:
+        """The way from `home` to a line's lead-in `lead` (its first station `first`)."""
         if self.climb_m <= 0.0:
-            return _way_time(home, first, self.kin)
-        climb, after = plane_takeoff(np.array([home, first]), self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms,
+            return _way_time(home, lead, self.kin)
+        gs = self.grid_scale
+        way = approach_way(home, lead, first, self.setback, self.climb_out,
+                           lambda a: plane_climb_out_m(a, self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.kin) * gs,
+                           takeoff_doubt_m(self.kin) * gs, self.detours)
+        climb, after = plane_way_out(np.array([home, *way, lead]), self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms,
                                      self.kin)
         return climb + after
 
@@ -299,7 +310,7 @@ def order_pass(p: Pass, lead_in: float, k: Kinematics, spacing: float,
             if pinned:
                 away = round(math.dist(start_near, first), 3)
             elif flight_start is None and transits is not None:
-                cost += transits.out_s(start_near, first)
+                cost += transits.out_s(start_near, first, (float(ends[1, 0]), float(ends[1, 1])))
             else:
                 cost += _way_time(start_near, first, k)
         if last and transits is not None:

@@ -11,8 +11,8 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.detours import Detours, climb_out_path
-from aerosurvey.plan.flight_time import descent_time
+from aerosurvey.plan.detours import Detours, approach_way
+from aerosurvey.plan.flight_time import approach_setback_m, descent_time, plane_climb_out_m, takeoff_doubt_m
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
     Landing,
@@ -74,13 +74,18 @@ def launch_places(site: Site, clearance: float = 0.0, obstacle: BaseGeometry | N
 
 
 def climb_out(spec: MissionSpec, site: Site, sensor: SensorSolution, detours: Detours, home: tuple[float, float],
-              first: tuple[float, float]) -> list[tuple[float, float]]:
-    """Waypoints from the launch point to the survey: the detours round the zones, and for a
-    plane whose straight climb (at its take-off pitch) would end past the first waypoint, a
-    first waypoint where the climb ends, in the clear direction nearest the way to the survey."""
+              lead: tuple[float, float], first: tuple[float, float]) -> list[tuple[float, float]]:
+    """Waypoints from the launch point to the survey's first line (its lead-in `lead`, its first station `first`):
+    the detours round the zones, for a plane whose straight climb (at its take-off pitch) would end past the lead-in
+    a first waypoint where the climb ends, in the clear direction nearest the way to the survey, and for a plane
+    that would meet the lead-in heading away from the line a point behind it on the line (`approach_way`)."""
     climb = climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale
     try:
-        return climb_out_path(home, first, climb, detours)
+        v, kin = spec.vehicle, sensor.kinematics
+        k = site.grid_scale
+        return approach_way(home, lead, first, approach_setback_m(kin) * k, climb,
+                            lambda a: plane_climb_out_m(a, sensor.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * k,
+                            takeoff_doubt_m(kin) * k, detours)
     except ValueError:
         raise InputError("a plane taking off at the launch point climbs into an exclusion zone whichever way it heads "
                          f"({climb / site.grid_scale:.0f} m at {PLANE_TAKEOFF_PITCH_DEG:g}° to the survey height): give "
@@ -159,7 +164,8 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     kin, v, climb = sensor.kinematics, spec.vehicle, sensor.heights.max_agl_m
     plane = kin.vehicle == "plane"  # a plane climbs and descends on its ways out and home (estimates.estimate)
     transits = Transits(kin.cruising(v.cruise_speed_ms), home_from, climb if plane else 0.0, v.climb_rate_ms,
-                        v.cruise_speed_ms, descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0)
+                        v.cruise_speed_ms, descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0,
+                        climb_out_m(spec, climb) * k, approach_setback_m(kin) * k, k, transit)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, kin, [sensor.spacing_m * k] * len(layout.passes),
                             launch_xy, detours, report, sensor.base_m * k, starts, transits)
@@ -174,7 +180,8 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
         raise InputError("the launch point lies within the stand-off of the structure the pattern flies round: "
                          "give area.launch farther from it", key="area.launch")
     try:
-        out = climb_out(spec, site, sensor, transit, home, first)
+        run = route.runs[0]
+        out = climb_out(spec, site, sensor, transit, home, first, (float(run.station_xy[0, 0]), float(run.station_xy[0, 1])))
         end = end_of_flight(landing, site, home)
         back = transit.path(last, end)
     except ValueError as exc:

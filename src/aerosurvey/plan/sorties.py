@@ -23,7 +23,7 @@ from itertools import accumulate
 import numpy as np
 
 from aerosurvey.errors import InputError
-from aerosurvey.plan.detours import Detours, climb_out_path, clip_approach
+from aerosurvey.plan.detours import Detours, approach_way, clip_approach
 from aerosurvey.plan.flight_time import (
     KEPT,
     Climbs,
@@ -32,12 +32,15 @@ from aerosurvey.plan.flight_time import (
     RouteSegments,
     Segments,
     all_segments,
+    approach_setback_m,
     descent_time,
     hover_time,
     kept_segments,
     lanes_in_place,
     path_time,
+    plane_climb_out_m,
     plane_transit_time,
+    takeoff_doubt_m,
 )
 from aerosurvey.plan.landing import way_home
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
@@ -328,11 +331,18 @@ class Splitter:
         return self._way_out(li, first), self._back[kb]
 
     def _way_out(self, li: int, first: _Piece) -> list[_XY]:
-        """The points between launch site li and the first piece (round the zones)."""
+        """The points between launch site li and the first piece (round the zones; a plane's onto its line,
+        `approach_way`)."""
         ko = (li, id(first))
         if ko not in self._out:
             home = (self.sites[li].x, self.sites[li].y)
-            self._out[ko] = climb_out_path(home, first.first, self.plan.climb, self.detours)
+            station = (first.wps[1][0], first.wps[1][1])
+            plan, gs = self.plan, self.plan.grid_scale
+            v, kin = plan.vehicle, self.kin
+            self._out[ko] = approach_way(
+                home, first.first, station, approach_setback_m(kin) * gs, plan.climb,
+                lambda a: plane_climb_out_m(a, plan.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * gs,
+                takeoff_doubt_m(kin) * gs, self.detours)
         return self._out[ko]
 
     def _leg_out(self, li: int, first: _Piece) -> list[_XY]:
