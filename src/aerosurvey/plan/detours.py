@@ -7,14 +7,17 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.plan.passes import Run
+
+if TYPE_CHECKING:
+    from aerosurvey.plan.flight_time import PlaneTakeoff
 
 
 class Detours:
@@ -191,20 +194,18 @@ def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb:
     raise ValueError("a plane taking off there climbs into an exclusion zone whichever way it heads")
 
 
-def approach_way(home: tuple[float, float], lead: tuple[float, float], first: tuple[float, float], setback: float,
-                 climb: float, climb_out: Callable[[float], float], doubt: float,
-                 detours: Detours) -> list[tuple[float, float]]:
+def approach_way(home: tuple[float, float], lead: tuple[float, float], first: tuple[float, float], climb: float,
+                 takeoff: PlaneTakeoff, detours: Detours) -> list[tuple[float, float]]:
     """Waypoints from the launch point to a line's lead-in `lead` (its first station `first`): `climb_out_path`, and
-    where a plane could meet the lead-in heading more than 90° off the line, first to a point `setback` behind it on
-    the line's extension (`flight_time.approach_setback_m`), so that it turns onto the line there and flies on along
-    it. It could where the way's last leg comes from ahead of the lead-in; and where that leg is the take-off's (its
-    climb-out along a direction, `climb_out`: `flight_time.plane_climb_out_m`), longer than the climb-out and from
-    ahead, shorter and from behind (climbing past the lead-in, the plane turns back to it, heading away), or within
-    `doubt` of it either way (`flight_time.takeoff_doubt_m`). Met heading away, ArduPlane SITL turned round at the
+    where a plane could meet the lead-in heading more than 90° off the line, first to a point `takeoff.setback` behind
+    it on the line's extension, so that it turns onto the line there and flies on along it. It could where the way's
+    last leg comes from ahead of the lead-in; and where that leg is the take-off's (`takeoff.climb_out` along it),
+    longer than the climb-out and from ahead, shorter and from behind (climbing past the lead-in, the plane turns
+    back to it, heading away), or within `takeoff.doubt` of it either way. Met heading away, ArduPlane SITL turned round at the
     lead-in and passed the first station 68 m off the line (8 m/s from 270°), where its camera started, a base early.
     Not where the line's extension is blocked by a zone, nor with no lead-in or setback (a copter's: 0)."""
     way = climb_out_path(home, lead, climb, detours)
-    length = math.dist(lead, first)
+    length, setback = math.dist(lead, first), takeoff.setback
     if setback <= 0.0 or length <= 0.0:
         return way
     ux, uy = (first[0] - lead[0]) / length, (first[1] - lead[1]) / length
@@ -212,8 +213,8 @@ def approach_way(home: tuple[float, float], lead: tuple[float, float], first: tu
     towards = (lead[0] - before[0]) * ux + (lead[1] - before[1]) * uy
     if not way:  # the take-off's leg
         leg = math.dist(home, lead)
-        out = climb_out(math.degrees(math.atan2(lead[1] - home[1], lead[0] - home[0])))
-        if abs(leg - out) <= doubt:
+        out = takeoff.climb_out(math.degrees(math.atan2(lead[1] - home[1], lead[0] - home[0])))
+        if abs(leg - out) <= takeoff.doubt:
             towards = -1.0  # either way
         elif leg < out:
             towards = -towards  # climbed past the lead-in, it turns back to it

@@ -536,6 +536,33 @@ def takeoff_doubt_m(k: Kinematics) -> float:
     return 2.0 * k.reach_m
 
 
+@dataclass(frozen=True)
+class PlaneTakeoff:
+    """A plane's take-off as its way out is laid (`detours.approach_way`), in planning-grid metres (`grid_scale` of
+    them a metre): the climb to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms` in `k`'s wind. A
+    copter's has no setback (`approach_setback_m`): its way out is not changed."""
+
+    k: Kinematics
+    climb_m: float
+    climb_rate_ms: float
+    takeoff_speed_ms: float
+    grid_scale: float = 1.0
+
+    def climb_out(self, angle_deg: float) -> float:
+        """How far the climb goes over the ground along `angle_deg` (`plane_climb_out_m`)."""
+        return plane_climb_out_m(angle_deg, self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.k) * self.grid_scale
+
+    @property
+    def setback(self) -> float:
+        """How far behind a line's lead-in the approach point lies (`approach_setback_m`)."""
+        return approach_setback_m(self.k) * self.grid_scale
+
+    @property
+    def doubt(self) -> float:
+        """How near its climb-out's length a take-off leg may be met either way (`takeoff_doubt_m`)."""
+        return takeoff_doubt_m(self.k) * self.grid_scale
+
+
 def plane_way_out(leg_out: np.ndarray, climb_m: float, climb_rate_ms: float, takeoff_speed_ms: float,
                   k: Kinematics) -> tuple[float, float]:
     """A plane's way out (a polyline from the launch point to the survey's first waypoint, planning-grid units / grid

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from aerosurvey.plan.detours import Detours, approach_way, clip_lead_in
-from aerosurvey.plan.flight_time import Kinematics, line_orders, path_time, plane_climb_out_m, plane_way_out, takeoff_doubt_m
+from aerosurvey.plan.flight_time import Kinematics, PlaneTakeoff, line_orders, path_time, plane_way_out
 from aerosurvey.plan.frame import LineFrame
 from aerosurvey.plan.lines import LineSegment
 from aerosurvey.plan.passes import Pass, Route, Run, Strip, Waypoint
@@ -252,10 +252,9 @@ class Transits:
     """The ways from the launch point to the flight's first pass and home from its last (`routing.plan_route`),
     flown with `kin` (the transits' speed in the wind, `Kinematics.cruising`). A plane climbs and descends while it
     flies them (`estimates.estimate`): its way out is the sorties' (`detours.approach_way` round `detours`, its climb
-    `climb_out` long at the take-off pitch and its approach point `setback` behind the first line's lead-in, in
-    planning-grid metres, `grid_scale` of them a metre), flown as `flight_time.plane_way_out` flies it (its take-off:
-    the climb to `climb_m` at `climb_rate_ms` and the air speed `takeoff_speed_ms`), and its way home takes at least
-    its descent time."""
+    `climb_out` long at the take-off pitch, in planning-grid metres, `grid_scale` of them a metre), flown as
+    `flight_time.plane_way_out` flies it (its take-off, `flight_time.PlaneTakeoff`: the climb to `climb_m` at
+    `climb_rate_ms` and the air speed `takeoff_speed_ms`), and its way home takes at least its descent time."""
 
     kin: Kinematics
     home_from: Callable[[tuple[float, float]], tuple[float, float]]  # where the way home ends, of a flight from there
@@ -264,7 +263,6 @@ class Transits:
     takeoff_speed_ms: float = 0.0
     descent_s: float = 0.0
     climb_out: float = 0.0
-    setback: float = 0.0
     grid_scale: float = 1.0
     detours: Detours = field(default_factory=lambda: Detours(None, 0.0))
 
@@ -272,10 +270,8 @@ class Transits:
         """The way from `home` to a line's lead-in `lead` (its first station `first`)."""
         if self.climb_m <= 0.0:
             return _way_time(home, lead, self.kin)
-        gs = self.grid_scale
-        way = approach_way(home, lead, first, self.setback, self.climb_out,
-                           lambda a: plane_climb_out_m(a, self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.kin) * gs,
-                           takeoff_doubt_m(self.kin) * gs, self.detours)
+        takeoff = PlaneTakeoff(self.kin, self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.grid_scale)
+        way = approach_way(home, lead, first, self.climb_out, takeoff, self.detours)
         climb, after = plane_way_out(np.array([home, *way, lead]), self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms,
                                      self.kin)
         return climb + after

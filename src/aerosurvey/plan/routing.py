@@ -12,7 +12,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.errors import InputError
 from aerosurvey.plan.detours import Detours, approach_way
-from aerosurvey.plan.flight_time import approach_setback_m, descent_time, plane_climb_out_m, takeoff_doubt_m
+from aerosurvey.plan.flight_time import PlaneTakeoff, descent_time
 from aerosurvey.plan.landing import (
     PLANE_TAKEOFF_PITCH_DEG,
     Landing,
@@ -81,11 +81,9 @@ def climb_out(spec: MissionSpec, site: Site, sensor: SensorSolution, detours: De
     that would meet the lead-in heading away from the line a point behind it on the line (`approach_way`)."""
     climb = climb_out_m(spec, sensor.heights.max_agl_m) * site.grid_scale
     try:
-        v, kin = spec.vehicle, sensor.kinematics
-        k = site.grid_scale
-        return approach_way(home, lead, first, approach_setback_m(kin) * k, climb,
-                            lambda a: plane_climb_out_m(a, sensor.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * k,
-                            takeoff_doubt_m(kin) * k, detours)
+        v = spec.vehicle
+        takeoff = PlaneTakeoff(sensor.kinematics, sensor.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, site.grid_scale)
+        return approach_way(home, lead, first, climb, takeoff, detours)
     except ValueError:
         raise InputError("a plane taking off at the launch point climbs into an exclusion zone whichever way it heads "
                          f"({climb / site.grid_scale:.0f} m at {PLANE_TAKEOFF_PITCH_DEG:g}° to the survey height): give "
@@ -165,7 +163,7 @@ def plan_route(spec: MissionSpec, site: Site, sensor: SensorSolution, layout: La
     plane = kin.vehicle == "plane"  # a plane climbs and descends on its ways out and home (estimates.estimate)
     transits = Transits(kin.cruising(v.cruise_speed_ms), home_from, climb if plane else 0.0, v.climb_rate_ms,
                         v.cruise_speed_ms, descent_time(climb, v.descent_rate_ms, kin.vehicle) if plane else 0.0,
-                        climb_out_m(spec, climb) * k, approach_setback_m(kin) * k, k, transit)
+                        climb_out_m(spec, climb) * k, k, transit)
     try:
         route = build_route(list(layout.passes), sensor.lead_in_m * k, kin, [sensor.spacing_m * k] * len(layout.passes),
                             launch_xy, detours, report, sensor.base_m * k, starts, transits)

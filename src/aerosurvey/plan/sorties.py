@@ -29,18 +29,16 @@ from aerosurvey.plan.flight_time import (
     Climbs,
     CopterTime,
     Kinematics,
+    PlaneTakeoff,
     RouteSegments,
     Segments,
     all_segments,
-    approach_setback_m,
     descent_time,
     hover_time,
     kept_segments,
     lanes_in_place,
     path_time,
-    plane_climb_out_m,
     plane_transit_time,
-    takeoff_doubt_m,
 )
 from aerosurvey.plan.landing import way_home
 from aerosurvey.plan.model import Heights, RouteWaypoint, Stations
@@ -337,12 +335,9 @@ class Splitter:
         if ko not in self._out:
             home = (self.sites[li].x, self.sites[li].y)
             station = (first.wps[1][0], first.wps[1][1])
-            plan, gs = self.plan, self.plan.grid_scale
-            v, kin = plan.vehicle, self.kin
-            self._out[ko] = approach_way(
-                home, first.first, station, approach_setback_m(kin) * gs, plan.climb,
-                lambda a: plane_climb_out_m(a, plan.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, kin) * gs,
-                takeoff_doubt_m(kin) * gs, self.detours)
+            plan, v = self.plan, self.plan.vehicle
+            takeoff = PlaneTakeoff(self.kin, plan.heights.max_agl_m, v.climb_rate_ms, v.cruise_speed_ms, plan.grid_scale)
+            self._out[ko] = approach_way(home, first.first, station, plan.climb, takeoff, self.detours)
         return self._out[ko]
 
     def _leg_out(self, li: int, first: _Piece) -> list[_XY]:
