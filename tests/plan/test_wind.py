@@ -159,6 +159,10 @@ def _reversal(air: float, radius: float, reach: float, wind: np.ndarray, u: np.n
 @given(air=st.floats(12, 25), share=st.floats(0, 0.7), towards=st.floats(0, 360), heading=st.floats(0, 360),
        radius=st.floats(15, 80), reach=st.floats(0, 80), ahead=st.floats(-300, 300),
        lateral=st.one_of(st.just(0.0), st.floats(-250, 250)), back=st.floats(0, 300), off=st.floats(-30, 30))
+@example(air=12.0, share=0.5, towards=1.0, heading=0.0, radius=15.0, reach=0.0, ahead=0.0, lateral=0.0, back=0.0,
+         off=1.192092896e-07)  # no leg after the waypoint, its direction a hair off the line's: either side
+@example(air=12.0, share=0.5, towards=1.0, heading=0.0, radius=15.0, reach=0.0, ahead=0.0, lateral=0.0, back=150.0,
+         off=1e-6)  # a lead-in back along the line to within 3 µm: either side
 def test_a_planes_reversal_takes_the_integrated_time(air, share, towards, heading, radius, reach, ahead, lateral, back,
                                                      off):
     """plane_reversal against the reversal stepped through (`_reversal`): on to the turn, the half circle in the
@@ -168,8 +172,8 @@ def test_a_planes_reversal_takes_the_integrated_time(air, share, towards, headin
     kin = Kinematics("plane", air, 2.5, radius, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=reach)
     h, o = math.radians(heading), math.radians(heading + 180.0 + off)
     u, leg = np.array([math.cos(h), math.sin(h)]), back * np.array([math.cos(o), math.sin(o)])
-    goes = u[0] * math.sin(o) - u[1] * math.cos(o)  # the leg after the waypoint: to the line's left (> 0) or right
-    across = lateral if lateral != 0.0 else goes if abs(goes) > 1e-6 else 0.0
+    goes = back * (u[0] * math.sin(o) - u[1] * math.cos(o))  # the leg after the waypoint ends left (> 0) or right
+    across = lateral if lateral != 0.0 else goes if abs(goes) > 0.01 else 0.0  # within 1 cm: back along the line
     flown = [_reversal(air, radius, reach, wind, u, ahead, lateral, leg, side)
              for side in ((1.0,) if across > 0 else (-1.0,) if across < 0 else (1.0, -1.0))]
     (timed,) = plane_reversal(np.array([ahead]), np.array([lateral]), np.array([back]), np.array([heading]),

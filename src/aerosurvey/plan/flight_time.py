@@ -120,6 +120,10 @@ def plane_turn_time(k: Kinematics) -> float:
     return math.pi * k.turn_radius_m / k.speed_ms
 
 
+#: A leg after a waypoint on the line that ends nearer the line than this (metres) goes back along it (`plane_reversal`)
+SIDE_M = 0.01
+
+
 def plane_reversal(ahead: np.ndarray, lateral: np.ndarray, back: np.ndarray, angle_in_deg: np.ndarray,
                    angle_out_deg: np.ndarray, k: Kinematics) -> np.ndarray:
     """Seconds a plane takes from a line's end to the end of the leg after the next waypoint (the next line's first
@@ -153,8 +157,10 @@ def plane_reversal(ahead: np.ndarray, lateral: np.ndarray, back: np.ndarray, ang
         return seconds
 
     left, right = way(1.0), way(-1.0)
-    # a waypoint on the line (lateral 0, a way out's approach point): the side the leg after it goes to
-    side = np.where(lateral != 0.0, lateral, np.where(np.abs(np.sin(a_out - a_in)) > 1e-9, np.sin(a_out - a_in), 0.0))
+    # a waypoint on the line (lateral 0, a way out's approach point): the side the leg after it goes to, where it
+    # leaves the line by more than SIDE_M (nearer, back along the same line: either side, the longer)
+    goes = back * np.sin(a_out - a_in)
+    side = np.where(lateral != 0.0, lateral, np.where(np.abs(goes) > SIDE_M, goes, 0.0))
     out: np.ndarray = start / g_in + turn + np.where(side > 0.0, left, np.where(side < 0.0, right, np.maximum(left, right)))
     return out
 
