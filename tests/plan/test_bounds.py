@@ -6,9 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
+from scipy.spatial import ConvexHull
 
 from aerosurvey.plan.bounds import grid_bounds, minimum_width, narrowest
 from aerosurvey.plan.frame import LineFrame
@@ -53,6 +55,49 @@ def test_the_narrowest_heading_measures_the_minimum_width(seed, size):
     _, vmin, _, vmax = LineFrame(h).geom_to_frame(poly).bounds
     assert math.isclose(vmax - vmin, w, rel_tol=1e-9, abs_tol=1e-9 * size)
     assert math.isclose(w, minimum_width(poly), rel_tol=1e-12)
+
+
+def _widths_by_brute_force(points: np.ndarray) -> np.ndarray:
+    """The width across each edge of the points' convex hull (Qhull's, through scipy): every hull vertex's distance from
+    every edge's line, the largest."""
+    xy = points[ConvexHull(points).vertices]
+    d = np.roll(xy, -1, axis=0) - xy
+    normal = np.column_stack([-d[:, 1], d[:, 0]]) / np.hypot(d[:, 0], d[:, 1])[:, None]
+    proj = xy @ normal.T
+    return proj.max(axis=0) - proj.min(axis=0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(3, 1500), size=st.floats(1.0, 5000.0), flat=st.floats(0.001, 1.0),
+       noise=st.sampled_from([0.0, 1e-3, 0.05]), turn=st.floats(0, 360), repeat=st.booleans())
+def test_the_minimum_width_of_a_many_sided_hull_is_the_narrowest_across_its_edges(seed, n, size, flat, noise, turn,
+                                                                                    repeat):
+    """Round, flat and jagged hulls of up to 1,500 vertices (points on an ellipse, some collinear or repeated): the
+    width is the least over the hull's edges of the farthest vertex from each, the hull Qhull's (GEOS's can keep a
+    vertex it turns right at on slivers), the vertex found here by trying every one."""
+    rng = np.random.default_rng(seed)
+    a = np.sort(rng.uniform(0, 2 * np.pi, n))
+    r = 1.0 + noise * rng.uniform(-1, 1, n)
+    pts = np.column_stack([size * r * np.cos(a), flat * size * r * np.sin(a)])
+    if repeat:  # repeated vertices and points along the hull's edges
+        pts = np.vstack([pts, pts[: n // 3], (pts[:-1:5] + pts[1::5]) / 2])
+    geom = shapely.affinity.rotate(shapely.MultiPoint(pts), turn, origin=(0, 0))
+    want = float(_widths_by_brute_force(shapely.get_coordinates(geom)).min())
+    w, h = narrowest(geom)
+    assert w == pytest.approx(want, rel=1e-9, abs=1e-9 * size)
+    _, vmin, _, vmax = LineFrame(h).geom_to_frame(geom).bounds
+    assert vmax - vmin == pytest.approx(w, rel=1e-9, abs=1e-9 * size)
+
+
+def test_a_round_area_of_a_hundred_thousand_vertices_has_its_width():
+    """An ellipse of 100,000 vertices (semi-axes 3 km and 1 km, turned 20°): 2 km wide across its major axis. Trying
+    every vertex against every edge would hold 10^10 distances (80 GB)."""
+    a = np.linspace(0, 2 * np.pi, 100_000, endpoint=False)
+    ellipse = shapely.affinity.rotate(shapely.Polygon(np.column_stack([3000 * np.cos(a), 1000 * np.sin(a)])), 20.0,
+                                      origin=(0, 0))
+    w, h = narrowest(ellipse)
+    assert w == pytest.approx(2000.0, abs=1e-3)  # the inscribed polygon: under 2b by b(1 - cos(π/n)) ≈ 5e-7 m
+    assert min(abs(h - 70.0), abs(h - 250.0)) < 0.01  # along the major axis: 20° from east, compass 70°
 
 
 @settings(max_examples=30, deadline=None)
