@@ -19,6 +19,7 @@ from shapely.geometry.base import BaseGeometry
 
 from aerosurvey.area import Planar
 from aerosurvey.mission.program import FlightProgram, rtl_target
+from aerosurvey.plan.landing import climb_at_pitch_m
 
 #: the margin is checked a little inside its outline: the route keeps out of a polygon of it
 #: (eight segments a quarter circle, whose chords lie up to 2 % of the margin inside the circle)
@@ -91,7 +92,7 @@ def program_legs(program: FlightProgram, flight: str, planar: Planar, rtl_loiter
 def takeoff_climb(program: FlightProgram) -> float:
     """Ground metres a plane flies straight ahead climbing at its take-off pitch to the take-off altitude; 0 for a copter."""
     if program.vehicle == "plane" and program.takeoff_pitch_deg > 0:
-        return max(program.takeoff_alt_m, 0.0) / math.tan(math.radians(program.takeoff_pitch_deg))
+        return climb_at_pitch_m(program.takeoff_alt_m, program.takeoff_pitch_deg)
     return 0.0
 
 

@@ -14,11 +14,15 @@ PLANE_RTL_LOITER_M = 60.0
 PLANE_TAKEOFF_PITCH_DEG = 15.0
 
 
+def climb_at_pitch_m(altitude_m: float, pitch_deg: float = PLANE_TAKEOFF_PITCH_DEG) -> float:
+    """How far a plane flies straight ahead while it climbs to `altitude_m` at `pitch_deg`: the take-off's climb-out
+    the zones are checked along (the planner's, `climb_out_m`, and the exported mission's, `mission.gate`)."""
+    return max(altitude_m, 0.0) / math.tan(math.radians(pitch_deg))
+
+
 def climb_out_m(spec: MissionSpec, altitude_m: float) -> float:
     """How far a plane flies straight ahead while it climbs to `altitude_m` (0 for a copter)."""
-    if spec.vehicle.type != "plane":
-        return 0.0
-    return max(altitude_m, 0.0) / math.tan(math.radians(PLANE_TAKEOFF_PITCH_DEG))
+    return climb_at_pitch_m(altitude_m) if spec.vehicle.type == "plane" else 0.0
 
 
 @dataclass(frozen=True)
