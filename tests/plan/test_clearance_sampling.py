@@ -57,8 +57,9 @@ def _ridges(draw: st.DrawFn) -> np.ndarray:
 def cases(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     h = _ridges(draw)
     n = draw(st.integers(1, 6))
-    xs = [draw(st.floats(WEST + 3.0, WEST + COLS * CELL - 3.0)) for _ in range(2 * n)]
-    ys = [draw(st.floats(NORTH - ROWS * CELL + 3.0, NORTH - 3.0)) for _ in range(2 * n)]
+    # anywhere on the DEM, the outer half cell (beyond the outermost centres, 2.5 m) included
+    xs = [draw(st.floats(WEST + 0.01, WEST + COLS * CELL - 0.01)) for _ in range(2 * n)]
+    ys = [draw(st.floats(NORTH - ROWS * CELL + 0.01, NORTH - 0.01)) for _ in range(2 * n)]
     a = np.column_stack([xs[:n], ys[:n]])
     b = np.column_stack([xs[n:], ys[n:]])
     ceiling = np.array([[draw(st.floats(300.0, 420.0)), draw(st.floats(300.0, 420.0))] for _ in range(n)])
@@ -113,6 +114,20 @@ def test_in_the_outer_half_cell_the_edge_height_is_held() -> None:
     margin, frac, ground = dem.lowest_along(np.array([[WEST + 1.0, NORTH - 1.0]]), np.array([[WEST + 100.0, NORTH - 1.0]]),
                                             np.array([[340.0, 340.0]]), "a leg")
     assert frac[0] <= 1.5 / 99.0 and ground[0] == 350.0 and margin[0] == -10.0
+
+
+def test_a_leg_from_the_outer_half_cell_over_a_ridge_reads_the_ridge() -> None:
+    """A leg starting 0.05 m inside the DEM's west edge (half a cell beyond the outermost centres) and crossing a 300 m
+    ridge two columns in: its lowest margin is over the ridge. (The chunk's end was once moved to the outermost centre,
+    which slid the ground under the ceiling by up to half a cell: 350.0 read for 339.53.)"""
+    h = np.zeros((4, 6))
+    h[:, 2] = 300.0  # centres at x = WEST + 12.5
+    dem = Dem(_grid(h), planar("EPSG:32633"))
+    a, b = np.array([[WEST + 0.05, NORTH - 7.5]]), np.array([[WEST + 22.5, NORTH - 7.5]])
+    margin, frac, ground = dem.lowest_along(a, b, np.array([[1000.0, 350.0]]), "a leg")
+    at = (12.5 - 0.05) / 22.45  # the ridge's fraction of the leg
+    assert ground[0] == 300.0 and abs(frac[0] - at) < 1e-9
+    assert abs(margin[0] - (1000.0 - 650.0 * at - 300.0)) < 1e-6
 
 
 def test_a_large_window_is_held_compressed_and_unpacked_a_tile_at_a_time() -> None:

@@ -95,9 +95,11 @@ class Dem:
             out[sel] = self._tile(tj, ti)[j[sel] - tj * TILE, i[sel] - ti * TILE]
         return out
 
-    def _cells(self, x: np.ndarray, y: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray]:
+    def _cells(self, x: np.ndarray, y: np.ndarray, what: str, clip: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Planning-CRS points as (column, row) in the window read, continuous, 0 at the first cell's
-        centre; an error names points off the DEM or beyond the window."""
+        centre; an error names points off the DEM or beyond the window. A point in the DEM's outer half
+        cell (beyond its outermost centres) is moved onto them, where the ground is the same, unless not
+        `clip` (the ends of a straight piece of a leg: moving one would bend the piece)."""
         x = np.atleast_1d(np.asarray(x, float))
         y = np.atleast_1d(np.asarray(y, float))
         dx, dy = self.to_dem.transform(x, y)
@@ -113,11 +115,9 @@ class Dem:
                 f"terrain.dem {self.name!r} does not cover the {what}: {int(outside.sum())} point(s) off the DEM, "
                 f"first at planning x {x[i]:.1f}, y {y[i]:.1f}"
             )
-        cols = np.clip(cols, 0, n_cols - 1)
-        rows = np.clip(rows, 0, n_rows - 1)
         n_win_rows, n_win_cols = self.grid.shape
         c0, r0 = self.grid.offset
-        cc, rr = cols - c0, rows - r0
+        cc, rr = np.clip(cols, 0, n_cols - 1) - c0, np.clip(rows, 0, n_rows - 1) - r0
         bad = (cc < 0) | (rr < 0) | (cc > n_win_cols - 1) | (rr > n_win_rows - 1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
@@ -125,7 +125,7 @@ class Dem:
                 f"terrain.dem {self.name!r}: the {what} reach beyond the part of the DEM read around the area "
                 f"({int(bad.sum())} point(s), first at planning x {x[i]:.1f}, y {y[i]:.1f})"
             )
-        return cc, rr
+        return (cc, rr) if clip else (cols - c0, rows - r0)
 
     def _corners(self, i0: np.ndarray, j0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The heights at the four cell centres round (i0, j0)..(i0 + 1, j0 + 1), clipped to the window."""
@@ -170,7 +170,7 @@ class Dem:
         ends = np.concatenate([f0, f1])
         sx = np.concatenate([seg, seg])
         px, py = a[sx, 0] + ends * (b - a)[sx, 0], a[sx, 1] + ends * (b - a)[sx, 1]
-        cc, rr = self._cells(px, py, what)
+        cc, rr = self._cells(px, py, what, clip=False)
         m = len(f0)
         return _Chunks(seg, first, f0, f1, cc[:m], rr[:m], cc[m:], rr[m:], px[:m], py[:m])
 
@@ -256,13 +256,20 @@ class Dem:
         c, ta, tb = chunk[pair], t[pair], t[pair + 1]
         du, dv = (u1 - u0)[c], (v1 - v0)[c]
         tm = 0.5 * (ta + tb)
-        i0 = np.floor(u0[c] + tm * du).astype(np.int64)
-        j0 = np.floor(v0[c] + tm * dv).astype(np.int64)
+        rows, cols = self.grid.shape
+
+        def at(tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """The piece's place in the cells at tt, in the DEM's outer half cell moved onto its outermost centres (its
+            ground there: pieces end at every row and column of centres, so a piece there lies wholly beyond them)."""
+            return np.clip(u0[c] + tt * du, 0, cols - 1), np.clip(v0[c] + tt * dv, 0, rows - 1)
+
+        um, vm = at(tm)
+        i0, j0 = np.floor(um).astype(np.int64), np.floor(vm).astype(np.int64)
         z00, z01, z10, z11 = self._corners(i0, j0)
-        i0, j0 = np.clip(i0, 0, None), np.clip(j0, 0, None)
 
         def ground_at(tt: np.ndarray) -> np.ndarray:
-            fx, fy = u0[c] + tt * du - i0, v0[c] + tt * dv - j0
+            u, v = at(tt)
+            fx, fy = u - i0, v - j0
             g: np.ndarray = z00 * (1 - fx) * (1 - fy) + z01 * fx * (1 - fy) + z10 * (1 - fx) * fy + z11 * fx * fy
             return g
 
