@@ -58,6 +58,23 @@ def test_the_routes_way_out_climbs_at_the_take_off_speed(towards, w, bearing, le
                           (float(first[0]), float(first[1]))) == pytest.approx(expected, rel=1e-4)  # Simpson's rule
 
 
+@pytest.mark.parametrize("scale", [0.9996, 1.25])
+def test_the_routes_way_out_is_timed_in_metres_whatever_the_grids_scale(scale):
+    """The way out laid in planning-grid metres (`scale` of them a metre: a transverse Mercator's 0.9996 at its
+    central meridian; 1.25 to make it plain) takes the time of the same way in metres: a 300 m leg, shorter than the
+    climb-out (about 440 m), climbed past and turned back to (it once compared grid lengths with the climb-out in
+    metres: 1.25 took a 375 m leg for 300)."""
+    kin = Kinematics("plane", SURVEY, 2.0, 27.6, reach_m=40.0)
+    u = np.array([0.6, 0.8])
+
+    def out_s(k: float) -> float:
+        transits = Transits(kin, lambda first: (0.0, 0.0), CLIMB_M, CLIMB_RATE, TAKEOFF, climb_out=0.0, grid_scale=k)
+        lead, first = u * 300.0 * k, u * 450.0 * k
+        return transits.out_s((0.0, 0.0), (float(lead[0]), float(lead[1])), (float(first[0]), float(first[1])))
+
+    assert out_s(scale) == pytest.approx(out_s(1.0), rel=1e-9)
+
+
 def test_the_whole_missions_way_home_flies_the_landing_approach(tmp_path):
     """A plane landing into a wind from the east (its approach waypoint 800 m west of home, downwind) in 5 m/s
     from the east, its lines ending east of home: the whole mission's estimate times the way home from the last

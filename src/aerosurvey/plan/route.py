@@ -272,8 +272,8 @@ class Transits:
             return _way_time(home, lead, self.kin)
         takeoff = PlaneTakeoff(self.kin, self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms, self.grid_scale)
         way = approach_way(home, lead, first, self.climb_out, takeoff, self.detours)
-        climb, after = plane_way_out(np.array([home, *way, lead]), self.climb_m, self.climb_rate_ms, self.takeoff_speed_ms,
-                                     self.kin)
+        climb, after = plane_way_out(np.array([home, *way, lead]) / self.grid_scale, self.climb_m, self.climb_rate_ms,
+                                     self.takeoff_speed_ms, self.kin)  # in metres, its climb-out's
         return climb + after
 
     def home_s(self, last: tuple[float, float], flight_start: tuple[float, float]) -> float:
