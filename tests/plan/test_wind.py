@@ -181,6 +181,30 @@ def test_a_planes_reversal_takes_the_integrated_time(air, share, towards, headin
     assert timed == pytest.approx(max(flown), rel=1e-5, abs=1e-5)
 
 
+@settings(max_examples=30, deadline=None)
+@given(air=st.floats(12, 25), share=st.floats(0, 0.7), towards=st.floats(0, 360), heading=st.floats(0, 360),
+       jog=st.one_of(st.floats(1e-6, 1e-2), st.floats(1e-2, 60.0)), left=st.booleans())
+def test_a_planes_jog_or_s_bend_is_no_reversal(air, share, towards, heading, jog, left):
+    """A line with a jog across it (a corner one way, a short leg, a corner back: an S-bend, heading on as before) is
+    timed as its legs flown straight in the wind, not as a half circle (a 1 mm jog once cost 15 s); the same corners
+    both the same way (a U, heading back) stay a reversal, longer than its legs straight."""
+    wind = _wind(share * air, towards)
+    kin = Kinematics("plane", air, 2.5, 40.0, wind_x=float(wind[0]), wind_y=float(wind[1]), reach_m=30.0)
+    h = math.radians(heading)
+    u = np.array([math.cos(h), math.sin(h)])
+    n = np.array([-u[1], u[0]]) * (jog if left else -jog)
+    s_bend = np.array([np.zeros(2), 300.0 * u, 300.0 * u + n, 600.0 * u + n])
+    u_turn = np.array([np.zeros(2), 300.0 * u, 300.0 * u + n, n])
+
+    def straight(pts: np.ndarray) -> float:
+        legs = np.diff(pts, axis=0)
+        return sum(float(np.hypot(*d)) / float(_steer(d / np.hypot(*d), wind, air) @ (d / np.hypot(*d))) for d in legs)
+
+    assert path_time(s_bend, kin) == pytest.approx(straight(s_bend), rel=1e-6)
+    if jog >= 1.0:
+        assert path_time(u_turn, kin) > straight(u_turn) + 1.0
+
+
 @settings(max_examples=15, deadline=None)
 @given(air=st.floats(12, 25), share=st.floats(0, 0.7), towards=st.floats(0, 360), heading=st.floats(0, 360),
        spacing=st.floats(20, 200), left=st.booleans(), beyond=st.floats(-100, 200))

@@ -342,15 +342,18 @@ def path_time(points: np.ndarray, k: Kinematics) -> float:
     if len(lengths) == 0:
         return 0.0
     ang = np.degrees(np.arctan2(seg[:, 1], seg[:, 0]))
-    turn = np.abs((np.diff(ang) + 180.0) % 360.0 - 180.0)
+    signed = (np.diff(ang) + 180.0) % 360.0 - 180.0  # each corner's turn, to the left > 0
+    turn = np.abs(signed)
     # in wind each metre counts its slowness (still-air metres that take as long; 1 in calm air)
     slow = [1.0] * len(lengths) if k.calm else [k.slowness(a) for a in ang.tolist()]
     total_len = float(lengths.sum()) if k.calm else float(np.dot(lengths, slow))
-    # a reversal: corner, short leg, corner (a leg straight on from the one before, as a line from its
-    # lead-in, is no corner: paired with the next corner it would replace the line itself by a turn)
+    # a reversal: corner, short leg, corner, both turned the same way (a leg straight on from the one before, as a
+    # line from its lead-in, is no corner: paired with the next corner it would replace the line itself by a turn; a
+    # jog or an S-bend, turned one way then back, is no reversal)
     corner = turn > STRAIGHT_ON_DEG
     pairs: list[int] = []
-    for i in np.flatnonzero(corner[:-1] & corner[1:] & (turn[:-1] + turn[1:] > 150.0)).tolist():
+    same_way = np.sign(signed[:-1]) == np.sign(signed[1:])
+    for i in np.flatnonzero(corner[:-1] & corner[1:] & same_way & (turn[:-1] + turn[1:] > 150.0)).tolist():
         if not pairs or i > pairs[-1] + 1:  # the corner after a pair pairs with none
             pairs.append(i)
     if pairs:  # the connector and the leg after it (the next line's lead-in) flown as `plane_reversal`
