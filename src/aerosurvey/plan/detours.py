@@ -177,16 +177,19 @@ def clip_lead_in(run: Run, detours: Detours, gap_m: float = 1.0) -> Run:
 def climb_out_path(home: tuple[float, float], first: tuple[float, float], climb: float,
                    detours: Detours) -> list[tuple[float, float]]:
     """Waypoints from the launch point to `first`: the detours round the zones, and when a
-    plane's straight climb (`climb` long) ends past `first` and that overshoot meets a zone, a
-    first waypoint where the climb ends, in the clear direction nearest the way to `first`.
-    ValueError when no direction is clear."""
-    d = math.dist(home, first)
+    plane's straight climb (`climb` long, towards the first of those waypoints) ends past that
+    waypoint and that overshoot, or the way back to it, meets a zone, a first waypoint where the
+    climb ends, in the clear direction nearest the way to `first`. ValueError when no direction is
+    clear."""
+    way = detours.path(home, first)
+    towards = way[0] if way else first  # the take-off's leg: the plane climbs straight along it
+    d = math.dist(home, towards)
     if climb <= d or detours.blocked is None:
-        return detours.path(home, first)
-    bearing = math.atan2(first[1] - home[1], first[0] - home[0])
+        return way
+    bearing = math.atan2(towards[1] - home[1], towards[0] - home[0])
     ahead = (home[0] + climb * math.cos(bearing), home[1] + climb * math.sin(bearing))
-    if detours.clear(home, ahead) and detours.clear(ahead, first):
-        return []  # it climbs past the first waypoint and turns back to it, all clear of the zones
+    if detours.clear(home, ahead) and detours.clear(ahead, towards):
+        return way  # it climbs past the first waypoint and turns back to it, all clear of the zones
     for turn in sorted(np.radians(np.arange(-180.0, 180.0, 5.0)).tolist(), key=abs):
         end = (home[0] + climb * math.cos(bearing + turn), home[1] + climb * math.sin(bearing + turn))
         if detours.clear(home, end):
