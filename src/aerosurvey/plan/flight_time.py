@@ -35,7 +35,7 @@ class Kinematics:
     """What the time model needs of the vehicle, and the wind it flies in.
 
     The wind is its velocity (where the air moves to) along the planning grid's x and y, m/s
-    (`plan.wind.grid_wind` turns conditions.wind, a true bearing, into it). A plane flies
+    (`planner.in_wind` turns conditions.wind, a true bearing, into it). A plane flies
     `speed_ms` through the air; a copter holds `speed_ms` over the ground as long as the air
     velocity that takes stays within its lean limit, and makes good what that limit allows where it
     does not (`ground_speed`): `airspeed_ms` straight on its nose, `airspeed_diagonal_ms` 45° off it
