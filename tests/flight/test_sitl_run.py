@@ -295,7 +295,8 @@ def test_a_servo_at_its_stop_reads_where_it_stopped(tmp_path):
 
 def test_the_aim_is_not_known_without_the_servos_outputs_or_the_parameters_that_map_them(tmp_path):
     """No RCOU, no vehicle attitude logged with the outputs (ATT), no PARM, no tilt servo among the outputs, a
-    limit of the tilt or of the roll servo missing, or no MNT: every picture's aim is unknown (None), which fails the flight's aim
+    limit of the tilt or of the roll servo missing, a servo on an output RCOU does not log, or no MNT: every picture's
+    aim is unknown (None), which fails the flight's aim
     (`aim_error_deg`), never a guess. A mount without a roll or pan servo holds that axis at 0°."""
     from dfwriter import mount_log
 
@@ -304,10 +305,14 @@ def test_the_aim_is_not_known_without_the_servos_outputs_or_the_parameters_that_
     no_tilt = {**HARNESS_MOUNT, "SERVO9_FUNCTION": 0.0}
     no_limit = {k: v for k, v in HARNESS_MOUNT.items() if k != "MNT1_PITCH_MIN"}
     no_roll_limit = {k: v for k, v in HARNESS_MOUNT.items() if k != "MNT1_ROLL_MAX"}
+    # the roll servo on output 15, which RCOU does not log (C1 … C14): its angle, and so the aim, is not known
+    roll_unlogged = {**HARNESS_MOUNT, "SERVO11_FUNCTION": 0.0, "SERVO15_FUNCTION": 8.0, "SERVO15_MIN": 1100.0,
+                     "SERVO15_MAX": 1900.0}
     log = tmp_path / "m.BIN"
     no_attitude = [(0.9, pwm[0][1], None)]
     for mounts, outputs, params in ((mnts, [], HARNESS_MOUNT), (mnts, no_attitude, HARNESS_MOUNT), (mnts, pwm, {}), (mnts, pwm, no_tilt),
-                                    (mnts, pwm, no_limit), (mnts, pwm, no_roll_limit), ([], pwm, HARNESS_MOUNT)):
+                                    (mnts, pwm, no_limit), (mnts, pwm, no_roll_limit), (mnts, pwm, roll_unlogged),
+                                    ([], pwm, HARNESS_MOUNT)):
         log.write_bytes(mount_log(cams, mounts, outputs, params))
         assert sitl_run.mount_pitch_at_photos(log) == [None]
     log.write_bytes(mount_log(cams, mnts, pwm, HARNESS_MOUNT))

@@ -239,6 +239,8 @@ def _speed(mission: Mission) -> float:
 MOUNT_SERVOS = {"pan": (6, "MNT1_YAW"), "tilt": (7, "MNT1_PITCH"), "roll": (8, "MNT1_ROLL")}  # in this order
 #: RCOU logs the first 14 outputs (C1 … C14)
 LOGGED_OUTPUTS = 14
+#: ArduPilot's servo outputs (SERVO1 … SERVO32): a mount servo on one RCOU does not log leaves the aim unknown
+SERVO_OUTPUTS = 32
 
 #: the camera's line of sight turned by more than this (degrees) between two outputs logged 100 ms apart: a new
 #: aim commanded (a servo mount's stabilisation holds it through the vehicle's rotation, within 0.3° in SITL)
@@ -258,7 +260,9 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
     through SERVOn_MIN/MAX/REVERSED onto the MNT1_ limits, as SRV_Channels::move_servo maps the
     angle; the values from the log's PARM), and the camera's attitude at that output is the vehicle's
     logged in the same loop (the ATT message with the RCOU's TimeUS: yaw-pitch-roll) turned by them.
-    The camera's line of sight at a picture is interpolated between the outputs either side, or is the
+    The camera's line of sight at a picture is interpolated between the outputs either side (a picture
+    before the first output or after the last takes that output's: RCOU is logged from the start of the
+    log to its end, and a log cut short loses pictures too), or is the
     one before it where the camera turned to a new aim in between (`MOUNT_STEP_DEG`: a
     hover-and-capture's next aim, commanded as the photo is taken, would else leak into it). Not the
     servos' angles interpolated under the picture's own attitude (CAM): ArduPilot SITL at speedup 20
@@ -311,12 +315,12 @@ def mount_pitch_at_photos(log_path: Path) -> list[float | None]:
 
 def _servo_angle(params: dict[str, float], out: dict[str, Any], function: int, limits: str, optional: bool) -> Any:
     """The angle (degrees) of the mount servo with SERVOn_FUNCTION `function` at each of the logged
-    outputs `out`; 0 when no logged output has that function and the servo is `optional` (a mount
-    without it holds that axis at 0); None when it is not, or the log lacks the output or a value the
-    mapping needs."""
+    outputs `out`; 0 when no output has that function and the servo is `optional` (a mount without it
+    holds that axis at 0); None when it is not, or the log lacks the output (one past the LOGGED_OUTPUTS
+    RCOU holds) or a value the mapping needs."""
     import numpy as np
 
-    channel = next((c for c in range(1, LOGGED_OUTPUTS + 1) if params.get(f"SERVO{c}_FUNCTION") == function), None)
+    channel = next((c for c in range(1, SERVO_OUTPUTS + 1) if params.get(f"SERVO{c}_FUNCTION") == function), None)
     if channel is None:
         return np.zeros(len(out["TimeUS"])) if optional else None
     names = (f"SERVO{channel}_MIN", f"SERVO{channel}_MAX", f"{limits}_MIN", f"{limits}_MAX")
