@@ -49,11 +49,13 @@ def _unreported(folder: Path, zone: shapely.Polygon) -> float:
         feet.append(shapely.Polygon([p + a * u * along / 2 + b * v * across / 2 for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1))]))
     feet_a = np.array(feet)
     i, j = shapely.STRtree(feet_a).query(feet_a, predicate="intersects")
-    twice = shapely.union_all(shapely.intersection(feet_a[i[i < j]], feet_a[j[i < j]]))
+    # on a 1 mm grid (snap rounding): the union of thousands of near-coincident edges is robust there
+    twice = shapely.union_all(shapely.intersection(feet_a[i[i < j]], feet_a[j[i < j]], grid_size=1e-3), grid_size=1e-3)
     layer = [local(shapely.from_geojson(json.dumps(f["geometry"])))
              for f in json.loads((folder / "out" / "plan.geojson").read_text())["features"]
              if (f.get("properties") or {}).get("role") == "uncovered"]
-    missed = shapely.difference(shapely.difference(required, twice), shapely.buffer(shapely.union_all(layer), 0.5))
+    missed = shapely.difference(shapely.difference(required, twice, grid_size=1e-3),
+                                shapely.buffer(shapely.union_all(layer), 0.5), grid_size=1e-3)
     return sum(g.area for g in shapely.get_parts(missed) if g.area >= 0.5)
 
 
@@ -62,6 +64,9 @@ def _unreported(folder: Path, zone: shapely.Polygon) -> float:
        side=st.sampled_from([0.2, 0.3, 0.6, 0.7]), cx=st.floats(0, 1), cy=st.floats(0, 1), w=st.floats(0, 1),
        h=st.floats(0, 1))
 @example(yaw=357, heading=84, forward=0.75, side=0.3, cx=0.5, cy=0.5, w=0.5, h=0.5)
+# the union of the pairs' intersections raised GEOS's side location conflict before it was snapped to 1 mm
+@example(yaw=13, heading=6, forward=0.8, side=0.3, cx=0.0, cy=0.5656990828643856, w=0.3234197916796638,
+         h=0.14967776713766281)
 def test_unseen_ground_next_to_a_zone_is_reported_under_a_fixed_yaw(tmp_path, yaw, heading, forward, side, cx, cy, w, h):
     folder = Path(tempfile.mkdtemp(dir=tmp_path))
     lon, lat, dx, dy = 15.001 + 0.004 * cx, 49.4005 + 0.0025 * cy, 0.0003 + 0.0015 * w, 0.0002 + 0.001 * h

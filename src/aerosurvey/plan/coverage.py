@@ -62,27 +62,11 @@ class Coverage:
         return len(self.polygons())
 
 
-def _inscribed(along: np.ndarray, across: np.ndarray, turned_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The sides (along, across the run) of a rectangle squared with the run inside each footprint whose camera is
-    turned `turned_deg` off the run (a fixed yaw; a plane's crab): its corners on the footprint's edges (the footprint
-    itself, unturned; its sides swapped, turned a quarter; none, a side ≤ 0, near 45°)."""
-    t = np.radians(turned_deg)
-    c, s = np.abs(np.cos(t)), np.abs(np.sin(t))
-    quarter = s > c  # the camera's across lies along the run
-    long_, wide = np.where(quarter, across, along), np.where(quarter, along, across)
-    c, s = np.where(quarter, s, c), np.where(quarter, c, s)
-    det = c * c - s * s  # > 0 but at 45°
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a, b = (long_ * c - wide * s) / det, (wide * c - long_ * s) / det
-    ok = (det > 1e-9) & (a > 0) & (b > 0)
-    return np.where(ok, a, 0.0), np.where(ok, b, 0.0)
-
-
 def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base: float) -> BaseGeometry:
     """Ground that two photos of one straight stretch of a run are sure to see: with a photo base
     of at most half the footprint, every point from the first station less (L/2 − B) to the last
     plus (L/2 − B) lies in two consecutive footprints (L, W the smallest footprint of the stretch,
-    squared with the run: a camera turned off it, `_inscribed`'s rectangle inside its footprint).
+    squared with the run: a camera turned off it, the rectangle inside its footprint, `photogrammetry.turned_footprint`).
     Empty below 50 % forward overlap.
 
     Every run's strip is made in one numpy step (the same operations, element by element, as
@@ -94,8 +78,9 @@ def _run_strips(stations: Stations, across: np.ndarray, along: np.ndarray, base:
     heading = np.asarray(stations.heading_deg, float)
     starts = np.flatnonzero(np.r_[True, (runs[1:] != runs[:-1]) | (heading[1:] != heading[:-1])])
     ends = np.r_[starts[1:], len(runs)] - 1
-    along, across = _inscribed(np.asarray(along, float), np.asarray(across, float),
-                               np.asarray(stations.camera_yaw_deg, float) - heading)
+    turn = np.asarray(stations.camera_yaw_deg, float) - heading
+    sides = zip(np.maximum(across, 1e-9).tolist(), np.maximum(along, 1e-9).tolist(), turn.tolist())  # no footprint: none
+    across, along = np.array([pg.turned_footprint(a, b, t) for a, b, t in sides]).reshape(-1, 2).T
     L = np.minimum.reduceat(along, starts)
     W = np.minimum.reduceat(across, starts)
     reach = L / 2.0 - base
